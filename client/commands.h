@@ -1,0 +1,13 @@
+#pragma once
+// The `lensfarm` subcommands. Each registers its flags on the CLI11 app and returns a runner.
+#include <CLI/CLI.hpp>
+#include <functional>
+
+namespace lensfarm::cli {
+
+using Runner = std::function<int()>;
+
+Runner addRenderCommand(CLI::App& app);
+Runner addDofCommand(CLI::App& app);
+
+}  // namespace lensfarm::cli

@@ -1,0 +1,8 @@
+#pragma once
+// Exit codes of the `lensfarm` command, documented in docs/cli.md.
+namespace lensfarm::cli {
+inline constexpr int kOk = 0;
+inline constexpr int kFailure = 1;       // an unexpected runtime failure
+inline constexpr int kBadInput = 2;      // a bad flag, scene file, asset or output path
+inline constexpr int kInterrupted = 130; // Ctrl-C: the image so far was written, then we stopped
+}  // namespace lensfarm::cli

@@ -1,0 +1,74 @@
+#include "camera/thin_lens_camera.h"
+
+#include <cmath>
+#include <numbers>
+
+#include "math/sampling.h"
+#include "util/error.h"
+
+namespace lensfarm {
+
+namespace {
+// S2 = f S1 / (S1 - f) explodes as S1 -> f; beyond this magnification the set-up is refused.
+constexpr double kMaxImageDistanceOverFocalLength = 1e6;
+}  // namespace
+
+ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
+    : params_(p), width_(width), height_(height) {
+  if (!(p.focalLength > 0.0) || !std::isfinite(p.focalLength))
+    throw InputError("focal_length", "must be a finite number > 0");
+  if (!(p.sensorWidth > 0.0) || !std::isfinite(p.sensorWidth))
+    throw InputError("sensor_width", "must be a finite number > 0");
+  if (width <= 0 || height <= 0) throw InputError("resolution", "must be positive");
+  if (params_.sensorHeight == 0.0) params_.sensorHeight = p.sensorWidth * height / width;
+  if (!(params_.sensorHeight > 0.0) || !std::isfinite(params_.sensorHeight))
+    throw InputError("sensor_height", "must be a finite number > 0");
+  if (!std::isfinite(p.focusDistance) || p.focusDistance <= p.focalLength)
+    throw InputError("focus_distance",
+                     "S1 = " + std::to_string(p.focusDistance) + " must exceed the focal length f = " +
+                         std::to_string(p.focalLength) + ": a lens cannot focus a subject at or inside f");
+  imageDistance_ = p.focalLength * p.focusDistance / (p.focusDistance - p.focalLength);
+  if (!std::isfinite(imageDistance_) || imageDistance_ > kMaxImageDistanceOverFocalLength * p.focalLength)
+    throw InputError("focus_distance", "S1 is so close to f that the sensor distance S2 = f S1 / (S1 - f) "
+                                       "is unbounded; move the subject further away");
+  if (std::isnan(p.fNumber) || p.fNumber <= 0.0)
+    throw InputError("f_number", "must be > 0 (or \"infinity\" for a pinhole)");
+  lensRadius_ = std::isinf(p.fNumber) ? 0.0 : p.focalLength / (2.0 * p.fNumber);
+
+  const Vec3 axis = p.lookAt - p.position;
+  if (!(glm::length(axis) > 0.0f)) throw InputError("look_at", "must differ from position");
+  forward_ = glm::normalize(axis);
+  const Vec3 side = glm::cross(forward_, p.up);
+  if (!(glm::length(side) > 1e-6f * glm::length(p.up)))
+    throw InputError("up", "must not be parallel to the viewing direction");
+  right_ = glm::normalize(side);
+  up_ = glm::cross(right_, forward_);
+}
+
+CameraRay ThinLensCamera::generateRay(int i, int j, Vec2 uSensor, Vec2 uLens) const {
+  // Sensor point in the camera plane (see the orientation note in the header).
+  const double x = params_.sensorWidth * ((i + double(uSensor.x)) / width_ - 0.5);
+  const double y = params_.sensorHeight * (0.5 - (j + double(uSensor.y)) / height_);
+  const Vec2 disk = sampleConcentricDisk(uLens) * float(lensRadius_);
+  return rayThrough(Vec2(float(x), float(y)), disk);
+}
+
+CameraRay ThinLensCamera::rayThrough(Vec2 s, Vec2 r) const {
+  // Seed eq. 1 in the camera frame: the incident direction n1 from the sensor point
+  // (s, -S2) to the lens point (r, 0), scaled to a unit axial component, is bent to
+  //     n2 = n1 - r / f.
+  // Every ray from s then meets the focal plane at -s * S1 / S2, whatever r is.
+  const double invS2 = 1.0 / imageDistance_;
+  const double invF = 1.0 / params_.focalLength;
+  const double dx = (double(r.x) - s.x) * invS2 - r.x * invF;
+  const double dy = (double(r.y) - s.y) * invS2 - r.y * invF;
+  const Vec3 dir = glm::normalize(float(dx) * right_ + float(dy) * up_ + forward_);
+  return CameraRay{params_.position + r.x * right_ + r.y * up_, dir};
+}
+
+double focalLengthFromAngleOfView(double sensorWidth, double angleOfViewDegrees) {
+  const double alpha = angleOfViewDegrees * std::numbers::pi / 180.0;
+  return sensorWidth / (2.0 * std::tan(alpha / 2.0));
+}
+
+}  // namespace lensfarm

@@ -1,0 +1,78 @@
+#pragma once
+// The seed's optical system (§4.1, §4.6): a rectangular sensor behind a thin lens.
+//
+// Geometry, in the camera frame (right, up, forward; forward is the optical axis):
+//  - the lens is a disk of radius R centred on the camera position, perpendicular to the axis;
+//  - the sensor is a LW x LH rectangle at distance S2 behind the lens, centred on the axis;
+//  - the lens focuses the plane at distance S1 in front of it onto the sensor:
+//        1/S1 + 1/S2 = 1/f                                   (seed eq. 6)
+//  - the aperture follows from the f-number N:  2R = f / N   (seed eq. 7); N = inf is a pinhole.
+//
+// Sensor orientation. Cell (i, j), i in [0, W), j in [0, H), has its centre at
+//     x = LW * ((i + 0.5) / W - 0.5) along `right`,  y = LH * (0.5 - (j + 0.5) / H) along `up`.
+// A lens forms an inverted image, so the scene's upper right lands on the sensor's lower left:
+// cell (i, j) sees what the viewer expects at image pixel (W-1-i, H-1-j). The flip is undone
+// once, when a sensor is developed into an image (film/sensor.h), never in the camera.
+//
+// A camera ray leaves the lens point, so a sample measures the radiance arriving at the sensor
+// through the lens; like the seed (§4.6.1) every sample carries the same weight (no cos^4
+// falloff and no brightness change with N).
+#include <limits>
+#include <string>
+
+#include "math/vec.h"
+
+namespace lensfarm {
+
+struct CameraRay {
+  Vec3 origin;
+  Vec3 direction;  // unit
+};
+
+struct ThinLensParams {
+  Vec3 position{0.0f};               // lens centre
+  Vec3 lookAt{0.0f, 0.0f, 1.0f};     // defines the optical axis
+  Vec3 up{0.0f, 1.0f, 0.0f};         // the sensor's `up` is this, made orthogonal to the axis
+  double focalLength = 0.0;          // f
+  double focusDistance = 0.0;        // S1, along the axis
+  double sensorWidth = 0.0;          // LW
+  double sensorHeight = 0.0;         // LH; 0 = derived, LW * H / W (square cells)
+  double fNumber = std::numeric_limits<double>::infinity();  // N; inf = pinhole
+};
+
+class ThinLensCamera {
+ public:
+  // Validates the parameters; throws InputError whose `where` is the offending field name
+  // (focal_length, focus_distance, sensor_width, sensor_height, f_number, look_at, up).
+  ThinLensCamera(const ThinLensParams& params, int width, int height);
+
+  // The ray for a point of sensor cell (i, j) at offset uSensor in [0,1)^2 within the cell,
+  // through the lens point at uLens in [0,1)^2 (mapped to the disk).
+  CameraRay generateRay(int i, int j, Vec2 uSensor, Vec2 uLens) const;
+
+  // The same, from explicit sensor and lens points in camera-plane coordinates
+  // (x along right, y along up); used by tests of the optics.
+  CameraRay rayThrough(Vec2 sensorPoint, Vec2 lensPoint) const;
+
+  const ThinLensParams& params() const { return params_; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+  double imageDistance() const { return imageDistance_; }  // S2
+  double lensRadius() const { return lensRadius_; }        // R
+  bool isPinhole() const { return lensRadius_ == 0.0; }
+  Vec3 right() const { return right_; }
+  Vec3 up() const { return up_; }
+  Vec3 forward() const { return forward_; }
+
+ private:
+  ThinLensParams params_;
+  int width_, height_;
+  double imageDistance_;
+  double lensRadius_;
+  Vec3 right_, up_, forward_;
+};
+
+// Focal length from a horizontal angle of view, seed eq. 4: alpha = 2 atan(L / 2f).
+double focalLengthFromAngleOfView(double sensorWidth, double angleOfViewDegrees);
+
+}  // namespace lensfarm

@@ -1,0 +1,53 @@
+#pragma once
+// Area lights: every triangle whose material emits (quads from `lights`, emissive meshes).
+// Next-event estimation picks one emitting triangle with probability proportional to its power
+// (area x luminance of the emitted radiance, doubled when two-sided) and a uniform point on it.
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "math/vec.h"
+#include "render/ray_caster.h"
+#include "scene/scene.h"
+
+namespace lensfarm {
+
+struct LightSample {
+  Vec3 p;            // point on the light
+  Vec3 n;            // the light's geometric normal at p
+  Vec3 pError;       // error bound of p, for offsetting the shadow ray's end
+  Spectrum radiance; // emitted towards the shading point (zero if it sees the back)
+  float pdf;         // solid-angle density at the shading point
+};
+
+class LightSampler {
+ public:
+  LightSampler(const Scene& scene, const RayCaster& caster);
+
+  bool empty() const { return lights_.empty(); }
+  size_t size() const { return lights_.size(); }
+
+  // Samples a point on a light as seen from `ref`; nothing if the chosen point is degenerate.
+  std::optional<LightSample> sample(const Vec3& ref, float uChoice, Vec2 uPoint) const;
+
+  // Density (solid angle, at a point at distance `distance` in direction d) with which sample()
+  // would have produced the point hit on emitting triangle `triangle` (RayCaster index).
+  float pdf(uint32_t triangle, float distance, const Vec3& d) const;
+
+  // Radiance leaving triangle `triangle` towards -d (zero from the back of a one-sided light).
+  Spectrum emitted(uint32_t triangle, const Vec3& d) const;
+
+ private:
+  struct Light {
+    uint32_t triangle;
+    float area;
+    float pmf;
+  };
+  const Scene& scene_;
+  const RayCaster& caster_;
+  std::vector<Light> lights_;
+  std::vector<float> cdf_;            // cumulative pmf, cdf_.back() == 1
+  std::vector<int32_t> lightOfTriangle_;  // per RayCaster triangle, -1 if not emitting
+};
+
+}  // namespace lensfarm

@@ -1,0 +1,87 @@
+#include "render/integrator.h"
+
+#include "math/ray_offset.h"
+#include "math/sampling.h"
+
+namespace lensfarm {
+
+namespace {
+// Shadow rays stop this fraction short of the light point (itself offset off the light).
+constexpr float kShadowEpsilon = 1e-4f;
+}  // namespace
+
+Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats) {
+  const RenderSettings& settings = rs.settings();
+  const bool nee = settings.integrator == IntegratorKind::kNeeMis && !rs.lights().empty();
+
+  Spectrum radiance(0.0f);
+  Spectrum throughput(1.0f);
+  Vec3 origin = cameraRay.origin, direction = cameraRay.direction;
+  RayKind kind = RayKind::kCamera;
+  int bounces = 0;             // counted bounces so far (toward B)
+  bool lastSpecular = true;    // the camera ray behaves like a specular one: no MIS for it
+  float lastPdf = 0.0f;        // solid-angle pdf of the last scattered direction
+  bool hitLight = false;
+
+  ++stats.paths;
+  for (int segment = 0; segment < kMaxPathSegments; ++segment) {
+    ++stats.rays;
+    const auto hit = rs.caster().intersect(origin, direction, kind);
+    if (!hit) break;
+    const Material& material = rs.material(hit->material);
+
+    // Light reached by the camera ray or a scattered ray.
+    if (material.isEmissive()) {
+      const Spectrum le = rs.lights().emitted(hit->triangle, direction);
+      if (!isBlack(le)) {
+        hitLight = true;
+        float weight = 1.0f;
+        if (nee && !lastSpecular)
+          weight = powerHeuristic(lastPdf, rs.lights().pdf(hit->triangle, hit->t, direction));
+        radiance += throughput * le * weight;
+      }
+    }
+    if (!material.reflects()) break;
+
+    const bool counts = !material.isSpecular() || settings.mirrorBouncesCount;
+    if (counts && bounces >= settings.maxBounces) break;
+
+    const Vec3 wo = -direction;
+    const Vec3 n = glm::dot(hit->n, wo) >= 0.0f ? hit->n : -hit->n;  // shade the side we came from
+    const uint32_t base = dims::segment(uint32_t(segment));
+
+    // Next-event estimation: one shadow ray to a point on a light.
+    if (nee && !material.isSpecular()) {
+      const auto ls = rs.lights().sample(hit->p, rng.get1D(base + dims::kLightChoice), rng.get2D(base + dims::kLightPoint));
+      if (ls && !isBlack(ls->radiance)) {
+        const Vec3 toLight = ls->p - hit->p;
+        const Vec3 wi = glm::normalize(toLight);
+        const Spectrum f = material.evalCos(n, wo, wi);
+        if (!isBlack(f)) {
+          const Vec3 from = offsetRayOrigin(hit->p, hit->n, hit->pError, wi);
+          const Vec3 to = offsetRayOrigin(ls->p, ls->n, ls->pError, -wi);
+          ++stats.rays;
+          if (!rs.caster().occluded(from, to - from, 1.0f - kShadowEpsilon)) {
+            const float weight = powerHeuristic(ls->pdf, material.pdf(n, wo, wi));
+            radiance += throughput * f * ls->radiance * (weight / ls->pdf);
+          }
+        }
+      }
+    }
+
+    const auto s = material.sample(n, wo, rng.get2D(base + dims::kMaterial));
+    if (!s) break;
+    throughput *= s->weight;
+    if (isBlack(throughput)) break;
+    if (counts) ++bounces;
+    lastSpecular = s->specular;
+    lastPdf = s->pdf;
+    origin = offsetRayOrigin(hit->p, hit->n, hit->pError, s->wi);
+    direction = s->wi;
+    kind = RayKind::kScattered;
+  }
+  if (hitLight) ++stats.lightHits;
+  return radiance;
+}
+
+}  // namespace lensfarm

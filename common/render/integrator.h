@@ -1,0 +1,43 @@
+#pragma once
+// Path tracing from the camera (seed §4.3: "the best direction of shooting photons is from the
+// camera"), with a bounce limit B (§4.5) and RGB colour mixing (§4.5.1, eq. 2).
+//
+// Bounce counting. A path of k bounces reflects k times between the lens and the light; B = 1 is
+// direct light only (seed Fig. 8a). Mirror reflections do not count (seed §4.5) unless the scene
+// says `mirror_bounces_count`; a path still ends after kMaxPathSegments segments so two facing
+// mirrors cannot loop forever.
+//
+// Estimators:
+//  - naive (the seed's): a path contributes only if a scattered ray happens to hit a light;
+//  - nee_mis: at each diffuse vertex one light sample (next-event estimation) plus the scattered
+//    ray, combined with the power heuristic (Veach 1997). Both are unbiased for the same B.
+#include <cstdint>
+
+#include "camera/thin_lens_camera.h"
+#include "math/vec.h"
+#include "render/render_scene.h"
+#include "render/sampler.h"
+
+namespace lensfarm {
+
+inline constexpr int kMaxPathSegments = 256;
+
+struct PathStats {
+  uint64_t paths = 0;
+  uint64_t rays = 0;       // every ray cast: camera, scattered and shadow rays
+  uint64_t lightHits = 0;  // paths whose camera or scattered ray reached an emitting surface
+  uint64_t dropped = 0;    // samples whose radiance was NaN or infinite (counted, not added)
+
+  PathStats& operator+=(const PathStats& o) {
+    paths += o.paths;
+    rays += o.rays;
+    lightHits += o.lightHits;
+    dropped += o.dropped;
+    return *this;
+  }
+};
+
+// Radiance arriving along the camera ray of one sample.
+Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats);
+
+}  // namespace lensfarm

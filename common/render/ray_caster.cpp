@@ -1,0 +1,115 @@
+#include "render/ray_caster.h"
+
+#include <spdlog/spdlog.h>
+
+#include <limits>
+#include <stdexcept>
+
+#include "math/ray_offset.h"
+
+namespace lensfarm {
+
+namespace {
+void embreeError(void*, RTCError code, const char* message) {
+  spdlog::error("embree error {}: {}", int(code), message ? message : "");
+}
+}  // namespace
+
+RayCaster::RayCaster(const Scene& scene) {
+  device_ = rtcNewDevice(nullptr);
+  if (!device_) throw std::runtime_error("cannot create an Embree device");
+  rtcSetDeviceErrorFunction(device_, embreeError, nullptr);
+  scene_ = rtcNewScene(device_);
+  rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
+  rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+
+  for (const TriangleMesh& mesh : scene.meshes) {
+    RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.positions.size()));
+    for (size_t k = 0; k < mesh.positions.size(); ++k)
+      for (int c = 0; c < 3; ++c) vertices[3 * k + c] = mesh.positions[k][c];
+    auto* indices = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), mesh.triangleCount()));
+    std::copy(mesh.indices.begin(), mesh.indices.end(), indices);
+    const unsigned mask = unsigned(RayKind::kScattered) | (mesh.visibleToCamera ? unsigned(RayKind::kCamera) : 0u);
+    rtcSetGeometryMask(geom, mask);
+    rtcCommitGeometry(geom);
+    const unsigned id = rtcAttachGeometry(scene_, geom);
+    rtcReleaseGeometry(geom);  // the scene holds its own reference
+
+    if (geomOffset_.size() <= id) geomOffset_.resize(id + 1);
+    geomOffset_[id] = uint32_t(triangles_.size());
+    for (size_t tri = 0; tri < mesh.triangleCount(); ++tri) {
+      Triangle t;
+      t.v0 = mesh.positions[mesh.indices[3 * tri]];
+      t.v1 = mesh.positions[mesh.indices[3 * tri + 1]];
+      t.v2 = mesh.positions[mesh.indices[3 * tri + 2]];
+      t.n = glm::normalize(glm::cross(t.v1 - t.v0, t.v2 - t.v0));
+      t.magnitude = glm::max(glm::abs(t.v0), glm::max(glm::abs(t.v1), glm::abs(t.v2)));
+      t.material = mesh.materialIds[tri];
+      triangles_.push_back(t);
+    }
+  }
+  rtcCommitScene(scene_);
+}
+
+RayCaster::~RayCaster() {
+  if (scene_) rtcReleaseScene(scene_);
+  if (device_) rtcReleaseDevice(device_);
+}
+
+std::optional<SurfaceHit> RayCaster::intersect(const Vec3& o, const Vec3& d, RayKind kind) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit rh;
+  rh.ray.org_x = o.x;
+  rh.ray.org_y = o.y;
+  rh.ray.org_z = o.z;
+  rh.ray.dir_x = d.x;
+  rh.ray.dir_y = d.y;
+  rh.ray.dir_z = d.z;
+  rh.ray.tnear = 0.0f;  // origins are offset off their surface (math/ray_offset.h)
+  rh.ray.tfar = std::numeric_limits<float>::infinity();
+  rh.ray.mask = unsigned(kind);
+  rh.ray.flags = 0;
+  rh.ray.time = 0.0f;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(scene_, &context, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
+
+  const size_t k = geomOffset_[rh.hit.geomID] + rh.hit.primID;
+  const Triangle& tri = triangles_[k];
+  const float u = rh.hit.u, v = rh.hit.v;
+  SurfaceHit hit;
+  hit.t = rh.ray.tfar;
+  // Interpolating the vertices is far more accurate than o + t d far from the origin.
+  hit.p = (1.0f - u - v) * tri.v0 + u * tri.v1 + v * tri.v2;
+  hit.n = tri.n;
+  hit.pError = positionErrorBound(tri.magnitude);
+  hit.material = tri.material;
+  hit.triangle = uint32_t(k);
+  return hit;
+}
+
+bool RayCaster::occluded(const Vec3& o, const Vec3& d, float tFar) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRay ray;
+  ray.org_x = o.x;
+  ray.org_y = o.y;
+  ray.org_z = o.z;
+  ray.dir_x = d.x;
+  ray.dir_y = d.y;
+  ray.dir_z = d.z;
+  ray.tnear = 0.0f;
+  ray.tfar = tFar;
+  ray.mask = unsigned(RayKind::kScattered);
+  ray.flags = 0;
+  ray.time = 0.0f;
+  rtcOccluded1(scene_, &context, &ray);
+  return ray.tfar < 0.0f;  // Embree sets tfar = -inf on a hit
+}
+
+}  // namespace lensfarm

@@ -1,0 +1,57 @@
+#pragma once
+// Ray casting against the scene's triangles with Embree 3.
+//
+// The Embree scene is built once per loaded scene and shared read-only by every thread.
+// It is built with RTC_SCENE_FLAG_ROBUST (watertight edges; see docs/numerics.md).
+// Ray masks implement `visible_to_camera`: camera rays carry kCameraRay and skip geometry that
+// the camera must not see; every other ray sees everything.
+#include <embree3/rtcore.h>
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "math/vec.h"
+#include "scene/scene.h"
+
+namespace lensfarm {
+
+enum class RayKind : unsigned { kCamera = 1u, kScattered = 2u };
+
+struct SurfaceHit {
+  float t;           // distance along the (unit) ray direction
+  Vec3 p;            // hit point, interpolated from the vertices
+  Vec3 n;            // geometric unit normal, front side: cross(v1 - v0, v2 - v0)
+  Vec3 pError;       // bound on |p - exact| per component (math/ray_offset.h)
+  uint32_t material;
+  uint32_t triangle; // index into RayCaster::triangles()
+};
+
+class RayCaster {
+ public:
+  explicit RayCaster(const Scene& scene);
+  ~RayCaster();
+  RayCaster(const RayCaster&) = delete;
+  RayCaster& operator=(const RayCaster&) = delete;
+
+  std::optional<SurfaceHit> intersect(const Vec3& origin, const Vec3& direction, RayKind kind) const;
+  // True if anything blocks the segment origin + t * direction, t in (0, tFar).
+  bool occluded(const Vec3& origin, const Vec3& direction, float tFar) const;
+
+  // All triangles of the scene, meshes concatenated in scene order.
+  struct Triangle {
+    Vec3 v0, v1, v2;
+    Vec3 n;
+    Vec3 magnitude;  // componentwise max |v|
+    uint32_t material;
+  };
+  const std::vector<Triangle>& triangles() const { return triangles_; }
+
+ private:
+  RTCDevice device_ = nullptr;
+  RTCScene scene_ = nullptr;
+  std::vector<Triangle> triangles_;       // all meshes, concatenated
+  std::vector<uint32_t> geomOffset_;      // first triangle of each Embree geometry
+};
+
+}  // namespace lensfarm

@@ -1,0 +1,74 @@
+#include "render/unit_renderer.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+
+#if defined(__SSE__)
+#include <pmmintrin.h>
+#include <xmmintrin.h>
+#endif
+
+namespace lensfarm {
+
+uint64_t unitCount(uint64_t samplesPerPixel, uint32_t samplesPerUnit) {
+  return (samplesPerPixel + samplesPerUnit - 1) / samplesPerUnit;
+}
+
+WorkUnit unitAt(uint64_t index, uint64_t samplesPerPixel, uint32_t samplesPerUnit) {
+  const uint64_t first = index * samplesPerUnit;
+  const uint64_t count = std::min<uint64_t>(samplesPerUnit, samplesPerPixel - std::min(first, samplesPerPixel));
+  return WorkUnit{index, first, uint32_t(count)};
+}
+
+bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
+                const std::atomic<bool>* cancel) {
+  const ThinLensCamera& camera = rs.camera();
+  const int width = camera.width(), height = camera.height();
+  const uint64_t seed = rs.settings().seed;
+  out = SensorBuffer(width, height);
+  tbb::combinable<PathStats> threadStats;
+  std::atomic<bool> cancelled{false};
+
+  tbb::parallel_for(tbb::blocked_range<int>(0, height, 1), [&](const tbb::blocked_range<int>& rows) {
+#if defined(__SSE__)
+    // Embree's recommendation: denormals only slow traversal down. Every worker sets the same
+    // mode, so results stay identical across threads.
+    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+#endif
+    PathStats& local = threadStats.local();
+    for (int j = rows.begin(); j != rows.end(); ++j) {
+      if (cancel && cancel->load(std::memory_order_relaxed)) {
+        cancelled = true;
+        return;
+      }
+      for (int i = 0; i < width; ++i) {
+        const uint64_t pixel = uint64_t(j) * width + i;
+        double sum[3] = {0.0, 0.0, 0.0};
+        for (uint64_t s = unit.firstSample; s < unit.firstSample + unit.sampleCount; ++s) {
+          const SampleStream rng(seed, pixel, s);
+          const CameraRay ray = camera.generateRay(i, j, rng.get2D(dims::kSensor), rng.get2D(dims::kLens));
+          const Spectrum l = tracePath(rs, ray, rng, local);
+          if (!isFinite(l)) {
+            ++local.dropped;  // counted as a sample of zero, never written (design.md invariant)
+            continue;
+          }
+          sum[0] += l.r;
+          sum[1] += l.g;
+          sum[2] += l.b;
+        }
+        out.sums[3 * pixel] = sum[0];
+        out.sums[3 * pixel + 1] = sum[1];
+        out.sums[3 * pixel + 2] = sum[2];
+        out.samples[pixel] = unit.sampleCount;
+      }
+    }
+  });
+  threadStats.combine_each([&](const PathStats& s) { stats += s; });
+  return !cancelled;
+}
+
+}  // namespace lensfarm

@@ -1,0 +1,33 @@
+#pragma once
+// A unit of work: a range of sample indices for every pixel of the frame. Units are the grain
+// of progress (and, in the farm, of scheduling): unit k covers samples
+//     [k * samples_per_unit, min((k + 1) * samples_per_unit, samples_per_pixel)).
+// Early units cover the whole frame, so the first snapshot already shows all of it.
+//
+// renderUnit traces a unit on all threads of the calling TBB arena. Each pixel is owned by one
+// task and sums its samples in sample order, so the buffer is bitwise the same for any thread
+// count, and no lock is taken on the hot path.
+#include <atomic>
+#include <cstdint>
+
+#include "film/sensor.h"
+#include "render/integrator.h"
+#include "render/render_scene.h"
+
+namespace lensfarm {
+
+struct WorkUnit {
+  uint64_t index = 0;
+  uint64_t firstSample = 0;
+  uint32_t sampleCount = 0;
+};
+
+uint64_t unitCount(uint64_t samplesPerPixel, uint32_t samplesPerUnit);
+WorkUnit unitAt(uint64_t index, uint64_t samplesPerPixel, uint32_t samplesPerUnit);
+
+// Fills `out` (resized to the frame) with the unit's sums and per-cell sample counts and adds to
+// `stats`. Returns false, with `out` incomplete, if `cancel` was raised before it finished.
+bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
+                const std::atomic<bool>* cancel = nullptr);
+
+}  // namespace lensfarm

@@ -1,0 +1,64 @@
+#pragma once
+// A loaded, validated scene: what a render needs and nothing of the file it came from.
+// The file format is docs/scene-format.md; scene/scene_loader.h reads it.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "camera/thin_lens_camera.h"
+#include "material/material.h"
+#include "math/vec.h"
+
+namespace lensfarm {
+
+// A triangle soup with one material per triangle. Positions are in world space. Triangles face
+// the side of n = cross(v1 - v0, v2 - v0) (counter-clockwise, as in OBJ).
+struct TriangleMesh {
+  std::string name;
+  std::vector<Vec3> positions;
+  std::vector<uint32_t> indices;      // 3 per triangle
+  std::vector<uint32_t> materialIds;  // 1 per triangle, into Scene::materials
+  bool visibleToCamera = true;        // false: camera rays pass through (seed §4.4's light)
+  size_t triangleCount() const { return materialIds.size(); }
+};
+
+enum class IntegratorKind {
+  kNaive,   // the seed's estimator: a path counts only when a scattered ray hits a light (§4.7)
+  kNeeMis,  // next-event estimation with multiple importance sampling
+};
+
+enum class ToneMap { kClamp, kReinhard };
+
+struct ExposureSettings {
+  double ev = 0.0;  // compensation applied after the automatic exposure, in stops
+  ToneMap toneMap = ToneMap::kReinhard;
+};
+
+struct RenderSettings {
+  int width = 0, height = 0;
+  uint64_t samplesPerPixel = 0;
+  int maxBounces = 2;                 // B (seed §4.5)
+  uint64_t seed = 0;
+  IntegratorKind integrator = IntegratorKind::kNeeMis;
+  bool mirrorBouncesCount = false;    // seed §4.5: mirror reflections do not count toward B
+  uint32_t samplesPerUnit = 1;        // samples per pixel in one unit of work
+  ExposureSettings exposure;
+};
+
+struct Scene {
+  std::filesystem::path file;
+  std::string hash;  // SHA-256 of the scene JSON (canonical) and every asset it references
+  ThinLensParams cameraParams;
+  std::vector<Material> materials;
+  std::vector<TriangleMesh> meshes;
+  RenderSettings render;
+  uint64_t skippedDegenerateTriangles = 0;  // zero-area triangles dropped at load
+
+  // The camera for the current render settings (resolution may be overridden after loading).
+  ThinLensCamera camera() const { return ThinLensCamera(cameraParams, render.width, render.height); }
+};
+
+const char* integratorName(IntegratorKind kind);
+
+}  // namespace lensfarm

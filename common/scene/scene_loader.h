@@ -1,0 +1,30 @@
+#pragma once
+// Reads a scene file (JSON, docs/scene-format.md) and the OBJ meshes it references.
+//
+// Validation is strict: an unknown field, a wrong type, a non-finite number, a value out of
+// range, a missing asset or an impossible camera throws InputError whose message names the
+// file and the field (e.g. "scenes/x.json: camera.focal_length: must be a finite number > 0").
+#include <filesystem>
+#include <string>
+
+#include "scene/scene.h"
+
+namespace lensfarm {
+
+inline constexpr const char* kSceneFormat = "lensfarm-scene/1";
+
+// Limits on render settings; a scene (or a command-line override) beyond them is refused.
+inline constexpr int kMaxResolution = 16384;
+inline constexpr uint64_t kMaxSamplesPerPixel = uint64_t(1) << 40;
+inline constexpr int kMaxBounces = 1024;
+
+Scene loadScene(const std::filesystem::path& file);
+
+// Parses scene text as if read from `file` (relative assets resolve against its directory).
+Scene parseScene(const std::string& text, const std::filesystem::path& file);
+
+// Checks render settings against the limits above (used after command-line overrides too).
+// Throws InputError naming `where` and the field.
+void validateRenderSettings(const RenderSettings& settings, const std::string& where);
+
+}  // namespace lensfarm
