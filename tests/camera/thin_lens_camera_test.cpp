@@ -1,0 +1,121 @@
+// The thin-lens optics of seed §4.1-§4.6: focusing, the pinhole limit, the image flip, refusals.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "camera/thin_lens_camera.h"
+#include "util/error.h"
+
+namespace lensfarm {
+namespace {
+
+ThinLensParams seedParams() {
+  ThinLensParams p;
+  p.position = Vec3(0.3f, -0.2f, -2.9f);  // off the origin, and looking along a tilted axis
+  p.lookAt = Vec3(0.1f, 0.05f, 0.0f);
+  p.up = Vec3(0.0f, -1.0f, 0.0f);
+  p.focalLength = 0.095;
+  p.focusDistance = 2.9;
+  p.sensorWidth = 0.1;
+  p.fNumber = 2.0;  // a wide aperture makes focusing errors visible
+  return p;
+}
+
+TEST(ThinLensCamera, ImageDistanceFollowsTheThinLensEquation) {
+  const ThinLensCamera camera(seedParams(), 100, 100);
+  EXPECT_NEAR(1.0 / 2.9 + 1.0 / camera.imageDistance(), 1.0 / 0.095, 1e-9);  // seed eq. 6
+  EXPECT_NEAR(camera.lensRadius(), 0.095 / 4.0, 1e-12);                    // seed eq. 7: 2R = f/N
+}
+
+TEST(ThinLensCamera, RaysFromOneSensorPointMeetAtOnePointOfTheFocalPlane) {
+  const ThinLensParams p = seedParams();
+  const ThinLensCamera camera(p, 100, 100);
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (int cell = 0; cell < 20; ++cell) {
+    const int i = int(u(rng) * 100), j = int(u(rng) * 100);
+    const Vec2 uSensor(u(rng), u(rng));
+    // Where the ray through the lens centre (the chief ray) meets the plane at S1.
+    const CameraRay chief = camera.generateRay(i, j, uSensor, Vec2(0.5f));
+    const auto onFocalPlane = [&](const CameraRay& r) {
+      const double t = (p.focusDistance - glm::dot(r.origin - p.position, camera.forward())) /
+                       glm::dot(r.direction, camera.forward());
+      return DVec3(r.origin) + t * DVec3(r.direction);
+    };
+    const DVec3 target = onFocalPlane(chief);
+    for (int k = 0; k < 200; ++k) {
+      const CameraRay r = camera.generateRay(i, j, uSensor, Vec2(u(rng), u(rng)));
+      const DVec3 q = onFocalPlane(r);
+      EXPECT_LT(glm::length(q - target) / glm::length(target - DVec3(p.position)), 1e-5)
+          << "cell " << i << "," << j;
+    }
+  }
+}
+
+TEST(ThinLensCamera, LensPointsCoverTheAperture) {
+  const ThinLensCamera camera(seedParams(), 10, 10);
+  double maxR = 0.0;
+  for (int k = 0; k < 64; ++k) {
+    const CameraRay r = camera.generateRay(5, 5, Vec2(0.5f), Vec2((float(k % 8) + 0.5f) / 8, (float(k / 8) + 0.5f) / 8));
+    maxR = std::max(maxR, double(glm::length(r.origin - seedParams().position)));
+  }
+  EXPECT_LE(maxR, camera.lensRadius() * (1 + 1e-5));
+  EXPECT_GT(maxR, 0.8 * camera.lensRadius());
+}
+
+TEST(ThinLensCamera, PinholeRaysAllLeaveTheLensCentre) {
+  ThinLensParams p = seedParams();
+  p.fNumber = std::numeric_limits<double>::infinity();
+  const ThinLensCamera camera(p, 10, 10);
+  EXPECT_TRUE(camera.isPinhole());
+  for (float u : {0.0f, 0.3f, 0.99f}) {
+    const CameraRay r = camera.generateRay(3, 7, Vec2(0.5f), Vec2(u, 1.0f - u));
+    EXPECT_EQ(r.origin, p.position);
+  }
+}
+
+TEST(ThinLensCamera, TheLensFlipsTheImage) {
+  // Cell (0, 0) is the sensor's upper-left (sensor orientation). The lens inverts the image, so
+  // it must see the scene's lower right: positive `right`, negative `up` components.
+  const ThinLensCamera camera(seedParams(), 64, 48);
+  const CameraRay upperLeftCell = camera.generateRay(0, 0, Vec2(0.5f), Vec2(0.5f));
+  EXPECT_GT(glm::dot(upperLeftCell.direction, camera.right()), 0.0f);
+  EXPECT_LT(glm::dot(upperLeftCell.direction, camera.up()), 0.0f);
+  const CameraRay lowerRightCell = camera.generateRay(63, 47, Vec2(0.5f), Vec2(0.5f));
+  EXPECT_LT(glm::dot(lowerRightCell.direction, camera.right()), 0.0f);
+  EXPECT_GT(glm::dot(lowerRightCell.direction, camera.up()), 0.0f);
+  // The chief ray of a cell makes the angle of view: tan(half angle) = (L/2) / S2.
+  const CameraRay edge = camera.rayThrough(Vec2(-0.05f, 0.0f), Vec2(0.0f));
+  const float tanHalf = glm::dot(edge.direction, camera.right()) / glm::dot(edge.direction, camera.forward());
+  EXPECT_NEAR(tanHalf, 0.05 / camera.imageDistance(), 1e-6);
+}
+
+TEST(ThinLensCamera, RefusesImpossibleSetUps) {
+  const auto fieldOf = [](ThinLensParams p) -> std::string {
+    try {
+      ThinLensCamera c(p, 10, 10);
+    } catch (const InputError& e) {
+      return e.where();
+    }
+    return "";
+  };
+  ThinLensParams p = seedParams();
+  p.focusDistance = 0.095;  // S1 = f: the image would form at infinity
+  EXPECT_EQ(fieldOf(p), "focus_distance");
+  p.focusDistance = 0.05;
+  EXPECT_EQ(fieldOf(p), "focus_distance");
+  p.focusDistance = 0.095 * (1 + 1e-9);  // S2 finite in theory but unbounded in practice
+  EXPECT_EQ(fieldOf(p), "focus_distance");
+  p = seedParams();
+  p.sensorWidth = 0.0;
+  EXPECT_EQ(fieldOf(p), "sensor_width");
+  p = seedParams();
+  p.fNumber = 0.0;
+  EXPECT_EQ(fieldOf(p), "f_number");
+  p = seedParams();
+  p.up = p.lookAt - p.position;  // parallel to the axis
+  EXPECT_EQ(fieldOf(p), "up");
+}
+
+}  // namespace
+}  // namespace lensfarm

@@ -1,0 +1,143 @@
+#include "test_support.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <thread>
+
+#include "scene/scene_loader.h"
+
+namespace lensfarm::test {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+TempDir::TempDir() {
+  std::random_device rd;
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    const fs::path candidate = fs::temp_directory_path() / ("lensfarm-test-" + std::to_string(rd()));
+    if (fs::create_directory(candidate)) {
+      path_ = candidate;
+      return;
+    }
+  }
+  throw std::runtime_error("cannot create a temporary directory");
+}
+
+TempDir::~TempDir() {
+  std::error_code ec;
+  fs::remove_all(path_, ec);
+}
+
+fs::path TempDir::write(const std::string& name, const std::string& text) const {
+  const fs::path p = path_ / name;
+  fs::create_directories(p.parent_path());
+  std::ofstream(p, std::ios::binary) << text;
+  return p;
+}
+
+fs::path sourceDir() { return LENSFARM_SOURCE_DIR; }
+fs::path scenesDir() { return sourceDir() / "scenes"; }
+fs::path cliPath() { return LENSFARM_CLI; }
+
+json minimalSceneJson() {
+  return json::parse(R"({
+    "format": "lensfarm-scene/1",
+    "camera": { "type": "pinhole", "position": [0, 0, -3], "look_at": [0, 0, 0], "up": [0, 1, 0],
+                "sensor_width": 0.1, "focal_length": 0.1 },
+    "materials": { "white": { "type": "lambertian", "albedo": 0.5 } },
+    "shapes": [ { "type": "quad", "corner": [-1, -1, 0], "edge1": [0, 2, 0], "edge2": [2, 0, 0],
+                  "material": "white" } ],
+    "lights": [ { "type": "quad", "corner": [-0.5, -0.5, -1], "edge1": [1, 0, 0], "edge2": [0, 1, 0],
+                  "radiance": 5, "visible_to_camera": false } ],
+    "render": { "resolution": [16, 16], "samples_per_pixel": 2, "max_bounces": 2, "seed": 7 }
+  })");
+}
+
+json closedBoxSceneJson(const json& wallMaterial, int resolution, uint64_t spp, int maxBounces) {
+  json scene = {
+      {"format", "lensfarm-scene/1"},
+      {"camera",
+       {{"type", "pinhole"}, {"position", {0, 0, 0}}, {"look_at", {0, 0, 1}}, {"up", {0, 1, 0}},
+        {"sensor_width", 0.1}, {"angle_of_view", 90}}},
+      {"materials", {{"wall", wallMaterial}}},
+      {"render", {{"resolution", {resolution, resolution}}, {"samples_per_pixel", spp}, {"max_bounces", maxBounces}, {"seed", 3}}},
+  };
+  // Six inward-facing quads: the normal cross(edge1, edge2) points into the box.
+  const json walls = json::array({
+      json{{"corner", {-1, -1, 1}}, {"edge1", {0, 2, 0}}, {"edge2", {2, 0, 0}}},    // z = +1, n = -z
+      json{{"corner", {-1, -1, -1}}, {"edge1", {2, 0, 0}}, {"edge2", {0, 2, 0}}},   // z = -1, n = +z
+      json{{"corner", {1, -1, -1}}, {"edge1", {0, 2, 0}}, {"edge2", {0, 0, 2}}},    // x = +1, n = -x
+      json{{"corner", {-1, -1, -1}}, {"edge1", {0, 0, 2}}, {"edge2", {0, 2, 0}}},   // x = -1, n = +x
+      json{{"corner", {-1, 1, -1}}, {"edge1", {0, 0, 2}}, {"edge2", {2, 0, 0}}},    // y = +1, n = -y
+      json{{"corner", {-1, -1, -1}}, {"edge1", {2, 0, 0}}, {"edge2", {0, 0, 2}}},   // y = -1, n = +y
+  });
+  json shapes = json::array();
+  for (json w : walls) {
+    w["type"] = "quad";
+    w["material"] = "wall";
+    shapes.push_back(w);
+  }
+  scene["shapes"] = shapes;
+  return scene;
+}
+
+Scene loadSceneJson(const TempDir& dir, const json& scene, const std::string& name) {
+  return loadScene(dir.write(name, scene.dump(2)));
+}
+
+namespace {
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+}  // namespace
+
+ProcessResult runProcess(const std::vector<std::string>& argv, double timeoutSeconds) {
+  TempDir io;
+  const fs::path outPath = io / "stdout", errPath = io / "stderr";
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const int out = ::open(outPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    const int err = ::open(errPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    ::dup2(out, 1);
+    ::dup2(err, 2);
+    std::vector<char*> args;
+    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    ::execv(args[0], args.data());
+    ::_exit(127);
+  }
+  ProcessResult result;
+  int status = 0;
+  const bool exited = waitFor([&] { return ::waitpid(pid, &status, WNOHANG) == pid; }, timeoutSeconds);
+  if (!exited) {
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, &status, 0);
+    result.timedOut = true;
+  } else if (WIFEXITED(status)) {
+    result.exitCode = WEXITSTATUS(status);
+  }
+  result.out = slurp(outPath);
+  result.err = slurp(errPath);
+  return result;
+}
+
+bool waitFor(const std::function<bool()>& condition, double timeoutSeconds) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeoutSeconds);
+  while (!condition()) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return true;
+}
+
+}  // namespace lensfarm::test

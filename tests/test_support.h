@@ -1,0 +1,55 @@
+#pragma once
+// Helpers shared by the tests: temporary directories, small scene files, running the CLI.
+#include <filesystem>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "scene/scene.h"
+
+namespace lensfarm::test {
+
+// A fresh directory under the system temp dir, removed with everything in it on destruction.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+  // Writes `text` to `name` inside the directory and returns its path.
+  std::filesystem::path write(const std::string& name, const std::string& text) const;
+
+ private:
+  std::filesystem::path path_;
+};
+
+std::filesystem::path sourceDir();   // the repository root
+std::filesystem::path scenesDir();   // <root>/scenes
+std::filesystem::path cliPath();     // the built `lensfarm` binary
+
+// A minimal valid scene: a pinhole camera looking along +z at a white quad lit by a quad light.
+nlohmann::json minimalSceneJson();
+
+// Axis-aligned closed box [-1,1]^3 seen from inside by a pinhole camera at the centre looking
+// along +z. Every wall uses material "wall" (inward-facing). Used for furnace-type tests.
+nlohmann::json closedBoxSceneJson(const nlohmann::json& wallMaterial, int resolution, uint64_t spp, int maxBounces);
+
+// Writes `scene` into `dir` and loads it.
+Scene loadSceneJson(const TempDir& dir, const nlohmann::json& scene, const std::string& name = "scene.json");
+
+// Runs a command (argv[0] is the program) with stdout and stderr captured; waits at most
+// `timeoutSeconds` and kills it after that (the test then fails on the exit code).
+struct ProcessResult {
+  int exitCode = -1;  // -1 if killed by a signal or timed out
+  std::string out, err;
+  bool timedOut = false;
+};
+ProcessResult runProcess(const std::vector<std::string>& argv, double timeoutSeconds = 120.0);
+
+// Waits until `condition` holds or `timeoutSeconds` pass; returns whether it held.
+bool waitFor(const std::function<bool()>& condition, double timeoutSeconds);
+
+}  // namespace lensfarm::test
