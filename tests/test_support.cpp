@@ -73,10 +73,10 @@ json closedBoxSceneJson(const json& wallMaterial, int resolution, uint64_t spp, 
   const json walls = json::array({
       json{{"corner", {-1, -1, 1}}, {"edge1", {0, 2, 0}}, {"edge2", {2, 0, 0}}},    // z = +1, n = -z
       json{{"corner", {-1, -1, -1}}, {"edge1", {2, 0, 0}}, {"edge2", {0, 2, 0}}},   // z = -1, n = +z
-      json{{"corner", {1, -1, -1}}, {"edge1", {0, 2, 0}}, {"edge2", {0, 0, 2}}},    // x = +1, n = -x
-      json{{"corner", {-1, -1, -1}}, {"edge1", {0, 0, 2}}, {"edge2", {0, 2, 0}}},   // x = -1, n = +x
-      json{{"corner", {-1, 1, -1}}, {"edge1", {0, 0, 2}}, {"edge2", {2, 0, 0}}},    // y = +1, n = -y
-      json{{"corner", {-1, -1, -1}}, {"edge1", {2, 0, 0}}, {"edge2", {0, 0, 2}}},   // y = -1, n = +y
+      json{{"corner", {1, -1, -1}}, {"edge1", {0, 0, 2}}, {"edge2", {0, 2, 0}}},    // x = +1, n = -x
+      json{{"corner", {-1, -1, -1}}, {"edge1", {0, 2, 0}}, {"edge2", {0, 0, 2}}},   // x = -1, n = +x
+      json{{"corner", {-1, 1, -1}}, {"edge1", {2, 0, 0}}, {"edge2", {0, 0, 2}}},    // y = +1, n = -y
+      json{{"corner", {-1, -1, -1}}, {"edge1", {0, 0, 2}}, {"edge2", {2, 0, 0}}},   // y = -1, n = +y
   });
   json shapes = json::array();
   for (json w : walls) {

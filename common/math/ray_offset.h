@@ -14,12 +14,14 @@
 
 namespace lensfarm {
 
-// Bound on the error of a point interpolated from vertices whose largest absolute coordinates
-// are `magnitude` (componentwise). gamma(n) = n eps / (1 - n eps) with n = 7 is pbrt's bound for
-// barycentric interpolation; Embree's own hit computation adds a few more ulps, hence the margin.
-inline Vec3 positionErrorBound(const Vec3& magnitude) {
+// Bound on the error of a hit point on a triangle whose vertices' largest absolute coordinate is
+// `magnitude`. pbrt's bound for interpolating the vertices is gamma(7) per component; but Embree's
+// hit test works on vertices translated to the ray origin, which mixes all three components, so a
+// triangle lying in the plane z = 0 still has an error in z proportional to its x and y. The bound
+// is therefore isotropic, with a margin for Embree's own arithmetic.
+inline Vec3 positionErrorBound(float magnitude) {
   constexpr float kUlpsOfMagnitude = 32.0f * std::numeric_limits<float>::epsilon();
-  return magnitude * kUlpsOfMagnitude;
+  return Vec3(magnitude * kUlpsOfMagnitude);
 }
 
 // Moves p off the surface with geometric normal n (unit), to the side that w points to.

@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <limits>
 #include <stdexcept>
 
@@ -46,7 +47,8 @@ RayCaster::RayCaster(const Scene& scene) {
       t.v1 = mesh.positions[mesh.indices[3 * tri + 1]];
       t.v2 = mesh.positions[mesh.indices[3 * tri + 2]];
       t.n = glm::normalize(glm::cross(t.v1 - t.v0, t.v2 - t.v0));
-      t.magnitude = glm::max(glm::abs(t.v0), glm::max(glm::abs(t.v1), glm::abs(t.v2)));
+      const Vec3 m = glm::max(glm::abs(t.v0), glm::max(glm::abs(t.v1), glm::abs(t.v2)));
+      t.magnitude = std::max(m.x, std::max(m.y, m.z));
       t.material = mesh.materialIds[tri];
       triangles_.push_back(t);
     }

@@ -42,7 +42,7 @@ class RayCaster {
   struct Triangle {
     Vec3 v0, v1, v2;
     Vec3 n;
-    Vec3 magnitude;  // componentwise max |v|
+    float magnitude;  // largest |coordinate| of the three vertices
     uint32_t material;
   };
   const std::vector<Triangle>& triangles() const { return triangles_; }

@@ -1,0 +1,116 @@
+// The sensor, exposure and image files.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "film/exposure.h"
+#include "film/image_io.h"
+#include "film/sensor.h"
+#include "test_support.h"
+#include "util/error.h"
+
+namespace lensfarm {
+namespace {
+
+TEST(Sensor, DevelopingUndoesTheLensFlip) {
+  Sensor sensor(4, 3);
+  SensorBuffer unit(4, 3);
+  std::fill(unit.samples.begin(), unit.samples.end(), 1u);
+  unit.sums[0] = 7.0;  // cell (0, 0), red: the sensor's upper left
+  sensor.add(unit);
+  const Image image = sensor.developImage();
+  EXPECT_FLOAT_EQ(image.at(3, 2).r, 7.0f);  // shows at the image's lower right
+  EXPECT_FLOAT_EQ(image.at(0, 0).r, 0.0f);
+}
+
+TEST(Sensor, MeanIsSumOverSamplesAndNeverClamped) {
+  Sensor sensor(1, 1);
+  SensorBuffer unit(1, 1);
+  unit.sums = {30.0, 6.0, 0.0};
+  unit.samples = {3};
+  sensor.add(unit);
+  sensor.add(unit);
+  EXPECT_EQ(sensor.totalSamples(), 6u);
+  EXPECT_DOUBLE_EQ(sensor.mean(0, 0).x, 10.0);  // values above 1 stay (seed §4.7.1)
+  EXPECT_DOUBLE_EQ(sensor.mean(0, 0).y, 2.0);
+}
+
+TEST(Sensor, LongAccumulationKeepsFullPrecision) {
+  // 10^6 units of 0.1 each. A plain double running sum drifts by ~1e-11 relative here; the
+  // compensated sum must stay within a few ulps of the exact value N * 0.1.
+  Sensor sensor(1, 1);
+  SensorBuffer unit(1, 1);
+  unit.sums = {0.1, 0.1, 0.1};
+  unit.samples = {1};
+  const int kUnits = 1'000'000;
+  double naive = 0.0;
+  for (int k = 0; k < kUnits; ++k) {
+    sensor.add(unit);
+    naive += 0.1;
+  }
+  const long double exact = static_cast<long double>(0.1) * kUnits;
+  const double total = sensor.mean(0, 0).x * kUnits;
+  EXPECT_LT(std::abs((total - exact) / exact), 1e-14L);
+  EXPECT_GT(std::abs((naive - exact) / exact), 1e-13L) << "the test would not notice a plain sum";
+}
+
+TEST(Exposure, AutomaticExposureMapsTheMeanToOneThenAppliesEvAndToneMap) {
+  // A uniform image of any brightness gives the same picture (seed §4.7.4, Fig. 5c vs 5d).
+  for (float radiance : {0.001f, 1.0f, 5000.0f}) {
+    Image image{2, 2, std::vector<float>(12, radiance)};
+    for (double ev : {0.0, -1.0}) {
+      const auto rgb = exposeToSrgb8(image, ExposureSettings{ev, ToneMap::kReinhard});
+      const double v = std::exp2(ev);  // luminance of a grey pixel equals its value
+      const double toned = v / (1 + v);
+      const double srgb = toned <= 0.0031308 ? 12.92 * toned : 1.055 * std::pow(toned, 1 / 2.4) - 0.055;
+      for (uint8_t b : rgb) EXPECT_EQ(b, uint8_t(std::lround(srgb * 255))) << radiance << " ev " << ev;
+    }
+  }
+  Image black{1, 1, {0, 0, 0}};
+  EXPECT_EQ(autoExposureScale(black), 1.0);
+  EXPECT_EQ(exposeToSrgb8(black, {}), std::vector<uint8_t>(3, 0));
+}
+
+TEST(ImageFiles, ExrRoundTripKeepsEveryBitAndTheHeader) {
+  test::TempDir dir;
+  Image image{5, 3, {}};
+  std::mt19937 rng(11);
+  std::exponential_distribution<float> radiance(0.1f);
+  for (int k = 0; k < 45; ++k) image.rgb.push_back(radiance(rng));
+  image.rgb[4] = 1e30f;  // beyond half precision: EXR stays float32
+  ImageMetadata m;
+  m.samplesPerPixel = 1234;
+  m.totalSamples = 1234ull * 15;
+  m.renderSeconds = 12.5;
+  m.sceneHash = "abc123";
+  m.rendererVersion = "v-test";
+  m.extra["integrator"] = "naive";
+  writeExr(dir / "x.exr", image, m);
+  ImageMetadata back;
+  const Image read = readExr(dir / "x.exr", &back);
+  EXPECT_EQ(read.width, 5);
+  EXPECT_EQ(read.height, 3);
+  EXPECT_EQ(read.rgb, image.rgb);
+  EXPECT_EQ(back.samplesPerPixel, 1234u);
+  EXPECT_EQ(back.totalSamples, 1234ull * 15);
+  EXPECT_EQ(back.renderSeconds, 12.5);
+  EXPECT_EQ(back.sceneHash, "abc123");
+  EXPECT_EQ(back.rendererVersion, "v-test");
+  EXPECT_EQ(back.extra.at("integrator"), "naive");
+}
+
+TEST(ImageFiles, FailedWritesLeaveNoFileBehind) {
+  test::TempDir dir;
+  Image image{2, 2, std::vector<float>(12, 1.0f)};
+  EXPECT_THROW(writeExr(dir / "missing-dir" / "x.exr", image, {}), InputError);
+  EXPECT_THROW(writeImageFile(dir / "x.tiff", image, {}, {}), InputError);
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
+  writePng(dir / "p.png", image, {});
+  EXPECT_TRUE(std::filesystem::exists(dir / "p.png"));
+  size_t files = 0;
+  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir.path())) ++files;
+  EXPECT_EQ(files, 1u) << "no temporary file may remain";
+}
+
+}  // namespace
+}  // namespace lensfarm
