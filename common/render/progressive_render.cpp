@@ -50,7 +50,6 @@ RenderOutcome renderProgressive(const RenderScene& rs, Sensor& sensor, const Pro
       lastSnapshot = progress.elapsedSeconds;
     }
   }
-  if (options.cancel && options.cancel->load()) outcome.interrupted = true;
   progress.elapsedSeconds = seconds();
   return outcome;
 }

@@ -202,9 +202,7 @@ class SceneParser {
     parseLights(top);
     top.finish();
 
-    size_t triangles = 0;
-    for (const auto& m : scene_.meshes) triangles += m.triangleCount();
-    if (triangles == 0) top.fail("shapes", "the scene has no triangles");
+    if (shapeTriangles_ == 0) top.fail("shapes", "the scene has no triangles (lights alone show nothing)");
     scene_.hash = hash_.hexDigest();
     return std::move(scene_);
   }
@@ -351,7 +349,7 @@ class SceneParser {
       const Transform t = readTransform(r, "transform");
       r.finish();
       applyTransform(mesh, t);
-      addMesh(std::move(mesh));
+      shapeTriangles_ += addMesh(std::move(mesh));
     }
   }
 
@@ -483,8 +481,9 @@ class SceneParser {
       for (size_t k = 0; k < mesh.indices.size(); k += 3) std::swap(mesh.indices[k + 1], mesh.indices[k + 2]);
   }
 
-  // Drops zero-area triangles (they have no normal and can never be hit meaningfully).
-  void addMesh(TriangleMesh mesh) {
+  // Drops zero-area triangles (they have no normal and can never be hit meaningfully) and
+  // returns how many triangles were kept.
+  size_t addMesh(TriangleMesh mesh) {
     TriangleMesh kept = mesh;
     kept.indices.clear();
     kept.materialIds.clear();
@@ -500,7 +499,9 @@ class SceneParser {
       kept.indices.insert(kept.indices.end(), {mesh.indices[3 * tri], mesh.indices[3 * tri + 1], mesh.indices[3 * tri + 2]});
       kept.materialIds.push_back(mesh.materialIds[tri]);
     }
-    if (kept.triangleCount() > 0) scene_.meshes.push_back(std::move(kept));
+    const size_t count = kept.triangleCount();
+    if (count > 0) scene_.meshes.push_back(std::move(kept));
+    return count;
   }
 
   const json& root_;
@@ -509,8 +510,70 @@ class SceneParser {
   Scene scene_;
   Sha256 hash_;
   std::map<std::string, uint32_t> materialIndex_;
+  size_t shapeTriangles_ = 0;
 };
 
+}  // namespace
+
+namespace {
+// Finds the field that holds the first non-finite number (e.g. 1e999, which JSON allows but a
+// double cannot hold) by replaying the text through nlohmann's SAX interface.
+class NonFiniteNumberFinder : public nlohmann::json_sax<json> {
+ public:
+  std::string path;  // set when found
+
+  bool number_float(number_float_t, const string_t&) override { return advance(); }
+  bool null() override { return advance(); }
+  bool boolean(bool) override { return advance(); }
+  bool number_integer(number_integer_t) override { return advance(); }
+  bool number_unsigned(number_unsigned_t) override { return advance(); }
+  bool string(string_t&) override { return advance(); }
+  bool binary(binary_t&) override { return advance(); }
+  bool start_object(std::size_t) override {
+    frames_.push_back(Frame{false, 0, ""});
+    return true;
+  }
+  bool key(string_t& k) override {
+    frames_.back().key = k;
+    return true;
+  }
+  bool end_object() override { return close(); }
+  bool start_array(std::size_t) override {
+    frames_.push_back(Frame{true, 0, ""});
+    return true;
+  }
+  bool end_array() override { return close(); }
+  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception& e) override {
+    if (e.id == 406) path = currentPath();  // nlohmann reports an overflowing number here
+    return false;
+  }
+
+ private:
+  struct Frame {
+    bool array;
+    size_t index;
+    std::string key;
+  };
+  bool advance() {
+    if (!frames_.empty() && frames_.back().array) ++frames_.back().index;
+    return true;
+  }
+  bool close() {
+    frames_.pop_back();
+    return advance();
+  }
+  std::string currentPath() const {
+    std::string out;
+    for (const Frame& f : frames_) {
+      if (f.array)
+        out += "[" + std::to_string(f.index) + "]";
+      else
+        out += (out.empty() ? "" : ".") + f.key;
+    }
+    return out;
+  }
+  std::vector<Frame> frames_;
+};
 }  // namespace
 
 Scene parseScene(const std::string& text, const fs::path& file) {
@@ -522,6 +585,12 @@ Scene parseScene(const std::string& text, const fs::path& file) {
     std::string what = e.what();
     const auto pos = what.find("parse error");
     throw InputError(file.string(), "malformed JSON: " + (pos == std::string::npos ? what : what.substr(pos)));
+  } catch (const json::exception& e) {
+    // A number too large for a double (406 "number overflow").
+    NonFiniteNumberFinder finder;
+    json::sax_parse(text, &finder);
+    if (!finder.path.empty()) throw InputError(file.string(), finder.path + ": must be a finite number");
+    throw InputError(file.string(), std::string("invalid JSON: ") + e.what());
   }
   return SceneParser(root, file).parse();
 }
