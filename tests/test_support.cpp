@@ -92,30 +92,34 @@ Scene loadSceneJson(const TempDir& dir, const json& scene, const std::string& na
   return loadScene(dir.write(name, scene.dump(2)));
 }
 
-namespace {
-std::string slurp(const fs::path& p) {
+std::string readFile(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
 }
-}  // namespace
+
+int startProcess(const std::vector<std::string>& argv, const fs::path& outFile, const fs::path& errFile) {
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const int out = ::open(outFile.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    const int err = ::open(errFile.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    ::dup2(out, 1);
+    ::dup2(err, 2);
+    ::signal(SIGINT, SIG_DFL);
+    ::execv(args[0], args.data());
+    ::_exit(127);
+  }
+  return pid;
+}
 
 ProcessResult runProcess(const std::vector<std::string>& argv, double timeoutSeconds) {
   TempDir io;
   const fs::path outPath = io / "stdout", errPath = io / "stderr";
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    const int out = ::open(outPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    const int err = ::open(errPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    ::dup2(out, 1);
-    ::dup2(err, 2);
-    std::vector<char*> args;
-    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    ::execv(args[0], args.data());
-    ::_exit(127);
-  }
+  const pid_t pid = startProcess(argv, outPath, errPath);
   ProcessResult result;
   int status = 0;
   const bool exited = waitFor([&] { return ::waitpid(pid, &status, WNOHANG) == pid; }, timeoutSeconds);
@@ -126,8 +130,8 @@ ProcessResult runProcess(const std::vector<std::string>& argv, double timeoutSec
   } else if (WIFEXITED(status)) {
     result.exitCode = WEXITSTATUS(status);
   }
-  result.out = slurp(outPath);
-  result.err = slurp(errPath);
+  result.out = readFile(outPath);
+  result.err = readFile(errPath);
   return result;
 }
 

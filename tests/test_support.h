@@ -40,6 +40,14 @@ nlohmann::json closedBoxSceneJson(const nlohmann::json& wallMaterial, int resolu
 // Writes `scene` into `dir` and loads it.
 Scene loadSceneJson(const TempDir& dir, const nlohmann::json& scene, const std::string& name = "scene.json");
 
+// Starts a command (argv[0] is the program) in the background with stdout and stderr redirected
+// to files; returns the child's pid. The caller reaps it (waitpid).
+int startProcess(const std::vector<std::string>& argv, const std::filesystem::path& outFile,
+                 const std::filesystem::path& errFile);
+
+// The whole content of a file ("" if it cannot be read).
+std::string readFile(const std::filesystem::path& path);
+
 // Runs a command (argv[0] is the program) with stdout and stderr captured; waits at most
 // `timeoutSeconds` and kills it after that (the test then fails on the exit code).
 struct ProcessResult {

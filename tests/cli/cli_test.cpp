@@ -263,36 +263,11 @@ TEST(CliDof, SeedSceneReproducesTable1AndTextbookFarLimitIsSane) {
 
 // ---- Ctrl-C ---------------------------------------------------------------------------------
 
-// Starts `argv` with stdout and stderr redirected to files; returns the child's pid.
-pid_t spawn(const std::vector<std::string>& argv, const fs::path& outFile, const fs::path& errFile) {
-  std::vector<char*> args;
-  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    const int o = ::open(outFile.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    const int e = ::open(errFile.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    ::dup2(o, 1);
-    ::dup2(e, 2);
-    ::signal(SIGINT, SIG_DFL);
-    ::execv(args[0], args.data());
-    ::_exit(127);
-  }
-  return pid;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 TEST(CliInterrupt, CtrlCWritesWholeUnitsAndExits130) {
   test::TempDir scenes, out, io;
   const fs::path scene = scenes.write("minimal.json", test::minimalSceneJson().dump(2));
   const fs::path snap = out / "snap.exr";
-  const pid_t pid = spawn({cli(), "render", scene.string(), "-o", snap.string(), "--spp", "1000000", "--resolution",
+  const pid_t pid = test::startProcess({cli(), "render", scene.string(), "-o", snap.string(), "--spp", "1000000", "--resolution",
                            "64x64", "--snapshot-every", "0.05", "-q"},
                           io / "stdout", io / "stderr");
   ASSERT_GT(pid, 0);
@@ -312,11 +287,11 @@ TEST(CliInterrupt, CtrlCWritesWholeUnitsAndExits130) {
     ::kill(pid, SIGKILL);
     ::waitpid(pid, &status, 0);
     FAIL() << "the render did not " << (snapshotWritten ? "stop after Ctrl-C" : "write a snapshot") << "; stderr: "
-           << slurp(io / "stderr");
+           << test::readFile(io / "stderr");
   }
-  ASSERT_TRUE(snapshotWritten) << "the render ended before writing a snapshot; stderr: " << slurp(io / "stderr");
+  ASSERT_TRUE(snapshotWritten) << "the render ended before writing a snapshot; stderr: " << test::readFile(io / "stderr");
   ASSERT_TRUE(WIFEXITED(status)) << "killed by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
-  EXPECT_EQ(WEXITSTATUS(status), kInterrupted) << slurp(io / "stderr");
+  EXPECT_EQ(WEXITSTATUS(status), kInterrupted) << test::readFile(io / "stderr");
 
   ImageMetadata meta;
   const Image image = readExr(snap, &meta);
@@ -326,7 +301,7 @@ TEST(CliInterrupt, CtrlCWritesWholeUnitsAndExits130) {
   EXPECT_GE(meta.samplesPerPixel, 1u);
   EXPECT_LT(meta.samplesPerPixel, 1000000u);
   EXPECT_EQ(meta.totalSamples, meta.samplesPerPixel * 64 * 64) << "the image must hold whole units only";
-  EXPECT_TRUE(contains(slurp(io / "stdout"), "interrupted"));
+  EXPECT_TRUE(contains(test::readFile(io / "stdout"), "interrupted"));
   EXPECT_TRUE(hiddenEntries(out.path()).empty()) << joined(hiddenEntries(out.path()));
   EXPECT_EQ(entries(out.path()), std::vector<std::string>{"snap.exr"});
 }

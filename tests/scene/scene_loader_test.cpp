@@ -34,6 +34,8 @@ TEST(SceneLoader, BoxIsMappedIntoTheUnitCubeWithTheFloorAtPlusY) {
     EXPECT_NEAR(lo[c], -1.0f, 1e-5f);
     EXPECT_NEAR(hi[c], 1.0f, 1e-5f);
   }
+  // The floor (the OBJ's first group, 2 triangles) lies at y = +1: y points down in the image.
+  for (size_t k = 0; k < 6; ++k) EXPECT_NEAR(box.positions[box.indices[k]].y, 1.0f, 1e-5f);
   // Every wall faces into the room: its normal points towards the centre.
   for (size_t t = 0; t < 10; ++t) {
     const Vec3 a = box.positions[box.indices[3 * t]], b = box.positions[box.indices[3 * t + 1]],
