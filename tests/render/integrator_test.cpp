@@ -174,3 +174,27 @@ TEST(Units, CoverEverySampleExactlyOnce) {
 
 }  // namespace
 }  // namespace lensfarm
+
+namespace lensfarm {
+namespace {
+
+TEST(ImageOrientation, WhatIsUpperLeftInTheSceneIsUpperLeftInTheImage) {
+  // End to end, camera to written image: a light in the upper left of the view must land in the
+  // upper-left quadrant of the developed image (the lens flip undone exactly once).
+  // Camera looks along +z with up = +y, so its right is -x: the view's upper left is x > 0, y > 0.
+  test::TempDir dir;
+  json scene = test::minimalSceneJson();
+  scene["lights"][0] = {{"type", "quad"}, {"corner", {0.4, 0.4, -0.5}}, {"edge1", {0.4, 0, 0}},
+                        {"edge2", {0, 0.4, 0}}, {"radiance", 50}, {"two_sided", true}};
+  scene["render"]["resolution"] = {20, 20};
+  scene["render"]["max_bounces"] = 0;  // only what the camera sees directly
+  const Rendered r = renderAll(test::loadSceneJson(dir, scene));
+  double quadrant[2][2] = {{0, 0}, {0, 0}};
+  for (int y = 0; y < 20; ++y)
+    for (int x = 0; x < 20; ++x) quadrant[y / 10][x / 10] += r.image.at(x, y).r;
+  EXPECT_GT(quadrant[0][0], 0.0);
+  EXPECT_EQ(quadrant[0][1] + quadrant[1][0] + quadrant[1][1], 0.0);
+}
+
+}  // namespace
+}  // namespace lensfarm
