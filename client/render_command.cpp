@@ -9,13 +9,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <optional>
-#include <regex>
 #include <thread>
 
 #include "commands.h"
 #include "exit_codes.h"
 #include "film/image_io.h"
 #include "render/progressive_render.h"
+#include "scene/render_overrides.h"
 #include "scene/scene_loader.h"
 #include "util/error.h"
 #include "util/version.h"
@@ -48,22 +48,16 @@ struct RenderFlags {
   bool quiet = false;
 };
 
-void applyOverrides(const RenderFlags& f, RenderSettings& s) {
-  if (f.resolution) {
-    static const std::regex kWxH(R"((\d{1,6})x(\d{1,6}))");
-    std::smatch m;
-    if (!std::regex_match(*f.resolution, m, kWxH))
-      throw InputError("--resolution", "expected WIDTHxHEIGHT, e.g. 800x600, got \"" + *f.resolution + "\"");
-    s.width = std::stoi(m[1]);
-    s.height = std::stoi(m[2]);
-  }
-  if (f.spp) s.samplesPerPixel = *f.spp;
-  else if (f.timeLimit) s.samplesPerPixel = kMaxSamplesPerPixel;  // --time alone: until time is up
-  if (f.maxBounces) s.maxBounces = *f.maxBounces;
-  if (f.seed) s.seed = *f.seed;
-  if (f.integrator) s.integrator = *f.integrator == "naive" ? IntegratorKind::kNaive : IntegratorKind::kNeeMis;
-  if (f.ev) s.exposure.ev = *f.ev;
-  validateRenderSettings(s, "command line");
+void applyFlags(const RenderFlags& f, RenderSettings& s) {
+  RenderOverrides o;
+  if (f.resolution) parseResolution(*f.resolution, o);
+  o.samplesPerPixel = f.spp;
+  if (!f.spp && f.timeLimit) o.samplesPerPixel = kMaxSamplesPerPixel;  // --time alone: until time is up
+  o.maxBounces = f.maxBounces;
+  o.seed = f.seed;
+  if (f.integrator) o.integrator = *f.integrator == "naive" ? IntegratorKind::kNaive : IntegratorKind::kNeeMis;
+  o.ev = f.ev;
+  applyOverrides(o, s, "command line");
 }
 
 std::string clock(double seconds) {
@@ -128,7 +122,7 @@ void writeOutputs(const std::vector<fs::path>& outputs, const Scene& scene, cons
 
 int runRender(const RenderFlags& flags) {
   Scene scene = loadScene(flags.scene);
-  applyOverrides(flags, scene.render);
+  applyFlags(flags, scene.render);
 
   // Refuse bad outputs before tracing a single ray.
   std::vector<fs::path> outputs;

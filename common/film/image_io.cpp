@@ -6,10 +6,13 @@
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStdIO.h>
 #include <OpenEXR/ImfStringAttribute.h>
 #include <png.h>
 
 #include <cstring>
+#include <fstream>
+#include <sstream>
 
 #include "film/exposure.h"
 #include "util/atomic_file.h"
@@ -32,72 +35,108 @@ Imf::FrameBuffer frameBufferFor(float* rgb, int width) {
 }
 }  // namespace
 
-void writeExr(const fs::path& path, const Image& image, const ImageMetadata& metadata) {
-  writeFileAtomically(path, [&](const fs::path& tmp) {
-    Imf::Header header(image.width, image.height);
-    header.compression() = Imf::ZIP_COMPRESSION;
-    for (const char* name : {"R", "G", "B"}) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
-    const std::string p = kPrefix;
-    header.insert(p + "samplesPerPixel", Imf::StringAttribute(std::to_string(metadata.samplesPerPixel)));
-    header.insert(p + "totalSamples", Imf::StringAttribute(std::to_string(metadata.totalSamples)));
-    header.insert(p + "renderSeconds", Imf::DoubleAttribute(metadata.renderSeconds));
-    header.insert(p + "sceneHash", Imf::StringAttribute(metadata.sceneHash));
-    header.insert(p + "rendererVersion", Imf::StringAttribute(metadata.rendererVersion));
-    for (const auto& [key, value] : metadata.extra) header.insert(p + key, Imf::StringAttribute(value));
-    Imf::OutputFile file(tmp.c_str(), header);
+std::string encodeExr(const Image& image, const ImageMetadata& metadata) {
+  Imf::Header header(image.width, image.height);
+  header.compression() = Imf::ZIP_COMPRESSION;
+  for (const char* name : {"R", "G", "B"}) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+  const std::string p = kPrefix;
+  header.insert(p + "samplesPerPixel", Imf::StringAttribute(std::to_string(metadata.samplesPerPixel)));
+  header.insert(p + "totalSamples", Imf::StringAttribute(std::to_string(metadata.totalSamples)));
+  header.insert(p + "renderSeconds", Imf::DoubleAttribute(metadata.renderSeconds));
+  header.insert(p + "sceneHash", Imf::StringAttribute(metadata.sceneHash));
+  header.insert(p + "rendererVersion", Imf::StringAttribute(metadata.rendererVersion));
+  for (const auto& [key, value] : metadata.extra) header.insert(p + key, Imf::StringAttribute(value));
+  Imf::StdOSStream stream;
+  {
+    Imf::OutputFile file(stream, header);
     std::vector<float> pixels = image.rgb;  // OpenEXR wants non-const slices
     file.setFrameBuffer(frameBufferFor(pixels.data(), image.width));
     file.writePixels(image.height);
-  });
+  }  // the file is complete when OutputFile is destroyed
+  return stream.str();
+}
+
+namespace {
+Image readExrStream(Imf::IStream& stream, ImageMetadata* metadata) {
+  Imf::InputFile file(stream);
+  const Imath::Box2i window = file.header().dataWindow();
+  Image image;
+  image.width = window.max.x - window.min.x + 1;
+  image.height = window.max.y - window.min.y + 1;
+  image.rgb.assign(size_t(image.width) * image.height * 3, 0.0f);
+  file.setFrameBuffer(frameBufferFor(image.rgb.data(), image.width));
+  file.readPixels(window.min.y, window.max.y);
+  if (metadata) {
+    *metadata = ImageMetadata{};
+    for (auto it = file.header().begin(); it != file.header().end(); ++it) {
+      const std::string name = it.name();
+      if (name.rfind(kPrefix, 0) != 0) continue;
+      const std::string key = name.substr(std::strlen(kPrefix));
+      if (const auto* d = dynamic_cast<const Imf::DoubleAttribute*>(&it.attribute())) {
+        if (key == "renderSeconds") metadata->renderSeconds = d->value();
+        continue;
+      }
+      const auto* s = dynamic_cast<const Imf::StringAttribute*>(&it.attribute());
+      if (!s) continue;
+      if (key == "samplesPerPixel") metadata->samplesPerPixel = std::stoull(s->value());
+      else if (key == "totalSamples") metadata->totalSamples = std::stoull(s->value());
+      else if (key == "sceneHash") metadata->sceneHash = s->value();
+      else if (key == "rendererVersion") metadata->rendererVersion = s->value();
+      else metadata->extra[key] = s->value();
+    }
+  }
+  return image;
+}
+}  // namespace
+
+Image decodeExr(const std::string& bytes, ImageMetadata* metadata) {
+  Imf::StdISStream stream;
+  stream.str(bytes);
+  return readExrStream(stream, metadata);
 }
 
 Image readExr(const fs::path& path, ImageMetadata* metadata) {
   try {
-    Imf::InputFile file(path.c_str());
-    const Imath::Box2i window = file.header().dataWindow();
-    Image image;
-    image.width = window.max.x - window.min.x + 1;
-    image.height = window.max.y - window.min.y + 1;
-    image.rgb.assign(size_t(image.width) * image.height * 3, 0.0f);
-    file.setFrameBuffer(frameBufferFor(image.rgb.data(), image.width));
-    file.readPixels(window.min.y, window.max.y);
-    if (metadata) {
-      *metadata = ImageMetadata{};
-      for (auto it = file.header().begin(); it != file.header().end(); ++it) {
-        const std::string name = it.name();
-        if (name.rfind(kPrefix, 0) != 0) continue;
-        const std::string key = name.substr(std::strlen(kPrefix));
-        if (const auto* d = dynamic_cast<const Imf::DoubleAttribute*>(&it.attribute())) {
-          if (key == "renderSeconds") metadata->renderSeconds = d->value();
-          continue;
-        }
-        const auto* s = dynamic_cast<const Imf::StringAttribute*>(&it.attribute());
-        if (!s) continue;
-        if (key == "samplesPerPixel") metadata->samplesPerPixel = std::stoull(s->value());
-        else if (key == "totalSamples") metadata->totalSamples = std::stoull(s->value());
-        else if (key == "sceneHash") metadata->sceneHash = s->value();
-        else if (key == "rendererVersion") metadata->rendererVersion = s->value();
-        else metadata->extra[key] = s->value();
-      }
-    }
-    return image;
+    Imf::StdIFStream stream(path.c_str());
+    return readExrStream(stream, metadata);
   } catch (const std::exception& e) {
     throw InputError(path.string(), std::string("cannot read EXR: ") + e.what());
   }
 }
 
-void writePng(const fs::path& path, const Image& image, const ExposureSettings& exposure) {
+std::string encodePng(const Image& image, const ExposureSettings& exposure) {
   const std::vector<uint8_t> pixels = exposeToSrgb8(image, exposure);
+  png_image png;
+  std::memset(&png, 0, sizeof(png));
+  png.version = PNG_IMAGE_VERSION;
+  png.width = png_uint_32(image.width);
+  png.height = png_uint_32(image.height);
+  png.format = PNG_FORMAT_RGB;
+  png_alloc_size_t size = 0;
+  if (!png_image_write_to_memory(&png, nullptr, &size, 0, pixels.data(), 3 * image.width, nullptr))
+    throw std::runtime_error(std::string("PNG encoding failed: ") + png.message);
+  std::string bytes(size, '\0');
+  if (!png_image_write_to_memory(&png, bytes.data(), &size, 0, pixels.data(), 3 * image.width, nullptr))
+    throw std::runtime_error(std::string("PNG encoding failed: ") + png.message);
+  bytes.resize(size);
+  return bytes;
+}
+
+void writeBytesAtomically(const fs::path& path, const std::string& bytes) {
   writeFileAtomically(path, [&](const fs::path& tmp) {
-    png_image png;
-    std::memset(&png, 0, sizeof(png));
-    png.version = PNG_IMAGE_VERSION;
-    png.width = png_uint_32(image.width);
-    png.height = png_uint_32(image.height);
-    png.format = PNG_FORMAT_RGB;
-    if (!png_image_write_to_file(&png, tmp.c_str(), 0, pixels.data(), 3 * image.width, nullptr))
-      throw std::runtime_error(png.message);
+    std::ofstream out(tmp, std::ios::binary);
+    out.write(bytes.data(), std::streamsize(bytes.size()));
+    out.close();
+    if (!out) throw std::runtime_error("write failed");
   });
+}
+
+void writeExr(const fs::path& path, const Image& image, const ImageMetadata& metadata) {
+  writeBytesAtomically(path, encodeExr(image, metadata));
+}
+
+void writePng(const fs::path& path, const Image& image, const ExposureSettings& exposure) {
+  writeBytesAtomically(path, encodePng(image, exposure));
 }
 
 void writeImageFile(const fs::path& path, const Image& image, const ImageMetadata& metadata,

@@ -22,10 +22,18 @@ struct ImageMetadata {
   std::map<std::string, std::string> extra;  // further string attributes
 };
 
+// The files' bytes, in memory (snapshots are served from these).
+std::string encodeExr(const Image& image, const ImageMetadata& metadata);
+std::string encodePng(const Image& image, const ExposureSettings& exposure);
+
 void writeExr(const std::filesystem::path& path, const Image& image, const ImageMetadata& metadata);
 Image readExr(const std::filesystem::path& path, ImageMetadata* metadata = nullptr);
+Image decodeExr(const std::string& bytes, ImageMetadata* metadata = nullptr);
 
 void writePng(const std::filesystem::path& path, const Image& image, const ExposureSettings& exposure);
+
+// Writes `bytes` to `path` atomically; throws InputError naming `path` on failure.
+void writeBytesAtomically(const std::filesystem::path& path, const std::string& bytes);
 
 // Writes `image` to every path, by extension (.exr or .png); throws InputError for any other.
 void writeImageFile(const std::filesystem::path& path, const Image& image, const ImageMetadata& metadata,

@@ -22,7 +22,7 @@ RenderOutcome renderProgressive(const RenderScene& rs, Sensor& sensor, const Pro
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   const auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
-  const uint32_t perUnit = rs.settings().samplesPerUnit;
+  const uint32_t perUnit = unitSize(rs.settings());
 
   RenderOutcome outcome;
   RenderProgress& progress = outcome.progress;

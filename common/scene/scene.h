@@ -3,6 +3,7 @@
 // The file format is docs/scene-format.md; scene/scene_loader.h reads it.
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -42,13 +43,20 @@ struct RenderSettings {
   uint64_t seed = 0;
   IntegratorKind integrator = IntegratorKind::kNeeMis;
   bool mirrorBouncesCount = false;    // seed §4.5: mirror reflections do not count toward B
-  uint32_t samplesPerUnit = 1;        // samples per pixel in one unit of work
+  uint32_t samplesPerUnit = 0;        // samples per pixel in one unit of work; 0 = automatic
   ExposureSettings exposure;
 };
+
+// Samples per pixel in one unit of work. Automatic: about kAutoUnitPaths paths per unit (a few
+// seconds on a small machine, so a farm's uploads stay small next to its tracing), and never
+// more than the whole job. A function of the settings only, so every process agrees on it.
+inline constexpr uint64_t kAutoUnitPaths = uint64_t(1) << 22;
+uint32_t unitSize(const RenderSettings& settings);
 
 struct Scene {
   std::filesystem::path file;
   std::string hash;  // SHA-256 of the scene JSON (canonical) and every asset it references
+  std::map<std::string, std::string> assets;  // relative path -> SHA-256 of every asset read
   ThinLensParams cameraParams;
   std::vector<Material> materials;
   std::vector<TriangleMesh> meshes;

@@ -4,6 +4,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -185,7 +186,8 @@ Transform readTransform(FieldReader& parent, const std::string& key) {
 // ---------------------------------------------------------------------------------------------
 class SceneParser {
  public:
-  SceneParser(const json& root, const fs::path& file) : root_(root), file_(file), fileName_(file.string()) {}
+  SceneParser(const json& root, const fs::path& file, AssetReader readAsset)
+      : root_(root), file_(file), fileName_(file.string()), readAsset_(std::move(readAsset)) {}
 
   Scene parse() {
     FieldReader top(root_, "", fileName_);
@@ -230,7 +232,7 @@ class SceneParser {
     else
       r.fail("render.integrator", "unknown integrator \"" + integrator + "\" (expected nee_mis or naive)");
     s.mirrorBouncesCount = r.boolean("mirror_bounces_count", false);
-    s.samplesPerUnit = uint32_t(r.integer("samples_per_unit", 1, 1, 1u << 20));
+    s.samplesPerUnit = uint32_t(r.integer("samples_per_unit", 0, 0, 1u << 20));
     if (r.has("exposure")) {
       FieldReader e(r.raw("exposure"), "render.exposure", fileName_);
       s.exposure.ev = e.number("ev", 0.0, -64.0, 64.0);
@@ -415,15 +417,14 @@ class SceneParser {
 
   void readObj(FieldReader& r, TriangleMesh& mesh) {
     const std::string rel = r.string("file");
-    const fs::path path = file_.parent_path() / rel;
     const std::string where = r.field("file");
-    std::ifstream in(path, std::ios::binary);
-    if (!in) r.fail(where, "cannot read OBJ file \"" + path.string() + "\"");
-    std::stringstream buffer;
-    buffer << in.rdbuf();
-    const std::string text = buffer.str();
+    const fs::path path = file_.parent_path() / rel;
+    const std::optional<std::string> content = readAsset_(rel);
+    if (!content) r.fail(where, "cannot read OBJ file \"" + path.string() + "\"");
+    const std::string& text = *content;
     hash_.update(rel);
     hash_.update(text);
+    scene_.assets[rel] = sha256Hex(text);
 
     tinyobj::ObjReaderConfig config;
     config.triangulate = true;
@@ -508,6 +509,7 @@ class SceneParser {
   fs::path file_;
   std::string fileName_;
   Scene scene_;
+  AssetReader readAsset_;
   Sha256 hash_;
   std::map<std::string, uint32_t> materialIndex_;
   size_t shapeTriangles_ = 0;
@@ -576,7 +578,25 @@ class NonFiniteNumberFinder : public nlohmann::json_sax<json> {
 };
 }  // namespace
 
-Scene parseScene(const std::string& text, const fs::path& file) {
+AssetReader fileAssetReader(const fs::path& sceneFile) {
+  const fs::path dir = sceneFile.parent_path();
+  return [dir](const std::string& rel) -> std::optional<std::string> {
+    std::ifstream in(dir / rel, std::ios::binary);
+    if (!in) return std::nullopt;
+    std::stringstream buffer;
+    buffer << in.rdbuf();
+    return buffer.str();
+  };
+}
+
+uint32_t unitSize(const RenderSettings& s) {
+  if (s.samplesPerUnit > 0) return s.samplesPerUnit;
+  const uint64_t pixels = std::max<uint64_t>(1, uint64_t(s.width) * uint64_t(s.height));
+  const uint64_t perUnit = std::clamp<uint64_t>((kAutoUnitPaths + pixels - 1) / pixels, 1, std::max<uint64_t>(1, s.samplesPerPixel));
+  return uint32_t(std::min<uint64_t>(perUnit, 1u << 20));
+}
+
+Scene parseScene(const std::string& text, const fs::path& file, const AssetReader& readAsset) {
   json root;
   try {
     root = json::parse(text);
@@ -592,7 +612,7 @@ Scene parseScene(const std::string& text, const fs::path& file) {
     if (!finder.path.empty()) throw InputError(file.string(), finder.path + ": must be a finite number");
     throw InputError(file.string(), std::string("invalid JSON: ") + e.what());
   }
-  return SceneParser(root, file).parse();
+  return SceneParser(root, file, readAsset ? readAsset : fileAssetReader(file)).parse();
 }
 
 Scene loadScene(const fs::path& file) {

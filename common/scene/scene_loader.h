@@ -5,7 +5,10 @@
 // range, a missing asset or an impossible camera throws InputError whose message names the
 // file and the field (e.g. "scenes/x.json: camera.focal_length: must be a finite number > 0").
 #include <filesystem>
+#include <functional>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "scene/scene.h"
 
@@ -18,10 +21,18 @@ inline constexpr int kMaxResolution = 16384;
 inline constexpr uint64_t kMaxSamplesPerPixel = uint64_t(1) << 40;
 inline constexpr int kMaxBounces = 1024;
 
+// Reads an asset (an OBJ file) that a scene names by its path relative to the scene file;
+// nothing if there is no such asset. The farm resolves assets from its content store this way.
+using AssetReader = std::function<std::optional<std::string>(const std::string& relativePath)>;
+
+// Reads assets from the file system, relative to `sceneFile`'s directory.
+AssetReader fileAssetReader(const std::filesystem::path& sceneFile);
+
 Scene loadScene(const std::filesystem::path& file);
 
-// Parses scene text as if read from `file` (relative assets resolve against its directory).
-Scene parseScene(const std::string& text, const std::filesystem::path& file);
+// Parses scene text as if read from `file`; assets come from `readAsset` (by default the file
+// system, relative to `file`).
+Scene parseScene(const std::string& text, const std::filesystem::path& file, const AssetReader& readAsset = {});
 
 // Checks render settings against the limits above (used after command-line overrides too).
 // Throws InputError naming `where` and the field.

@@ -1,0 +1,30 @@
+#include "scene/render_overrides.h"
+
+#include <regex>
+
+#include "scene/scene_loader.h"
+#include "util/error.h"
+
+namespace lensfarm {
+
+void parseResolution(const std::string& text, RenderOverrides& o, const std::string& flag) {
+  static const std::regex kWxH(R"((\d{1,6})x(\d{1,6}))");
+  std::smatch m;
+  if (!std::regex_match(text, m, kWxH))
+    throw InputError(flag, "expected WIDTHxHEIGHT, e.g. 800x600, got \"" + text + "\"");
+  o.width = std::stoi(m[1]);
+  o.height = std::stoi(m[2]);
+}
+
+void applyOverrides(const RenderOverrides& o, RenderSettings& s, const std::string& where) {
+  if (o.width) s.width = *o.width;
+  if (o.height) s.height = *o.height;
+  if (o.samplesPerPixel) s.samplesPerPixel = *o.samplesPerPixel;
+  if (o.maxBounces) s.maxBounces = *o.maxBounces;
+  if (o.seed) s.seed = *o.seed;
+  if (o.integrator) s.integrator = *o.integrator;
+  if (o.ev) s.exposure.ev = *o.ev;
+  validateRenderSettings(s, where);
+}
+
+}  // namespace lensfarm

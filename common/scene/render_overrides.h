@@ -1,0 +1,29 @@
+#pragma once
+// Command-line (or job-request) overrides of a scene's render settings. `lensfarm render` and
+// `lensfarm submit` accept the same ones, and a worker applies a job's overrides exactly as the
+// coordinator did, so every process renders the same job.
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "scene/scene.h"
+
+namespace lensfarm {
+
+struct RenderOverrides {
+  std::optional<uint64_t> samplesPerPixel;
+  std::optional<int> width, height;
+  std::optional<int> maxBounces;
+  std::optional<uint64_t> seed;
+  std::optional<IntegratorKind> integrator;
+  std::optional<double> ev;
+};
+
+// Parses "WIDTHxHEIGHT" into `o`; throws InputError naming `flag`.
+void parseResolution(const std::string& text, RenderOverrides& o, const std::string& flag = "--resolution");
+
+// Applies the overrides and checks the result against the loader's limits; throws InputError
+// naming `where` and the setting.
+void applyOverrides(const RenderOverrides& o, RenderSettings& settings, const std::string& where);
+
+}  // namespace lensfarm
