@@ -1,0 +1,71 @@
+#pragma once
+// The farm's vocabulary as plain C++ types: what a coordinator and a worker exchange, with no
+// network code. The gRPC services translate these to and from lensfarm.v1 messages
+// (proto/convert.h); `lensfarm render` passes them directly between an embedded coordinator
+// and worker, so both paths run the same classes.
+#include <cstdint>
+#include <map>
+#include <stdexcept>
+#include <string>
+
+#include "film/sensor.h"
+#include "render/integrator.h"
+#include "render/unit_renderer.h"
+#include "scene/render_overrides.h"
+
+namespace lensfarm {
+
+inline constexpr const char* kProtocolVersion = "lensfarm.v1";
+
+// Everything needed to render a job; identical for the coordinator and every worker.
+struct JobSpec {
+  std::string sceneName;                      // the scene file's name, for people
+  std::string sceneJson;                      // the scene file's text
+  std::map<std::string, std::string> assets;  // relative path -> SHA-256 of its bytes
+  RenderOverrides overrides;
+};
+
+struct WorkerInfo {
+  std::string name;
+  uint32_t threads = 1;
+  std::string protocolVersion = kProtocolVersion;
+  std::string rendererVersion;
+};
+
+// A unit leased to one worker. Only an upload quoting the current lease id is counted.
+struct LeaseGrant {
+  uint64_t leaseId = 0;
+  std::string jobId;
+  WorkUnit unit;
+  std::string sceneHash;
+  double deadlineSeconds = 0.0;
+};
+
+// A unit's partial sensor buffer and the counters of its paths.
+struct UnitResult {
+  std::string workerId;
+  uint64_t leaseId = 0;
+  std::string jobId;
+  uint64_t unitIndex = 0;
+  SensorBuffer buffer;
+  PathStats stats;
+  double renderSeconds = 0.0;
+};
+
+// Failures of farm requests, by kind; the gRPC layer maps each to a status code.
+class FarmError : public std::runtime_error {
+ public:
+  enum class Kind {
+    kNotFound,            // unknown job, lease or asset
+    kUnknownWorker,       // the coordinator does not know this worker (e.g. it restarted)
+    kInvalidArgument,     // a malformed request (a bad scene is an InputError instead)
+    kFailedPrecondition,  // e.g. assets missing, versions differ, lease not held
+  };
+  FarmError(Kind kind, const std::string& what) : std::runtime_error(what), kind_(kind) {}
+  Kind kind() const { return kind_; }
+
+ private:
+  Kind kind_;
+};
+
+}  // namespace lensfarm

@@ -1,0 +1,471 @@
+#include "coordinator.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+
+#include "scene/scene_loader.h"
+#include "util/error.h"
+#include "util/hash.h"
+#include "util/version.h"
+
+namespace lensfarm {
+
+const char* jobStateName(JobState s) {
+  switch (s) {
+    case JobState::kQueued: return "queued";
+    case JobState::kRunning: return "running";
+    case JobState::kDone: return "done";
+    case JobState::kCancelled: return "cancelled";
+    case JobState::kFailed: return "failed";
+  }
+  return "?";
+}
+
+// ---------------------------------------------------------------------------------------------
+struct Coordinator::Job {
+  std::string id;
+  JobSpec spec;
+  int priority = 0;
+  uint64_t sequence = 0;
+  double submittedUnixSeconds = 0.0;
+  RenderSettings settings;
+  std::string sceneHash;
+  uint32_t unitSize = 1;
+  uint64_t unitsTotal = 0;
+
+  // Scheduling, guarded by Coordinator::mutex_.
+  JobState state = JobState::kQueued;
+  std::string error;
+  // Units to lease: every index from nextFresh on, plus those whose lease lapsed. Kept lazily so
+  // that a job of 2^40 samples costs no more than a small one.
+  uint64_t nextFresh = 0;
+  std::set<uint64_t> returned;
+  // Units whose result was accepted (counted once): all below receivedBelow, plus receivedAbove.
+  uint64_t receivedBelow = 0;
+  std::set<uint64_t> receivedAbove;
+
+  bool hasPending() const { return !returned.empty() || nextFresh < unitsTotal; }
+  uint64_t takePending() {
+    if (!returned.empty()) {
+      const uint64_t u = *returned.begin();
+      returned.erase(returned.begin());
+      return u;
+    }
+    return nextFresh++;
+  }
+  void clearPending() {
+    returned.clear();
+    nextFresh = unitsTotal;
+  }
+  bool isReceived(uint64_t u) const { return u < receivedBelow || receivedAbove.count(u); }
+  void markReceived(uint64_t u) {
+    receivedAbove.insert(u);
+    while (!receivedAbove.empty() && *receivedAbove.begin() == receivedBelow) {
+      receivedAbove.erase(receivedAbove.begin());
+      ++receivedBelow;
+    }
+  }
+  std::optional<Clock::time_point> started;
+  std::optional<Clock::time_point> finished;
+  std::map<std::string, uint64_t> unitsByWorker;  // provenance
+  uint64_t version = 1;
+  // Published accumulation progress (copied from the accumulator under mutex_).
+  uint64_t unitsAdded = 0;
+  uint64_t samplesPerPixelDone = 0;
+  PathStats stats;
+
+  // Accumulation, guarded by `accumulate` (never held while taking Coordinator::mutex_).
+  mutable std::mutex accumulate;
+  std::unique_ptr<Sensor> sensor;
+  std::map<uint64_t, UnitResult> arrived;  // results waiting for an earlier unit
+  uint64_t nextToAdd = 0;
+  uint64_t sppAdded = 0;
+  PathStats statsAdded;
+};
+
+struct Coordinator::Worker {
+  std::string id;
+  WorkerInfo info;
+  Clock::time_point lastHeartbeat;
+  std::string currentJobId;
+  uint64_t unitsDone = 0;
+};
+
+Coordinator::Coordinator(Options options) : options_(options) {}
+Coordinator::Coordinator() : Coordinator(Options{}) {}
+Coordinator::~Coordinator() = default;
+
+// ---- assets ---------------------------------------------------------------------------------
+
+bool Coordinator::hasAsset(const std::string& sha256) const {
+  std::lock_guard lock(mutex_);
+  return assets_.count(sha256) > 0;
+}
+
+bool Coordinator::putAsset(const std::string& sha256, std::string bytes) {
+  const std::string actual = sha256Hex(bytes);
+  if (actual != sha256)
+    throw FarmError(FarmError::Kind::kInvalidArgument,
+                    "asset " + sha256 + ": the uploaded bytes hash to " + actual + " (corrupted upload?)");
+  std::lock_guard lock(mutex_);
+  if (assets_.count(sha256)) return false;
+  assets_[sha256] = std::make_shared<const std::string>(std::move(bytes));
+  return true;
+}
+
+std::shared_ptr<const std::string> Coordinator::asset(const std::string& sha256) const {
+  std::lock_guard lock(mutex_);
+  auto it = assets_.find(sha256);
+  if (it == assets_.end()) throw FarmError(FarmError::Kind::kNotFound, "no asset " + sha256);
+  return it->second;
+}
+
+// ---- jobs -----------------------------------------------------------------------------------
+
+JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
+  {
+    std::lock_guard lock(mutex_);
+    std::string missing;
+    for (const auto& [path, sha] : spec.assets)
+      if (!assets_.count(sha)) missing += (missing.empty() ? "" : ", ") + path + " (" + sha.substr(0, 12) + ")";
+    if (!missing.empty())
+      throw FarmError(FarmError::Kind::kFailedPrecondition, "assets not uploaded: " + missing);
+  }
+  // Load the scene exactly as a worker will, to validate it and fix its settings and hash.
+  const AssetReader reader = [&](const std::string& path) -> std::optional<std::string> {
+    auto it = spec.assets.find(path);
+    if (it == spec.assets.end()) return std::nullopt;
+    return *asset(it->second);
+  };
+  Scene scene = parseScene(spec.sceneJson, spec.sceneName, reader);
+  applyOverrides(spec.overrides, scene.render, spec.sceneName);
+  (void)scene.camera();  // validates the camera at the final resolution
+  for (const auto& [path, sha] : scene.assets)
+    if (!spec.assets.count(path) || spec.assets.at(path) != sha)
+      throw FarmError(FarmError::Kind::kInvalidArgument, "asset " + path + " is not listed in the job spec");
+
+  auto job = std::make_unique<Job>();
+  job->spec = spec;
+  job->priority = priority;
+  job->settings = scene.render;
+  job->sceneHash = scene.hash;
+  job->unitSize = unitSize(scene.render);
+  job->unitsTotal = unitCount(scene.render.samplesPerPixel, job->unitSize);
+  job->sensor = std::make_unique<Sensor>(scene.render.width, scene.render.height);
+  job->submittedUnixSeconds =
+      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+
+  std::lock_guard lock(mutex_);
+  job->id = "job-" + std::to_string(nextJob_++);
+  job->sequence = nextSequence_++;
+  spdlog::info("job {}: {} {}x{}, {} spp in {} units of {}, priority {}", job->id, spec.sceneName,
+               job->settings.width, job->settings.height, job->settings.samplesPerPixel, job->unitsTotal,
+               job->unitSize, priority);
+  Job& ref = *job;
+  jobs_[job->id] = std::move(job);
+  changed_.notify_all();
+  return infoOf(ref);
+}
+
+Coordinator::Job& Coordinator::findJob(const std::string& jobId) const {
+  auto it = jobs_.find(jobId);
+  if (it == jobs_.end()) throw FarmError(FarmError::Kind::kNotFound, "no job " + jobId);
+  return *it->second;
+}
+
+JobInfo Coordinator::infoOf(const Job& job) const {
+  JobInfo info;
+  info.id = job.id;
+  info.state = job.state;
+  info.priority = job.priority;
+  info.sceneName = job.spec.sceneName;
+  info.sceneHash = job.sceneHash;
+  info.width = job.settings.width;
+  info.height = job.settings.height;
+  info.samplesPerPixelDone = job.samplesPerPixelDone;
+  info.samplesPerPixelTotal = job.settings.samplesPerPixel;
+  info.unitsDone = job.unitsAdded;
+  info.unitsTotal = job.unitsTotal;
+  info.stats = job.stats;
+  if (job.started) {
+    const auto end = job.finished.value_or(Clock::now());
+    info.elapsedSeconds = std::chrono::duration<double>(end - *job.started).count();
+  }
+  const double fraction = job.unitsTotal ? double(job.unitsAdded) / double(job.unitsTotal) : 0.0;
+  if (!isTerminal(job.state) && fraction > 0.0) info.remainingSeconds = info.elapsedSeconds * (1.0 - fraction) / fraction;
+  for (const auto& [id, lease] : leases_)
+    if (lease.jobId == job.id) ++info.workersBusy;
+  info.error = job.error;
+  info.submittedUnixSeconds = job.submittedUnixSeconds;
+  info.version = job.version;
+  return info;
+}
+
+JobInfo Coordinator::job(const std::string& jobId) const {
+  std::lock_guard lock(mutex_);
+  return infoOf(findJob(jobId));
+}
+
+std::vector<JobInfo> Coordinator::jobs() const {
+  std::lock_guard lock(mutex_);
+  std::vector<const Job*> ordered;
+  for (const auto& [id, job] : jobs_) ordered.push_back(job.get());
+  std::sort(ordered.begin(), ordered.end(), [](const Job* a, const Job* b) {
+    return a->priority != b->priority ? a->priority > b->priority : a->sequence < b->sequence;
+  });
+  std::vector<JobInfo> out;
+  for (const Job* j : ordered) out.push_back(infoOf(*j));
+  return out;
+}
+
+JobInfo Coordinator::waitForChange(const std::string& jobId, uint64_t afterVersion, double timeoutSeconds) const {
+  std::unique_lock lock(mutex_);
+  const Job& job = findJob(jobId);
+  changed_.wait_for(lock, std::chrono::duration<double>(timeoutSeconds),
+                    [&] { return job.version > afterVersion; });
+  return infoOf(job);
+}
+
+void Coordinator::touch(Job& job) {
+  ++job.version;
+  changed_.notify_all();
+}
+
+void Coordinator::revokeLeasesOf(Job& job) {
+  for (auto it = leases_.begin(); it != leases_.end();)
+    it = it->second.jobId == job.id ? leases_.erase(it) : std::next(it);
+  job.clearPending();
+}
+
+JobInfo Coordinator::cancel(const std::string& jobId) {
+  std::lock_guard lock(mutex_);
+  Job& job = findJob(jobId);
+  if (!isTerminal(job.state)) {
+    job.state = JobState::kCancelled;
+    job.finished = Clock::now();
+    revokeLeasesOf(job);
+    spdlog::info("job {}: cancelled after {} of {} units", job.id, job.unitsAdded, job.unitsTotal);
+    touch(job);
+  }
+  return infoOf(job);
+}
+
+JobImage Coordinator::image(const std::string& jobId) const {
+  JobImage out;
+  const Job* job;
+  {
+    std::lock_guard lock(mutex_);
+    job = &findJob(jobId);  // jobs are never removed, so the pointer stays valid
+    out.exposure = job->settings.exposure;
+    out.metadata.sceneHash = job->sceneHash;
+    out.metadata.rendererVersion = kRendererVersion;
+    out.metadata.extra["job"] = job->id;
+    out.metadata.extra["scene"] = job->spec.sceneName;
+    out.metadata.extra["integrator"] = integratorName(job->settings.integrator);
+    out.metadata.extra["maxBounces"] = std::to_string(job->settings.maxBounces);
+    out.metadata.extra["seed"] = std::to_string(job->settings.seed);
+    std::string provenance;
+    for (const auto& [name, units] : job->unitsByWorker)
+      provenance += (provenance.empty() ? "" : ", ") + name + ": " + std::to_string(units) + " units";
+    out.metadata.extra["workers"] = provenance;
+    out.metadata.renderSeconds = infoOf(*job).elapsedSeconds;
+  }
+  std::lock_guard lock(job->accumulate);
+  out.image = job->sensor->developImage();
+  out.metadata.samplesPerPixel = job->sppAdded;
+  out.metadata.totalSamples = job->sensor->totalSamples();
+  out.metadata.extra["rays"] = std::to_string(job->statsAdded.rays);
+  out.metadata.extra["droppedSamples"] = std::to_string(job->statsAdded.dropped);
+  return out;
+}
+
+// ---- workers --------------------------------------------------------------------------------
+
+std::string Coordinator::registerWorker(const WorkerInfo& info) {
+  if (info.protocolVersion != kProtocolVersion || info.rendererVersion != kRendererVersion)
+    throw FarmError(FarmError::Kind::kFailedPrecondition,
+                    "version mismatch: worker speaks " + info.protocolVersion + " with renderer " + info.rendererVersion +
+                        ", coordinator speaks " + kProtocolVersion + " with renderer " + kRendererVersion);
+  std::lock_guard lock(mutex_);
+  auto worker = std::make_unique<Worker>();
+  worker->id = "worker-" + std::to_string(nextWorker_++);
+  worker->info = info;
+  worker->lastHeartbeat = Clock::now();
+  const std::string id = worker->id;
+  spdlog::info("{} registered: {} with {} threads", id, info.name, info.threads);
+  workers_[id] = std::move(worker);
+  return id;
+}
+
+Coordinator::Worker& Coordinator::findWorker(const std::string& workerId) {
+  auto it = workers_.find(workerId);
+  if (it == workers_.end()) throw FarmError(FarmError::Kind::kUnknownWorker, "unknown worker " + workerId + "; register again");
+  return *it->second;
+}
+
+void Coordinator::reapExpiredLeases(Clock::time_point now) {
+  for (auto it = leases_.begin(); it != leases_.end();) {
+    if (it->second.deadline < now) {
+      Job& job = findJob(it->second.jobId);
+      spdlog::warn("job {}: lease {} of unit {} held by {} lapsed; the unit goes back to the queue", job.id,
+                   it->first, it->second.unit, it->second.workerId);
+      if (!isTerminal(job.state) && !job.isReceived(it->second.unit)) job.returned.insert(it->second.unit);
+      it = leases_.erase(it);
+      changed_.notify_all();
+    } else {
+      ++it;
+    }
+  }
+}
+
+std::vector<uint64_t> Coordinator::heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds) {
+  std::lock_guard lock(mutex_);
+  Worker& worker = findWorker(workerId);
+  const auto now = Clock::now();
+  worker.lastHeartbeat = now;
+  std::vector<uint64_t> revoked;
+  for (uint64_t id : leaseIds) {
+    auto it = leases_.find(id);
+    if (it == leases_.end() || it->second.workerId != workerId)
+      revoked.push_back(id);
+    else
+      it->second.deadline = now + std::chrono::duration_cast<Clock::duration>(
+                                      std::chrono::duration<double>(options_.leaseTimeoutSeconds));
+  }
+  reapExpiredLeases(now);
+  return revoked;
+}
+
+std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_point now) {
+  Job* best = nullptr;
+  for (auto& [id, job] : jobs_) {
+    if (isTerminal(job->state) || !job->hasPending()) continue;
+    if (!best || job->priority > best->priority || (job->priority == best->priority && job->sequence < best->sequence))
+      best = job.get();
+  }
+  if (!best) return std::nullopt;
+  Job& job = *best;
+  const uint64_t unit = job.takePending();
+  const uint64_t leaseId = nextLease_++;
+  leases_[leaseId] = ActiveLease{worker.id, job.id, unit,
+                                 now + std::chrono::duration_cast<Clock::duration>(
+                                           std::chrono::duration<double>(options_.leaseTimeoutSeconds))};
+  if (job.state == JobState::kQueued) {
+    job.state = JobState::kRunning;
+    job.started = now;
+  }
+  worker.currentJobId = job.id;
+  touch(job);
+  return LeaseGrant{leaseId, job.id, unitAt(unit, job.settings.samplesPerPixel, job.unitSize), job.sceneHash,
+                    options_.leaseTimeoutSeconds};
+}
+
+std::optional<LeaseGrant> Coordinator::lease(const std::string& workerId, double waitSeconds) {
+  std::unique_lock lock(mutex_);
+  const auto until = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(waitSeconds));
+  for (;;) {
+    Worker& worker = findWorker(workerId);
+    const auto now = Clock::now();
+    worker.lastHeartbeat = now;
+    reapExpiredLeases(now);
+    if (auto grant = tryLease(worker, now)) return grant;
+    worker.currentJobId.clear();
+    if (now >= until) return std::nullopt;
+    // Wake on new work, and now and then to reap lapsed leases.
+    changed_.wait_until(lock, std::min(until, now + std::chrono::milliseconds(200)));
+  }
+}
+
+JobSpec Coordinator::jobSpec(const std::string& jobId) const {
+  std::lock_guard lock(mutex_);
+  return findJob(jobId).spec;
+}
+
+bool Coordinator::acceptResult(UnitResult result) {
+  Job* job;
+  {
+    std::lock_guard lock(mutex_);
+    job = &findJob(result.jobId);
+    if (result.unitIndex >= job->unitsTotal)
+      throw FarmError(FarmError::Kind::kInvalidArgument, "job " + job->id + " has no unit " + std::to_string(result.unitIndex));
+    if (job->isReceived(result.unitIndex)) return false;  // late duplicate: already counted
+    auto it = leases_.find(result.leaseId);
+    if (it == leases_.end() || it->second.workerId != result.workerId || it->second.jobId != result.jobId ||
+        it->second.unit != result.unitIndex)
+      throw FarmError(FarmError::Kind::kFailedPrecondition,
+                      "lease " + std::to_string(result.leaseId) + " for unit " + std::to_string(result.unitIndex) +
+                          " of " + result.jobId + " is not held by " + result.workerId);
+    const int w = job->settings.width, h = job->settings.height;
+    if (result.buffer.width != w || result.buffer.height != h ||
+        result.buffer.sums.size() != size_t(w) * size_t(h) * 3)
+      throw FarmError(FarmError::Kind::kInvalidArgument, "result for " + job->id + " has the wrong size");
+    leases_.erase(it);
+    job->markReceived(result.unitIndex);
+    // Every cell of a unit holds the unit's samples; the count is the coordinator's to know.
+    result.buffer.samples.assign(result.buffer.cells(), unitAt(result.unitIndex, job->settings.samplesPerPixel, job->unitSize).sampleCount);
+    Worker& worker = findWorker(result.workerId);
+    ++worker.unitsDone;
+    ++job->unitsByWorker[worker.info.name.empty() ? worker.id : worker.info.name];
+  }
+
+  // Sum outside the coordinator's lock: large buffers must not stall leases and heartbeats.
+  uint64_t unitsAdded, sppAdded;
+  PathStats statsAdded;
+  {
+    std::lock_guard accumulate(job->accumulate);
+    job->arrived.emplace(result.unitIndex, std::move(result));
+    for (auto it = job->arrived.find(job->nextToAdd); it != job->arrived.end(); it = job->arrived.find(job->nextToAdd)) {
+      job->sensor->add(it->second.buffer);
+      job->statsAdded += it->second.stats;
+      job->sppAdded += unitAt(job->nextToAdd, job->settings.samplesPerPixel, job->unitSize).sampleCount;
+      job->arrived.erase(it);
+      ++job->nextToAdd;
+    }
+    unitsAdded = job->nextToAdd;
+    sppAdded = job->sppAdded;
+    statsAdded = job->statsAdded;
+  }
+
+  std::lock_guard lock(mutex_);
+  if (unitsAdded > job->unitsAdded) {
+    job->unitsAdded = unitsAdded;
+    job->samplesPerPixelDone = sppAdded;
+    job->stats = statsAdded;
+    if (unitsAdded == job->unitsTotal && job->state == JobState::kRunning) {
+      job->state = JobState::kDone;
+      job->finished = Clock::now();
+      spdlog::info("job {}: done, {} spp", job->id, sppAdded);
+    }
+    touch(*job);
+  }
+  return true;
+}
+
+void Coordinator::reportFailure(const std::string& workerId, uint64_t leaseId, const std::string& jobId,
+                                const std::string& error) {
+  std::lock_guard lock(mutex_);
+  Job& job = findJob(jobId);
+  auto it = leases_.find(leaseId);
+  if (it == leases_.end() || it->second.workerId != workerId) return;  // stale report
+  if (!isTerminal(job.state)) {
+    job.state = JobState::kFailed;
+    job.error = workerId + ": " + error;
+    job.finished = Clock::now();
+    revokeLeasesOf(job);
+    spdlog::error("job {}: failed on {}: {}", job.id, workerId, error);
+    touch(job);
+  }
+}
+
+std::vector<WorkerView> Coordinator::workers() const {
+  std::lock_guard lock(mutex_);
+  std::vector<WorkerView> out;
+  const auto now = Clock::now();
+  for (const auto& [id, w] : workers_)
+    out.push_back(WorkerView{w->id, w->info, w->currentJobId, w->unitsDone,
+                             std::chrono::duration<double>(now - w->lastHeartbeat).count()});
+  return out;
+}
+
+}  // namespace lensfarm

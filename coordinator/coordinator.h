@@ -1,0 +1,145 @@
+#pragma once
+// The coordinator's state and rules, with no network code: the job table, the unit scheduler
+// and its leases, the asset store and the accumulation of results. The gRPC services
+// (service.h) are thin translations onto this class; `lensfarm render` embeds it directly.
+//
+// Invariants:
+//  - A job is a sequence of units (sample ranges over the whole frame, render/unit_renderer.h),
+//    leased lowest index first, so early snapshots cover the whole frame.
+//  - A unit's result is counted at most once, and only from the worker holding its current
+//    lease; results enter the job's sensor in unit order (a later unit waits for the earlier
+//    ones), so the image never depends on which worker finished first.
+//  - Jobs are served by priority (higher first), then by submission order.
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "farm/farm_types.h"
+#include "film/image_io.h"
+#include "film/sensor.h"
+
+namespace lensfarm {
+
+enum class JobState { kQueued, kRunning, kDone, kCancelled, kFailed };
+const char* jobStateName(JobState state);
+inline bool isTerminal(JobState s) { return s == JobState::kDone || s == JobState::kCancelled || s == JobState::kFailed; }
+
+// A job's status as of one moment.
+struct JobInfo {
+  std::string id;
+  JobState state = JobState::kQueued;
+  int priority = 0;
+  std::string sceneName;
+  std::string sceneHash;
+  int width = 0, height = 0;
+  uint64_t samplesPerPixelDone = 0, samplesPerPixelTotal = 0;
+  uint64_t unitsDone = 0, unitsTotal = 0;
+  PathStats stats;
+  double elapsedSeconds = 0.0;
+  double remainingSeconds = 0.0;
+  uint32_t workersBusy = 0;
+  std::string error;
+  double submittedUnixSeconds = 0.0;
+  uint64_t version = 0;  // grows with every change of the job
+
+  double raysPerSecond() const { return elapsedSeconds > 0 ? double(stats.rays) / elapsedSeconds : 0.0; }
+  double lightHitFraction() const { return stats.paths ? double(stats.lightHits) / double(stats.paths) : 0.0; }
+};
+
+struct WorkerView {
+  std::string id;
+  WorkerInfo info;
+  std::string currentJobId;
+  uint64_t unitsDone = 0;
+  double secondsSinceHeartbeat = 0.0;
+};
+
+// The image of a job as it is now, and how to expose it.
+struct JobImage {
+  Image image;
+  ImageMetadata metadata;
+  ExposureSettings exposure;
+};
+
+class Coordinator {
+ public:
+  struct Options {
+    double leaseTimeoutSeconds = 30.0;      // a lease lapses this long after the last heartbeat
+    double heartbeatIntervalSeconds = 1.0;  // told to workers at registration
+  };
+  explicit Coordinator(Options options);
+  Coordinator();
+  ~Coordinator();
+
+  // ---- assets (content-addressed) ----
+  bool hasAsset(const std::string& sha256) const;
+  // Stores bytes under their hash; throws FarmError(kInvalidArgument) if they do not match it.
+  // Returns false if the asset was already present.
+  bool putAsset(const std::string& sha256, std::string bytes);
+  std::shared_ptr<const std::string> asset(const std::string& sha256) const;
+
+  // ---- jobs (client side) ----
+  // Validates the scene with its overrides (InputError naming the field) and that every asset
+  // was uploaded (FarmError kFailedPrecondition listing the missing ones).
+  JobInfo submit(const JobSpec& spec, int priority);
+  JobInfo job(const std::string& jobId) const;  // FarmError kNotFound
+  std::vector<JobInfo> jobs() const;            // in serving order
+  // Waits until the job's version exceeds `afterVersion` or `timeoutSeconds` pass.
+  JobInfo waitForChange(const std::string& jobId, uint64_t afterVersion, double timeoutSeconds) const;
+  JobInfo cancel(const std::string& jobId);
+  JobImage image(const std::string& jobId) const;
+  std::vector<WorkerView> workers() const;
+
+  // ---- workers ----
+  // FarmError kFailedPrecondition naming both versions when they differ from this process's.
+  std::string registerWorker(const WorkerInfo& info);
+  // Extends the worker's leases; returns those it must drop. FarmError kNotFound if unknown.
+  std::vector<uint64_t> heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds);
+  // The next unit to render, waiting up to `waitSeconds` for one.
+  std::optional<LeaseGrant> lease(const std::string& workerId, double waitSeconds);
+  JobSpec jobSpec(const std::string& jobId) const;
+  // Counts a unit's result. Returns false for a duplicate of a unit already counted (ignored);
+  // FarmError kFailedPrecondition when the worker does not hold the unit's current lease.
+  bool acceptResult(UnitResult result);
+  void reportFailure(const std::string& workerId, uint64_t leaseId, const std::string& jobId, const std::string& error);
+
+  const Options& options() const { return options_; }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  struct Job;
+  struct Worker;
+  struct ActiveLease {
+    std::string workerId;
+    std::string jobId;
+    uint64_t unit;
+    Clock::time_point deadline;
+  };
+
+  Job& findJob(const std::string& jobId) const;  // requires mutex_
+  Worker& findWorker(const std::string& workerId);
+  JobInfo infoOf(const Job& job) const;
+  void reapExpiredLeases(Clock::time_point now);
+  void revokeLeasesOf(Job& job);
+  void touch(Job& job);
+  std::optional<LeaseGrant> tryLease(Worker& worker, Clock::time_point now);
+  void addInOrder(Job& job, UnitResult result);
+
+  Options options_;
+  mutable std::mutex mutex_;
+  mutable std::condition_variable changed_;  // any job changed, or work became available
+  std::map<std::string, std::shared_ptr<const std::string>> assets_;
+  std::map<std::string, std::unique_ptr<Job>> jobs_;
+  std::map<std::string, std::unique_ptr<Worker>> workers_;
+  std::map<uint64_t, ActiveLease> leases_;
+  uint64_t nextJob_ = 1, nextWorker_ = 1, nextLease_ = 1, nextSequence_ = 1;
+};
+
+}  // namespace lensfarm

@@ -1,0 +1,92 @@
+// lensfarm-coordinator: serves the client and worker services on one port.
+//
+//   lensfarm-coordinator --listen 0.0.0.0:7878
+//   lensfarm-coordinator --listen 127.0.0.1:0 --port-file /tmp/port   (port 0: pick a free one)
+#include <grpcpp/grpcpp.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <csignal>
+#include <thread>
+
+#include "coordinator.h"
+#include "film/image_io.h"
+#include "service.h"
+#include "util/error.h"
+#include "util/version.h"
+
+namespace {
+std::atomic<bool> gStop{false};
+extern "C" void onSignal(int) { gStop = true; }
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace lensfarm;
+  CLI::App app{"lensfarm-coordinator: schedules render jobs over workers and accumulates their images"};
+  app.set_version_flag("--version", kRendererVersion);
+  std::string listen = "0.0.0.0:7878", portFile, logLevel = "info";
+  Coordinator::Options options;
+  app.add_option("--listen", listen, "HOST:PORT to serve on (port 0 picks a free port)")
+      ->envname("LENSFARM_LISTEN")
+      ->capture_default_str();
+  app.add_option("--port-file", portFile, "Write the address actually listened on to this file")
+      ->envname("LENSFARM_PORT_FILE");
+  app.add_option("--lease-timeout", options.leaseTimeoutSeconds, "Seconds without a heartbeat before a lease lapses")
+      ->envname("LENSFARM_LEASE_TIMEOUT")
+      ->check(CLI::Range(0.1, 86400.0))
+      ->capture_default_str();
+  app.add_option("--heartbeat-interval", options.heartbeatIntervalSeconds, "Seconds between worker heartbeats")
+      ->envname("LENSFARM_HEARTBEAT_INTERVAL")
+      ->check(CLI::Range(0.01, 3600.0))
+      ->capture_default_str();
+  app.add_option("--log-level", logLevel, "trace, debug, info, warn, error")
+      ->envname("LENSFARM_LOG_LEVEL")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
+      ->capture_default_str();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::Success& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << "lensfarm-coordinator: error: " << e.what() << "\n";
+    return 2;
+  }
+  auto logger = spdlog::stderr_color_mt("coordinator");
+  spdlog::set_default_logger(logger);
+  spdlog::set_pattern("[%H:%M:%S.%e] [%n] %^%l%$ %v");
+  spdlog::set_level(spdlog::level::from_str(logLevel));
+
+  Coordinator coordinator(options);
+  ClientServiceImpl clientService(coordinator);
+  WorkerServiceImpl workerService(coordinator);
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort(listen, grpc::InsecureServerCredentials(), &port);
+  builder.RegisterService(&clientService);
+  builder.RegisterService(&workerService);
+  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  if (!server || port == 0) {
+    spdlog::error("cannot listen on {}", listen);
+    return 1;
+  }
+  const std::string host = listen.substr(0, listen.rfind(':'));
+  const std::string address = host + ":" + std::to_string(port);
+  spdlog::info("listening on {} ({})", address, kRendererVersion);
+  if (!portFile.empty()) {
+    try {
+      writeBytesAtomically(portFile, address + "\n");
+    } catch (const InputError& e) {
+      spdlog::error("--port-file: {}", e.what());
+      server->Shutdown();
+      return 2;
+    }
+  }
+
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
+  while (!gStop) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  spdlog::info("shutting down");
+  server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
+  return 0;
+}

@@ -1,0 +1,263 @@
+#include "service.h"
+
+#include <spdlog/spdlog.h>
+
+#include <cstring>
+
+#include "convert.h"
+#include "util/error.h"
+
+namespace lensfarm {
+
+namespace {
+
+constexpr uint64_t kMaxAssetBytes = uint64_t(2) << 30;  // 2 GiB
+
+// Runs a handler body and maps the project's exceptions to gRPC status codes.
+template <class Body>
+grpc::Status guarded(const char* rpc, Body&& body) {
+  try {
+    body();
+    return grpc::Status::OK;
+  } catch (const InputError& e) {
+    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, e.what());
+  } catch (const FarmError& e) {
+    switch (e.kind()) {
+      case FarmError::Kind::kNotFound:
+      case FarmError::Kind::kUnknownWorker: return grpc::Status(grpc::StatusCode::NOT_FOUND, e.what());
+      case FarmError::Kind::kInvalidArgument: return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, e.what());
+      case FarmError::Kind::kFailedPrecondition: return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, e.what());
+    }
+    return grpc::Status(grpc::StatusCode::UNKNOWN, e.what());
+  } catch (const std::exception& e) {
+    spdlog::error("{}: internal error: {}", rpc, e.what());
+    return grpc::Status(grpc::StatusCode::INTERNAL, std::string(rpc) + ": " + e.what());
+  }
+}
+
+v1::JobState toProto(JobState s) {
+  switch (s) {
+    case JobState::kQueued: return v1::JOB_STATE_QUEUED;
+    case JobState::kRunning: return v1::JOB_STATE_RUNNING;
+    case JobState::kDone: return v1::JOB_STATE_DONE;
+    case JobState::kCancelled: return v1::JOB_STATE_CANCELLED;
+    case JobState::kFailed: return v1::JOB_STATE_FAILED;
+  }
+  return v1::JOB_STATE_UNSPECIFIED;
+}
+
+// Sends `bytes` in pieces of at most kChunkBytes.
+template <class Writer>
+void writeChunks(Writer* writer, const std::string& bytes) {
+  size_t offset = 0;
+  do {
+    v1::FileChunk chunk;
+    if (offset == 0) chunk.set_total_size(bytes.size());
+    const size_t n = std::min(proto::kChunkBytes, bytes.size() - offset);
+    chunk.set_data(bytes.data() + offset, n);
+    if (!writer->Write(chunk)) return;  // the client went away
+    offset += n;
+  } while (offset < bytes.size());
+}
+
+}  // namespace
+
+v1::JobStatus toProto(const JobInfo& info) {
+  v1::JobStatus s;
+  s.set_job_id(info.id);
+  s.set_state(toProto(info.state));
+  s.set_priority(info.priority);
+  s.set_scene_name(info.sceneName);
+  s.set_width(uint32_t(info.width));
+  s.set_height(uint32_t(info.height));
+  s.set_error(info.error);
+  s.set_scene_hash(info.sceneHash);
+  s.set_submitted_unix_seconds(info.submittedUnixSeconds);
+  s.set_version(info.version);
+  auto* p = s.mutable_progress();
+  p->set_samples_per_pixel_done(info.samplesPerPixelDone);
+  p->set_samples_per_pixel_total(info.samplesPerPixelTotal);
+  p->set_units_done(info.unitsDone);
+  p->set_units_total(info.unitsTotal);
+  p->set_paths(info.stats.paths);
+  p->set_rays(info.stats.rays);
+  p->set_rays_per_second(info.raysPerSecond());
+  p->set_elapsed_seconds(info.elapsedSeconds);
+  p->set_remaining_seconds(info.remainingSeconds);
+  p->set_workers_busy(info.workersBusy);
+  p->set_light_hit_fraction(info.lightHitFraction());
+  p->set_dropped_samples(info.stats.dropped);
+  return s;
+}
+
+// ---- ClientService --------------------------------------------------------------------------
+
+grpc::Status ClientServiceImpl::UploadAsset(grpc::ServerContext*, grpc::ServerReader<v1::UploadAssetRequest>* reader,
+                                            v1::UploadAssetResponse* response) {
+  return guarded("UploadAsset", [&] {
+    v1::UploadAssetRequest message;
+    std::string sha, bytes;
+    while (reader->Read(&message)) {
+      if (sha.empty()) sha = message.sha256();
+      bytes += message.chunk().data();
+      if (bytes.size() > kMaxAssetBytes) throw FarmError(FarmError::Kind::kInvalidArgument, "asset larger than 2 GiB");
+    }
+    if (sha.empty()) throw FarmError(FarmError::Kind::kInvalidArgument, "UploadAsset: the first message must name the sha256");
+    response->set_sha256(sha);
+    response->set_already_present(!coordinator_.putAsset(sha, std::move(bytes)));
+  });
+}
+
+grpc::Status ClientServiceImpl::SubmitJob(grpc::ServerContext*, const v1::SubmitJobRequest* request,
+                                          v1::SubmitJobResponse* response) {
+  return guarded("SubmitJob", [&] {
+    const JobInfo info = coordinator_.submit(proto::fromProto(request->spec()), request->priority());
+    response->set_job_id(info.id);
+    *response->mutable_status() = toProto(info);
+  });
+}
+
+grpc::Status ClientServiceImpl::GetJob(grpc::ServerContext*, const v1::GetJobRequest* request, v1::JobStatus* response) {
+  return guarded("GetJob", [&] { *response = toProto(coordinator_.job(request->job_id())); });
+}
+
+grpc::Status ClientServiceImpl::ListJobs(grpc::ServerContext*, const v1::ListJobsRequest*, v1::ListJobsResponse* response) {
+  return guarded("ListJobs", [&] {
+    for (const JobInfo& info : coordinator_.jobs()) *response->add_jobs() = toProto(info);
+  });
+}
+
+grpc::Status ClientServiceImpl::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
+                                         grpc::ServerWriter<v1::JobStatus>* writer) {
+  return guarded("WatchJob", [&] {
+    JobInfo info = coordinator_.job(request->job_id());
+    if (!writer->Write(toProto(info))) return;
+    while (!isTerminal(info.state) && !context->IsCancelled()) {
+      const JobInfo next = coordinator_.waitForChange(info.id, info.version, 1.0);
+      // Send on a change, and at least every second so elapsed time and rates stay live.
+      info = next;
+      if (!writer->Write(toProto(info))) return;
+    }
+  });
+}
+
+grpc::Status ClientServiceImpl::Download(grpc::ServerContext*, const v1::DownloadRequest* request,
+                                         grpc::ServerWriter<v1::FileChunk>* writer) {
+  return guarded("Download", [&] {
+    JobImage image = coordinator_.image(request->job_id());
+    std::string bytes;
+    if (request->format() == v1::IMAGE_FORMAT_PNG) {
+      if (request->has_ev()) image.exposure.ev = request->ev();
+      bytes = encodePng(image.image, image.exposure);
+    } else if (request->format() == v1::IMAGE_FORMAT_EXR) {
+      bytes = encodeExr(image.image, image.metadata);
+    } else {
+      throw FarmError(FarmError::Kind::kInvalidArgument, "Download: format must be EXR or PNG");
+    }
+    writeChunks(writer, bytes);
+  });
+}
+
+grpc::Status ClientServiceImpl::CancelJob(grpc::ServerContext*, const v1::CancelJobRequest* request,
+                                          v1::CancelJobResponse* response) {
+  return guarded("CancelJob", [&] { *response->mutable_status() = toProto(coordinator_.cancel(request->job_id())); });
+}
+
+grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext*, const v1::ListWorkersRequest*,
+                                            v1::ListWorkersResponse* response) {
+  return guarded("ListWorkers", [&] {
+    for (const WorkerView& w : coordinator_.workers()) {
+      auto* p = response->add_workers();
+      p->set_worker_id(w.id);
+      p->set_name(w.info.name);
+      p->set_threads(w.info.threads);
+      p->set_current_job_id(w.currentJobId);
+      p->set_units_done(w.unitsDone);
+      p->set_seconds_since_heartbeat(w.secondsSinceHeartbeat);
+      p->set_renderer_version(w.info.rendererVersion);
+    }
+  });
+}
+
+// ---- WorkerService --------------------------------------------------------------------------
+
+grpc::Status WorkerServiceImpl::Register(grpc::ServerContext*, const v1::RegisterRequest* request,
+                                         v1::RegisterResponse* response) {
+  return guarded("Register", [&] {
+    WorkerInfo info{request->name(), std::max(1u, request->threads()), request->protocol_version(),
+                    request->renderer_version()};
+    response->set_worker_id(coordinator_.registerWorker(info));
+    response->set_heartbeat_interval_ms(uint32_t(coordinator_.options().heartbeatIntervalSeconds * 1000));
+  });
+}
+
+grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext*, const v1::HeartbeatRequest* request,
+                                          v1::HeartbeatResponse* response) {
+  return guarded("Heartbeat", [&] {
+    const std::vector<uint64_t> leases(request->lease_ids().begin(), request->lease_ids().end());
+    for (uint64_t id : coordinator_.heartbeat(request->worker_id(), leases)) response->add_revoked_lease_ids(id);
+  });
+}
+
+grpc::Status WorkerServiceImpl::LeaseWork(grpc::ServerContext*, const v1::LeaseWorkRequest* request,
+                                          v1::LeaseWorkResponse* response) {
+  return guarded("LeaseWork", [&] {
+    const double wait = std::min(10.0, request->wait_ms() / 1000.0);
+    if (auto grant = coordinator_.lease(request->worker_id(), wait)) *response->mutable_lease() = proto::toProto(*grant);
+  });
+}
+
+grpc::Status WorkerServiceImpl::GetJobSpec(grpc::ServerContext*, const v1::GetJobSpecRequest* request,
+                                           v1::JobSpec* response) {
+  return guarded("GetJobSpec", [&] { *response = proto::toProto(coordinator_.jobSpec(request->job_id())); });
+}
+
+grpc::Status WorkerServiceImpl::FetchAsset(grpc::ServerContext*, const v1::FetchAssetRequest* request,
+                                           grpc::ServerWriter<v1::FileChunk>* writer) {
+  return guarded("FetchAsset", [&] { writeChunks(writer, *coordinator_.asset(request->sha256())); });
+}
+
+grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext*, grpc::ServerReader<v1::UploadResultRequest>* reader,
+                                             v1::UploadResultResponse* response) {
+  return guarded("UploadResult", [&] {
+    v1::UploadResultRequest message;
+    UnitResult result;
+    bool haveHeader = false;
+    uint64_t expectedOffset = 0;
+    while (reader->Read(&message)) {
+      if (!haveHeader) {
+        if (!message.has_header()) throw FarmError(FarmError::Kind::kInvalidArgument, "UploadResult: header missing");
+        const v1::ResultHeader& h = message.header();
+        const uint64_t cells = uint64_t(h.width()) * h.height();
+        if (h.width() == 0 || h.height() == 0 || cells > (uint64_t(1) << 28))
+          throw FarmError(FarmError::Kind::kInvalidArgument, "UploadResult: bad frame size");
+        result.workerId = h.worker_id();
+        result.leaseId = h.lease_id();
+        result.jobId = h.job_id();
+        result.unitIndex = h.unit_index();
+        result.buffer = SensorBuffer(int(h.width()), int(h.height()));
+        result.stats = proto::fromProto(h.stats());
+        result.renderSeconds = h.stats().render_seconds();
+        haveHeader = true;
+      }
+      const std::string& bytes = message.sums();
+      if (message.offset() != expectedOffset || bytes.size() % sizeof(double) != 0 ||
+          expectedOffset + bytes.size() / sizeof(double) > result.buffer.sums.size())
+        throw FarmError(FarmError::Kind::kInvalidArgument, "UploadResult: pieces out of order or too long");
+      std::memcpy(result.buffer.sums.data() + expectedOffset, bytes.data(), bytes.size());
+      expectedOffset += bytes.size() / sizeof(double);
+    }
+    if (!haveHeader || expectedOffset != result.buffer.sums.size())
+      throw FarmError(FarmError::Kind::kInvalidArgument, "UploadResult: incomplete buffer");
+    response->set_accepted(coordinator_.acceptResult(std::move(result)));
+  });
+}
+
+grpc::Status WorkerServiceImpl::ReportFailure(grpc::ServerContext*, const v1::ReportFailureRequest* request,
+                                              v1::ReportFailureResponse*) {
+  return guarded("ReportFailure", [&] {
+    coordinator_.reportFailure(request->worker_id(), request->lease_id(), request->job_id(), request->error());
+  });
+}
+
+}  // namespace lensfarm

@@ -1,0 +1,54 @@
+#pragma once
+// The coordinator's gRPC services: thin handlers that translate lensfarm.v1 messages and status
+// codes and call Coordinator (coordinator.h), in the style of gRPC's route_guide example.
+#include <grpcpp/grpcpp.h>
+
+#include "coordinator.h"
+#include "lensfarm/v1/client_service.grpc.pb.h"
+#include "lensfarm/v1/worker_service.grpc.pb.h"
+
+namespace lensfarm {
+
+class ClientServiceImpl final : public v1::ClientService::Service {
+ public:
+  explicit ClientServiceImpl(Coordinator& coordinator) : coordinator_(coordinator) {}
+
+  grpc::Status UploadAsset(grpc::ServerContext*, grpc::ServerReader<v1::UploadAssetRequest>* reader,
+                           v1::UploadAssetResponse* response) override;
+  grpc::Status SubmitJob(grpc::ServerContext*, const v1::SubmitJobRequest* request, v1::SubmitJobResponse* response) override;
+  grpc::Status GetJob(grpc::ServerContext*, const v1::GetJobRequest* request, v1::JobStatus* response) override;
+  grpc::Status ListJobs(grpc::ServerContext*, const v1::ListJobsRequest*, v1::ListJobsResponse* response) override;
+  grpc::Status WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
+                        grpc::ServerWriter<v1::JobStatus>* writer) override;
+  grpc::Status Download(grpc::ServerContext*, const v1::DownloadRequest* request,
+                        grpc::ServerWriter<v1::FileChunk>* writer) override;
+  grpc::Status CancelJob(grpc::ServerContext*, const v1::CancelJobRequest* request, v1::CancelJobResponse* response) override;
+  grpc::Status ListWorkers(grpc::ServerContext*, const v1::ListWorkersRequest*, v1::ListWorkersResponse* response) override;
+
+ private:
+  Coordinator& coordinator_;
+};
+
+class WorkerServiceImpl final : public v1::WorkerService::Service {
+ public:
+  explicit WorkerServiceImpl(Coordinator& coordinator) : coordinator_(coordinator) {}
+
+  grpc::Status Register(grpc::ServerContext*, const v1::RegisterRequest* request, v1::RegisterResponse* response) override;
+  grpc::Status Heartbeat(grpc::ServerContext*, const v1::HeartbeatRequest* request, v1::HeartbeatResponse* response) override;
+  grpc::Status LeaseWork(grpc::ServerContext*, const v1::LeaseWorkRequest* request, v1::LeaseWorkResponse* response) override;
+  grpc::Status GetJobSpec(grpc::ServerContext*, const v1::GetJobSpecRequest* request, v1::JobSpec* response) override;
+  grpc::Status FetchAsset(grpc::ServerContext*, const v1::FetchAssetRequest* request,
+                          grpc::ServerWriter<v1::FileChunk>* writer) override;
+  grpc::Status UploadResult(grpc::ServerContext*, grpc::ServerReader<v1::UploadResultRequest>* reader,
+                            v1::UploadResultResponse* response) override;
+  grpc::Status ReportFailure(grpc::ServerContext*, const v1::ReportFailureRequest* request,
+                             v1::ReportFailureResponse*) override;
+
+ private:
+  Coordinator& coordinator_;
+};
+
+// JobInfo as the wire's JobStatus.
+v1::JobStatus toProto(const JobInfo& info);
+
+}  // namespace lensfarm

@@ -1,0 +1,100 @@
+#include "convert.h"
+
+namespace lensfarm::proto {
+
+v1::RenderOverrides toProto(const RenderOverrides& o) {
+  v1::RenderOverrides p;
+  if (o.samplesPerPixel) p.set_samples_per_pixel(*o.samplesPerPixel);
+  if (o.width) p.set_width(uint32_t(*o.width));
+  if (o.height) p.set_height(uint32_t(*o.height));
+  if (o.maxBounces) p.set_max_bounces(uint32_t(*o.maxBounces));
+  if (o.seed) p.set_seed(*o.seed);
+  if (o.integrator) p.set_integrator(integratorName(*o.integrator));
+  if (o.ev) p.set_ev(*o.ev);
+  return p;
+}
+
+RenderOverrides fromProto(const v1::RenderOverrides& p) {
+  RenderOverrides o;
+  if (p.has_samples_per_pixel()) o.samplesPerPixel = p.samples_per_pixel();
+  if (p.has_width()) o.width = int(std::min<uint32_t>(p.width(), 1u << 30));
+  if (p.has_height()) o.height = int(std::min<uint32_t>(p.height(), 1u << 30));
+  if (p.has_max_bounces()) o.maxBounces = int(std::min<uint32_t>(p.max_bounces(), 1u << 30));
+  if (p.has_seed()) o.seed = p.seed();
+  if (p.has_integrator()) {
+    if (p.integrator() == "naive")
+      o.integrator = IntegratorKind::kNaive;
+    else if (p.integrator() == "nee_mis")
+      o.integrator = IntegratorKind::kNeeMis;
+    else
+      throw FarmError(FarmError::Kind::kInvalidArgument,
+                      "overrides.integrator: unknown integrator \"" + p.integrator() + "\" (expected nee_mis or naive)");
+  }
+  if (p.has_ev()) o.ev = p.ev();
+  return o;
+}
+
+v1::JobSpec toProto(const JobSpec& spec) {
+  v1::JobSpec p;
+  p.set_scene_name(spec.sceneName);
+  p.set_scene_json(spec.sceneJson);
+  for (const auto& [path, sha] : spec.assets) {
+    auto* a = p.add_assets();
+    a->set_path(path);
+    a->set_sha256(sha);
+  }
+  *p.mutable_overrides() = toProto(spec.overrides);
+  return p;
+}
+
+JobSpec fromProto(const v1::JobSpec& p) {
+  JobSpec spec;
+  spec.sceneName = p.scene_name();
+  spec.sceneJson = p.scene_json();
+  for (const auto& a : p.assets()) spec.assets[a.path()] = a.sha256();
+  spec.overrides = fromProto(p.overrides());
+  return spec;
+}
+
+v1::Lease toProto(const LeaseGrant& g) {
+  v1::Lease p;
+  p.set_lease_id(g.leaseId);
+  p.set_job_id(g.jobId);
+  p.set_unit_index(g.unit.index);
+  p.set_first_sample(g.unit.firstSample);
+  p.set_sample_count(g.unit.sampleCount);
+  p.set_scene_hash(g.sceneHash);
+  p.set_deadline_seconds(g.deadlineSeconds);
+  return p;
+}
+
+LeaseGrant fromProto(const v1::Lease& p) {
+  LeaseGrant g;
+  g.leaseId = p.lease_id();
+  g.jobId = p.job_id();
+  g.unit = WorkUnit{p.unit_index(), p.first_sample(), p.sample_count()};
+  g.sceneHash = p.scene_hash();
+  g.deadlineSeconds = p.deadline_seconds();
+  return g;
+}
+
+v1::UnitStats toProto(const PathStats& s, double renderSeconds) {
+  v1::UnitStats p;
+  p.set_paths(s.paths);
+  p.set_rays(s.rays);
+  p.set_light_hits(s.lightHits);
+  p.set_dropped(s.dropped);
+  p.set_render_seconds(renderSeconds);
+  return p;
+}
+
+PathStats fromProto(const v1::UnitStats& p) {
+  PathStats s;
+  s.paths = p.paths();
+  s.rays = p.rays();
+  s.lightHits = p.light_hits();
+  s.dropped = p.dropped();
+  return s;
+}
+
+}  // namespace lensfarm::proto

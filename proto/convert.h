@@ -1,0 +1,26 @@
+#pragma once
+// Translations between the farm's plain C++ types (common/farm/farm_types.h) and the lensfarm.v1
+// messages. Both services and every client use these, so a field is mapped in one place.
+#include "farm/farm_types.h"
+#include "lensfarm/v1/client_service.pb.h"
+#include "lensfarm/v1/common.pb.h"
+#include "lensfarm/v1/worker_service.pb.h"
+
+namespace lensfarm::proto {
+
+v1::RenderOverrides toProto(const RenderOverrides& o);
+RenderOverrides fromProto(const v1::RenderOverrides& o);
+
+v1::JobSpec toProto(const JobSpec& spec);
+JobSpec fromProto(const v1::JobSpec& spec);
+
+v1::Lease toProto(const LeaseGrant& grant);
+LeaseGrant fromProto(const v1::Lease& lease);
+
+v1::UnitStats toProto(const PathStats& stats, double renderSeconds);
+PathStats fromProto(const v1::UnitStats& stats);
+
+// Largest piece of a file or buffer per message: far below gRPC's 4 MiB default.
+inline constexpr size_t kChunkBytes = size_t(1) << 20;
+
+}  // namespace lensfarm::proto

@@ -1,0 +1,38 @@
+#include "asset_cache.h"
+
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "film/image_io.h"
+#include "util/hash.h"
+
+namespace lensfarm {
+
+namespace fs = std::filesystem;
+
+AssetCache::AssetCache(fs::path dir) : dir_(std::move(dir)) {
+  if (!dir_.empty()) fs::create_directories(dir_);
+}
+
+std::string AssetCache::get(const std::string& sha256, const std::function<std::string(const std::string&)>& fetch) {
+  std::lock_guard lock(mutex_);
+  if (auto it = memory_.find(sha256); it != memory_.end()) return it->second;
+  if (!dir_.empty()) {
+    std::ifstream in(dir_ / sha256, std::ios::binary);
+    if (in) {
+      std::stringstream buffer;
+      buffer << in.rdbuf();
+      std::string bytes = buffer.str();
+      if (sha256Hex(bytes) == sha256) return memory_[sha256] = std::move(bytes);
+    }
+  }
+  ++fetches_;
+  std::string bytes = fetch(sha256);
+  const std::string actual = sha256Hex(bytes);
+  if (actual != sha256) throw std::runtime_error("asset " + sha256 + " arrived corrupted (hash " + actual + ")");
+  if (!dir_.empty()) writeBytesAtomically(dir_ / sha256, bytes);
+  return memory_[sha256] = std::move(bytes);
+}
+
+}  // namespace lensfarm

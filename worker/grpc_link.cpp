@@ -1,0 +1,140 @@
+#include "grpc_link.h"
+
+#include <chrono>
+
+#include "convert.h"
+
+namespace lensfarm {
+
+namespace {
+// Maps a failed call to the link's exceptions (see coordinator_link.h).
+[[noreturn]] void raise(const grpc::Status& status, const char* rpc) {
+  const std::string what = std::string(rpc) + ": " + status.error_message();
+  switch (status.error_code()) {
+    case grpc::StatusCode::NOT_FOUND:
+      if (status.error_message().rfind("unknown worker", 0) == 0) throw FarmError(FarmError::Kind::kUnknownWorker, what);
+      throw FarmError(FarmError::Kind::kNotFound, what);
+    case grpc::StatusCode::FAILED_PRECONDITION: throw FarmError(FarmError::Kind::kFailedPrecondition, what);
+    case grpc::StatusCode::INVALID_ARGUMENT: throw FarmError(FarmError::Kind::kInvalidArgument, what);
+    default: throw LinkUnavailable(what + " (" + std::to_string(int(status.error_code())) + ")");
+  }
+}
+}  // namespace
+
+std::shared_ptr<grpc::Channel> makeChannel(const std::string& address, double maxBackoffSeconds) {
+  grpc::ChannelArguments args;
+  args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 100);
+  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
+  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, int(maxBackoffSeconds * 1000));
+  return grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
+}
+
+GrpcCoordinatorLink::GrpcCoordinatorLink(std::shared_ptr<grpc::Channel> channel, double callTimeoutSeconds)
+    : stub_(v1::WorkerService::NewStub(channel)), callTimeoutSeconds_(callTimeoutSeconds) {}
+
+std::unique_ptr<grpc::ClientContext> GrpcCoordinatorLink::context(double extraSeconds) const {
+  auto c = std::make_unique<grpc::ClientContext>();
+  c->set_deadline(std::chrono::system_clock::now() +
+                  std::chrono::milliseconds(int64_t((callTimeoutSeconds_ + extraSeconds) * 1000)));
+  return c;
+}
+
+Registration GrpcCoordinatorLink::registerWorker(const WorkerInfo& info) {
+  v1::RegisterRequest request;
+  request.set_name(info.name);
+  request.set_threads(info.threads);
+  request.set_protocol_version(info.protocolVersion);
+  request.set_renderer_version(info.rendererVersion);
+  v1::RegisterResponse response;
+  const grpc::Status s = stub_->Register(context().get(), request, &response);
+  if (!s.ok()) raise(s, "Register");
+  return Registration{response.worker_id(), std::max(0.01, response.heartbeat_interval_ms() / 1000.0)};
+}
+
+std::vector<uint64_t> GrpcCoordinatorLink::heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds) {
+  v1::HeartbeatRequest request;
+  request.set_worker_id(workerId);
+  for (uint64_t id : leaseIds) request.add_lease_ids(id);
+  v1::HeartbeatResponse response;
+  const grpc::Status s = stub_->Heartbeat(context().get(), request, &response);
+  if (!s.ok()) raise(s, "Heartbeat");
+  return {response.revoked_lease_ids().begin(), response.revoked_lease_ids().end()};
+}
+
+std::optional<LeaseGrant> GrpcCoordinatorLink::lease(const std::string& workerId, double waitSeconds) {
+  v1::LeaseWorkRequest request;
+  request.set_worker_id(workerId);
+  request.set_wait_ms(uint32_t(waitSeconds * 1000));
+  v1::LeaseWorkResponse response;
+  const grpc::Status s = stub_->LeaseWork(context(waitSeconds).get(), request, &response);
+  if (!s.ok()) raise(s, "LeaseWork");
+  if (!response.has_lease()) return std::nullopt;
+  return proto::fromProto(response.lease());
+}
+
+JobSpec GrpcCoordinatorLink::jobSpec(const std::string& jobId) {
+  v1::GetJobSpecRequest request;
+  request.set_job_id(jobId);
+  v1::JobSpec response;
+  const grpc::Status s = stub_->GetJobSpec(context().get(), request, &response);
+  if (!s.ok()) raise(s, "GetJobSpec");
+  return proto::fromProto(response);
+}
+
+std::string GrpcCoordinatorLink::asset(const std::string& sha256) {
+  v1::FetchAssetRequest request;
+  request.set_sha256(sha256);
+  auto ctx = context(600.0);
+  auto reader = stub_->FetchAsset(ctx.get(), request);
+  v1::FileChunk chunk;
+  std::string bytes;
+  while (reader->Read(&chunk)) bytes += chunk.data();
+  const grpc::Status s = reader->Finish();
+  if (!s.ok()) raise(s, "FetchAsset");
+  return bytes;
+}
+
+bool GrpcCoordinatorLink::upload(const UnitResult& result) {
+  auto ctx = context(600.0);
+  v1::UploadResultResponse response;
+  auto writer = stub_->UploadResult(ctx.get(), &response);
+  const size_t perChunk = proto::kChunkBytes / sizeof(double);
+  const std::vector<double>& sums = result.buffer.sums;
+  size_t offset = 0;
+  do {
+    v1::UploadResultRequest message;
+    if (offset == 0) {
+      auto* h = message.mutable_header();
+      h->set_worker_id(result.workerId);
+      h->set_lease_id(result.leaseId);
+      h->set_job_id(result.jobId);
+      h->set_unit_index(result.unitIndex);
+      h->set_width(uint32_t(result.buffer.width));
+      h->set_height(uint32_t(result.buffer.height));
+      *h->mutable_stats() = proto::toProto(result.stats, result.renderSeconds);
+    }
+    const size_t n = std::min(perChunk, sums.size() - offset);
+    message.set_offset(offset);
+    message.set_sums(reinterpret_cast<const char*>(sums.data() + offset), n * sizeof(double));
+    if (!writer->Write(message)) break;  // the server ended the call; Finish() says why
+    offset += n;
+  } while (offset < sums.size());
+  writer->WritesDone();
+  const grpc::Status s = writer->Finish();
+  if (!s.ok()) raise(s, "UploadResult");
+  return response.accepted();
+}
+
+void GrpcCoordinatorLink::reportFailure(const std::string& workerId, uint64_t leaseId, const std::string& jobId,
+                                        const std::string& error) {
+  v1::ReportFailureRequest request;
+  request.set_worker_id(workerId);
+  request.set_lease_id(leaseId);
+  request.set_job_id(jobId);
+  request.set_error(error);
+  v1::ReportFailureResponse response;
+  const grpc::Status s = stub_->ReportFailure(context().get(), request, &response);
+  if (!s.ok()) raise(s, "ReportFailure");
+}
+
+}  // namespace lensfarm

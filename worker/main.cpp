@@ -1,0 +1,100 @@
+// lensfarm-worker: renders units leased from a coordinator on this machine's cores.
+//
+//   lensfarm-worker --coordinator farm-host:7878 [--threads N] [--name NAME] [--cache-dir DIR]
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <csignal>
+#include <cstdlib>
+#include <thread>
+
+#include "grpc_link.h"
+#include "util/version.h"
+#include "worker_loop.h"
+
+namespace {
+lensfarm::WorkerLoop* gLoop = nullptr;
+std::atomic<int> gSignals{0};
+extern "C" void onSignal(int) {
+  // First signal: drain (finish and upload the current unit). Second: stop at once.
+  if (gSignals.fetch_add(1) == 0) {
+    if (gLoop) gLoop->stop();
+  } else if (gLoop) {
+    gLoop->stopNow();
+  }
+}
+
+std::string defaultName() {
+  char host[256] = {0};
+  ::gethostname(host, sizeof host - 1);
+  return std::string(host) + "-" + std::to_string(::getpid());
+}
+
+std::string defaultCacheDir() {
+  if (const char* xdg = std::getenv("XDG_CACHE_HOME")) return std::string(xdg) + "/lensfarm/assets";
+  if (const char* home = std::getenv("HOME")) return std::string(home) + "/.cache/lensfarm/assets";
+  return "";
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace lensfarm;
+  CLI::App app{"lensfarm-worker: renders units of lensfarm jobs for a coordinator"};
+  app.set_version_flag("--version", kRendererVersion);
+  std::string coordinator, logLevel = "info";
+  WorkerOptions options;
+  options.threads = std::max(1u, std::thread::hardware_concurrency());
+  options.name = defaultName();
+  std::string cacheDir = defaultCacheDir();
+  app.add_option("--coordinator", coordinator, "Coordinator address HOST:PORT")
+      ->envname("LENSFARM_COORDINATOR")
+      ->required();
+  app.add_option("--threads", options.threads, "Render threads")
+      ->envname("LENSFARM_THREADS")
+      ->check(CLI::Range(1u, 4096u))
+      ->capture_default_str();
+  app.add_option("--name", options.name, "Name shown by `lensfarm workers`")->envname("LENSFARM_WORKER_NAME");
+  app.add_option("--cache-dir", cacheDir, "Asset cache directory (empty: memory only)")
+      ->envname("LENSFARM_CACHE_DIR")
+      ->capture_default_str();
+  app.add_option("--max-backoff", options.maxBackoffSeconds, "Longest wait between retries, seconds")
+      ->check(CLI::Range(0.1, 600.0))
+      ->capture_default_str();
+  app.add_option("--log-level", logLevel, "trace, debug, info, warn, error")
+      ->envname("LENSFARM_LOG_LEVEL")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
+      ->capture_default_str();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::Success& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << "lensfarm-worker: error: " << e.what() << "\n";
+    return 2;
+  }
+  auto logger = spdlog::stderr_color_mt("worker");
+  spdlog::set_default_logger(logger);
+  spdlog::set_pattern("[%H:%M:%S.%e] [%n " + options.name + "] %^%l%$ %v");
+  spdlog::set_level(spdlog::level::from_str(logLevel));
+  options.cacheDir = cacheDir;
+
+  GrpcCoordinatorLink link(makeChannel(coordinator, options.maxBackoffSeconds));
+  WorkerLoop loop(link, options);
+  gLoop = &loop;
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
+  spdlog::info("working for {} with {} threads", coordinator, options.threads);
+  try {
+    loop.run();
+  } catch (const FarmError& e) {
+    spdlog::error("{}", e.what());
+    gLoop = nullptr;
+    return 3;
+  }
+  gLoop = nullptr;
+  spdlog::info("stopped after {} units ({} accepted)", loop.counters().unitsRendered.load(),
+               loop.counters().unitsAccepted.load());
+  return 0;
+}

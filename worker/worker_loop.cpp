@@ -1,0 +1,205 @@
+#include "worker_loop.h"
+
+#include <spdlog/spdlog.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+
+#include "scene/render_overrides.h"
+#include "scene/scene_loader.h"
+#include "util/error.h"
+#include "util/version.h"
+
+namespace lensfarm {
+
+namespace {
+constexpr size_t kJobsKept = 2;  // loaded scenes kept for reuse
+}
+
+WorkerLoop::WorkerLoop(CoordinatorLink& link, WorkerOptions options)
+    : link_(link), options_(std::move(options)), assets_(options_.cacheDir) {}
+
+WorkerLoop::~WorkerLoop() {
+  stopNow();
+  if (heartbeat_.joinable()) heartbeat_.join();
+}
+
+void WorkerLoop::stop() {
+  stopping_ = true;
+  wake_.notify_all();
+}
+
+void WorkerLoop::stopNow() {
+  stopNow_ = true;
+  cancelUnit_ = true;
+  stop();
+}
+
+void WorkerLoop::sleepFor(double seconds) {
+  std::unique_lock lock(mutex_);
+  wake_.wait_for(lock, std::chrono::duration<double>(seconds), [&] { return stopping_.load(); });
+}
+
+std::string WorkerLoop::workerId() {
+  std::lock_guard lock(mutex_);
+  return workerId_;
+}
+
+void WorkerLoop::heartbeatLoop() {
+  while (!stopNow_) {
+    double interval;
+    std::string id;
+    std::vector<uint64_t> leases;
+    {
+      std::unique_lock lock(mutex_);
+      wake_.wait_for(lock, std::chrono::duration<double>(heartbeatInterval_), [&] { return stopNow_.load(); });
+      if (stopNow_ || (stopping_ && !currentLease_)) return;
+      interval = heartbeatInterval_;
+      id = workerId_;
+      if (currentLease_) leases.push_back(*currentLease_);
+    }
+    (void)interval;
+    if (id.empty()) continue;
+    try {
+      for (uint64_t revoked : link_.heartbeat(id, leases)) {
+        std::lock_guard lock(mutex_);
+        if (currentLease_ == revoked) {
+          spdlog::warn("lease {} revoked by the coordinator; abandoning the unit", revoked);
+          cancelUnit_ = true;
+        }
+      }
+    } catch (const FarmError& e) {
+      if (e.kind() == FarmError::Kind::kUnknownWorker) {
+        std::lock_guard lock(mutex_);
+        workerId_.clear();  // the coordinator forgot us (restart): register again
+        cancelUnit_ = true;
+      }
+    } catch (const LinkUnavailable&) {
+      // The lease loop notices and backs off; the lease may lapse meanwhile.
+    }
+  }
+}
+
+std::shared_ptr<WorkerLoop::PreparedJob> WorkerLoop::prepare(const LeaseGrant& grant) {
+  if (auto it = jobs_.find(grant.jobId); it != jobs_.end()) return it->second;
+  const JobSpec spec = link_.jobSpec(grant.jobId);
+  std::map<std::string, std::string> files;
+  for (const auto& [path, sha] : spec.assets)
+    files[path] = assets_.get(sha, [&](const std::string& h) { return link_.asset(h); });
+  auto job = std::make_shared<PreparedJob>();
+  job->scene = parseScene(spec.sceneJson, spec.sceneName, [&](const std::string& path) -> std::optional<std::string> {
+    auto it = files.find(path);
+    if (it == files.end()) return std::nullopt;
+    return it->second;
+  });
+  applyOverrides(spec.overrides, job->scene.render, spec.sceneName);
+  if (job->scene.hash != grant.sceneHash)
+    throw InputError(spec.sceneName, "scene hash " + job->scene.hash + " differs from the job's " + grant.sceneHash);
+  job->renderScene = std::make_unique<RenderScene>(job->scene);
+  if (jobs_.size() >= kJobsKept) jobs_.erase(jobs_.begin());
+  jobs_[grant.jobId] = job;
+  spdlog::info("loaded {} for {}: {}x{}, {} triangles", spec.sceneName, grant.jobId, job->scene.render.width,
+               job->scene.render.height, job->renderScene->caster().triangles().size());
+  return job;
+}
+
+void WorkerLoop::run() {
+  heartbeat_ = std::thread([this] { heartbeatLoop(); });
+  tbb::task_arena arena{int(std::max(1u, options_.threads))};
+  double backoff = 0.0;
+  const auto failed = [&](const char* what, const std::exception& e) {
+    backoff = std::min(options_.maxBackoffSeconds, backoff > 0 ? backoff * 2 : 0.1);
+    spdlog::warn("{}: {}; retrying in {:.1f} s", what, e.what(), backoff);
+    sleepFor(backoff);
+  };
+
+  while (!stopping_) {
+    {
+      std::lock_guard lock(mutex_);
+      currentLease_.reset();
+    }
+    try {
+      if (workerId().empty()) {
+        WorkerInfo info{options_.name, options_.threads, kProtocolVersion, kRendererVersion};
+        const Registration r = link_.registerWorker(info);
+        std::lock_guard lock(mutex_);
+        workerId_ = r.workerId;
+        heartbeatInterval_ = r.heartbeatIntervalSeconds;
+        ++counters_.registrations;
+        spdlog::info("registered as {} ({} threads)", r.workerId, options_.threads);
+      }
+      const std::string id = workerId();
+      const std::optional<LeaseGrant> grant = link_.lease(id, options_.leaseWaitSeconds);
+      backoff = 0.0;
+      if (!grant) continue;  // the coordinator already waited for work
+
+      std::shared_ptr<PreparedJob> job;
+      try {
+        job = prepare(*grant);
+      } catch (const InputError& e) {
+        spdlog::error("cannot render {}: {}", grant->jobId, e.what());
+        link_.reportFailure(id, grant->leaseId, grant->jobId, e.what());
+        continue;
+      }
+
+      {
+        std::lock_guard lock(mutex_);
+        currentLease_ = grant->leaseId;
+        cancelUnit_ = false;
+      }
+      UnitResult result;
+      result.workerId = id;
+      result.leaseId = grant->leaseId;
+      result.jobId = grant->jobId;
+      result.unitIndex = grant->unit.index;
+      const auto start = std::chrono::steady_clock::now();
+      bool complete = false;
+      arena.execute([&] {
+        complete = renderUnit(*job->renderScene, grant->unit, result.buffer, result.stats, &cancelUnit_);
+      });
+      result.renderSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      ++counters_.unitsRendered;
+      if (!complete) {
+        ++counters_.unitsAbandoned;
+      } else {
+        // A unit is worth keeping: retry the upload through network trouble while the lease
+        // may still be valid, then give it up (the coordinator re-leases it).
+        for (double wait = 0.1;; wait *= 2) {
+          try {
+            if (link_.upload(result)) ++counters_.unitsAccepted;
+            break;
+          } catch (const FarmError& e) {
+            if (e.kind() == FarmError::Kind::kUnknownWorker) throw;
+            ++counters_.unitsAbandoned;
+            spdlog::warn("upload of unit {} of {} refused: {}", grant->unit.index, grant->jobId, e.what());
+            break;
+          } catch (const LinkUnavailable& e) {
+            if (stopNow_ || wait > grant->deadlineSeconds) throw;
+            spdlog::warn("upload of unit {} failed: {}; retrying in {:.1f} s", grant->unit.index, e.what(), wait);
+            sleepFor(std::min(wait, options_.maxBackoffSeconds));
+          }
+        }
+      }
+    } catch (const LinkUnavailable& e) {
+      failed("coordinator unavailable", e);
+    } catch (const FarmError& e) {
+      if (e.kind() == FarmError::Kind::kUnknownWorker) {
+        std::lock_guard lock(mutex_);
+        workerId_.clear();  // register again at once
+        continue;
+      }
+      if (workerId().empty()) {  // registration refused (versions differ): nothing to retry
+        stopNow();
+        if (heartbeat_.joinable()) heartbeat_.join();
+        throw;
+      }
+      failed("coordinator refused", e);
+    }
+  }
+  stopNow_ = true;
+  wake_.notify_all();
+  if (heartbeat_.joinable()) heartbeat_.join();
+}
+
+}  // namespace lensfarm

@@ -1,0 +1,80 @@
+#pragma once
+// The worker's life: register, then lease a unit, make sure its job's scene is loaded (spec and
+// assets fetched by hash, scene loaded and checked against the job's hash), trace the unit with
+// the common renderer on this worker's threads, upload the partial sensor buffer, repeat.
+// A heartbeat thread keeps the leases alive and cancels a unit whose lease was revoked.
+// Network failures are retried with capped exponential backoff (never a busy loop); an
+// unknown-worker answer (the coordinator restarted) makes the worker register again.
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "asset_cache.h"
+#include "coordinator_link.h"
+#include "render/render_scene.h"
+
+namespace lensfarm {
+
+struct WorkerOptions {
+  std::string name;            // shown in `lensfarm workers`
+  unsigned threads = 1;        // render threads
+  double leaseWaitSeconds = 2.0;   // long-poll time per lease request
+  double maxBackoffSeconds = 5.0;  // cap of the retry delay
+  std::filesystem::path cacheDir;  // empty: assets cached in memory only
+};
+
+struct WorkerCounters {
+  std::atomic<uint64_t> unitsRendered{0};
+  std::atomic<uint64_t> unitsAccepted{0};
+  std::atomic<uint64_t> unitsAbandoned{0};  // lease revoked or upload refused
+  std::atomic<uint64_t> registrations{0};
+};
+
+class WorkerLoop {
+ public:
+  WorkerLoop(CoordinatorLink& link, WorkerOptions options);
+  ~WorkerLoop();
+
+  // Runs until stop() is called; the unit in progress is finished and uploaded first
+  // unless stopNow() is called.
+  void run();
+  void stop();     // drain: finish the current unit, then return
+  void stopNow();  // cancel the current unit and return
+
+  const WorkerCounters& counters() const { return counters_; }
+  const AssetCache& assets() const { return assets_; }
+
+ private:
+  struct PreparedJob {
+    Scene scene;
+    std::unique_ptr<RenderScene> renderScene;
+  };
+  std::shared_ptr<PreparedJob> prepare(const LeaseGrant& grant);
+  void heartbeatLoop();
+  void sleepFor(double seconds);  // interruptible by stop()
+  std::string workerId();
+
+  CoordinatorLink& link_;
+  WorkerOptions options_;
+  AssetCache assets_;
+  WorkerCounters counters_;
+
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::string workerId_;
+  double heartbeatInterval_ = 1.0;
+  std::optional<uint64_t> currentLease_;
+  std::atomic<bool> cancelUnit_{false};
+  std::atomic<bool> stopping_{false};
+  std::atomic<bool> stopNow_{false};
+  std::map<std::string, std::shared_ptr<PreparedJob>> jobs_;  // the few most recent
+  std::thread heartbeat_;
+};
+
+}  // namespace lensfarm
