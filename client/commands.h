@@ -9,5 +9,11 @@ using Runner = std::function<int()>;
 
 Runner addRenderCommand(CLI::App& app);
 Runner addDofCommand(CLI::App& app);
+Runner addSubmitCommand(CLI::App& app);
+Runner addStatusCommand(CLI::App& app);
+Runner addWatchCommand(CLI::App& app);
+Runner addDownloadCommand(CLI::App& app);
+Runner addCancelCommand(CLI::App& app);
+Runner addWorkersCommand(CLI::App& app);
 
 }  // namespace lensfarm::cli

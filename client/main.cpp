@@ -1,4 +1,5 @@
-// `lensfarm`: the command-line client. Subcommands: render (local), dof (depth-of-field table).
+// `lensfarm`: the command-line client. Subcommands: render (one machine), dof (depth-of-field
+// table), and the farm commands submit, status, watch, download, cancel, workers.
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
@@ -20,7 +21,8 @@ int main(int argc, char** argv) {
   spdlog::set_default_logger(spdlog::stderr_color_mt("lensfarm"));
 
   std::map<CLI::App*, cli::Runner> runners;
-  for (auto add : {cli::addRenderCommand, cli::addDofCommand}) {
+  for (auto add : {cli::addRenderCommand, cli::addDofCommand, cli::addSubmitCommand, cli::addStatusCommand,
+                   cli::addWatchCommand, cli::addDownloadCommand, cli::addCancelCommand, cli::addWorkersCommand}) {
     cli::Runner run = add(app);
     runners[app.get_subcommands({}).back()] = std::move(run);
   }

@@ -1,5 +1,6 @@
-// `lensfarm render SCENE -o out.exr [-o out.png] [--spp N | --time S] ...`: renders locally on
-// all cores, writing snapshots while it traces and the final image at the end or on Ctrl-C.
+// `lensfarm render SCENE -o out.exr [-o out.png] [--spp N | --time S] ...`: renders on this
+// machine's cores through an embedded coordinator and worker (the farm's own classes), writing
+// snapshots while it traces and the final image at the end or on Ctrl-C.
 #include <spdlog/spdlog.h>
 #include <tbb/task_arena.h>
 #include <unistd.h>
@@ -12,9 +13,14 @@
 #include <thread>
 
 #include "commands.h"
+#include "coordinator.h"
 #include "exit_codes.h"
 #include "film/image_io.h"
-#include "render/progressive_render.h"
+#include "in_process_link.h"
+#include "job_spec.h"
+#include "progress_display.h"
+#include "service.h"
+#include "worker_loop.h"
 #include "scene/render_overrides.h"
 #include "scene/scene_loader.h"
 #include "util/error.h"
@@ -48,7 +54,7 @@ struct RenderFlags {
   bool quiet = false;
 };
 
-void applyFlags(const RenderFlags& f, RenderSettings& s) {
+RenderOverrides toOverrides(const RenderFlags& f) {
   RenderOverrides o;
   if (f.resolution) parseResolution(*f.resolution, o);
   o.samplesPerPixel = f.spp;
@@ -57,72 +63,19 @@ void applyFlags(const RenderFlags& f, RenderSettings& s) {
   o.seed = f.seed;
   if (f.integrator) o.integrator = *f.integrator == "naive" ? IntegratorKind::kNaive : IntegratorKind::kNeeMis;
   o.ev = f.ev;
-  applyOverrides(o, s, "command line");
+  return o;
 }
 
-std::string clock(double seconds) {
-  const long s = long(seconds + 0.5);
-  char buf[32];
-  if (s >= 3600) std::snprintf(buf, sizeof buf, "%ld:%02ld:%02ld", s / 3600, s / 60 % 60, s % 60);
-  else std::snprintf(buf, sizeof buf, "%ld:%02ld", s / 60, s % 60);
-  return buf;
-}
-
-// One line, redrawn in place, when stderr is a terminal.
-class ProgressBar {
- public:
-  explicit ProgressBar(bool enabled) : enabled_(enabled && ::isatty(STDERR_FILENO)) {}
-  void update(const RenderProgress& p) {
-    if (!enabled_ || p.elapsedSeconds - lastDraw_ < 0.1) return;
-    lastDraw_ = p.elapsedSeconds;
-    const int width = 30;
-    const int filled = int(p.fractionDone() * width);
-    std::string bar(size_t(filled), '=');
-    bar.resize(width, ' ');
-    std::string target = p.timeLimitSeconds > 0 && p.samplesPerPixelTarget == kMaxSamplesPerPixel
-                             ? "" : "/" + std::to_string(p.samplesPerPixelTarget);
-    std::fprintf(stderr, "\r[%s] %llu%s spp  %.2f Mrays/s  %s elapsed  %s left   ", bar.c_str(),
-                 (unsigned long long)p.samplesPerPixelDone, target.c_str(), p.raysPerSecond() / 1e6,
-                 clock(p.elapsedSeconds).c_str(), clock(p.remainingSeconds()).c_str());
-    std::fflush(stderr);
-    drawn_ = true;
-  }
-  void finish() {
-    if (drawn_) std::fprintf(stderr, "\n");
-  }
-
- private:
-  bool enabled_;
-  bool drawn_ = false;
-  double lastDraw_ = -1.0;
-};
-
-ImageMetadata metadataFor(const Scene& scene, const RenderProgress& p) {
-  ImageMetadata m;
-  m.samplesPerPixel = p.samplesPerPixelDone;
-  m.totalSamples = p.stats.paths;
-  m.renderSeconds = p.elapsedSeconds;
-  m.sceneHash = scene.hash;
-  m.rendererVersion = kRendererVersion;
-  m.extra["integrator"] = integratorName(scene.render.integrator);
-  m.extra["maxBounces"] = std::to_string(scene.render.maxBounces);
-  m.extra["seed"] = std::to_string(scene.render.seed);
-  m.extra["rays"] = std::to_string(p.stats.rays);
-  m.extra["droppedSamples"] = std::to_string(p.stats.dropped);
-  m.extra["scene"] = scene.file.filename().string();
-  return m;
-}
-
-void writeOutputs(const std::vector<fs::path>& outputs, const Scene& scene, const Sensor& sensor,
-                  const RenderProgress& progress) {
-  const Image image = sensor.developImage();
-  const ImageMetadata metadata = metadataFor(scene, progress);
-  for (const auto& path : outputs) writeImageFile(path, image, metadata, scene.render.exposure);
+void writeOutputs(const std::vector<fs::path>& outputs, const JobImage& image) {
+  for (const auto& path : outputs) writeImageFile(path, image.image, image.metadata, image.exposure);
 }
 
 int runRender(const RenderFlags& flags) {
   Scene scene = loadScene(flags.scene);
-  applyFlags(flags, scene.render);
+  RenderOverrides overrides;
+  RenderSettings settings = scene.render;
+  overrides = toOverrides(flags);
+  applyOverrides(overrides, settings, "command line");
 
   // Refuse bad outputs before tracing a single ray.
   std::vector<fs::path> outputs;
@@ -135,54 +88,85 @@ int runRender(const RenderFlags& flags) {
     if (!fs::is_directory(dir)) throw InputError("-o " + o, "directory \"" + dir.string() + "\" does not exist");
     outputs.push_back(path);
   }
+  const LocalJob local = makeLocalJob(flags.scene, overrides);
 
-  try {
-    (void)scene.camera();
-  } catch (const InputError& e) {
-    throw InputError(flags.scene, std::string("camera.") + e.what());
-  }
+  // The farm in one process: an embedded coordinator and one worker with all threads, wired by
+  // direct calls (design.md): the same scheduling, upload and accumulation as over gRPC.
+  Coordinator::Options options;
+  options.leaseTimeoutSeconds = 3600.0;  // the worker cannot vanish: it is this process
+  options.heartbeatIntervalSeconds = 0.25;
+  Coordinator coordinator(options);
+  for (const auto& [sha, bytes] : local.assetBytes) coordinator.putAsset(sha, bytes);
+  spdlog::set_level(spdlog::level::warn);
+  const JobInfo submitted = coordinator.submit(local.spec, 0);
+  spdlog::set_level(spdlog::level::info);
   const unsigned threads = flags.threads.value_or(std::max(1u, std::thread::hardware_concurrency()));
-  const RenderScene rs(scene);
-  spdlog::info("{}: {} triangles in {} meshes, {} light triangles, {}x{} px, B = {}, {} on {} threads",
-               flags.scene, rs.caster().triangles().size(), scene.meshes.size(), rs.lights().size(),
-               scene.render.width, scene.render.height, scene.render.maxBounces,
-               integratorName(scene.render.integrator), threads);
+  spdlog::info("{}: {} triangles, {}x{} px, {} spp in {} units, B = {}, {} on {} threads", flags.scene,
+               [&] { size_t n = 0; for (const auto& m : scene.meshes) n += m.triangleCount(); return n; }(),
+               settings.width, settings.height, flags.timeLimit && !flags.spp ? std::string("until time") : std::to_string(settings.samplesPerPixel),
+               submitted.unitsTotal, settings.maxBounces, integratorName(settings.integrator), threads);
   if (scene.skippedDegenerateTriangles)
     spdlog::warn("{}: skipped {} zero-area triangles", flags.scene, scene.skippedDegenerateTriangles);
 
-  Sensor sensor(scene.render.width, scene.render.height);
-  ProgressBar bar(!flags.quiet);
-  ProgressiveOptions options;
-  options.samplesPerPixel = scene.render.samplesPerPixel;
-  options.timeLimitSeconds = flags.timeLimit.value_or(0.0);
-  options.snapshotEverySeconds = flags.snapshotEvery;
-  options.onProgress = [&](const RenderProgress& p) { bar.update(p); };
-  options.onSnapshot = [&](const Sensor& s, const RenderProgress& p) { writeOutputs(outputs, scene, s, p); };
-  options.cancel = &gInterrupted;
+  // The embedded coordinator and worker log only what goes wrong; the summary below says the rest.
+  spdlog::set_level(spdlog::level::warn);
+  InProcessLink link(coordinator);
+  WorkerOptions workerOptions;
+  workerOptions.name = "local";
+  workerOptions.threads = threads;
+  workerOptions.leaseWaitSeconds = 0.25;
+  WorkerLoop worker(link, workerOptions);
+  std::exception_ptr workerError;
+  std::thread workerThread([&] {
+    try {
+      worker.run();
+    } catch (...) {
+      workerError = std::current_exception();
+    }
+  });
 
   gInterrupted = false;
   std::signal(SIGINT, onSigint);
-  tbb::task_arena arena{int(threads)};
-  RenderOutcome outcome;
-  arena.execute([&] { outcome = renderProgressive(rs, sensor, options); });
+  ProgressDisplay display(!flags.quiet && ::isatty(STDERR_FILENO), true, flags.timeLimit.value_or(0.0));
+  JobInfo info = submitted;
+  double lastSnapshot = 0.0;
+  bool interrupted = false;
+  for (;;) {
+    info = coordinator.waitForChange(info.id, info.version, 0.1);
+    display.update(toProto(info));
+    if (isTerminal(info.state)) break;
+    if (gInterrupted || (flags.timeLimit && info.elapsedSeconds >= *flags.timeLimit)) {
+      interrupted = gInterrupted;
+      coordinator.cancel(info.id);  // whole units only: the one in flight is dropped
+      worker.stopNow();
+      info = coordinator.job(info.id);
+      break;
+    }
+    if (flags.snapshotEvery > 0 && info.unitsDone > 0 && info.elapsedSeconds - lastSnapshot >= flags.snapshotEvery) {
+      writeOutputs(outputs, coordinator.image(info.id));
+      lastSnapshot = info.elapsedSeconds;
+    }
+  }
   std::signal(SIGINT, SIG_DFL);
-  bar.finish();
+  worker.stop();
+  workerThread.join();
+  display.finish();
+  if (workerError) std::rethrow_exception(workerError);
+  if (info.state == JobState::kFailed) throw std::runtime_error(info.error);
 
-  const RenderProgress& p = outcome.progress;
-  writeOutputs(outputs, scene, sensor, p);
-  const double seconds = std::max(p.elapsedSeconds, 1e-9);
-  std::printf("samples per pixel: %llu%s\n", (unsigned long long)p.samplesPerPixelDone,
-              outcome.interrupted ? " (interrupted)" : "");
-  std::printf("paths:             %llu (%.3f M paths/s)\n", (unsigned long long)p.stats.paths,
-              double(p.stats.paths) / seconds / 1e6);
-  std::printf("rays:              %llu (%.3f M rays/s)\n", (unsigned long long)p.stats.rays,
-              double(p.stats.rays) / seconds / 1e6);
-  std::printf("light-hit fraction: %.2f %%\n",
-              p.stats.paths ? 100.0 * double(p.stats.lightHits) / double(p.stats.paths) : 0.0);
-  std::printf("dropped samples:   %llu\n", (unsigned long long)p.stats.dropped);
-  std::printf("time:              %.2f s\n", p.elapsedSeconds);
+  writeOutputs(outputs, coordinator.image(info.id));
+  const double seconds = std::max(info.elapsedSeconds, 1e-9);
+  std::printf("samples per pixel: %llu%s\n", (unsigned long long)info.samplesPerPixelDone,
+              interrupted ? " (interrupted)" : "");
+  std::printf("paths:             %llu (%.3f M paths/s)\n", (unsigned long long)info.stats.paths,
+              double(info.stats.paths) / seconds / 1e6);
+  std::printf("rays:              %llu (%.3f M rays/s)\n", (unsigned long long)info.stats.rays,
+              double(info.stats.rays) / seconds / 1e6);
+  std::printf("light-hit fraction: %.2f %%\n", 100.0 * info.lightHitFraction());
+  std::printf("dropped samples:   %llu\n", (unsigned long long)info.stats.dropped);
+  std::printf("time:              %.2f s\n", info.elapsedSeconds);
   for (const auto& o : outputs) std::printf("wrote %s\n", o.c_str());
-  return outcome.interrupted ? kInterrupted : kOk;
+  return interrupted ? kInterrupted : kOk;
 }
 
 }  // namespace

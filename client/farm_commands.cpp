@@ -1,0 +1,233 @@
+// The farm commands: submit, status, watch, download, cancel, workers. Each talks to the
+// coordinator named by --coordinator or LENSFARM_COORDINATOR.
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+
+#include "commands.h"
+#include "exit_codes.h"
+#include "farm_client.h"
+#include "film/image_io.h"
+#include "progress_display.h"
+#include "scene/scene_loader.h"
+#include "util/error.h"
+
+namespace lensfarm::cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Connection {
+  std::string coordinator = "127.0.0.1:7878";
+};
+
+void addCoordinatorOption(CLI::App* cmd, Connection& c) {
+  cmd->add_option("--coordinator", c.coordinator, "Coordinator address HOST:PORT")
+      ->envname("LENSFARM_COORDINATOR")
+      ->capture_default_str();
+}
+
+// Runs a farm command, turning the coordinator's answers into exit codes.
+int guardedCall(const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const ClientError& e) {
+    std::fprintf(stderr, "lensfarm: error: %s\n", e.what());
+    switch (e.code()) {
+      case grpc::StatusCode::INVALID_ARGUMENT:
+      case grpc::StatusCode::FAILED_PRECONDITION: return kBadInput;
+      case grpc::StatusCode::NOT_FOUND: return kNotFound;
+      case grpc::StatusCode::UNAVAILABLE:
+      case grpc::StatusCode::DEADLINE_EXCEEDED: return kUnavailable;
+      default: return kFailure;
+    }
+  }
+}
+
+void printStatus(const v1::JobStatus& s) {
+  const auto& p = s.progress();
+  std::printf("job:        %s\n", s.job_id().c_str());
+  std::printf("state:      %s\n", stateName(s.state()));
+  std::printf("scene:      %s (%ux%u)\n", s.scene_name().c_str(), s.width(), s.height());
+  std::printf("priority:   %d\n", s.priority());
+  std::printf("samples:    %llu / %llu per pixel (%llu / %llu units)\n", (unsigned long long)p.samples_per_pixel_done(),
+              (unsigned long long)p.samples_per_pixel_total(), (unsigned long long)p.units_done(),
+              (unsigned long long)p.units_total());
+  std::printf("rays:       %llu (%.2f M rays/s)\n", (unsigned long long)p.rays(), p.rays_per_second() / 1e6);
+  std::printf("elapsed:    %s\n", formatDuration(p.elapsed_seconds()).c_str());
+  std::printf("remaining:  %s\n", formatDuration(p.remaining_seconds()).c_str());
+  std::printf("workers:    %u busy\n", p.workers_busy());
+  std::printf("light hits: %.2f %%\n", 100.0 * p.light_hit_fraction());
+  std::printf("dropped:    %llu samples\n", (unsigned long long)p.dropped_samples());
+  if (!s.error().empty()) std::printf("error:      %s\n", s.error().c_str());
+}
+
+}  // namespace
+
+Runner addSubmitCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand("submit", "Submit a scene to the farm; prints the job id");
+  struct Flags {
+    Connection c;
+    std::string scene;
+    std::optional<uint64_t> spp;
+    std::optional<std::string> resolution;
+    std::optional<int> maxBounces;
+    std::optional<uint64_t> seed;
+    std::optional<std::string> integrator;
+    std::optional<double> ev;
+    int priority = 0;
+  };
+  auto f = std::make_shared<Flags>();
+  addCoordinatorOption(cmd, f->c);
+  cmd->add_option("scene", f->scene, "Scene file (JSON)")->required();
+  cmd->add_option("--spp", f->spp, "Samples per pixel (overrides the scene)")->check(CLI::Range(uint64_t(1), kMaxSamplesPerPixel));
+  cmd->add_option("--resolution", f->resolution, "Image size WIDTHxHEIGHT (overrides the scene)");
+  cmd->add_option("--max-bounces", f->maxBounces, "Bounce limit B")->check(CLI::Range(0, kMaxBounces));
+  cmd->add_option("--seed", f->seed, "Random seed");
+  cmd->add_option("--integrator", f->integrator, "nee_mis or naive")->check(CLI::IsMember({"nee_mis", "naive"}));
+  cmd->add_option("--ev", f->ev, "Exposure compensation for PNG snapshots")->check(CLI::Range(-64.0, 64.0));
+  cmd->add_option("--priority", f->priority, "Higher runs first")->capture_default_str();
+  return [f] {
+    RenderOverrides o;
+    if (f->resolution) parseResolution(*f->resolution, o);
+    o.samplesPerPixel = f->spp;
+    o.maxBounces = f->maxBounces;
+    o.seed = f->seed;
+    if (f->integrator) o.integrator = *f->integrator == "naive" ? IntegratorKind::kNaive : IntegratorKind::kNeeMis;
+    o.ev = f->ev;
+    const LocalJob job = makeLocalJob(f->scene, o);
+    return guardedCall([&] {
+      FarmClient client(f->c.coordinator);
+      std::printf("%s\n", client.submit(job, f->priority).job_id().c_str());
+      return kOk;
+    });
+  };
+}
+
+Runner addStatusCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand("status", "Show one job in detail, or list all jobs");
+  struct Flags {
+    Connection c;
+    std::string job;
+  };
+  auto f = std::make_shared<Flags>();
+  addCoordinatorOption(cmd, f->c);
+  cmd->add_option("job", f->job, "Job id (default: all jobs)");
+  return [f] {
+    return guardedCall([&] {
+      FarmClient client(f->c.coordinator);
+      if (!f->job.empty()) {
+        printStatus(client.get(f->job));
+        return kOk;
+      }
+      std::printf("%-10s %-10s %8s %-24s %18s %10s\n", "JOB", "STATE", "PRIORITY", "SCENE", "SPP", "ELAPSED");
+      for (const auto& s : client.list()) {
+        const std::string spp = std::to_string(s.progress().samples_per_pixel_done()) + "/" +
+                                std::to_string(s.progress().samples_per_pixel_total());
+        std::printf("%-10s %-10s %8d %-24s %18s %10s\n", s.job_id().c_str(), stateName(s.state()), s.priority(),
+                    s.scene_name().c_str(), spp.c_str(), formatDuration(s.progress().elapsed_seconds()).c_str());
+      }
+      return kOk;
+    });
+  };
+}
+
+Runner addWatchCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand("watch", "Follow a job until it ends (exit 0 when done)");
+  struct Flags {
+    Connection c;
+    std::string job;
+  };
+  auto f = std::make_shared<Flags>();
+  addCoordinatorOption(cmd, f->c);
+  cmd->add_option("job", f->job, "Job id")->required();
+  return [f] {
+    return guardedCall([&] {
+      FarmClient client(f->c.coordinator);
+      ProgressDisplay display(true, ::isatty(STDERR_FILENO));
+      const v1::JobStatus last = client.watch(f->job, [&](const v1::JobStatus& s) { display.update(s); });
+      display.finish();
+      std::printf("%s %s: %llu spp\n", last.job_id().c_str(), stateName(last.state()),
+                  (unsigned long long)last.progress().samples_per_pixel_done());
+      if (last.state() == v1::JOB_STATE_DONE) return kOk;
+      if (!last.error().empty()) std::fprintf(stderr, "lensfarm: job failed: %s\n", last.error().c_str());
+      return kJobNotDone;
+    });
+  };
+}
+
+Runner addDownloadCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand("download", "Download a job's image as it is now (.exr linear, .png exposed)");
+  struct Flags {
+    Connection c;
+    std::string job;
+    std::vector<std::string> outputs;
+    std::optional<double> ev;
+  };
+  auto f = std::make_shared<Flags>();
+  addCoordinatorOption(cmd, f->c);
+  cmd->add_option("job", f->job, "Job id")->required();
+  cmd->add_option("-o,--output", f->outputs, "Output file(s): .exr or .png")->required();
+  cmd->add_option("--ev", f->ev, "Exposure compensation for PNG (default: the job's)")->check(CLI::Range(-64.0, 64.0));
+  return [f] {
+    std::vector<std::pair<fs::path, v1::ImageFormat>> targets;
+    for (const auto& o : f->outputs) {
+      const fs::path path(o);
+      const std::string ext = path.extension().string();
+      if (ext != ".exr" && ext != ".png")
+        throw InputError("-o " + o, "unknown image format \"" + ext + "\" (expected .exr or .png)");
+      const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
+      if (!fs::is_directory(dir)) throw InputError("-o " + o, "directory \"" + dir.string() + "\" does not exist");
+      targets.emplace_back(path, ext == ".exr" ? v1::IMAGE_FORMAT_EXR : v1::IMAGE_FORMAT_PNG);
+    }
+    return guardedCall([&] {
+      FarmClient client(f->c.coordinator);
+      for (const auto& [path, format] : targets) {
+        writeBytesAtomically(path, client.download(f->job, format, f->ev));
+        std::printf("wrote %s\n", path.c_str());
+      }
+      return kOk;
+    });
+  };
+}
+
+Runner addCancelCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand("cancel", "Cancel a job (what was accumulated stays downloadable)");
+  struct Flags {
+    Connection c;
+    std::string job;
+  };
+  auto f = std::make_shared<Flags>();
+  addCoordinatorOption(cmd, f->c);
+  cmd->add_option("job", f->job, "Job id")->required();
+  return [f] {
+    return guardedCall([&] {
+      FarmClient client(f->c.coordinator);
+      const v1::JobStatus s = client.cancel(f->job);
+      std::printf("%s %s\n", s.job_id().c_str(), stateName(s.state()));
+      return kOk;
+    });
+  };
+}
+
+Runner addWorkersCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand("workers", "List the workers the coordinator knows");
+  auto c = std::make_shared<Connection>();
+  addCoordinatorOption(cmd, *c);
+  return [c] {
+    return guardedCall([&] {
+      FarmClient client(c->coordinator);
+      std::printf("%-10s %-28s %7s %-10s %8s %10s\n", "WORKER", "NAME", "THREADS", "JOB", "UNITS", "SEEN");
+      for (const auto& w : client.workers())
+        std::printf("%-10s %-28s %7u %-10s %8llu %9.1fs\n", w.worker_id().c_str(), w.name().c_str(), w.threads(),
+                    w.current_job_id().empty() ? "-" : w.current_job_id().c_str(), (unsigned long long)w.units_done(),
+                    w.seconds_since_heartbeat());
+      return kOk;
+    });
+  };
+}
+
+}  // namespace lensfarm::cli

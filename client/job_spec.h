@@ -1,0 +1,20 @@
+#pragma once
+// Building a job from a scene file on the client's disk: the scene is loaded (and so validated)
+// here first, and its assets are listed by content hash for upload.
+#include <filesystem>
+#include <map>
+#include <string>
+
+#include "farm/farm_types.h"
+
+namespace lensfarm::cli {
+
+struct LocalJob {
+  JobSpec spec;
+  std::map<std::string, std::string> assetBytes;  // sha256 -> bytes
+};
+
+// Throws InputError naming the file and field if the scene (with the overrides) is invalid.
+LocalJob makeLocalJob(const std::filesystem::path& sceneFile, const RenderOverrides& overrides);
+
+}  // namespace lensfarm::cli
