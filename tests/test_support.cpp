@@ -45,6 +45,8 @@ fs::path TempDir::write(const std::string& name, const std::string& text) const 
 fs::path sourceDir() { return LENSFARM_SOURCE_DIR; }
 fs::path scenesDir() { return sourceDir() / "scenes"; }
 fs::path cliPath() { return LENSFARM_CLI; }
+fs::path coordinatorPath() { return LENSFARM_COORDINATOR_BIN; }
+fs::path workerPath() { return LENSFARM_WORKER_BIN; }
 
 json minimalSceneJson() {
   return json::parse(R"({
@@ -134,6 +136,35 @@ ProcessResult runProcess(const std::vector<std::string>& argv, double timeoutSec
   result.err = readFile(errPath);
   return result;
 }
+
+ChildProcess::ChildProcess(const std::vector<std::string>& argv, const fs::path& logPrefix)
+    : err_(logPrefix.string() + ".stderr") {
+  pid_ = startProcess(argv, logPrefix.string() + ".stdout", err_);
+}
+
+ChildProcess::~ChildProcess() {
+  if (pid_ > 0 && !reaped_) {
+    ::kill(pid_, SIGKILL);
+    ::waitpid(pid_, &status_, 0);
+  }
+}
+
+void ChildProcess::signal(int sig) const {
+  if (!reaped_) ::kill(pid_, sig);
+}
+
+bool ChildProcess::running() {
+  if (reaped_) return false;
+  if (::waitpid(pid_, &status_, WNOHANG) == pid_) reaped_ = true;
+  return !reaped_;
+}
+
+int ChildProcess::wait(double timeoutSeconds) {
+  if (!waitFor([&] { return !running(); }, timeoutSeconds)) return -1;
+  return WIFEXITED(status_) ? WEXITSTATUS(status_) : -1;
+}
+
+std::string ChildProcess::log() const { return readFile(err_); }
 
 bool waitFor(const std::function<bool()>& condition, double timeoutSeconds) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeoutSeconds);

@@ -57,6 +57,31 @@ struct ProcessResult {
 };
 ProcessResult runProcess(const std::vector<std::string>& argv, double timeoutSeconds = 120.0);
 
+// A child process that is killed (SIGKILL) and reaped when the object goes away, so a failing
+// test never leaves servers behind. Its stdout and stderr go to files for post-mortems.
+class ChildProcess {
+ public:
+  ChildProcess(const std::vector<std::string>& argv, const std::filesystem::path& logPrefix);
+  ~ChildProcess();
+  ChildProcess(const ChildProcess&) = delete;
+  ChildProcess& operator=(const ChildProcess&) = delete;
+  int pid() const { return pid_; }
+  void signal(int sig) const;
+  // Waits for the process to exit; its exit code, or -1 (killed by a signal or timed out).
+  int wait(double timeoutSeconds);
+  bool running();
+  std::string log() const;  // stderr so far
+
+ private:
+  int pid_ = -1;
+  bool reaped_ = false;
+  int status_ = 0;
+  std::filesystem::path err_;
+};
+
+std::filesystem::path coordinatorPath();  // the built lensfarm-coordinator
+std::filesystem::path workerPath();       // the built lensfarm-worker
+
 // Waits until `condition` holds or `timeoutSeconds` pass; returns whether it held.
 bool waitFor(const std::function<bool()>& condition, double timeoutSeconds);
 

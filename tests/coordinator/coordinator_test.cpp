@@ -1,0 +1,247 @@
+// The coordinator's rules, driven directly (no network): validation, scheduling order, leases,
+// exactly-once and in-order accumulation, cancel, failure, versions.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <thread>
+
+#include "coordinator.h"
+#include "test_support.h"
+#include "util/error.h"
+#include "util/version.h"
+
+namespace lensfarm {
+namespace {
+
+using nlohmann::json;
+
+JobSpec specFor(json scene, uint64_t spp, uint32_t perUnit) {
+  scene["render"]["samples_per_pixel"] = spp;
+  scene["render"]["samples_per_unit"] = perUnit;
+  scene["render"]["resolution"] = {4, 3};
+  JobSpec spec;
+  spec.sceneName = "test.json";
+  spec.sceneJson = scene.dump();
+  return spec;
+}
+
+WorkerInfo workerInfo(const std::string& name) { return WorkerInfo{name, 1, kProtocolVersion, kRendererVersion}; }
+
+// A result whose every sum is `value` (no rendering needed to test accumulation).
+UnitResult resultFor(const std::string& worker, const LeaseGrant& g, double value) {
+  UnitResult r;
+  r.workerId = worker;
+  r.leaseId = g.leaseId;
+  r.jobId = g.jobId;
+  r.unitIndex = g.unit.index;
+  r.buffer = SensorBuffer(4, 3);
+  std::fill(r.buffer.sums.begin(), r.buffer.sums.end(), value);
+  r.stats.paths = 12 * g.unit.sampleCount;
+  r.stats.rays = 3 * r.stats.paths;
+  return r;
+}
+
+TEST(Coordinator, RefusesBadScenesAndMissingAssets) {
+  Coordinator c;
+  json bad = test::minimalSceneJson();
+  bad["camera"]["focal_lenght"] = 1;
+  EXPECT_THROW(c.submit(specFor(bad, 4, 1), 0), InputError);
+  JobSpec spec = specFor(test::minimalSceneJson(), 4, 1);
+  spec.assets["mesh.obj"] = std::string(64, 'a');
+  try {
+    c.submit(spec, 0);
+    FAIL() << "a job whose asset was never uploaded must be refused";
+  } catch (const FarmError& e) {
+    EXPECT_EQ(e.kind(), FarmError::Kind::kFailedPrecondition);
+    EXPECT_NE(std::string(e.what()).find("mesh.obj"), std::string::npos);
+  }
+  EXPECT_TRUE(c.jobs().empty());
+}
+
+TEST(Coordinator, AssetsAreStoredByVerifiedHash) {
+  Coordinator c;
+  EXPECT_THROW(c.putAsset(std::string(64, '0'), "bytes"), FarmError);
+  const std::string sha = "5891b5b522d5df086d0ff0b110fbd9d21bb4fc7163af34d08286a2e846f6be03";  // sha256sum of "hello\n"
+  EXPECT_TRUE(c.putAsset(sha, "hello\n"));
+  EXPECT_FALSE(c.putAsset(sha, "hello\n"));
+  EXPECT_EQ(*c.asset(sha), "hello\n");
+}
+
+TEST(Coordinator, UnitsAreLeasedInOrderAndJobsByPriorityThenSubmission) {
+  Coordinator c;
+  const std::string low = c.submit(specFor(test::minimalSceneJson(), 2, 1), 0).id;
+  const std::string high = c.submit(specFor(test::minimalSceneJson(), 2, 1), 5).id;
+  const std::string low2 = c.submit(specFor(test::minimalSceneJson(), 2, 1), 0).id;
+  const std::string w = c.registerWorker(workerInfo("w"));
+  std::vector<std::pair<std::string, uint64_t>> order;
+  while (auto g = c.lease(w, 0.0)) order.emplace_back(g->jobId, g->unit.index);
+  const std::vector<std::pair<std::string, uint64_t>> expected = {{high, 0}, {high, 1}, {low, 0}, {low, 1}, {low2, 0}, {low2, 1}};
+  EXPECT_EQ(order, expected);
+  const auto listed = c.jobs();
+  ASSERT_EQ(listed.size(), 3u);
+  EXPECT_EQ(listed[0].id, high);
+  EXPECT_EQ(listed[1].id, low);
+  EXPECT_EQ(listed[2].id, low2);
+}
+
+TEST(Coordinator, ResultsEnterTheSensorOnceAndInUnitOrder) {
+  Coordinator c;
+  const JobInfo job = c.submit(specFor(test::minimalSceneJson(), 3, 1), 0);
+  EXPECT_EQ(job.state, JobState::kQueued);
+  EXPECT_EQ(job.unitsTotal, 3u);
+  const std::string a = c.registerWorker(workerInfo("a")), b = c.registerWorker(workerInfo("b"));
+  const auto g0 = c.lease(a, 0), g1 = c.lease(b, 0), g2 = c.lease(a, 0);
+  ASSERT_TRUE(g0 && g1 && g2);
+  EXPECT_EQ(c.job(job.id).state, JobState::kRunning);
+  // Values whose floating-point sum depends on the order: 1e16 + 1 - 1e16.
+  EXPECT_TRUE(c.acceptResult(resultFor(a, *g2, -1e16)));
+  EXPECT_EQ(c.job(job.id).unitsDone, 0u) << "unit 2 must wait for units 0 and 1";
+  EXPECT_EQ(c.image(job.id).metadata.samplesPerPixel, 0u);
+  EXPECT_TRUE(c.acceptResult(resultFor(b, *g1, 1.0)));
+  EXPECT_FALSE(c.acceptResult(resultFor(b, *g1, 1.0))) << "a duplicate is ignored";
+  EXPECT_TRUE(c.acceptResult(resultFor(a, *g0, 1e16)));
+  const JobInfo done = c.job(job.id);
+  EXPECT_EQ(done.state, JobState::kDone);
+  EXPECT_EQ(done.samplesPerPixelDone, 3u);
+  EXPECT_EQ(done.stats.paths, 3u * 12u);
+  // In unit order: ((1e16 + 1) - 1e16) with compensation = 1, over 3 samples.
+  Sensor reference(4, 3);
+  for (double v : {1e16, 1.0, -1e16}) {
+    SensorBuffer b2(4, 3);
+    std::fill(b2.sums.begin(), b2.sums.end(), v);
+    std::fill(b2.samples.begin(), b2.samples.end(), 1u);
+    reference.add(b2);
+  }
+  const Image expected = reference.developImage();
+  const JobImage image = c.image(job.id);
+  EXPECT_EQ(image.image.rgb, expected.rgb);
+  EXPECT_FLOAT_EQ(image.image.rgb[0], float(1.0 / 3.0));
+  EXPECT_EQ(image.metadata.samplesPerPixel, 3u);
+  EXPECT_EQ(image.metadata.totalSamples, 3u * 12u);
+}
+
+TEST(Coordinator, OnlyTheCurrentLeaseHolderCanUpload) {
+  Coordinator c;
+  const JobInfo job = c.submit(specFor(test::minimalSceneJson(), 2, 1), 0);
+  const std::string a = c.registerWorker(workerInfo("a")), b = c.registerWorker(workerInfo("b"));
+  const auto g = c.lease(a, 0);
+  ASSERT_TRUE(g);
+  UnitResult forged = resultFor(b, *g, 1.0);
+  try {
+    c.acceptResult(forged);
+    FAIL() << "b does not hold the lease";
+  } catch (const FarmError& e) {
+    EXPECT_EQ(e.kind(), FarmError::Kind::kFailedPrecondition);
+  }
+  UnitResult wrongSize = resultFor(a, *g, 1.0);
+  wrongSize.buffer = SensorBuffer(2, 2);
+  EXPECT_THROW(c.acceptResult(wrongSize), FarmError);
+  EXPECT_TRUE(c.acceptResult(resultFor(a, *g, 1.0)));
+  EXPECT_EQ(c.job(job.id).unitsDone, 1u);
+}
+
+TEST(Coordinator, LapsedLeasesGoBackToTheQueue) {
+  Coordinator::Options options;
+  options.leaseTimeoutSeconds = 0.05;
+  Coordinator c(options);
+  c.submit(specFor(test::minimalSceneJson(), 1, 1), 0);
+  const std::string a = c.registerWorker(workerInfo("a")), b = c.registerWorker(workerInfo("b"));
+  const auto first = c.lease(a, 0);
+  ASSERT_TRUE(first);
+  EXPECT_FALSE(c.lease(b, 0)) << "the only unit is leased";
+  // b waits; a never heartbeats, so its lease lapses and b gets the unit.
+  const auto second = c.lease(b, 5.0);
+  ASSERT_TRUE(second);
+  EXPECT_EQ(second->unit.index, first->unit.index);
+  EXPECT_NE(second->leaseId, first->leaseId);
+  EXPECT_THROW(c.acceptResult(resultFor(a, *first, 1.0)), FarmError) << "a's lease is gone";
+  EXPECT_EQ(c.heartbeat(a, {first->leaseId}), std::vector<uint64_t>{first->leaseId});
+  EXPECT_TRUE(c.acceptResult(resultFor(b, *second, 1.0)));
+}
+
+TEST(Coordinator, HeartbeatsKeepLeasesAlive) {
+  Coordinator::Options options;
+  options.leaseTimeoutSeconds = 0.2;
+  Coordinator c(options);
+  c.submit(specFor(test::minimalSceneJson(), 1, 1), 0);
+  const std::string a = c.registerWorker(workerInfo("a")), b = c.registerWorker(workerInfo("b"));
+  const auto g = c.lease(a, 0);
+  ASSERT_TRUE(g);
+  const auto start = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - start < std::chrono::milliseconds(600)) {
+    EXPECT_TRUE(c.heartbeat(a, {g->leaseId}).empty());
+    EXPECT_FALSE(c.lease(b, 0.02)) << "a heartbeating worker keeps its unit";
+  }
+  EXPECT_TRUE(c.acceptResult(resultFor(a, *g, 1.0)));
+}
+
+TEST(Coordinator, CancelStopsHandingOutUnitsAndKeepsTheImage) {
+  Coordinator c;
+  const JobInfo job = c.submit(specFor(test::minimalSceneJson(), 4, 1), 0);
+  const std::string a = c.registerWorker(workerInfo("a"));
+  const auto g0 = c.lease(a, 0), g1 = c.lease(a, 0);
+  EXPECT_TRUE(c.acceptResult(resultFor(a, *g0, 2.0)));
+  const JobInfo cancelled = c.cancel(job.id);
+  EXPECT_EQ(cancelled.state, JobState::kCancelled);
+  EXPECT_FALSE(c.lease(a, 0));
+  EXPECT_EQ(c.heartbeat(a, {g1->leaseId}), std::vector<uint64_t>{g1->leaseId});
+  EXPECT_THROW(c.acceptResult(resultFor(a, *g1, 2.0)), FarmError);
+  EXPECT_EQ(c.image(job.id).metadata.samplesPerPixel, 1u);
+  EXPECT_FLOAT_EQ(c.image(job.id).image.rgb[5], 2.0f);
+  EXPECT_EQ(c.cancel(job.id).state, JobState::kCancelled) << "cancelling twice is harmless";
+}
+
+TEST(Coordinator, AWorkerFailureFailsTheJobWithItsReason) {
+  Coordinator c;
+  const JobInfo job = c.submit(specFor(test::minimalSceneJson(), 2, 1), 0);
+  const std::string a = c.registerWorker(workerInfo("a"));
+  const auto g = c.lease(a, 0);
+  c.reportFailure(a, g->leaseId, job.id, "scene did not load");
+  const JobInfo failed = c.job(job.id);
+  EXPECT_EQ(failed.state, JobState::kFailed);
+  EXPECT_NE(failed.error.find("scene did not load"), std::string::npos);
+  EXPECT_FALSE(c.lease(a, 0));
+}
+
+TEST(Coordinator, RefusesWorkersOfAnotherVersionNamingBoth) {
+  Coordinator c;
+  WorkerInfo old = workerInfo("old");
+  old.rendererVersion = "lensfarm-renderer/0.0.1";
+  try {
+    c.registerWorker(old);
+    FAIL();
+  } catch (const FarmError& e) {
+    EXPECT_EQ(e.kind(), FarmError::Kind::kFailedPrecondition);
+    EXPECT_NE(std::string(e.what()).find("lensfarm-renderer/0.0.1"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find(kRendererVersion), std::string::npos);
+  }
+  EXPECT_THROW(c.heartbeat("worker-99", {}), FarmError);
+}
+
+TEST(Coordinator, WatchersWakeOnChange) {
+  Coordinator c;
+  const JobInfo job = c.submit(specFor(test::minimalSceneJson(), 1, 1), 0);
+  const std::string a = c.registerWorker(workerInfo("a"));
+  std::thread t([&] {
+    const auto g = c.lease(a, 0);
+    c.acceptResult(resultFor(a, *g, 1.0));
+  });
+  JobInfo info = job;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (info.state != JobState::kDone && std::chrono::steady_clock::now() < deadline)
+    info = c.waitForChange(job.id, info.version, 1.0);
+  t.join();
+  EXPECT_EQ(info.state, JobState::kDone);
+}
+
+TEST(Coordinator, HugeJobsCostNothingUpFront) {
+  // A time-limited render asks for 2^40 samples; the unit queue must be lazy.
+  Coordinator c;
+  const JobInfo job = c.submit(specFor(test::minimalSceneJson(), uint64_t(1) << 40, 1), 0);
+  EXPECT_EQ(job.unitsTotal, uint64_t(1) << 40);
+  const std::string a = c.registerWorker(workerInfo("a"));
+  EXPECT_EQ(c.lease(a, 0)->unit.index, 0u);
+}
+
+}  // namespace
+}  // namespace lensfarm

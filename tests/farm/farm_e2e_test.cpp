@@ -1,0 +1,206 @@
+// End to end: a real coordinator and real worker processes on loopback (free ports), driven
+// through the real `lensfarm` CLI. The farm's image must equal the in-process render's pixel for
+// pixel, whatever the number of workers or when they join.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <fstream>
+#include <regex>
+
+#include "film/image_io.h"
+#include "test_support.h"
+#include "util/hash.h"
+
+namespace lensfarm {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+class Farm : public ::testing::Test {
+ protected:
+  // The seed scene, small, with its OBJ beside it in a temp dir (the client uploads it).
+  fs::path writeScene(int size, uint64_t spp, uint32_t perUnit) {
+    json scene = json::parse(std::ifstream(test::scenesDir() / "cornell-seed.json"));
+    scene["render"]["resolution"] = {size, size};
+    scene["render"]["samples_per_pixel"] = spp;
+    scene["render"]["samples_per_unit"] = perUnit;
+    dir_.write("meshes/cornell-box.obj", test::readFile(test::scenesDir() / "meshes/cornell-box.obj"));
+    return dir_.write("scene.json", scene.dump(2));
+  }
+
+  std::string startCoordinator(const std::string& listen = "127.0.0.1:0") {
+    const fs::path portFile = dir_ / ("port-" + std::to_string(++started_));
+    coordinator_ = std::make_unique<test::ChildProcess>(
+        std::vector<std::string>{test::coordinatorPath(), "--listen", listen, "--port-file", portFile.string(),
+                                 "--lease-timeout", "5", "--heartbeat-interval", "0.2"},
+        dir_ / ("coordinator-" + std::to_string(started_)));
+    EXPECT_TRUE(test::waitFor([&] { return fs::exists(portFile) || !coordinator_->running(); }, 30))
+        << coordinator_->log();
+    std::string address = test::readFile(portFile);
+    address.erase(address.find_last_not_of("\n") + 1);
+    return address;
+  }
+
+  test::ChildProcess& startWorker(const std::string& address, const std::string& name) {
+    workers_.push_back(std::make_unique<test::ChildProcess>(
+        std::vector<std::string>{test::workerPath(), "--coordinator", address, "--threads", "1", "--name", name,
+                                 "--cache-dir", (dir_ / ("cache-" + name)).string(), "--max-backoff", "0.3"},
+        dir_ / ("worker-" + name)));
+    return *workers_.back();
+  }
+
+  test::ProcessResult cli(std::vector<std::string> args) {
+    args.insert(args.begin(), test::cliPath().string());
+    return test::runProcess(args, 120);
+  }
+
+  std::string submit(const std::string& address, const fs::path& scene, std::vector<std::string> extra = {}) {
+    std::vector<std::string> args = {"submit", scene.string(), "--coordinator", address};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto r = cli(args);
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    std::string id = r.out;
+    id.erase(id.find_last_not_of("\n") + 1);
+    EXPECT_TRUE(std::regex_match(id, std::regex("job-[0-9]+"))) << "stdout must be the job id alone: " << r.out;
+    return id;
+  }
+
+  Image download(const std::string& address, const std::string& job, ImageMetadata* metadata) {
+    const fs::path out = dir_ / (job + ".exr");
+    const auto r = cli({"download", job, "-o", out.string(), "--coordinator", address});
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    return readExr(out, metadata);
+  }
+
+  Image renderInProcess(const fs::path& scene, ImageMetadata* metadata) {
+    const fs::path out = dir_ / "in-process.exr";
+    const auto r = cli({"render", scene.string(), "-o", out.string(), "--threads", "2", "-q"});
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    return readExr(out, metadata);
+  }
+
+  uint64_t unitsDone(const std::string& address, const std::string& job) {
+    const auto r = cli({"status", job, "--coordinator", address});
+    std::smatch m;
+    if (!std::regex_search(r.out, m, std::regex(R"(\(([0-9]+) / [0-9]+ units\))"))) return 0;
+    return std::stoull(m[1]);
+  }
+
+  test::TempDir dir_;
+  std::unique_ptr<test::ChildProcess> coordinator_;
+  std::vector<std::unique_ptr<test::ChildProcess>> workers_;
+  int started_ = 0;
+};
+
+TEST_F(Farm, TwoWorkersMatchTheInProcessRenderPixelForPixel) {
+  const fs::path scene = writeScene(48, 16, 2);  // 8 units
+  const std::string address = startCoordinator();
+  startWorker(address, "w1");
+  startWorker(address, "w2");
+  const std::string job = submit(address, scene);
+  const auto watched = cli({"watch", job, "--coordinator", address});
+  ASSERT_EQ(watched.exitCode, 0) << watched.err << coordinator_->log();
+  EXPECT_NE(watched.err.find("done"), std::string::npos) << "plain progress lines when not on a terminal";
+
+  ImageMetadata farmMeta, localMeta;
+  const Image farm = download(address, job, &farmMeta);
+  const Image local = renderInProcess(scene, &localMeta);
+  EXPECT_EQ(farmMeta.samplesPerPixel, 16u);
+  EXPECT_EQ(localMeta.samplesPerPixel, 16u);
+  EXPECT_EQ(farmMeta.sceneHash, localMeta.sceneHash);
+  ASSERT_EQ(farm.rgb.size(), local.rgb.size());
+  EXPECT_EQ(farm.rgb, local.rgb) << "the farm's image must equal the in-process render bit for bit";
+  double sum = 0;
+  for (float v : farm.rgb) sum += v;
+  EXPECT_GT(sum, 0.0);
+
+  // Assets reached the workers by hash, into caches that started empty.
+  const std::string objSha = sha256Hex(test::readFile(scene.parent_path() / "meshes/cornell-box.obj"));
+  const std::string provenance = farmMeta.extra["workers"];
+  int contributors = 0;
+  for (const std::string name : {"w1", "w2"}) {
+    if (provenance.find(name + ":") == std::string::npos) continue;
+    ++contributors;
+    EXPECT_TRUE(fs::exists(dir_ / ("cache-" + name) / objSha)) << name << " rendered without the mesh?";
+  }
+  EXPECT_GE(contributors, 1) << provenance;
+
+  const auto workers = cli({"workers", "--coordinator", address});
+  EXPECT_EQ(workers.exitCode, 0);
+  EXPECT_NE(workers.out.find("w1"), std::string::npos);
+  EXPECT_NE(workers.out.find("w2"), std::string::npos);
+}
+
+TEST_F(Farm, AWorkerJoiningMidJobChangesNothingButTheSpeed) {
+  const fs::path scene = writeScene(96, 384, 8);  // 48 units of ~74k paths
+  const std::string address = startCoordinator();
+  startWorker(address, "early");
+  const std::string job = submit(address, scene);
+  ASSERT_TRUE(test::waitFor([&] { return unitsDone(address, job) >= 1; }, 60));
+  startWorker(address, "late");
+  const auto watched = cli({"watch", job, "--coordinator", address});
+  ASSERT_EQ(watched.exitCode, 0) << watched.err;
+  ImageMetadata farmMeta, localMeta;
+  const Image farm = download(address, job, &farmMeta);
+  EXPECT_NE(farmMeta.extra["workers"].find("late:"), std::string::npos)
+      << "the late worker should have taken units: " << farmMeta.extra["workers"];
+  const Image local = renderInProcess(scene, &localMeta);
+  EXPECT_EQ(farm.rgb, local.rgb);
+}
+
+TEST_F(Farm, CancelStopsTheJobAndKeepsWhatWasAccumulated) {
+  const fs::path scene = writeScene(32, 1000000, 4);
+  const std::string address = startCoordinator();
+  startWorker(address, "w");
+  const std::string job = submit(address, scene, {"--priority", "3"});
+  ASSERT_TRUE(test::waitFor([&] { return unitsDone(address, job) >= 2; }, 60));
+  const auto cancelled = cli({"cancel", job, "--coordinator", address});
+  EXPECT_EQ(cancelled.exitCode, 0) << cancelled.err;
+  EXPECT_NE(cancelled.out.find("cancelled"), std::string::npos);
+  const auto watched = cli({"watch", job, "--coordinator", address});
+  EXPECT_EQ(watched.exitCode, 5) << "watch exits non-zero for a cancelled job";
+  ImageMetadata meta;
+  const Image image = download(address, job, &meta);
+  EXPECT_GE(meta.samplesPerPixel, 8u);
+  EXPECT_LT(meta.samplesPerPixel, 1000000u);
+  EXPECT_EQ(meta.samplesPerPixel % 4, 0u) << "whole units only";
+  const uint64_t frozen = unitsDone(address, job);
+  // No more units are handed out: the count stays put while the worker keeps asking.
+  EXPECT_FALSE(test::waitFor([&] { return unitsDone(address, job) != frozen; }, 1.0));
+  const auto status = cli({"status", job, "--coordinator", address});
+  EXPECT_NE(status.out.find("priority:   3"), std::string::npos) << status.out;
+}
+
+TEST_F(Farm, WorkersComeBackAfterTheCoordinatorRestarts) {
+  const fs::path scene = writeScene(32, 8, 2);
+  const std::string address = startCoordinator();
+  test::ChildProcess& worker = startWorker(address, "w");
+  ASSERT_TRUE(test::waitFor([&] { return cli({"workers", "--coordinator", address}).out.find(" w ") != std::string::npos; }, 30));
+  coordinator_->signal(SIGTERM);
+  EXPECT_EQ(coordinator_->wait(30), 0) << "the coordinator shuts down cleanly on SIGTERM";
+  EXPECT_EQ(cli({"status", "--coordinator", address}).exitCode, 3) << "unreachable coordinator: exit 3";
+  ASSERT_EQ(startCoordinator(address), address);
+  const std::string job = submit(address, scene);
+  const auto watched = cli({"watch", job, "--coordinator", address});
+  EXPECT_EQ(watched.exitCode, 0) << watched.err << worker.log();
+  worker.signal(SIGTERM);
+  EXPECT_EQ(worker.wait(30), 0) << worker.log();
+}
+
+TEST_F(Farm, BadRequestsGetClearErrorsAndExitCodes) {
+  const std::string address = startCoordinator();
+  const auto missing = cli({"status", "job-999", "--coordinator", address});
+  EXPECT_EQ(missing.exitCode, 4);
+  EXPECT_NE(missing.err.find("job-999"), std::string::npos);
+  json bad = test::minimalSceneJson();
+  bad["camera"]["focus_distance"] = 0.01;
+  const fs::path badScene = dir_.write("bad.json", bad.dump());
+  const auto refused = cli({"submit", badScene.string(), "--coordinator", address});
+  EXPECT_EQ(refused.exitCode, 2);
+  EXPECT_NE(refused.err.find("camera.focus_distance"), std::string::npos) << refused.err;
+  EXPECT_EQ(cli({"status", "--coordinator", address}).out.find("job-"), std::string::npos) << "nothing was queued";
+}
+
+}  // namespace
+}  // namespace lensfarm
