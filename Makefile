@@ -17,15 +17,17 @@ configure: setup
 build: configure
 	@cmake --build $(BUILD_DIR) -j $(JOBS)
 
+# A coordinator and two workers on localhost render the seed scene into out/ (scripts/demo.sh).
 demo: build
-	@mkdir -p out
-	$(BUILD_DIR)/client/lensfarm render scenes/cornell-seed.json -o out/cornell-seed.exr -o out/cornell-seed.png
+	@BUILD_DIR=$(BUILD_DIR) bash scripts/demo.sh
 
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS)
 
 bench: build
 	$(BUILD_DIR)/bench/lensfarm-bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+	$(BUILD_DIR)/bench/lensfarm-ingest-bench --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
+	BUILD_DIR=$(BUILD_DIR) bash bench/farm_efficiency.sh 3
 
 clean:
 	rm -rf $(BUILD_DIR) $(BUILD_DIR).configure.log out

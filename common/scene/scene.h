@@ -50,7 +50,7 @@ struct RenderSettings {
 // Samples per pixel in one unit of work. Automatic: about kAutoUnitPaths paths per unit (a few
 // seconds on a small machine, so a farm's uploads stay small next to its tracing), and never
 // more than the whole job. A function of the settings only, so every process agrees on it.
-inline constexpr uint64_t kAutoUnitPaths = uint64_t(1) << 22;
+inline constexpr uint64_t kAutoUnitPaths = uint64_t(1) << 23;
 uint32_t unitSize(const RenderSettings& settings);
 
 struct Scene {

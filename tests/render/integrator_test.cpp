@@ -6,7 +6,6 @@
 #include <cstring>
 #include <fstream>
 
-#include "render/progressive_render.h"
 #include "render/unit_renderer.h"
 #include "test_support.h"
 
@@ -25,11 +24,15 @@ struct Rendered {
 Rendered renderAll(const Scene& scene, int threads = 2) {
   const RenderScene rs(scene);
   Sensor sensor(scene.render.width, scene.render.height);
-  ProgressiveOptions options;
-  options.samplesPerPixel = scene.render.samplesPerPixel;
   Rendered out;
   tbb::task_arena arena{threads};
-  arena.execute([&] { out.stats = renderProgressive(rs, sensor, options).progress.stats; });
+  // Every unit, added in order: what the coordinator does, without the coordinator.
+  const uint32_t perUnit = unitSize(scene.render);
+  for (uint64_t k = 0; k < unitCount(scene.render.samplesPerPixel, perUnit); ++k) {
+    SensorBuffer buffer;
+    arena.execute([&] { renderUnit(rs, unitAt(k, scene.render.samplesPerPixel, perUnit), buffer, out.stats); });
+    sensor.add(buffer);
+  }
   out.image = sensor.developImage();
   const size_t pixels = size_t(out.image.width) * out.image.height;
   for (size_t k = 0; k < pixels; ++k)

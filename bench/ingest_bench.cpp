@@ -1,0 +1,112 @@
+// Coordinator ingest: how many bytes of partial sensor buffers per second one coordinator can
+// take in and sum, directly (Coordinator::acceptResult) and over gRPC from several simulated
+// workers on loopback (the real WorkerService and the worker's own gRPC link).
+//
+//   build/bench/lensfarm-ingest-bench --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
+//
+// An 800x800 unit is 800*800*3 doubles = 15.4 MB whatever its sample count.
+#include <benchmark/benchmark.h>
+#include <grpcpp/grpcpp.h>
+
+#include <nlohmann/json.hpp>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+
+#include "coordinator.h"
+#include "grpc_link.h"
+#include "scene/scene_loader.h"
+#include "service.h"
+#include "util/version.h"
+
+namespace lensfarm {
+namespace {
+
+constexpr int kSize = 800;
+
+JobSpec benchJob() {
+  // The seed scene with its box replaced by one quad: no asset to upload, the same frame size.
+  nlohmann::json scene = nlohmann::json::parse(std::ifstream(LENSFARM_SOURCE_DIR "/scenes/cornell-seed.json"));
+  scene["shapes"] = nlohmann::json::array(
+      {{{"type", "quad"}, {"corner", {-1, 1, 1}}, {"edge1", {2, 0, 0}}, {"edge2", {0, -2, 0}}, {"material", "white"}}});
+  scene["render"]["resolution"] = {kSize, kSize};
+  scene["render"]["samples_per_pixel"] = uint64_t(1) << 40;
+  scene["render"]["samples_per_unit"] = 1;
+  return JobSpec{"ingest.json", scene.dump(), {}, {}};
+}
+
+UnitResult resultFor(const std::string& worker, const LeaseGrant& g) {
+  UnitResult r;
+  r.workerId = worker;
+  r.leaseId = g.leaseId;
+  r.jobId = g.jobId;
+  r.unitIndex = g.unit.index;
+  r.buffer = SensorBuffer(kSize, kSize);
+  for (size_t k = 0; k < r.buffer.sums.size(); ++k) r.buffer.sums[k] = 0.25 + double(k % 97) * 1e-3;
+  r.stats.paths = uint64_t(kSize) * kSize;
+  return r;
+}
+
+void BM_AcceptResultDirect(benchmark::State& state) {
+  Coordinator coordinator;
+  coordinator.submit(benchJob(), 0);
+  const std::string worker = coordinator.registerWorker(WorkerInfo{"bench", 1, kProtocolVersion, kRendererVersion});
+  UnitResult prototype = resultFor(worker, *coordinator.lease(worker, 0));
+  coordinator.acceptResult(prototype);
+  for (auto _ : state) {
+    state.PauseTiming();
+    const auto g = coordinator.lease(worker, 0);
+    UnitResult r = prototype;
+    r.leaseId = g->leaseId;
+    r.unitIndex = g->unit.index;
+    state.ResumeTiming();
+    coordinator.acceptResult(std::move(r));
+  }
+  state.SetBytesProcessed(int64_t(state.iterations()) * int64_t(prototype.buffer.sums.size() * sizeof(double)));
+}
+BENCHMARK(BM_AcceptResultDirect)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// One coordinator served on loopback for the gRPC benchmark, shared by its threads.
+struct Served {
+  Coordinator coordinator;
+  ClientServiceImpl clients{coordinator};
+  WorkerServiceImpl workers{coordinator};
+  std::unique_ptr<grpc::Server> server;
+  std::string address;
+  Served() {
+    coordinator.submit(benchJob(), 0);
+    grpc::ServerBuilder builder;
+    int port = 0;
+    builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
+    builder.RegisterService(&clients);
+    builder.RegisterService(&workers);
+    server = builder.BuildAndStart();
+    address = "127.0.0.1:" + std::to_string(port);
+  }
+};
+
+void BM_UploadOverGrpc(benchmark::State& state) {
+  static std::mutex mutex;
+  static std::unique_ptr<Served> served;
+  {
+    std::lock_guard lock(mutex);
+    if (!served) served = std::make_unique<Served>();
+  }
+  GrpcCoordinatorLink link(makeChannel(served->address));
+  const std::string worker = link.registerWorker(WorkerInfo{"bench", 1, kProtocolVersion, kRendererVersion}).workerId;
+  UnitResult result = resultFor(worker, *link.lease(worker, 1.0));
+  link.upload(result);
+  for (auto _ : state) {
+    const auto g = link.lease(worker, 1.0);  // a lease per upload, as a worker does
+    result.leaseId = g->leaseId;
+    result.unitIndex = g->unit.index;
+    link.upload(result);
+  }
+  state.SetBytesProcessed(int64_t(state.iterations()) * int64_t(result.buffer.sums.size() * sizeof(double)));
+}
+BENCHMARK(BM_UploadOverGrpc)->Unit(benchmark::kMillisecond)->UseRealTime()->Threads(1)->Threads(4)->Threads(16);
+
+}  // namespace
+}  // namespace lensfarm
+
+BENCHMARK_MAIN();
