@@ -101,10 +101,14 @@ int runRender(const RenderFlags& flags) {
   const JobInfo submitted = coordinator.submit(local.spec, 0);
   spdlog::set_level(spdlog::level::info);
   const unsigned threads = flags.threads.value_or(std::max(1u, std::thread::hardware_concurrency()));
-  spdlog::info("{}: {} triangles, {}x{} px, {} spp in {} units, B = {}, {} on {} threads", flags.scene,
-               [&] { size_t n = 0; for (const auto& m : scene.meshes) n += m.triangleCount(); return n; }(),
-               settings.width, settings.height, flags.timeLimit && !flags.spp ? std::string("until time") : std::to_string(settings.samplesPerPixel),
-               submitted.unitsTotal, settings.maxBounces, integratorName(settings.integrator), threads);
+  size_t triangles = 0;
+  for (const auto& m : scene.meshes) triangles += m.triangleCount();
+  const std::string budget = flags.timeLimit && !flags.spp
+                                 ? "for " + std::to_string(*flags.timeLimit) + " s"
+                                 : std::to_string(settings.samplesPerPixel) + " spp";
+  spdlog::info("{}: {} triangles, {}x{} px, {} in units of {} spp, B = {}, {} on {} threads", flags.scene, triangles,
+               settings.width, settings.height, budget, unitSize(settings), settings.maxBounces,
+               integratorName(settings.integrator), threads);
   if (scene.skippedDegenerateTriangles)
     spdlog::warn("{}: skipped {} zero-area triangles", flags.scene, scene.skippedDegenerateTriangles);
 
@@ -135,7 +139,10 @@ int runRender(const RenderFlags& flags) {
     info = coordinator.waitForChange(info.id, info.version, 0.1);
     display.update(toProto(info));
     if (isTerminal(info.state)) break;
-    if (gInterrupted || (flags.timeLimit && info.elapsedSeconds >= *flags.timeLimit)) {
+    // The time limit stops at a unit boundary; it waits for the first unit so that there is an
+    // image at all (a unit is about kAutoUnitPaths paths: a few seconds).
+    const bool timeUp = flags.timeLimit && info.elapsedSeconds >= *flags.timeLimit && info.unitsDone > 0;
+    if (gInterrupted || timeUp) {
       interrupted = gInterrupted;
       coordinator.cancel(info.id);  // whole units only: the one in flight is dropped
       worker.stopNow();

@@ -190,8 +190,11 @@ TEST_F(Farm, WorkersComeBackAfterTheCoordinatorRestarts) {
 
 TEST_F(Farm, BadRequestsGetClearErrorsAndExitCodes) {
   const std::string address = startCoordinator();
-  const auto missing = cli({"status", "job-999", "--coordinator", address});
-  EXPECT_EQ(missing.exitCode, 4);
+  // The coordinator's address may come from the environment instead of --coordinator.
+  ::setenv("LENSFARM_COORDINATOR", address.c_str(), 1);
+  const auto missing = cli({"status", "job-999"});
+  ::unsetenv("LENSFARM_COORDINATOR");
+  EXPECT_EQ(missing.exitCode, 4) << missing.err;
   EXPECT_NE(missing.err.find("job-999"), std::string::npos);
   json bad = test::minimalSceneJson();
   bad["camera"]["focus_distance"] = 0.01;
