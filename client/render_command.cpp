@@ -104,7 +104,7 @@ int runRender(const RenderFlags& flags) {
   size_t triangles = 0;
   for (const auto& m : scene.meshes) triangles += m.triangleCount();
   const std::string budget = flags.timeLimit && !flags.spp
-                                 ? "for " + std::to_string(*flags.timeLimit) + " s"
+                                 ? fmt::format("for {} s", *flags.timeLimit)
                                  : std::to_string(settings.samplesPerPixel) + " spp";
   spdlog::info("{}: {} triangles, {}x{} px, {} in units of {} spp, B = {}, {} on {} threads", flags.scene, triangles,
                settings.width, settings.height, budget, unitSize(settings), settings.maxBounces,
