@@ -10,6 +10,7 @@
 #include "exit_codes.h"
 #include "farm_client.h"
 #include "film/image_io.h"
+#include "override_flags.h"
 #include "progress_display.h"
 #include "scene/scene_loader.h"
 #include "util/error.h"
@@ -72,32 +73,16 @@ Runner addSubmitCommand(CLI::App& app) {
   struct Flags {
     Connection c;
     std::string scene;
-    std::optional<uint64_t> spp;
-    std::optional<std::string> resolution;
-    std::optional<int> maxBounces;
-    std::optional<uint64_t> seed;
-    std::optional<std::string> integrator;
-    std::optional<double> ev;
+    OverrideFlags overrides;
     int priority = 0;
   };
   auto f = std::make_shared<Flags>();
   addCoordinatorOption(cmd, f->c);
   cmd->add_option("scene", f->scene, "Scene file (JSON)")->required();
-  cmd->add_option("--spp", f->spp, "Samples per pixel (overrides the scene)")->check(CLI::Range(uint64_t(1), kMaxSamplesPerPixel));
-  cmd->add_option("--resolution", f->resolution, "Image size WIDTHxHEIGHT (overrides the scene)");
-  cmd->add_option("--max-bounces", f->maxBounces, "Bounce limit B")->check(CLI::Range(0, kMaxBounces));
-  cmd->add_option("--seed", f->seed, "Random seed");
-  cmd->add_option("--integrator", f->integrator, "nee_mis or naive")->check(CLI::IsMember({"nee_mis", "naive"}));
-  cmd->add_option("--ev", f->ev, "Exposure compensation for PNG snapshots")->check(CLI::Range(-64.0, 64.0));
+  f->overrides.addTo(cmd);
   cmd->add_option("--priority", f->priority, "Higher runs first")->capture_default_str();
   return [f] {
-    RenderOverrides o;
-    if (f->resolution) parseResolution(*f->resolution, o);
-    o.samplesPerPixel = f->spp;
-    o.maxBounces = f->maxBounces;
-    o.seed = f->seed;
-    if (f->integrator) o.integrator = *f->integrator == "naive" ? IntegratorKind::kNaive : IntegratorKind::kNeeMis;
-    o.ev = f->ev;
+    const RenderOverrides o = f->overrides.toOverrides();
     const LocalJob job = makeLocalJob(f->scene, o);
     return guardedCall([&] {
       FarmClient client(f->c.coordinator);

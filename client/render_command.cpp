@@ -18,6 +18,7 @@
 #include "film/image_io.h"
 #include "in_process_link.h"
 #include "job_spec.h"
+#include "override_flags.h"
 #include "progress_display.h"
 #include "service.h"
 #include "worker_loop.h"
@@ -42,27 +43,16 @@ extern "C" void onSigint(int) {
 struct RenderFlags {
   std::string scene;
   std::vector<std::string> outputs;
-  std::optional<uint64_t> spp;
+  OverrideFlags overrides;
   std::optional<double> timeLimit;
   std::optional<unsigned> threads;
-  std::optional<std::string> resolution;
-  std::optional<int> maxBounces;
-  std::optional<uint64_t> seed;
-  std::optional<std::string> integrator;
-  std::optional<double> ev;
   double snapshotEvery = 0.0;
   bool quiet = false;
 };
 
 RenderOverrides toOverrides(const RenderFlags& f) {
-  RenderOverrides o;
-  if (f.resolution) parseResolution(*f.resolution, o);
-  o.samplesPerPixel = f.spp;
-  if (!f.spp && f.timeLimit) o.samplesPerPixel = kMaxSamplesPerPixel;  // --time alone: until time is up
-  o.maxBounces = f.maxBounces;
-  o.seed = f.seed;
-  if (f.integrator) o.integrator = *f.integrator == "naive" ? IntegratorKind::kNaive : IntegratorKind::kNeeMis;
-  o.ev = f.ev;
+  RenderOverrides o = f.overrides.toOverrides();
+  if (!o.samplesPerPixel && f.timeLimit) o.samplesPerPixel = kMaxSamplesPerPixel;  // --time alone: until time is up
   return o;
 }
 
@@ -72,9 +62,8 @@ void writeOutputs(const std::vector<fs::path>& outputs, const JobImage& image) {
 
 int runRender(const RenderFlags& flags) {
   Scene scene = loadScene(flags.scene);
-  RenderOverrides overrides;
+  const RenderOverrides overrides = toOverrides(flags);
   RenderSettings settings = scene.render;
-  overrides = toOverrides(flags);
   applyOverrides(overrides, settings, "command line");
 
   // Refuse bad outputs before tracing a single ray.
@@ -103,7 +92,7 @@ int runRender(const RenderFlags& flags) {
   const unsigned threads = flags.threads.value_or(std::max(1u, std::thread::hardware_concurrency()));
   size_t triangles = 0;
   for (const auto& m : scene.meshes) triangles += m.triangleCount();
-  const std::string budget = flags.timeLimit && !flags.spp
+  const std::string budget = flags.timeLimit && !flags.overrides.spp
                                  ? fmt::format("for {} s", *flags.timeLimit)
                                  : std::to_string(settings.samplesPerPixel) + " spp";
   spdlog::info("{}: {} triangles, {}x{} px, {} in units of {} spp, B = {}, {} on {} threads", flags.scene, triangles,
@@ -184,18 +173,10 @@ Runner addRenderCommand(CLI::App& app) {
   cmd->add_option("scene", f->scene, "Scene file (JSON)")->required();
   cmd->add_option("-o,--output", f->outputs, "Output image (.exr: linear radiance; .png: exposed preview); repeatable")
       ->required();
-  auto* spp = cmd->add_option("--spp", f->spp, "Samples per pixel (overrides the scene)")->check(CLI::Range(uint64_t(1), kMaxSamplesPerPixel));
-  cmd->add_option("--time", f->timeLimit, "Render for this many seconds (with --spp: whichever comes first)")
+  f->overrides.addTo(cmd);
+  cmd->add_option("--time", f->timeLimit, "Render for this many seconds, in whole units (with --spp: whichever comes first)")
       ->check(CLI::PositiveNumber);
-  (void)spp;
   cmd->add_option("--threads", f->threads, "Threads (default: all cores)")->check(CLI::Range(1u, 4096u));
-  cmd->add_option("--resolution", f->resolution, "Image size WIDTHxHEIGHT (overrides the scene)");
-  cmd->add_option("--max-bounces", f->maxBounces, "Bounce limit B (overrides the scene)")->check(CLI::Range(0, kMaxBounces));
-  cmd->add_option("--seed", f->seed, "Random seed (overrides the scene)");
-  cmd->add_option("--integrator", f->integrator, "nee_mis or naive (overrides the scene)")
-      ->check(CLI::IsMember({"nee_mis", "naive"}));
-  cmd->add_option("--ev", f->ev, "Exposure compensation in stops for the PNG (overrides the scene)")
-      ->check(CLI::Range(-64.0, 64.0));
   cmd->add_option("--snapshot-every", f->snapshotEvery, "Write the outputs every S seconds while rendering")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("-q,--quiet", f->quiet, "No progress bar");

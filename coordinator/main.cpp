@@ -3,7 +3,6 @@
 //   lensfarm-coordinator --listen 0.0.0.0:7878
 //   lensfarm-coordinator --listen 127.0.0.1:0 --port-file /tmp/port   (port 0: pick a free one)
 #include <grpcpp/grpcpp.h>
-#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -14,6 +13,7 @@
 #include "film/image_io.h"
 #include "service.h"
 #include "util/error.h"
+#include "util/logging.h"
 #include "util/version.h"
 
 namespace {
@@ -52,10 +52,7 @@ int main(int argc, char** argv) {
     std::cerr << "lensfarm-coordinator: error: " << e.what() << "\n";
     return 2;
   }
-  auto logger = spdlog::stderr_color_mt("coordinator");
-  spdlog::set_default_logger(logger);
-  spdlog::set_pattern("[%H:%M:%S.%e] [%n] %^%l%$ %v");
-  spdlog::set_level(spdlog::level::from_str(logLevel));
+  setupLogging("coordinator", logLevel);
 
   Coordinator coordinator(options);
   ClientServiceImpl clientService(coordinator);

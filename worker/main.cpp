@@ -1,7 +1,6 @@
 // lensfarm-worker: renders units leased from a coordinator on this machine's cores.
 //
 //   lensfarm-worker --coordinator farm-host:7878 [--threads N] [--name NAME] [--cache-dir DIR]
-#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
@@ -11,6 +10,7 @@
 #include <thread>
 
 #include "grpc_link.h"
+#include "util/logging.h"
 #include "util/version.h"
 #include "worker_loop.h"
 
@@ -74,10 +74,7 @@ int main(int argc, char** argv) {
     std::cerr << "lensfarm-worker: error: " << e.what() << "\n";
     return 2;
   }
-  auto logger = spdlog::stderr_color_mt("worker");
-  spdlog::set_default_logger(logger);
-  spdlog::set_pattern("[%H:%M:%S.%e] [%n " + options.name + "] %^%l%$ %v");
-  spdlog::set_level(spdlog::level::from_str(logLevel));
+  setupLogging("worker " + options.name, logLevel);
   options.cacheDir = cacheDir;
 
   GrpcCoordinatorLink link(makeChannel(coordinator, options.maxBackoffSeconds));
