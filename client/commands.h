@@ -13,6 +13,7 @@ Runner addSubmitCommand(CLI::App& app);
 Runner addStatusCommand(CLI::App& app);
 Runner addWatchCommand(CLI::App& app);
 Runner addDownloadCommand(CLI::App& app);
+Runner addSnapshotCommand(CLI::App& app);
 Runner addCancelCommand(CLI::App& app);
 Runner addWorkersCommand(CLI::App& app);
 

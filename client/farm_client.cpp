@@ -97,6 +97,16 @@ std::string FarmClient::download(const std::string& jobId, v1::ImageFormat forma
   return bytes;
 }
 
+v1::Snapshot FarmClient::snapshot(const std::string& jobId, uint32_t maxSize, std::optional<double> ev) {
+  v1::SnapshotRequest request;
+  request.set_job_id(jobId);
+  request.set_max_size(maxSize);
+  if (ev) request.set_ev(*ev);
+  v1::Snapshot response;
+  check(stub_->GetSnapshot(context().get(), request, &response), address_);
+  return response;
+}
+
 v1::JobStatus FarmClient::cancel(const std::string& jobId) {
   v1::CancelJobRequest request;
   request.set_job_id(jobId);

@@ -33,6 +33,7 @@ class FarmClient {
   // Calls `onStatus` for every status the coordinator sends; returns the last one.
   v1::JobStatus watch(const std::string& jobId, const std::function<void(const v1::JobStatus&)>& onStatus);
   std::string download(const std::string& jobId, v1::ImageFormat format, std::optional<double> ev);
+  v1::Snapshot snapshot(const std::string& jobId, uint32_t maxSize, std::optional<double> ev);
   v1::JobStatus cancel(const std::string& jobId);
   std::vector<v1::WorkerStatus> workers();
 

@@ -179,6 +179,38 @@ Runner addDownloadCommand(CLI::App& app) {
   };
 }
 
+Runner addSnapshotCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand("snapshot", "Save a small PNG preview of a job's image as it is now");
+  struct Flags {
+    Connection c;
+    std::string job, output;
+    uint32_t maxSize = 512;
+    std::optional<double> ev;
+  };
+  auto f = std::make_shared<Flags>();
+  addCoordinatorOption(cmd, f->c);
+  cmd->add_option("job", f->job, "Job id")->required();
+  cmd->add_option("-o,--output", f->output, "Output PNG")->required();
+  cmd->add_option("--max-size", f->maxSize, "Longer side of the preview, pixels")
+      ->check(CLI::Range(1u, 1024u))
+      ->capture_default_str();
+  cmd->add_option("--ev", f->ev, "Exposure compensation (default: the job's)")->check(CLI::Range(-64.0, 64.0));
+  return [f] {
+    const fs::path path(f->output);
+    if (path.extension() != ".png") throw InputError("-o " + f->output, "a snapshot is a .png file");
+    const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
+    if (!fs::is_directory(dir)) throw InputError("-o " + f->output, "directory \"" + dir.string() + "\" does not exist");
+    return guardedCall([&] {
+      FarmClient client(f->c.coordinator);
+      const v1::Snapshot s = client.snapshot(f->job, f->maxSize, f->ev);
+      writeBytesAtomically(path, s.png());
+      std::printf("wrote %s (%ux%u, %llu spp, %s)\n", path.c_str(), s.width(), s.height(),
+                  (unsigned long long)s.status().progress().samples_per_pixel_done(), stateName(s.status().state()));
+      return kOk;
+    });
+  };
+}
+
 Runner addCancelCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("cancel", "Cancel a job (what was accumulated stays downloadable)");
   struct Flags {

@@ -158,6 +158,22 @@ grpc::Status ClientServiceImpl::Download(grpc::ServerContext*, const v1::Downloa
   });
 }
 
+grpc::Status ClientServiceImpl::GetSnapshot(grpc::ServerContext*, const v1::SnapshotRequest* request,
+                                            v1::Snapshot* response) {
+  return guarded("GetSnapshot", [&] {
+    constexpr uint32_t kDefaultSize = 512, kLargest = 1024;  // a 1024^2 PNG stays far below 4 MiB
+    const uint32_t maxSize = std::min(request->max_size() ? request->max_size() : kDefaultSize, kLargest);
+    *response->mutable_status() = toProto(coordinator_.job(request->job_id()));
+    JobImage image = coordinator_.image(request->job_id());
+    if (request->has_ev()) image.exposure.ev = request->ev();
+    // A box filter keeps the mean luminance, so the automatic exposure matches the download's.
+    const Image preview = downscaleToFit(image.image, int(maxSize));
+    response->set_png(encodePng(preview, image.exposure));
+    response->set_width(uint32_t(preview.width));
+    response->set_height(uint32_t(preview.height));
+  });
+}
+
 grpc::Status ClientServiceImpl::CancelJob(grpc::ServerContext*, const v1::CancelJobRequest* request,
                                           v1::CancelJobResponse* response) {
   return guarded("CancelJob", [&] { *response->mutable_status() = toProto(coordinator_.cancel(request->job_id())); });

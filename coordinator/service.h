@@ -22,6 +22,7 @@ class ClientServiceImpl final : public v1::ClientService::Service {
                         grpc::ServerWriter<v1::JobStatus>* writer) override;
   grpc::Status Download(grpc::ServerContext*, const v1::DownloadRequest* request,
                         grpc::ServerWriter<v1::FileChunk>* writer) override;
+  grpc::Status GetSnapshot(grpc::ServerContext*, const v1::SnapshotRequest* request, v1::Snapshot* response) override;
   grpc::Status CancelJob(grpc::ServerContext*, const v1::CancelJobRequest* request, v1::CancelJobResponse* response) override;
   grpc::Status ListWorkers(grpc::ServerContext*, const v1::ListWorkersRequest*, v1::ListWorkersResponse* response) override;
 

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "film/image.h"
 #include "math/compensated_sum.h"
 #include "math/vec.h"
 
@@ -23,16 +24,6 @@ struct SensorBuffer {
   SensorBuffer() = default;
   SensorBuffer(int w, int h) : width(w), height(h), sums(size_t(w) * h * 3, 0.0), samples(size_t(w) * h, 0) {}
   size_t cells() const { return size_t(width) * height; }
-};
-
-// Linear RGB image, row-major, row 0 at the top, as written to EXR and PNG.
-struct Image {
-  int width = 0, height = 0;
-  std::vector<float> rgb;  // 3 per pixel
-  Spectrum at(int x, int y) const {
-    const size_t k = 3 * (size_t(y) * width + x);
-    return Spectrum(rgb[k], rgb[k + 1], rgb[k + 2]);
-  }
 };
 
 class Sensor {

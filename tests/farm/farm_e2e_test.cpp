@@ -126,6 +126,13 @@ TEST_F(Farm, TwoWorkersMatchTheInProcessRenderPixelForPixel) {
   }
   EXPECT_GE(contributors, 1) << provenance;
 
+  // A preview: box-filtered to fit 20 px (48 -> 16), exposed like the download.
+  const fs::path preview = dir_ / "preview.png";
+  const auto snap = cli({"snapshot", job, "-o", preview.string(), "--max-size", "20", "--coordinator", address});
+  EXPECT_EQ(snap.exitCode, 0) << snap.err;
+  EXPECT_NE(snap.out.find("16x16, 16 spp, done"), std::string::npos) << snap.out;
+  EXPECT_EQ(test::readFile(preview).substr(1, 3), "PNG");
+
   const auto workers = cli({"workers", "--coordinator", address});
   EXPECT_EQ(workers.exitCode, 0);
   EXPECT_NE(workers.out.find("w1"), std::string::npos);

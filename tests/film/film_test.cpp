@@ -114,3 +114,23 @@ TEST(ImageFiles, FailedWritesLeaveNoFileBehind) {
 
 }  // namespace
 }  // namespace lensfarm
+
+namespace lensfarm {
+namespace {
+
+TEST(ImageDownscale, AveragesBoxesAndKeepsTheMean) {
+  Image image{5, 4, {}};
+  for (int k = 0; k < 5 * 4 * 3; ++k) image.rgb.push_back(float(k % 7));
+  const Image small = downscaleToFit(image, 3);  // factor 2: 3 x 2
+  ASSERT_EQ(small.width, 3);
+  ASSERT_EQ(small.height, 2);
+  // Top-left output pixel: the mean of input pixels (0,0), (1,0), (0,1), (1,1), red channel.
+  const float expected = (image.at(0, 0).r + image.at(1, 0).r + image.at(0, 1).r + image.at(1, 1).r) / 4.0f;
+  EXPECT_FLOAT_EQ(small.at(0, 0).r, expected);
+  // The right column covers only input column 4.
+  EXPECT_FLOAT_EQ(small.at(2, 0).g, (image.at(4, 0).g + image.at(4, 1).g) / 2.0f);
+  EXPECT_EQ(downscaleToFit(image, 5).rgb, image.rgb) << "an image that fits is unchanged";
+}
+
+}  // namespace
+}  // namespace lensfarm
