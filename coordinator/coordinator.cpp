@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "scene/scene_loader.h"
 #include "util/error.h"
@@ -400,6 +401,12 @@ bool Coordinator::acceptResult(UnitResult result) {
     if (result.buffer.width != w || result.buffer.height != h ||
         result.buffer.sums.size() != size_t(w) * size_t(h) * 3)
       throw FarmError(FarmError::Kind::kInvalidArgument, "result for " + job->id + " has the wrong size");
+    // Workers drop non-finite samples before they are summed (design.md); a buffer holding one
+    // is corrupt and must not reach the sensor.
+    for (double v : result.buffer.sums)
+      if (!std::isfinite(v))
+        throw FarmError(FarmError::Kind::kInvalidArgument, "result for unit " + std::to_string(result.unitIndex) +
+                                                               " of " + job->id + " holds a non-finite sum");
     leases_.erase(it);
     job->markReceived(result.unitIndex);
     // Every cell of a unit holds the unit's samples; the count is the coordinator's to know.

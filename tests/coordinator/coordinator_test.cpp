@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <limits>
 #include <thread>
 
 #include "coordinator.h"
@@ -133,6 +134,9 @@ TEST(Coordinator, OnlyTheCurrentLeaseHolderCanUpload) {
   } catch (const FarmError& e) {
     EXPECT_EQ(e.kind(), FarmError::Kind::kFailedPrecondition);
   }
+  UnitResult poisoned = resultFor(a, *g, 1.0);
+  poisoned.buffer.sums[7] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(c.acceptResult(poisoned), FarmError) << "a NaN must never reach the sensor";
   UnitResult wrongSize = resultFor(a, *g, 1.0);
   wrongSize.buffer = SensorBuffer(2, 2);
   EXPECT_THROW(c.acceptResult(wrongSize), FarmError);
