@@ -108,8 +108,9 @@ Runner addStatusCommand(CLI::App& app) {
         printStatus(client.get(f->job));
         return kOk;
       }
+      const std::vector<v1::JobStatus> jobs = client.list();
       std::printf("%-10s %-10s %8s %-24s %18s %10s\n", "JOB", "STATE", "PRIORITY", "SCENE", "SPP", "ELAPSED");
-      for (const auto& s : client.list()) {
+      for (const auto& s : jobs) {
         const std::string spp = std::to_string(s.progress().samples_per_pixel_done()) + "/" +
                                 std::to_string(s.progress().samples_per_pixel_total());
         std::printf("%-10s %-10s %8d %-24s %18s %10s\n", s.job_id().c_str(), stateName(s.state()), s.priority(),
@@ -237,8 +238,9 @@ Runner addWorkersCommand(CLI::App& app) {
   return [c] {
     return guardedCall([&] {
       FarmClient client(c->coordinator);
+      const std::vector<v1::WorkerStatus> workers = client.workers();
       std::printf("%-10s %-28s %7s %-10s %8s %10s\n", "WORKER", "NAME", "THREADS", "JOB", "UNITS", "SEEN");
-      for (const auto& w : client.workers())
+      for (const auto& w : workers)
         std::printf("%-10s %-28s %7u %-10s %8llu %9.1fs\n", w.worker_id().c_str(), w.name().c_str(), w.threads(),
                     w.current_job_id().empty() ? "-" : w.current_job_id().c_str(), (unsigned long long)w.units_done(),
                     w.seconds_since_heartbeat());

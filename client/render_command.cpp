@@ -135,7 +135,6 @@ int runRender(const RenderFlags& flags) {
       interrupted = gInterrupted;
       coordinator.cancel(info.id);  // whole units only: the one in flight is dropped
       worker.stopNow();
-      info = coordinator.job(info.id);
       break;
     }
     if (flags.snapshotEvery > 0 && info.unitsDone > 0 && info.elapsedSeconds - lastSnapshot >= flags.snapshotEvery) {
@@ -150,9 +149,12 @@ int runRender(const RenderFlags& flags) {
   if (workerError) std::rethrow_exception(workerError);
   if (info.state == JobState::kFailed) throw std::runtime_error(info.error);
 
-  writeOutputs(outputs, coordinator.image(info.id));
+  // The worker has stopped: no upload is in flight, so the status and the image agree.
+  info = coordinator.job(info.id);
+  const JobImage image = coordinator.image(info.id);
+  writeOutputs(outputs, image);
   const double seconds = std::max(info.elapsedSeconds, 1e-9);
-  std::printf("samples per pixel: %llu%s\n", (unsigned long long)info.samplesPerPixelDone,
+  std::printf("samples per pixel: %llu%s\n", (unsigned long long)image.metadata.samplesPerPixel,
               interrupted ? " (interrupted)" : "");
   std::printf("paths:             %llu (%.3f M paths/s)\n", (unsigned long long)info.stats.paths,
               double(info.stats.paths) / seconds / 1e6);

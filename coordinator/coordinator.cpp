@@ -312,12 +312,18 @@ void Coordinator::reapExpiredLeases(Clock::time_point now) {
       spdlog::warn("job {}: lease {} of unit {} held by {} lapsed; the unit goes back to the queue", job.id,
                    it->first, it->second.unit, it->second.workerId);
       if (!isTerminal(job.state) && !job.isReceived(it->second.unit)) job.returned.insert(it->second.unit);
+      if (auto w = workers_.find(it->second.workerId); w != workers_.end() && w->second->currentJobId == job.id)
+        w->second->currentJobId.clear();
       it = leases_.erase(it);
       changed_.notify_all();
     } else {
       ++it;
     }
   }
+  // Forget workers silent for much longer than a lease: they hold nothing any more.
+  const auto forgetAfter = std::chrono::duration<double>(std::max(60.0, 10.0 * options_.leaseTimeoutSeconds));
+  for (auto it = workers_.begin(); it != workers_.end();)
+    it = now - it->second->lastHeartbeat > forgetAfter ? workers_.erase(it) : std::next(it);
 }
 
 std::vector<uint64_t> Coordinator::heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds) {

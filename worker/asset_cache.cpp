@@ -1,5 +1,7 @@
 #include "asset_cache.h"
 
+#include <spdlog/spdlog.h>
+
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -30,8 +32,15 @@ std::string AssetCache::get(const std::string& sha256, const std::function<std::
   ++fetches_;
   std::string bytes = fetch(sha256);
   const std::string actual = sha256Hex(bytes);
-  if (actual != sha256) throw std::runtime_error("asset " + sha256 + " arrived corrupted (hash " + actual + ")");
-  if (!dir_.empty()) writeBytesAtomically(dir_ / sha256, bytes);
+  if (actual != sha256) throw CorruptAsset("asset " + sha256 + " arrived corrupted (hash " + actual + ")");
+  if (!dir_.empty()) {
+    try {
+      writeBytesAtomically(dir_ / sha256, bytes);
+    } catch (const std::exception& e) {
+      // A full or read-only disk costs this worker a re-fetch later, never the job.
+      spdlog::warn("cannot cache asset {}: {}", sha256.substr(0, 12), e.what());
+    }
+  }
   return memory_[sha256] = std::move(bytes);
 }
 

@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 #include <csignal>
+#include <filesystem>
 #include <cstdlib>
 #include <thread>
 
@@ -15,16 +16,9 @@
 #include "worker_loop.h"
 
 namespace {
-lensfarm::WorkerLoop* gLoop = nullptr;
+// Signal handlers only count; a watcher thread turns the count into stop requests.
 std::atomic<int> gSignals{0};
-extern "C" void onSignal(int) {
-  // First signal: drain (finish and upload the current unit). Second: stop at once.
-  if (gSignals.fetch_add(1) == 0) {
-    if (gLoop) gLoop->stop();
-  } else if (gLoop) {
-    gLoop->stopNow();
-  }
-}
+extern "C" void onSignal(int) { gSignals.fetch_add(1); }
 
 std::string defaultName() {
   char host[256] = {0};
@@ -60,6 +54,7 @@ int main(int argc, char** argv) {
       ->envname("LENSFARM_CACHE_DIR")
       ->capture_default_str();
   app.add_option("--max-backoff", options.maxBackoffSeconds, "Longest wait between retries, seconds")
+      ->envname("LENSFARM_MAX_BACKOFF")
       ->check(CLI::Range(0.1, 600.0))
       ->capture_default_str();
   app.add_option("--log-level", logLevel, "trace, debug, info, warn, error")
@@ -76,21 +71,47 @@ int main(int argc, char** argv) {
   }
   setupLogging("worker " + options.name, logLevel);
   options.cacheDir = cacheDir;
+  if (!cacheDir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(cacheDir, ec);
+    if (ec) {
+      std::cerr << "lensfarm-worker: error: --cache-dir " << cacheDir << ": " << ec.message() << "\n";
+      return 2;
+    }
+  }
 
   GrpcCoordinatorLink link(makeChannel(coordinator, options.maxBackoffSeconds));
   WorkerLoop loop(link, options);
-  gLoop = &loop;
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
+  std::atomic<bool> finished{false};
+  // First signal: drain (finish and upload the current unit). Second: stop at once.
+  std::thread watcher([&] {
+    int seen = 0;
+    while (!finished) {
+      const int n = gSignals.load();
+      if (n > seen) {
+        if (seen == 0) {
+          spdlog::info("draining: finishing the current unit");
+          loop.stop();
+        }
+        if (n >= 2) loop.stopNow();
+        seen = n;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  });
   spdlog::info("working for {} with {} threads", coordinator, options.threads);
+  int code = 0;
   try {
     loop.run();
   } catch (const FarmError& e) {
     spdlog::error("{}", e.what());
-    gLoop = nullptr;
-    return 3;
+    code = 3;
   }
-  gLoop = nullptr;
+  finished = true;
+  watcher.join();
+  if (code) return code;
   spdlog::info("stopped after {} units ({} accepted)", loop.counters().unitsRendered.load(),
                loop.counters().unitsAccepted.load());
   return 0;

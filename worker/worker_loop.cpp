@@ -97,8 +97,12 @@ std::shared_ptr<WorkerLoop::PreparedJob> WorkerLoop::prepare(const LeaseGrant& g
   if (job->scene.hash != grant.sceneHash)
     throw InputError(spec.sceneName, "scene hash " + job->scene.hash + " differs from the job's " + grant.sceneHash);
   job->renderScene = std::make_unique<RenderScene>(job->scene);
-  if (jobs_.size() >= kJobsKept) jobs_.erase(jobs_.begin());
+  if (jobs_.size() >= kJobsKept) {
+    jobs_.erase(jobOrder_.front());
+    jobOrder_.pop_front();
+  }
   jobs_[grant.jobId] = job;
+  jobOrder_.push_back(grant.jobId);
   spdlog::info("loaded {} for {}: {}x{}, {} triangles", spec.sceneName, grant.jobId, job->scene.render.width,
                job->scene.render.height, job->renderScene->caster().triangles().size());
   return job;
@@ -146,7 +150,7 @@ void WorkerLoop::run() {
       {
         std::lock_guard lock(mutex_);
         currentLease_ = grant->leaseId;
-        cancelUnit_ = false;
+        cancelUnit_ = stopNow_.load();  // a stopNow() during loading still counts
       }
       UnitResult result;
       result.workerId = id;
@@ -183,6 +187,8 @@ void WorkerLoop::run() {
       }
     } catch (const LinkUnavailable& e) {
       failed("coordinator unavailable", e);
+    } catch (const CorruptAsset& e) {
+      failed("asset transfer", e);
     } catch (const FarmError& e) {
       if (e.kind() == FarmError::Kind::kUnknownWorker) {
         std::lock_guard lock(mutex_);
@@ -195,6 +201,8 @@ void WorkerLoop::run() {
         throw;
       }
       failed("coordinator refused", e);
+    } catch (const std::exception& e) {
+      failed("unexpected failure", e);  // keep serving the farm; the lease lapses and moves on
     }
   }
   stopNow_ = true;

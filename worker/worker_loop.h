@@ -8,6 +8,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -74,6 +75,7 @@ class WorkerLoop {
   std::atomic<bool> stopping_{false};
   std::atomic<bool> stopNow_{false};
   std::map<std::string, std::shared_ptr<PreparedJob>> jobs_;  // the few most recent
+  std::deque<std::string> jobOrder_;                          // oldest first
   std::thread heartbeat_;
 };
 
