@@ -3,12 +3,14 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <random>
 #include <cmath>
 
 #include "scene/scene_loader.h"
 #include "util/error.h"
 #include "util/hash.h"
 #include "util/version.h"
+#include "state_store.h"
 
 namespace lensfarm {
 
@@ -59,6 +61,7 @@ struct Coordinator::Job {
     returned.clear();
     nextFresh = unitsTotal;
   }
+  std::set<uint64_t> inflight;  // accepted, being made durable before they count
   bool isReceived(uint64_t u) const { return u < receivedBelow || receivedAbove.count(u); }
   void markReceived(uint64_t u) {
     receivedAbove.insert(u);
@@ -83,6 +86,7 @@ struct Coordinator::Job {
   uint64_t nextToAdd = 0;
   uint64_t sppAdded = 0;
   PathStats statsAdded;
+  uint64_t checkpointed = 0;  // units in the last saved sensor
 };
 
 struct Coordinator::Worker {
@@ -93,9 +97,165 @@ struct Coordinator::Worker {
   uint64_t unitsDone = 0;
 };
 
-Coordinator::Coordinator(Options options) : options_(options) {}
+Coordinator::Coordinator(Options options) : options_(std::move(options)) {
+  if (options_.stateDir.empty()) {
+    epoch_ = std::random_device{}() & 0xfffff;
+    nextLease_ = (epoch_ << 40) + 1;
+    return;
+  }
+  store_ = std::make_unique<StateStore>(options_.stateDir);
+  epoch_ = store_->bootCount();
+  restore();
+  checkpointer_ = std::thread([this] { checkpointLoop(); });
+}
+
 Coordinator::Coordinator() : Coordinator(Options{}) {}
-Coordinator::~Coordinator() = default;
+
+Coordinator::~Coordinator() {
+  if (!store_) return;
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  checkpointWake_.notify_all();
+  checkpointer_.join();
+  try {
+    checkpoint();
+  } catch (const std::exception& e) {
+    spdlog::error("final checkpoint failed: {}", e.what());
+  }
+}
+
+void Coordinator::persistState(const Job& job) {
+  if (store_) store_->updateJobState(job.id, jobStateName(job.state), job.error);
+}
+
+void Coordinator::checkpointLoop() {
+  std::unique_lock lock(mutex_);
+  while (!stopping_) {
+    checkpointWake_.wait_for(lock, std::chrono::duration<double>(options_.checkpointEverySeconds));
+    if (stopping_) break;
+    lock.unlock();
+    try {
+      checkpoint();
+    } catch (const std::exception& e) {
+      spdlog::error("checkpoint failed (the ledger still holds every unit): {}", e.what());
+    }
+    lock.lock();
+  }
+}
+
+uint64_t Coordinator::checkpoint() {
+  if (!store_) return 0;
+  std::vector<Job*> all;
+  {
+    std::lock_guard lock(mutex_);
+    for (auto& [id, job] : jobs_) all.push_back(job.get());
+  }
+  uint64_t bytes = 0;
+  for (Job* job : all) {
+    std::string sensor;
+    uint64_t folded;
+    {
+      std::lock_guard accumulate(job->accumulate);
+      if (job->nextToAdd == job->checkpointed) continue;
+      sensor = job->sensor->serialize();
+      folded = job->nextToAdd;
+    }
+    store_->writeCheckpoint(job->id, sensor, folded);
+    bytes += sensor.size();
+    std::lock_guard accumulate(job->accumulate);
+    job->checkpointed = std::max(job->checkpointed, folded);
+  }
+  return bytes;
+}
+
+void Coordinator::drainInOrder(Job& job) {
+  for (auto it = job.arrived.find(job.nextToAdd); it != job.arrived.end(); it = job.arrived.find(job.nextToAdd)) {
+    job.sensor->add(it->second.buffer);
+    job.statsAdded += it->second.stats;
+    job.sppAdded += unitAt(job.nextToAdd, job.settings.samplesPerPixel, job.unitSize).sampleCount;
+    job.arrived.erase(it);
+    ++job.nextToAdd;
+  }
+}
+
+static JobState parseJobState(const std::string& name) {
+  for (JobState s : {JobState::kQueued, JobState::kRunning, JobState::kDone, JobState::kCancelled, JobState::kFailed})
+    if (name == jobStateName(s)) return s;
+  throw std::runtime_error("unknown job state " + name);
+}
+
+void Coordinator::restore() {
+  assets_ = store_->loadAssets();
+  const auto now = Clock::now();
+  for (StateStore::StoredJob& stored : store_->loadJobs()) {
+    auto job = std::make_unique<Job>();
+    job->id = stored.id;
+    job->spec = stored.spec;
+    job->priority = stored.priority;
+    job->sequence = stored.sequence;
+    job->submittedUnixSeconds = stored.submittedUnixSeconds;
+    job->state = parseJobState(stored.state);
+    job->error = stored.error;
+    const AssetReader reader = [&](const std::string& path) -> std::optional<std::string> {
+      auto it = job->spec.assets.find(path);
+      if (it == job->spec.assets.end() || !assets_.count(it->second)) return std::nullopt;
+      return *assets_.at(it->second);
+    };
+    Scene scene = parseScene(job->spec.sceneJson, job->spec.sceneName, reader);
+    applyOverrides(job->spec.overrides, scene.render, job->spec.sceneName);
+    job->settings = scene.render;
+    job->sceneHash = scene.hash;
+    job->unitSize = unitSize(scene.render);
+    job->unitsTotal = unitCount(scene.render.samplesPerPixel, job->unitSize);
+
+    // The checkpoint holds units [0, folded); the ledger lists every accepted unit.
+    const auto checkpoint = store_->loadCheckpoint(job->id);
+    job->sensor = std::make_unique<Sensor>(checkpoint ? Sensor::deserialize(*checkpoint)
+                                                      : Sensor(scene.render.width, scene.render.height));
+    const uint64_t folded = checkpoint ? stored.foldedUnits : 0;
+    job->nextToAdd = job->checkpointed = folded;
+    for (uint64_t u = 0; u < folded; ++u) job->sppAdded += unitAt(u, job->settings.samplesPerPixel, job->unitSize).sampleCount;
+    uint64_t highest = 0;
+    bool any = false;
+    for (const auto& entry : store_->ledger(job->id)) {
+      job->markReceived(entry.unit);
+      ++job->unitsByWorker[entry.worker];
+      highest = std::max(highest, entry.unit);
+      any = true;
+      if (entry.unit < folded) {
+        job->statsAdded += entry.stats;
+        continue;
+      }
+      UnitResult r;
+      r.jobId = job->id;
+      r.unitIndex = entry.unit;
+      r.stats = entry.stats;
+      r.buffer = SensorBuffer(scene.render.width, scene.render.height);
+      r.buffer.sums = store_->loadUnitSums(job->id, entry.unit, r.buffer.sums.size());
+      r.buffer.samples.assign(r.buffer.cells(), unitAt(entry.unit, job->settings.samplesPerPixel, job->unitSize).sampleCount);
+      job->arrived.emplace(entry.unit, std::move(r));
+    }
+    drainInOrder(*job);
+    // Units leased before the restart and never acknowledged go back to the queue.
+    job->nextFresh = any ? highest + 1 : 0;
+    for (uint64_t u = job->receivedBelow; any && u < highest; ++u)
+      if (!job->isReceived(u)) job->returned.insert(u);
+    if (isTerminal(job->state)) job->clearPending();
+    job->unitsAdded = job->nextToAdd;
+    job->samplesPerPixelDone = job->sppAdded;
+    job->stats = job->statsAdded;
+    if (any) job->started = now;
+    if (job->state == JobState::kRunning && job->unitsAdded == job->unitsTotal) job->state = JobState::kDone;
+    nextJob_ = std::max(nextJob_, uint64_t(std::stoull(job->id.substr(4))) + 1);
+    nextSequence_ = std::max(nextSequence_, job->sequence + 1);
+    spdlog::info("restored {}: {}, {} of {} units ({} from the checkpoint)", job->id, jobStateName(job->state),
+                 job->unitsAdded, job->unitsTotal, folded);
+    jobs_[job->id] = std::move(job);
+  }
+  nextLease_ = (epoch_ << 40) + 1;
+}
 
 // ---- assets ---------------------------------------------------------------------------------
 
@@ -109,8 +269,12 @@ bool Coordinator::putAsset(const std::string& sha256, std::string bytes) {
   if (actual != sha256)
     throw FarmError(FarmError::Kind::kInvalidArgument,
                     "asset " + sha256 + ": the uploaded bytes hash to " + actual + " (corrupted upload?)");
+  {
+    std::lock_guard lock(mutex_);
+    if (assets_.count(sha256)) return false;
+  }
+  if (store_) store_->putAsset(sha256, bytes);
   std::lock_guard lock(mutex_);
-  if (assets_.count(sha256)) return false;
   assets_[sha256] = std::make_shared<const std::string>(std::move(bytes));
   return true;
 }
@@ -160,6 +324,9 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
   std::lock_guard lock(mutex_);
   job->id = "job-" + std::to_string(nextJob_++);
   job->sequence = nextSequence_++;
+  if (store_)
+    store_->insertJob(StateStore::StoredJob{job->id, job->sequence, job->priority, job->spec, jobStateName(job->state),
+                                            "", job->submittedUnixSeconds, 0});
   spdlog::info("job {}: {} {}x{}, {} spp in {} units of {}, priority {}", job->id, spec.sceneName,
                job->settings.width, job->settings.height, job->settings.samplesPerPixel, job->unitsTotal,
                job->unitSize, priority);
@@ -246,6 +413,7 @@ JobInfo Coordinator::cancel(const std::string& jobId) {
     job.state = JobState::kCancelled;
     job.finished = Clock::now();
     revokeLeasesOf(job);
+    persistState(job);
     spdlog::info("job {}: cancelled after {} of {} units", job.id, job.unitsAdded, job.unitsTotal);
     touch(job);
   }
@@ -290,7 +458,7 @@ std::string Coordinator::registerWorker(const WorkerInfo& info) {
                         ", coordinator speaks " + kProtocolVersion + " with renderer " + kRendererVersion);
   std::lock_guard lock(mutex_);
   auto worker = std::make_unique<Worker>();
-  worker->id = "worker-" + std::to_string(nextWorker_++);
+  worker->id = "worker-" + std::to_string(epoch_) + "." + std::to_string(nextWorker_++);
   worker->info = info;
   worker->lastHeartbeat = Clock::now();
   const std::string id = worker->id;
@@ -361,6 +529,7 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   if (job.state == JobState::kQueued) {
     job.state = JobState::kRunning;
     job.started = now;
+    persistState(job);
   }
   worker.currentJobId = job.id;
   touch(job);
@@ -391,12 +560,14 @@ JobSpec Coordinator::jobSpec(const std::string& jobId) const {
 
 bool Coordinator::acceptResult(UnitResult result) {
   Job* job;
+  std::string workerName;
   {
     std::lock_guard lock(mutex_);
     job = &findJob(result.jobId);
     if (result.unitIndex >= job->unitsTotal)
       throw FarmError(FarmError::Kind::kInvalidArgument, "job " + job->id + " has no unit " + std::to_string(result.unitIndex));
-    if (job->isReceived(result.unitIndex)) return false;  // late duplicate: already counted
+    // A late duplicate of a unit already counted (or being counted) is ignored.
+    if (job->isReceived(result.unitIndex) || job->inflight.count(result.unitIndex)) return false;
     auto it = leases_.find(result.leaseId);
     if (it == leases_.end() || it->second.workerId != result.workerId || it->second.jobId != result.jobId ||
         it->second.unit != result.unitIndex)
@@ -414,13 +585,32 @@ bool Coordinator::acceptResult(UnitResult result) {
         throw FarmError(FarmError::Kind::kInvalidArgument, "result for unit " + std::to_string(result.unitIndex) +
                                                                " of " + job->id + " holds a non-finite sum");
     leases_.erase(it);
-    job->markReceived(result.unitIndex);
-    // Every cell of a unit holds the unit's samples; the count is the coordinator's to know.
-    result.buffer.samples.assign(result.buffer.cells(), unitAt(result.unitIndex, job->settings.samplesPerPixel, job->unitSize).sampleCount);
+    job->inflight.insert(result.unitIndex);
     Worker& worker = findWorker(result.workerId);
-    ++worker.unitsDone;
-    ++job->unitsByWorker[worker.info.name.empty() ? worker.id : worker.info.name];
+    workerName = worker.info.name.empty() ? worker.id : worker.info.name;
   }
+
+  // Durable before acknowledged: the unit's sums and ledger row, outside the coordinator's lock.
+  if (store_) {
+    try {
+      store_->recordUnit(job->id, StateStore::LedgerEntry{result.unitIndex, workerName, result.stats}, result.buffer.sums);
+    } catch (const std::exception& e) {
+      std::lock_guard lock(mutex_);
+      job->inflight.erase(result.unitIndex);
+      if (!isTerminal(job->state)) job->returned.insert(result.unitIndex);
+      spdlog::error("cannot record unit {} of {}: {}", result.unitIndex, job->id, e.what());
+      throw;
+    }
+  }
+  {
+    std::lock_guard lock(mutex_);
+    job->inflight.erase(result.unitIndex);
+    job->markReceived(result.unitIndex);
+    ++findWorker(result.workerId).unitsDone;
+    ++job->unitsByWorker[workerName];
+  }
+  // Every cell of a unit holds the unit's samples; the count is the coordinator's to know.
+  result.buffer.samples.assign(result.buffer.cells(), unitAt(result.unitIndex, job->settings.samplesPerPixel, job->unitSize).sampleCount);
 
   // Sum outside the coordinator's lock: large buffers must not stall leases and heartbeats.
   uint64_t unitsAdded, sppAdded;
@@ -428,13 +618,7 @@ bool Coordinator::acceptResult(UnitResult result) {
   {
     std::lock_guard accumulate(job->accumulate);
     job->arrived.emplace(result.unitIndex, std::move(result));
-    for (auto it = job->arrived.find(job->nextToAdd); it != job->arrived.end(); it = job->arrived.find(job->nextToAdd)) {
-      job->sensor->add(it->second.buffer);
-      job->statsAdded += it->second.stats;
-      job->sppAdded += unitAt(job->nextToAdd, job->settings.samplesPerPixel, job->unitSize).sampleCount;
-      job->arrived.erase(it);
-      ++job->nextToAdd;
-    }
+    drainInOrder(*job);
     unitsAdded = job->nextToAdd;
     sppAdded = job->sppAdded;
     statsAdded = job->statsAdded;
@@ -448,6 +632,8 @@ bool Coordinator::acceptResult(UnitResult result) {
     if (unitsAdded == job->unitsTotal && job->state == JobState::kRunning) {
       job->state = JobState::kDone;
       job->finished = Clock::now();
+      persistState(*job);
+      checkpointWake_.notify_all();  // save the finished image soon
       spdlog::info("job {}: done, {} spp", job->id, sppAdded);
     }
     touch(*job);
@@ -466,6 +652,7 @@ void Coordinator::reportFailure(const std::string& workerId, uint64_t leaseId, c
     job.error = workerId + ": " + error;
     job.finished = Clock::now();
     revokeLeasesOf(job);
+    persistState(job);
     spdlog::error("job {}: failed on {}: {}", job.id, workerId, error);
     touch(job);
   }

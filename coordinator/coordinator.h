@@ -10,8 +10,13 @@
 //    lease; results enter the job's sensor in unit order (a later unit waits for the earlier
 //    ones), so the image never depends on which worker finished first.
 //  - Jobs are served by priority (higher first), then by submission order.
+//  - With a state dir, a unit is acknowledged only once its sums and ledger row are durable
+//    (state_store.h); a restarted coordinator resumes every job from its checkpoint plus the
+//    ledger, and adds the rest in the same order, so the image is bitwise the same.
 #include <chrono>
 #include <condition_variable>
+#include <filesystem>
+#include <thread>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -73,6 +78,8 @@ class Coordinator {
   struct Options {
     double leaseTimeoutSeconds = 30.0;      // a lease lapses this long after the last heartbeat
     double heartbeatIntervalSeconds = 1.0;  // told to workers at registration
+    std::filesystem::path stateDir;         // empty: state in memory only (lost on exit)
+    double checkpointEverySeconds = 30.0;   // how often accumulated sensors are saved
   };
   explicit Coordinator(Options options);
   Coordinator();
@@ -112,6 +119,10 @@ class Coordinator {
 
   const Options& options() const { return options_; }
 
+  // Saves every job's sensor now (also done every checkpointEverySeconds, when a job ends, and
+  // on destruction). Without a state dir, does nothing. Returns the bytes written.
+  uint64_t checkpoint();
+
  private:
   using Clock = std::chrono::steady_clock;
   struct Job;
@@ -130,9 +141,17 @@ class Coordinator {
   void revokeLeasesOf(Job& job);
   void touch(Job& job);
   std::optional<LeaseGrant> tryLease(Worker& worker, Clock::time_point now);
-  void addInOrder(Job& job, UnitResult result);
+  void drainInOrder(Job& job);  // requires job.accumulate
+  void restore();
+  void persistState(const Job& job);  // requires mutex_
+  void checkpointLoop();
 
   Options options_;
+  std::unique_ptr<class StateStore> store_;
+  uint64_t epoch_ = 0;  // distinguishes ids issued by this run from those of earlier runs
+  std::thread checkpointer_;
+  std::condition_variable checkpointWake_;
+  bool stopping_ = false;  // guarded by mutex_
   mutable std::mutex mutex_;
   mutable std::condition_variable changed_;  // any job changed, or work became available
   std::map<std::string, std::shared_ptr<const std::string>> assets_;

@@ -40,6 +40,15 @@ int main(int argc, char** argv) {
       ->envname("LENSFARM_HEARTBEAT_INTERVAL")
       ->check(CLI::Range(0.01, 3600.0))
       ->capture_default_str();
+  std::string stateDir;
+  app.add_option("--state-dir", stateDir, "Keep jobs, assets, the unit ledger and sensors here (SQLite + files) "
+                                          "and resume them after a restart; empty: in memory only")
+      ->envname("LENSFARM_STATE_DIR");
+  app.add_option("--checkpoint-every", options.checkpointEverySeconds,
+                 "Seconds between saves of the accumulated sensors (units are durable before they are acknowledged)")
+      ->envname("LENSFARM_CHECKPOINT_EVERY")
+      ->check(CLI::Range(0.01, 86400.0))
+      ->capture_default_str();
   app.add_option("--log-level", logLevel, "trace, debug, info, warn, error")
       ->envname("LENSFARM_LOG_LEVEL")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
@@ -54,7 +63,15 @@ int main(int argc, char** argv) {
   }
   setupLogging("coordinator", logLevel);
 
-  Coordinator coordinator(options);
+  options.stateDir = stateDir;
+  std::unique_ptr<Coordinator> owned;
+  try {
+    owned = std::make_unique<Coordinator>(options);
+  } catch (const std::exception& e) {
+    spdlog::error("--state-dir {}: {}", stateDir, e.what());
+    return 2;
+  }
+  Coordinator& coordinator = *owned;
   ClientServiceImpl clientService(coordinator);
   WorkerServiceImpl workerService(coordinator);
   grpc::ServerBuilder builder;

@@ -1,5 +1,6 @@
 #include "film/sensor.h"
 
+#include <cstring>
 #include <stdexcept>
 
 namespace lensfarm {
@@ -36,6 +37,56 @@ Image Sensor::developImage() const {
     }
   }
   return image;
+}
+
+namespace {
+constexpr char kMagic[8] = {'L', 'F', 'S', 'E', 'N', 'S', '1', '\0'};
+
+template <class T>
+void put(std::string& out, const T& v) {
+  out.append(reinterpret_cast<const char*>(&v), sizeof v);
+}
+template <class T>
+T take(const std::string& in, size_t& offset) {
+  if (offset + sizeof(T) > in.size()) throw std::runtime_error("sensor checkpoint is truncated");
+  T v;
+  std::memcpy(&v, in.data() + offset, sizeof v);
+  offset += sizeof v;
+  return v;
+}
+}  // namespace
+
+std::string Sensor::serialize() const {
+  std::string out;
+  out.reserve(16 + 24 + sums_.size() * 16 + samples_.size() * 8);
+  out.append(kMagic, sizeof kMagic);
+  put(out, int32_t(width_));
+  put(out, int32_t(height_));
+  put(out, totalSamples_);
+  for (const CompensatedSum& s : sums_) {
+    put(out, s.runningSum());
+    put(out, s.compensation());
+  }
+  for (uint64_t n : samples_) put(out, n);
+  return out;
+}
+
+Sensor Sensor::deserialize(const std::string& bytes) {
+  if (bytes.size() < sizeof kMagic || std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0)
+    throw std::runtime_error("not a lensfarm sensor checkpoint");
+  size_t offset = sizeof kMagic;
+  const int32_t w = take<int32_t>(bytes, offset), h = take<int32_t>(bytes, offset);
+  if (w <= 0 || h <= 0 || int64_t(w) * h > (int64_t(1) << 28)) throw std::runtime_error("sensor checkpoint has a bad size");
+  Sensor sensor(w, h);
+  sensor.totalSamples_ = take<uint64_t>(bytes, offset);
+  if (bytes.size() != offset + sensor.sums_.size() * 16 + sensor.samples_.size() * 8)
+    throw std::runtime_error("sensor checkpoint has the wrong length");
+  for (CompensatedSum& s : sensor.sums_) {
+    const double sum = take<double>(bytes, offset);
+    s = CompensatedSum::fromState(sum, take<double>(bytes, offset));
+  }
+  for (uint64_t& n : sensor.samples_) n = take<uint64_t>(bytes, offset);
+  return sensor;
 }
 
 }  // namespace lensfarm

@@ -8,6 +8,7 @@
 //  - Cells are indexed in sensor orientation (camera/thin_lens_camera.h); developImage() undoes
 //    the lens's flip and returns linear radiance as the viewer expects it, row 0 at the top.
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "film/image.h"
@@ -43,6 +44,12 @@ class Sensor {
 
   // Mean radiance per pixel, the lens flip undone (image pixel (x, y) = cell (W-1-x, H-1-y)).
   Image developImage() const;
+
+  // The sensor's exact state as bytes (native little-endian doubles), and back: a restored
+  // sensor continues to accumulate bit for bit as if it had never been saved. deserialize
+  // throws std::runtime_error on bytes that are not a sensor.
+  std::string serialize() const;
+  static Sensor deserialize(const std::string& bytes);
 
  private:
   int width_, height_;

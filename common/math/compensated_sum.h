@@ -18,6 +18,16 @@ class CompensatedSum {
   }
   double value() const { return sum_ + compensation_; }
 
+  // The exact state, for checkpoints: restoring it continues the sum bit for bit.
+  double runningSum() const { return sum_; }
+  double compensation() const { return compensation_; }
+  static CompensatedSum fromState(double sum, double compensation) {
+    CompensatedSum s;
+    s.sum_ = sum;
+    s.compensation_ = compensation;
+    return s;
+  }
+
  private:
   double sum_ = 0.0;
   double compensation_ = 0.0;

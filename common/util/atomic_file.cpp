@@ -28,6 +28,12 @@ void writeFileAtomically(const fs::path& path, const std::function<void(const fs
     ::fsync(fd);
     ::close(fd);
     fs::rename(tmp, path);
+    // Make the rename itself durable.
+    const int dirFd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY);
+    if (dirFd >= 0) {
+      ::fsync(dirFd);
+      ::close(dirFd);
+    }
   } catch (const InputError&) {
     fs::remove(tmp, ec);
     throw;

@@ -1,0 +1,245 @@
+#include "state_store.h"
+
+#include <sqlite3.h>
+
+#include <cstring>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+
+#include "film/image_io.h"
+#include "scene/scene.h"
+
+namespace lensfarm {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+// A prepared statement that finalizes itself; bind() by 1-based index.
+class Statement {
+ public:
+  Statement(sqlite3* db, const char* sql) : db_(db) {
+    if (sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr) != SQLITE_OK)
+      throw std::runtime_error(std::string("state.db: ") + sqlite3_errmsg(db));
+  }
+  ~Statement() { sqlite3_finalize(stmt_); }
+  Statement& bind(int i, const std::string& v) {
+    sqlite3_bind_text(stmt_, i, v.data(), int(v.size()), SQLITE_TRANSIENT);
+    return *this;
+  }
+  Statement& bind(int i, int64_t v) {
+    sqlite3_bind_int64(stmt_, i, v);
+    return *this;
+  }
+  Statement& bind(int i, double v) {
+    sqlite3_bind_double(stmt_, i, v);
+    return *this;
+  }
+  bool step() {
+    const int rc = sqlite3_step(stmt_);
+    if (rc == SQLITE_ROW) return true;
+    if (rc == SQLITE_DONE) return false;
+    throw std::runtime_error(std::string("state.db: ") + sqlite3_errmsg(db_));
+  }
+  std::string text(int col) const {
+    const auto* p = sqlite3_column_text(stmt_, col);
+    return p ? std::string(reinterpret_cast<const char*>(p), size_t(sqlite3_column_bytes(stmt_, col))) : "";
+  }
+  int64_t integer(int col) const { return sqlite3_column_int64(stmt_, col); }
+  double real(int col) const { return sqlite3_column_double(stmt_, col); }
+
+ private:
+  sqlite3* db_;
+  sqlite3_stmt* stmt_ = nullptr;
+};
+
+std::string readAll(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot read " + p.string());
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+json specToJson(const JobSpec& spec) {
+  json o = json::object();
+  const RenderOverrides& r = spec.overrides;
+  if (r.samplesPerPixel) o["samples_per_pixel"] = *r.samplesPerPixel;
+  if (r.width) o["width"] = *r.width;
+  if (r.height) o["height"] = *r.height;
+  if (r.maxBounces) o["max_bounces"] = *r.maxBounces;
+  if (r.seed) o["seed"] = *r.seed;
+  if (r.integrator) o["integrator"] = integratorName(*r.integrator);
+  if (r.ev) o["ev"] = *r.ev;
+  return json{{"scene_name", spec.sceneName}, {"scene_json", spec.sceneJson}, {"assets", spec.assets}, {"overrides", o}};
+}
+
+JobSpec specFromJson(const json& j) {
+  JobSpec spec;
+  spec.sceneName = j.at("scene_name").get<std::string>();
+  spec.sceneJson = j.at("scene_json").get<std::string>();
+  spec.assets = j.at("assets").get<std::map<std::string, std::string>>();
+  const json& o = j.at("overrides");
+  RenderOverrides& r = spec.overrides;
+  if (o.contains("samples_per_pixel")) r.samplesPerPixel = o["samples_per_pixel"].get<uint64_t>();
+  if (o.contains("width")) r.width = o["width"].get<int>();
+  if (o.contains("height")) r.height = o["height"].get<int>();
+  if (o.contains("max_bounces")) r.maxBounces = o["max_bounces"].get<int>();
+  if (o.contains("seed")) r.seed = o["seed"].get<uint64_t>();
+  if (o.contains("integrator"))
+    r.integrator = o["integrator"] == "naive" ? IntegratorKind::kNaive : IntegratorKind::kNeeMis;
+  if (o.contains("ev")) r.ev = o["ev"].get<double>();
+  return spec;
+}
+
+}  // namespace
+
+StateStore::StateStore(fs::path dir) : dir_(std::move(dir)) {
+  fs::create_directories(dir_ / "assets");
+  fs::create_directories(dir_ / "jobs");
+  if (sqlite3_open((dir_ / "state.db").c_str(), &db_) != SQLITE_OK)
+    throw std::runtime_error("cannot open " + (dir_ / "state.db").string() + ": " + sqlite3_errmsg(db_));
+  exec("PRAGMA journal_mode=WAL");
+  exec("PRAGMA synchronous=FULL");
+  exec("CREATE TABLE IF NOT EXISTS meta(key TEXT PRIMARY KEY, value INTEGER)");
+  exec("CREATE TABLE IF NOT EXISTS jobs(id TEXT PRIMARY KEY, sequence INTEGER, priority INTEGER, spec TEXT, "
+       "state TEXT, error TEXT, submitted REAL, folded_units INTEGER)");
+  exec("CREATE TABLE IF NOT EXISTS ledger(job_id TEXT, unit INTEGER, worker TEXT, paths INTEGER, rays INTEGER, "
+       "light_hits INTEGER, dropped INTEGER, PRIMARY KEY(job_id, unit))");
+  exec("INSERT INTO meta(key, value) VALUES('boots', 1) ON CONFLICT(key) DO UPDATE SET value = value + 1");
+  Statement s(db_, "SELECT value FROM meta WHERE key = 'boots'");
+  if (s.step()) bootCount_ = uint64_t(s.integer(0));
+}
+
+StateStore::~StateStore() { sqlite3_close(db_); }
+
+void StateStore::exec(const std::string& sql) {
+  char* error = nullptr;
+  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &error) != SQLITE_OK) {
+    const std::string what = error ? error : "unknown error";
+    sqlite3_free(error);
+    throw std::runtime_error("state.db: " + what);
+  }
+}
+
+fs::path StateStore::jobDir(const std::string& jobId) const { return dir_ / "jobs" / jobId; }
+
+void StateStore::putAsset(const std::string& sha256, const std::string& bytes) {
+  writeBytesAtomically(dir_ / "assets" / sha256, bytes);
+}
+
+std::map<std::string, std::shared_ptr<const std::string>> StateStore::loadAssets() {
+  std::map<std::string, std::shared_ptr<const std::string>> out;
+  for (const auto& entry : fs::directory_iterator(dir_ / "assets"))
+    if (entry.is_regular_file() && entry.path().filename().string().front() != '.')
+      out[entry.path().filename().string()] = std::make_shared<const std::string>(readAll(entry.path()));
+  return out;
+}
+
+void StateStore::insertJob(const StoredJob& job) {
+  std::lock_guard lock(mutex_);
+  fs::create_directories(jobDir(job.id));
+  Statement(db_, "INSERT INTO jobs(id, sequence, priority, spec, state, error, submitted, folded_units) "
+                 "VALUES(?, ?, ?, ?, ?, ?, ?, 0)")
+      .bind(1, job.id)
+      .bind(2, int64_t(job.sequence))
+      .bind(3, int64_t(job.priority))
+      .bind(4, specToJson(job.spec).dump())
+      .bind(5, job.state)
+      .bind(6, job.error)
+      .bind(7, job.submittedUnixSeconds)
+      .step();
+}
+
+void StateStore::updateJobState(const std::string& jobId, const std::string& state, const std::string& error) {
+  std::lock_guard lock(mutex_);
+  Statement(db_, "UPDATE jobs SET state = ?, error = ? WHERE id = ?").bind(1, state).bind(2, error).bind(3, jobId).step();
+}
+
+std::vector<StateStore::StoredJob> StateStore::loadJobs() {
+  std::lock_guard lock(mutex_);
+  std::vector<StoredJob> out;
+  Statement s(db_, "SELECT id, sequence, priority, spec, state, error, submitted, folded_units FROM jobs ORDER BY sequence");
+  while (s.step()) {
+    StoredJob j;
+    j.id = s.text(0);
+    j.sequence = uint64_t(s.integer(1));
+    j.priority = int(s.integer(2));
+    j.spec = specFromJson(json::parse(s.text(3)));
+    j.state = s.text(4);
+    j.error = s.text(5);
+    j.submittedUnixSeconds = s.real(6);
+    j.foldedUnits = uint64_t(s.integer(7));
+    out.push_back(std::move(j));
+  }
+  return out;
+}
+
+void StateStore::recordUnit(const std::string& jobId, const LedgerEntry& e, const std::vector<double>& sums) {
+  const fs::path file = jobDir(jobId) / ("unit-" + std::to_string(e.unit) + ".bin");
+  writeBytesAtomically(file, std::string(reinterpret_cast<const char*>(sums.data()), sums.size() * sizeof(double)));
+  std::lock_guard lock(mutex_);
+  Statement(db_, "INSERT OR IGNORE INTO ledger(job_id, unit, worker, paths, rays, light_hits, dropped) "
+                 "VALUES(?, ?, ?, ?, ?, ?, ?)")
+      .bind(1, jobId)
+      .bind(2, int64_t(e.unit))
+      .bind(3, e.worker)
+      .bind(4, int64_t(e.stats.paths))
+      .bind(5, int64_t(e.stats.rays))
+      .bind(6, int64_t(e.stats.lightHits))
+      .bind(7, int64_t(e.stats.dropped))
+      .step();
+}
+
+std::vector<StateStore::LedgerEntry> StateStore::ledger(const std::string& jobId) {
+  std::lock_guard lock(mutex_);
+  std::vector<LedgerEntry> out;
+  Statement s(db_, "SELECT unit, worker, paths, rays, light_hits, dropped FROM ledger WHERE job_id = ? ORDER BY unit");
+  s.bind(1, jobId);
+  while (s.step()) {
+    LedgerEntry e;
+    e.unit = uint64_t(s.integer(0));
+    e.worker = s.text(1);
+    e.stats.paths = uint64_t(s.integer(2));
+    e.stats.rays = uint64_t(s.integer(3));
+    e.stats.lightHits = uint64_t(s.integer(4));
+    e.stats.dropped = uint64_t(s.integer(5));
+    out.push_back(e);
+  }
+  return out;
+}
+
+std::vector<double> StateStore::loadUnitSums(const std::string& jobId, uint64_t unit, size_t count) {
+  const std::string bytes = readAll(jobDir(jobId) / ("unit-" + std::to_string(unit) + ".bin"));
+  if (bytes.size() != count * sizeof(double))
+    throw std::runtime_error("unit " + std::to_string(unit) + " of " + jobId + " has the wrong size on disk");
+  std::vector<double> sums(count);
+  std::memcpy(sums.data(), bytes.data(), bytes.size());
+  return sums;
+}
+
+void StateStore::writeCheckpoint(const std::string& jobId, const std::string& sensorBytes, uint64_t foldedUnits) {
+  writeBytesAtomically(jobDir(jobId) / "sensor.bin", sensorBytes);
+  {
+    std::lock_guard lock(mutex_);
+    Statement(db_, "UPDATE jobs SET folded_units = ? WHERE id = ?").bind(1, int64_t(foldedUnits)).bind(2, jobId).step();
+  }
+  // The sensor now holds these units: their files are no longer needed.
+  for (const auto& entry : fs::directory_iterator(jobDir(jobId))) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("unit-", 0) != 0) continue;
+    const uint64_t unit = std::stoull(name.substr(5));
+    if (unit < foldedUnits) fs::remove(entry.path());
+  }
+}
+
+std::optional<std::string> StateStore::loadCheckpoint(const std::string& jobId) {
+  const fs::path file = jobDir(jobId) / "sensor.bin";
+  if (!fs::exists(file)) return std::nullopt;
+  return readAll(file);
+}
+
+}  // namespace lensfarm

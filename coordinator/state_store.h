@@ -1,0 +1,79 @@
+#pragma once
+// The coordinator's durable state under --state-dir: SQLite for the job table and the unit
+// ledger, files for assets, accumulated sensors and the units not yet folded into them.
+//
+//   state.db                  jobs, ledger (one row per accepted unit), meta (counters)
+//   assets/<sha256>           uploaded assets
+//   jobs/<id>/sensor.bin      the job's sensor with units [0, folded) added (Sensor::serialize)
+//   jobs/<id>/unit-<k>.bin    an accepted unit's sums, until a checkpoint folds it in
+//
+// Every file is written atomically (write, fsync, rename) and SQLite runs with synchronous=FULL,
+// so a unit acknowledged to a worker survives a SIGKILL: its file and ledger row are durable
+// before the acknowledgement is sent.
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "farm/farm_types.h"
+
+struct sqlite3;
+
+namespace lensfarm {
+
+class StateStore {
+ public:
+  // Opens (or creates) the state in `dir`; throws std::runtime_error naming the problem.
+  explicit StateStore(std::filesystem::path dir);
+  ~StateStore();
+  StateStore(const StateStore&) = delete;
+  StateStore& operator=(const StateStore&) = delete;
+
+  // Counts coordinator starts on this state, so ids issued after a restart never repeat.
+  uint64_t bootCount() const { return bootCount_; }
+
+  void putAsset(const std::string& sha256, const std::string& bytes);
+  std::map<std::string, std::shared_ptr<const std::string>> loadAssets();
+
+  struct StoredJob {
+    std::string id;
+    uint64_t sequence = 0;
+    int priority = 0;
+    JobSpec spec;
+    std::string state;  // jobStateName()
+    std::string error;
+    double submittedUnixSeconds = 0.0;
+    uint64_t foldedUnits = 0;  // units in sensor.bin
+  };
+  void insertJob(const StoredJob& job);
+  void updateJobState(const std::string& jobId, const std::string& state, const std::string& error);
+  std::vector<StoredJob> loadJobs();  // in submission order
+
+  struct LedgerEntry {
+    uint64_t unit = 0;
+    std::string worker;
+    PathStats stats;
+  };
+  // Makes an accepted unit durable: its sums file, then its ledger row.
+  void recordUnit(const std::string& jobId, const LedgerEntry& entry, const std::vector<double>& sums);
+  std::vector<LedgerEntry> ledger(const std::string& jobId);
+  std::vector<double> loadUnitSums(const std::string& jobId, uint64_t unit, size_t count);
+
+  // Saves the sensor holding units [0, foldedUnits), then drops their unit files.
+  void writeCheckpoint(const std::string& jobId, const std::string& sensorBytes, uint64_t foldedUnits);
+  std::optional<std::string> loadCheckpoint(const std::string& jobId);
+
+ private:
+  void exec(const std::string& sql);
+  std::filesystem::path jobDir(const std::string& jobId) const;
+
+  std::filesystem::path dir_;
+  sqlite3* db_ = nullptr;
+  std::mutex mutex_;
+  uint64_t bootCount_ = 0;
+};
+
+}  // namespace lensfarm
