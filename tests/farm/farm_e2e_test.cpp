@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <fstream>
 #include <regex>
 
@@ -29,16 +30,18 @@ class Farm : public ::testing::Test {
     return dir_.write("scene.json", scene.dump(2));
   }
 
-  std::string startCoordinator(const std::string& listen = "127.0.0.1:0") {
+  std::string startCoordinator(const std::string& listen = "127.0.0.1:0", std::vector<std::string> extra = {}) {
     const fs::path portFile = dir_ / ("port-" + std::to_string(++started_));
-    coordinator_ = std::make_unique<test::ChildProcess>(
-        std::vector<std::string>{test::coordinatorPath(), "--listen", listen, "--port-file", portFile.string(),
-                                 "--lease-timeout", "5", "--heartbeat-interval", "0.2"},
-        dir_ / ("coordinator-" + std::to_string(started_)));
+    std::vector<std::string> argv = {test::coordinatorPath(), "--listen", listen, "--port-file", portFile.string(),
+                                     "--heartbeat-interval", "0.2"};
+    if (std::find(extra.begin(), extra.end(), "--lease-timeout") == extra.end()) extra.insert(extra.end(), {"--lease-timeout", "5"});
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    coordinator_ = std::make_unique<test::ChildProcess>(argv, dir_ / ("coordinator-" + std::to_string(started_)));
     EXPECT_TRUE(test::waitFor([&] { return fs::exists(portFile) || !coordinator_->running(); }, 30))
         << coordinator_->log();
     std::string address = test::readFile(portFile);
     address.erase(address.find_last_not_of("\n") + 1);
+    if (address.empty()) throw std::runtime_error("the coordinator did not start: " + coordinator_->log());
     return address;
   }
 
@@ -193,6 +196,59 @@ TEST_F(Farm, WorkersComeBackAfterTheCoordinatorRestarts) {
   EXPECT_EQ(watched.exitCode, 0) << watched.err << worker.log();
   worker.signal(SIGTERM);
   EXPECT_EQ(worker.wait(30), 0) << worker.log();
+}
+
+TEST_F(Farm, OneWorkerAndThreeWorkersGiveTheSameBits) {
+  const fs::path scene = writeScene(40, 24, 2);  // 12 units
+  std::vector<std::vector<float>> images;
+  for (int workers : {1, 3}) {
+    const std::string address = startCoordinator();
+    for (int w = 0; w < workers; ++w) startWorker(address, "n" + std::to_string(workers) + "-" + std::to_string(w));
+    const std::string job = submit(address, scene);
+    ASSERT_EQ(cli({"watch", job, "--coordinator", address}).exitCode, 0);
+    ImageMetadata meta;
+    images.push_back(download(address, job, &meta).rgb);
+    EXPECT_EQ(meta.totalSamples, 40u * 40u * 24u) << "every unit counted once";
+    workers_.clear();
+  }
+  EXPECT_EQ(images[0], images[1]);
+}
+
+TEST_F(Farm, AWorkerKilledMidUnitCostsTimeNotCorrectness) {
+  const fs::path scene = writeScene(96, 192, 8);  // 24 units of ~74k paths
+  const std::string address = startCoordinator("127.0.0.1:0", {"--lease-timeout", "1"});
+  test::ChildProcess& doomed = startWorker(address, "doomed");
+  const std::string job = submit(address, scene);
+  ASSERT_TRUE(test::waitFor([&] { return unitsDone(address, job) >= 2; }, 60));
+  doomed.signal(SIGKILL);  // most likely in the middle of a unit: its lease lapses after 1 s
+  EXPECT_EQ(doomed.wait(30), -1);
+  startWorker(address, "survivor");
+  const auto watched = cli({"watch", job, "--coordinator", address});
+  ASSERT_EQ(watched.exitCode, 0) << watched.err;
+  ImageMetadata farmMeta, localMeta;
+  const Image farm = download(address, job, &farmMeta);
+  EXPECT_EQ(farmMeta.totalSamples, 96u * 96u * 192u) << "every unit counted exactly once";
+  EXPECT_EQ(farm.rgb, renderInProcess(scene, &localMeta).rgb);
+}
+
+TEST_F(Farm, ACoordinatorKilledMidJobResumesFromItsStateDir) {
+  const fs::path scene = writeScene(96, 256, 8);  // 32 units
+  const std::string state = (dir_ / "state").string();
+  const std::string address = startCoordinator("127.0.0.1:0", {"--state-dir", state, "--checkpoint-every", "0.3"});
+  startWorker(address, "w1");
+  startWorker(address, "w2");
+  const std::string job = submit(address, scene);
+  ASSERT_TRUE(test::waitFor([&] { return unitsDone(address, job) >= 6; }, 60));
+  coordinator_->signal(SIGKILL);
+  EXPECT_EQ(coordinator_->wait(30), -1);
+  ASSERT_EQ(startCoordinator(address, {"--state-dir", state, "--checkpoint-every", "0.3"}), address);
+  EXPECT_GE(unitsDone(address, job), 6u) << "acknowledged units survive the crash";
+  const auto watched = cli({"watch", job, "--coordinator", address});
+  ASSERT_EQ(watched.exitCode, 0) << watched.err << coordinator_->log();
+  ImageMetadata farmMeta, localMeta;
+  const Image farm = download(address, job, &farmMeta);
+  EXPECT_EQ(farmMeta.totalSamples, 96u * 96u * 256u) << "every unit counted exactly once";
+  EXPECT_EQ(farm.rgb, renderInProcess(scene, &localMeta).rgb);
 }
 
 TEST_F(Farm, BadRequestsGetClearErrorsAndExitCodes) {
