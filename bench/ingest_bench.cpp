@@ -92,7 +92,7 @@ void BM_UploadOverGrpc(benchmark::State& state) {
     std::lock_guard lock(mutex);
     if (!served) served = std::make_unique<Served>();
   }
-  GrpcCoordinatorLink link(makeChannel(served->address));
+  GrpcCoordinatorLink link(makeChannel(served->address, ChannelSecurity{}), ChannelSecurity{});
   const std::string worker = link.registerWorker(WorkerInfo{"bench", 1, kProtocolVersion, kRendererVersion}).workerId;
   UnitResult result = resultFor(worker, *link.lease(worker, 1.0));
   link.upload(result);

@@ -3,7 +3,6 @@
 #include <chrono>
 
 #include "convert.h"
-#include "grpc_link.h"
 
 namespace lensfarm::cli {
 
@@ -16,14 +15,18 @@ void check(const grpc::Status& s, const std::string& address) {
 }
 }  // namespace
 
-FarmClient::FarmClient(const std::string& address, double timeoutSeconds)
-    : address_(address), timeout_(timeoutSeconds), stub_(v1::ClientService::NewStub(makeChannel(address))) {}
+FarmClient::FarmClient(const std::string& address, const ChannelSecurity& security, double timeoutSeconds)
+    : address_(address),
+      security_(security),
+      timeout_(timeoutSeconds),
+      stub_(v1::ClientService::NewStub(makeChannel(address, security))) {}
 
 std::unique_ptr<grpc::ClientContext> FarmClient::context(bool streaming) const {
   auto c = std::make_unique<grpc::ClientContext>();
   if (!streaming)
     c->set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(int64_t(timeout_ * 1000)));
   c->set_wait_for_ready(false);
+  authorize(*c, security_);
   return c;
 }
 

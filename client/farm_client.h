@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "channel_security.h"
 #include "job_spec.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
 
@@ -24,7 +25,7 @@ class ClientError : public std::runtime_error {
 
 class FarmClient {
  public:
-  explicit FarmClient(const std::string& address, double timeoutSeconds = 30.0);
+  FarmClient(const std::string& address, const ChannelSecurity& security, double timeoutSeconds = 30.0);
 
   // Uploads the job's assets (skipping none: the coordinator dedupes by hash) and submits it.
   v1::SubmitJobResponse submit(const LocalJob& job, int priority);
@@ -40,6 +41,7 @@ class FarmClient {
  private:
   std::unique_ptr<grpc::ClientContext> context(bool streaming = false) const;
   std::string address_;
+  ChannelSecurity security_;
   double timeout_;
   std::unique_ptr<v1::ClientService::Stub> stub_;
 };

@@ -13,6 +13,7 @@
 #include "override_flags.h"
 #include "progress_display.h"
 #include "scene/scene_loader.h"
+#include "util/secret.h"
 #include "util/error.h"
 
 namespace lensfarm::cli {
@@ -23,12 +24,27 @@ namespace {
 
 struct Connection {
   std::string coordinator = "127.0.0.1:7878";
+  std::string tokenFile;
+  ChannelSecurity security;
+
+  // The connection's security with the token read (InputError naming a bad token file).
+  ChannelSecurity resolved() const {
+    ChannelSecurity s = security;
+    s.token = readToken(tokenFile, "LENSFARM_TOKEN");
+    return s;
+  }
 };
 
 void addCoordinatorOption(CLI::App* cmd, Connection& c) {
   cmd->add_option("--coordinator", c.coordinator, "Coordinator address HOST:PORT")
       ->envname("LENSFARM_COORDINATOR")
       ->capture_default_str();
+  cmd->add_option("--token-file", c.tokenFile, "File holding the farm's client token (or set LENSFARM_TOKEN)");
+  cmd->add_option("--tls-ca", c.security.caFile, "PEM CA certificate(s) to verify the coordinator: enables TLS")
+      ->envname("LENSFARM_TLS_CA");
+  cmd->add_option("--tls-cert", c.security.certFile, "PEM client certificate, for coordinators that require one")
+      ->envname("LENSFARM_TLS_CERT");
+  cmd->add_option("--tls-key", c.security.keyFile, "PEM private key of --tls-cert")->envname("LENSFARM_TLS_KEY");
 }
 
 // Runs a farm command, turning the coordinator's answers into exit codes.
@@ -43,6 +59,8 @@ int guardedCall(const std::function<int()>& body) {
       case grpc::StatusCode::NOT_FOUND: return kNotFound;
       case grpc::StatusCode::UNAVAILABLE:
       case grpc::StatusCode::DEADLINE_EXCEEDED: return kUnavailable;
+      case grpc::StatusCode::UNAUTHENTICATED:
+      case grpc::StatusCode::PERMISSION_DENIED: return kNotAllowed;
       default: return kFailure;
     }
   }
@@ -85,7 +103,7 @@ Runner addSubmitCommand(CLI::App& app) {
     const RenderOverrides o = f->overrides.toOverrides();
     const LocalJob job = makeLocalJob(f->scene, o);
     return guardedCall([&] {
-      FarmClient client(f->c.coordinator);
+      FarmClient client(f->c.coordinator, f->c.resolved());
       std::printf("%s\n", client.submit(job, f->priority).job_id().c_str());
       return kOk;
     });
@@ -103,7 +121,7 @@ Runner addStatusCommand(CLI::App& app) {
   cmd->add_option("job", f->job, "Job id (default: all jobs)");
   return [f] {
     return guardedCall([&] {
-      FarmClient client(f->c.coordinator);
+      FarmClient client(f->c.coordinator, f->c.resolved());
       if (!f->job.empty()) {
         printStatus(client.get(f->job));
         return kOk;
@@ -132,7 +150,7 @@ Runner addWatchCommand(CLI::App& app) {
   cmd->add_option("job", f->job, "Job id")->required();
   return [f] {
     return guardedCall([&] {
-      FarmClient client(f->c.coordinator);
+      FarmClient client(f->c.coordinator, f->c.resolved());
       ProgressDisplay display(true, ::isatty(STDERR_FILENO));
       const v1::JobStatus last = client.watch(f->job, [&](const v1::JobStatus& s) { display.update(s); });
       display.finish();
@@ -170,7 +188,7 @@ Runner addDownloadCommand(CLI::App& app) {
       targets.emplace_back(path, ext == ".exr" ? v1::IMAGE_FORMAT_EXR : v1::IMAGE_FORMAT_PNG);
     }
     return guardedCall([&] {
-      FarmClient client(f->c.coordinator);
+      FarmClient client(f->c.coordinator, f->c.resolved());
       for (const auto& [path, format] : targets) {
         writeBytesAtomically(path, client.download(f->job, format, f->ev));
         std::printf("wrote %s\n", path.c_str());
@@ -202,7 +220,7 @@ Runner addSnapshotCommand(CLI::App& app) {
     const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
     if (!fs::is_directory(dir)) throw InputError("-o " + f->output, "directory \"" + dir.string() + "\" does not exist");
     return guardedCall([&] {
-      FarmClient client(f->c.coordinator);
+      FarmClient client(f->c.coordinator, f->c.resolved());
       const v1::Snapshot s = client.snapshot(f->job, f->maxSize, f->ev);
       writeBytesAtomically(path, s.png());
       std::printf("wrote %s (%ux%u, %llu spp, %s)\n", path.c_str(), s.width(), s.height(),
@@ -223,7 +241,7 @@ Runner addCancelCommand(CLI::App& app) {
   cmd->add_option("job", f->job, "Job id")->required();
   return [f] {
     return guardedCall([&] {
-      FarmClient client(f->c.coordinator);
+      FarmClient client(f->c.coordinator, f->c.resolved());
       const v1::JobStatus s = client.cancel(f->job);
       std::printf("%s %s\n", s.job_id().c_str(), stateName(s.state()));
       return kOk;
@@ -237,7 +255,7 @@ Runner addWorkersCommand(CLI::App& app) {
   addCoordinatorOption(cmd, *c);
   return [c] {
     return guardedCall([&] {
-      FarmClient client(c->coordinator);
+      FarmClient client(c->coordinator, c->resolved());
       const std::vector<v1::WorkerStatus> workers = client.workers();
       std::printf("%-10s %-28s %7s %-10s %8s %10s\n", "WORKER", "NAME", "THREADS", "JOB", "UNITS", "SEEN");
       for (const auto& w : workers)

@@ -7,6 +7,8 @@
 
 #include <CLI/CLI.hpp>
 #include <csignal>
+#include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "coordinator.h"
@@ -14,10 +16,19 @@
 #include "service.h"
 #include "util/error.h"
 #include "util/logging.h"
+#include "util/secret.h"
 #include "util/version.h"
 
 namespace {
 std::atomic<bool> gStop{false};
+
+std::string readFileOrThrow(const std::string& file, const char* flag) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw lensfarm::InputError(std::string(flag) + " " + file, "cannot read the file");
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
 extern "C" void onSignal(int) { gStop = true; }
 }  // namespace
 
@@ -25,11 +36,20 @@ int main(int argc, char** argv) {
   using namespace lensfarm;
   CLI::App app{"lensfarm-coordinator: schedules render jobs over workers and accumulates their images"};
   app.set_version_flag("--version", kRendererVersion);
-  std::string listen = "0.0.0.0:7878", portFile, logLevel = "info";
+  std::string listen = "127.0.0.1:7878", portFile, logLevel = "info";
+  std::string clientTokenFile, workerTokenFile, tlsCert, tlsKey, tlsClientCa;
   Coordinator::Options options;
   app.add_option("--listen", listen, "HOST:PORT to serve on (port 0 picks a free port)")
       ->envname("LENSFARM_LISTEN")
       ->capture_default_str();
+  app.add_option("--client-token-file", clientTokenFile,
+                 "File holding the token clients must present (or set LENSFARM_CLIENT_TOKEN)");
+  app.add_option("--worker-token-file", workerTokenFile,
+                 "File holding the token workers must present (or set LENSFARM_WORKER_TOKEN)");
+  app.add_option("--tls-cert", tlsCert, "PEM server certificate chain: serve TLS")->envname("LENSFARM_TLS_CERT");
+  app.add_option("--tls-key", tlsKey, "PEM private key of --tls-cert")->envname("LENSFARM_TLS_KEY");
+  app.add_option("--tls-client-ca", tlsClientCa, "PEM CA: require and verify client certificates")
+      ->envname("LENSFARM_TLS_CLIENT_CA");
   app.add_option("--port-file", portFile, "Write the address actually listened on to this file")
       ->envname("LENSFARM_PORT_FILE");
   app.add_option("--lease-timeout", options.leaseTimeoutSeconds, "Seconds without a heartbeat before a lease lapses")
@@ -72,11 +92,41 @@ int main(int argc, char** argv) {
     return 2;
   }
   Coordinator& coordinator = *owned;
-  ClientServiceImpl clientService(coordinator);
-  WorkerServiceImpl workerService(coordinator);
+
+  // Security: tokens per service, TLS if certificates are given, and no open door to the network.
+  std::optional<std::string> clientToken, workerToken;
+  std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
+  try {
+    clientToken = readToken(clientTokenFile, "LENSFARM_CLIENT_TOKEN");
+    workerToken = readToken(workerTokenFile, "LENSFARM_WORKER_TOKEN");
+    if (clientToken && workerToken && equalSecrets(*clientToken, *workerToken))
+      throw InputError("--worker-token-file", "workers and clients need different tokens");
+    if (!tlsCert.empty() || !tlsKey.empty()) {
+      grpc::SslServerCredentialsOptions tls(tlsClientCa.empty() ? GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE
+                                                                : GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY);
+      tls.pem_key_cert_pairs.push_back({readFileOrThrow(tlsKey, "--tls-key"), readFileOrThrow(tlsCert, "--tls-cert")});
+      if (!tlsClientCa.empty()) tls.pem_root_certs = readFileOrThrow(tlsClientCa, "--tls-client-ca");
+      credentials = grpc::SslServerCredentials(tls);
+    }
+  } catch (const InputError& e) {
+    spdlog::error("{}", e.what());
+    return 2;
+  }
+  const std::string host = listen.substr(0, listen.rfind(':'));
+  const bool loopback = host.rfind("127.", 0) == 0 || host == "localhost" || host == "[::1]" || host == "::1";
+  if (!loopback && !(clientToken && workerToken)) {
+    spdlog::error("refusing to listen on {} without --client-token-file and --worker-token-file: anyone who can "
+                  "reach it could submit jobs or lease work. Give both tokens, or listen on 127.0.0.1.", listen);
+    return 2;
+  }
+  if (!loopback && tlsCert.empty())
+    spdlog::warn("serving {} without TLS: tokens and images cross the network in the clear", listen);
+
+  ClientServiceImpl clientService(coordinator, TokenGate(clientToken, "client"));
+  WorkerServiceImpl workerService(coordinator, TokenGate(workerToken, "worker"));
   grpc::ServerBuilder builder;
   int port = 0;
-  builder.AddListeningPort(listen, grpc::InsecureServerCredentials(), &port);
+  builder.AddListeningPort(listen, credentials, &port);
   builder.RegisterService(&clientService);
   builder.RegisterService(&workerService);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
@@ -84,9 +134,10 @@ int main(int argc, char** argv) {
     spdlog::error("cannot listen on {}", listen);
     return 1;
   }
-  const std::string host = listen.substr(0, listen.rfind(':'));
   const std::string address = host + ":" + std::to_string(port);
-  spdlog::info("listening on {} ({})", address, kRendererVersion);
+  spdlog::info("listening on {} ({}; {}; client token {}, worker token {})", address, kRendererVersion,
+               tlsCert.empty() ? "plain gRPC" : (tlsClientCa.empty() ? "TLS" : "mutual TLS"),
+               clientToken ? "required" : "none", workerToken ? "required" : "none");
   if (!portFile.empty()) {
     try {
       writeBytesAtomically(portFile, address + "\n");

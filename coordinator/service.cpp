@@ -15,7 +15,8 @@ constexpr uint64_t kMaxAssetBytes = uint64_t(2) << 30;  // 2 GiB
 
 // Runs a handler body and maps the project's exceptions to gRPC status codes.
 template <class Body>
-grpc::Status guarded(const char* rpc, Body&& body) {
+grpc::Status guarded(const TokenGate& gate, const grpc::ServerContext* context, const char* rpc, Body&& body) {
+  if (grpc::Status s = gate.check(context, rpc); !s.ok()) return s;
   try {
     body();
     return grpc::Status::OK;
@@ -27,6 +28,7 @@ grpc::Status guarded(const char* rpc, Body&& body) {
       case FarmError::Kind::kUnknownWorker: return grpc::Status(grpc::StatusCode::NOT_FOUND, e.what());
       case FarmError::Kind::kInvalidArgument: return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, e.what());
       case FarmError::Kind::kFailedPrecondition: return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, e.what());
+      case FarmError::Kind::kUnauthenticated: return grpc::Status(grpc::StatusCode::UNAUTHENTICATED, e.what());
     }
     return grpc::Status(grpc::StatusCode::UNKNOWN, e.what());
   } catch (const std::exception& e) {
@@ -92,9 +94,9 @@ v1::JobStatus toProto(const JobInfo& info) {
 
 // ---- ClientService --------------------------------------------------------------------------
 
-grpc::Status ClientServiceImpl::UploadAsset(grpc::ServerContext*, grpc::ServerReader<v1::UploadAssetRequest>* reader,
+grpc::Status ClientServiceImpl::UploadAsset(grpc::ServerContext* context, grpc::ServerReader<v1::UploadAssetRequest>* reader,
                                             v1::UploadAssetResponse* response) {
-  return guarded("UploadAsset", [&] {
+  return guarded(gate_, context, "UploadAsset", [&] {
     v1::UploadAssetRequest message;
     std::string sha, bytes;
     while (reader->Read(&message)) {
@@ -108,28 +110,28 @@ grpc::Status ClientServiceImpl::UploadAsset(grpc::ServerContext*, grpc::ServerRe
   });
 }
 
-grpc::Status ClientServiceImpl::SubmitJob(grpc::ServerContext*, const v1::SubmitJobRequest* request,
+grpc::Status ClientServiceImpl::SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request,
                                           v1::SubmitJobResponse* response) {
-  return guarded("SubmitJob", [&] {
+  return guarded(gate_, context, "SubmitJob", [&] {
     const JobInfo info = coordinator_.submit(proto::fromProto(request->spec()), request->priority());
     response->set_job_id(info.id);
     *response->mutable_status() = toProto(info);
   });
 }
 
-grpc::Status ClientServiceImpl::GetJob(grpc::ServerContext*, const v1::GetJobRequest* request, v1::JobStatus* response) {
-  return guarded("GetJob", [&] { *response = toProto(coordinator_.job(request->job_id())); });
+grpc::Status ClientServiceImpl::GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request, v1::JobStatus* response) {
+  return guarded(gate_, context, "GetJob", [&] { *response = toProto(coordinator_.job(request->job_id())); });
 }
 
-grpc::Status ClientServiceImpl::ListJobs(grpc::ServerContext*, const v1::ListJobsRequest*, v1::ListJobsResponse* response) {
-  return guarded("ListJobs", [&] {
+grpc::Status ClientServiceImpl::ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest*, v1::ListJobsResponse* response) {
+  return guarded(gate_, context, "ListJobs", [&] {
     for (const JobInfo& info : coordinator_.jobs()) *response->add_jobs() = toProto(info);
   });
 }
 
 grpc::Status ClientServiceImpl::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
                                          grpc::ServerWriter<v1::JobStatus>* writer) {
-  return guarded("WatchJob", [&] {
+  return guarded(gate_, context, "WatchJob", [&] {
     JobInfo info = coordinator_.job(request->job_id());
     if (!writer->Write(toProto(info))) return;
     while (!isTerminal(info.state) && !context->IsCancelled()) {
@@ -141,9 +143,9 @@ grpc::Status ClientServiceImpl::WatchJob(grpc::ServerContext* context, const v1:
   });
 }
 
-grpc::Status ClientServiceImpl::Download(grpc::ServerContext*, const v1::DownloadRequest* request,
+grpc::Status ClientServiceImpl::Download(grpc::ServerContext* context, const v1::DownloadRequest* request,
                                          grpc::ServerWriter<v1::FileChunk>* writer) {
-  return guarded("Download", [&] {
+  return guarded(gate_, context, "Download", [&] {
     JobImage image = coordinator_.image(request->job_id());
     std::string bytes;
     if (request->format() == v1::IMAGE_FORMAT_PNG) {
@@ -158,9 +160,9 @@ grpc::Status ClientServiceImpl::Download(grpc::ServerContext*, const v1::Downloa
   });
 }
 
-grpc::Status ClientServiceImpl::GetSnapshot(grpc::ServerContext*, const v1::SnapshotRequest* request,
+grpc::Status ClientServiceImpl::GetSnapshot(grpc::ServerContext* context, const v1::SnapshotRequest* request,
                                             v1::Snapshot* response) {
-  return guarded("GetSnapshot", [&] {
+  return guarded(gate_, context, "GetSnapshot", [&] {
     constexpr uint32_t kDefaultSize = 512, kLargest = 1024;  // a 1024^2 PNG stays far below 4 MiB
     const uint32_t maxSize = std::min(request->max_size() ? request->max_size() : kDefaultSize, kLargest);
     *response->mutable_status() = toProto(coordinator_.job(request->job_id()));
@@ -174,14 +176,14 @@ grpc::Status ClientServiceImpl::GetSnapshot(grpc::ServerContext*, const v1::Snap
   });
 }
 
-grpc::Status ClientServiceImpl::CancelJob(grpc::ServerContext*, const v1::CancelJobRequest* request,
+grpc::Status ClientServiceImpl::CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request,
                                           v1::CancelJobResponse* response) {
-  return guarded("CancelJob", [&] { *response->mutable_status() = toProto(coordinator_.cancel(request->job_id())); });
+  return guarded(gate_, context, "CancelJob", [&] { *response->mutable_status() = toProto(coordinator_.cancel(request->job_id())); });
 }
 
-grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext*, const v1::ListWorkersRequest*,
+grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext* context, const v1::ListWorkersRequest*,
                                             v1::ListWorkersResponse* response) {
-  return guarded("ListWorkers", [&] {
+  return guarded(gate_, context, "ListWorkers", [&] {
     for (const WorkerView& w : coordinator_.workers()) {
       auto* p = response->add_workers();
       p->set_worker_id(w.id);
@@ -197,9 +199,9 @@ grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext*, const v1::List
 
 // ---- WorkerService --------------------------------------------------------------------------
 
-grpc::Status WorkerServiceImpl::Register(grpc::ServerContext*, const v1::RegisterRequest* request,
+grpc::Status WorkerServiceImpl::Register(grpc::ServerContext* context, const v1::RegisterRequest* request,
                                          v1::RegisterResponse* response) {
-  return guarded("Register", [&] {
+  return guarded(gate_, context, "Register", [&] {
     WorkerInfo info{request->name(), std::max(1u, request->threads()), request->protocol_version(),
                     request->renderer_version()};
     response->set_worker_id(coordinator_.registerWorker(info));
@@ -207,35 +209,35 @@ grpc::Status WorkerServiceImpl::Register(grpc::ServerContext*, const v1::Registe
   });
 }
 
-grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext*, const v1::HeartbeatRequest* request,
+grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext* context, const v1::HeartbeatRequest* request,
                                           v1::HeartbeatResponse* response) {
-  return guarded("Heartbeat", [&] {
+  return guarded(gate_, context, "Heartbeat", [&] {
     const std::vector<uint64_t> leases(request->lease_ids().begin(), request->lease_ids().end());
     for (uint64_t id : coordinator_.heartbeat(request->worker_id(), leases)) response->add_revoked_lease_ids(id);
   });
 }
 
-grpc::Status WorkerServiceImpl::LeaseWork(grpc::ServerContext*, const v1::LeaseWorkRequest* request,
+grpc::Status WorkerServiceImpl::LeaseWork(grpc::ServerContext* context, const v1::LeaseWorkRequest* request,
                                           v1::LeaseWorkResponse* response) {
-  return guarded("LeaseWork", [&] {
+  return guarded(gate_, context, "LeaseWork", [&] {
     const double wait = std::min(10.0, request->wait_ms() / 1000.0);
     if (auto grant = coordinator_.lease(request->worker_id(), wait)) *response->mutable_lease() = proto::toProto(*grant);
   });
 }
 
-grpc::Status WorkerServiceImpl::GetJobSpec(grpc::ServerContext*, const v1::GetJobSpecRequest* request,
+grpc::Status WorkerServiceImpl::GetJobSpec(grpc::ServerContext* context, const v1::GetJobSpecRequest* request,
                                            v1::JobSpec* response) {
-  return guarded("GetJobSpec", [&] { *response = proto::toProto(coordinator_.jobSpec(request->job_id())); });
+  return guarded(gate_, context, "GetJobSpec", [&] { *response = proto::toProto(coordinator_.jobSpec(request->job_id())); });
 }
 
-grpc::Status WorkerServiceImpl::FetchAsset(grpc::ServerContext*, const v1::FetchAssetRequest* request,
+grpc::Status WorkerServiceImpl::FetchAsset(grpc::ServerContext* context, const v1::FetchAssetRequest* request,
                                            grpc::ServerWriter<v1::FileChunk>* writer) {
-  return guarded("FetchAsset", [&] { writeChunks(writer, *coordinator_.asset(request->sha256())); });
+  return guarded(gate_, context, "FetchAsset", [&] { writeChunks(writer, *coordinator_.asset(request->sha256())); });
 }
 
-grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext*, grpc::ServerReader<v1::UploadResultRequest>* reader,
+grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext* context, grpc::ServerReader<v1::UploadResultRequest>* reader,
                                              v1::UploadResultResponse* response) {
-  return guarded("UploadResult", [&] {
+  return guarded(gate_, context, "UploadResult", [&] {
     v1::UploadResultRequest message;
     UnitResult result;
     bool haveHeader = false;
@@ -269,9 +271,9 @@ grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext*, grpc::ServerR
   });
 }
 
-grpc::Status WorkerServiceImpl::ReportFailure(grpc::ServerContext*, const v1::ReportFailureRequest* request,
+grpc::Status WorkerServiceImpl::ReportFailure(grpc::ServerContext* context, const v1::ReportFailureRequest* request,
                                               v1::ReportFailureResponse*) {
-  return guarded("ReportFailure", [&] {
+  return guarded(gate_, context, "ReportFailure", [&] {
     coordinator_.reportFailure(request->worker_id(), request->lease_id(), request->job_id(), request->error());
   });
 }

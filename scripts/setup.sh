@@ -13,7 +13,7 @@ PACKAGES=(
   libembree-dev libtbb-dev
   nlohmann-json3-dev libcli11-dev libtinyobjloader-dev
   libpng-dev zlib1g-dev
-  libssl-dev
+  libssl-dev openssl
   libsqlite3-dev
 )
 

@@ -16,26 +16,22 @@ namespace {
       throw FarmError(FarmError::Kind::kNotFound, what);
     case grpc::StatusCode::FAILED_PRECONDITION: throw FarmError(FarmError::Kind::kFailedPrecondition, what);
     case grpc::StatusCode::INVALID_ARGUMENT: throw FarmError(FarmError::Kind::kInvalidArgument, what);
+    case grpc::StatusCode::UNAUTHENTICATED:
+    case grpc::StatusCode::PERMISSION_DENIED: throw FarmError(FarmError::Kind::kUnauthenticated, what);
     default: throw LinkUnavailable(what + " (" + std::to_string(int(status.error_code())) + ")");
   }
 }
 }  // namespace
 
-std::shared_ptr<grpc::Channel> makeChannel(const std::string& address, double maxBackoffSeconds) {
-  grpc::ChannelArguments args;
-  args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 100);
-  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
-  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, int(maxBackoffSeconds * 1000));
-  return grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
-}
-
-GrpcCoordinatorLink::GrpcCoordinatorLink(std::shared_ptr<grpc::Channel> channel, double callTimeoutSeconds)
-    : stub_(v1::WorkerService::NewStub(channel)), callTimeoutSeconds_(callTimeoutSeconds) {}
+GrpcCoordinatorLink::GrpcCoordinatorLink(std::shared_ptr<grpc::Channel> channel, ChannelSecurity security,
+                                         double callTimeoutSeconds)
+    : stub_(v1::WorkerService::NewStub(channel)), security_(std::move(security)), callTimeoutSeconds_(callTimeoutSeconds) {}
 
 std::unique_ptr<grpc::ClientContext> GrpcCoordinatorLink::context(double extraSeconds) const {
   auto c = std::make_unique<grpc::ClientContext>();
   c->set_deadline(std::chrono::system_clock::now() +
                   std::chrono::milliseconds(int64_t((callTimeoutSeconds_ + extraSeconds) * 1000)));
+  authorize(*c, security_);
   return c;
 }
 

@@ -5,18 +5,15 @@
 #include <memory>
 #include <string>
 
+#include "channel_security.h"
 #include "coordinator_link.h"
 #include "lensfarm/v1/worker_service.grpc.pb.h"
 
 namespace lensfarm {
 
-// A channel whose reconnect backoff stays short (at most `maxBackoffSeconds`), so a worker or
-// client notices a restarted coordinator within seconds.
-std::shared_ptr<grpc::Channel> makeChannel(const std::string& address, double maxBackoffSeconds = 5.0);
-
 class GrpcCoordinatorLink final : public CoordinatorLink {
  public:
-  explicit GrpcCoordinatorLink(std::shared_ptr<grpc::Channel> channel, double callTimeoutSeconds = 30.0);
+  GrpcCoordinatorLink(std::shared_ptr<grpc::Channel> channel, ChannelSecurity security, double callTimeoutSeconds = 30.0);
 
   Registration registerWorker(const WorkerInfo& info) override;
   std::vector<uint64_t> heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds) override;
@@ -30,6 +27,7 @@ class GrpcCoordinatorLink final : public CoordinatorLink {
  private:
   std::unique_ptr<grpc::ClientContext> context(double extraSeconds = 0.0) const;
   std::unique_ptr<v1::WorkerService::Stub> stub_;
+  ChannelSecurity security_;
   double callTimeoutSeconds_;
 };
 

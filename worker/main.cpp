@@ -11,7 +11,9 @@
 #include <thread>
 
 #include "grpc_link.h"
+#include "util/error.h"
 #include "util/logging.h"
+#include "util/secret.h"
 #include "util/version.h"
 #include "worker_loop.h"
 
@@ -57,6 +59,14 @@ int main(int argc, char** argv) {
       ->envname("LENSFARM_MAX_BACKOFF")
       ->check(CLI::Range(0.1, 600.0))
       ->capture_default_str();
+  std::string tokenFile;
+  ChannelSecurity security;
+  app.add_option("--token-file", tokenFile, "File holding the farm's worker token (or set LENSFARM_TOKEN)");
+  app.add_option("--tls-ca", security.caFile, "PEM CA certificate(s) to verify the coordinator: enables TLS")
+      ->envname("LENSFARM_TLS_CA");
+  app.add_option("--tls-cert", security.certFile, "PEM client certificate, for coordinators that require one")
+      ->envname("LENSFARM_TLS_CERT");
+  app.add_option("--tls-key", security.keyFile, "PEM private key of --tls-cert")->envname("LENSFARM_TLS_KEY");
   app.add_option("--log-level", logLevel, "trace, debug, info, warn, error")
       ->envname("LENSFARM_LOG_LEVEL")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
@@ -80,7 +90,15 @@ int main(int argc, char** argv) {
     }
   }
 
-  GrpcCoordinatorLink link(makeChannel(coordinator, options.maxBackoffSeconds));
+  std::shared_ptr<grpc::Channel> channel;
+  try {
+    security.token = readToken(tokenFile, "LENSFARM_TOKEN");
+    channel = makeChannel(coordinator, security, options.maxBackoffSeconds);
+  } catch (const InputError& e) {
+    std::cerr << "lensfarm-worker: error: " << e.what() << "\n";
+    return 2;
+  }
+  GrpcCoordinatorLink link(channel, security);
   WorkerLoop loop(link, options);
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);

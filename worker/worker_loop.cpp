@@ -195,7 +195,8 @@ void WorkerLoop::run() {
         workerId_.clear();  // register again at once
         continue;
       }
-      if (workerId().empty()) {  // registration refused (versions differ): nothing to retry
+      if (workerId().empty() || e.kind() == FarmError::Kind::kUnauthenticated) {
+        // Registration refused (versions differ) or the token is wrong: retrying cannot help.
         stopNow();
         if (heartbeat_.joinable()) heartbeat_.join();
         throw;

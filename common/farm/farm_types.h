@@ -60,6 +60,7 @@ class FarmError : public std::runtime_error {
     kUnknownWorker,       // the coordinator does not know this worker (e.g. it restarted)
     kInvalidArgument,     // a malformed request (a bad scene is an InputError instead)
     kFailedPrecondition,  // e.g. assets missing, versions differ, lease not held
+    kUnauthenticated,     // missing or wrong token: retrying will not help
   };
   FarmError(Kind kind, const std::string& what) : std::runtime_error(what), kind_(kind) {}
   Kind kind() const { return kind_; }

@@ -1,0 +1,47 @@
+#include "util/secret.h"
+
+#include <algorithm>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include "util/error.h"
+
+namespace lensfarm {
+
+namespace {
+std::string trimmed(std::string s) {
+  const auto first = s.find_first_not_of(" \t\r\n");
+  if (first == std::string::npos) return "";
+  return s.substr(first, s.find_last_not_of(" \t\r\n") - first + 1);
+}
+}  // namespace
+
+std::optional<std::string> readToken(const std::string& file, const char* env) {
+  if (!file.empty()) {
+    std::ifstream in(file, std::ios::binary);
+    if (!in) throw InputError(file, "cannot read the token file");
+    std::stringstream s;
+    s << in.rdbuf();
+    const std::string token = trimmed(s.str());
+    if (token.empty()) throw InputError(file, "the token file is empty");
+    return token;
+  }
+  if (env) {
+    if (const char* value = std::getenv(env); value && *value) return trimmed(value);
+  }
+  return std::nullopt;
+}
+
+bool equalSecrets(const std::string& a, const std::string& b) {
+  unsigned char diff = a.size() == b.size() ? 0 : 1;
+  const size_t n = std::max(a.size(), b.size());
+  for (size_t i = 0; i < n; ++i) {
+    const unsigned char x = i < a.size() ? static_cast<unsigned char>(a[i]) : 0;
+    const unsigned char y = i < b.size() ? static_cast<unsigned char>(b[i]) : 0;
+    diff |= static_cast<unsigned char>(x ^ y);
+  }
+  return diff == 0;
+}
+
+}  // namespace lensfarm

@@ -1,0 +1,16 @@
+#pragma once
+// Secrets (authentication tokens) come from files or environment variables, never from a
+// command-line argument that `ps` would show, and are never logged.
+#include <optional>
+#include <string>
+
+namespace lensfarm {
+
+// The token in `file` (surrounding whitespace trimmed), or else in environment variable `env`;
+// nothing if neither is set. Throws InputError naming the file if it cannot be read or is empty.
+std::optional<std::string> readToken(const std::string& file, const char* env);
+
+// Compares without leaking where the first difference is through timing.
+bool equalSecrets(const std::string& a, const std::string& b);
+
+}  // namespace lensfarm

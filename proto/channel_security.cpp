@@ -1,0 +1,40 @@
+#include "channel_security.h"
+
+#include <fstream>
+#include <sstream>
+
+#include "util/error.h"
+
+namespace lensfarm {
+
+namespace {
+std::string readPem(const std::string& file, const char* flag) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw InputError(std::string(flag) + " " + file, "cannot read the file");
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+}  // namespace
+
+std::shared_ptr<grpc::Channel> makeChannel(const std::string& address, const ChannelSecurity& security,
+                                           double maxBackoffSeconds) {
+  grpc::ChannelArguments args;
+  args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 100);
+  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
+  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, int(maxBackoffSeconds * 1000));
+  if (security.caFile.empty()) return grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
+  grpc::SslCredentialsOptions tls;
+  tls.pem_root_certs = readPem(security.caFile, "--tls-ca");
+  if (!security.certFile.empty()) {
+    tls.pem_cert_chain = readPem(security.certFile, "--tls-cert");
+    tls.pem_private_key = readPem(security.keyFile, "--tls-key");
+  }
+  return grpc::CreateCustomChannel(address, grpc::SslCredentials(tls), args);
+}
+
+void authorize(grpc::ClientContext& context, const ChannelSecurity& security) {
+  if (security.token) context.AddMetadata("authorization", "Bearer " + *security.token);
+}
+
+}  // namespace lensfarm
