@@ -205,6 +205,8 @@ class SceneParser {
     top.finish();
 
     if (shapeTriangles_ == 0) top.fail("shapes", "the scene has no triangles (lights alone show nothing)");
+    if (shapeTriangles_ > kMaxTriangles)
+      top.fail("shapes", std::to_string(shapeTriangles_) + " triangles exceed the limit of " + std::to_string(kMaxTriangles));
     scene_.hash = hash_.hexDigest();
     return std::move(scene_);
   }

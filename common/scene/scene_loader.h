@@ -20,6 +20,7 @@ inline constexpr const char* kSceneFormat = "lensfarm-scene/1";
 inline constexpr int kMaxResolution = 16384;
 inline constexpr uint64_t kMaxSamplesPerPixel = uint64_t(1) << 40;
 inline constexpr int kMaxBounces = 1024;
+inline constexpr uint64_t kMaxTriangles = uint64_t(1) << 26;  // 67 M: far beyond any scene we render
 
 // Reads an asset (an OBJ file) that a scene names by its path relative to the scene file;
 // nothing if there is no such asset. The farm resolves assets from its content store this way.
