@@ -4,7 +4,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: all setup configure build demo test bench clean
+.PHONY: all setup configure build demo test bench load clean
 
 all: build
 
@@ -28,6 +28,10 @@ bench: build
 	$(BUILD_DIR)/bench/lensfarm-bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 	$(BUILD_DIR)/bench/lensfarm-ingest-bench --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
 	BUILD_DIR=$(BUILD_DIR) bash bench/farm_efficiency.sh 3
+
+# The bounded soak test of one coordinator: 64 simulated workers for 60 s.
+load: build
+	$(BUILD_DIR)/bench/lensfarm-load --workers 64 --seconds 60
 
 clean:
 	rm -rf $(BUILD_DIR) $(BUILD_DIR).configure.log out
