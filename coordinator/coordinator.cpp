@@ -516,6 +516,11 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   Job* best = nullptr;
   for (auto& [id, job] : jobs_) {
     if (isTerminal(job->state) || !job->hasPending()) continue;
+    if (job->returned.empty()) {  // a fresh unit: only within the window ahead of the summed prefix
+      const uint64_t unitBytes = uint64_t(job->settings.width) * uint64_t(job->settings.height) * 3 * sizeof(double);
+      const uint64_t window = std::max<uint64_t>(8, options_.maxBytesAhead / std::max<uint64_t>(1, unitBytes));
+      if (job->nextFresh >= job->unitsAdded + window) continue;
+    }
     if (!best || job->priority > best->priority || (job->priority == best->priority && job->sequence < best->sequence))
       best = job.get();
   }

@@ -80,6 +80,10 @@ class Coordinator {
     double heartbeatIntervalSeconds = 1.0;  // told to workers at registration
     std::filesystem::path stateDir;         // empty: state in memory only (lost on exit)
     double checkpointEverySeconds = 30.0;   // how often accumulated sensors are saved
+    // Results that arrive ahead of an unfinished earlier unit wait in memory until it comes
+    // (canonical order). Fresh units are leased at most this many bytes of buffers ahead of the
+    // summed prefix, which bounds that memory however many workers there are.
+    uint64_t maxBytesAhead = uint64_t(2) << 30;
   };
   explicit Coordinator(Options options);
   Coordinator();

@@ -6,6 +6,8 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <malloc.h>
+
 #include <csignal>
 #include <fstream>
 #include <sstream>
@@ -34,6 +36,9 @@ extern "C" void onSignal(int) { gStop = true; }
 
 int main(int argc, char** argv) {
   using namespace lensfarm;
+  // Unit buffers are megabytes each: keep them out of the heap arenas (glibc would otherwise raise
+  // its mmap threshold after the first frees and hold freed buffers as resident memory).
+  mallopt(M_MMAP_THRESHOLD, 1 << 20);
   CLI::App app{"lensfarm-coordinator: schedules render jobs over workers and accumulates their images"};
   app.set_version_flag("--version", kRendererVersion);
   std::string listen = "127.0.0.1:7878", portFile, logLevel = "info";

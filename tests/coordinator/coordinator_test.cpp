@@ -238,6 +238,24 @@ TEST(Coordinator, WatchersWakeOnChange) {
   EXPECT_EQ(info.state, JobState::kDone);
 }
 
+TEST(Coordinator, FreshUnitsStayWithinAWindowAheadOfTheSummedPrefix) {
+  // Results ahead of a missing unit wait in memory; the window bounds them. 4x3 units are
+  // 288 bytes, so a budget of 8 units' worth allows 8 fresh units beyond the prefix.
+  Coordinator::Options options;
+  options.maxBytesAhead = 8 * 4 * 3 * 3 * sizeof(double);
+  Coordinator c(options);
+  const JobInfo job = c.submit(specFor(test::minimalSceneJson(), 100, 1), 0);
+  const std::string a = c.registerWorker(workerInfo("a"));
+  std::vector<LeaseGrant> grants;
+  while (auto g = c.lease(a, 0)) grants.push_back(*g);
+  ASSERT_EQ(grants.size(), 8u) << "no unit summed yet: only the window";
+  for (size_t k = 1; k < grants.size(); ++k) c.acceptResult(resultFor(a, grants[k], 1.0));
+  EXPECT_FALSE(c.lease(a, 0)) << "unit 0 still missing: the window has not moved";
+  c.acceptResult(resultFor(a, grants[0], 1.0));
+  EXPECT_EQ(c.job(job.id).unitsDone, 8u);
+  EXPECT_EQ(c.lease(a, 0)->unit.index, 8u) << "the prefix moved, so does the window";
+}
+
 TEST(Coordinator, HugeJobsCostNothingUpFront) {
   // A time-limited render asks for 2^40 samples; the unit queue must be lazy.
   Coordinator c;
