@@ -4,7 +4,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: all setup configure build demo test bench load clean
+.PHONY: all setup configure build demo test bench load fuzz clean
 
 all: build
 
@@ -29,9 +29,20 @@ bench: build
 	$(BUILD_DIR)/bench/lensfarm-ingest-bench --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
 	BUILD_DIR=$(BUILD_DIR) bash bench/farm_efficiency.sh 3
 
+# libFuzzer targets for the scene parser and the upload path, built with clang in build-fuzz,
+# each run for FUZZ_SECONDS. A finding stops the run with the crashing input in build-fuzz/.
+FUZZ_SECONDS ?= 60
+fuzz: setup
+	@cmake -S . -B build-fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+	  -DLENSFARM_FUZZ=ON -DLENSFARM_WERROR=OFF > build-fuzz.configure.log 2>&1 || (cat build-fuzz.configure.log; exit 1)
+	@cmake --build build-fuzz -j $(JOBS) --target scene_parser_fuzz upload_fuzz
+	cd build-fuzz && ./tests/fuzz/scene_parser_fuzz -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 \
+	  -artifact_prefix=scene- ../scenes
+	cd build-fuzz && ./tests/fuzz/upload_fuzz -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 -artifact_prefix=upload-
+
 # The bounded soak test of one coordinator: 64 simulated workers for 60 s.
 load: build
 	$(BUILD_DIR)/bench/lensfarm-load --workers 64 --seconds 60
 
 clean:
-	rm -rf $(BUILD_DIR) $(BUILD_DIR).configure.log out
+	rm -rf $(BUILD_DIR) $(BUILD_DIR).configure.log build-fuzz build-fuzz.configure.log out

@@ -257,9 +257,9 @@ Runner addWorkersCommand(CLI::App& app) {
     return guardedCall([&] {
       FarmClient client(c->coordinator, c->resolved());
       const std::vector<v1::WorkerStatus> workers = client.workers();
-      std::printf("%-10s %-28s %7s %-10s %8s %10s\n", "WORKER", "NAME", "THREADS", "JOB", "UNITS", "SEEN");
+      std::printf("%-18s %-28s %7s %-10s %8s %10s\n", "WORKER", "NAME", "THREADS", "JOB", "UNITS", "SEEN");
       for (const auto& w : workers)
-        std::printf("%-10s %-28s %7u %-10s %8llu %9.1fs\n", w.worker_id().c_str(), w.name().c_str(), w.threads(),
+        std::printf("%-18s %-28s %7u %-10s %8llu %9.1fs\n", w.worker_id().c_str(), w.name().c_str(), w.threads(),
                     w.current_job_id().empty() ? "-" : w.current_job_id().c_str(), (unsigned long long)w.units_done(),
                     w.seconds_since_heartbeat());
       return kOk;

@@ -212,9 +212,9 @@ void Coordinator::restore() {
 
     // The checkpoint holds units [0, folded); the ledger lists every accepted unit.
     const auto checkpoint = store_->loadCheckpoint(job->id);
-    job->sensor = std::make_unique<Sensor>(checkpoint ? Sensor::deserialize(*checkpoint)
+    job->sensor = std::make_unique<Sensor>(checkpoint ? Sensor::deserialize(checkpoint->sensorBytes)
                                                       : Sensor(scene.render.width, scene.render.height));
-    const uint64_t folded = checkpoint ? stored.foldedUnits : 0;
+    const uint64_t folded = checkpoint ? checkpoint->foldedUnits : 0;
     job->nextToAdd = job->checkpointed = folded;
     for (uint64_t u = 0; u < folded; ++u) job->sppAdded += unitAt(u, job->settings.samplesPerPixel, job->unitSize).sampleCount;
     uint64_t highest = 0;
@@ -246,7 +246,8 @@ void Coordinator::restore() {
     job->unitsAdded = job->nextToAdd;
     job->samplesPerPixelDone = job->sppAdded;
     job->stats = job->statsAdded;
-    if (any) job->started = now;
+    if (any) job->started = now;  // elapsed time restarts with the coordinator (docs/farm.md)
+    if (isTerminal(job->state)) job->started = job->finished = now;
     if (job->state == JobState::kRunning && job->unitsAdded == job->unitsTotal) job->state = JobState::kDone;
     nextJob_ = std::max(nextJob_, uint64_t(std::stoull(job->id.substr(4))) + 1);
     nextSequence_ = std::max(nextSequence_, job->sequence + 1);
@@ -531,9 +532,9 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   leases_[leaseId] = ActiveLease{worker.id, job.id, unit,
                                  now + std::chrono::duration_cast<Clock::duration>(
                                            std::chrono::duration<double>(options_.leaseTimeoutSeconds))};
+  if (!job.started) job.started = now;
   if (job.state == JobState::kQueued) {
     job.state = JobState::kRunning;
-    job.started = now;
     persistState(job);
   }
   worker.currentJobId = job.id;
@@ -589,10 +590,10 @@ bool Coordinator::acceptResult(UnitResult result) {
       if (!std::isfinite(v))
         throw FarmError(FarmError::Kind::kInvalidArgument, "result for unit " + std::to_string(result.unitIndex) +
                                                                " of " + job->id + " holds a non-finite sum");
-    leases_.erase(it);
-    job->inflight.insert(result.unitIndex);
     Worker& worker = findWorker(result.workerId);
     workerName = worker.info.name.empty() ? worker.id : worker.info.name;
+    leases_.erase(it);
+    job->inflight.insert(result.unitIndex);
   }
 
   // Durable before acknowledged: the unit's sums and ledger row, outside the coordinator's lock.
@@ -611,7 +612,7 @@ bool Coordinator::acceptResult(UnitResult result) {
     std::lock_guard lock(mutex_);
     job->inflight.erase(result.unitIndex);
     job->markReceived(result.unitIndex);
-    ++findWorker(result.workerId).unitsDone;
+    if (auto w = workers_.find(result.workerId); w != workers_.end()) ++w->second->unitsDone;
     ++job->unitsByWorker[workerName];
   }
   // Every cell of a unit holds the unit's samples; the count is the coordinator's to know.

@@ -6,7 +6,9 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <arpa/inet.h>
 #include <malloc.h>
+#include <netinet/in.h>
 
 #include <csignal>
 #include <fstream>
@@ -23,6 +25,17 @@
 
 namespace {
 std::atomic<bool> gStop{false};
+
+// True for localhost, 127.0.0.0/8 and ::1 (also in brackets).
+bool isLoopback(std::string host) {
+  if (host == "localhost") return true;
+  if (host.size() > 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  in_addr v4{};
+  if (::inet_pton(AF_INET, host.c_str(), &v4) == 1) return (ntohl(v4.s_addr) >> 24) == 127;
+  in6_addr v6{};
+  if (::inet_pton(AF_INET6, host.c_str(), &v6) == 1) return IN6_IS_ADDR_LOOPBACK(&v6);
+  return false;
+}
 
 std::string readFileOrThrow(const std::string& file, const char* flag) {
   std::ifstream in(file, std::ios::binary);
@@ -106,7 +119,11 @@ int main(int argc, char** argv) {
     workerToken = readToken(workerTokenFile, "LENSFARM_WORKER_TOKEN");
     if (clientToken && workerToken && equalSecrets(*clientToken, *workerToken))
       throw InputError("--worker-token-file", "workers and clients need different tokens");
-    if (!tlsCert.empty() || !tlsKey.empty()) {
+    if (!tlsClientCa.empty() && tlsCert.empty())
+      throw InputError("--tls-client-ca", "client certificates need TLS: give --tls-cert and --tls-key too");
+    if (tlsCert.empty() != tlsKey.empty())
+      throw InputError(tlsCert.empty() ? "--tls-key" : "--tls-cert", "give both --tls-cert and --tls-key");
+    if (!tlsCert.empty()) {
       grpc::SslServerCredentialsOptions tls(tlsClientCa.empty() ? GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE
                                                                 : GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY);
       tls.pem_key_cert_pairs.push_back({readFileOrThrow(tlsKey, "--tls-key"), readFileOrThrow(tlsCert, "--tls-cert")});
@@ -118,7 +135,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   const std::string host = listen.substr(0, listen.rfind(':'));
-  const bool loopback = host.rfind("127.", 0) == 0 || host == "localhost" || host == "[::1]" || host == "::1";
+  const bool loopback = isLoopback(host);
   if (!loopback && !(clientToken && workerToken)) {
     spdlog::error("refusing to listen on {} without --client-token-file and --worker-token-file: anyone who can "
                   "reach it could submit jobs or lease work. Give both tokens, or listen on 127.0.0.1.", listen);

@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "convert.h"
+#include "upload_assembler.h"
 #include "util/error.h"
 
 namespace lensfarm {
@@ -239,35 +240,9 @@ grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext* context, grpc:
                                              v1::UploadResultResponse* response) {
   return guarded(gate_, context, "UploadResult", [&] {
     v1::UploadResultRequest message;
-    UnitResult result;
-    bool haveHeader = false;
-    uint64_t expectedOffset = 0;
-    while (reader->Read(&message)) {
-      if (!haveHeader) {
-        if (!message.has_header()) throw FarmError(FarmError::Kind::kInvalidArgument, "UploadResult: header missing");
-        const v1::ResultHeader& h = message.header();
-        const uint64_t cells = uint64_t(h.width()) * h.height();
-        if (h.width() == 0 || h.height() == 0 || cells > (uint64_t(1) << 28))
-          throw FarmError(FarmError::Kind::kInvalidArgument, "UploadResult: bad frame size");
-        result.workerId = h.worker_id();
-        result.leaseId = h.lease_id();
-        result.jobId = h.job_id();
-        result.unitIndex = h.unit_index();
-        result.buffer = SensorBuffer(int(h.width()), int(h.height()));
-        result.stats = proto::fromProto(h.stats());
-        result.renderSeconds = h.stats().render_seconds();
-        haveHeader = true;
-      }
-      const std::string& bytes = message.sums();
-      if (message.offset() != expectedOffset || bytes.size() % sizeof(double) != 0 ||
-          expectedOffset + bytes.size() / sizeof(double) > result.buffer.sums.size())
-        throw FarmError(FarmError::Kind::kInvalidArgument, "UploadResult: pieces out of order or too long");
-      std::memcpy(result.buffer.sums.data() + expectedOffset, bytes.data(), bytes.size());
-      expectedOffset += bytes.size() / sizeof(double);
-    }
-    if (!haveHeader || expectedOffset != result.buffer.sums.size())
-      throw FarmError(FarmError::Kind::kInvalidArgument, "UploadResult: incomplete buffer");
-    response->set_accepted(coordinator_.acceptResult(std::move(result)));
+    UploadAssembler assembler;
+    while (reader->Read(&message)) assembler.add(message);
+    response->set_accepted(coordinator_.acceptResult(assembler.finish()));
   });
 }
 

@@ -1,6 +1,9 @@
 #include "state_store.h"
 
+#include <fcntl.h>
 #include <sqlite3.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include <cstring>
 #include <fstream>
@@ -10,6 +13,7 @@
 
 #include "film/image_io.h"
 #include "scene/scene.h"
+#include "util/version.h"
 
 namespace lensfarm {
 
@@ -100,6 +104,10 @@ JobSpec specFromJson(const json& j) {
 StateStore::StateStore(fs::path dir) : dir_(std::move(dir)) {
   fs::create_directories(dir_ / "assets");
   fs::create_directories(dir_ / "jobs");
+  // One coordinator per state dir: a second would corrupt the first's ledger.
+  lockFd_ = ::open((dir_ / "lock").c_str(), O_RDWR | O_CREAT, 0600);
+  if (lockFd_ < 0 || ::flock(lockFd_, LOCK_EX | LOCK_NB) != 0)
+    throw std::runtime_error("another coordinator is using " + dir_.string());
   if (sqlite3_open((dir_ / "state.db").c_str(), &db_) != SQLITE_OK)
     throw std::runtime_error("cannot open " + (dir_ / "state.db").string() + ": " + sqlite3_errmsg(db_));
   exec("PRAGMA journal_mode=WAL");
@@ -109,12 +117,28 @@ StateStore::StateStore(fs::path dir) : dir_(std::move(dir)) {
        "state TEXT, error TEXT, submitted REAL, folded_units INTEGER)");
   exec("CREATE TABLE IF NOT EXISTS ledger(job_id TEXT, unit INTEGER, worker TEXT, paths INTEGER, rays INTEGER, "
        "light_hits INTEGER, dropped INTEGER, PRIMARY KEY(job_id, unit))");
+  exec("CREATE TABLE IF NOT EXISTS stamp(key TEXT PRIMARY KEY, value TEXT)");
+  {
+    // Units rendered by another renderer version would mix two images in one sensor.
+    Statement read(db_, "SELECT value FROM stamp WHERE key = 'renderer_version'");
+    if (read.step()) {
+      const std::string written = read.text(0);
+      if (written != kRendererVersion)
+        throw std::runtime_error(dir_.string() + " was written by " + written + ", this coordinator is " +
+                                 kRendererVersion + "; finish its jobs with that version or use another state dir");
+    } else {
+      Statement(db_, "INSERT INTO stamp(key, value) VALUES('renderer_version', ?)").bind(1, std::string(kRendererVersion)).step();
+    }
+  }
   exec("INSERT INTO meta(key, value) VALUES('boots', 1) ON CONFLICT(key) DO UPDATE SET value = value + 1");
   Statement s(db_, "SELECT value FROM meta WHERE key = 'boots'");
   if (s.step()) bootCount_ = uint64_t(s.integer(0));
 }
 
-StateStore::~StateStore() { sqlite3_close(db_); }
+StateStore::~StateStore() {
+  sqlite3_close(db_);
+  if (lockFd_ >= 0) ::close(lockFd_);  // releases the lock
+}
 
 void StateStore::exec(const std::string& sql) {
   char* error = nullptr;
@@ -222,7 +246,11 @@ std::vector<double> StateStore::loadUnitSums(const std::string& jobId, uint64_t 
 }
 
 void StateStore::writeCheckpoint(const std::string& jobId, const std::string& sensorBytes, uint64_t foldedUnits) {
-  writeBytesAtomically(jobDir(jobId) / "sensor.bin", sensorBytes);
+  // The count of folded units travels inside the file, so the sensor and its count can never
+  // disagree, whatever moment a crash picks.
+  std::string file(reinterpret_cast<const char*>(&foldedUnits), sizeof foldedUnits);
+  file += sensorBytes;
+  writeBytesAtomically(jobDir(jobId) / "sensor.bin", file);
   {
     std::lock_guard lock(mutex_);
     Statement(db_, "UPDATE jobs SET folded_units = ? WHERE id = ?").bind(1, int64_t(foldedUnits)).bind(2, jobId).step();
@@ -236,10 +264,15 @@ void StateStore::writeCheckpoint(const std::string& jobId, const std::string& se
   }
 }
 
-std::optional<std::string> StateStore::loadCheckpoint(const std::string& jobId) {
+std::optional<StateStore::Checkpoint> StateStore::loadCheckpoint(const std::string& jobId) {
   const fs::path file = jobDir(jobId) / "sensor.bin";
   if (!fs::exists(file)) return std::nullopt;
-  return readAll(file);
+  const std::string bytes = readAll(file);
+  if (bytes.size() < sizeof(uint64_t)) throw std::runtime_error(file.string() + " is truncated");
+  Checkpoint c;
+  std::memcpy(&c.foldedUnits, bytes.data(), sizeof(uint64_t));
+  c.sensorBytes = bytes.substr(sizeof(uint64_t));
+  return c;
 }
 
 }  // namespace lensfarm

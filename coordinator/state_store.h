@@ -4,7 +4,8 @@
 //
 //   state.db                  jobs, ledger (one row per accepted unit), meta (counters)
 //   assets/<sha256>           uploaded assets
-//   jobs/<id>/sensor.bin      the job's sensor with units [0, folded) added (Sensor::serialize)
+//   jobs/<id>/sensor.bin      folded (uint64) + the job's sensor with units [0, folded) added
+//   lock                      flock'ed by the one coordinator using the directory
 //   jobs/<id>/unit-<k>.bin    an accepted unit's sums, until a checkpoint folds it in
 //
 // Every file is written atomically (write, fsync, rename) and SQLite runs with synchronous=FULL,
@@ -64,7 +65,11 @@ class StateStore {
 
   // Saves the sensor holding units [0, foldedUnits), then drops their unit files.
   void writeCheckpoint(const std::string& jobId, const std::string& sensorBytes, uint64_t foldedUnits);
-  std::optional<std::string> loadCheckpoint(const std::string& jobId);
+  struct Checkpoint {
+    uint64_t foldedUnits = 0;
+    std::string sensorBytes;
+  };
+  std::optional<Checkpoint> loadCheckpoint(const std::string& jobId);
 
  private:
   void exec(const std::string& sql);
@@ -74,6 +79,7 @@ class StateStore {
   sqlite3* db_ = nullptr;
   std::mutex mutex_;
   uint64_t bootCount_ = 0;
+  int lockFd_ = -1;
 };
 
 }  // namespace lensfarm

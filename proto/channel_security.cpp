@@ -10,7 +10,7 @@ namespace lensfarm {
 namespace {
 std::string readPem(const std::string& file, const char* flag) {
   std::ifstream in(file, std::ios::binary);
-  if (!in) throw InputError(std::string(flag) + " " + file, "cannot read the file");
+  if (!in) throw InputError(std::string(flag) + " " + file, "cannot read the file");  // names flag and path
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
@@ -23,7 +23,13 @@ std::shared_ptr<grpc::Channel> makeChannel(const std::string& address, const Cha
   args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 100);
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, int(maxBackoffSeconds * 1000));
-  if (security.caFile.empty()) return grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
+  if (security.caFile.empty()) {
+    if (!security.certFile.empty() || !security.keyFile.empty())
+      throw InputError("--tls-cert", "a client certificate needs TLS: give --tls-ca too");
+    return grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
+  }
+  if (security.certFile.empty() != security.keyFile.empty())
+    throw InputError(security.certFile.empty() ? "--tls-key" : "--tls-cert", "give both --tls-cert and --tls-key");
   grpc::SslCredentialsOptions tls;
   tls.pem_root_certs = readPem(security.caFile, "--tls-ca");
   if (!security.certFile.empty()) {

@@ -124,6 +124,21 @@ TEST(DurableCoordinator, KeepsAssetsStatesAndFinishedImagesAcrossRestarts) {
   EXPECT_EQ(c.submit(sixUnits(), 0).id, "job-3") << "job ids continue where they stopped";
 }
 
+TEST(DurableCoordinator, OneCoordinatorPerStateDir) {
+  test::TempDir dir;
+  Coordinator::Options options;
+  options.stateDir = dir / "state";
+  auto first = std::make_unique<Coordinator>(options);
+  try {
+    Coordinator second(options);
+    FAIL() << "two coordinators on one state dir would corrupt its ledger";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("another coordinator"), std::string::npos) << e.what();
+  }
+  first.reset();
+  EXPECT_NO_THROW(Coordinator third(options)) << "the lock goes with the coordinator";
+}
+
 TEST(DurableCoordinator, RefusesAStateDirItCannotUse) {
   test::TempDir dir;
   dir.write("file", "not a directory");
