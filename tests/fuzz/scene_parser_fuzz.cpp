@@ -1,11 +1,20 @@
 // libFuzzer target: the scene parser. Any input must end in a scene or an InputError; anything
 // else (a crash, another exception, a sanitizer report) is a finding. `make fuzz` runs it.
+#include <google/protobuf/stubs/logging.h>
+#include <spdlog/spdlog.h>
+
 #include <cstddef>
 #include <cstdint>
 #include <string>
 
 #include "scene/scene_loader.h"
 #include "util/error.h"
+
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  spdlog::set_level(spdlog::level::off);  // refusals are expected by the thousand
+  google::protobuf::SetLogHandler(nullptr);
+  return 0;
+}
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
