@@ -598,7 +598,35 @@ uint32_t unitSize(const RenderSettings& s) {
   return uint32_t(std::min<uint64_t>(perUnit, 1u << 20));
 }
 
+namespace {
+// JSON nesting deeper than any scene needs is refused before parsing (a 10^6-deep array would
+// otherwise cost stack in the JSON library's recursive destructor).
+constexpr int kMaxNesting = 64;
+
+void checkNesting(const std::string& text, const fs::path& file) {
+  int depth = 0, line = 1;
+  bool inString = false, escaped = false;
+  for (char c : text) {
+    if (c == '\n') ++line;
+    if (inString) {
+      if (escaped) escaped = false;
+      else if (c == '\\') escaped = true;
+      else if (c == '"') inString = false;
+    } else if (c == '"') {
+      inString = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxNesting)
+        throw InputError(file.string(), "line " + std::to_string(line) + ": nested deeper than " +
+                                            std::to_string(kMaxNesting) + " levels");
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+}
+}  // namespace
+
 Scene parseScene(const std::string& text, const fs::path& file, const AssetReader& readAsset) {
+  checkNesting(text, file);
   json root;
   try {
     root = json::parse(text);

@@ -291,5 +291,20 @@ TEST_F(BadInput, EmptyShapesAndNoLightsHasNoTriangles) {
   EXPECT_TRUE(namesField(errorOf(j), "shapes", {"no triangles"}));
 }
 
+TEST(BadInputLimits, DeepNestingIsRefusedBeforeParsing) {
+  std::string text = "{\"format\": \"lensfarm-scene/1\", \"x\": ";
+  text += std::string(100000, '[') + std::string(100000, ']') + "}";
+  try {
+    parseScene(text, "deep.json");
+    FAIL() << "a 100000-deep scene must be refused";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("deep.json: line 1: nested deeper than 64"), std::string::npos) << e.what();
+  }
+  // Brackets inside strings (escaped quotes too) do not count.
+  json j = test::minimalSceneJson();
+  j["materials"][std::string("\"") + std::string(200, '[')] = {{"type", "lambertian"}, {"albedo", 0.5}};
+  EXPECT_NO_THROW(parseScene(j.dump(), "fine.json"));
+}
+
 }  // namespace
 }  // namespace lensfarm
