@@ -10,6 +10,7 @@
 #include "exit_codes.h"
 #include "farm_client.h"
 #include "film/image_io.h"
+#include "output_paths.h"
 #include "override_flags.h"
 #include "progress_display.h"
 #include "scene/scene_loader.h"
@@ -179,13 +180,8 @@ Runner addDownloadCommand(CLI::App& app) {
   return [f] {
     std::vector<std::pair<fs::path, v1::ImageFormat>> targets;
     for (const auto& o : f->outputs) {
-      const fs::path path(o);
-      const std::string ext = path.extension().string();
-      if (ext != ".exr" && ext != ".png")
-        throw InputError("-o " + o, "unknown image format \"" + ext + "\" (expected .exr or .png)");
-      const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
-      if (!fs::is_directory(dir)) throw InputError("-o " + o, "directory \"" + dir.string() + "\" does not exist");
-      targets.emplace_back(path, ext == ".exr" ? v1::IMAGE_FORMAT_EXR : v1::IMAGE_FORMAT_PNG);
+      const fs::path path = checkedOutput(o, {".exr", ".png"});
+      targets.emplace_back(path, path.extension() == ".exr" ? v1::IMAGE_FORMAT_EXR : v1::IMAGE_FORMAT_PNG);
     }
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());
@@ -215,10 +211,7 @@ Runner addSnapshotCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--ev", f->ev, "Exposure compensation (default: the job's)")->check(CLI::Range(-64.0, 64.0));
   return [f] {
-    const fs::path path(f->output);
-    if (path.extension() != ".png") throw InputError("-o " + f->output, "a snapshot is a .png file");
-    const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
-    if (!fs::is_directory(dir)) throw InputError("-o " + f->output, "directory \"" + dir.string() + "\" does not exist");
+    const fs::path path = checkedOutput(f->output, {".png"});
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());
       const v1::Snapshot s = client.snapshot(f->job, f->maxSize, f->ev);

@@ -18,6 +18,7 @@
 #include "film/image_io.h"
 #include "in_process_link.h"
 #include "job_spec.h"
+#include "output_paths.h"
 #include "override_flags.h"
 #include "progress_display.h"
 #include "service.h"
@@ -68,15 +69,7 @@ int runRender(const RenderFlags& flags) {
 
   // Refuse bad outputs before tracing a single ray.
   std::vector<fs::path> outputs;
-  for (const auto& o : flags.outputs) {
-    const fs::path path(o);
-    const std::string ext = path.extension().string();
-    if (ext != ".exr" && ext != ".png")
-      throw InputError("-o " + o, "unknown image format \"" + ext + "\" (expected .exr or .png)");
-    const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
-    if (!fs::is_directory(dir)) throw InputError("-o " + o, "directory \"" + dir.string() + "\" does not exist");
-    outputs.push_back(path);
-  }
+  for (const auto& o : flags.outputs) outputs.push_back(checkedOutput(o, {".exr", ".png"}));
   const LocalJob local = makeLocalJob(flags.scene, overrides);
 
   // The farm in one process: an embedded coordinator and one worker with all threads, wired by
