@@ -79,7 +79,24 @@ std::optional<SurfaceHit> RayCaster::intersect(const Vec3& o, const Vec3& d, Ray
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(scene_, &context, &rh);
-  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
+    // Embree's robust mode is watertight along edges but can let a ray aimed exactly at a shared
+    // vertex slip between the triangles around it (embree#174, #188). A miss is therefore cast
+    // once more with the direction turned slightly: a ray through a vertex then lands on
+    // one of its triangles, and a ray into empty space misses again. Misses cost two rays.
+    // (docs/numerics.md; NoRayEscapes* tests.)
+    // Turned by about 1e-6 radians about an axis perpendicular to d: far more than the rounding
+    // around a vertex, far less than anything a pixel could show.
+    const Frame frame = Frame::fromNormal(d);
+    const Vec3 nudged = glm::normalize(d + 1e-6f * (frame.t + 0.5f * frame.b));
+    rh.ray.dir_x = nudged.x;
+    rh.ray.dir_y = nudged.y;
+    rh.ray.dir_z = nudged.z;
+    rh.ray.tfar = std::numeric_limits<float>::infinity();
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(scene_, &context, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
+  }
 
   const size_t k = geomOffset_[rh.hit.geomID] + rh.hit.primID;
   const Triangle& tri = triangles_[k];
