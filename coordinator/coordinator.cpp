@@ -450,6 +450,16 @@ JobImage Coordinator::image(const std::string& jobId) const {
   return out;
 }
 
+std::string Coordinator::sensorState(const std::string& jobId) const {
+  const Job* job;
+  {
+    std::lock_guard lock(mutex_);
+    job = &findJob(jobId);
+  }
+  std::lock_guard accumulate(job->accumulate);
+  return job->sensor->serialize();
+}
+
 // ---- workers --------------------------------------------------------------------------------
 
 std::string Coordinator::registerWorker(const WorkerInfo& info) {

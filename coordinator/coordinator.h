@@ -106,6 +106,8 @@ class Coordinator {
   JobInfo waitForChange(const std::string& jobId, uint64_t afterVersion, double timeoutSeconds) const;
   JobInfo cancel(const std::string& jobId);
   JobImage image(const std::string& jobId) const;
+  // The job's sensor in full precision (Sensor::serialize), as a checkpoint would save it.
+  std::string sensorState(const std::string& jobId) const;
   std::vector<WorkerView> workers() const;
 
   // ---- workers ----

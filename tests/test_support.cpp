@@ -11,7 +11,11 @@
 #include <sstream>
 #include <thread>
 
+#include "film/sensor.h"
+#include "render/unit_renderer.h"
 #include "scene/scene_loader.h"
+
+#include <tbb/task_arena.h>
 
 namespace lensfarm::test {
 
@@ -88,6 +92,24 @@ json closedBoxSceneJson(const json& wallMaterial, int resolution, uint64_t spp, 
   }
   scene["shapes"] = shapes;
   return scene;
+}
+
+Rendered renderScene(const Scene& scene, int threads) {
+  const RenderScene rs(scene);
+  Sensor sensor(scene.render.width, scene.render.height);
+  Rendered out;
+  tbb::task_arena arena{threads};
+  const uint32_t perUnit = unitSize(scene.render);
+  for (uint64_t k = 0; k < unitCount(scene.render.samplesPerPixel, perUnit); ++k) {
+    SensorBuffer buffer;
+    arena.execute([&] { renderUnit(rs, unitAt(k, scene.render.samplesPerPixel, perUnit), buffer, out.stats); });
+    sensor.add(buffer);
+  }
+  out.image = sensor.developImage();
+  const size_t pixels = size_t(out.image.width) * out.image.height;
+  for (size_t k = 0; k < pixels; ++k)
+    for (int c = 0; c < 3; ++c) out.mean[c] += out.image.rgb[3 * k + c] / double(pixels);
+  return out;
 }
 
 Scene loadSceneJson(const TempDir& dir, const json& scene, const std::string& name) {

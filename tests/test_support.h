@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "film/image.h"
+#include "render/integrator.h"
 #include "scene/scene.h"
 
 namespace lensfarm::test {
@@ -36,6 +38,14 @@ nlohmann::json minimalSceneJson();
 // Axis-aligned closed box [-1,1]^3 seen from inside by a pinhole camera at the centre looking
 // along +z. Every wall uses material "wall" (inward-facing). Used for furnace-type tests.
 nlohmann::json closedBoxSceneJson(const nlohmann::json& wallMaterial, int resolution, uint64_t spp, int maxBounces);
+
+// Every unit of a scene rendered and added in order (what the coordinator does, without it).
+struct Rendered {
+  double mean[3] = {0, 0, 0};  // over all pixels
+  PathStats stats;
+  Image image;
+};
+Rendered renderScene(const Scene& scene, int threads = 2);
 
 // Writes `scene` into `dir` and loads it.
 Scene loadSceneJson(const TempDir& dir, const nlohmann::json& scene, const std::string& name = "scene.json");

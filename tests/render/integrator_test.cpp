@@ -14,31 +14,8 @@ namespace {
 
 using nlohmann::json;
 
-// Mean radiance over the whole frame after rendering every unit of the scene.
-struct Rendered {
-  double mean[3] = {0, 0, 0};
-  PathStats stats;
-  Image image;
-};
-
-Rendered renderAll(const Scene& scene, int threads = 2) {
-  const RenderScene rs(scene);
-  Sensor sensor(scene.render.width, scene.render.height);
-  Rendered out;
-  tbb::task_arena arena{threads};
-  // Every unit, added in order: what the coordinator does, without the coordinator.
-  const uint32_t perUnit = unitSize(scene.render);
-  for (uint64_t k = 0; k < unitCount(scene.render.samplesPerPixel, perUnit); ++k) {
-    SensorBuffer buffer;
-    arena.execute([&] { renderUnit(rs, unitAt(k, scene.render.samplesPerPixel, perUnit), buffer, out.stats); });
-    sensor.add(buffer);
-  }
-  out.image = sensor.developImage();
-  const size_t pixels = size_t(out.image.width) * out.image.height;
-  for (size_t k = 0; k < pixels; ++k)
-    for (int c = 0; c < 3; ++c) out.mean[c] += out.image.rgb[3 * k + c] / double(pixels);
-  return out;
-}
+using test::Rendered;
+Rendered renderAll(const Scene& scene) { return test::renderScene(scene); }
 
 TEST(Furnace, ClosedEmissiveBoxGivesTheGeometricSeriesForEachBounceLimit) {
   // Every wall emits Le = 1 (towards the inside) and reflects a = 0.5. A path of B bounces sees
