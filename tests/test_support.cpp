@@ -5,7 +5,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -110,6 +112,46 @@ Rendered renderScene(const Scene& scene, int threads) {
   for (size_t k = 0; k < pixels; ++k)
     for (int c = 0; c < 3; ++c) out.mean[c] += out.image.rgb[3 * k + c] / double(pixels);
   return out;
+}
+
+ImageStatistics renderStatistics(Scene scene, int renders) {
+  ImageStatistics st;
+  st.renders = renders;
+  std::vector<double> sum, sumSq, means;
+  for (int k = 1; k <= renders; ++k) {
+    scene.render.seed = uint64_t(k) * 7919u;
+    const Rendered r = renderScene(scene);
+    if (sum.empty()) sum.assign(r.image.rgb.size(), 0.0), sumSq.assign(r.image.rgb.size(), 0.0);
+    double m = 0;
+    for (size_t i = 0; i < r.image.rgb.size(); ++i) {
+      sum[i] += r.image.rgb[i];
+      sumSq[i] += double(r.image.rgb[i]) * r.image.rgb[i];
+      m += r.image.rgb[i];
+    }
+    means.push_back(m / double(r.image.rgb.size()));
+  }
+  st.mean.resize(sum.size());
+  st.variance.resize(sum.size());
+  for (size_t i = 0; i < sum.size(); ++i) {
+    st.mean[i] = sum[i] / renders;
+    st.variance[i] = std::max(0.0, (sumSq[i] - renders * st.mean[i] * st.mean[i]) / std::max(1, renders - 1));
+  }
+  double mm = 0, vv = 0;
+  for (double m : means) mm += m / renders;
+  for (double m : means) vv += (m - mm) * (m - mm) / std::max(1, renders - 1);
+  st.imageMean = mm;
+  st.imageMeanError = std::sqrt(vv / renders);
+  return st;
+}
+
+double agreementFraction(const ImageStatistics& a, const ImageStatistics& b, double z) {
+  size_t agree = 0;
+  for (size_t i = 0; i < a.mean.size(); ++i) {
+    const double se = std::sqrt(a.variance[i] / a.renders + b.variance[i] / b.renders);
+    const double diff = std::abs(a.mean[i] - b.mean[i]);
+    if (diff <= z * se || diff <= 1e-6 * std::max(std::abs(a.mean[i]), 1e-30)) ++agree;
+  }
+  return a.mean.empty() ? 0.0 : double(agree) / double(a.mean.size());
 }
 
 Scene loadSceneJson(const TempDir& dir, const json& scene, const std::string& name) {

@@ -47,6 +47,23 @@ struct Rendered {
 };
 Rendered renderScene(const Scene& scene, int threads = 2);
 
+// Per-pixel statistics over `renders` independent renders of a scene (seeds 1..renders), for
+// judging images statistically instead of by eye.
+struct ImageStatistics {
+  int renders = 0;
+  std::vector<double> mean;      // per pixel-channel
+  std::vector<double> variance;  // of one render's value, per pixel-channel
+  double imageMean = 0.0;        // over all pixel-channels and renders
+  double imageMeanError = 0.0;   // standard error of imageMean (from the renders' own means)
+};
+ImageStatistics renderStatistics(Scene scene, int renders);
+
+// The share of pixel-channels whose means agree within `z` standard errors (two-sample test);
+// the project accepts two estimates of an image when this is at least 0.995. The default z suits
+// 16 or more renders per side (Student's t with 15 degrees of freedom at 99.95 %); estimators
+// with very heavy tails (the naive one with tiny lights) need image means instead.
+double agreementFraction(const ImageStatistics& a, const ImageStatistics& b, double z = 4.5);
+
 // Writes `scene` into `dir` and loads it.
 Scene loadSceneJson(const TempDir& dir, const nlohmann::json& scene, const std::string& name = "scene.json");
 

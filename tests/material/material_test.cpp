@@ -119,6 +119,37 @@ TEST(RippledMirror, SpreadsAroundThePerfectReflectionByTheRipple) {
   }
 }
 
+TEST(RippledMirror, TiltsItsNormalUniformlyOverTheDiskOfSlopes) {
+  // The model: the normal is tilted by a slope drawn uniformly from the disk of radius `ripple`.
+  // From each sampled reflection the tilted normal is recovered as the half vector of wo and wi
+  // (no folding happens for wo = n and ripple 0.3); its slope must be uniform in the disk, so an
+  // equal-area grid over (slope^2 / ripple^2, angle) has equal expected counts.
+  Material m;
+  m.kind = MaterialKind::kRippledMirror;
+  m.albedo = Spectrum(0.5f);
+  m.ripple = 0.3f;
+  const Vec3 n = glm::normalize(Vec3(0.3f, -1.0f, 0.2f));
+  const Frame frame = Frame::fromNormal(n);
+  constexpr int kRadial = 10, kAngular = 20, kN = 400000;
+  std::vector<double> counts(kRadial * kAngular, 0.0);
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (int k = 0; k < kN; ++k) {
+    const auto s = m.sample(n, n, Vec2(u(rng), u(rng)));
+    const Vec3 h = frame.toLocal(glm::normalize(n + s->wi));
+    const double sx = h.x / h.z, sy = h.y / h.z;
+    const double r2 = (sx * sx + sy * sy) / (0.3 * 0.3);
+    ASSERT_LE(r2, 1.0 + 1e-4);
+    const double phi = std::atan2(sy, sx) + M_PI;
+    const int a = std::min(kRadial - 1, int(r2 * kRadial)), b = std::min(kAngular - 1, int(phi / (2 * M_PI) * kAngular));
+    counts[a * kAngular + b] += 1.0;
+  }
+  const double expected = double(kN) / (kRadial * kAngular);
+  double chi2 = 0.0;
+  for (double c : counts) chi2 += (c - expected) * (c - expected) / expected;
+  EXPECT_LT(chi2, chiSquareCritical99(kRadial * kAngular - 1));
+}
+
 TEST(Mirror, ReflectsAboutTheNormal) {
   Material m;
   m.kind = MaterialKind::kMirror;
