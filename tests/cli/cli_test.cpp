@@ -308,3 +308,30 @@ TEST(CliInterrupt, CtrlCWritesWholeUnitsAndExits130) {
 
 }  // namespace
 }  // namespace lensfarm
+
+namespace lensfarm {
+namespace {
+
+TEST(CliDof, BeyondTheHyperfocalDistanceTheFarLimitIsInfinity) {
+  // N = 64 puts H = 1.57 < S1 = 2.9, N = 1e6 nearly a pinhole: DF must print "inf" in both
+  // tables, never a negative or huge number.
+  const auto r = test::runProcess({test::cliPath().string(), "dof", (test::scenesDir() / "cornell-seed.json").string(),
+                                   "--f-numbers", "64,1000000"}, 30.0);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  std::istringstream lines(r.out);
+  int infRows = 0;
+  for (std::string line; std::getline(lines, line);) {
+    std::istringstream tokens(line);
+    std::vector<std::string> t;
+    for (std::string s; tokens >> s;) t.push_back(s);
+    if (t.size() == 5 && (t[0] == "64" || t[0] == "1e+06")) {
+      EXPECT_EQ(t[3], "inf") << line;
+      EXPECT_EQ(t[4], "inf") << line;
+      ++infRows;
+    }
+  }
+  EXPECT_EQ(infRows, 4) << r.out;
+}
+
+}  // namespace
+}  // namespace lensfarm
