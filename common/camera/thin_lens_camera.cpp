@@ -53,6 +53,12 @@ CameraRay ThinLensCamera::generateRay(int i, int j, Vec2 uSensor, Vec2 uLens) co
   return rayThrough(Vec2(float(x), float(y)), disk);
 }
 
+CameraRay ThinLensCamera::generatePinholeRay(int i, int j, Vec2 uSensor) const {
+  const double x = params_.sensorWidth * ((i + double(uSensor.x)) / width_ - 0.5);
+  const double y = params_.sensorHeight * (0.5 - (j + double(uSensor.y)) / height_);
+  return rayThrough(Vec2(float(x), float(y)), Vec2(0.0f));
+}
+
 CameraRay ThinLensCamera::rayThrough(Vec2 s, Vec2 r) const {
   // Seed eq. 1 in the camera frame: the incident direction n1 from the sensor point
   // (s, -S2) to the lens point (r, 0), scaled to a unit axial component, is bent to

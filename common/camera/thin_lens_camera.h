@@ -50,6 +50,9 @@ class ThinLensCamera {
   // through the lens point at uLens in [0,1)^2 (mapped to the disk).
   CameraRay generateRay(int i, int j, Vec2 uSensor, Vec2 uLens) const;
 
+  // The ray through the lens centre: what generateRay gives for a closed aperture, bit for bit.
+  CameraRay generatePinholeRay(int i, int j, Vec2 uSensor) const;
+
   // The same, from explicit sensor and lens points in camera-plane coordinates
   // (x along right, y along up); used by tests of the optics.
   CameraRay rayThrough(Vec2 sensorPoint, Vec2 lensPoint) const;

@@ -7,7 +7,8 @@
 
 namespace lensfarm {
 
-LightSampler::LightSampler(const Scene& scene, const RayCaster& caster) : scene_(scene), caster_(caster) {
+LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const std::vector<bool>& useful)
+    : scene_(scene), caster_(caster) {
   const auto& triangles = caster.triangles();
   lightOfTriangle_.assign(triangles.size(), -1);
   double total = 0.0;
@@ -15,7 +16,7 @@ LightSampler::LightSampler(const Scene& scene, const RayCaster& caster) : scene_
   for (uint32_t k = 0; k < triangles.size(); ++k) {
     const auto& t = triangles[k];
     const Material& m = scene.materials[t.material];
-    if (!m.isEmissive()) continue;
+    if (!m.isEmissive() || (!useful.empty() && !useful[t.material])) continue;
     const float area = 0.5f * glm::length(glm::cross(t.v1 - t.v0, t.v2 - t.v0));
     const double p = double(area) * luminance(m.emission) * (m.twoSidedEmission ? 2.0 : 1.0);
     if (!(p > 0.0)) continue;

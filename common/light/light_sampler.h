@@ -22,7 +22,8 @@ struct LightSample {
 
 class LightSampler {
  public:
-  LightSampler(const Scene& scene, const RayCaster& caster);
+  // `useful[m]` false: emitters of material m light nothing and are not sampled (empty: all are).
+  LightSampler(const Scene& scene, const RayCaster& caster, const std::vector<bool>& useful = {});
 
   bool empty() const { return lights_.empty(); }
   size_t size() const { return lights_.size(); }

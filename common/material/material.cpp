@@ -29,14 +29,18 @@ float Material::pdf(const Vec3& n, const Vec3& /*wo*/, const Vec3& wi) const {
   return cosineHemispherePdf(glm::dot(n, wi));
 }
 
+std::optional<MaterialSample> Material::sampleLambertian(const Vec3& n, Vec2 u) const {
+  if (kind != MaterialKind::kLambertian) return std::nullopt;
+  // Cosine-weighted: f cos / pdf = albedo exactly.
+  const Vec3 local = sampleCosineHemisphere(u);
+  if (local.z <= 0.0f) return std::nullopt;
+  return MaterialSample{Frame::fromNormal(n).toWorld(local), albedo, cosineHemispherePdf(local.z), false};
+}
+
 std::optional<MaterialSample> Material::sample(const Vec3& n, const Vec3& wo, Vec2 u) const {
   switch (kind) {
-    case MaterialKind::kLambertian: {
-      // Cosine-weighted: f cos / pdf = albedo exactly.
-      const Vec3 local = sampleCosineHemisphere(u);
-      if (local.z <= 0.0f) return std::nullopt;
-      return MaterialSample{Frame::fromNormal(n).toWorld(local), albedo, cosineHemispherePdf(local.z), false};
-    }
+    case MaterialKind::kLambertian:
+      return sampleLambertian(n, u);
     case MaterialKind::kMirror:
       return MaterialSample{reflect(wo, n), albedo, 0.0f, true};
     case MaterialKind::kRippledMirror: {

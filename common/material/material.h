@@ -49,6 +49,8 @@ struct Material {
   float pdf(const Vec3& n, const Vec3& wo, const Vec3& wi) const;
   // Samples an incident direction from u in [0,1)^2; nothing when the material reflects nothing.
   std::optional<MaterialSample> sample(const Vec3& n, const Vec3& wo, Vec2 u) const;
+  // sample() for a scene without specular materials: Lambertian or nothing, without the switch.
+  std::optional<MaterialSample> sampleLambertian(const Vec3& n, Vec2 u) const;
 };
 
 }  // namespace lensfarm

@@ -10,9 +10,10 @@ namespace {
 constexpr float kShadowEpsilon = 1e-4f;
 }  // namespace
 
+template <bool kNee, bool kSpecular>
 Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats) {
   const RenderSettings& settings = rs.settings();
-  const bool nee = settings.integrator == IntegratorKind::kNeeMis && !rs.lights().empty();
+  constexpr bool nee = kNee;
 
   Spectrum radiance(0.0f);
   Spectrum throughput(1.0f);
@@ -43,7 +44,8 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
     }
     if (!material.reflects()) break;
 
-    const bool counts = !material.isSpecular() || settings.mirrorBouncesCount;
+    const bool specular = kSpecular && material.isSpecular();
+    const bool counts = !specular || settings.mirrorBouncesCount;
     if (counts && bounces >= settings.maxBounces) break;
 
     const Vec3 wo = -direction;
@@ -51,7 +53,7 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
     const uint32_t base = dims::segment(uint32_t(segment));
 
     // Next-event estimation: one shadow ray to a point on a light.
-    if (nee && !material.isSpecular()) {
+    if (nee && !specular) {
       const auto ls = rs.lights().sample(hit->p, rng.get1D(base + dims::kLightChoice), rng.get2D(base + dims::kLightPoint));
       if (ls && !isBlack(ls->radiance)) {
         const Vec3 toLight = ls->p - hit->p;
@@ -69,7 +71,8 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
       }
     }
 
-    const auto s = material.sample(n, wo, rng.get2D(base + dims::kMaterial));
+    const auto s = kSpecular ? material.sample(n, wo, rng.get2D(base + dims::kMaterial))
+                             : material.sampleLambertian(n, rng.get2D(base + dims::kMaterial));
     if (!s) break;
     throughput *= s->weight;
     if (isBlack(throughput)) break;
@@ -82,6 +85,16 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
   }
   if (hitLight) ++stats.lightHits;
   return radiance;
+}
+
+template Spectrum tracePath<false, false>(const RenderScene&, const CameraRay&, const SampleStream&, PathStats&);
+template Spectrum tracePath<false, true>(const RenderScene&, const CameraRay&, const SampleStream&, PathStats&);
+template Spectrum tracePath<true, false>(const RenderScene&, const CameraRay&, const SampleStream&, PathStats&);
+template Spectrum tracePath<true, true>(const RenderScene&, const CameraRay&, const SampleStream&, PathStats&);
+
+Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats) {
+  const bool nee = rs.settings().integrator == IntegratorKind::kNeeMis && !rs.lights().empty();
+  return nee ? tracePath<true, true>(rs, cameraRay, rng, stats) : tracePath<false, true>(rs, cameraRay, rng, stats);
 }
 
 }  // namespace lensfarm

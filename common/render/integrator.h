@@ -37,7 +37,13 @@ struct PathStats {
   }
 };
 
-// Radiance arriving along the camera ray of one sample.
+// Radiance arriving along the camera ray of one sample, with next-event estimation and specular
+// materials compiled in or out (scene/effects.h): a specialisation has no branch for an effect
+// the scene does not need, and gives the general path's bits when the effect is absent.
+template <bool kNee, bool kSpecular>
+Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats);
+
+// The general path: every effect simulated when the scene has it (decided at run time).
 Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats);
 
 }  // namespace lensfarm

@@ -1,21 +1,30 @@
 #pragma once
 // Everything a render needs, built once per scene and shared read-only by all threads:
-// the scene, its camera at the render resolution, the Embree scene and the light sampler.
+// the scene, its camera at the render resolution, the effects it calls for (scene/effects.h),
+// the Embree scene and the light sampler.
 #include "camera/thin_lens_camera.h"
 #include "light/light_sampler.h"
 #include "render/ray_caster.h"
+#include "scene/effects.h"
 #include "scene/scene.h"
 
 namespace lensfarm {
 
 class RenderScene {
  public:
-  explicit RenderScene(const Scene& scene)
-      : scene_(scene), camera_(scene.camera()), caster_(scene), lights_(scene, caster_) {}
+  // `general`: simulate every effect whatever the scene needs (the reference path the
+  // specialised one is checked and benchmarked against).
+  explicit RenderScene(const Scene& scene, bool general = false)
+      : scene_(scene),
+        camera_(scene.camera()),
+        effects_(general ? EffectSet::all(scene) : analyzeEffects(scene, camera_)),
+        caster_(scene),
+        lights_(scene, caster_, effects_.lightUseful) {}
 
   const Scene& scene() const { return scene_; }
   const RenderSettings& settings() const { return scene_.render; }
   const ThinLensCamera& camera() const { return camera_; }
+  const EffectSet& effects() const { return effects_; }
   const RayCaster& caster() const { return caster_; }
   const LightSampler& lights() const { return lights_; }
   const Material& material(uint32_t id) const { return scene_.materials[id]; }
@@ -23,6 +32,7 @@ class RenderScene {
  private:
   const Scene& scene_;
   ThinLensCamera camera_;
+  EffectSet effects_;
   RayCaster caster_;
   LightSampler lights_;
 };

@@ -23,8 +23,12 @@ WorkUnit unitAt(uint64_t index, uint64_t samplesPerPixel, uint32_t samplesPerUni
   return WorkUnit{index, first, uint32_t(count)};
 }
 
-bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
-                const std::atomic<bool>* cancel) {
+namespace {
+
+// The pixel loop for one combination of effects, fixed at compile time.
+template <bool kLens, bool kNee, bool kSpecular>
+bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
+                    const std::atomic<bool>* cancel) {
   const ThinLensCamera& camera = rs.camera();
   const int width = camera.width(), height = camera.height();
   const uint64_t seed = rs.settings().seed;
@@ -50,8 +54,10 @@ bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
         double sum[3] = {0.0, 0.0, 0.0};
         for (uint64_t s = unit.firstSample; s < unit.firstSample + unit.sampleCount; ++s) {
           const SampleStream rng(seed, pixel, s);
-          const CameraRay ray = camera.generateRay(i, j, rng.get2D(dims::kSensor), rng.get2D(dims::kLens));
-          const Spectrum l = tracePath(rs, ray, rng, local);
+          // Without depth of field the lens is a pinhole: no lens sample, the same rays.
+          const CameraRay ray = kLens ? camera.generateRay(i, j, rng.get2D(dims::kSensor), rng.get2D(dims::kLens))
+                                      : camera.generatePinholeRay(i, j, rng.get2D(dims::kSensor));
+          const Spectrum l = tracePath<kNee, kSpecular>(rs, ray, rng, local);
           if (!isFinite(l)) {
             ++local.dropped;  // counted as a sample of zero, never written (design.md invariant)
             continue;
@@ -67,8 +73,27 @@ bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
       }
     }
   });
-  threadStats.combine_each([&](const PathStats& s) { stats += s; });
+  threadStats.combine_each([&](const PathStats& st) { stats += st; });
   return !cancelled;
+}
+
+}  // namespace
+
+bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
+                const std::atomic<bool>* cancel) {
+  // Pick the specialisation once per unit (scene/effects.h); the inner loops then carry no
+  // branch for an effect the scene does not call for.
+  const EffectSet& e = rs.effects();
+  const bool lens = e.depthOfField;
+  const bool nee = e.lightSampling && rs.settings().integrator == IntegratorKind::kNeeMis && !rs.lights().empty();
+  const bool specular = e.specular;
+  using Fn = bool (*)(const RenderScene&, const WorkUnit&, SensorBuffer&, PathStats&, const std::atomic<bool>*);
+  static constexpr Fn kTable[2][2][2] = {
+      {{renderUnitWith<false, false, false>, renderUnitWith<false, false, true>},
+       {renderUnitWith<false, true, false>, renderUnitWith<false, true, true>}},
+      {{renderUnitWith<true, false, false>, renderUnitWith<true, false, true>},
+       {renderUnitWith<true, true, false>, renderUnitWith<true, true, true>}}};
+  return kTable[lens][nee][specular](rs, unit, out, stats, cancel);
 }
 
 }  // namespace lensfarm

@@ -1,0 +1,129 @@
+#include "scene/effects.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace lensfarm {
+
+namespace {
+// Below this blur (in sensor cells) a thin lens and a pinhole make the same picture.
+constexpr double kNegligibleBlurCells = 0.5;
+}  // namespace
+
+double maxBlurInCells(const Scene& scene, const ThinLensCamera& camera) {
+  if (camera.isPinhole()) return 0.0;
+  const ThinLensParams& p = camera.params();
+  const double f = p.focalLength, s2 = camera.imageDistance(), r = camera.lensRadius();
+  const double cell = std::min(p.sensorWidth / camera.width(), p.sensorHeight / camera.height());
+  // Depth range of the scene along the optical axis (bounding box corners).
+  Vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  for (const auto& mesh : scene.meshes)
+    for (const Vec3& v : mesh.positions) {
+      lo = glm::min(lo, v);
+      hi = glm::max(hi, v);
+    }
+  double nearest = std::numeric_limits<double>::max(), farthest = 0.0;
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 corner((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
+    const double d = glm::dot(corner - p.position, camera.forward());
+    nearest = std::min(nearest, d);
+    farthest = std::max(farthest, d);
+  }
+  // A point at distance D focuses at S2' = f D / (D - f); on the sensor at S2 its blur circle has
+  // diameter 2R |S2' - S2| / S2'. Points at or inside f (or behind the lens) blur without bound.
+  const auto blur = [&](double d) {
+    if (d <= f * (1 + 1e-9)) return std::numeric_limits<double>::infinity();
+    const double s2p = f * d / (d - f);
+    return 2.0 * r * std::abs(s2p - s2) / s2p / cell;
+  };
+  if (farthest <= 0.0) return 0.0;  // nothing in front of the lens
+  return std::max(blur(std::max(nearest, f * 1.000001)), blur(farthest));
+}
+
+EffectSet EffectSet::all(const Scene& scene) {
+  EffectSet e;
+  e.lightUseful.assign(scene.materials.size(), true);
+  return e;
+}
+
+EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
+  EffectSet e = EffectSet::all(scene);
+  std::ostringstream why;
+
+  // Depth of field.
+  if (camera.isPinhole()) {
+    e.depthOfField = false;
+    e.decisions.push_back({"depth of field", false, "aperture closed (N = infinity)"});
+  } else {
+    const double blur = maxBlurInCells(scene, camera);
+    why << "blur up to " << blur << " sensor cells over the scene's depth";
+    e.depthOfField = blur >= kNegligibleBlurCells;
+    e.decisions.push_back({"depth of field", e.depthOfField,
+                           e.depthOfField ? why.str() : why.str() + ", below half a cell: traced as a pinhole"});
+  }
+
+  // Specular materials.
+  std::vector<bool> used(scene.materials.size(), false);
+  for (const auto& mesh : scene.meshes)
+    for (uint32_t id : mesh.materialIds) used[id] = true;
+  bool mirror = false, rippled = false, diffuse = false;
+  for (size_t m = 0; m < scene.materials.size(); ++m) {
+    if (!used[m]) continue;
+    mirror |= scene.materials[m].kind == MaterialKind::kMirror;
+    rippled |= scene.materials[m].kind == MaterialKind::kRippledMirror;
+    diffuse |= scene.materials[m].kind == MaterialKind::kLambertian && !isBlack(scene.materials[m].albedo);
+  }
+  e.specular = mirror || rippled;
+  e.decisions.push_back({"specular reflection", e.specular,
+                         e.specular ? std::string(rippled ? "rippled mirror" : "mirror") + " in the scene"
+                                    : "no mirror in the scene"});
+
+  // Lights that can light something: some surface vertex or the camera lies in front of them.
+  std::vector<Vec3> points{camera.params().position};
+  for (const auto& mesh : scene.meshes) points.insert(points.end(), mesh.positions.begin(), mesh.positions.end());
+  int useful = 0, useless = 0;
+  for (const auto& mesh : scene.meshes) {
+    for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+      const uint32_t id = mesh.materialIds[t];
+      const Material& m = scene.materials[id];
+      if (!m.isEmissive() || m.twoSidedEmission) continue;
+      const Vec3& a = mesh.positions[mesh.indices[3 * t]];
+      const Vec3 n = glm::cross(mesh.positions[mesh.indices[3 * t + 1]] - a, mesh.positions[mesh.indices[3 * t + 2]] - a);
+      bool facesSomething = false;
+      for (const Vec3& p : points)
+        if (glm::dot(p - a, n) > 0.0f) {
+          facesSomething = true;
+          break;
+        }
+      if (!facesSomething) e.lightUseful[id] = false;
+    }
+  }
+  for (size_t m = 0; m < scene.materials.size(); ++m)
+    if (used[m] && scene.materials[m].isEmissive()) (e.lightUseful[m] ? useful : useless)++;
+  if (useless > 0)
+    e.decisions.push_back({"lights facing away", false,
+                           std::to_string(useless) + " light(s) face away from every surface and the camera: not sampled"});
+  if (scene.render.integrator == IntegratorKind::kNaive) {
+    e.lightSampling = false;
+    e.decisions.push_back({"next-event estimation", false, "the naive estimator was asked for"});
+  } else if (useful == 0) {
+    e.lightSampling = false;
+    e.decisions.push_back({"next-event estimation", false, "no light can light anything"});
+  } else {
+    e.decisions.push_back({"next-event estimation", true, std::to_string(useful) + " light(s) to sample"});
+  }
+  if (!diffuse && !e.specular)
+    e.decisions.push_back({"indirect light", false, "no surface reflects: only emitters are seen"});
+  return e;
+}
+
+std::string EffectSet::summary() const {
+  std::string out;
+  for (const auto& d : decisions)
+    out += (out.empty() ? "" : "; ") + d.effect + ": " + (d.simulated ? "on" : "off") + " (" + d.reason + ")";
+  return out;
+}
+
+}  // namespace lensfarm

@@ -1,0 +1,44 @@
+#pragma once
+// What a scene calls for, decided once when it is loaded, so that the renderer simulates only
+// those effects (the user's third promise). Each decision carries its reason, for the summary
+// of `lensfarm render`, `lensfarm status` and the EXR header.
+//
+//  - depth of field: off when the aperture is closed, or when its blur over the whole scene's
+//    depth range stays below half a sensor cell (the lens is then sampled as a pinhole);
+//  - specular materials: off when no mirror or rippled mirror occurs;
+//  - next-event estimation: off with the naive estimator, or when no light can light anything;
+//  - lights that face away from every surface and from the camera are dropped from sampling.
+#include <string>
+#include <vector>
+
+#include "camera/thin_lens_camera.h"
+#include "scene/scene.h"
+
+namespace lensfarm {
+
+struct EffectDecision {
+  std::string effect;
+  bool simulated;
+  std::string reason;
+};
+
+struct EffectSet {
+  bool depthOfField = true;
+  bool specular = true;
+  bool lightSampling = true;
+  std::vector<bool> lightUseful;  // per material index: false for emitters that light nothing
+  std::vector<EffectDecision> decisions;
+
+  // "depth of field: on (blur up to 3.2 px); specular: off (no mirror) ..." for logs and headers.
+  std::string summary() const;
+  // Everything on: what the general path simulates.
+  static EffectSet all(const Scene& scene);
+};
+
+EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera);
+
+// Largest blur-circle diameter on the sensor, in sensor cells, of any point of the scene's
+// bounding box in front of the lens (0 for a pinhole).
+double maxBlurInCells(const Scene& scene, const ThinLensCamera& camera);
+
+}  // namespace lensfarm

@@ -1,0 +1,141 @@
+// Simulate only the effects a scene calls for: each effect turns on when the scene needs it and
+// off when it does not, and leaving one out changes no bit of the image.
+#include <gtest/gtest.h>
+#include <tbb/task_arena.h>
+
+#include <cstring>
+#include <fstream>
+
+#include "render/unit_renderer.h"
+#include "scene/effects.h"
+#include "test_support.h"
+
+namespace lensfarm {
+namespace {
+
+using nlohmann::json;
+
+json sceneFile(const char* name) {
+  json scene = json::parse(std::ifstream(test::scenesDir() / name));
+  scene["shapes"][0]["file"] = (test::scenesDir() / "meshes/cornell-box.obj").string();
+  return scene;
+}
+
+const EffectDecision& decision(const EffectSet& e, const std::string& effect) {
+  for (const auto& d : e.decisions)
+    if (d.effect == effect) return d;
+  throw std::runtime_error("no decision about " + effect);
+}
+
+EffectSet effectsOf(const json& scene) {
+  test::TempDir dir;
+  const Scene s = test::loadSceneJson(dir, scene);
+  return analyzeEffects(s, s.camera());
+}
+
+std::vector<double> unitSums(const Scene& scene, bool general) {
+  const RenderScene rs(scene, general);
+  SensorBuffer buffer;
+  PathStats stats;
+  tbb::task_arena arena{2};
+  arena.execute([&] { renderUnit(rs, WorkUnit{0, 0, 4}, buffer, stats); });
+  return buffer.sums;
+}
+
+TEST(Effects, DepthOfFieldFollowsTheAperture) {
+  json scene = sceneFile("cornell-seed.json");
+  EXPECT_TRUE(effectsOf(scene).depthOfField) << "N = 16 blurs the box's far wall";
+  scene["camera"]["f_number"] = "infinity";
+  EXPECT_FALSE(effectsOf(scene).depthOfField);
+  EXPECT_NE(decision(effectsOf(scene), "depth of field").reason.find("aperture closed"), std::string::npos);
+  scene["camera"]["f_number"] = 1e5;  // open, but its blur is far below a pixel
+  const EffectSet tiny = effectsOf(scene);
+  EXPECT_FALSE(tiny.depthOfField);
+  EXPECT_NE(decision(tiny, "depth of field").reason.find("below half a cell"), std::string::npos);
+  scene["render"]["resolution"] = {8, 8};
+  scene["camera"]["f_number"] = 16;
+  EXPECT_FALSE(effectsOf(scene).depthOfField) << "at 8x8 pixels the same blur is below a cell";
+}
+
+TEST(Effects, BlurEstimateMatchesTheThinLensFormula) {
+  // A point at distance D images at S2' = fD/(D-f); its blur on the sensor is 2R|S2'-S2|/S2'.
+  json scene = sceneFile("cornell-seed.json");
+  test::TempDir dir;
+  const Scene s = test::loadSceneJson(dir, scene);
+  const ThinLensCamera camera = s.camera();
+  const double f = 0.095, s2 = 1.0 / (1.0 / f - 1.0 / 2.9), r = f / 32.0, cell = 0.1 / 800;
+  const auto blur = [&](double d) {
+    const double s2d = f * d / (d - f);
+    return 2 * r * std::abs(s2d - s2) / s2d / cell;
+  };
+  // The scene's depth range: the light's front edge (z = -1.5) to the back wall (z = +1).
+  const double expected = std::max(blur(2.9 - 1.5), blur(2.9 + 1.0));
+  EXPECT_NEAR(maxBlurInCells(s, camera), expected, 1e-6 * expected);
+  EXPECT_GT(maxBlurInCells(s, camera), 1.0);
+}
+
+TEST(Effects, SpecularOnlyWhenAMirrorIsThere) {
+  EXPECT_TRUE(effectsOf(sceneFile("cornell-seed.json")).specular);
+  const EffectSet classic = effectsOf(sceneFile("cornell-classic.json"));
+  EXPECT_FALSE(classic.specular);
+  EXPECT_EQ(decision(classic, "specular reflection").reason, "no mirror in the scene");
+}
+
+TEST(Effects, LightSamplingOnlyWhenALightCanLightSomething) {
+  json scene = test::minimalSceneJson();
+  EXPECT_TRUE(effectsOf(scene).lightSampling);
+  scene["render"]["integrator"] = "naive";
+  EXPECT_FALSE(effectsOf(scene).lightSampling);
+  scene["render"]["integrator"] = "nee_mis";
+  // The minimal scene's light faces +z, towards the quad; turned to face -z, away from the quad
+  // and from the camera's side... the camera at z = -3 is in front of it, so it still counts.
+  scene["lights"][0]["edge1"] = {0, 1, 0};
+  scene["lights"][0]["edge2"] = {1, 0, 0};
+  EXPECT_TRUE(effectsOf(scene).lightSampling) << "the camera sees its front";
+  // Moved behind the camera and facing away from everything: it lights nothing.
+  scene["lights"][0]["corner"] = {-0.5, -0.5, -5};
+  const EffectSet away = effectsOf(scene);
+  EXPECT_FALSE(away.lightSampling);
+  EXPECT_NE(away.summary().find("face away from every surface"), std::string::npos) << away.summary();
+}
+
+TEST(Effects, SpecialisedAndGeneralPathsGiveTheSameBits) {
+  // Where the sampling is the same (no effect approximated), leaving an absent effect out of the
+  // compiled path must not change a bit.
+  // Combinations: classic (no lens, no mirror), seed at N = 2 (everything), seed as a pinhole
+  // (mirror, no lens).
+  for (const auto& [name, fNumber] : std::vector<std::pair<const char*, json>>{
+           {"cornell-classic.json", json()}, {"cornell-seed.json", json(2)}, {"cornell-seed.json", json("infinity")}}) {
+    for (const char* integrator : {"nee_mis", "naive"}) {
+      json scene = sceneFile(name);
+      if (!fNumber.is_null()) scene["camera"]["f_number"] = fNumber;
+      scene["render"]["resolution"] = {40, 32};
+      scene["render"]["integrator"] = integrator;
+      test::TempDir dir;
+      const Scene s = test::loadSceneJson(dir, scene);
+      const std::vector<double> specialised = unitSums(s, false), general = unitSums(s, true);
+      ASSERT_EQ(specialised.size(), general.size());
+      EXPECT_EQ(0, std::memcmp(specialised.data(), general.data(), general.size() * sizeof(double)))
+          << name << " N " << fNumber << " " << integrator;
+    }
+  }
+}
+
+TEST(Effects, SkippingANegligibleBlurChangesTheImageOnlyWithinNoise) {
+  json scene = sceneFile("cornell-seed.json");
+  scene["camera"]["f_number"] = 1e5;
+  scene["render"]["resolution"] = {32, 32};
+  scene["render"]["samples_per_pixel"] = 16;
+  test::TempDir dir;
+  const Scene s = test::loadSceneJson(dir, scene);
+  const std::vector<double> pinhole = unitSums(s, false), lens = unitSums(s, true);
+  double diff = 0, total = 0;
+  for (size_t k = 0; k < lens.size(); ++k) {
+    diff += std::abs(pinhole[k] - lens[k]);
+    total += lens[k];
+  }
+  EXPECT_LT(diff / total, 1e-3) << "a blur far below a pixel is invisible";
+}
+
+}  // namespace
+}  // namespace lensfarm
