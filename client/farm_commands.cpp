@@ -82,6 +82,7 @@ void printStatus(const v1::JobStatus& s) {
   std::printf("workers:    %u busy\n", p.workers_busy());
   std::printf("light hits: %.2f %%\n", 100.0 * p.light_hit_fraction());
   std::printf("dropped:    %llu samples\n", (unsigned long long)p.dropped_samples());
+  for (const auto& e : s.effects()) std::printf("effect:     %s\n", e.c_str());
   if (!s.error().empty()) std::printf("error:      %s\n", s.error().c_str());
 }
 

@@ -156,6 +156,7 @@ int runRender(const RenderFlags& flags) {
   std::printf("light-hit fraction: %.2f %%\n", 100.0 * info.lightHitFraction());
   std::printf("dropped samples:   %llu\n", (unsigned long long)info.stats.dropped);
   std::printf("time:              %.2f s\n", info.elapsedSeconds);
+  for (const auto& e : info.effects) std::printf("effect:            %s\n", e.c_str());
   for (const auto& o : outputs) std::printf("wrote %s\n", o.c_str());
   return interrupted ? kInterrupted : kOk;
 }

@@ -6,6 +6,7 @@
 #include <random>
 #include <cmath>
 
+#include "scene/effects.h"
 #include "scene/scene_loader.h"
 #include "util/error.h"
 #include "util/hash.h"
@@ -13,6 +14,15 @@
 #include "state_store.h"
 
 namespace lensfarm {
+
+namespace {
+std::vector<std::string> describeEffects(const Scene& scene) {
+  std::vector<std::string> out;
+  for (const auto& d : analyzeEffects(scene, scene.camera()).decisions)
+    out.push_back(d.effect + ": " + (d.simulated ? "on" : "off") + " (" + d.reason + ")");
+  return out;
+}
+}  // namespace
 
 const char* jobStateName(JobState s) {
   switch (s) {
@@ -36,6 +46,7 @@ struct Coordinator::Job {
   std::string sceneHash;
   uint32_t unitSize = 1;
   uint64_t unitsTotal = 0;
+  std::vector<std::string> effects;  // what the renderer simulates for this job, and why
 
   // Scheduling, guarded by Coordinator::mutex_.
   JobState state = JobState::kQueued;
@@ -209,6 +220,7 @@ void Coordinator::restore() {
     job->sceneHash = scene.hash;
     job->unitSize = unitSize(scene.render);
     job->unitsTotal = unitCount(scene.render.samplesPerPixel, job->unitSize);
+    job->effects = describeEffects(scene);
 
     // The checkpoint holds units [0, folded); the ledger lists every accepted unit.
     const auto checkpoint = store_->loadCheckpoint(job->id);
@@ -318,6 +330,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
   job->sceneHash = scene.hash;
   job->unitSize = unitSize(scene.render);
   job->unitsTotal = unitCount(scene.render.samplesPerPixel, job->unitSize);
+  job->effects = describeEffects(scene);
   job->sensor = std::make_unique<Sensor>(scene.render.width, scene.render.height);
   job->submittedUnixSeconds =
       std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
@@ -368,6 +381,7 @@ JobInfo Coordinator::infoOf(const Job& job) const {
   info.error = job.error;
   info.submittedUnixSeconds = job.submittedUnixSeconds;
   info.version = job.version;
+  info.effects = job.effects;
   return info;
 }
 
@@ -439,6 +453,9 @@ JobImage Coordinator::image(const std::string& jobId) const {
     for (const auto& [name, units] : job->unitsByWorker)
       provenance += (provenance.empty() ? "" : ", ") + name + ": " + std::to_string(units) + " units";
     out.metadata.extra["workers"] = provenance;
+    std::string effects;
+    for (const auto& e : job->effects) effects += (effects.empty() ? "" : "; ") + e;
+    out.metadata.extra["effects"] = effects;
     out.metadata.renderSeconds = infoOf(*job).elapsedSeconds;
   }
   std::lock_guard lock(job->accumulate);

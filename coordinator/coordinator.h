@@ -53,6 +53,7 @@ struct JobInfo {
   std::string error;
   double submittedUnixSeconds = 0.0;
   uint64_t version = 0;  // grows with every change of the job
+  std::vector<std::string> effects;  // "depth of field: off (aperture closed ...)", scene/effects.h
 
   double raysPerSecond() const { return elapsedSeconds > 0 ? double(stats.rays) / elapsedSeconds : 0.0; }
   double lightHitFraction() const { return stats.paths ? double(stats.lightHits) / double(stats.paths) : 0.0; }

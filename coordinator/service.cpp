@@ -77,6 +77,7 @@ v1::JobStatus toProto(const JobInfo& info) {
   s.set_scene_hash(info.sceneHash);
   s.set_submitted_unix_seconds(info.submittedUnixSeconds);
   s.set_version(info.version);
+  for (const auto& e : info.effects) s.add_effects(e);
   auto* p = s.mutable_progress();
   p->set_samples_per_pixel_done(info.samplesPerPixelDone);
   p->set_samples_per_pixel_total(info.samplesPerPixelTotal);

@@ -256,6 +256,16 @@ TEST(Coordinator, FreshUnitsStayWithinAWindowAheadOfTheSummedPrefix) {
   EXPECT_EQ(c.lease(a, 0)->unit.index, 8u) << "the prefix moved, so does the window";
 }
 
+TEST(Coordinator, ReportsTheEffectsItsJobsSimulate) {
+  Coordinator c;
+  const JobInfo job = c.submit(specFor(test::minimalSceneJson(), 1, 1), 0);
+  std::string all;
+  for (const auto& e : job.effects) all += e + "\n";
+  EXPECT_NE(all.find("depth of field: off (aperture closed"), std::string::npos) << all;
+  EXPECT_NE(all.find("specular reflection: off (no mirror in the scene)"), std::string::npos) << all;
+  EXPECT_NE(c.image(job.id).metadata.extra.at("effects").find("depth of field: off"), std::string::npos);
+}
+
 TEST(Coordinator, HugeJobsCostNothingUpFront) {
   // A time-limited render asks for 2^40 samples; the unit queue must be lazy.
   Coordinator c;

@@ -112,6 +112,8 @@ TEST_F(Farm, TwoWorkersMatchTheInProcessRenderPixelForPixel) {
   EXPECT_EQ(farmMeta.samplesPerPixel, 16u);
   EXPECT_EQ(localMeta.samplesPerPixel, 16u);
   EXPECT_EQ(farmMeta.sceneHash, localMeta.sceneHash);
+  EXPECT_NE(farmMeta.extra["effects"].find("specular reflection: on (rippled mirror"), std::string::npos)
+      << "the EXR header lists the effects simulated: " << farmMeta.extra["effects"];
   ASSERT_EQ(farm.rgb.size(), local.rgb.size());
   EXPECT_EQ(farm.rgb, local.rgb) << "the farm's image must equal the in-process render bit for bit";
   double sum = 0;
