@@ -114,6 +114,11 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
   } else {
     e.decisions.push_back({"next-event estimation", true, std::to_string(useful) + " light(s) to sample"});
   }
+  bool seenEmitter = false;
+  for (const auto& mesh : scene.meshes)
+    for (uint32_t id : mesh.materialIds) seenEmitter |= mesh.visibleToCamera && scene.materials[id].isEmissive();
+  e.decisions.push_back({"lights seen by the camera", seenEmitter,
+                         seenEmitter ? "an emitter is visible to camera rays" : "every light is hidden from the camera"});
   if (!diffuse && !e.specular)
     e.decisions.push_back({"indirect light", false, "no surface reflects: only emitters are seen"});
   return e;

@@ -74,6 +74,12 @@ TEST(Effects, BlurEstimateMatchesTheThinLensFormula) {
   EXPECT_GT(maxBlurInCells(s, camera), 1.0);
 }
 
+TEST(Effects, ReportsWhetherTheCameraSeesALight) {
+  EXPECT_TRUE(decision(effectsOf(sceneFile("cornell-classic.json")), "lights seen by the camera").simulated);
+  EXPECT_FALSE(decision(effectsOf(sceneFile("cornell-seed.json")), "lights seen by the camera").simulated)
+      << "the seed's light is hidden from the camera (§4.4)";
+}
+
 TEST(Effects, SpecularOnlyWhenAMirrorIsThere) {
   EXPECT_TRUE(effectsOf(sceneFile("cornell-seed.json")).specular);
   const EffectSet classic = effectsOf(sceneFile("cornell-classic.json"));
