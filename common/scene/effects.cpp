@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <sstream>
 
 namespace lensfarm {
@@ -10,6 +11,89 @@ namespace lensfarm {
 namespace {
 // Below this blur (in sensor cells) a thin lens and a pinhole make the same picture.
 constexpr double kNegligibleBlurCells = 0.5;
+// A closed component: connected triangles of one mesh in which every edge is shared by exactly
+// two triangles (a watertight, manifold shell).
+struct Shell {
+  const TriangleMesh* mesh;
+  std::vector<size_t> triangles;
+};
+
+std::vector<Shell> closedShells(const Scene& scene) {
+  std::vector<Shell> shells;
+  for (const auto& mesh : scene.meshes) {
+    // Union-find over vertex indices.
+    std::vector<uint32_t> parent(mesh.positions.size());
+    for (uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
+    const auto find = [&](uint32_t x) {
+      while (parent[x] != x) x = parent[x] = parent[parent[x]];
+      return x;
+    };
+    for (size_t t = 0; t < mesh.triangleCount(); ++t)
+      for (int k = 1; k < 3; ++k) parent[find(mesh.indices[3 * t + k])] = find(mesh.indices[3 * t]);
+    std::map<uint32_t, Shell> byRoot;
+    std::map<uint32_t, std::map<std::pair<uint32_t, uint32_t>, int>> edges;
+    for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+      const uint32_t root = find(mesh.indices[3 * t]);
+      byRoot.try_emplace(root, Shell{&mesh, {}}).first->second.triangles.push_back(t);
+      for (int k = 0; k < 3; ++k) {
+        uint32_t a = mesh.indices[3 * t + k], b = mesh.indices[3 * t + (k + 1) % 3];
+        ++edges[root][{std::min(a, b), std::max(a, b)}];
+      }
+    }
+    for (auto& [root, shell] : byRoot) {
+      bool closed = true;
+      for (const auto& [edge, count] : edges[root]) closed &= count == 2;
+      if (closed) shells.push_back(std::move(shell));
+    }
+  }
+  return shells;
+}
+
+// Point-in-shell by ray parity, in double, along a direction no scene axis shares.
+bool inside(const Shell& shell, const DVec3& p) {
+  const DVec3 d = glm::normalize(DVec3(0.5773, 0.5774, 0.5771));
+  int crossings = 0;
+  for (size_t t : shell.triangles) {
+    const DVec3 v0(shell.mesh->positions[shell.mesh->indices[3 * t]]);
+    const DVec3 e1 = DVec3(shell.mesh->positions[shell.mesh->indices[3 * t + 1]]) - v0;
+    const DVec3 e2 = DVec3(shell.mesh->positions[shell.mesh->indices[3 * t + 2]]) - v0;
+    const DVec3 h = glm::cross(d, e2);
+    const double det = glm::dot(e1, h);
+    if (std::abs(det) < 1e-300) continue;
+    const DVec3 q = p - v0;
+    const double u = glm::dot(q, h) / det;
+    if (u < 0 || u > 1) continue;
+    const DVec3 r = glm::cross(q, e1);
+    const double v = glm::dot(d, r) / det;
+    if (v < 0 || u + v > 1) continue;
+    if (glm::dot(e2, r) / det > 0) ++crossings;
+  }
+  return crossings % 2 == 1;
+}
+
+// True if every triangle of material `id` lies inside a closed shell that the camera is outside
+// of: camera paths can never enter a watertight shell, so nothing there can reach the image.
+bool sealedAway(const Scene& scene, const std::vector<Shell>& shells, uint32_t id, const Vec3& camera) {
+  bool any = false;
+  for (const auto& mesh : scene.meshes)
+    for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+      if (mesh.materialIds[t] != id) continue;
+      any = true;
+      bool sealed = false;
+      for (const Shell& shell : shells) {
+        if (shell.mesh == &mesh || inside(shell, DVec3(camera))) continue;
+        bool all = true;
+        for (int k = 0; k < 3 && all; ++k) all = inside(shell, DVec3(mesh.positions[mesh.indices[3 * t + k]]));
+        if (all) {
+          sealed = true;
+          break;
+        }
+      }
+      if (!sealed) return false;
+    }
+  return any;
+}
+
 }  // namespace
 
 double maxBlurInCells(const Scene& scene, const ThinLensCamera& camera) {
@@ -68,6 +152,15 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
   std::vector<bool> used(scene.materials.size(), false);
   for (const auto& mesh : scene.meshes)
     for (uint32_t id : mesh.materialIds) used[id] = true;
+  // A mirror sealed inside a closed shell the camera is outside of can never be reached.
+  const std::vector<Shell> shells = closedShells(scene);
+  int sealedMirrors = 0;
+  for (size_t m = 0; m < scene.materials.size(); ++m)
+    if (used[m] && scene.materials[m].isSpecular() && !shells.empty() &&
+        sealedAway(scene, shells, uint32_t(m), camera.params().position)) {
+      used[m] = false;
+      ++sealedMirrors;
+    }
   bool mirror = false, rippled = false, diffuse = false;
   for (size_t m = 0; m < scene.materials.size(); ++m) {
     if (!used[m]) continue;
@@ -77,8 +170,9 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
   }
   e.specular = mirror || rippled;
   e.decisions.push_back({"specular reflection", e.specular,
-                         e.specular ? std::string(rippled ? "rippled mirror" : "mirror") + " in the scene"
-                                    : "no mirror in the scene"});
+                         e.specular    ? std::string(rippled ? "rippled mirror" : "mirror") + " in the scene"
+                         : sealedMirrors ? "every mirror is sealed inside a closed mesh the camera is outside of"
+                                         : "no mirror in the scene"});
 
   // Lights that can light something: some surface vertex or the camera lies in front of them.
   std::vector<Vec3> points{camera.params().position};

@@ -87,6 +87,40 @@ TEST(Effects, SpecularOnlyWhenAMirrorIsThere) {
   EXPECT_EQ(decision(classic, "specular reflection").reason, "no mirror in the scene");
 }
 
+// A closed cube (shared vertices, every edge on two faces) around a small mirror.
+json sealedMirrorScene(const test::TempDir& dir, bool closed, const std::vector<double>& cameraAt) {
+  std::string obj = "v -0.5 -0.5 -0.5\nv 0.5 -0.5 -0.5\nv 0.5 0.5 -0.5\nv -0.5 0.5 -0.5\n"
+                    "v -0.5 -0.5 0.5\nv 0.5 -0.5 0.5\nv 0.5 0.5 0.5\nv -0.5 0.5 0.5\n"
+                    "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 4 7 3\nf 4 8 7\nf 1 5 8\nf 1 8 4\n";
+  if (closed) obj += "f 2 3 7\nf 2 7 6\n";  // without these two, the cube is open on one side
+  dir.write("cube.obj", obj);
+  json scene = test::minimalSceneJson();
+  scene["materials"]["mirror"] = {{"type", "mirror"}};
+  scene["camera"]["position"] = cameraAt;
+  scene["shapes"].push_back({{"type", "obj"}, {"file", "cube.obj"}, {"material", "white"}});
+  scene["shapes"].push_back({{"type", "quad"}, {"corner", {-0.1, -0.1, 0}}, {"edge1", {0.2, 0, 0}},
+                             {"edge2", {0, 0.2, 0}}, {"material", "mirror"}});
+  return scene;
+}
+
+TEST(Effects, AMirrorNoRayCanReachIsNotSimulated) {
+  test::TempDir dir;
+  const EffectSet sealed = [&] {
+    const Scene s = test::loadSceneJson(dir, sealedMirrorScene(dir, true, {0, 0, -3}), "sealed.json");
+    return analyzeEffects(s, s.camera());
+  }();
+  EXPECT_FALSE(sealed.specular);
+  EXPECT_NE(decision(sealed, "specular reflection").reason.find("sealed inside a closed mesh"), std::string::npos);
+  const Scene open = test::loadSceneJson(dir, sealedMirrorScene(dir, false, {0, 0, -3}), "open.json");
+  EXPECT_TRUE(analyzeEffects(open, open.camera()).specular) << "an open box lets rays in";
+  const Scene inside = test::loadSceneJson(dir, sealedMirrorScene(dir, true, {0.2, 0.2, -0.3}), "inside.json");
+  EXPECT_TRUE(analyzeEffects(inside, inside.camera()).specular) << "the camera is in the box with the mirror";
+  // Leaving the sealed mirror out changes no bit.
+  const Scene s = test::loadSceneJson(dir, sealedMirrorScene(dir, true, {0, 0, -3}), "sealed.json");
+  const std::vector<double> specialised = unitSums(s, false), general = unitSums(s, true);
+  EXPECT_EQ(0, std::memcmp(specialised.data(), general.data(), general.size() * sizeof(double)));
+}
+
 TEST(Effects, LightSamplingOnlyWhenALightCanLightSomething) {
   json scene = test::minimalSceneJson();
   EXPECT_TRUE(effectsOf(scene).lightSampling);
