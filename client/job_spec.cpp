@@ -1,35 +1,34 @@
 #include "job_spec.h"
 
-#include <fstream>
-#include <sstream>
-
 #include "scene/scene_loader.h"
 #include "util/error.h"
+#include "util/file_contents.h"
 
 namespace lensfarm::cli {
 
 LocalJob makeLocalJob(const std::filesystem::path& sceneFile, const RenderOverrides& overrides) {
-  Scene scene = loadScene(sceneFile);
-  applyOverrides(overrides, scene.render, sceneFile.string());
+  LocalJob job;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(sceneFile, ec)) throw InputError(sceneFile.string(), "no such scene file");
+  job.spec.sceneJson = readWholeFileOrThrow(sceneFile, sceneFile.string());
+  // Keep what the loader reads, so assets are read once and uploaded exactly as loaded.
+  std::map<std::string, std::string> read;
+  const AssetReader fromDisk = fileAssetReader(sceneFile);
+  job.scene = parseScene(job.spec.sceneJson, sceneFile, [&](const std::string& path) {
+    auto bytes = fromDisk(path);
+    if (bytes) read[path] = *bytes;
+    return bytes;
+  });
+  applyOverrides(overrides, job.scene.render, "command line");
   try {
-    (void)scene.camera();
+    (void)job.scene.camera();
   } catch (const InputError& e) {
     throw InputError(sceneFile.string(), std::string("camera.") + e.what());
   }
-  LocalJob job;
-  std::ifstream in(sceneFile, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
   job.spec.sceneName = sceneFile.filename().string();
-  job.spec.sceneJson = text.str();
-  job.spec.assets = scene.assets;
+  job.spec.assets = job.scene.assets;
   job.spec.overrides = overrides;
-  const AssetReader read = fileAssetReader(sceneFile);
-  for (const auto& [path, sha] : scene.assets) {
-    auto bytes = read(path);
-    if (!bytes) throw InputError(sceneFile.string(), "cannot read asset " + path);
-    job.assetBytes[sha] = std::move(*bytes);
-  }
+  for (const auto& [path, sha] : job.scene.assets) job.assetBytes[sha] = std::move(read.at(path));
   return job;
 }
 

@@ -1,15 +1,17 @@
 #pragma once
 // Building a job from a scene file on the client's disk: the scene is loaded (and so validated)
-// here first, and its assets are listed by content hash for upload.
+// here first, and its assets are listed by content hash for upload. Every file is read once.
 #include <filesystem>
 #include <map>
 #include <string>
 
 #include "farm/farm_types.h"
+#include "scene/scene.h"
 
 namespace lensfarm::cli {
 
 struct LocalJob {
+  Scene scene;  // loaded, with the overrides applied
   JobSpec spec;
   std::map<std::string, std::string> assetBytes;  // sha256 -> bytes
 };

@@ -62,15 +62,13 @@ void writeOutputs(const std::vector<fs::path>& outputs, const JobImage& image) {
 }
 
 int runRender(const RenderFlags& flags) {
-  Scene scene = loadScene(flags.scene);
-  const RenderOverrides overrides = toOverrides(flags);
-  RenderSettings settings = scene.render;
-  applyOverrides(overrides, settings, "command line");
+  const LocalJob local = makeLocalJob(flags.scene, toOverrides(flags));
+  const Scene& scene = local.scene;
+  const RenderSettings& settings = scene.render;
 
   // Refuse bad outputs before tracing a single ray.
   std::vector<fs::path> outputs;
   for (const auto& o : flags.outputs) outputs.push_back(checkedOutput(o, {".exr", ".png"}));
-  const LocalJob local = makeLocalJob(flags.scene, overrides);
 
   // The farm in one process: an embedded coordinator and one worker with all threads, wired by
   // direct calls (design.md): the same scheduling, upload and accumulation as over gRPC.

@@ -592,6 +592,12 @@ JobSpec Coordinator::jobSpec(const std::string& jobId) const {
 }
 
 bool Coordinator::acceptResult(UnitResult result) {
+  // Workers drop non-finite samples before they are summed (design.md); a buffer holding one is
+  // corrupt and must not reach the sensor. Checked before taking the lock: it reads every cell.
+  for (double v : result.buffer.sums)
+    if (!std::isfinite(v))
+      throw FarmError(FarmError::Kind::kInvalidArgument, "result for unit " + std::to_string(result.unitIndex) +
+                                                             " of " + result.jobId + " holds a non-finite sum");
   Job* job;
   std::string workerName;
   {
@@ -611,12 +617,6 @@ bool Coordinator::acceptResult(UnitResult result) {
     if (result.buffer.width != w || result.buffer.height != h ||
         result.buffer.sums.size() != size_t(w) * size_t(h) * 3)
       throw FarmError(FarmError::Kind::kInvalidArgument, "result for " + job->id + " has the wrong size");
-    // Workers drop non-finite samples before they are summed (design.md); a buffer holding one
-    // is corrupt and must not reach the sensor.
-    for (double v : result.buffer.sums)
-      if (!std::isfinite(v))
-        throw FarmError(FarmError::Kind::kInvalidArgument, "result for unit " + std::to_string(result.unitIndex) +
-                                                               " of " + job->id + " holds a non-finite sum");
     Worker& worker = findWorker(result.workerId);
     workerName = worker.info.name.empty() ? worker.id : worker.info.name;
     leases_.erase(it);

@@ -15,6 +15,7 @@
 #include <sstream>
 #include <thread>
 
+#include "util/file_contents.h"
 #include "coordinator.h"
 #include "film/image_io.h"
 #include "service.h"
@@ -38,11 +39,7 @@ bool isLoopback(std::string host) {
 }
 
 std::string readFileOrThrow(const std::string& file, const char* flag) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw lensfarm::InputError(std::string(flag) + " " + file, "cannot read the file");
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
+  return lensfarm::readWholeFileOrThrow(file, std::string(flag) + " " + file);
 }
 extern "C" void onSignal(int) { gStop = true; }
 }  // namespace

@@ -1,3 +1,4 @@
+#include "util/file_contents.h"
 #include "state_store.h"
 
 #include <fcntl.h>
@@ -60,13 +61,7 @@ class Statement {
   sqlite3_stmt* stmt_ = nullptr;
 };
 
-std::string readAll(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot read " + p.string());
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+std::string readAll(const fs::path& p) { return readWholeFileOrThrow(p, p.string()); }
 
 json specToJson(const JobSpec& spec) {
   json o = json::object();

@@ -1,3 +1,4 @@
+#include "util/file_contents.h"
 #include "channel_security.h"
 
 #include <fstream>
@@ -9,11 +10,7 @@ namespace lensfarm {
 
 namespace {
 std::string readPem(const std::string& file, const char* flag) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw InputError(std::string(flag) + " " + file, "cannot read the file");  // names flag and path
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
+  return readWholeFileOrThrow(file, std::string(flag) + " " + file);
 }
 }  // namespace
 

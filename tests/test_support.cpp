@@ -1,3 +1,4 @@
+#include "util/file_contents.h"
 #include "test_support.h"
 
 #include <fcntl.h>
@@ -158,12 +159,7 @@ Scene loadSceneJson(const TempDir& dir, const json& scene, const std::string& na
   return loadScene(dir.write(name, scene.dump(2)));
 }
 
-std::string readFile(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+std::string readFile(const fs::path& p) { return readWholeFile(p).value_or(""); }
 
 int startProcess(const std::vector<std::string>& argv, const fs::path& outFile, const fs::path& errFile) {
   std::vector<char*> args;

@@ -1,3 +1,4 @@
+#include "util/file_contents.h"
 #include "asset_cache.h"
 
 #include <spdlog/spdlog.h>
@@ -21,13 +22,8 @@ std::string AssetCache::get(const std::string& sha256, const std::function<std::
   std::lock_guard lock(mutex_);
   if (auto it = memory_.find(sha256); it != memory_.end()) return it->second;
   if (!dir_.empty()) {
-    std::ifstream in(dir_ / sha256, std::ios::binary);
-    if (in) {
-      std::stringstream buffer;
-      buffer << in.rdbuf();
-      std::string bytes = buffer.str();
-      if (sha256Hex(bytes) == sha256) return memory_[sha256] = std::move(bytes);
-    }
+    if (auto bytes = readWholeFile(dir_ / sha256); bytes && sha256Hex(*bytes) == sha256)
+      return memory_[sha256] = std::move(*bytes);
   }
   ++fetches_;
   std::string bytes = fetch(sha256);

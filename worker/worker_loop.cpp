@@ -48,18 +48,15 @@ std::string WorkerLoop::workerId() {
 
 void WorkerLoop::heartbeatLoop() {
   while (!stopNow_) {
-    double interval;
     std::string id;
     std::vector<uint64_t> leases;
     {
       std::unique_lock lock(mutex_);
       wake_.wait_for(lock, std::chrono::duration<double>(heartbeatInterval_), [&] { return stopNow_.load(); });
       if (stopNow_ || (stopping_ && !currentLease_)) return;
-      interval = heartbeatInterval_;
       id = workerId_;
       if (currentLease_) leases.push_back(*currentLease_);
     }
-    (void)interval;
     if (id.empty()) continue;
     try {
       for (uint64_t revoked : link_.heartbeat(id, leases)) {

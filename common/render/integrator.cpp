@@ -92,9 +92,4 @@ template Spectrum tracePath<false, true>(const RenderScene&, const CameraRay&, c
 template Spectrum tracePath<true, false>(const RenderScene&, const CameraRay&, const SampleStream&, PathStats&);
 template Spectrum tracePath<true, true>(const RenderScene&, const CameraRay&, const SampleStream&, PathStats&);
 
-Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats) {
-  const bool nee = rs.settings().integrator == IntegratorKind::kNeeMis && !rs.lights().empty();
-  return nee ? tracePath<true, true>(rs, cameraRay, rng, stats) : tracePath<false, true>(rs, cameraRay, rng, stats);
-}
-
 }  // namespace lensfarm

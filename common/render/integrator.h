@@ -43,7 +43,4 @@ struct PathStats {
 template <bool kNee, bool kSpecular>
 Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats);
 
-// The general path: every effect simulated when the scene has it (decided at run time).
-Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats);
-
 }  // namespace lensfarm

@@ -1,3 +1,4 @@
+#include "util/file_contents.h"
 #include "scene/scene_loader.h"
 
 #include <tiny_obj_loader.h>
@@ -582,13 +583,7 @@ class NonFiniteNumberFinder : public nlohmann::json_sax<json> {
 
 AssetReader fileAssetReader(const fs::path& sceneFile) {
   const fs::path dir = sceneFile.parent_path();
-  return [dir](const std::string& rel) -> std::optional<std::string> {
-    std::ifstream in(dir / rel, std::ios::binary);
-    if (!in) return std::nullopt;
-    std::stringstream buffer;
-    buffer << in.rdbuf();
-    return buffer.str();
-  };
+  return [dir](const std::string& rel) { return readWholeFile(dir / rel); };
 }
 
 uint32_t unitSize(const RenderSettings& s) {
@@ -648,11 +643,7 @@ Scene parseScene(const std::string& text, const fs::path& file, const AssetReade
 Scene loadScene(const fs::path& file) {
   std::error_code ec;
   if (!fs::is_regular_file(file, ec)) throw InputError(file.string(), "no such scene file");
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw InputError(file.string(), "cannot read the scene file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return parseScene(buffer.str(), file);
+  return parseScene(readWholeFileOrThrow(file, file.string()), file);
 }
 
 void validateRenderSettings(const RenderSettings& s, const std::string& where) {

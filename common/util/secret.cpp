@@ -1,3 +1,4 @@
+#include "util/file_contents.h"
 #include "util/secret.h"
 
 #include <algorithm>
@@ -19,11 +20,7 @@ std::string trimmed(std::string s) {
 
 std::optional<std::string> readToken(const std::string& file, const char* env) {
   if (!file.empty()) {
-    std::ifstream in(file, std::ios::binary);
-    if (!in) throw InputError(file, "cannot read the token file");
-    std::stringstream s;
-    s << in.rdbuf();
-    const std::string token = trimmed(s.str());
+    const std::string token = trimmed(readWholeFileOrThrow(file, file));
     if (token.empty()) throw InputError(file, "the token file is empty");
     return token;
   }
