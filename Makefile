@@ -26,7 +26,6 @@ test: build
 
 bench: build
 	$(BUILD_DIR)/bench/lensfarm-bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
-	$(BUILD_DIR)/bench/lensfarm-effects-bench --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
 	$(BUILD_DIR)/bench/lensfarm-ingest-bench --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
 	BUILD_DIR=$(BUILD_DIR) bash bench/farm_efficiency.sh 3
 

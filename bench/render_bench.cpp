@@ -1,11 +1,15 @@
 // Throughput of the renderer: paths/s and rays/s for one unit (1 sample per pixel over the whole
 // frame) on all cores. The Embree scene is built once per benchmark, outside the timed loop.
 //
+// BM_Paths compares, per scene, the path specialised on the scene's effects with the general one.
+//
 //   make bench        (5 repetitions, medians reported)
 //   build/bench/lensfarm-bench --benchmark_filter=Classic
 #include <benchmark/benchmark.h>
 #include <tbb/task_arena.h>
 
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <thread>
 
 #include "render/render_scene.h"
@@ -15,13 +19,9 @@
 namespace lensfarm {
 namespace {
 
-void renderUnits(benchmark::State& state, const char* sceneName, int maxBounces, IntegratorKind integrator,
-                 int resolution) {
-  Scene scene = loadScene(std::string(LENSFARM_SOURCE_DIR "/scenes/") + sceneName);
-  scene.render.maxBounces = maxBounces;
-  scene.render.integrator = integrator;
-  scene.render.width = scene.render.height = resolution;
-  const RenderScene rs(scene);
+// Traces one unit (1 spp over the whole frame) per iteration on all cores and reports paths/s,
+// rays/s and rays per path. The Embree scene is built by the caller, outside the timed loop.
+void traceUnits(benchmark::State& state, const RenderScene& rs) {
   const int threads = int(std::max(1u, std::thread::hardware_concurrency()));
   tbb::task_arena arena{threads};
   PathStats stats;
@@ -38,6 +38,15 @@ void renderUnits(benchmark::State& state, const char* sceneName, int maxBounces,
   state.counters["threads"] = threads;
 }
 
+void renderUnits(benchmark::State& state, const char* sceneName, int maxBounces, IntegratorKind integrator,
+                 int resolution) {
+  Scene scene = loadScene(std::string(LENSFARM_SOURCE_DIR "/scenes/") + sceneName);
+  scene.render.maxBounces = maxBounces;
+  scene.render.integrator = integrator;
+  scene.render.width = scene.render.height = resolution;
+  traceUnits(state, RenderScene(scene));
+}
+
 // The reference point: cornell-classic, 512x512, B = 3, NEE+MIS, all cores.
 void BM_ClassicNeeMisB3(benchmark::State& s) { renderUnits(s, "cornell-classic.json", 3, IntegratorKind::kNeeMis, 512); }
 void BM_ClassicNaiveB3(benchmark::State& s) { renderUnits(s, "cornell-classic.json", 3, IntegratorKind::kNaive, 512); }
@@ -49,6 +58,41 @@ BENCHMARK(BM_ClassicNeeMisB3)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_ClassicNaiveB3)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_SeedNeeMisB2)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_SeedNaiveB2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+enum Config { kPinholeDiffuse, kThinLensDiffuse, kRippledMirror, kSeedB1, kSeedB2, kSeedB3, kSeedB8 };
+
+Scene configScene(Config config) {
+  const std::string dir = LENSFARM_SOURCE_DIR "/scenes/";
+  nlohmann::json j = nlohmann::json::parse(
+      std::ifstream(dir + (config == kPinholeDiffuse || config == kThinLensDiffuse ? "cornell-classic.json" : "cornell-seed.json")));
+  j["shapes"][0]["file"] = dir + "meshes/cornell-box.obj";
+  j["render"]["resolution"] = {256, 256};
+  if (config == kThinLensDiffuse) {
+    j["camera"] = {{"type", "thin_lens"}, {"position", {0, 0, -2.9}}, {"look_at", {0, 0, 0}}, {"up", {0, -1, 0}},
+                   {"sensor_width", 0.1}, {"focal_length", 0.095}, {"f_number", 2}};
+  }
+  if (config == kRippledMirror) j["camera"]["f_number"] = "infinity";  // the mirror alone
+  const int bounces[] = {3, 3, 2, 1, 2, 3, 8};
+  j["render"]["max_bounces"] = bounces[config];
+  return parseScene(j.dump(), dir + "bench.json");
+}
+
+void BM_Paths(benchmark::State& state) {
+  const Config config = Config(state.range(0));
+  const bool general = state.range(1) != 0;
+  const Scene scene = configScene(config);
+  const RenderScene rs(scene, general);
+  traceUnits(state, rs);
+  const char* names[] = {"pinhole diffuse", "thin lens diffuse", "rippled mirror", "seed B=1", "seed B=2", "seed B=3", "seed B=8"};
+  state.SetLabel(std::string(names[config]) + (general ? " general" : " specialised") + " | " + rs.effects().summary());
+}
+
+// Simulate only what a scene calls for: the specialised path (effects compiled out where the
+// scene does not need them) against the general path, side by side.
+BENCHMARK(BM_Paths)
+    ->ArgsProduct({{kPinholeDiffuse, kThinLensDiffuse, kRippledMirror, kSeedB1, kSeedB2, kSeedB3, kSeedB8}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace lensfarm

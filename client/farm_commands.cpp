@@ -48,6 +48,17 @@ void addCoordinatorOption(CLI::App* cmd, Connection& c) {
   cmd->add_option("--tls-key", c.security.keyFile, "PEM private key of --tls-cert")->envname("LENSFARM_TLS_KEY");
 }
 
+// The arguments of a command about one job: the connection and the job id.
+struct JobArgs {
+  Connection c;
+  std::string job;
+};
+
+void addJobArgs(CLI::App* cmd, JobArgs& f) {
+  addCoordinatorOption(cmd, f.c);
+  cmd->add_option("job", f.job, "Job id")->required();
+}
+
 // Runs a farm command, turning the coordinator's answers into exit codes.
 int guardedCall(const std::function<int()>& body) {
   try {
@@ -114,11 +125,7 @@ Runner addSubmitCommand(CLI::App& app) {
 
 Runner addStatusCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("status", "Show one job in detail, or list all jobs");
-  struct Flags {
-    Connection c;
-    std::string job;
-  };
-  auto f = std::make_shared<Flags>();
+  auto f = std::make_shared<JobArgs>();
   addCoordinatorOption(cmd, f->c);
   cmd->add_option("job", f->job, "Job id (default: all jobs)");
   return [f] {
@@ -143,13 +150,8 @@ Runner addStatusCommand(CLI::App& app) {
 
 Runner addWatchCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("watch", "Follow a job until it ends (exit 0 when done)");
-  struct Flags {
-    Connection c;
-    std::string job;
-  };
-  auto f = std::make_shared<Flags>();
-  addCoordinatorOption(cmd, f->c);
-  cmd->add_option("job", f->job, "Job id")->required();
+  auto f = std::make_shared<JobArgs>();
+  addJobArgs(cmd, *f);
   return [f] {
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());
@@ -167,15 +169,12 @@ Runner addWatchCommand(CLI::App& app) {
 
 Runner addDownloadCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("download", "Download a job's image as it is now (.exr linear, .png exposed)");
-  struct Flags {
-    Connection c;
-    std::string job;
+  struct Flags : JobArgs {
     std::vector<std::string> outputs;
     std::optional<double> ev;
   };
   auto f = std::make_shared<Flags>();
-  addCoordinatorOption(cmd, f->c);
-  cmd->add_option("job", f->job, "Job id")->required();
+  addJobArgs(cmd, *f);
   cmd->add_option("-o,--output", f->outputs, "Output file(s): .exr or .png")->required();
   cmd->add_option("--ev", f->ev, "Exposure compensation for PNG (default: the job's)")->check(CLI::Range(-64.0, 64.0));
   return [f] {
@@ -197,15 +196,13 @@ Runner addDownloadCommand(CLI::App& app) {
 
 Runner addSnapshotCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("snapshot", "Save a small PNG preview of a job's image as it is now");
-  struct Flags {
-    Connection c;
-    std::string job, output;
+  struct Flags : JobArgs {
+    std::string output;
     uint32_t maxSize = 512;
     std::optional<double> ev;
   };
   auto f = std::make_shared<Flags>();
-  addCoordinatorOption(cmd, f->c);
-  cmd->add_option("job", f->job, "Job id")->required();
+  addJobArgs(cmd, *f);
   cmd->add_option("-o,--output", f->output, "Output PNG")->required();
   cmd->add_option("--max-size", f->maxSize, "Longer side of the preview, pixels")
       ->check(CLI::Range(1u, 1024u))
@@ -226,13 +223,8 @@ Runner addSnapshotCommand(CLI::App& app) {
 
 Runner addCancelCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("cancel", "Cancel a job (what was accumulated stays downloadable)");
-  struct Flags {
-    Connection c;
-    std::string job;
-  };
-  auto f = std::make_shared<Flags>();
-  addCoordinatorOption(cmd, f->c);
-  cmd->add_option("job", f->job, "Job id")->required();
+  auto f = std::make_shared<JobArgs>();
+  addJobArgs(cmd, *f);
   return [f] {
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());
