@@ -36,8 +36,9 @@ fuzz: setup
 	@cmake -S . -B build-fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo \
 	  -DLENSFARM_FUZZ=ON -DLENSFARM_WERROR=OFF > build-fuzz.configure.log 2>&1 || (cat build-fuzz.configure.log; exit 1)
 	@cmake --build build-fuzz -j $(JOBS) --target scene_parser_fuzz upload_fuzz
+	@mkdir -p build-fuzz/scene-corpus && cp scenes/*.json build-fuzz/scene-corpus/
 	cd build-fuzz && ./tests/fuzz/scene_parser_fuzz -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 \
-	  -artifact_prefix=scene- ../scenes
+	  -artifact_prefix=scene- scene-corpus
 	cd build-fuzz && ./tests/fuzz/upload_fuzz -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 -artifact_prefix=upload-
 
 # The bounded soak test of one coordinator: 64 simulated workers for 60 s.
