@@ -42,6 +42,11 @@ inline constexpr uint32_t kRoulette = 5;       // 1D: Russian roulette
 inline constexpr uint32_t segment(uint32_t s) { return kFirstSegment + s * kPerSegment; }
 }  // namespace dims
 
+// The stratified and Sobol samplers stratify the dimensions where stratification pays: the pixel
+// footprint, the lens, and the first vertex's light sample, direction and choices. Deeper
+// dimensions see a nearly uniform integrand and take independent values (cheaper, no worse).
+inline constexpr uint32_t kStratifiedDimensions = dims::segment(1);
+
 // What a job's samples depend on besides the pixel and index.
 struct SamplerSetup {
   SamplerKind kind = SamplerKind::kSobol;
@@ -49,6 +54,24 @@ struct SamplerSetup {
   uint64_t samplesPerPixel = 1;  // the job's total (stratified: the last unit may be short)
   uint32_t samplesPerUnit = 1;   // stratified: one pattern per unit
 };
+
+namespace detail {
+// Bit-reversed direction numbers of Sobol dimension 1, XORed over each byte value of an index.
+struct SobolTables {
+  uint32_t byByte[4][256];
+};
+constexpr SobolTables makeSobolTables() {
+  SobolTables t{};
+  uint32_t r[32] = {1u};
+  for (int k = 1; k < 32; ++k) r[k] = r[k - 1] ^ (r[k - 1] << 1);
+  for (int b = 0; b < 4; ++b)
+    for (uint32_t v = 0; v < 256; ++v)
+      for (int j = 0; j < 8; ++j)
+        if (v >> j & 1u) t.byByte[b][v] ^= r[8 * b + j];
+  return t;
+}
+inline constexpr SobolTables kSobolTables = makeSobolTables();
+}  // namespace detail
 
 class SampleStream {
  public:
@@ -69,10 +92,12 @@ class SampleStream {
   float get1D(uint32_t dimension) const {
     switch (kind_) {
       case SamplerKind::kSobol: {
+        if (dimension >= kStratifiedDimensions) return independent(dimension);
         const uint32_t seed = dimensionSeed(dimension);
-        return toFloat(owenScramble(reverseBits(shuffledIndex(seed)), seed * 0x68bc21ebu + 1u));
+        return toFloat(reverseBits(laineKarras(shuffledIndex(seed), seed * 0x68bc21ebu + 1u)));
       }
       case SamplerKind::kStratified: {
+        if (dimension >= kStratifiedDimensions) return independent(dimension);
         const uint32_t seed = dimensionSeed(dimension);
         const uint32_t stratum = permute(local_, blockSize_, seed);
         return (float(stratum) + jitter(seed ^ 0x967a889bu)) / float(blockSize_);
@@ -85,12 +110,17 @@ class SampleStream {
   Vec2 get2D(uint32_t dimension) const {
     switch (kind_) {
       case SamplerKind::kSobol: {
+        if (dimension >= kStratifiedDimensions) return Vec2(independent(dimension), independent(dimension + 1));
+        // Owen scrambling of a Sobol coordinate works on its bit-reversed form, which for the
+        // first dimension is the (shuffled) index itself.
         const uint32_t seed = dimensionSeed(dimension);
         const uint32_t i = shuffledIndex(seed);
-        return Vec2(toFloat(owenScramble(reverseBits(i), seed * 0x68bc21ebu + 1u)),
-                    toFloat(owenScramble(sobolDimension1(i), seed * 0x02e5be93u + 3u)));
+        return Vec2(toFloat(reverseBits(laineKarras(i, seed * 0x68bc21ebu + 1u))),
+                    toFloat(reverseBits(laineKarras(reversedSobolDimension1(i), seed * 0x02e5be93u + 3u))));
       }
-      case SamplerKind::kStratified: return correlatedMultiJitter(dimensionSeed(dimension));
+      case SamplerKind::kStratified:
+        if (dimension >= kStratifiedDimensions) return Vec2(independent(dimension), independent(dimension + 1));
+        return correlatedMultiJitter(dimensionSeed(dimension));
       case SamplerKind::kIndependent: return Vec2(independent(dimension), independent(dimension + 1));
     }
     return Vec2(independent(dimension), independent(dimension + 1));
@@ -111,28 +141,27 @@ class SampleStream {
     return z ^ (z >> 31);
   }
 
-  // The second dimension of the Sobol sequence (primitive polynomial x + 1): direction numbers
-  // v_1 = 2^31, v_k = v_(k-1) xor (v_(k-1) >> 1), combined over the set bits of the index.
-  // (The first dimension is the bit-reversed index.)
-  static uint32_t sobolDimension1(uint32_t index) {
-    uint32_t result = 0, v = 1u << 31;
-    for (; index; index >>= 1, v ^= v >> 1)
-      if (index & 1u) result ^= v;
-    return result;
+  // The second dimension of the Sobol sequence (primitive polynomial x + 1), bit-reversed:
+  // direction numbers v_1 = 2^31, v_k = v_(k-1) xor (v_(k-1) >> 1) reversed are r_1 = 1,
+  // r_k = r_(k-1) xor (r_(k-1) << 1), combined over the set bits of the index, a byte at a time.
+  static uint32_t reversedSobolDimension1(uint32_t index) {
+    return detail::kSobolTables.byByte[0][index & 0xffu] ^ detail::kSobolTables.byByte[1][(index >> 8) & 0xffu] ^
+           detail::kSobolTables.byByte[2][(index >> 16) & 0xffu] ^ detail::kSobolTables.byByte[3][index >> 24];
   }
 
-  // Nested uniform (Owen) scrambling of a 32-bit fixed-point value: a hash that mixes each bit
-  // only into lower bits (Laine and Karras 2011), applied to the bit-reversed value, flips every
-  // digit depending on all digits above it, as Owen's random tree of permutations does.
-  static uint32_t owenScramble(uint32_t x, uint32_t seed) {
-    x = reverseBits(x);
+  // A hash in which every bit changes only itself and higher bits, a bijection for any seed
+  // (Laine and Karras 2011; constants after Vegdahl 2021). On a bit-reversed value it flips every
+  // digit depending on the digits above it, as Owen's random tree of permutations does.
+  static uint32_t laineKarras(uint32_t x, uint32_t seed) {
     x ^= x * 0x3d20adeau;
     x += seed;
     x *= (seed >> 16) | 1u;
     x ^= x * 0x05526c56u;
     x ^= x * 0x53a22864u;
-    return reverseBits(x);
+    return x;
   }
+  // Nested uniform (Owen) scrambling of a 32-bit fixed-point value in [0, 1).
+  static uint32_t owenScramble(uint32_t x, uint32_t seed) { return reverseBits(laineKarras(reverseBits(x), seed)); }
 
  private:
   float independent(uint32_t dimension) const {
@@ -145,10 +174,9 @@ class SampleStream {
     return uint32_t(mix(pixelKey_ ^ (uint64_t(dimension >> 1) * 0xd1b54a32d192ed03ull + 0x8cb92ba72f3d8dd7ull)));
   }
   // The sample index, Owen-scrambled: a random order of the sequence per pixel and dimension
-  // pair in which every power-of-two prefix is still a (scrambled) power-of-two prefix.
-  uint32_t shuffledIndex(uint32_t seed) const {
-    return owenScramble(uint32_t(index_) ^ uint32_t(index_ >> 32), seed);
-  }
+  // pair in which every power-of-two prefix is still an aligned power-of-two block (a net).
+  uint32_t shuffledIndex(uint32_t seed) const { return owenScramble(uint32_t(index_) ^ uint32_t(index_ >> 32), seed); }
+
   float jitter(uint32_t seed) const { return toFloat(uint32_t(mix(pixelKey_ ^ (uint64_t(seed) << 32 | local_)))); }
 
   // A random permutation of [0, n), evaluated at i: a bijective hash on the next power of two,

@@ -60,10 +60,12 @@ struct RenderSettings {
 
 // Samples per pixel in one unit of work. Automatic: about kAutoUnitPaths paths per unit (a few
 // seconds on a small machine, so a farm's uploads stay small next to its tracing), and never
-// more than the whole job. Jobs that stop at a target error or a deadline use units a quarter
-// that size, so they stop closer to their target and waste less at the deadline. A function of
-// the settings only, so every process agrees on it.
+// more than the whole job. Jobs that stop at a target error or a deadline use units of at most
+// a quarter of that and at most kMaxConvergenceUnitSamples samples per pixel (a power of two),
+// so they stop close to their target and waste little at the deadline. A function of the
+// settings only, so every process agrees on it.
 inline constexpr uint64_t kAutoUnitPaths = uint64_t(1) << 23;
+inline constexpr uint64_t kMaxConvergenceUnitSamples = 16;
 uint32_t unitSize(const RenderSettings& settings);
 
 struct Scene {

@@ -6,6 +6,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -591,8 +592,13 @@ AssetReader fileAssetReader(const fs::path& sceneFile) {
 uint32_t unitSize(const RenderSettings& s) {
   if (s.samplesPerUnit > 0) return s.samplesPerUnit;
   const uint64_t pixels = std::max<uint64_t>(1, uint64_t(s.width) * uint64_t(s.height));
-  const uint64_t paths = s.convergenceDriven() ? kAutoUnitPaths / 4 : kAutoUnitPaths;
-  const uint64_t perUnit = std::clamp<uint64_t>((paths + pixels - 1) / pixels, 1, std::max<uint64_t>(1, s.samplesPerPixel));
+  if (s.convergenceDriven()) {
+    // Small units, a power of two so that each is a whole net of the Sobol sampler: the stop
+    // lands close to the target, and a deadline wastes little.
+    const uint64_t fit = std::clamp<uint64_t>(kAutoUnitPaths / 4 / pixels, 1, kMaxConvergenceUnitSamples);
+    return uint32_t(std::min<uint64_t>(std::bit_floor(fit), std::max<uint64_t>(1, s.samplesPerPixel)));
+  }
+  const uint64_t perUnit = std::clamp<uint64_t>((kAutoUnitPaths + pixels - 1) / pixels, 1, std::max<uint64_t>(1, s.samplesPerPixel));
   return uint32_t(std::min<uint64_t>(perUnit, 1u << 20));
 }
 
