@@ -16,5 +16,6 @@ Runner addDownloadCommand(CLI::App& app);
 Runner addSnapshotCommand(CLI::App& app);
 Runner addCancelCommand(CLI::App& app);
 Runner addWorkersCommand(CLI::App& app);
+Runner addStudyCommand(CLI::App& app);
 
 }  // namespace lensfarm::cli
