@@ -17,5 +17,6 @@ Runner addSnapshotCommand(CLI::App& app);
 Runner addCancelCommand(CLI::App& app);
 Runner addWorkersCommand(CLI::App& app);
 Runner addStudyCommand(CLI::App& app);
+Runner addCompareCommand(CLI::App& app);
 
 }  // namespace lensfarm::cli

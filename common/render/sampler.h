@@ -14,9 +14,11 @@
 //    stratified set; the pattern does not refine across units.
 //  - sobol (the default): the first two dimensions of the Sobol sequence, Owen-scrambled with a
 //    hash-based nested uniform scramble and index shuffle per pixel and dimension pair (Burley
-//    2020, "Practical hash-based Owen scrambling"). Every power-of-two prefix of the sample
-//    indices is stratified in 2D, whatever the unit size, so the image converges faster than
-//    1/sqrt(n) where the integrand is smooth (edges of soft shadows, the pixel footprint).
+//    2020, "Practical hash-based Owen scrambling"), in two independently scrambled replicates:
+//    the even units and the odd units. Every power-of-two prefix of a replicate is stratified in
+//    2D, so the image converges faster than 1/sqrt(n) where the integrand is smooth (edges of
+//    soft shadows, the pixel footprint), and the two replicates stay independent, which the
+//    live error estimate needs (film/convergence.h).
 // All three return floats in [0, 1) with 24 random bits.
 #include <algorithm>
 #include <bit>
@@ -80,7 +82,15 @@ class SampleStream {
         pixelKey_(mix(mix(setup.seed ^ 0x6a09e667f3bcc909ull) ^ pixel)),
         key_(mix(pixelKey_ ^ (sampleIndex * 0x9e3779b97f4a7c15ull))),
         index_(sampleIndex) {
-    if (kind_ == SamplerKind::kStratified) {
+    if (kind_ == SamplerKind::kSobol) {
+      // Two independently scrambled replicates, even units and odd units, each its own
+      // progressive Sobol sequence (randomised QMC with two replicates): the live error estimate
+      // compares exactly these two halves (film/convergence.h), and for it to be unbiased they
+      // must be independent.
+      const uint64_t unit = sampleIndex / setup.samplesPerUnit;
+      index_ = (unit >> 1) * setup.samplesPerUnit + sampleIndex % setup.samplesPerUnit;
+      pixelKey_ = mix(pixelKey_ ^ ((unit & 1) * 0xa0761d6478bd642full));
+    } else if (kind_ == SamplerKind::kStratified) {
       const uint64_t block = sampleIndex / setup.samplesPerUnit;
       const uint64_t first = block * setup.samplesPerUnit;
       local_ = uint32_t(sampleIndex - first);

@@ -20,9 +20,13 @@ Rendered renderAll(const Scene& scene) { return test::renderScene(scene); }
 TEST(Furnace, ClosedEmissiveBoxGivesTheGeometricSeriesForEachBounceLimit) {
   // Every wall emits Le = 1 (towards the inside) and reflects a = 0.5. A path of B bounces sees
   // Le (1 + a + ... + a^B): the exact answer for the bounce limit B (seed §4.5).
-  // Every estimator, with and without Russian roulette (which must stay unbiased).
+  // Both production estimators, with and without Russian roulette (which must stay unbiased).
+  // NEE without MIS is left out on purpose: where two emitting walls meet, a light sample next to
+  // the shading point has unbounded weight (cos cos' / d^2), so its variance is infinite here and
+  // a mean over 18k samples can be off by any amount (measured: one seed in eight off by 3x). It
+  // is checked for bias on the Cornell box below, and that weakness is why MIS is the default.
   const double a = 0.5;
-  for (const char* integrator : {"naive", "nee", "nee_mis"}) {
+  for (const char* integrator : {"naive", "nee_mis"}) {
     for (bool roulette : {false, true}) {
       for (int b : {0, 1, 2, 3, 6}) {
         test::TempDir dir;

@@ -28,10 +28,17 @@ TEST(Sampler, ValuesAreInTheUnitIntervalAndPureFunctionsOfTheirCounters) {
   }
 }
 
-TEST(Sampler, SobolPrefixesArePowerOfTwoNetsInEveryDimensionPair) {
+// The k-th sample of a Sobol replicate (0: even units, 1: odd units) with units of `perUnit`.
+uint64_t replicateSample(uint64_t k, uint32_t perUnit, int replicate) {
+  return (k / perUnit) * 2 * perUnit + uint64_t(replicate) * perUnit + k % perUnit;
+}
+
+TEST(Sampler, SobolReplicatePrefixesArePowerOfTwoNetsInEveryDimensionPair) {
   // Every power-of-two prefix of an Owen-scrambled Sobol pair is a (0, m, 2)-net: each
-  // elementary box of area 2^-m, of any aspect ratio, holds exactly one point.
+  // elementary box of area 2^-m, of any aspect ratio, holds exactly one point. Each replicate
+  // (the even units, the odd units) is such a sequence.
   const SamplerSetup s = setup(SamplerKind::kSobol, 1 << 10, 32);
+  for (int replicate : {0, 1})
   for (uint64_t pixel : {3ull, 999ull})
     for (uint32_t dim : {dims::kSensor, dims::kLens, dims::segment(0) + dims::kMaterial, dims::segment(0) + dims::kLightPoint})
       for (int m : {2, 4, 6, 8}) {
@@ -40,12 +47,23 @@ TEST(Sampler, SobolPrefixesArePowerOfTwoNetsInEveryDimensionPair) {
           const int yBits = m - xBits;
           std::set<uint32_t> boxes;
           for (uint32_t i = 0; i < n; ++i) {
-            const Vec2 p = SampleStream(s, pixel, i).get2D(dim);
+            const Vec2 p = SampleStream(s, pixel, replicateSample(i, 32, replicate)).get2D(dim);
             boxes.insert(uint32_t(p.x * float(1u << xBits)) << yBits | uint32_t(p.y * float(1u << yBits)));
           }
-          ASSERT_EQ(boxes.size(), n) << "pixel " << pixel << " dim " << dim << " m " << m << " x bits " << xBits;
+          ASSERT_EQ(boxes.size(), n) << "replicate " << replicate << " pixel " << pixel << " dim " << dim << " m " << m
+                                     << " x bits " << xBits;
         }
       }
+}
+
+TEST(Sampler, SobolReplicatesAreScrambledIndependently) {
+  // The same position in the two replicates gives unrelated points.
+  const SamplerSetup s = setup(SamplerKind::kSobol, 1 << 10, 16);
+  int same = 0;
+  for (uint64_t k = 0; k < 256; ++k)
+    same += SampleStream(s, 9, replicateSample(k, 16, 0)).get2D(dims::kSensor) ==
+            SampleStream(s, 9, replicateSample(k, 16, 1)).get2D(dims::kSensor);
+  EXPECT_EQ(same, 0);
 }
 
 TEST(Sampler, StratifiedUnitsHoldOneSamplePerStratum) {
