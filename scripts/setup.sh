@@ -15,7 +15,7 @@ PACKAGES=(
   libpng-dev zlib1g-dev
   libssl-dev openssl
   libsqlite3-dev
-  libcpp-httplib-dev
+  libcpp-httplib-dev libyaml-cpp-dev
   clang libclang-rt-14-dev
 )
 
