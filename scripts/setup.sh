@@ -16,6 +16,7 @@ PACKAGES=(
   libssl-dev openssl
   libsqlite3-dev
   libcpp-httplib-dev libyaml-cpp-dev
+  iproute2
   clang libclang-rt-14-dev
 )
 
