@@ -174,6 +174,11 @@ TEST_F(Kubernetes, WorkersRenderWithAsManyThreadsAsTheyRequestCoresAndDialTheSer
   EXPECT_EQ(files.at(test::optionOf(args, "--token-file")), "worker.token");
   EXPECT_EQ(files.size(), 1u) << "a worker sees only the worker token";
   EXPECT_GE(pod["terminationGracePeriodSeconds"].as<int>(), 60) << "time to drain the unit in progress";
+
+  // docs/deploy.md scales the farm with one command naming this Deployment.
+  const std::string docs = test::readFile(test::sourceDir() / "docs/deploy.md");
+  EXPECT_TRUE(std::regex_search(docs, std::regex("kubectl scale deployment/" + deployment["metadata"]["name"].as<std::string>() +
+                                                 " --replicas=[0-9]+")));
 }
 
 }  // namespace

@@ -67,7 +67,8 @@ TEST_F(Install, PutsBinariesUnitsAndSettingsInTheirPlaces) {
     EXPECT_NE(version.out.find(kRendererVersion), std::string::npos) << path << ": " << version.out;
   }
   for (const char* file : {"lib/systemd/system/lensfarm-coordinator.service", "lib/systemd/system/lensfarm-worker@.service",
-                           "etc/lensfarm/coordinator.env", "etc/lensfarm/worker.env", "share/doc/lensfarm/farm.md", "share/doc/lensfarm/examples/coordinator.env"})
+                           "etc/lensfarm/coordinator.env", "etc/lensfarm/worker.env", "share/doc/lensfarm/deploy.md",
+                           "share/doc/lensfarm/farm.md", "share/doc/lensfarm/examples/coordinator.env"})
     EXPECT_TRUE(fs::is_regular_file(prefix_ / file)) << file;
 
   // An edited setting survives a second install.
