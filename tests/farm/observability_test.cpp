@@ -32,7 +32,7 @@ class Observability : public ::testing::Test {
 TEST_F(Observability, MetricsFollowARealJob) {
   const fs::path scene = test::writeSeedScene(dir_, 96, 768, 64);  // 12 units of 590k paths
   const std::string address = farm_.startCoordinator(
-      {"--listen", "127.0.0.1:0", "--metrics-listen", "127.0.0.1:0", "--heartbeat-interval", "0.2", "--lease-timeout", "1"});
+      {"--listen", "127.0.0.1:0", "--metrics-listen", "127.0.0.1:0", "--heartbeat-interval", "0.2", "--lease-timeout", "3"});
   EXPECT_EQ(test::grpcHealth(address), "SERVING") << "grpc.health.v1 answers without a token";
   EXPECT_EQ(metric("lensfarm_units_done_total"), 0.0);
 
