@@ -16,5 +16,7 @@ Runner addDownloadCommand(CLI::App& app);
 Runner addSnapshotCommand(CLI::App& app);
 Runner addCancelCommand(CLI::App& app);
 Runner addWorkersCommand(CLI::App& app);
+Runner addStudyCommand(CLI::App& app);
+Runner addCompareCommand(CLI::App& app);
 
 }  // namespace lensfarm::cli

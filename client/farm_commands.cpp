@@ -93,6 +93,9 @@ void printStatus(const v1::JobStatus& s) {
   std::printf("workers:    %u busy\n", p.workers_busy());
   std::printf("light hits: %.2f %%\n", 100.0 * p.light_hit_fraction());
   std::printf("dropped:    %llu samples\n", (unsigned long long)p.dropped_samples());
+  std::printf("error:      %s\n", convergenceText(p).c_str());
+  if (p.time_limit_seconds() > 0.0) std::printf("deadline:   %s after submission\n", formatDuration(p.time_limit_seconds()).c_str());
+  if (!p.stop_reason().empty()) std::printf("stopped:    %s\n", p.stop_reason().c_str());
   for (const auto& e : s.effects()) std::printf("effect:     %s\n", e.c_str());
   if (!s.error().empty()) std::printf("error:      %s\n", s.error().c_str());
 }
@@ -150,16 +153,24 @@ Runner addStatusCommand(CLI::App& app) {
 
 Runner addWatchCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("watch", "Follow a job until it ends (exit 0 when done)");
-  auto f = std::make_shared<JobArgs>();
+  struct Flags : JobArgs {
+    double target = 0.0;
+  };
+  auto f = std::make_shared<Flags>();
   addJobArgs(cmd, *f);
+  cmd->add_option("--target-error", f->target,
+                  "Project the time to this relative error (default: the job's own target, if any)")
+      ->check(CLI::Range(1e-6, 0.999));
   return [f] {
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());
-      ProgressDisplay display(true, ::isatty(STDERR_FILENO));
+      ProgressDisplay display(true, ::isatty(STDERR_FILENO), f->target);
       const v1::JobStatus last = client.watch(f->job, [&](const v1::JobStatus& s) { display.update(s); });
       display.finish();
-      std::printf("%s %s: %llu spp\n", last.job_id().c_str(), stateName(last.state()),
-                  (unsigned long long)last.progress().samples_per_pixel_done());
+      std::printf("%s %s: %llu spp, %s%s\n", last.job_id().c_str(), stateName(last.state()),
+                  (unsigned long long)last.progress().samples_per_pixel_done(),
+                  convergenceText(last.progress(), f->target).c_str(),
+                  last.progress().stop_reason().empty() ? "" : ("; " + last.progress().stop_reason()).c_str());
       if (last.state() == v1::JOB_STATE_DONE) return kOk;
       if (!last.error().empty()) std::fprintf(stderr, "lensfarm: job failed: %s\n", last.error().c_str());
       return kJobNotDone;

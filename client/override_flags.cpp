@@ -1,6 +1,9 @@
 #include "override_flags.h"
 
+#include <regex>
+
 #include "scene/scene_loader.h"
+#include "util/error.h"
 
 namespace lensfarm::cli {
 
@@ -10,10 +13,30 @@ void OverrideFlags::addTo(CLI::App* cmd) {
   cmd->add_option("--resolution", resolution, "Image size WIDTHxHEIGHT (overrides the scene)");
   cmd->add_option("--max-bounces", maxBounces, "Bounce limit B (overrides the scene)")->check(CLI::Range(0, kMaxBounces));
   cmd->add_option("--seed", seed, "Random seed (overrides the scene)");
-  cmd->add_option("--integrator", integrator, "nee_mis or naive (overrides the scene)")
-      ->check(CLI::IsMember({"nee_mis", "naive"}));
+  cmd->add_option("--integrator", integrator, "nee_mis, nee or naive (overrides the scene)")
+      ->check(CLI::IsMember({"nee_mis", "nee", "naive"}));
+  cmd->add_option("--sampler", sampler, "sobol, stratified or independent (overrides the scene)")
+      ->check(CLI::IsMember({"sobol", "stratified", "independent"}));
+  cmd->add_option("--russian-roulette", roulette, "on or off (overrides the scene)")->check(CLI::IsMember({"on", "off"}));
+  cmd->add_option("--target-error", targetError,
+                  "Stop when the estimated relative RMSE of the image falls to this (e.g. 0.01); --spp becomes a cap")
+      ->check(CLI::Range(1e-6, 0.999));
+  cmd->add_option("--deadline", deadline,
+                  "Stop this long after submission (e.g. 90s, 10m, 2h), with a whole number of passes");
   cmd->add_option("--ev", ev, "Exposure compensation in stops for PNG images (overrides the scene)")
       ->check(CLI::Range(-64.0, 64.0));
+}
+
+double parseDuration(const std::string& text, const std::string& flag) {
+  static const std::regex kDuration(R"(\s*([0-9]*\.?[0-9]+)\s*(ms|s|m|h)?\s*)");
+  std::smatch m;
+  if (!std::regex_match(text, m, kDuration))
+    throw InputError(flag, "expected a duration such as 45, 90s, 10m or 2h, got \"" + text + "\"");
+  const double value = std::stod(m[1]);
+  const std::string unit = m[2];
+  const double seconds = unit == "ms" ? value / 1000 : unit == "m" ? value * 60 : unit == "h" ? value * 3600 : value;
+  if (!(seconds > 0.0) || seconds > 1e9) throw InputError(flag, "must be more than 0 and at most 1e9 seconds");
+  return seconds;
 }
 
 RenderOverrides OverrideFlags::toOverrides() const {
@@ -22,7 +45,15 @@ RenderOverrides OverrideFlags::toOverrides() const {
   o.samplesPerPixel = spp;
   o.maxBounces = maxBounces;
   o.seed = seed;
-  if (integrator) o.integrator = *integrator == "naive" ? IntegratorKind::kNaive : IntegratorKind::kNeeMis;
+  if (integrator) parseIntegratorName(*integrator, o.integrator.emplace());
+  if (sampler) parseSamplerName(*sampler, o.sampler.emplace());
+  if (roulette) o.russianRoulette = *roulette == "on";
+  if (targetError) {
+    o.targetError = *targetError;
+    if (!spp) o.samplesPerPixel = kMaxSamplesPerPixel;  // the target alone: no sample cap
+  }
+  if (deadline) o.timeLimitSeconds = parseDuration(*deadline, "--deadline");
+  if (deadline && !spp && !targetError) o.samplesPerPixel = kMaxSamplesPerPixel;  // until the deadline
   o.ev = ev;
   return o;
 }

@@ -4,6 +4,9 @@
 #include <chrono>
 #include <cstdio>
 
+#include <fmt/format.h>
+
+#include "film/convergence.h"
 #include "scene/scene_loader.h"
 
 namespace lensfarm::cli {
@@ -33,8 +36,22 @@ const char* stateName(v1::JobState state) {
   }
 }
 
-ProgressDisplay::ProgressDisplay(bool enabled, bool toTerminal, double timeLimitSeconds)
-    : enabled_(enabled), terminal_(toTerminal), timeLimit_(timeLimitSeconds) {}
+ProgressDisplay::ProgressDisplay(bool enabled, bool toTerminal, double watchTarget)
+    : enabled_(enabled), terminal_(toTerminal), watchTarget_(watchTarget) {}
+
+std::string convergenceText(const v1::JobProgress& p, double watchTarget) {
+  const double estimate = p.estimated_relative_error();
+  if (estimate < 0.0) return "err -";
+  std::string text = fmt::format("err {:.2f} %", 100.0 * estimate);
+  const double target = p.target_error() > 0.0 ? p.target_error() : watchTarget;
+  if (target > 0.0) {
+    const double eta = p.target_error() > 0.0 ? p.seconds_to_target()
+                                              : secondsToTarget(estimate, target, p.elapsed_seconds());
+    text += estimate <= target ? fmt::format(" (target {:.2f} % reached)", 100.0 * target)
+                               : fmt::format(" (target {:.2f} % in ~{})", 100.0 * target, formatDuration(eta));
+  }
+  return text;
+}
 
 void ProgressDisplay::update(const v1::JobStatus& status) {
   if (!enabled_) return;
@@ -44,29 +61,29 @@ void ProgressDisplay::update(const v1::JobStatus& status) {
                         status.state() == v1::JOB_STATE_FAILED;
   if (t - lastDraw_ < (terminal_ ? 0.1 : 2.0) && !terminal) return;
   lastDraw_ = t;
-  const bool untilTime = timeLimit_ > 0 && p.samples_per_pixel_total() >= kMaxSamplesPerPixel;
-  double fraction = p.units_total() ? double(p.units_done()) / double(p.units_total()) : 0.0;
-  double remaining = p.remaining_seconds();
-  if (timeLimit_ > 0) {
-    const double byTime = std::min(1.0, p.elapsed_seconds() / timeLimit_);
-    if (untilTime || byTime > fraction) {
-      fraction = byTime;
-      remaining = std::max(0.0, timeLimit_ - p.elapsed_seconds());
-    }
-  }
-  const std::string total = untilTime ? "" : "/" + std::to_string(p.samples_per_pixel_total());
-  char line[256];
-  std::snprintf(line, sizeof line, "%s %llu%s spp  %.2f Mrays/s  %u busy  %s elapsed  %s left", stateName(status.state()),
-                (unsigned long long)p.samples_per_pixel_done(), total.c_str(), p.rays_per_second() / 1e6,
-                p.workers_busy(), formatDuration(p.elapsed_seconds()).c_str(), formatDuration(remaining).c_str());
+  // The bar shows whichever stopping rule is nearest: samples, the target error (error^2 falls
+  // as 1/time, so the fraction of the time needed is (target / error)^2) or the deadline.
+  const bool capped = p.samples_per_pixel_total() < kMaxSamplesPerPixel;
+  double fraction = capped && p.units_total() ? double(p.units_done()) / double(p.units_total()) : 0.0;
+  const double estimate = p.estimated_relative_error();
+  if (p.target_error() > 0.0 && estimate > 0.0)
+    fraction = std::max(fraction, std::min(1.0, (p.target_error() / estimate) * (p.target_error() / estimate)));
+  if (p.time_limit_seconds() > 0.0 && p.elapsed_seconds() + p.remaining_seconds() > 0.0)
+    fraction = std::max(fraction, p.elapsed_seconds() / (p.elapsed_seconds() + p.remaining_seconds()));
+  if (status.state() == v1::JOB_STATE_DONE) fraction = 1.0;
+  const std::string total = capped ? "/" + std::to_string(p.samples_per_pixel_total()) : "";
+  const std::string line =
+      fmt::format("{} {}{} spp  {}  {:.2f} Mrays/s  {} busy  {} elapsed  {} left", stateName(status.state()),
+                  p.samples_per_pixel_done(), total, convergenceText(p, watchTarget_), p.rays_per_second() / 1e6,
+                  p.workers_busy(), formatDuration(p.elapsed_seconds()), formatDuration(p.remaining_seconds()));
   if (terminal_) {
     const int width = 30;
     std::string bar(size_t(fraction * width), '=');
     bar.resize(width, ' ');
-    std::fprintf(stderr, "\r[%s] %s   ", bar.c_str(), line);
+    std::fprintf(stderr, "\r[%s] %s   ", bar.c_str(), line.c_str());
     drawn_ = true;
   } else {
-    std::fprintf(stderr, "%s: %s\n", status.job_id().c_str(), line);
+    std::fprintf(stderr, "%s: %s\n", status.job_id().c_str(), line.c_str());
   }
   std::fflush(stderr);
 }

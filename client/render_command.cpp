@@ -53,7 +53,10 @@ struct RenderFlags {
 
 RenderOverrides toOverrides(const RenderFlags& f) {
   RenderOverrides o = f.overrides.toOverrides();
-  if (!o.samplesPerPixel && f.timeLimit) o.samplesPerPixel = kMaxSamplesPerPixel;  // --time alone: until time is up
+  if (f.timeLimit) {  // --time S is --deadline S
+    o.timeLimitSeconds = *f.timeLimit;
+    if (!o.samplesPerPixel) o.samplesPerPixel = kMaxSamplesPerPixel;  // --time alone: until time is up
+  }
   return o;
 }
 
@@ -83,12 +86,14 @@ int runRender(const RenderFlags& flags) {
   const unsigned threads = flags.threads.value_or(std::max(1u, std::thread::hardware_concurrency()));
   size_t triangles = 0;
   for (const auto& m : scene.meshes) triangles += m.triangleCount();
-  const std::string budget = flags.timeLimit && !flags.overrides.spp
-                                 ? fmt::format("for {} s", *flags.timeLimit)
-                                 : std::to_string(settings.samplesPerPixel) + " spp";
-  spdlog::info("{}: {} triangles, {}x{} px, {} in units of {} spp, B = {}, {} on {} threads", flags.scene, triangles,
-               settings.width, settings.height, budget, unitSize(settings), settings.maxBounces,
-               integratorName(settings.integrator), threads);
+  std::string budget = settings.samplesPerPixel >= kMaxSamplesPerPixel
+                           ? std::string("no sample cap")
+                           : std::to_string(settings.samplesPerPixel) + " spp";
+  if (settings.targetError > 0.0) budget += fmt::format(", to {:.3g} % relative error", 100.0 * settings.targetError);
+  if (settings.timeLimitSeconds > 0.0) budget += fmt::format(", for at most {} s", settings.timeLimitSeconds);
+  spdlog::info("{}: {} triangles, {}x{} px, {} in units of {} spp, B = {}, {}, {} sampler on {} threads", flags.scene,
+               triangles, settings.width, settings.height, budget, unitSize(settings), settings.maxBounces,
+               integratorName(settings.integrator), samplerName(settings.sampler), threads);
   if (scene.skippedDegenerateTriangles)
     spdlog::warn("{}: skipped {} zero-area triangles", flags.scene, scene.skippedDegenerateTriangles);
 
@@ -111,7 +116,7 @@ int runRender(const RenderFlags& flags) {
 
   gInterrupted = false;
   std::signal(SIGINT, onSigint);
-  ProgressDisplay display(!flags.quiet && ::isatty(STDERR_FILENO), true, flags.timeLimit.value_or(0.0));
+  ProgressDisplay display(!flags.quiet && ::isatty(STDERR_FILENO), true);
   JobInfo info = submitted;
   double lastSnapshot = 0.0;
   bool interrupted = false;
@@ -119,11 +124,10 @@ int runRender(const RenderFlags& flags) {
     info = coordinator.waitForChange(info.id, info.version, 0.1);
     display.update(toProto(info));
     if (isTerminal(info.state)) break;
-    // The time limit stops at a unit boundary; it waits for the first unit so that there is an
-    // image at all (a unit is about kAutoUnitPaths paths: a few seconds).
-    const bool timeUp = flags.timeLimit && info.elapsedSeconds >= *flags.timeLimit && info.unitsDone > 0;
-    if (gInterrupted || timeUp) {
-      interrupted = gInterrupted;
+    // The coordinator applies the time limit and target error itself (whole units); Ctrl-C
+    // cancels, keeping the units already added.
+    if (gInterrupted) {
+      interrupted = true;
       coordinator.cancel(info.id);  // whole units only: the one in flight is dropped
       worker.stopNow();
       break;
@@ -154,6 +158,9 @@ int runRender(const RenderFlags& flags) {
   std::printf("light-hit fraction: %.2f %%\n", 100.0 * info.lightHitFraction());
   std::printf("dropped samples:   %llu\n", (unsigned long long)info.stats.dropped);
   std::printf("time:              %.2f s\n", info.elapsedSeconds);
+  if (info.estimatedRelativeError >= 0.0)
+    std::printf("estimated error:   %.3f %% relative RMSE (film/convergence.h)\n", 100.0 * info.estimatedRelativeError);
+  if (!info.stopReason.empty()) std::printf("stopped:           %s\n", info.stopReason.c_str());
   for (const auto& e : info.effects) std::printf("effect:            %s\n", e.c_str());
   for (const auto& o : outputs) std::printf("wrote %s\n", o.c_str());
   return interrupted ? kInterrupted : kOk;
@@ -168,7 +175,9 @@ Runner addRenderCommand(CLI::App& app) {
   cmd->add_option("-o,--output", f->outputs, "Output image (.exr: linear radiance; .png: exposed preview); repeatable")
       ->required();
   f->overrides.addTo(cmd);
-  cmd->add_option("--time", f->timeLimit, "Render for this many seconds, in whole units (with --spp: whichever comes first)")
+  cmd->add_option("--time", f->timeLimit,
+                  "Render for this many seconds, in whole units (with --spp: whichever comes first); "
+                  "the same as --deadline in seconds")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--threads", f->threads, "Threads (default: all cores)")->check(CLI::Range(1u, 4096u));
   cmd->add_option("--snapshot-every", f->snapshotEvery, "Write the outputs every S seconds while rendering")

@@ -89,6 +89,10 @@ struct Coordinator::Job {
   uint64_t unitsAdded = 0;
   uint64_t samplesPerPixelDone = 0;
   PathStats stats;
+  ErrorEstimate estimate;
+  std::string stopReason;                // why a finished job stopped
+  std::optional<uint64_t> stopUnits;     // a job stopped early keeps units [0, stopUnits)
+  bool deadlinePassed = false;
 
   // Accumulation, guarded by `accumulate` (never held while taking Coordinator::mutex_).
   mutable std::mutex accumulate;
@@ -98,6 +102,20 @@ struct Coordinator::Job {
   uint64_t sppAdded = 0;
   PathStats statsAdded;
   uint64_t checkpointed = 0;  // units in the last saved sensor
+  // Stopping rules (docs/accuracy.md), decided here so that the kept units are a prefix chosen
+  // in unit order: the same units whatever order results arrive in, and after a restart.
+  std::unique_ptr<ConvergenceTracker> tracker;
+  ErrorEstimate estimateAdded;
+  Clock::time_point estimatedAt;
+  uint64_t foldLimit = std::numeric_limits<uint64_t>::max();  // units from here on are never folded
+  bool stopAtNextFold = false;  // the deadline passed before the first unit was folded
+  std::string stopReasonAdded;
+
+  void stopFolding(std::string reason) {
+    foldLimit = nextToAdd;
+    stopReasonAdded = std::move(reason);
+    arrived.clear();
+  }
 };
 
 struct Coordinator::Worker {
@@ -138,7 +156,7 @@ Coordinator::~Coordinator() {
 }
 
 void Coordinator::persistState(const Job& job) {
-  if (store_) store_->updateJobState(job.id, jobStateName(job.state), job.error);
+  if (store_) store_->updateJobState(job.id, jobStateName(job.state), job.error, job.stopUnits, job.stopReason);
 }
 
 void Coordinator::checkpointLoop() {
@@ -165,15 +183,16 @@ uint64_t Coordinator::checkpoint() {
   }
   uint64_t bytes = 0;
   for (Job* job : all) {
-    std::string sensor;
+    std::string sensor, tracker;
     uint64_t folded;
     {
       std::lock_guard accumulate(job->accumulate);
       if (job->nextToAdd == job->checkpointed) continue;
       sensor = job->sensor->serialize();
+      tracker = job->tracker->serialize();
       folded = job->nextToAdd;
     }
-    store_->writeCheckpoint(job->id, sensor, folded);
+    store_->writeCheckpoint(job->id, sensor, tracker, folded);
     bytes += sensor.size();
     std::lock_guard accumulate(job->accumulate);
     job->checkpointed = std::max(job->checkpointed, folded);
@@ -182,12 +201,72 @@ uint64_t Coordinator::checkpoint() {
 }
 
 void Coordinator::drainInOrder(Job& job) {
-  for (auto it = job.arrived.find(job.nextToAdd); it != job.arrived.end(); it = job.arrived.find(job.nextToAdd)) {
+  const double target = job.settings.targetError;
+  bool folded = false;
+  for (auto it = job.arrived.find(job.nextToAdd); it != job.arrived.end() && job.nextToAdd < job.foldLimit;
+       it = job.arrived.find(job.nextToAdd)) {
     job.sensor->add(it->second.buffer);
+    job.tracker->add(job.nextToAdd, it->second.buffer);
     job.statsAdded += it->second.stats;
     job.sppAdded += unitAt(job.nextToAdd, job.settings.samplesPerPixel, job.unitSize).sampleCount;
     job.arrived.erase(it);
     ++job.nextToAdd;
+    folded = true;
+    // A target-error job checks after every unit: the first prefix that reaches the target is
+    // the image, whichever units arrived early.
+    if (target > 0.0) {
+      job.estimateAdded = job.tracker->estimate(*job.sensor);
+      job.estimatedAt = Clock::now();
+      if (job.estimateAdded.valid && job.estimateAdded.relativeRmse <= target) job.stopFolding("target error reached");
+    }
+    if (job.stopAtNextFold && job.stopReasonAdded.empty()) job.stopFolding("deadline reached");
+  }
+  if (job.nextToAdd == job.unitsTotal && job.stopReasonAdded.empty())
+    job.stopReasonAdded = target > 0.0 ? "sample cap reached before the target error" : "all samples done";
+  // Otherwise the estimate is for people watching: a few times a second is enough (it reads the
+  // whole frame), and always at the end.
+  const auto now = Clock::now();
+  if (folded && target <= 0.0 &&
+      (now - job.estimatedAt > std::chrono::milliseconds(250) || !job.stopReasonAdded.empty())) {
+    job.estimateAdded = job.tracker->estimate(*job.sensor);
+    job.estimatedAt = now;
+  }
+}
+
+void Coordinator::finish(Job& job, const std::string& reason) {
+  job.state = JobState::kDone;
+  job.finished = Clock::now();
+  job.stopReason = reason;
+  revokeLeasesOf(job);
+  persistState(job);
+  checkpointWake_.notify_all();  // save the finished image soon
+  spdlog::info("job {}: done ({}), {} spp in {} units", job.id, reason, job.samplesPerPixelDone, job.unitsAdded);
+}
+
+void Coordinator::enforceDeadlines() {
+  const double nowUnix = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  for (auto& [id, jobPtr] : jobs_) {
+    Job& job = *jobPtr;
+    if (job.deadlinePassed || isTerminal(job.state) || job.settings.timeLimitSeconds <= 0.0 ||
+        nowUnix < job.submittedUnixSeconds + job.settings.timeLimitSeconds)
+      continue;
+    job.deadlinePassed = true;
+    {
+      std::lock_guard accumulate(job.accumulate);
+      if (job.nextToAdd == 0) {
+        job.stopAtNextFold = true;  // no image yet: the first whole pass is the image
+        spdlog::warn("job {}: deadline passed before the first unit was added; stopping after it", job.id);
+        continue;
+      }
+      if (job.stopReasonAdded.empty()) job.stopFolding("deadline reached");
+      job.unitsAdded = job.nextToAdd;
+      job.samplesPerPixelDone = job.sppAdded;
+      job.stats = job.statsAdded;
+      job.estimate = job.estimateAdded = job.tracker->estimate(*job.sensor);
+      job.stopUnits = job.foldLimit;
+    }
+    finish(job, "deadline reached");
+    touch(job);
   }
 }
 
@@ -209,6 +288,9 @@ void Coordinator::restore() {
     job->submittedUnixSeconds = stored.submittedUnixSeconds;
     job->state = parseJobState(stored.state);
     job->error = stored.error;
+    job->stopUnits = stored.stopUnits;
+    job->stopReason = stored.stopReason;
+    if (stored.stopUnits) job->foldLimit = *stored.stopUnits;
     const AssetReader reader = [&](const std::string& path) -> std::optional<std::string> {
       auto it = job->spec.assets.find(path);
       if (it == job->spec.assets.end() || !assets_.count(it->second)) return std::nullopt;
@@ -226,6 +308,9 @@ void Coordinator::restore() {
     const auto checkpoint = store_->loadCheckpoint(job->id);
     job->sensor = std::make_unique<Sensor>(checkpoint ? Sensor::deserialize(checkpoint->sensorBytes)
                                                       : Sensor(scene.render.width, scene.render.height));
+    job->tracker = std::make_unique<ConvergenceTracker>(
+        checkpoint ? ConvergenceTracker::deserialize(checkpoint->trackerBytes)
+                   : ConvergenceTracker(scene.render.width, scene.render.height));
     const uint64_t folded = checkpoint ? checkpoint->foldedUnits : 0;
     job->nextToAdd = job->checkpointed = folded;
     for (uint64_t u = 0; u < folded; ++u) job->sppAdded += unitAt(u, job->settings.samplesPerPixel, job->unitSize).sampleCount;
@@ -258,9 +343,18 @@ void Coordinator::restore() {
     job->unitsAdded = job->nextToAdd;
     job->samplesPerPixelDone = job->sppAdded;
     job->stats = job->statsAdded;
+    job->estimateAdded = job->tracker->estimate(*job->sensor);
+    job->estimate = job->estimateAdded;
     if (any) job->started = now;  // elapsed time restarts with the coordinator (docs/farm.md)
     if (isTerminal(job->state)) job->started = job->finished = now;
-    if (job->state == JobState::kRunning && job->unitsAdded == job->unitsTotal) job->state = JobState::kDone;
+    if (job->state == JobState::kRunning && !job->stopReasonAdded.empty()) {
+      // It reached its stop before the restart (or in the replay): same units, same image.
+      job->state = JobState::kDone;
+      job->stopReason = job->stopReasonAdded;
+      if (job->nextToAdd < job->unitsTotal) job->stopUnits = job->foldLimit = job->nextToAdd;
+      job->clearPending();
+      persistState(*job);
+    }
     nextJob_ = std::max(nextJob_, uint64_t(std::stoull(job->id.substr(4))) + 1);
     nextSequence_ = std::max(nextSequence_, job->sequence + 1);
     spdlog::info("restored {}: {}, {} of {} units ({} from the checkpoint)", job->id, jobStateName(job->state),
@@ -333,6 +427,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
   job->unitsTotal = unitCount(scene.render.samplesPerPixel, job->unitSize);
   job->effects = describeEffects(scene);
   job->sensor = std::make_unique<Sensor>(scene.render.width, scene.render.height);
+  job->tracker = std::make_unique<ConvergenceTracker>(scene.render.width, scene.render.height);
   job->submittedUnixSeconds =
       std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 
@@ -341,7 +436,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
   job->sequence = nextSequence_++;
   if (store_)
     store_->insertJob(StateStore::StoredJob{job->id, job->sequence, job->priority, job->spec, jobStateName(job->state),
-                                            "", job->submittedUnixSeconds, 0});
+                                            "", job->submittedUnixSeconds, 0, std::nullopt, ""});
   spdlog::info("job {}: {} {}x{}, {} spp in {} units of {}, priority {}", job->id, spec.sceneName,
                job->settings.width, job->settings.height, job->settings.samplesPerPixel, job->unitsTotal,
                job->unitSize, priority);
@@ -377,6 +472,19 @@ JobInfo Coordinator::infoOf(const Job& job) const {
   }
   const double fraction = job.unitsTotal ? double(job.unitsAdded) / double(job.unitsTotal) : 0.0;
   if (!isTerminal(job.state) && fraction > 0.0) info.remainingSeconds = info.elapsedSeconds * (1.0 - fraction) / fraction;
+  info.estimatedRelativeError = job.estimate.valid ? job.estimate.relativeRmse : -1.0;
+  info.targetError = job.settings.targetError;
+  info.timeLimitSeconds = job.settings.timeLimitSeconds;
+  info.stopReason = job.stopReason;
+  if (!isTerminal(job.state) && job.estimate.valid && info.targetError > 0.0) {
+    info.secondsToTarget = secondsToTarget(job.estimate.relativeRmse, info.targetError, info.elapsedSeconds);
+    info.remainingSeconds = std::min(info.remainingSeconds, info.secondsToTarget);
+  }
+  if (!isTerminal(job.state) && info.timeLimitSeconds > 0.0) {
+    const double nowUnix = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+    const double left = std::max(0.0, job.submittedUnixSeconds + info.timeLimitSeconds - nowUnix);
+    info.remainingSeconds = info.remainingSeconds > 0.0 ? std::min(info.remainingSeconds, left) : left;
+  }
   for (const auto& [id, lease] : leases_)
     if (lease.jobId == job.id) ++info.workersBusy;
   info.error = job.error;
@@ -518,6 +626,7 @@ void Coordinator::reapExpiredLeases(Clock::time_point now) {
       ++it;
     }
   }
+  enforceDeadlines();
   // Forget workers silent for much longer than a lease: they hold nothing any more.
   const auto forgetAfter = std::chrono::duration<double>(std::max(60.0, 10.0 * options_.leaseTimeoutSeconds));
   for (auto it = workers_.begin(); it != workers_.end();)
@@ -652,15 +761,21 @@ bool Coordinator::acceptResult(UnitResult result) {
   result.buffer.samples.assign(result.buffer.cells(), unitAt(result.unitIndex, job->settings.samplesPerPixel, job->unitSize).sampleCount);
 
   // Sum outside the coordinator's lock: large buffers must not stall leases and heartbeats.
-  uint64_t unitsAdded, sppAdded;
+  uint64_t unitsAdded, sppAdded, foldLimit;
   PathStats statsAdded;
+  ErrorEstimate estimate;
+  std::string stopReason;
   {
     std::lock_guard accumulate(job->accumulate);
-    job->arrived.emplace(result.unitIndex, std::move(result));
+    // Past a job's stop nothing more is folded (the stop is a prefix of units).
+    if (result.unitIndex < job->foldLimit) job->arrived.emplace(result.unitIndex, std::move(result));
     drainInOrder(*job);
     unitsAdded = job->nextToAdd;
     sppAdded = job->sppAdded;
     statsAdded = job->statsAdded;
+    estimate = job->estimateAdded;
+    stopReason = job->stopReasonAdded;
+    foldLimit = job->foldLimit;
   }
 
   std::lock_guard lock(mutex_);
@@ -668,12 +783,10 @@ bool Coordinator::acceptResult(UnitResult result) {
     job->unitsAdded = unitsAdded;
     job->samplesPerPixelDone = sppAdded;
     job->stats = statsAdded;
-    if (unitsAdded == job->unitsTotal && job->state == JobState::kRunning) {
-      job->state = JobState::kDone;
-      job->finished = Clock::now();
-      persistState(*job);
-      checkpointWake_.notify_all();  // save the finished image soon
-      spdlog::info("job {}: done, {} spp", job->id, sppAdded);
+    job->estimate = estimate;
+    if (!stopReason.empty() && job->state == JobState::kRunning) {
+      if (foldLimit < job->unitsTotal) job->stopUnits = foldLimit;
+      finish(*job, stopReason);
     }
     touch(*job);
   }

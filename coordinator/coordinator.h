@@ -10,6 +10,9 @@
 //    lease; results enter the job's sensor in unit order (a later unit waits for the earlier
 //    ones), so the image never depends on which worker finished first.
 //  - Jobs are served by priority (higher first), then by submission order.
+//  - A job stops when all its samples are in, or earlier at its target error or deadline
+//    (RenderSettings): the image is then the prefix of units [0, k) for the first k that met
+//    the rule (the deadline: the units folded when it passed, at least one), never a partial pass.
 //  - With a state dir, a unit is acknowledged only once its sums and ledger row are durable
 //    (state_store.h); a restarted coordinator resumes every job from its checkpoint plus the
 //    ledger, and adds the rest in the same order, so the image is bitwise the same.
@@ -19,6 +22,7 @@
 #include <filesystem>
 #include <thread>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -28,6 +32,7 @@
 #include <vector>
 
 #include "farm/farm_types.h"
+#include "film/convergence.h"
 #include "film/image_io.h"
 #include "film/sensor.h"
 
@@ -55,6 +60,12 @@ struct JobInfo {
   double submittedUnixSeconds = 0.0;
   uint64_t version = 0;  // grows with every change of the job
   std::vector<std::string> effects;  // "depth of field: off (aperture closed ...)", scene/effects.h
+  // Convergence (film/convergence.h, docs/accuracy.md).
+  double estimatedRelativeError = -1.0;  // estimated relative RMSE of the image; < 0 until known
+  double targetError = 0.0;              // the job's target; 0 if none
+  double secondsToTarget = 0.0;          // projected; 0 if unknown or reached
+  double timeLimitSeconds = 0.0;         // the deadline after submission; 0 if none
+  std::string stopReason;                // why a finished job stopped
 
   double raysPerSecond() const { return elapsedSeconds > 0 ? double(stats.rays) / elapsedSeconds : 0.0; }
   double lightHitFraction() const { return stats.paths ? double(stats.lightHits) / double(stats.paths) : 0.0; }
@@ -168,6 +179,8 @@ class Coordinator {
   void touch(Job& job);
   std::optional<LeaseGrant> tryLease(Worker& worker, Clock::time_point now);
   void drainInOrder(Job& job);  // requires job.accumulate
+  void finish(Job& job, const std::string& reason);  // requires mutex_
+  void enforceDeadlines();                           // requires mutex_
   void restore();
   void persistState(const Job& job);  // requires mutex_
   void checkpointLoop();

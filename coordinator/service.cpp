@@ -91,6 +91,11 @@ v1::JobStatus toProto(const JobInfo& info) {
   p->set_workers_busy(info.workersBusy);
   p->set_light_hit_fraction(info.lightHitFraction());
   p->set_dropped_samples(info.stats.dropped);
+  p->set_estimated_relative_error(info.estimatedRelativeError);
+  p->set_target_error(info.targetError);
+  p->set_seconds_to_target(info.secondsToTarget);
+  p->set_time_limit_seconds(info.timeLimitSeconds);
+  p->set_stop_reason(info.stopReason);
   return s;
 }
 

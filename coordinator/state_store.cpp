@@ -73,6 +73,10 @@ json specToJson(const JobSpec& spec) {
   if (r.seed) o["seed"] = *r.seed;
   if (r.integrator) o["integrator"] = integratorName(*r.integrator);
   if (r.ev) o["ev"] = *r.ev;
+  if (r.sampler) o["sampler"] = samplerName(*r.sampler);
+  if (r.russianRoulette) o["russian_roulette"] = *r.russianRoulette;
+  if (r.targetError) o["target_error"] = *r.targetError;
+  if (r.timeLimitSeconds) o["time_limit_seconds"] = *r.timeLimitSeconds;
   return json{{"scene_name", spec.sceneName}, {"scene_json", spec.sceneJson}, {"assets", spec.assets}, {"overrides", o}};
 }
 
@@ -88,8 +92,19 @@ JobSpec specFromJson(const json& j) {
   if (o.contains("height")) r.height = o["height"].get<int>();
   if (o.contains("max_bounces")) r.maxBounces = o["max_bounces"].get<int>();
   if (o.contains("seed")) r.seed = o["seed"].get<uint64_t>();
-  if (o.contains("integrator"))
-    r.integrator = o["integrator"] == "naive" ? IntegratorKind::kNaive : IntegratorKind::kNeeMis;
+  if (o.contains("integrator")) {
+    IntegratorKind kind;
+    if (!parseIntegratorName(o["integrator"].get<std::string>(), kind)) throw std::runtime_error("stored job: bad integrator");
+    r.integrator = kind;
+  }
+  if (o.contains("sampler")) {
+    SamplerKind kind;
+    if (!parseSamplerName(o["sampler"].get<std::string>(), kind)) throw std::runtime_error("stored job: bad sampler");
+    r.sampler = kind;
+  }
+  if (o.contains("russian_roulette")) r.russianRoulette = o["russian_roulette"].get<bool>();
+  if (o.contains("target_error")) r.targetError = o["target_error"].get<double>();
+  if (o.contains("time_limit_seconds")) r.timeLimitSeconds = o["time_limit_seconds"].get<double>();
   if (o.contains("ev")) r.ev = o["ev"].get<double>();
   return spec;
 }
@@ -109,7 +124,7 @@ StateStore::StateStore(fs::path dir) : dir_(std::move(dir)) {
   exec("PRAGMA synchronous=FULL");
   exec("CREATE TABLE IF NOT EXISTS meta(key TEXT PRIMARY KEY, value INTEGER)");
   exec("CREATE TABLE IF NOT EXISTS jobs(id TEXT PRIMARY KEY, sequence INTEGER, priority INTEGER, spec TEXT, "
-       "state TEXT, error TEXT, submitted REAL, folded_units INTEGER)");
+       "state TEXT, error TEXT, submitted REAL, folded_units INTEGER, stop_units INTEGER, stop_reason TEXT)");
   exec("CREATE TABLE IF NOT EXISTS ledger(job_id TEXT, unit INTEGER, worker TEXT, paths INTEGER, rays INTEGER, "
        "light_hits INTEGER, dropped INTEGER, PRIMARY KEY(job_id, unit))");
   exec("CREATE TABLE IF NOT EXISTS stamp(key TEXT PRIMARY KEY, value TEXT)");
@@ -173,15 +188,23 @@ void StateStore::insertJob(const StoredJob& job) {
       .step();
 }
 
-void StateStore::updateJobState(const std::string& jobId, const std::string& state, const std::string& error) {
+void StateStore::updateJobState(const std::string& jobId, const std::string& state, const std::string& error,
+                                const std::optional<uint64_t>& stopUnits, const std::string& stopReason) {
   std::lock_guard lock(mutex_);
-  Statement(db_, "UPDATE jobs SET state = ?, error = ? WHERE id = ?").bind(1, state).bind(2, error).bind(3, jobId).step();
+  Statement(db_, "UPDATE jobs SET state = ?, error = ?, stop_units = ?, stop_reason = ? WHERE id = ?")
+      .bind(1, state)
+      .bind(2, error)
+      .bind(3, stopUnits ? int64_t(*stopUnits) : int64_t(-1))
+      .bind(4, stopReason)
+      .bind(5, jobId)
+      .step();
 }
 
 std::vector<StateStore::StoredJob> StateStore::loadJobs() {
   std::lock_guard lock(mutex_);
   std::vector<StoredJob> out;
-  Statement s(db_, "SELECT id, sequence, priority, spec, state, error, submitted, folded_units FROM jobs ORDER BY sequence");
+  Statement s(db_, "SELECT id, sequence, priority, spec, state, error, submitted, folded_units, "
+                 "coalesce(stop_units, -1), coalesce(stop_reason, '') FROM jobs ORDER BY sequence");
   while (s.step()) {
     StoredJob j;
     j.id = s.text(0);
@@ -192,6 +215,8 @@ std::vector<StateStore::StoredJob> StateStore::loadJobs() {
     j.error = s.text(5);
     j.submittedUnixSeconds = s.real(6);
     j.foldedUnits = uint64_t(s.integer(7));
+    if (s.integer(8) >= 0) j.stopUnits = uint64_t(s.integer(8));
+    j.stopReason = s.text(9);
     out.push_back(std::move(j));
   }
   return out;
@@ -240,11 +265,15 @@ std::vector<double> StateStore::loadUnitSums(const std::string& jobId, uint64_t 
   return sums;
 }
 
-void StateStore::writeCheckpoint(const std::string& jobId, const std::string& sensorBytes, uint64_t foldedUnits) {
-  // The count of folded units travels inside the file, so the sensor and its count can never
-  // disagree, whatever moment a crash picks.
+void StateStore::writeCheckpoint(const std::string& jobId, const std::string& sensorBytes,
+                                 const std::string& trackerBytes, uint64_t foldedUnits) {
+  // The count of folded units travels inside the file with the sensor and the convergence
+  // tracker, so the three can never disagree, whatever moment a crash picks.
+  const uint64_t sensorSize = sensorBytes.size();
   std::string file(reinterpret_cast<const char*>(&foldedUnits), sizeof foldedUnits);
+  file.append(reinterpret_cast<const char*>(&sensorSize), sizeof sensorSize);
   file += sensorBytes;
+  file += trackerBytes;
   writeBytesAtomically(jobDir(jobId) / "sensor.bin", file);
   {
     std::lock_guard lock(mutex_);
@@ -263,10 +292,14 @@ std::optional<StateStore::Checkpoint> StateStore::loadCheckpoint(const std::stri
   const fs::path file = jobDir(jobId) / "sensor.bin";
   if (!fs::exists(file)) return std::nullopt;
   const std::string bytes = readAll(file);
-  if (bytes.size() < sizeof(uint64_t)) throw std::runtime_error(file.string() + " is truncated");
   Checkpoint c;
+  uint64_t sensorSize = 0;
+  if (bytes.size() >= 2 * sizeof(uint64_t)) std::memcpy(&sensorSize, bytes.data() + sizeof(uint64_t), sizeof sensorSize);
+  if (bytes.size() < 2 * sizeof(uint64_t) || sensorSize > bytes.size() - 2 * sizeof(uint64_t))
+    throw std::runtime_error(file.string() + " is truncated");
   std::memcpy(&c.foldedUnits, bytes.data(), sizeof(uint64_t));
-  c.sensorBytes = bytes.substr(sizeof(uint64_t));
+  c.sensorBytes = bytes.substr(2 * sizeof(uint64_t), sensorSize);
+  c.trackerBytes = bytes.substr(2 * sizeof(uint64_t) + sensorSize);
   return c;
 }
 

@@ -4,7 +4,8 @@
 //
 //   state.db                  jobs, ledger (one row per accepted unit), meta (counters)
 //   assets/<sha256>           uploaded assets
-//   jobs/<id>/sensor.bin      folded (uint64) + the job's sensor with units [0, folded) added
+//   jobs/<id>/sensor.bin      folded (uint64), sensor size (uint64), the job's sensor with units
+//                             [0, folded) added, and its convergence tracker (film/convergence.h)
 //   lock                      flock'ed by the one coordinator using the directory
 //   jobs/<id>/unit-<k>.bin    an accepted unit's sums, until a checkpoint folds it in
 //
@@ -48,9 +49,12 @@ class StateStore {
     std::string error;
     double submittedUnixSeconds = 0.0;
     uint64_t foldedUnits = 0;  // units in sensor.bin
+    std::optional<uint64_t> stopUnits;  // a job stopped early keeps units [0, stopUnits)
+    std::string stopReason;
   };
   void insertJob(const StoredJob& job);
-  void updateJobState(const std::string& jobId, const std::string& state, const std::string& error);
+  void updateJobState(const std::string& jobId, const std::string& state, const std::string& error,
+                      const std::optional<uint64_t>& stopUnits = std::nullopt, const std::string& stopReason = "");
   std::vector<StoredJob> loadJobs();  // in submission order
 
   struct LedgerEntry {
@@ -63,11 +67,13 @@ class StateStore {
   std::vector<LedgerEntry> ledger(const std::string& jobId);
   std::vector<double> loadUnitSums(const std::string& jobId, uint64_t unit, size_t count);
 
-  // Saves the sensor holding units [0, foldedUnits), then drops their unit files.
-  void writeCheckpoint(const std::string& jobId, const std::string& sensorBytes, uint64_t foldedUnits);
+  // Saves the sensor and tracker holding units [0, foldedUnits), then drops their unit files.
+  void writeCheckpoint(const std::string& jobId, const std::string& sensorBytes, const std::string& trackerBytes,
+                       uint64_t foldedUnits);
   struct Checkpoint {
     uint64_t foldedUnits = 0;
     std::string sensorBytes;
+    std::string trackerBytes;
   };
   std::optional<Checkpoint> loadCheckpoint(const std::string& jobId);
 

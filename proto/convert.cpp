@@ -11,6 +11,10 @@ v1::RenderOverrides toProto(const RenderOverrides& o) {
   if (o.seed) p.set_seed(*o.seed);
   if (o.integrator) p.set_integrator(integratorName(*o.integrator));
   if (o.ev) p.set_ev(*o.ev);
+  if (o.sampler) p.set_sampler(samplerName(*o.sampler));
+  if (o.russianRoulette) p.set_russian_roulette(*o.russianRoulette);
+  if (o.targetError) p.set_target_error(*o.targetError);
+  if (o.timeLimitSeconds) p.set_time_limit_seconds(*o.timeLimitSeconds);
   return p;
 }
 
@@ -22,14 +26,22 @@ RenderOverrides fromProto(const v1::RenderOverrides& p) {
   if (p.has_max_bounces()) o.maxBounces = int(std::min<uint32_t>(p.max_bounces(), 1u << 30));
   if (p.has_seed()) o.seed = p.seed();
   if (p.has_integrator()) {
-    if (p.integrator() == "naive")
-      o.integrator = IntegratorKind::kNaive;
-    else if (p.integrator() == "nee_mis")
-      o.integrator = IntegratorKind::kNeeMis;
-    else
-      throw FarmError(FarmError::Kind::kInvalidArgument,
-                      "overrides.integrator: unknown integrator \"" + p.integrator() + "\" (expected nee_mis or naive)");
+    IntegratorKind kind;
+    if (!parseIntegratorName(p.integrator(), kind))
+      throw FarmError(FarmError::Kind::kInvalidArgument, "overrides.integrator: unknown integrator \"" +
+                                                             p.integrator() + "\" (expected nee_mis, nee or naive)");
+    o.integrator = kind;
   }
+  if (p.has_sampler()) {
+    SamplerKind kind;
+    if (!parseSamplerName(p.sampler(), kind))
+      throw FarmError(FarmError::Kind::kInvalidArgument, "overrides.sampler: unknown sampler \"" + p.sampler() +
+                                                             "\" (expected sobol, stratified or independent)");
+    o.sampler = kind;
+  }
+  if (p.has_russian_roulette()) o.russianRoulette = p.russian_roulette();
+  if (p.has_target_error()) o.targetError = p.target_error();
+  if (p.has_time_limit_seconds()) o.timeLimitSeconds = p.time_limit_seconds();
   if (p.has_ev()) o.ev = p.ev();
   return o;
 }

@@ -1,5 +1,7 @@
 #include "render/integrator.h"
 
+#include <algorithm>
+
 #include "math/ray_offset.h"
 #include "math/sampling.h"
 
@@ -14,6 +16,11 @@ template <bool kNee, bool kSpecular>
 Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats) {
   const RenderSettings& settings = rs.settings();
   constexpr bool nee = kNee;
+  // NEE alone weights a light sample 1 and a scattered ray that hits a light after a diffuse
+  // vertex 0; NEE + MIS weights both with the power heuristic. Either way each light path is
+  // counted once.
+  const bool mis = settings.integrator == IntegratorKind::kNeeMis;
+  const bool roulette = settings.russianRoulette;
 
   Spectrum radiance(0.0f);
   Spectrum throughput(1.0f);
@@ -38,7 +45,7 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
         hitLight = true;
         float weight = 1.0f;
         if (nee && !lastSpecular)
-          weight = powerHeuristic(lastPdf, rs.lights().pdf(hit->triangle, hit->t, direction));
+          weight = mis ? powerHeuristic(lastPdf, rs.lights().pdf(hit->triangle, hit->t, direction)) : 0.0f;
         radiance += throughput * le * weight;
       }
     }
@@ -64,7 +71,7 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
           const Vec3 to = offsetRayOrigin(ls->p, ls->n, ls->pError, -wi);
           ++stats.rays;
           if (!rs.caster().occluded(from, to - from, 1.0f - kShadowEpsilon)) {
-            const float weight = powerHeuristic(ls->pdf, material.pdf(n, wo, wi));
+            const float weight = mis ? powerHeuristic(ls->pdf, material.pdf(n, wo, wi)) : 1.0f;
             radiance += throughput * f * ls->radiance * (weight / ls->pdf);
           }
         }
@@ -77,6 +84,14 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
     throughput *= s->weight;
     if (isBlack(throughput)) break;
     if (counts) ++bounces;
+    // Russian roulette (optional, render.russian_roulette): from the second bounce on, a path
+    // survives with probability q = min(1, max throughput component) and carries 1/q more, so
+    // the estimate stays unbiased while dim paths stop early.
+    if (roulette && bounces >= 2) {
+      const float q = std::min(1.0f, std::max({throughput.r, throughput.g, throughput.b}));
+      if (rng.get1D(base + dims::kRoulette) >= q) break;
+      throughput /= q;
+    }
     lastSpecular = s->specular;
     lastPdf = s->pdf;
     origin = offsetRayOrigin(hit->p, hit->n, hit->pError, s->wi);

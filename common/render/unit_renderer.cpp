@@ -31,7 +31,8 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
                     const std::atomic<bool>* cancel) {
   const ThinLensCamera& camera = rs.camera();
   const int width = camera.width(), height = camera.height();
-  const uint64_t seed = rs.settings().seed;
+  const RenderSettings& settings = rs.settings();
+  const SamplerSetup sampler{settings.sampler, settings.seed, settings.samplesPerPixel, unitSize(settings)};
   out = SensorBuffer(width, height);
   tbb::combinable<PathStats> threadStats;
   std::atomic<bool> cancelled{false};
@@ -53,7 +54,7 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
         const uint64_t pixel = uint64_t(j) * width + i;
         double sum[3] = {0.0, 0.0, 0.0};
         for (uint64_t s = unit.firstSample; s < unit.firstSample + unit.sampleCount; ++s) {
-          const SampleStream rng(seed, pixel, s);
+          const SampleStream rng(sampler, pixel, s);
           // Without depth of field the lens is a pinhole: no lens sample, the same rays.
           const CameraRay ray = kLens ? camera.generateRay(i, j, rng.get2D(dims::kSensor), rng.get2D(dims::kLens))
                                       : camera.generatePinholeRay(i, j, rng.get2D(dims::kSensor));
@@ -85,7 +86,7 @@ bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
   // branch for an effect the scene does not call for.
   const EffectSet& e = rs.effects();
   const bool lens = e.depthOfField;
-  const bool nee = e.lightSampling && rs.settings().integrator == IntegratorKind::kNeeMis && !rs.lights().empty();
+  const bool nee = e.lightSampling && rs.settings().integrator != IntegratorKind::kNaive && !rs.lights().empty();
   const bool specular = e.specular;
   using Fn = bool (*)(const RenderScene&, const WorkUnit&, SensorBuffer&, PathStats&, const std::atomic<bool>*);
   static constexpr Fn kTable[2][2][2] = {

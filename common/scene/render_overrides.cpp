@@ -23,6 +23,10 @@ void applyOverrides(const RenderOverrides& o, RenderSettings& s, const std::stri
   if (o.maxBounces) s.maxBounces = *o.maxBounces;
   if (o.seed) s.seed = *o.seed;
   if (o.integrator) s.integrator = *o.integrator;
+  if (o.sampler) s.sampler = *o.sampler;
+  if (o.russianRoulette) s.russianRoulette = *o.russianRoulette;
+  if (o.targetError) s.targetError = *o.targetError;
+  if (o.timeLimitSeconds) s.timeLimitSeconds = *o.timeLimitSeconds;
   if (o.ev) s.exposure.ev = *o.ev;
   validateRenderSettings(s, where);
 }

@@ -16,6 +16,10 @@ struct RenderOverrides {
   std::optional<int> maxBounces;
   std::optional<uint64_t> seed;
   std::optional<IntegratorKind> integrator;
+  std::optional<SamplerKind> sampler;
+  std::optional<bool> russianRoulette;
+  std::optional<double> targetError;       // relative RMSE; samplesPerPixel becomes a cap
+  std::optional<double> timeLimitSeconds;  // the deadline, from submission
   std::optional<double> ev;
 };
 

@@ -26,8 +26,12 @@ struct TriangleMesh {
 
 enum class IntegratorKind {
   kNaive,   // the seed's estimator: a path counts only when a scattered ray hits a light (§4.7)
-  kNeeMis,  // next-event estimation with multiple importance sampling
+  kNee,     // next-event estimation: one shadow ray per diffuse vertex, scattered hits ignored
+  kNeeMis,  // next-event estimation and scattered hits, combined by MIS (power heuristic)
 };
+
+// How sample values are drawn (render/sampler.h).
+enum class SamplerKind { kIndependent, kStratified, kSobol };
 
 enum class ToneMap { kClamp, kReinhard };
 
@@ -44,13 +48,24 @@ struct RenderSettings {
   IntegratorKind integrator = IntegratorKind::kNeeMis;
   bool mirrorBouncesCount = false;    // seed §4.5: mirror reflections do not count toward B
   uint32_t samplesPerUnit = 0;        // samples per pixel in one unit of work; 0 = automatic
+  SamplerKind sampler = SamplerKind::kSobol;
+  bool russianRoulette = false;       // integrator.h: unbiased early termination of dim paths
+  // Stopping rules besides samplesPerPixel (which is then a cap); 0 = not set. See docs/accuracy.md.
+  double targetError = 0.0;           // stop when the estimated relative RMSE falls to this
+  double timeLimitSeconds = 0.0;      // stop this long after submission, in whole units
   ExposureSettings exposure;
+
+  bool convergenceDriven() const { return targetError > 0.0 || timeLimitSeconds > 0.0; }
 };
 
 // Samples per pixel in one unit of work. Automatic: about kAutoUnitPaths paths per unit (a few
 // seconds on a small machine, so a farm's uploads stay small next to its tracing), and never
-// more than the whole job. A function of the settings only, so every process agrees on it.
+// more than the whole job. Jobs that stop at a target error or a deadline use units of at most
+// a quarter of that and at most kMaxConvergenceUnitSamples samples per pixel (a power of two),
+// so they stop close to their target and waste little at the deadline. A function of the
+// settings only, so every process agrees on it.
 inline constexpr uint64_t kAutoUnitPaths = uint64_t(1) << 23;
+inline constexpr uint64_t kMaxConvergenceUnitSamples = 16;
 uint32_t unitSize(const RenderSettings& settings);
 
 struct Scene {
@@ -68,5 +83,9 @@ struct Scene {
 };
 
 const char* integratorName(IntegratorKind kind);
+const char* samplerName(SamplerKind kind);
+// The names above back to kinds; false for an unknown name.
+bool parseIntegratorName(const std::string& name, IntegratorKind& kind);
+bool parseSamplerName(const std::string& name, SamplerKind& kind);
 
 }  // namespace lensfarm

@@ -6,6 +6,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -228,12 +229,14 @@ class SceneParser {
     s.maxBounces = int(r.integer("max_bounces", 2, 0, kMaxBounces));
     s.seed = r.integer("seed", 0, 0, std::numeric_limits<uint64_t>::max());
     const std::string integrator = r.string("integrator", "nee_mis");
-    if (integrator == "nee_mis")
-      s.integrator = IntegratorKind::kNeeMis;
-    else if (integrator == "naive")
-      s.integrator = IntegratorKind::kNaive;
-    else
-      r.fail("render.integrator", "unknown integrator \"" + integrator + "\" (expected nee_mis or naive)");
+    if (!parseIntegratorName(integrator, s.integrator))
+      r.fail("render.integrator", "unknown integrator \"" + integrator + "\" (expected nee_mis, nee or naive)");
+    const std::string sampler = r.string("sampler", "sobol");
+    if (!parseSamplerName(sampler, s.sampler))
+      r.fail("render.sampler", "unknown sampler \"" + sampler + "\" (expected sobol, stratified or independent)");
+    s.russianRoulette = r.boolean("russian_roulette", false);
+    s.targetError = r.number("target_error", 0.0, 0.0, 1.0);
+    s.timeLimitSeconds = r.number("time_limit", 0.0, 0.0, 1e9);
     s.mirrorBouncesCount = r.boolean("mirror_bounces_count", false);
     s.samplesPerUnit = uint32_t(r.integer("samples_per_unit", 0, 0, 1u << 20));
     if (r.has("exposure")) {
@@ -589,6 +592,12 @@ AssetReader fileAssetReader(const fs::path& sceneFile) {
 uint32_t unitSize(const RenderSettings& s) {
   if (s.samplesPerUnit > 0) return s.samplesPerUnit;
   const uint64_t pixels = std::max<uint64_t>(1, uint64_t(s.width) * uint64_t(s.height));
+  if (s.convergenceDriven()) {
+    // Small units, a power of two so that each is a whole net of the Sobol sampler: the stop
+    // lands close to the target, and a deadline wastes little.
+    const uint64_t fit = std::clamp<uint64_t>(kAutoUnitPaths / 4 / pixels, 1, kMaxConvergenceUnitSamples);
+    return uint32_t(std::min<uint64_t>(std::bit_floor(fit), std::max<uint64_t>(1, s.samplesPerPixel)));
+  }
   const uint64_t perUnit = std::clamp<uint64_t>((kAutoUnitPaths + pixels - 1) / pixels, 1, std::max<uint64_t>(1, s.samplesPerPixel));
   return uint32_t(std::min<uint64_t>(perUnit, 1u << 20));
 }
@@ -653,10 +662,46 @@ void validateRenderSettings(const RenderSettings& s, const std::string& where) {
     throw InputError(where, "samples_per_pixel: must be in [1, " + std::to_string(kMaxSamplesPerPixel) + "]");
   if (s.maxBounces < 0 || s.maxBounces > kMaxBounces)
     throw InputError(where, "max_bounces: must be in [0, " + std::to_string(kMaxBounces) + "]");
+  if (!(s.targetError >= 0.0 && s.targetError < 1.0))
+    throw InputError(where, "target_error: must be a relative RMSE in (0, 1), e.g. 0.01");
+  if (!(s.timeLimitSeconds >= 0.0 && s.timeLimitSeconds <= 1e9))
+    throw InputError(where, "time_limit: must be in [0, 1e9] seconds");
 }
 
 const char* integratorName(IntegratorKind kind) {
-  return kind == IntegratorKind::kNaive ? "naive" : "nee_mis";
+  switch (kind) {
+    case IntegratorKind::kNaive: return "naive";
+    case IntegratorKind::kNee: return "nee";
+    case IntegratorKind::kNeeMis: break;
+  }
+  return "nee_mis";
+}
+
+bool parseIntegratorName(const std::string& name, IntegratorKind& kind) {
+  for (IntegratorKind k : {IntegratorKind::kNaive, IntegratorKind::kNee, IntegratorKind::kNeeMis})
+    if (name == integratorName(k)) {
+      kind = k;
+      return true;
+    }
+  return false;
+}
+
+const char* samplerName(SamplerKind kind) {
+  switch (kind) {
+    case SamplerKind::kIndependent: return "independent";
+    case SamplerKind::kStratified: return "stratified";
+    case SamplerKind::kSobol: break;
+  }
+  return "sobol";
+}
+
+bool parseSamplerName(const std::string& name, SamplerKind& kind) {
+  for (SamplerKind k : {SamplerKind::kIndependent, SamplerKind::kStratified, SamplerKind::kSobol})
+    if (name == samplerName(k)) {
+      kind = k;
+      return true;
+    }
+  return false;
 }
 
 }  // namespace lensfarm

@@ -270,5 +270,34 @@ TEST_F(Farm, BadRequestsGetClearErrorsAndExitCodes) {
   EXPECT_EQ(cli({"status", "--coordinator", address}).out.find("job-"), std::string::npos) << "nothing was queued";
 }
 
+TEST_F(Farm, ATargetErrorJobStopsAtTheSameUnitOnTheFarmAsInOneProcess) {
+  // The stop is the first prefix of units whose estimate reaches the target, decided in unit
+  // order: two workers finishing units in any order keep exactly the units one process keeps.
+  const fs::path scene = writeScene(24, 64, 0);
+  const std::vector<std::string> rule = {"--target-error", "0.08", "--spp", "4096"};
+  const std::string address = startCoordinator();
+  startWorker(address, "w1");
+  startWorker(address, "w2");
+  const std::string job = submit(address, scene, rule);
+  const auto watched = cli({"watch", job, "--coordinator", address});
+  ASSERT_EQ(watched.exitCode, 0) << watched.err;
+  EXPECT_NE(watched.out.find("target error reached"), std::string::npos) << watched.out;
+  const auto status = cli({"status", job, "--coordinator", address});
+  EXPECT_NE(status.out.find("stopped:    target error reached"), std::string::npos) << status.out;
+  EXPECT_NE(status.out.find("(target 8.00 % reached)"), std::string::npos) << status.out;
+  ImageMetadata farmMeta, localMeta;
+  const Image farm = download(address, job, &farmMeta);
+  EXPECT_LT(farmMeta.samplesPerPixel, 4096u) << "stopped before the cap";
+
+  const fs::path local = dir_ / "local.exr";
+  std::vector<std::string> args = {"render", scene.string(), "-o", local.string(), "-q"};
+  args.insert(args.end(), rule.begin(), rule.end());
+  const auto r = cli(args);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.out.find("stopped:           target error reached"), std::string::npos) << r.out;
+  EXPECT_EQ(readExr(local, &localMeta).rgb, farm.rgb);
+  EXPECT_EQ(localMeta.samplesPerPixel, farmMeta.samplesPerPixel);
+}
+
 }  // namespace
 }  // namespace lensfarm

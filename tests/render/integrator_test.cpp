@@ -20,18 +20,26 @@ Rendered renderAll(const Scene& scene) { return test::renderScene(scene); }
 TEST(Furnace, ClosedEmissiveBoxGivesTheGeometricSeriesForEachBounceLimit) {
   // Every wall emits Le = 1 (towards the inside) and reflects a = 0.5. A path of B bounces sees
   // Le (1 + a + ... + a^B): the exact answer for the bounce limit B (seed §4.5).
+  // Both production estimators, with and without Russian roulette (which must stay unbiased).
+  // NEE without MIS is left out on purpose: where two emitting walls meet, a light sample next to
+  // the shading point has unbounded weight (cos cos' / d^2), so its variance is infinite here and
+  // a mean over 18k samples can be off by any amount (measured: one seed in eight off by 3x). It
+  // is checked for bias on the Cornell box below, and that weakness is why MIS is the default.
   const double a = 0.5;
   for (const char* integrator : {"naive", "nee_mis"}) {
-    for (int b : {0, 1, 2, 3, 6}) {
-      test::TempDir dir;
-      json scene = test::closedBoxSceneJson({{"type", "lambertian"}, {"albedo", a}, {"emission", 1.0}}, 24, 32, b);
-      scene["render"]["integrator"] = integrator;
-      const Rendered r = renderAll(test::loadSceneJson(dir, scene));
-      double expected = 0.0;
-      for (int k = 0; k <= b; ++k) expected += std::pow(a, k);
-      for (int c = 0; c < 3; ++c)
-        EXPECT_NEAR(r.mean[c], expected, 0.01 * expected) << integrator << " B = " << b;
-      EXPECT_EQ(r.stats.dropped, 0u);
+    for (bool roulette : {false, true}) {
+      for (int b : {0, 1, 2, 3, 6}) {
+        test::TempDir dir;
+        json scene = test::closedBoxSceneJson({{"type", "lambertian"}, {"albedo", a}, {"emission", 1.0}}, 24, 32, b);
+        scene["render"]["integrator"] = integrator;
+        scene["render"]["russian_roulette"] = roulette;
+        const Rendered r = renderAll(test::loadSceneJson(dir, scene));
+        double expected = 0.0;
+        for (int k = 0; k <= b; ++k) expected += std::pow(a, k);
+        for (int c = 0; c < 3; ++c)
+          EXPECT_NEAR(r.mean[c], expected, 0.01 * expected) << integrator << " roulette " << roulette << " B = " << b;
+        EXPECT_EQ(r.stats.dropped, 0u);
+      }
     }
   }
 }
@@ -73,9 +81,10 @@ TEST(RippledMirror, ReflectsHalfTheLightOfAnEmittingRoom) {
   for (float v : r.image.rgb) ASSERT_NEAR(v, 0.5f, 1e-6f);
 }
 
-TEST(Estimators, NaiveAndNeeMisConvergeToTheSameImage) {
-  // Both estimators are unbiased for the same B: on the classic Cornell box their mean radiance
-  // per channel agrees within Monte Carlo noise; NEE+MIS has far lower pixel variance.
+TEST(Estimators, NaiveNeeAndNeeMisConvergeToTheSameImage) {
+  // All estimators are unbiased for the same B: on the classic Cornell box their mean radiance
+  // per channel agrees within Monte Carlo noise (NEE+MIS has far lower pixel variance), with or
+  // without Russian roulette, with any sampler.
   test::TempDir dir;
   json scene = json::parse(std::ifstream(test::scenesDir() / "cornell-classic.json"));
   scene["shapes"][0]["file"] = (test::scenesDir() / "meshes/cornell-box.obj").string();
@@ -83,10 +92,18 @@ TEST(Estimators, NaiveAndNeeMisConvergeToTheSameImage) {
   scene["render"]["samples_per_pixel"] = 256;
   scene["render"]["integrator"] = "naive";
   const Rendered naive = renderAll(test::loadSceneJson(dir, scene, "naive.json"));
-  scene["render"]["integrator"] = "nee_mis";
   scene["render"]["samples_per_pixel"] = 64;
-  const Rendered nee = renderAll(test::loadSceneJson(dir, scene, "nee.json"));
-  for (int c = 0; c < 3; ++c) EXPECT_NEAR(nee.mean[c] / naive.mean[c], 1.0, 0.03) << "channel " << c;
+  for (const char* integrator : {"nee", "nee_mis"})
+    for (const char* sampler : {"independent", "stratified", "sobol"})
+      for (bool roulette : {false, true}) {
+        scene["render"]["integrator"] = integrator;
+        scene["render"]["sampler"] = sampler;
+        scene["render"]["russian_roulette"] = roulette;
+        const Rendered other = renderAll(test::loadSceneJson(dir, scene, "other.json"));
+        for (int c = 0; c < 3; ++c)
+          EXPECT_NEAR(other.mean[c] / naive.mean[c], 1.0, 0.03)
+              << integrator << " " << sampler << " roulette " << roulette << " channel " << c;
+      }
 }
 
 TEST(NonFinite, SamplesThatOverflowAreCountedAndDropped) {

@@ -1,0 +1,99 @@
+#include "study/progressive.h"
+
+#include <spdlog/spdlog.h>
+#include <tbb/task_arena.h>
+
+#include <chrono>
+#include <thread>
+
+#include "film/image_io.h"
+#include "film/sensor.h"
+#include "render/render_scene.h"
+#include "render/unit_renderer.h"
+#include "util/hash.h"
+#include "util/version.h"
+
+namespace lensfarm::study {
+
+namespace fs = std::filesystem;
+
+Checkpoint renderProgressive(Scene scene, const ProgressiveRun& run,
+                             const std::function<void(const Checkpoint&)>& onCheckpoint) {
+  RenderSettings& settings = scene.render;
+  settings.samplesPerPixel = run.maxSamples;
+  if (settings.samplesPerUnit == 0) settings.samplesPerUnit = uint32_t(run.firstCheckpoint);
+  const RenderScene rs(scene);
+  const uint32_t perUnit = settings.samplesPerUnit;
+  Sensor sensor(settings.width, settings.height);
+  ConvergenceTracker tracker(settings.width, settings.height);
+  tbb::task_arena arena(int(run.threads ? run.threads : std::max(1u, std::thread::hardware_concurrency())));
+
+  Checkpoint last;
+  PathStats stats;
+  double seconds = 0.0;
+  uint64_t next = run.firstCheckpoint;
+  for (uint64_t unit = 0; unit < unitCount(run.maxSamples, perUnit); ++unit) {
+    const WorkUnit work = unitAt(unit, run.maxSamples, perUnit);
+    SensorBuffer buffer;
+    const auto start = std::chrono::steady_clock::now();
+    arena.execute([&] { renderUnit(rs, work, buffer, stats); });
+    sensor.add(buffer);
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    tracker.add(unit, buffer);
+    const uint64_t spp = work.firstSample + work.sampleCount;
+    if (spp < next && spp < run.maxSamples) continue;
+    last.samplesPerPixel = spp;
+    last.seconds = seconds;
+    last.image = sensor.developImage();
+    last.estimate = tracker.estimate(sensor);
+    last.stats = stats;
+    if (onCheckpoint) onCheckpoint(last);
+    if (seconds >= run.budgetSeconds) break;
+    while (next <= spp) next *= 2;
+  }
+  return last;
+}
+
+Image referenceImage(Scene scene, uint64_t samplesPerPixel, const fs::path& cacheDir, double* estimatedRelativeError,
+                     unsigned threads) {
+  RenderSettings& s = scene.render;
+  s.integrator = IntegratorKind::kNeeMis;
+  s.sampler = SamplerKind::kSobol;
+  s.russianRoulette = false;
+  s.samplesPerUnit = 16;
+  // Its own random numbers: a reference sharing the measured renders' samples would be
+  // correlated with them and hide part of their error.
+  s.seed ^= 0x5eed5eed5eed5eedull;
+  const std::string key = sha256Hex(scene.hash + "|" + std::to_string(s.width) + "x" + std::to_string(s.height) +
+                                    "|B" + std::to_string(s.maxBounces) + "|" + std::to_string(samplesPerPixel) +
+                                    "|seed" + std::to_string(s.seed) + "|" + kRendererVersion);
+  const fs::path file = cacheDir / ("reference-" + key.substr(0, 16) + ".exr");
+  if (fs::exists(file)) {
+    ImageMetadata meta;
+    Image image = readExr(file, &meta);
+    if (estimatedRelativeError) *estimatedRelativeError = std::stod(meta.extra.at("estimatedRelativeError"));
+    spdlog::info("reference {} ({}x{}, {} spp) from the cache", file.filename().string(), s.width, s.height,
+                 samplesPerPixel);
+    return image;
+  }
+  spdlog::info("rendering the reference: {}x{}, {} spp, B = {} (cached as {})", s.width, s.height, samplesPerPixel,
+               s.maxBounces, file.string());
+  ProgressiveRun run;
+  run.firstCheckpoint = samplesPerPixel;
+  run.maxSamples = samplesPerPixel;
+  run.threads = threads;
+  const Checkpoint done = renderProgressive(scene, run);
+  ImageMetadata meta;
+  meta.samplesPerPixel = done.samplesPerPixel;
+  meta.totalSamples = done.samplesPerPixel * uint64_t(s.width) * uint64_t(s.height);
+  meta.renderSeconds = done.seconds;
+  meta.sceneHash = scene.hash;
+  meta.rendererVersion = kRendererVersion;
+  meta.extra["estimatedRelativeError"] = std::to_string(done.estimate.relativeRmse);
+  fs::create_directories(cacheDir);
+  writeExr(file, done.image, meta);
+  if (estimatedRelativeError) *estimatedRelativeError = done.estimate.relativeRmse;
+  return done.image;
+}
+
+}  // namespace lensfarm::study

@@ -1,0 +1,557 @@
+#include "study/study.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <sstream>
+#include <thread>
+
+#include "camera/depth_of_field.h"
+#include "film/error_metrics.h"
+#include "film/image_io.h"
+#include "scene/scene_loader.h"
+#include "study/progressive.h"
+#include "study/report.h"
+#include "util/error.h"
+#include "util/version.h"
+
+namespace lensfarm::study {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+// Image sizes and budgets: the full study for the docs, and a quick one for tests.
+struct Scale {
+  int referenceSide;
+  uint64_t referenceSpp;
+  int convergenceSide;
+  double convergenceBudget;  // seconds per configuration
+  std::vector<int> resolutionSides;
+  double resolutionBudget;
+  double resolutionTarget;  // the "acceptable noise" of the resolution experiment
+  int dofWidth;
+  uint64_t dofSpp;
+  int bounceSide;
+  uint64_t bounceSpp;
+};
+constexpr int kStudyBounces = 3;  // B for the convergence and resolution experiments
+// The edge images of the depth-of-field experiment are wide strips (4 rows) so that a pixel is
+// much smaller than the circle of confusion (0.094 mm on the 100 mm sensor).
+const Scale kFull{256, 2048, 128, 6.0, {64, 128, 256}, 10.0, 0.02, 4096, 256, 128, 64};
+const Scale kQuick{32, 256, 16, 0.15, {8, 16, 32}, 0.5, 0.10, 1024, 32, 16, 32};
+
+struct Series {
+  std::string name, integrator, sampler;
+  bool roulette = false;
+  std::vector<double> seconds, spp, error, estimate;  // error: relative RMSE vs the reference
+  std::vector<ImageError> details;
+};
+
+// Time for `s` to reach `target`, interpolated on log-log axes between checkpoints, or
+// extrapolated from the nearest end as error ~ 1/sqrt(time). `extrapolated` says which.
+double timeToError(const Series& s, double target, bool* extrapolated) {
+  *extrapolated = false;
+  for (size_t k = 0; k < s.error.size(); ++k) {
+    if (s.error[k] > target) continue;
+    if (k == 0) {
+      *extrapolated = true;
+      return s.seconds[0] * std::pow(s.error[0] / target, 2.0);
+    }
+    const double a = std::log(s.error[k - 1]), b = std::log(s.error[k]);
+    const double t = (std::log(target) - a) / (b - a);
+    return std::exp(std::log(s.seconds[k - 1]) + t * (std::log(s.seconds[k]) - std::log(s.seconds[k - 1])));
+  }
+  *extrapolated = true;
+  return s.seconds.back() * std::pow(s.error.back() / target, 2.0);
+}
+
+// Error of `s` at `seconds`, interpolated the same way.
+double errorAtTime(const Series& s, double seconds) {
+  for (size_t k = 1; k < s.seconds.size(); ++k)
+    if (s.seconds[k] >= seconds) {
+      const double t = (std::log(seconds) - std::log(s.seconds[k - 1])) / (std::log(s.seconds[k]) - std::log(s.seconds[k - 1]));
+      return std::exp(std::log(s.error[k - 1]) + t * (std::log(s.error[k]) - std::log(s.error[k - 1])));
+    }
+  return s.error.back() * std::sqrt(s.seconds.back() / seconds);
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+std::string machineDescription() {
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  std::string model = "unknown CPU";
+  for (std::string line; std::getline(cpuinfo, line);)
+    if (line.rfind("model name", 0) == 0) {
+      model = line.substr(line.find(':') + 2);
+      break;
+    }
+  return std::to_string(std::thread::hardware_concurrency()) + " hardware threads, " + model;
+}
+
+class Study {
+ public:
+  explicit Study(const StudyOptions& o) : options_(o), scale_(o.quick ? kQuick : kFull) {
+    fs::create_directories(options_.out);
+    report_ = options_.report.empty() ? options_.out / "accuracy.md" : options_.report;
+    if (report_.has_parent_path()) fs::create_directories(report_.parent_path());
+    cache_ = options_.out / "cache";
+    seed_ = loadScene(options_.scenes / "cornell-seed.json");
+  }
+
+  void run() {
+    const auto start = std::chrono::steady_clock::now();
+    const auto wants = [&](const char* name) { return options_.experiments.empty() || options_.experiments.count(name); };
+    std::string body;
+    if (wants("convergence") || wants("estimate") || wants("resolution")) makeReference();
+    if (wants("convergence") || wants("estimate")) body += convergence(wants("convergence"), wants("estimate"));
+    if (wants("resolution")) body += resolution();
+    if (wants("dof")) body += depthOfField();
+    if (wants("bounces")) body += bounces();
+    const double minutes = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / 60.0;
+    writeBytesAtomically(report_, header(minutes) + body);
+    spdlog::info("wrote {} ({:.1f} min)", report_.string(), minutes);
+  }
+
+ private:
+  // ---- shared -------------------------------------------------------------------------------
+  fs::path plotFile(const std::string& name) const { return options_.out / (name + ".png"); }
+  std::string link(const std::string& name) const {
+    const fs::path rel = fs::relative(plotFile(name), report_.parent_path().empty() ? "." : report_.parent_path());
+    return "![" + name + "](" + rel.generic_string() + ")\n\n";
+  }
+
+  Scene seedAt(int side, int bounces) const {
+    Scene s = seed_;
+    s.render.width = s.render.height = side;
+    s.render.maxBounces = bounces;
+    s.render.samplesPerUnit = 0;
+    return s;
+  }
+
+  void makeReference() {
+    reference_ = referenceImage(seedAt(scale_.referenceSide, kStudyBounces), scale_.referenceSpp, cache_,
+                                &referenceError_, options_.threads);
+  }
+  Image referenceAt(int side) const { return side == reference_.width ? reference_ : downscaleToFit(reference_, side); }
+
+  Series measure(Scene scene, const Image& reference, const ProgressiveRun& run, const std::string& name) const {
+    Series s;
+    s.name = name;
+    s.integrator = integratorName(scene.render.integrator);
+    s.sampler = samplerName(scene.render.sampler);
+    s.roulette = scene.render.russianRoulette;
+    renderProgressive(scene, run, [&](const Checkpoint& c) {
+      const ImageError e = compareImages(c.image, reference, scene.render.exposure);
+      s.seconds.push_back(c.seconds);
+      s.spp.push_back(double(c.samplesPerPixel));
+      s.error.push_back(e.relativeRmse);
+      s.estimate.push_back(c.estimate.valid ? c.estimate.relativeRmse : -1.0);
+      s.details.push_back(e);
+    });
+    spdlog::info("{}: {} spp in {:.2f} s, relative RMSE {:.4f}", name, s.spp.back(), s.seconds.back(), s.error.back());
+    return s;
+  }
+
+  // ---- convergence: estimators x samplers x roulette ------------------------------------------
+  std::string convergence(bool showConvergence, bool showEstimate) {
+    const int side = scale_.convergenceSide;
+    const Image reference = referenceAt(side);
+    std::vector<Series> all;
+    for (IntegratorKind integrator : {IntegratorKind::kNaive, IntegratorKind::kNee, IntegratorKind::kNeeMis})
+      for (SamplerKind sampler : {SamplerKind::kIndependent, SamplerKind::kStratified, SamplerKind::kSobol})
+        for (bool roulette : {false, true}) {
+          Scene scene = seedAt(side, kStudyBounces);
+          scene.render.integrator = integrator;
+          scene.render.sampler = sampler;
+          scene.render.russianRoulette = roulette;
+          ProgressiveRun run;
+          run.firstCheckpoint = 16;
+          run.budgetSeconds = scale_.convergenceBudget;
+          run.threads = options_.threads;
+          all.push_back(measure(scene, reference, run,
+                                std::string(integratorName(integrator)) + "/" + samplerName(sampler) + (roulette ? "+rr" : "")));
+        }
+
+    Table csv({"config", "integrator", "sampler", "russian_roulette", "spp", "seconds", "rmse", "relative_rmse",
+               "relative_mse", "display_rmse", "mean_ratio", "estimated_relative_rmse"});
+    for (const Series& s : all)
+      for (size_t k = 0; k < s.spp.size(); ++k)
+        csv.add({s.name, s.integrator, s.sampler, s.roulette ? "on" : "off", number(s.spp[k], 10), number(s.seconds[k], 4),
+                 number(s.details[k].rmse, 4), number(s.error[k], 4), number(s.details[k].relativeMse, 4),
+                 number(s.details[k].displayRmse, 4), number(s.details[k].meanRatio, 5), number(s.estimate[k], 4)});
+    csv.writeCsv(options_.out / "convergence.csv");
+
+    std::string md;
+    if (showConvergence) md += convergenceSection(all, side);
+    if (showEstimate) md += estimateSection(all);
+    return md;
+  }
+
+  std::string convergenceSection(const std::vector<Series>& all, int side) {
+    // The common error: the largest final error, so every configuration reaches it.
+    double common = 0.0;
+    for (const Series& s : all) common = std::max(common, s.error.back());
+    const Series& seedConfig = all.front();  // naive / independent / no roulette: the report's
+    bool ext = false;
+    const double seedTime = timeToError(seedConfig, common, &ext);
+    Table table({"integrator", "sampler", "roulette", "M paths/s", "time to " + number(100 * common, 2) + " % (s)",
+                 "speed-up vs the seed's", "rel. RMSE at " + number(scale_.convergenceBudget, 2) + " s",
+                 "display RMSE at the end"});
+    for (const Series& s : all) {
+      bool extrapolated = false;
+      const double t = timeToError(s, common, &extrapolated);
+      const double pathsPerSecond = s.spp.back() * side * side / s.seconds.back();
+      table.add({s.integrator, s.sampler, s.roulette ? "on" : "off", number(pathsPerSecond / 1e6, 3),
+                 number(t, 3) + (extrapolated ? " (extrapolated)" : ""), number(seedTime / t, 3) + "x",
+                 number(errorAtTime(s, scale_.convergenceBudget), 3), number(s.details.back().displayRmse, 3)});
+    }
+    table.writeCsv(options_.out / "time-to-error.csv");
+
+    // Fig. 5 as numbers: the seed's configuration, checkpoint by checkpoint.
+    Table progressive({"spp", "seconds", "relative RMSE", "relMSE", "display RMSE (8-bit sRGB, 0..1)"});
+    for (size_t k = 0; k < seedConfig.spp.size(); ++k)
+      progressive.add({number(seedConfig.spp[k], 10), number(seedConfig.seconds[k], 3), number(seedConfig.error[k], 3),
+                       number(seedConfig.details[k].relativeMse, 3), number(seedConfig.details[k].displayRmse, 3)});
+
+    std::string script = "set terminal pngcairo size 1000,700 noenhanced\nset output " +
+                         gnuplotPath(plotFile("convergence")) +
+                         "\nset logscale xy\nset xlabel 'render time (s, " + std::to_string(std::thread::hardware_concurrency()) +
+                         " threads)'\nset ylabel 'relative RMSE vs reference'\nset key outside right\nset grid\n"
+                         "set datafile separator ','\nplot ";
+    for (size_t k = 0; k < all.size(); ++k)
+      script += (k ? ", " : "") + gnuplotPath(options_.out / "convergence.csv") + " using 6:(strcol(1) eq '" + all[k].name +
+                "' ? $8 : 1/0) with linespoints title '" + all[k].name + "'";
+    runGnuplot(script + "\n");
+
+    return "## Convergence: estimators, samplers and Russian roulette\n\n"
+           "cornell-seed, " + std::to_string(side) + "x" + std::to_string(side) + ", B = " + std::to_string(kStudyBounces) +
+           ", every configuration rendered progressively for about " + number(scale_.convergenceBudget, 2) +
+           " s and compared with the reference at every power-of-two sample count. The table gives the time each "
+           "needs to reach the same relative RMSE (the largest final error among them, so every configuration "
+           "reaches it), interpolated on log-log axes between checkpoints.\n\n" +
+           table.markdown() + "\n" + link("convergence") +
+           "### Progressive rendering (seed Fig. 5) as numbers\n\nThe report's configuration (naive estimator, "
+           "independent random numbers): the error falls as 1/sqrt(samples), so each halving of the noise costs four "
+           "times the time.\n\n" + progressive.markdown() + "\n" + "Data: `convergence.csv`, `time-to-error.csv`.\n\n";
+  }
+
+  std::string estimateSection(const std::vector<Series>& all) {
+    Table table({"sampler", "checkpoints", "median estimated / true", "min", "max"});
+    // Only checkpoints whose error is well above the reference's own (else the true error is
+    // not known well enough to judge the estimate).
+    std::map<std::string, std::vector<double>> ratios;
+    for (const Series& s : all)
+      for (size_t k = 0; k < s.error.size(); ++k)
+        if (s.estimate[k] > 0.0 && s.error[k] > 2.0 * referenceError_) {
+          // The true error includes the reference's own noise; remove it in quadrature.
+          const double trueError = std::sqrt(std::max(1e-30, s.error[k] * s.error[k] - referenceError_ * referenceError_));
+          ratios[s.sampler].push_back(s.estimate[k] / trueError);
+        }
+    for (const auto& [sampler, r] : ratios)
+      table.add({sampler, std::to_string(r.size()), number(median(r), 3), number(*std::min_element(r.begin(), r.end()), 3),
+                 number(*std::max_element(r.begin(), r.end()), 3)});
+    table.writeCsv(options_.out / "estimate.csv");
+
+    std::string script = "set terminal pngcairo size 800,700 noenhanced\nset output " + gnuplotPath(plotFile("estimate")) +
+                         "\nset logscale xy\nset xlabel 'true relative RMSE (vs reference)'\n"
+                         "set ylabel 'live estimate (two half-images)'\nset key top left\nset grid\n"
+                         "set datafile separator ','\nplot ";
+    bool first = true;
+    for (const char* sampler : {"independent", "stratified", "sobol"}) {
+      script += std::string(first ? "" : ", ") + gnuplotPath(options_.out / "convergence.csv") +
+                " using 8:((strcol(3) eq '" + sampler + "' && $12 > 0) ? $12 : 1/0) with points title '" + sampler + "'";
+      first = false;
+    }
+    runGnuplot(script + ", x with lines title 'estimate = true'\n");
+    return "## The live error estimate against the true error\n\n"
+           "Every checkpoint of the convergence experiment with at least two units: the coordinator's estimate "
+           "(film/convergence.h: two half-images of alternating units) against the error measured with the "
+           "reference (the reference's own estimated error, " + number(100 * referenceError_, 2) +
+           " %, removed in quadrature). With independent samples the estimate is unbiased; with stratified and "
+           "Sobol samples the two halves are each better stratified than chance and the whole is better still, so "
+           "the estimate is an upper bound and a target-error job stops later than it must.\n\n" +
+           table.markdown() + "\n" + link("estimate");
+  }
+
+  // ---- resolution (seed Fig. 6) ---------------------------------------------------------------
+  std::string resolution() {
+    Table table({"resolution", "pixels", "rel. RMSE at " + number(scale_.resolutionBudget / 4, 2) + " s",
+                 "time to " + number(100 * scale_.resolutionTarget, 2) + " % (s)", "time per pixel (us)"});
+    std::vector<Series> all;
+    std::vector<double> logPixels, logTimes;
+    for (int side : scale_.resolutionSides) {
+      Scene scene = seedAt(side, kStudyBounces);
+      ProgressiveRun run;
+      run.firstCheckpoint = 16;
+      run.budgetSeconds = scale_.resolutionBudget;
+      run.threads = options_.threads;
+      all.push_back(measure(scene, referenceAt(side), run, std::to_string(side) + "x" + std::to_string(side)));
+      bool extrapolated = false;
+      const double t = timeToError(all.back(), scale_.resolutionTarget, &extrapolated);
+      const double pixels = double(side) * side;
+      logPixels.push_back(std::log(pixels));
+      logTimes.push_back(std::log(t));
+      table.add({all.back().name, number(pixels, 10), number(errorAtTime(all.back(), scale_.resolutionBudget / 4), 3),
+                 number(t, 3) + (extrapolated ? " (extrapolated)" : ""), number(t / pixels * 1e6, 3)});
+    }
+    // Least-squares slope of log(time to target) against log(pixels): 1 means linear.
+    double mx = 0, my = 0;
+    for (size_t k = 0; k < logPixels.size(); ++k) mx += logPixels[k], my += logTimes[k];
+    mx /= double(logPixels.size());
+    my /= double(logTimes.size());
+    double sxy = 0, sxx = 0;
+    for (size_t k = 0; k < logPixels.size(); ++k) {
+      sxy += (logPixels[k] - mx) * (logTimes[k] - my);
+      sxx += (logPixels[k] - mx) * (logPixels[k] - mx);
+    }
+    slope_ = sxy / sxx;
+    table.writeCsv(options_.out / "resolution.csv");
+
+    std::string script = "set terminal pngcairo size 800,600 noenhanced\nset output " + gnuplotPath(plotFile("resolution")) +
+                         "\nset logscale xy\nset xlabel 'render time (s)'\nset ylabel 'relative RMSE'\nset grid\n"
+                         "plot ";
+    for (size_t k = 0; k < all.size(); ++k) {
+      script += (k ? ", " : "") + std::string("'-' with linespoints title '") + all[k].name + "'";
+    }
+    script += "\n";
+    for (const Series& s : all) {
+      for (size_t k = 0; k < s.seconds.size(); ++k) script += number(s.seconds[k], 6) + " " + number(s.error[k], 6) + "\n";
+      script += "e\n";
+    }
+    runGnuplot(script);
+    return "## Resolution and noise (seed Fig. 6)\n\n"
+           "cornell-seed, NEE + MIS, Sobol, B = " + std::to_string(kStudyBounces) +
+           ". The references for the smaller images are the large reference box-filtered down (a pixel of the "
+           "smaller image covers exactly the cells it replaces). At a fixed time a larger image is noisier; the "
+           "time to reach a fixed error grows with the pixel count as pixels^" + number(slope_, 3) +
+           " (least-squares slope on log-log axes; the report claims linear, slope 1).\n\n" + table.markdown() + "\n" +
+           link("resolution");
+  }
+
+  // ---- depth of field (seed Fig. 7, Table 1) --------------------------------------------------
+  // A knife edge: an emitting half-plane (x < 0) at distance d in front of the seed's camera,
+  // nothing else. Camera rays that hit it see radiance 1, the others 0, so the image is the edge
+  // convolved with the lens blur and the pixel footprint, with no other noise.
+  Image renderEdge(double distance, double fNumber) const {
+    const int width = scale_.dofWidth, height = 4;
+    const double z = distance - 2.9;
+    json scene = {
+        {"format", "lensfarm-scene/1"},
+        {"camera", {{"type", "thin_lens"}, {"position", {0, 0, -2.9}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}},
+                    {"sensor_width", 0.1}, {"focal_length", 0.095}, {"focus_distance", 2.9}}},
+        {"materials", {{"edge", {{"type", "emissive"}, {"radiance", 1.0}, {"two_sided", true}}}}},
+        {"shapes", json::array({{{"type", "quad"}, {"name", "edge"}, {"material", "edge"}, {"corner", {-20.0, -20.0, z}},
+                                 {"edge1", {20.0, 0.0, 0.0}}, {"edge2", {0.0, 40.0, 0.0}}}})},
+        {"render", {{"resolution", {width, height}}, {"samples_per_pixel", scale_.dofSpp}, {"max_bounces", 0}}}};
+    if (std::isfinite(fNumber)) scene["camera"]["f_number"] = fNumber;
+    Scene s = parseScene(scene.dump(), "dof-edge.json");
+    ProgressiveRun run;
+    run.firstCheckpoint = scale_.dofSpp;
+    run.maxSamples = scale_.dofSpp;
+    run.threads = options_.threads;
+    return renderProgressive(s, run).image;
+  }
+
+  // 10 %-90 % width in pixels of an edge profile sampled at pixel centres, by linear
+  // interpolation between them (the same for the render and the prediction).
+  static double profileWidth(std::vector<double> profile) {
+    if (profile.front() < profile.back()) std::reverse(profile.begin(), profile.end());  // bright on the left
+    auto crossing = [&](double level) {
+      for (size_t x = 1; x < profile.size(); ++x)
+        if (profile[x] <= level && profile[x - 1] > level)
+          return double(x - 1) + (profile[x - 1] - level) / (profile[x - 1] - profile[x]);
+      return 0.0;
+    };
+    return std::abs(crossing(0.1) - crossing(0.9));
+  }
+
+  static double edgeWidth(const Image& image) {  // rows averaged
+    std::vector<double> profile(size_t(image.width), 0.0);
+    for (int y = 0; y < image.height; ++y)
+      for (int x = 0; x < image.width; ++x) profile[size_t(x)] += image.at(x, y).g / float(image.height);
+    return profileWidth(profile);
+  }
+
+  // The same width predicted by optics alone: a uniform disk of diameter `blur` pixels (the lens
+  // aperture's image) convolved with a one-pixel box (the cell), edge response by quadrature,
+  // sampled at the pixel centres (the edge lies on the boundary between the two middle pixels).
+  static double predictedEdgeWidth(double blur) {
+    const double r = blur / 2;
+    auto disk = [&](double u) {  // fraction of the disk left of x = u
+      if (r < 1e-9) return u < 0 ? 0.0 : 1.0;
+      if (u <= -r) return 0.0;
+      if (u >= r) return 1.0;
+      const double segment = r * r * std::acos(u / r) - u * std::sqrt(r * r - u * u);  // area right of u
+      return 1.0 - segment / (std::numbers::pi * r * r);
+    };
+    auto cell = [&](double x) {
+      const int n = 400;
+      double s = 0;
+      for (int k = 0; k < n; ++k) s += disk(x - 0.5 + (k + 0.5) / n);
+      return s / n;
+    };
+    std::vector<double> profile;
+    const int half = int(r) + 3;
+    for (int k = -half; k < half; ++k) profile.push_back(1.0 - cell(k + 0.5));  // bright on the left
+    return profileWidth(profile);
+  }
+
+  std::string depthOfField() {
+    const double f = 0.095, s1 = 2.9, sensor = 0.1;
+    const double coc = circleOfConfusion(sensor, sensor);  // Table 1's square 0.1 x 0.1 sensor
+    const double pitch = sensor / scale_.dofWidth;           // metres per pixel on the sensor
+    const double s2 = f * s1 / (s1 - f);
+    Table table({"N", "plane", "distance", "blur circle (mm)", "blur (px)", "predicted 10-90 width (px)",
+                 "measured 10-90 width (px)", "DoF seed eq. 9-10", "DoF textbook"});
+    std::vector<std::vector<double>> points;
+    for (double n : {16.0, 8.0, 4.0, 2.0}) {
+      const DepthOfField seedDof = seedDepthOfField(f, s1, n, coc), book = textbookDepthOfField(f, s1, n, coc);
+      std::vector<std::pair<std::string, double>> planes = {
+          {"focus", s1}, {"near limit DN (textbook)", book.nearLimit}, {"off focus", 2.0}};
+      if (std::isfinite(book.farLimit)) planes.insert(planes.begin() + 2, {"far limit DF (textbook)", book.farLimit});
+      for (const auto& [plane, d] : planes) {
+        // Thin lens: the plane at d focuses at v = f d / (d - f); the sensor sits at S2, so a
+        // point spreads over a disk of diameter A |S2 - v| / v, A = f / N (seed eq. 6-7).
+        const double v = f * d / (d - f);
+        const double blur = (f / n) * std::abs(s2 - v) / v;
+        const double predicted = predictedEdgeWidth(blur / pitch);
+        const double measured = edgeWidth(renderEdge(d, n));
+        points.push_back({predicted, measured});
+        table.add({number(n, 3), plane, number(d, 4), number(blur * 1e3, 3), number(blur / pitch, 3), number(predicted, 3),
+                   number(measured, 3), number(seedDof.depth(), 3), number(book.depth(), 3)});
+      }
+    }
+    table.writeCsv(options_.out / "dof.csv");
+    std::string script = "set terminal pngcairo size 700,600 noenhanced\nset output " + gnuplotPath(plotFile("dof")) +
+                         "\nset xlabel 'predicted edge width (px, thin lens + pixel)'\nset ylabel 'measured edge width (px)'"
+                         "\nset grid\nset key top left\nplot '-' with points pt 7 title 'renders', x with lines title "
+                         "'measured = predicted'\n";
+    for (const auto& p : points) script += number(p[0], 6) + " " + number(p[1], 6) + "\n";
+    runGnuplot(script + "e\n");
+    return "## Depth of field vs f-number (seed Fig. 7, Table 1)\n\n"
+           "The seed's camera (f = 0.095, sensor 0.1 wide, focused at S1 = 2.9) looks at a sharp emitting edge; the "
+           "10 %-90 % width of the edge in a " + std::to_string(scale_.dofWidth) + "-pixel-wide image (" +
+           number(pitch * 1e3, 3) + " mm per pixel, " + std::to_string(scale_.dofSpp) +
+           " spp) is measured and compared with thin-lens optics: a disk of diameter A |S2 - v| / v convolved "
+           "with the pixel. At the focus plane only the pixel blurs the edge (0.8 px); at the near limit DN of the "
+           "textbook depth of field the blur circle equals the circle of confusion c = " + number(coc * 1e3, 3) +
+           " mm (d/1500), by definition. The last two columns are Table 1's depth of field DF - DN from the seed's "
+           "equations and from the textbook's (`lensfarm dof` prints both).\n\n" + table.markdown() + "\n" + link("dof");
+  }
+
+  // ---- bounces (seed Fig. 8) ------------------------------------------------------------------
+  std::string bounces() {
+    const int side = scale_.bounceSide;
+    Table table({"estimator", "B", "us per path", "rays per path", "light-hit fraction", "energy vs B = 8",
+                 "estimated rel. RMSE", "rel. RMSE x sqrt(time)"});
+    double energy8 = 0.0;
+    {
+      Scene scene = seedAt(side, 8);
+      ProgressiveRun run;
+      run.firstCheckpoint = scale_.bounceSpp;
+      run.maxSamples = scale_.bounceSpp * 4;
+      run.threads = options_.threads;
+      energy8 = meanValue(renderProgressive(scene, run).image);
+    }
+    std::string data;
+    for (IntegratorKind integrator : {IntegratorKind::kNaive, IntegratorKind::kNeeMis}) {
+      for (int b = 1; b <= 5; ++b) {
+        Scene scene = seedAt(side, b);
+        scene.render.integrator = integrator;
+        ProgressiveRun run;
+        run.firstCheckpoint = scale_.bounceSpp;
+        run.maxSamples = scale_.bounceSpp;
+        run.threads = options_.threads;
+        scene.render.samplesPerUnit = uint32_t(std::max<uint64_t>(1, scale_.bounceSpp / 4));
+        const Checkpoint c = renderProgressive(scene, run);
+        const double paths = double(c.stats.paths);
+        const double hit = double(c.stats.lightHits) / paths;
+        const double energy = meanValue(c.image) / energy8;
+        table.add({integratorName(integrator), std::to_string(b), number(c.seconds / paths * 1e6 * double(std::thread::hardware_concurrency()), 3),
+                   number(double(c.stats.rays) / paths, 3), number(100 * hit, 3) + " %", number(energy, 4),
+                   number(c.estimate.relativeRmse, 3), number(c.estimate.relativeRmse * std::sqrt(c.seconds), 3)});
+        data += std::string(integratorName(integrator)) + " " + std::to_string(b) + " " + number(100 * hit, 5) + " " +
+                number(energy, 5) + "\n";
+      }
+    }
+    table.writeCsv(options_.out / "bounces.csv");
+    std::string script = "set terminal pngcairo size 800,600 noenhanced\nset output " + gnuplotPath(plotFile("bounces")) +
+                         "\nset xlabel 'bounce limit B'\nset ylabel 'naive light-hit fraction (%)'\nset y2label "
+                         "'energy relative to B = 8'\nset ytics nomirror\nset y2tics\nset grid\nset key bottom right\n"
+                         "plot '-' using 2:3 with linespoints title 'light-hit fraction (naive)', "
+                         "'-' using 2:4 axes x1y2 with linespoints title 'energy (NEE + MIS)', "
+                         "'-' using 1:2 with points pt 6 ps 2 title 'the report: 6.1, 9.3, 12 %'\n";
+    for (const char* want : {"naive", "nee_mis"}) {
+      std::istringstream lines(data);
+      for (std::string line; std::getline(lines, line);)
+        if (line.rfind(want, 0) == 0 && line[std::string(want).size()] == ' ') script += line + "\n";
+      script += "e\n";
+    }
+    script += "1 6.1\n2 9.3\n3 12\ne\n";
+    runGnuplot(script);
+    return "## Bounces (seed Fig. 8)\n\n"
+           "cornell-seed, " + std::to_string(side) + "x" + std::to_string(side) + ", " + std::to_string(scale_.bounceSpp) +
+           " spp. Time per path is per thread (wall time x threads / paths). The light-hit fraction is the share of "
+           "paths whose camera or scattered ray reached a light (the report measured 6.1, 9.3 and 12 % for "
+           "B = 1, 2, 3 with its light). Energy is the image mean against B = 8: what the bounce limit cuts off (a "
+           "bias no sample count removes). The last column is the noise at equal time (lower is better: "
+           "relative RMSE x sqrt(seconds) is constant for a Monte Carlo estimator).\n\n" + table.markdown() + "\n" +
+           link("bounces");
+  }
+
+  std::string header(double minutes) const {
+    char date[64];
+    const std::time_t now = std::time(nullptr);
+    std::strftime(date, sizeof date, "%Y-%m-%d", std::gmtime(&now));
+    return "# Accuracy and its cost in time\n\n"
+           "This page is written by `lensfarm study`; every number and plot below comes from one run of\n\n"
+           "    " + options_.command + "\n\n"
+           "on " + machineDescription() + ", " + date + ", renderer " + kRendererVersion + ", in " + number(minutes, 3) +
+           " minutes. Times are wall-clock on a shared machine: compare rows of one run, not runs.\n\n"
+           "**Measures** (film/error_metrics.h): the headline is the *relative RMSE* of the linear image, the RMSE "
+           "over pixels and channels divided by the mean of the converged image. Beside it the CSV files hold the "
+           "RMSE, relMSE (mean of (I - R)^2 / (R^2 + 0.01)), the mean ratio (bias) and the RMSE of the displayed "
+           "8-bit picture with the seed's automatic exposure (what a viewer sees). The reference is cornell-seed at " +
+           std::to_string(scale_.referenceSide) + "x" + std::to_string(scale_.referenceSide) + ", " +
+           std::to_string(scale_.referenceSpp) + " spp, NEE + MIS with Sobol samples; its own estimated relative "
+           "error is " + number(100 * referenceError_, 3) + " %.\n\n"
+           "**Live error and stopping rules.** A running job reports the estimated relative RMSE of its image "
+           "(`lensfarm watch`, `lensfarm status`), from two half-images of alternating units (film/convergence.h). "
+           "`--target-error E` stops a job (render or submit) at the first prefix of units whose estimate is at "
+           "most E, or at its `--spp` cap; `--deadline 10m` stops it at the deadline with the whole units done by "
+           "then. The estimate section below shows how well the estimate tracks the true error.\n\n";
+  }
+
+  const StudyOptions& options_;
+  Scale scale_;
+  fs::path report_, cache_;
+  Scene seed_;
+  Image reference_;
+  double referenceError_ = 0.0;
+  double slope_ = 0.0;
+};
+
+}  // namespace
+
+void runStudy(const StudyOptions& options) {
+  for (const auto& e : options.experiments)
+    if (!kExperiments.count(e))
+      throw InputError("--experiments", "unknown experiment \"" + e +
+                                            "\" (expected convergence, estimate, resolution, dof or bounces)");
+  Study(options).run();
+}
+
+}  // namespace lensfarm::study

@@ -1,0 +1,35 @@
+#pragma once
+// `lensfarm study`: what accuracy costs in time, measured (docs/accuracy.md is its output).
+//
+// Experiments, each a table (Markdown and CSV) and a plot:
+//  - convergence: error against a converged reference vs time for every estimator (naive, NEE,
+//    NEE + MIS), sampler (independent, stratified, Sobol) and Russian roulette on/off, and the
+//    time each needs to reach the same error (seed Fig. 5, progressive rendering);
+//  - estimate: the live error estimate (film/convergence.h) against the true error;
+//  - resolution: error at a fixed time and time to a fixed error vs pixel count (seed Fig. 6);
+//  - dof: the blur of a sharp edge at and off the focus plane vs f-number, measured in the image
+//    and predicted by thin-lens optics, beside the depth of field of Table 1 (seed Fig. 7);
+//  - bounces: time per path, light-hit fraction, energy and noise vs the bounce limit B (Fig. 8).
+#include <filesystem>
+#include <set>
+#include <string>
+
+namespace lensfarm::study {
+
+struct StudyOptions {
+  std::filesystem::path out = "study";      // CSV files, plots, and the reference cache
+  std::filesystem::path report;             // the Markdown report; default out/accuracy.md
+  std::filesystem::path scenes;             // the folder holding cornell-seed.json
+  std::set<std::string> experiments;        // empty: all
+  bool quick = false;                       // tiny images and budgets (seconds, for tests)
+  unsigned threads = 0;                     // 0: every core
+  std::string command;                      // how it was invoked, quoted in the report
+};
+
+inline const std::set<std::string> kExperiments = {"convergence", "estimate", "resolution", "dof", "bounces"};
+
+// Runs the experiments and writes the outputs; throws InputError for bad options and
+// std::runtime_error when a tool (gnuplot) fails.
+void runStudy(const StudyOptions& options);
+
+}  // namespace lensfarm::study

@@ -1,0 +1,63 @@
+#pragma once
+// A live estimate of how far a progressive image still is from converged, from the image
+// itself: no reference needed (docs/accuracy.md, "Live error").
+//
+// The units of a job are split by parity into two half-images: A (even units) and B (odd
+// units), whose samples are disjoint and identically distributed. For each pixel and channel
+// the difference d = mean_A - mean_B has expected square Var(mean_A) + Var(mean_B); with n_A
+// and n_B samples and per-sample variance s^2 that is s^2 (1/n_A + 1/n_B), while the full
+// image (n = n_A + n_B samples) has variance s^2 / n. So
+//     Var(full) ~ d^2 * n_A * n_B / n^2,
+// and averaging over every pixel and channel gives an estimate of the full image's mean
+// squared error that is accurate to a fraction of a percent on any real frame (it averages
+// hundreds of thousands of independent squares). The relative RMSE divides its root by the
+// image's mean, the same normalisation as film/error_metrics.h uses against a reference.
+//
+// Only the even half is stored; B = total - A. Units cover the whole frame (render/unit_renderer.h),
+// so every cell has the same number of samples in each half.
+//
+// The estimate sees noise only: not bias (a bounce limit), and it assumes the two halves are
+// independent. With a low-discrepancy sampler the full image is better stratified than two
+// independent halves would be, so the estimate is then an upper bound (measured in
+// docs/accuracy.md).
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "film/sensor.h"
+
+namespace lensfarm {
+
+struct ErrorEstimate {
+  bool valid = false;         // false until both halves hold samples
+  double rmse = 0.0;          // estimated RMSE over pixels and channels, in radiance
+  double relativeRmse = 0.0;  // rmse / mean radiance
+  double mean = 0.0;          // mean radiance over pixels and channels
+};
+
+class ConvergenceTracker {
+ public:
+  ConvergenceTracker(int width, int height);
+
+  // Adds unit `unitIndex`'s buffer to its half (call it for every unit added to the sensor).
+  void add(uint64_t unitIndex, const SensorBuffer& unit);
+
+  // The estimate for `total`, the sensor holding every unit added here.
+  ErrorEstimate estimate(const Sensor& total) const;
+
+  // Exact state, for checkpoints (the coordinator saves it beside the sensor); deserialize
+  // throws std::runtime_error on bytes that are not a tracker.
+  std::string serialize() const;
+  static ConvergenceTracker deserialize(const std::string& bytes);
+
+ private:
+  int width_, height_;
+  std::vector<double> evenSums_;  // 3 per cell
+  uint64_t evenSamples_ = 0;      // per cell
+};
+
+// Seconds more until `estimate` falls to `target`, if error falls as 1/sqrt(time) (Monte Carlo
+// noise at a constant rate), given `elapsed` seconds so far; 0 if already there or unknown.
+double secondsToTarget(double estimate, double target, double elapsed);
+
+}  // namespace lensfarm

@@ -1,0 +1,139 @@
+// `lensfarm study --quick` end to end: every output exists, the plots are PNG files gnuplot drew,
+// and the numbers say what physics says they must (errors fall with time, blur follows thin-lens
+// optics, light-hit fractions and energy grow with the bounce limit).
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "test_support.h"
+
+namespace lensfarm {
+namespace {
+
+namespace fs = std::filesystem;
+
+using Csv = std::vector<std::map<std::string, std::string>>;
+
+Csv readCsv(const fs::path& file) {
+  std::ifstream in(file);
+  std::vector<std::string> header;
+  Csv rows;
+  for (std::string line; std::getline(in, line);) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) cells.push_back(cell);
+    if (header.empty()) {
+      header = cells;
+      continue;
+    }
+    std::map<std::string, std::string> row;
+    for (size_t k = 0; k < header.size() && k < cells.size(); ++k) row[header[k]] = cells[k];
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+double num(const std::map<std::string, std::string>& row, const std::string& column) {
+  return std::stod(row.at(column));
+}
+
+// One quick study (a few seconds) checked from every side; ctest runs each TEST in its own
+// process, so one TEST keeps it to one run.
+struct StudyRun {
+  test::TempDir dir;
+  test::ProcessResult result;
+  fs::path out(const std::string& name) const { return dir.path() / "out" / name; }
+};
+
+void checkReportTablesAndPlots(const StudyRun& run) {
+  const std::string report = test::readFile(run.dir.path() / "docs" / "accuracy.md");
+  for (const char* section : {"## Convergence", "## The live error estimate", "## Resolution", "## Depth of field",
+                              "## Bounces", "lensfarm study"})
+    EXPECT_NE(report.find(section), std::string::npos) << section;
+  for (const char* plot : {"convergence", "estimate", "resolution", "dof", "bounces"}) {
+    EXPECT_NE(report.find("(../out/" + std::string(plot) + ".png)"), std::string::npos) << "relative link to " << plot;
+    const std::string png = test::readFile(run.out(std::string(plot) + ".png"));
+    ASSERT_GT(png.size(), 2000u) << plot;
+    EXPECT_EQ(png.substr(1, 3), "PNG") << plot;
+  }
+  for (const char* csv : {"convergence.csv", "time-to-error.csv", "estimate.csv", "resolution.csv", "dof.csv", "bounces.csv"})
+    EXPECT_GT(readCsv(run.out(csv)).size(), 2u) << csv;
+}
+
+void checkConvergence(const StudyRun& run) {
+  std::map<std::string, std::vector<std::pair<double, double>>> series;  // config -> (spp, error)
+  for (const auto& row : readCsv(run.out("convergence.csv")))
+    series[row.at("config")].push_back({num(row, "spp"), num(row, "relative_rmse")});
+  EXPECT_EQ(series.size(), 18u) << "3 estimators x 3 samplers x roulette on/off";
+  for (const auto& [config, points] : series) {
+    ASSERT_GE(points.size(), 3u) << config;
+    EXPECT_LT(points.back().second, 0.7 * points.front().second) << config << ": more samples, less error";
+  }
+  // At equal samples, NEE + MIS is far less noisy than the seed's estimator.
+  EXPECT_LT(series["nee_mis/sobol"].back().second, series["naive/independent"].back().second);
+}
+
+void checkDepthOfField(const StudyRun& run) {
+  const Csv rows = readCsv(run.out("dof.csv"));
+  ASSERT_EQ(rows.size(), 16u) << "4 f-numbers x (focus, near limit, far limit, off focus)";
+  for (const auto& row : rows) {
+    const double predicted = num(row, "predicted 10-90 width (px)"), measured = num(row, "measured 10-90 width (px)");
+    EXPECT_NEAR(measured / predicted, 1.0, 0.2) << "N = " << row.at("N") << " at " << row.at("distance");
+    if (row.at("plane") == "focus") {
+      EXPECT_LE(measured, 0.85) << "in focus only the pixel blurs";
+    }
+  }
+}
+
+void checkBounces(const StudyRun& run) {
+  double lastHits = 0.0, lastEnergy = 0.0;
+  for (const auto& row : readCsv(run.out("bounces.csv"))) {
+    if (row.at("estimator") != "naive") continue;
+    const double hits = std::stod(row.at("light-hit fraction")), energy = num(row, "energy vs B = 8");
+    EXPECT_GT(hits, lastHits) << "B = " << row.at("B");
+    EXPECT_GT(energy, lastEnergy) << "B = " << row.at("B");
+    EXPECT_LT(energy, 1.02);
+    lastHits = hits;
+    lastEnergy = energy;
+  }
+  EXPECT_GT(lastHits, 0.0);
+}
+
+TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
+  StudyRun run;
+  run.result = test::runProcess({test::cliPath().string(), "study", "--quick", "--out", (run.dir.path() / "out").string(),
+                                 "--report", (run.dir.path() / "docs" / "accuracy.md").string()},
+                                600);
+  ASSERT_EQ(run.result.exitCode, 0) << run.result.err;
+  {
+    SCOPED_TRACE("report, tables and plots");
+    checkReportTablesAndPlots(run);
+  }
+  {
+    SCOPED_TRACE("convergence");
+    checkConvergence(run);
+  }
+  {
+    SCOPED_TRACE("depth of field");
+    checkDepthOfField(run);
+  }
+  {
+    SCOPED_TRACE("bounces");
+    checkBounces(run);
+  }
+}
+
+TEST(StudyInput, AnUnknownExperimentIsRefusedByName) {
+  test::TempDir dir;
+  const auto r = test::runProcess({test::cliPath().string(), "study", "--quick", "--out", dir.path().string(),
+                                   "--experiments", "convergence,glitter"});
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.err.find("--experiments"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("glitter"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir.path() / "accuracy.md")) << "nothing written";
+}
+
+}  // namespace
+}  // namespace lensfarm
