@@ -372,6 +372,7 @@ bool Coordinator::hasAsset(const std::string& sha256) const {
 }
 
 bool Coordinator::putAsset(const std::string& sha256, std::string bytes) {
+  counters_.assetBytes += bytes.size();
   const std::string actual = sha256Hex(bytes);
   if (actual != sha256)
     throw FarmError(FarmError::Kind::kInvalidArgument,
@@ -616,6 +617,7 @@ void Coordinator::reapExpiredLeases(Clock::time_point now) {
       spdlog::warn("job {}: lease {} of unit {} held by {} lapsed; the unit goes back to the queue", job.id,
                    it->first, it->second.unit, it->second.workerId);
       if (!isTerminal(job.state) && !job.isReceived(it->second.unit)) job.returned.insert(it->second.unit);
+      ++counters_.unitsExpired;
       if (auto w = workers_.find(it->second.workerId); w != workers_.end() && w->second->currentJobId == job.id)
         w->second->currentJobId.clear();
       it = leases_.erase(it);
@@ -668,6 +670,7 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   leases_[leaseId] = ActiveLease{worker.id, job.id, unit,
                                  now + std::chrono::duration_cast<Clock::duration>(
                                            std::chrono::duration<double>(options_.leaseTimeoutSeconds))};
+  ++counters_.unitsLeased;
   if (!job.started) job.started = now;
   if (job.state == JobState::kQueued) {
     job.state = JobState::kRunning;
@@ -701,6 +704,7 @@ JobSpec Coordinator::jobSpec(const std::string& jobId) const {
 }
 
 bool Coordinator::acceptResult(UnitResult result) {
+  counters_.unitBytes += result.buffer.sums.size() * sizeof(double);
   // Workers drop non-finite samples before they are summed (design.md); a buffer holding one is
   // corrupt and must not reach the sensor. Checked before taking the lock: it reads every cell.
   for (double v : result.buffer.sums)
@@ -748,6 +752,8 @@ bool Coordinator::acceptResult(UnitResult result) {
     std::lock_guard lock(mutex_);
     job->inflight.erase(result.unitIndex);
     job->markReceived(result.unitIndex);
+    ++counters_.unitsDone;
+    counters_.samples += result.stats.paths;
     if (auto w = workers_.find(result.workerId); w != workers_.end()) ++w->second->unitsDone;
     ++job->unitsByWorker[workerName];
   }
@@ -812,6 +818,24 @@ std::vector<WorkerView> Coordinator::workers() const {
     out.push_back(WorkerView{w->id, w->info, w->currentJobId, w->unitsDone,
                              std::chrono::duration<double>(now - w->lastHeartbeat).count()});
   return out;
+}
+
+MetricsSnapshot Coordinator::metricsSnapshot() const {
+  MetricsSnapshot s;
+  s.jobs = jobs();
+  s.workers = workers();
+  {
+    std::lock_guard lock(mutex_);
+    s.leasesActive = leases_.size();
+  }
+  s.unitsLeased = counters_.unitsLeased;
+  s.unitsDone = counters_.unitsDone;
+  s.unitsExpired = counters_.unitsExpired;
+  s.samples = counters_.samples;
+  s.unitBytesReceived = counters_.unitBytes;
+  s.assetBytesReceived = counters_.assetBytes;
+  s.leaseTimeoutSeconds = options_.leaseTimeoutSeconds;
+  return s;
 }
 
 }  // namespace lensfarm

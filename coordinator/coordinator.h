@@ -16,6 +16,7 @@
 //  - With a state dir, a unit is acknowledged only once its sums and ledger row are durable
 //    (state_store.h); a restarted coordinator resumes every job from its checkpoint plus the
 //    ledger, and adds the rest in the same order, so the image is bitwise the same.
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <filesystem>
@@ -85,6 +86,21 @@ struct JobImage {
   ExposureSettings exposure;
 };
 
+// What the metrics endpoint shows (metrics.h renders it): counters since this process started,
+// and jobs, workers and leases as they are at one moment.
+struct MetricsSnapshot {
+  uint64_t unitsLeased = 0;         // leases granted (a unit leased again after a lapse counts again)
+  uint64_t unitsDone = 0;           // results accepted and counted, each unit once
+  uint64_t unitsExpired = 0;        // leases that lapsed without a result
+  uint64_t samples = 0;             // camera paths in the accepted results
+  uint64_t unitBytesReceived = 0;   // result buffers (sums) received from workers
+  uint64_t assetBytesReceived = 0;  // asset bytes uploaded by clients
+  uint64_t leasesActive = 0;
+  double leaseTimeoutSeconds = 0.0;
+  std::vector<JobInfo> jobs;
+  std::vector<WorkerView> workers;
+};
+
 class Coordinator {
  public:
   struct Options {
@@ -141,6 +157,9 @@ class Coordinator {
   // on destruction). Without a state dir, does nothing. Returns the bytes written.
   uint64_t checkpoint();
 
+  // ---- metrics ----
+  MetricsSnapshot metricsSnapshot() const;
+
  private:
   using Clock = std::chrono::steady_clock;
   struct Job;
@@ -179,6 +198,12 @@ class Coordinator {
   std::map<std::string, std::unique_ptr<Worker>> workers_;
   std::map<uint64_t, ActiveLease> leases_;
   uint64_t nextJob_ = 1, nextWorker_ = 1, nextLease_ = 1, nextSequence_ = 1;
+
+  // Counted for metricsSnapshot() since this process started.
+  struct Counters {
+    std::atomic<uint64_t> unitsLeased{0}, unitsDone{0}, unitsExpired{0}, samples{0}, unitBytes{0}, assetBytes{0};
+  };
+  Counters counters_;
 };
 
 }  // namespace lensfarm

@@ -2,7 +2,9 @@
 //
 //   lensfarm-coordinator --listen 0.0.0.0:7878
 //   lensfarm-coordinator --listen 127.0.0.1:0 --port-file /tmp/port   (port 0: pick a free one)
+//   lensfarm-coordinator --metrics-listen 0.0.0.0:9464                (Prometheus metrics over HTTP)
 #include <grpcpp/grpcpp.h>
+#include <grpcpp/health_check_service_interface.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -18,6 +20,8 @@
 #include "util/file_contents.h"
 #include "coordinator.h"
 #include "film/image_io.h"
+#include "metrics.h"
+#include "metrics_server.h"
 #include "service.h"
 #include "util/error.h"
 #include "util/logging.h"
@@ -40,6 +44,14 @@ bool isLoopback(std::string host) {
 
 std::string readFileOrThrow(const std::string& file, const char* flag) {
   return lensfarm::readWholeFileOrThrow(file, std::string(flag) + " " + file);
+}
+// Writes "HOST:PORT\n" atomically; InputError names the flag.
+void writeAddressFile(const std::string& file, const std::string& address, const char* flag) {
+  try {
+    lensfarm::writeBytesAtomically(file, address + "\n");
+  } catch (const lensfarm::InputError& e) {
+    throw lensfarm::InputError(flag, e.what());
+  }
 }
 extern "C" void onSignal(int) { gStop = true; }
 }  // namespace
@@ -75,6 +87,13 @@ int main(int argc, char** argv) {
       ->envname("LENSFARM_HEARTBEAT_INTERVAL")
       ->check(CLI::Range(0.01, 3600.0))
       ->capture_default_str();
+  std::string metricsListen, metricsPortFile;
+  app.add_option("--metrics-listen", metricsListen,
+                 "HOST:PORT to serve Prometheus metrics on over HTTP (GET /metrics; port 0 picks a free port); "
+                 "empty: off")
+      ->envname("LENSFARM_METRICS_LISTEN");
+  app.add_option("--metrics-port-file", metricsPortFile, "Write the metrics address actually listened on to this file")
+      ->envname("LENSFARM_METRICS_PORT_FILE");
   std::string stateDir;
   app.add_option("--state-dir", stateDir, "Keep jobs, assets, the unit ledger and sensors here (SQLite + files) "
                                           "and resume them after a restart; empty: in memory only")
@@ -143,7 +162,16 @@ int main(int argc, char** argv) {
 
   ClientServiceImpl clientService(coordinator, TokenGate(clientToken, "client"));
   WorkerServiceImpl workerService(coordinator, TokenGate(workerToken, "worker"));
+  // gRPC health checking (grpc.health.v1.Health): SERVING while the services are up, for load
+  // balancers and Kubernetes gRPC probes; it needs no token.
+  grpc::EnableDefaultHealthCheckService(true);
+  // From here on a signal stops the coordinator cleanly, also one sent as soon as --port-file appears.
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
   grpc::ServerBuilder builder;
+  // Without SO_REUSEPORT (gRPC's default on Linux), a second coordinator on the same port fails
+  // to start instead of silently sharing the port's connections with the first.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   int port = 0;
   builder.AddListeningPort(listen, credentials, &port);
   builder.RegisterService(&clientService);
@@ -157,20 +185,27 @@ int main(int argc, char** argv) {
   spdlog::info("listening on {} ({}; {}; client token {}, worker token {})", address, kRendererVersion,
                tlsCert.empty() ? "plain gRPC" : (tlsClientCa.empty() ? "TLS" : "mutual TLS"),
                clientToken ? "required" : "none", workerToken ? "required" : "none");
-  if (!portFile.empty()) {
-    try {
-      writeBytesAtomically(portFile, address + "\n");
-    } catch (const InputError& e) {
-      spdlog::error("--port-file: {}", e.what());
-      server->Shutdown();
-      return 2;
+  std::unique_ptr<MetricsServer> metrics;
+  try {
+    if (!metricsListen.empty()) {
+      metrics = std::make_unique<MetricsServer>(metricsListen, [&] { return renderMetrics(coordinator.metricsSnapshot()); });
+      spdlog::info("metrics on http://{}/metrics", metrics->address());
     }
+    if (!portFile.empty()) writeAddressFile(portFile, address, "--port-file");
+    if (metrics && !metricsPortFile.empty()) writeAddressFile(metricsPortFile, metrics->address(), "--metrics-port-file");
+  } catch (const InputError& e) {
+    spdlog::error("{}", e.what());
+    server->Shutdown();
+    return 2;
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    server->Shutdown();
+    return 1;
   }
 
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
   while (!gStop) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   spdlog::info("shutting down");
+  server->GetHealthCheckService()->SetServingStatus(false);
   server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
   return 0;
 }

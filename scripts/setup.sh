@@ -15,6 +15,8 @@ PACKAGES=(
   libpng-dev zlib1g-dev
   libssl-dev openssl
   libsqlite3-dev
+  libcpp-httplib-dev libyaml-cpp-dev
+  iproute2
   clang libclang-rt-14-dev
 )
 

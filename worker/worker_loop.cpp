@@ -108,11 +108,33 @@ std::shared_ptr<WorkerLoop::PreparedJob> WorkerLoop::prepare(const LeaseGrant& g
 void WorkerLoop::run() {
   heartbeat_ = std::thread([this] { heartbeatLoop(); });
   tbb::task_arena arena{int(std::max(1u, options_.threads))};
+  // Retries back off exponentially. A streak of failures is logged at warn when it starts, when
+  // its kind changes and once a minute; the retries between at debug; its end at info.
   double backoff = 0.0;
+  uint64_t failures = 0;
+  std::string lastKind;
+  auto streakStart = std::chrono::steady_clock::now(), lastWarn = streakStart;
   const auto failed = [&](const char* what, const std::exception& e) {
     backoff = std::min(options_.maxBackoffSeconds, backoff > 0 ? backoff * 2 : 0.1);
-    spdlog::warn("{}: {}; retrying in {:.1f} s", what, e.what(), backoff);
+    const auto now = std::chrono::steady_clock::now();
+    if (failures++ == 0) streakStart = now;
+    if (failures == 1 || lastKind != what || now - lastWarn >= std::chrono::seconds(60)) {
+      spdlog::warn("{}: {}; retrying (attempt {}, every {:.1f} s at most)", what, e.what(), failures,
+                   options_.maxBackoffSeconds);
+      lastWarn = now;
+    } else {
+      spdlog::debug("{}: {}; retrying in {:.1f} s", what, e.what(), backoff);
+    }
+    lastKind = what;
     sleepFor(backoff);
+  };
+  const auto recovered = [&] {
+    if (failures > 0)
+      spdlog::info("coordinator reachable again after {} failed attempts over {:.1f} s", failures,
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - streakStart).count());
+    failures = 0;
+    backoff = 0.0;
+    lastKind.clear();
   };
 
   while (!stopping_) {
@@ -129,11 +151,14 @@ void WorkerLoop::run() {
         heartbeatInterval_ = r.heartbeatIntervalSeconds;
         ++counters_.registrations;
         spdlog::info("registered as {} ({} threads)", r.workerId, options_.threads);
+        recovered();
       }
       const std::string id = workerId();
       const std::optional<LeaseGrant> grant = link_.lease(id, options_.leaseWaitSeconds);
-      backoff = 0.0;
+      recovered();
       if (!grant) continue;  // the coordinator already waited for work
+      spdlog::debug("leased unit {} of {} (lease {}, samples {}..{})", grant->unit.index, grant->jobId, grant->leaseId,
+                    grant->unit.firstSample, grant->unit.firstSample + grant->unit.sampleCount);
 
       std::shared_ptr<PreparedJob> job;
       try {
@@ -163,12 +188,19 @@ void WorkerLoop::run() {
       ++counters_.unitsRendered;
       if (!complete) {
         ++counters_.unitsAbandoned;
+        spdlog::info("unit {} of {}: abandoned after {:.2f} s ({})", grant->unit.index, grant->jobId,
+                     result.renderSeconds, stopNow_ ? "stopping" : "lease revoked");
       } else {
         // A unit is worth keeping: retry the upload through network trouble while the lease
         // may still be valid, then give it up (the coordinator re-leases it).
         for (double wait = 0.1;; wait *= 2) {
           try {
-            if (link_.upload(result)) ++counters_.unitsAccepted;
+            const bool accepted = link_.upload(result);
+            if (accepted) ++counters_.unitsAccepted;
+            spdlog::info("unit {} of {}: {} samples in {:.2f} s, {:.1f} MB uploaded, {}", grant->unit.index,
+                         grant->jobId, result.stats.paths, result.renderSeconds,
+                         double(result.buffer.sums.size() * sizeof(double)) / 1e6,
+                         accepted ? "accepted" : "a duplicate (already counted)");
             break;
           } catch (const FarmError& e) {
             if (e.kind() == FarmError::Kind::kUnknownWorker) throw;

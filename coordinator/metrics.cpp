@@ -1,0 +1,84 @@
+#include "metrics.h"
+
+#include <charconv>
+#include <map>
+
+#include "util/version.h"
+
+namespace lensfarm {
+
+namespace {
+
+// Appends metric families: HELP and TYPE once, then samples with optional labels.
+class Exposition {
+ public:
+  void family(const char* name, const char* type, const char* help) {
+    name_ = name;
+    out_ += std::string("# HELP ") + name + " " + help + "\n# TYPE " + name + " " + type + "\n";
+  }
+  void sample(double value, const std::string& labels = "") {
+    char text[64];
+    const auto [end, ec] = std::to_chars(text, text + sizeof text, value);
+    out_ += name_ + (labels.empty() ? "" : "{" + labels + "}") + " " + std::string(text, end) + "\n";
+  }
+  void sample(uint64_t value, const std::string& labels = "") {
+    out_ += name_ + (labels.empty() ? "" : "{" + labels + "}") + " " + std::to_string(value) + "\n";
+  }
+  std::string text() && { return std::move(out_); }
+
+ private:
+  std::string out_, name_;
+};
+
+}  // namespace
+
+std::string renderMetrics(const MetricsSnapshot& s) {
+  Exposition e;
+  e.family("lensfarm_build_info", "gauge", "The renderer version this coordinator runs (always 1).");
+  e.sample(uint64_t(1), std::string("version=\"") + kRendererVersion + "\"");
+
+  std::map<JobState, uint64_t> byState;
+  for (JobState state : {JobState::kQueued, JobState::kRunning, JobState::kDone, JobState::kCancelled, JobState::kFailed})
+    byState[state] = 0;
+  double samplesPerSecond = 0.0;
+  for (const JobInfo& job : s.jobs) {
+    ++byState[job.state];
+    if (job.state == JobState::kRunning && job.elapsedSeconds > 0)
+      samplesPerSecond += double(job.stats.paths) / job.elapsedSeconds;
+  }
+  e.family("lensfarm_jobs", "gauge", "Jobs the coordinator holds, by state.");
+  for (const auto& [state, count] : byState) e.sample(count, std::string("state=\"") + jobStateName(state) + "\"");
+
+  e.family("lensfarm_units_leased_total", "counter",
+           "Units handed out to workers; a unit leased again after its lease lapsed counts again.");
+  e.sample(s.unitsLeased);
+  e.family("lensfarm_units_done_total", "counter", "Unit results accepted and counted (each unit once).");
+  e.sample(s.unitsDone);
+  e.family("lensfarm_units_expired_total", "counter",
+           "Leases that lapsed without a result (the worker died, hung or lost the network); the unit was queued again.");
+  e.sample(s.unitsExpired);
+  e.family("lensfarm_leases_active", "gauge", "Units leased to workers now.");
+  e.sample(s.leasesActive);
+
+  e.family("lensfarm_samples_total", "counter", "Samples (camera paths) in the accepted unit results.");
+  e.sample(s.samples);
+  e.family("lensfarm_samples_per_second", "gauge",
+           "Samples per second of the running jobs: each job's accumulated samples over its elapsed time, summed.");
+  e.sample(samplesPerSecond);
+
+  e.family("lensfarm_received_bytes_total", "counter",
+           "Payload bytes received: kind=\"unit\" result buffers from workers, kind=\"asset\" assets from clients.");
+  e.sample(s.unitBytesReceived, "kind=\"unit\"");
+  e.sample(s.assetBytesReceived, "kind=\"asset\"");
+
+  uint64_t alive = 0;
+  for (const WorkerView& w : s.workers)
+    if (w.secondsSinceHeartbeat <= s.leaseTimeoutSeconds) ++alive;
+  e.family("lensfarm_workers_alive", "gauge", "Workers heard from (heartbeat or lease request) within the lease timeout.");
+  e.sample(alive);
+  e.family("lensfarm_workers_known", "gauge", "Workers registered and not yet forgotten, alive or silent.");
+  e.sample(uint64_t(s.workers.size()));
+  return std::move(e).text();
+}
+
+}  // namespace lensfarm

@@ -1,0 +1,294 @@
+// What can be checked of the container set-up without a container engine: the Dockerfile's build
+// stage installs a Debian package for every dependency CMake looks for (the same names as
+// scripts/setup.sh), its runtime stage installs exactly the packages of the libraries the built
+// binaries link to, and docker-compose.yml runs the binaries with flags they accept on the ports
+// it publishes.
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <fstream>
+#include <functional>
+#include <regex>
+#include <sstream>
+
+#include "deploy_support.h"
+
+namespace lensfarm {
+namespace {
+
+namespace fs = std::filesystem;
+
+// One stage of a Dockerfile: its FROM line and its instructions, continuation lines joined.
+struct Stage {
+  std::string from;
+  std::vector<std::string> instructions;
+  std::set<std::string> aptPackages;  // what its `apt-get install` lines install
+};
+
+std::vector<Stage> stagesOf(const fs::path& dockerfile) {
+  std::vector<Stage> stages;
+  std::ifstream in(dockerfile);
+  std::string instruction;
+  for (std::string line; std::getline(in, line);) {
+    if (instruction.empty() && (line.empty() || line[0] == '#')) continue;
+    if (!line.empty() && line.back() == '\\') {
+      instruction += line.substr(0, line.size() - 1) + " ";
+      continue;
+    }
+    instruction += line;
+    if (instruction.rfind("FROM ", 0) == 0) stages.push_back(Stage{instruction, {}, {}});
+    if (!stages.empty()) stages.back().instructions.push_back(instruction);
+    // `apt-get install [-options] packages` up to the next `&&`.
+    if (const size_t at = instruction.find("apt-get install"); at != std::string::npos && !stages.empty()) {
+      const size_t end = instruction.find("&&", at);
+      const std::string command = instruction.substr(at + 15, end == std::string::npos ? end : end - at - 15);
+      for (const std::string& w : test::words(command))
+        if (w[0] != '-') stages.back().aptPackages.insert(w);
+    }
+    instruction.clear();
+  }
+  return stages;
+}
+
+// The packages scripts/setup.sh installs.
+std::set<std::string> setupPackages() {
+  const std::string script = test::readFile(test::sourceDir() / "scripts/setup.sh");
+  const size_t begin = script.find("PACKAGES=("), end = script.find(')', begin);
+  std::set<std::string> out;
+  std::istringstream in(script.substr(begin + 10, end - begin - 10));
+  for (std::string line; std::getline(in, line);)
+    for (const std::string& w : test::words(line.substr(0, line.find('#')))) out.insert(w);
+  return out;
+}
+
+// Every dependency the CMakeLists.txt files look for: find_package(NAME ...) and
+// pkg_check_modules(VAR ... MODULE).
+std::set<std::string> cmakeDependencies() {
+  std::set<std::string> out;
+  const std::regex findPackage(R"(find_package\(\s*([A-Za-z0-9_-]+))");
+  const std::regex pkgConfig(R"(pkg_check_modules\(\s*\w+((?:\s+[A-Za-z0-9_.-]+)+)\s*\))");
+  for (auto walk = fs::recursive_directory_iterator(test::sourceDir()); walk != fs::recursive_directory_iterator(); ++walk) {
+    const std::string name = walk->path().filename().string();
+    if (walk->is_directory() && (name[0] == '.' || name.rfind("build", 0) == 0 || name == "out")) walk.disable_recursion_pending();
+    const fs::directory_entry& entry = *walk;
+    if (name != "CMakeLists.txt") continue;
+    const std::string text = test::readFile(entry.path());
+    for (auto it = std::sregex_iterator(text.begin(), text.end(), findPackage); it != std::sregex_iterator(); ++it)
+      out.insert((*it)[1]);
+    for (auto it = std::sregex_iterator(text.begin(), text.end(), pkgConfig); it != std::sregex_iterator(); ++it)
+      for (const std::string& w : test::words((*it)[1]))
+        if (w != "REQUIRED" && w != "IMPORTED_TARGET" && w != "QUIET") out.insert(w);
+  }
+  return out;
+}
+
+// A value of the build's CMakeCache.txt.
+std::string cacheValue(const std::string& key) {
+  std::ifstream in(fs::path(LENSFARM_BINARY_DIR) / "CMakeCache.txt");
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind(key + ":", 0) == 0) return line.substr(line.find('=') + 1);
+  return "";
+}
+
+// A file from the directory a find_package(... CONFIG) found.
+fs::path configFileIn(const std::string& dirKey) {
+  const fs::path dir = cacheValue(dirKey);
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.path().extension() == ".cmake") return e.path();
+  return dir;
+}
+
+// What each CMake dependency is called in Debian, and a file CMake used from it (which that
+// package, or one it depends on, must have installed).
+struct Dependency {
+  std::vector<std::string> packages;  // the first is the one `evidence` belongs to
+  std::function<fs::path()> evidence;
+};
+const std::map<std::string, Dependency>& debianNames() {
+  const auto config = [](std::string key) { return [key] { return configFileIn(key); }; };
+  const auto cached = [](std::string key) { return [key] { return fs::path(cacheValue(key)); }; };
+  static const std::map<std::string, Dependency> table = {
+      {"glm", {{"libglm-dev"}, config("glm_DIR")}},
+      {"embree", {{"libembree-dev"}, config("embree_DIR")}},
+      {"TBB", {{"libtbb-dev"}, config("TBB_DIR")}},
+      {"OpenEXR", {{"libopenexr-dev"}, config("OpenEXR_DIR")}},
+      {"PNG", {{"libpng-dev"}, cached("PNG_LIBRARY_RELEASE")}},
+      {"nlohmann_json", {{"nlohmann-json3-dev"}, config("nlohmann_json_DIR")}},
+      {"tinyobjloader", {{"libtinyobjloader-dev"}, config("tinyobjloader_DIR")}},
+      {"spdlog", {{"libspdlog-dev"}, config("spdlog_DIR")}},
+      {"CLI11", {{"libcli11-dev"}, config("CLI11_DIR")}},
+      {"OpenSSL", {{"libssl-dev"}, cached("OPENSSL_CRYPTO_LIBRARY")}},
+      {"SQLite3", {{"libsqlite3-dev"}, cached("SQLite3_LIBRARY")}},
+      {"Protobuf", {{"libprotobuf-dev", "protobuf-compiler"}, cached("Protobuf_LIBRARY_RELEASE")}},
+      {"gRPC", {{"libgrpc++-dev", "protobuf-compiler-grpc"}, config("gRPC_DIR")}},
+      {"GTest", {{"libgtest-dev"}, config("GTest_DIR")}},
+      {"benchmark", {{"libbenchmark-dev"}, config("benchmark_DIR")}},
+      {"yaml-cpp", {{"libyaml-cpp-dev"}, config("yaml-cpp_DIR")}},
+      {"PkgConfig", {{"pkg-config"}, cached("PKG_CONFIG_EXECUTABLE")}},
+      {"cpp-httplib", {{"libcpp-httplib-dev"}, [] { return fs::path(cacheValue("HTTPLIB_LIBDIR")) / "pkgconfig/cpp-httplib.pc"; }}},
+  };
+  return table;
+}
+
+fs::path dockerfile() { return test::sourceDir() / "deploy/docker/Dockerfile"; }
+
+TEST(Container, TheBuildStageInstallsEveryDependencyCMakeLooksFor) {
+  const std::vector<Stage> stages = stagesOf(dockerfile());
+  ASSERT_EQ(stages.size(), 2u) << "a build stage and a runtime stage";
+  EXPECT_EQ(stages[0].from, "FROM debian:12 AS build");
+  const std::set<std::string> build = stages[0].aptPackages, setup = setupPackages();
+  ASSERT_GE(build.size(), 10u);
+  const std::set<std::string> dependencies = cmakeDependencies();
+  EXPECT_GE(dependencies.size(), 15u) << "the scan found the find_package calls";
+  std::vector<fs::path> evidence;
+  for (const auto& [name, dependency] : debianNames()) evidence.push_back(dependency.evidence());
+  const auto owners = test::debianPackagesOf(evidence);
+  for (const std::string& name : dependencies) {
+    SCOPED_TRACE(name);
+    const auto it = debianNames().find(name);
+    if (it == debianNames().end()) {
+      ADD_FAILURE() << "CMake looks for " << name << ": add its Debian package to this test's table, the Dockerfile "
+                    << "and scripts/setup.sh";
+      continue;
+    }
+    for (const std::string& package : it->second.packages) {
+      EXPECT_TRUE(build.count(package)) << package << " missing from the Dockerfile's build stage";
+      EXPECT_TRUE(setup.count(package)) << package << " missing from scripts/setup.sh";
+    }
+    // The table is right: the file CMake found belongs to that package (or to one it pulls in).
+    const fs::path found = it->second.evidence();
+    const std::string& package = it->second.packages[0];
+    const std::optional<std::string> owner = owners.at(found);
+    ASSERT_TRUE(owner) << found << " belongs to no Debian package";
+    EXPECT_TRUE(*owner == package || test::debianDependsOf(package).count(*owner))
+        << "CMake found " << name << " in " << found << ", installed by " << *owner << ", not by " << package;
+  }
+  for (const std::string& package : build) EXPECT_TRUE(setup.count(package)) << package << ": the image and setup.sh agree";
+
+  bool builds = false, installs = false;
+  for (const std::string& i : stages[0].instructions) {
+    builds |= i.find("cmake --build") != std::string::npos;
+    installs |= i.find("cmake --install") != std::string::npos;
+  }
+  EXPECT_TRUE(builds && installs) << "the build stage builds and installs with CMake";
+}
+
+TEST(Container, TheRuntimeStageInstallsExactlyThePackagesOfTheLibrariesTheBinariesNeed) {
+  const std::vector<Stage> stages = stagesOf(dockerfile());
+  ASSERT_EQ(stages.size(), 2u);
+  EXPECT_EQ(stages[1].from, "FROM debian:12-slim");
+  // The libraries each binary itself names (DT_NEEDED), found where the loader finds them.
+  std::map<fs::path, std::string> libraries;  // path -> soname
+  for (const fs::path& binary : {test::cliPath(), test::coordinatorPath(), test::workerPath()}) {
+    const auto dynamic = test::runProcess({"/usr/bin/readelf", "-d", binary.string()}, 30);
+    const auto loader = test::runProcess({"/usr/bin/ldd", binary.string()}, 30);
+    ASSERT_EQ(dynamic.exitCode, 0) << dynamic.err;
+    ASSERT_EQ(loader.exitCode, 0) << loader.err;
+    std::map<std::string, std::string> resolved;  // soname -> path, as ldd prints "\tSONAME => PATH (0x...)"
+    std::istringstream lines(loader.out);
+    for (std::string line; std::getline(lines, line);)
+      if (const std::vector<std::string> w = test::words(line); w.size() >= 3 && w[1] == "=>") resolved[w[0]] = w[2];
+    const std::regex needs(R"(\(NEEDED\)\s+Shared library: \[([^\]]+)\])");
+    size_t count = 0;
+    for (auto it = std::sregex_iterator(dynamic.out.begin(), dynamic.out.end(), needs); it != std::sregex_iterator(); ++it) {
+      const std::string soname = (*it)[1];
+      ASSERT_TRUE(resolved.count(soname)) << soname << " of " << binary << " not found by ldd";
+      libraries[resolved[soname]] = soname;
+      ++count;
+    }
+    EXPECT_GE(count, 10u) << binary;
+  }
+  std::vector<fs::path> paths;
+  for (const auto& [path, soname] : libraries) paths.push_back(path);
+  std::map<std::string, std::string> needed;  // package -> a library that calls for it
+  for (const auto& [path, package] : test::debianPackagesOf(paths)) {
+    ASSERT_TRUE(package) << path << " belongs to no package";
+    needed.emplace(*package, libraries[path]);
+  }
+  // libc, libgcc and libstdc++ are in every Debian image (apt itself needs them).
+  for (const char* base : {"libc6", "libgcc-s1", "libstdc++6"}) EXPECT_TRUE(needed.erase(base)) << base;
+  const std::set<std::string>& runtime = stages[1].aptPackages;
+  for (const auto& [package, soname] : needed)
+    EXPECT_TRUE(runtime.count(package)) << package << " (for " << soname << ") missing from the runtime stage";
+  for (const std::string& package : runtime)
+    EXPECT_TRUE(needed.count(package)) << package << " is in the runtime stage, but no binary links to it";
+  for (const std::string& package : runtime)
+    EXPECT_EQ(package.find("-dev"), std::string::npos) << "no -dev packages at run time: " << package;
+
+  // A non-root user runs the binaries the build stage installed.
+  std::string user;
+  bool copies = false;
+  for (const std::string& i : stages[1].instructions) {
+    if (i.rfind("USER ", 0) == 0) user = i.substr(5);
+    copies |= i.rfind("COPY --from=build ", 0) == 0 && i.find("/usr/bin/") != std::string::npos;
+  }
+  EXPECT_TRUE(copies);
+  EXPECT_FALSE(user.empty());
+  EXPECT_NE(user, "root");
+  EXPECT_NE(user, "0");
+}
+
+std::vector<std::string> commandOf(const YAML::Node& node) {
+  std::vector<std::string> argv;
+  for (const auto& word : node) argv.push_back(word.as<std::string>());
+  return argv;
+}
+
+TEST(Container, ComposeRunsTheBinariesWithTheirFlagsOnThePortsItPublishes) {
+  const fs::path dir = test::sourceDir() / "deploy/docker";
+  const YAML::Node compose = YAML::LoadFile((dir / "docker-compose.yml").string());
+  const YAML::Node coordinator = compose["services"]["coordinator"], worker = compose["services"]["worker"];
+  ASSERT_TRUE(coordinator && worker);
+  EXPECT_TRUE(fs::exists(dir / compose["services"]["coordinator"]["build"]["context"].as<std::string>() /
+                         coordinator["build"]["dockerfile"].as<std::string>()));
+  EXPECT_EQ(worker["image"].as<std::string>(), coordinator["image"].as<std::string>()) << "one image";
+
+  const std::vector<std::string> c = commandOf(coordinator["command"]), w = commandOf(worker["command"]);
+  EXPECT_TRUE(test::runsWithItsFlags(c, test::coordinatorPath()));
+  EXPECT_TRUE(test::runsWithItsFlags(w, test::workerPath()));
+
+  // The ports the coordinator listens on are the ones published, and the ones the image exposes.
+  std::set<int> published;
+  for (const auto& p : coordinator["ports"]) published.insert(test::portOf(p.as<std::string>()));
+  const int grpcPort = test::portOf(test::optionOf(c, "--listen")), metricsPort = test::portOf(test::optionOf(c, "--metrics-listen"));
+  EXPECT_EQ(published, (std::set<int>{grpcPort, metricsPort}));
+  std::string expose;
+  const std::vector<Stage> stages = stagesOf(dockerfile());
+  for (const std::string& i : stages.back().instructions)
+    if (i.rfind("EXPOSE ", 0) == 0) expose = i;
+  EXPECT_EQ(expose, "EXPOSE " + std::to_string(grpcPort) + " " + std::to_string(metricsPort));
+
+  // Workers dial the coordinator's service name on its port.
+  EXPECT_EQ(test::optionOf(w, "--coordinator"), "coordinator:" + std::to_string(grpcPort));
+  EXPECT_GE(worker["deploy"]["replicas"].as<int>(), 2);
+
+  // The state directory is a named volume.
+  const std::string stateDir = test::optionOf(c, "--state-dir");
+  bool onVolume = false;
+  for (const auto& v : coordinator["volumes"]) {
+    const std::string mount = v.as<std::string>();
+    const std::string name = mount.substr(0, mount.find(':'));
+    onVolume |= mount.substr(mount.find(':') + 1) == stateDir && compose["volumes"][name].IsDefined();
+  }
+  EXPECT_TRUE(onVolume) << stateDir;
+
+  // Tokens come from Docker secrets, one per service; the coordinator serves the network with both.
+  const auto secretFile = [&](const YAML::Node& service, const std::vector<std::string>& argv, const std::string& flag) {
+    const std::string path = test::optionOf(argv, flag);
+    const std::string name = fs::path(path).filename().string();
+    EXPECT_EQ(path, "/run/secrets/" + name) << flag;
+    bool listed = false;
+    for (const auto& s : service["secrets"]) listed |= s.as<std::string>() == name;
+    EXPECT_TRUE(listed) << name << " is not given to the service";
+    EXPECT_TRUE(compose["secrets"][name]["file"].IsDefined()) << name;
+    return name;
+  };
+  const std::string clientSecret = secretFile(coordinator, c, "--client-token-file");
+  const std::string workerSecret = secretFile(coordinator, c, "--worker-token-file");
+  EXPECT_NE(clientSecret, workerSecret);
+  EXPECT_EQ(secretFile(worker, w, "--token-file"), workerSecret);
+}
+
+}  // namespace
+}  // namespace lensfarm

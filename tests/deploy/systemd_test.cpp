@@ -1,0 +1,152 @@
+// `cmake --install` into a temporary prefix: the binaries, the systemd units and the example
+// settings land where they belong; the units run the installed binaries with flags they accept,
+// load the tokens as credentials, restart on failure and drain on stop; systemd-analyze verifies
+// them when it is there.
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <fstream>
+#include <regex>
+
+#include "deploy_support.h"
+#include "util/version.h"
+
+namespace lensfarm {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A unit file's settings, key -> values in order (sections are not needed to tell them apart).
+std::multimap<std::string, std::string> settingsOf(const fs::path& unit) {
+  std::multimap<std::string, std::string> out;
+  std::ifstream in(unit);
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#' || line[0] == '[') continue;
+    const size_t eq = line.find('=');
+    if (eq != std::string::npos) out.emplace(line.substr(0, eq), line.substr(eq + 1));
+  }
+  return out;
+}
+
+std::string only(const std::multimap<std::string, std::string>& settings, const std::string& key) {
+  EXPECT_EQ(settings.count(key), 1u) << key;
+  const auto it = settings.find(key);
+  return it == settings.end() ? "" : it->second;
+}
+
+// The LENSFARM_* variables an environment file sets, or shows commented out as an example.
+std::set<std::string> variablesOf(const fs::path& file) {
+  std::set<std::string> out;
+  const std::regex assignment(R"(^#?(LENSFARM_[A-Z_]+)=)");
+  std::ifstream in(file);
+  for (std::string line; std::getline(in, line);) {
+    std::smatch m;
+    if (std::regex_search(line, m, assignment)) out.insert(m[1]);
+  }
+  return out;
+}
+
+class Install : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto r = test::runProcess({LENSFARM_CMAKE_COMMAND, "--install", LENSFARM_BINARY_DIR, "--prefix", prefix_.path().string()}, 120);
+    ASSERT_EQ(r.exitCode, 0) << r.out << r.err;
+  }
+  fs::path unitDir() const { return prefix_ / "lib/systemd/system"; }
+
+  test::TempDir prefix_;
+};
+
+TEST_F(Install, PutsBinariesUnitsAndSettingsInTheirPlaces) {
+  for (const char* binary : {"lensfarm", "lensfarm-coordinator", "lensfarm-worker"}) {
+    const fs::path path = prefix_ / "bin" / binary;
+    ASSERT_TRUE(fs::exists(path)) << path;
+    EXPECT_NE(fs::status(path).permissions() & fs::perms::owner_exec, fs::perms::none) << path;
+    const auto version = test::runProcess({path.string(), "--version"}, 30);
+    EXPECT_EQ(version.exitCode, 0) << path;
+    EXPECT_NE(version.out.find(kRendererVersion), std::string::npos) << path << ": " << version.out;
+  }
+  for (const char* file : {"lib/systemd/system/lensfarm-coordinator.service", "lib/systemd/system/lensfarm-worker@.service",
+                           "etc/lensfarm/coordinator.env", "etc/lensfarm/worker.env", "share/doc/lensfarm/deploy.md",
+                           "share/doc/lensfarm/farm.md", "share/doc/lensfarm/examples/coordinator.env"})
+    EXPECT_TRUE(fs::is_regular_file(prefix_ / file)) << file;
+
+  // An edited setting survives a second install.
+  prefix_.write("etc/lensfarm/coordinator.env", "LENSFARM_LISTEN=10.0.0.1:7878\n");
+  const auto again = test::runProcess({LENSFARM_CMAKE_COMMAND, "--install", LENSFARM_BINARY_DIR, "--prefix", prefix_.path().string()}, 120);
+  ASSERT_EQ(again.exitCode, 0) << again.err;
+  EXPECT_EQ(test::readFile(prefix_ / "etc/lensfarm/coordinator.env"), "LENSFARM_LISTEN=10.0.0.1:7878\n");
+}
+
+TEST_F(Install, UnitsRunTheInstalledBinariesWithFlagsTheyAccept) {
+  struct Case {
+    const char* unit;
+    const char* binary;
+    const char* envFile;
+    std::vector<std::string> tokens;  // credentials the unit loads and passes as files
+  };
+  for (const Case& c : {Case{"lensfarm-coordinator.service", "lensfarm-coordinator", "coordinator.env", {"client.token", "worker.token"}},
+                        Case{"lensfarm-worker@.service", "lensfarm-worker", "worker.env", {"worker.token"}}}) {
+    SCOPED_TRACE(c.unit);
+    const auto settings = settingsOf(unitDir() / c.unit);
+    const std::vector<std::string> exec = test::words(only(settings, "ExecStart"));
+    ASSERT_FALSE(exec.empty());
+    EXPECT_TRUE(test::runsWithItsFlags(exec, prefix_ / "bin" / c.binary)) << "the installed binary, by its installed path";
+    const test::Help help = test::helpOf(exec[0]);
+
+    // Tokens: loaded as credentials from the settings directory, passed as %d/NAME.
+    std::set<std::string> loaded;
+    for (auto [it, end] = settings.equal_range("LoadCredential"); it != end; ++it) {
+      const std::string name = it->second.substr(0, it->second.find(':'));
+      EXPECT_EQ(fs::path(it->second.substr(it->second.find(':') + 1)), prefix_ / "etc/lensfarm" / name);
+      loaded.insert(name);
+    }
+    for (const std::string& token : c.tokens) {
+      EXPECT_TRUE(loaded.count(token)) << token;
+      EXPECT_NE(only(settings, "ExecStart").find("-token-file %d/" + token), std::string::npos) << token;
+    }
+    EXPECT_EQ(only(settings, "Restart"), "on-failure");
+    EXPECT_EQ(only(settings, "KillSignal"), "SIGTERM");
+    EXPECT_TRUE(std::regex_match(only(settings, "TimeoutStopSec"), std::regex("[0-9]+(s|min)"))) << "room to drain";
+    EXPECT_EQ(only(settings, "DynamicUser"), "yes") << "never root";
+
+    // Every LENSFARM_* setting of the example file is read by the binary, or used by the unit.
+    const auto envFiles = settings.equal_range("EnvironmentFile");
+    ASSERT_NE(envFiles.first, envFiles.second);
+    EXPECT_EQ(envFiles.first->second, "-" + (prefix_ / "etc/lensfarm" / c.envFile).string());
+    const std::set<std::string> variables = variablesOf(prefix_ / "etc/lensfarm" / c.envFile);
+    EXPECT_GE(variables.size(), 3u);
+    for (const std::string& v : variables)
+      EXPECT_TRUE(help.text.find(v) != std::string::npos || only(settings, "ExecStart").find("${" + v + "}") != std::string::npos)
+          << v << " is read by neither " << c.binary << " nor its unit";
+  }
+  // The coordinator's state and the worker's cache live in directories systemd makes for them.
+  const auto coordinator = settingsOf(unitDir() / "lensfarm-coordinator.service");
+  EXPECT_EQ(test::optionOf(test::words(only(coordinator, "ExecStart")), "--state-dir"), "%S/" + only(coordinator, "StateDirectory"));
+  const auto worker = settingsOf(unitDir() / "lensfarm-worker@.service");
+  EXPECT_EQ(test::optionOf(test::words(only(worker, "ExecStart")), "--cache-dir").rfind("%C/" + only(worker, "CacheDirectory") + "/", 0), 0u);
+  EXPECT_EQ(test::optionOf(test::words(only(worker, "ExecStart")), "--coordinator"), "%I:${LENSFARM_COORDINATOR_PORT}");
+  EXPECT_EQ(only(worker, "RestartPreventExitStatus"), "2 3") << "a refused token or version is not retried";
+}
+
+TEST_F(Install, SystemdAnalyzeVerifiesTheUnits) {
+  const fs::path analyze = "/usr/bin/systemd-analyze";
+  if (!fs::exists(analyze)) GTEST_SKIP() << "systemd-analyze is not installed: the units' syntax is not verified";
+  // A template is verified through an instance of it.
+  const fs::path instance = prefix_ / "lensfarm-worker@farm-host.service";
+  fs::copy_file(unitDir() / "lensfarm-worker@.service", instance);
+  for (const fs::path& unit : {unitDir() / "lensfarm-coordinator.service", instance}) {
+    const auto r = test::runProcess({analyze.string(), "verify", unit.string()}, 60);
+    EXPECT_EQ(r.exitCode, 0) << unit << ":\n" << r.out << r.err;
+    // Unknown keys and bad values are only warnings to systemd-analyze: none may appear.
+    EXPECT_EQ(r.out + r.err, "") << unit;
+  }
+  // ... and it does object to a broken unit, so silence above means something.
+  const fs::path broken = prefix_ / "broken.service";
+  prefix_.write("broken.service", test::readFile(unitDir() / "lensfarm-coordinator.service") + "[Service]\nRestartt=always\n");
+  const auto r = test::runProcess({analyze.string(), "verify", broken.string()}, 60);
+  EXPECT_NE(r.out + r.err, "");
+}
+
+}  // namespace
+}  // namespace lensfarm
