@@ -47,8 +47,12 @@ std::string convergenceText(const v1::JobProgress& p, double watchTarget) {
   if (target > 0.0) {
     const double eta = p.target_error() > 0.0 ? p.seconds_to_target()
                                               : secondsToTarget(estimate, target, p.elapsed_seconds());
-    text += estimate <= target ? fmt::format(" (target {:.2f} % reached)", 100.0 * target)
-                               : fmt::format(" (target {:.2f} % in ~{})", 100.0 * target, formatDuration(eta));
+    if (estimate <= target)
+      text += fmt::format(" (target {:.2f} % reached)", 100.0 * target);
+    else if (!p.stop_reason().empty())  // finished short of it: nothing to project
+      text += fmt::format(" (target {:.2f} %)", 100.0 * target);
+    else
+      text += fmt::format(" (target {:.2f} % in ~{})", 100.0 * target, formatDuration(eta));
   }
   return text;
 }

@@ -17,6 +17,7 @@ PACKAGES=(
   libsqlite3-dev
   libcpp-httplib-dev libyaml-cpp-dev
   iproute2
+  gnuplot-nox
   clang libclang-rt-14-dev
 )
 

@@ -205,7 +205,12 @@ void WorkerLoop::run() {
           } catch (const FarmError& e) {
             if (e.kind() == FarmError::Kind::kUnknownWorker) throw;
             ++counters_.unitsAbandoned;
-            spdlog::warn("upload of unit {} of {} refused: {}", grant->unit.index, grant->jobId, e.what());
+            // A revoked lease is routine: the job stopped (target, deadline, cancel) or the unit
+            // lapsed and went to another worker. Anything else is worth a warning.
+            if (e.kind() == FarmError::Kind::kFailedPrecondition)
+              spdlog::info("unit {} of {} no longer wanted: {}", grant->unit.index, grant->jobId, e.what());
+            else
+              spdlog::warn("upload of unit {} of {} refused: {}", grant->unit.index, grant->jobId, e.what());
             break;
           } catch (const LinkUnavailable& e) {
             if (stopNow_ || wait > grant->deadlineSeconds) throw;

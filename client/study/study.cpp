@@ -280,9 +280,10 @@ class Study {
            "Every checkpoint of the convergence experiment with at least two units: the coordinator's estimate "
            "(film/convergence.h: two half-images of alternating units) against the error measured with the "
            "reference (the reference's own estimated error, " + number(100 * referenceError_, 2) +
-           " %, removed in quadrature). With independent samples the estimate is unbiased; with stratified and "
-           "Sobol samples the two halves are each better stratified than chance and the whole is better still, so "
-           "the estimate is an upper bound and a target-error job stops later than it must.\n\n" +
+           " %, removed in quadrature). The two halves are independent for every sampler (Sobol draws even and odd "
+           "units from two independently scrambled replicates; stratified patterns are per unit), so the estimate "
+           "of the mean squared error is unbiased; a ratio far from 1 would show correlation between the halves. "
+           "Its spread comes from the few pixels that dominate the error of a small image.\n\n" +
            table.markdown() + "\n" + link("estimate");
   }
 

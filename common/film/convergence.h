@@ -16,10 +16,10 @@
 // Only the even half is stored; B = total - A. Units cover the whole frame (render/unit_renderer.h),
 // so every cell has the same number of samples in each half.
 //
-// The estimate sees noise only: not bias (a bounce limit), and it assumes the two halves are
-// independent. With a low-discrepancy sampler the full image is better stratified than two
-// independent halves would be, so the estimate is then an upper bound (measured in
-// docs/accuracy.md).
+// The estimate sees noise only, not bias (a bounce limit), and it assumes the two halves are
+// independent: the samplers make them so (render/sampler.h: the Sobol sampler draws even and odd
+// units from two independently scrambled replicates; stratified patterns are per unit). How well
+// it tracks the true error is measured in docs/accuracy.md.
 #include <cstdint>
 #include <string>
 #include <vector>

@@ -235,7 +235,7 @@ class SceneParser {
     if (!parseSamplerName(sampler, s.sampler))
       r.fail("render.sampler", "unknown sampler \"" + sampler + "\" (expected sobol, stratified or independent)");
     s.russianRoulette = r.boolean("russian_roulette", false);
-    s.targetError = r.number("target_error", 0.0, 0.0, 1.0);
+    s.targetError = r.number("target_error", 0.0, 0.0, 0.999);
     s.timeLimitSeconds = r.number("time_limit", 0.0, 0.0, 1e9);
     s.mirrorBouncesCount = r.boolean("mirror_bounces_count", false);
     s.samplesPerUnit = uint32_t(r.integer("samples_per_unit", 0, 0, 1u << 20));
