@@ -62,6 +62,7 @@ RayCaster::~RayCaster() {
 }
 
 std::optional<SurfaceHit> RayCaster::intersect(const Vec3& o, const Vec3& d, RayKind kind) const {
+  if (recorder_) recorder_->record({o, d, std::numeric_limits<float>::infinity(), unsigned(kind)});
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRayHit rh;
@@ -113,6 +114,7 @@ std::optional<SurfaceHit> RayCaster::intersect(const Vec3& o, const Vec3& d, Ray
 }
 
 bool RayCaster::occluded(const Vec3& o, const Vec3& d, float tFar) const {
+  if (recorder_) recorder_->record({o, d, tFar, 0u});
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRay ray;

@@ -18,6 +18,20 @@ namespace lensfarm {
 
 enum class RayKind : unsigned { kCamera = 1u, kScattered = 2u };
 
+// Every ray a caster is asked for, per thread in the order that thread cast them: the ray-casting
+// limit benchmark (bench/ray_limit.cpp) records the integrator's rays and replays them through
+// the same calls to time Embree alone. Off (a null pointer) everywhere else.
+class RayRecorder {
+ public:
+  struct Ray {
+    Vec3 origin, direction;
+    float tFar;     // occlusion rays: the segment's end; intersection rays: +inf
+    unsigned kind;  // RayKind for intersection rays; 0 for occlusion rays
+  };
+  virtual ~RayRecorder() = default;
+  virtual void record(const Ray& ray) = 0;  // called concurrently from every render thread
+};
+
 struct SurfaceHit {
   float t;           // distance along the (unit) ray direction
   Vec3 p;            // hit point, interpolated from the vertices
@@ -47,7 +61,12 @@ class RayCaster {
   };
   const std::vector<Triangle>& triangles() const { return triangles_; }
 
+  // Benchmarks only: an observer that sees every ray cast from now on (nullptr: none). It changes
+  // nothing the caster computes, hence const; set it while no thread is tracing.
+  void setRecorder(RayRecorder* recorder) const { recorder_ = recorder; }
+
  private:
+  mutable RayRecorder* recorder_ = nullptr;
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
   std::vector<Triangle> triangles_;       // all meshes, concatenated

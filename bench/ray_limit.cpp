@@ -1,0 +1,161 @@
+// The ray-casting limit (issue 8): how close the integrator comes to what Embree alone allows
+// for the very rays it casts, cast the same way, on the same scene and threads.
+//
+//   (a) the integrator traces units (1 spp over the frame) on all threads: paths/s, rays/s;
+//   (b) the same units are traced once more with a RayRecorder on the caster, keeping every
+//       ray per thread in the order that thread cast it; each thread's log is then replayed
+//       through the same RayCaster calls (intersect / occluded, one ray at a time, as the
+//       integrator casts them): Embree's rays/s for those rays, by kind.
+// It prints (a)/(b), the share of render time spent inside Embree, and medians of --repeat runs.
+//
+//   build/bench/lensfarm-ray-limit [--scene cornell-classic.json] [--resolution 512] [--bounces 3]
+//                                  [--integrator nee_mis] [--repeat 5] [--threads N]
+#include <CLI/CLI.hpp>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for_each.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <thread>
+
+#include "render/render_scene.h"
+#include "render/unit_renderer.h"
+#include "scene/scene_loader.h"
+
+namespace lensfarm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+class ThreadLogs : public RayRecorder {
+ public:
+  void record(const Ray& ray) override { logs_.local().push_back(ray); }
+  tbb::enumerable_thread_specific<std::vector<Ray>>& logs() { return logs_; }
+
+ private:
+  tbb::enumerable_thread_specific<std::vector<Ray>> logs_;
+};
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+struct Replay {
+  double seconds = 0, intersectSeconds = 0, occludedSeconds = 0;
+  uint64_t intersects = 0, occlusions = 0;
+};
+
+// Each thread's log on one task, in its order; per-kind times are summed over threads.
+Replay replay(const RayCaster& caster, ThreadLogs& logs, tbb::task_arena& arena) {
+  std::vector<std::vector<RayRecorder::Ray>*> all;
+  for (auto& log : logs.logs()) all.push_back(&log);
+  tbb::enumerable_thread_specific<Replay> parts;
+  const auto start = Clock::now();
+  arena.execute([&] {
+    tbb::parallel_for_each(all.begin(), all.end(), [&](std::vector<RayRecorder::Ray>* log) {
+      Replay& r = parts.local();
+      size_t hits = 0;
+      // Intersections and occlusions interleave as the integrator cast them; time each run of
+      // one kind so the per-kind rates are Embree's own.
+      size_t k = 0;
+      while (k < log->size()) {
+        const bool occlusion = (*log)[k].kind == 0;
+        size_t end = k;
+        while (end < log->size() && ((*log)[end].kind == 0) == occlusion) ++end;
+        const auto t0 = Clock::now();
+        for (size_t i = k; i < end; ++i) {
+          const auto& ray = (*log)[i];
+          if (occlusion)
+            hits += caster.occluded(ray.origin, ray.direction, ray.tFar);
+          else
+            hits += caster.intersect(ray.origin, ray.direction, RayKind(ray.kind)).has_value();
+        }
+        const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
+        (occlusion ? r.occludedSeconds : r.intersectSeconds) += dt;
+        (occlusion ? r.occlusions : r.intersects) += end - k;
+        k = end;
+      }
+      if (hits == size_t(-1)) std::puts("");  // keep the calls
+    });
+  });
+  Replay total;
+  total.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  for (const Replay& r : parts) {
+    total.intersectSeconds += r.intersectSeconds;
+    total.occludedSeconds += r.occludedSeconds;
+    total.intersects += r.intersects;
+    total.occlusions += r.occlusions;
+  }
+  return total;
+}
+
+int run(int argc, char** argv) {
+  CLI::App app{"lensfarm ray-casting limit: integrator vs Embree alone on the same rays"};
+  std::string sceneName = "cornell-classic.json", integrator = "nee_mis", sampler = "sobol";
+  int resolution = 512, bounces = 3, repeat = 5;
+  unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+  app.add_option("--scene", sceneName, "Scene file (absolute, or in the source tree's scenes/)")->capture_default_str();
+  app.add_option("--resolution", resolution)->capture_default_str();
+  app.add_option("--bounces", bounces)->capture_default_str();
+  app.add_option("--integrator", integrator)->check(CLI::IsMember({"nee_mis", "nee", "naive"}))->capture_default_str();
+  app.add_option("--sampler", sampler)->check(CLI::IsMember({"sobol", "stratified", "independent"}))->capture_default_str();
+  app.add_option("--repeat", repeat, "Runs; medians are reported")->capture_default_str();
+  app.add_option("--threads", threads)->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  const std::string path = sceneName.find('/') == std::string::npos ? std::string(LENSFARM_SOURCE_DIR "/scenes/") + sceneName
+                                                                    : sceneName;
+  Scene scene = loadScene(path);
+  scene.render.width = scene.render.height = resolution;
+  scene.render.maxBounces = bounces;
+  parseIntegratorName(integrator, scene.render.integrator);
+  parseSamplerName(sampler, scene.render.sampler);
+  RenderScene rs(scene);
+  tbb::task_arena arena{int(threads)};
+  const double pixels = double(resolution) * resolution;
+
+  std::vector<double> pathRate, rayRate, embreeRate, intersectRate, occludedRate, ratio, share;
+  for (int r = 0; r < repeat; ++r) {
+    // (a) the integrator, timed, no recorder.
+    PathStats stats;
+    SensorBuffer buffer;
+    const WorkUnit unit{uint64_t(r), uint64_t(r), 1};
+    const auto t0 = Clock::now();
+    arena.execute([&] { renderUnit(rs, unit, buffer, stats); });
+    const double renderSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    // (b) the same unit recorded, then replayed.
+    ThreadLogs logs;
+    rs.caster().setRecorder(&logs);
+    PathStats recorded;
+    arena.execute([&] { renderUnit(rs, unit, buffer, recorded); });
+    rs.caster().setRecorder(nullptr);
+    const Replay rep = replay(rs.caster(), logs, arena);
+    const double rays = double(rep.intersects + rep.occlusions);
+    pathRate.push_back(pixels / renderSeconds);
+    rayRate.push_back(rays / renderSeconds);
+    embreeRate.push_back(rays / rep.seconds);
+    intersectRate.push_back(double(rep.intersects) / rep.intersectSeconds * threads);
+    occludedRate.push_back(rep.occlusions ? double(rep.occlusions) / rep.occludedSeconds * threads : 0.0);
+    ratio.push_back(rep.seconds / renderSeconds);
+    share.push_back((rep.intersectSeconds + rep.occludedSeconds) / threads / renderSeconds);
+  }
+  std::printf("scene %s, %dx%d, B = %d, %s, %s sampler, %u threads, medians of %d runs\n", sceneName.c_str(),
+              resolution, resolution, bounces, integrator.c_str(), sampler.c_str(), threads, repeat);
+  std::printf("(a) integrator:        %.3f M pixel-samples/s, %.2f M rays/s\n", median(pathRate) / 1e6,
+              median(rayRate) / 1e6);
+  std::printf("(b) Embree alone:      %.2f M rays/s on the same rays, single rays as the integrator casts them\n",
+              median(embreeRate) / 1e6);
+  std::printf("    by kind:           %.2f M rays/s intersect (camera + scattered), %.2f M rays/s occluded (shadow)\n",
+              median(intersectRate) / 1e6, median(occludedRate) / 1e6);
+  std::printf("(a)/(b):               %.3f  (1 = the integrator costs nothing beyond its rays)\n", median(ratio));
+  std::printf("time inside Embree:    %.1f %% of render time\n", 100.0 * median(share));
+  return 0;
+}
+
+}  // namespace
+}  // namespace lensfarm
+
+int main(int argc, char** argv) { return lensfarm::run(argc, argv); }
