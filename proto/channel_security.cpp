@@ -17,7 +17,11 @@ std::string readPem(const std::string& file, const char* flag) {
 std::shared_ptr<grpc::Channel> makeChannel(const std::string& address, const ChannelSecurity& security,
                                            double maxBackoffSeconds) {
   grpc::ChannelArguments args;
-  args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 100);
+  // gRPC also uses the minimum reconnect backoff as the connect timeout of one attempt: at 100 ms
+  // a TCP + HTTP/2 (+ TLS) handshake on a busy machine timed out ("connection attempt timed out
+  // before receiving SETTINGS frame") and a client gave up on a healthy coordinator. One second
+  // leaves handshakes room; the first retry still comes after 100 ms.
+  args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 1000);
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, int(maxBackoffSeconds * 1000));
   if (security.caFile.empty()) {
