@@ -8,6 +8,10 @@
 //       integrator casts them): Embree's rays/s for those rays, by kind.
 // It prints (a)/(b), the share of render time spent inside Embree, and medians of --repeat runs.
 //
+// Scaling with scene size: --triangles N adds a generated mesh of about N triangles (a bumpy
+// sphere on the floor of the box, made here, nothing downloaded) and reports the Embree build
+// time and the resident memory the scene added; compare paths/s and Embree's rays/s across N.
+//
 //   build/bench/lensfarm-ray-limit [--scene cornell-classic.json] [--resolution 512] [--bounces 3]
 //                                  [--integrator nee_mis] [--repeat 5] [--threads N]
 #include <CLI/CLI.hpp>
@@ -17,7 +21,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <numbers>
 #include <thread>
 
 #include "render/render_scene.h"
@@ -37,6 +44,39 @@ class ThreadLogs : public RayRecorder {
  private:
   tbb::enumerable_thread_specific<std::vector<Ray>> logs_;
 };
+
+// A UV sphere of about `triangles` triangles with a radial ripple (so neighbouring triangles are not
+// coplanar), resting on the floor of the Cornell box, in the scene's white material.
+TriangleMesh bumpySphere(uint64_t triangles, uint32_t material) {
+  const int rings = std::max(3, int(std::sqrt(double(triangles) / 2.0)));
+  const int segments = std::max(3, int(double(triangles) / (2.0 * rings)));
+  TriangleMesh mesh;
+  mesh.name = "generated";
+  const Vec3 centre(0.3f, -0.7f, -0.3f);
+  for (int i = 0; i <= rings; ++i)
+    for (int j = 0; j <= segments; ++j) {
+      const double theta = std::numbers::pi * i / rings, phi = 2.0 * std::numbers::pi * j / segments;
+      const double r = 0.28 * (1.0 + 0.04 * std::sin(9.0 * theta) * std::cos(7.0 * phi));
+      mesh.positions.push_back(centre + Vec3(float(r * std::sin(theta) * std::cos(phi)), float(r * std::cos(theta)),
+                                             float(r * std::sin(theta) * std::sin(phi))));
+    }
+  auto at = [&](int i, int j) { return uint32_t(i * (segments + 1) + j); };
+  for (int i = 0; i < rings; ++i)
+    for (int j = 0; j < segments; ++j) {
+      for (uint32_t v : {at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j), at(i + 1, j + 1), at(i, j + 1)})
+        mesh.indices.push_back(v);
+      mesh.materialIds.push_back(material);
+      mesh.materialIds.push_back(material);
+    }
+  return mesh;
+}
+
+double residentMegabytes() {
+  std::ifstream statm("/proc/self/statm");
+  double size = 0, resident = 0;
+  statm >> size >> resident;
+  return resident * 4096.0 / 1e6;
+}
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -97,6 +137,7 @@ int run(int argc, char** argv) {
   std::string sceneName = "cornell-classic.json", integrator = "nee_mis", sampler = "sobol";
   int resolution = 512, bounces = 3, repeat = 5;
   unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+  uint64_t generated = 0;
   app.add_option("--scene", sceneName, "Scene file (absolute, or in the source tree's scenes/)")->capture_default_str();
   app.add_option("--resolution", resolution)->capture_default_str();
   app.add_option("--bounces", bounces)->capture_default_str();
@@ -104,6 +145,7 @@ int run(int argc, char** argv) {
   app.add_option("--sampler", sampler)->check(CLI::IsMember({"sobol", "stratified", "independent"}))->capture_default_str();
   app.add_option("--repeat", repeat, "Runs; medians are reported")->capture_default_str();
   app.add_option("--threads", threads)->capture_default_str();
+  app.add_option("--triangles", generated, "Add a generated mesh of about this many triangles (scaling)");
   CLI11_PARSE(app, argc, argv);
 
   const std::string path = sceneName.find('/') == std::string::npos ? std::string(LENSFARM_SOURCE_DIR "/scenes/") + sceneName
@@ -113,7 +155,19 @@ int run(int argc, char** argv) {
   scene.render.maxBounces = bounces;
   parseIntegratorName(integrator, scene.render.integrator);
   parseSamplerName(sampler, scene.render.sampler);
+  if (generated > 0) {
+    uint32_t white = 0;
+    for (uint32_t m = 0; m < scene.materials.size(); ++m)
+      if (scene.materials[m].name == "white") white = m;
+    scene.meshes.push_back(bumpySphere(generated, white));
+  }
+  size_t triangles = 0;
+  for (const auto& m : scene.meshes) triangles += m.triangleCount();
+  const double memoryBefore = residentMegabytes();
+  const auto buildStart = Clock::now();
   RenderScene rs(scene);
+  const double buildSeconds = std::chrono::duration<double>(Clock::now() - buildStart).count();
+  const double sceneMegabytes = residentMegabytes() - memoryBefore;
   tbb::task_arena arena{int(threads)};
   const double pixels = double(resolution) * resolution;
 
@@ -142,8 +196,11 @@ int run(int argc, char** argv) {
     ratio.push_back(rep.seconds / renderSeconds);
     share.push_back((rep.intersectSeconds + rep.occludedSeconds) / threads / renderSeconds);
   }
-  std::printf("scene %s, %dx%d, B = %d, %s, %s sampler, %u threads, medians of %d runs\n", sceneName.c_str(),
-              resolution, resolution, bounces, integrator.c_str(), sampler.c_str(), threads, repeat);
+  std::printf("scene %s, %zu triangles, %dx%d, B = %d, %s, %s sampler, %u threads, medians of %d runs\n",
+              sceneName.c_str(), triangles, resolution, resolution, bounces, integrator.c_str(), sampler.c_str(), threads,
+              repeat);
+  std::printf("scene build:           %.3f s, %.1f MB resident added (Embree BVH, triangles, lights)\n", buildSeconds,
+              sceneMegabytes);
   std::printf("(a) integrator:        %.3f M pixel-samples/s, %.2f M rays/s\n", median(pathRate) / 1e6,
               median(rayRate) / 1e6);
   std::printf("(b) Embree alone:      %.2f M rays/s on the same rays, single rays as the integrator casts them\n",
