@@ -135,8 +135,9 @@ template <class JobT>
 void recordEstimate(JobT& job, double elapsedSeconds) {
   if (!job.estimate.valid) return;
   auto& h = job.history;
-  if (!h.empty() && h.back().relativeError == job.estimate.relativeRmse && h.back().samplesPerPixel == job.samplesPerPixelDone)
-    return;
+  // A job without a target re-estimates a few times a second, not every unit: a point whose
+  // estimate did not change would be stale, so only new estimates make points.
+  if (!h.empty() && h.back().relativeError == job.estimate.relativeRmse) return;
   if (h.size() >= Coordinator::kMaxErrorPoints) {
     size_t kept = 0;
     for (size_t i = 0; i < h.size(); i += 2) h[kept++] = h[i];

@@ -136,6 +136,7 @@ async function renderJob(jobId) {
     ...stat("Workers busy", job.workers_busy));
   $("#job-priority").textContent = job.priority;
   $("#cancel").disabled = !running;
+  $("#priority-up").disabled = $("#priority-down").disabled = !running;
   $("#effects").replaceChildren(...job.effects.map((e) => {
     const m = /^([^:]+): (on|off)(?: \((.*)\))?$/.exec(e);
     if (!m) return el("li", {}, e);
@@ -194,7 +195,7 @@ function drawErrorChart(svg, points, target) {
   const y = (e) => top + (H - top - bottom) * (1 - (Math.log10(e) - lo) / (hi - lo));
   // Grid: decades and their 2 and 5, seconds at round steps.
   for (let d = Math.floor(lo); d <= Math.ceil(hi); ++d) {
-    for (const m of [1, 2, 5]) {
+    for (const m of hi - lo <= 1.5 ? [1, 1.5, 2, 3, 5, 7] : [1, 2, 5]) {
       const e = m * 10 ** d, l = Math.log10(e);
       if (l < lo - 1e-9 || l > hi + 1e-9) continue;
       children.push(node("line", { x1: left, x2: W - right, y1: y(e), y2: y(e), class: m === 1 ? "grid major" : "grid" }));

@@ -97,7 +97,7 @@ class Browser {
            {{"goog:chromeOptions",
              {{"binary", kChromium},
               {"args", {"--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                        "--disable-dev-shm-usage", "--window-size=1360,1000"}}}}}}}}};
+                        "--disable-dev-shm-usage", "--window-size=1360,1100"}}}}}}}}};
     const json session = call("POST", "/session", capabilities);
     session_ = session["value"].value("sessionId", "");
     if (session_.empty()) throw std::runtime_error("no browser session: " + session.dump() + driver_->log());
@@ -309,6 +309,16 @@ TEST_F(DashboardFarm, ARealBrowserWatchesTheImageChangeAndCancels) {
   ASSERT_TRUE(test::waitFor([&] { return browser.text("#job-state") == "cancelled"; }, 30)) << browser.text("#job-state");
   EXPECT_TRUE(test::waitFor([&] { return browser.run("return document.querySelector('#cancel').disabled;") == true; }, 10));
   EXPECT_NE(status(job).find("cancelled"), std::string::npos) << status(job);
+  EXPECT_TRUE(browser.run("return document.querySelector('#priority-up').disabled;") == true);
+
+  // The EV slider re-exposes the (now fixed) image.
+  const json settled = shown();
+  browser.run("const e = document.querySelector('#ev'); e.value = '2'; e.dispatchEvent(new Event('input'));"
+              "e.dispatchEvent(new Event('change'));");
+  EXPECT_TRUE(test::waitFor([&] { return browser.text("#snapshot-caption").find("+2.00 EV") != std::string::npos; }, 30))
+      << browser.text("#snapshot-caption");
+  EXPECT_NE(shown()[0], settled[0]) << "a brighter exposure is another PNG";
+  EXPECT_EQ(shown()[1], settled[1]) << "of the same samples";
   browser.screenshot(fs::path(LENSFARM_BINARY_DIR) / "dashboard-cancelled.png");
   EXPECT_GT(fs::file_size(fs::path(LENSFARM_BINARY_DIR) / "dashboard.png"), 10000u);
 }
