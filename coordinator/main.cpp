@@ -168,7 +168,9 @@ int main(int argc, char** argv) {
                   "reach it could submit jobs or lease work. Give both tokens, or listen on 127.0.0.1.", listen);
     return 2;
   }
-  if (!dashboardListen.empty() && !isLoopback(dashboardListen.substr(0, dashboardListen.rfind(':'))) && !clientToken) {
+  // (A malformed address is refused with its own message when the dashboard starts.)
+  if (const size_t colon = dashboardListen.rfind(':');
+      colon != std::string::npos && colon > 0 && !isLoopback(dashboardListen.substr(0, colon)) && !clientToken) {
     spdlog::error("refusing to serve the dashboard on {} without --client-token-file: anyone who can reach it could "
                   "cancel jobs. Give a client token, or listen on 127.0.0.1.", dashboardListen);
     return 2;

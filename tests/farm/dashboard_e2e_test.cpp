@@ -257,6 +257,19 @@ TEST_F(DashboardFarm, ApiServesJobsImagesAndActions) {
   EXPECT_NE(status(first).find("cancelled"), std::string::npos);
 }
 
+TEST(DashboardFlags, RefusesAnAddressOpenToTheNetworkWithoutATokenOrMalformed) {
+  EXPECT_TRUE(test::helpOf(test::coordinatorPath()).flags.count("--dashboard-listen"));
+  const auto open = test::runProcess(
+      {test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--dashboard-listen", "0.0.0.0:0"}, 30);
+  EXPECT_EQ(open.exitCode, 2);
+  EXPECT_NE(open.err.find("refusing to serve the dashboard on 0.0.0.0:0 without --client-token-file"), std::string::npos)
+      << open.err;
+  const auto malformed =
+      test::runProcess({test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--dashboard-listen", "8080"}, 30);
+  EXPECT_EQ(malformed.exitCode, 2);
+  EXPECT_NE(malformed.err.find("--dashboard-listen: expected HOST:PORT"), std::string::npos) << malformed.err;
+}
+
 TEST_F(DashboardFarm, ARealBrowserWatchesTheImageChangeAndCancels) {
   if (!fs::exists(kChromium) || !fs::exists(kChromedriver))
     GTEST_SKIP() << "needs Debian's chromium and chromium-driver (scripts/setup.sh installs them)";
@@ -320,6 +333,20 @@ TEST_F(DashboardFarm, ARealBrowserWatchesTheImageChangeAndCancels) {
   EXPECT_NE(shown()[0], settled[0]) << "a brighter exposure is another PNG";
   EXPECT_EQ(shown()[1], settled[1]) << "of the same samples";
   browser.screenshot(fs::path(LENSFARM_BINARY_DIR) / "dashboard-cancelled.png");
+
+  // Downloads are fetched with the token and saved through a blob link (the token is in no URL).
+  browser.run("window.savedLinks = []; HTMLAnchorElement.prototype.click = function() {"
+              " window.savedLinks.push([this.download, this.href]); };");
+  for (const std::string kind : {"exr", "png"}) {
+    browser.click("#download-" + kind);
+    ASSERT_TRUE(test::waitFor([&] { return browser.run("return window.savedLinks.length;").get<int>() > 0; }, 30)) << kind;
+    const json link = browser.run("return window.savedLinks.shift();");
+    EXPECT_EQ(link[0], job + "." + kind);
+    EXPECT_EQ(link[1].get<std::string>().rfind("blob:", 0), 0u) << link.dump();
+    const json head = browser.run("return fetch(" + link[1].dump() +
+                                  ").then(r => r.arrayBuffer()).then(b => Array.from(new Uint8Array(b.slice(0, 4))));");
+    EXPECT_EQ(head, kind == "exr" ? json({0x76, 0x2f, 0x31, 0x01}) : json({0x89, 0x50, 0x4e, 0x47})) << kind;
+  }
   EXPECT_GT(fs::file_size(fs::path(LENSFARM_BINARY_DIR) / "dashboard.png"), 10000u);
 }
 
