@@ -39,10 +39,24 @@ void setImageHeaders(httplib::Response& response, const Dashboard::Png& png) {
   response.set_header("X-Height", std::to_string(png.height));
 }
 
+// Whether the Host header names this machine (localhost, 127.*, [::1]), with or without a port.
+bool loopbackHost(const std::string& host) {
+  const std::string name = host.front() == '[' ? host.substr(0, host.find(']') + 1) : host.substr(0, host.rfind(':'));
+  return name == "localhost" || name.rfind("127.", 0) == 0 || name == "[::1]";
+}
+
 // Wraps an /api handler: the token first, then the project's exceptions as HTTP statuses.
+// Browsers guard the rest: a POST must be JSON (another site's page cannot send that without a
+// CORS preflight, which this server never grants), and a coordinator without a token answers
+// only requests addressed to this machine by name (no DNS rebinding onto a loopback dashboard).
 template <class Body>
 httplib::Server::Handler api(Dashboard& dashboard, Body body) {
   return [&dashboard, body](const httplib::Request& request, httplib::Response& response) {
+    const std::string host = request.get_header_value("Host");
+    if (!dashboard.tokenRequired() && (host.empty() || !loopbackHost(host)))
+      return fail(response, 403, "without a client token the dashboard answers only requests to localhost");
+    if (request.method == "POST" && request.get_header_value("Content-Type").rfind("application/json", 0) != 0)
+      return fail(response, 415, "POST a JSON body (Content-Type: application/json)");
     const std::string header = request.get_header_value("Authorization");
     if (!dashboard.authorized(header)) {
       const char* why = header.empty() ? "missing" : "wrong";

@@ -198,8 +198,9 @@ TEST_F(DashboardFarm, ApiNeedsTheClientTokenAndThePageIsPublic) {
 }
 
 TEST_F(DashboardFarm, ApiServesJobsImagesAndActions) {
-  const fs::path scene = test::writeSeedScene(dir_, 48, 64, 8);
-  const std::string first = submit(scene), second = submit(scene);
+  // The first job is far too long to end during the test (it is cancelled at the end).
+  const std::string first = submit(test::writeSeedScene(dir_, 48, 1 << 20, 8));
+  const std::string second = submit(test::writeSeedScene(dir_, 48, 64, 8));
   const json jobs = json::parse(request(dashboard_, "GET", "/api/jobs", token_).body)["jobs"];
   ASSERT_EQ(jobs.size(), 2u);
   EXPECT_EQ(jobs[0]["id"], first);
@@ -250,6 +251,17 @@ TEST_F(DashboardFarm, ApiServesJobsImagesAndActions) {
   ASSERT_EQ(downloaded.exitCode, 0) << downloaded.err;
   EXPECT_EQ(exr.body, test::readFile(dir_ / "cli.exr")) << "the same EXR as `lensfarm download`";
 
+  // Another site's form cannot post: actions take JSON only.
+  {
+    httplib::Client client("127.0.0.1", test::portOf(dashboard_));
+    const auto form = client.Post(("/api/jobs/" + first + "/cancel").c_str(),
+                                  httplib::Headers{{"Authorization", "Bearer " + token_}}, "x=1",
+                                  "application/x-www-form-urlencoded");
+    ASSERT_TRUE(form);
+    EXPECT_EQ(form->status, 415);
+  }
+  EXPECT_EQ(status(first).find("cancelled"), std::string::npos);
+
   // Cancel.
   const Reply cancelled = request(dashboard_, "POST", "/api/jobs/" + first + "/cancel", token_);
   EXPECT_EQ(cancelled.status, 200);
@@ -268,6 +280,22 @@ TEST(DashboardFlags, RefusesAnAddressOpenToTheNetworkWithoutATokenOrMalformed) {
       test::runProcess({test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--dashboard-listen", "8080"}, 30);
   EXPECT_EQ(malformed.exitCode, 2);
   EXPECT_NE(malformed.err.find("--dashboard-listen: expected HOST:PORT"), std::string::npos) << malformed.err;
+}
+
+TEST(DashboardFlags, WithoutATokenOnlyLocalhostIsAnswered) {
+  test::TempDir dir;
+  test::FarmProcesses farm(dir);
+  farm.startCoordinator({"--listen", "127.0.0.1:0", "--dashboard-listen", "127.0.0.1:0"});
+  EXPECT_EQ(request(farm.dashboardAddress(), "GET", "/api/jobs").status, 200) << "no token needed on loopback";
+  httplib::Client client("127.0.0.1", test::portOf(farm.dashboardAddress()));
+  const auto rebound = client.Get("/api/jobs", httplib::Headers{{"Host", "evil.example:80"}});
+  ASSERT_TRUE(rebound);
+  EXPECT_EQ(rebound->status, 403) << "a DNS-rebound name is refused";
+  for (const char* host : {"localhost:1", "127.0.0.1:8080", "[::1]:8080"}) {
+    const auto ok = client.Get("/api/jobs", httplib::Headers{{"Host", host}});
+    ASSERT_TRUE(ok);
+    EXPECT_EQ(ok->status, 200) << host;
+  }
 }
 
 TEST_F(DashboardFarm, ARealBrowserWatchesTheImageChangeAndCancels) {
