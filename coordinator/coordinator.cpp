@@ -93,6 +93,7 @@ struct Coordinator::Job {
   std::string stopReason;                // why a finished job stopped
   std::optional<uint64_t> stopUnits;     // a job stopped early keeps units [0, stopUnits)
   bool deadlinePassed = false;
+  std::vector<ErrorPoint> history;  // guarded by Coordinator::mutex_; see recordEstimate()
 
   // Accumulation, guarded by `accumulate` (never held while taking Coordinator::mutex_).
   mutable std::mutex accumulate;
@@ -124,7 +125,27 @@ struct Coordinator::Worker {
   Clock::time_point lastHeartbeat;
   std::string currentJobId;
   uint64_t unitsDone = 0;
+  std::optional<uint64_t> currentUnit;
+  double samplesPerSecond = 0.0;
 };
+
+namespace {
+// Appends the job's published estimate to its curve when it changed (requires mutex_).
+template <class JobT>
+void recordEstimate(JobT& job, double elapsedSeconds) {
+  if (!job.estimate.valid) return;
+  auto& h = job.history;
+  // A job without a target re-estimates a few times a second, not every unit: a point whose
+  // estimate did not change would be stale, so only new estimates make points.
+  if (!h.empty() && h.back().relativeError == job.estimate.relativeRmse) return;
+  if (h.size() >= Coordinator::kMaxErrorPoints) {
+    size_t kept = 0;
+    for (size_t i = 0; i < h.size(); i += 2) h[kept++] = h[i];
+    h.resize(kept);
+  }
+  h.push_back(ErrorPoint{elapsedSeconds, job.estimate.relativeRmse, job.samplesPerPixelDone});
+}
+}  // namespace
 
 Coordinator::Coordinator(Options options) : options_(std::move(options)) {
   if (options_.stateDir.empty()) {
@@ -266,6 +287,7 @@ void Coordinator::enforceDeadlines() {
       job.stopUnits = job.foldLimit;
     }
     finish(job, "deadline reached");
+    recordEstimate(job, infoOf(job).elapsedSeconds);
     touch(job);
   }
 }
@@ -677,6 +699,7 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
     persistState(job);
   }
   worker.currentJobId = job.id;
+  worker.currentUnit = unit;
   touch(job);
   return LeaseGrant{leaseId, job.id, unitAt(unit, job.settings.samplesPerPixel, job.unitSize), job.sceneHash,
                     options_.leaseTimeoutSeconds};
@@ -692,6 +715,7 @@ std::optional<LeaseGrant> Coordinator::lease(const std::string& workerId, double
     reapExpiredLeases(now);
     if (auto grant = tryLease(worker, now)) return grant;
     worker.currentJobId.clear();
+    worker.currentUnit.reset();
     if (now >= until) return std::nullopt;
     // Wake on new work, and now and then to reap lapsed leases.
     changed_.wait_until(lock, std::min(until, now + std::chrono::milliseconds(200)));
@@ -754,7 +778,11 @@ bool Coordinator::acceptResult(UnitResult result) {
     job->markReceived(result.unitIndex);
     ++counters_.unitsDone;
     counters_.samples += result.stats.paths;
-    if (auto w = workers_.find(result.workerId); w != workers_.end()) ++w->second->unitsDone;
+    if (auto w = workers_.find(result.workerId); w != workers_.end()) {
+      ++w->second->unitsDone;
+      if (result.renderSeconds > 0.0) w->second->samplesPerSecond = double(result.stats.paths) / result.renderSeconds;
+      if (w->second->currentUnit == result.unitIndex) w->second->currentUnit.reset();
+    }
     ++job->unitsByWorker[workerName];
   }
   // Every cell of a unit holds the unit's samples; the count is the coordinator's to know.
@@ -784,6 +812,7 @@ bool Coordinator::acceptResult(UnitResult result) {
     job->samplesPerPixelDone = sppAdded;
     job->stats = statsAdded;
     job->estimate = estimate;
+    recordEstimate(*job, infoOf(*job).elapsedSeconds);
     if (!stopReason.empty() && job->state == JobState::kRunning) {
       if (foldLimit < job->unitsTotal) job->stopUnits = foldLimit;
       finish(*job, stopReason);
@@ -816,8 +845,28 @@ std::vector<WorkerView> Coordinator::workers() const {
   const auto now = Clock::now();
   for (const auto& [id, w] : workers_)
     out.push_back(WorkerView{w->id, w->info, w->currentJobId, w->unitsDone,
-                             std::chrono::duration<double>(now - w->lastHeartbeat).count()});
+                             std::chrono::duration<double>(now - w->lastHeartbeat).count(), w->currentUnit,
+                             w->samplesPerSecond});
   return out;
+}
+
+// ---- dashboard ------------------------------------------------------------------------------
+
+JobInfo Coordinator::setPriority(const std::string& jobId, int priority) {
+  std::lock_guard lock(mutex_);
+  Job& job = findJob(jobId);
+  if (job.priority != priority) {
+    job.priority = priority;  // tryLease() and jobs() read it on every call: the order follows at once
+    if (store_) store_->updateJobPriority(job.id, priority);
+    spdlog::info("job {}: priority {}", job.id, priority);
+    touch(job);
+  }
+  return infoOf(job);
+}
+
+std::vector<ErrorPoint> Coordinator::errorHistory(const std::string& jobId) const {
+  std::lock_guard lock(mutex_);
+  return findJob(jobId).history;
 }
 
 MetricsSnapshot Coordinator::metricsSnapshot() const {

@@ -77,6 +77,16 @@ struct WorkerView {
   std::string currentJobId;
   uint64_t unitsDone = 0;
   double secondsSinceHeartbeat = 0.0;
+  // For the dashboard: the unit it holds now (if any) and its speed on its last accepted unit.
+  std::optional<uint64_t> currentUnit;
+  double samplesPerSecond = 0.0;  // camera paths of its last accepted unit / its render seconds
+};
+
+// One point of a job's error-vs-time curve: the published estimate when it changed.
+struct ErrorPoint {
+  double elapsedSeconds = 0.0;
+  double relativeError = 0.0;
+  uint64_t samplesPerPixel = 0;
 };
 
 // The image of a job as it is now, and how to expose it.
@@ -137,6 +147,15 @@ class Coordinator {
   // The job's sensor in full precision (Sensor::serialize), as a checkpoint would save it.
   std::string sensorState(const std::string& jobId) const;
   std::vector<WorkerView> workers() const;
+
+  // ---- dashboard (dashboard.h) ----
+  // Sets a job's priority (persisted with a state dir); serving order follows at once.
+  // FarmError kNotFound for an unknown job.
+  JobInfo setPriority(const std::string& jobId, int priority);
+  // The job's estimate each time it changed, oldest first; at most kMaxErrorPoints (when full,
+  // every other point is dropped, so the curve keeps its whole span at half the density).
+  static constexpr size_t kMaxErrorPoints = 512;
+  std::vector<ErrorPoint> errorHistory(const std::string& jobId) const;
 
   // ---- workers ----
   // FarmError kFailedPrecondition naming both versions when they differ from this process's.

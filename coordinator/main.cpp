@@ -3,6 +3,7 @@
 //   lensfarm-coordinator --listen 0.0.0.0:7878
 //   lensfarm-coordinator --listen 127.0.0.1:0 --port-file /tmp/port   (port 0: pick a free one)
 //   lensfarm-coordinator --metrics-listen 0.0.0.0:9464                (Prometheus metrics over HTTP)
+//   lensfarm-coordinator --dashboard-listen 127.0.0.1:8080             (the web dashboard, docs/dashboard.md)
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <spdlog/spdlog.h>
@@ -19,6 +20,8 @@
 
 #include "util/file_contents.h"
 #include "coordinator.h"
+#include "dashboard.h"
+#include "dashboard_server.h"
 #include "film/image_io.h"
 #include "metrics.h"
 #include "metrics_server.h"
@@ -94,6 +97,14 @@ int main(int argc, char** argv) {
       ->envname("LENSFARM_METRICS_LISTEN");
   app.add_option("--metrics-port-file", metricsPortFile, "Write the metrics address actually listened on to this file")
       ->envname("LENSFARM_METRICS_PORT_FILE");
+  std::string dashboardListen, dashboardPortFile;
+  app.add_option("--dashboard-listen", dashboardListen,
+                 "HOST:PORT to serve the web dashboard on over HTTP (port 0 picks a free port; its /api needs the "
+                 "client token); empty: off")
+      ->envname("LENSFARM_DASHBOARD_LISTEN");
+  app.add_option("--dashboard-port-file", dashboardPortFile,
+                 "Write the dashboard address actually listened on to this file")
+      ->envname("LENSFARM_DASHBOARD_PORT_FILE");
   std::string stateDir;
   app.add_option("--state-dir", stateDir, "Keep jobs, assets, the unit ledger and sensors here (SQLite + files) "
                                           "and resume them after a restart; empty: in memory only")
@@ -157,6 +168,13 @@ int main(int argc, char** argv) {
                   "reach it could submit jobs or lease work. Give both tokens, or listen on 127.0.0.1.", listen);
     return 2;
   }
+  // (A malformed address is refused with its own message when the dashboard starts.)
+  if (const size_t colon = dashboardListen.rfind(':');
+      colon != std::string::npos && colon > 0 && !isLoopback(dashboardListen.substr(0, colon)) && !clientToken) {
+    spdlog::error("refusing to serve the dashboard on {} without --client-token-file: anyone who can reach it could "
+                  "cancel jobs. Give a client token, or listen on 127.0.0.1.", dashboardListen);
+    return 2;
+  }
   if (!loopback && tlsCert.empty())
     spdlog::warn("serving {} without TLS: tokens and images cross the network in the clear", listen);
 
@@ -186,13 +204,22 @@ int main(int argc, char** argv) {
                tlsCert.empty() ? "plain gRPC" : (tlsClientCa.empty() ? "TLS" : "mutual TLS"),
                clientToken ? "required" : "none", workerToken ? "required" : "none");
   std::unique_ptr<MetricsServer> metrics;
+  Dashboard dashboard(coordinator, clientToken);
+  std::unique_ptr<DashboardServer> dashboardServer;
   try {
     if (!metricsListen.empty()) {
       metrics = std::make_unique<MetricsServer>(metricsListen, [&] { return renderMetrics(coordinator.metricsSnapshot()); });
       spdlog::info("metrics on http://{}/metrics", metrics->address());
     }
+    if (!dashboardListen.empty()) {
+      dashboardServer = std::make_unique<DashboardServer>(dashboardListen, dashboard);
+      spdlog::info("dashboard on http://{}/ (client token {})", dashboardServer->address(),
+                   clientToken ? "required" : "none");
+    }
     if (!portFile.empty()) writeAddressFile(portFile, address, "--port-file");
     if (metrics && !metricsPortFile.empty()) writeAddressFile(metricsPortFile, metrics->address(), "--metrics-port-file");
+    if (dashboardServer && !dashboardPortFile.empty())
+      writeAddressFile(dashboardPortFile, dashboardServer->address(), "--dashboard-port-file");
   } catch (const InputError& e) {
     spdlog::error("{}", e.what());
     server->Shutdown();

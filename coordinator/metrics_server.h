@@ -1,15 +1,11 @@
 #pragma once
 // Serves the coordinator's metrics (metrics.h) over HTTP for Prometheus: GET /metrics. A thin
-// shell over cpp-httplib; the text comes from a callback, so the server knows nothing of jobs.
-#include <atomic>
+// shell over cpp-httplib (http_server.h); the text comes from a callback, so the server knows
+// nothing of jobs.
 #include <functional>
-#include <memory>
 #include <string>
-#include <thread>
 
-namespace httplib {
-class Server;
-}
+#include "http_server.h"
 
 namespace lensfarm {
 
@@ -19,18 +15,12 @@ class MetricsServer {
   // answers GET /metrics with render()'s text. Throws InputError for a malformed address and
   // std::runtime_error when it cannot listen.
   MetricsServer(const std::string& listen, std::function<std::string()> render);
-  ~MetricsServer();  // stops serving
-  MetricsServer(const MetricsServer&) = delete;
-  MetricsServer& operator=(const MetricsServer&) = delete;
 
   // HOST:PORT actually listened on (the port resolved when 0 was asked for).
-  const std::string& address() const { return address_; }
+  const std::string& address() const { return server_.address(); }
 
  private:
-  std::unique_ptr<httplib::Server> server_;
-  std::thread thread_;
-  std::atomic<bool> finished_{false};
-  std::string address_;
+  HttpServer server_;
 };
 
 }  // namespace lensfarm

@@ -200,6 +200,11 @@ void StateStore::updateJobState(const std::string& jobId, const std::string& sta
       .step();
 }
 
+void StateStore::updateJobPriority(const std::string& jobId, int priority) {
+  std::lock_guard lock(mutex_);
+  Statement(db_, "UPDATE jobs SET priority = ? WHERE id = ?").bind(1, int64_t(priority)).bind(2, jobId).step();
+}
+
 std::vector<StateStore::StoredJob> StateStore::loadJobs() {
   std::lock_guard lock(mutex_);
   std::vector<StoredJob> out;

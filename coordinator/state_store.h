@@ -55,6 +55,7 @@ class StateStore {
   void insertJob(const StoredJob& job);
   void updateJobState(const std::string& jobId, const std::string& state, const std::string& error,
                       const std::optional<uint64_t>& stopUnits = std::nullopt, const std::string& stopReason = "");
+  void updateJobPriority(const std::string& jobId, int priority);
   std::vector<StoredJob> loadJobs();  // in submission order
 
   struct LedgerEntry {

@@ -104,15 +104,23 @@ std::string firstLine(const std::string& text) { return text.substr(0, text.find
 
 std::string FarmProcesses::startCoordinator(std::vector<std::string> args, const std::vector<std::string>& wrapper) {
   const std::string n = std::to_string(++started_);
-  const fs::path portFile = dir_ / ("port-" + n), metricsFile = dir_ / ("metrics-port-" + n);
+  const fs::path portFile = dir_ / ("port-" + n), metricsFile = dir_ / ("metrics-port-" + n),
+                 dashboardFile = dir_ / ("dashboard-port-" + n);
   const bool metrics = optionsOf(args).count("--metrics-listen") > 0;
+  const bool dashboard = optionsOf(args).count("--dashboard-listen") > 0;
   args.insert(args.end(), {"--port-file", portFile.string()});
   if (metrics) args.insert(args.end(), {"--metrics-port-file", metricsFile.string()});
+  if (dashboard) args.insert(args.end(), {"--dashboard-port-file", dashboardFile.string()});
   coordinator_ = std::make_unique<ChildProcess>(wrapped(wrapper, coordinatorPath(), args), dir_ / ("coordinator-" + n));
   const bool up = waitFor(
-      [&] { return (fs::exists(portFile) && (!metrics || fs::exists(metricsFile))) || !coordinator_->running(); }, 30);
+      [&] {
+        return (fs::exists(portFile) && (!metrics || fs::exists(metricsFile)) && (!dashboard || fs::exists(dashboardFile))) ||
+               !coordinator_->running();
+      },
+      30);
   if (!up || !fs::exists(portFile)) throw std::runtime_error("the coordinator did not start: " + coordinator_->log());
   if (metrics) metricsAddress_ = firstLine(readFile(metricsFile));
+  if (dashboard) dashboardAddress_ = firstLine(readFile(dashboardFile));
   return firstLine(readFile(portFile));
 }
 

@@ -49,9 +49,11 @@ class FarmProcesses {
   explicit FarmProcesses(const TempDir& dir) : dir_(dir) {}
 
   // Starts lensfarm-coordinator with `args` plus --port-file (and --metrics-port-file when
-  // `args` has --metrics-listen); waits until it serves. Returns its address; throws if it exits.
+  // `args` has --metrics-listen, --dashboard-port-file when it has --dashboard-listen); waits
+  // until it serves. Returns its address; throws if it exits.
   std::string startCoordinator(std::vector<std::string> args, const std::vector<std::string>& wrapper = {});
   const std::string& metricsAddress() const { return metricsAddress_; }
+  const std::string& dashboardAddress() const { return dashboardAddress_; }
   ChildProcess& coordinator() { return *coordinator_; }
 
   // Starts lensfarm-worker with `args` plus --name, a cache dir of its own and a short backoff.
@@ -68,6 +70,7 @@ class FarmProcesses {
   std::unique_ptr<ChildProcess> coordinator_;
   std::vector<std::unique_ptr<ChildProcess>> workers_;
   std::string metricsAddress_;
+  std::string dashboardAddress_;
   int started_ = 0;
 };
 

@@ -1,0 +1,119 @@
+#include "dashboard.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+
+#include "film/image.h"
+#include "film/image_io.h"
+#include "util/secret.h"
+
+namespace lensfarm {
+
+namespace {
+
+using json = nlohmann::json;
+
+json summaryOf(const JobInfo& info) {
+  json j;
+  j["id"] = info.id;
+  j["state"] = jobStateName(info.state);
+  j["priority"] = info.priority;
+  j["scene"] = info.sceneName;
+  j["width"] = info.width;
+  j["height"] = info.height;
+  j["spp_done"] = info.samplesPerPixelDone;
+  j["spp_total"] = info.samplesPerPixelTotal;
+  j["units_done"] = info.unitsDone;
+  j["units_total"] = info.unitsTotal;
+  j["progress"] = info.unitsTotal ? double(info.unitsDone) / double(info.unitsTotal) : 0.0;
+  j["samples_per_second"] = info.elapsedSeconds > 0 ? double(info.stats.paths) / info.elapsedSeconds : 0.0;
+  j["rays_per_second"] = info.raysPerSecond();
+  j["estimated_error"] = info.estimatedRelativeError >= 0 ? json(info.estimatedRelativeError) : json(nullptr);
+  j["target_error"] = info.targetError;
+  j["elapsed_seconds"] = info.elapsedSeconds;
+  j["remaining_seconds"] = info.remainingSeconds;
+  j["seconds_to_target"] = info.secondsToTarget;
+  j["time_limit_seconds"] = info.timeLimitSeconds;
+  j["workers_busy"] = info.workersBusy;
+  j["error"] = info.error;
+  j["stop_reason"] = info.stopReason;
+  j["submitted_unix_seconds"] = info.submittedUnixSeconds;
+  j["version"] = info.version;
+  return j;
+}
+
+}  // namespace
+
+bool Dashboard::authorized(const std::string& header) const {
+  if (!token_) return true;
+  const std::string prefix = "Bearer ";
+  return header.rfind(prefix, 0) == 0 && equalSecrets(header.substr(prefix.size()), *token_);
+}
+
+std::string Dashboard::jobsJson() const {
+  json list = json::array();
+  for (const JobInfo& info : coordinator_.jobs()) list.push_back(summaryOf(info));
+  return json{{"jobs", list}}.dump();
+}
+
+std::string Dashboard::jobJson(const std::string& jobId) const {
+  const JobInfo info = coordinator_.job(jobId);
+  json j = summaryOf(info);
+  j["scene_hash"] = info.sceneHash;
+  j["effects"] = info.effects;
+  j["light_hit_fraction"] = info.lightHitFraction();
+  j["dropped_samples"] = info.stats.dropped;
+  json history = json::array();
+  for (const ErrorPoint& p : coordinator_.errorHistory(jobId))
+    history.push_back(json{{"t", p.elapsedSeconds}, {"error", p.relativeError}, {"spp", p.samplesPerPixel}});
+  j["error_history"] = history;
+  return j.dump();
+}
+
+std::string Dashboard::workersJson() const {
+  json list = json::array();
+  for (const WorkerView& w : coordinator_.workers()) {
+    list.push_back(json{{"id", w.id},
+                        {"name", w.info.name},
+                        {"cores", w.info.threads},
+                        {"current_job", w.currentJobId},
+                        {"current_unit", w.currentUnit ? json(*w.currentUnit) : json(nullptr)},
+                        {"units_done", w.unitsDone},
+                        {"samples_per_second", w.samplesPerSecond},
+                        {"seconds_since_heartbeat", w.secondsSinceHeartbeat},
+                        {"renderer_version", w.info.rendererVersion}});
+  }
+  return json{{"workers", list}}.dump();
+}
+
+Dashboard::Png Dashboard::snapshot(const std::string& jobId, std::optional<double> ev, int maxSide) const {
+  const uint64_t version = coordinator_.job(jobId).version;  // before the image: never newer than it
+  JobImage image = coordinator_.image(jobId);
+  if (ev) image.exposure.ev = *ev;
+  // A box filter keeps the mean luminance, so the automatic exposure matches the download's.
+  const Image preview = downscaleToFit(image.image, std::clamp(maxSide, 16, 1024));
+  return Png{encodePng(preview, image.exposure), preview.width, preview.height, image.metadata.samplesPerPixel, version,
+             image.exposure.ev};
+}
+
+std::string Dashboard::exr(const std::string& jobId) const {
+  const JobImage image = coordinator_.image(jobId);
+  return encodeExr(image.image, image.metadata);
+}
+
+Dashboard::Png Dashboard::png(const std::string& jobId, std::optional<double> ev) const {
+  const uint64_t version = coordinator_.job(jobId).version;
+  JobImage image = coordinator_.image(jobId);
+  if (ev) image.exposure.ev = *ev;
+  return Png{encodePng(image.image, image.exposure), image.image.width, image.image.height,
+             image.metadata.samplesPerPixel, version, image.exposure.ev};
+}
+
+std::string Dashboard::cancel(const std::string& jobId) { return summaryOf(coordinator_.cancel(jobId)).dump(); }
+
+std::string Dashboard::setPriority(const std::string& jobId, int priority) {
+  return summaryOf(coordinator_.setPriority(jobId, priority)).dump();
+}
+
+}  // namespace lensfarm

@@ -1,0 +1,51 @@
+#pragma once
+// The web dashboard's answers, with no network code: the job and worker lists and a job's detail
+// as JSON, snapshot PNGs at an exposure and size, the EXR and PNG downloads, and the actions
+// (cancel, priority). dashboard_server.h serves them over HTTP; docs/dashboard.md lists the
+// endpoints and the JSON fields.
+#include <optional>
+#include <string>
+
+#include "coordinator.h"
+
+namespace lensfarm {
+
+class Dashboard {
+ public:
+  // `token`: the client token every /api request must carry ("Bearer <token>"); none: open.
+  Dashboard(Coordinator& coordinator, std::optional<std::string> token)
+      : coordinator_(coordinator), token_(std::move(token)) {}
+
+  // Whether an Authorization header value admits the request (constant-time compare).
+  bool authorized(const std::string& authorizationHeader) const;
+  bool tokenRequired() const { return token_.has_value(); }
+
+  // JSON texts. FarmError kNotFound for an unknown job.
+  std::string jobsJson() const;                          // {"jobs": [job summary...]} in serving order
+  std::string jobJson(const std::string& jobId) const;   // a summary plus effects and error history
+  std::string workersJson() const;                       // {"workers": [...]}
+
+  struct Png {
+    std::string bytes;
+    int width = 0, height = 0;
+    uint64_t samplesPerPixel = 0;  // of the image in it
+    uint64_t version = 0;          // the job's version when it was made
+    double ev = 0.0;               // exposure compensation applied after the automatic exposure
+  };
+  // The image as it is now, box-filtered to fit `maxSide` (clamped to [16, 1024]) and exposed
+  // automatically with `ev` (the scene's own when absent).
+  Png snapshot(const std::string& jobId, std::optional<double> ev, int maxSide) const;
+  // The downloads: the EXR (linear, with provenance) and the full-size PNG.
+  std::string exr(const std::string& jobId) const;
+  Png png(const std::string& jobId, std::optional<double> ev) const;
+
+  // Actions; each returns the job's summary JSON afterwards.
+  std::string cancel(const std::string& jobId);
+  std::string setPriority(const std::string& jobId, int priority);
+
+ private:
+  Coordinator& coordinator_;
+  std::optional<std::string> token_;
+};
+
+}  // namespace lensfarm

@@ -1,0 +1,325 @@
+// The lensfarm dashboard: plain ES module, no framework and no build step. It polls the
+// coordinator's /api (docs/dashboard.md) about once a second, with the client token from
+// session storage in an Authorization header; images and downloads are fetched the same way and
+// shown or saved through object URLs, so the token never appears in a URL.
+
+const $ = (selector) => document.querySelector(selector);
+const TOKEN_KEY = "lensfarm.token";
+const POLL_MS = 1000;
+const SNAPSHOT_SIDE = 512;
+
+let route = { view: "overview" };
+let shown = { jobId: null, version: -1, ev: null, url: null };  // the snapshot on the page
+let evChoice = null;  // null: the scene's exposure; a number: the slider's
+let lastJob = null;
+let pollTimer = null;
+
+// ---- talking to the coordinator --------------------------------------------------------------
+
+class Unauthorized extends Error {}
+
+function authHeaders() {
+  const token = sessionStorage.getItem(TOKEN_KEY);
+  return token ? { Authorization: `Bearer ${token}` } : {};
+}
+
+async function api(path, options = {}) {
+  const response = await fetch(path, { ...options, headers: { ...authHeaders(), ...(options.headers || {}) } });
+  if (response.status === 401) throw new Unauthorized((await response.json()).error || "unauthorized");
+  if (!response.ok) {
+    let message = `${response.status} ${response.statusText}`;
+    try { message = (await response.json()).error || message; } catch (_) { /* not JSON */ }
+    throw new Error(message);
+  }
+  return response;
+}
+const getJson = async (path) => (await api(path)).json();
+const postJson = async (path, body) =>
+  (await api(path, { method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body || {}) })).json();
+
+// ---- formatting ------------------------------------------------------------------------------
+
+function fmtCount(n) {
+  if (!isFinite(n)) return "–";
+  const units = [[1e12, "T"], [1e9, "G"], [1e6, "M"], [1e3, "k"]];
+  for (const [scale, suffix] of units) if (Math.abs(n) >= scale) return `${(n / scale).toFixed(n / scale >= 100 ? 0 : 2)} ${suffix}`;
+  return `${Math.round(n)}`;
+}
+function fmtDuration(s) {
+  if (!(s > 0)) return "–";
+  if (s < 10) return `${s.toFixed(1)} s`;
+  if (s < 60) return `${Math.round(s)} s`;
+  if (s < 3600) return `${Math.floor(s / 60)} min ${String(Math.round(s % 60)).padStart(2, "0")} s`;
+  return `${Math.floor(s / 3600)} h ${String(Math.round((s % 3600) / 60)).padStart(2, "0")} min`;
+}
+function fmtError(e) {
+  if (e === null || e === undefined || e < 0) return "–";
+  return e >= 0.1 ? `${(100 * e).toFixed(1)} %` : `${(100 * e).toFixed(2)} %`;
+}
+const fmtEv = (ev) => `${ev >= 0 ? "+" : "−"}${Math.abs(ev).toFixed(2)} EV`;
+const isTerminal = (state) => state === "done" || state === "cancelled" || state === "failed";
+
+function el(tag, attributes = {}, ...children) {
+  const node = document.createElement(tag);
+  for (const [k, v] of Object.entries(attributes)) {
+    if (k === "class") node.className = v;
+    else if (k === "dataset") Object.assign(node.dataset, v);
+    else node.setAttribute(k, v);
+  }
+  for (const child of children) node.append(child instanceof Node ? child : document.createTextNode(String(child)));
+  return node;
+}
+const badge = (state) => el("span", { class: `badge state-${state}` }, state);
+function progressBar(fraction) {
+  const bar = el("div", { class: "progress small" }, el("div"));
+  bar.firstChild.style.width = `${Math.min(100, 100 * fraction).toFixed(1)}%`;
+  return bar;
+}
+
+// ---- views -----------------------------------------------------------------------------------
+
+function show(view) {
+  for (const id of ["login", "overview", "job"]) $(`#${id}`).hidden = id !== view;
+}
+
+async function renderOverview() {
+  const [{ jobs }, { workers }] = await Promise.all([getJson("/api/jobs"), getJson("/api/workers")]);
+  const jobRows = jobs.map((j) =>
+    el("tr", { dataset: { job: j.id, state: j.state } },
+      el("td", {}, el("a", { href: `#/job/${encodeURIComponent(j.id)}` }, j.id)),
+      el("td", {}, `${j.scene} `, el("span", { class: "muted" }, `${j.width}×${j.height}`)),
+      el("td", {}, badge(j.state)),
+      el("td", { class: "num" }, j.priority),
+      el("td", { class: "progress-cell" }, progressBar(j.progress),
+        el("span", { class: "muted" }, `${j.spp_done} / ${j.spp_total} spp`)),
+      el("td", { class: "num" }, isTerminal(j.state) ? "–" : fmtCount(j.samples_per_second)),
+      el("td", { class: "num" }, fmtError(j.estimated_error)),
+      el("td", { class: "num" }, isTerminal(j.state) ? (j.stop_reason || j.state) : fmtDuration(j.remaining_seconds))));
+  $("#jobs tbody").replaceChildren(...jobRows);
+  $("#jobs-empty").hidden = jobs.length > 0;
+  const workerRows = workers.map((w) =>
+    el("tr", { dataset: { worker: w.id } },
+      el("td", {}, w.name || w.id, " ", el("span", { class: "muted" }, w.id)),
+      el("td", { class: "num" }, w.cores),
+      el("td", {}, w.current_job
+        ? el("a", { href: `#/job/${encodeURIComponent(w.current_job)}` }, `${w.current_job} · unit ${w.current_unit ?? "–"}`)
+        : el("span", { class: "muted" }, "idle")),
+      el("td", { class: "num" }, w.samples_per_second > 0 ? fmtCount(w.samples_per_second) : "–"),
+      el("td", { class: "num" }, w.units_done),
+      el("td", { class: "num" }, `${w.seconds_since_heartbeat.toFixed(1)} s ago`)));
+  $("#workers tbody").replaceChildren(...workerRows);
+  $("#workers-empty").hidden = workers.length > 0;
+}
+
+function stat(term, value, id) {
+  return [el("dt", {}, term), el("dd", id ? { id } : {}, value)];
+}
+
+async function renderJob(jobId) {
+  const job = await getJson(`/api/jobs/${encodeURIComponent(jobId)}`);
+  lastJob = job;
+  $("#job-id").textContent = job.id;
+  $("#job-scene").textContent = `${job.scene} · ${job.width}×${job.height}`;
+  const state = $("#job-state");
+  state.textContent = job.state;
+  state.className = `badge state-${job.state}`;
+  $("#job-progress-bar").style.width = `${Math.min(100, 100 * job.progress).toFixed(1)}%`;
+  const running = !isTerminal(job.state);
+  const target = job.target_error > 0 ? ` (target ${fmtError(job.target_error)})` : "";
+  $("#job-stats").replaceChildren(
+    ...stat("Samples per pixel", `${job.spp_done} / ${job.spp_total}`, "job-spp"),
+    ...stat("Units", `${job.units_done} / ${job.units_total}`),
+    ...stat("Samples/s", running ? fmtCount(job.samples_per_second) : "–"),
+    ...stat("Estimated error", fmtError(job.estimated_error) + target, "job-error"),
+    ...stat("Elapsed", fmtDuration(job.elapsed_seconds)),
+    ...stat(running ? "Time left" : "Stopped", running ? fmtDuration(job.remaining_seconds) : (job.stop_reason || job.error || job.state)),
+    ...stat("Workers busy", job.workers_busy));
+  $("#job-priority").textContent = job.priority;
+  $("#cancel").disabled = !running;
+  $("#priority-up").disabled = $("#priority-down").disabled = !running;
+  $("#effects").replaceChildren(...job.effects.map((e) => {
+    const m = /^([^:]+): (on|off)(?: \((.*)\))?$/.exec(e);
+    if (!m) return el("li", {}, e);
+    return el("li", {}, el("span", { class: `tag ${m[2]}` }, m[2]), " ", el("strong", {}, m[1]),
+      m[3] ? el("span", { class: "muted" }, ` — ${m[3]}`) : "");
+  }));
+  drawErrorChart($("#error-chart"), job.error_history, job.target_error);
+  if (job.version !== shown.version || evChoice !== shown.ev || shown.jobId !== job.id) await loadSnapshot(job);
+}
+
+async function loadSnapshot(job) {
+  const ev = evChoice;
+  const query = new URLSearchParams({ max: String(SNAPSHOT_SIDE) });
+  if (ev !== null) query.set("ev", String(ev));
+  const response = await api(`/api/jobs/${encodeURIComponent(job.id)}/snapshot.png?${query}`);
+  const blob = await response.blob();
+  const bytes = new Uint8Array(await blob.arrayBuffer());
+  let hash = 0x811c9dc5;  // FNV-1a of the PNG: changes whenever the image does
+  for (const b of bytes) hash = Math.imul(hash ^ b, 0x01000193) >>> 0;
+  const url = URL.createObjectURL(blob);
+  const img = $("#snapshot");
+  await new Promise((resolve) => { img.onload = resolve; img.onerror = resolve; img.src = url; });
+  if (shown.url) URL.revokeObjectURL(shown.url);
+  const spp = response.headers.get("X-Samples-Per-Pixel");
+  const appliedEv = Number(response.headers.get("X-Ev"));
+  shown = { jobId: job.id, version: Number(response.headers.get("X-Job-Version")), ev, url };
+  Object.assign(img.dataset, { spp, hash: hash.toString(16), version: String(shown.version) });
+  $("#snapshot-caption").textContent =
+    `${response.headers.get("X-Width")}×${response.headers.get("X-Height")} preview at ${spp} spp, ` +
+    `automatic exposure ${fmtEv(appliedEv)}`;
+  if (ev === null) { $("#ev").value = String(appliedEv); $("#ev-value").textContent = fmtEv(appliedEv); }
+}
+
+// The estimated relative error against elapsed time, log-scaled, as plain SVG.
+function drawErrorChart(svg, points, target) {
+  const NS = "http://www.w3.org/2000/svg";
+  const W = 480, H = 240, left = 58, right = 14, top = 12, bottom = 40;
+  const node = (tag, attributes, text) => {
+    const n = document.createElementNS(NS, tag);
+    for (const [k, v] of Object.entries(attributes)) n.setAttribute(k, v);
+    if (text !== undefined) n.textContent = text;
+    return n;
+  };
+  const children = [];
+  if (!points.length) {
+    children.push(node("text", { x: W / 2, y: H / 2, "text-anchor": "middle", class: "chart-empty" },
+      "no estimate yet (it needs two units)"));
+    svg.replaceChildren(...children);
+    return;
+  }
+  const errors = points.map((p) => p.error).concat(target > 0 ? [target] : []);
+  let lo = Math.floor(Math.log10(Math.min(...errors)) * 2) / 2, hi = Math.ceil(Math.log10(Math.max(...errors)) * 2) / 2;
+  if (hi - lo < 0.5) { lo -= 0.25; hi += 0.25; }
+  const tMax = Math.max(1, ...points.map((p) => p.t)) * 1.02;
+  const x = (t) => left + (W - left - right) * (t / tMax);
+  const y = (e) => top + (H - top - bottom) * (1 - (Math.log10(e) - lo) / (hi - lo));
+  // Grid: decades and their 2 and 5, seconds at round steps.
+  for (let d = Math.floor(lo); d <= Math.ceil(hi); ++d) {
+    for (const m of hi - lo <= 1.5 ? [1, 1.5, 2, 3, 5, 7] : [1, 2, 5]) {
+      const e = m * 10 ** d, l = Math.log10(e);
+      if (l < lo - 1e-9 || l > hi + 1e-9) continue;
+      children.push(node("line", { x1: left, x2: W - right, y1: y(e), y2: y(e), class: m === 1 ? "grid major" : "grid" }));
+      children.push(node("text", { x: left - 6, y: y(e) + 4, "text-anchor": "end", class: "tick" }, fmtError(e)));
+    }
+  }
+  const step = [1, 2, 5, 10, 15, 30, 60, 120, 300, 600, 1800, 3600].find((s) => tMax / s <= 6) || 7200;
+  for (let t = 0; t <= tMax; t += step) {
+    children.push(node("line", { x1: x(t), x2: x(t), y1: top, y2: H - bottom, class: "grid" }));
+    children.push(node("text", { x: x(t), y: H - bottom + 16, "text-anchor": "middle", class: "tick" }, t < 60 ? `${t} s` : fmtDuration(t)));
+  }
+  children.push(node("line", { x1: left, x2: left, y1: top, y2: H - bottom, class: "axis" }));
+  children.push(node("line", { x1: left, x2: W - right, y1: H - bottom, y2: H - bottom, class: "axis" }));
+  children.push(node("text", { x: (left + W - right) / 2, y: H - 6, "text-anchor": "middle", class: "label" }, "elapsed time"));
+  if (target > 0) {
+    children.push(node("line", { x1: left, x2: W - right, y1: y(target), y2: y(target), class: "target" }));
+    children.push(node("text", { x: W - right - 4, y: y(target) - 5, "text-anchor": "end", class: "tick target-label" }, "target"));
+  }
+  const path = points.map((p, i) => `${i ? "L" : "M"}${x(p.t).toFixed(1)},${y(p.error).toFixed(1)}`).join(" ");
+  children.push(node("path", { d: path, class: "curve" }));
+  const last = points[points.length - 1];
+  children.push(node("circle", { cx: x(last.t), cy: y(last.error), r: 3.5, class: "dot" }));
+  children.push(node("text", { x: Math.min(x(last.t) + 6, W - right - 50), y: y(last.error) - 8, class: "tick value" }, fmtError(last.error)));
+  svg.dataset.points = String(points.length);
+  svg.replaceChildren(...children);
+}
+
+// ---- downloads: fetched with the token, saved through a blob link ----------------------------
+
+async function download(kind) {
+  if (!lastJob) return;
+  const query = kind === "png" && evChoice !== null ? `?ev=${evChoice}` : "";
+  try {
+    const blob = await (await api(`/api/jobs/${encodeURIComponent(lastJob.id)}/image.${kind}${query}`)).blob();
+    const url = URL.createObjectURL(blob);
+    const link = el("a", { href: url, download: `${lastJob.id}.${kind}` });
+    document.body.append(link);
+    link.click();
+    link.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 10000);
+  } catch (e) {
+    report(e);
+  }
+}
+
+// ---- the loop --------------------------------------------------------------------------------
+
+function report(e) {
+  if (e instanceof Unauthorized) {
+    show("login");
+    $("#login-error").textContent = sessionStorage.getItem(TOKEN_KEY)
+      ? `The coordinator refused the token (${e.message}).` : "";
+    $("#forget-token").hidden = true;
+    $("#connection").textContent = "";
+    return;
+  }
+  const target = route.view === "job" ? $("#job-message") : null;
+  if (target) target.textContent = e.message;
+  $("#connection").textContent = `⚠ ${e.message}`;
+  $("#connection").className = "connection bad";
+}
+
+// One poll at a time: a poll asked for while one runs starts right after it.
+let polling = false, pollAgain = false;
+async function poll() {
+  clearTimeout(pollTimer);
+  if (polling) { pollAgain = true; return; }
+  polling = true;
+  let authorized = true;
+  try {
+    if (route.view === "job") await renderJob(route.jobId);
+    else await renderOverview();
+    show(route.view);
+    $("#forget-token").hidden = !sessionStorage.getItem(TOKEN_KEY);
+    $("#connection").textContent = `updated ${new Date().toLocaleTimeString()}`;
+    $("#connection").className = "connection";
+    if (route.view === "job") $("#job-message").textContent = "";
+  } catch (e) {
+    report(e);
+    authorized = !(e instanceof Unauthorized);
+  } finally {
+    polling = false;
+  }
+  if (pollAgain) { pollAgain = false; return poll(); }
+  if (authorized) pollTimer = setTimeout(poll, POLL_MS);  // else wait for a token
+}
+
+function onRoute() {
+  const m = /^#\/job\/(.+)$/.exec(location.hash);
+  route = m ? { view: "job", jobId: decodeURIComponent(m[1]) } : { view: "overview" };
+  if (route.view === "job" && shown.jobId !== route.jobId) { evChoice = null; shown.version = -1; lastJob = null; }
+  poll();
+}
+
+$("#token-form").addEventListener("submit", (event) => {
+  event.preventDefault();
+  const token = $("#token").value.trim();
+  if (!token) { $("#login-error").textContent = "Paste the client token first."; return; }
+  sessionStorage.setItem(TOKEN_KEY, token);
+  $("#token").value = "";
+  $("#login-error").textContent = "Checking…";
+  poll();
+});
+$("#forget-token").addEventListener("click", () => { sessionStorage.removeItem(TOKEN_KEY); poll(); });
+$("#ev").addEventListener("input", () => {
+  evChoice = Number($("#ev").value);
+  $("#ev-value").textContent = fmtEv(evChoice);
+});
+$("#ev").addEventListener("change", () => poll());
+$("#ev-auto").addEventListener("click", () => { evChoice = null; poll(); });
+$("#cancel").addEventListener("click", async () => {
+  if (!lastJob) return;
+  try { await postJson(`/api/jobs/${encodeURIComponent(lastJob.id)}/cancel`); } catch (e) { report(e); }
+  poll();
+});
+for (const [id, delta] of [["#priority-up", 1], ["#priority-down", -1]]) {
+  $(id).addEventListener("click", async () => {
+    if (!lastJob) return;
+    try { await postJson(`/api/jobs/${encodeURIComponent(lastJob.id)}/priority`, { priority: lastJob.priority + delta }); }
+    catch (e) { report(e); }
+    poll();
+  });
+}
+$("#download-exr").addEventListener("click", () => download("exr"));
+$("#download-png").addEventListener("click", () => download("png"));
+window.addEventListener("hashchange", onRoute);
+onRoute();

@@ -1,0 +1,216 @@
+// The dashboard's answers (dashboard.h) and the coordinator's additions behind them (priority
+// changes, the error history, workers' current unit and speed), driven directly: no network.
+#include <gtest/gtest.h>
+
+#include "coordinator.h"
+#include "dashboard.h"
+#include "test_support.h"
+#include "util/error.h"
+#include "util/version.h"
+
+namespace lensfarm {
+namespace {
+
+using nlohmann::json;
+
+JobSpec specFor(uint64_t spp, double targetError = 0.0) {
+  json scene = test::minimalSceneJson();
+  scene["render"]["samples_per_pixel"] = spp;
+  scene["render"]["samples_per_unit"] = 1;
+  scene["render"]["resolution"] = {8, 6};
+  if (targetError > 0) scene["render"]["target_error"] = targetError;
+  JobSpec spec;
+  spec.sceneName = "test.json";
+  spec.sceneJson = scene.dump();
+  return spec;
+}
+
+WorkerInfo workerInfo(const std::string& name, uint32_t threads) {
+  return WorkerInfo{name, threads, kProtocolVersion, kRendererVersion};
+}
+
+// A rendered-looking result: every sum `value`, 48 paths rendered in `seconds`.
+UnitResult resultFor(const std::string& worker, const LeaseGrant& g, double value, double seconds = 0.5) {
+  UnitResult r;
+  r.workerId = worker;
+  r.leaseId = g.leaseId;
+  r.jobId = g.jobId;
+  r.unitIndex = g.unit.index;
+  r.buffer = SensorBuffer(8, 6);
+  std::fill(r.buffer.sums.begin(), r.buffer.sums.end(), value);
+  r.stats.paths = 48 * g.unit.sampleCount;
+  r.stats.rays = 3 * r.stats.paths;
+  r.renderSeconds = seconds;
+  return r;
+}
+
+// Leases and returns `units` units of whatever is first in line, with values that differ between
+// the halves so that the error estimate is positive.
+void renderUnits(Coordinator& c, const std::string& worker, int units) {
+  for (int k = 0; k < units; ++k) {
+    const auto g = c.lease(worker, 0);
+    ASSERT_TRUE(g);
+    ASSERT_TRUE(c.acceptResult(resultFor(worker, *g, g->unit.index % 2 ? 1.5 : 1.0)));
+  }
+}
+
+TEST(Dashboard, JsonHasWhatThePagesShow) {
+  Coordinator c;
+  Dashboard d(c, std::nullopt);
+  const std::string id = c.submit(specFor(64, 1e-6), 2).id;
+  const std::string w = c.registerWorker(workerInfo("box-1", 6));
+  renderUnits(c, w, 4);
+  const auto held = c.lease(w, 0);
+  ASSERT_TRUE(held);
+
+  const json jobs = json::parse(d.jobsJson());
+  ASSERT_EQ(jobs["jobs"].size(), 1u);
+  const json& j = jobs["jobs"][0];
+  EXPECT_EQ(j["id"], id);
+  EXPECT_EQ(j["state"], "running");
+  EXPECT_EQ(j["priority"], 2);
+  EXPECT_EQ(j["scene"], "test.json");
+  EXPECT_EQ(j["width"], 8);
+  EXPECT_EQ(j["spp_done"], 4);
+  EXPECT_EQ(j["spp_total"], 64);
+  EXPECT_DOUBLE_EQ(j["progress"].get<double>(), 4.0 / 64);
+  EXPECT_GT(j["estimated_error"].get<double>(), 0.0);
+  EXPECT_DOUBLE_EQ(j["target_error"].get<double>(), 1e-6);
+  for (const char* key : {"samples_per_second", "elapsed_seconds", "remaining_seconds", "version", "workers_busy"})
+    EXPECT_TRUE(j.contains(key)) << key;
+
+  const json detail = json::parse(d.jobJson(id));
+  EXPECT_EQ(detail["id"], id);
+  ASSERT_TRUE(detail["effects"].is_array());
+  EXPECT_FALSE(detail["effects"].empty());
+  const json& history = detail["error_history"];
+  ASSERT_EQ(history.size(), 3u) << "one point per changed estimate, from the second unit on: " << history;
+  EXPECT_EQ(history[0]["spp"], 2);
+  EXPECT_EQ(history[2]["spp"], 4);
+  EXPECT_DOUBLE_EQ(history[2]["error"].get<double>(), j["estimated_error"].get<double>());
+  EXPECT_LE(history[0]["t"].get<double>(), history[2]["t"].get<double>());
+
+  const json workers = json::parse(d.workersJson());
+  ASSERT_EQ(workers["workers"].size(), 1u);
+  const json& wj = workers["workers"][0];
+  EXPECT_EQ(wj["id"], w);
+  EXPECT_EQ(wj["name"], "box-1");
+  EXPECT_EQ(wj["cores"], 6);
+  EXPECT_EQ(wj["current_job"], id);
+  EXPECT_EQ(wj["current_unit"], held->unit.index);
+  EXPECT_EQ(wj["units_done"], 4);
+  EXPECT_DOUBLE_EQ(wj["samples_per_second"].get<double>(), 48.0 / 0.5) << "its last unit's paths / render seconds";
+  EXPECT_GE(wj["seconds_since_heartbeat"].get<double>(), 0.0);
+
+  EXPECT_THROW(d.jobJson("job-404"), FarmError);
+}
+
+TEST(Dashboard, EstimateIsNullUntilKnown) {
+  Coordinator c;
+  Dashboard d(c, std::nullopt);
+  c.submit(specFor(4), 0);
+  EXPECT_TRUE(json::parse(d.jobsJson())["jobs"][0]["estimated_error"].is_null());
+  EXPECT_TRUE(json::parse(d.workersJson())["workers"].empty());
+}
+
+TEST(Dashboard, PriorityChangesReorderJobsAndLeases) {
+  test::TempDir dir;
+  Coordinator::Options options;
+  options.stateDir = dir / "state";
+  std::string first, second;
+  {
+    Coordinator c(options);
+    Dashboard d(c, std::nullopt);
+    first = c.submit(specFor(8), 0).id;
+    second = c.submit(specFor(8), 0).id;
+    EXPECT_EQ(json::parse(d.jobsJson())["jobs"][0]["id"], first);
+    const uint64_t version = c.job(second).version;
+    EXPECT_EQ(json::parse(d.setPriority(second, 3))["priority"], 3);
+    EXPECT_GT(c.job(second).version, version) << "watchers see the change";
+    const json jobs = json::parse(d.jobsJson())["jobs"];
+    EXPECT_EQ(jobs[0]["id"], second);
+    EXPECT_EQ(jobs[1]["id"], first);
+    const std::string w = c.registerWorker(workerInfo("w", 1));
+    EXPECT_EQ(c.lease(w, 0)->jobId, second) << "the next unit comes from the raised job";
+    EXPECT_THROW(d.setPriority("job-404", 1), FarmError);
+  }
+  Coordinator restarted(options);
+  const auto jobs = restarted.jobs();
+  ASSERT_EQ(jobs.size(), 2u);
+  EXPECT_EQ(jobs[0].id, second) << "the priority is persisted";
+  EXPECT_EQ(jobs[0].priority, 3);
+}
+
+TEST(Dashboard, CancelStopsTheJob) {
+  Coordinator c;
+  Dashboard d(c, std::nullopt);
+  const std::string id = c.submit(specFor(8), 0).id;
+  EXPECT_EQ(json::parse(d.cancel(id))["state"], "cancelled");
+  EXPECT_EQ(c.job(id).state, JobState::kCancelled);
+}
+
+TEST(Dashboard, SnapshotsArePngsAtTheAskedExposureAndSize) {
+  Coordinator c;
+  Dashboard d(c, std::nullopt);
+  json scene = test::minimalSceneJson();
+  scene["render"]["samples_per_pixel"] = 2;
+  scene["render"]["samples_per_unit"] = 1;
+  scene["render"]["resolution"] = {64, 48};
+  JobSpec spec;
+  spec.sceneName = "test.json";
+  spec.sceneJson = scene.dump();
+  const std::string id = c.submit(spec, 0).id;
+  const std::string w = c.registerWorker(workerInfo("w", 1));
+  const auto g = c.lease(w, 0);
+  UnitResult r;
+  r.workerId = w;
+  r.leaseId = g->leaseId;
+  r.jobId = id;
+  r.unitIndex = 0;
+  r.buffer = SensorBuffer(64, 48);
+  for (size_t k = 0; k < r.buffer.sums.size(); ++k) r.buffer.sums[k] = double(k % 97) / 50.0;  // a gradient
+  ASSERT_TRUE(c.acceptResult(std::move(r)));
+
+  const Dashboard::Png automatic = d.snapshot(id, std::nullopt, 32);
+  EXPECT_EQ(automatic.bytes.substr(0, 8), "\x89PNG\r\n\x1a\n");
+  EXPECT_EQ(automatic.width, 32);
+  EXPECT_EQ(automatic.height, 24);
+  EXPECT_EQ(automatic.samplesPerPixel, 1u);
+  EXPECT_EQ(automatic.version, c.job(id).version);
+  const Dashboard::Png brighter = d.snapshot(id, 2.0, 32), darker = d.snapshot(id, -2.0, 32);
+  EXPECT_DOUBLE_EQ(brighter.ev, 2.0);
+  EXPECT_NE(brighter.bytes, darker.bytes);
+  EXPECT_NE(brighter.bytes, automatic.bytes);
+  EXPECT_EQ(d.snapshot(id, std::nullopt, 100000).width, 64) << "never larger than the image";
+
+  const Dashboard::Png full = d.png(id, std::nullopt);
+  EXPECT_EQ(full.width, 64);
+  EXPECT_EQ(d.exr(id).substr(0, 4), "\x76\x2f\x31\x01") << "OpenEXR magic";
+}
+
+TEST(Dashboard, TokenIsCheckedWhenThereIsOne) {
+  Coordinator c;
+  const Dashboard open(c, std::nullopt), gated(c, std::string("s3cret"));
+  EXPECT_TRUE(open.authorized(""));
+  EXPECT_FALSE(gated.authorized(""));
+  EXPECT_FALSE(gated.authorized("Bearer wrong"));
+  EXPECT_FALSE(gated.authorized("s3cret"));
+  EXPECT_FALSE(gated.authorized("Bearer s3cre"));
+  EXPECT_TRUE(gated.authorized("Bearer s3cret"));
+}
+
+TEST(Dashboard, ErrorHistoryStaysBoundedAndKeepsItsSpan) {
+  Coordinator c;
+  const std::string id = c.submit(specFor(1200, 1e-9), 0).id;
+  const std::string w = c.registerWorker(workerInfo("w", 1));
+  renderUnits(c, w, 1100);
+  const auto history = c.errorHistory(id);
+  EXPECT_LE(history.size(), Coordinator::kMaxErrorPoints);
+  EXPECT_GE(history.size(), Coordinator::kMaxErrorPoints / 2);
+  EXPECT_EQ(history.front().samplesPerPixel, 2u) << "the first point survives thinning";
+  EXPECT_EQ(history.back().samplesPerPixel, 1100u);
+  for (size_t k = 1; k < history.size(); ++k) EXPECT_LT(history[k - 1].samplesPerPixel, history[k].samplesPerPixel);
+}
+
+}  // namespace
+}  // namespace lensfarm

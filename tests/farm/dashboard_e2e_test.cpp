@@ -1,0 +1,382 @@
+// The web dashboard of a real coordinator process (docs/dashboard.md): its HTTP API with and
+// without the client token, and the page itself in a real browser (Debian's chromium, headless,
+// driven through chromedriver's W3C WebDriver API) while a real worker renders a job: the image
+// changes as samples arrive, Cancel cancels, and screenshots land in the build folder.
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <httplib.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+
+#include "deploy_support.h"
+
+namespace lensfarm {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+const char* kChromium = "/usr/bin/chromium";
+const char* kChromedriver = "/usr/bin/chromedriver";
+
+// GET or POST on the dashboard with an optional token; the whole response (status 0 if none).
+struct Reply {
+  int status = 0;
+  std::string body, contentType;
+  httplib::Headers headers;
+};
+Reply request(const std::string& address, const std::string& method, const std::string& path,
+              const std::string& token = "", const std::string& body = "") {
+  httplib::Client client(address.substr(0, address.rfind(':')), test::portOf(address));
+  client.set_connection_timeout(5);
+  client.set_read_timeout(30);
+  httplib::Headers headers;
+  if (!token.empty()) headers.emplace("Authorization", "Bearer " + token);
+  const auto response = method == "POST" ? client.Post(path.c_str(), headers, body, "application/json")
+                                         : client.Get(path.c_str(), headers);
+  Reply r;
+  if (!response) return r;
+  r.status = response->status;
+  r.body = response->body;
+  r.contentType = response->get_header_value("Content-Type");
+  r.headers = response->headers;
+  return r;
+}
+
+int freePort() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t size = sizeof address;
+  ::bind(fd, reinterpret_cast<sockaddr*>(&address), size);
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &size);
+  ::close(fd);
+  return ntohs(address.sin_port);
+}
+
+std::string decodeBase64(const std::string& text) {
+  std::string out;
+  uint32_t bits = 0;
+  int count = 0;
+  for (char c : text) {
+    int v;
+    if (c >= 'A' && c <= 'Z') v = c - 'A';
+    else if (c >= 'a' && c <= 'z') v = c - 'a' + 26;
+    else if (c >= '0' && c <= '9') v = c - '0' + 52;
+    else if (c == '+') v = 62;
+    else if (c == '/') v = 63;
+    else continue;  // padding, line breaks
+    bits = (bits << 6) | uint32_t(v);
+    if ((count += 6) >= 8) {
+      count -= 8;
+      out.push_back(char((bits >> count) & 0xff));
+    }
+  }
+  return out;
+}
+
+// A browser session through chromedriver's W3C WebDriver HTTP/JSON API.
+class Browser {
+ public:
+  Browser(const test::TempDir& dir) : port_(freePort()), client_("127.0.0.1", port_) {
+    driver_ = std::make_unique<test::ChildProcess>(
+        std::vector<std::string>{kChromedriver, "--port=" + std::to_string(port_)}, dir / "chromedriver");
+    client_.set_connection_timeout(5);
+    client_.set_read_timeout(60);
+    if (!test::waitFor([&] { return call("GET", "/status").value("value", json::object()).value("ready", false); }, 30))
+      throw std::runtime_error("chromedriver did not start: " + driver_->log());
+    const json capabilities = {
+        {"capabilities",
+         {{"alwaysMatch",
+           {{"goog:chromeOptions",
+             {{"binary", kChromium},
+              {"args", {"--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                        "--disable-dev-shm-usage", "--window-size=1360,1100"}}}}}}}}};
+    const json session = call("POST", "/session", capabilities);
+    session_ = session["value"].value("sessionId", "");
+    if (session_.empty()) throw std::runtime_error("no browser session: " + session.dump() + driver_->log());
+  }
+  ~Browser() {
+    if (!session_.empty()) call("DELETE", "/session/" + session_);
+  }
+
+  json call(const std::string& method, const std::string& path, const json& body = nullptr) {
+    httplib::Result r = method == "POST"   ? client_.Post(path.c_str(), body.is_null() ? "{}" : body.dump(), "application/json")
+                        : method == "GET" ? client_.Get(path.c_str())
+                                          : client_.Delete(path.c_str());
+    if (!r) return json::object();
+    return json::parse(r->body, nullptr, false);
+  }
+  json session(const std::string& method, const std::string& path, const json& body = nullptr) {
+    return call(method, "/session/" + session_ + path, body);
+  }
+  void go(const std::string& url) { session("POST", "/url", {{"url", url}}); }
+  // Runs `script` (a function body) in the page; its return value.
+  json run(const std::string& script) { return session("POST", "/execute/sync", {{"script", script}, {"args", json::array()}})["value"]; }
+  std::string text(const std::string& css) {
+    const json v = run("const e = document.querySelector(" + json(css).dump() + "); return e ? e.textContent : null;");
+    return v.is_string() ? v.get<std::string>() : "";
+  }
+  bool visible(const std::string& css) {
+    return run("const e = document.querySelector(" + json(css).dump() + "); return !!e && e.offsetParent !== null;") == true;
+  }
+  std::string element(const std::string& css) {
+    const json v = session("POST", "/element", {{"using", "css selector"}, {"value", css}})["value"];
+    return v.is_object() ? v.value("element-6066-11e4-a52e-4f735466cecf", "") : "";
+  }
+  json type(const std::string& css, const std::string& keys) {
+    return session("POST", "/element/" + element(css) + "/value", {{"text", keys}});
+  }
+  // Clicks like a user (WebDriver's element click: scrolled into view, hit-tested).
+  json click(const std::string& css) { return session("POST", "/element/" + element(css) + "/click", json::object()); }
+  void screenshot(const fs::path& file) {
+    const json v = session("GET", "/screenshot")["value"];
+    ASSERT_TRUE(v.is_string()) << v.dump();
+    std::ofstream(file, std::ios::binary) << decodeBase64(v.get<std::string>());
+  }
+
+ private:
+  int port_;
+  httplib::Client client_;
+  std::unique_ptr<test::ChildProcess> driver_;
+  std::string session_;
+};
+
+class DashboardFarm : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    token_ = "client-token-for-the-dashboard-test";
+    const fs::path tokenFile = dir_.write("client.token", token_ + "\n");
+    address_ = farm_.startCoordinator({"--listen", "127.0.0.1:0", "--client-token-file", tokenFile.string(),
+                                       "--dashboard-listen", "127.0.0.1:0", "--heartbeat-interval", "0.2"});
+    dashboard_ = farm_.dashboardAddress();
+    ASSERT_FALSE(dashboard_.empty());
+  }
+  std::string submit(const fs::path& scene, const std::vector<std::string>& extra = {}) {
+    std::vector<std::string> args = {scene.string(), "--coordinator", address_, "--token-file", (dir_ / "client.token").string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return farm_.submit(args);
+  }
+  std::string status(const std::string& job) {
+    return farm_.cli({"status", job, "--coordinator", address_, "--token-file", (dir_ / "client.token").string()}).out;
+  }
+
+  test::TempDir dir_;
+  test::FarmProcesses farm_{dir_};
+  std::string token_, address_, dashboard_;
+};
+
+TEST_F(DashboardFarm, ApiNeedsTheClientTokenAndThePageIsPublic) {
+  const Reply missing = request(dashboard_, "GET", "/api/jobs");
+  EXPECT_EQ(missing.status, 401);
+  EXPECT_NE(missing.body.find("missing client token"), std::string::npos) << missing.body;
+  EXPECT_EQ(request(dashboard_, "GET", "/api/jobs", "not-the-token").status, 401);
+  EXPECT_EQ(request(dashboard_, "GET", "/api/workers", "not-the-token").status, 401);
+  EXPECT_EQ(request(dashboard_, "POST", "/api/jobs/job-1/cancel", "not-the-token").status, 401);
+  EXPECT_NE(farm_.coordinator().log().find("dashboard: refused GET /api/jobs from"), std::string::npos);
+  EXPECT_EQ(farm_.coordinator().log().find(token_), std::string::npos) << "the token is never logged";
+
+  const Reply jobs = request(dashboard_, "GET", "/api/jobs", token_);
+  EXPECT_EQ(jobs.status, 200);
+  EXPECT_EQ(jobs.contentType, "application/json");
+  EXPECT_EQ(json::parse(jobs.body), json({{"jobs", json::array()}}));
+  EXPECT_EQ(request(dashboard_, "GET", "/api/jobs/job-9", token_).status, 404);
+
+  for (const auto& [path, type] : std::vector<std::pair<std::string, std::string>>{
+           {"/", "text/html"}, {"/index.html", "text/html"}, {"/app.js", "text/javascript"}, {"/style.css", "text/css"}}) {
+    const Reply page = request(dashboard_, "GET", path);
+    EXPECT_EQ(page.status, 200) << path;
+    EXPECT_EQ(page.contentType.rfind(type, 0), 0u) << path << ": " << page.contentType;
+  }
+  EXPECT_EQ(test::readFile(test::sourceDir() / "coordinator/dashboard/index.html"), request(dashboard_, "GET", "/").body) << "the page is compiled in as it is";
+}
+
+TEST_F(DashboardFarm, ApiServesJobsImagesAndActions) {
+  // The first job is far too long to end during the test (it is cancelled at the end).
+  const std::string first = submit(test::writeSeedScene(dir_, 48, 1 << 20, 8));
+  const std::string second = submit(test::writeSeedScene(dir_, 48, 64, 8));
+  const json jobs = json::parse(request(dashboard_, "GET", "/api/jobs", token_).body)["jobs"];
+  ASSERT_EQ(jobs.size(), 2u);
+  EXPECT_EQ(jobs[0]["id"], first);
+
+  // Priority: the second job moves to the front.
+  const Reply raised = request(dashboard_, "POST", "/api/jobs/" + second + "/priority", token_, R"({"priority": 4})");
+  EXPECT_EQ(raised.status, 200) << raised.body;
+  EXPECT_EQ(json::parse(raised.body)["priority"], 4);
+  EXPECT_EQ(json::parse(request(dashboard_, "GET", "/api/jobs", token_).body)["jobs"][0]["id"], second);
+  EXPECT_EQ(request(dashboard_, "POST", "/api/jobs/" + second + "/priority", token_, R"({"priority": "high"})").status, 400);
+  EXPECT_NE(status(second).find("priority:   4"), std::string::npos) << status(second);
+
+  // A worker renders the raised job to its end; the workers list shows it.
+  farm_.startWorker("w1", {"--coordinator", address_, "--threads", "1"});
+  ASSERT_TRUE(test::waitFor([&] {
+    return json::parse(request(dashboard_, "GET", "/api/jobs/" + second, token_).body)["state"] == "done";
+  }, 120));
+  const json detail = json::parse(request(dashboard_, "GET", "/api/jobs/" + second, token_).body);
+  EXPECT_EQ(detail["spp_done"], 64);
+  EXPECT_GE(detail["error_history"].size(), 1u);
+  EXPECT_FALSE(detail["effects"].empty());
+  const json workers = json::parse(request(dashboard_, "GET", "/api/workers", token_).body)["workers"];
+  ASSERT_EQ(workers.size(), 1u);
+  EXPECT_EQ(workers[0]["name"], "w1");
+  EXPECT_EQ(workers[0]["cores"], 1);
+  EXPECT_GT(workers[0]["samples_per_second"].get<double>(), 0.0);
+
+  // Images: PNG snapshots whose EV changes the bytes, the full PNG and the EXR as downloads.
+  const Reply snapshot = request(dashboard_, "GET", "/api/jobs/" + second + "/snapshot.png?max=32", token_);
+  ASSERT_EQ(snapshot.status, 200);
+  EXPECT_EQ(snapshot.contentType, "image/png");
+  EXPECT_EQ(snapshot.body.substr(0, 8), "\x89PNG\r\n\x1a\n");
+  EXPECT_EQ(httplib::detail::get_header_value(snapshot.headers, "X-Samples-Per-Pixel", 0, ""), std::string("64"));
+  EXPECT_EQ(httplib::detail::get_header_value(snapshot.headers, "X-Width", 0, ""), std::string("24"))
+      << "48 pixels box-filtered by 2 to fit 32";
+  const Reply brighter = request(dashboard_, "GET", "/api/jobs/" + second + "/snapshot.png?max=32&ev=2", token_);
+  EXPECT_EQ(brighter.status, 200);
+  EXPECT_NE(brighter.body, snapshot.body);
+  EXPECT_EQ(request(dashboard_, "GET", "/api/jobs/" + second + "/snapshot.png?ev=bright", token_).status, 400);
+  const Reply png = request(dashboard_, "GET", "/api/jobs/" + second + "/image.png", token_);
+  EXPECT_EQ(png.status, 200);
+  EXPECT_NE(httplib::detail::get_header_value(png.headers, "Content-Disposition", 0, ""), nullptr);
+  const Reply exr = request(dashboard_, "GET", "/api/jobs/" + second + "/image.exr", token_);
+  EXPECT_EQ(exr.status, 200);
+  EXPECT_EQ(exr.body.substr(0, 4), "\x76\x2f\x31\x01");
+  const auto downloaded = farm_.cli({"download", second, "-o", (dir_ / "cli.exr").string(), "--coordinator", address_,
+                                     "--token-file", (dir_ / "client.token").string()});
+  ASSERT_EQ(downloaded.exitCode, 0) << downloaded.err;
+  EXPECT_EQ(exr.body, test::readFile(dir_ / "cli.exr")) << "the same EXR as `lensfarm download`";
+
+  // Another site's form cannot post: actions take JSON only.
+  {
+    httplib::Client client("127.0.0.1", test::portOf(dashboard_));
+    const auto form = client.Post(("/api/jobs/" + first + "/cancel").c_str(),
+                                  httplib::Headers{{"Authorization", "Bearer " + token_}}, "x=1",
+                                  "application/x-www-form-urlencoded");
+    ASSERT_TRUE(form);
+    EXPECT_EQ(form->status, 415);
+  }
+  EXPECT_EQ(status(first).find("cancelled"), std::string::npos);
+
+  // Cancel.
+  const Reply cancelled = request(dashboard_, "POST", "/api/jobs/" + first + "/cancel", token_);
+  EXPECT_EQ(cancelled.status, 200);
+  EXPECT_EQ(json::parse(cancelled.body)["state"], "cancelled");
+  EXPECT_NE(status(first).find("cancelled"), std::string::npos);
+}
+
+TEST(DashboardFlags, RefusesAnAddressOpenToTheNetworkWithoutATokenOrMalformed) {
+  EXPECT_TRUE(test::helpOf(test::coordinatorPath()).flags.count("--dashboard-listen"));
+  const auto open = test::runProcess(
+      {test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--dashboard-listen", "0.0.0.0:0"}, 30);
+  EXPECT_EQ(open.exitCode, 2);
+  EXPECT_NE(open.err.find("refusing to serve the dashboard on 0.0.0.0:0 without --client-token-file"), std::string::npos)
+      << open.err;
+  const auto malformed =
+      test::runProcess({test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--dashboard-listen", "8080"}, 30);
+  EXPECT_EQ(malformed.exitCode, 2);
+  EXPECT_NE(malformed.err.find("--dashboard-listen: expected HOST:PORT"), std::string::npos) << malformed.err;
+}
+
+TEST(DashboardFlags, WithoutATokenOnlyLocalhostIsAnswered) {
+  test::TempDir dir;
+  test::FarmProcesses farm(dir);
+  farm.startCoordinator({"--listen", "127.0.0.1:0", "--dashboard-listen", "127.0.0.1:0"});
+  EXPECT_EQ(request(farm.dashboardAddress(), "GET", "/api/jobs").status, 200) << "no token needed on loopback";
+  httplib::Client client("127.0.0.1", test::portOf(farm.dashboardAddress()));
+  const auto rebound = client.Get("/api/jobs", httplib::Headers{{"Host", "evil.example:80"}});
+  ASSERT_TRUE(rebound);
+  EXPECT_EQ(rebound->status, 403) << "a DNS-rebound name is refused";
+  for (const char* host : {"localhost:1", "127.0.0.1:8080", "[::1]:8080"}) {
+    const auto ok = client.Get("/api/jobs", httplib::Headers{{"Host", host}});
+    ASSERT_TRUE(ok);
+    EXPECT_EQ(ok->status, 200) << host;
+  }
+}
+
+TEST_F(DashboardFarm, ARealBrowserWatchesTheImageChangeAndCancels) {
+  if (!fs::exists(kChromium) || !fs::exists(kChromedriver))
+    GTEST_SKIP() << "needs Debian's chromium and chromium-driver (scripts/setup.sh installs them)";
+  // 128x128, 16 spp a unit: a unit every fraction of a second on one thread, for minutes.
+  const std::string job = submit(test::writeSeedScene(dir_, 128, 8192, 16));
+  farm_.startWorker("w1", {"--coordinator", address_, "--threads", "1"});
+  Browser browser(dir_);
+  const std::string url = "http://" + dashboard_ + "/";
+  browser.go(url);
+
+  // The page asks for the token; a wrong one is refused and said so.
+  ASSERT_TRUE(test::waitFor([&] { return browser.visible("#token"); }, 30)) << "no token form";
+  const json typed = browser.type("#token", "wrong-token");
+  const json clicked = browser.click("#token-submit");
+  ASSERT_TRUE(test::waitFor([&] { return browser.text("#login-error").find("refused") != std::string::npos; }, 30))
+      << browser.text("#login-error") << typed.dump() << clicked.dump();
+  browser.type("#token", token_);
+  browser.click("#token-submit");
+
+  // The job list and the worker list.
+  const std::string row = "#jobs tbody tr[data-job=\"" + job + "\"]";
+  ASSERT_TRUE(test::waitFor([&] { return browser.visible(row) && browser.text(row).find("running") != std::string::npos; }, 60))
+      << browser.text("#jobs");
+  ASSERT_TRUE(test::waitFor([&] { return browser.text("#workers tbody").find("unit") != std::string::npos; }, 30))
+      << browser.text("#workers");
+  EXPECT_NE(browser.text("#workers tbody").find("w1"), std::string::npos);
+  browser.screenshot(fs::path(LENSFARM_BINARY_DIR) / "dashboard-overview.png");
+
+  // The job page: the image on it changes as samples arrive.
+  browser.click(row + " a");
+  const auto shown = [&] {
+    const json v = browser.run("const i = document.querySelector('#snapshot'); return [i.dataset.hash || '', i.dataset.spp || '', i.naturalWidth];");
+    return v.is_array() && v.size() == 3 ? v : json::array({"", "", 0});
+  };
+  ASSERT_TRUE(test::waitFor([&] { return !shown()[0].get<std::string>().empty(); }, 30)) << "no image on the job page";
+  const json before = shown();
+  EXPECT_EQ(before[2], 128);
+  ASSERT_TRUE(test::waitFor([&] {
+    const json now = shown();
+    return now[0] != before[0] && std::stoul(now[1].get<std::string>()) > std::stoul(before[1].get<std::string>());
+  }, 60)) << "the image did not change: " << before.dump();
+  // Wait for a few points of the error curve, so the screenshot shows one.
+  ASSERT_TRUE(test::waitFor([&] { return browser.run("return Number(document.querySelector('#error-chart').dataset.points || 0);") >= 3; }, 60));
+  EXPECT_NE(browser.text("#effects").find("depth of field"), std::string::npos) << browser.text("#effects");
+  EXPECT_EQ(browser.text("#job-state"), "running");
+  browser.screenshot(fs::path(LENSFARM_BINARY_DIR) / "dashboard.png");
+
+  // Cancel: the page and the coordinator agree.
+  browser.click("#cancel");
+  ASSERT_TRUE(test::waitFor([&] { return browser.text("#job-state") == "cancelled"; }, 30)) << browser.text("#job-state");
+  EXPECT_TRUE(test::waitFor([&] { return browser.run("return document.querySelector('#cancel').disabled;") == true; }, 10));
+  EXPECT_NE(status(job).find("cancelled"), std::string::npos) << status(job);
+  EXPECT_TRUE(browser.run("return document.querySelector('#priority-up').disabled;") == true);
+
+  // The EV slider re-exposes the (now fixed) image.
+  const json settled = shown();
+  browser.run("const e = document.querySelector('#ev'); e.value = '2'; e.dispatchEvent(new Event('input'));"
+              "e.dispatchEvent(new Event('change'));");
+  EXPECT_TRUE(test::waitFor([&] { return browser.text("#snapshot-caption").find("+2.00 EV") != std::string::npos; }, 30))
+      << browser.text("#snapshot-caption");
+  EXPECT_NE(shown()[0], settled[0]) << "a brighter exposure is another PNG";
+  EXPECT_EQ(shown()[1], settled[1]) << "of the same samples";
+  browser.screenshot(fs::path(LENSFARM_BINARY_DIR) / "dashboard-cancelled.png");
+
+  // Downloads are fetched with the token and saved through a blob link (the token is in no URL).
+  browser.run("window.savedLinks = []; HTMLAnchorElement.prototype.click = function() {"
+              " window.savedLinks.push([this.download, this.href]); };");
+  for (const std::string kind : {"exr", "png"}) {
+    browser.click("#download-" + kind);
+    ASSERT_TRUE(test::waitFor([&] { return browser.run("return window.savedLinks.length;").get<int>() > 0; }, 30)) << kind;
+    const json link = browser.run("return window.savedLinks.shift();");
+    EXPECT_EQ(link[0], job + "." + kind);
+    EXPECT_EQ(link[1].get<std::string>().rfind("blob:", 0), 0u) << link.dump();
+    const json head = browser.run("return fetch(" + link[1].dump() +
+                                  ").then(r => r.arrayBuffer()).then(b => Array.from(new Uint8Array(b.slice(0, 4))));");
+    EXPECT_EQ(head, kind == "exr" ? json({0x76, 0x2f, 0x31, 0x01}) : json({0x89, 0x50, 0x4e, 0x47})) << kind;
+  }
+  EXPECT_GT(fs::file_size(fs::path(LENSFARM_BINARY_DIR) / "dashboard.png"), 10000u);
+}
+
+}  // namespace
+}  // namespace lensfarm
