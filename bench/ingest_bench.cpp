@@ -40,11 +40,7 @@ JobSpec benchJob() {
 }
 
 UnitResult resultFor(const std::string& worker, const LeaseGrant& g) {
-  UnitResult r;
-  r.workerId = worker;
-  r.leaseId = g.leaseId;
-  r.jobId = g.jobId;
-  r.unitIndex = g.unit.index;
+  UnitResult r = resultForLease(worker, g);
   r.buffer = SensorBuffer(kSize, kSize);
   for (size_t k = 0; k < r.buffer.sums.size(); ++k) r.buffer.sums[k] = 0.25 + double(k % 97) * 1e-3;
   r.stats.paths = uint64_t(kSize) * kSize;

@@ -1,7 +1,5 @@
 #include "override_flags.h"
 
-#include <regex>
-
 #include "scene/scene_loader.h"
 #include "util/error.h"
 
@@ -21,22 +19,13 @@ void OverrideFlags::addTo(CLI::App* cmd) {
   cmd->add_option("--target-error", targetError,
                   "Stop when the estimated relative RMSE of the image falls to this (e.g. 0.01); --spp becomes a cap")
       ->check(CLI::Range(1e-6, 0.999));
+  // Durations with units ("45", "90s", "10m", "2h", "250ms") are CLI11's own transform.
   cmd->add_option("--deadline", deadline,
-                  "Stop this long after submission (e.g. 90s, 10m, 2h), with a whole number of passes");
+                  "Stop this long after submission (e.g. 90s, 10m, 2h), with a whole number of passes")
+      ->transform(CLI::AsNumberWithUnit(std::map<std::string, double>{{"ms", 1e-3}, {"s", 1.0}, {"m", 60.0}, {"h", 3600.0}}))
+      ->check(CLI::Range(1e-3, 1e9));
   cmd->add_option("--ev", ev, "Exposure compensation in stops for PNG images (overrides the scene)")
       ->check(CLI::Range(-64.0, 64.0));
-}
-
-double parseDuration(const std::string& text, const std::string& flag) {
-  static const std::regex kDuration(R"(\s*([0-9]*\.?[0-9]+)\s*(ms|s|m|h)?\s*)");
-  std::smatch m;
-  if (!std::regex_match(text, m, kDuration))
-    throw InputError(flag, "expected a duration such as 45, 90s, 10m or 2h, got \"" + text + "\"");
-  const double value = std::stod(m[1]);
-  const std::string unit = m[2];
-  const double seconds = unit == "ms" ? value / 1000 : unit == "m" ? value * 60 : unit == "h" ? value * 3600 : value;
-  if (!(seconds > 0.0) || seconds > 1e9) throw InputError(flag, "must be more than 0 and at most 1e9 seconds");
-  return seconds;
 }
 
 RenderOverrides OverrideFlags::toOverrides() const {
@@ -52,7 +41,7 @@ RenderOverrides OverrideFlags::toOverrides() const {
     o.targetError = *targetError;
     if (!spp) o.samplesPerPixel = kMaxSamplesPerPixel;  // the target alone: no sample cap
   }
-  if (deadline) o.timeLimitSeconds = parseDuration(*deadline, "--deadline");
+  if (deadline) o.timeLimitSeconds = *deadline;
   if (deadline && !spp && !targetError) o.samplesPerPixel = kMaxSamplesPerPixel;  // until the deadline
   o.ev = ev;
   return o;

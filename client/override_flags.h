@@ -18,15 +18,12 @@ struct OverrideFlags {
   std::optional<std::string> sampler;
   std::optional<std::string> roulette;
   std::optional<double> targetError;
-  std::optional<std::string> deadline;
+  std::optional<double> deadline;  // seconds
   std::optional<double> ev;
 
   void addTo(CLI::App* cmd);
   // Throws InputError naming the flag (e.g. a malformed --resolution).
   RenderOverrides toOverrides() const;
 };
-
-// "45", "90s", "1.5m", "2h", "250ms" in seconds; throws InputError naming `flag`.
-double parseDuration(const std::string& text, const std::string& flag);
 
 }  // namespace lensfarm::cli

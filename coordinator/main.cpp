@@ -28,6 +28,7 @@
 #include "service.h"
 #include "util/error.h"
 #include "util/logging.h"
+#include "util/service_flags.h"
 #include "util/secret.h"
 #include "util/version.h"
 
@@ -114,18 +115,8 @@ int main(int argc, char** argv) {
       ->envname("LENSFARM_CHECKPOINT_EVERY")
       ->check(CLI::Range(0.01, 86400.0))
       ->capture_default_str();
-  app.add_option("--log-level", logLevel, "trace, debug, info, warn, error")
-      ->envname("LENSFARM_LOG_LEVEL")
-      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
-      ->capture_default_str();
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::Success& e) {
-    return app.exit(e);
-  } catch (const CLI::ParseError& e) {
-    std::cerr << "lensfarm-coordinator: error: " << e.what() << "\n";
-    return 2;
-  }
+  addLogLevelOption(app, logLevel);
+  if (const auto exitCode = parseServiceFlags(app, argc, argv, "lensfarm-coordinator")) return *exitCode;
   setupLogging("coordinator", logLevel);
 
   options.stateDir = stateDir;

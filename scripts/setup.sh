@@ -18,6 +18,7 @@ PACKAGES=(
   libcpp-httplib-dev libyaml-cpp-dev
   iproute2
   gnuplot-nox
+  systemd
   chromium chromium-driver
   clang libclang-rt-14-dev
 )

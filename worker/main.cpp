@@ -13,6 +13,7 @@
 #include "grpc_link.h"
 #include "util/error.h"
 #include "util/logging.h"
+#include "util/service_flags.h"
 #include "util/secret.h"
 #include "util/version.h"
 #include "worker_loop.h"
@@ -67,18 +68,8 @@ int main(int argc, char** argv) {
   app.add_option("--tls-cert", security.certFile, "PEM client certificate, for coordinators that require one")
       ->envname("LENSFARM_TLS_CERT");
   app.add_option("--tls-key", security.keyFile, "PEM private key of --tls-cert")->envname("LENSFARM_TLS_KEY");
-  app.add_option("--log-level", logLevel, "trace, debug, info, warn, error")
-      ->envname("LENSFARM_LOG_LEVEL")
-      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
-      ->capture_default_str();
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::Success& e) {
-    return app.exit(e);
-  } catch (const CLI::ParseError& e) {
-    std::cerr << "lensfarm-worker: error: " << e.what() << "\n";
-    return 2;
-  }
+  addLogLevelOption(app, logLevel);
+  if (const auto exitCode = parseServiceFlags(app, argc, argv, "lensfarm-worker")) return *exitCode;
   setupLogging("worker " + options.name, logLevel);
   options.cacheDir = cacheDir;
   if (!cacheDir.empty()) {

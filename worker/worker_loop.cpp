@@ -174,11 +174,7 @@ void WorkerLoop::run() {
         currentLease_ = grant->leaseId;
         cancelUnit_ = stopNow_.load();  // a stopNow() during loading still counts
       }
-      UnitResult result;
-      result.workerId = id;
-      result.leaseId = grant->leaseId;
-      result.jobId = grant->jobId;
-      result.unitIndex = grant->unit.index;
+      UnitResult result = resultForLease(id, *grant);
       const auto start = std::chrono::steady_clock::now();
       bool complete = false;
       arena.execute([&] {

@@ -52,6 +52,16 @@ struct UnitResult {
   double renderSeconds = 0.0;
 };
 
+// An empty result addressed to `grant`'s lease: what `workerId` fills in and uploads.
+inline UnitResult resultForLease(const std::string& workerId, const LeaseGrant& grant) {
+  UnitResult r;
+  r.workerId = workerId;
+  r.leaseId = grant.leaseId;
+  r.jobId = grant.jobId;
+  r.unitIndex = grant.unit.index;
+  return r;
+}
+
 // Failures of farm requests, by kind; the gRPC layer maps each to a status code.
 class FarmError : public std::runtime_error {
  public:

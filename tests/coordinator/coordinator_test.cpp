@@ -30,11 +30,7 @@ WorkerInfo workerInfo(const std::string& name) { return WorkerInfo{name, 1, kPro
 
 // A result whose every sum is `value` (no rendering needed to test accumulation).
 UnitResult resultFor(const std::string& worker, const LeaseGrant& g, double value) {
-  UnitResult r;
-  r.workerId = worker;
-  r.leaseId = g.leaseId;
-  r.jobId = g.jobId;
-  r.unitIndex = g.unit.index;
+  UnitResult r = resultForLease(worker, g);
   r.buffer = SensorBuffer(4, 3);
   std::fill(r.buffer.sums.begin(), r.buffer.sums.end(), value);
   r.stats.paths = 12 * g.unit.sampleCount;

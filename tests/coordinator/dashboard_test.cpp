@@ -31,11 +31,7 @@ WorkerInfo workerInfo(const std::string& name, uint32_t threads) {
 
 // A rendered-looking result: every sum `value`, 48 paths rendered in `seconds`.
 UnitResult resultFor(const std::string& worker, const LeaseGrant& g, double value, double seconds = 0.5) {
-  UnitResult r;
-  r.workerId = worker;
-  r.leaseId = g.leaseId;
-  r.jobId = g.jobId;
-  r.unitIndex = g.unit.index;
+  UnitResult r = resultForLease(worker, g);
   r.buffer = SensorBuffer(8, 6);
   std::fill(r.buffer.sums.begin(), r.buffer.sums.end(), value);
   r.stats.paths = 48 * g.unit.sampleCount;

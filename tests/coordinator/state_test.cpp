@@ -27,11 +27,7 @@ JobSpec sixUnits() {
 WorkerInfo workerInfo(const std::string& name) { return WorkerInfo{name, 1, kProtocolVersion, kRendererVersion}; }
 
 UnitResult resultFor(const std::string& worker, const LeaseGrant& g) {
-  UnitResult r;
-  r.workerId = worker;
-  r.leaseId = g.leaseId;
-  r.jobId = g.jobId;
-  r.unitIndex = g.unit.index;
+  UnitResult r = resultForLease(worker, g);
   r.buffer = SensorBuffer(4, 3);
   std::fill(r.buffer.sums.begin(), r.buffer.sums.end(), kValues[g.unit.index]);
   r.stats.paths = 12;

@@ -40,11 +40,7 @@ SensorBuffer noisyUnit(uint64_t k) {
 }
 
 UnitResult resultOf(const std::string& worker, const LeaseGrant& g) {
-  UnitResult r;
-  r.workerId = worker;
-  r.leaseId = g.leaseId;
-  r.jobId = g.jobId;
-  r.unitIndex = g.unit.index;
+  UnitResult r = resultForLease(worker, g);
   r.buffer = noisyUnit(g.unit.index);
   r.stats.paths = kW * kH;
   return r;

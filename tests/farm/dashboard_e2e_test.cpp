@@ -299,8 +299,8 @@ TEST(DashboardFlags, WithoutATokenOnlyLocalhostIsAnswered) {
 }
 
 TEST_F(DashboardFarm, ARealBrowserWatchesTheImageChangeAndCancels) {
-  if (!fs::exists(kChromium) || !fs::exists(kChromedriver))
-    GTEST_SKIP() << "needs Debian's chromium and chromium-driver (scripts/setup.sh installs them)";
+  ASSERT_TRUE(fs::exists(kChromium) && fs::exists(kChromedriver))
+      << "needs Debian's chromium and chromium-driver (scripts/setup.sh installs them)";
   // 128x128, 16 spp a unit: a unit every fraction of a second on one thread, for minutes.
   const std::string job = submit(test::writeSeedScene(dir_, 128, 8192, 16));
   farm_.startWorker("w1", {"--coordinator", address_, "--threads", "1"});
