@@ -3,9 +3,9 @@
 //
 //   (a) the integrator traces units (1 spp over the frame) on all threads: paths/s, rays/s;
 //   (b) the same units are traced once more with a RayRecorder on the caster, keeping every
-//       ray per thread in the order that thread cast it; each thread's log is then replayed
-//       through the same RayCaster calls (intersect / occluded, one ray at a time, as the
-//       integrator casts them): Embree's rays/s for those rays, and again one kind at a time.
+//       call per thread in the order that thread made it; each thread's log is then replayed
+//       through the same RayCaster calls (16-wide packets, as the integrator casts them, with
+//       the same active lanes): Embree's rays/s for those rays, and again one kind at a time.
 // It prints (a)/(b), the share of render time spent inside Embree, and medians of --repeat runs.
 //
 // Scaling with scene size: --triangles N adds a generated mesh of about N triangles (a bumpy
@@ -36,14 +36,30 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// One call to the caster: a single ray, or a packet (kind 0: occlusion).
+struct Cast {
+  bool packet;
+  RayRecorder::Ray ray;
+  RayPacket rays;
+};
+
 class ThreadLogs : public RayRecorder {
  public:
-  void record(const Ray& ray) override { logs_.local().push_back(ray); }
-  tbb::enumerable_thread_specific<std::vector<Ray>>& logs() { return logs_; }
+  void record(const Ray& ray) override { logs_.local().push_back(Cast{false, ray, {}}); }
+  void recordPacket(const RayPacket& rays, unsigned kind) override {
+    logs_.local().push_back(Cast{true, Ray{{}, {}, 0.0f, kind}, rays});
+  }
+  tbb::enumerable_thread_specific<std::vector<Cast>>& logs() { return logs_; }
 
  private:
-  tbb::enumerable_thread_specific<std::vector<Ray>> logs_;
+  tbb::enumerable_thread_specific<std::vector<Cast>> logs_;
 };
+
+int activeLanes(const RayPacket& rays) {
+  int n = 0;
+  for (int k = 0; k < kPacketWidth; ++k) n += rays.active(k);
+  return n;
+}
 
 // A UV sphere of about `triangles` triangles with a radial ripple (so neighbouring triangles are not
 // coplanar), resting on the floor of the Cornell box, in the scene's white material.
@@ -94,23 +110,38 @@ struct Replay {
 enum class Which { kAll, kIntersect, kOccluded };
 
 Replay replay(const RayCaster& caster, ThreadLogs& logs, tbb::task_arena& arena, Which which) {
-  std::vector<std::vector<RayRecorder::Ray>*> all;
+  std::vector<std::vector<Cast>*> all;
   for (auto& log : logs.logs()) all.push_back(&log);
   tbb::enumerable_thread_specific<Replay> parts;
   const auto start = Clock::now();
   arena.execute([&] {
-    tbb::parallel_for_each(all.begin(), all.end(), [&](std::vector<RayRecorder::Ray>* log) {
+    tbb::parallel_for_each(all.begin(), all.end(), [&](std::vector<Cast>* log) {
       Replay& r = parts.local();
       size_t hits = 0;
+      RayCaster::PacketHits packetHits;
+      bool blocked[kPacketWidth];
       const auto t0 = Clock::now();
-      for (const auto& ray : *log) {
+      for (const Cast& cast : *log) {
+        const RayRecorder::Ray& ray = cast.ray;
         const bool occlusion = ray.kind == 0;
         if (occlusion && which != Which::kIntersect) {
-          hits += caster.occluded(ray.origin, ray.direction, ray.tFar);
-          ++r.occlusions;
+          if (cast.packet) {
+            caster.occluded(cast.rays, blocked);
+            hits += blocked[0];
+            r.occlusions += uint64_t(activeLanes(cast.rays));
+          } else {
+            hits += caster.occluded(ray.origin, ray.direction, ray.tFar);
+            ++r.occlusions;
+          }
         } else if (!occlusion && which != Which::kOccluded) {
-          hits += caster.intersect(ray.origin, ray.direction, RayKind(ray.kind)).has_value();
-          ++r.intersects;
+          if (cast.packet) {
+            caster.intersect(cast.rays, RayKind(ray.kind), packetHits);
+            hits += packetHits.found[0];
+            r.intersects += uint64_t(activeLanes(cast.rays));
+          } else {
+            hits += caster.intersect(ray.origin, ray.direction, RayKind(ray.kind)).has_value();
+            ++r.intersects;
+          }
         }
       }
       const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
@@ -133,6 +164,7 @@ int run(int argc, char** argv) {
   CLI::App app{"lensfarm ray-casting limit: integrator vs Embree alone on the same rays"};
   std::string sceneName = "cornell-classic.json", integrator = "nee_mis", sampler = "sobol";
   int resolution = 512, bounces = 3, repeat = 5;
+  uint32_t unitSamples = 16;
   unsigned threads = std::max(1u, std::thread::hardware_concurrency());
   uint64_t generated = 0;
   app.add_option("--scene", sceneName, "Scene file (absolute, or in the source tree's scenes/)")->capture_default_str();
@@ -142,6 +174,7 @@ int run(int argc, char** argv) {
   app.add_option("--sampler", sampler)->check(CLI::IsMember({"sobol", "stratified", "independent"}))->capture_default_str();
   app.add_option("--repeat", repeat, "Runs; medians are reported")->capture_default_str();
   app.add_option("--threads", threads)->capture_default_str();
+  app.add_option("--unit-spp", unitSamples, "Samples per pixel in each timed unit")->capture_default_str()->check(CLI::Range(1, 4096));
   app.add_option("--triangles", generated, "Add a generated mesh of about this many triangles (scaling)");
   CLI11_PARSE(app, argc, argv);
 
@@ -166,14 +199,14 @@ int run(int argc, char** argv) {
   const double buildSeconds = std::chrono::duration<double>(Clock::now() - buildStart).count();
   const double sceneMegabytes = residentMegabytes() - memoryBefore;
   tbb::task_arena arena{int(threads)};
-  const double pixels = double(resolution) * resolution;
+  const double pixels = double(resolution) * resolution * unitSamples;
 
   std::vector<double> pathRate, rayRate, embreeRate, intersectRate, occludedRate, ratio, share;
   for (int r = 0; r < repeat; ++r) {
     // (a) the integrator, timed, no recorder.
     PathStats stats;
     SensorBuffer buffer;
-    const WorkUnit unit{uint64_t(r), uint64_t(r), 1};
+    const WorkUnit unit{uint64_t(r), uint64_t(r) * unitSamples, unitSamples};
     const auto t0 = Clock::now();
     arena.execute([&] { renderUnit(rs, unit, buffer, stats); });
     const double renderSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
@@ -195,14 +228,14 @@ int run(int argc, char** argv) {
     ratio.push_back(rep.seconds / renderSeconds);
     share.push_back(rep.seconds / renderSeconds);
   }
-  std::printf("scene %s, %zu triangles, %dx%d, B = %d, %s, %s sampler, %u threads, medians of %d runs\n",
-              sceneName.c_str(), triangles, resolution, resolution, bounces, integrator.c_str(), sampler.c_str(), threads,
-              repeat);
+  std::printf("scene %s, %zu triangles, %dx%d, B = %d, %s, %s sampler, units of %u spp, %u threads, medians of %d runs\n",
+              sceneName.c_str(), triangles, resolution, resolution, bounces, integrator.c_str(), sampler.c_str(),
+              unitSamples, threads, repeat);
   std::printf("scene build:           %.3f s, %.1f MB resident added (Embree BVH, triangles, lights)\n", buildSeconds,
               sceneMegabytes);
   std::printf("(a) integrator:        %.3f M pixel-samples/s, %.2f M rays/s\n", median(pathRate) / 1e6,
               median(rayRate) / 1e6);
-  std::printf("(b) Embree alone:      %.2f M rays/s on the same rays, single rays as the integrator casts them\n",
+  std::printf("(b) Embree alone:      %.2f M rays/s on the same rays, 16-wide packets as the integrator casts them\n",
               median(embreeRate) / 1e6);
   std::printf("    by kind:           %.2f M rays/s intersect (camera + scattered), %.2f M rays/s occluded (shadow)\n",
               median(intersectRate) / 1e6, median(occludedRate) / 1e6);

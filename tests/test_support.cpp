@@ -55,6 +55,12 @@ fs::path cliPath() { return LENSFARM_CLI; }
 fs::path coordinatorPath() { return LENSFARM_COORDINATOR_BIN; }
 fs::path workerPath() { return LENSFARM_WORKER_BIN; }
 
+json bundledSceneJson(const std::string& name) {
+  json scene = json::parse(std::ifstream(scenesDir() / name));
+  scene["shapes"][0]["file"] = (scenesDir() / "meshes/cornell-box.obj").string();
+  return scene;
+}
+
 json minimalSceneJson() {
   return json::parse(R"({
     "format": "lensfarm-scene/1",

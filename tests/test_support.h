@@ -35,6 +35,10 @@ std::filesystem::path cliPath();     // the built `lensfarm` binary
 // A minimal valid scene: a pinhole camera looking along +z at a white quad lit by a quad light.
 nlohmann::json minimalSceneJson();
 
+// A scene from scenes/ (e.g. "cornell-seed.json") with its mesh path made absolute, so it loads
+// from any directory.
+nlohmann::json bundledSceneJson(const std::string& name);
+
 // Axis-aligned closed box [-1,1]^3 seen from inside by a pinhole camera at the centre looking
 // along +z. Every wall uses material "wall" (inward-facing). Used for furnace-type tests.
 nlohmann::json closedBoxSceneJson(const nlohmann::json& wallMaterial, int resolution, uint64_t spp, int maxBounces);

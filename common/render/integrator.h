@@ -11,6 +11,15 @@
 //  - naive (the seed's): a path contributes only if a scattered ray happens to hit a light;
 //  - nee_mis: at each diffuse vertex one light sample (next-event estimation) plus the scattered
 //    ray, combined with the power heuristic (Veach 1997). Both are unbiased for the same B.
+//
+// Two forms of the same tracer, sharing every line of the vertex logic (shadeVertex):
+//  - tracePath traces one camera path, one ray at a time: the readable reference;
+//  - tracePacket traces up to kPacketWidth paths at once (issue 8; docs/performance.md): each
+//    segment of the packet's live paths is one 16-wide Embree intersection call and at most one
+//    16-wide occlusion call for their shadow rays; paths that end leave the packet (their lane is
+//    switched off). A lane computes exactly what tracePath computes for its sample, in the same
+//    order, so its radiance depends on its own sample only: never on which samples share its
+//    packet, on the thread or on the worker (tests/render/packet_integrator_test.cpp).
 #include <cstdint>
 
 #include "camera/thin_lens_camera.h"
@@ -42,5 +51,17 @@ struct PathStats {
 // the scene does not need, and gives the general path's bits when the effect is absent.
 template <bool kNee, bool kSpecular>
 Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats);
+
+// The camera paths of one packet: lane k traces cameraRays[k] with the sample values rng[k], for
+// k < count (count <= kPacketWidth).
+struct PathPacket {
+  int count = 0;
+  CameraRay cameraRays[kPacketWidth];
+  SampleStream rng[kPacketWidth];
+};
+
+// Each lane's radiance into radiance[0, count): tracePath<kNee, kSpecular> for every lane.
+template <bool kNee, bool kSpecular>
+void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&radiance)[kPacketWidth], PathStats& stats);
 
 }  // namespace lensfarm

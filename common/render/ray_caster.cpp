@@ -14,6 +14,28 @@ namespace {
 void embreeError(void*, RTCError code, const char* message) {
   spdlog::error("embree error {}: {}", int(code), message ? message : "");
 }
+
+// The direction a missed ray is re-cast with (see intersect below).
+Vec3 nudgedDirection(const Vec3& d) {
+  const Frame frame = Frame::fromNormal(d);
+  return glm::normalize(d + 1e-6f * (frame.t + 0.5f * frame.b));
+}
+
+void loadPacket(const RayPacket& rays, RTCRay16& ray, unsigned mask) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    ray.org_x[k] = rays.ox[k];
+    ray.org_y[k] = rays.oy[k];
+    ray.org_z[k] = rays.oz[k];
+    ray.dir_x[k] = rays.dx[k];
+    ray.dir_y[k] = rays.dy[k];
+    ray.dir_z[k] = rays.dz[k];
+    ray.tnear[k] = 0.0f;
+    ray.mask[k] = mask;
+    ray.flags[k] = 0;
+    ray.time[k] = 0.0f;
+    ray.id[k] = unsigned(k);
+  }
+}
 }  // namespace
 
 RayCaster::RayCaster(const Scene& scene) {
@@ -88,8 +110,7 @@ std::optional<SurfaceHit> RayCaster::intersect(const Vec3& o, const Vec3& d, Ray
     // (docs/numerics.md; NoRayEscapes* tests.)
     // Turned by about 1e-6 radians about an axis perpendicular to d: far more than the rounding
     // around a vertex, far less than anything a pixel could show.
-    const Frame frame = Frame::fromNormal(d);
-    const Vec3 nudged = glm::normalize(d + 1e-6f * (frame.t + 0.5f * frame.b));
+    const Vec3 nudged = nudgedDirection(d);
     rh.ray.dir_x = nudged.x;
     rh.ray.dir_y = nudged.y;
     rh.ray.dir_z = nudged.z;
@@ -99,11 +120,14 @@ std::optional<SurfaceHit> RayCaster::intersect(const Vec3& o, const Vec3& d, Ray
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
   }
 
-  const size_t k = geomOffset_[rh.hit.geomID] + rh.hit.primID;
+  return surfaceHit(rh.hit.geomID, rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar);
+}
+
+SurfaceHit RayCaster::surfaceHit(unsigned geomID, unsigned primID, float u, float v, float t) const {
+  const size_t k = geomOffset_[geomID] + primID;
   const Triangle& tri = triangles_[k];
-  const float u = rh.hit.u, v = rh.hit.v;
   SurfaceHit hit;
-  hit.t = rh.ray.tfar;
+  hit.t = t;
   // Interpolating the vertices is far more accurate than o + t d far from the origin.
   hit.p = (1.0f - u - v) * tri.v0 + u * tri.v1 + v * tri.v2;
   hit.n = tri.n;
@@ -131,6 +155,57 @@ bool RayCaster::occluded(const Vec3& o, const Vec3& d, float tFar) const {
   ray.time = 0.0f;
   rtcOccluded1(scene_, &context, &ray);
   return ray.tfar < 0.0f;  // Embree sets tfar = -inf on a hit
+}
+
+
+void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) const {
+  if (recorder_) recorder_->recordPacket(rays, unsigned(kind));
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  // Camera packets hold the samples of one or a few neighbouring sensor cells.
+  if (kind == RayKind::kCamera) context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  alignas(64) RTCRayHit16 rh;
+  loadPacket(rays, rh.ray, unsigned(kind));
+  for (int k = 0; k < kPacketWidth; ++k) {
+    rh.ray.tfar[k] = std::numeric_limits<float>::infinity();
+    rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+  }
+  rtcIntersect16(rays.valid, scene_, &context, &rh);
+
+  // Misses are cast once more, slightly turned, exactly as the single-ray call does.
+  alignas(64) int retry[kPacketWidth];
+  bool anyMiss = false;
+  for (int k = 0; k < kPacketWidth; ++k) {
+    retry[k] = rays.valid[k] != 0 && rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID ? -1 : 0;
+    if (retry[k]) {
+      anyMiss = true;
+      const Vec3 nudged = nudgedDirection(rays.direction(k));
+      rh.ray.dir_x[k] = nudged.x;
+      rh.ray.dir_y[k] = nudged.y;
+      rh.ray.dir_z[k] = nudged.z;
+    }
+  }
+  if (anyMiss) {
+    context.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    rtcIntersect16(retry, scene_, &context, &rh);
+  }
+
+  for (int k = 0; k < kPacketWidth; ++k) {
+    out.found[k] = rays.valid[k] != 0 && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID;
+    if (out.found[k]) out.hit[k] = surfaceHit(rh.hit.geomID[k], rh.hit.primID[k], rh.hit.u[k], rh.hit.v[k], rh.ray.tfar[k]);
+  }
+}
+
+void RayCaster::occluded(const RayPacket& rays, bool (&occluded)[kPacketWidth]) const {
+  if (recorder_) recorder_->recordPacket(rays, 0u);
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  alignas(64) RTCRay16 ray;
+  loadPacket(rays, ray, unsigned(RayKind::kScattered));
+  for (int k = 0; k < kPacketWidth; ++k) ray.tfar[k] = rays.tFar[k];
+  rtcOccluded16(rays.valid, scene_, &context, &ray);
+  for (int k = 0; k < kPacketWidth; ++k) occluded[k] = rays.valid[k] != 0 && ray.tfar[k] < 0.0f;
 }
 
 }  // namespace lensfarm

@@ -18,6 +18,33 @@ namespace lensfarm {
 
 enum class RayKind : unsigned { kCamera = 1u, kScattered = 2u };
 
+// Rays travel in packets of up to 16 (render/packet_integrator.h): Embree's 16-wide kernels
+// trace them together, which is what AVX-512 machines are fastest at.
+inline constexpr int kPacketWidth = 16;
+
+// Up to kPacketWidth rays, structure of arrays (Embree's own packet layout). A lane is in use when
+// valid[lane] is -1 and unused when it is 0 (Embree's convention). Every array is 64 bytes, so
+// each starts on a 64-byte boundary, as Embree's packet calls require.
+struct alignas(64) RayPacket {
+  int valid[kPacketWidth];
+  float ox[kPacketWidth], oy[kPacketWidth], oz[kPacketWidth];
+  float dx[kPacketWidth], dy[kPacketWidth], dz[kPacketWidth];
+  float tFar[kPacketWidth];  // occlusion rays: the segment's end; intersection rays: unused
+
+  void clear() {
+    for (int& v : valid) v = 0;
+  }
+  void set(int lane, const Vec3& o, const Vec3& d, float tfar = 0.0f) {
+    valid[lane] = -1;
+    ox[lane] = o.x, oy[lane] = o.y, oz[lane] = o.z;
+    dx[lane] = d.x, dy[lane] = d.y, dz[lane] = d.z;
+    tFar[lane] = tfar;
+  }
+  bool active(int lane) const { return valid[lane] != 0; }
+  Vec3 origin(int lane) const { return Vec3(ox[lane], oy[lane], oz[lane]); }
+  Vec3 direction(int lane) const { return Vec3(dx[lane], dy[lane], dz[lane]); }
+};
+
 // Every ray a caster is asked for, per thread in the order that thread cast them: the ray-casting
 // limit benchmark (bench/ray_limit.cpp) records the integrator's rays and replays them through
 // the same calls to time Embree alone. Off (a null pointer) everywhere else.
@@ -29,7 +56,10 @@ class RayRecorder {
     unsigned kind;  // RayKind for intersection rays; 0 for occlusion rays
   };
   virtual ~RayRecorder() = default;
-  virtual void record(const Ray& ray) = 0;  // called concurrently from every render thread
+  // Called concurrently from every render thread. `kind` is a RayKind for intersection packets
+  // and 0 for occlusion packets.
+  virtual void record(const Ray& ray) = 0;
+  virtual void recordPacket(const RayPacket& rays, unsigned kind) = 0;
 };
 
 struct SurfaceHit {
@@ -52,6 +82,18 @@ class RayCaster {
   // True if anything blocks the segment origin + t * direction, t in (0, tFar).
   bool occluded(const Vec3& origin, const Vec3& direction, float tFar) const;
 
+  // The same for the active lanes of a packet, with Embree's 16-wide kernels. Each lane gets the
+  // hit the single-ray call gives for its ray (misses are re-cast the same way). `kind` applies
+  // to every lane; camera packets (the samples of neighbouring sensor cells) are cast with
+  // Embree's coherent flag.
+  struct PacketHits {
+    bool found[kPacketWidth];
+    SurfaceHit hit[kPacketWidth];
+  };
+  void intersect(const RayPacket& rays, RayKind kind, PacketHits& hits) const;
+  // occluded[lane] for each active lane (inactive lanes: false). Uses rays.tFar.
+  void occluded(const RayPacket& rays, bool (&occluded)[kPacketWidth]) const;
+
   // All triangles of the scene, meshes concatenated in scene order.
   struct Triangle {
     Vec3 v0, v1, v2;
@@ -71,6 +113,8 @@ class RayCaster {
   RTCScene scene_ = nullptr;
   std::vector<Triangle> triangles_;       // all meshes, concatenated
   std::vector<uint32_t> geomOffset_;      // first triangle of each Embree geometry
+
+  SurfaceHit surfaceHit(unsigned geomID, unsigned primID, float u, float v, float t) const;
 };
 
 }  // namespace lensfarm

@@ -77,6 +77,7 @@ inline constexpr SobolTables kSobolTables = makeSobolTables();
 
 class SampleStream {
  public:
+  SampleStream() = default;  // a placeholder, to be assigned before use (packet lanes)
   SampleStream(const SamplerSetup& setup, uint64_t pixel, uint64_t sampleIndex)
       : kind_(setup.kind),
         pixelKey_(mix(mix(setup.seed ^ 0x6a09e667f3bcc909ull) ^ pixel)),
@@ -234,10 +235,10 @@ class SampleStream {
     return Vec2(std::min(x, 0x1.fffffep-1f), std::min(y, 0x1.fffffep-1f));
   }
 
-  SamplerKind kind_;
-  uint64_t pixelKey_;
-  uint64_t key_;
-  uint64_t index_;
+  SamplerKind kind_ = SamplerKind::kIndependent;
+  uint64_t pixelKey_ = 0;
+  uint64_t key_ = 0;
+  uint64_t index_ = 0;
   uint32_t local_ = 0, blockSize_ = 1;  // stratified: position in the unit's pattern, its size
 };
 

@@ -45,33 +45,45 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
     _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
 #endif
     PathStats& local = threadStats.local();
+    PathPacket packet;
+    Spectrum radiance[kPacketWidth];
+    uint64_t pixelOf[kPacketWidth];
     for (int j = rows.begin(); j != rows.end(); ++j) {
       if (cancel && cancel->load(std::memory_order_relaxed)) {
         cancelled = true;
         return;
       }
-      for (int i = 0; i < width; ++i) {
-        const uint64_t pixel = uint64_t(j) * width + i;
-        double sum[3] = {0.0, 0.0, 0.0};
-        for (uint64_t s = unit.firstSample; s < unit.firstSample + unit.sampleCount; ++s) {
-          const SampleStream rng(sampler, pixel, s);
+      // The row's samples in pixel-major, sample-minor order, cut into packets of kPacketWidth:
+      // with units of 16 samples a packet is one pixel's samples; smaller units put neighbouring
+      // pixels together. Packets never span rows, so they are the same for any thread count.
+      const uint64_t rowSamples = uint64_t(width) * unit.sampleCount;
+      for (uint64_t first = 0; first < rowSamples; first += kPacketWidth) {
+        packet.count = int(std::min<uint64_t>(kPacketWidth, rowSamples - first));
+        for (int k = 0; k < packet.count; ++k) {
+          const int i = int((first + uint64_t(k)) / unit.sampleCount);
+          const uint64_t s = unit.firstSample + (first + uint64_t(k)) % unit.sampleCount;
+          pixelOf[k] = uint64_t(j) * width + uint64_t(i);
+          packet.rng[k] = SampleStream(sampler, pixelOf[k], s);
+          const SampleStream& rng = packet.rng[k];
           // Without depth of field the lens is a pinhole: no lens sample, the same rays.
-          const CameraRay ray = kLens ? camera.generateRay(i, j, rng.get2D(dims::kSensor), rng.get2D(dims::kLens))
-                                      : camera.generatePinholeRay(i, j, rng.get2D(dims::kSensor));
-          const Spectrum l = tracePath<kNee, kSpecular>(rs, ray, rng, local);
+          packet.cameraRays[k] = kLens ? camera.generateRay(i, j, rng.get2D(dims::kSensor), rng.get2D(dims::kLens))
+                                       : camera.generatePinholeRay(i, j, rng.get2D(dims::kSensor));
+        }
+        tracePacket<kNee, kSpecular>(rs, packet, radiance, local);
+        // Each cell's sums start at zero and take its samples in sample order: the same double
+        // sums whatever the packets.
+        for (int k = 0; k < packet.count; ++k) {
+          const Spectrum& l = radiance[k];
           if (!isFinite(l)) {
             ++local.dropped;  // counted as a sample of zero, never written (design.md invariant)
             continue;
           }
-          sum[0] += l.r;
-          sum[1] += l.g;
-          sum[2] += l.b;
+          out.sums[3 * pixelOf[k]] += l.r;
+          out.sums[3 * pixelOf[k] + 1] += l.g;
+          out.sums[3 * pixelOf[k] + 2] += l.b;
         }
-        out.sums[3 * pixel] = sum[0];
-        out.sums[3 * pixel + 1] = sum[1];
-        out.sums[3 * pixel + 2] = sum[2];
-        out.samples[pixel] = unit.sampleCount;
       }
+      for (int i = 0; i < width; ++i) out.samples[uint64_t(j) * width + uint64_t(i)] = unit.sampleCount;
     }
   });
   threadStats.combine_each([&](const PathStats& st) { stats += st; });

@@ -16,8 +16,7 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 fs::path smallClassicBox(const test::TempDir& dir, int side) {
-  json scene = json::parse(std::ifstream(test::scenesDir() / "cornell-classic.json"));
-  scene["shapes"][0]["file"] = (test::scenesDir() / "meshes/cornell-box.obj").string();
+  json scene = test::bundledSceneJson("cornell-classic.json");
   scene["render"]["resolution"] = {side, side};
   return dir.write("classic.json", scene.dump());
 }

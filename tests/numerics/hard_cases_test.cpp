@@ -14,8 +14,7 @@ namespace {
 using nlohmann::json;
 
 json seedScene(int size, uint64_t spp) {
-  json scene = json::parse(std::ifstream(test::scenesDir() / "cornell-seed.json"));
-  scene["shapes"][0]["file"] = (test::scenesDir() / "meshes/cornell-box.obj").string();
+  json scene = test::bundledSceneJson("cornell-seed.json");
   scene["render"]["resolution"] = {size, size};
   scene["render"]["samples_per_pixel"] = spp;
   return scene;

@@ -66,8 +66,7 @@ TEST_P(Watertight, NoRayEscapesTheClosedCornellBox) {
   const double far = GetParam();
   const Vec3 offset = Vec3(1.5e5f, 1.2e3f, -2.2e5f) * float(far);
   test::TempDir dir;
-  json scene = json::parse(std::ifstream(test::scenesDir() / "cornell-classic.json"));
-  scene["shapes"][0]["file"] = (test::scenesDir() / "meshes/cornell-box.obj").string();
+  json scene = test::bundledSceneJson("cornell-classic.json");
   scene["shapes"][0]["transform"]["translate"] = {1 + offset.x, 1 + offset.y, -1 + offset.z};
   // The DH2323 box is open at the front: close it.
   scene["shapes"].push_back({{"type", "quad"}, {"corner", {-1 + offset.x, -1 + offset.y, -1 + offset.z}},

@@ -15,11 +15,7 @@ namespace {
 
 using nlohmann::json;
 
-json sceneFile(const char* name) {
-  json scene = json::parse(std::ifstream(test::scenesDir() / name));
-  scene["shapes"][0]["file"] = (test::scenesDir() / "meshes/cornell-box.obj").string();
-  return scene;
-}
+json sceneFile(const char* name) { return test::bundledSceneJson(name); }
 
 const EffectDecision& decision(const EffectSet& e, const std::string& effect) {
   for (const auto& d : e.decisions)

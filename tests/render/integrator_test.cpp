@@ -86,8 +86,7 @@ TEST(Estimators, NaiveNeeAndNeeMisConvergeToTheSameImage) {
   // per channel agrees within Monte Carlo noise (NEE+MIS has far lower pixel variance), with or
   // without Russian roulette, with any sampler.
   test::TempDir dir;
-  json scene = json::parse(std::ifstream(test::scenesDir() / "cornell-classic.json"));
-  scene["shapes"][0]["file"] = (test::scenesDir() / "meshes/cornell-box.obj").string();
+  json scene = test::bundledSceneJson("cornell-classic.json");
   scene["render"]["resolution"] = {32, 32};
   scene["render"]["samples_per_pixel"] = 256;
   scene["render"]["integrator"] = "naive";
@@ -123,8 +122,7 @@ TEST(NonFinite, SamplesThatOverflowAreCountedAndDropped) {
 
 TEST(Determinism, SameBitsForOneTwoAndFourThreads) {
   test::TempDir dir;
-  json scene = json::parse(std::ifstream(test::scenesDir() / "cornell-seed.json"));
-  scene["shapes"][0]["file"] = (test::scenesDir() / "meshes/cornell-box.obj").string();
+  json scene = test::bundledSceneJson("cornell-seed.json");
   scene["render"]["resolution"] = {48, 40};
   const Scene s = test::loadSceneJson(dir, scene);
   const RenderScene rs(s);

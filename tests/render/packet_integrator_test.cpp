@@ -1,0 +1,118 @@
+// The packet integrator (tracePacket) against the one-ray-at-a-time reference (tracePath): every
+// lane gives the reference's bits for its sample, whatever else shares its packet, for every
+// estimator and compiled-in effect set, with Russian roulette too.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <fstream>
+
+#include "render/integrator.h"
+#include "render/render_scene.h"
+#include "test_support.h"
+
+namespace lensfarm {
+namespace {
+
+using nlohmann::json;
+
+json sceneFile(const char* name) {
+  json scene = test::bundledSceneJson(name);
+  scene["render"]["resolution"] = {48, 48};
+  return scene;
+}
+
+struct Lane {
+  int i, j;
+  uint64_t sample;
+};
+
+// Traces `lanes` as packets of `width` lanes and each lane alone; expects equal bits and counts.
+template <bool kNee, bool kSpecular>
+void expectPacketsEqualSinglePaths(const RenderScene& rs, const std::vector<Lane>& lanes, int width) {
+  const RenderSettings& settings = rs.settings();
+  const SamplerSetup sampler{settings.sampler, settings.seed, settings.samplesPerPixel, unitSize(settings)};
+  const ThinLensCamera& camera = rs.camera();
+  PathStats packetStats, singleStats;
+  int compared = 0, nonZero = 0;
+  for (size_t first = 0; first < lanes.size(); first += size_t(width)) {
+    PathPacket packet;
+    packet.count = int(std::min<size_t>(size_t(width), lanes.size() - first));
+    for (int k = 0; k < packet.count; ++k) {
+      const Lane& lane = lanes[first + size_t(k)];
+      packet.rng[k] = SampleStream(sampler, uint64_t(lane.j) * uint64_t(camera.width()) + uint64_t(lane.i), lane.sample);
+      packet.cameraRays[k] = camera.generateRay(lane.i, lane.j, packet.rng[k].get2D(dims::kSensor),
+                                                packet.rng[k].get2D(dims::kLens));
+    }
+    Spectrum radiance[kPacketWidth];
+    tracePacket<kNee, kSpecular>(rs, packet, radiance, packetStats);
+    for (int k = 0; k < packet.count; ++k) {
+      const Spectrum single = tracePath<kNee, kSpecular>(rs, packet.cameraRays[k], packet.rng[k], singleStats);
+      EXPECT_EQ(std::memcmp(&single, &radiance[k], sizeof(Spectrum)), 0)
+          << "lane " << k << " of the packet at " << first << ": " << single.r << " vs " << radiance[k].r;
+      ++compared;
+      nonZero += !isBlack(single);
+    }
+  }
+  EXPECT_EQ(compared, int(lanes.size()));
+  // The naive estimator finds light on about one path in ten; light sampling on most.
+  EXPECT_GT(nonZero, kNee ? compared / 4 : compared / 60) << "the comparison must see light";
+  EXPECT_EQ(packetStats.paths, singleStats.paths);
+  EXPECT_EQ(packetStats.rays, singleStats.rays);
+  EXPECT_EQ(packetStats.lightHits, singleStats.lightHits);
+}
+
+// A pixel's consecutive samples (what the unit renderer packs together), then lanes scattered
+// over the frame (incoherent packets: a lane's result must not depend on its neighbours).
+std::vector<Lane> lanesFor(int width, int height) {
+  std::vector<Lane> lanes;
+  for (int p = 0; p < 6; ++p)
+    for (uint64_t s = 0; s < 21; ++s) lanes.push_back({(p * 7) % width, (p * 11 + 3) % height, s});
+  uint64_t x = 12345;
+  for (int n = 0; n < 200; ++n) {
+    x = x * 6364136223846793005ull + 1442695040888963407ull;
+    lanes.push_back({int((x >> 33) % uint64_t(width)), int((x >> 45) % uint64_t(height)), (x >> 20) % 64});
+  }
+  return lanes;
+}
+
+TEST(PacketIntegrator, EveryLaneGivesTheSinglePathBitsForEachEstimator) {
+  for (const char* integrator : {"nee_mis", "nee", "naive"})
+    for (bool roulette : {false, true}) {
+      SCOPED_TRACE(std::string(integrator) + (roulette ? " with roulette" : ""));
+      json classic = sceneFile("cornell-classic.json");
+      classic["render"]["integrator"] = integrator;
+      classic["render"]["russian_roulette"] = roulette;
+      classic["render"]["max_bounces"] = 5;
+      test::TempDir dir;
+      const Scene scene = test::loadSceneJson(dir, classic);
+      const RenderScene rs(scene);
+      const auto lanes = lanesFor(48, 48);
+      for (int width : {16, 5, 1}) {
+        if (std::string(integrator) == "naive")
+          expectPacketsEqualSinglePaths<false, false>(rs, lanes, width);
+        else
+          expectPacketsEqualSinglePaths<true, false>(rs, lanes, width);
+      }
+    }
+}
+
+TEST(PacketIntegrator, EveryLaneGivesTheSinglePathBitsWithLensAndMirrors) {
+  for (const char* integrator : {"nee_mis", "naive"}) {
+    SCOPED_TRACE(integrator);
+    json seed = sceneFile("cornell-seed.json");
+    seed["render"]["integrator"] = integrator;
+    test::TempDir dir;
+    const Scene scene = test::loadSceneJson(dir, seed);
+    const RenderScene rs(scene, /*general=*/true);
+    const auto lanes = lanesFor(48, 48);
+    for (int width : {16, 3}) {
+      if (std::string(integrator) == "naive")
+        expectPacketsEqualSinglePaths<false, true>(rs, lanes, width);
+      else
+        expectPacketsEqualSinglePaths<true, true>(rs, lanes, width);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace lensfarm
