@@ -165,6 +165,7 @@ int run(int argc, char** argv) {
   std::string sceneName = "cornell-classic.json", integrator = "nee_mis", sampler = "sobol";
   int resolution = 512, bounces = 3, repeat = 5;
   uint32_t unitSamples = 16;
+  bool renderOnly = false;
   unsigned threads = std::max(1u, std::thread::hardware_concurrency());
   uint64_t generated = 0;
   app.add_option("--scene", sceneName, "Scene file (absolute, or in the source tree's scenes/)")->capture_default_str();
@@ -175,6 +176,7 @@ int run(int argc, char** argv) {
   app.add_option("--repeat", repeat, "Runs; medians are reported")->capture_default_str();
   app.add_option("--threads", threads)->capture_default_str();
   app.add_option("--unit-spp", unitSamples, "Samples per pixel in each timed unit")->capture_default_str()->check(CLI::Range(1, 4096));
+  app.add_flag("--render-only", renderOnly, "Only (a), once per run: for profilers (perf, callgrind)");
   app.add_option("--triangles", generated, "Add a generated mesh of about this many triangles (scaling)");
   CLI11_PARSE(app, argc, argv);
 
@@ -210,6 +212,9 @@ int run(int argc, char** argv) {
     const auto t0 = Clock::now();
     arena.execute([&] { renderUnit(rs, unit, buffer, stats); });
     const double renderSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    pathRate.push_back(pixels / renderSeconds);
+    rayRate.push_back(double(stats.rays) / renderSeconds);
+    if (renderOnly) continue;
     // (b) the same unit recorded, then replayed.
     ThreadLogs logs;
     rs.caster().setRecorder(&logs);
@@ -220,8 +225,6 @@ int run(int argc, char** argv) {
     const Replay intersects = replay(rs.caster(), logs, arena, Which::kIntersect);
     const Replay occlusions = replay(rs.caster(), logs, arena, Which::kOccluded);
     const double rays = double(rep.intersects + rep.occlusions);
-    pathRate.push_back(pixels / renderSeconds);
-    rayRate.push_back(rays / renderSeconds);
     embreeRate.push_back(rays / rep.seconds);
     intersectRate.push_back(double(intersects.intersects) / intersects.seconds);
     occludedRate.push_back(occlusions.occlusions ? double(occlusions.occlusions) / occlusions.seconds : 0.0);
@@ -235,6 +238,7 @@ int run(int argc, char** argv) {
               sceneMegabytes);
   std::printf("(a) integrator:        %.3f M pixel-samples/s, %.2f M rays/s\n", median(pathRate) / 1e6,
               median(rayRate) / 1e6);
+  if (renderOnly) return 0;
   std::printf("(b) Embree alone:      %.2f M rays/s on the same rays, 16-wide packets as the integrator casts them\n",
               median(embreeRate) / 1e6);
   std::printf("    by kind:           %.2f M rays/s intersect (camera + scattered), %.2f M rays/s occluded (shadow)\n",

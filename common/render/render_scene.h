@@ -18,6 +18,7 @@ class RenderScene {
       : scene_(scene),
         camera_(scene.camera()),
         effects_(general ? EffectSet::all(scene) : analyzeEffects(scene, camera_)),
+        mirrorsReachable_(general ? analyzeEffects(scene, camera_).specular : effects_.specular),
         caster_(scene),
         lights_(scene, caster_, effects_.lightUseful) {}
 
@@ -25,6 +26,9 @@ class RenderScene {
   const RenderSettings& settings() const { return scene_.render; }
   const ThinLensCamera& camera() const { return camera_; }
   const EffectSet& effects() const { return effects_; }
+  // Whether a camera path can meet a mirror (the analysis's answer even for a general scene, so
+  // both paths make the same choices that depend on it; render/integrator.cpp).
+  bool mirrorsReachable() const { return mirrorsReachable_; }
   const RayCaster& caster() const { return caster_; }
   const LightSampler& lights() const { return lights_; }
   const Material& material(uint32_t id) const { return scene_.materials[id]; }
@@ -33,6 +37,7 @@ class RenderScene {
   const Scene& scene_;
   ThinLensCamera camera_;
   EffectSet effects_;
+  bool mirrorsReachable_;
   RayCaster caster_;
   LightSampler lights_;
 };

@@ -3,6 +3,7 @@
 // hit it again, at any scale from 1e-8 to 1e8.
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
 #include <fstream>
 #include <random>
@@ -135,6 +136,27 @@ TEST(SelfIntersection, SpawnedRaysNeverHitTheirOwnSurfaceAtAnyScale) {
       if (rs.caster().intersect(o, w, RayKind::kScattered)) ++selfHits;
     }
     EXPECT_EQ(selfHits, 0u) << "scale " << scale;
+  }
+}
+
+TEST(SelfIntersection, NextFloatMatchesTheLibrarysNextafter) {
+  // The offset's last step rounds away from the surface with bit arithmetic instead of
+  // std::nextafter; both must agree everywhere, signed zeros, subnormals and extremes included.
+  std::vector<float> values = {0.0f, -0.0f, 1.0f, -1.0f, std::numeric_limits<float>::denorm_min(),
+                               -std::numeric_limits<float>::denorm_min(), std::numeric_limits<float>::min(),
+                               std::numeric_limits<float>::max(), -std::numeric_limits<float>::max(),
+                               std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity()};
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<uint32_t> bits;
+  for (int k = 0; k < 100000; ++k) {
+    const float v = std::bit_cast<float>(bits(rng));
+    if (!std::isnan(v)) values.push_back(v);
+  }
+  const float inf = std::numeric_limits<float>::infinity();
+  for (float v : values) {
+    const float up = std::nextafter(v, inf), down = std::nextafter(v, -inf);
+    EXPECT_EQ(std::bit_cast<uint32_t>(nextFloatUp(v)), std::bit_cast<uint32_t>(up)) << v;
+    EXPECT_EQ(std::bit_cast<uint32_t>(nextFloatDown(v)), std::bit_cast<uint32_t>(down)) << v;
   }
 }
 
