@@ -165,7 +165,7 @@ int run(int argc, char** argv) {
   std::string sceneName = "cornell-classic.json", integrator = "nee_mis", sampler = "sobol";
   int resolution = 512, bounces = 3, repeat = 5;
   uint32_t unitSamples = 16;
-  bool renderOnly = false;
+  bool renderOnly = false, singleRays = false;
   unsigned threads = std::max(1u, std::thread::hardware_concurrency());
   uint64_t generated = 0;
   app.add_option("--scene", sceneName, "Scene file (absolute, or in the source tree's scenes/)")->capture_default_str();
@@ -176,6 +176,7 @@ int run(int argc, char** argv) {
   app.add_option("--repeat", repeat, "Runs; medians are reported")->capture_default_str();
   app.add_option("--threads", threads)->capture_default_str();
   app.add_option("--unit-spp", unitSamples, "Samples per pixel in each timed unit")->capture_default_str()->check(CLI::Range(1, 4096));
+  app.add_flag("--single-rays", singleRays, "Cast one ray at a time (the reference tracer) instead of 16-wide packets");
   app.add_flag("--render-only", renderOnly, "Only (a), once per run: for profilers (perf, callgrind)");
   app.add_option("--triangles", generated, "Add a generated mesh of about this many triangles (scaling)");
   CLI11_PARSE(app, argc, argv);
@@ -201,25 +202,27 @@ int run(int argc, char** argv) {
   const double buildSeconds = std::chrono::duration<double>(Clock::now() - buildStart).count();
   const double sceneMegabytes = residentMegabytes() - memoryBefore;
   tbb::task_arena arena{int(threads)};
+  const RayGrouping grouping = singleRays ? RayGrouping::kSingleRays : RayGrouping::kPackets;
   const double pixels = double(resolution) * resolution * unitSamples;
 
-  std::vector<double> pathRate, rayRate, embreeRate, intersectRate, occludedRate, ratio, share;
+  std::vector<double> raysPerPath, pathRate, rayRate, embreeRate, intersectRate, occludedRate, ratio, share;
   for (int r = 0; r < repeat; ++r) {
     // (a) the integrator, timed, no recorder.
     PathStats stats;
     SensorBuffer buffer;
     const WorkUnit unit{uint64_t(r), uint64_t(r) * unitSamples, unitSamples};
     const auto t0 = Clock::now();
-    arena.execute([&] { renderUnit(rs, unit, buffer, stats); });
+    arena.execute([&] { renderUnit(rs, unit, buffer, stats, nullptr, grouping); });
     const double renderSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
     pathRate.push_back(pixels / renderSeconds);
     rayRate.push_back(double(stats.rays) / renderSeconds);
+    raysPerPath.push_back(double(stats.rays) / double(stats.paths));
     if (renderOnly) continue;
     // (b) the same unit recorded, then replayed.
     ThreadLogs logs;
     rs.caster().setRecorder(&logs);
     PathStats recorded;
-    arena.execute([&] { renderUnit(rs, unit, buffer, recorded); });
+    arena.execute([&] { renderUnit(rs, unit, buffer, recorded, nullptr, grouping); });
     rs.caster().setRecorder(nullptr);
     const Replay rep = replay(rs.caster(), logs, arena, Which::kAll);
     const Replay intersects = replay(rs.caster(), logs, arena, Which::kIntersect);
@@ -239,8 +242,10 @@ int run(int argc, char** argv) {
   std::printf("(a) integrator:        %.3f M pixel-samples/s, %.2f M rays/s\n", median(pathRate) / 1e6,
               median(rayRate) / 1e6);
   if (renderOnly) return 0;
-  std::printf("(b) Embree alone:      %.2f M rays/s on the same rays, 16-wide packets as the integrator casts them\n",
-              median(embreeRate) / 1e6);
+  std::printf("(b) Embree alone:      %.2f M rays/s on the same rays, %s as the integrator casts them\n",
+              median(embreeRate) / 1e6, singleRays ? "single rays" : "16-wide packets");
+  std::printf("    ceiling:           %.3f M pixel-samples/s if nothing but Embree took time (%.2f rays per path)\n",
+              median(embreeRate) / median(raysPerPath) / 1e6, median(raysPerPath));
   std::printf("    by kind:           %.2f M rays/s intersect (camera + scattered), %.2f M rays/s occluded (shadow)\n",
               median(intersectRate) / 1e6, median(occludedRate) / 1e6);
   std::printf("(a)/(b):               %.3f  (1 = the integrator costs nothing beyond its rays)\n", median(ratio));

@@ -47,7 +47,7 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, float uChoice, 
   const Vec3 toLight = s.p - ref;
   const float dist2 = glm::dot(toLight, toLight);
   if (!(dist2 > 0.0f)) return std::nullopt;
-  const Vec3 d = toLight / std::sqrt(dist2);
+  const Vec3 d = toLight * (1.0f / std::sqrt(dist2));  // one division, not three
   const float cosLight = std::abs(glm::dot(s.n, d));
   if (!(cosLight > 0.0f)) return std::nullopt;
   s.radiance = emitted(light.triangle, d);

@@ -1,6 +1,7 @@
 #pragma once
 // Warps from the unit square to the domains the renderer samples, with their densities.
 // Each warp is a bijection, so stratified or low-discrepancy inputs keep their structure.
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -11,16 +12,52 @@ namespace lensfarm {
 inline constexpr float kPi = std::numbers::pi_v<float>;
 inline constexpr float kInvPi = std::numbers::inv_pi_v<float>;
 
+// The warps below are inline: they run several times per path, inside the integrator's loop.
+
+// sin and cos of x in [-pi/4, pi/4] from their Taylor series to x^9 and x^10, whose next terms
+// are below 2e-9 there: as accurate as float allows, without a library call (the library's
+// sincosf was 3 % of render time; docs/performance.md).
+inline void sinCosQuarterPi(float x, float& s, float& c) {
+  const float x2 = x * x;
+  s = x * (1.0f + x2 * (-1.0f / 6.0f + x2 * (1.0f / 120.0f + x2 * (-1.0f / 5040.0f + x2 * (1.0f / 362880.0f)))));
+  c = 1.0f + x2 * (-0.5f + x2 * (1.0f / 24.0f + x2 * (-1.0f / 720.0f + x2 * (1.0f / 40320.0f + x2 * (-1.0f / 3628800.0f)))));
+}
+
 // Shirley-Chiu concentric map from [0,1)^2 to the unit disk; area-preserving, low distortion.
-Vec2 sampleConcentricDisk(Vec2 u);
+// The angle is (pi/4) o.y/o.x, or pi/2 - (pi/4) o.x/o.y, so only |x| <= pi/4 needs sin and cos.
+inline Vec2 sampleConcentricDisk(Vec2 u) {
+  const Vec2 o = 2.0f * u - Vec2(1.0f);
+  if (o.x == 0.0f && o.y == 0.0f) return Vec2(0.0f);
+  float s, c;
+  if (std::abs(o.x) > std::abs(o.y)) {
+    sinCosQuarterPi((kPi / 4.0f) * (o.y / o.x), s, c);
+    return o.x * Vec2(c, s);
+  }
+  sinCosQuarterPi((kPi / 4.0f) * (o.x / o.y), s, c);  // cos(pi/2 - a) = sin a, sin(pi/2 - a) = cos a
+  return o.y * Vec2(s, c);
+}
 
 // Cosine-weighted direction on the hemisphere around +z (Malley's method).
 // pdf(w) = cos(theta) / pi. Replaces the seed's rejection loop (§4.2) with an exact warp.
-Vec3 sampleCosineHemisphere(Vec2 u);
+inline Vec3 sampleCosineHemisphere(Vec2 u) {
+  const Vec2 d = sampleConcentricDisk(u);
+  const float z = std::sqrt(std::max(0.0f, 1.0f - d.x * d.x - d.y * d.y));
+  return Vec3(d.x, d.y, z);
+}
 inline float cosineHemispherePdf(float cosTheta) { return cosTheta > 0.0f ? cosTheta * kInvPi : 0.0f; }
 
 // Uniform point on a triangle as barycentrics (b0, b1); b2 = 1 - b0 - b1. Heitz 2019 warp.
-Vec2 sampleUniformTriangle(Vec2 u);
+inline Vec2 sampleUniformTriangle(Vec2 u) {
+  float b0, b1;
+  if (u.x < u.y) {
+    b0 = u.x / 2.0f;
+    b1 = u.y - b0;
+  } else {
+    b1 = u.y / 2.0f;
+    b0 = u.x - b1;
+  }
+  return Vec2(b0, b1);
+}
 
 // Veach's power heuristic (beta = 2) for two strategies with one sample each.
 inline float powerHeuristic(float pdfA, float pdfB) {

@@ -28,7 +28,7 @@ namespace {
 // The pixel loop for one combination of effects, fixed at compile time.
 template <bool kLens, bool kNee, bool kSpecular>
 bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
-                    const std::atomic<bool>* cancel) {
+                    const std::atomic<bool>* cancel, RayGrouping grouping) {
   const ThinLensCamera& camera = rs.camera();
   const int width = camera.width(), height = camera.height();
   const RenderSettings& settings = rs.settings();
@@ -69,7 +69,11 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
           packet.cameraRays[k] = kLens ? camera.generateRay(i, j, rng.get2D(dims::kSensor), rng.get2D(dims::kLens))
                                        : camera.generatePinholeRay(i, j, rng.get2D(dims::kSensor));
         }
-        tracePacket<kNee, kSpecular>(rs, packet, radiance, local);
+        if (grouping == RayGrouping::kPackets)
+          tracePacket<kNee, kSpecular>(rs, packet, radiance, local);
+        else
+          for (int k = 0; k < packet.count; ++k)
+            radiance[k] = tracePath<kNee, kSpecular>(rs, packet.cameraRays[k], packet.rng[k], local);
         // Each cell's sums start at zero and take its samples in sample order: the same double
         // sums whatever the packets.
         for (int k = 0; k < packet.count; ++k) {
@@ -93,20 +97,20 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
 }  // namespace
 
 bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
-                const std::atomic<bool>* cancel) {
+                const std::atomic<bool>* cancel, RayGrouping grouping) {
   // Pick the specialisation once per unit (scene/effects.h); the inner loops then carry no
   // branch for an effect the scene does not call for.
   const EffectSet& e = rs.effects();
   const bool lens = e.depthOfField;
   const bool nee = e.lightSampling && rs.settings().integrator != IntegratorKind::kNaive && !rs.lights().empty();
   const bool specular = e.specular;
-  using Fn = bool (*)(const RenderScene&, const WorkUnit&, SensorBuffer&, PathStats&, const std::atomic<bool>*);
+  using Fn = bool (*)(const RenderScene&, const WorkUnit&, SensorBuffer&, PathStats&, const std::atomic<bool>*, RayGrouping);
   static constexpr Fn kTable[2][2][2] = {
       {{renderUnitWith<false, false, false>, renderUnitWith<false, false, true>},
        {renderUnitWith<false, true, false>, renderUnitWith<false, true, true>}},
       {{renderUnitWith<true, false, false>, renderUnitWith<true, false, true>},
        {renderUnitWith<true, true, false>, renderUnitWith<true, true, true>}}};
-  return kTable[lens][nee][specular](rs, unit, out, stats, cancel);
+  return kTable[lens][nee][specular](rs, unit, out, stats, cancel, grouping);
 }
 
 }  // namespace lensfarm

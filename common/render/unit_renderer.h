@@ -25,9 +25,13 @@ struct WorkUnit {
 uint64_t unitCount(uint64_t samplesPerPixel, uint32_t samplesPerUnit);
 WorkUnit unitAt(uint64_t index, uint64_t samplesPerPixel, uint32_t samplesPerUnit);
 
+// How rays are cast: as 16-wide packets (always, in production), or one at a time with the
+// reference tracer (benchmarks measure what packets gain; tests check both give the same bits).
+enum class RayGrouping { kPackets, kSingleRays };
+
 // Fills `out` (resized to the frame) with the unit's sums and per-cell sample counts and adds to
 // `stats`. Returns false, with `out` incomplete, if `cancel` was raised before it finished.
 bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
-                const std::atomic<bool>* cancel = nullptr);
+                const std::atomic<bool>* cancel = nullptr, RayGrouping grouping = RayGrouping::kPackets);
 
 }  // namespace lensfarm

@@ -8,6 +8,7 @@
 
 #include "render/integrator.h"
 #include "render/render_scene.h"
+#include "render/unit_renderer.h"
 #include "test_support.h"
 
 namespace lensfarm {
@@ -111,6 +112,32 @@ TEST(PacketIntegrator, EveryLaneGivesTheSinglePathBitsWithLensAndMirrors) {
       else
         expectPacketsEqualSinglePaths<true, true>(rs, lanes, width);
     }
+  }
+}
+
+TEST(PacketIntegrator, UnitsRenderedInPacketsEqualUnitsRenderedOneRayAtATime) {
+  // The whole unit renderer, packets against single rays, for unit sizes that put one pixel,
+  // several pixels, or a pixel and a half in a packet.
+  for (uint32_t unitSamples : {16u, 3u, 24u}) {
+    SCOPED_TRACE(unitSamples);
+    json seed = sceneFile("cornell-seed.json");
+    seed["render"]["samples_per_pixel"] = 48;
+    seed["render"]["samples_per_unit"] = unitSamples;
+    test::TempDir dir;
+    const Scene scene = test::loadSceneJson(dir, seed);
+    const RenderScene rs(scene);
+    const WorkUnit unit = unitAt(1, 48, unitSamples);
+    SensorBuffer packets, singles;
+    PathStats packetStats, singleStats;
+    ASSERT_TRUE(renderUnit(rs, unit, packets, packetStats, nullptr, RayGrouping::kPackets));
+    ASSERT_TRUE(renderUnit(rs, unit, singles, singleStats, nullptr, RayGrouping::kSingleRays));
+    ASSERT_EQ(packets.sums.size(), singles.sums.size());
+    EXPECT_EQ(std::memcmp(packets.sums.data(), singles.sums.data(), packets.sums.size() * sizeof(double)), 0);
+    EXPECT_EQ(packets.samples, singles.samples);
+    EXPECT_EQ(packetStats.rays, singleStats.rays);
+    double total = 0.0;
+    for (double v : packets.sums) total += v;
+    EXPECT_GT(total, 0.0);
   }
 }
 
