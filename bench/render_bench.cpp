@@ -1,5 +1,6 @@
-// Throughput of the renderer: paths/s and rays/s for one unit (1 sample per pixel over the whole
-// frame) on all cores. The Embree scene is built once per benchmark, outside the timed loop.
+// Throughput of the renderer: paths/s and rays/s for one unit (16 samples per pixel over the whole
+// frame, one 16-wide packet per pixel) on all cores. The Embree scene is built once per benchmark,
+// outside the timed loop.
 //
 // BM_Paths compares, per scene, the path specialised on the scene's effects with the general one.
 //
@@ -19,16 +20,17 @@
 namespace lensfarm {
 namespace {
 
-// Traces one unit (1 spp over the whole frame) per iteration on all cores and reports paths/s,
+// Traces one unit (16 spp over the whole frame) per iteration on all cores and reports paths/s,
 // rays/s and rays per path. The Embree scene is built by the caller, outside the timed loop.
-void traceUnits(benchmark::State& state, const RenderScene& rs) {
+void traceUnits(benchmark::State& state, const RenderScene& rs, RayGrouping grouping = RayGrouping::kPackets) {
+  constexpr uint32_t kUnitSamples = 16;
   const int threads = int(std::max(1u, std::thread::hardware_concurrency()));
   tbb::task_arena arena{threads};
   PathStats stats;
   SensorBuffer buffer;
   uint64_t unit = 0;
   for (auto _ : state) {
-    arena.execute([&] { renderUnit(rs, WorkUnit{unit, unit, 1}, buffer, stats); });
+    arena.execute([&] { renderUnit(rs, WorkUnit{unit, unit * kUnitSamples, kUnitSamples}, buffer, stats, nullptr, grouping); });
     ++unit;
     benchmark::DoNotOptimize(buffer.sums.data());
   }
@@ -39,22 +41,27 @@ void traceUnits(benchmark::State& state, const RenderScene& rs) {
 }
 
 void renderUnits(benchmark::State& state, const char* sceneName, int maxBounces, IntegratorKind integrator,
-                 int resolution) {
+                 int resolution, RayGrouping grouping = RayGrouping::kPackets) {
   Scene scene = loadScene(std::string(LENSFARM_SOURCE_DIR "/scenes/") + sceneName);
   scene.render.maxBounces = maxBounces;
   scene.render.integrator = integrator;
   scene.render.width = scene.render.height = resolution;
-  traceUnits(state, RenderScene(scene));
+  traceUnits(state, RenderScene(scene), grouping);
 }
 
 // The reference point: cornell-classic, 512x512, B = 3, NEE+MIS, all cores.
 void BM_ClassicNeeMisB3(benchmark::State& s) { renderUnits(s, "cornell-classic.json", 3, IntegratorKind::kNeeMis, 512); }
+// The same with one ray per Embree call (the reference tracer): what packets gain.
+void BM_ClassicNeeMisB3SingleRays(benchmark::State& s) {
+  renderUnits(s, "cornell-classic.json", 3, IntegratorKind::kNeeMis, 512, RayGrouping::kSingleRays);
+}
 void BM_ClassicNaiveB3(benchmark::State& s) { renderUnits(s, "cornell-classic.json", 3, IntegratorKind::kNaive, 512); }
 // The seed scene (thin lens, rippled mirror, hidden light), B = 2 as in the report's Figure 4.
 void BM_SeedNeeMisB2(benchmark::State& s) { renderUnits(s, "cornell-seed.json", 2, IntegratorKind::kNeeMis, 512); }
 void BM_SeedNaiveB2(benchmark::State& s) { renderUnits(s, "cornell-seed.json", 2, IntegratorKind::kNaive, 512); }
 
 BENCHMARK(BM_ClassicNeeMisB3)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_ClassicNeeMisB3SingleRays)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_ClassicNaiveB3)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_SeedNeeMisB2)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_SeedNaiveB2)->Unit(benchmark::kMillisecond)->UseRealTime();
