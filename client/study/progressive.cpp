@@ -18,7 +18,7 @@ namespace lensfarm::study {
 namespace fs = std::filesystem;
 
 Checkpoint renderProgressive(Scene scene, const ProgressiveRun& run,
-                             const std::function<void(const Checkpoint&)>& onCheckpoint) {
+                             const std::function<bool(const Checkpoint&)>& onCheckpoint) {
   RenderSettings& settings = scene.render;
   settings.samplesPerPixel = run.maxSamples;
   if (settings.samplesPerUnit == 0) settings.samplesPerUnit = uint32_t(run.firstCheckpoint);
@@ -41,13 +41,13 @@ Checkpoint renderProgressive(Scene scene, const ProgressiveRun& run,
     seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     tracker.add(unit, buffer);
     const uint64_t spp = work.firstSample + work.sampleCount;
-    if (spp < next && spp < run.maxSamples) continue;
+    if (!run.everyUnit && spp < next && spp < run.maxSamples) continue;
     last.samplesPerPixel = spp;
     last.seconds = seconds;
     last.image = sensor.developImage();
     last.estimate = tracker.estimate(sensor);
     last.stats = stats;
-    if (onCheckpoint) onCheckpoint(last);
+    if (onCheckpoint && !onCheckpoint(last)) break;
     if (seconds >= run.budgetSeconds) break;
     while (next <= spp) next *= 2;
   }

@@ -27,12 +27,14 @@ struct ProgressiveRun {
   uint64_t maxSamples = 1 << 16;  // stop at this many samples per pixel ...
   double budgetSeconds = 1e30;    // ... or at the first checkpoint past this much time
   unsigned threads = 0;           // 0: every core
+  bool everyUnit = false;         // a checkpoint after every unit instead (time to an error)
 };
 
 // Renders `scene` (its render settings as given; samplesPerUnit 0 means firstCheckpoint) and
-// calls `onCheckpoint` at each checkpoint. Returns the last checkpoint.
+// calls `onCheckpoint` at each checkpoint; rendering stops there when it returns false. Returns
+// the last checkpoint.
 Checkpoint renderProgressive(Scene scene, const ProgressiveRun& run,
-                             const std::function<void(const Checkpoint&)>& onCheckpoint = {});
+                             const std::function<bool(const Checkpoint&)>& onCheckpoint = {});
 
 // A converged image of `scene`: NEE + MIS with the Sobol sampler at `samplesPerPixel`, cached in
 // `cacheDir` under a key of the scene's hash and settings (the same study command reuses it).

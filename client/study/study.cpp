@@ -160,6 +160,7 @@ class Study {
       s.error.push_back(e.relativeRmse);
       s.estimate.push_back(c.estimate.valid ? c.estimate.relativeRmse : -1.0);
       s.details.push_back(e);
+      return true;
     });
     spdlog::info("{}: {} spp in {:.2f} s, relative RMSE {:.4f}", name, s.spp.back(), s.seconds.back(), s.error.back());
     return s;
