@@ -57,17 +57,22 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
       // with units of 16 samples a packet is one pixel's samples; smaller units put neighbouring
       // pixels together. Packets never span rows, so they are the same for any thread count.
       const uint64_t rowSamples = uint64_t(width) * unit.sampleCount;
+      int i = 0;                   // the next lane's pixel ...
+      uint32_t sampleInPixel = 0;  // ... and its sample within the unit
       for (uint64_t first = 0; first < rowSamples; first += kPacketWidth) {
         packet.count = int(std::min<uint64_t>(kPacketWidth, rowSamples - first));
         for (int k = 0; k < packet.count; ++k) {
-          const int i = int((first + uint64_t(k)) / unit.sampleCount);
-          const uint64_t s = unit.firstSample + (first + uint64_t(k)) % unit.sampleCount;
+          const uint64_t s = unit.firstSample + sampleInPixel;
           pixelOf[k] = uint64_t(j) * width + uint64_t(i);
           packet.rng[k] = SampleStream(sampler, pixelOf[k], s);
           const SampleStream& rng = packet.rng[k];
           // Without depth of field the lens is a pinhole: no lens sample, the same rays.
           packet.cameraRays[k] = kLens ? camera.generateRay(i, j, rng.get2D(dims::kSensor), rng.get2D(dims::kLens))
                                        : camera.generatePinholeRay(i, j, rng.get2D(dims::kSensor));
+          if (++sampleInPixel == unit.sampleCount) {
+            sampleInPixel = 0;
+            ++i;
+          }
         }
         if (grouping == RayGrouping::kPackets)
           tracePacket<kNee, kSpecular>(rs, packet, radiance, local);
@@ -87,7 +92,7 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
           out.sums[3 * pixelOf[k] + 2] += l.b;
         }
       }
-      for (int i = 0; i < width; ++i) out.samples[uint64_t(j) * width + uint64_t(i)] = unit.sampleCount;
+      for (int x = 0; x < width; ++x) out.samples[uint64_t(j) * width + uint64_t(x)] = unit.sampleCount;
     }
   });
   threadStats.combine_each([&](const PathStats& st) { stats += st; });
