@@ -4,7 +4,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: all setup configure build demo test bench load fuzz clean
+.PHONY: bench-goals all setup configure build demo test bench load fuzz clean
 
 all: build
 
@@ -28,6 +28,12 @@ bench: build
 	$(BUILD_DIR)/bench/lensfarm-bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 	$(BUILD_DIR)/bench/lensfarm-ingest-bench --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
 	BUILD_DIR=$(BUILD_DIR) bash bench/farm_efficiency.sh 3
+	$(BUILD_DIR)/bench/lensfarm-ray-limit --repeat 5
+
+# The accuracy-per-second goals of docs/performance.md (references are rendered once and cached in
+# $(BUILD_DIR)/accuracy-goals-cache: about 7 minutes the first time on 2 cores, then about 6).
+bench-goals: build
+	$(BUILD_DIR)/bench/lensfarm-accuracy-goals --repeat 5
 
 # libFuzzer targets for the scene parser and the upload path, built with clang in build-fuzz,
 # each run for FUZZ_SECONDS. A finding stops the run with the crashing input in build-fuzz/.
