@@ -205,7 +205,7 @@ int run(int argc, char** argv) {
   const RayGrouping grouping = singleRays ? RayGrouping::kSingleRays : RayGrouping::kPackets;
   const double pixels = double(resolution) * resolution * unitSamples;
 
-  std::vector<double> raysPerPath, pathRate, rayRate, embreeRate, intersectRate, occludedRate, ratio, share;
+  std::vector<double> raysPerPath, pathRate, rayRate, embreeRate, intersectRate, occludedRate, ratio;
   for (int r = 0; r < repeat; ++r) {
     // (a) the integrator, timed, no recorder.
     PathStats stats;
@@ -232,7 +232,6 @@ int run(int argc, char** argv) {
     intersectRate.push_back(double(intersects.intersects) / intersects.seconds);
     occludedRate.push_back(occlusions.occlusions ? double(occlusions.occlusions) / occlusions.seconds : 0.0);
     ratio.push_back(rep.seconds / renderSeconds);
-    share.push_back(rep.seconds / renderSeconds);
   }
   std::printf("scene %s, %zu triangles, %dx%d, B = %d, %s, %s sampler, units of %u spp, %u threads, medians of %d runs\n",
               sceneName.c_str(), triangles, resolution, resolution, bounces, integrator.c_str(), sampler.c_str(),
@@ -249,7 +248,7 @@ int run(int argc, char** argv) {
   std::printf("    by kind:           %.2f M rays/s intersect (camera + scattered), %.2f M rays/s occluded (shadow)\n",
               median(intersectRate) / 1e6, median(occludedRate) / 1e6);
   std::printf("(a)/(b):               %.3f  (1 = the integrator costs nothing beyond its rays)\n", median(ratio));
-  std::printf("time inside Embree:    %.1f %% of render time (the same ratio, read as time)\n", 100.0 * median(share));
+  std::printf("time inside Embree:    %.1f %% of render time (the same ratio, read as time)\n", 100.0 * median(ratio));
   return 0;
 }
 
