@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "math/lanes.h"
 #include "math/ray_offset.h"
 #include "math/sampling.h"
 
@@ -34,27 +35,98 @@ LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const st
   if (!cdf_.empty()) cdf_.back() = 1.0f;
 }
 
+namespace {
+// One light sample on a triangle, as seen from ref: the formula both sample() and the packet form
+// below evaluate, without branches, so a loop over lanes vectorises (math/lanes.h).
+struct TrianglePoint {
+  Vec3 p;
+  Spectrum radiance;
+  float pdf;
+  float dist2, cosLight;
+  // Whether there is a sample at all: not for a degenerate point or direction, nor an infinite
+  // density. (Tested outside lane loops: a flag computed inside one keeps it scalar.)
+  bool valid() const { return dist2 > 0.0f && cosLight > 0.0f && std::isfinite(pdf); }
+};
+
+inline TrianglePoint sampleTrianglePoint(const Vec3& v0, const Vec3& v1, const Vec3& v2, const Vec3& n, const Vec3& ref,
+                                         Vec2 u, float pmf, float area, const Spectrum& emission, float twoSided) {
+  const Vec2 b = sampleUniformTriangle(u);
+  TrianglePoint s;
+  s.p = b.x * v0 + b.y * v1 + (1.0f - b.x - b.y) * v2;
+  const Vec3 toLight = s.p - ref;
+  s.dist2 = glm::dot(toLight, toLight);
+  const Vec3 d = toLight * (1.0f / std::sqrt(s.dist2));  // one division, not three
+  s.cosLight = std::abs(glm::dot(n, d));
+  // Emitted towards ref, zero where ref sees the back of a one-sided light.
+  s.radiance = twoSided == 0.0f && glm::dot(n, d) >= 0.0f ? Spectrum(0.0f) : emission;
+  // Area density 1/A converted to solid angle: dist^2 / (cos A).
+  s.pdf = pmf * s.dist2 / (s.cosLight * area);
+  return s;
+}
+
+// The packet form's lane loop: every lane's triangle already gathered into arrays.
+struct GatheredLights {
+  alignas(64) float v0x[kPacketWidth], v0y[kPacketWidth], v0z[kPacketWidth];
+  alignas(64) float v1x[kPacketWidth], v1y[kPacketWidth], v1z[kPacketWidth];
+  alignas(64) float v2x[kPacketWidth], v2y[kPacketWidth], v2z[kPacketWidth];
+  alignas(64) float pmf[kPacketWidth], area[kPacketWidth];
+  alignas(64) float er[kPacketWidth], eg[kPacketWidth], eb[kPacketWidth];
+  alignas(64) float twoSided[kPacketWidth];
+  alignas(64) float dist2[kPacketWidth], cosLight[kPacketWidth];  // out, for valid()
+};
+
+LENSFARM_LANE_LOOPS void sampleLanes(GatheredLights& __restrict g, LightSampleLanes& __restrict l) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const TrianglePoint s = sampleTrianglePoint(
+        Vec3(g.v0x[k], g.v0y[k], g.v0z[k]), Vec3(g.v1x[k], g.v1y[k], g.v1z[k]), Vec3(g.v2x[k], g.v2y[k], g.v2z[k]),
+        Vec3(l.nx[k], l.ny[k], l.nz[k]), Vec3(l.refx[k], l.refy[k], l.refz[k]), Vec2(l.u0[k], l.u1[k]), g.pmf[k],
+        g.area[k], Spectrum(g.er[k], g.eg[k], g.eb[k]), g.twoSided[k]);
+    l.px[k] = s.p.x, l.py[k] = s.p.y, l.pz[k] = s.p.z;
+    l.rr[k] = s.radiance.r, l.rg[k] = s.radiance.g, l.rb[k] = s.radiance.b;
+    l.pdf[k] = s.pdf;
+    g.dist2[k] = s.dist2, g.cosLight[k] = s.cosLight;
+  }
+}
+}  // namespace
+
+size_t LightSampler::choose(float uChoice) const {
+  return std::min<size_t>(std::upper_bound(cdf_.begin(), cdf_.end(), uChoice) - cdf_.begin(), lights_.size() - 1);
+}
+
 std::optional<LightSample> LightSampler::sample(const Vec3& ref, float uChoice, Vec2 uPoint) const {
   if (lights_.empty()) return std::nullopt;
-  const size_t i = std::min<size_t>(std::upper_bound(cdf_.begin(), cdf_.end(), uChoice) - cdf_.begin(), lights_.size() - 1);
-  const Light& light = lights_[i];
+  const Light& light = lights_[choose(uChoice)];
   const auto& t = caster_.triangles()[light.triangle];
-  const Vec2 b = sampleUniformTriangle(uPoint);
-  LightSample s;
-  s.p = b.x * t.v0 + b.y * t.v1 + (1.0f - b.x - b.y) * t.v2;
-  s.n = t.n;
-  s.pError = positionErrorBound(t.magnitude);
-  const Vec3 toLight = s.p - ref;
-  const float dist2 = glm::dot(toLight, toLight);
-  if (!(dist2 > 0.0f)) return std::nullopt;
-  const Vec3 d = toLight * (1.0f / std::sqrt(dist2));  // one division, not three
-  const float cosLight = std::abs(glm::dot(s.n, d));
-  if (!(cosLight > 0.0f)) return std::nullopt;
-  s.radiance = emitted(light.triangle, d);
-  // Area density 1/A converted to solid angle: dist^2 / (cos A).
-  s.pdf = light.pmf * dist2 / (cosLight * light.area);
-  if (!std::isfinite(s.pdf)) return std::nullopt;
-  return s;
+  const Material& m = scene_.materials[t.material];
+  const TrianglePoint s = sampleTrianglePoint(t.v0, t.v1, t.v2, t.n, ref, uPoint, light.pmf, light.area, m.emission,
+                                              m.twoSidedEmission ? 1.0f : 0.0f);
+  if (!s.valid()) return std::nullopt;
+  return LightSample{s.p, t.n, positionErrorBound(t.magnitude), s.radiance, s.pdf};
+}
+
+void LightSampler::sample(LightSampleLanes& lanes) const {
+  GatheredLights g{};
+  for (int k = 0; k < kPacketWidth; ++k) {
+    if (lights_.empty()) lanes.found[k] = 0;
+    if (lanes.found[k] == 0) continue;  // the lane computes on zeros and stays not found
+    const Light& light = lights_[choose(lanes.uChoice[k])];
+    const auto& t = caster_.triangles()[light.triangle];
+    const Material& m = scene_.materials[t.material];
+    g.v0x[k] = t.v0.x, g.v0y[k] = t.v0.y, g.v0z[k] = t.v0.z;
+    g.v1x[k] = t.v1.x, g.v1y[k] = t.v1.y, g.v1z[k] = t.v1.z;
+    g.v2x[k] = t.v2.x, g.v2y[k] = t.v2.y, g.v2z[k] = t.v2.z;
+    lanes.nx[k] = t.n.x, lanes.ny[k] = t.n.y, lanes.nz[k] = t.n.z;
+    const Vec3 e = positionErrorBound(t.magnitude);
+    lanes.ex[k] = e.x, lanes.ey[k] = e.y, lanes.ez[k] = e.z;
+    g.pmf[k] = light.pmf, g.area[k] = light.area;
+    g.er[k] = m.emission.r, g.eg[k] = m.emission.g, g.eb[k] = m.emission.b;
+    g.twoSided[k] = m.twoSidedEmission ? 1.0f : 0.0f;
+  }
+  sampleLanes(g, lanes);
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const TrianglePoint s{{}, {}, lanes.pdf[k], g.dist2[k], g.cosLight[k]};
+    if (!s.valid()) lanes.found[k] = 0;
+  }
 }
 
 float LightSampler::pdf(uint32_t triangle, float distance, const Vec3& d) const {

@@ -20,6 +20,20 @@ struct LightSample {
   float pdf;         // solid-angle density at the shading point
 };
 
+// sample() for the lanes of a packet at once, as arrays over the lanes (render/integrator.h).
+struct LightSampleLanes {
+  // In: found[k] != 0 for each lane to sample, with its sample values and reference point.
+  alignas(64) int found[kPacketWidth];
+  alignas(64) float uChoice[kPacketWidth], u0[kPacketWidth], u1[kPacketWidth];
+  alignas(64) float refx[kPacketWidth], refy[kPacketWidth], refz[kPacketWidth];
+  // Out: found[k] is -1 where sample() returns a sample and 0 elsewhere; the fields of LightSample.
+  alignas(64) float px[kPacketWidth], py[kPacketWidth], pz[kPacketWidth];
+  alignas(64) float nx[kPacketWidth], ny[kPacketWidth], nz[kPacketWidth];
+  alignas(64) float ex[kPacketWidth], ey[kPacketWidth], ez[kPacketWidth];
+  alignas(64) float rr[kPacketWidth], rg[kPacketWidth], rb[kPacketWidth];
+  alignas(64) float pdf[kPacketWidth];
+};
+
 class LightSampler {
  public:
   // `useful[m]` false: emitters of material m light nothing and are not sampled (empty: all are).
@@ -30,6 +44,8 @@ class LightSampler {
 
   // Samples a point on a light as seen from `ref`; nothing if the chosen point is degenerate.
   std::optional<LightSample> sample(const Vec3& ref, float uChoice, Vec2 uPoint) const;
+  // The same for every lane of a packet: each lane gets the bits sample() gives it.
+  void sample(LightSampleLanes& lanes) const;
 
   // Density (solid angle, at a point at distance `distance` in direction d) with which sample()
   // would have produced the point hit on emitting triangle `triangle` (RayCaster index).
@@ -39,6 +55,8 @@ class LightSampler {
   Spectrum emitted(uint32_t triangle, const Vec3& d) const;
 
  private:
+  size_t choose(float uChoice) const;  // the light whose cdf interval holds uChoice
+
   struct Light {
     uint32_t triangle;
     float area;

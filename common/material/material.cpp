@@ -20,13 +20,12 @@ Vec3 reflect(const Vec3& wo, const Vec3& n) { return 2.0f * glm::dot(wo, n) * n 
 
 Spectrum Material::evalCos(const Vec3& n, const Vec3& /*wo*/, const Vec3& wi) const {
   if (kind != MaterialKind::kLambertian) return Spectrum(0.0f);
-  const float cosTheta = glm::dot(n, wi);
-  return cosTheta > 0.0f ? albedo * (cosTheta * kInvPi) : Spectrum(0.0f);
+  return lambertianEvalCos(albedo, n, wi);
 }
 
 float Material::pdf(const Vec3& n, const Vec3& /*wo*/, const Vec3& wi) const {
   if (kind != MaterialKind::kLambertian) return 0.0f;
-  return cosineHemispherePdf(glm::dot(n, wi));
+  return lambertianPdf(n, wi);
 }
 
 std::optional<MaterialSample> Material::sampleLambertian(const Vec3& n, Vec2 u) const {

@@ -9,6 +9,7 @@
 #include <optional>
 #include <string>
 
+#include "math/sampling.h"
 #include "math/vec.h"
 
 namespace lensfarm {
@@ -24,6 +25,14 @@ const char* materialKindName(MaterialKind kind);
 
 // The outcome of sampling a material: the direction light arrives from (wi, pointing away from
 // the surface) and the path throughput weight f cos / pdf.
+// The Lambertian lobe's formulas, inline so the integrator's lane loops (math/lanes.h) evaluate
+// exactly what evalCos and pdf do.
+inline Spectrum lambertianEvalCos(const Spectrum& albedo, const Vec3& n, const Vec3& wi) {
+  const float cosTheta = glm::dot(n, wi);
+  return cosTheta > 0.0f ? albedo * (cosTheta * kInvPi) : Spectrum(0.0f);
+}
+inline float lambertianPdf(const Vec3& n, const Vec3& wi) { return cosineHemispherePdf(glm::dot(n, wi)); }
+
 struct MaterialSample {
   Vec3 wi;
   Spectrum weight;

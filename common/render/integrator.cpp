@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "math/lanes.h"
 #include "math/ray_offset.h"
 #include "math/sampling.h"
 
@@ -36,6 +37,53 @@ struct VertexOutcome {
   bool continues = false;   // `path` holds the next ray to cast
 };
 
+// Light reached by the camera ray or a scattered ray: emission reaching the sensor, weighted by
+// the power heuristic after a diffuse vertex (NEE + MIS), or not counted there (NEE alone, whose
+// light samples count it instead).
+template <bool kNee>
+inline void addEmittedLight(const RenderScene& rs, const SurfaceHit& hit, const Material& material, PathState& path) {
+  if (!material.isEmissive()) return;
+  const Spectrum le = rs.lights().emitted(hit.triangle, path.direction);
+  if (isBlack(le)) return;
+  path.hitLight = true;
+  float weight = 1.0f;
+  if (kNee && !path.lastSpecular)
+    weight = rs.settings().integrator == IntegratorKind::kNeeMis
+                 ? powerHeuristic(path.lastPdf, rs.lights().pdf(hit.triangle, hit.t, path.direction))
+                 : 0.0f;
+  path.radiance += path.throughput * le * weight;
+}
+
+// The last counted bounce: the next vertex would end the path at the bounce limit, so the
+// scattered ray could only bring back emission, light the light sample already estimates.
+// There the light sample alone (weight 1, a valid MIS weighting of one strategy) carries the
+// direct light and the scattered ray is not cast: about one ray in six fewer at B = 3, same
+// expectation (Furnace and Estimators tests). Not after a mirror could follow: a mirror that
+// does not count would carry the path on to the light (a caustic light sampling cannot see).
+inline bool isLastBounce(const RenderScene& rs, const PathState& path) {
+  return path.bounces + 1 >= rs.settings().maxBounces && (!rs.mirrorsReachable() || rs.settings().mirrorBouncesCount);
+}
+
+// The path takes a sampled direction with throughput weight `weight` and density `pdf`: false
+// where it ends there (nothing left to carry, or Russian roulette). The caller sets the ray.
+inline bool scatter(const RenderScene& rs, const SampleStream& rng, uint32_t base, bool counts, const Spectrum& weight,
+                    bool specular, float pdf, PathState& path) {
+  path.throughput *= weight;
+  if (isBlack(path.throughput)) return false;
+  if (counts) ++path.bounces;
+  // Russian roulette (optional, render.russian_roulette): from the second bounce on, a path
+  // survives with probability q = min(1, max throughput component) and carries 1/q more, so
+  // the estimate stays unbiased while dim paths stop early.
+  if (rs.settings().russianRoulette && path.bounces >= 2) {
+    const float q = std::min(1.0f, std::max({path.throughput.r, path.throughput.g, path.throughput.b}));
+    if (rng.get1D(base + dims::kRoulette) >= q) return false;
+    path.throughput /= q;
+  }
+  path.lastSpecular = specular;
+  path.lastPdf = pdf;
+  return true;
+}
+
 // What a path does at the surface its last ray hit, `segment` rays after the camera: emission
 // reaching the sensor (MIS-weighted after a diffuse vertex), the bounce limit, one light sample
 // (next-event estimation) prepared as a shadow query, then the scattered direction and Russian
@@ -53,17 +101,7 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
   VertexOutcome outcome;
   const Material& material = rs.material(hit.material);
 
-  // Light reached by the camera ray or a scattered ray.
-  if (material.isEmissive()) {
-    const Spectrum le = rs.lights().emitted(hit.triangle, path.direction);
-    if (!isBlack(le)) {
-      path.hitLight = true;
-      float weight = 1.0f;
-      if (nee && !path.lastSpecular)
-        weight = mis ? powerHeuristic(path.lastPdf, rs.lights().pdf(hit.triangle, hit.t, path.direction)) : 0.0f;
-      path.radiance += path.throughput * le * weight;
-    }
-  }
+  addEmittedLight<kNee>(rs, hit, material, path);
   if (!material.reflects()) return outcome;
 
   const bool specular = kSpecular && material.isSpecular();
@@ -74,14 +112,7 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
   const Vec3 n = glm::dot(hit.n, wo) >= 0.0f ? hit.n : -hit.n;  // shade the side we came from
   const uint32_t base = dims::segment(uint32_t(segment));
 
-  // The last counted bounce: the next vertex would end the path at the bounce limit, so the
-  // scattered ray could only bring back emission, light the light sample already estimates.
-  // There the light sample alone (weight 1, a valid MIS weighting of one strategy) carries the
-  // direct light and the scattered ray is not cast: about one ray in six fewer at B = 3, same
-  // expectation (Furnace and Estimators tests). Not after a mirror could follow: a mirror that
-  // does not count would carry the path on to the light (a caustic light sampling cannot see).
-  const bool lastBounce = nee && !specular && counts && path.bounces + 1 >= settings.maxBounces &&
-                          (!rs.mirrorsReachable() || settings.mirrorBouncesCount);
+  const bool lastBounce = nee && !specular && counts && isLastBounce(rs, path);
 
   // Next-event estimation: one shadow ray to a point on a light.
   if (nee && !specular) {
@@ -104,20 +135,7 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
 
   const auto s = kSpecular ? material.sample(n, wo, rng.get2D(base + dims::kMaterial))
                            : material.sampleLambertian(n, rng.get2D(base + dims::kMaterial));
-  if (!s) return outcome;
-  path.throughput *= s->weight;
-  if (isBlack(path.throughput)) return outcome;
-  if (counts) ++path.bounces;
-  // Russian roulette (optional, render.russian_roulette): from the second bounce on, a path
-  // survives with probability q = min(1, max throughput component) and carries 1/q more, so
-  // the estimate stays unbiased while dim paths stop early.
-  if (settings.russianRoulette && path.bounces >= 2) {
-    const float q = std::min(1.0f, std::max({path.throughput.r, path.throughput.g, path.throughput.b}));
-    if (rng.get1D(base + dims::kRoulette) >= q) return outcome;
-    path.throughput /= q;
-  }
-  path.lastSpecular = s->specular;
-  path.lastPdf = s->pdf;
+  if (!s || !scatter(rs, rng, base, counts, s->weight, s->specular, s->pdf, path)) return outcome;
   path.origin = offsetRayOrigin(hit.p, hit.n, hit.pError, s->wi);
   path.direction = s->wi;
   outcome.continues = true;
@@ -147,13 +165,86 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
   return path.radiance;
 }
 
+namespace {
+// The diffuse (Lambertian) vertices of a packet's lanes at one segment, as arrays over the lanes:
+// their shadow rays and their scattered directions are each one loop over all lanes that the
+// compiler vectorises (math/lanes.h). Per lane the loops compute what shadeVertex computes, with
+// the same operations in the same order, so the bits are the same (packet_integrator_test.cpp).
+struct DiffuseLanes {
+  alignas(64) float px[kPacketWidth], py[kPacketWidth], pz[kPacketWidth];  // hit point
+  alignas(64) float gx[kPacketWidth], gy[kPacketWidth], gz[kPacketWidth];  // geometric normal
+  alignas(64) float ex[kPacketWidth], ey[kPacketWidth], ez[kPacketWidth];  // hit point's error bound
+  alignas(64) float nx[kPacketWidth], ny[kPacketWidth], nz[kPacketWidth];  // normal on the side of wo
+  alignas(64) float ar[kPacketWidth], ag[kPacketWidth], ab[kPacketWidth];  // albedo
+  alignas(64) float tr[kPacketWidth], tg[kPacketWidth], tb[kPacketWidth];  // throughput reaching the vertex
+  alignas(64) float misOn[kPacketWidth];  // 1: the light sample takes the power heuristic's weight; 0: weight 1
+  alignas(64) float u0[kPacketWidth], u1[kPacketWidth];  // the scattered direction's sample
+  // Out: the scattered ray, its cosine with n (a direction only where it is above 0) and density.
+  alignas(64) float ox[kPacketWidth], oy[kPacketWidth], oz[kPacketWidth];
+  alignas(64) float dx[kPacketWidth], dy[kPacketWidth], dz[kPacketWidth];
+  alignas(64) float cosTheta[kPacketWidth], pdf[kPacketWidth];
+  // Out: the light sample's f cos (a shadow ray only where it is not black), and what the shadow
+  // ray adds if nothing blocks it.
+  alignas(64) float fr[kPacketWidth], fg[kPacketWidth], fb[kPacketWidth];
+  alignas(64) float cr[kPacketWidth], cg[kPacketWidth], cb[kPacketWidth];
+};
+// (Flags are decided outside the lane loops: GCC keeps a loop scalar that stores a comparison.)
+
+// Next-event estimation for every lane with a light sample: the shadow ray from the vertex to the
+// light point and what it carries (shadeVertex's light-sample block). The caller switches on the
+// rays that exist.
+LENSFARM_LANE_LOOPS void prepareShadowRays(DiffuseLanes& __restrict v, const LightSampleLanes& __restrict ls,
+                                           RayPacket& __restrict shadowRays) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const Vec3 p(v.px[k], v.py[k], v.pz[k]), lightPoint(ls.px[k], ls.py[k], ls.pz[k]);
+    const Vec3 n(v.nx[k], v.ny[k], v.nz[k]);
+    const Spectrum radiance(ls.rr[k], ls.rg[k], ls.rb[k]);
+    const Vec3 wi = glm::normalize(lightPoint - p);
+    const Spectrum f = lambertianEvalCos(Spectrum(v.ar[k], v.ag[k], v.ab[k]), n, wi);
+    const Vec3 from = offsetRayOrigin(p, Vec3(v.gx[k], v.gy[k], v.gz[k]), Vec3(v.ex[k], v.ey[k], v.ez[k]), wi);
+    const Vec3 to = offsetRayOrigin(lightPoint, Vec3(ls.nx[k], ls.ny[k], ls.nz[k]), Vec3(ls.ex[k], ls.ey[k], ls.ez[k]), -wi);
+    const float weight = v.misOn[k] != 0.0f ? powerHeuristic(ls.pdf[k], lambertianPdf(n, wi)) : 1.0f;
+    const Spectrum c = Spectrum(v.tr[k], v.tg[k], v.tb[k]) * f * radiance * (weight / ls.pdf[k]);
+    const Vec3 d = to - from;
+    shadowRays.ox[k] = from.x, shadowRays.oy[k] = from.y, shadowRays.oz[k] = from.z;
+    shadowRays.dx[k] = d.x, shadowRays.dy[k] = d.y, shadowRays.dz[k] = d.z;
+    shadowRays.tFar[k] = 1.0f - kShadowEpsilon;
+    v.fr[k] = f.r, v.fg[k] = f.g, v.fb[k] = f.b;
+    v.cr[k] = c.r, v.cg[k] = c.g, v.cb[k] = c.b;
+  }
+}
+
+// The scattered direction of every lane that takes one: a cosine-weighted direction about n
+// (Material::sampleLambertian) and the ray leaving the surface along it.
+LENSFARM_LANE_LOOPS void sampleDirections(DiffuseLanes& __restrict v) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const Vec3 local = sampleCosineHemisphere(Vec2(v.u0[k], v.u1[k]));
+    const Vec3 wi = Frame::fromNormal(Vec3(v.nx[k], v.ny[k], v.nz[k])).toWorld(local);
+    const Vec3 o = offsetRayOrigin(Vec3(v.px[k], v.py[k], v.pz[k]), Vec3(v.gx[k], v.gy[k], v.gz[k]),
+                                   Vec3(v.ex[k], v.ey[k], v.ez[k]), wi);
+    v.cosTheta[k] = local.z;
+    v.pdf[k] = cosineHemispherePdf(local.z);
+    v.ox[k] = o.x, v.oy[k] = o.y, v.oz[k] = o.z;
+    v.dx[k] = wi.x, v.dy[k] = wi.y, v.dz[k] = wi.z;
+  }
+}
+}  // namespace
+
 template <bool kNee, bool kSpecular>
 void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&radiance)[kPacketWidth], PathStats& stats) {
+  const RenderSettings& settings = rs.settings();
+  const bool mis = settings.integrator == IntegratorKind::kNeeMis;
   PathState paths[kPacketWidth];
-  ShadowQuery shadows[kPacketWidth];
+  ShadowQuery noShadow;  // mirrors take no light sample (a delta lobe): shadeVertex leaves it unused
+  bool diffuse[kPacketWidth], scatters[kPacketWidth];
+  uint32_t base[kPacketWidth];
   RayPacket rays, shadowRays;
   RayCaster::PacketHits hits;
   bool blocked[kPacketWidth];
+  // Lanes that are not in use still run through the lane loops, on zeros or on what an earlier
+  // segment left, and their results are ignored.
+  DiffuseLanes v{};
+  LightSampleLanes lights{};
   rays.clear();
   for (int k = 0; k < packet.count; ++k) {
     paths[k] = PathState(packet.cameraRays[k]);
@@ -165,28 +256,100 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
   for (int segment = 0; segment < kMaxPathSegments && live > 0; ++segment) {
     stats.rays += uint64_t(live);
     rs.caster().intersect(rays, segment == 0 ? RayKind::kCamera : RayKind::kScattered, hits);
-    shadowRays.clear();
-    int shadowCount = 0;
+    auto endLane = [&](int k) {
+      rays.valid[k] = 0;
+      --live;
+    };
+
+    // Lane by lane: emission reached, the bounce limit and the sample values; mirrors take the
+    // one-path code (shadeVertex), diffuse vertices are gathered for the lane loops.
+    bool anyDiffuse = false;
     for (int k = 0; k < kPacketWidth; ++k) {
+      diffuse[k] = false;
+      lights.found[k] = 0;
+      scatters[k] = false;
       if (!rays.active(k)) continue;
-      VertexOutcome outcome;
-      if (hits.found[k]) outcome = shadeVertex<kNee, kSpecular>(rs, packet.rng[k], segment, hits.hit[k], paths[k], shadows[k]);
-      if (outcome.castShadow) {
-        shadowRays.set(k, shadows[k].from, shadows[k].to - shadows[k].from, 1.0f - kShadowEpsilon);
-        ++shadowCount;
+      if (!hits.found[k]) {
+        endLane(k);
+        continue;
       }
-      if (outcome.continues) {
-        rays.set(k, paths[k].origin, paths[k].direction);
-      } else {
-        rays.valid[k] = 0;
-        --live;
+      const SurfaceHit& hit = hits.hit[k];
+      const Material& material = rs.material(hit.material);
+      PathState& path = paths[k];
+      const SampleStream& rng = packet.rng[k];
+      if (kSpecular && material.isSpecular()) {
+        const VertexOutcome outcome = shadeVertex<kNee, kSpecular>(rs, rng, segment, hit, path, noShadow);
+        if (outcome.continues)
+          rays.set(k, path.origin, path.direction);
+        else
+          endLane(k);
+        continue;
+      }
+      addEmittedLight<kNee>(rs, hit, material, path);
+      if (!material.reflects() || path.bounces >= settings.maxBounces) {
+        endLane(k);
+        continue;
+      }
+      diffuse[k] = anyDiffuse = true;
+      base[k] = dims::segment(uint32_t(segment));
+      const Vec3 n = glm::dot(hit.n, -path.direction) >= 0.0f ? hit.n : -hit.n;
+      v.px[k] = hit.p.x, v.py[k] = hit.p.y, v.pz[k] = hit.p.z;
+      v.gx[k] = hit.n.x, v.gy[k] = hit.n.y, v.gz[k] = hit.n.z;
+      v.ex[k] = hit.pError.x, v.ey[k] = hit.pError.y, v.ez[k] = hit.pError.z;
+      v.nx[k] = n.x, v.ny[k] = n.y, v.nz[k] = n.z;
+      v.ar[k] = material.albedo.r, v.ag[k] = material.albedo.g, v.ab[k] = material.albedo.b;
+      v.tr[k] = path.throughput.r, v.tg[k] = path.throughput.g, v.tb[k] = path.throughput.b;
+      const bool lastBounce = kNee && isLastBounce(rs, path);
+      if (kNee) {
+        lights.found[k] = -1;
+        lights.uChoice[k] = rng.get1D(base[k] + dims::kLightChoice);
+        const Vec2 u = rng.get2D(base[k] + dims::kLightPoint);
+        lights.u0[k] = u.x, lights.u1[k] = u.y;
+        lights.refx[k] = hit.p.x, lights.refy[k] = hit.p.y, lights.refz[k] = hit.p.z;
+        v.misOn[k] = mis && !lastBounce ? 1.0f : 0.0f;
+      }
+      if (!lastBounce) {
+        scatters[k] = true;
+        const Vec2 u = rng.get2D(base[k] + dims::kMaterial);
+        v.u0[k] = u.x, v.u1[k] = u.y;
       }
     }
+
+    // The lane loops, then each diffuse lane's path goes on along its scattered ray or ends.
+    shadowRays.clear();
+    if (kNee && anyDiffuse) {
+      rs.lights().sample(lights);
+      prepareShadowRays(v, lights, shadowRays);
+      for (int k = 0; k < kPacketWidth; ++k)
+        shadowRays.valid[k] = lights.found[k] != 0 && !isBlack(Spectrum(lights.rr[k], lights.rg[k], lights.rb[k])) &&
+                                      !isBlack(Spectrum(v.fr[k], v.fg[k], v.fb[k]))
+                                  ? -1
+                                  : 0;
+    }
+    if (anyDiffuse) {
+      sampleDirections(v);
+      for (int k = 0; k < kPacketWidth; ++k) {
+        if (!diffuse[k]) continue;
+        PathState& path = paths[k];
+        const Spectrum albedo(v.ar[k], v.ag[k], v.ab[k]);
+        // Material::sampleLambertian gives no direction where its cosine is not above 0.
+        if (scatters[k] && !(v.cosTheta[k] <= 0.0f) && scatter(rs, packet.rng[k], base[k], true, albedo, false, v.pdf[k], path)) {
+          path.origin = Vec3(v.ox[k], v.oy[k], v.oz[k]);
+          path.direction = Vec3(v.dx[k], v.dy[k], v.dz[k]);
+          rays.set(k, path.origin, path.direction);
+        } else {
+          endLane(k);
+        }
+      }
+    }
+
+    int shadowCount = 0;
+    for (int k = 0; k < kPacketWidth; ++k) shadowCount += shadowRays.active(k);
     if (shadowCount > 0) {
       stats.rays += uint64_t(shadowCount);
       rs.caster().occluded(shadowRays, blocked);
       for (int k = 0; k < kPacketWidth; ++k)
-        if (shadowRays.active(k) && !blocked[k]) paths[k].radiance += shadows[k].contribution;
+        if (shadowRays.active(k) && !blocked[k]) paths[k].radiance += Spectrum(v.cr[k], v.cg[k], v.cb[k]);
     }
   }
   for (int k = 0; k < packet.count; ++k) {
