@@ -33,6 +33,8 @@ ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
                                        "is unbounded; move the subject further away");
   if (std::isnan(p.fNumber) || p.fNumber <= 0.0)
     throw InputError("f_number", "must be > 0 (or \"infinity\" for a pinhole)");
+  invImageDistance_ = 1.0 / imageDistance_;
+  invFocalLength_ = 1.0 / p.focalLength;
   lensRadius_ = std::isinf(p.fNumber) ? 0.0 : p.focalLength / (2.0 * p.fNumber);
 
   const Vec3 axis = p.lookAt - p.position;
@@ -64,8 +66,8 @@ CameraRay ThinLensCamera::rayThrough(Vec2 s, Vec2 r) const {
   // (s, -S2) to the lens point (r, 0), scaled to a unit axial component, is bent to
   //     n2 = n1 - r / f.
   // Every ray from s then meets the focal plane at -s * S1 / S2, whatever r is.
-  const double invS2 = 1.0 / imageDistance_;
-  const double invF = 1.0 / params_.focalLength;
+  const double invS2 = invImageDistance_;
+  const double invF = invFocalLength_;
   const double dx = (double(r.x) - s.x) * invS2 - r.x * invF;
   const double dy = (double(r.y) - s.y) * invS2 - r.y * invF;
   const Vec3 dir = glm::normalize(float(dx) * right_ + float(dy) * up_ + forward_);

@@ -71,6 +71,7 @@ class ThinLensCamera {
   ThinLensParams params_;
   int width_, height_;
   double imageDistance_;
+  double invImageDistance_, invFocalLength_;  // 1 / S2 and 1 / f, once, not per ray
   double lensRadius_;
   Vec3 right_, up_, forward_;
 };

@@ -22,7 +22,8 @@ LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const st
     const double p = double(area) * luminance(m.emission) * (m.twoSidedEmission ? 2.0 : 1.0);
     if (!(p > 0.0)) continue;
     lightOfTriangle_[k] = int32_t(lights_.size());
-    lights_.push_back(Light{k, area, 0.0f});
+    lights_.push_back(Light{k, area, 0.0f, t.v0, t.v1, t.v2, t.n, positionErrorBound(t.magnitude), m.emission,
+                            m.twoSidedEmission ? 1.0f : 0.0f});
     power.push_back(p);
     total += p;
   }
@@ -90,18 +91,23 @@ LENSFARM_LANE_LOOPS void sampleLanes(GatheredLights& __restrict g, LightSampleLa
 }  // namespace
 
 size_t LightSampler::choose(float uChoice) const {
-  return std::min<size_t>(std::upper_bound(cdf_.begin(), cdf_.end(), uChoice) - cdf_.begin(), lights_.size() - 1);
+  // The first cdf entry above uChoice (std::upper_bound). Few lights: count the entries at or
+  // below it without branches, which a random uChoice would mispredict half the time.
+  size_t i = 0;
+  if (cdf_.size() <= 8)
+    for (float c : cdf_) i += size_t(c <= uChoice);
+  else
+    i = size_t(std::upper_bound(cdf_.begin(), cdf_.end(), uChoice) - cdf_.begin());
+  return std::min(i, lights_.size() - 1);
 }
 
 std::optional<LightSample> LightSampler::sample(const Vec3& ref, float uChoice, Vec2 uPoint) const {
   if (lights_.empty()) return std::nullopt;
-  const Light& light = lights_[choose(uChoice)];
-  const auto& t = caster_.triangles()[light.triangle];
-  const Material& m = scene_.materials[t.material];
-  const TrianglePoint s = sampleTrianglePoint(t.v0, t.v1, t.v2, t.n, ref, uPoint, light.pmf, light.area, m.emission,
-                                              m.twoSidedEmission ? 1.0f : 0.0f);
+  const Light& l = lights_[choose(uChoice)];
+  const TrianglePoint s =
+      sampleTrianglePoint(l.v0, l.v1, l.v2, l.n, ref, uPoint, l.pmf, l.area, l.emission, l.twoSided);
   if (!s.valid()) return std::nullopt;
-  return LightSample{s.p, t.n, positionErrorBound(t.magnitude), s.radiance, s.pdf};
+  return LightSample{s.p, l.n, l.pError, s.radiance, s.pdf};
 }
 
 void LightSampler::sample(LightSampleLanes& lanes) const {
@@ -109,18 +115,15 @@ void LightSampler::sample(LightSampleLanes& lanes) const {
   for (int k = 0; k < kPacketWidth; ++k) {
     if (lights_.empty()) lanes.found[k] = 0;
     if (lanes.found[k] == 0) continue;  // the lane computes on zeros and stays not found
-    const Light& light = lights_[choose(lanes.uChoice[k])];
-    const auto& t = caster_.triangles()[light.triangle];
-    const Material& m = scene_.materials[t.material];
-    g.v0x[k] = t.v0.x, g.v0y[k] = t.v0.y, g.v0z[k] = t.v0.z;
-    g.v1x[k] = t.v1.x, g.v1y[k] = t.v1.y, g.v1z[k] = t.v1.z;
-    g.v2x[k] = t.v2.x, g.v2y[k] = t.v2.y, g.v2z[k] = t.v2.z;
-    lanes.nx[k] = t.n.x, lanes.ny[k] = t.n.y, lanes.nz[k] = t.n.z;
-    const Vec3 e = positionErrorBound(t.magnitude);
-    lanes.ex[k] = e.x, lanes.ey[k] = e.y, lanes.ez[k] = e.z;
-    g.pmf[k] = light.pmf, g.area[k] = light.area;
-    g.er[k] = m.emission.r, g.eg[k] = m.emission.g, g.eb[k] = m.emission.b;
-    g.twoSided[k] = m.twoSidedEmission ? 1.0f : 0.0f;
+    const Light& l = lights_[choose(lanes.uChoice[k])];
+    g.v0x[k] = l.v0.x, g.v0y[k] = l.v0.y, g.v0z[k] = l.v0.z;
+    g.v1x[k] = l.v1.x, g.v1y[k] = l.v1.y, g.v1z[k] = l.v1.z;
+    g.v2x[k] = l.v2.x, g.v2y[k] = l.v2.y, g.v2z[k] = l.v2.z;
+    lanes.nx[k] = l.n.x, lanes.ny[k] = l.n.y, lanes.nz[k] = l.n.z;
+    lanes.ex[k] = l.pError.x, lanes.ey[k] = l.pError.y, lanes.ez[k] = l.pError.z;
+    g.pmf[k] = l.pmf, g.area[k] = l.area;
+    g.er[k] = l.emission.r, g.eg[k] = l.emission.g, g.eb[k] = l.emission.b;
+    g.twoSided[k] = l.twoSided;
   }
   sampleLanes(g, lanes);
   for (int k = 0; k < kPacketWidth; ++k) {

@@ -57,10 +57,16 @@ class LightSampler {
  private:
   size_t choose(float uChoice) const;  // the light whose cdf interval holds uChoice
 
+  // Everything sampling needs of one emitting triangle, in one place (the packet form gathers
+  // it for 16 lanes per vertex).
   struct Light {
     uint32_t triangle;
     float area;
     float pmf;
+    Vec3 v0, v1, v2, n;  // the triangle (RayCaster::Triangle) and its geometric normal
+    Vec3 pError;         // error bound of a point on it
+    Spectrum emission;
+    float twoSided;      // 1: emits from both faces; 0: from the front face only
   };
   const Scene& scene_;
   const RayCaster& caster_;
