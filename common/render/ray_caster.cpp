@@ -3,8 +3,10 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 #include "math/ray_offset.h"
 
@@ -21,15 +23,22 @@ Vec3 nudgedDirection(const Vec3& d) {
   return glm::normalize(d + 1e-6f * (frame.t + 0.5f * frame.b));
 }
 
-void loadPacket(const RayPacket& rays, RTCRay16& ray, unsigned mask) {
+// Embree's packet calls take a mask of the lanes in use, but on a machine without 16-wide kernels
+// (no AVX-512) Embree traces a 16-wide packet through its ray-stream path, which ignores the mask,
+// traces every lane whose tnear <= tfar and asserts that each such ray is finite. So a lane not in
+// use is also switched off that way, with harmless finite values, whatever the packet held there
+// (tests/render/ray_caster_isa_test.cpp renders with Embree's narrower kernels).
+void loadPacket(const int (&valid)[kPacketWidth], const RayPacket& rays, const float* tFar, RTCRay16& ray, unsigned mask) {
   for (int k = 0; k < kPacketWidth; ++k) {
-    ray.org_x[k] = rays.ox[k];
-    ray.org_y[k] = rays.oy[k];
-    ray.org_z[k] = rays.oz[k];
-    ray.dir_x[k] = rays.dx[k];
-    ray.dir_y[k] = rays.dy[k];
-    ray.dir_z[k] = rays.dz[k];
-    ray.tnear[k] = 0.0f;
+    const bool on = valid[k] != 0;
+    ray.org_x[k] = on ? rays.ox[k] : 0.0f;
+    ray.org_y[k] = on ? rays.oy[k] : 0.0f;
+    ray.org_z[k] = on ? rays.oz[k] : 0.0f;
+    ray.dir_x[k] = on ? rays.dx[k] : 0.0f;
+    ray.dir_y[k] = on ? rays.dy[k] : 0.0f;
+    ray.dir_z[k] = on ? rays.dz[k] : 1.0f;
+    ray.tnear[k] = on ? 0.0f : 1.0f;
+    ray.tfar[k] = on ? (tFar ? tFar[k] : std::numeric_limits<float>::infinity()) : 0.0f;
     ray.mask[k] = mask;
     ray.flags[k] = 0;
     ray.time[k] = 0.0f;
@@ -39,8 +48,15 @@ void loadPacket(const RayPacket& rays, RTCRay16& ray, unsigned mask) {
 }  // namespace
 
 RayCaster::RayCaster(const Scene& scene) {
-  device_ = rtcNewDevice(nullptr);
-  if (!device_) throw std::runtime_error("cannot create an Embree device");
+  // LENSFARM_EMBREE_CONFIG passes an Embree device configuration, e.g. "isa=avx2": Embree's
+  // kernels for different instruction sets round differently (about 1e-8 relative in an image),
+  // so a farm of mixed machines pins one set on every worker to keep the same bits
+  // (docs/deploy.md).
+  const char* config = std::getenv("LENSFARM_EMBREE_CONFIG");
+  device_ = rtcNewDevice(config);
+  if (!device_)
+    throw std::runtime_error(std::string("cannot create an Embree device") +
+                             (config ? std::string(" with LENSFARM_EMBREE_CONFIG=\"") + config + "\"" : std::string()));
   rtcSetDeviceErrorFunction(device_, embreeError, nullptr);
   scene_ = rtcNewScene(device_);
   rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
@@ -165,35 +181,38 @@ void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) 
   // Camera packets hold the samples of one or a few neighbouring sensor cells.
   if (kind == RayKind::kCamera) context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
   alignas(64) RTCRayHit16 rh;
-  loadPacket(rays, rh.ray, unsigned(kind));
+  loadPacket(rays.valid, rays, nullptr, rh.ray, unsigned(kind));
   for (int k = 0; k < kPacketWidth; ++k) {
-    rh.ray.tfar[k] = std::numeric_limits<float>::infinity();
     rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
   }
   rtcIntersect16(rays.valid, scene_, &context, &rh);
-
-  // Misses are cast once more, slightly turned, exactly as the single-ray call does.
-  alignas(64) int retry[kPacketWidth];
-  bool anyMiss = false;
-  for (int k = 0; k < kPacketWidth; ++k) {
-    retry[k] = rays.valid[k] != 0 && rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID ? -1 : 0;
-    if (retry[k]) {
-      anyMiss = true;
-      const Vec3 nudged = nudgedDirection(rays.direction(k));
-      rh.ray.dir_x[k] = nudged.x;
-      rh.ray.dir_y[k] = nudged.y;
-      rh.ray.dir_z[k] = nudged.z;
-    }
-  }
-  if (anyMiss) {
-    context.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-    rtcIntersect16(retry, scene_, &context, &rh);
-  }
-
   for (int k = 0; k < kPacketWidth; ++k) {
     out.found[k] = rays.valid[k] != 0 && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID;
     if (out.found[k]) out.hit[k] = surfaceHit(rh.hit.geomID[k], rh.hit.primID[k], rh.hit.u[k], rh.hit.v[k], rh.ray.tfar[k]);
+  }
+
+  // Misses are cast once more, slightly turned, exactly as the single-ray call does: a packet of
+  // their own, so no lane that already hit is traced again.
+  alignas(64) int retry[kPacketWidth];
+  bool anyMiss = false;
+  RayPacket nudged;
+  for (int k = 0; k < kPacketWidth; ++k) {
+    retry[k] = rays.valid[k] != 0 && !out.found[k] ? -1 : 0;
+    if (retry[k]) {
+      anyMiss = true;
+      nudged.set(k, rays.origin(k), nudgedDirection(rays.direction(k)));
+    }
+  }
+  if (!anyMiss) return;
+  context.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  loadPacket(retry, nudged, nullptr, rh.ray, unsigned(kind));
+  for (int k = 0; k < kPacketWidth; ++k) rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect16(retry, scene_, &context, &rh);
+  for (int k = 0; k < kPacketWidth; ++k) {
+    out.found[k] = out.found[k] || (retry[k] != 0 && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID);
+    if (retry[k] && out.found[k])
+      out.hit[k] = surfaceHit(rh.hit.geomID[k], rh.hit.primID[k], rh.hit.u[k], rh.hit.v[k], rh.ray.tfar[k]);
   }
 }
 
@@ -202,8 +221,7 @@ void RayCaster::occluded(const RayPacket& rays, bool (&occluded)[kPacketWidth]) 
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   alignas(64) RTCRay16 ray;
-  loadPacket(rays, ray, unsigned(RayKind::kScattered));
-  for (int k = 0; k < kPacketWidth; ++k) ray.tfar[k] = rays.tFar[k];
+  loadPacket(rays.valid, rays, rays.tFar, ray, unsigned(RayKind::kScattered));
   rtcOccluded16(rays.valid, scene_, &context, &ray);
   for (int k = 0; k < kPacketWidth; ++k) occluded[k] = rays.valid[k] != 0 && ray.tfar[k] < 0.0f;
 }

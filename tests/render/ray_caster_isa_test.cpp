@@ -1,0 +1,114 @@
+// Embree's narrower kernels (LENSFARM_EMBREE_CONFIG="isa=..."), which a worker without AVX-512
+// uses: there Embree traces a 16-wide packet through its ray-stream path, which ignores the mask
+// of lanes in use and traces (and asserts on) every lane whose tnear <= tfar. Packets with lanes
+// not in use, holding anything at all, must still trace only their lanes in use and give the
+// one-ray results, and a whole render must give the same bits in packets as one ray at a time.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <optional>
+#include <string>
+
+#include "render/render_scene.h"
+#include "render/unit_renderer.h"
+#include "test_support.h"
+
+namespace lensfarm {
+namespace {
+
+// Sets LENSFARM_EMBREE_CONFIG for the lifetime of the guard (Embree reads it when a RayCaster is
+// made), then restores what was there.
+class EmbreeConfig {
+ public:
+  explicit EmbreeConfig(const char* value) {
+    if (const char* old = std::getenv("LENSFARM_EMBREE_CONFIG")) old_ = old;
+    setenv("LENSFARM_EMBREE_CONFIG", value, 1);
+  }
+  ~EmbreeConfig() {
+    if (old_)
+      setenv("LENSFARM_EMBREE_CONFIG", old_->c_str(), 1);
+    else
+      unsetenv("LENSFARM_EMBREE_CONFIG");
+  }
+
+ private:
+  std::optional<std::string> old_;
+};
+
+Scene classicScene(test::TempDir& dir, int size, int spp) {
+  nlohmann::json scene = test::bundledSceneJson("cornell-classic.json");
+  scene["render"]["resolution"] = {size, size};
+  scene["render"]["samples_per_pixel"] = spp;
+  scene["render"]["samples_per_unit"] = 1;
+  return test::loadSceneJson(dir, scene);
+}
+
+class NarrowKernels : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(NarrowKernels, PacketLanesNotInUseAreNeverTraced) {
+  EmbreeConfig config(GetParam());
+  test::TempDir dir;
+  const Scene scene = classicScene(dir, 8, 1);
+  const RayCaster caster(scene);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  // Five rays from inside the box in different directions; the other lanes hold NaNs.
+  RayPacket rays;
+  for (int k = 0; k < kPacketWidth; ++k) {
+    rays.valid[k] = 0;
+    rays.ox[k] = rays.oy[k] = rays.oz[k] = rays.dx[k] = rays.dy[k] = rays.dz[k] = rays.tFar[k] = nan;
+  }
+  const Vec3 origin(0.1f, 0.2f, 0.0f);
+  const Vec3 directions[5] = {{1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {-1, 0.2f, 0.1f}, {0.3f, -0.2f, 1}};
+  for (int k = 0; k < 5; ++k) rays.set(2 * k, origin, glm::normalize(directions[k]), 0.5f);
+
+  RayCaster::PacketHits hits;
+  caster.intersect(rays, RayKind::kScattered, hits);
+  bool blocked[kPacketWidth];
+  caster.occluded(rays, blocked);
+  int found = 0;
+  for (int k = 0; k < kPacketWidth; ++k) {
+    if (!rays.active(k)) {
+      EXPECT_FALSE(hits.found[k]) << "lane " << k << " is not in use";
+      EXPECT_FALSE(blocked[k]) << "lane " << k << " is not in use";
+      continue;
+    }
+    const auto single = caster.intersect(rays.origin(k), rays.direction(k), RayKind::kScattered);
+    ASSERT_EQ(hits.found[k], single.has_value()) << "lane " << k;
+    if (single) {
+      ++found;
+      EXPECT_EQ(hits.hit[k].triangle, single->triangle) << "lane " << k;
+      EXPECT_EQ(std::memcmp(&hits.hit[k].p, &single->p, sizeof(Vec3)), 0) << "lane " << k;
+    }
+    EXPECT_EQ(blocked[k], caster.occluded(rays.origin(k), rays.direction(k), 0.5f)) << "lane " << k;
+  }
+  EXPECT_EQ(found, 5) << "every ray from inside the box hits a wall";
+}
+
+TEST_P(NarrowKernels, PartialPacketsRenderTheSameBitsAsSingleRays) {
+  // 8 x 8 at 1 spp: each row is one packet of 8 lanes, and paths leave it as they end.
+  EmbreeConfig config(GetParam());
+  test::TempDir dir;
+  const Scene scene = classicScene(dir, 8, 4);
+  const RenderScene rs(scene);
+  for (uint64_t u = 0; u < 4; ++u) {
+    const WorkUnit unit = unitAt(u, 4, 1);
+    SensorBuffer packets, singles;
+    PathStats packetStats, singleStats;
+    ASSERT_TRUE(renderUnit(rs, unit, packets, packetStats, nullptr, RayGrouping::kPackets));
+    ASSERT_TRUE(renderUnit(rs, unit, singles, singleStats, nullptr, RayGrouping::kSingleRays));
+    EXPECT_EQ(std::memcmp(packets.sums.data(), singles.sums.data(), packets.sums.size() * sizeof(double)), 0);
+    EXPECT_EQ(packetStats.rays, singleStats.rays);
+    double total = 0.0;
+    for (double v : packets.sums) total += v;
+    EXPECT_GT(total, 0.0);
+  }
+}
+
+// SSE2 and AVX2: Embree's 4- and 8-wide kernels, which take the ray-stream path for 16-wide calls.
+INSTANTIATE_TEST_SUITE_P(EmbreeIsa, NarrowKernels, ::testing::Values("isa=sse2", "isa=avx2"));
+
+}  // namespace
+}  // namespace lensfarm
