@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <bit>
 #include <cstdlib>
 #include <limits>
 #include <stdexcept>
@@ -23,28 +24,41 @@ Vec3 nudgedDirection(const Vec3& d) {
   return glm::normalize(d + 1e-6f * (frame.t + 0.5f * frame.b));
 }
 
+constexpr float kInfinity = std::numeric_limits<float>::infinity();
+
 // Embree's packet calls take a mask of the lanes in use, but on a machine without 16-wide kernels
 // (no AVX-512) Embree traces a 16-wide packet through its ray-stream path, which ignores the mask,
 // traces every lane whose tnear <= tfar and asserts that each such ray is finite. So a lane not in
 // use is also switched off that way, with harmless finite values, whatever the packet held there
 // (tests/render/ray_caster_isa_test.cpp renders with Embree's narrower kernels).
-void loadPacket(const int (&valid)[kPacketWidth], const RayPacket& rays, const float* tFar, RTCRay16& ray, unsigned mask) {
+inline void loadPacket(const int (&valid)[kPacketWidth], const RayPacket& __restrict rays, const float* __restrict tFar,
+                       RTCRay16& __restrict ray, unsigned mask) {
+  // Branch-free, so the loop vectorises: a lane's bits are kept (valid -1) or replaced (valid 0).
+  auto pick = [](int lane, float in, float off) {
+    const uint32_t keep = uint32_t(lane);
+    return std::bit_cast<float>((std::bit_cast<uint32_t>(in) & keep) | (std::bit_cast<uint32_t>(off) & ~keep));
+  };
   for (int k = 0; k < kPacketWidth; ++k) {
-    const bool on = valid[k] != 0;
-    ray.org_x[k] = on ? rays.ox[k] : 0.0f;
-    ray.org_y[k] = on ? rays.oy[k] : 0.0f;
-    ray.org_z[k] = on ? rays.oz[k] : 0.0f;
-    ray.dir_x[k] = on ? rays.dx[k] : 0.0f;
-    ray.dir_y[k] = on ? rays.dy[k] : 0.0f;
-    ray.dir_z[k] = on ? rays.dz[k] : 1.0f;
-    ray.tnear[k] = on ? 0.0f : 1.0f;
-    ray.tfar[k] = on ? (tFar ? tFar[k] : std::numeric_limits<float>::infinity()) : 0.0f;
+    const int on = valid[k] != 0 ? -1 : 0;
+    ray.org_x[k] = pick(on, rays.ox[k], 0.0f);
+    ray.org_y[k] = pick(on, rays.oy[k], 0.0f);
+    ray.org_z[k] = pick(on, rays.oz[k], 0.0f);
+    ray.dir_x[k] = pick(on, rays.dx[k], 0.0f);
+    ray.dir_y[k] = pick(on, rays.dy[k], 0.0f);
+    ray.dir_z[k] = pick(on, rays.dz[k], 1.0f);
+    ray.tnear[k] = pick(on, 0.0f, 1.0f);
+    ray.tfar[k] = pick(on, tFar[k], 0.0f);
     ray.mask[k] = mask;
     ray.flags[k] = 0;
     ray.time[k] = 0.0f;
     ray.id[k] = unsigned(k);
   }
 }
+
+// The far end of an intersection ray: none.
+alignas(64) constexpr float kNoFarEnd[kPacketWidth] = {
+    kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity,
+    kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity};
 }  // namespace
 
 RayCaster::RayCaster(const Scene& scene) {
@@ -181,7 +195,7 @@ void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) 
   // Camera packets hold the samples of one or a few neighbouring sensor cells.
   if (kind == RayKind::kCamera) context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
   alignas(64) RTCRayHit16 rh;
-  loadPacket(rays.valid, rays, nullptr, rh.ray, unsigned(kind));
+  loadPacket(rays.valid, rays, kNoFarEnd, rh.ray, unsigned(kind));
   for (int k = 0; k < kPacketWidth; ++k) {
     rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
@@ -192,28 +206,31 @@ void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) 
     if (out.found[k]) out.hit[k] = surfaceHit(rh.hit.geomID[k], rh.hit.primID[k], rh.hit.u[k], rh.hit.v[k], rh.ray.tfar[k]);
   }
 
-  // Misses are cast once more, slightly turned, exactly as the single-ray call does: a packet of
-  // their own, so no lane that already hit is traced again.
+  // Misses are cast once more, slightly turned, exactly as the single-ray call does; the lanes
+  // that hit are switched off for it (their hits are already read).
   alignas(64) int retry[kPacketWidth];
   bool anyMiss = false;
-  RayPacket nudged;
   for (int k = 0; k < kPacketWidth; ++k) {
     retry[k] = rays.valid[k] != 0 && !out.found[k] ? -1 : 0;
     if (retry[k]) {
       anyMiss = true;
-      nudged.set(k, rays.origin(k), nudgedDirection(rays.direction(k)));
+      const Vec3 nudged = nudgedDirection(rays.direction(k));
+      rh.ray.dir_x[k] = nudged.x;
+      rh.ray.dir_y[k] = nudged.y;
+      rh.ray.dir_z[k] = nudged.z;
+    } else {
+      rh.ray.tnear[k] = 1.0f;
+      rh.ray.tfar[k] = 0.0f;
     }
   }
   if (!anyMiss) return;
   context.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-  loadPacket(retry, nudged, nullptr, rh.ray, unsigned(kind));
-  for (int k = 0; k < kPacketWidth; ++k) rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect16(retry, scene_, &context, &rh);
-  for (int k = 0; k < kPacketWidth; ++k) {
-    out.found[k] = out.found[k] || (retry[k] != 0 && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID);
-    if (retry[k] && out.found[k])
+  for (int k = 0; k < kPacketWidth; ++k)
+    if (retry[k] && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID) {
+      out.found[k] = true;
       out.hit[k] = surfaceHit(rh.hit.geomID[k], rh.hit.primID[k], rh.hit.u[k], rh.hit.v[k], rh.ray.tfar[k]);
-  }
+    }
 }
 
 void RayCaster::occluded(const RayPacket& rays, bool (&occluded)[kPacketWidth]) const {
