@@ -36,6 +36,9 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
   out = SensorBuffer(width, height);
   tbb::combinable<PathStats> threadStats;
   std::atomic<bool> cancelled{false};
+#if defined(__SSE__)
+  const unsigned callerMode = _mm_getcsr();  // the calling thread runs chunks too (below)
+#endif
 
   tbb::parallel_for(tbb::blocked_range<int>(0, height, 1), [&](const tbb::blocked_range<int>& rows) {
 #if defined(__SSE__)
@@ -95,6 +98,9 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
       for (int x = 0; x < width; ++x) out.samples[uint64_t(j) * width + uint64_t(x)] = unit.sampleCount;
     }
   });
+#if defined(__SSE__)
+  _mm_setcsr(callerMode);  // flush-to-zero stays on the render threads, not on the caller's
+#endif
   threadStats.combine_each([&](const PathStats& st) { stats += st; });
   return !cancelled;
 }

@@ -4,6 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#if defined(__SSE__)
+#include <pmmintrin.h>
+#include <xmmintrin.h>
+#endif
 #include <fstream>
 
 #include "render/integrator.h"
@@ -140,6 +144,25 @@ TEST(PacketIntegrator, UnitsRenderedInPacketsEqualUnitsRenderedOneRayAtATime) {
     EXPECT_GT(total, 0.0);
   }
 }
+
+#if defined(__SSE__)
+TEST(UnitRenderer, FlushesDenormalsOnRenderThreadsButGivesTheCallerItsModeBack) {
+  // Render threads flush denormals to zero (Embree's advice); the calling thread takes part in
+  // the render, so it must get its own mode back, or IEEE code it runs later (std::nextafter on
+  // subnormals, say) changes behaviour.
+  const unsigned before = _mm_getcsr();
+  _mm_setcsr(before & ~(_MM_FLUSH_ZERO_ON | _MM_DENORMALS_ZERO_ON));
+  const unsigned ieee = _mm_getcsr();
+  test::TempDir dir;
+  const Scene scene = test::loadSceneJson(dir, sceneFile("cornell-classic.json"));
+  const RenderScene rs(scene);
+  SensorBuffer buffer;
+  PathStats stats;
+  ASSERT_TRUE(renderUnit(rs, unitAt(0, 1, 1), buffer, stats));
+  EXPECT_EQ(_mm_getcsr(), ieee);
+  _mm_setcsr(before);
+}
+#endif
 
 }  // namespace
 }  // namespace lensfarm
