@@ -36,23 +36,36 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// One call to the caster: a single ray, or a packet (kind 0: occlusion).
-struct Cast {
-  bool packet;
-  RayRecorder::Ray ray;
-  RayPacket rays;
+// One thread's calls to the caster, in order: single rays and packets (kind 0: occlusion), each
+// kept in its own list so a single ray does not take a packet's room.
+struct ThreadLog {
+  struct Cast {
+    bool packet;
+    uint32_t index;  // into rays or packets
+  };
+  std::vector<Cast> order;
+  std::vector<RayRecorder::Ray> rays;
+  std::vector<RayPacket> packets;
+  std::vector<unsigned> packetKinds;
 };
 
 class ThreadLogs : public RayRecorder {
  public:
-  void record(const Ray& ray) override { logs_.local().push_back(Cast{false, ray, {}}); }
-  void recordPacket(const RayPacket& rays, unsigned kind) override {
-    logs_.local().push_back(Cast{true, Ray{{}, {}, 0.0f, kind}, rays});
+  void record(const Ray& ray) override {
+    ThreadLog& log = logs_.local();
+    log.order.push_back({false, uint32_t(log.rays.size())});
+    log.rays.push_back(ray);
   }
-  tbb::enumerable_thread_specific<std::vector<Cast>>& logs() { return logs_; }
+  void recordPacket(const RayPacket& rays, unsigned kind) override {
+    ThreadLog& log = logs_.local();
+    log.order.push_back({true, uint32_t(log.packets.size())});
+    log.packets.push_back(rays);
+    log.packetKinds.push_back(kind);
+  }
+  tbb::enumerable_thread_specific<ThreadLog>& logs() { return logs_; }
 
  private:
-  tbb::enumerable_thread_specific<std::vector<Cast>> logs_;
+  tbb::enumerable_thread_specific<ThreadLog> logs_;
 };
 
 int activeLanes(const RayPacket& rays) {
@@ -110,36 +123,40 @@ struct Replay {
 enum class Which { kAll, kIntersect, kOccluded };
 
 Replay replay(const RayCaster& caster, ThreadLogs& logs, tbb::task_arena& arena, Which which) {
-  std::vector<std::vector<Cast>*> all;
+  std::vector<ThreadLog*> all;
   for (auto& log : logs.logs()) all.push_back(&log);
   tbb::enumerable_thread_specific<Replay> parts;
   const auto start = Clock::now();
   arena.execute([&] {
-    tbb::parallel_for_each(all.begin(), all.end(), [&](std::vector<Cast>* log) {
+    tbb::parallel_for_each(all.begin(), all.end(), [&](ThreadLog* log) {
       Replay& r = parts.local();
       size_t hits = 0;
       RayCaster::PacketHits packetHits;
       bool blocked[kPacketWidth];
       const auto t0 = Clock::now();
-      for (const Cast& cast : *log) {
-        const RayRecorder::Ray& ray = cast.ray;
-        const bool occlusion = ray.kind == 0;
+      for (const ThreadLog::Cast& cast : log->order) {
+        const unsigned kind = cast.packet ? log->packetKinds[cast.index] : log->rays[cast.index].kind;
+        const bool occlusion = kind == 0;
         if (occlusion && which != Which::kIntersect) {
           if (cast.packet) {
-            caster.occluded(cast.rays, blocked);
+            const RayPacket& rays = log->packets[cast.index];
+            caster.occluded(rays, blocked);
             hits += blocked[0];
-            r.occlusions += uint64_t(activeLanes(cast.rays));
+            r.occlusions += uint64_t(activeLanes(rays));
           } else {
+            const RayRecorder::Ray& ray = log->rays[cast.index];
             hits += caster.occluded(ray.origin, ray.direction, ray.tFar);
             ++r.occlusions;
           }
         } else if (!occlusion && which != Which::kOccluded) {
           if (cast.packet) {
-            caster.intersect(cast.rays, RayKind(ray.kind), packetHits);
+            const RayPacket& rays = log->packets[cast.index];
+            caster.intersect(rays, RayKind(kind), packetHits);
             hits += packetHits.found[0];
-            r.intersects += uint64_t(activeLanes(cast.rays));
+            r.intersects += uint64_t(activeLanes(rays));
           } else {
-            hits += caster.intersect(ray.origin, ray.direction, RayKind(ray.kind)).has_value();
+            const RayRecorder::Ray& ray = log->rays[cast.index];
+            hits += caster.intersect(ray.origin, ray.direction, RayKind(kind)).has_value();
             ++r.intersects;
           }
         }

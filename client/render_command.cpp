@@ -19,6 +19,7 @@
 #include "in_process_link.h"
 #include "job_spec.h"
 #include "output_paths.h"
+#include "render/ray_caster.h"
 #include "override_flags.h"
 #include "progress_display.h"
 #include "service.h"
@@ -170,6 +171,7 @@ int runRender(const RenderFlags& flags) {
 
 Runner addRenderCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("render", "Render a scene locally on this machine's cores");
+  cmd->footer(kEmbreeConfigHelp);
   auto f = std::make_shared<RenderFlags>();
   cmd->add_option("scene", f->scene, "Scene file (JSON)")->required();
   cmd->add_option("-o,--output", f->outputs, "Output image (.exr: linear radiance; .png: exposed preview); repeatable")

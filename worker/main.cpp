@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "grpc_link.h"
+#include "render/ray_caster.h"
 #include "util/error.h"
 #include "util/logging.h"
 #include "util/service_flags.h"
@@ -40,6 +41,7 @@ int main(int argc, char** argv) {
   using namespace lensfarm;
   CLI::App app{"lensfarm-worker: renders units of lensfarm jobs for a coordinator"};
   app.set_version_flag("--version", kRendererVersion);
+  app.footer(kEmbreeConfigHelp);
   std::string coordinator, logLevel = "info";
   WorkerOptions options;
   options.threads = std::max(1u, std::thread::hardware_concurrency());

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "math/lanes.h"
 #include "math/sampling.h"
 #include "util/error.h"
 
@@ -55,23 +56,21 @@ CameraRay ThinLensCamera::generateRay(int i, int j, Vec2 uSensor, Vec2 uLens) co
   return rayThrough(Vec2(float(x), float(y)), disk);
 }
 
-CameraRay ThinLensCamera::generatePinholeRay(int i, int j, Vec2 uSensor) const {
-  const double x = params_.sensorWidth * ((i + double(uSensor.x)) / width_ - 0.5);
-  const double y = params_.sensorHeight * (0.5 - (j + double(uSensor.y)) / height_);
-  return rayThrough(Vec2(float(x), float(y)), Vec2(0.0f));
+namespace {
+LENSFARM_LANE_LOOPS void pinholeLanes(const ThinLensCamera& camera, const int* __restrict i, int j,
+                                      const float* __restrict u0, const float* __restrict u1,
+                                      CameraRayLanes& __restrict rays) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const CameraRay ray = camera.generatePinholeRay(i[k], j, Vec2(u0[k], u1[k]));
+    rays.ox[k] = ray.origin.x, rays.oy[k] = ray.origin.y, rays.oz[k] = ray.origin.z;
+    rays.dx[k] = ray.direction.x, rays.dy[k] = ray.direction.y, rays.dz[k] = ray.direction.z;
+  }
 }
+}  // namespace
 
-CameraRay ThinLensCamera::rayThrough(Vec2 s, Vec2 r) const {
-  // Seed eq. 1 in the camera frame: the incident direction n1 from the sensor point
-  // (s, -S2) to the lens point (r, 0), scaled to a unit axial component, is bent to
-  //     n2 = n1 - r / f.
-  // Every ray from s then meets the focal plane at -s * S1 / S2, whatever r is.
-  const double invS2 = invImageDistance_;
-  const double invF = invFocalLength_;
-  const double dx = (double(r.x) - s.x) * invS2 - r.x * invF;
-  const double dy = (double(r.y) - s.y) * invS2 - r.y * invF;
-  const Vec3 dir = glm::normalize(float(dx) * right_ + float(dy) * up_ + forward_);
-  return CameraRay{params_.position + r.x * right_ + r.y * up_, dir};
+void ThinLensCamera::generatePinholeRays(const int (&i)[kPacketWidth], int j, const float (&u0)[kPacketWidth],
+                                         const float (&u1)[kPacketWidth], CameraRayLanes& rays) const {
+  pinholeLanes(*this, i, j, u0, u1, rays);
 }
 
 double focalLengthFromAngleOfView(double sensorWidth, double angleOfViewDegrees) {

@@ -20,6 +20,7 @@
 #include <limits>
 #include <string>
 
+#include "math/lanes.h"
 #include "math/vec.h"
 
 namespace lensfarm {
@@ -27,6 +28,12 @@ namespace lensfarm {
 struct CameraRay {
   Vec3 origin;
   Vec3 direction;  // unit
+};
+
+// Camera rays of a packet's lanes, as arrays over the lanes.
+struct CameraRayLanes {
+  alignas(64) float ox[kPacketWidth], oy[kPacketWidth], oz[kPacketWidth];
+  alignas(64) float dx[kPacketWidth], dy[kPacketWidth], dz[kPacketWidth];
 };
 
 struct ThinLensParams {
@@ -53,6 +60,11 @@ class ThinLensCamera {
   // The ray through the lens centre: what generateRay gives for a closed aperture, bit for bit.
   CameraRay generatePinholeRay(int i, int j, Vec2 uSensor) const;
 
+  // generatePinholeRay for the lanes of a packet at once (render/unit_renderer.cpp): lane k gets
+  // the ray through cell (i[k], j) at offset (u0[k], u1[k]), bit for bit, in a vectorised loop.
+  void generatePinholeRays(const int (&i)[kPacketWidth], int j, const float (&u0)[kPacketWidth],
+                           const float (&u1)[kPacketWidth], CameraRayLanes& rays) const;
+
   // The same, from explicit sensor and lens points in camera-plane coordinates
   // (x along right, y along up); used by tests of the optics.
   CameraRay rayThrough(Vec2 sensorPoint, Vec2 lensPoint) const;
@@ -75,6 +87,26 @@ class ThinLensCamera {
   double lensRadius_;
   Vec3 right_, up_, forward_;
 };
+
+// Inline, so the lane loop of generatePinholeRays evaluates the same formula.
+inline CameraRay ThinLensCamera::generatePinholeRay(int i, int j, Vec2 uSensor) const {
+  const double x = params_.sensorWidth * ((i + double(uSensor.x)) / width_ - 0.5);
+  const double y = params_.sensorHeight * (0.5 - (j + double(uSensor.y)) / height_);
+  return rayThrough(Vec2(float(x), float(y)), Vec2(0.0f));
+}
+
+inline CameraRay ThinLensCamera::rayThrough(Vec2 s, Vec2 r) const {
+  // Seed eq. 1 in the camera frame: the incident direction n1 from the sensor point
+  // (s, -S2) to the lens point (r, 0), scaled to a unit axial component, is bent to
+  //     n2 = n1 - r / f.
+  // Every ray from s then meets the focal plane at -s * S1 / S2, whatever r is.
+  const double invS2 = invImageDistance_;
+  const double invF = invFocalLength_;
+  const double dx = (double(r.x) - s.x) * invS2 - r.x * invF;
+  const double dy = (double(r.y) - s.y) * invS2 - r.y * invF;
+  const Vec3 dir = glm::normalize(float(dx) * right_ + float(dy) * up_ + forward_);
+  return CameraRay{params_.position + r.x * right_ + r.y * up_, dir};
+}
 
 // Focal length from a horizontal angle of view, seed eq. 4: alpha = 2 atan(L / 2f).
 double focalLengthFromAngleOfView(double sensorWidth, double angleOfViewDegrees);

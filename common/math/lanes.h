@@ -12,6 +12,12 @@
 // A lane loop's body must stay free of calls and of branches the compiler cannot turn into
 // selects; build with -fopt-info-vec to see which loops vectorise (docs/performance.md).
 
+namespace lensfarm {
+// Rays travel in packets of up to 16 (render/integrator.h): Embree's 16-wide kernels trace them
+// together, which is what AVX-512 machines are fastest at, and the lane loops work on 16 lanes.
+inline constexpr int kPacketWidth = 16;
+}  // namespace lensfarm
+
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #define LENSFARM_LANE_LOOPS __attribute__((target_clones("avx512f", "avx2", "default")))
 #else

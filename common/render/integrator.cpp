@@ -237,7 +237,6 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
   PathState paths[kPacketWidth];
   ShadowQuery noShadow;  // mirrors take no light sample (a delta lobe): shadeVertex leaves it unused
   bool diffuse[kPacketWidth], scatters[kPacketWidth];
-  uint32_t base[kPacketWidth];
   RayPacket rays, shadowRays;
   RayCaster::PacketHits hits;
   bool blocked[kPacketWidth];
@@ -245,6 +244,7 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
   // segment left, and their results are ignored.
   DiffuseLanes v{};
   LightSampleLanes lights{};
+  const SampleStream::LaneKeys keys = SampleStream::keysOf(packet.rng);
   rays.clear();
   for (int k = 0; k < packet.count; ++k) {
     paths[k] = PathState(packet.cameraRays[k]);
@@ -260,6 +260,22 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
       rays.valid[k] = 0;
       --live;
     };
+
+    // From the second vertex on, every sampler takes independent values: the segment's values
+    // for all lanes in vector loops, the same bits as each lane's get1D / get2D.
+    const uint32_t segmentBase = dims::segment(uint32_t(segment));
+    const bool laneValues = segmentBase >= kStratifiedDimensions;
+    alignas(64) float uChoice[kPacketWidth], uLight0[kPacketWidth], uLight1[kPacketWidth];
+    alignas(64) float uMaterial0[kPacketWidth], uMaterial1[kPacketWidth];
+    if (laneValues) {
+      if (kNee) {
+        SampleStream::independentLanes(keys, segmentBase + dims::kLightChoice, uChoice);
+        SampleStream::independentLanes(keys, segmentBase + dims::kLightPoint, uLight0);
+        SampleStream::independentLanes(keys, segmentBase + dims::kLightPoint + 1, uLight1);
+      }
+      SampleStream::independentLanes(keys, segmentBase + dims::kMaterial, uMaterial0);
+      SampleStream::independentLanes(keys, segmentBase + dims::kMaterial + 1, uMaterial1);
+    }
 
     // Lane by lane: emission reached, the bounce limit and the sample values; mirrors take the
     // one-path code (shadeVertex), diffuse vertices are gathered for the lane loops.
@@ -291,7 +307,6 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
         continue;
       }
       diffuse[k] = anyDiffuse = true;
-      base[k] = dims::segment(uint32_t(segment));
       const Vec3 n = glm::dot(hit.n, -path.direction) >= 0.0f ? hit.n : -hit.n;
       v.px[k] = hit.p.x, v.py[k] = hit.p.y, v.pz[k] = hit.p.z;
       v.gx[k] = hit.n.x, v.gy[k] = hit.n.y, v.gz[k] = hit.n.z;
@@ -302,16 +317,24 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
       const bool lastBounce = kNee && isLastBounce(rs, path);
       if (kNee) {
         lights.found[k] = -1;
-        lights.uChoice[k] = rng.get1D(base[k] + dims::kLightChoice);
-        const Vec2 u = rng.get2D(base[k] + dims::kLightPoint);
-        lights.u0[k] = u.x, lights.u1[k] = u.y;
+        if (laneValues) {
+          lights.uChoice[k] = uChoice[k], lights.u0[k] = uLight0[k], lights.u1[k] = uLight1[k];
+        } else {
+          lights.uChoice[k] = rng.get1D(segmentBase + dims::kLightChoice);
+          const Vec2 u = rng.get2D(segmentBase + dims::kLightPoint);
+          lights.u0[k] = u.x, lights.u1[k] = u.y;
+        }
         lights.refx[k] = hit.p.x, lights.refy[k] = hit.p.y, lights.refz[k] = hit.p.z;
         v.misOn[k] = mis && !lastBounce ? 1.0f : 0.0f;
       }
       if (!lastBounce) {
         scatters[k] = true;
-        const Vec2 u = rng.get2D(base[k] + dims::kMaterial);
-        v.u0[k] = u.x, v.u1[k] = u.y;
+        if (laneValues) {
+          v.u0[k] = uMaterial0[k], v.u1[k] = uMaterial1[k];
+        } else {
+          const Vec2 u = rng.get2D(segmentBase + dims::kMaterial);
+          v.u0[k] = u.x, v.u1[k] = u.y;
+        }
       }
     }
 
@@ -333,7 +356,7 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
         PathState& path = paths[k];
         const Spectrum albedo(v.ar[k], v.ag[k], v.ab[k]);
         // Material::sampleLambertian gives no direction where its cosine is not above 0.
-        if (scatters[k] && !(v.cosTheta[k] <= 0.0f) && scatter(rs, packet.rng[k], base[k], true, albedo, false, v.pdf[k], path)) {
+        if (scatters[k] && !(v.cosTheta[k] <= 0.0f) && scatter(rs, packet.rng[k], segmentBase, true, albedo, false, v.pdf[k], path)) {
           path.origin = Vec3(v.ox[k], v.oy[k], v.oz[k]);
           path.direction = Vec3(v.dx[k], v.dy[k], v.dz[k]);
           rays.set(k, path.origin, path.direction);

@@ -12,14 +12,19 @@
 //  - nee_mis: at each diffuse vertex one light sample (next-event estimation) plus the scattered
 //    ray, combined with the power heuristic (Veach 1997). Both are unbiased for the same B.
 //
-// Two forms of the same tracer, sharing every line of the vertex logic (shadeVertex):
-//  - tracePath traces one camera path, one ray at a time: the readable reference;
+// Two forms of the same tracer:
+//  - tracePath traces one camera path, one ray at a time: the readable reference, whose vertex
+//    logic is shadeVertex (integrator.cpp);
 //  - tracePacket traces up to kPacketWidth paths at once (issue 8; docs/performance.md): each
 //    segment of the packet's live paths is one 16-wide Embree intersection call and at most one
 //    16-wide occlusion call for their shadow rays; paths that end leave the packet (their lane is
-//    switched off). A lane computes exactly what tracePath computes for its sample, in the same
-//    order, so its radiance depends on its own sample only: never on which samples share its
-//    packet, on the thread or on the worker (tests/render/packet_integrator_test.cpp).
+//    switched off). Diffuse vertices are shaded in lane loops over arrays of the lanes, which the
+//    compiler vectorises (math/lanes.h); mirrors go through shadeVertex. The lane loops evaluate
+//    the same shared formulas (the warps, offsets, Lambertian lobe, light sample, MIS weight) in
+//    the same order, so a lane computes exactly what tracePath computes for its sample and its
+//    radiance depends on its own sample only: never on which samples share its packet, on the
+//    thread, the worker or the machine's vector width (tests/render/packet_integrator_test.cpp).
+
 #include <cstdint>
 
 #include "camera/thin_lens_camera.h"

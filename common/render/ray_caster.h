@@ -11,16 +11,20 @@
 #include <optional>
 #include <vector>
 
+#include "math/lanes.h"
 #include "math/vec.h"
 #include "scene/scene.h"
 
 namespace lensfarm {
 
+// Help text for the programs that trace rays (lensfarm render, lensfarm-worker): the environment
+// variable RayCaster reads.
+inline constexpr const char* kEmbreeConfigHelp =
+    "Environment: LENSFARM_EMBREE_CONFIG, Embree's device configuration (e.g. isa=avx2): give every worker "
+    "of a farm of mixed machines the same, so images keep the same bits (docs/deploy.md).";
+
 enum class RayKind : unsigned { kCamera = 1u, kScattered = 2u };
 
-// Rays travel in packets of up to 16 (render/packet_integrator.h): Embree's 16-wide kernels
-// trace them together, which is what AVX-512 machines are fastest at.
-inline constexpr int kPacketWidth = 16;
 
 // Up to kPacketWidth rays, structure of arrays (Embree's own packet layout). A lane is in use when
 // valid[lane] is -1 and unused when it is 0 (Embree's convention). Every array is 64 bytes, so

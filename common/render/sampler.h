@@ -24,6 +24,7 @@
 #include <bit>
 #include <cstdint>
 
+#include "math/lanes.h"
 #include "math/vec.h"
 #include "scene/scene.h"  // SamplerKind
 
@@ -137,6 +138,20 @@ class SampleStream {
     return Vec2(independent(dimension), independent(dimension + 1));
   }
 
+  // The sample keys of a packet's lanes, for independentLanes.
+  struct LaneKeys {
+    alignas(64) uint64_t key[kPacketWidth];
+  };
+  static LaneKeys keysOf(const SampleStream (&streams)[kPacketWidth]) {
+    LaneKeys keys;
+    for (int k = 0; k < kPacketWidth; ++k) keys.key[k] = streams[k].key_;
+    return keys;
+  }
+  // get1D(dimension) of every lane's stream at once, for a dimension at or beyond
+  // kStratifiedDimensions, where every sampler takes independent values: one vector loop
+  // (math/lanes.h) giving streams[k].get1D(dimension) bit for bit (sampler.cpp).
+  static void independentLanes(const LaneKeys& keys, uint32_t dimension, float (&values)[kPacketWidth]);
+
   static uint32_t reverseBits(uint32_t x) {
     x = (x << 16) | (x >> 16);
     x = ((x & 0x00ff00ffu) << 8) | ((x & 0xff00ff00u) >> 8);
@@ -174,10 +189,15 @@ class SampleStream {
   // Nested uniform (Owen) scrambling of a 32-bit fixed-point value in [0, 1).
   static uint32_t owenScramble(uint32_t x, uint32_t seed) { return reverseBits(laineKarras(reverseBits(x), seed)); }
 
- private:
-  float independent(uint32_t dimension) const {
-    return float(mix(key_ ^ (uint64_t(dimension) * 0xd1b54a32d192ed03ull + 0x8cb92ba72f3d8dd7ull)) >> 40) * 0x1.0p-24f;
+  // The value of `dimension` for a stream whose sample key is `key` (independent values).
+  static float independentValue(uint64_t key, uint32_t dimension) {
+    // The top 24 bits, converted from a 32-bit integer (exact either way; vector units convert
+    // 32-bit integers, not 64-bit ones).
+    return float(int32_t(mix(key ^ (uint64_t(dimension) * 0xd1b54a32d192ed03ull + 0x8cb92ba72f3d8dd7ull)) >> 40)) * 0x1.0p-24f;
   }
+
+ private:
+  float independent(uint32_t dimension) const { return independentValue(key_, dimension); }
   static float toFloat(uint32_t x) { return float(x >> 8) * 0x1.0p-24f; }
 
   // A 32-bit seed per (pixel, dimension): decorrelates the padded dimension pairs.

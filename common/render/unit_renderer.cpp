@@ -51,6 +51,9 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
     PathPacket packet;
     Spectrum radiance[kPacketWidth];
     uint64_t pixelOf[kPacketWidth];
+    int column[kPacketWidth];
+    alignas(64) float u0[kPacketWidth], u1[kPacketWidth];
+    CameraRayLanes cameraLanes;
     for (int j = rows.begin(); j != rows.end(); ++j) {
       if (cancel && cancel->load(std::memory_order_relaxed)) {
         cancelled = true;
@@ -69,13 +72,22 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
           pixelOf[k] = uint64_t(j) * width + uint64_t(i);
           packet.rng[k] = SampleStream(sampler, pixelOf[k], s);
           const SampleStream& rng = packet.rng[k];
-          // Without depth of field the lens is a pinhole: no lens sample, the same rays.
-          packet.cameraRays[k] = kLens ? camera.generateRay(i, j, rng.get2D(dims::kSensor), rng.get2D(dims::kLens))
-                                       : camera.generatePinholeRay(i, j, rng.get2D(dims::kSensor));
+          const Vec2 uSensor = rng.get2D(dims::kSensor);
+          if (kLens) packet.cameraRays[k] = camera.generateRay(i, j, uSensor, rng.get2D(dims::kLens));
+          column[k] = i, u0[k] = uSensor.x, u1[k] = uSensor.y;
           if (++sampleInPixel == unit.sampleCount) {
             sampleInPixel = 0;
             ++i;
           }
+        }
+        if (!kLens) {
+          // Without depth of field the lens is a pinhole: no lens sample, the same rays, all
+          // lanes in one vector loop (lanes past the count trace a harmless ray of cell 0).
+          for (int k = packet.count; k < kPacketWidth; ++k) column[k] = 0, u0[k] = u1[k] = 0.0f;
+          camera.generatePinholeRays(column, j, u0, u1, cameraLanes);
+          for (int k = 0; k < packet.count; ++k)
+            packet.cameraRays[k] = CameraRay{Vec3(cameraLanes.ox[k], cameraLanes.oy[k], cameraLanes.oz[k]),
+                                             Vec3(cameraLanes.dx[k], cameraLanes.dy[k], cameraLanes.dz[k])};
         }
         if (grouping == RayGrouping::kPackets)
           tracePacket<kNee, kSpecular>(rs, packet, radiance, local);
