@@ -261,20 +261,19 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
       --live;
     };
 
-    // From the second vertex on, every sampler takes independent values: the segment's values
-    // for all lanes in vector loops, the same bits as each lane's get1D / get2D.
+    // The segment's sample values for all lanes in vector loops (the same bits as each lane's
+    // get1D / get2D), where the sampler has a lane form: always from the second vertex on, and
+    // at the first with the Sobol sampler.
     const uint32_t segmentBase = dims::segment(uint32_t(segment));
-    const bool laneValues = segmentBase >= kStratifiedDimensions;
+    const bool laneValues = SampleStream::hasLaneForm(keys, segmentBase);
     alignas(64) float uChoice[kPacketWidth], uLight0[kPacketWidth], uLight1[kPacketWidth];
     alignas(64) float uMaterial0[kPacketWidth], uMaterial1[kPacketWidth];
     if (laneValues) {
       if (kNee) {
-        SampleStream::independentLanes(keys, segmentBase + dims::kLightChoice, uChoice);
-        SampleStream::independentLanes(keys, segmentBase + dims::kLightPoint, uLight0);
-        SampleStream::independentLanes(keys, segmentBase + dims::kLightPoint + 1, uLight1);
+        SampleStream::lanes1D(keys, segmentBase + dims::kLightChoice, uChoice);
+        SampleStream::lanes2D(keys, segmentBase + dims::kLightPoint, uLight0, uLight1);
       }
-      SampleStream::independentLanes(keys, segmentBase + dims::kMaterial, uMaterial0);
-      SampleStream::independentLanes(keys, segmentBase + dims::kMaterial + 1, uMaterial1);
+      SampleStream::lanes2D(keys, segmentBase + dims::kMaterial, uMaterial0, uMaterial1);
     }
 
     // Lane by lane: emission reached, the bounce limit and the sample values; mirrors take the

@@ -105,8 +105,7 @@ class SampleStream {
     switch (kind_) {
       case SamplerKind::kSobol: {
         if (dimension >= kStratifiedDimensions) return independent(dimension);
-        const uint32_t seed = dimensionSeed(dimension);
-        return toFloat(reverseBits(laineKarras(shuffledIndex(seed), seed * 0x68bc21ebu + 1u)));
+        return sobolFirst(pixelKey_, sobolIndex(), dimension);
       }
       case SamplerKind::kStratified: {
         if (dimension >= kStratifiedDimensions) return independent(dimension);
@@ -123,12 +122,7 @@ class SampleStream {
     switch (kind_) {
       case SamplerKind::kSobol: {
         if (dimension >= kStratifiedDimensions) return Vec2(independent(dimension), independent(dimension + 1));
-        // Owen scrambling of a Sobol coordinate works on its bit-reversed form, which for the
-        // first dimension is the (shuffled) index itself.
-        const uint32_t seed = dimensionSeed(dimension);
-        const uint32_t i = shuffledIndex(seed);
-        return Vec2(toFloat(reverseBits(laineKarras(i, seed * 0x68bc21ebu + 1u))),
-                    toFloat(reverseBits(laineKarras(reversedSobolDimension1(i), seed * 0x02e5be93u + 3u))));
+        return sobolPair(pixelKey_, sobolIndex(), dimension);
       }
       case SamplerKind::kStratified:
         if (dimension >= kStratifiedDimensions) return Vec2(independent(dimension), independent(dimension + 1));
@@ -138,19 +132,47 @@ class SampleStream {
     return Vec2(independent(dimension), independent(dimension + 1));
   }
 
-  // The sample keys of a packet's lanes, for independentLanes.
+  // The streams of a packet's lanes, for the lane forms below. `sobol`: lane 0's stream (and so
+  // every lane in use: one job, one sampler) is a Sobol stream.
   struct LaneKeys {
     alignas(64) uint64_t key[kPacketWidth];
+    alignas(64) uint64_t pixelKey[kPacketWidth];
+    alignas(64) uint32_t index[kPacketWidth];
+    bool sobol = false;
   };
   static LaneKeys keysOf(const SampleStream (&streams)[kPacketWidth]) {
     LaneKeys keys;
-    for (int k = 0; k < kPacketWidth; ++k) keys.key[k] = streams[k].key_;
+    for (int k = 0; k < kPacketWidth; ++k) {
+      keys.key[k] = streams[k].key_;
+      keys.pixelKey[k] = streams[k].pixelKey_;
+      keys.index[k] = streams[k].sobolIndex();
+    }
+    keys.sobol = streams[0].kind_ == SamplerKind::kSobol;
     return keys;
   }
-  // get1D(dimension) of every lane's stream at once, for a dimension at or beyond
-  // kStratifiedDimensions, where every sampler takes independent values: one vector loop
-  // (math/lanes.h) giving streams[k].get1D(dimension) bit for bit (sampler.cpp).
-  static void independentLanes(const LaneKeys& keys, uint32_t dimension, float (&values)[kPacketWidth]);
+  // Whether the lane forms can give this dimension: the independent values every sampler takes
+  // beyond kStratifiedDimensions, and the Sobol sampler's below.
+  static bool hasLaneForm(const LaneKeys& keys, uint32_t dimension) {
+    return dimension >= kStratifiedDimensions || keys.sobol;
+  }
+  // get1D(dimension) and get2D(dimension) of every lane's stream at once, where hasLaneForm:
+  // one vector loop each (math/lanes.h), streams[k]'s values bit for bit (sampler.cpp).
+  static void lanes1D(const LaneKeys& keys, uint32_t dimension, float (&values)[kPacketWidth]);
+  static void lanes2D(const LaneKeys& keys, uint32_t dimension, float (&x)[kPacketWidth], float (&y)[kPacketWidth]);
+
+  // The Sobol sampler's values of `dimension` (below kStratifiedDimensions), for a stream with
+  // these keys. Owen scrambling of a Sobol coordinate works on its bit-reversed form, which for
+  // the first dimension is the (shuffled) index itself.
+  static float sobolFirst(uint64_t pixelKey, uint32_t index, uint32_t dimension) {
+    const uint32_t seed = dimensionSeedOf(pixelKey, dimension);
+    return toFloat(reverseBits(laineKarras(owenScramble(index, seed), seed * 0x68bc21ebu + 1u)));
+  }
+  static Vec2 sobolPair(uint64_t pixelKey, uint32_t index, uint32_t dimension) {
+    const uint32_t seed = dimensionSeedOf(pixelKey, dimension);
+    const uint32_t i = owenScramble(index, seed);
+    return Vec2(toFloat(reverseBits(laineKarras(i, seed * 0x68bc21ebu + 1u))),
+                toFloat(reverseBits(laineKarras(reversedSobolDimension1(i), seed * 0x02e5be93u + 3u))));
+  }
 
   static uint32_t reverseBits(uint32_t x) {
     x = (x << 16) | (x >> 16);
@@ -198,15 +220,19 @@ class SampleStream {
 
  private:
   float independent(uint32_t dimension) const { return independentValue(key_, dimension); }
-  static float toFloat(uint32_t x) { return float(x >> 8) * 0x1.0p-24f; }
+  // The top 24 bits in [0, 1), converted from a 32-bit signed integer (exact; vector units
+  // convert signed 32-bit integers).
+  static float toFloat(uint32_t x) { return float(int32_t(x >> 8)) * 0x1.0p-24f; }
 
   // A 32-bit seed per (pixel, dimension): decorrelates the padded dimension pairs.
-  uint32_t dimensionSeed(uint32_t dimension) const {
-    return uint32_t(mix(pixelKey_ ^ (uint64_t(dimension >> 1) * 0xd1b54a32d192ed03ull + 0x8cb92ba72f3d8dd7ull)));
+  static uint32_t dimensionSeedOf(uint64_t pixelKey, uint32_t dimension) {
+    return uint32_t(mix(pixelKey ^ (uint64_t(dimension >> 1) * 0xd1b54a32d192ed03ull + 0x8cb92ba72f3d8dd7ull)));
   }
-  // The sample index, Owen-scrambled: a random order of the sequence per pixel and dimension
-  // pair in which every power-of-two prefix is still an aligned power-of-two block (a net).
-  uint32_t shuffledIndex(uint32_t seed) const { return owenScramble(uint32_t(index_) ^ uint32_t(index_ >> 32), seed); }
+  uint32_t dimensionSeed(uint32_t dimension) const { return dimensionSeedOf(pixelKey_, dimension); }
+  // The sample index folded to 32 bits; Owen-scrambled with a dimension pair's seed it is a
+  // random order of the sequence per pixel and dimension pair in which every power-of-two prefix
+  // is still an aligned power-of-two block (a net).
+  uint32_t sobolIndex() const { return uint32_t(index_) ^ uint32_t(index_ >> 32); }
 
   float jitter(uint32_t seed) const { return toFloat(uint32_t(mix(pixelKey_ ^ (uint64_t(seed) << 32 | local_)))); }
 

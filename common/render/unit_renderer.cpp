@@ -71,15 +71,26 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
           const uint64_t s = unit.firstSample + sampleInPixel;
           pixelOf[k] = uint64_t(j) * width + uint64_t(i);
           packet.rng[k] = SampleStream(sampler, pixelOf[k], s);
-          const SampleStream& rng = packet.rng[k];
-          const Vec2 uSensor = rng.get2D(dims::kSensor);
-          if (kLens) packet.cameraRays[k] = camera.generateRay(i, j, uSensor, rng.get2D(dims::kLens));
-          column[k] = i, u0[k] = uSensor.x, u1[k] = uSensor.y;
+          column[k] = i;
           if (++sampleInPixel == unit.sampleCount) {
             sampleInPixel = 0;
             ++i;
           }
         }
+        // The points in the sensor cells: one vector loop where the sampler has a lane form.
+        const SampleStream::LaneKeys keys = SampleStream::keysOf(packet.rng);
+        if (SampleStream::hasLaneForm(keys, dims::kSensor)) {
+          SampleStream::lanes2D(keys, dims::kSensor, u0, u1);
+        } else {
+          for (int k = 0; k < packet.count; ++k) {
+            const Vec2 u = packet.rng[k].get2D(dims::kSensor);
+            u0[k] = u.x, u1[k] = u.y;
+          }
+        }
+        if (kLens)
+          for (int k = 0; k < packet.count; ++k)
+            packet.cameraRays[k] =
+                camera.generateRay(column[k], j, Vec2(u0[k], u1[k]), packet.rng[k].get2D(dims::kLens));
         if (!kLens) {
           // Without depth of field the lens is a pinhole: no lens sample, the same rays, all
           // lanes in one vector loop (lanes past the count trace a harmless ray of cell 0).

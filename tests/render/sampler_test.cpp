@@ -3,6 +3,7 @@
 // integrand.
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
 #include <set>
 
@@ -31,6 +32,36 @@ TEST(Sampler, ValuesAreInTheUnitIntervalAndPureFunctionsOfTheirCounters) {
 // The k-th sample of a Sobol replicate (0: even units, 1: odd units) with units of `perUnit`.
 uint64_t replicateSample(uint64_t k, uint32_t perUnit, int replicate) {
   return (k / perUnit) * 2 * perUnit + uint64_t(replicate) * perUnit + k % perUnit;
+}
+
+TEST(Sampler, LaneFormsGiveEachStreamsValuesBitForBit) {
+  // The vector loops over a packet's streams (lanes1D, lanes2D) against each stream's own get1D
+  // and get2D, for every dimension that has a lane form; lanes from different pixels, samples and
+  // units, with sample indices past 2^32.
+  for (SamplerKind kind : {SamplerKind::kIndependent, SamplerKind::kStratified, SamplerKind::kSobol}) {
+    const SamplerSetup s = setup(kind, 1ull << 40, 16);
+    SampleStream streams[kPacketWidth];
+    for (int k = 0; k < kPacketWidth; ++k)
+      streams[k] = SampleStream(s, uint64_t(k) * 977 + 3, (uint64_t(k) << 33) + uint64_t(k) * 5);
+    const SampleStream::LaneKeys keys = SampleStream::keysOf(streams);
+    EXPECT_EQ(keys.sobol, kind == SamplerKind::kSobol);
+    int compared = 0;
+    for (uint32_t d = 0; d < 40; ++d) {
+      if (!SampleStream::hasLaneForm(keys, d)) continue;
+      float v[kPacketWidth], x[kPacketWidth], y[kPacketWidth];
+      SampleStream::lanes1D(keys, d, v);
+      SampleStream::lanes2D(keys, d, x, y);
+      for (int k = 0; k < kPacketWidth; ++k) {
+        const Vec2 p = streams[k].get2D(d);
+        ASSERT_EQ(std::bit_cast<uint32_t>(v[k]), std::bit_cast<uint32_t>(streams[k].get1D(d))) << d << " " << k;
+        ASSERT_EQ(std::bit_cast<uint32_t>(x[k]), std::bit_cast<uint32_t>(p.x)) << d << " " << k;
+        ASSERT_EQ(std::bit_cast<uint32_t>(y[k]), std::bit_cast<uint32_t>(p.y)) << d << " " << k;
+        ++compared;
+      }
+    }
+    // Every dimension for Sobol; from kStratifiedDimensions on for the others.
+    EXPECT_EQ(compared, kPacketWidth * int(kind == SamplerKind::kSobol ? 40 : 40 - kStratifiedDimensions)) << samplerName(kind);
+  }
 }
 
 TEST(Sampler, SobolReplicatePrefixesArePowerOfTwoNetsInEveryDimensionPair) {
