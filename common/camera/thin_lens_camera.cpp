@@ -48,14 +48,6 @@ ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
   up_ = glm::cross(right_, forward_);
 }
 
-CameraRay ThinLensCamera::generateRay(int i, int j, Vec2 uSensor, Vec2 uLens) const {
-  // Sensor point in the camera plane (see the orientation note in the header).
-  const double x = params_.sensorWidth * ((i + double(uSensor.x)) / width_ - 0.5);
-  const double y = params_.sensorHeight * (0.5 - (j + double(uSensor.y)) / height_);
-  const Vec2 disk = sampleConcentricDisk(uLens) * float(lensRadius_);
-  return rayThrough(Vec2(float(x), float(y)), disk);
-}
-
 namespace {
 LENSFARM_LANE_LOOPS void pinholeLanes(const ThinLensCamera& camera, const int* __restrict i, int j,
                                       const float* __restrict u0, const float* __restrict u1,
@@ -66,7 +58,24 @@ LENSFARM_LANE_LOOPS void pinholeLanes(const ThinLensCamera& camera, const int* _
     rays.dx[k] = ray.direction.x, rays.dy[k] = ray.direction.y, rays.dz[k] = ray.direction.z;
   }
 }
+
+LENSFARM_LANE_LOOPS void thinLensLanes(const ThinLensCamera& camera, const int* __restrict i, int j,
+                                       const float* __restrict u0, const float* __restrict u1,
+                                       const float* __restrict lens0, const float* __restrict lens1,
+                                       CameraRayLanes& __restrict rays) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const CameraRay ray = camera.generateRay(i[k], j, Vec2(u0[k], u1[k]), Vec2(lens0[k], lens1[k]));
+    rays.ox[k] = ray.origin.x, rays.oy[k] = ray.origin.y, rays.oz[k] = ray.origin.z;
+    rays.dx[k] = ray.direction.x, rays.dy[k] = ray.direction.y, rays.dz[k] = ray.direction.z;
+  }
+}
 }  // namespace
+
+void ThinLensCamera::generateRays(const int (&i)[kPacketWidth], int j, const float (&u0)[kPacketWidth],
+                                  const float (&u1)[kPacketWidth], const float (&lens0)[kPacketWidth],
+                                  const float (&lens1)[kPacketWidth], CameraRayLanes& rays) const {
+  thinLensLanes(*this, i, j, u0, u1, lens0, lens1, rays);
+}
 
 void ThinLensCamera::generatePinholeRays(const int (&i)[kPacketWidth], int j, const float (&u0)[kPacketWidth],
                                          const float (&u1)[kPacketWidth], CameraRayLanes& rays) const {

@@ -21,6 +21,7 @@
 #include <string>
 
 #include "math/lanes.h"
+#include "math/sampling.h"
 #include "math/vec.h"
 
 namespace lensfarm {
@@ -60,6 +61,12 @@ class ThinLensCamera {
   // The ray through the lens centre: what generateRay gives for a closed aperture, bit for bit.
   CameraRay generatePinholeRay(int i, int j, Vec2 uSensor) const;
 
+  // generateRay for the lanes of a packet at once (render/unit_renderer.cpp): lane k gets the ray
+  // through cell (i[k], j) at offset (u0[k], u1[k]) and lens sample (lens0[k], lens1[k]), bit for
+  // bit, in a vectorised loop.
+  void generateRays(const int (&i)[kPacketWidth], int j, const float (&u0)[kPacketWidth], const float (&u1)[kPacketWidth],
+                    const float (&lens0)[kPacketWidth], const float (&lens1)[kPacketWidth], CameraRayLanes& rays) const;
+
   // generatePinholeRay for the lanes of a packet at once (render/unit_renderer.cpp): lane k gets
   // the ray through cell (i[k], j) at offset (u0[k], u1[k]), bit for bit, in a vectorised loop.
   void generatePinholeRays(const int (&i)[kPacketWidth], int j, const float (&u0)[kPacketWidth],
@@ -88,7 +95,15 @@ class ThinLensCamera {
   Vec3 right_, up_, forward_;
 };
 
-// Inline, so the lane loop of generatePinholeRays evaluates the same formula.
+// Inline, so the lane loops of generateRays and generatePinholeRays evaluate the same formulas.
+inline CameraRay ThinLensCamera::generateRay(int i, int j, Vec2 uSensor, Vec2 uLens) const {
+  // Sensor point in the camera plane (see the orientation note in the header).
+  const double x = params_.sensorWidth * ((i + double(uSensor.x)) / width_ - 0.5);
+  const double y = params_.sensorHeight * (0.5 - (j + double(uSensor.y)) / height_);
+  const Vec2 disk = sampleConcentricDisk(uLens) * float(lensRadius_);
+  return rayThrough(Vec2(float(x), float(y)), disk);
+}
+
 inline CameraRay ThinLensCamera::generatePinholeRay(int i, int j, Vec2 uSensor) const {
   const double x = params_.sensorWidth * ((i + double(uSensor.x)) / width_ - 0.5);
   const double y = params_.sensorHeight * (0.5 - (j + double(uSensor.y)) / height_);

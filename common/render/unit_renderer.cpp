@@ -52,7 +52,7 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
     Spectrum radiance[kPacketWidth];
     uint64_t pixelOf[kPacketWidth];
     int column[kPacketWidth];
-    alignas(64) float u0[kPacketWidth], u1[kPacketWidth];
+    alignas(64) float u0[kPacketWidth], u1[kPacketWidth], lens0[kPacketWidth], lens1[kPacketWidth];
     CameraRayLanes cameraLanes;
     for (int j = rows.begin(); j != rows.end(); ++j) {
       if (cancel && cancel->load(std::memory_order_relaxed)) {
@@ -87,19 +87,26 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
             u0[k] = u.x, u1[k] = u.y;
           }
         }
-        if (kLens)
-          for (int k = 0; k < packet.count; ++k)
-            packet.cameraRays[k] =
-                camera.generateRay(column[k], j, Vec2(u0[k], u1[k]), packet.rng[k].get2D(dims::kLens));
-        if (!kLens) {
-          // Without depth of field the lens is a pinhole: no lens sample, the same rays, all
-          // lanes in one vector loop (lanes past the count trace a harmless ray of cell 0).
-          for (int k = packet.count; k < kPacketWidth; ++k) column[k] = 0, u0[k] = u1[k] = 0.0f;
+        // All lanes' camera rays in one vector loop (lanes past the count trace a harmless ray of
+        // cell 0). Without depth of field the lens is a pinhole: no lens sample, the same rays.
+        for (int k = packet.count; k < kPacketWidth; ++k) column[k] = 0, u0[k] = u1[k] = 0.0f;
+        if (kLens) {
+          if (SampleStream::hasLaneForm(keys, dims::kLens)) {
+            SampleStream::lanes2D(keys, dims::kLens, lens0, lens1);
+          } else {
+            for (int k = 0; k < packet.count; ++k) {
+              const Vec2 u = packet.rng[k].get2D(dims::kLens);
+              lens0[k] = u.x, lens1[k] = u.y;
+            }
+          }
+          for (int k = packet.count; k < kPacketWidth; ++k) lens0[k] = lens1[k] = 0.0f;
+          camera.generateRays(column, j, u0, u1, lens0, lens1, cameraLanes);
+        } else {
           camera.generatePinholeRays(column, j, u0, u1, cameraLanes);
-          for (int k = 0; k < packet.count; ++k)
-            packet.cameraRays[k] = CameraRay{Vec3(cameraLanes.ox[k], cameraLanes.oy[k], cameraLanes.oz[k]),
-                                             Vec3(cameraLanes.dx[k], cameraLanes.dy[k], cameraLanes.dz[k])};
         }
+        for (int k = 0; k < packet.count; ++k)
+          packet.cameraRays[k] = CameraRay{Vec3(cameraLanes.ox[k], cameraLanes.oy[k], cameraLanes.oz[k]),
+                                           Vec3(cameraLanes.dx[k], cameraLanes.dy[k], cameraLanes.dz[k])};
         if (grouping == RayGrouping::kPackets)
           tracePacket<kNee, kSpecular>(rs, packet, radiance, local);
         else

@@ -1,6 +1,8 @@
 // The thin-lens optics of seed §4.1-§4.6: focusing, the pinhole limit, the image flip, refusals.
 #include <gtest/gtest.h>
 
+#include <cstring>
+#include <limits>
 #include <random>
 
 #include "camera/thin_lens_camera.h"
@@ -88,6 +90,38 @@ TEST(ThinLensCamera, TheLensFlipsTheImage) {
   const CameraRay edge = camera.rayThrough(Vec2(-0.05f, 0.0f), Vec2(0.0f));
   const float tanHalf = glm::dot(edge.direction, camera.right()) / glm::dot(edge.direction, camera.forward());
   EXPECT_NEAR(tanHalf, 0.05 / camera.imageDistance(), 1e-6);
+}
+
+TEST(ThinLensCamera, PacketFormsGiveTheOneRayBits) {
+  // generateRays / generatePinholeRays (vector loops over a packet's lanes) against
+  // generateRay / generatePinholeRay, lane by lane, for random cells and samples.
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(0.0f, 0x1.fffffep-1f);
+  std::uniform_int_distribution<int> cell(0, 799);
+  for (double fNumber : {16.0, std::numeric_limits<double>::infinity()}) {
+    ThinLensParams p = seedParams();
+    p.fNumber = fNumber;
+    const ThinLensCamera camera(p, 800, 600);
+    for (int round = 0; round < 200; ++round) {
+      int i[kPacketWidth];
+      float u0[kPacketWidth], u1[kPacketWidth], l0[kPacketWidth], l1[kPacketWidth];
+      for (int k = 0; k < kPacketWidth; ++k) i[k] = cell(rng), u0[k] = u(rng), u1[k] = u(rng), l0[k] = u(rng), l1[k] = u(rng);
+      const int j = round % 600;
+      CameraRayLanes lens, pinhole;
+      camera.generateRays(i, j, u0, u1, l0, l1, lens);
+      camera.generatePinholeRays(i, j, u0, u1, pinhole);
+      for (int k = 0; k < kPacketWidth; ++k) {
+        const CameraRay a = camera.generateRay(i[k], j, Vec2(u0[k], u1[k]), Vec2(l0[k], l1[k]));
+        const CameraRay b = camera.generatePinholeRay(i[k], j, Vec2(u0[k], u1[k]));
+        const float la[6] = {lens.ox[k], lens.oy[k], lens.oz[k], lens.dx[k], lens.dy[k], lens.dz[k]};
+        const float pa[6] = {pinhole.ox[k], pinhole.oy[k], pinhole.oz[k], pinhole.dx[k], pinhole.dy[k], pinhole.dz[k]};
+        const float ea[6] = {a.origin.x, a.origin.y, a.origin.z, a.direction.x, a.direction.y, a.direction.z};
+        const float eb[6] = {b.origin.x, b.origin.y, b.origin.z, b.direction.x, b.direction.y, b.direction.z};
+        ASSERT_EQ(std::memcmp(la, ea, sizeof la), 0) << "lane " << k << " N = " << fNumber;
+        ASSERT_EQ(std::memcmp(pa, eb, sizeof pa), 0) << "lane " << k << " N = " << fNumber;
+      }
+    }
+  }
 }
 
 TEST(ThinLensCamera, RefusesImpossibleSetUps) {
