@@ -159,6 +159,18 @@ class SampleStream {
   // one vector loop each (math/lanes.h), streams[k]'s values bit for bit (sampler.cpp).
   static void lanes1D(const LaneKeys& keys, uint32_t dimension, float (&values)[kPacketWidth]);
   static void lanes2D(const LaneKeys& keys, uint32_t dimension, float (&x)[kPacketWidth], float (&y)[kPacketWidth]);
+  // get2D(dimension) of streams[0, count): the lane form where there is one, else stream by stream.
+  static void values2D(const SampleStream (&streams)[kPacketWidth], const LaneKeys& keys, int count, uint32_t dimension,
+                       float (&x)[kPacketWidth], float (&y)[kPacketWidth]) {
+    if (hasLaneForm(keys, dimension)) {
+      lanes2D(keys, dimension, x, y);
+      return;
+    }
+    for (int k = 0; k < count; ++k) {
+      const Vec2 v = streams[k].get2D(dimension);
+      x[k] = v.x, y[k] = v.y;
+    }
+  }
 
   // The Sobol sampler's values of `dimension` (below kStratifiedDimensions), for a stream with
   // these keys. Owen scrambling of a Sobol coordinate works on its bit-reversed form, which for

@@ -79,26 +79,12 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
         }
         // The points in the sensor cells: one vector loop where the sampler has a lane form.
         const SampleStream::LaneKeys keys = SampleStream::keysOf(packet.rng);
-        if (SampleStream::hasLaneForm(keys, dims::kSensor)) {
-          SampleStream::lanes2D(keys, dims::kSensor, u0, u1);
-        } else {
-          for (int k = 0; k < packet.count; ++k) {
-            const Vec2 u = packet.rng[k].get2D(dims::kSensor);
-            u0[k] = u.x, u1[k] = u.y;
-          }
-        }
+        SampleStream::values2D(packet.rng, keys, packet.count, dims::kSensor, u0, u1);
         // All lanes' camera rays in one vector loop (lanes past the count trace a harmless ray of
         // cell 0). Without depth of field the lens is a pinhole: no lens sample, the same rays.
         for (int k = packet.count; k < kPacketWidth; ++k) column[k] = 0, u0[k] = u1[k] = 0.0f;
         if (kLens) {
-          if (SampleStream::hasLaneForm(keys, dims::kLens)) {
-            SampleStream::lanes2D(keys, dims::kLens, lens0, lens1);
-          } else {
-            for (int k = 0; k < packet.count; ++k) {
-              const Vec2 u = packet.rng[k].get2D(dims::kLens);
-              lens0[k] = u.x, lens1[k] = u.y;
-            }
-          }
+          SampleStream::values2D(packet.rng, keys, packet.count, dims::kLens, lens0, lens1);
           for (int k = packet.count; k < kPacketWidth; ++k) lens0[k] = lens1[k] = 0.0f;
           camera.generateRays(column, j, u0, u1, lens0, lens1, cameraLanes);
         } else {

@@ -141,9 +141,12 @@ TEST(Stopping, ADeadlineKeepsTheWholeUnitsDoneByThenAndRevokesTheRest) {
 
 TEST(Stopping, ADeadlineBeforeAnyUnitKeepsTheFirstWholeUnit) {
   Coordinator c;
-  const JobInfo job = c.submit(noisySpec(1000, 0, 0.05), 0);
+  // Long enough for the two leases below to be granted before the deadline even on a loaded
+  // machine (0.05 s was not: a lease after the deadline is refused), short enough to wait for.
+  const JobInfo job = c.submit(noisySpec(1000, 0, 1.0), 0);
   const std::string a = c.registerWorker(WorkerInfo{"a", 1, kProtocolVersion, kRendererVersion});
   const auto g0 = c.lease(a, 0), g1 = c.lease(a, 0);
+  ASSERT_TRUE(g0 && g1) << "both leases are granted before the deadline";
   ASSERT_TRUE(test::waitFor([&] {
     c.heartbeat(a, {g0->leaseId, g1->leaseId});
     return c.job(job.id).remainingSeconds == 0.0;
