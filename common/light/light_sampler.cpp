@@ -111,11 +111,14 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, float uChoice, 
 }
 
 void LightSampler::sample(LightSampleLanes& lanes) const {
-  GatheredLights g{};
+  if (lights_.empty()) {
+    for (int& found : lanes.found) found = 0;
+    return;
+  }
+  GatheredLights g;
   for (int k = 0; k < kPacketWidth; ++k) {
-    if (lights_.empty()) lanes.found[k] = 0;
-    if (lanes.found[k] == 0) continue;  // the lane computes on zeros and stays not found
-    const Light& l = lights_[choose(lanes.uChoice[k])];
+    // A lane not asked for computes on the first light (finite values) and stays not found.
+    const Light& l = lanes.found[k] != 0 ? lights_[choose(lanes.uChoice[k])] : lights_[0];
     g.v0x[k] = l.v0.x, g.v0y[k] = l.v0.y, g.v0z[k] = l.v0.z;
     g.v1x[k] = l.v1.x, g.v1y[k] = l.v1.y, g.v1z[k] = l.v1.z;
     g.v2x[k] = l.v2.x, g.v2y[k] = l.v2.y, g.v2z[k] = l.v2.z;
