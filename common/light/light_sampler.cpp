@@ -1,6 +1,10 @@
 #include "light/light_sampler.h"
 
 #include <algorithm>
+#include <bit>
+#include <cstddef>
+#include <stdexcept>
+#include <string>
 
 #include "math/lanes.h"
 #include "math/ray_offset.h"
@@ -27,6 +31,9 @@ LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const st
     power.push_back(p);
     total += p;
   }
+  if (lights_.size() > GatherView<Light>::kMaxRecords)  // the packet form's lane loop indexes them with 32 bits
+    throw std::runtime_error("the scene has " + std::to_string(lights_.size()) + " emitting triangles; at most " +
+                             std::to_string(GatherView<Light>::kMaxRecords) + " are supported");
   double running = 0.0;
   for (size_t i = 0; i < lights_.size(); ++i) {
     lights_[i].pmf = float(power[i] / total);
@@ -34,6 +41,7 @@ LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const st
     cdf_.push_back(float(running));
   }
   if (!cdf_.empty()) cdf_.back() = 1.0f;
+  for (size_t i = 0; i < kFewLights; ++i) fewCdf_[i] = i < cdf_.size() ? cdf_[i] : 2.0f;  // above any uChoice
 }
 
 namespace {
@@ -59,45 +67,57 @@ inline TrianglePoint sampleTrianglePoint(const Vec3& v0, const Vec3& v1, const V
   const Vec3 d = toLight * (1.0f / std::sqrt(s.dist2));  // one division, not three
   s.cosLight = std::abs(glm::dot(n, d));
   // Emitted towards ref, zero where ref sees the back of a one-sided light.
-  s.radiance = twoSided == 0.0f && glm::dot(n, d) >= 0.0f ? Spectrum(0.0f) : emission;
+  // (A product, not a select between emission and zero: the packet form gathers `emission` from
+  // the lane's light, and a select would load it only in one branch, which keeps the loop scalar.)
+  const float facing = twoSided != 0.0f || !(glm::dot(n, d) >= 0.0f) ? 1.0f : 0.0f;
+  s.radiance = emission * facing;
   // Area density 1/A converted to solid angle: dist^2 / (cos A).
   s.pdf = pmf * s.dist2 / (s.cosLight * area);
   return s;
 }
 
-// The packet form's lane loop: every lane's triangle already gathered into arrays.
-struct GatheredLights {
-  alignas(64) float v0x[kPacketWidth], v0y[kPacketWidth], v0z[kPacketWidth];
-  alignas(64) float v1x[kPacketWidth], v1y[kPacketWidth], v1z[kPacketWidth];
-  alignas(64) float v2x[kPacketWidth], v2y[kPacketWidth], v2z[kPacketWidth];
-  alignas(64) float pmf[kPacketWidth], area[kPacketWidth];
-  alignas(64) float er[kPacketWidth], eg[kPacketWidth], eb[kPacketWidth];
-  alignas(64) float twoSided[kPacketWidth];
-  alignas(64) float dist2[kPacketWidth], cosLight[kPacketWidth];  // out, for valid()
-};
+// Few lights: the cdf padded to a fixed length with entries no uChoice reaches, so choosing is
+// a count without branches (a random uChoice would mispredict a search half the time) and the
+// packet form's lane loop can choose for every lane.
+inline uint32_t chooseAmongFew(const float (&cdf)[LightSampler::kFewLights], float uChoice) {
+  uint32_t i = 0;
+#pragma GCC unroll 8
+  for (float c : cdf) i += uint32_t(c <= uChoice);
+  return i;
+}
 
-LENSFARM_LANE_LOOPS void sampleLanes(GatheredLights& __restrict g, LightSampleLanes& __restrict l) {
+// The packet form's lane loop: each lane chooses its light (where `chooseHere`; else `chosen`
+// holds it), gathers it and samples a point on it.
+using Light = LightSampler::Light;
+LENSFARM_LANE_LOOPS void sampleLanes(GatherView<Light> lights, uint32_t lastLight,
+                                     const float (&cdf)[LightSampler::kFewLights], bool chooseHere,
+                                     const uint32_t* __restrict chosen, LightSampleLanes& __restrict l,
+                                     float* __restrict dist2, float* __restrict cosLight) {
+  const uint32_t here = chooseHere ? ~0u : 0u;
   for (int k = 0; k < kPacketWidth; ++k) {
+    // Without branches, so the loop vectorises. Lanes not asked for take light 0.
+    const uint32_t few = std::min(chooseAmongFew(cdf, l.uChoice[k]), lastLight);
+    const uint32_t i = ((few & here) | (chosen[k] & ~here)) & uint32_t(l.found[k]);
+    const Vec3 n = lights.vec3(i, offsetof(Light, n)), pError = lights.vec3(i, offsetof(Light, pError));
     const TrianglePoint s = sampleTrianglePoint(
-        Vec3(g.v0x[k], g.v0y[k], g.v0z[k]), Vec3(g.v1x[k], g.v1y[k], g.v1z[k]), Vec3(g.v2x[k], g.v2y[k], g.v2z[k]),
-        Vec3(l.nx[k], l.ny[k], l.nz[k]), Vec3(l.refx[k], l.refy[k], l.refz[k]), Vec2(l.u0[k], l.u1[k]), g.pmf[k],
-        g.area[k], Spectrum(g.er[k], g.eg[k], g.eb[k]), g.twoSided[k]);
+        lights.vec3(i, offsetof(Light, v0)), lights.vec3(i, offsetof(Light, v1)), lights.vec3(i, offsetof(Light, v2)), n,
+        Vec3(l.refx[k], l.refy[k], l.refz[k]), Vec2(l.u0[k], l.u1[k]), lights.f(i, offsetof(Light, pmf)),
+        lights.f(i, offsetof(Light, area)), lights.vec3(i, offsetof(Light, emission)), lights.f(i, offsetof(Light, twoSided)));
     l.px[k] = s.p.x, l.py[k] = s.p.y, l.pz[k] = s.p.z;
+    l.nx[k] = n.x, l.ny[k] = n.y, l.nz[k] = n.z;
+    l.ex[k] = pError.x, l.ey[k] = pError.y, l.ez[k] = pError.z;
     l.rr[k] = s.radiance.r, l.rg[k] = s.radiance.g, l.rb[k] = s.radiance.b;
     l.pdf[k] = s.pdf;
-    g.dist2[k] = s.dist2, g.cosLight[k] = s.cosLight;
+    dist2[k] = s.dist2, cosLight[k] = s.cosLight;
   }
 }
 }  // namespace
 
 size_t LightSampler::choose(float uChoice) const {
-  // The first cdf entry above uChoice (std::upper_bound). Few lights: count the entries at or
-  // below it without branches, which a random uChoice would mispredict half the time.
-  size_t i = 0;
-  if (cdf_.size() <= 8)
-    for (float c : cdf_) i += size_t(c <= uChoice);
-  else
-    i = size_t(std::upper_bound(cdf_.begin(), cdf_.end(), uChoice) - cdf_.begin());
+  // The first cdf entry above uChoice (std::upper_bound).
+  const size_t i = lights_.size() <= kFewLights
+                       ? chooseAmongFew(fewCdf_, uChoice)
+                       : size_t(std::upper_bound(cdf_.begin(), cdf_.end(), uChoice) - cdf_.begin());
   return std::min(i, lights_.size() - 1);
 }
 
@@ -115,22 +135,15 @@ void LightSampler::sample(LightSampleLanes& lanes) const {
     for (int& found : lanes.found) found = 0;
     return;
   }
-  GatheredLights g;
+  // A lane not asked for computes on the first light (finite values) and stays not found.
+  const bool few = lights_.size() <= kFewLights;
+  alignas(64) uint32_t chosen[kPacketWidth] = {};
+  if (!few)
+    for (int k = 0; k < kPacketWidth; ++k) chosen[k] = lanes.found[k] != 0 ? uint32_t(choose(lanes.uChoice[k])) : 0u;
+  alignas(64) float dist2[kPacketWidth], cosLight[kPacketWidth];
+  sampleLanes(GatherView<Light>(lights_.data()), uint32_t(lights_.size() - 1), fewCdf_, few, chosen, lanes, dist2, cosLight);
   for (int k = 0; k < kPacketWidth; ++k) {
-    // A lane not asked for computes on the first light (finite values) and stays not found.
-    const Light& l = lanes.found[k] != 0 ? lights_[choose(lanes.uChoice[k])] : lights_[0];
-    g.v0x[k] = l.v0.x, g.v0y[k] = l.v0.y, g.v0z[k] = l.v0.z;
-    g.v1x[k] = l.v1.x, g.v1y[k] = l.v1.y, g.v1z[k] = l.v1.z;
-    g.v2x[k] = l.v2.x, g.v2y[k] = l.v2.y, g.v2z[k] = l.v2.z;
-    lanes.nx[k] = l.n.x, lanes.ny[k] = l.n.y, lanes.nz[k] = l.n.z;
-    lanes.ex[k] = l.pError.x, lanes.ey[k] = l.pError.y, lanes.ez[k] = l.pError.z;
-    g.pmf[k] = l.pmf, g.area[k] = l.area;
-    g.er[k] = l.emission.r, g.eg[k] = l.emission.g, g.eb[k] = l.emission.b;
-    g.twoSided[k] = l.twoSided;
-  }
-  sampleLanes(g, lanes);
-  for (int k = 0; k < kPacketWidth; ++k) {
-    const TrianglePoint s{{}, {}, lanes.pdf[k], g.dist2[k], g.cosLight[k]};
+    const TrianglePoint s{{}, {}, lanes.pdf[k], dist2[k], cosLight[k]};
     if (!s.valid()) lanes.found[k] = 0;
   }
 }

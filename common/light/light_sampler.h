@@ -2,6 +2,7 @@
 // Area lights: every triangle whose material emits (quads from `lights`, emissive meshes).
 // Next-event estimation picks one emitting triangle with probability proportional to its power
 // (area x luminance of the emitted radiance, doubled when two-sided) and a uniform point on it.
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -54,9 +55,8 @@ class LightSampler {
   // Radiance leaving triangle `triangle` towards -d (zero from the back of a one-sided light).
   Spectrum emitted(uint32_t triangle, const Vec3& d) const;
 
- private:
-  size_t choose(float uChoice) const;  // the light whose cdf interval holds uChoice
-
+  // Up to this many lights, a light is chosen without a search (and in the packet form's lane loop).
+  static constexpr size_t kFewLights = 8;
   // Everything sampling needs of one emitting triangle, in one place (the packet form gathers
   // it for 16 lanes per vertex).
   struct Light {
@@ -68,10 +68,15 @@ class LightSampler {
     Spectrum emission;
     float twoSided;      // 1: emits from both faces; 0: from the front face only
   };
+
+ private:
+  size_t choose(float uChoice) const;  // the light whose cdf interval holds uChoice
+
   const Scene& scene_;
   const RayCaster& caster_;
   std::vector<Light> lights_;
   std::vector<float> cdf_;            // cumulative pmf, cdf_.back() == 1
+  float fewCdf_[kFewLights];  // cdf_ padded with 2 (above any uChoice), up to kFewLights lights
   std::vector<int32_t> lightOfTriangle_;  // per RayCaster triangle, -1 if not emitting
 };
 

@@ -60,8 +60,20 @@ inline void addEmittedLight(const RenderScene& rs, const SurfaceHit& hit, const 
 // direct light and the scattered ray is not cast: about one ray in six fewer at B = 3, same
 // expectation (Furnace and Estimators tests). Not after a mirror could follow: a mirror that
 // does not count would carry the path on to the light (a caustic light sampling cannot see).
-inline bool isLastBounce(const RenderScene& rs, const PathState& path) {
-  return path.bounces + 1 >= rs.settings().maxBounces && (!rs.mirrorsReachable() || rs.settings().mirrorBouncesCount);
+inline bool isLastBounce(const RenderScene& rs, int bounces) {
+  return bounces + 1 >= rs.settings().maxBounces && (!rs.mirrorsReachable() || rs.settings().mirrorBouncesCount);
+}
+
+// Russian roulette (optional, render.russian_roulette): from the second bounce on, a path
+// survives with probability q = min(1, max throughput component) and carries 1/q more, so the
+// estimate stays unbiased while dim paths stop early. False where the path ends.
+inline bool survivesRoulette(const RenderScene& rs, const SampleStream& rng, uint32_t base, int bounces,
+                             Spectrum& throughput) {
+  if (!rs.settings().russianRoulette || bounces < 2) return true;
+  const float q = std::min(1.0f, std::max({throughput.r, throughput.g, throughput.b}));
+  if (rng.get1D(base + dims::kRoulette) >= q) return false;
+  throughput /= q;
+  return true;
 }
 
 // The path takes a sampled direction with throughput weight `weight` and density `pdf`: false
@@ -71,14 +83,7 @@ inline bool scatter(const RenderScene& rs, const SampleStream& rng, uint32_t bas
   path.throughput *= weight;
   if (isBlack(path.throughput)) return false;
   if (counts) ++path.bounces;
-  // Russian roulette (optional, render.russian_roulette): from the second bounce on, a path
-  // survives with probability q = min(1, max throughput component) and carries 1/q more, so
-  // the estimate stays unbiased while dim paths stop early.
-  if (rs.settings().russianRoulette && path.bounces >= 2) {
-    const float q = std::min(1.0f, std::max({path.throughput.r, path.throughput.g, path.throughput.b}));
-    if (rng.get1D(base + dims::kRoulette) >= q) return false;
-    path.throughput /= q;
-  }
+  if (!survivesRoulette(rs, rng, base, path.bounces, path.throughput)) return false;
   path.lastSpecular = specular;
   path.lastPdf = pdf;
   return true;
@@ -112,7 +117,7 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
   const Vec3 n = glm::dot(hit.n, wo) >= 0.0f ? hit.n : -hit.n;  // shade the side we came from
   const uint32_t base = dims::segment(uint32_t(segment));
 
-  const bool lastBounce = nee && !specular && counts && isLastBounce(rs, path);
+  const bool lastBounce = nee && !specular && counts && isLastBounce(rs, path.bounces);
 
   // Next-event estimation: one shadow ray to a point on a light.
   if (nee && !specular) {
@@ -166,17 +171,56 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
 }
 
 namespace {
+// The paths of a packet as arrays over the lanes: PathState's fields but the ray, which is the
+// packet's own RayPacket (the ray cast last until the segment's vertices set the next one).
+struct PathLanes {
+  alignas(64) float rr[kPacketWidth], rg[kPacketWidth], rb[kPacketWidth];  // radiance
+  alignas(64) float tr[kPacketWidth], tg[kPacketWidth], tb[kPacketWidth];  // throughput
+  alignas(64) float lastPdf[kPacketWidth];
+  int bounces[kPacketWidth];
+  bool lastSpecular[kPacketWidth], hitLight[kPacketWidth];
+
+  // A fresh path for every lane: what PathState starts with.
+  void start() {
+    for (int k = 0; k < kPacketWidth; ++k) {
+      rr[k] = rg[k] = rb[k] = 0.0f;
+      tr[k] = tg[k] = tb[k] = 1.0f;
+      lastPdf[k] = 0.0f;
+      bounces[k] = 0;
+      lastSpecular[k] = true;
+      hitLight[k] = false;
+    }
+  }
+  // One lane as a PathState, for the one-path code (shadeVertex, addEmittedLight), and back.
+  PathState get(int k, const RayPacket& rays) const {
+    PathState path;
+    path.radiance = Spectrum(rr[k], rg[k], rb[k]);
+    path.throughput = Spectrum(tr[k], tg[k], tb[k]);
+    path.origin = rays.origin(k), path.direction = rays.direction(k);
+    path.bounces = bounces[k];
+    path.lastSpecular = lastSpecular[k];
+    path.lastPdf = lastPdf[k];
+    path.hitLight = hitLight[k];
+    return path;
+  }
+  void put(int k, const PathState& path) {
+    rr[k] = path.radiance.r, rg[k] = path.radiance.g, rb[k] = path.radiance.b;
+    tr[k] = path.throughput.r, tg[k] = path.throughput.g, tb[k] = path.throughput.b;
+    bounces[k] = path.bounces;
+    lastSpecular[k] = path.lastSpecular;
+    lastPdf[k] = path.lastPdf;
+    hitLight[k] = path.hitLight;
+  }
+};
+
 // The diffuse (Lambertian) vertices of a packet's lanes at one segment, as arrays over the lanes:
 // their shadow rays and their scattered directions are each one loop over all lanes that the
 // compiler vectorises (math/lanes.h). Per lane the loops compute what shadeVertex computes, with
 // the same operations in the same order, so the bits are the same (packet_integrator_test.cpp).
+// The hit point, its normal and error bound are read from the packet's hits (RayCaster::PacketHits).
 struct DiffuseLanes {
-  alignas(64) float px[kPacketWidth], py[kPacketWidth], pz[kPacketWidth];  // hit point
-  alignas(64) float gx[kPacketWidth], gy[kPacketWidth], gz[kPacketWidth];  // geometric normal
-  alignas(64) float ex[kPacketWidth], ey[kPacketWidth], ez[kPacketWidth];  // hit point's error bound
   alignas(64) float nx[kPacketWidth], ny[kPacketWidth], nz[kPacketWidth];  // normal on the side of wo
   alignas(64) float ar[kPacketWidth], ag[kPacketWidth], ab[kPacketWidth];  // albedo
-  alignas(64) float tr[kPacketWidth], tg[kPacketWidth], tb[kPacketWidth];  // throughput reaching the vertex
   alignas(64) float misOn[kPacketWidth];  // 1: the light sample takes the power heuristic's weight; 0: weight 1
   alignas(64) float u0[kPacketWidth], u1[kPacketWidth];  // the scattered direction's sample
   // Out: the scattered ray, its cosine with n (a direction only where it is above 0) and density.
@@ -190,21 +234,34 @@ struct DiffuseLanes {
 };
 // (Flags are decided outside the lane loops: GCC keeps a loop scalar that stores a comparison.)
 
+// Every lane's shading normal, on the side the ray came from (shadeVertex's n), and the light
+// sample's reference point.
+LENSFARM_LANE_LOOPS void orientNormals(const RayCaster::PacketHits& __restrict h, const RayPacket& __restrict rays,
+                                       DiffuseLanes& __restrict v, LightSampleLanes& __restrict ls) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const Vec3 g(h.nx[k], h.ny[k], h.nz[k]);
+    const Vec3 n = glm::dot(g, -Vec3(rays.dx[k], rays.dy[k], rays.dz[k])) >= 0.0f ? g : -g;
+    v.nx[k] = n.x, v.ny[k] = n.y, v.nz[k] = n.z;
+    ls.refx[k] = h.px[k], ls.refy[k] = h.py[k], ls.refz[k] = h.pz[k];
+  }
+}
+
 // Next-event estimation for every lane with a light sample: the shadow ray from the vertex to the
 // light point and what it carries (shadeVertex's light-sample block). The caller switches on the
 // rays that exist.
-LENSFARM_LANE_LOOPS void prepareShadowRays(DiffuseLanes& __restrict v, const LightSampleLanes& __restrict ls,
+LENSFARM_LANE_LOOPS void prepareShadowRays(const RayCaster::PacketHits& __restrict h, const PathLanes& __restrict path,
+                                           DiffuseLanes& __restrict v, const LightSampleLanes& __restrict ls,
                                            RayPacket& __restrict shadowRays) {
   for (int k = 0; k < kPacketWidth; ++k) {
-    const Vec3 p(v.px[k], v.py[k], v.pz[k]), lightPoint(ls.px[k], ls.py[k], ls.pz[k]);
+    const Vec3 p(h.px[k], h.py[k], h.pz[k]), lightPoint(ls.px[k], ls.py[k], ls.pz[k]);
     const Vec3 n(v.nx[k], v.ny[k], v.nz[k]);
     const Spectrum radiance(ls.rr[k], ls.rg[k], ls.rb[k]);
     const Vec3 wi = glm::normalize(lightPoint - p);
     const Spectrum f = lambertianEvalCos(Spectrum(v.ar[k], v.ag[k], v.ab[k]), n, wi);
-    const Vec3 from = offsetRayOrigin(p, Vec3(v.gx[k], v.gy[k], v.gz[k]), Vec3(v.ex[k], v.ey[k], v.ez[k]), wi);
+    const Vec3 from = offsetRayOrigin(p, Vec3(h.nx[k], h.ny[k], h.nz[k]), Vec3(h.error[k]), wi);
     const Vec3 to = offsetRayOrigin(lightPoint, Vec3(ls.nx[k], ls.ny[k], ls.nz[k]), Vec3(ls.ex[k], ls.ey[k], ls.ez[k]), -wi);
     const float weight = v.misOn[k] != 0.0f ? powerHeuristic(ls.pdf[k], lambertianPdf(n, wi)) : 1.0f;
-    const Spectrum c = Spectrum(v.tr[k], v.tg[k], v.tb[k]) * f * radiance * (weight / ls.pdf[k]);
+    const Spectrum c = Spectrum(path.tr[k], path.tg[k], path.tb[k]) * f * radiance * (weight / ls.pdf[k]);
     const Vec3 d = to - from;
     shadowRays.ox[k] = from.x, shadowRays.oy[k] = from.y, shadowRays.oz[k] = from.z;
     shadowRays.dx[k] = d.x, shadowRays.dy[k] = d.y, shadowRays.dz[k] = d.z;
@@ -216,16 +273,36 @@ LENSFARM_LANE_LOOPS void prepareShadowRays(DiffuseLanes& __restrict v, const Lig
 
 // The scattered direction of every lane that takes one: a cosine-weighted direction about n
 // (Material::sampleLambertian) and the ray leaving the surface along it.
-LENSFARM_LANE_LOOPS void sampleDirections(DiffuseLanes& __restrict v) {
+LENSFARM_LANE_LOOPS void sampleDirections(const RayCaster::PacketHits& __restrict h, DiffuseLanes& __restrict v) {
   for (int k = 0; k < kPacketWidth; ++k) {
     const Vec3 local = sampleCosineHemisphere(Vec2(v.u0[k], v.u1[k]));
     const Vec3 wi = Frame::fromNormal(Vec3(v.nx[k], v.ny[k], v.nz[k])).toWorld(local);
-    const Vec3 o = offsetRayOrigin(Vec3(v.px[k], v.py[k], v.pz[k]), Vec3(v.gx[k], v.gy[k], v.gz[k]),
-                                   Vec3(v.ex[k], v.ey[k], v.ez[k]), wi);
+    const Vec3 o = offsetRayOrigin(Vec3(h.px[k], h.py[k], h.pz[k]), Vec3(h.nx[k], h.ny[k], h.nz[k]), Vec3(h.error[k]), wi);
     v.cosTheta[k] = local.z;
     v.pdf[k] = cosineHemispherePdf(local.z);
     v.ox[k] = o.x, v.oy[k] = o.y, v.oz[k] = o.z;
     v.dx[k] = wi.x, v.dy[k] = wi.y, v.dz[k] = wi.z;
+  }
+}
+
+// The lanes that go on from a diffuse vertex (goes[k] -1) take their scattered ray.
+LENSFARM_LANE_LOOPS void takeScatteredRays(const DiffuseLanes& __restrict v, const int* __restrict goes,
+                                           RayPacket& __restrict rays) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const bool on = goes[k] != 0;
+    rays.ox[k] = on ? v.ox[k] : rays.ox[k], rays.oy[k] = on ? v.oy[k] : rays.oy[k], rays.oz[k] = on ? v.oz[k] : rays.oz[k];
+    rays.dx[k] = on ? v.dx[k] : rays.dx[k], rays.dy[k] = on ? v.dy[k] : rays.dy[k], rays.dz[k] = on ? v.dz[k] : rays.dz[k];
+  }
+}
+
+// Shadow rays that reached their light add what they carry.
+LENSFARM_LANE_LOOPS void addUnblocked(const DiffuseLanes& __restrict v, const int* __restrict unblocked,
+                                      PathLanes& __restrict path) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const bool on = unblocked[k] != 0;
+    path.rr[k] = on ? path.rr[k] + v.cr[k] : path.rr[k];
+    path.rg[k] = on ? path.rg[k] + v.cg[k] : path.rg[k];
+    path.rb[k] = on ? path.rb[k] + v.cb[k] : path.rb[k];
   }
 }
 }  // namespace
@@ -234,22 +311,21 @@ template <bool kNee, bool kSpecular>
 void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&radiance)[kPacketWidth], PathStats& stats) {
   const RenderSettings& settings = rs.settings();
   const bool mis = settings.integrator == IntegratorKind::kNeeMis;
-  PathState paths[kPacketWidth];
+  PathLanes paths;
   ShadowQuery noShadow;  // mirrors take no light sample (a delta lobe): shadeVertex leaves it unused
-  bool diffuse[kPacketWidth], scatters[kPacketWidth];
+  bool diffuse[kPacketWidth];
+  alignas(64) int goes[kPacketWidth], unblocked[kPacketWidth];
   RayPacket rays, shadowRays;
   RayCaster::PacketHits hits;
   bool blocked[kPacketWidth];
-  // Lanes that are not in use still run through the lane loops, on zeros or on what an earlier
-  // segment left, and their results are ignored.
+  // Lanes that are not in use still run through the lane loops, on what the packet's start or an
+  // earlier segment left (finite values), and their results are ignored.
   DiffuseLanes v{};
   LightSampleLanes lights{};
   const SampleStream::LaneKeys keys = SampleStream::keysOf(packet.rng);
+  paths.start();
   rays.clear();
-  for (int k = 0; k < packet.count; ++k) {
-    paths[k] = PathState(packet.cameraRays[k]);
-    rays.set(k, paths[k].origin, paths[k].direction);
-  }
+  for (int k = 0; k < packet.count; ++k) rays.set(k, packet.cameraRays[k].origin, packet.cameraRays[k].direction);
   stats.paths += uint64_t(packet.count);
 
   int live = packet.count;
@@ -261,122 +337,102 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
       --live;
     };
 
-    // The segment's sample values for all lanes in vector loops (the same bits as each lane's
-    // get1D / get2D), where the sampler has a lane form: always from the second vertex on, and
-    // at the first with the Sobol sampler.
+    // The segment's sample values for all lanes: in vector loops (the same bits as each lane's
+    // get1D / get2D) where the sampler has a lane form, always from the second vertex on and at
+    // the first with the Sobol sampler; else stream by stream.
     const uint32_t segmentBase = dims::segment(uint32_t(segment));
-    const bool laneValues = SampleStream::hasLaneForm(keys, segmentBase);
-    alignas(64) float uChoice[kPacketWidth], uLight0[kPacketWidth], uLight1[kPacketWidth];
-    alignas(64) float uMaterial0[kPacketWidth], uMaterial1[kPacketWidth];
-    if (laneValues) {
-      if (kNee) {
-        SampleStream::lanes1D(keys, segmentBase + dims::kLightChoice, uChoice);
-        SampleStream::lanes2D(keys, segmentBase + dims::kLightPoint, uLight0, uLight1);
-      }
-      SampleStream::lanes2D(keys, segmentBase + dims::kMaterial, uMaterial0, uMaterial1);
+    if (kNee) {
+      SampleStream::values1D(packet.rng, keys, packet.count, segmentBase + dims::kLightChoice, lights.uChoice);
+      SampleStream::values2D(packet.rng, keys, packet.count, segmentBase + dims::kLightPoint, lights.u0, lights.u1);
     }
+    SampleStream::values2D(packet.rng, keys, packet.count, segmentBase + dims::kMaterial, v.u0, v.u1);
 
-    // Lane by lane: emission reached, the bounce limit and the sample values; mirrors take the
-    // one-path code (shadeVertex), diffuse vertices are gathered for the lane loops.
+    // Lane by lane, the decisions: emission reached, the bounce limit, what the vertex does;
+    // mirrors take the one-path code (shadeVertex).
     bool anyDiffuse = false;
     for (int k = 0; k < kPacketWidth; ++k) {
       diffuse[k] = false;
       lights.found[k] = 0;
-      scatters[k] = false;
+      goes[k] = 0;
       if (!rays.active(k)) continue;
       if (!hits.found[k]) {
         endLane(k);
         continue;
       }
-      const SurfaceHit& hit = hits.hit[k];
-      const Material& material = rs.material(hit.material);
-      PathState& path = paths[k];
-      const SampleStream& rng = packet.rng[k];
-      if (kSpecular && material.isSpecular()) {
-        const VertexOutcome outcome = shadeVertex<kNee, kSpecular>(rs, rng, segment, hit, path, noShadow);
-        if (outcome.continues)
-          rays.set(k, path.origin, path.direction);
-        else
-          endLane(k);
-        continue;
+      const Material& material = rs.material(hits.material[k]);
+      if ((kSpecular && material.isSpecular()) || material.isEmissive()) {
+        PathState path = paths.get(k, rays);
+        const SurfaceHit hit = hits.hit(k);
+        if (kSpecular && material.isSpecular()) {
+          const VertexOutcome outcome = shadeVertex<kNee, kSpecular>(rs, packet.rng[k], segment, hit, path, noShadow);
+          paths.put(k, path);
+          if (outcome.continues)
+            rays.set(k, path.origin, path.direction);
+          else
+            endLane(k);
+          continue;
+        }
+        addEmittedLight<kNee>(rs, hit, material, path);
+        paths.put(k, path);
       }
-      addEmittedLight<kNee>(rs, hit, material, path);
-      if (!material.reflects() || path.bounces >= settings.maxBounces) {
+      if (!material.reflects() || paths.bounces[k] >= settings.maxBounces) {
         endLane(k);
         continue;
       }
       diffuse[k] = anyDiffuse = true;
-      const Vec3 n = glm::dot(hit.n, -path.direction) >= 0.0f ? hit.n : -hit.n;
-      v.px[k] = hit.p.x, v.py[k] = hit.p.y, v.pz[k] = hit.p.z;
-      v.gx[k] = hit.n.x, v.gy[k] = hit.n.y, v.gz[k] = hit.n.z;
-      v.ex[k] = hit.pError.x, v.ey[k] = hit.pError.y, v.ez[k] = hit.pError.z;
-      v.nx[k] = n.x, v.ny[k] = n.y, v.nz[k] = n.z;
       v.ar[k] = material.albedo.r, v.ag[k] = material.albedo.g, v.ab[k] = material.albedo.b;
-      v.tr[k] = path.throughput.r, v.tg[k] = path.throughput.g, v.tb[k] = path.throughput.b;
-      const bool lastBounce = kNee && isLastBounce(rs, path);
+      const bool lastBounce = kNee && isLastBounce(rs, paths.bounces[k]);
       if (kNee) {
         lights.found[k] = -1;
-        if (laneValues) {
-          lights.uChoice[k] = uChoice[k], lights.u0[k] = uLight0[k], lights.u1[k] = uLight1[k];
-        } else {
-          lights.uChoice[k] = rng.get1D(segmentBase + dims::kLightChoice);
-          const Vec2 u = rng.get2D(segmentBase + dims::kLightPoint);
-          lights.u0[k] = u.x, lights.u1[k] = u.y;
-        }
-        lights.refx[k] = hit.p.x, lights.refy[k] = hit.p.y, lights.refz[k] = hit.p.z;
         v.misOn[k] = mis && !lastBounce ? 1.0f : 0.0f;
       }
-      if (!lastBounce) {
-        scatters[k] = true;
-        if (laneValues) {
-          v.u0[k] = uMaterial0[k], v.u1[k] = uMaterial1[k];
-        } else {
-          const Vec2 u = rng.get2D(segmentBase + dims::kMaterial);
-          v.u0[k] = u.x, v.u1[k] = u.y;
-        }
-      }
+      goes[k] = lastBounce ? 0 : -1;
     }
+    if (!anyDiffuse) continue;
 
     // The lane loops, then each diffuse lane's path goes on along its scattered ray or ends.
+    orientNormals(hits, rays, v, lights);
     shadowRays.clear();
-    if (kNee && anyDiffuse) {
+    if (kNee) {
       rs.lights().sample(lights);
-      prepareShadowRays(v, lights, shadowRays);
+      prepareShadowRays(hits, paths, v, lights, shadowRays);
       for (int k = 0; k < kPacketWidth; ++k)
         shadowRays.valid[k] = lights.found[k] != 0 && !isBlack(Spectrum(lights.rr[k], lights.rg[k], lights.rb[k])) &&
                                       !isBlack(Spectrum(v.fr[k], v.fg[k], v.fb[k]))
                                   ? -1
                                   : 0;
     }
-    if (anyDiffuse) {
-      sampleDirections(v);
-      for (int k = 0; k < kPacketWidth; ++k) {
-        if (!diffuse[k]) continue;
-        PathState& path = paths[k];
-        const Spectrum albedo(v.ar[k], v.ag[k], v.ab[k]);
-        // Material::sampleLambertian gives no direction where its cosine is not above 0.
-        if (scatters[k] && !(v.cosTheta[k] <= 0.0f) && scatter(rs, packet.rng[k], segmentBase, true, albedo, false, v.pdf[k], path)) {
-          path.origin = Vec3(v.ox[k], v.oy[k], v.oz[k]);
-          path.direction = Vec3(v.dx[k], v.dy[k], v.dz[k]);
-          rays.set(k, path.origin, path.direction);
-        } else {
-          endLane(k);
-        }
+    sampleDirections(hits, v);
+    for (int k = 0; k < kPacketWidth; ++k) {
+      if (!diffuse[k]) continue;
+      // Material::sampleLambertian gives no direction where its cosine is not above 0; then
+      // scatter() with the albedo as weight.
+      Spectrum throughput = Spectrum(paths.tr[k], paths.tg[k], paths.tb[k]) * Spectrum(v.ar[k], v.ag[k], v.ab[k]);
+      if (!goes[k] || !(v.cosTheta[k] > 0.0f) || isBlack(throughput) ||
+          !survivesRoulette(rs, packet.rng[k], segmentBase, paths.bounces[k] + 1, throughput)) {
+        goes[k] = 0;
+        endLane(k);
+        continue;
       }
+      paths.tr[k] = throughput.r, paths.tg[k] = throughput.g, paths.tb[k] = throughput.b;
+      ++paths.bounces[k];
+      paths.lastSpecular[k] = false;
+      paths.lastPdf[k] = v.pdf[k];
     }
+    takeScatteredRays(v, goes, rays);
 
     int shadowCount = 0;
     for (int k = 0; k < kPacketWidth; ++k) shadowCount += shadowRays.active(k);
     if (shadowCount > 0) {
       stats.rays += uint64_t(shadowCount);
       rs.caster().occluded(shadowRays, blocked);
-      for (int k = 0; k < kPacketWidth; ++k)
-        if (shadowRays.active(k) && !blocked[k]) paths[k].radiance += Spectrum(v.cr[k], v.cg[k], v.cb[k]);
+      for (int k = 0; k < kPacketWidth; ++k) unblocked[k] = shadowRays.active(k) && !blocked[k] ? -1 : 0;
+      addUnblocked(v, unblocked, paths);
     }
   }
   for (int k = 0; k < packet.count; ++k) {
-    if (paths[k].hitLight) ++stats.lightHits;
-    radiance[k] = paths[k].radiance;
+    if (paths.hitLight[k]) ++stats.lightHits;
+    radiance[k] = Spectrum(paths.rr[k], paths.rg[k], paths.rb[k]);
   }
 }
 

@@ -4,11 +4,13 @@
 
 #include <algorithm>
 #include <bit>
+#include <cstddef>
 #include <cstdlib>
 #include <limits>
 #include <stdexcept>
 #include <string>
 
+#include "math/lanes.h"
 #include "math/ray_offset.h"
 
 namespace lensfarm {
@@ -59,9 +61,42 @@ inline void loadPacket(const int (&valid)[kPacketWidth], const RayPacket& __rest
 alignas(64) constexpr float kNoFarEnd[kPacketWidth] = {
     kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity,
     kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity};
+
+// surfaceHit for every lane of a packet, in one loop the compiler vectorises with gathers
+// (math/lanes.h); the same operations as surfaceHit, so the same bits. Lanes without a hit
+// (found 0) read triangle 0 of geometry 0 and keep finite values.
+using Triangle = RayCaster::Triangle;
+LENSFARM_LANE_LOOPS void decodeHits(const uint32_t* __restrict geomOffset, GatherView<Triangle> tris,
+                                    const RTCRayHit16& rh, RayCaster::PacketHits& __restrict out) {
+  // Embree's arrays as plain pointers: GCC does not vectorise loads through RTCRayHit16's members.
+  const uint32_t* __restrict geomID = rh.hit.geomID;
+  const uint32_t* __restrict primID = rh.hit.primID;
+  const float *__restrict us = rh.hit.u, *__restrict vs = rh.hit.v, *__restrict tfar = rh.ray.tfar;
+  // Without branches, so the loop vectorises: a lane without a hit keeps no bit of Embree's output.
+  auto keep = [](uint32_t mask, float x) { return std::bit_cast<float>(std::bit_cast<uint32_t>(x) & mask); };
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const uint32_t hit = uint32_t(out.found[k]);
+    const uint32_t index = geomOffset[geomID[k] & hit] + (primID[k] & hit);
+    const float u = keep(hit, us[k]), v = keep(hit, vs[k]);
+    const Vec3 p = (1.0f - u - v) * tris.vec3(index, offsetof(Triangle, v0)) + u * tris.vec3(index, offsetof(Triangle, v1)) +
+                   v * tris.vec3(index, offsetof(Triangle, v2));
+    const Vec3 n = tris.vec3(index, offsetof(Triangle, n));
+    out.triangle[k] = index;
+    out.material[k] = tris.u(index, offsetof(Triangle, material));
+    out.t[k] = keep(hit, tfar[k]);
+    out.px[k] = p.x, out.py[k] = p.y, out.pz[k] = p.z;
+    out.nx[k] = n.x, out.ny[k] = n.y, out.nz[k] = n.z;
+    out.error[k] = positionErrorBound(tris.f(index, offsetof(Triangle, magnitude))).x;
+  }
+}
 }  // namespace
 
 RayCaster::RayCaster(const Scene& scene) {
+  size_t triangleCount = 0;
+  for (const TriangleMesh& mesh : scene.meshes) triangleCount += mesh.triangleCount();
+  if (triangleCount > GatherView<Triangle>::kMaxRecords)  // the packet form's lane loops index them with 32 bits
+    throw std::runtime_error("the scene has " + std::to_string(triangleCount) + " triangles; at most " +
+                             std::to_string(GatherView<Triangle>::kMaxRecords) + " are supported");
   // LENSFARM_EMBREE_CONFIG passes an Embree device configuration, e.g. "isa=avx2": Embree's
   // kernels for different instruction sets round differently (about 1e-8 relative in an image),
   // so a farm of mixed machines pins one set on every worker to keep the same bits
@@ -201,36 +236,39 @@ void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) 
     rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
   }
   rtcIntersect16(rays.valid, scene_, &context, &rh);
-  for (int k = 0; k < kPacketWidth; ++k) {
-    out.found[k] = rays.valid[k] != 0 && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID;
-    if (out.found[k]) out.hit[k] = surfaceHit(rh.hit.geomID[k], rh.hit.primID[k], rh.hit.u[k], rh.hit.v[k], rh.ray.tfar[k]);
-  }
 
-  // Misses are cast once more, slightly turned, exactly as the single-ray call does; the lanes
-  // that hit are switched off for it (their hits are already read).
+  // Misses are cast once more, slightly turned, exactly as the single-ray call does. The lanes
+  // that hit are switched off for it, their distance kept aside (Embree leaves their hit alone).
   alignas(64) int retry[kPacketWidth];
   bool anyMiss = false;
   for (int k = 0; k < kPacketWidth; ++k) {
-    retry[k] = rays.valid[k] != 0 && !out.found[k] ? -1 : 0;
-    if (retry[k]) {
-      anyMiss = true;
-      const Vec3 nudged = nudgedDirection(rays.direction(k));
-      rh.ray.dir_x[k] = nudged.x;
-      rh.ray.dir_y[k] = nudged.y;
-      rh.ray.dir_z[k] = nudged.z;
-    } else {
-      rh.ray.tnear[k] = 1.0f;
-      rh.ray.tfar[k] = 0.0f;
-    }
+    retry[k] = rays.valid[k] != 0 && rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID ? -1 : 0;
+    anyMiss |= retry[k] != 0;
   }
-  if (!anyMiss) return;
-  context.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-  rtcIntersect16(retry, scene_, &context, &rh);
-  for (int k = 0; k < kPacketWidth; ++k)
-    if (retry[k] && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID) {
-      out.found[k] = true;
-      out.hit[k] = surfaceHit(rh.hit.geomID[k], rh.hit.primID[k], rh.hit.u[k], rh.hit.v[k], rh.ray.tfar[k]);
+  if (anyMiss) {
+    alignas(64) float tHit[kPacketWidth];
+    for (int k = 0; k < kPacketWidth; ++k) {
+      tHit[k] = rh.ray.tfar[k];
+      if (retry[k]) {
+        const Vec3 nudged = nudgedDirection(rays.direction(k));
+        rh.ray.dir_x[k] = nudged.x;
+        rh.ray.dir_y[k] = nudged.y;
+        rh.ray.dir_z[k] = nudged.z;
+      } else {
+        rh.ray.tnear[k] = 1.0f;
+        rh.ray.tfar[k] = 0.0f;
+      }
     }
+    context.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    rtcIntersect16(retry, scene_, &context, &rh);
+    for (int k = 0; k < kPacketWidth; ++k)
+      if (!retry[k]) rh.ray.tfar[k] = tHit[k];
+  }
+
+  for (int k = 0; k < kPacketWidth; ++k)
+    out.found[k] = rays.valid[k] != 0 && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID ? -1 : 0;
+  if (triangles_.empty()) return;  // nothing to read; every lane missed
+  decodeHits(geomOffset_.data(), GatherView<Triangle>(triangles_.data()), rh, out);
 }
 
 void RayCaster::occluded(const RayPacket& rays, bool (&occluded)[kPacketWidth]) const {

@@ -87,12 +87,23 @@ class RayCaster {
   bool occluded(const Vec3& origin, const Vec3& direction, float tFar) const;
 
   // The same for the active lanes of a packet, with Embree's 16-wide kernels. Each lane gets the
-  // hit the single-ray call gives for its ray (misses are re-cast the same way). `kind` applies
+  // hit the single-ray call gives for its ray (misses are re-cast the same way), as arrays over
+  // the lanes, which the packet tracer's lane loops read (render/integrator.cpp). `kind` applies
   // to every lane; camera packets (the samples of neighbouring sensor cells) are cast with
   // Embree's coherent flag.
   struct PacketHits {
-    bool found[kPacketWidth];
-    SurfaceHit hit[kPacketWidth];
+    alignas(64) int found[kPacketWidth];  // -1: the lane's ray hit; 0: it missed, or the lane is not in use
+    // SurfaceHit's fields. Lanes without a hit hold finite values of triangle 0.
+    alignas(64) uint32_t triangle[kPacketWidth], material[kPacketWidth];
+    alignas(64) float t[kPacketWidth];
+    alignas(64) float px[kPacketWidth], py[kPacketWidth], pz[kPacketWidth];
+    alignas(64) float nx[kPacketWidth], ny[kPacketWidth], nz[kPacketWidth];
+    alignas(64) float error[kPacketWidth];  // pError, the same bound in every component
+
+    SurfaceHit hit(int lane) const {
+      return SurfaceHit{t[lane],          Vec3(px[lane], py[lane], pz[lane]), Vec3(nx[lane], ny[lane], nz[lane]),
+                        Vec3(error[lane]), material[lane],                     triangle[lane]};
+    }
   };
   void intersect(const RayPacket& rays, RayKind kind, PacketHits& hits) const;
   // occluded[lane] for each active lane (inactive lanes: false). Uses rays.tFar.

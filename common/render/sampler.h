@@ -159,7 +159,16 @@ class SampleStream {
   // one vector loop each (math/lanes.h), streams[k]'s values bit for bit (sampler.cpp).
   static void lanes1D(const LaneKeys& keys, uint32_t dimension, float (&values)[kPacketWidth]);
   static void lanes2D(const LaneKeys& keys, uint32_t dimension, float (&x)[kPacketWidth], float (&y)[kPacketWidth]);
-  // get2D(dimension) of streams[0, count): the lane form where there is one, else stream by stream.
+  // get1D(dimension) and get2D(dimension) of streams[0, count): the lane form where there is one,
+  // else stream by stream.
+  static void values1D(const SampleStream (&streams)[kPacketWidth], const LaneKeys& keys, int count, uint32_t dimension,
+                       float (&values)[kPacketWidth]) {
+    if (hasLaneForm(keys, dimension)) {
+      lanes1D(keys, dimension, values);
+      return;
+    }
+    for (int k = 0; k < count; ++k) values[k] = streams[k].get1D(dimension);
+  }
   static void values2D(const SampleStream (&streams)[kPacketWidth], const LaneKeys& keys, int count, uint32_t dimension,
                        float (&x)[kPacketWidth], float (&y)[kPacketWidth]) {
     if (hasLaneForm(keys, dimension)) {

@@ -71,16 +71,19 @@ TEST_P(NarrowKernels, PacketLanesNotInUseAreNeverTraced) {
   int found = 0;
   for (int k = 0; k < kPacketWidth; ++k) {
     if (!rays.active(k)) {
-      EXPECT_FALSE(hits.found[k]) << "lane " << k << " is not in use";
+      EXPECT_EQ(hits.found[k], 0) << "lane " << k << " is not in use";
       EXPECT_FALSE(blocked[k]) << "lane " << k << " is not in use";
       continue;
     }
     const auto single = caster.intersect(rays.origin(k), rays.direction(k), RayKind::kScattered);
-    ASSERT_EQ(hits.found[k], single.has_value()) << "lane " << k;
+    ASSERT_EQ(hits.found[k] != 0, single.has_value()) << "lane " << k;
     if (single) {
       ++found;
-      EXPECT_EQ(hits.hit[k].triangle, single->triangle) << "lane " << k;
-      EXPECT_EQ(std::memcmp(&hits.hit[k].p, &single->p, sizeof(Vec3)), 0) << "lane " << k;
+      // Every field, bit for bit.
+      static_assert(sizeof(SurfaceHit) == 12 * sizeof(float), "SurfaceHit has no padding for memcmp");
+      const SurfaceHit lane = hits.hit(k);
+      EXPECT_EQ(lane.triangle, single->triangle) << "lane " << k;
+      EXPECT_EQ(std::memcmp(&lane, &*single, sizeof(SurfaceHit)), 0) << "lane " << k;
     }
     EXPECT_EQ(blocked[k], caster.occluded(rays.origin(k), rays.direction(k), 0.5f)) << "lane " << k;
   }
