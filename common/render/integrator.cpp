@@ -60,8 +60,11 @@ inline void addEmittedLight(const RenderScene& rs, const SurfaceHit& hit, const 
 // direct light and the scattered ray is not cast: about one ray in six fewer at B = 3, same
 // expectation (Furnace and Estimators tests). Not after a mirror could follow: a mirror that
 // does not count would carry the path on to the light (a caustic light sampling cannot see).
+inline bool lastBounceCanEndPaths(const RenderScene& rs) {
+  return !rs.mirrorsReachable() || rs.settings().mirrorBouncesCount;
+}
 inline bool isLastBounce(const RenderScene& rs, int bounces) {
-  return bounces + 1 >= rs.settings().maxBounces && (!rs.mirrorsReachable() || rs.settings().mirrorBouncesCount);
+  return bounces + 1 >= rs.settings().maxBounces && lastBounceCanEndPaths(rs);
 }
 
 // Russian roulette (optional, render.russian_roulette): from the second bounce on, a path
@@ -177,8 +180,9 @@ struct PathLanes {
   alignas(64) float rr[kPacketWidth], rg[kPacketWidth], rb[kPacketWidth];  // radiance
   alignas(64) float tr[kPacketWidth], tg[kPacketWidth], tb[kPacketWidth];  // throughput
   alignas(64) float lastPdf[kPacketWidth];
-  int bounces[kPacketWidth];
-  bool lastSpecular[kPacketWidth], hitLight[kPacketWidth];
+  alignas(64) int bounces[kPacketWidth];
+  alignas(64) int lastSpecular[kPacketWidth];  // 1 or 0 (an int, so lane loops can set it)
+  bool hitLight[kPacketWidth];
 
   // A fresh path for every lane: what PathState starts with.
   void start() {
@@ -187,7 +191,7 @@ struct PathLanes {
       tr[k] = tg[k] = tb[k] = 1.0f;
       lastPdf[k] = 0.0f;
       bounces[k] = 0;
-      lastSpecular[k] = true;
+      lastSpecular[k] = 1;
       hitLight[k] = false;
     }
   }
@@ -198,7 +202,7 @@ struct PathLanes {
     path.throughput = Spectrum(tr[k], tg[k], tb[k]);
     path.origin = rays.origin(k), path.direction = rays.direction(k);
     path.bounces = bounces[k];
-    path.lastSpecular = lastSpecular[k];
+    path.lastSpecular = lastSpecular[k] != 0;
     path.lastPdf = lastPdf[k];
     path.hitLight = hitLight[k];
     return path;
@@ -207,7 +211,7 @@ struct PathLanes {
     rr[k] = path.radiance.r, rg[k] = path.radiance.g, rb[k] = path.radiance.b;
     tr[k] = path.throughput.r, tg[k] = path.throughput.g, tb[k] = path.throughput.b;
     bounces[k] = path.bounces;
-    lastSpecular[k] = path.lastSpecular;
+    lastSpecular[k] = path.lastSpecular ? 1 : 0;
     lastPdf[k] = path.lastPdf;
     hitLight[k] = path.hitLight;
   }
@@ -285,6 +289,60 @@ LENSFARM_LANE_LOOPS void sampleDirections(const RayCaster::PacketHits& __restric
   }
 }
 
+// What each lane's vertex does, as masks over the lanes (~0u or 0): the decisions shadeVertex
+// makes before its light sample, for every lane at once.
+struct VertexLanes {
+  alignas(64) uint32_t special[kPacketWidth];  // a mirror or an emitter: the one-path code runs first
+  alignas(64) uint32_t diffuse[kPacketWidth];  // a diffuse vertex within the bounce limit: the lane loops
+};
+struct ClassifyRules {
+  int maxBounces;
+  uint32_t specularMaterials;  // ~0u where specular materials are compiled in (kSpecular)
+  uint32_t nee;                // ~0u with next-event estimation
+  uint32_t mis;                // ~0u with NEE + MIS
+  uint32_t lastBounceEnds;     // ~0u with NEE where lastBounceCanEndPaths (isLastBounce)
+};
+
+LENSFARM_LANE_LOOPS void classifyVertices(const RayCaster::PacketHits& __restrict h, const PathLanes& __restrict path,
+                                          GatherView<RenderScene::MaterialRecord> materials, ClassifyRules rules,
+                                          VertexLanes& __restrict out, DiffuseLanes& __restrict v,
+                                          LightSampleLanes& __restrict ls, int* __restrict goes) {
+  using Record = RenderScene::MaterialRecord;
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const uint32_t hit = uint32_t(h.found[k]), m = h.material[k];
+    const uint32_t specular = materials.u(m, offsetof(Record, specular)) & rules.specularMaterials;
+    const uint32_t emissive = materials.u(m, offsetof(Record, emissive));
+    const uint32_t reflects = materials.u(m, offsetof(Record, reflects));
+    const uint32_t withinLimit = path.bounces[k] < rules.maxBounces ? ~0u : 0u;
+    const uint32_t diffuse = hit & ~specular & reflects & withinLimit;
+    const uint32_t lastBounce = (path.bounces[k] + 1 >= rules.maxBounces ? ~0u : 0u) & rules.lastBounceEnds;
+    out.special[k] = hit & (specular | emissive);
+    out.diffuse[k] = diffuse;
+    ls.found[k] = int(diffuse & rules.nee);
+    v.misOn[k] = (rules.mis & ~lastBounce) != 0 ? 1.0f : 0.0f;
+    goes[k] = int(diffuse & ~lastBounce);
+    const Spectrum albedo = materials.vec3(m, offsetof(Record, albedo));
+    v.ar[k] = albedo.r, v.ag[k] = albedo.g, v.ab[k] = albedo.b;
+  }
+}
+
+// The diffuse lanes that take their scattered direction (goes[k] -1): scatter() with the albedo
+// as weight, but Russian roulette, which the caller applies. A lane whose direction does not
+// exist (cosine not above 0: Material::sampleLambertian gives none) or whose throughput is black
+// stops (goes[k] 0).
+LENSFARM_LANE_LOOPS void scatterDiffuse(const DiffuseLanes& __restrict v, int* __restrict goes,
+                                        PathLanes& __restrict path) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const Spectrum t = Spectrum(path.tr[k], path.tg[k], path.tb[k]) * Spectrum(v.ar[k], v.ag[k], v.ab[k]);
+    const bool on = goes[k] != 0 && v.cosTheta[k] > 0.0f && !(t.r == 0.0f && t.g == 0.0f && t.b == 0.0f);
+    goes[k] = on ? -1 : 0;
+    path.tr[k] = on ? t.r : path.tr[k], path.tg[k] = on ? t.g : path.tg[k], path.tb[k] = on ? t.b : path.tb[k];
+    path.bounces[k] += on ? 1 : 0;
+    path.lastSpecular[k] = on ? 0 : path.lastSpecular[k];
+    path.lastPdf[k] = on ? v.pdf[k] : path.lastPdf[k];
+  }
+}
+
 // The lanes that go on from a diffuse vertex (goes[k] -1) take their scattered ray.
 LENSFARM_LANE_LOOPS void takeScatteredRays(const DiffuseLanes& __restrict v, const int* __restrict goes,
                                            RayPacket& __restrict rays) {
@@ -313,7 +371,7 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
   const bool mis = settings.integrator == IntegratorKind::kNeeMis;
   PathLanes paths;
   ShadowQuery noShadow;  // mirrors take no light sample (a delta lobe): shadeVertex leaves it unused
-  bool diffuse[kPacketWidth];
+  VertexLanes vertices;
   alignas(64) int goes[kPacketWidth], unblocked[kPacketWidth];
   RayPacket rays, shadowRays;
   RayCaster::PacketHits hits;
@@ -323,6 +381,9 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
   DiffuseLanes v{};
   LightSampleLanes lights{};
   const SampleStream::LaneKeys keys = SampleStream::keysOf(packet.rng);
+  const GatherView<RenderScene::MaterialRecord> materials(rs.materialRecords().data());
+  const ClassifyRules rules{settings.maxBounces, kSpecular ? ~0u : 0u, kNee ? ~0u : 0u, mis ? ~0u : 0u,
+                            kNee && lastBounceCanEndPaths(rs) ? ~0u : 0u};
   paths.start();
   rays.clear();
   for (int k = 0; k < packet.count; ++k) rays.set(k, packet.cameraRays[k].origin, packet.cameraRays[k].direction);
@@ -332,10 +393,7 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
   for (int segment = 0; segment < kMaxPathSegments && live > 0; ++segment) {
     stats.rays += uint64_t(live);
     rs.caster().intersect(rays, segment == 0 ? RayKind::kCamera : RayKind::kScattered, hits);
-    auto endLane = [&](int k) {
-      rays.valid[k] = 0;
-      --live;
-    };
+    shadowRays.clear();
 
     // The segment's sample values for all lanes: in vector loops (the same bits as each lane's
     // get1D / get2D) where the sampler has a lane form, always from the second vertex on and at
@@ -347,79 +405,61 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
     }
     SampleStream::values2D(packet.rng, keys, packet.count, segmentBase + dims::kMaterial, v.u0, v.u1);
 
-    // Lane by lane, the decisions: emission reached, the bounce limit, what the vertex does;
-    // mirrors take the one-path code (shadeVertex).
-    bool anyDiffuse = false;
+    // Every lane's decisions in one lane loop; then, lane by lane, the few that meet a mirror or
+    // an emitter take the one-path code (shadeVertex, addEmittedLight).
+    classifyVertices(hits, paths, materials, rules, vertices, v, lights, goes);
+    alignas(64) int specularGoes[kPacketWidth] = {};
     for (int k = 0; k < kPacketWidth; ++k) {
-      diffuse[k] = false;
-      lights.found[k] = 0;
-      goes[k] = 0;
-      if (!rays.active(k)) continue;
-      if (!hits.found[k]) {
-        endLane(k);
-        continue;
-      }
+      if (!vertices.special[k]) continue;
       const Material& material = rs.material(hits.material[k]);
-      if ((kSpecular && material.isSpecular()) || material.isEmissive()) {
-        PathState path = paths.get(k, rays);
-        const SurfaceHit hit = hits.hit(k);
-        if (kSpecular && material.isSpecular()) {
-          const VertexOutcome outcome = shadeVertex<kNee, kSpecular>(rs, packet.rng[k], segment, hit, path, noShadow);
-          paths.put(k, path);
-          if (outcome.continues)
-            rays.set(k, path.origin, path.direction);
-          else
-            endLane(k);
-          continue;
+      PathState path = paths.get(k, rays);
+      const SurfaceHit hit = hits.hit(k);
+      if (kSpecular && material.isSpecular()) {
+        const VertexOutcome outcome = shadeVertex<kNee, kSpecular>(rs, packet.rng[k], segment, hit, path, noShadow);
+        if (outcome.continues) {
+          rays.set(k, path.origin, path.direction);
+          specularGoes[k] = -1;
         }
+      } else {
         addEmittedLight<kNee>(rs, hit, material, path);
-        paths.put(k, path);
       }
-      if (!material.reflects() || paths.bounces[k] >= settings.maxBounces) {
-        endLane(k);
-        continue;
-      }
-      diffuse[k] = anyDiffuse = true;
-      v.ar[k] = material.albedo.r, v.ag[k] = material.albedo.g, v.ab[k] = material.albedo.b;
-      const bool lastBounce = kNee && isLastBounce(rs, paths.bounces[k]);
-      if (kNee) {
-        lights.found[k] = -1;
-        v.misOn[k] = mis && !lastBounce ? 1.0f : 0.0f;
-      }
-      goes[k] = lastBounce ? 0 : -1;
+      paths.put(k, path);
     }
-    if (!anyDiffuse) continue;
 
-    // The lane loops, then each diffuse lane's path goes on along its scattered ray or ends.
-    orientNormals(hits, rays, v, lights);
-    shadowRays.clear();
-    if (kNee) {
-      rs.lights().sample(lights);
-      prepareShadowRays(hits, paths, v, lights, shadowRays);
-      for (int k = 0; k < kPacketWidth; ++k)
-        shadowRays.valid[k] = lights.found[k] != 0 && !isBlack(Spectrum(lights.rr[k], lights.rg[k], lights.rb[k])) &&
-                                      !isBlack(Spectrum(v.fr[k], v.fg[k], v.fb[k]))
-                                  ? -1
-                                  : 0;
-    }
-    sampleDirections(hits, v);
-    for (int k = 0; k < kPacketWidth; ++k) {
-      if (!diffuse[k]) continue;
-      // Material::sampleLambertian gives no direction where its cosine is not above 0; then
-      // scatter() with the albedo as weight.
-      Spectrum throughput = Spectrum(paths.tr[k], paths.tg[k], paths.tb[k]) * Spectrum(v.ar[k], v.ag[k], v.ab[k]);
-      if (!goes[k] || !(v.cosTheta[k] > 0.0f) || isBlack(throughput) ||
-          !survivesRoulette(rs, packet.rng[k], segmentBase, paths.bounces[k] + 1, throughput)) {
-        goes[k] = 0;
-        endLane(k);
-        continue;
+    bool anyDiffuse = false;
+    for (int k = 0; k < kPacketWidth; ++k) anyDiffuse |= vertices.diffuse[k] != 0;
+    if (anyDiffuse) {
+      // The lane loops, then each diffuse lane's path goes on along its scattered ray or ends.
+      orientNormals(hits, rays, v, lights);
+      if (kNee) {
+        rs.lights().sample(lights);
+        prepareShadowRays(hits, paths, v, lights, shadowRays);
+        for (int k = 0; k < kPacketWidth; ++k)
+          shadowRays.valid[k] = lights.found[k] != 0 && !isBlack(Spectrum(lights.rr[k], lights.rg[k], lights.rb[k])) &&
+                                        !isBlack(Spectrum(v.fr[k], v.fg[k], v.fb[k]))
+                                    ? -1
+                                    : 0;
       }
-      paths.tr[k] = throughput.r, paths.tg[k] = throughput.g, paths.tb[k] = throughput.b;
-      ++paths.bounces[k];
-      paths.lastSpecular[k] = false;
-      paths.lastPdf[k] = v.pdf[k];
+      sampleDirections(hits, v);
+      scatterDiffuse(v, goes, paths);
+      if (settings.russianRoulette)
+        for (int k = 0; k < kPacketWidth; ++k) {
+          if (!goes[k]) continue;
+          Spectrum throughput(paths.tr[k], paths.tg[k], paths.tb[k]);
+          if (!survivesRoulette(rs, packet.rng[k], segmentBase, paths.bounces[k], throughput)) {
+            goes[k] = 0;
+            continue;
+          }
+          paths.tr[k] = throughput.r, paths.tg[k] = throughput.g, paths.tb[k] = throughput.b;
+        }
+      takeScatteredRays(v, goes, rays);
     }
-    takeScatteredRays(v, goes, rays);
+    // The lanes that go on: diffuse ones along their scattered ray, mirrors along theirs.
+    live = 0;
+    for (int k = 0; k < kPacketWidth; ++k) {
+      rays.valid[k] = vertices.diffuse[k] ? goes[k] : specularGoes[k];
+      live += rays.valid[k] != 0;
+    }
 
     int shadowCount = 0;
     for (int k = 0; k < kPacketWidth; ++k) shadowCount += shadowRays.active(k);

@@ -2,6 +2,8 @@
 // Everything a render needs, built once per scene and shared read-only by all threads:
 // the scene, its camera at the render resolution, the effects it calls for (scene/effects.h),
 // the Embree scene and the light sampler.
+#include <vector>
+
 #include "camera/thin_lens_camera.h"
 #include "light/light_sampler.h"
 #include "render/ray_caster.h"
@@ -20,7 +22,10 @@ class RenderScene {
         effects_(general ? EffectSet::all(scene) : analyzeEffects(scene, camera_)),
         mirrorsReachable_(general ? analyzeEffects(scene, camera_).specular : effects_.specular),
         caster_(scene),
-        lights_(scene, caster_, effects_.lightUseful) {}
+        lights_(scene, caster_, effects_.lightUseful) {
+    for (const Material& m : scene.materials)
+      materialRecords_.push_back({m.albedo, m.isEmissive() ? ~0u : 0u, m.reflects() ? ~0u : 0u, m.isSpecular() ? ~0u : 0u});
+  }
 
   const Scene& scene() const { return scene_; }
   const RenderSettings& settings() const { return scene_.render; }
@@ -32,6 +37,13 @@ class RenderScene {
   const RayCaster& caster() const { return caster_; }
   const LightSampler& lights() const { return lights_; }
   const Material& material(uint32_t id) const { return scene_.materials[id]; }
+  // What the packet tracer's lane loops read of each material (render/integrator.cpp): its
+  // albedo and Material's predicates as masks (~0u where true, 0 where false).
+  struct MaterialRecord {
+    Spectrum albedo;
+    uint32_t emissive, reflects, specular;
+  };
+  const std::vector<MaterialRecord>& materialRecords() const { return materialRecords_; }
 
  private:
   const Scene& scene_;
@@ -40,6 +52,7 @@ class RenderScene {
   bool mirrorsReachable_;
   RayCaster caster_;
   LightSampler lights_;
+  std::vector<MaterialRecord> materialRecords_;
 };
 
 }  // namespace lensfarm
