@@ -86,29 +86,72 @@ inline uint32_t chooseAmongFew(const float (&cdf)[LightSampler::kFewLights], flo
   return i;
 }
 
-// The packet form's lane loop: each lane chooses its light (where `chooseHere`; else `chosen`
-// holds it), gathers it and samples a point on it.
+// Up to kLights lights held by value for a lane loop: a lane's field of light i is picked with
+// selects between that field of each light (loads at fixed places, hoisted out of the loop), not
+// gathered lane by lane. Lights beyond the scene's repeat the first.
 using Light = LightSampler::Light;
-LENSFARM_LANE_LOOPS void sampleLanes(GatherView<Light> lights, uint32_t lastLight,
-                                     const float (&cdf)[LightSampler::kFewLights], bool chooseHere,
-                                     const uint32_t* __restrict chosen, LightSampleLanes& __restrict l,
-                                     float* __restrict dist2, float* __restrict cosLight) {
+class SelectView {
+ public:
+  static constexpr uint32_t kLights = 4;
+  SelectView(const Light* lights, size_t count) {
+    for (uint32_t j = 0; j < kLights; ++j) lights_[j] = lights[j < count ? j : 0];
+  }
+  float f(uint32_t i, size_t offset) const {
+    float x = at(0, offset);
+#pragma GCC unroll 4
+    for (uint32_t j = 1; j < kLights; ++j) x = i == j ? at(j, offset) : x;
+    return x;
+  }
+  Vec3 vec3(uint32_t i, size_t offset) const {
+    return Vec3(f(i, offset), f(i, offset + sizeof(float)), f(i, offset + 2 * sizeof(float)));
+  }
+
+ private:
+  float at(uint32_t j, size_t offset) const { return reinterpret_cast<const float*>(&lights_[j])[offset / sizeof(float)]; }
+  Light lights_[kLights];
+};
+
+// The packet form's lane loops: lane k samples a point on light i, read from `lights` (a
+// GatherView or a SelectView).
+template <typename Lights>
+[[gnu::always_inline]] inline void sampleLane(Lights lights, uint32_t i, int k, LightSampleLanes& l, float* dist2, float* cosLight) {
+  const Vec3 n = lights.vec3(i, offsetof(Light, n)), pError = lights.vec3(i, offsetof(Light, pError));
+  const TrianglePoint s = sampleTrianglePoint(
+      lights.vec3(i, offsetof(Light, v0)), lights.vec3(i, offsetof(Light, v1)), lights.vec3(i, offsetof(Light, v2)), n,
+      Vec3(l.refx[k], l.refy[k], l.refz[k]), Vec2(l.u0[k], l.u1[k]), lights.f(i, offsetof(Light, pmf)),
+      lights.f(i, offsetof(Light, area)), lights.vec3(i, offsetof(Light, emission)), lights.f(i, offsetof(Light, twoSided)));
+  l.px[k] = s.p.x, l.py[k] = s.p.y, l.pz[k] = s.p.z;
+  l.nx[k] = n.x, l.ny[k] = n.y, l.nz[k] = n.z;
+  l.ex[k] = pError.x, l.ey[k] = pError.y, l.ez[k] = pError.z;
+  l.rr[k] = s.radiance.r, l.rg[k] = s.radiance.g, l.rb[k] = s.radiance.b;
+  l.pdf[k] = s.pdf;
+  dist2[k] = s.dist2, cosLight[k] = s.cosLight;
+}
+
+// Up to SelectView::kLights lights: each lane chooses its light and reads it with selects.
+// Without branches, so the loops vectorise; lanes not asked for take light 0.
+LENSFARM_LANE_LOOPS void sampleSelectedLanes(SelectView lights, uint32_t lastLight,
+                                             const float (&cdf)[LightSampler::kFewLights], LightSampleLanes& __restrict l,
+                                             float* __restrict dist2, float* __restrict cosLight) {
+  float fewCdf[LightSampler::kFewLights];  // a copy nothing else can write (else GCC checks aliasing)
+  std::copy(std::begin(cdf), std::end(cdf), fewCdf);
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const uint32_t i = std::min(chooseAmongFew(fewCdf, l.uChoice[k]), lastLight) & uint32_t(l.found[k]);
+    sampleLane(lights, i, k, l, dist2, cosLight);
+  }
+}
+
+// More lights: each lane gathers its light, chosen in the loop (up to kFewLights) or before it
+// (`chosen`, where not `chooseHere`).
+LENSFARM_LANE_LOOPS void sampleGatheredLanes(GatherView<Light> lights, uint32_t lastLight,
+                                             const float (&cdf)[LightSampler::kFewLights], bool chooseHere,
+                                             const uint32_t* __restrict chosen, LightSampleLanes& __restrict l,
+                                             float* __restrict dist2, float* __restrict cosLight) {
   const uint32_t here = chooseHere ? ~0u : 0u;
   for (int k = 0; k < kPacketWidth; ++k) {
-    // Without branches, so the loop vectorises. Lanes not asked for take light 0.
     const uint32_t few = std::min(chooseAmongFew(cdf, l.uChoice[k]), lastLight);
     const uint32_t i = ((few & here) | (chosen[k] & ~here)) & uint32_t(l.found[k]);
-    const Vec3 n = lights.vec3(i, offsetof(Light, n)), pError = lights.vec3(i, offsetof(Light, pError));
-    const TrianglePoint s = sampleTrianglePoint(
-        lights.vec3(i, offsetof(Light, v0)), lights.vec3(i, offsetof(Light, v1)), lights.vec3(i, offsetof(Light, v2)), n,
-        Vec3(l.refx[k], l.refy[k], l.refz[k]), Vec2(l.u0[k], l.u1[k]), lights.f(i, offsetof(Light, pmf)),
-        lights.f(i, offsetof(Light, area)), lights.vec3(i, offsetof(Light, emission)), lights.f(i, offsetof(Light, twoSided)));
-    l.px[k] = s.p.x, l.py[k] = s.p.y, l.pz[k] = s.p.z;
-    l.nx[k] = n.x, l.ny[k] = n.y, l.nz[k] = n.z;
-    l.ex[k] = pError.x, l.ey[k] = pError.y, l.ez[k] = pError.z;
-    l.rr[k] = s.radiance.r, l.rg[k] = s.radiance.g, l.rb[k] = s.radiance.b;
-    l.pdf[k] = s.pdf;
-    dist2[k] = s.dist2, cosLight[k] = s.cosLight;
+    sampleLane(lights, i, k, l, dist2, cosLight);
   }
 }
 }  // namespace
@@ -141,7 +184,12 @@ void LightSampler::sample(LightSampleLanes& lanes) const {
   if (!few)
     for (int k = 0; k < kPacketWidth; ++k) chosen[k] = lanes.found[k] != 0 ? uint32_t(choose(lanes.uChoice[k])) : 0u;
   alignas(64) float dist2[kPacketWidth], cosLight[kPacketWidth];
-  sampleLanes(GatherView<Light>(lights_.data()), uint32_t(lights_.size() - 1), fewCdf_, few, chosen, lanes, dist2, cosLight);
+  if (lights_.size() <= SelectView::kLights)
+    sampleSelectedLanes(SelectView(lights_.data(), lights_.size()), uint32_t(lights_.size() - 1), fewCdf_, lanes, dist2,
+                        cosLight);
+  else
+    sampleGatheredLanes(GatherView<Light>(lights_.data()), uint32_t(lights_.size() - 1), fewCdf_, few, chosen, lanes,
+                        dist2, cosLight);
   for (int k = 0; k < kPacketWidth; ++k) {
     const TrianglePoint s{{}, {}, lanes.pdf[k], dist2[k], cosLight[k]};
     if (!s.valid()) lanes.found[k] = 0;

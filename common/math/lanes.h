@@ -44,7 +44,7 @@ class GatherView {
   }
 
  private:
-  const float* floats_;
+  const float* __restrict floats_;  // lane loops never write into the records they gather from
 };
 }  // namespace lensfarm
 

@@ -3,7 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
+#include <random>
+
+#include "render/render_scene.h"
 
 #include "test_support.h"
 
@@ -71,6 +75,49 @@ TEST(LightSampling, ALightFacingAwayOrBehindTheFloorLightsNothing) {
       const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
       for (float v : r.image.rgb) ASSERT_EQ(v, 0.0f) << integrator << " " << light.dump();
       EXPECT_EQ(r.stats.dropped, 0u);
+    }
+  }
+}
+
+// The packet form of the light sample reads a lane's light three ways, by the number of emitting
+// triangles: selects among up to 4, gathers with the choice in the lane loop up to 8, gathers
+// after a search beyond. Each must give every lane the one-sample form's bits.
+TEST(LightSampling, PacketFormGivesEachLaneTheOneSampleBitsForAnyNumberOfLights) {
+  for (int quads : {1, 3, 6}) {  // 2, 6 and 12 emitting triangles
+    json scene = floorScene(quad({-0.5, 1.5, -0.5}, {1, 0, 0}, {0, 0, 1}, 2.0), 1);
+    for (int q = 1; q < quads; ++q)  // more quads of other sizes, heights and radiances
+      scene["lights"].push_back(quad({-1.5 + 0.4 * q, 1.0 + 0.2 * q, -1.0}, {0.3 * q, 0, 0}, {0, 0.1 * q, 0.5}, 1.0 + q));
+    test::TempDir dir;
+    const Scene loaded = test::loadSceneJson(dir, scene);
+    const RenderScene rs(loaded);
+    ASSERT_EQ(rs.lights().size(), size_t(2 * quads));
+
+    std::mt19937 rng(quads);
+    std::uniform_real_distribution<float> u01(0.0f, 1.0f), coord(-2.0f, 2.0f);
+    for (int round = 0; round < 50; ++round) {
+      LightSampleLanes lanes{};
+      for (int k = 0; k < kPacketWidth; ++k) {
+        lanes.found[k] = (k + round) % 5 == 0 ? 0 : -1;  // some lanes are not asked
+        lanes.uChoice[k] = u01(rng), lanes.u0[k] = u01(rng), lanes.u1[k] = u01(rng);
+        lanes.refx[k] = coord(rng), lanes.refy[k] = 0.5f * u01(rng), lanes.refz[k] = coord(rng);
+      }
+      const LightSampleLanes asked = lanes;
+      rs.lights().sample(lanes);
+      for (int k = 0; k < kPacketWidth; ++k) {
+        if (!asked.found[k]) {
+          EXPECT_EQ(lanes.found[k], 0) << quads << " quads, lane " << k << " was not asked";
+          continue;
+        }
+        const auto one = rs.lights().sample(Vec3(asked.refx[k], asked.refy[k], asked.refz[k]), asked.uChoice[k],
+                                            Vec2(asked.u0[k], asked.u1[k]));
+        ASSERT_EQ(lanes.found[k] != 0, one.has_value()) << quads << " quads, lane " << k;
+        if (!one) continue;
+        const float packet[13] = {lanes.px[k], lanes.py[k], lanes.pz[k], lanes.nx[k], lanes.ny[k], lanes.nz[k], lanes.ex[k],
+                                  lanes.ey[k], lanes.ez[k], lanes.rr[k], lanes.rg[k], lanes.rb[k], lanes.pdf[k]};
+        const float single[13] = {one->p.x, one->p.y, one->p.z, one->n.x, one->n.y, one->n.z, one->pError.x,
+                                  one->pError.y, one->pError.z, one->radiance.r, one->radiance.g, one->radiance.b, one->pdf};
+        EXPECT_EQ(std::memcmp(packet, single, sizeof(packet)), 0) << quads << " quads, lane " << k;
+      }
     }
   }
 }
