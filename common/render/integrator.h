@@ -18,8 +18,10 @@
 //  - tracePacket traces up to kPacketWidth paths at once (issue 8; docs/performance.md): each
 //    segment of the packet's live paths is one 16-wide Embree intersection call and at most one
 //    16-wide occlusion call for their shadow rays; paths that end leave the packet (their lane is
-//    switched off). Diffuse vertices are shaded in lane loops over arrays of the lanes, which the
-//    compiler vectorises (math/lanes.h); mirrors go through shadeVertex. The lane loops evaluate
+//    switched off). The paths' state, the hits and every step of a diffuse vertex (the decisions,
+//    the light sample, the shadow ray, the scattered direction) are arrays over the lanes and
+//    loops over them, which the compiler vectorises (math/lanes.h); only lanes that meet a mirror
+//    or an emitter go one at a time, through shadeVertex / addEmittedLight. The lane loops evaluate
 //    the same shared formulas (the warps, offsets, Lambertian lobe, light sample, MIS weight) in
 //    the same order, so a lane computes exactly what tracePath computes for its sample and its
 //    radiance depends on its own sample only: never on which samples share its packet, on the
