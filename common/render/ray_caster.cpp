@@ -94,6 +94,8 @@ LENSFARM_LANE_LOOPS void decodeHits(const uint32_t* __restrict geomOffset, Gathe
 RayCaster::RayCaster(const Scene& scene) {
   size_t triangleCount = 0;
   for (const TriangleMesh& mesh : scene.meshes) triangleCount += mesh.triangleCount();
+  // (The scene loader refuses both cases with its own message; this guards scenes built in code.)
+  if (triangleCount == 0) throw std::runtime_error("the scene has no triangles");
   if (triangleCount > GatherView<Triangle>::kMaxRecords)  // the packet form's lane loops index them with 32 bits
     throw std::runtime_error("the scene has " + std::to_string(triangleCount) + " triangles; at most " +
                              std::to_string(GatherView<Triangle>::kMaxRecords) + " are supported");
@@ -267,7 +269,6 @@ void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) 
 
   for (int k = 0; k < kPacketWidth; ++k)
     out.found[k] = rays.valid[k] != 0 && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID ? -1 : 0;
-  if (triangles_.empty()) return;  // nothing to read; every lane missed
   decodeHits(geomOffset_.data(), GatherView<Triangle>(triangles_.data()), rh, out);
 }
 
