@@ -52,22 +52,15 @@ namespace {
 LENSFARM_LANE_LOOPS void pinholeLanes(const ThinLensCamera& camera, const int* __restrict i, int j,
                                       const float* __restrict u0, const float* __restrict u1,
                                       CameraRayLanes& __restrict rays) {
-  for (int k = 0; k < kPacketWidth; ++k) {
-    const CameraRay ray = camera.generatePinholeRay(i[k], j, Vec2(u0[k], u1[k]));
-    rays.ox[k] = ray.origin.x, rays.oy[k] = ray.origin.y, rays.oz[k] = ray.origin.z;
-    rays.dx[k] = ray.direction.x, rays.dy[k] = ray.direction.y, rays.dz[k] = ray.direction.z;
-  }
+  for (int k = 0; k < kPacketWidth; ++k) rays.set(k, camera.generatePinholeRay(i[k], j, Vec2(u0[k], u1[k])));
 }
 
 LENSFARM_LANE_LOOPS void thinLensLanes(const ThinLensCamera& camera, const int* __restrict i, int j,
                                        const float* __restrict u0, const float* __restrict u1,
                                        const float* __restrict lens0, const float* __restrict lens1,
                                        CameraRayLanes& __restrict rays) {
-  for (int k = 0; k < kPacketWidth; ++k) {
-    const CameraRay ray = camera.generateRay(i[k], j, Vec2(u0[k], u1[k]), Vec2(lens0[k], lens1[k]));
-    rays.ox[k] = ray.origin.x, rays.oy[k] = ray.origin.y, rays.oz[k] = ray.origin.z;
-    rays.dx[k] = ray.direction.x, rays.dy[k] = ray.direction.y, rays.dz[k] = ray.direction.z;
-  }
+  for (int k = 0; k < kPacketWidth; ++k)
+    rays.set(k, camera.generateRay(i[k], j, Vec2(u0[k], u1[k]), Vec2(lens0[k], lens1[k])));
 }
 }  // namespace
 

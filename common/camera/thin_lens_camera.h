@@ -35,6 +35,12 @@ struct CameraRay {
 struct CameraRayLanes {
   alignas(64) float ox[kPacketWidth], oy[kPacketWidth], oz[kPacketWidth];
   alignas(64) float dx[kPacketWidth], dy[kPacketWidth], dz[kPacketWidth];
+
+  CameraRay ray(int lane) const { return CameraRay{Vec3(ox[lane], oy[lane], oz[lane]), Vec3(dx[lane], dy[lane], dz[lane])}; }
+  void set(int lane, const CameraRay& ray) {
+    ox[lane] = ray.origin.x, oy[lane] = ray.origin.y, oz[lane] = ray.origin.z;
+    dx[lane] = ray.direction.x, dy[lane] = ray.direction.y, dz[lane] = ray.direction.z;
+  }
 };
 
 struct ThinLensParams {
@@ -91,23 +97,26 @@ class ThinLensCamera {
   int width_, height_;
   double imageDistance_;
   double invImageDistance_, invFocalLength_;  // 1 / S2 and 1 / f, once, not per ray
+
+  Vec2 sensorPoint(int i, int j, Vec2 uSensor) const;  // the point at uSensor in cell (i, j)
   double lensRadius_;
   Vec3 right_, up_, forward_;
 };
 
 // Inline, so the lane loops of generateRays and generatePinholeRays evaluate the same formulas.
-inline CameraRay ThinLensCamera::generateRay(int i, int j, Vec2 uSensor, Vec2 uLens) const {
-  // Sensor point in the camera plane (see the orientation note in the header).
+inline Vec2 ThinLensCamera::sensorPoint(int i, int j, Vec2 uSensor) const {
+  // In the camera plane; see the orientation note at the top.
   const double x = params_.sensorWidth * ((i + double(uSensor.x)) / width_ - 0.5);
   const double y = params_.sensorHeight * (0.5 - (j + double(uSensor.y)) / height_);
-  const Vec2 disk = sampleConcentricDisk(uLens) * float(lensRadius_);
-  return rayThrough(Vec2(float(x), float(y)), disk);
+  return Vec2(float(x), float(y));
+}
+
+inline CameraRay ThinLensCamera::generateRay(int i, int j, Vec2 uSensor, Vec2 uLens) const {
+  return rayThrough(sensorPoint(i, j, uSensor), sampleConcentricDisk(uLens) * float(lensRadius_));
 }
 
 inline CameraRay ThinLensCamera::generatePinholeRay(int i, int j, Vec2 uSensor) const {
-  const double x = params_.sensorWidth * ((i + double(uSensor.x)) / width_ - 0.5);
-  const double y = params_.sensorHeight * (0.5 - (j + double(uSensor.y)) / height_);
-  return rayThrough(Vec2(float(x), float(y)), Vec2(0.0f));
+  return rayThrough(sensorPoint(i, j, uSensor), Vec2(0.0f));
 }
 
 inline CameraRay ThinLensCamera::rayThrough(Vec2 s, Vec2 r) const {
@@ -115,10 +124,8 @@ inline CameraRay ThinLensCamera::rayThrough(Vec2 s, Vec2 r) const {
   // (s, -S2) to the lens point (r, 0), scaled to a unit axial component, is bent to
   //     n2 = n1 - r / f.
   // Every ray from s then meets the focal plane at -s * S1 / S2, whatever r is.
-  const double invS2 = invImageDistance_;
-  const double invF = invFocalLength_;
-  const double dx = (double(r.x) - s.x) * invS2 - r.x * invF;
-  const double dy = (double(r.y) - s.y) * invS2 - r.y * invF;
+  const double dx = (double(r.x) - s.x) * invImageDistance_ - r.x * invFocalLength_;
+  const double dy = (double(r.y) - s.y) * invImageDistance_ - r.y * invFocalLength_;
   const Vec3 dir = glm::normalize(float(dx) * right_ + float(dy) * up_ + forward_);
   return CameraRay{params_.position + r.x * right_ + r.y * up_, dir};
 }

@@ -141,18 +141,11 @@ LENSFARM_LANE_LOOPS void sampleSelectedLanes(SelectView lights, uint32_t lastLig
   }
 }
 
-// More lights: each lane gathers its light, chosen in the loop (up to kFewLights) or before it
-// (`chosen`, where not `chooseHere`).
-LENSFARM_LANE_LOOPS void sampleGatheredLanes(GatherView<Light> lights, uint32_t lastLight,
-                                             const float (&cdf)[LightSampler::kFewLights], bool chooseHere,
-                                             const uint32_t* __restrict chosen, LightSampleLanes& __restrict l,
-                                             float* __restrict dist2, float* __restrict cosLight) {
-  const uint32_t here = chooseHere ? ~0u : 0u;
-  for (int k = 0; k < kPacketWidth; ++k) {
-    const uint32_t few = std::min(chooseAmongFew(cdf, l.uChoice[k]), lastLight);
-    const uint32_t i = ((few & here) | (chosen[k] & ~here)) & uint32_t(l.found[k]);
-    sampleLane(lights, i, k, l, dist2, cosLight);
-  }
+// More lights: each lane gathers its light, chosen before the loop (`chosen`).
+LENSFARM_LANE_LOOPS void sampleGatheredLanes(GatherView<Light> lights, const uint32_t* __restrict chosen,
+                                             LightSampleLanes& __restrict l, float* __restrict dist2,
+                                             float* __restrict cosLight) {
+  for (int k = 0; k < kPacketWidth; ++k) sampleLane(lights, chosen[k], k, l, dist2, cosLight);
 }
 }  // namespace
 
@@ -179,17 +172,15 @@ void LightSampler::sample(LightSampleLanes& lanes) const {
     return;
   }
   // A lane not asked for computes on the first light (finite values) and stays not found.
-  const bool few = lights_.size() <= kFewLights;
-  alignas(64) uint32_t chosen[kPacketWidth] = {};
-  if (!few)
-    for (int k = 0; k < kPacketWidth; ++k) chosen[k] = lanes.found[k] != 0 ? uint32_t(choose(lanes.uChoice[k])) : 0u;
   alignas(64) float dist2[kPacketWidth], cosLight[kPacketWidth];
-  if (lights_.size() <= SelectView::kLights)
+  if (lights_.size() <= SelectView::kLights) {
     sampleSelectedLanes(SelectView(lights_.data(), lights_.size()), uint32_t(lights_.size() - 1), fewCdf_, lanes, dist2,
                         cosLight);
-  else
-    sampleGatheredLanes(GatherView<Light>(lights_.data()), uint32_t(lights_.size() - 1), fewCdf_, few, chosen, lanes,
-                        dist2, cosLight);
+  } else {
+    alignas(64) uint32_t chosen[kPacketWidth];
+    for (int k = 0; k < kPacketWidth; ++k) chosen[k] = lanes.found[k] != 0 ? uint32_t(choose(lanes.uChoice[k])) : 0u;
+    sampleGatheredLanes(GatherView<Light>(lights_.data()), chosen, lanes, dist2, cosLight);
+  }
   for (int k = 0; k < kPacketWidth; ++k) {
     const TrianglePoint s{{}, {}, lanes.pdf[k], dist2[k], cosLight[k]};
     if (!s.valid()) lanes.found[k] = 0;

@@ -334,7 +334,7 @@ LENSFARM_LANE_LOOPS void scatterDiffuse(const DiffuseLanes& __restrict v, int* _
                                         PathLanes& __restrict path) {
   for (int k = 0; k < kPacketWidth; ++k) {
     const Spectrum t = Spectrum(path.tr[k], path.tg[k], path.tb[k]) * Spectrum(v.ar[k], v.ag[k], v.ab[k]);
-    const bool on = goes[k] != 0 && v.cosTheta[k] > 0.0f && !(t.r == 0.0f && t.g == 0.0f && t.b == 0.0f);
+    const bool on = goes[k] != 0 && v.cosTheta[k] > 0.0f && !isBlack(t);
     goes[k] = on ? -1 : 0;
     path.tr[k] = on ? t.r : path.tr[k], path.tg[k] = on ? t.g : path.tg[k], path.tb[k] = on ? t.b : path.tb[k];
     path.bounces[k] += on ? 1 : 0;
@@ -386,7 +386,10 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
                             kNee && lastBounceCanEndPaths(rs) ? ~0u : 0u};
   paths.start();
   rays.clear();
-  for (int k = 0; k < packet.count; ++k) rays.set(k, packet.cameraRays[k].origin, packet.cameraRays[k].direction);
+  for (int k = 0; k < packet.count; ++k) {
+    const CameraRay ray = packet.cameraRays.ray(k);
+    rays.set(k, ray.origin, ray.direction);
+  }
   stats.paths += uint64_t(packet.count);
 
   int live = packet.count;

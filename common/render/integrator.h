@@ -59,11 +59,11 @@ struct PathStats {
 template <bool kNee, bool kSpecular>
 Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats);
 
-// The camera paths of one packet: lane k traces cameraRays[k] with the sample values rng[k], for
+// The camera paths of one packet: lane k traces its camera ray with the sample values rng[k], for
 // k < count (count <= kPacketWidth).
 struct PathPacket {
   int count = 0;
-  CameraRay cameraRays[kPacketWidth];
+  CameraRayLanes cameraRays;  // lane k's: cameraRays.ray(k)
   SampleStream rng[kPacketWidth];
 };
 

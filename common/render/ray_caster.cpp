@@ -28,6 +28,12 @@ Vec3 nudgedDirection(const Vec3& d) {
 
 constexpr float kInfinity = std::numeric_limits<float>::infinity();
 
+// The hit point at barycentrics (u, v): interpolating the vertices is far more accurate than
+// o + t d far from the origin. Shared by the one-ray and packet forms, so both give the same bits.
+inline Vec3 pointOnTriangle(const Vec3& v0, const Vec3& v1, const Vec3& v2, float u, float v) {
+  return (1.0f - u - v) * v0 + u * v1 + v * v2;
+}
+
 // Embree's packet calls take a mask of the lanes in use, but on a machine without 16-wide kernels
 // (no AVX-512) Embree traces a 16-wide packet through its ray-stream path, which ignores the mask,
 // traces every lane whose tnear <= tfar and asserts that each such ray is finite. So a lane not in
@@ -78,8 +84,8 @@ LENSFARM_LANE_LOOPS void decodeHits(const uint32_t* __restrict geomOffset, Gathe
     const uint32_t hit = uint32_t(out.found[k]);
     const uint32_t index = geomOffset[geomID[k] & hit] + (primID[k] & hit);
     const float u = keep(hit, us[k]), v = keep(hit, vs[k]);
-    const Vec3 p = (1.0f - u - v) * tris.vec3(index, offsetof(Triangle, v0)) + u * tris.vec3(index, offsetof(Triangle, v1)) +
-                   v * tris.vec3(index, offsetof(Triangle, v2));
+    const Vec3 p = pointOnTriangle(tris.vec3(index, offsetof(Triangle, v0)), tris.vec3(index, offsetof(Triangle, v1)),
+                                   tris.vec3(index, offsetof(Triangle, v2)), u, v);
     const Vec3 n = tris.vec3(index, offsetof(Triangle, n));
     out.triangle[k] = index;
     out.material[k] = tris.u(index, offsetof(Triangle, material));
@@ -195,8 +201,7 @@ SurfaceHit RayCaster::surfaceHit(unsigned geomID, unsigned primID, float u, floa
   const Triangle& tri = triangles_[k];
   SurfaceHit hit;
   hit.t = t;
-  // Interpolating the vertices is far more accurate than o + t d far from the origin.
-  hit.p = (1.0f - u - v) * tri.v0 + u * tri.v1 + v * tri.v2;
+  hit.p = pointOnTriangle(tri.v0, tri.v1, tri.v2, u, v);
   hit.n = tri.n;
   hit.pError = positionErrorBound(tri.magnitude);
   hit.material = tri.material;

@@ -186,14 +186,16 @@ class SampleStream {
   // the first dimension is the (shuffled) index itself.
   static float sobolFirst(uint64_t pixelKey, uint32_t index, uint32_t dimension) {
     const uint32_t seed = dimensionSeedOf(pixelKey, dimension);
-    return toFloat(reverseBits(laineKarras(owenScramble(index, seed), seed * 0x68bc21ebu + 1u)));
+    return sobolDimension0(owenScramble(index, seed), seed);
   }
   static Vec2 sobolPair(uint64_t pixelKey, uint32_t index, uint32_t dimension) {
     const uint32_t seed = dimensionSeedOf(pixelKey, dimension);
     const uint32_t i = owenScramble(index, seed);
-    return Vec2(toFloat(reverseBits(laineKarras(i, seed * 0x68bc21ebu + 1u))),
-                toFloat(reverseBits(laineKarras(reversedSobolDimension1(i), seed * 0x02e5be93u + 3u))));
+    return Vec2(sobolDimension0(i, seed), toFloat(reverseBits(laineKarras(reversedSobolDimension1(i), seed * 0x02e5be93u + 3u))));
   }
+  // The first coordinate of a pair for the scrambled index i: Sobol's first dimension is the
+  // index bit-reversed, so its own scrambling works on i itself.
+  static float sobolDimension0(uint32_t i, uint32_t seed) { return toFloat(reverseBits(laineKarras(i, seed * 0x68bc21ebu + 1u))); }
 
   static uint32_t reverseBits(uint32_t x) {
     x = (x << 16) | (x >> 16);

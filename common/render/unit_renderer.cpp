@@ -53,7 +53,6 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
     uint64_t pixelOf[kPacketWidth];
     int column[kPacketWidth];
     alignas(64) float u0[kPacketWidth], u1[kPacketWidth], lens0[kPacketWidth], lens1[kPacketWidth];
-    CameraRayLanes cameraLanes;
     for (int j = rows.begin(); j != rows.end(); ++j) {
       if (cancel && cancel->load(std::memory_order_relaxed)) {
         cancelled = true;
@@ -86,18 +85,15 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
         if (kLens) {
           SampleStream::values2D(packet.rng, keys, packet.count, dims::kLens, lens0, lens1);
           for (int k = packet.count; k < kPacketWidth; ++k) lens0[k] = lens1[k] = 0.0f;
-          camera.generateRays(column, j, u0, u1, lens0, lens1, cameraLanes);
+          camera.generateRays(column, j, u0, u1, lens0, lens1, packet.cameraRays);
         } else {
-          camera.generatePinholeRays(column, j, u0, u1, cameraLanes);
+          camera.generatePinholeRays(column, j, u0, u1, packet.cameraRays);
         }
-        for (int k = 0; k < packet.count; ++k)
-          packet.cameraRays[k] = CameraRay{Vec3(cameraLanes.ox[k], cameraLanes.oy[k], cameraLanes.oz[k]),
-                                           Vec3(cameraLanes.dx[k], cameraLanes.dy[k], cameraLanes.dz[k])};
         if (grouping == RayGrouping::kPackets)
           tracePacket<kNee, kSpecular>(rs, packet, radiance, local);
         else
           for (int k = 0; k < packet.count; ++k)
-            radiance[k] = tracePath<kNee, kSpecular>(rs, packet.cameraRays[k], packet.rng[k], local);
+            radiance[k] = tracePath<kNee, kSpecular>(rs, packet.cameraRays.ray(k), packet.rng[k], local);
         // Each cell's sums start at zero and take its samples in sample order: the same double
         // sums whatever the packets.
         for (int k = 0; k < packet.count; ++k) {

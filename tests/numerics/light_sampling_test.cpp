@@ -79,9 +79,9 @@ TEST(LightSampling, ALightFacingAwayOrBehindTheFloorLightsNothing) {
   }
 }
 
-// The packet form of the light sample reads a lane's light three ways, by the number of emitting
-// triangles: selects among up to 4, gathers with the choice in the lane loop up to 8, gathers
-// after a search beyond. Each must give every lane the one-sample form's bits.
+// The packet form of the light sample reads a lane's light two ways, by the number of emitting
+// triangles: selects among up to 4 (2 here), gathers beyond (6: chosen by counting cdf entries,
+// 12: by a search). Each must give every lane the one-sample form's bits.
 TEST(LightSampling, PacketFormGivesEachLaneTheOneSampleBitsForAnyNumberOfLights) {
   for (int quads : {1, 3, 6}) {  // 2, 6 and 12 emitting triangles
     json scene = floorScene(quad({-0.5, 1.5, -0.5}, {1, 0, 0}, {0, 0, 1}, 2.0), 1);

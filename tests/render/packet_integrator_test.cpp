@@ -45,13 +45,13 @@ void expectPacketsEqualSinglePaths(const RenderScene& rs, const std::vector<Lane
     for (int k = 0; k < packet.count; ++k) {
       const Lane& lane = lanes[first + size_t(k)];
       packet.rng[k] = SampleStream(sampler, uint64_t(lane.j) * uint64_t(camera.width()) + uint64_t(lane.i), lane.sample);
-      packet.cameraRays[k] = camera.generateRay(lane.i, lane.j, packet.rng[k].get2D(dims::kSensor),
-                                                packet.rng[k].get2D(dims::kLens));
+      packet.cameraRays.set(k, camera.generateRay(lane.i, lane.j, packet.rng[k].get2D(dims::kSensor),
+                                                  packet.rng[k].get2D(dims::kLens)));
     }
     Spectrum radiance[kPacketWidth];
     tracePacket<kNee, kSpecular>(rs, packet, radiance, packetStats);
     for (int k = 0; k < packet.count; ++k) {
-      const Spectrum single = tracePath<kNee, kSpecular>(rs, packet.cameraRays[k], packet.rng[k], singleStats);
+      const Spectrum single = tracePath<kNee, kSpecular>(rs, packet.cameraRays.ray(k), packet.rng[k], singleStats);
       EXPECT_EQ(std::memcmp(&single, &radiance[k], sizeof(Spectrum)), 0)
           << "lane " << k << " of the packet at " << first << ": " << single.r << " vs " << radiance[k].r;
       ++compared;
