@@ -1,24 +1,37 @@
 # The two commands the README promises: `make demo` and `make test`.
-# Both run the set-up first (apt-get for what is missing), then build.
+# Both run the set-up first (apt-get for what is missing), then build: the demo only the three
+# binaries and the packages they need (scripts/setup.sh build), the tests everything (setup.sh test).
 BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: bench-goals all setup configure build demo test bench load fuzz clean
+.PHONY: bench-goals all setup setup-build configure configure-demo build build-demo demo test bench load fuzz clean
 
 all: build
 
 setup:
-	@bash scripts/setup.sh
+	@bash scripts/setup.sh test
+
+setup-build:
+	@bash scripts/setup.sh build
 
 configure: setup
-	@cmake -S . -B $(BUILD_DIR) $(CMAKE_FLAGS) > $(BUILD_DIR).configure.log 2>&1 || (cat $(BUILD_DIR).configure.log; exit 1)
+	@cmake -S . -B $(BUILD_DIR) $(CMAKE_FLAGS) -DLENSFARM_BUILD_TESTS=ON > $(BUILD_DIR).configure.log 2>&1 || (cat $(BUILD_DIR).configure.log; exit 1)
 
 build: configure
 	@cmake --build $(BUILD_DIR) -j $(JOBS)
 
+# The demo's build: a new build directory without the tests and benchmarks; an existing one keeps
+# its setting (a developer's build with tests goes on building them with `make test`).
+configure-demo: setup-build
+	@if [ -f $(BUILD_DIR)/CMakeCache.txt ]; then flags=""; else flags="-DLENSFARM_BUILD_TESTS=OFF"; fi; \
+	  cmake -S . -B $(BUILD_DIR) $(CMAKE_FLAGS) $$flags > $(BUILD_DIR).configure.log 2>&1 || (cat $(BUILD_DIR).configure.log; exit 1)
+
+build-demo: configure-demo
+	@cmake --build $(BUILD_DIR) -j $(JOBS) --target lensfarm lensfarm-coordinator lensfarm-worker
+
 # A coordinator and two workers on localhost render the seed scene into out/ (scripts/demo.sh).
-demo: build
+demo: build-demo
 	@BUILD_DIR=$(BUILD_DIR) bash scripts/demo.sh
 
 test: build
@@ -38,9 +51,10 @@ bench-goals: build
 # libFuzzer targets for the scene parser and the upload path, built with clang in build-fuzz,
 # each run for FUZZ_SECONDS. A finding stops the run with the crashing input in build-fuzz/.
 FUZZ_SECONDS ?= 60
-fuzz: setup
+fuzz:
+	@bash scripts/setup.sh fuzz
 	@cmake -S . -B build-fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-	  -DLENSFARM_FUZZ=ON -DLENSFARM_WERROR=OFF > build-fuzz.configure.log 2>&1 || (cat build-fuzz.configure.log; exit 1)
+	  -DLENSFARM_FUZZ=ON -DLENSFARM_WERROR=OFF -DLENSFARM_BUILD_TESTS=OFF > build-fuzz.configure.log 2>&1 || (cat build-fuzz.configure.log; exit 1)
 	@cmake --build build-fuzz -j $(JOBS) --target scene_parser_fuzz upload_fuzz
 	@mkdir -p build-fuzz/scene-corpus && cp scenes/*.json build-fuzz/scene-corpus/
 	cd build-fuzz && ./tests/fuzz/scene_parser_fuzz -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 \

@@ -135,6 +135,8 @@ int main(int argc, char** argv) {
   try {
     clientToken = readToken(clientTokenFile, "LENSFARM_CLIENT_TOKEN");
     workerToken = readToken(workerTokenFile, "LENSFARM_WORKER_TOKEN");
+    if (clientToken) checkTokenStrength(*clientToken, clientTokenFile.empty() ? "LENSFARM_CLIENT_TOKEN" : clientTokenFile);
+    if (workerToken) checkTokenStrength(*workerToken, workerTokenFile.empty() ? "LENSFARM_WORKER_TOKEN" : workerTokenFile);
     if (clientToken && workerToken && equalSecrets(*clientToken, *workerToken))
       throw InputError("--worker-token-file", "workers and clients need different tokens");
     if (!tlsClientCa.empty() && tlsCert.empty())

@@ -249,11 +249,11 @@ void makeCertificates(const TempDir& dir, const std::string& serverAltNames) {
   }
 }
 
-std::map<fs::path, std::optional<std::string>> debianPackagesOf(const std::vector<fs::path>& files) {
+std::map<fs::path, std::set<std::string>> debianOwnersOf(const std::vector<fs::path>& files) {
   // Each file by every name dpkg may know it under: as given, its real path, and either with or
   // without the /usr of a merged /usr. One dpkg -S for all (it reads the whole package database).
   std::map<std::string, std::vector<fs::path>> names;
-  std::map<fs::path, std::optional<std::string>> owners;
+  std::map<fs::path, std::set<std::string>> owners;
   for (const fs::path& file : files) {
     owners[file];
     std::vector<std::string> spellings = {file.string()};
@@ -272,13 +272,22 @@ std::map<fs::path, std::optional<std::string>> debianPackagesOf(const std::vecto
   for (std::string line; std::getline(in, line);) {
     const size_t colon = line.find(": /");
     if (line.rfind("diversion", 0) == 0 || colon == std::string::npos) continue;
-    std::string package = line.substr(0, colon);
-    package = package.substr(0, package.find(", "));
-    package = package.substr(0, package.find(':'));
-    for (const fs::path& file : names[line.substr(colon + 2)])
-      if (!owners[file]) owners[file] = package;
+    std::istringstream packages(line.substr(0, colon));
+    for (std::string package; std::getline(packages, package, ',');) {
+      package = words(package).empty() ? "" : words(package)[0];
+      package = package.substr(0, package.find(':'));
+      if (package.empty()) continue;
+      for (const fs::path& file : names[line.substr(colon + 2)]) owners[file].insert(package);
+    }
   }
   return owners;
+}
+
+std::map<fs::path, std::optional<std::string>> debianPackagesOf(const std::vector<fs::path>& files) {
+  std::map<fs::path, std::optional<std::string>> out;
+  for (const auto& [file, owners] : debianOwnersOf(files))
+    out[file] = owners.empty() ? std::nullopt : std::optional<std::string>(*owners.begin());
+  return out;
 }
 
 std::optional<std::string> debianPackageOf(const fs::path& file) { return debianPackagesOf({file})[file]; }

@@ -98,8 +98,11 @@ void makeCertificates(const TempDir& dir, const std::string& serverAltNames);
 
 // ---- the system ----
 
-// The Debian package that installed each file (found by its own path, its real path, or either
-// with or without the /usr of a merged /usr), without the architecture; nullopt if none.
+// Every Debian package dpkg lists as installing each file (found by its own path, its real path,
+// or either with or without the /usr of a merged /usr), without the architecture; empty if none.
+// One dpkg -S for all files.
+std::map<std::filesystem::path, std::set<std::string>> debianOwnersOf(const std::vector<std::filesystem::path>& files);
+// The first of those packages, by name; nullopt if none.
 std::map<std::filesystem::path, std::optional<std::string>> debianPackagesOf(const std::vector<std::filesystem::path>& files);
 std::optional<std::string> debianPackageOf(const std::filesystem::path& file);
 // The packages named in an installed package's Depends field (versions and alternatives after

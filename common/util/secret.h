@@ -10,6 +10,13 @@ namespace lensfarm {
 // nothing if neither is set. Throws InputError naming the file if it cannot be read or is empty.
 std::optional<std::string> readToken(const std::string& file, const char* env);
 
+// Refuses (InputError naming `source`) a token that a stranger could guess: shorter than
+// kMinTokenLength characters, fewer than 6 distinct characters, or a known placeholder (a token
+// containing "replace-me", "changeme", "placeholder", "example", ... as deploy files and tutorials
+// ship them). `head -c 32 /dev/urandom | base64` makes a good one (44 characters).
+inline constexpr size_t kMinTokenLength = 16;
+void checkTokenStrength(const std::string& token, const std::string& source);
+
 // Compares without leaking where the first difference is through timing.
 bool equalSecrets(const std::string& a, const std::string& b);
 

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <fstream>
 #include <functional>
 #include <regex>
@@ -50,34 +51,45 @@ std::vector<Stage> stagesOf(const fs::path& dockerfile) {
   return stages;
 }
 
-// The packages scripts/setup.sh installs.
-std::set<std::string> setupPackages() {
+// The packages of one list of scripts/setup.sh ("BUILD_PACKAGES", "TEST_PACKAGES", ...).
+std::set<std::string> setupPackages(const std::string& list) {
   const std::string script = test::readFile(test::sourceDir() / "scripts/setup.sh");
-  const size_t begin = script.find("PACKAGES=("), end = script.find(')', begin);
+  const size_t begin = script.find("\n" + list + "=(");
+  EXPECT_NE(begin, std::string::npos) << list << " not in scripts/setup.sh";
+  if (begin == std::string::npos) return {};
+  const size_t start = begin + list.size() + 3, end = script.find(')', start);
   std::set<std::string> out;
-  std::istringstream in(script.substr(begin + 10, end - begin - 10));
+  std::istringstream in(script.substr(start, end - start));
   for (std::string line; std::getline(in, line);)
     for (const std::string& w : test::words(line.substr(0, line.find('#')))) out.insert(w);
   return out;
 }
 
 // Every dependency the CMakeLists.txt files look for: find_package(NAME ...) and
-// pkg_check_modules(VAR ... MODULE).
-std::set<std::string> cmakeDependencies() {
-  std::set<std::string> out;
+// pkg_check_modules(VAR ... MODULE), each with whether only the tests and benchmarks need it
+// (looked for in a CMakeLists.txt under tests/ or bench/, which LENSFARM_BUILD_TESTS=OFF skips).
+std::map<std::string, bool> cmakeDependencies() {
+  std::map<std::string, bool> out;  // name -> test-only
+  const auto add = [&](const std::string& name, bool testOnly) {
+    const auto [it, inserted] = out.emplace(name, testOnly);
+    if (!inserted) it->second = it->second && testOnly;
+  };
   const std::regex findPackage(R"(find_package\(\s*([A-Za-z0-9_-]+))");
   const std::regex pkgConfig(R"(pkg_check_modules\(\s*\w+((?:\s+[A-Za-z0-9_.-]+)+)\s*\))");
-  for (auto walk = fs::recursive_directory_iterator(test::sourceDir()); walk != fs::recursive_directory_iterator(); ++walk) {
+  const fs::path root = test::sourceDir();
+  for (auto walk = fs::recursive_directory_iterator(root); walk != fs::recursive_directory_iterator(); ++walk) {
     const std::string name = walk->path().filename().string();
     if (walk->is_directory() && (name[0] == '.' || name.rfind("build", 0) == 0 || name == "out")) walk.disable_recursion_pending();
     const fs::directory_entry& entry = *walk;
     if (name != "CMakeLists.txt") continue;
+    const std::string top = fs::relative(entry.path(), root).begin()->string();
+    const bool testOnly = top == "tests" || top == "bench";
     const std::string text = test::readFile(entry.path());
     for (auto it = std::sregex_iterator(text.begin(), text.end(), findPackage); it != std::sregex_iterator(); ++it)
-      out.insert((*it)[1]);
+      add((*it)[1], testOnly);
     for (auto it = std::sregex_iterator(text.begin(), text.end(), pkgConfig); it != std::sregex_iterator(); ++it)
       for (const std::string& w : test::words((*it)[1]))
-        if (w != "REQUIRED" && w != "IMPORTED_TARGET" && w != "QUIET") out.insert(w);
+        if (w != "REQUIRED" && w != "IMPORTED_TARGET" && w != "QUIET") add(w, testOnly);
   }
   return out;
 }
@@ -90,13 +102,16 @@ std::string cacheValue(const std::string& key) {
   return "";
 }
 
-// A file from the directory a find_package(... CONFIG) found.
-fs::path configFileIn(const std::string& dirKey) {
-  const fs::path dir = cacheValue(dirKey);
-  std::error_code ec;
-  for (const auto& e : fs::directory_iterator(dir, ec))
-    if (e.path().extension() == ".cmake") return e.path();
-  return dir;
+// The file find_package(NAME ... CONFIG) read: <NAME>Config.cmake or <name>-config.cmake in the
+// directory CMake recorded as NAME_DIR. Only that file, never another one of the directory: the
+// directory may hold files of several packages (GTest's holds GMockTargets.cmake of libgmock-dev).
+fs::path configFileOf(const std::string& name) {
+  const fs::path dir = cacheValue(name + "_DIR");
+  std::string lower = name;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  for (const fs::path& file : {dir / (name + "Config.cmake"), dir / (lower + "-config.cmake")})
+    if (fs::is_regular_file(file)) return file;
+  return dir / (name + "Config.cmake");  // missing: the owner check names it
 }
 
 // What each CMake dependency is called in Debian, and a file CMake used from it (which that
@@ -106,25 +121,25 @@ struct Dependency {
   std::function<fs::path()> evidence;
 };
 const std::map<std::string, Dependency>& debianNames() {
-  const auto config = [](std::string key) { return [key] { return configFileIn(key); }; };
+  const auto config = [](std::string name) { return [name] { return configFileOf(name); }; };
   const auto cached = [](std::string key) { return [key] { return fs::path(cacheValue(key)); }; };
   static const std::map<std::string, Dependency> table = {
-      {"glm", {{"libglm-dev"}, config("glm_DIR")}},
-      {"embree", {{"libembree-dev"}, config("embree_DIR")}},
-      {"TBB", {{"libtbb-dev"}, config("TBB_DIR")}},
-      {"OpenEXR", {{"libopenexr-dev"}, config("OpenEXR_DIR")}},
+      {"glm", {{"libglm-dev"}, config("glm")}},
+      {"embree", {{"libembree-dev"}, config("embree")}},
+      {"TBB", {{"libtbb-dev"}, config("TBB")}},
+      {"OpenEXR", {{"libopenexr-dev"}, config("OpenEXR")}},
       {"PNG", {{"libpng-dev"}, cached("PNG_LIBRARY_RELEASE")}},
-      {"nlohmann_json", {{"nlohmann-json3-dev"}, config("nlohmann_json_DIR")}},
-      {"tinyobjloader", {{"libtinyobjloader-dev"}, config("tinyobjloader_DIR")}},
-      {"spdlog", {{"libspdlog-dev"}, config("spdlog_DIR")}},
-      {"CLI11", {{"libcli11-dev"}, config("CLI11_DIR")}},
+      {"nlohmann_json", {{"nlohmann-json3-dev"}, config("nlohmann_json")}},
+      {"tinyobjloader", {{"libtinyobjloader-dev"}, config("tinyobjloader")}},
+      {"spdlog", {{"libspdlog-dev"}, config("spdlog")}},
+      {"CLI11", {{"libcli11-dev"}, config("CLI11")}},
       {"OpenSSL", {{"libssl-dev"}, cached("OPENSSL_CRYPTO_LIBRARY")}},
       {"SQLite3", {{"libsqlite3-dev"}, cached("SQLite3_LIBRARY")}},
       {"Protobuf", {{"libprotobuf-dev", "protobuf-compiler"}, cached("Protobuf_LIBRARY_RELEASE")}},
-      {"gRPC", {{"libgrpc++-dev", "protobuf-compiler-grpc"}, config("gRPC_DIR")}},
-      {"GTest", {{"libgtest-dev"}, config("GTest_DIR")}},
-      {"benchmark", {{"libbenchmark-dev"}, config("benchmark_DIR")}},
-      {"yaml-cpp", {{"libyaml-cpp-dev"}, config("yaml-cpp_DIR")}},
+      {"gRPC", {{"libgrpc++-dev", "protobuf-compiler-grpc"}, config("gRPC")}},
+      {"GTest", {{"libgtest-dev"}, config("GTest")}},
+      {"benchmark", {{"libbenchmark-dev"}, config("benchmark")}},
+      {"yaml-cpp", {{"libyaml-cpp-dev"}, config("yaml-cpp")}},
       {"PkgConfig", {{"pkg-config"}, cached("PKG_CONFIG_EXECUTABLE")}},
       {"cpp-httplib", {{"libcpp-httplib-dev"}, [] { return fs::path(cacheValue("HTTPLIB_LIBDIR")) / "pkgconfig/cpp-httplib.pc"; }}},
   };
@@ -133,45 +148,61 @@ const std::map<std::string, Dependency>& debianNames() {
 
 fs::path dockerfile() { return test::sourceDir() / "deploy/docker/Dockerfile"; }
 
+// Every dependency CMake looks for is installed by the lists that need it: a product dependency by
+// the Dockerfile's build stage and setup.sh's BUILD_PACKAGES (what `make demo` installs), a test
+// or benchmark one by setup.sh's TEST_PACKAGES. The table is checked against dpkg's own record of
+// the file CMake read, whatever else is installed and in whichever order.
 TEST(Container, TheBuildStageInstallsEveryDependencyCMakeLooksFor) {
   const std::vector<Stage> stages = stagesOf(dockerfile());
   ASSERT_EQ(stages.size(), 2u) << "a build stage and a runtime stage";
   EXPECT_EQ(stages[0].from, "FROM debian:12 AS build");
-  const std::set<std::string> build = stages[0].aptPackages, setup = setupPackages();
-  ASSERT_GE(build.size(), 10u);
-  const std::set<std::string> dependencies = cmakeDependencies();
+  const std::set<std::string> image = stages[0].aptPackages, build = setupPackages("BUILD_PACKAGES"),
+                              tests = setupPackages("TEST_PACKAGES");
+  ASSERT_GE(image.size(), 10u);
+  const std::map<std::string, bool> dependencies = cmakeDependencies();
   EXPECT_GE(dependencies.size(), 15u) << "the scan found the find_package calls";
+  EXPECT_TRUE(dependencies.count("GTest") && dependencies.at("GTest")) << "GoogleTest is looked for by tests/ only";
+  EXPECT_TRUE(dependencies.count("gRPC") && !dependencies.at("gRPC"));
   std::vector<fs::path> evidence;
   for (const auto& [name, dependency] : debianNames()) evidence.push_back(dependency.evidence());
-  const auto owners = test::debianPackagesOf(evidence);
-  for (const std::string& name : dependencies) {
+  const auto owners = test::debianOwnersOf(evidence);
+  for (const auto& [name, testOnly] : dependencies) {
     SCOPED_TRACE(name);
     const auto it = debianNames().find(name);
     if (it == debianNames().end()) {
-      ADD_FAILURE() << "CMake looks for " << name << ": add its Debian package to this test's table, the Dockerfile "
-                    << "and scripts/setup.sh";
+      ADD_FAILURE() << "CMake looks for " << name << ": add its Debian package to this test's table, "
+                    << (testOnly ? "and to TEST_PACKAGES of scripts/setup.sh" : "the Dockerfile and BUILD_PACKAGES of scripts/setup.sh");
       continue;
     }
     for (const std::string& package : it->second.packages) {
-      EXPECT_TRUE(build.count(package)) << package << " missing from the Dockerfile's build stage";
-      EXPECT_TRUE(setup.count(package)) << package << " missing from scripts/setup.sh";
+      if (testOnly) {
+        EXPECT_TRUE(tests.count(package) || build.count(package)) << package << " missing from TEST_PACKAGES of scripts/setup.sh";
+      } else {
+        EXPECT_TRUE(image.count(package)) << package << " missing from the Dockerfile's build stage";
+        EXPECT_TRUE(build.count(package)) << package << " missing from BUILD_PACKAGES of scripts/setup.sh";
+      }
     }
     // The table is right: the file CMake found belongs to that package (or to one it pulls in).
     const fs::path found = it->second.evidence();
     const std::string& package = it->second.packages[0];
-    const std::optional<std::string> owner = owners.at(found);
-    ASSERT_TRUE(owner) << found << " belongs to no Debian package";
-    EXPECT_TRUE(*owner == package || test::debianDependsOf(package).count(*owner))
-        << "CMake found " << name << " in " << found << ", installed by " << *owner << ", not by " << package;
+    const std::set<std::string>& listed = owners.at(found);
+    ASSERT_FALSE(listed.empty()) << found << " belongs to no Debian package";
+    const std::set<std::string> depends = test::debianDependsOf(package);
+    bool belongs = false;
+    for (const std::string& owner : listed) belongs |= owner == package || depends.count(owner) > 0;
+    EXPECT_TRUE(belongs) << "CMake found " << name << " in " << found << ", installed by " << *listed.begin() << ", not by "
+                         << package;
   }
-  for (const std::string& package : build) EXPECT_TRUE(setup.count(package)) << package << ": the image and setup.sh agree";
+  for (const std::string& package : image) EXPECT_TRUE(build.count(package)) << package << ": the image and setup.sh agree";
 
-  bool builds = false, installs = false;
+  bool builds = false, installs = false, withoutTests = false;
   for (const std::string& i : stages[0].instructions) {
     builds |= i.find("cmake --build") != std::string::npos;
     installs |= i.find("cmake --install") != std::string::npos;
+    withoutTests |= i.find("-DLENSFARM_BUILD_TESTS=OFF") != std::string::npos;
   }
   EXPECT_TRUE(builds && installs) << "the build stage builds and installs with CMake";
+  EXPECT_TRUE(withoutTests) << "the image has no test packages, so it configures without the tests";
 }
 
 TEST(Container, TheRuntimeStageInstallsExactlyThePackagesOfTheLibrariesTheBinariesNeed) {

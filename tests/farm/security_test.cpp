@@ -1,6 +1,7 @@
 // Authentication and TLS between real processes: per-service tokens, refusals that name the
 // problem and never the secret, TLS with a throwaway CA made by openssl at test time.
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 #include <signal.h>
 
 #include <fstream>
@@ -104,9 +105,43 @@ TEST_F(Security, NetworkListeningNeedsTokens) {
   EXPECT_EQ(coordinator_->wait(30), 2);
   EXPECT_NE(coordinator_->log().find("refusing to listen on 0.0.0.0:0 without"), std::string::npos)
       << coordinator_->log();
-  const fs::path same = dir_.write("same.token", "shared");
+  const fs::path same = dir_.write("same.token", "shared-token-of-both-services");
   EXPECT_TRUE(start({"--client-token-file", same, "--worker-token-file", same}).empty());
   EXPECT_EQ(coordinator_->wait(30), 2) << "clients and workers must not share a token";
+  EXPECT_NE(coordinator_->log().find("different tokens"), std::string::npos) << coordinator_->log();
+}
+
+// Tokens a stranger could guess are refused, whoever supplies them: the placeholders the deploy
+// files ship (read from the files themselves, so a new placeholder there is caught too), short
+// tokens and tokens of few characters; each with the file named and how to make a good one.
+TEST_F(Security, GuessableTokensAreRefused) {
+  const YAML::Node secret = YAML::LoadFile((test::sourceDir() / "deploy/kubernetes/secret.yaml").string());
+  std::vector<std::pair<std::string, std::string>> cases;  // client token, worker token
+  cases.emplace_back(secret["stringData"]["client.token"].as<std::string>(),
+                     secret["stringData"]["worker.token"].as<std::string>());
+  const std::string good = "Zm9vYmFyLWEtcmVhbC1yYW5kb20tdG9rZW4tMTIz";
+  for (const std::string bad : {"short-token", "aaaaaaaaaaaaaaaaaaaaaaaa", "ababababcdcdcdcdababab", "CHANGEME-please-0123456789",
+                                "your_token_here_0123456789", "<placeholder>-0123456789"})
+    cases.emplace_back(bad, good);
+  for (const auto& [client, worker] : cases) {
+    SCOPED_TRACE(client);
+    const fs::path clientFile = dir_.write("client.token", client + "\n"), workerFile = dir_.write("worker.token", worker + "\n");
+    EXPECT_TRUE(start({"--client-token-file", clientFile, "--worker-token-file", workerFile}).empty());
+    EXPECT_EQ(coordinator_->wait(30), 2);
+    EXPECT_NE(coordinator_->log().find(clientFile.string()), std::string::npos) << coordinator_->log();
+    EXPECT_NE(coordinator_->log().find("head -c 32 /dev/urandom | base64"), std::string::npos) << coordinator_->log();
+    EXPECT_EQ(coordinator_->log().find(client), std::string::npos) << "the token itself is never logged";
+  }
+  // The same tokens from the environment are refused naming the variable.
+  const fs::path workerFile = dir_.write("worker.token", good + "\n");
+  const auto r = test::runProcess({"/usr/bin/env", "LENSFARM_CLIENT_TOKEN=REPLACE-ME-client-token", test::coordinatorPath(),
+                                   "--listen", "127.0.0.1:0", "--worker-token-file", workerFile.string()},
+                                  30);
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.err.find("LENSFARM_CLIENT_TOKEN"), std::string::npos) << r.err;
+  // A good pair still starts.
+  const fs::path clientFile = dir_.write("client.token", "Y2xpZW50LXNpZGUtcmFuZG9tLXRva2VuLTQ1Ng==\n");
+  EXPECT_FALSE(start({"--client-token-file", clientFile, "--worker-token-file", workerFile}).empty()) << coordinator_->log();
 }
 
 TEST_F(Security, TlsAndMutualTls) {
