@@ -9,6 +9,7 @@
 #include <regex>
 
 #include "deploy_support.h"
+#include "test_support.h"
 #include "util/version.h"
 
 namespace lensfarm {
@@ -68,8 +69,23 @@ TEST_F(Install, PutsBinariesUnitsAndSettingsInTheirPlaces) {
   }
   for (const char* file : {"lib/systemd/system/lensfarm-coordinator.service", "lib/systemd/system/lensfarm-worker@.service",
                            "etc/lensfarm/coordinator.env", "etc/lensfarm/worker.env", "share/doc/lensfarm/deploy.md",
-                           "share/doc/lensfarm/farm.md", "share/doc/lensfarm/examples/coordinator.env"})
+                           "share/doc/lensfarm/farm.md", "share/doc/lensfarm/examples/coordinator.env",
+                           "share/doc/lensfarm/scene-format.md", "share/doc/lensfarm/cli.md", "share/doc/lensfarm/README.md",
+                           "share/lensfarm/scenes/README.md", "share/lensfarm/scenes/meshes/cornell-box.obj"})
     EXPECT_TRUE(fs::is_regular_file(prefix_ / file)) << file;
+  // Every shipped scene is installed, and renders from there with the installed binary.
+  size_t scenes = 0;
+  for (const auto& e : fs::directory_iterator(test::scenesDir()))
+    if (e.path().extension() == ".json") {
+      ++scenes;
+      const fs::path installed = prefix_ / "share/lensfarm/scenes" / e.path().filename();
+      ASSERT_TRUE(fs::is_regular_file(installed)) << installed;
+      const auto r = test::runProcess({(prefix_ / "bin/lensfarm").string(), "render", installed.string(), "--resolution", "8x8",
+                                       "--spp", "1", "-q", "-o", (prefix_ / "check.exr").string()},
+                                      120);
+      EXPECT_EQ(r.exitCode, 0) << installed << ": " << r.err;
+    }
+  EXPECT_GE(scenes, 2u);
 
   // An edited setting survives a second install.
   prefix_.write("etc/lensfarm/coordinator.env", "LENSFARM_LISTEN=10.0.0.1:7878\n");
