@@ -2,6 +2,9 @@
 
 #include <cmath>
 #include <numbers>
+#include <sstream>
+#include <string>
+#include <utility>
 
 #include "math/lanes.h"
 #include "math/sampling.h"
@@ -14,17 +17,53 @@ namespace {
 constexpr double kMaxImageDistanceOverFocalLength = 1e6;
 }  // namespace
 
+namespace {
+bool finite(const Vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+std::string show(double x) {
+  std::ostringstream s;
+  s << x;
+  return s.str();
+}
+
+std::string show(const DVec3& v) { return "[" + show(v.x) + ", " + show(v.y) + ", " + show(v.z) + "]"; }
+
+// A field of view wider than this (the largest angle_of_view) is a unit mix-up, not a camera.
+constexpr double kMaxFieldOfViewDegrees = 179.999;
+}  // namespace
+
 ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
     : params_(p), width_(width), height_(height) {
+  // The frame first: with look_at at position even the focus distance is undefined.
+  if (!finite(p.position)) throw InputError("position", "must be three finite numbers");
+  if (!finite(p.lookAt)) throw InputError("look_at", "must be three finite numbers");
+  if (!finite(p.up)) throw InputError("up", "must be three finite numbers");
+  const DVec3 axisD = DVec3(p.lookAt) - DVec3(p.position);
+  if (axisD == DVec3(0.0))
+    throw InputError("look_at", "equals camera.position " + show(DVec3(p.position)) + ": the view direction is undefined");
+  const Vec3 axis = p.lookAt - p.position;
+  if (!finite(axis) || !(glm::length(axis) > 0.0f))
+    throw InputError("look_at", "is too far from (or too close to) camera.position for single precision: look_at - position = " +
+                                    show(axisD));
+  if (DVec3(p.up) == DVec3(0.0)) throw InputError("up", "must not be [0, 0, 0]: it says which way is up in the image");
+  const DVec3 sideD = glm::cross(glm::normalize(axisD), glm::normalize(DVec3(p.up)));
+  if (!(glm::length(sideD) > 1e-6))
+    throw InputError("up", show(DVec3(p.up)) + " is parallel to the view direction look_at - position = " + show(axisD) +
+                               ": the image's up is undefined; give an up that is not along the view direction");
+
   if (!(p.focalLength > 0.0) || !std::isfinite(p.focalLength))
     throw InputError("focal_length", "must be a finite number > 0");
-  if (!(p.sensorWidth > 0.0) || !std::isfinite(p.sensorWidth))
-    throw InputError("sensor_width", "must be a finite number > 0");
+  if (!(p.sensorWidth > 0.0) || !(p.sensorWidth <= std::numeric_limits<float>::max()))
+    throw InputError("sensor_width", "must be a finite number > 0 (within single precision)");
   if (width <= 0 || height <= 0) throw InputError("resolution", "must be positive");
+  if (!(p.sensorHeight >= 0.0) || !(p.sensorHeight <= std::numeric_limits<float>::max()))
+    throw InputError("sensor_height", "must be a finite number >= 0 (0: sensor_width * H / W, square cells)");
   if (params_.sensorHeight == 0.0) params_.sensorHeight = p.sensorWidth * height / width;
-  if (!(params_.sensorHeight > 0.0) || !std::isfinite(params_.sensorHeight))
+  if (!(params_.sensorHeight > 0.0) || !(params_.sensorHeight <= std::numeric_limits<float>::max()))
     throw InputError("sensor_height", "must be a finite number > 0");
-  if (!std::isfinite(p.focusDistance) || p.focusDistance <= p.focalLength)
+  if (!(p.focusDistance > 0.0) || !std::isfinite(p.focusDistance))
+    throw InputError("focus_distance", "must be a finite number > 0 (a distance in front of the lens)");
+  if (p.focusDistance <= p.focalLength)
     throw InputError("focus_distance",
                      "S1 = " + std::to_string(p.focusDistance) + " must exceed the focal length f = " +
                          std::to_string(p.focalLength) + ": a lens cannot focus a subject at or inside f");
@@ -37,9 +76,18 @@ ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
   invImageDistance_ = 1.0 / imageDistance_;
   invFocalLength_ = 1.0 / p.focalLength;
   lensRadius_ = std::isinf(p.fNumber) ? 0.0 : p.focalLength / (2.0 * p.fNumber);
+  if (!(lensRadius_ <= std::numeric_limits<float>::max()))
+    throw InputError("f_number", "N = " + show(p.fNumber) + " makes the lens radius R = f / (2N) too large for single precision");
 
-  const Vec3 axis = p.lookAt - p.position;
-  if (!(glm::length(axis) > 0.0f)) throw InputError("look_at", "must differ from position");
+  // A field of view of 180 degrees or more has no image; it comes from mixed units.
+  const double maxHalfTan = std::tan(kMaxFieldOfViewDegrees / 2.0 * std::numbers::pi / 180.0);
+  for (const auto& [field, size] : {std::pair<const char*, double>{"sensor_width", params_.sensorWidth},
+                                    std::pair<const char*, double>{"sensor_height", params_.sensorHeight}})
+    if (!(size / (2.0 * imageDistance_) <= maxHalfTan))
+      throw InputError(field, show(size) + " at S2 = " + show(imageDistance_) +
+                                  " behind the lens gives a field of view of 180 degrees or more (at most " +
+                                  show(kMaxFieldOfViewDegrees) + "): the sensor size and focal_length must be in the same unit");
+
   forward_ = glm::normalize(axis);
   const Vec3 side = glm::cross(forward_, p.up);
   if (!(glm::length(side) > 1e-6f * glm::length(p.up)))

@@ -57,7 +57,10 @@ struct ThinLensParams {
 class ThinLensCamera {
  public:
   // Validates the parameters; throws InputError whose `where` is the offending field name
-  // (focal_length, focus_distance, sensor_width, sensor_height, f_number, look_at, up).
+  // (position, look_at, up, focal_length, sensor_width, sensor_height, focus_distance, f_number).
+  // The frame is checked first (look_at == position, a zero up or one parallel to the view
+  // direction), then each number: non-finite, zero or negative values, S1 <= f, a lens radius or
+  // sensor beyond single precision, and a field of view of 180 degrees or more (mixed units).
   ThinLensCamera(const ThinLensParams& params, int width, int height);
 
   // The ray for a point of sensor cell (i, j) at offset uSensor in [0,1)^2 within the cell,

@@ -2,9 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <iomanip>
 #include <limits>
 #include <map>
 #include <sstream>
+
+#include "scene/scene_loader.h"
 
 namespace lensfarm {
 
@@ -142,10 +146,25 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
     e.decisions.push_back({"depth of field", false, "aperture closed (N = infinity)"});
   } else {
     const double blur = maxBlurInCells(scene, camera);
-    why << "blur up to " << blur << " sensor cells over the scene's depth";
     e.depthOfField = blur >= kNegligibleBlurCells;
-    e.decisions.push_back({"depth of field", e.depthOfField,
-                           e.depthOfField ? why.str() : why.str() + ", below half a cell: traced as a pinhole"});
+    if (e.depthOfField) {
+      why << "blur up to " << blur << " sensor cells over the scene's depth";
+    } else {
+      // The scene asks for a lens, but at this resolution its blur stays below half a cell (a
+      // preview size, or an aperture nearly closed): the picture is the pinhole's, and it says so.
+      const int w = camera.width(), h = camera.height();
+      why << "the scene's f/" << camera.params().fNumber << " lens is traced as a pinhole at " << w << "x" << h
+          << " px: its blur is at most " << std::setprecision(2) << blur
+          << " sensor cells over the scene's depth, below half a cell";
+      // The blur in cells grows with the resolution (cells shrink): where it reaches half a cell.
+      const double scale = blur > 0.0 ? kNegligibleBlurCells / blur : std::numeric_limits<double>::infinity();
+      const double needW = std::ceil(w * scale), needH = std::ceil(h * scale);
+      if (needW <= kMaxResolution && needH <= kMaxResolution)
+        why << "; from " << int64_t(needW) << "x" << int64_t(needH) << " px on it is simulated";
+      else
+        why << " at every resolution up to " << kMaxResolution << "; open the aperture (a smaller f_number) for depth of field";
+    }
+    e.decisions.push_back({"depth of field", e.depthOfField, why.str(), !e.depthOfField});
   }
 
   // Specular materials.
@@ -216,6 +235,13 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
   if (!diffuse && !e.specular)
     e.decisions.push_back({"indirect light", false, "no surface reflects: only emitters are seen"});
   return e;
+}
+
+std::vector<std::string> EffectSet::warnings() const {
+  std::vector<std::string> out;
+  for (const auto& d : decisions)
+    if (d.changesScene) out.push_back(d.effect + " is not simulated: " + d.reason);
+  return out;
 }
 
 std::string EffectSet::summary() const {

@@ -4,7 +4,10 @@
 // of `lensfarm render`, `lensfarm status` and the EXR header.
 //
 //  - depth of field: off when the aperture is closed, or when its blur over the whole scene's
-//    depth range stays below half a sensor cell (the lens is then sampled as a pinhole);
+//    depth range stays below half a sensor cell (the lens is then sampled as a pinhole). The
+//    second changes what the scene asks for (at a preview resolution, typically): its decision
+//    is marked changesScene, says from which resolution on the lens is simulated, and is one of
+//    warnings();
 //  - specular materials: off when no mirror or rippled mirror occurs;
 //  - next-event estimation: off with the naive estimator, or when no light can light anything;
 //  - lights that face away from every surface and from the camera are dropped from sampling.
@@ -20,6 +23,10 @@ struct EffectDecision {
   std::string effect;
   bool simulated;
   std::string reason;
+  // The scene asks for this effect and the picture differs without it, but it is not simulated
+  // (depth of field whose blur is below half a cell at this resolution): a change of what the
+  // user asked for, printed as a warning at the start of a render (EffectSet::warnings).
+  bool changesScene = false;
 };
 
 struct EffectSet {
@@ -31,6 +38,10 @@ struct EffectSet {
 
   // "depth of field: on (blur up to 3.2 px); specular: off (no mirror) ..." for logs and headers.
   std::string summary() const;
+  // One line per decision that changes what the scene asks for, e.g. "depth of field is not
+  // simulated: the scene's f/16 lens is traced as a pinhole at 400x400 px: ...; from 466x466 px
+  // on it is simulated". Empty when the render simulates everything the scene calls for.
+  std::vector<std::string> warnings() const;
   // Everything on: what the general path simulates.
   static EffectSet all(const Scene& scene);
 };

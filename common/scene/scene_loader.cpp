@@ -15,6 +15,7 @@
 #include <set>
 #include <sstream>
 
+#include "scene/obj_check.h"
 #include "util/error.h"
 #include "util/hash.h"
 
@@ -24,6 +25,16 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 namespace {
+
+std::string shortNumber(double x) {
+  std::ostringstream s;
+  s << x;
+  return s.str();
+}
+
+std::string showVec3(const Vec3& v) {
+  return "[" + shortNumber(v.x) + ", " + shortNumber(v.y) + ", " + shortNumber(v.z) + "]";
+}
 
 // ---------------------------------------------------------------------------------------------
 // FieldReader: typed, range-checked access to one JSON object that remembers which keys were
@@ -297,6 +308,13 @@ class SceneParser {
     return it->second;
   }
 
+  // A number that must be > 0 (camera lengths).
+  static double positive(FieldReader& r, const std::string& key) {
+    const double x = r.number(key);
+    if (!(x > 0.0)) r.fail(r.field(key), "must be > 0, got " + shortNumber(x));
+    return x;
+  }
+
   void parseCamera(FieldReader& top) {
     FieldReader r(top.raw("camera"), "camera", fileName_);
     ThinLensParams& p = scene_.cameraParams;
@@ -306,14 +324,35 @@ class SceneParser {
     p.position = r.vec3("position");
     p.lookAt = r.vec3("look_at");
     p.up = r.vec3("up", Vec3(0.0f, 1.0f, 0.0f));
-    p.sensorWidth = r.number("sensor_width", 0.0, std::numeric_limits<double>::max());
-    if (r.has("sensor_height")) p.sensorHeight = r.number("sensor_height", 0.0, std::numeric_limits<double>::max());
+    // The frame before any length: with look_at at position the focus distance is 0 too, and
+    // that is not the problem to report.
+    if (p.lookAt == p.position)
+      r.fail("camera.look_at", "equals camera.position (" + showVec3(p.position) + "): the view direction is undefined");
+    if (p.up == Vec3(0.0f))
+      r.fail("camera.up", "must not be [0, 0, 0]: it says which way is up in the image");
+    const DVec3 view = glm::normalize(DVec3(p.lookAt) - DVec3(p.position));
+    if (!(glm::length(glm::cross(view, glm::normalize(DVec3(p.up)))) > 1e-6))
+      r.fail("camera.up", showVec3(p.up) + " is parallel to the view direction (look_at - position = " +
+                              showVec3(p.lookAt - p.position) + "): the image's up is undefined; give an up that is "
+                              "not along the view direction, e.g. " +
+                              (std::abs(view.y) < 0.9 ? "[0, 1, 0]" : "[0, 0, 1]"));
+
     const bool hasF = r.has("focal_length"), hasAngle = r.has("angle_of_view");
     if (hasF == hasAngle) r.fail("camera.focal_length", "give exactly one of focal_length and angle_of_view");
-    p.focalLength = hasF ? r.number("focal_length")
-                         : focalLengthFromAngleOfView(p.sensorWidth, r.number("angle_of_view", 1e-6, 179.999));
-    p.focusDistance = r.has("focus_distance") ? r.number("focus_distance")
-                                              : double(glm::length(p.lookAt - p.position));
+    const bool hasWidth = r.has("sensor_width");
+    if (!hasWidth && hasF)
+      r.fail("camera.sensor_width", "is required with focal_length (it may be left out with angle_of_view, where it is " +
+                                        shortNumber(kDefaultSensorWidth) + ", a 36 mm sensor in a scene in metres)");
+    p.sensorWidth = hasWidth ? positive(r, "sensor_width") : kDefaultSensorWidth;
+    if (r.has("sensor_height")) {
+      p.sensorHeight = r.number("sensor_height");
+      if (!(p.sensorHeight >= 0.0))
+        r.fail("camera.sensor_height", "must be >= 0 (0: sensor_width * H / W, square cells), got " + shortNumber(p.sensorHeight));
+    }
+    const double angle = hasAngle ? r.number("angle_of_view", 1e-6, 179.999) : 0.0;
+    p.focalLength = hasF ? positive(r, "focal_length") : focalLengthFromAngleOfView(p.sensorWidth, angle);
+    const double lookAtDistance = double(glm::length(p.lookAt - p.position));
+    p.focusDistance = r.has("focus_distance") ? positive(r, "focus_distance") : lookAtDistance;
     if (type == "pinhole") {
       p.fNumber = std::numeric_limits<double>::infinity();
     } else {
@@ -321,11 +360,37 @@ class SceneParser {
       if (n.is_string() && (n == "infinity" || n == "inf"))
         p.fNumber = std::numeric_limits<double>::infinity();
       else if (n.is_number())
-        p.fNumber = r.number("f_number");
+        p.fNumber = positive(r, "f_number");
       else
         r.fail("camera.f_number", "must be a number > 0 or \"infinity\"");
     }
     r.finish();
+    // A focal length as long as the whole distance to look_at is a unit mix-up (millimetres for
+    // the lens, metres for the scene), not a focus problem: name the length that was given.
+    if (!(lookAtDistance > p.focalLength) && !(p.focusDistance > p.focalLength)) {
+      const std::string distance = "the distance to look_at (" + shortNumber(lookAtDistance) +
+                                   "), on which the lens focuses (a pinhole's sensor is placed by it too)";
+      const std::string units = "camera lengths are in the scene's unit (that of positions), not millimetres";
+      // Sensor and lens in one unit (a sensor 1/20 to 20 times f): both were written in millimetres.
+      const bool sameUnit = p.sensorWidth / p.focalLength > 0.05 && p.sensorWidth / p.focalLength < 20.0;
+      if (hasF)
+        r.fail("camera.focal_length",
+               "f = " + shortNumber(p.focalLength) + " is not shorter than " + distance + ": " + units +
+                   "; if " + shortNumber(p.focalLength) + " means mm and the scene is in metres, write focal_length " +
+                   shortNumber(p.focalLength / 1000) +
+                   (sameUnit ? " and sensor_width " + shortNumber(p.sensorWidth / 1000) : std::string()) +
+                   " (or give angle_of_view)");
+      if (hasWidth)
+        r.fail("camera.sensor_width",
+               shortNumber(p.sensorWidth) + " with angle_of_view " + shortNumber(angle) + " gives f = LW / (2 tan(a/2)) = " +
+                   shortNumber(p.focalLength) + ", not shorter than " + distance + ": " + units + "; if " +
+                   shortNumber(p.sensorWidth) + " means mm and the scene is in metres, write sensor_width " +
+                   shortNumber(p.sensorWidth / 1000) + " (or leave it out: " + shortNumber(kDefaultSensorWidth) + ")");
+      r.fail("camera.angle_of_view",
+             shortNumber(angle) + " degrees on the default sensor_width " + shortNumber(kDefaultSensorWidth) +
+                 " gives f = " + shortNumber(p.focalLength) + ", not shorter than " + distance +
+                 ": give sensor_width in the scene's unit, or a wider angle");
+    }
     try {
       (void)ThinLensCamera(p, scene_.render.width, scene_.render.height);
     } catch (const InputError& e) {
@@ -432,12 +497,16 @@ class SceneParser {
     hash_.update(text);
     scene_.assets[rel] = sha256Hex(text);
 
+    // tinyobjloader skips what it does not understand: check first that this is an OBJ at all.
+    const ObjCheck check = checkObjText(text);
+    if (!check.ok()) r.fail(where, "\"" + path.string() + "\": " + check.problem);
+
     tinyobj::ObjReaderConfig config;
     config.triangulate = true;
     config.vertex_color = false;
     config.mtl_search_path = "";  // lensfarm materials come from the scene, never from .mtl files
     tinyobj::ObjReader reader;
-    if (!reader.ParseFromString(text, "", config))
+    if (!reader.ParseFromString(check.text, "", config))
       r.fail(where, "\"" + path.string() + "\" is not a valid OBJ file: " + reader.Error());
     const auto& attrib = reader.GetAttrib();
     const uint32_t defaultMaterial = r.has("material") ? materialRef(r, "material") : UINT32_MAX;

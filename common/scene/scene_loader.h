@@ -2,8 +2,9 @@
 // Reads a scene file (JSON, docs/scene-format.md) and the OBJ meshes it references.
 //
 // Validation is strict: an unknown field, a wrong type, a non-finite number, a value out of
-// range, a missing asset or an impossible camera throws InputError whose message names the
-// file and the field (e.g. "scenes/x.json: camera.focal_length: must be a finite number > 0").
+// range, a missing asset, a mesh that is not OBJ (scene/obj_check.h) or an impossible camera throws
+// InputError whose message names the file and the field (e.g. "scenes/x.json:
+// camera.focal_length: must be a finite number > 0").
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -20,6 +21,9 @@ inline constexpr const char* kSceneFormat = "lensfarm-scene/1";
 inline constexpr int kMaxResolution = 16384;
 inline constexpr uint64_t kMaxSamplesPerPixel = uint64_t(1) << 40;
 inline constexpr int kMaxBounces = 1024;
+// camera.sensor_width when angle_of_view is given without it: a 36 mm (full-frame) sensor in a
+// scene in metres. Only the thin lens's blur depends on it (through f and the aperture f / N).
+inline constexpr double kDefaultSensorWidth = 0.036;
 inline constexpr uint64_t kMaxTriangles = uint64_t(1) << 26;  // 67 M: far beyond any scene we render
 
 // Reads an asset (an OBJ file) that a scene names by its path relative to the scene file;

@@ -151,5 +151,73 @@ TEST(ThinLensCamera, RefusesImpossibleSetUps) {
   EXPECT_EQ(fieldOf(p), "up");
 }
 
+TEST(ThinLensCamera, EveryDegenerateFieldIsNamed) {
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  const float fnan = std::numeric_limits<float>::quiet_NaN(), finf = std::numeric_limits<float>::infinity();
+  const auto fieldOf = [](const ThinLensParams& p) -> std::string {
+    try {
+      ThinLensCamera c(p, 10, 10);
+    } catch (const InputError& e) {
+      return e.where();
+    }
+    return "";
+  };
+  ASSERT_EQ(fieldOf(seedParams()), "");
+  // Lengths: zero, negative and non-finite (0 is allowed for sensor_height: derived; inf for
+  // f_number: a pinhole).
+  struct Length {
+    const char* field;
+    double ThinLensParams::*member;
+  };
+  for (const Length& l : {Length{"focal_length", &ThinLensParams::focalLength}, Length{"sensor_width", &ThinLensParams::sensorWidth},
+                          Length{"sensor_height", &ThinLensParams::sensorHeight},
+                          Length{"focus_distance", &ThinLensParams::focusDistance}, Length{"f_number", &ThinLensParams::fNumber}})
+    for (const double v : {0.0, -0.0, -1.0, nan, inf, -inf, 1e300}) {
+      if ((std::string(l.field) == "sensor_height" && v == 0.0) || (std::string(l.field) == "f_number" && (v == inf || v == 1e300)))
+        continue;
+      // 1e300: beyond single precision for a sensor; a focus at infinity (fine); for f, the
+      // scene loader names the unit mix-up (the camera alone sees S1 <= f).
+      if (v == 1e300 && std::string(l.field) != "sensor_width" && std::string(l.field) != "sensor_height") continue;
+      ThinLensParams p = seedParams();
+      p.*l.member = v;
+      EXPECT_EQ(fieldOf(p), l.field) << l.field << " = " << v;
+    }
+  // Vectors: non-finite components; look_at at the position; a zero up.
+  struct Vector {
+    const char* field;
+    Vec3 ThinLensParams::*member;
+  };
+  for (const Vector& vec : {Vector{"position", &ThinLensParams::position}, Vector{"look_at", &ThinLensParams::lookAt},
+                            Vector{"up", &ThinLensParams::up}})
+    for (const float v : {fnan, finf, -finf}) {
+      ThinLensParams p = seedParams();
+      (p.*vec.member)[1] = v;
+      EXPECT_EQ(fieldOf(p), vec.field) << vec.field << "[1] = " << v;
+    }
+  ThinLensParams p = seedParams();
+  p.lookAt = p.position;
+  p.focusDistance = 0.0;  // what a defaulted S1 would be: still the frame's fault
+  EXPECT_EQ(fieldOf(p), "look_at");
+  try {
+    ThinLensCamera c(p, 10, 10);
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("equals camera.position"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("the view direction is undefined"), std::string::npos) << e.what();
+  }
+  p = seedParams();
+  p.up = Vec3(0.0f);
+  EXPECT_EQ(fieldOf(p), "up");
+  // A lens radius beyond single precision, and a field of view of 180 degrees (mixed units).
+  p = seedParams();
+  p.fNumber = 1e-300;
+  EXPECT_EQ(fieldOf(p), "f_number");
+  p = seedParams();
+  p.sensorWidth = 1e5;  // 100 km of sensor 0.1 behind the lens
+  EXPECT_EQ(fieldOf(p), "sensor_width");
+  p = seedParams();
+  p.sensorHeight = 1e5;
+  EXPECT_EQ(fieldOf(p), "sensor_height");
+}
+
 }  // namespace
 }  // namespace lensfarm

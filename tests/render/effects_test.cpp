@@ -6,9 +6,11 @@
 #include <cstring>
 #include <fstream>
 
+#include "coordinator.h"
 #include "render/unit_renderer.h"
 #include "scene/effects.h"
 #include "test_support.h"
+#include "util/hash.h"
 
 namespace lensfarm {
 namespace {
@@ -51,6 +53,67 @@ TEST(Effects, DepthOfFieldFollowsTheAperture) {
   scene["render"]["resolution"] = {8, 8};
   scene["camera"]["f_number"] = 16;
   EXPECT_FALSE(effectsOf(scene).depthOfField) << "at 8x8 pixels the same blur is below a cell";
+}
+
+// The seed's f/16 lens blurs at most ~1.1 cells at 800 x 800: at a preview size the blur falls
+// below half a cell and the lens is traced as a pinhole. That changes what the scene asks for,
+// so it is a warning (the start of a render logs EffectSet::warnings()), and the job's effects
+// (JobInfo.effects, printed by `lensfarm render` and `status`) say it, with the resolution from
+// which on depth of field is simulated.
+TEST(Effects, DepthOfFieldLeftOutAtAPreviewResolutionIsAWarning) {
+  json scene = sceneFile("cornell-seed.json");
+  const EffectSet full = effectsOf(scene);
+  ASSERT_TRUE(full.depthOfField);
+  EXPECT_FALSE(decision(full, "depth of field").changesScene);
+  EXPECT_TRUE(full.warnings().empty()) << full.warnings()[0];
+
+  scene["render"]["resolution"] = {200, 200};
+  const EffectSet preview = effectsOf(scene);
+  EXPECT_FALSE(preview.depthOfField);
+  const EffectDecision& d = decision(preview, "depth of field");
+  EXPECT_TRUE(d.changesScene);
+  for (const char* part : {"f/16", "traced as a pinhole at 200x200 px", "below half a cell", "px on it is simulated"})
+    EXPECT_NE(d.reason.find(part), std::string::npos) << "\"" << part << "\" not in: " << d.reason;
+  ASSERT_EQ(preview.warnings().size(), 1u);
+  EXPECT_EQ(preview.warnings()[0], "depth of field is not simulated: " + d.reason);
+
+  // The resolution it names is where depth of field comes back.
+  const size_t from = d.reason.find("from ") + 5;
+  const int w = std::stoi(d.reason.substr(from)), h = std::stoi(d.reason.substr(d.reason.find('x', from) + 1));
+  scene["render"]["resolution"] = {w, h};
+  EXPECT_TRUE(effectsOf(scene).depthOfField) << w << "x" << h;
+  scene["render"]["resolution"] = {w - 2, h - 2};
+  EXPECT_FALSE(effectsOf(scene).depthOfField) << w - 2 << "x" << h - 2;
+
+  // A pinhole, or a closed aperture, is what the scene asks for: no warning.
+  scene["camera"]["f_number"] = "infinity";
+  EXPECT_TRUE(effectsOf(scene).warnings().empty());
+  json classic = sceneFile("cornell-classic.json");
+  classic["render"]["resolution"] = {8, 8};
+  EXPECT_TRUE(effectsOf(classic).warnings().empty());
+  // An aperture so small that no resolution shows its blur says what to do instead.
+  scene["camera"]["f_number"] = 1e7;
+  const EffectDecision& tiny = decision(effectsOf(scene), "depth of field");
+  EXPECT_TRUE(tiny.changesScene);
+  EXPECT_NE(tiny.reason.find("at every resolution up to 16384"), std::string::npos) << tiny.reason;
+}
+
+TEST(Effects, TheJobsEffectsListDepthOfFieldLeftOut) {
+  json scene = sceneFile("cornell-seed.json");
+  scene["render"]["resolution"] = {200, 200};
+  const std::string mesh = scene["shapes"][0]["file"];
+  const std::string bytes = test::readFile(mesh);
+  Coordinator coordinator;
+  coordinator.putAsset(sha256Hex(bytes), bytes);
+  JobSpec spec;
+  spec.sceneName = "cornell-seed.json";
+  spec.sceneJson = scene.dump();
+  spec.assets[mesh] = sha256Hex(bytes);
+  const JobInfo job = coordinator.submit(spec, 0);
+  std::string all;
+  for (const auto& e : job.effects) all += e + "\n";
+  EXPECT_NE(all.find("depth of field: off (the scene's f/16 lens is traced as a pinhole at 200x200 px"), std::string::npos)
+      << all;
 }
 
 TEST(Effects, BlurEstimateMatchesTheThinLensFormula) {
