@@ -7,6 +7,7 @@
 #include "camera/depth_of_field.h"
 #include "commands.h"
 #include "exit_codes.h"
+#include "override_flags.h"
 #include "scene/scene_loader.h"
 
 namespace lensfarm::cli {
@@ -34,7 +35,7 @@ Runner addDofCommand(CLI::App& app) {
   cmd->add_option("scene", *scene, "Scene file (JSON)")->required();
   cmd->add_option("--f-numbers", *fNumbers, "f-numbers to tabulate")
       ->delimiter(',')
-      ->check(CLI::PositiveNumber);
+      ->check(positiveNumber(""));
   return [scene, fNumbers] {
     const Scene s = loadScene(*scene);
     const ThinLensParams p = s.camera().params();

@@ -8,5 +8,5 @@ inline constexpr int kUnavailable = 3;   // the coordinator cannot be reached
 inline constexpr int kNotFound = 4;      // no such job
 inline constexpr int kJobNotDone = 5;    // `watch`: the job ended cancelled or failed
 inline constexpr int kNotAllowed = 6;    // missing or wrong token
-inline constexpr int kInterrupted = 130; // Ctrl-C: the image so far was written, then we stopped
+inline constexpr int kInterrupted = 130; // Ctrl-C: the whole units so far were written (nothing, if none was done)
 }  // namespace lensfarm::cli

@@ -2,6 +2,7 @@
 // coordinator named by --coordinator or LENSFARM_COORDINATOR.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <optional>
@@ -67,7 +68,8 @@ int guardedCall(const std::function<int()>& body) {
     std::fprintf(stderr, "lensfarm: error: %s\n", e.what());
     switch (e.code()) {
       case grpc::StatusCode::INVALID_ARGUMENT:
-      case grpc::StatusCode::FAILED_PRECONDITION: return kBadInput;
+      case grpc::StatusCode::FAILED_PRECONDITION:
+      case grpc::StatusCode::RESOURCE_EXHAUSTED: return kBadInput;  // e.g. a job bigger than --max-job-memory
       case grpc::StatusCode::NOT_FOUND: return kNotFound;
       case grpc::StatusCode::UNAVAILABLE:
       case grpc::StatusCode::DEADLINE_EXCEEDED: return kUnavailable;
@@ -84,13 +86,18 @@ void printStatus(const v1::JobStatus& s) {
   std::printf("state:      %s\n", stateName(s.state()));
   std::printf("scene:      %s (%ux%u)\n", s.scene_name().c_str(), s.width(), s.height());
   std::printf("priority:   %d\n", s.priority());
-  std::printf("samples:    %llu / %llu per pixel (%llu / %llu units)\n", (unsigned long long)p.samples_per_pixel_done(),
-              (unsigned long long)p.samples_per_pixel_total(), (unsigned long long)p.units_done(),
-              (unsigned long long)p.units_total());
+  if (hasSampleCap(p))
+    std::printf("samples:    %llu / %llu per pixel (%llu / %llu units)\n", (unsigned long long)p.samples_per_pixel_done(),
+                (unsigned long long)p.samples_per_pixel_total(), (unsigned long long)p.units_done(),
+                (unsigned long long)p.units_total());
+  else  // running to a target error or a deadline: the internal cap is no total
+    std::printf("samples:    %llu per pixel (%llu units; no sample cap)\n", (unsigned long long)p.samples_per_pixel_done(),
+                (unsigned long long)p.units_done());
   std::printf("rays:       %llu (%.2f M rays/s)\n", (unsigned long long)p.rays(), p.rays_per_second() / 1e6);
   std::printf("elapsed:    %s\n", formatDuration(p.elapsed_seconds()).c_str());
-  std::printf("remaining:  %s\n", formatDuration(p.remaining_seconds()).c_str());
+  std::printf("remaining:  %s\n", timeLeftText(s).c_str());
   std::printf("workers:    %u busy\n", p.workers_busy());
+  if (!p.stalled_reason().empty()) std::printf("stalled:    %s\n", p.stalled_reason().c_str());
   std::printf("light hits: %.2f %%\n", 100.0 * p.light_hit_fraction());
   std::printf("dropped:    %llu samples\n", (unsigned long long)p.dropped_samples());
   std::printf("error:      %s\n", convergenceText(p).c_str());
@@ -141,8 +148,7 @@ Runner addStatusCommand(CLI::App& app) {
       const std::vector<v1::JobStatus> jobs = client.list();
       std::printf("%-10s %-10s %8s %-24s %18s %10s\n", "JOB", "STATE", "PRIORITY", "SCENE", "SPP", "ELAPSED");
       for (const auto& s : jobs) {
-        const std::string spp = std::to_string(s.progress().samples_per_pixel_done()) + "/" +
-                                std::to_string(s.progress().samples_per_pixel_total());
+        const std::string spp = samplesText(s.progress());
         std::printf("%-10s %-10s %8d %-24s %18s %10s\n", s.job_id().c_str(), stateName(s.state()), s.priority(),
                     s.scene_name().c_str(), spp.c_str(), formatDuration(s.progress().elapsed_seconds()).c_str());
       }
@@ -165,7 +171,25 @@ Runner addWatchCommand(CLI::App& app) {
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());
       ProgressDisplay display(true, ::isatty(STDERR_FILENO), f->target);
-      const v1::JobStatus last = client.watch(f->job, [&](const v1::JobStatus& s) { display.update(s); });
+      // A stall (no worker renders the job) is said once on a line of its own, with its reason,
+      // and again when the reason changes (its seconds aside) or the job moves on.
+      std::string stall;
+      const auto withoutDigits = [](std::string text) {
+        text.erase(std::remove_if(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; }), text.end());
+        return text;
+      };
+      const v1::JobStatus last = client.watch(f->job, [&](const v1::JobStatus& s) {
+        const std::string& reason = s.progress().stalled_reason();
+        if (withoutDigits(reason) != withoutDigits(stall)) {
+          display.finish();
+          if (!reason.empty())
+            std::fprintf(stderr, "%s: stalled: %s\n", s.job_id().c_str(), reason.c_str());
+          else
+            std::fprintf(stderr, "%s: rendering again\n", s.job_id().c_str());
+          stall = reason;
+        }
+        display.update(s);
+      });
       display.finish();
       std::printf("%s %s: %llu spp, %s%s\n", last.job_id().c_str(), stateName(last.state()),
                   (unsigned long long)last.progress().samples_per_pixel_done(),
@@ -254,11 +278,21 @@ Runner addWorkersCommand(CLI::App& app) {
     return guardedCall([&] {
       FarmClient client(c->coordinator, c->resolved());
       const std::vector<v1::WorkerStatus> workers = client.workers();
-      std::printf("%-18s %-28s %7s %-10s %8s %10s\n", "WORKER", "NAME", "THREADS", "JOB", "UNITS", "SEEN");
-      for (const auto& w : workers)
-        std::printf("%-18s %-28s %7u %-10s %8llu %9.1fs\n", w.worker_id().c_str(), w.name().c_str(), w.threads(),
+      // STATE comes last, so scripts that read the columns before it keep working.
+      std::printf("%-18s %-28s %7s %-10s %8s %10s  %s\n", "WORKER", "NAME", "THREADS", "JOB", "UNITS", "SEEN", "STATE");
+      for (const auto& w : workers) {
+        // lost, left and stale say since when and why.
+        char since[32];
+        std::snprintf(since, sizeof since, "%.1f s", w.seconds_in_state());
+        std::string state = w.state().empty() ? "-" : w.state();
+        if (w.state() == "lost" || w.state() == "left")
+          state += std::string(" ") + since + " ago" + (w.state_reason().empty() ? "" : ": " + w.state_reason());
+        else if (w.state() == "stale")
+          state += std::string(", no heartbeat for ") + since;
+        std::printf("%-18s %-28s %7u %-10s %8llu %9.1fs  %s\n", w.worker_id().c_str(), w.name().c_str(), w.threads(),
                     w.current_job_id().empty() ? "-" : w.current_job_id().c_str(), (unsigned long long)w.units_done(),
-                    w.seconds_since_heartbeat());
+                    w.seconds_since_heartbeat(), state.c_str());
+      }
       return kOk;
     });
   };

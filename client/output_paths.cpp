@@ -21,4 +21,9 @@ fs::path checkedOutput(const std::string& o, const std::vector<std::string>& ext
   return path;
 }
 
+std::vector<std::string> defaultOutputs(const std::string& scene) {
+  const std::string stem = fs::path(scene).stem().string();
+  return {stem + ".exr", stem + ".png"};
+}
+
 }  // namespace lensfarm::cli

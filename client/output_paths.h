@@ -10,4 +10,8 @@ namespace lensfarm::cli {
 // `extensions` like {".exr", ".png"}; returns the path.
 std::filesystem::path checkedOutput(const std::string& path, const std::vector<std::string>& extensions);
 
+// What `render` writes without -o: SCENE.exr and SCENE.png in the current directory, named after
+// the scene file's stem ("scenes/cornell-seed.json" gives "cornell-seed.exr", "cornell-seed.png").
+std::vector<std::string> defaultOutputs(const std::string& scene);
+
 }  // namespace lensfarm::cli

@@ -1,16 +1,114 @@
 #include "override_flags.h"
 
+#include <fmt/format.h>
+
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <memory>
+
 #include "scene/scene_loader.h"
 #include "util/error.h"
 
 namespace lensfarm::cli {
 
+namespace {
+
+// The whole of `text` as a finite number, or nothing.
+std::optional<double> finiteNumber(const std::string& text) {
+  if (text.empty() || std::isspace(static_cast<unsigned char>(text.front()))) return std::nullopt;
+  char* end = nullptr;
+  const double value = std::strtod(text.c_str(), &end);
+  if (end != text.c_str() + text.size() || !std::isfinite(value)) return std::nullopt;
+  return value;
+}
+
+std::string withUnit(const std::string& number, const std::string& unit) {
+  return unit.empty() ? number : number + " " + unit;
+}
+
+}  // namespace
+
+CLI::Validator positiveNumber(const std::string& unit) {
+  return CLI::Validator(
+      [unit](std::string& text) -> std::string {
+        const auto v = finiteNumber(text);
+        if (!v) return fmt::format("expected a number{}, got \"{}\"", unit.empty() ? "" : " of " + unit, text);
+        if (*v <= 0.0) return fmt::format("must be more than {}, got {}", withUnit("0", unit), text);
+        return "";
+      },
+      "> 0");
+}
+
+CLI::Validator nonNegativeNumber(const std::string& unit) {
+  return CLI::Validator(
+      [unit](std::string& text) -> std::string {
+        const auto v = finiteNumber(text);
+        if (!v) return fmt::format("expected a number{}, got \"{}\"", unit.empty() ? "" : " of " + unit, text);
+        if (*v < 0.0) return fmt::format("must be {} or more, got {}", withUnit("0", unit), text);
+        return "";
+      },
+      ">= 0");
+}
+
+CLI::Validator numberIn(double lo, double hi, const std::string& unit) {
+  const std::string range = fmt::format("from {} to {}", lo, withUnit(fmt::format("{}", hi), unit));
+  return CLI::Validator(
+      [range, lo, hi](std::string& text) -> std::string {
+        const auto v = finiteNumber(text);
+        if (!v) return fmt::format("expected a number {}, got \"{}\"", range, text);
+        if (*v < lo || *v > hi) return fmt::format("must be {}, got {}", range, text);
+        return "";
+      },
+      fmt::format("in [{}, {}]", lo, hi));
+}
+
+CLI::Validator wholeNumberIn(uint64_t lo, uint64_t hi) {
+  const std::string range = fmt::format("a whole number from {} to {}", lo, hi);
+  return CLI::Validator(
+      [range, lo, hi](std::string& text) -> std::string {
+        uint64_t v = 0;
+        const char* end = text.data() + text.size();
+        const auto [ptr, ec] = std::from_chars(text.data(), end, v);
+        // Digits only (from_chars takes no sign, space or fraction); too many is out of range.
+        if (!text.empty() && ptr == end && ec == std::errc() && v >= lo && v <= hi) return "";
+        if (finiteNumber(text)) return fmt::format("must be {}, got {}", range, text);
+        return fmt::format("expected {}, got \"{}\"", range, text);
+      },
+      fmt::format("in [{}, {}]", lo, hi));
+}
+
+CLI::Validator durationIn(double lo, double hi) {
+  // Units are CLI11's own transform; the check around it says what a duration looks like.
+  const auto toSeconds = std::make_shared<CLI::AsNumberWithUnit>(
+      std::map<std::string, double>{{"ms", 1e-3}, {"s", 1.0}, {"m", 60.0}, {"h", 3600.0}});
+  return CLI::Validator(
+      [toSeconds, lo, hi](std::string& text) -> std::string {
+        std::string seconds = text;
+        std::string error;
+        try {
+          error = (*toSeconds)(seconds);
+        } catch (const CLI::Error& e) {
+          error = e.what();
+        }
+        const auto v = error.empty() ? finiteNumber(seconds) : std::nullopt;
+        if (!v) return fmt::format("expected a duration such as 45, 90s, 10m or 2h, got \"{}\"", text);
+        if (*v <= 0.0) return fmt::format("must be more than 0 seconds, got {}", text);
+        if (*v < lo || *v > hi) return fmt::format("must be from {} to {} seconds, got {}", lo, hi, text);
+        text = seconds;
+        return "";
+      },
+      "DURATION");
+}
+
 void OverrideFlags::addTo(CLI::App* cmd) {
   cmd->add_option("--spp", spp, "Samples per pixel (overrides the scene)")
-      ->check(CLI::Range(uint64_t(1), kMaxSamplesPerPixel));
+      ->check(wholeNumberIn(1, kMaxSamplesPerPixel));
   cmd->add_option("--resolution", resolution, "Image size WIDTHxHEIGHT (overrides the scene)");
-  cmd->add_option("--max-bounces", maxBounces, "Bounce limit B (overrides the scene)")->check(CLI::Range(0, kMaxBounces));
-  cmd->add_option("--seed", seed, "Random seed (overrides the scene)");
+  cmd->add_option("--max-bounces", maxBounces, "Bounce limit B (overrides the scene)")
+      ->check(wholeNumberIn(0, kMaxBounces));
+  cmd->add_option("--seed", seed, "Random seed (overrides the scene)")->check(wholeNumberIn(0, UINT64_MAX));
   cmd->add_option("--integrator", integrator, "nee_mis, nee or naive (overrides the scene)")
       ->check(CLI::IsMember({"nee_mis", "nee", "naive"}));
   cmd->add_option("--sampler", sampler, "sobol, stratified or independent (overrides the scene)")
@@ -18,14 +116,12 @@ void OverrideFlags::addTo(CLI::App* cmd) {
   cmd->add_option("--russian-roulette", roulette, "on or off (overrides the scene)")->check(CLI::IsMember({"on", "off"}));
   cmd->add_option("--target-error", targetError,
                   "Stop when the estimated relative RMSE of the image falls to this (e.g. 0.01); --spp becomes a cap")
-      ->check(CLI::Range(1e-6, 0.999));
-  // Durations with units ("45", "90s", "10m", "2h", "250ms") are CLI11's own transform.
+      ->check(numberIn(1e-6, 0.999));
   cmd->add_option("--deadline", deadline,
-                  "Stop this long after submission (e.g. 90s, 10m, 2h), with a whole number of passes")
-      ->transform(CLI::AsNumberWithUnit(std::map<std::string, double>{{"ms", 1e-3}, {"s", 1.0}, {"m", 60.0}, {"h", 3600.0}}))
-      ->check(CLI::Range(1e-3, 1e9));
+                  "Stop this long after submission (e.g. 90s, 10m, 2h), with a whole number of units")
+      ->transform(durationIn(1e-3, 1e9));
   cmd->add_option("--ev", ev, "Exposure compensation in stops for PNG images (overrides the scene)")
-      ->check(CLI::Range(-64.0, 64.0));
+      ->check(numberIn(-64.0, 64.0, "stops"));
 }
 
 RenderOverrides OverrideFlags::toOverrides() const {

@@ -1,7 +1,9 @@
 #pragma once
 // The scene overrides that `render` and `submit` share: --spp, --resolution, --max-bounces,
-// --seed, --integrator, --sampler, --russian-roulette, --target-error, --deadline, --ev.
+// --seed, --integrator, --sampler, --russian-roulette, --target-error, --deadline, --ev; and the
+// number checks every `lensfarm` flag uses.
 #include <CLI/CLI.hpp>
+#include <cstdint>
 #include <optional>
 #include <string>
 
@@ -25,5 +27,15 @@ struct OverrideFlags {
   // Throws InputError naming the flag (e.g. a malformed --resolution).
   RenderOverrides toOverrides() const;
 };
+
+// Checks of flag values whose failures read as one sentence with the limit and the value given,
+// which CLI11 prefixes with the flag: "--time: must be more than 0 seconds, got 0". `unit` names
+// what the number counts ("seconds"), or is empty.
+CLI::Validator positiveNumber(const std::string& unit);     // a finite number > 0
+CLI::Validator nonNegativeNumber(const std::string& unit);  // a finite number >= 0
+CLI::Validator numberIn(double lo, double hi, const std::string& unit = "");
+CLI::Validator wholeNumberIn(uint64_t lo, uint64_t hi);     // digits only: no sign, no fraction
+// A transform: "45", "90s", "1.5m", "2h" or "250ms" becomes seconds in [lo, hi].
+CLI::Validator durationIn(double lo, double hi);
 
 }  // namespace lensfarm::cli

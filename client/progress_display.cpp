@@ -12,7 +12,26 @@
 namespace lensfarm::cli {
 
 namespace {
+
 double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+
+double nowUnix() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+bool isFinished(v1::JobState state) {
+  return state == v1::JOB_STATE_DONE || state == v1::JOB_STATE_CANCELLED || state == v1::JOB_STATE_FAILED;
+}
+
+// "deadline 0:12 of 1:00": the time since submission (while running; the elapsed time once
+// finished), within the job's deadline.
+std::string deadlineText(const v1::JobStatus& s, double nowUnixSeconds) {
+  const auto& p = s.progress();
+  const double limit = p.time_limit_seconds();
+  const double used = isFinished(s.state()) ? p.elapsed_seconds() : nowUnixSeconds - s.submitted_unix_seconds();
+  return fmt::format("deadline {} of {}", formatDuration(std::clamp(used, 0.0, limit)), formatDuration(limit));
+}
+
 }  // namespace
 
 std::string formatDuration(double seconds) {
@@ -36,14 +55,31 @@ const char* stateName(v1::JobState state) {
   }
 }
 
-ProgressDisplay::ProgressDisplay(bool enabled, bool toTerminal, double watchTarget)
-    : enabled_(enabled), terminal_(toTerminal), watchTarget_(watchTarget) {}
+bool hasSampleCap(const v1::JobProgress& p) { return p.samples_per_pixel_total() < kMaxSamplesPerPixel; }
+
+std::string samplesText(const v1::JobProgress& p) {
+  if (!hasSampleCap(p)) return std::to_string(p.samples_per_pixel_done());
+  return std::to_string(p.samples_per_pixel_done()) + "/" + std::to_string(p.samples_per_pixel_total());
+}
+
+std::string timeLeftText(const v1::JobStatus& s) {
+  const auto& p = s.progress();
+  // No worker renders it (the reason is in stalled_reason): a time left would only grow.
+  if (!isFinished(s.state()) && !p.stalled_reason().empty()) return "stalled";
+  // The coordinator's remaining time is the nearest of: units left at the rate so far (without a
+  // cap of the job's own, the internal one: meaningless), the projected time to the target error
+  // and the time to the deadline.
+  const bool known = isFinished(s.state()) || p.time_limit_seconds() > 0.0 ||
+                     (p.target_error() > 0.0 && p.estimated_relative_error() >= 0.0) ||
+                     (hasSampleCap(p) && p.units_done() > 0);
+  return known ? formatDuration(p.remaining_seconds()) : "estimating";
+}
 
 std::string convergenceText(const v1::JobProgress& p, double watchTarget) {
   const double estimate = p.estimated_relative_error();
-  if (estimate < 0.0) return "err -";
-  std::string text = fmt::format("err {:.2f} %", 100.0 * estimate);
   const double target = p.target_error() > 0.0 ? p.target_error() : watchTarget;
+  if (estimate < 0.0) return target > 0.0 ? fmt::format("err - (target {:.2f} %)", 100.0 * target) : "err -";
+  std::string text = fmt::format("err {:.2f} %", 100.0 * estimate);
   if (target > 0.0) {
     const double eta = p.target_error() > 0.0 ? p.seconds_to_target()
                                               : secondsToTarget(estimate, target, p.elapsed_seconds());
@@ -57,34 +93,49 @@ std::string convergenceText(const v1::JobProgress& p, double watchTarget) {
   return text;
 }
 
+std::string progressLine(const v1::JobStatus& s, double watchTarget, double nowUnixSeconds) {
+  const auto& p = s.progress();
+  std::string line = fmt::format("{} {} spp  {}", stateName(s.state()), samplesText(p), convergenceText(p, watchTarget));
+  if (p.time_limit_seconds() > 0.0) line += "  " + deadlineText(s, nowUnixSeconds);
+  // Until a unit is in, there is no rate and no time left to show, only that they are coming.
+  const bool noData = !isFinished(s.state()) && p.units_done() == 0;
+  if (noData) line += "  estimating";
+  else line += fmt::format("  {:.2f} Mrays/s", p.rays_per_second() / 1e6);
+  line += fmt::format("  {} busy  {} elapsed", p.workers_busy(), formatDuration(p.elapsed_seconds()));
+  if (!noData) {
+    const std::string left = timeLeftText(s);
+    line += "  " + (left == "estimating" || left == "stalled" ? left : left + " left");
+  }
+  return line;
+}
+
+ProgressDisplay::ProgressDisplay(bool enabled, bool toTerminal, double watchTarget, double plainEverySeconds)
+    : enabled_(enabled), terminal_(toTerminal), watchTarget_(watchTarget), plainEvery_(plainEverySeconds) {}
+
 void ProgressDisplay::update(const v1::JobStatus& status) {
   if (!enabled_) return;
   const double t = now();
   const auto& p = status.progress();
-  const bool terminal = status.state() == v1::JOB_STATE_DONE || status.state() == v1::JOB_STATE_CANCELLED ||
-                        status.state() == v1::JOB_STATE_FAILED;
-  if (t - lastDraw_ < (terminal_ ? 0.1 : 2.0) && !terminal) return;
+  if (t - lastDraw_ < (terminal_ ? 0.1 : plainEvery_) && !isFinished(status.state())) return;
   lastDraw_ = t;
   // The bar shows whichever stopping rule is nearest: samples, the target error (error^2 falls
   // as 1/time, so the fraction of the time needed is (target / error)^2) or the deadline.
-  const bool capped = p.samples_per_pixel_total() < kMaxSamplesPerPixel;
-  double fraction = capped && p.units_total() ? double(p.units_done()) / double(p.units_total()) : 0.0;
+  double fraction = hasSampleCap(p) && p.units_total() ? double(p.units_done()) / double(p.units_total()) : 0.0;
   const double estimate = p.estimated_relative_error();
   if (p.target_error() > 0.0 && estimate > 0.0)
     fraction = std::max(fraction, std::min(1.0, (p.target_error() / estimate) * (p.target_error() / estimate)));
   if (p.time_limit_seconds() > 0.0 && p.elapsed_seconds() + p.remaining_seconds() > 0.0)
     fraction = std::max(fraction, p.elapsed_seconds() / (p.elapsed_seconds() + p.remaining_seconds()));
   if (status.state() == v1::JOB_STATE_DONE) fraction = 1.0;
-  const std::string total = capped ? "/" + std::to_string(p.samples_per_pixel_total()) : "";
-  const std::string line =
-      fmt::format("{} {}{} spp  {}  {:.2f} Mrays/s  {} busy  {} elapsed  {} left", stateName(status.state()),
-                  p.samples_per_pixel_done(), total, convergenceText(p, watchTarget_), p.rays_per_second() / 1e6,
-                  p.workers_busy(), formatDuration(p.elapsed_seconds()), formatDuration(p.remaining_seconds()));
+  const std::string line = progressLine(status, watchTarget_, nowUnix());
   if (terminal_) {
     const int width = 30;
-    std::string bar(size_t(fraction * width), '=');
+    std::string bar(size_t(std::clamp(fraction, 0.0, 1.0) * width), '=');
     bar.resize(width, ' ');
-    std::fprintf(stderr, "\r[%s] %s   ", bar.c_str(), line.c_str());
+    const std::string text = "[" + bar + "] " + line;
+    const std::string blank(lastWidth_ > text.size() ? lastWidth_ - text.size() : 0, ' ');
+    std::fprintf(stderr, "\r%s%s", text.c_str(), blank.c_str());
+    lastWidth_ = text.size();
     drawn_ = true;
   } else {
     std::fprintf(stderr, "%s: %s\n", status.job_id().c_str(), line.c_str());
@@ -95,6 +146,7 @@ void ProgressDisplay::update(const v1::JobStatus& status) {
 void ProgressDisplay::finish() {
   if (drawn_) std::fprintf(stderr, "\n");
   drawn_ = false;
+  lastWidth_ = 0;
 }
 
 }  // namespace lensfarm::cli

@@ -1,6 +1,7 @@
-// `lensfarm render SCENE -o out.exr [-o out.png] [--spp N | --time S] ...`: renders on this
+// `lensfarm render SCENE [-o out.exr] [-o out.png] [--spp N | --time S] ...`: renders on this
 // machine's cores through an embedded coordinator and worker (the farm's own classes), writing
-// snapshots while it traces and the final image at the end or on Ctrl-C.
+// snapshots while it traces and the final image at the end or on Ctrl-C. An output is only ever
+// written with at least one whole unit in it: never an image of no samples.
 #include <spdlog/spdlog.h>
 #include <tbb/task_arena.h>
 #include <unistd.h>
@@ -9,6 +10,7 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <optional>
 #include <thread>
 
@@ -19,11 +21,13 @@
 #include "in_process_link.h"
 #include "job_spec.h"
 #include "output_paths.h"
+#include "render/memory_estimate.h"
 #include "render/ray_caster.h"
 #include "override_flags.h"
 #include "progress_display.h"
 #include "service.h"
 #include "worker_loop.h"
+#include "scene/effects.h"
 #include "scene/render_overrides.h"
 #include "scene/scene_loader.h"
 #include "util/error.h"
@@ -49,6 +53,7 @@ struct RenderFlags {
   std::optional<double> timeLimit;
   std::optional<unsigned> threads;
   double snapshotEvery = 0.0;
+  double progressEvery = 5.0;  // seconds between plain progress lines (stderr not a terminal)
   bool quiet = false;
 };
 
@@ -72,11 +77,19 @@ int runRender(const RenderFlags& flags) {
 
   // Refuse bad outputs before tracing a single ray.
   std::vector<fs::path> outputs;
-  for (const auto& o : flags.outputs) outputs.push_back(checkedOutput(o, {".exr", ".png"}));
+  for (const auto& o : flags.outputs.empty() ? defaultOutputs(flags.scene) : flags.outputs)
+    outputs.push_back(checkedOutput(o, {".exr", ".png"}));
+
+  // Refuse what this machine cannot hold before allocating anything frame-sized.
+  size_t meshTriangles = 0;
+  for (const auto& m : scene.meshes) meshTriangles += m.triangleCount();
+  refuseLocalRenderOverBudget(settings, meshTriangles,
+                              toOverrides(flags).width ? "--resolution" : flags.scene + ": render.resolution");
 
   // The farm in one process: an embedded coordinator and one worker with all threads, wired by
   // direct calls (design.md): the same scheduling, upload and accumulation as over gRPC.
   Coordinator::Options options;
+  options.maxJobMemoryBytes = std::numeric_limits<uint64_t>::max();  // the whole process was checked above
   options.leaseTimeoutSeconds = 3600.0;  // the worker cannot vanish: it is this process
   options.heartbeatIntervalSeconds = 0.25;
   Coordinator coordinator(options);
@@ -84,6 +97,9 @@ int runRender(const RenderFlags& flags) {
   spdlog::set_level(spdlog::level::warn);
   const JobInfo submitted = coordinator.submit(local.spec, 0);
   spdlog::set_level(spdlog::level::info);
+  // From here Ctrl-C stops the render cleanly (the log line below says it has begun).
+  gInterrupted = false;
+  std::signal(SIGINT, onSigint);
   const unsigned threads = flags.threads.value_or(std::max(1u, std::thread::hardware_concurrency()));
   size_t triangles = 0;
   for (const auto& m : scene.meshes) triangles += m.triangleCount();
@@ -97,6 +113,9 @@ int runRender(const RenderFlags& flags) {
                integratorName(settings.integrator), samplerName(settings.sampler), threads);
   if (scene.skippedDegenerateTriangles)
     spdlog::warn("{}: skipped {} zero-area triangles", flags.scene, scene.skippedDegenerateTriangles);
+  // What the render leaves out of what the scene asks for is said before the first ray, not only
+  // in the summary at the end (scene/effects.h).
+  for (const std::string& w : analyzeEffects(scene, scene.camera()).warnings()) spdlog::warn("{}: {}", flags.scene, w);
 
   // The embedded coordinator and worker log only what goes wrong; the summary below says the rest.
   spdlog::set_level(spdlog::level::warn);
@@ -115,9 +134,7 @@ int runRender(const RenderFlags& flags) {
     }
   });
 
-  gInterrupted = false;
-  std::signal(SIGINT, onSigint);
-  ProgressDisplay display(!flags.quiet && ::isatty(STDERR_FILENO), true);
+  ProgressDisplay display(!flags.quiet, ::isatty(STDERR_FILENO), 0.0, flags.progressEvery);
   JobInfo info = submitted;
   double lastSnapshot = 0.0;
   bool interrupted = false;
@@ -141,12 +158,20 @@ int runRender(const RenderFlags& flags) {
   std::signal(SIGINT, SIG_DFL);
   worker.stop();
   workerThread.join();
+  // The worker has stopped: no upload is in flight, so the status and the image agree.
+  info = coordinator.job(info.id);
+  if (interrupted) display.update(toProto(info));  // the last progress line: cancelled
   display.finish();
   if (workerError) std::rethrow_exception(workerError);
   if (info.state == JobState::kFailed) throw std::runtime_error(info.error);
 
-  // The worker has stopped: no upload is in flight, so the status and the image agree.
-  info = coordinator.job(info.id);
+  // Ctrl-C before the first unit: there is no image, so every output is left as it was.
+  if (interrupted && info.unitsDone == 0) {
+    std::fprintf(stderr,
+                 "lensfarm: interrupted before the first unit was done: nothing was rendered (no samples); "
+                 "no file was written\n");
+    return kInterrupted;
+  }
   const JobImage image = coordinator.image(info.id);
   writeOutputs(outputs, image);
   const double seconds = std::max(info.elapsedSeconds, 1e-9);
@@ -170,21 +195,26 @@ int runRender(const RenderFlags& flags) {
 }  // namespace
 
 Runner addRenderCommand(CLI::App& app) {
-  auto* cmd = app.add_subcommand("render", "Render a scene locally on this machine's cores");
+  auto* cmd = app.add_subcommand("render", "Render a scene on this machine's cores");
   cmd->footer(kEmbreeConfigHelp);
   auto f = std::make_shared<RenderFlags>();
   cmd->add_option("scene", f->scene, "Scene file (JSON)")->required();
-  cmd->add_option("-o,--output", f->outputs, "Output image (.exr: linear radiance; .png: exposed preview); repeatable")
-      ->required();
+  cmd->add_option("-o,--output", f->outputs,
+                  "Output image (.exr: linear radiance; .png: exposed preview); repeatable "
+                  "(default: SCENE.exr and SCENE.png here, named after the scene file)");
   f->overrides.addTo(cmd);
   cmd->add_option("--time", f->timeLimit,
                   "Render for this many seconds, in whole units (with --spp: whichever comes first); "
                   "the same as --deadline in seconds")
-      ->check(CLI::PositiveNumber);
-  cmd->add_option("--threads", f->threads, "Threads (default: all cores)")->check(CLI::Range(1u, 4096u));
-  cmd->add_option("--snapshot-every", f->snapshotEvery, "Write the outputs every S seconds while rendering")
-      ->check(CLI::NonNegativeNumber);
-  cmd->add_flag("-q,--quiet", f->quiet, "No progress bar");
+      ->check(positiveNumber("seconds"));
+  cmd->add_option("--threads", f->threads, "Threads (default: all cores)")->check(wholeNumberIn(1, 4096));
+  cmd->add_option("--snapshot-every", f->snapshotEvery,
+                  "Write the outputs every S seconds while rendering, once a unit is done (0: never)")
+      ->check(nonNegativeNumber("seconds"));
+  cmd->add_option("--progress-every", f->progressEvery,
+                  "Seconds between progress lines when stderr is not a terminal (logs, CI, batch jobs); default 5")
+      ->check(positiveNumber("seconds"));
+  cmd->add_flag("-q,--quiet", f->quiet, "No progress bar or progress lines");
   return [f] { return runRender(*f); };
 }
 

@@ -6,7 +6,7 @@
 
 namespace lensfarm {
 
-grpc::Status TokenGate::check(const grpc::ServerContext* context, const char* rpc) const {
+grpc::Status TokenGate::check(const grpc::ServerContextBase* context, const char* rpc) const {
   if (!token_) return grpc::Status::OK;
   const auto& metadata = context->client_metadata();
   const auto it = metadata.find("authorization");

@@ -14,7 +14,7 @@ class TokenGate {
  public:
   // No token: every call passes (only allowed on loopback, see main.cpp).
   TokenGate(std::optional<std::string> token, std::string role) : token_(std::move(token)), role_(std::move(role)) {}
-  grpc::Status check(const grpc::ServerContext* context, const char* rpc) const;
+  grpc::Status check(const grpc::ServerContextBase* context, const char* rpc) const;
   bool enabled() const { return token_.has_value(); }
 
  private:

@@ -6,6 +6,7 @@
 #include <random>
 #include <cmath>
 
+#include "render/memory_estimate.h"
 #include "scene/effects.h"
 #include "scene/scene_loader.h"
 #include "util/error.h"
@@ -23,6 +24,17 @@ std::vector<std::string> describeEffects(const Scene& scene) {
   return out;
 }
 }  // namespace
+
+const char* workerStateName(WorkerState s) {
+  switch (s) {
+    case WorkerState::kRendering: return "rendering";
+    case WorkerState::kIdle: return "idle";
+    case WorkerState::kStale: return "stale";
+    case WorkerState::kLost: return "lost";
+    case WorkerState::kLeft: return "left";
+  }
+  return "?";
+}
 
 const char* jobStateName(JobState s) {
   switch (s) {
@@ -94,6 +106,13 @@ struct Coordinator::Job {
   std::optional<uint64_t> stopUnits;     // a job stopped early keeps units [0, stopUnits)
   bool deadlinePassed = false;
   std::vector<ErrorPoint> history;  // guarded by Coordinator::mutex_; see recordEstimate()
+  // The last worker lost (or gone) while holding units of this job, for stalledReason().
+  struct Loss {
+    std::string worker, verb, detail;  // "w1 (worker-3.1)", "lost", "connection closed"
+    Clock::time_point when;
+    std::vector<uint64_t> units;
+  };
+  std::optional<Loss> lastLoss;  // guarded by Coordinator::mutex_
 
   // Accumulation, guarded by `accumulate` (never held while taking Coordinator::mutex_).
   mutable std::mutex accumulate;
@@ -127,6 +146,12 @@ struct Coordinator::Worker {
   uint64_t unitsDone = 0;
   std::optional<uint64_t> currentUnit;
   double samplesPerSecond = 0.0;
+  // Liveness (attachWorker, workerLost, workerLeft).
+  uint64_t attachment = 0;          // the Attach stream it holds; 0: none
+  std::optional<WorkerState> gone;  // kLost or kLeft: its id is refused from then on
+  Clock::time_point goneAt;
+  std::string goneReason;
+  std::string label() const { return info.name.empty() ? id : info.name + " (" + id + ")"; }
 };
 
 namespace {
@@ -148,6 +173,10 @@ void recordEstimate(JobT& job, double elapsedSeconds) {
 }  // namespace
 
 Coordinator::Coordinator(Options options) : options_(std::move(options)) {
+  if (options_.maxJobMemoryBytes == 0) {
+    options_.maxJobMemoryBytes = defaultJobMemoryBudget();
+    options_.maxJobMemorySource = defaultJobMemoryBudgetSource();
+  }
   if (options_.stateDir.empty()) {
     epoch_ = std::random_device{}() & 0xfffff;
     nextLease_ = (epoch_ << 40) + 1;
@@ -221,16 +250,28 @@ uint64_t Coordinator::checkpoint() {
   return bytes;
 }
 
-void Coordinator::drainInOrder(Job& job) {
+void Coordinator::drainInOrder(Job& job, const UnitResult* next) {
   const double target = job.settings.targetError;
   bool folded = false;
-  for (auto it = job.arrived.find(job.nextToAdd); it != job.arrived.end() && job.nextToAdd < job.foldLimit;
-       it = job.arrived.find(job.nextToAdd)) {
-    job.sensor->add(it->second.buffer);
-    job.tracker->add(job.nextToAdd, it->second.buffer);
-    job.statsAdded += it->second.stats;
-    job.sppAdded += unitAt(job.nextToAdd, job.settings.samplesPerPixel, job.unitSize).sampleCount;
-    job.arrived.erase(it);
+  while (job.nextToAdd < job.foldLimit) {
+    // The next unit: the caller's (summed from its buffer, never copied) or one that waited.
+    const UnitResult* r = nullptr;
+    auto it = job.arrived.end();
+    if (next && next->unitIndex == job.nextToAdd) {
+      r = next;
+      next = nullptr;
+    } else if (it = job.arrived.find(job.nextToAdd); it != job.arrived.end()) {
+      r = &it->second;
+    } else {
+      break;
+    }
+    // Every cell of a unit holds the unit's samples; the count is the coordinator's to know.
+    const uint32_t samples = unitAt(job.nextToAdd, job.settings.samplesPerPixel, job.unitSize).sampleCount;
+    job.sensor->add(r->buffer, samples);
+    job.tracker->add(job.nextToAdd, r->buffer, samples);
+    job.statsAdded += r->stats;
+    job.sppAdded += samples;
+    if (it != job.arrived.end()) job.arrived.erase(it);
     ++job.nextToAdd;
     folded = true;
     // A target-error job checks after every unit: the first prefix that reaches the target is
@@ -301,7 +342,7 @@ static JobState parseJobState(const std::string& name) {
 void Coordinator::restore() {
   assets_ = store_->loadAssets();
   const auto now = Clock::now();
-  for (StateStore::StoredJob& stored : store_->loadJobs()) {
+  const auto restoreJob = [&](StateStore::StoredJob& stored) {
     auto job = std::make_unique<Job>();
     job->id = stored.id;
     job->spec = stored.spec;
@@ -351,9 +392,9 @@ void Coordinator::restore() {
       r.jobId = job->id;
       r.unitIndex = entry.unit;
       r.stats = entry.stats;
-      r.buffer = SensorBuffer(scene.render.width, scene.render.height);
-      r.buffer.sums = store_->loadUnitSums(job->id, entry.unit, r.buffer.sums.size());
-      r.buffer.samples.assign(r.buffer.cells(), unitAt(entry.unit, job->settings.samplesPerPixel, job->unitSize).sampleCount);
+      r.buffer.width = scene.render.width;  // the counts are the coordinator's (drainInOrder)
+      r.buffer.height = scene.render.height;
+      r.buffer.sums = store_->loadUnitSums(job->id, entry.unit, size_t(scene.render.width) * scene.render.height * 3);
       job->arrived.emplace(entry.unit, std::move(r));
     }
     drainInOrder(*job);
@@ -382,6 +423,17 @@ void Coordinator::restore() {
     spdlog::info("restored {}: {}, {} of {} units ({} from the checkpoint)", job->id, jobStateName(job->state),
                  job->unitsAdded, job->unitsTotal, folded);
     jobs_[job->id] = std::move(job);
+  };
+  for (StateStore::StoredJob& stored : store_->loadJobs()) {
+    try {
+      restoreJob(stored);
+    } catch (const std::bad_alloc&) {
+      // One job that no longer fits in memory stays out (and in the state dir), not the coordinator.
+      jobs_.erase(stored.id);
+      nextJob_ = std::max(nextJob_, uint64_t(std::stoull(stored.id.substr(4))) + 1);
+      nextSequence_ = std::max(nextSequence_, stored.sequence + 1);
+      spdlog::error("cannot restore {}: out of memory for its buffers; it stays in the state directory", stored.id);
+    }
   }
   nextLease_ = (epoch_ << 40) + 1;
 }
@@ -440,6 +492,15 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
     if (!spec.assets.count(path) || spec.assets.at(path) != sha)
       throw FarmError(FarmError::Kind::kInvalidArgument, "asset " + path + " is not listed in the job spec");
 
+  // Refuse what this coordinator cannot hold before allocating anything frame-sized.
+  const MemoryEstimate memory = coordinatorJobMemory(scene.render, options_.maxBytesAhead, store_ != nullptr);
+  if (memory.total() > options_.maxJobMemoryBytes)
+    throw FarmError(FarmError::Kind::kResourceExhausted,
+                    spec.sceneName + ": " +
+                        overBudgetMessage(scene.render, memory, "coordinator", options_.maxJobMemoryBytes,
+                                          options_.maxJobMemorySource) +
+                        "; lower the resolution (--resolution) or give the coordinator more (--max-job-memory)");
+
   auto job = std::make_unique<Job>();
   job->spec = spec;
   job->priority = priority;
@@ -448,8 +509,18 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
   job->unitSize = unitSize(scene.render);
   job->unitsTotal = unitCount(scene.render.samplesPerPixel, job->unitSize);
   job->effects = describeEffects(scene);
-  job->sensor = std::make_unique<Sensor>(scene.render.width, scene.render.height);
-  job->tracker = std::make_unique<ConvergenceTracker>(scene.render.width, scene.render.height);
+  try {
+    if (options_.beforeJobAllocation) options_.beforeJobAllocation(memory.total());
+    job->sensor = std::make_unique<Sensor>(scene.render.width, scene.render.height);
+    job->tracker = std::make_unique<ConvergenceTracker>(scene.render.width, scene.render.height);
+  } catch (const std::bad_alloc&) {
+    // This job is refused; the coordinator and its other jobs go on.
+    const std::string what = spec.sceneName + ": out of memory allocating the " + std::to_string(scene.render.width) +
+                             "x" + std::to_string(scene.render.height) + " job's sensor (estimated " +
+                             formatBytes(memory.total()) + " in all); the job was not queued";
+    spdlog::error("SubmitJob: {}", what);
+    throw FarmError(FarmError::Kind::kResourceExhausted, what);
+  }
   job->submittedUnixSeconds =
       std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 
@@ -466,6 +537,25 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
   jobs_[job->id] = std::move(job);
   changed_.notify_all();
   return infoOf(ref);
+}
+
+double progressFraction(const JobInfo& info, double nowUnixSeconds) {
+  if (info.state == JobState::kDone) return 1.0;
+  // Without a cap of its own (only the internal kMaxSamplesPerPixel) units say nothing.
+  double fraction = info.samplesPerPixelTotal < kMaxSamplesPerPixel && info.unitsTotal
+                        ? double(info.unitsDone) / double(info.unitsTotal)
+                        : 0.0;
+  // The error's square falls as 1/time: (target / estimate)^2 of the time needed has passed.
+  if (info.targetError > 0.0 && info.estimatedRelativeError > 0.0) {
+    const double r = info.targetError / info.estimatedRelativeError;
+    fraction = std::max(fraction, std::min(1.0, r * r));
+  }
+  // The deadline counts from submission.
+  if (info.timeLimitSeconds > 0.0) {
+    const double used = isTerminal(info.state) ? info.elapsedSeconds : nowUnixSeconds - info.submittedUnixSeconds;
+    fraction = std::max(fraction, std::clamp(used / info.timeLimitSeconds, 0.0, 1.0));
+  }
+  return std::clamp(fraction, 0.0, 1.0);
 }
 
 Coordinator::Job& Coordinator::findJob(const std::string& jobId) const {
@@ -513,6 +603,9 @@ JobInfo Coordinator::infoOf(const Job& job) const {
   info.submittedUnixSeconds = job.submittedUnixSeconds;
   info.version = job.version;
   info.effects = job.effects;
+  info.stalledReason = stalledReason(job, Clock::now());
+  info.progressFraction = progressFraction(info, std::chrono::duration<double>(
+                                                     std::chrono::system_clock::now().time_since_epoch()).count());
   return info;
 }
 
@@ -590,7 +683,13 @@ JobImage Coordinator::image(const std::string& jobId) const {
     out.metadata.renderSeconds = infoOf(*job).elapsedSeconds;
   }
   std::lock_guard lock(job->accumulate);
-  out.image = job->sensor->developImage();
+  try {
+    out.image = job->sensor->developImage();
+  } catch (const std::bad_alloc&) {
+    throw FarmError(FarmError::Kind::kResourceExhausted,
+                    "out of memory developing the image of " + job->id + " (" +
+                        formatBytes(uint64_t(job->settings.width) * job->settings.height * kImageBytesPerCell) + ")");
+  }
   out.metadata.samplesPerPixel = job->sppAdded;
   out.metadata.totalSamples = job->sensor->totalSamples();
   out.metadata.extra["rays"] = std::to_string(job->statsAdded.rays);
@@ -622,6 +721,9 @@ std::string Coordinator::registerWorker(const WorkerInfo& info) {
   worker->lastHeartbeat = Clock::now();
   const std::string id = worker->id;
   spdlog::info("{} registered: {} with {} threads", id, info.name, info.threads);
+  // A lost or departed worker of the same name is this one back: the new entry replaces it.
+  for (auto it = workers_.begin(); it != workers_.end();)
+    it = it->second->gone && !info.name.empty() && it->second->info.name == info.name ? workers_.erase(it) : std::next(it);
   workers_[id] = std::move(worker);
   return id;
 }
@@ -629,7 +731,175 @@ std::string Coordinator::registerWorker(const WorkerInfo& info) {
 Coordinator::Worker& Coordinator::findWorker(const std::string& workerId) {
   auto it = workers_.find(workerId);
   if (it == workers_.end()) throw FarmError(FarmError::Kind::kUnknownWorker, "unknown worker " + workerId + "; register again");
+  if (it->second->gone)  // its leases were revoked: a live process must start afresh
+    throw FarmError(FarmError::Kind::kUnknownWorker, "unknown worker " + workerId + " (" +
+                                                         workerStateName(*it->second->gone) + ": " +
+                                                         it->second->goneReason + "); register again");
   return *it->second;
+}
+
+Coordinator::Worker* Coordinator::liveWorker(const std::string& workerId) {
+  auto it = workers_.find(workerId);
+  return it == workers_.end() || it->second->gone ? nullptr : it->second.get();
+}
+
+double Coordinator::staleAfterSeconds() const { return std::max(3.0, 5.0 * options_.heartbeatIntervalSeconds); }
+
+std::string Coordinator::releaseLeasesOf(Worker& worker, const std::string& verb, const std::string& detail,
+                                         Clock::time_point now) {
+  std::map<std::string, std::vector<uint64_t>> byJob;
+  for (auto it = leases_.begin(); it != leases_.end();) {
+    if (it->second.workerId != worker.id) {
+      ++it;
+      continue;
+    }
+    Job& job = findJob(it->second.jobId);
+    const uint64_t unit = it->second.unit;
+    // Back in the queue, leased again before any fresh unit; an upload under the old lease is
+    // refused from now on, so the unit is still counted once.
+    if (!isTerminal(job.state) && !job.isReceived(unit) && !job.inflight.count(unit)) job.returned.insert(unit);
+    byJob[job.id].push_back(unit);
+    ++counters_.unitsExpired;
+    it = leases_.erase(it);
+  }
+  std::string requeued;
+  for (auto& [jobId, units] : byJob) {
+    Job& job = findJob(jobId);
+    std::string list;
+    for (uint64_t u : units) list += (list.empty() ? "" : ", ") + std::to_string(u);
+    const std::string what = (units.size() == 1 ? "unit " : "units ") + list + " of " + jobId + " queued again";
+    spdlog::debug("{} {} ({}): {}", worker.label(), verb, detail, what);
+    requeued += (requeued.empty() ? "" : "; ") + what;
+    job.lastLoss = Job::Loss{worker.label(), verb, detail, now, std::move(units)};
+    touch(job);
+  }
+  worker.currentJobId.clear();
+  worker.currentUnit.reset();
+  changed_.notify_all();  // idle workers waiting in lease() take the units at once
+  return requeued;
+}
+
+uint64_t Coordinator::attachWorker(const std::string& workerId) {
+  std::lock_guard lock(mutex_);
+  Worker& worker = findWorker(workerId);
+  worker.attachment = nextAttachment_++;
+  worker.lastHeartbeat = Clock::now();
+  spdlog::debug("{} attached (stream {})", worker.label(), worker.attachment);
+  return worker.attachment;
+}
+
+bool Coordinator::workerLost(const std::string& workerId, const std::string& reason, uint64_t attachment) {
+  std::lock_guard lock(mutex_);
+  Worker* worker = liveWorker(workerId);
+  if (!worker || (attachment != 0 && worker->attachment != attachment)) return false;  // gone, or a superseded stream
+  const auto now = Clock::now();
+  worker->gone = WorkerState::kLost;
+  worker->goneAt = now;
+  worker->attachment = 0;
+  ++counters_.workersLost;
+  const std::string requeued = releaseLeasesOf(*worker, "lost", reason, now);
+  worker->goneReason = reason + (requeued.empty() ? "" : "; " + requeued);
+  spdlog::warn("{} lost: {}", worker->label(), worker->goneReason);
+  return true;
+}
+
+void Coordinator::workerLeft(const std::string& workerId, uint64_t attachment) {
+  std::lock_guard lock(mutex_);
+  Worker* worker = liveWorker(workerId);
+  if (!worker || (attachment != 0 && worker->attachment != attachment)) return;
+  const auto now = Clock::now();
+  worker->gone = WorkerState::kLeft;
+  worker->goneAt = now;
+  worker->attachment = 0;
+  const std::string requeued = releaseLeasesOf(*worker, "left", "stopped", now);
+  worker->goneReason = "stopped" + (requeued.empty() ? std::string() : "; " + requeued);
+  spdlog::info("{} left: {}", worker->label(), worker->goneReason);
+}
+
+WorkerState Coordinator::stateOf(const Worker& worker, bool holdsLease, Clock::time_point now,
+                                 double* secondsInState) const {
+  const double silent = std::chrono::duration<double>(now - worker.lastHeartbeat).count();
+  *secondsInState = 0.0;
+  if (worker.gone) {
+    *secondsInState = std::chrono::duration<double>(now - worker.goneAt).count();
+    return *worker.gone;
+  }
+  // A worker without an Attach stream is judged by its heartbeats alone, as before.
+  if (worker.attachment == 0 && silent > options_.leaseTimeoutSeconds) {
+    *secondsInState = silent - options_.leaseTimeoutSeconds;
+    return WorkerState::kLost;
+  }
+  if (silent > staleAfterSeconds()) {
+    *secondsInState = silent;
+    return WorkerState::kStale;
+  }
+  return holdsLease ? WorkerState::kRendering : WorkerState::kIdle;
+}
+
+namespace {
+std::string secondsText(double seconds) { return std::to_string(long(std::max(0.0, seconds) + 0.5)) + " s"; }
+}  // namespace
+
+std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) const {
+  if (isTerminal(job.state)) return "";
+  std::set<std::string> holders;  // workers holding a lease of any job
+  std::vector<const ActiveLease*> mine;
+  for (const auto& [id, lease] : leases_) {
+    holders.insert(lease.workerId);
+    if (lease.jobId == job.id) mine.push_back(&lease);
+  }
+  // Held by a worker that is heard from: it is being rendered.
+  std::string silent;
+  for (const ActiveLease* lease : mine) {
+    auto it = workers_.find(lease->workerId);
+    if (it == workers_.end()) continue;
+    double s = 0.0;
+    const WorkerState state = stateOf(*it->second, true, now, &s);
+    if (state == WorkerState::kRendering) return "";
+    if (silent.empty())
+      silent = "worker " + it->second->label() + " silent for " + secondsText(s) + "; unit " +
+               std::to_string(lease->unit) + " is queued again when its lease lapses in " +
+               secondsText(std::chrono::duration<double>(lease->deadline - now).count());
+  }
+  if (!silent.empty()) return silent;
+  if (!job.hasPending()) return "";  // every unit is in or being recorded
+  uint64_t busyElsewhere = 0;
+  const Worker* recentlyGone = nullptr;
+  for (const auto& [id, w] : workers_) {
+    double s = 0.0;
+    switch (stateOf(*w, holders.count(id) > 0, now, &s)) {
+      case WorkerState::kIdle: return "";  // it is about to lease a unit
+      case WorkerState::kRendering: ++busyElsewhere; break;
+      case WorkerState::kLost:
+      case WorkerState::kLeft:
+        if (w->gone && (!recentlyGone || w->goneAt > recentlyGone->goneAt)) recentlyGone = w.get();
+        break;
+      case WorkerState::kStale: break;
+    }
+  }
+  // Just submitted: give the workers (or `lensfarm render`'s own) a moment to call in.
+  const double nowUnix = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  const bool recentLoss = job.lastLoss && now - job.lastLoss->when < std::chrono::seconds(120);
+  if (!recentLoss && nowUnix - job.submittedUnixSeconds < 2.0) return "";
+  std::string why;
+  if (recentLoss) {
+    const Job::Loss& loss = *job.lastLoss;
+    std::string units;
+    for (uint64_t u : loss.units) units += (units.empty() ? "" : ", ") + std::to_string(u);
+    why = "worker " + loss.worker + " " + loss.verb + " " +
+          secondsText(std::chrono::duration<double>(now - loss.when).count()) + " ago (" + loss.detail + "); " +
+          (loss.units.size() == 1 ? "unit " : "units ") + units + " queued again; ";
+  }
+  if (busyElsewhere)
+    why += "waiting for a worker: " + (busyElsewhere == 1 ? std::string("the only one is") : "all " + std::to_string(busyElsewhere) + " are") +
+           " rendering other jobs";
+  else
+    why += "no workers connected";
+  if (!recentLoss && !busyElsewhere && recentlyGone && now - recentlyGone->goneAt < std::chrono::seconds(120))
+    why += " (" + recentlyGone->label() + " " + workerStateName(*recentlyGone->gone) + " " +
+           secondsText(std::chrono::duration<double>(now - recentlyGone->goneAt).count()) + " ago: " +
+           recentlyGone->goneReason + ")";
+  return why;
 }
 
 void Coordinator::reapExpiredLeases(Clock::time_point now) {
@@ -678,8 +948,7 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   for (auto& [id, job] : jobs_) {
     if (isTerminal(job->state) || !job->hasPending()) continue;
     if (job->returned.empty()) {  // a fresh unit: only within the window ahead of the summed prefix
-      const uint64_t unitBytes = uint64_t(job->settings.width) * uint64_t(job->settings.height) * 3 * sizeof(double);
-      const uint64_t window = std::max<uint64_t>(8, options_.maxBytesAhead / std::max<uint64_t>(1, unitBytes));
+      const uint64_t window = unitsAheadWindow(job->settings.width, job->settings.height, options_.maxBytesAhead);
       if (job->nextFresh >= job->unitsAdded + window) continue;
     }
     if (!best || job->priority > best->priority || (job->priority == best->priority && job->sequence < best->sequence))
@@ -727,7 +996,11 @@ JobSpec Coordinator::jobSpec(const std::string& jobId) const {
   return findJob(jobId).spec;
 }
 
-bool Coordinator::acceptResult(UnitResult result) {
+bool Coordinator::acceptResult(UnitResult&& result) { return accept(result, &result); }
+
+bool Coordinator::acceptResult(const UnitResult& result) { return accept(result, nullptr); }
+
+bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
   counters_.unitBytes += result.buffer.sums.size() * sizeof(double);
   // Workers drop non-finite samples before they are summed (design.md); a buffer holding one is
   // corrupt and must not reach the sensor. Checked before taking the lock: it reads every cell.
@@ -785,19 +1058,24 @@ bool Coordinator::acceptResult(UnitResult result) {
     }
     ++job->unitsByWorker[workerName];
   }
-  // Every cell of a unit holds the unit's samples; the count is the coordinator's to know.
-  result.buffer.samples.assign(result.buffer.cells(), unitAt(result.unitIndex, job->settings.samplesPerPixel, job->unitSize).sampleCount);
-
   // Sum outside the coordinator's lock: large buffers must not stall leases and heartbeats.
   uint64_t unitsAdded, sppAdded, foldLimit;
   PathStats statsAdded;
   ErrorEstimate estimate;
   std::string stopReason;
+  bool outOfMemory = false;
   {
     std::lock_guard accumulate(job->accumulate);
-    // Past a job's stop nothing more is folded (the stop is a prefix of units).
-    if (result.unitIndex < job->foldLimit) job->arrived.emplace(result.unitIndex, std::move(result));
-    drainInOrder(*job);
+    // Past a job's stop nothing more is folded (the stop is a prefix of units). The next unit in
+    // order is summed from the caller's buffer; a later one waits in `arrived`.
+    const bool next = result.unitIndex == job->nextToAdd;
+    try {
+      if (result.unitIndex < job->foldLimit && !next)
+        job->arrived.emplace(result.unitIndex, owned ? std::move(*owned) : result);
+    } catch (const std::bad_alloc&) {
+      outOfMemory = true;
+    }
+    if (!outOfMemory) drainInOrder(*job, next && result.unitIndex < job->foldLimit ? &result : nullptr);
     unitsAdded = job->nextToAdd;
     sppAdded = job->sppAdded;
     statsAdded = job->statsAdded;
@@ -807,6 +1085,22 @@ bool Coordinator::acceptResult(UnitResult result) {
   }
 
   std::lock_guard lock(mutex_);
+  if (outOfMemory) {
+    // The unit is counted but cannot be kept: this job cannot finish; the coordinator and its
+    // other jobs go on.
+    const std::string what = "coordinator out of memory keeping unit " + std::to_string(result.unitIndex) + " (" +
+                             formatBytes(result.buffer.memoryBytes()) + ") until the units before it arrive";
+    spdlog::error("job {}: {}", job->id, what);
+    if (!isTerminal(job->state)) {
+      job->state = JobState::kFailed;
+      job->error = what;
+      job->finished = Clock::now();
+      revokeLeasesOf(*job);
+      persistState(*job);
+      touch(*job);
+    }
+    throw FarmError(FarmError::Kind::kResourceExhausted, job->id + ": " + what);
+  }
   if (unitsAdded > job->unitsAdded) {
     job->unitsAdded = unitsAdded;
     job->samplesPerPixelDone = sppAdded;
@@ -843,10 +1137,29 @@ std::vector<WorkerView> Coordinator::workers() const {
   std::lock_guard lock(mutex_);
   std::vector<WorkerView> out;
   const auto now = Clock::now();
-  for (const auto& [id, w] : workers_)
-    out.push_back(WorkerView{w->id, w->info, w->currentJobId, w->unitsDone,
-                             std::chrono::duration<double>(now - w->lastHeartbeat).count(), w->currentUnit,
-                             w->samplesPerSecond});
+  std::set<std::string> holders;
+  for (const auto& [leaseId, lease] : leases_) holders.insert(lease.workerId);
+  for (const auto& [id, w] : workers_) {
+    WorkerView v;
+    v.id = w->id;
+    v.info = w->info;
+    v.currentJobId = w->currentJobId;
+    v.unitsDone = w->unitsDone;
+    v.secondsSinceHeartbeat = std::chrono::duration<double>(now - w->lastHeartbeat).count();
+    v.currentUnit = w->currentUnit;
+    v.samplesPerSecond = w->samplesPerSecond;
+    v.state = stateOf(*w, holders.count(id) > 0, now, &v.secondsInState);
+    v.attached = w->attachment != 0;
+    if (w->gone)
+      v.stateReason = w->goneReason;
+    else if (v.state == WorkerState::kLost)
+      v.stateReason = "no heartbeat for " + secondsText(v.secondsSinceHeartbeat) + " (not attached)";
+    if (!holders.count(id)) {  // it holds nothing now
+      v.currentJobId.clear();
+      v.currentUnit.reset();
+    }
+    out.push_back(std::move(v));
+  }
   return out;
 }
 
@@ -880,6 +1193,7 @@ MetricsSnapshot Coordinator::metricsSnapshot() const {
   s.unitsLeased = counters_.unitsLeased;
   s.unitsDone = counters_.unitsDone;
   s.unitsExpired = counters_.unitsExpired;
+  s.workersLost = counters_.workersLost;
   s.samples = counters_.samples;
   s.unitBytesReceived = counters_.unitBytes;
   s.assetBytesReceived = counters_.assetBytes;

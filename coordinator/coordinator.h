@@ -10,6 +10,8 @@
 //    lease; results enter the job's sensor in unit order (a later unit waits for the earlier
 //    ones), so the image never depends on which worker finished first.
 //  - Jobs are served by priority (higher first), then by submission order.
+//  - A worker whose Attach stream breaks is lost at once (workerLost): its leases are revoked and
+//    their units queued again, so an upload under one is refused and each unit still counts once.
 //  - A job stops when all its samples are in, or earlier at its target error or deadline
 //    (RenderSettings): the image is then the prefix of units [0, k) for the first k that met
 //    the rule (the deadline: the units folded when it passed, at least one), never a partial pass.
@@ -20,6 +22,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <filesystem>
+#include <functional>
 #include <thread>
 #include <cstdint>
 #include <limits>
@@ -66,10 +69,30 @@ struct JobInfo {
   double secondsToTarget = 0.0;          // projected; 0 if unknown or reached
   double timeLimitSeconds = 0.0;         // the deadline after submission; 0 if none
   std::string stopReason;                // why a finished job stopped
+  // Why no worker renders the job now ("no workers connected", "worker w1 (worker-3.1) lost 2 s
+  // ago (connection closed); unit 5 queued again; waiting for a worker ..."); empty while it is
+  // rendered or finished. See Coordinator::stalledReason.
+  std::string stalledReason;
+  // How far the job is toward its stop, 0 to 1: the nearest of its samples (with a cap of its
+  // own), its target error ((target / estimate)^2) and its deadline; 1 when done.
+  double progressFraction = 0.0;
 
   double raysPerSecond() const { return elapsedSeconds > 0 ? double(stats.rays) / elapsedSeconds : 0.0; }
   double lightHitFraction() const { return stats.paths ? double(stats.lightHits) / double(stats.paths) : 0.0; }
 };
+
+// JobInfo::progressFraction: the nearest of the job's stopping rules, 0 to 1.
+double progressFraction(const JobInfo& info, double nowUnixSeconds);
+
+// What a worker is doing, as the coordinator sees it.
+enum class WorkerState {
+  kRendering,  // holds a lease
+  kIdle,       // heard from recently, holds nothing
+  kStale,      // silent for longer than a few heartbeat intervals (not yet lost)
+  kLost,       // its Attach stream broke, or (never attached) silent for longer than the lease timeout
+  kLeft,       // it stopped cleanly
+};
+const char* workerStateName(WorkerState state);
 
 struct WorkerView {
   std::string id;
@@ -80,6 +103,10 @@ struct WorkerView {
   // For the dashboard: the unit it holds now (if any) and its speed on its last accepted unit.
   std::optional<uint64_t> currentUnit;
   double samplesPerSecond = 0.0;  // camera paths of its last accepted unit / its render seconds
+  WorkerState state = WorkerState::kIdle;
+  double secondsInState = 0.0;  // lost or left: since then; stale: since last heard from
+  std::string stateReason;      // lost: why, and what was queued again
+  bool attached = false;        // holds an Attach stream, so a broken connection is seen at once
 };
 
 // One point of a job's error-vs-time curve: the published estimate when it changed.
@@ -102,6 +129,7 @@ struct MetricsSnapshot {
   uint64_t unitsLeased = 0;         // leases granted (a unit leased again after a lapse counts again)
   uint64_t unitsDone = 0;           // results accepted and counted, each unit once
   uint64_t unitsExpired = 0;        // leases that lapsed without a result
+  uint64_t workersLost = 0;         // workers marked lost when their Attach stream broke
   uint64_t samples = 0;             // camera paths in the accepted results
   uint64_t unitBytesReceived = 0;   // result buffers (sums) received from workers
   uint64_t assetBytesReceived = 0;  // asset bytes uploaded by clients
@@ -122,6 +150,14 @@ class Coordinator {
     // (canonical order). Fresh units are leased at most this many bytes of buffers ahead of the
     // summed prefix, which bounds that memory however many workers there are.
     uint64_t maxBytesAhead = uint64_t(2) << 30;
+    // The memory one job may take (render/memory_estimate.h, coordinatorJobMemory): submit
+    // refuses a bigger job (FarmError kResourceExhausted naming the estimate and this limit).
+    // 0: defaultJobMemoryBudget() (LENSFARM_MAX_JOB_MEMORY, else 3/4 of the machine's memory).
+    uint64_t maxJobMemoryBytes = 0;
+    std::string maxJobMemorySource;  // for messages, e.g. "--max-job-memory"; empty: the default's
+    // Test-only: called with a job's estimated bytes just before its frame-sized buffers are
+    // allocated; a test throws std::bad_alloc from it to simulate an allocation failing.
+    std::function<void(uint64_t bytes)> beforeJobAllocation;
   };
   explicit Coordinator(Options options);
   Coordinator();
@@ -167,8 +203,26 @@ class Coordinator {
   JobSpec jobSpec(const std::string& jobId) const;
   // Counts a unit's result. Returns false for a duplicate of a unit already counted (ignored);
   // FarmError kFailedPrecondition when the worker does not hold the unit's current lease.
-  bool acceptResult(UnitResult result);
+  // A result that is the next unit in order is summed straight from the caller's buffer; one
+  // that must wait for an earlier unit is kept (moved from an rvalue, copied from an lvalue). If
+  // memory runs out holding it, the job fails (FarmError kResourceExhausted); others go on.
+  bool acceptResult(UnitResult&& result);
+  bool acceptResult(const UnitResult& result);
   void reportFailure(const std::string& workerId, uint64_t leaseId, const std::string& jobId, const std::string& error);
+
+  // ---- liveness (the Attach stream, docs/farm.md "Failures") ----
+  // The worker now holds a stream whose end means it is gone; returns the attachment's id (a
+  // newer attachment supersedes an older one). FarmError kUnknownWorker if unknown or lost.
+  uint64_t attachWorker(const std::string& workerId);
+  // The worker's connection broke: it is lost at once, not after the lease timeout. Its leases
+  // are revoked and their units queued again (leased again before fresh ones), so a late upload
+  // under one is refused (kFailedPrecondition) and each unit is still counted once; its id is
+  // refused from now on (kUnknownWorker: a worker that is in fact alive registers again), and it
+  // stays listed as lost with `reason` until forgotten. `attachment`: the stream that broke (a
+  // superseded one changes nothing); 0: whatever the worker holds. Returns whether it was lost now.
+  bool workerLost(const std::string& workerId, const std::string& reason, uint64_t attachment = 0);
+  // The worker is stopping cleanly: listed as left; anything it still holds is queued again.
+  void workerLeft(const std::string& workerId, uint64_t attachment = 0);
 
   const Options& options() const { return options_; }
 
@@ -194,10 +248,20 @@ class Coordinator {
   Worker& findWorker(const std::string& workerId);
   JobInfo infoOf(const Job& job) const;
   void reapExpiredLeases(Clock::time_point now);
+  // Revokes the worker's leases and queues their units again (requires mutex_); for messages,
+  // "unit 5 queued again" or "" when it held nothing.
+  // `verb` and `detail` say what happened ("lost", "connection closed").
+  std::string releaseLeasesOf(Worker& worker, const std::string& verb, const std::string& detail, Clock::time_point now);
+  Worker* liveWorker(const std::string& workerId);  // requires mutex_; null if unknown, lost or left
+  WorkerState stateOf(const Worker& worker, bool holdsLease, Clock::time_point now, double* secondsInState) const;  // requires mutex_
+  std::string stalledReason(const Job& job, Clock::time_point now) const;                        // requires mutex_
+  double staleAfterSeconds() const;
   void revokeLeasesOf(Job& job);
   void touch(Job& job);
   std::optional<LeaseGrant> tryLease(Worker& worker, Clock::time_point now);
-  void drainInOrder(Job& job);  // requires job.accumulate
+  bool accept(const UnitResult& result, UnitResult* owned);
+  // Sums the units that are next in order (`next`, if given, is one not kept in job.arrived).
+  void drainInOrder(Job& job, const UnitResult* next = nullptr);  // requires job.accumulate
   void finish(Job& job, const std::string& reason);  // requires mutex_
   void enforceDeadlines();                           // requires mutex_
   void restore();
@@ -216,11 +280,12 @@ class Coordinator {
   std::map<std::string, std::unique_ptr<Job>> jobs_;
   std::map<std::string, std::unique_ptr<Worker>> workers_;
   std::map<uint64_t, ActiveLease> leases_;
-  uint64_t nextJob_ = 1, nextWorker_ = 1, nextLease_ = 1, nextSequence_ = 1;
+  uint64_t nextJob_ = 1, nextWorker_ = 1, nextLease_ = 1, nextSequence_ = 1, nextAttachment_ = 1;
 
   // Counted for metricsSnapshot() since this process started.
   struct Counters {
     std::atomic<uint64_t> unitsLeased{0}, unitsDone{0}, unitsExpired{0}, samples{0}, unitBytes{0}, assetBytes{0};
+    std::atomic<uint64_t> workersLost{0};
   };
   Counters counters_;
 };

@@ -6,6 +6,7 @@
 
 #include "film/image.h"
 #include "film/image_io.h"
+#include "scene/scene_loader.h"
 #include "util/secret.h"
 
 namespace lensfarm {
@@ -23,10 +24,13 @@ json summaryOf(const JobInfo& info) {
   j["width"] = info.width;
   j["height"] = info.height;
   j["spp_done"] = info.samplesPerPixelDone;
-  j["spp_total"] = info.samplesPerPixelTotal;
+  // A job that runs to a target error or a deadline has only the internal cap: no total to show.
+  const bool capped = info.samplesPerPixelTotal < kMaxSamplesPerPixel;
+  j["spp_total"] = capped ? json(info.samplesPerPixelTotal) : json(nullptr);
   j["units_done"] = info.unitsDone;
-  j["units_total"] = info.unitsTotal;
-  j["progress"] = info.unitsTotal ? double(info.unitsDone) / double(info.unitsTotal) : 0.0;
+  j["units_total"] = capped ? json(info.unitsTotal) : json(nullptr);
+  j["progress"] = info.progressFraction;  // toward the nearest stop: samples, target error or deadline
+  j["stalled_reason"] = info.stalledReason;
   j["samples_per_second"] = info.elapsedSeconds > 0 ? double(info.stats.paths) / info.elapsedSeconds : 0.0;
   j["rays_per_second"] = info.raysPerSecond();
   j["estimated_error"] = info.estimatedRelativeError >= 0 ? json(info.estimatedRelativeError) : json(nullptr);
@@ -82,7 +86,11 @@ std::string Dashboard::workersJson() const {
                         {"units_done", w.unitsDone},
                         {"samples_per_second", w.samplesPerSecond},
                         {"seconds_since_heartbeat", w.secondsSinceHeartbeat},
-                        {"renderer_version", w.info.rendererVersion}});
+                        {"renderer_version", w.info.rendererVersion},
+                        {"state", workerStateName(w.state)},
+                        {"seconds_in_state", w.secondsInState},
+                        {"state_reason", w.stateReason},
+                        {"attached", w.attached}});
   }
   return json{{"workers", list}}.dump();
 }

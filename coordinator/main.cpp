@@ -25,6 +25,7 @@
 #include "film/image_io.h"
 #include "metrics.h"
 #include "metrics_server.h"
+#include "render/memory_estimate.h"
 #include "service.h"
 #include "util/error.h"
 #include "util/logging.h"
@@ -115,9 +116,23 @@ int main(int argc, char** argv) {
       ->envname("LENSFARM_CHECKPOINT_EVERY")
       ->check(CLI::Range(0.01, 86400.0))
       ->capture_default_str();
+  std::string maxJobMemory;
+  app.add_option("--max-job-memory", maxJobMemory,
+                 "Memory one job may take (e.g. 16G, 512MiB): bigger jobs are refused at submission with their "
+                 "estimate; default 3/4 of this machine's memory (or of its cgroup limit)")
+      ->envname("LENSFARM_MAX_JOB_MEMORY");
   addLogLevelOption(app, logLevel);
   if (const auto exitCode = parseServiceFlags(app, argc, argv, "lensfarm-coordinator")) return *exitCode;
   setupLogging("coordinator", logLevel);
+  if (!maxJobMemory.empty()) {
+    options.maxJobMemoryBytes = parseByteSize(maxJobMemory);
+    options.maxJobMemorySource = "--max-job-memory";
+    if (options.maxJobMemoryBytes == 0) {
+      spdlog::error("--max-job-memory: expected a size such as 16G, 512MiB or 2000000000 (bytes), got \"{}\"",
+                    maxJobMemory);
+      return 2;
+    }
+  }
 
   options.stateDir = stateDir;
   std::unique_ptr<Coordinator> owned;
@@ -128,6 +143,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   Coordinator& coordinator = *owned;
+  spdlog::info("a job may take up to {} of memory ({})", formatBytes(coordinator.options().maxJobMemoryBytes),
+               coordinator.options().maxJobMemorySource);
 
   // Security: tokens per service, TLS if certificates are given, and no open door to the network.
   std::optional<std::string> clientToken, workerToken;
@@ -183,6 +200,15 @@ int main(int argc, char** argv) {
   // Without SO_REUSEPORT (gRPC's default on Linux), a second coordinator on the same port fails
   // to start instead of silently sharing the port's connections with the first.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
+  // Keepalive (docs/farm.md "Failures"): ping a connection after 5 s of quiet and drop it if no
+  // answer comes within 5 s, so a worker whose machine or network died (its Attach stream open
+  // on a dead link) is lost in about 10 s; and accept the workers' own pings (every 5 s, also
+  // between calls; proto/channel_security.h) instead of answering them with GOAWAY.
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, 5000);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 5000);
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS, 4000);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
   int port = 0;
   builder.AddListeningPort(listen, credentials, &port);
   builder.RegisterService(&clientService);
@@ -226,6 +252,7 @@ int main(int argc, char** argv) {
   while (!gStop) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   spdlog::info("shutting down");
   server->GetHealthCheckService()->SetServingStatus(false);
+  workerService.endAttachments();  // workers' streams end now (not lost), instead of at the deadline
   server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
   return 0;
 }

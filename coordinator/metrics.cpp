@@ -72,12 +72,27 @@ std::string renderMetrics(const MetricsSnapshot& s) {
   e.sample(s.assetBytesReceived, "kind=\"asset\"");
 
   uint64_t alive = 0;
-  for (const WorkerView& w : s.workers)
-    if (w.secondsSinceHeartbeat <= s.leaseTimeoutSeconds) ++alive;
-  e.family("lensfarm_workers_alive", "gauge", "Workers heard from (heartbeat or lease request) within the lease timeout.");
+  std::map<WorkerState, uint64_t> workersByState;
+  for (WorkerState state : {WorkerState::kRendering, WorkerState::kIdle, WorkerState::kStale, WorkerState::kLost,
+                            WorkerState::kLeft})
+    workersByState[state] = 0;
+  for (const WorkerView& w : s.workers) {
+    ++workersByState[w.state];
+    if (w.secondsSinceHeartbeat <= s.leaseTimeoutSeconds && w.state != WorkerState::kLost && w.state != WorkerState::kLeft)
+      ++alive;
+  }
+  e.family("lensfarm_workers_alive", "gauge",
+           "Workers heard from (heartbeat or lease request) within the lease timeout, and not lost or left.");
   e.sample(alive);
   e.family("lensfarm_workers_known", "gauge", "Workers registered and not yet forgotten, alive or silent.");
   e.sample(uint64_t(s.workers.size()));
+  e.family("lensfarm_workers", "gauge",
+           "Known workers by state: rendering, idle, stale (heartbeats late), lost (connection broke or silent past the "
+           "lease timeout), left (stopped cleanly).");
+  for (const auto& [state, count] : workersByState) e.sample(count, std::string("state=\"") + workerStateName(state) + "\"");
+  e.family("lensfarm_workers_lost_total", "counter",
+           "Workers marked lost at once because their Attach stream broke (their units were queued again).");
+  e.sample(s.workersLost);
   return std::move(e).text();
 }
 

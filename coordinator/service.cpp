@@ -30,8 +30,12 @@ grpc::Status guarded(const TokenGate& gate, const grpc::ServerContext* context, 
       case FarmError::Kind::kInvalidArgument: return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, e.what());
       case FarmError::Kind::kFailedPrecondition: return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, e.what());
       case FarmError::Kind::kUnauthenticated: return grpc::Status(grpc::StatusCode::UNAUTHENTICATED, e.what());
+      case FarmError::Kind::kResourceExhausted: return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, e.what());
     }
     return grpc::Status(grpc::StatusCode::UNKNOWN, e.what());
+  } catch (const std::bad_alloc&) {  // this request only: the coordinator goes on
+    spdlog::error("{}: out of memory", rpc);
+    return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, std::string(rpc) + ": the coordinator ran out of memory");
   } catch (const std::exception& e) {
     spdlog::error("{}: internal error: {}", rpc, e.what());
     return grpc::Status(grpc::StatusCode::INTERNAL, std::string(rpc) + ": " + e.what());
@@ -96,6 +100,8 @@ v1::JobStatus toProto(const JobInfo& info) {
   p->set_seconds_to_target(info.secondsToTarget);
   p->set_time_limit_seconds(info.timeLimitSeconds);
   p->set_stop_reason(info.stopReason);
+  p->set_stalled_reason(info.stalledReason);
+  p->set_progress_fraction(info.progressFraction);
   return s;
 }
 
@@ -200,6 +206,10 @@ grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext* context, const 
       p->set_units_done(w.unitsDone);
       p->set_seconds_since_heartbeat(w.secondsSinceHeartbeat);
       p->set_renderer_version(w.info.rendererVersion);
+      p->set_state(workerStateName(w.state));
+      p->set_seconds_in_state(w.secondsInState);
+      p->set_state_reason(w.stateReason);
+      p->set_attached(w.attached);
     }
   });
 }
@@ -251,6 +261,114 @@ grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext* context, grpc:
     response->set_accepted(coordinator_.acceptResult(assembler.finish()));
   });
 }
+
+// One worker's Attach stream: the worker names itself, gets one event back, and holds the stream
+// for its life. How it ends says how the worker went: a `leaving` message first makes it left;
+// any other end (its connection closed, keepalive pings unanswered, the call cancelled) makes it
+// lost at once (Coordinator::workerLost). gRPC may run OnCancel beside OnReadDone, so the state
+// they share is atomic, and Finish is called once.
+class AttachReactor final : public grpc::ServerBidiReactor<v1::AttachRequest, v1::AttachEvent> {
+ public:
+  AttachReactor(WorkerServiceImpl& service, grpc::CallbackServerContext* context) : service_(service) {
+    {
+      std::lock_guard lock(service_.attachMutex_);
+      service_.attached_.insert(this);
+      if (service_.closing_) {
+        finish(grpc::Status(grpc::StatusCode::UNAVAILABLE, "Attach: coordinator shutting down"));
+        return;
+      }
+    }
+    if (grpc::Status s = service_.gate_.check(context, "Attach"); !s.ok()) {
+      finish(s);
+      return;
+    }
+    read();
+  }
+
+  void OnReadDone(bool ok) override {
+    if (!ok) {  // half-closed without leaving, or the connection broke
+      ended();
+      return;
+    }
+    if (attachment_.load() == 0 && workerId_.empty()) {
+      workerId_ = request_.worker_id();
+      try {
+        attachment_.store(service_.coordinator_.attachWorker(workerId_));
+      } catch (const FarmError& e) {
+        finish(grpc::Status(grpc::StatusCode::NOT_FOUND, e.what()));
+        return;
+      } catch (const std::exception& e) {
+        finish(grpc::Status(grpc::StatusCode::INTERNAL, std::string("Attach: ") + e.what()));
+        return;
+      }
+      if (finished_) {  // the call ended while it attached (OnCancel saw no attachment yet)
+        if (!closing_) service_.coordinator_.workerLost(workerId_, "connection broke", attachment_.load());
+        return;
+      }
+      event_.set_attached(true);
+      std::lock_guard lock(ops_);
+      if (!finished_) StartWrite(&event_);
+    } else if (request_.leaving()) {
+      leaving_ = true;
+      service_.coordinator_.workerLeft(workerId_, attachment_.load());
+      finish(grpc::Status::OK);
+      return;
+    }
+    read();
+  }
+  void OnWriteDone(bool) override {}
+  void OnCancel() override { ended(); }
+  void OnDone() override {
+    {
+      std::lock_guard lock(service_.attachMutex_);
+      service_.attached_.erase(this);
+    }
+    delete this;
+  }
+
+  // The coordinator is shutting down: end the stream without calling the worker lost.
+  void close() {
+    closing_ = true;
+    finish(grpc::Status(grpc::StatusCode::UNAVAILABLE, "Attach: coordinator shutting down"));
+  }
+
+ private:
+  void ended() {
+    const uint64_t attachment = attachment_.load();
+    if (attachment != 0 && !leaving_ && !closing_) service_.coordinator_.workerLost(workerId_, "connection broke", attachment);
+    finish(grpc::Status(grpc::StatusCode::CANCELLED, "Attach: stream ended"));
+  }
+  // No operation may start after Finish (close() may finish from another thread).
+  void read() {
+    std::lock_guard lock(ops_);
+    if (!finished_) StartRead(&request_);
+  }
+  void finish(const grpc::Status& status) {
+    std::lock_guard lock(ops_);
+    if (!finished_.exchange(true)) Finish(status);
+  }
+
+  WorkerServiceImpl& service_;
+  v1::AttachRequest request_;
+  v1::AttachEvent event_;
+  std::string workerId_;  // written before attachment_ is set, read after it is seen set
+  std::atomic<uint64_t> attachment_{0};
+  std::atomic<bool> leaving_{false}, closing_{false}, finished_{false};
+  std::mutex ops_;
+};
+
+grpc::ServerBidiReactor<v1::AttachRequest, v1::AttachEvent>* WorkerServiceImpl::Attach(grpc::CallbackServerContext* context) {
+  return new AttachReactor(*this, context);
+}
+
+void WorkerServiceImpl::endAttachments() {
+  std::lock_guard lock(attachMutex_);
+  closing_ = true;
+  const std::set<AttachReactor*> open = attached_;  // a reactor leaves attached_ only under the lock
+  for (AttachReactor* r : open) r->close();
+}
+
+WorkerServiceImpl::~WorkerServiceImpl() = default;
 
 grpc::Status WorkerServiceImpl::ReportFailure(grpc::ServerContext* context, const v1::ReportFailureRequest* request,
                                               v1::ReportFailureResponse*) {

@@ -3,6 +3,9 @@
 // codes and call Coordinator (coordinator.h), in the style of gRPC's route_guide example.
 #include <grpcpp/grpcpp.h>
 
+#include <mutex>
+#include <set>
+
 #include "auth.h"
 #include "coordinator.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
@@ -33,10 +36,21 @@ class ClientServiceImpl final : public v1::ClientService::Service {
   TokenGate gate_;
 };
 
-class WorkerServiceImpl final : public v1::WorkerService::Service {
+class AttachReactor;
+
+// Sync handlers, except Attach: a stream every worker holds for its life, served by gRPC's
+// callback API (a reactor per stream, no thread pinned), so any number of attached workers
+// costs no threads.
+class WorkerServiceImpl final : public v1::WorkerService::WithCallbackMethod_Attach<v1::WorkerService::Service> {
  public:
   WorkerServiceImpl(Coordinator& coordinator, TokenGate gate = TokenGate({}, "worker"))
       : coordinator_(coordinator), gate_(std::move(gate)) {}
+  ~WorkerServiceImpl() override;
+
+  // Ends every Attach stream (UNAVAILABLE, "coordinator shutting down") without marking its
+  // worker lost, and refuses new ones: call before grpc::Server::Shutdown, which would otherwise
+  // wait out its deadline for these never-ending calls.
+  void endAttachments();
 
   grpc::Status Register(grpc::ServerContext* context, const v1::RegisterRequest* request, v1::RegisterResponse* response) override;
   grpc::Status Heartbeat(grpc::ServerContext* context, const v1::HeartbeatRequest* request, v1::HeartbeatResponse* response) override;
@@ -48,10 +62,17 @@ class WorkerServiceImpl final : public v1::WorkerService::Service {
                             v1::UploadResultResponse* response) override;
   grpc::Status ReportFailure(grpc::ServerContext* context, const v1::ReportFailureRequest* request,
                              v1::ReportFailureResponse*) override;
+  grpc::ServerBidiReactor<v1::AttachRequest, v1::AttachEvent>* Attach(grpc::CallbackServerContext* context) override;
 
  private:
+  friend class AttachReactor;
   Coordinator& coordinator_;
   TokenGate gate_;
+  // The open Attach streams. Recursive: a stream finished by endAttachments() may end (and
+  // unregister itself) on the same thread.
+  std::recursive_mutex attachMutex_;
+  std::set<AttachReactor*> attached_;
+  bool closing_ = false;
 };
 
 // JobInfo as the wire's JobStatus.

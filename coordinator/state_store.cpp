@@ -13,6 +13,7 @@
 #include <stdexcept>
 
 #include "film/image_io.h"
+#include "util/atomic_file.h"
 #include "scene/scene.h"
 #include "util/version.h"
 
@@ -62,6 +63,17 @@ class Statement {
 };
 
 std::string readAll(const fs::path& p) { return readWholeFileOrThrow(p, p.string()); }
+
+// Writes the pieces one after another into `path`, atomically, without joining them in memory
+// first (a checkpoint's pieces are frame-sized).
+void writePiecesAtomically(const fs::path& path, std::initializer_list<std::pair<const char*, size_t>> pieces) {
+  writeFileAtomically(path, [&](const fs::path& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    for (const auto& [data, size] : pieces) out.write(data, std::streamsize(size));
+    out.close();
+    if (!out) throw std::runtime_error("write failed");
+  });
+}
 
 json specToJson(const JobSpec& spec) {
   json o = json::object();
@@ -229,7 +241,7 @@ std::vector<StateStore::StoredJob> StateStore::loadJobs() {
 
 void StateStore::recordUnit(const std::string& jobId, const LedgerEntry& e, const std::vector<double>& sums) {
   const fs::path file = jobDir(jobId) / ("unit-" + std::to_string(e.unit) + ".bin");
-  writeBytesAtomically(file, std::string(reinterpret_cast<const char*>(sums.data()), sums.size() * sizeof(double)));
+  writePiecesAtomically(file, {{reinterpret_cast<const char*>(sums.data()), sums.size() * sizeof(double)}});
   std::lock_guard lock(mutex_);
   Statement(db_, "INSERT OR IGNORE INTO ledger(job_id, unit, worker, paths, rays, light_hits, dropped) "
                  "VALUES(?, ?, ?, ?, ?, ?, ?)")
@@ -275,11 +287,10 @@ void StateStore::writeCheckpoint(const std::string& jobId, const std::string& se
   // The count of folded units travels inside the file with the sensor and the convergence
   // tracker, so the three can never disagree, whatever moment a crash picks.
   const uint64_t sensorSize = sensorBytes.size();
-  std::string file(reinterpret_cast<const char*>(&foldedUnits), sizeof foldedUnits);
-  file.append(reinterpret_cast<const char*>(&sensorSize), sizeof sensorSize);
-  file += sensorBytes;
-  file += trackerBytes;
-  writeBytesAtomically(jobDir(jobId) / "sensor.bin", file);
+  writePiecesAtomically(jobDir(jobId) / "sensor.bin", {{reinterpret_cast<const char*>(&foldedUnits), sizeof foldedUnits},
+                                                       {reinterpret_cast<const char*>(&sensorSize), sizeof sensorSize},
+                                                       {sensorBytes.data(), sensorBytes.size()},
+                                                       {trackerBytes.data(), trackerBytes.size()}});
   {
     std::lock_guard lock(mutex_);
     Statement(db_, "UPDATE jobs SET folded_units = ? WHERE id = ?").bind(1, int64_t(foldedUnits)).bind(2, jobId).step();
@@ -296,15 +307,18 @@ void StateStore::writeCheckpoint(const std::string& jobId, const std::string& se
 std::optional<StateStore::Checkpoint> StateStore::loadCheckpoint(const std::string& jobId) {
   const fs::path file = jobDir(jobId) / "sensor.bin";
   if (!fs::exists(file)) return std::nullopt;
-  const std::string bytes = readAll(file);
+  std::string bytes = readAll(file);
   Checkpoint c;
   uint64_t sensorSize = 0;
   if (bytes.size() >= 2 * sizeof(uint64_t)) std::memcpy(&sensorSize, bytes.data() + sizeof(uint64_t), sizeof sensorSize);
   if (bytes.size() < 2 * sizeof(uint64_t) || sensorSize > bytes.size() - 2 * sizeof(uint64_t))
     throw std::runtime_error(file.string() + " is truncated");
   std::memcpy(&c.foldedUnits, bytes.data(), sizeof(uint64_t));
-  c.sensorBytes = bytes.substr(2 * sizeof(uint64_t), sensorSize);
+  // Cut the file in place rather than copy the sensor out of it (it is most of a checkpoint).
   c.trackerBytes = bytes.substr(2 * sizeof(uint64_t) + sensorSize);
+  bytes.resize(2 * sizeof(uint64_t) + sensorSize);
+  bytes.erase(0, 2 * sizeof(uint64_t));
+  c.sensorBytes = std::move(bytes);
   return c;
 }
 

@@ -15,7 +15,7 @@ std::string readPem(const std::string& file, const char* flag) {
 }  // namespace
 
 std::shared_ptr<grpc::Channel> makeChannel(const std::string& address, const ChannelSecurity& security,
-                                           double maxBackoffSeconds) {
+                                           double maxBackoffSeconds, bool keepalive) {
   grpc::ChannelArguments args;
   // gRPC also uses the minimum reconnect backoff as the connect timeout of one attempt: at 100 ms
   // a TCP + HTTP/2 (+ TLS) handshake on a busy machine timed out ("connection attempt timed out
@@ -24,6 +24,12 @@ std::shared_ptr<grpc::Channel> makeChannel(const std::string& address, const Cha
   args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 1000);
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, int(maxBackoffSeconds * 1000));
+  if (keepalive) {
+    args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, 5000);
+    args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 5000);
+    args.SetInt(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+    args.SetInt(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);  // the Attach stream carries no data
+  }
   if (security.caFile.empty()) {
     if (!security.certFile.empty() || !security.keyFile.empty())
       throw InputError("--tls-cert", "a client certificate needs TLS: give --tls-ca too");

@@ -241,4 +241,17 @@ bool waitFor(const std::function<bool()>& condition, double timeoutSeconds) {
   return true;
 }
 
+::testing::AssertionResult contains(const std::string& text, const std::string& part) {
+  if (text.find(part) == std::string::npos)
+    return ::testing::AssertionFailure() << "\"" << text << "\" does not contain \"" << part << "\"";
+  return ::testing::AssertionSuccess();
+}
+
+std::vector<std::string> lines(const std::string& text) {
+  std::istringstream in(text);
+  std::vector<std::string> out;
+  for (std::string l; std::getline(in, l);) out.push_back(l);
+  return out;
+}
+
 }  // namespace lensfarm::test

@@ -1,5 +1,7 @@
 #pragma once
 // Helpers shared by the tests: temporary directories, small scene files, running the CLI.
+#include <gtest/gtest.h>
+
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -115,5 +117,12 @@ std::filesystem::path workerPath();       // the built lensfarm-worker
 
 // Waits until `condition` holds or `timeoutSeconds` pass; returns whether it held.
 bool waitFor(const std::function<bool()>& condition, double timeoutSeconds);
+
+// ---- text of a process's output ----
+
+// Succeeds when `text` contains `part`; the failure shows both.
+::testing::AssertionResult contains(const std::string& text, const std::string& part);
+// The lines of `text`, without their newlines.
+std::vector<std::string> lines(const std::string& text);
 
 }  // namespace lensfarm::test

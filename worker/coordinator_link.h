@@ -37,6 +37,9 @@ class CoordinatorLink {
   virtual bool upload(const UnitResult& result) = 0;
   virtual void reportFailure(const std::string& workerId, uint64_t leaseId, const std::string& jobId,
                              const std::string& error) = 0;
+  // The worker is stopping cleanly (after its last unit): the coordinator shows it as left, not
+  // lost. Links without a liveness stream (direct calls) need not do anything.
+  virtual void leave() {}
 };
 
 }  // namespace lensfarm

@@ -1,5 +1,8 @@
 #include "grpc_link.h"
 
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
 #include <chrono>
 
 #include "convert.h"
@@ -44,7 +47,107 @@ Registration GrpcCoordinatorLink::registerWorker(const WorkerInfo& info) {
   v1::RegisterResponse response;
   const grpc::Status s = stub_->Register(context().get(), request, &response);
   if (!s.ok()) raise(s, "Register");
+  attachAs(response.worker_id());
   return Registration{response.worker_id(), std::max(0.01, response.heartbeat_interval_ms() / 1000.0)};
+}
+
+// ---- the Attach stream ----------------------------------------------------------------------
+
+GrpcCoordinatorLink::~GrpcCoordinatorLink() { stopAttaching(); }
+
+void GrpcCoordinatorLink::stopAttaching() {
+  {
+    std::lock_guard lock(attachMutex_);
+    attachStop_ = true;
+    if (attachContext_) attachContext_->TryCancel();
+  }
+  attachWake_.notify_all();
+  if (attacher_.joinable()) attacher_.join();
+}
+
+void GrpcCoordinatorLink::attachAs(const std::string& workerId) {
+  std::lock_guard lock(attachMutex_);
+  if (attachStop_) return;
+  if (attachId_ != workerId) {
+    attachId_ = workerId;
+    if (attachContext_) attachContext_->TryCancel();  // a stream for an id the coordinator forgot
+  }
+  if (!attacher_.joinable()) attacher_ = std::thread([this] { attachLoop(); });
+  attachWake_.notify_all();
+}
+
+bool GrpcCoordinatorLink::attached() {
+  std::lock_guard lock(attachMutex_);
+  return attachStream_ != nullptr;
+}
+
+void GrpcCoordinatorLink::attachLoop() {
+  double backoff = 0.0;
+  std::unique_lock lock(attachMutex_);
+  while (!attachStop_) {
+    if (attachId_.empty() || attachId_ == refusedId_) {
+      attachWake_.wait(lock);
+      continue;
+    }
+    const std::string id = attachId_;
+    grpc::ClientContext ctx;  // no deadline: the stream lasts as long as the worker
+    authorize(ctx, security_);
+    attachContext_ = &ctx;
+    lock.unlock();
+    auto stream = stub_->Attach(&ctx);
+    v1::AttachRequest hello;
+    hello.set_worker_id(id);
+    v1::AttachEvent event;
+    if (stream->Write(hello) && stream->Read(&event) && event.attached()) {
+      spdlog::debug("attached to the coordinator as {}", id);
+      backoff = 0.0;
+      lock.lock();
+      attachStream_ = stream.get();
+      lock.unlock();
+      while (stream->Read(&event)) {
+      }
+      lock.lock();
+      attachStream_ = nullptr;
+      attachWake_.notify_all();  // leave() waits for this
+      lock.unlock();
+    }
+    const grpc::Status status = stream->Finish();
+    lock.lock();
+    attachContext_ = nullptr;
+    if (attachStop_) break;
+    switch (status.error_code()) {
+      case grpc::StatusCode::UNIMPLEMENTED:  // an older coordinator: heartbeats and lease timeouts only
+        spdlog::info("the coordinator does not offer Attach; it will notice this worker's loss by its lease timeout");
+        refusedId_ = id;
+        break;
+      case grpc::StatusCode::NOT_FOUND:  // it forgot this id (a restart, or it judged us lost): register first
+      case grpc::StatusCode::UNAUTHENTICATED:
+      case grpc::StatusCode::PERMISSION_DENIED:
+        spdlog::debug("Attach as {}: {}", id, status.error_message());
+        refusedId_ = id;
+        break;
+      default:  // the connection broke or the coordinator is going away: try again, backing off
+        if (attachId_ != id) break;
+        backoff = std::min(5.0, backoff > 0.0 ? backoff * 2 : 0.1);
+        spdlog::debug("Attach as {} ended: {}; again in {:.1f} s", id, status.error_message(), backoff);
+        attachWake_.wait_for(lock, std::chrono::duration<double>(backoff),
+                             [&] { return attachStop_ || attachId_ != id; });
+    }
+  }
+}
+
+void GrpcCoordinatorLink::leave() {
+  {
+    std::unique_lock lock(attachMutex_);
+    if (attachStream_) {
+      v1::AttachRequest bye;
+      bye.set_leaving(true);
+      // Under the lock: the attach thread cannot finish the stream meanwhile.
+      if (attachStream_->Write(bye)) attachStream_->WritesDone();
+      attachWake_.wait_for(lock, std::chrono::seconds(2), [&] { return attachStream_ == nullptr; });
+    }
+  }
+  stopAttaching();
 }
 
 std::vector<uint64_t> GrpcCoordinatorLink::heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds) {

@@ -17,6 +17,7 @@
 #include "util/service_flags.h"
 #include "util/secret.h"
 #include "util/version.h"
+#include "render/memory_estimate.h"
 #include "worker_loop.h"
 
 namespace {
@@ -86,7 +87,8 @@ int main(int argc, char** argv) {
   std::shared_ptr<grpc::Channel> channel;
   try {
     security.token = readToken(tokenFile, "LENSFARM_TOKEN");
-    channel = makeChannel(coordinator, security, options.maxBackoffSeconds);
+    options.maxMemoryBytes = defaultJobMemoryBudget();  // LENSFARM_MAX_JOB_MEMORY, else 3/4 of memory
+    channel = makeChannel(coordinator, security, options.maxBackoffSeconds, /*keepalive=*/true);
   } catch (const InputError& e) {
     std::cerr << "lensfarm-worker: error: " << e.what() << "\n";
     return 2;

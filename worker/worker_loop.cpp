@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 
+#include "render/memory_estimate.h"
 #include "scene/render_overrides.h"
 #include "scene/scene_loader.h"
 #include "util/error.h"
@@ -167,6 +168,20 @@ void WorkerLoop::run() {
         spdlog::error("cannot render {}: {}", grant->jobId, e.what());
         link_.reportFailure(id, grant->leaseId, grant->jobId, e.what());
         continue;
+      } catch (const std::bad_alloc&) {
+        spdlog::error("cannot render {}: out of memory loading its scene", grant->jobId);
+        link_.reportFailure(id, grant->leaseId, grant->jobId, "out of memory loading the scene on " + options_.name);
+        continue;
+      }
+      // A unit this worker cannot hold is refused with a report, before it allocates anything.
+      const MemoryEstimate memory =
+          workerJobMemory(job->scene.render, job->renderScene->caster().triangles().size());
+      if (options_.maxMemoryBytes > 0 && memory.total() > options_.maxMemoryBytes) {
+        const std::string what = overBudgetMessage(job->scene.render, memory, "worker", options_.maxMemoryBytes,
+                                                   "LENSFARM_MAX_JOB_MEMORY, else 3/4 of " + options_.name + "'s memory");
+        spdlog::error("cannot render {}: {}", grant->jobId, what);
+        link_.reportFailure(id, grant->leaseId, grant->jobId, what);
+        continue;
       }
 
       {
@@ -177,9 +192,16 @@ void WorkerLoop::run() {
       UnitResult result = resultForLease(id, *grant);
       const auto start = std::chrono::steady_clock::now();
       bool complete = false;
-      arena.execute([&] {
-        complete = renderUnit(*job->renderScene, grant->unit, result.buffer, result.stats, &cancelUnit_);
-      });
+      try {
+        arena.execute([&] {
+          complete = renderUnit(*job->renderScene, grant->unit, result.buffer, result.stats, &cancelUnit_);
+        });
+      } catch (const std::bad_alloc&) {
+        const std::string what = "out of memory for a unit buffer (estimated " + memory.describe() + ") on " + options_.name;
+        spdlog::error("cannot render {}: {}", grant->jobId, what);
+        link_.reportFailure(id, grant->leaseId, grant->jobId, what);
+        continue;
+      }
       result.renderSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       ++counters_.unitsRendered;
       if (!complete) {
@@ -239,6 +261,7 @@ void WorkerLoop::run() {
   stopNow_ = true;
   wake_.notify_all();
   if (heartbeat_.joinable()) heartbeat_.join();
+  link_.leave();  // a clean stop: shown as left, not lost
 }
 
 }  // namespace lensfarm

@@ -28,6 +28,9 @@ struct WorkerOptions {
   double leaseWaitSeconds = 2.0;   // long-poll time per lease request
   double maxBackoffSeconds = 5.0;  // cap of the retry delay
   std::filesystem::path cacheDir;  // empty: assets cached in memory only
+  // A unit whose estimated memory (render/memory_estimate.h, workerJobMemory) exceeds this is
+  // refused with a failure report; 0: no limit. lensfarm-worker: defaultJobMemoryBudget().
+  uint64_t maxMemoryBytes = 0;
 };
 
 struct WorkerCounters {

@@ -17,8 +17,15 @@ void ConvergenceTracker::add(uint64_t unitIndex, const SensorBuffer& unit) {
   if (unit.width != width_ || unit.height != height_)
     throw std::invalid_argument("ConvergenceTracker::add: buffer size differs from the tracker's");
   if (unitIndex % 2 != 0 || unit.samples.empty()) return;
+  add(unitIndex, unit, unit.samples[0]);
+}
+
+void ConvergenceTracker::add(uint64_t unitIndex, const SensorBuffer& unit, uint32_t samplesPerCell) {
+  if (unit.width != width_ || unit.height != height_ || unit.sums.size() != evenSums_.size())
+    throw std::invalid_argument("ConvergenceTracker::add: buffer size differs from the tracker's");
+  if (unitIndex % 2 != 0) return;
   for (size_t k = 0; k < evenSums_.size(); ++k) evenSums_[k] += unit.sums[k];
-  evenSamples_ += unit.samples[0];
+  evenSamples_ += samplesPerCell;
 }
 
 ErrorEstimate ConvergenceTracker::estimate(const Sensor& total) const {

@@ -41,6 +41,8 @@ class ConvergenceTracker {
 
   // Adds unit `unitIndex`'s buffer to its half (call it for every unit added to the sensor).
   void add(uint64_t unitIndex, const SensorBuffer& unit);
+  // The same for a unit whose every cell holds `samplesPerCell` samples (its counts are not read).
+  void add(uint64_t unitIndex, const SensorBuffer& unit, uint32_t samplesPerCell);
 
   // The estimate for `total`, the sensor holding every unit added here.
   ErrorEstimate estimate(const Sensor& total) const;
@@ -49,6 +51,9 @@ class ConvergenceTracker {
   // throws std::runtime_error on bytes that are not a tracker.
   std::string serialize() const;
   static ConvergenceTracker deserialize(const std::string& bytes);
+
+  // Bytes of frame-sized memory held (render/memory_estimate.h: kTrackerBytesPerCell a cell).
+  uint64_t memoryBytes() const { return evenSums_.capacity() * sizeof(double); }
 
  private:
   int width_, height_;

@@ -35,7 +35,9 @@ Imf::FrameBuffer frameBufferFor(float* rgb, int width) {
 }
 }  // namespace
 
-std::string encodeExr(const Image& image, const ImageMetadata& metadata) {
+namespace {
+// Writes the EXR to `stream` straight from the image's pixels (no copy of the frame).
+void writeExrTo(Imf::OStream& stream, const Image& image, const ImageMetadata& metadata) {
   Imf::Header header(image.width, image.height);
   header.compression() = Imf::ZIP_COMPRESSION;
   for (const char* name : {"R", "G", "B"}) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
@@ -46,14 +48,39 @@ std::string encodeExr(const Image& image, const ImageMetadata& metadata) {
   header.insert(p + "sceneHash", Imf::StringAttribute(metadata.sceneHash));
   header.insert(p + "rendererVersion", Imf::StringAttribute(metadata.rendererVersion));
   for (const auto& [key, value] : metadata.extra) header.insert(p + key, Imf::StringAttribute(value));
-  Imf::StdOSStream stream;
-  {
-    Imf::OutputFile file(stream, header);
-    std::vector<float> pixels = image.rgb;  // OpenEXR wants non-const slices
-    file.setFrameBuffer(frameBufferFor(pixels.data(), image.width));
-    file.writePixels(image.height);
-  }  // the file is complete when OutputFile is destroyed
-  return stream.str();
+  Imf::OutputFile file(stream, header);
+  // OpenEXR wants non-const slices; an OutputFile only reads them.
+  file.setFrameBuffer(frameBufferFor(const_cast<float*>(image.rgb.data()), image.width));
+  file.writePixels(image.height);
+}  // the file is complete when OutputFile is destroyed
+}  // namespace
+
+namespace {
+// An OStream into a std::string that the caller takes at the end (Imf::StdOSStream::str() would
+// copy the whole encoded file).
+class StringOStream final : public Imf::OStream {
+ public:
+  StringOStream() : Imf::OStream("(memory)") {}
+  void write(const char c[], int n) override {
+    const size_t end = position_ + size_t(n);
+    if (end > bytes_.size()) bytes_.resize(end);
+    std::memcpy(bytes_.data() + position_, c, size_t(n));
+    position_ = end;
+  }
+  uint64_t tellp() override { return position_; }
+  void seekp(uint64_t pos) override { position_ = size_t(pos); }
+  std::string take() { return std::move(bytes_); }
+
+ private:
+  std::string bytes_;
+  size_t position_ = 0;
+};
+}  // namespace
+
+std::string encodeExr(const Image& image, const ImageMetadata& metadata) {
+  StringOStream stream;
+  writeExrTo(stream, image, metadata);
+  return stream.take();
 }
 
 namespace {
@@ -132,7 +159,15 @@ void writeBytesAtomically(const fs::path& path, const std::string& bytes) {
 }
 
 void writeExr(const fs::path& path, const Image& image, const ImageMetadata& metadata) {
-  writeBytesAtomically(path, encodeExr(image, metadata));
+  // Straight into the file: no encoded copy of the frame in memory.
+  writeFileAtomically(path, [&](const fs::path& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    if (!out) throw std::runtime_error("cannot create " + tmp.string());
+    Imf::StdOFStream stream(out, tmp.c_str());
+    writeExrTo(stream, image, metadata);
+    out.close();
+    if (!out) throw std::runtime_error("write failed");
+  });
 }
 
 void writePng(const fs::path& path, const Image& image, const ExposureSettings& exposure) {

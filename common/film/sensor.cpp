@@ -1,27 +1,54 @@
 #include "film/sensor.h"
 
+#include <algorithm>
 #include <cstring>
 #include <stdexcept>
 
 namespace lensfarm {
 
-Sensor::Sensor(int width, int height)
-    : width_(width), height_(height), sums_(size_t(width) * height * 3), samples_(size_t(width) * height, 0) {}
+Sensor::Sensor(int width, int height) : width_(width), height_(height), sums_(size_t(width) * height * 3) {}
 
 void Sensor::add(const SensorBuffer& unit) {
-  if (unit.width != width_ || unit.height != height_)
+  if (unit.width != width_ || unit.height != height_ || unit.samples.size() != unit.cells())
     throw std::invalid_argument("Sensor::add: buffer size differs from the sensor's");
   for (size_t k = 0; k < sums_.size(); ++k) sums_[k].add(unit.sums[k]);
-  for (size_t c = 0; c < samples_.size(); ++c) {
+  addCounts(unit);
+}
+
+void Sensor::add(const SensorBuffer& unit, uint32_t samplesPerCell) {
+  if (unit.width != width_ || unit.height != height_ || unit.sums.size() != sums_.size())
+    throw std::invalid_argument("Sensor::add: buffer size differs from the sensor's");
+  for (size_t k = 0; k < sums_.size(); ++k) sums_[k].add(unit.sums[k]);
+  const uint64_t cells = uint64_t(width_) * uint64_t(height_);
+  if (samples_.empty())
+    uniformSamples_ += samplesPerCell;
+  else
+    for (uint64_t& n : samples_) n += samplesPerCell;
+  totalSamples_ += cells * samplesPerCell;
+}
+
+void Sensor::addCounts(const SensorBuffer& unit) {
+  const size_t cells = unit.cells();
+  const bool uniform = samples_.empty() &&
+                       std::all_of(unit.samples.begin(), unit.samples.end(), [&](uint32_t n) { return n == unit.samples[0]; });
+  if (uniform) {
+    const uint64_t n = cells ? unit.samples[0] : 0;
+    uniformSamples_ += n;
+    totalSamples_ += n * cells;
+    return;
+  }
+  if (samples_.empty()) samples_.assign(cells, uniformSamples_);
+  for (size_t c = 0; c < cells; ++c) {
     samples_[c] += unit.samples[c];
     totalSamples_ += unit.samples[c];
   }
 }
 
 DVec3 Sensor::mean(int i, int j) const {
+  const uint64_t n = samples(i, j);
+  if (n == 0) return DVec3(0.0);
   const size_t c = size_t(j) * width_ + i;
-  if (samples_[c] == 0) return DVec3(0.0);
-  const double inv = 1.0 / double(samples_[c]);
+  const double inv = 1.0 / double(n);
   return DVec3(sums_[3 * c].value(), sums_[3 * c + 1].value(), sums_[3 * c + 2].value()) * inv;
 }
 
@@ -58,7 +85,8 @@ T take(const std::string& in, size_t& offset) {
 
 std::string Sensor::serialize() const {
   std::string out;
-  out.reserve(16 + 24 + sums_.size() * 16 + samples_.size() * 8);
+  const size_t cells = size_t(width_) * size_t(height_);
+  out.reserve(sizeof kMagic + 16 + sums_.size() * 16 + cells * 8);
   out.append(kMagic, sizeof kMagic);
   put(out, int32_t(width_));
   put(out, int32_t(height_));
@@ -67,7 +95,12 @@ std::string Sensor::serialize() const {
     put(out, s.runningSum());
     put(out, s.compensation());
   }
-  for (uint64_t n : samples_) put(out, n);
+  // The file keeps a count per cell (the format predates uniform counts; a checkpoint of either
+  // reads back the same).
+  if (samples_.empty())
+    for (size_t c = 0; c < cells; ++c) put(out, uniformSamples_);
+  else
+    for (uint64_t n : samples_) put(out, n);
   return out;
 }
 
@@ -79,13 +112,23 @@ Sensor Sensor::deserialize(const std::string& bytes) {
   if (w <= 0 || h <= 0 || int64_t(w) * h > (int64_t(1) << 28)) throw std::runtime_error("sensor checkpoint has a bad size");
   Sensor sensor(w, h);
   sensor.totalSamples_ = take<uint64_t>(bytes, offset);
-  if (bytes.size() != offset + sensor.sums_.size() * 16 + sensor.samples_.size() * 8)
+  const size_t cells = size_t(w) * size_t(h);
+  if (bytes.size() != offset + sensor.sums_.size() * 16 + cells * 8)
     throw std::runtime_error("sensor checkpoint has the wrong length");
   for (CompensatedSum& s : sensor.sums_) {
     const double sum = take<double>(bytes, offset);
     s = CompensatedSum::fromState(sum, take<double>(bytes, offset));
   }
-  for (uint64_t& n : sensor.samples_) n = take<uint64_t>(bytes, offset);
+  const size_t countsAt = offset;
+  sensor.uniformSamples_ = take<uint64_t>(bytes, offset);
+  for (size_t c = 1; c < cells; ++c)
+    if (take<uint64_t>(bytes, offset) != sensor.uniformSamples_) {
+      offset = countsAt;  // counts differ between cells: keep them all
+      sensor.samples_.resize(cells);
+      for (uint64_t& n : sensor.samples_) n = take<uint64_t>(bytes, offset);
+      sensor.uniformSamples_ = 0;
+      break;
+    }
   return sensor;
 }
 

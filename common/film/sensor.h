@@ -25,6 +25,8 @@ struct SensorBuffer {
   SensorBuffer() = default;
   SensorBuffer(int w, int h) : width(w), height(h), sums(size_t(w) * h * 3, 0.0), samples(size_t(w) * h, 0) {}
   size_t cells() const { return size_t(width) * height; }
+  // Bytes of frame-sized memory held (render/memory_estimate.h: kUnitBufferBytesPerCell a cell).
+  uint64_t memoryBytes() const { return sums.capacity() * sizeof(double) + samples.capacity() * sizeof(uint32_t); }
 };
 
 class Sensor {
@@ -34,11 +36,14 @@ class Sensor {
   // Adds one unit's partial buffer. Callers add units in a canonical order (by unit index) so
   // that the result does not depend on which unit finished first.
   void add(const SensorBuffer& unit);
+  // The same for a unit whose every cell holds `samplesPerCell` samples (a unit covers the whole
+  // frame); the buffer's own counts are not read (the coordinator knows each unit's count).
+  void add(const SensorBuffer& unit, uint32_t samplesPerCell);
 
   int width() const { return width_; }
   int height() const { return height_; }
   uint64_t totalSamples() const { return totalSamples_; }
-  uint64_t samples(int i, int j) const { return samples_[size_t(j) * width_ + i]; }
+  uint64_t samples(int i, int j) const { return samples_.empty() ? uniformSamples_ : samples_[size_t(j) * width_ + i]; }
   // Mean radiance of cell (i, j) in sensor orientation; zero before any sample.
   DVec3 mean(int i, int j) const;
 
@@ -51,10 +56,18 @@ class Sensor {
   std::string serialize() const;
   static Sensor deserialize(const std::string& bytes);
 
+  // Bytes of frame-sized memory held (render/memory_estimate.h: kSensorBytesPerCell a cell).
+  uint64_t memoryBytes() const { return sums_.capacity() * sizeof(CompensatedSum) + samples_.capacity() * sizeof(uint64_t); }
+
  private:
+  void addCounts(const SensorBuffer& unit);
   int width_, height_;
   std::vector<CompensatedSum> sums_;  // 3 per cell
-  std::vector<uint64_t> samples_;
+  // Samples per cell. Units cover the whole frame, so every cell holds the same count: one number
+  // while that holds (always, in a job), per-cell counts (8 bytes a cell) only once a buffer gave
+  // cells different counts.
+  uint64_t uniformSamples_ = 0;
+  std::vector<uint64_t> samples_;  // empty while the count is uniform
   uint64_t totalSamples_ = 0;
 };
 

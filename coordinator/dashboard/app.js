@@ -70,6 +70,23 @@ function el(tag, attributes = {}, ...children) {
   return node;
 }
 const badge = (state) => el("span", { class: `badge state-${state}` }, state);
+// Samples per pixel: "106 / 128", or "688" for a job that runs to a target error or a deadline
+// (spp_total null: it has no cap of its own).
+const sppText = (j) => (j.spp_total === null ? `${j.spp_done}` : `${j.spp_done} / ${j.spp_total}`);
+// What the progress bar measures: the nearest of the job's stopping rules.
+function progressBasis(j) {
+  const rules = [];
+  if (j.spp_total !== null) rules.push(`${j.spp_total} spp`);
+  if (j.target_error > 0) rules.push(`error ${fmtError(j.target_error)}`);
+  if (j.time_limit_seconds > 0) rules.push(`deadline ${fmtDuration(j.time_limit_seconds)}`);
+  return rules.join(" or ");
+}
+// Time left, or "stalled" (with the reason as a tooltip) while no worker renders the job.
+function timeLeft(j) {
+  if (isTerminal(j.state)) return j.stop_reason || j.state;
+  if (j.stalled_reason) return el("span", { class: "stalled", title: j.stalled_reason }, "stalled");
+  return fmtDuration(j.remaining_seconds);
+}
 function progressBar(fraction) {
   const bar = el("div", { class: "progress small" }, el("div"));
   bar.firstChild.style.width = `${Math.min(100, 100 * fraction).toFixed(1)}%`;
@@ -90,20 +107,24 @@ async function renderOverview() {
       el("td", {}, `${j.scene} `, el("span", { class: "muted" }, `${j.width}×${j.height}`)),
       el("td", {}, badge(j.state)),
       el("td", { class: "num" }, j.priority),
-      el("td", { class: "progress-cell" }, progressBar(j.progress),
-        el("span", { class: "muted" }, `${j.spp_done} / ${j.spp_total} spp`)),
+      el("td", { class: "progress-cell", title: `toward ${progressBasis(j)}` }, progressBar(j.progress),
+        el("span", { class: "muted" }, `${sppText(j)} spp`)),
       el("td", { class: "num" }, isTerminal(j.state) ? "–" : fmtCount(j.samples_per_second)),
       el("td", { class: "num" }, fmtError(j.estimated_error)),
-      el("td", { class: "num" }, isTerminal(j.state) ? (j.stop_reason || j.state) : fmtDuration(j.remaining_seconds))));
+      el("td", { class: "num time-left" }, timeLeft(j))));
   $("#jobs tbody").replaceChildren(...jobRows);
   $("#jobs-empty").hidden = jobs.length > 0;
+  const gone = (w) => w.state === "lost" || w.state === "left";
   const workerRows = workers.map((w) =>
-    el("tr", { dataset: { worker: w.id } },
+    el("tr", { dataset: { worker: w.id, state: w.state } },
       el("td", {}, w.name || w.id, " ", el("span", { class: "muted" }, w.id)),
       el("td", { class: "num" }, w.cores),
+      el("td", { class: "worker-state" }, badge(w.state),
+        gone(w) || w.state === "stale" ? el("span", { class: "muted" }, ` ${fmtDuration(w.seconds_in_state)}${gone(w) ? " ago" : " silent"}`) : "",
+        w.state_reason ? el("div", { class: "muted small" }, w.state_reason) : ""),
       el("td", {}, w.current_job
         ? el("a", { href: `#/job/${encodeURIComponent(w.current_job)}` }, `${w.current_job} · unit ${w.current_unit ?? "–"}`)
-        : el("span", { class: "muted" }, "idle")),
+        : el("span", { class: "muted" }, "–")),
       el("td", { class: "num" }, w.samples_per_second > 0 ? fmtCount(w.samples_per_second) : "–"),
       el("td", { class: "num" }, w.units_done),
       el("td", { class: "num" }, `${w.seconds_since_heartbeat.toFixed(1)} s ago`)));
@@ -124,16 +145,19 @@ async function renderJob(jobId) {
   state.textContent = job.state;
   state.className = `badge state-${job.state}`;
   $("#job-progress-bar").style.width = `${Math.min(100, 100 * job.progress).toFixed(1)}%`;
+  $("#job-progress").title = `${(100 * job.progress).toFixed(0)} % of the way to ${progressBasis(job)}`;
   const running = !isTerminal(job.state);
   const target = job.target_error > 0 ? ` (target ${fmtError(job.target_error)})` : "";
   $("#job-stats").replaceChildren(
-    ...stat("Samples per pixel", `${job.spp_done} / ${job.spp_total}`, "job-spp"),
-    ...stat("Units", `${job.units_done} / ${job.units_total}`),
+    ...stat("Samples per pixel", sppText(job), "job-spp"),
+    ...stat("Units", job.units_total === null ? `${job.units_done}` : `${job.units_done} / ${job.units_total}`),
+    ...stat("Progress", `${(100 * job.progress).toFixed(0)} % toward ${progressBasis(job)}`, "job-progress-text"),
     ...stat("Samples/s", running ? fmtCount(job.samples_per_second) : "–"),
     ...stat("Estimated error", fmtError(job.estimated_error) + target, "job-error"),
     ...stat("Elapsed", fmtDuration(job.elapsed_seconds)),
-    ...stat(running ? "Time left" : "Stopped", running ? fmtDuration(job.remaining_seconds) : (job.stop_reason || job.error || job.state)),
-    ...stat("Workers busy", job.workers_busy));
+    ...stat(running ? "Time left" : "Stopped", running ? timeLeft(job) : (job.stop_reason || job.error || job.state), "job-time-left"),
+    ...stat("Workers busy", job.workers_busy),
+    ...(job.stalled_reason ? stat("Stalled", job.stalled_reason, "job-stalled") : []));
   $("#job-priority").textContent = job.priority;
   $("#cancel").disabled = !running;
   $("#priority-up").disabled = $("#priority-down").disabled = !running;

@@ -25,6 +25,8 @@ namespace lensfarm {
 namespace {
 
 namespace fs = std::filesystem;
+using test::contains;
+using test::lines;
 using json = nlohmann::json;
 
 constexpr int kBadInput = 2;
@@ -59,23 +61,10 @@ std::vector<std::string> hiddenEntries(const fs::path& dir) {
   return ::testing::AssertionSuccess();
 }
 
-::testing::AssertionResult contains(const std::string& text, const std::string& part) {
-  if (text.find(part) == std::string::npos)
-    return ::testing::AssertionFailure() << "\"" << text << "\" does not contain \"" << part << "\"";
-  return ::testing::AssertionSuccess();
-}
-
 std::vector<std::string> tokens(const std::string& line) {
   std::istringstream in(line);
   std::vector<std::string> out;
   for (std::string t; in >> t;) out.push_back(t);
-  return out;
-}
-
-std::vector<std::string> lines(const std::string& text) {
-  std::istringstream in(text);
-  std::vector<std::string> out;
-  for (std::string l; std::getline(in, l);) out.push_back(l);
   return out;
 }
 

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <netinet/in.h>
+#include <signal.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -376,6 +377,53 @@ TEST_F(DashboardFarm, ARealBrowserWatchesTheImageChangeAndCancels) {
     EXPECT_EQ(head, kind == "exr" ? json({0x76, 0x2f, 0x31, 0x01}) : json({0x89, 0x50, 0x4e, 0x47})) << kind;
   }
   EXPECT_GT(fs::file_size(fs::path(LENSFARM_BINARY_DIR) / "dashboard.png"), 10000u);
+}
+
+TEST_F(DashboardFarm, ARealBrowserShowsProgressWithoutASampleCapAndALostWorker) {
+  ASSERT_TRUE(fs::exists(kChromium) && fs::exists(kChromedriver))
+      << "needs Debian's chromium and chromium-driver (scripts/setup.sh installs them)";
+  // No --spp: the job runs to a target error it will not reach, or its deadline; the bar shows
+  // the nearer (the deadline), never units out of the internal cap of 2^40 samples per pixel.
+  const std::string job = submit(test::writeSeedScene(dir_, 64, 8, 8), {"--target-error", "0.0001", "--deadline", "2m"});
+  test::ChildProcess& worker = farm_.startWorker("w1", {"--coordinator", address_, "--threads", "1"});
+  Browser browser(dir_);
+  browser.go("http://" + dashboard_ + "/");
+  ASSERT_TRUE(test::waitFor([&] { return browser.visible("#token"); }, 30)) << "no token form";
+  browser.type("#token", token_);
+  browser.click("#token-submit");
+
+  const std::string row = "#jobs tbody tr[data-job=\"" + job + "\"]";
+  const auto barWidth = [&](const std::string& css) {
+    const json v = browser.run("const e = document.querySelector(" + json(css).dump() + "); return e ? parseFloat(e.style.width) : -1;");
+    return v.is_number() ? v.get<double>() : -1.0;
+  };
+  ASSERT_TRUE(test::waitFor([&] { return browser.visible(row) && barWidth(row + " .progress div") > 0.0; }, 60))
+      << browser.text("#jobs") << " bar " << barWidth(row + " .progress div");
+  EXPECT_EQ(browser.text(row).find("1099511627776"), std::string::npos) << browser.text(row);
+  const std::string workerRow = "#workers tbody tr[data-worker]";
+  ASSERT_TRUE(test::waitFor([&] { return browser.text(workerRow).find("w1") != std::string::npos; }, 30)) << browser.text("#workers");
+
+  // The worker dies: the list says lost (and why) at once, and the job why it is stalled.
+  worker.signal(SIGKILL);
+  const std::string lostRow = "#workers tbody tr[data-state=\"lost\"]";
+  ASSERT_TRUE(test::waitFor([&] { return browser.visible(lostRow); }, 10)) << browser.text("#workers");
+  EXPECT_NE(browser.text(lostRow).find("w1"), std::string::npos) << browser.text(lostRow);
+  EXPECT_NE(browser.text(lostRow).find("connection broke"), std::string::npos) << browser.text(lostRow);
+  ASSERT_TRUE(test::waitFor([&] { return browser.text(row + " .time-left") == "stalled"; }, 10)) << browser.text(row);
+  browser.screenshot(fs::path(LENSFARM_BINARY_DIR) / "dashboard-lost-worker.png");
+
+  browser.click(row + " a");
+  ASSERT_TRUE(test::waitFor([&] { return browser.text("#job-stalled").find("no workers connected") != std::string::npos; }, 30))
+      << browser.text("#job-stats");
+  // Which worker was lost, whether it held one of this job's units at that moment ("worker w1 (...)
+  // lost 1 s ago (...); unit 3 queued again; ...") or was between units ("... (w1 (...) lost ...)").
+  EXPECT_NE(browser.text("#job-stalled").find("w1 (worker-"), std::string::npos) << browser.text("#job-stalled");
+  EXPECT_NE(browser.text("#job-stalled").find(" lost "), std::string::npos) << browser.text("#job-stalled");
+  EXPECT_EQ(browser.text("#job-time-left"), "stalled");
+  EXPECT_NE(browser.text("#job-progress-text").find("toward error 0.01 % or deadline 2 min 00 s"), std::string::npos)
+      << browser.text("#job-progress-text");
+  EXPECT_GT(barWidth("#job-progress-bar"), 0.0);
+  EXPECT_EQ(browser.text("#job-spp").find("/"), std::string::npos) << "no total: " << browser.text("#job-spp");
 }
 
 }  // namespace

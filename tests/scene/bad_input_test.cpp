@@ -9,6 +9,7 @@
 #include <string>
 
 #include "scene/scene_loader.h"
+#include "scene_error_fixture.h"
 #include "test_support.h"
 #include "util/error.h"
 
@@ -18,39 +19,13 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-constexpr const char* kNoError = "<no InputError was thrown>";
+using test::kNoError;
 
 // Each test gets its own directory; the scene is always written as "bad-scene.json" so that the
 // message can be checked for the file.
-class BadInput : public ::testing::Test {
+class BadInput : public test::SceneErrorTest {
  protected:
-  fs::path sceneFile() const { return dir_ / "bad-scene.json"; }
-
-  // The message of the InputError thrown while loading `text`, or kNoError.
-  std::string errorOfText(const std::string& text) const {
-    dir_.write("bad-scene.json", text);
-    try {
-      (void)loadScene(sceneFile());
-    } catch (const InputError& e) {
-      return e.what();
-    } catch (const std::exception& e) {
-      return std::string("<not an InputError: ") + e.what() + ">";
-    }
-    return kNoError;
-  }
-  std::string errorOf(const json& scene) const { return errorOfText(scene.dump(2)); }
-
-  // The message starts with "<file>: <field>: " and contains every one of `more`.
-  ::testing::AssertionResult namesField(const std::string& message, const std::string& field,
-                                        std::initializer_list<std::string> more = {}) const {
-    const std::string prefix = sceneFile().string() + ": " + field + ": ";
-    if (message.rfind(prefix, 0) != 0)
-      return ::testing::AssertionFailure() << "message \"" << message << "\" does not start with \"" << prefix << "\"";
-    for (const auto& m : more)
-      if (message.find(m) == std::string::npos)
-        return ::testing::AssertionFailure() << "message \"" << message << "\" does not contain \"" << m << "\"";
-    return ::testing::AssertionSuccess();
-  }
+  BadInput() : SceneErrorTest("bad-scene.json") {}
 
   // A thin-lens variant of the minimal scene that loads (the f_number tests start from it).
   static json thinLensScene() {
@@ -67,8 +42,6 @@ class BadInput : public ::testing::Test {
     j["shapes"].push_back({{"type", "obj"}, {"file", objName}, {"material", "white"}});
     return j;
   }
-
-  test::TempDir dir_;
 };
 
 // ---- positive controls: the starting points of the cases below do load ----------------------

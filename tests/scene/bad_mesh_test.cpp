@@ -12,6 +12,7 @@
 #include "coordinator.h"
 #include "scene/obj_check.h"
 #include "scene/scene_loader.h"
+#include "scene_error_fixture.h"
 #include "test_support.h"
 #include "util/error.h"
 #include "util/hash.h"
@@ -22,11 +23,9 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-constexpr const char* kNoError = "<no InputError was thrown>";
-
-class BadInputMesh : public ::testing::Test {
+class BadInputMesh : public test::SceneErrorTest {
  protected:
-  fs::path sceneFile() const { return dir_ / "scene.json"; }
+  BadInputMesh() : SceneErrorTest("scene.json") {}
   std::string meshPath(const std::string& name) const { return (dir_ / name).string(); }
 
   // The minimal scene plus shapes[1], an OBJ shape reading `name`.
@@ -39,15 +38,7 @@ class BadInputMesh : public ::testing::Test {
   // Writes `bytes` as the mesh and loads the scene: the InputError's message, or kNoError.
   std::string errorOfMesh(const std::string& bytes, const std::string& name = "mesh.obj") const {
     dir_.write(name, bytes);
-    dir_.write("scene.json", sceneWith(name).dump(2));
-    try {
-      (void)loadScene(sceneFile());
-    } catch (const InputError& e) {
-      return e.what();
-    } catch (const std::exception& e) {
-      return std::string("<not an InputError: ") + e.what() + ">";
-    }
-    return kNoError;
+    return errorOf(sceneWith(name));
   }
 
   // "<scene>: shapes[1].file: "<mesh path>": <reason...>" with `reason` in it.
@@ -69,8 +60,6 @@ class BadInputMesh : public ::testing::Test {
       if (m.name == "obj#1") return m.triangleCount();
     return 0;
   }
-
-  test::TempDir dir_;
 };
 
 const std::string kTriangle = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "scene/scene_loader.h"
+#include "scene_error_fixture.h"
 #include "test_support.h"
 #include "util/error.h"
 
@@ -19,36 +20,11 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-constexpr const char* kNoError = "<no InputError was thrown>";
+using test::kNoError;
 
-class BadInputCamera : public ::testing::Test {
+class BadInputCamera : public test::SceneErrorTest {
  protected:
-  fs::path sceneFile() const { return dir_ / "cam.json"; }
-
-  std::string errorOfText(const std::string& text) const {
-    dir_.write("cam.json", text);
-    try {
-      (void)loadScene(sceneFile());
-    } catch (const InputError& e) {
-      return e.what();
-    } catch (const std::exception& e) {
-      return std::string("<not an InputError: ") + e.what() + ">";
-    }
-    return kNoError;
-  }
-  std::string errorOf(const json& scene) const { return errorOfText(scene.dump(2)); }
-
-  // The message starts with "<file>: <field>: " and contains every one of `more`.
-  ::testing::AssertionResult namesField(const std::string& message, const std::string& field,
-                                        std::initializer_list<std::string> more = {}) const {
-    const std::string prefix = sceneFile().string() + ": " + field + ": ";
-    if (message.rfind(prefix, 0) != 0)
-      return ::testing::AssertionFailure() << "message \"" << message << "\" does not start with \"" << prefix << "\"";
-    for (const auto& m : more)
-      if (message.find(m) == std::string::npos)
-        return ::testing::AssertionFailure() << "message \"" << message << "\" does not contain \"" << m << "\"";
-    return ::testing::AssertionSuccess();
-  }
+  BadInputCamera() : SceneErrorTest("cam.json") {}
 
   // The minimal scene (a pinhole 3 units from a 2 x 2 quad) with `camera` merged in.
   static json withCamera(const json& camera) {
@@ -61,8 +37,6 @@ class BadInputCamera : public ::testing::Test {
     }
     return j;
   }
-
-  test::TempDir dir_;
 };
 
 // ---- millimetres in a scene in metres --------------------------------------------------------

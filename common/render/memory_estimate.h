@@ -1,0 +1,112 @@
+#pragma once
+// How much memory a job needs, estimated from its settings before anything frame-sized is
+// allocated, and how much this machine allows (docs/farm.md, "Memory"). One place, used by the
+// coordinator (Coordinator::submit refuses a job over --max-job-memory), by `lensfarm render`
+// (refuses before tracing) and by the worker (refuses a lease it cannot hold).
+//
+// Every frame-sized buffer, in bytes per cell (a cell is a pixel; cells = width x height):
+//
+//   buffer                                   bytes/cell  held by, and for how long
+//   Sensor sums (film/sensor.h)                  48       coordinator, per job, for its whole life:
+//                                                         3 CompensatedSum = sum + compensation,
+//                                                         2 doubles each. Sample counts are one
+//                                                         number per sensor (units cover the frame).
+//   ConvergenceTracker (film/convergence.h)      24       coordinator, per job, for its whole life:
+//                                                         the even units' sums (the half-image of
+//                                                         the error estimate), 3 doubles.
+//   unit buffer (SensorBuffer)                   28       worker: the unit it traces (3 double sums
+//                                                         + a uint32 count); coordinator: each upload
+//                                                         being received and each unit waiting for
+//                                                         an earlier one, at most unitsAheadWindow().
+//   developed image (film/image.h)               12       coordinator, per download or snapshot, and
+//                                                         `lensfarm render` when it writes: 3 floats.
+//   encoded output                         <= 24 or 6     a download's EXR bytes (float RGB, ZIP: at
+//                                                         most 12, noise compresses little) with the
+//                                                         string's room to grow (as much again); a
+//                                                         PNG's 8-bit pixels and bytes. `lensfarm
+//                                                         render` writes EXR files straight from the
+//                                                         image, a few scanlines at a time.
+//   checkpoint (state dir only)                  80       coordinator, while it saves a job: the
+//                                                         serialized sensor (48 + 8 for the counts
+//                                                         of the file format) and tracker (24).
+//
+// Nothing else in a render is frame-sized: the renderer's threads share the unit buffer (each
+// pixel is summed by one task), and the scene (triangles and BVH) is counted by triangle.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "math/compensated_sum.h"
+#include "scene/scene.h"
+
+namespace lensfarm {
+
+// The table above, from the types themselves (tests/film/memory_test.cpp checks the types'
+// allocations against these).
+inline constexpr uint64_t kSensorBytesPerCell = 3 * sizeof(CompensatedSum);
+inline constexpr uint64_t kTrackerBytesPerCell = 3 * sizeof(double);
+inline constexpr uint64_t kUnitBufferBytesPerCell = 3 * sizeof(double) + sizeof(uint32_t);
+inline constexpr uint64_t kImageBytesPerCell = 3 * sizeof(float);
+inline constexpr uint64_t kExrBytesPerCell = 3 * sizeof(float);  // at most: float RGB that ZIP cannot shrink
+inline constexpr uint64_t kPngBytesPerCell = 2 * 3;              // 8-bit sRGB pixels, and at most as many of PNG
+inline constexpr uint64_t kCheckpointBytesPerCell = 3 * 2 * sizeof(double) + sizeof(uint64_t) + 3 * sizeof(double);
+inline constexpr uint64_t kSceneBytesPerTriangle = 256;  // positions, normals, BVH (Embree) and build headroom
+
+// What a job needs, item by item.
+struct MemoryEstimate {
+  struct Item {
+    std::string what;
+    uint64_t bytes = 0;
+  };
+  std::vector<Item> items;
+  uint64_t total() const;
+  // "sensor 12.9 GB + error-estimate half-image 6.4 GB + ...".
+  std::string describe() const;
+};
+
+// Unit buffers the coordinator may hold for one job at once: fresh units are leased at most this
+// many ahead of the summed prefix (Coordinator::tryLease), and never more than the job has.
+uint64_t unitsAheadWindow(int width, int height, uint64_t maxBytesAhead);
+
+// Bytes the coordinator needs for one job: its sensor and tracker, the unit buffers it may hold
+// (unitsAheadWindow, at most the job's units), one EXR download (image and encoded file) and, with a
+// state directory, one checkpoint.
+MemoryEstimate coordinatorJobMemory(const RenderSettings& settings, uint64_t maxBytesAhead, bool stateDir);
+
+// Bytes a worker needs for a unit of the job: the unit buffer and the loaded scene.
+MemoryEstimate workerJobMemory(const RenderSettings& settings, uint64_t triangles);
+
+// Bytes `lensfarm render` needs (coordinator and one worker in one process, results summed in
+// order as they come): sensor, tracker, one unit buffer, the scene, and the image with its PNG
+// when it writes (snapshots are written while a unit renders, so all at once; EXR files are
+// written straight from the image).
+MemoryEstimate localRenderMemory(const RenderSettings& settings, uint64_t triangles);
+
+// "a 16384x16384 render needs an estimated 31.7 GB of coordinator memory (sensor 12.9 GB + ...), more
+// than the 17.4 GB allowed per job (--max-job-memory)": the refusal, naming the estimate and the limit.
+std::string overBudgetMessage(const RenderSettings& settings, const MemoryEstimate& estimate, const std::string& whose,
+                              uint64_t budget, const std::string& budgetSource);
+
+// `lensfarm render`'s check, before it allocates anything frame-sized: InputError naming `where`
+// (the flag or scene field that set the resolution) and the estimate, if it exceeds
+// defaultJobMemoryBudget().
+void refuseLocalRenderOverBudget(const RenderSettings& settings, uint64_t triangles, const std::string& where);
+
+// This machine's memory: physical memory (sysconf), or the cgroup's limit (memory.max, v2; or
+// memory.limit_in_bytes, v1) when that is lower.
+uint64_t machineMemoryBytes();
+
+// The memory one job may use: LENSFARM_MAX_JOB_MEMORY if set (parseByteSize; InputError naming it
+// if malformed), else 3/4 of machineMemoryBytes().
+uint64_t defaultJobMemoryBudget();
+// Where the budget comes from, for messages: "LENSFARM_MAX_JOB_MEMORY" or "3/4 of 23.3 GB of memory".
+std::string defaultJobMemoryBudgetSource();
+
+// "16G", "512MiB", "1.5GB", "2000000000": K, M, G, T (with or without "iB") are powers of 1024;
+// KB, MB, GB, TB powers of 1000; no suffix is bytes. Nothing, zero or garbage gives 0.
+uint64_t parseByteSize(const std::string& text);
+
+// "31.7 GB", "830 MB", "12 kB" (decimal units).
+std::string formatBytes(uint64_t bytes);
+
+}  // namespace lensfarm

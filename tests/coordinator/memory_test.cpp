@@ -1,0 +1,150 @@
+// Memory (docs/farm.md, "Memory"): the coordinator refuses a job it cannot hold, with the
+// estimate and its limit, before allocating anything frame-sized; an allocation that fails
+// anyway fails that request only; a worker refuses a unit it cannot hold with a report.
+#include <gtest/gtest.h>
+
+#include <new>
+#include <thread>
+
+#include "coordinator.h"
+#include "render/memory_estimate.h"
+#include "test_support.h"
+#include "util/version.h"
+#include "worker_loop.h"
+
+namespace lensfarm {
+namespace {
+
+using nlohmann::json;
+
+JobSpec specAt(int w, int h, uint64_t spp = 2) {
+  json scene = test::minimalSceneJson();
+  scene["render"]["samples_per_pixel"] = spp;
+  scene["render"]["samples_per_unit"] = 1;
+  scene["render"]["resolution"] = {w, h};
+  JobSpec spec;
+  spec.sceneName = "test.json";
+  spec.sceneJson = scene.dump();
+  return spec;
+}
+
+WorkerInfo workerInfo(const std::string& name) { return WorkerInfo{name, 1, kProtocolVersion, kRendererVersion}; }
+
+// Renders every unit of `job` as worker `w` with constant sums; the job must end done.
+void finishJob(Coordinator& c, const std::string& job, const std::string& w) {
+  while (auto g = c.lease(w, 0.0)) {
+    UnitResult r = resultForLease(w, *g);
+    const JobInfo info = c.job(g->jobId);
+    r.buffer = SensorBuffer(info.width, info.height);
+    std::fill(r.buffer.sums.begin(), r.buffer.sums.end(), 0.5);
+    r.stats.paths = uint64_t(info.width) * info.height * g->unit.sampleCount;
+    c.acceptResult(std::move(r));
+  }
+  EXPECT_EQ(c.job(job).state, JobState::kDone);
+}
+
+TEST(CoordinatorMemory, AJobOverTheBudgetIsRefusedWithItsEstimateAndOthersGoOn) {
+  Coordinator::Options options;
+  options.maxJobMemoryBytes = uint64_t(256) << 20;  // 268 MB
+  options.maxJobMemorySource = "--max-job-memory";
+  Coordinator c(options);
+  const std::string before = c.submit(specAt(8, 6), 0).id;
+  try {
+    c.submit(specAt(16384, 16384), 0);
+    FAIL() << "a 16384x16384 job must not fit in 268 MB";
+  } catch (const FarmError& e) {
+    EXPECT_EQ(e.kind(), FarmError::Kind::kResourceExhausted);
+    const std::string what = e.what();
+    EXPECT_NE(what.find("16384x16384"), std::string::npos) << what;
+    RenderSettings settings;
+    settings.width = settings.height = 16384;
+    settings.samplesPerPixel = 2;
+    settings.samplesPerUnit = 1;
+    const uint64_t estimate = coordinatorJobMemory(settings, options.maxBytesAhead, false).total();
+    EXPECT_NE(what.find("an estimated " + formatBytes(estimate)), std::string::npos) << what;
+    EXPECT_NE(what.find(" GB"), std::string::npos) << what;
+    EXPECT_NE(what.find("268 MB allowed"), std::string::npos) << what;
+    EXPECT_NE(what.find("--max-job-memory"), std::string::npos) << what;
+  }
+  EXPECT_EQ(c.jobs().size(), 1u) << "the refused job is not queued";
+  // The coordinator goes on serving: the job before and one after both render to the end.
+  const std::string after = c.submit(specAt(8, 6), 0).id;
+  const std::string w = c.registerWorker(workerInfo("w"));
+  finishJob(c, before, w);
+  EXPECT_EQ(c.job(after).state, JobState::kDone);
+  EXPECT_EQ(c.image(after).image.width, 8);
+}
+
+TEST(CoordinatorMemory, AFailedAllocationRefusesThatJobOnlyAndTheCoordinatorLives) {
+  Coordinator::Options options;
+  options.maxJobMemoryBytes = uint64_t(1) << 40;  // the estimate passes; the allocation fails
+  uint64_t seen = 0;
+  options.beforeJobAllocation = [&](uint64_t bytes) {
+    seen = bytes;
+    if (bytes > (uint64_t(1) << 30)) throw std::bad_alloc();
+  };
+  Coordinator c(options);
+  const std::string w = c.registerWorker(workerInfo("w"));
+  const std::string small = c.submit(specAt(8, 6), 0).id;
+  try {
+    c.submit(specAt(16384, 12000), 0);
+    FAIL() << "the allocation failed: the submit must be refused";
+  } catch (const FarmError& e) {
+    EXPECT_EQ(e.kind(), FarmError::Kind::kResourceExhausted);
+    EXPECT_NE(std::string(e.what()).find("out of memory"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("16384x12000"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(formatBytes(seen)), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(c.jobs().size(), 1u);
+  const std::string next = c.submit(specAt(8, 6), 0).id;
+  finishJob(c, small, w);
+  EXPECT_EQ(c.job(next).state, JobState::kDone);
+  EXPECT_EQ(next, "job-" + std::to_string(std::stoi(small.substr(4)) + 1)) << "the refused job left no trace";
+}
+
+// A CoordinatorLink by direct calls (as `lensfarm render` wires its worker).
+class DirectLink final : public CoordinatorLink {
+ public:
+  explicit DirectLink(Coordinator& c) : c_(c) {}
+  Registration registerWorker(const WorkerInfo& info) override { return {c_.registerWorker(info), 0.05}; }
+  std::vector<uint64_t> heartbeat(const std::string& w, const std::vector<uint64_t>& l) override { return c_.heartbeat(w, l); }
+  std::optional<LeaseGrant> lease(const std::string& w, double wait) override { return c_.lease(w, wait); }
+  JobSpec jobSpec(const std::string& job) override { return c_.jobSpec(job); }
+  std::string asset(const std::string& sha) override { return *c_.asset(sha); }
+  bool upload(const UnitResult& r) override { return c_.acceptResult(r); }
+  void reportFailure(const std::string& w, uint64_t lease, const std::string& job, const std::string& e) override {
+    c_.reportFailure(w, lease, job, e);
+  }
+
+ private:
+  Coordinator& c_;
+};
+
+TEST(CoordinatorMemory, AWorkerRefusesAUnitItCannotHoldWithAReport) {
+  Coordinator::Options options;
+  options.maxJobMemoryBytes = uint64_t(1) << 40;
+  Coordinator c(options);
+  DirectLink link(c);
+  WorkerOptions wo;
+  wo.name = "small-box";
+  wo.leaseWaitSeconds = 0.05;
+  wo.maxMemoryBytes = uint64_t(8) << 20;  // 8.4 MB: a 1000x1000 unit buffer is 28 MB
+  WorkerLoop worker(link, wo);
+  std::thread t([&] { worker.run(); });
+  const std::string job = c.submit(specAt(1000, 1000), 0).id;
+  EXPECT_TRUE(test::waitFor([&] { return isTerminal(c.job(job).state); }, 30));
+  const JobInfo info = c.job(job);
+  EXPECT_EQ(info.state, JobState::kFailed);
+  EXPECT_NE(info.error.find("1000x1000"), std::string::npos) << info.error;
+  EXPECT_NE(info.error.find("an estimated 28.0 MB of worker memory"), std::string::npos) << info.error;
+  EXPECT_NE(info.error.find("8.39 MB allowed"), std::string::npos) << info.error;
+  EXPECT_EQ(worker.counters().unitsRendered.load(), 0u) << "nothing was allocated or traced";
+  // The worker lives on and renders what it can hold.
+  const std::string small = c.submit(specAt(8, 6), 0).id;
+  EXPECT_TRUE(test::waitFor([&] { return c.job(small).state == JobState::kDone; }, 30)) << c.job(small).error;
+  worker.stopNow();
+  t.join();
+}
+
+}  // namespace
+}  // namespace lensfarm

@@ -1,0 +1,128 @@
+// Dead workers are seen at once (docs/farm.md "Failures"): a real coordinator with a long lease
+// timeout and real worker processes over gRPC. A worker killed with SIGKILL closes its Attach
+// stream's connection: the coordinator marks it lost in well under a second, says so in
+// `lensfarm workers`, `status` and `watch`, and hands its unit to another worker at once; the
+// image is still the in-process render's, bit for bit. A worker stopped cleanly is "left".
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <chrono>
+#include <regex>
+#include <sstream>
+
+#include "deploy_support.h"
+#include "film/image_io.h"
+
+namespace lensfarm {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The line of `lensfarm workers` output that names `name`, or "".
+std::string lineOf(const std::string& table, const std::string& name) {
+  std::istringstream in(table);
+  for (std::string line; std::getline(in, line);)
+    if (line.find(" " + name + " ") != std::string::npos) return line;
+  return "";
+}
+
+class FarmLiveness : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    // A lease timeout far longer than anything below may take: only the Attach stream can explain
+    // a fast recovery.
+    address_ = farm_.startCoordinator(
+        {"--listen", "127.0.0.1:0", "--heartbeat-interval", "0.2", "--lease-timeout", "60"});
+  }
+  test::ProcessResult cli(std::vector<std::string> args) {
+    args.insert(args.end(), {"--coordinator", address_});
+    return farm_.cli(args);
+  }
+  std::string workers() { return cli({"workers"}).out; }
+  uint64_t unitsDone(const std::string& job) {
+    const auto r = cli({"status", job});
+    std::smatch m;
+    if (!std::regex_search(r.out, m, std::regex(R"(\(([0-9]+) / [0-9]+ units)"))) return 0;
+    return std::stoull(m[1]);
+  }
+
+  test::TempDir dir_;
+  test::FarmProcesses farm_{dir_};
+  std::string address_;
+};
+
+TEST_F(FarmLiveness, AWorkerKilledMidUnitIsLostAtOnceAndItsUnitGoesToAnotherWorker) {
+  // 4 units of 2 M paths: over a second each on one thread, so the kill lands inside one.
+  const fs::path scene = test::writeSeedScene(dir_, 128, 512, 128);
+  test::ChildProcess& doomed = farm_.startWorker("doomed", {"--coordinator", address_, "--threads", "1"});
+  const std::string job = farm_.submit({scene.string(), "--coordinator", address_});
+  test::ChildProcess watch({test::cliPath().string(), "watch", job, "--coordinator", address_}, dir_ / "watch");
+
+  // Past its first unit (the scene is loaded) and rendering the next one.
+  ASSERT_TRUE(test::waitFor([&] { return unitsDone(job) >= 1; }, 120)) << doomed.log();
+  ASSERT_TRUE(test::waitFor([&] { return lineOf(workers(), "doomed").find("s  rendering") != std::string::npos; }, 30))
+      << workers();
+  doomed.signal(SIGKILL);
+  const auto killed = std::chrono::steady_clock::now();
+  std::string lost;
+  ASSERT_TRUE(test::waitFor([&] {
+    lost = lineOf(workers(), "doomed");
+    return lost.find("s  lost ") != std::string::npos;
+  }, 10)) << "still " << lost << " 10 s after SIGKILL (the lease timeout is 60 s)";
+  const double toLost = std::chrono::duration<double>(std::chrono::steady_clock::now() - killed).count();
+  std::printf("kill -9 to \"lost\" in `lensfarm workers`: %.3f s\n", toLost);
+  RecordProperty("seconds_from_kill_to_lost", std::to_string(toLost));
+  EXPECT_LT(toLost, 5.0);
+  EXPECT_NE(lost.find("connection broke"), std::string::npos) << lost;
+  EXPECT_NE(lost.find("of " + job + " queued again"), std::string::npos) << "it held a unit: " << lost;
+  EXPECT_EQ(doomed.wait(10), -1);
+
+  // Nobody renders the job now, and `status` says why instead of a growing time left.
+  const std::string status = cli({"status", job}).out;
+  EXPECT_NE(status.find("stalled:    worker doomed (worker-"), std::string::npos) << status;
+  EXPECT_NE(status.find("queued again; no workers connected"), std::string::npos) << status;
+  EXPECT_NE(status.find("remaining:  stalled"), std::string::npos) << status;
+
+  // Another worker takes the unit at once: the job ends long before the lease would have lapsed.
+  farm_.startWorker("survivor", {"--coordinator", address_, "--threads", "1"});
+  ASSERT_EQ(watch.wait(120), 0) << watch.log();
+  const double toDone = std::chrono::duration<double>(std::chrono::steady_clock::now() - killed).count();
+  EXPECT_LT(toDone, 45.0) << "the lost unit waited for the 60 s lease timeout?";
+  const std::string watched = watch.log();
+  EXPECT_NE(watched.find(job + ": stalled: worker doomed (worker-"), std::string::npos) << watched;
+  EXPECT_NE(watched.find(job + ": rendering again"), std::string::npos) << watched;
+
+  const fs::path farmExr = dir_ / "farm.exr", localExr = dir_ / "local.exr";
+  const auto downloaded = cli({"download", job, "-o", farmExr.string()});
+  ASSERT_EQ(downloaded.exitCode, 0) << downloaded.err;
+  const auto local = farm_.cli({"render", scene.string(), "-o", localExr.string(), "--threads", "2", "-q"});
+  ASSERT_EQ(local.exitCode, 0) << local.err;
+  ImageMetadata farmMeta, localMeta;
+  const Image farmImage = readExr(farmExr, &farmMeta);
+  EXPECT_EQ(farmMeta.totalSamples, 128u * 128u * 512u) << "every unit counted exactly once";
+  EXPECT_NE(farmMeta.extra["workers"].find("survivor:"), std::string::npos) << farmMeta.extra["workers"];
+  EXPECT_EQ(farmImage.rgb, readExr(localExr, &localMeta).rgb) << "the farm's image equals the in-process render";
+}
+
+TEST_F(FarmLiveness, AJobWithoutWorkersSaysSoAndAWorkerStoppedCleanlyIsLeftNotLost) {
+  const std::string job = farm_.submit({test::writeSeedScene(dir_, 32, 8, 4).string(), "--coordinator", address_});
+  std::string status;
+  ASSERT_TRUE(test::waitFor([&] {
+    status = cli({"status", job}).out;
+    return status.find("stalled:    no workers connected") != std::string::npos;
+  }, 20)) << status;
+
+  test::ChildProcess& worker = farm_.startWorker("w", {"--coordinator", address_, "--threads", "1"});
+  ASSERT_EQ(cli({"watch", job}).exitCode, 0);
+  EXPECT_EQ(cli({"status", job}).out.find("stalled:"), std::string::npos) << "done: nothing to explain";
+  ASSERT_TRUE(test::waitFor([&] { return lineOf(workers(), "w").find("s  idle") != std::string::npos; }, 30)) << workers();
+  worker.signal(SIGTERM);
+  EXPECT_EQ(worker.wait(30), 0) << worker.log();
+  const std::string left = lineOf(workers(), "w");
+  EXPECT_NE(left.find("s  left "), std::string::npos) << left;
+  EXPECT_NE(left.find("stopped"), std::string::npos) << left;
+  EXPECT_EQ(left.find("lost"), std::string::npos) << left;
+}
+
+}  // namespace
+}  // namespace lensfarm

@@ -1,0 +1,158 @@
+// The memory estimate (render/memory_estimate.h) against what the buffers really take: the
+// types' allocations, the allocator's own count, and the peak RSS of a real `lensfarm render`.
+#include <gtest/gtest.h>
+#include <malloc.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+
+#include "film/convergence.h"
+#include "film/image.h"
+#include "film/sensor.h"
+#include "render/memory_estimate.h"
+#include "test_support.h"
+
+namespace lensfarm {
+namespace {
+
+namespace fs = std::filesystem;
+
+RenderSettings settingsOf(int w, int h, uint64_t spp = 1) {
+  RenderSettings s;
+  s.width = w;
+  s.height = h;
+  s.samplesPerPixel = spp;
+  return s;
+}
+
+uint64_t itemBytes(const MemoryEstimate& e, const std::string& prefix) {
+  for (const auto& i : e.items)
+    if (i.what.rfind(prefix, 0) == 0) return i.bytes;
+  ADD_FAILURE() << "no item " << prefix << " in " << e.describe();
+  return 0;
+}
+
+TEST(MemoryEstimate, TheFormulaIsWhatTheBufferTypesAllocate) {
+  const int w = 37, h = 23;
+  const uint64_t cells = uint64_t(w) * h;
+  Sensor sensor(w, h);
+  ConvergenceTracker tracker(w, h);
+  SensorBuffer unit(w, h);
+  EXPECT_EQ(sensor.memoryBytes(), cells * kSensorBytesPerCell);
+  EXPECT_EQ(tracker.memoryBytes(), cells * kTrackerBytesPerCell);
+  EXPECT_EQ(unit.memoryBytes(), cells * kUnitBufferBytesPerCell);
+  EXPECT_EQ(sensor.developImage().rgb.size() * sizeof(float), cells * kImageBytesPerCell);
+  EXPECT_EQ(kSensorBytesPerCell, 48u);
+  EXPECT_EQ(kTrackerBytesPerCell, 24u);
+  EXPECT_EQ(kUnitBufferBytesPerCell, 28u);
+
+  // Units add no per-cell sample counts to the sensor: they cover the whole frame.
+  std::fill(unit.samples.begin(), unit.samples.end(), 4u);
+  std::fill(unit.sums.begin(), unit.sums.end(), 1.0);
+  for (int k = 0; k < 3; ++k) sensor.add(unit);
+  sensor.add(unit, 4);
+  EXPECT_EQ(sensor.memoryBytes(), cells * kSensorBytesPerCell);
+  EXPECT_EQ(sensor.totalSamples(), cells * 16);
+  EXPECT_EQ(sensor.samples(3, 5), 16u);
+  EXPECT_EQ(sensor.serialize().size(), 8 + 16 + cells * (kCheckpointBytesPerCell - kTrackerBytesPerCell));
+  EXPECT_EQ(tracker.serialize().size(), 32 + cells * kTrackerBytesPerCell);
+
+  // The estimates are those per-cell sizes times the frame.
+  const RenderSettings s = settingsOf(w, h);
+  const MemoryEstimate coordinator = coordinatorJobMemory(s, uint64_t(2) << 30, true);
+  EXPECT_EQ(itemBytes(coordinator, "sensor"), sensor.memoryBytes());
+  EXPECT_EQ(itemBytes(coordinator, "error-estimate"), tracker.memoryBytes());
+  EXPECT_EQ(itemBytes(coordinator, "1 unit buffer"), unit.memoryBytes()) << "a 1-spp job has one unit";
+  EXPECT_EQ(itemBytes(coordinator, "a checkpoint"), sensor.serialize().size() + tracker.serialize().size() - 8 - 16 - 32);
+  const MemoryEstimate local = localRenderMemory(s, 0);
+  EXPECT_EQ(local.total(), sensor.memoryBytes() + tracker.memoryBytes() + unit.memoryBytes() +
+                               cells * (kImageBytesPerCell + kPngBytesPerCell));
+  EXPECT_EQ(itemBytes(coordinator, "a download"), cells * (kImageBytesPerCell + 2 * kExrBytesPerCell));
+}
+
+TEST(MemoryEstimate, TheAllocatorCountsWhatTheFormulaSays) {
+  // The allocator's own count of bytes in use, before and while a sensor and tracker live.
+  const int w = 640, h = 480;
+  const uint64_t cells = uint64_t(w) * h;
+  const auto inUse = [] {
+    const struct mallinfo2 m = mallinfo2();
+    return uint64_t(m.uordblks) + uint64_t(m.hblkhd);
+  };
+  const uint64_t before = inUse();
+  auto sensor = std::make_unique<Sensor>(w, h);
+  auto tracker = std::make_unique<ConvergenceTracker>(w, h);
+  const uint64_t measured = inUse() - before;
+  const uint64_t formula = cells * (kSensorBytesPerCell + kTrackerBytesPerCell);
+  EXPECT_GE(measured, formula);
+  EXPECT_LE(measured, formula + 16 * 1024) << "allocated " << measured << " bytes, the formula says " << formula;
+}
+
+TEST(MemoryEstimate, HugeFramesAreEstimatedBeforeAnythingIsAllocated) {
+  const RenderSettings huge = settingsOf(16384, 16384);
+  const uint64_t cells = uint64_t(16384) * 16384;
+  const MemoryEstimate local = localRenderMemory(huge, 30);
+  EXPECT_EQ(local.total(), cells * (48 + 24 + 28 + 12 + 6) + 30 * kSceneBytesPerTriangle);
+  EXPECT_GT(local.total(), uint64_t(29) << 30);
+  // Many units: the coordinator may hold a window of them ahead of the summed prefix.
+  const RenderSettings many = settingsOf(16384, 16384, 64);
+  EXPECT_EQ(unitsAheadWindow(16384, 16384, uint64_t(2) << 30), 8u);
+  EXPECT_EQ(itemBytes(coordinatorJobMemory(many, uint64_t(2) << 30, false), "8 unit buffers"), 8 * cells * 28);
+  const std::string text = local.describe();
+  EXPECT_NE(text.find("sensor 12.9 GB"), std::string::npos) << text;
+  const std::string refusal = overBudgetMessage(huge, local, "", uint64_t(16) << 30, "--max-job-memory");
+  EXPECT_NE(refusal.find("16384x16384"), std::string::npos) << refusal;
+  EXPECT_NE(refusal.find("an estimated 31.7 GB"), std::string::npos) << refusal;
+  EXPECT_NE(refusal.find("17.2 GB allowed"), std::string::npos) << refusal;
+}
+
+TEST(MemoryEstimate, SizesParseAndPrint) {
+  EXPECT_EQ(parseByteSize("16G"), uint64_t(16) << 30);
+  EXPECT_EQ(parseByteSize("512MiB"), uint64_t(512) << 20);
+  EXPECT_EQ(parseByteSize("1.5GB"), 1500000000u);
+  EXPECT_EQ(parseByteSize("2000000000"), 2000000000u);
+  EXPECT_EQ(parseByteSize("64 k"), 65536u);
+  for (const char* bad : {"", "0", "-1G", "lots", "12X", "G", "1e30"}) EXPECT_EQ(parseByteSize(bad), 0u) << bad;
+  EXPECT_EQ(formatBytes(31700000000), "31.7 GB");
+  EXPECT_EQ(formatBytes(829440000), "829 MB");
+  EXPECT_EQ(formatBytes(512), "512 bytes");
+  EXPECT_GT(machineMemoryBytes(), uint64_t(64) << 20);
+}
+
+// Peak RSS (ru_maxrss) of a real `lensfarm render` child, in bytes.
+uint64_t peakRssOfRender(const std::vector<std::string>& args, int* exitCode) {
+  test::TempDir dir;
+  std::vector<std::string> argv = {test::cliPath().string(), "render"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  const int pid = test::startProcess(argv, dir / "out.txt", dir / "err.txt");
+  int status = 0;
+  struct rusage usage {};
+  ::wait4(pid, &status, 0, &usage);
+  *exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  if (*exitCode != 0) ADD_FAILURE() << test::readFile(dir / "err.txt");
+  return uint64_t(usage.ru_maxrss) * 1024;
+}
+
+TEST(MemoryEstimate, ARealRenderPeaksAtTheEstimate) {
+  test::TempDir out;
+  const fs::path scene = test::scenesDir() / "cornell-seed.json";
+  int code = 0;
+  // The process without a frame: libraries, the scene, its BVH, threads.
+  const uint64_t base = peakRssOfRender({scene.string(), "-o", (out / "tiny.exr").string(), "--resolution", "16x16",
+                                         "--spp", "1", "--threads", "2", "-q"}, &code);
+  ASSERT_EQ(code, 0);
+  const int w = 1920, h = 1080;
+  const uint64_t peak = peakRssOfRender({scene.string(), "-o", (out / "hd.exr").string(), "-o", (out / "hd.png").string(),
+                                         "--resolution", "1920x1080", "--spp", "1", "--threads", "2", "-q"}, &code);
+  ASSERT_EQ(code, 0);
+  const uint64_t cells = uint64_t(w) * h;
+  const uint64_t frame = peak - std::min(peak, base);
+  const uint64_t estimate = localRenderMemory(settingsOf(w, h), 0).total();
+  // The estimate bounds what the frame costs, and is not far above it: the sensor, the tracker
+  // and the unit buffer are all resident at once while a unit is summed (100 bytes a pixel).
+  EXPECT_LE(frame, estimate) << "peak " << formatBytes(peak) << ", base " << formatBytes(base) << ", estimate "
+                             << formatBytes(estimate);
+  EXPECT_GE(frame, cells * (kSensorBytesPerCell + kTrackerBytesPerCell + kUnitBufferBytesPerCell) * 9 / 10)
+      << "peak " << formatBytes(peak) << ", base " << formatBytes(base);
+}
+
+}  // namespace
+}  // namespace lensfarm
