@@ -62,7 +62,7 @@ void WorkerLoop::heartbeatLoop() {
     try {
       for (uint64_t revoked : link_.heartbeat(id, leases)) {
         std::lock_guard lock(mutex_);
-        if (currentLease_ == revoked) {
+        if (currentLease_ == revoked && !uploading_) {
           spdlog::warn("lease {} revoked by the coordinator; abandoning the unit", revoked);
           cancelUnit_ = true;
         }
@@ -142,6 +142,7 @@ void WorkerLoop::run() {
     {
       std::lock_guard lock(mutex_);
       currentLease_.reset();
+      uploading_ = false;
     }
     try {
       if (workerId().empty()) {
@@ -209,6 +210,10 @@ void WorkerLoop::run() {
         spdlog::info("unit {} of {}: abandoned after {:.2f} s ({})", grant->unit.index, grant->jobId,
                      result.renderSeconds, stopNow_ ? "stopping" : "lease revoked");
       } else {
+        {
+          std::lock_guard lock(mutex_);
+          uploading_ = true;
+        }
         // A unit is worth keeping: retry the upload through network trouble while the lease
         // may still be valid, then give it up (the coordinator re-leases it).
         for (double wait = 0.1;; wait *= 2) {

@@ -74,6 +74,10 @@ class WorkerLoop {
   std::string workerId_;
   double heartbeatInterval_ = 1.0;
   std::optional<uint64_t> currentLease_;
+  // The unit of currentLease_ is traced and being uploaded: a revocation the heartbeat hears now
+  // is the coordinator having taken the upload (the lease ends with it) or refusing it, which the
+  // upload's own answer says; either way there is nothing left to cancel.
+  bool uploading_ = false;  // guarded by mutex_
   std::atomic<bool> cancelUnit_{false};
   std::atomic<bool> stopping_{false};
   std::atomic<bool> stopNow_{false};

@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "coordinator.h"
+#include "in_process_link.h"
 #include "render/memory_estimate.h"
 #include "test_support.h"
 #include "util/version.h"
@@ -102,29 +103,11 @@ TEST(CoordinatorMemory, AFailedAllocationRefusesThatJobOnlyAndTheCoordinatorLive
   EXPECT_EQ(next, "job-" + std::to_string(std::stoi(small.substr(4)) + 1)) << "the refused job left no trace";
 }
 
-// A CoordinatorLink by direct calls (as `lensfarm render` wires its worker).
-class DirectLink final : public CoordinatorLink {
- public:
-  explicit DirectLink(Coordinator& c) : c_(c) {}
-  Registration registerWorker(const WorkerInfo& info) override { return {c_.registerWorker(info), 0.05}; }
-  std::vector<uint64_t> heartbeat(const std::string& w, const std::vector<uint64_t>& l) override { return c_.heartbeat(w, l); }
-  std::optional<LeaseGrant> lease(const std::string& w, double wait) override { return c_.lease(w, wait); }
-  JobSpec jobSpec(const std::string& job) override { return c_.jobSpec(job); }
-  std::string asset(const std::string& sha) override { return *c_.asset(sha); }
-  bool upload(const UnitResult& r) override { return c_.acceptResult(r); }
-  void reportFailure(const std::string& w, uint64_t lease, const std::string& job, const std::string& e) override {
-    c_.reportFailure(w, lease, job, e);
-  }
-
- private:
-  Coordinator& c_;
-};
-
 TEST(CoordinatorMemory, AWorkerRefusesAUnitItCannotHoldWithAReport) {
   Coordinator::Options options;
   options.maxJobMemoryBytes = uint64_t(1) << 40;
   Coordinator c(options);
-  DirectLink link(c);
+  InProcessLink link(c);  // as `lensfarm render` wires its worker
   WorkerOptions wo;
   wo.name = "small-box";
   wo.leaseWaitSeconds = 0.05;

@@ -1,0 +1,101 @@
+// The worker's lease loop against a real Coordinator, wired by direct calls (client/in_process_link.h,
+// as `lensfarm render` wires it): the races between its heartbeat thread and its uploads.
+#include <gtest/gtest.h>
+#include <spdlog/sinks/ringbuffer_sink.h>
+#include <spdlog/spdlog.h>
+
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
+#include "coordinator.h"
+#include "in_process_link.h"
+#include "test_support.h"
+#include "worker_loop.h"
+
+namespace lensfarm {
+namespace {
+
+// The real link, but each upload, once the coordinator has taken it (and so ended its lease),
+// waits until the worker's heartbeat thread has asked about that very lease and heard it is gone:
+// the interleaving that a busy machine produces now and then.
+class UploadThenHeartbeatLink final : public CoordinatorLink {
+ public:
+  explicit UploadThenHeartbeatLink(Coordinator& c) : inner_(c) {}
+  Registration registerWorker(const WorkerInfo& info) override { return inner_.registerWorker(info); }
+  std::vector<uint64_t> heartbeat(const std::string& w, const std::vector<uint64_t>& leases) override {
+    std::vector<uint64_t> revoked = inner_.heartbeat(w, leases);
+    std::lock_guard lock(mutex_);
+    for (uint64_t id : revoked)
+      if (uploaded_ && id == *uploaded_) heardRevoked_ = true;
+    changed_.notify_all();
+    return revoked;
+  }
+  std::optional<LeaseGrant> lease(const std::string& w, double wait) override { return inner_.lease(w, wait); }
+  JobSpec jobSpec(const std::string& job) override { return inner_.jobSpec(job); }
+  std::string asset(const std::string& sha) override { return inner_.asset(sha); }
+  bool upload(const UnitResult& r) override {
+    const bool accepted = inner_.upload(r);
+    std::unique_lock lock(mutex_);
+    uploaded_ = r.leaseId;
+    heardRevoked_ = false;
+    races_ += changed_.wait_for(lock, std::chrono::seconds(10), [&] { return heardRevoked_; }) ? 1 : 0;
+    return accepted;
+  }
+  void reportFailure(const std::string& w, uint64_t lease, const std::string& job, const std::string& e) override {
+    inner_.reportFailure(w, lease, job, e);
+  }
+  int races() {
+    std::lock_guard lock(mutex_);
+    return races_;
+  }
+
+ private:
+  InProcessLink inner_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::optional<uint64_t> uploaded_;
+  bool heardRevoked_ = false;
+  int races_ = 0;
+};
+
+// A lease that ends because the coordinator took its upload is not a revocation: the worker says
+// nothing about it and abandons nothing (`lensfarm render` used to warn "lease ... revoked by the
+// coordinator; abandoning the unit" a few times a render, for units it had just delivered).
+TEST(WorkerLoop, ALeaseEndedByItsOwnUploadIsNotReportedRevoked) {
+  auto sink = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(256);
+  const auto previous = spdlog::default_logger();
+  spdlog::set_default_logger(std::make_shared<spdlog::logger>("worker-loop-test", sink));
+  spdlog::set_level(spdlog::level::info);
+
+  Coordinator::Options options;
+  options.heartbeatIntervalSeconds = 0.01;
+  Coordinator coordinator(options);
+  nlohmann::json scene = test::minimalSceneJson();
+  scene["render"]["resolution"] = {8, 8};
+  scene["render"]["samples_per_pixel"] = 4;
+  scene["render"]["samples_per_unit"] = 1;
+  const std::string job = coordinator.submit(JobSpec{"test.json", scene.dump(), {}, {}}, 0).id;
+
+  UploadThenHeartbeatLink link(coordinator);
+  WorkerOptions wo;
+  wo.name = "w";
+  wo.threads = 1;
+  wo.leaseWaitSeconds = 0.05;
+  WorkerLoop worker(link, wo);
+  std::thread t([&] { worker.run(); });
+  EXPECT_TRUE(test::waitFor([&] { return isTerminal(coordinator.job(job).state); }, 60));
+  worker.stop();
+  t.join();
+  spdlog::set_default_logger(previous);
+
+  EXPECT_EQ(coordinator.job(job).state, JobState::kDone);
+  EXPECT_EQ(link.races(), 4) << "every upload met the heartbeat that asks about its lease";
+  EXPECT_EQ(worker.counters().unitsAbandoned.load(), 0u);
+  EXPECT_EQ(worker.counters().unitsAccepted.load(), 4u);
+  for (const std::string& line : sink->last_formatted())
+    EXPECT_EQ(line.find("revoked"), std::string::npos) << line;
+}
+
+}  // namespace
+}  // namespace lensfarm
