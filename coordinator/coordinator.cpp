@@ -1,3 +1,5 @@
+// Coordinator, part one: assets, jobs, the unit scheduler and its leases, accumulation in unit
+// order, durable state. The workers and their liveness are in workers.cpp.
 #include "coordinator.h"
 
 #include <spdlog/spdlog.h>
@@ -12,6 +14,7 @@
 #include "util/error.h"
 #include "util/hash.h"
 #include "util/version.h"
+#include "coordinator_records.h"
 #include "state_store.h"
 
 namespace lensfarm {
@@ -25,17 +28,6 @@ std::vector<std::string> describeEffects(const Scene& scene) {
 }
 }  // namespace
 
-const char* workerStateName(WorkerState s) {
-  switch (s) {
-    case WorkerState::kRendering: return "rendering";
-    case WorkerState::kIdle: return "idle";
-    case WorkerState::kStale: return "stale";
-    case WorkerState::kLost: return "lost";
-    case WorkerState::kLeft: return "left";
-  }
-  return "?";
-}
-
 const char* jobStateName(JobState s) {
   switch (s) {
     case JobState::kQueued: return "queued";
@@ -46,113 +38,6 @@ const char* jobStateName(JobState s) {
   }
   return "?";
 }
-
-// ---------------------------------------------------------------------------------------------
-struct Coordinator::Job {
-  std::string id;
-  JobSpec spec;
-  int priority = 0;
-  uint64_t sequence = 0;
-  double submittedUnixSeconds = 0.0;
-  RenderSettings settings;
-  std::string sceneHash;
-  uint32_t unitSize = 1;
-  uint64_t unitsTotal = 0;
-  std::vector<std::string> effects;  // what the renderer simulates for this job, and why
-
-  // Scheduling, guarded by Coordinator::mutex_.
-  JobState state = JobState::kQueued;
-  std::string error;
-  // Units to lease: every index from nextFresh on, plus those whose lease lapsed. Kept lazily so
-  // that a job of 2^40 samples costs no more than a small one.
-  uint64_t nextFresh = 0;
-  std::set<uint64_t> returned;
-  // Units whose result was accepted (counted once): all below receivedBelow, plus receivedAbove.
-  uint64_t receivedBelow = 0;
-  std::set<uint64_t> receivedAbove;
-
-  bool hasPending() const { return !returned.empty() || nextFresh < unitsTotal; }
-  uint64_t takePending() {
-    if (!returned.empty()) {
-      const uint64_t u = *returned.begin();
-      returned.erase(returned.begin());
-      return u;
-    }
-    return nextFresh++;
-  }
-  void clearPending() {
-    returned.clear();
-    nextFresh = unitsTotal;
-  }
-  std::set<uint64_t> inflight;  // accepted, being made durable before they count
-  bool isReceived(uint64_t u) const { return u < receivedBelow || receivedAbove.count(u); }
-  void markReceived(uint64_t u) {
-    receivedAbove.insert(u);
-    while (!receivedAbove.empty() && *receivedAbove.begin() == receivedBelow) {
-      receivedAbove.erase(receivedAbove.begin());
-      ++receivedBelow;
-    }
-  }
-  std::optional<Clock::time_point> started;
-  std::optional<Clock::time_point> finished;
-  std::map<std::string, uint64_t> unitsByWorker;  // provenance
-  uint64_t version = 1;
-  // Published accumulation progress (copied from the accumulator under mutex_).
-  uint64_t unitsAdded = 0;
-  uint64_t samplesPerPixelDone = 0;
-  PathStats stats;
-  ErrorEstimate estimate;
-  std::string stopReason;                // why a finished job stopped
-  std::optional<uint64_t> stopUnits;     // a job stopped early keeps units [0, stopUnits)
-  bool deadlinePassed = false;
-  std::vector<ErrorPoint> history;  // guarded by Coordinator::mutex_; see recordEstimate()
-  // The last worker lost (or gone) while holding units of this job, for stalledReason().
-  struct Loss {
-    std::string worker, verb, detail;  // "w1 (worker-3.1)", "lost", "connection closed"
-    Clock::time_point when;
-    std::vector<uint64_t> units;
-  };
-  std::optional<Loss> lastLoss;  // guarded by Coordinator::mutex_
-
-  // Accumulation, guarded by `accumulate` (never held while taking Coordinator::mutex_).
-  mutable std::mutex accumulate;
-  std::unique_ptr<Sensor> sensor;
-  std::map<uint64_t, UnitResult> arrived;  // results waiting for an earlier unit
-  uint64_t nextToAdd = 0;
-  uint64_t sppAdded = 0;
-  PathStats statsAdded;
-  uint64_t checkpointed = 0;  // units in the last saved sensor
-  // Stopping rules (docs/accuracy.md), decided here so that the kept units are a prefix chosen
-  // in unit order: the same units whatever order results arrive in, and after a restart.
-  std::unique_ptr<ConvergenceTracker> tracker;
-  ErrorEstimate estimateAdded;
-  Clock::time_point estimatedAt;
-  uint64_t foldLimit = std::numeric_limits<uint64_t>::max();  // units from here on are never folded
-  bool stopAtNextFold = false;  // the deadline passed before the first unit was folded
-  std::string stopReasonAdded;
-
-  void stopFolding(std::string reason) {
-    foldLimit = nextToAdd;
-    stopReasonAdded = std::move(reason);
-    arrived.clear();
-  }
-};
-
-struct Coordinator::Worker {
-  std::string id;
-  WorkerInfo info;
-  Clock::time_point lastHeartbeat;
-  std::string currentJobId;
-  uint64_t unitsDone = 0;
-  std::optional<uint64_t> currentUnit;
-  double samplesPerSecond = 0.0;
-  // Liveness (attachWorker, workerLost, workerLeft).
-  uint64_t attachment = 0;          // the Attach stream it holds; 0: none
-  std::optional<WorkerState> gone;  // kLost or kLeft: its id is refused from then on
-  Clock::time_point goneAt;
-  std::string goneReason;
-  std::string label() const { return info.name.empty() ? id : info.name + " (" + id + ")"; }
-};
 
 namespace {
 // Appends the job's published estimate to its curve when it changed (requires mutex_).
@@ -709,199 +594,6 @@ std::string Coordinator::sensorState(const std::string& jobId) const {
 
 // ---- workers --------------------------------------------------------------------------------
 
-std::string Coordinator::registerWorker(const WorkerInfo& info) {
-  if (info.protocolVersion != kProtocolVersion || info.rendererVersion != kRendererVersion)
-    throw FarmError(FarmError::Kind::kFailedPrecondition,
-                    "version mismatch: worker speaks " + info.protocolVersion + " with renderer " + info.rendererVersion +
-                        ", coordinator speaks " + kProtocolVersion + " with renderer " + kRendererVersion);
-  std::lock_guard lock(mutex_);
-  auto worker = std::make_unique<Worker>();
-  worker->id = "worker-" + std::to_string(epoch_) + "." + std::to_string(nextWorker_++);
-  worker->info = info;
-  worker->lastHeartbeat = Clock::now();
-  const std::string id = worker->id;
-  spdlog::info("{} registered: {} with {} threads", id, info.name, info.threads);
-  // A lost or departed worker of the same name is this one back: the new entry replaces it.
-  for (auto it = workers_.begin(); it != workers_.end();)
-    it = it->second->gone && !info.name.empty() && it->second->info.name == info.name ? workers_.erase(it) : std::next(it);
-  workers_[id] = std::move(worker);
-  return id;
-}
-
-Coordinator::Worker& Coordinator::findWorker(const std::string& workerId) {
-  auto it = workers_.find(workerId);
-  if (it == workers_.end()) throw FarmError(FarmError::Kind::kUnknownWorker, "unknown worker " + workerId + "; register again");
-  if (it->second->gone)  // its leases were revoked: a live process must start afresh
-    throw FarmError(FarmError::Kind::kUnknownWorker, "unknown worker " + workerId + " (" +
-                                                         workerStateName(*it->second->gone) + ": " +
-                                                         it->second->goneReason + "); register again");
-  return *it->second;
-}
-
-Coordinator::Worker* Coordinator::liveWorker(const std::string& workerId) {
-  auto it = workers_.find(workerId);
-  return it == workers_.end() || it->second->gone ? nullptr : it->second.get();
-}
-
-double Coordinator::staleAfterSeconds() const { return std::max(3.0, 5.0 * options_.heartbeatIntervalSeconds); }
-
-std::string Coordinator::releaseLeasesOf(Worker& worker, const std::string& verb, const std::string& detail,
-                                         Clock::time_point now) {
-  std::map<std::string, std::vector<uint64_t>> byJob;
-  for (auto it = leases_.begin(); it != leases_.end();) {
-    if (it->second.workerId != worker.id) {
-      ++it;
-      continue;
-    }
-    Job& job = findJob(it->second.jobId);
-    const uint64_t unit = it->second.unit;
-    // Back in the queue, leased again before any fresh unit; an upload under the old lease is
-    // refused from now on, so the unit is still counted once.
-    if (!isTerminal(job.state) && !job.isReceived(unit) && !job.inflight.count(unit)) job.returned.insert(unit);
-    byJob[job.id].push_back(unit);
-    ++counters_.unitsExpired;
-    it = leases_.erase(it);
-  }
-  std::string requeued;
-  for (auto& [jobId, units] : byJob) {
-    Job& job = findJob(jobId);
-    std::string list;
-    for (uint64_t u : units) list += (list.empty() ? "" : ", ") + std::to_string(u);
-    const std::string what = (units.size() == 1 ? "unit " : "units ") + list + " of " + jobId + " queued again";
-    spdlog::debug("{} {} ({}): {}", worker.label(), verb, detail, what);
-    requeued += (requeued.empty() ? "" : "; ") + what;
-    job.lastLoss = Job::Loss{worker.label(), verb, detail, now, std::move(units)};
-    touch(job);
-  }
-  worker.currentJobId.clear();
-  worker.currentUnit.reset();
-  changed_.notify_all();  // idle workers waiting in lease() take the units at once
-  return requeued;
-}
-
-uint64_t Coordinator::attachWorker(const std::string& workerId) {
-  std::lock_guard lock(mutex_);
-  Worker& worker = findWorker(workerId);
-  worker.attachment = nextAttachment_++;
-  worker.lastHeartbeat = Clock::now();
-  spdlog::debug("{} attached (stream {})", worker.label(), worker.attachment);
-  return worker.attachment;
-}
-
-bool Coordinator::workerLost(const std::string& workerId, const std::string& reason, uint64_t attachment) {
-  std::lock_guard lock(mutex_);
-  Worker* worker = liveWorker(workerId);
-  if (!worker || (attachment != 0 && worker->attachment != attachment)) return false;  // gone, or a superseded stream
-  const auto now = Clock::now();
-  worker->gone = WorkerState::kLost;
-  worker->goneAt = now;
-  worker->attachment = 0;
-  ++counters_.workersLost;
-  const std::string requeued = releaseLeasesOf(*worker, "lost", reason, now);
-  worker->goneReason = reason + (requeued.empty() ? "" : "; " + requeued);
-  spdlog::warn("{} lost: {}", worker->label(), worker->goneReason);
-  return true;
-}
-
-void Coordinator::workerLeft(const std::string& workerId, uint64_t attachment) {
-  std::lock_guard lock(mutex_);
-  Worker* worker = liveWorker(workerId);
-  if (!worker || (attachment != 0 && worker->attachment != attachment)) return;
-  const auto now = Clock::now();
-  worker->gone = WorkerState::kLeft;
-  worker->goneAt = now;
-  worker->attachment = 0;
-  const std::string requeued = releaseLeasesOf(*worker, "left", "stopped", now);
-  worker->goneReason = "stopped" + (requeued.empty() ? std::string() : "; " + requeued);
-  spdlog::info("{} left: {}", worker->label(), worker->goneReason);
-}
-
-WorkerState Coordinator::stateOf(const Worker& worker, bool holdsLease, Clock::time_point now,
-                                 double* secondsInState) const {
-  const double silent = std::chrono::duration<double>(now - worker.lastHeartbeat).count();
-  *secondsInState = 0.0;
-  if (worker.gone) {
-    *secondsInState = std::chrono::duration<double>(now - worker.goneAt).count();
-    return *worker.gone;
-  }
-  // A worker without an Attach stream is judged by its heartbeats alone, as before.
-  if (worker.attachment == 0 && silent > options_.leaseTimeoutSeconds) {
-    *secondsInState = silent - options_.leaseTimeoutSeconds;
-    return WorkerState::kLost;
-  }
-  if (silent > staleAfterSeconds()) {
-    *secondsInState = silent;
-    return WorkerState::kStale;
-  }
-  return holdsLease ? WorkerState::kRendering : WorkerState::kIdle;
-}
-
-namespace {
-std::string secondsText(double seconds) { return std::to_string(long(std::max(0.0, seconds) + 0.5)) + " s"; }
-}  // namespace
-
-std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) const {
-  if (isTerminal(job.state)) return "";
-  std::set<std::string> holders;  // workers holding a lease of any job
-  std::vector<const ActiveLease*> mine;
-  for (const auto& [id, lease] : leases_) {
-    holders.insert(lease.workerId);
-    if (lease.jobId == job.id) mine.push_back(&lease);
-  }
-  // Held by a worker that is heard from: it is being rendered.
-  std::string silent;
-  for (const ActiveLease* lease : mine) {
-    auto it = workers_.find(lease->workerId);
-    if (it == workers_.end()) continue;
-    double s = 0.0;
-    const WorkerState state = stateOf(*it->second, true, now, &s);
-    if (state == WorkerState::kRendering) return "";
-    if (silent.empty())
-      silent = "worker " + it->second->label() + " silent for " + secondsText(s) + "; unit " +
-               std::to_string(lease->unit) + " is queued again when its lease lapses in " +
-               secondsText(std::chrono::duration<double>(lease->deadline - now).count());
-  }
-  if (!silent.empty()) return silent;
-  if (!job.hasPending()) return "";  // every unit is in or being recorded
-  uint64_t busyElsewhere = 0;
-  const Worker* recentlyGone = nullptr;
-  for (const auto& [id, w] : workers_) {
-    double s = 0.0;
-    switch (stateOf(*w, holders.count(id) > 0, now, &s)) {
-      case WorkerState::kIdle: return "";  // it is about to lease a unit
-      case WorkerState::kRendering: ++busyElsewhere; break;
-      case WorkerState::kLost:
-      case WorkerState::kLeft:
-        if (w->gone && (!recentlyGone || w->goneAt > recentlyGone->goneAt)) recentlyGone = w.get();
-        break;
-      case WorkerState::kStale: break;
-    }
-  }
-  // Just submitted: give the workers (or `lensfarm render`'s own) a moment to call in.
-  const double nowUnix = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-  const bool recentLoss = job.lastLoss && now - job.lastLoss->when < std::chrono::seconds(120);
-  if (!recentLoss && nowUnix - job.submittedUnixSeconds < 2.0) return "";
-  std::string why;
-  if (recentLoss) {
-    const Job::Loss& loss = *job.lastLoss;
-    std::string units;
-    for (uint64_t u : loss.units) units += (units.empty() ? "" : ", ") + std::to_string(u);
-    why = "worker " + loss.worker + " " + loss.verb + " " +
-          secondsText(std::chrono::duration<double>(now - loss.when).count()) + " ago (" + loss.detail + "); " +
-          (loss.units.size() == 1 ? "unit " : "units ") + units + " queued again; ";
-  }
-  if (busyElsewhere)
-    why += "waiting for a worker: " + (busyElsewhere == 1 ? std::string("the only one is") : "all " + std::to_string(busyElsewhere) + " are") +
-           " rendering other jobs";
-  else
-    why += "no workers connected";
-  if (!recentLoss && !busyElsewhere && recentlyGone && now - recentlyGone->goneAt < std::chrono::seconds(120))
-    why += " (" + recentlyGone->label() + " " + workerStateName(*recentlyGone->gone) + " " +
-           secondsText(std::chrono::duration<double>(now - recentlyGone->goneAt).count()) + " ago: " +
-           recentlyGone->goneReason + ")";
-  return why;
-}
-
 void Coordinator::reapExpiredLeases(Clock::time_point now) {
   for (auto it = leases_.begin(); it != leases_.end();) {
     if (it->second.deadline < now) {
@@ -923,24 +615,6 @@ void Coordinator::reapExpiredLeases(Clock::time_point now) {
   const auto forgetAfter = std::chrono::duration<double>(std::max(60.0, 10.0 * options_.leaseTimeoutSeconds));
   for (auto it = workers_.begin(); it != workers_.end();)
     it = now - it->second->lastHeartbeat > forgetAfter ? workers_.erase(it) : std::next(it);
-}
-
-std::vector<uint64_t> Coordinator::heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds) {
-  std::lock_guard lock(mutex_);
-  Worker& worker = findWorker(workerId);
-  const auto now = Clock::now();
-  worker.lastHeartbeat = now;
-  std::vector<uint64_t> revoked;
-  for (uint64_t id : leaseIds) {
-    auto it = leases_.find(id);
-    if (it == leases_.end() || it->second.workerId != workerId)
-      revoked.push_back(id);
-    else
-      it->second.deadline = now + std::chrono::duration_cast<Clock::duration>(
-                                      std::chrono::duration<double>(options_.leaseTimeoutSeconds));
-  }
-  reapExpiredLeases(now);
-  return revoked;
 }
 
 std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_point now) {
@@ -1131,36 +805,6 @@ void Coordinator::reportFailure(const std::string& workerId, uint64_t leaseId, c
     spdlog::error("job {}: failed on {}: {}", job.id, workerId, error);
     touch(job);
   }
-}
-
-std::vector<WorkerView> Coordinator::workers() const {
-  std::lock_guard lock(mutex_);
-  std::vector<WorkerView> out;
-  const auto now = Clock::now();
-  std::set<std::string> holders;
-  for (const auto& [leaseId, lease] : leases_) holders.insert(lease.workerId);
-  for (const auto& [id, w] : workers_) {
-    WorkerView v;
-    v.id = w->id;
-    v.info = w->info;
-    v.currentJobId = w->currentJobId;
-    v.unitsDone = w->unitsDone;
-    v.secondsSinceHeartbeat = std::chrono::duration<double>(now - w->lastHeartbeat).count();
-    v.currentUnit = w->currentUnit;
-    v.samplesPerSecond = w->samplesPerSecond;
-    v.state = stateOf(*w, holders.count(id) > 0, now, &v.secondsInState);
-    v.attached = w->attachment != 0;
-    if (w->gone)
-      v.stateReason = w->goneReason;
-    else if (v.state == WorkerState::kLost)
-      v.stateReason = "no heartbeat for " + secondsText(v.secondsSinceHeartbeat) + " (not attached)";
-    if (!holders.count(id)) {  // it holds nothing now
-      v.currentJobId.clear();
-      v.currentUnit.reset();
-    }
-    out.push_back(std::move(v));
-  }
-  return out;
 }
 
 // ---- dashboard ------------------------------------------------------------------------------

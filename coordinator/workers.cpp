@@ -1,0 +1,269 @@
+// Coordinator, part two: the workers. Registration, heartbeats, the Attach stream's verdicts
+// (attachWorker, workerLost, workerLeft), each worker's state, and why a job is stalled. Jobs,
+// scheduling and accumulation are in coordinator.cpp; the records both use are in
+// coordinator_records.h.
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+
+#include "coordinator.h"
+#include "coordinator_records.h"
+#include "util/error.h"
+#include "util/version.h"
+
+namespace lensfarm {
+
+const char* workerStateName(WorkerState s) {
+  switch (s) {
+    case WorkerState::kRendering: return "rendering";
+    case WorkerState::kIdle: return "idle";
+    case WorkerState::kStale: return "stale";
+    case WorkerState::kLost: return "lost";
+    case WorkerState::kLeft: return "left";
+  }
+  return "?";
+}
+
+std::string Coordinator::registerWorker(const WorkerInfo& info) {
+  if (info.protocolVersion != kProtocolVersion || info.rendererVersion != kRendererVersion)
+    throw FarmError(FarmError::Kind::kFailedPrecondition,
+                    "version mismatch: worker speaks " + info.protocolVersion + " with renderer " + info.rendererVersion +
+                        ", coordinator speaks " + kProtocolVersion + " with renderer " + kRendererVersion);
+  std::lock_guard lock(mutex_);
+  auto worker = std::make_unique<Worker>();
+  worker->id = "worker-" + std::to_string(epoch_) + "." + std::to_string(nextWorker_++);
+  worker->info = info;
+  worker->lastHeartbeat = Clock::now();
+  const std::string id = worker->id;
+  spdlog::info("{} registered: {} with {} threads", id, info.name, info.threads);
+  // A lost or departed worker of the same name is this one back: the new entry replaces it.
+  for (auto it = workers_.begin(); it != workers_.end();)
+    it = it->second->gone && !info.name.empty() && it->second->info.name == info.name ? workers_.erase(it) : std::next(it);
+  workers_[id] = std::move(worker);
+  return id;
+}
+
+Coordinator::Worker& Coordinator::findWorker(const std::string& workerId) {
+  auto it = workers_.find(workerId);
+  if (it == workers_.end()) throw FarmError(FarmError::Kind::kUnknownWorker, "unknown worker " + workerId + "; register again");
+  if (it->second->gone)  // its leases were revoked: a live process must start afresh
+    throw FarmError(FarmError::Kind::kUnknownWorker, "unknown worker " + workerId + " (" +
+                                                         workerStateName(*it->second->gone) + ": " +
+                                                         it->second->goneReason + "); register again");
+  return *it->second;
+}
+
+Coordinator::Worker* Coordinator::liveWorker(const std::string& workerId) {
+  auto it = workers_.find(workerId);
+  return it == workers_.end() || it->second->gone ? nullptr : it->second.get();
+}
+
+double Coordinator::staleAfterSeconds() const { return std::max(3.0, 5.0 * options_.heartbeatIntervalSeconds); }
+
+std::string Coordinator::releaseLeasesOf(Worker& worker, const std::string& verb, const std::string& detail,
+                                         Clock::time_point now) {
+  std::map<std::string, std::vector<uint64_t>> byJob;
+  for (auto it = leases_.begin(); it != leases_.end();) {
+    if (it->second.workerId != worker.id) {
+      ++it;
+      continue;
+    }
+    Job& job = findJob(it->second.jobId);
+    const uint64_t unit = it->second.unit;
+    // Back in the queue, leased again before any fresh unit; an upload under the old lease is
+    // refused from now on, so the unit is still counted once.
+    if (!isTerminal(job.state) && !job.isReceived(unit) && !job.inflight.count(unit)) job.returned.insert(unit);
+    byJob[job.id].push_back(unit);
+    ++counters_.unitsExpired;
+    it = leases_.erase(it);
+  }
+  std::string requeued;
+  for (auto& [jobId, units] : byJob) {
+    Job& job = findJob(jobId);
+    std::string list;
+    for (uint64_t u : units) list += (list.empty() ? "" : ", ") + std::to_string(u);
+    const std::string what = (units.size() == 1 ? "unit " : "units ") + list + " of " + jobId + " queued again";
+    spdlog::debug("{} {} ({}): {}", worker.label(), verb, detail, what);
+    requeued += (requeued.empty() ? "" : "; ") + what;
+    job.lastLoss = Job::Loss{worker.label(), verb, detail, now, std::move(units)};
+    touch(job);
+  }
+  worker.currentJobId.clear();
+  worker.currentUnit.reset();
+  changed_.notify_all();  // idle workers waiting in lease() take the units at once
+  return requeued;
+}
+
+uint64_t Coordinator::attachWorker(const std::string& workerId) {
+  std::lock_guard lock(mutex_);
+  Worker& worker = findWorker(workerId);
+  worker.attachment = nextAttachment_++;
+  worker.lastHeartbeat = Clock::now();
+  spdlog::debug("{} attached (stream {})", worker.label(), worker.attachment);
+  return worker.attachment;
+}
+
+bool Coordinator::workerLost(const std::string& workerId, const std::string& reason, uint64_t attachment) {
+  std::lock_guard lock(mutex_);
+  Worker* worker = liveWorker(workerId);
+  if (!worker || (attachment != 0 && worker->attachment != attachment)) return false;  // gone, or a superseded stream
+  const auto now = Clock::now();
+  worker->gone = WorkerState::kLost;
+  worker->goneAt = now;
+  worker->attachment = 0;
+  ++counters_.workersLost;
+  const std::string requeued = releaseLeasesOf(*worker, "lost", reason, now);
+  worker->goneReason = reason + (requeued.empty() ? "" : "; " + requeued);
+  spdlog::warn("{} lost: {}", worker->label(), worker->goneReason);
+  return true;
+}
+
+void Coordinator::workerLeft(const std::string& workerId, uint64_t attachment) {
+  std::lock_guard lock(mutex_);
+  Worker* worker = liveWorker(workerId);
+  if (!worker || (attachment != 0 && worker->attachment != attachment)) return;
+  const auto now = Clock::now();
+  worker->gone = WorkerState::kLeft;
+  worker->goneAt = now;
+  worker->attachment = 0;
+  const std::string requeued = releaseLeasesOf(*worker, "left", "stopped", now);
+  worker->goneReason = "stopped" + (requeued.empty() ? std::string() : "; " + requeued);
+  spdlog::info("{} left: {}", worker->label(), worker->goneReason);
+}
+
+WorkerState Coordinator::stateOf(const Worker& worker, bool holdsLease, Clock::time_point now,
+                                 double* secondsInState) const {
+  const double silent = std::chrono::duration<double>(now - worker.lastHeartbeat).count();
+  *secondsInState = 0.0;
+  if (worker.gone) {
+    *secondsInState = std::chrono::duration<double>(now - worker.goneAt).count();
+    return *worker.gone;
+  }
+  // A worker without an Attach stream is judged by its heartbeats alone, as before.
+  if (worker.attachment == 0 && silent > options_.leaseTimeoutSeconds) {
+    *secondsInState = silent - options_.leaseTimeoutSeconds;
+    return WorkerState::kLost;
+  }
+  if (silent > staleAfterSeconds()) {
+    *secondsInState = silent;
+    return WorkerState::kStale;
+  }
+  return holdsLease ? WorkerState::kRendering : WorkerState::kIdle;
+}
+
+namespace {
+std::string secondsText(double seconds) { return std::to_string(long(std::max(0.0, seconds) + 0.5)) + " s"; }
+}  // namespace
+
+std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) const {
+  if (isTerminal(job.state)) return "";
+  std::set<std::string> holders;  // workers holding a lease of any job
+  std::vector<const ActiveLease*> mine;
+  for (const auto& [id, lease] : leases_) {
+    holders.insert(lease.workerId);
+    if (lease.jobId == job.id) mine.push_back(&lease);
+  }
+  // Held by a worker that is heard from: it is being rendered.
+  std::string silent;
+  for (const ActiveLease* lease : mine) {
+    auto it = workers_.find(lease->workerId);
+    if (it == workers_.end()) continue;
+    double s = 0.0;
+    const WorkerState state = stateOf(*it->second, true, now, &s);
+    if (state == WorkerState::kRendering) return "";
+    if (silent.empty())
+      silent = "worker " + it->second->label() + " silent for " + secondsText(s) + "; unit " +
+               std::to_string(lease->unit) + " is queued again when its lease lapses in " +
+               secondsText(std::chrono::duration<double>(lease->deadline - now).count());
+  }
+  if (!silent.empty()) return silent;
+  if (!job.hasPending()) return "";  // every unit is in or being recorded
+  uint64_t busyElsewhere = 0;
+  const Worker* recentlyGone = nullptr;
+  for (const auto& [id, w] : workers_) {
+    double s = 0.0;
+    switch (stateOf(*w, holders.count(id) > 0, now, &s)) {
+      case WorkerState::kIdle: return "";  // it is about to lease a unit
+      case WorkerState::kRendering: ++busyElsewhere; break;
+      case WorkerState::kLost:
+      case WorkerState::kLeft:
+        if (w->gone && (!recentlyGone || w->goneAt > recentlyGone->goneAt)) recentlyGone = w.get();
+        break;
+      case WorkerState::kStale: break;
+    }
+  }
+  // Just submitted: give the workers (or `lensfarm render`'s own) a moment to call in.
+  const double nowUnix = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  const bool recentLoss = job.lastLoss && now - job.lastLoss->when < std::chrono::seconds(120);
+  if (!recentLoss && nowUnix - job.submittedUnixSeconds < 2.0) return "";
+  std::string why;
+  if (recentLoss) {
+    const Job::Loss& loss = *job.lastLoss;
+    std::string units;
+    for (uint64_t u : loss.units) units += (units.empty() ? "" : ", ") + std::to_string(u);
+    why = "worker " + loss.worker + " " + loss.verb + " " +
+          secondsText(std::chrono::duration<double>(now - loss.when).count()) + " ago (" + loss.detail + "); " +
+          (loss.units.size() == 1 ? "unit " : "units ") + units + " queued again; ";
+  }
+  if (busyElsewhere)
+    why += "waiting for a worker: " + (busyElsewhere == 1 ? std::string("the only one is") : "all " + std::to_string(busyElsewhere) + " are") +
+           " rendering other jobs";
+  else
+    why += "no workers connected";
+  if (!recentLoss && !busyElsewhere && recentlyGone && now - recentlyGone->goneAt < std::chrono::seconds(120))
+    why += " (" + recentlyGone->label() + " " + workerStateName(*recentlyGone->gone) + " " +
+           secondsText(std::chrono::duration<double>(now - recentlyGone->goneAt).count()) + " ago: " +
+           recentlyGone->goneReason + ")";
+  return why;
+}
+
+std::vector<uint64_t> Coordinator::heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds) {
+  std::lock_guard lock(mutex_);
+  Worker& worker = findWorker(workerId);
+  const auto now = Clock::now();
+  worker.lastHeartbeat = now;
+  std::vector<uint64_t> revoked;
+  for (uint64_t id : leaseIds) {
+    auto it = leases_.find(id);
+    if (it == leases_.end() || it->second.workerId != workerId)
+      revoked.push_back(id);
+    else
+      it->second.deadline = now + std::chrono::duration_cast<Clock::duration>(
+                                      std::chrono::duration<double>(options_.leaseTimeoutSeconds));
+  }
+  reapExpiredLeases(now);
+  return revoked;
+}
+
+std::vector<WorkerView> Coordinator::workers() const {
+  std::lock_guard lock(mutex_);
+  std::vector<WorkerView> out;
+  const auto now = Clock::now();
+  std::set<std::string> holders;
+  for (const auto& [leaseId, lease] : leases_) holders.insert(lease.workerId);
+  for (const auto& [id, w] : workers_) {
+    WorkerView v;
+    v.id = w->id;
+    v.info = w->info;
+    v.currentJobId = w->currentJobId;
+    v.unitsDone = w->unitsDone;
+    v.secondsSinceHeartbeat = std::chrono::duration<double>(now - w->lastHeartbeat).count();
+    v.currentUnit = w->currentUnit;
+    v.samplesPerSecond = w->samplesPerSecond;
+    v.state = stateOf(*w, holders.count(id) > 0, now, &v.secondsInState);
+    v.attached = w->attachment != 0;
+    if (w->gone)
+      v.stateReason = w->goneReason;
+    else if (v.state == WorkerState::kLost)
+      v.stateReason = "no heartbeat for " + secondsText(v.secondsSinceHeartbeat) + " (not attached)";
+    if (!holders.count(id)) {  // it holds nothing now
+      v.currentJobId.clear();
+      v.currentUnit.reset();
+    }
+    out.push_back(std::move(v));
+  }
+  return out;
+}
+
+}  // namespace lensfarm
