@@ -20,6 +20,12 @@
 namespace lensfarm {
 
 namespace {
+uint64_t sceneTriangles(const Scene& scene) {
+  uint64_t n = 0;
+  for (const auto& m : scene.meshes) n += m.triangleCount();
+  return n;
+}
+
 std::vector<std::string> describeEffects(const Scene& scene) {
   std::vector<std::string> out;
   for (const auto& d : analyzeEffects(scene, scene.camera()).decisions)
@@ -251,6 +257,7 @@ void Coordinator::restore() {
     job->unitSize = unitSize(scene.render);
     job->unitsTotal = unitCount(scene.render.samplesPerPixel, job->unitSize);
     job->effects = describeEffects(scene);
+    job->unitMemoryBytes = workerJobMemory(scene.render, sceneTriangles(scene)).total();
 
     // The checkpoint holds units [0, folded); the ledger lists every accepted unit.
     const auto checkpoint = store_->loadCheckpoint(job->id);
@@ -394,6 +401,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
   job->unitSize = unitSize(scene.render);
   job->unitsTotal = unitCount(scene.render.samplesPerPixel, job->unitSize);
   job->effects = describeEffects(scene);
+  job->unitMemoryBytes = workerJobMemory(scene.render, sceneTriangles(scene)).total();
   try {
     if (options_.beforeJobAllocation) options_.beforeJobAllocation(memory.total());
     job->sensor = std::make_unique<Sensor>(scene.render.width, scene.render.height);
@@ -621,6 +629,7 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   Job* best = nullptr;
   for (auto& [id, job] : jobs_) {
     if (isTerminal(job->state) || !job->hasPending()) continue;
+    if (!job->fitsOn(worker.info)) continue;  // its units are for a worker with more memory
     if (job->returned.empty()) {  // a fresh unit: only within the window ahead of the summed prefix
       const uint64_t window = unitsAheadWindow(job->settings.width, job->settings.height, options_.maxBytesAhead);
       if (job->nextFresh >= job->unitsAdded + window) continue;

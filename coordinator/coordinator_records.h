@@ -27,6 +27,11 @@ struct Coordinator::Job {
   std::string sceneHash;
   uint32_t unitSize = 1;
   uint64_t unitsTotal = 0;
+  uint64_t unitMemoryBytes = 0;  // what one unit takes on a worker (workerJobMemory); leases skip smaller workers
+  // Whether `worker` can hold one unit (WorkerInfo::maxUnitMemoryBytes; 0: it did not say).
+  bool fitsOn(const WorkerInfo& worker) const {
+    return worker.maxUnitMemoryBytes == 0 || unitMemoryBytes <= worker.maxUnitMemoryBytes;
+  }
   std::vector<std::string> effects;  // what the renderer simulates for this job, and why
 
   // Scheduling, guarded by Coordinator::mutex_.

@@ -220,7 +220,7 @@ grpc::Status WorkerServiceImpl::Register(grpc::ServerContext* context, const v1:
                                          v1::RegisterResponse* response) {
   return guarded(gate_, context, "Register", [&] {
     WorkerInfo info{request->name(), std::max(1u, request->threads()), request->protocol_version(),
-                    request->renderer_version()};
+                    request->renderer_version(), request->max_unit_memory_bytes()};
     response->set_worker_id(coordinator_.registerWorker(info));
     response->set_heartbeat_interval_ms(uint32_t(coordinator_.options().heartbeatIntervalSeconds * 1000));
   });

@@ -9,6 +9,7 @@
 
 #include "coordinator.h"
 #include "coordinator_records.h"
+#include "render/memory_estimate.h"
 #include "util/error.h"
 #include "util/version.h"
 
@@ -179,11 +180,17 @@ std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) co
   }
   if (!silent.empty()) return silent;
   if (!job.hasPending()) return "";  // every unit is in or being recorded
-  uint64_t busyElsewhere = 0;
+  uint64_t busyElsewhere = 0, tooSmall = 0, largest = 0;
   const Worker* recentlyGone = nullptr;
   for (const auto& [id, w] : workers_) {
     double s = 0.0;
-    switch (stateOf(*w, holders.count(id) > 0, now, &s)) {
+    const WorkerState state = stateOf(*w, holders.count(id) > 0, now, &s);
+    if ((state == WorkerState::kIdle || state == WorkerState::kRendering) && !job.fitsOn(w->info)) {
+      ++tooSmall;  // connected, but never leased a unit of this job
+      largest = std::max(largest, w->info.maxUnitMemoryBytes);
+      continue;
+    }
+    switch (state) {
       case WorkerState::kIdle: return "";  // it is about to lease a unit
       case WorkerState::kRendering: ++busyElsewhere; break;
       case WorkerState::kLost:
@@ -206,7 +213,11 @@ std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) co
           secondsText(std::chrono::duration<double>(now - loss.when).count()) + " ago (" + loss.detail + "); " +
           (loss.units.size() == 1 ? "unit " : "units ") + units + " queued again; ";
   }
-  if (busyElsewhere)
+  if (tooSmall && !busyElsewhere)
+    why += "no connected worker can hold a unit of this job: it needs " + formatBytes(job.unitMemoryBytes) +
+           " of worker memory, the largest of the " + std::to_string(tooSmall) + " connected allows " + formatBytes(largest) +
+           " (LENSFARM_MAX_JOB_MEMORY on a worker); lower the resolution or add a bigger worker";
+  else if (busyElsewhere)
     why += "waiting for a worker: " + (busyElsewhere == 1 ? std::string("the only one is") : "all " + std::to_string(busyElsewhere) + " are") +
            " rendering other jobs";
   else

@@ -44,6 +44,7 @@ Registration GrpcCoordinatorLink::registerWorker(const WorkerInfo& info) {
   request.set_threads(info.threads);
   request.set_protocol_version(info.protocolVersion);
   request.set_renderer_version(info.rendererVersion);
+  request.set_max_unit_memory_bytes(info.maxUnitMemoryBytes);
   v1::RegisterResponse response;
   const grpc::Status s = stub_->Register(context().get(), request, &response);
   if (!s.ok()) raise(s, "Register");

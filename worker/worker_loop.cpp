@@ -146,7 +146,7 @@ void WorkerLoop::run() {
     }
     try {
       if (workerId().empty()) {
-        WorkerInfo info{options_.name, options_.threads, kProtocolVersion, kRendererVersion};
+        WorkerInfo info{options_.name, options_.threads, kProtocolVersion, kRendererVersion, options_.maxMemoryBytes};
         const Registration r = link_.registerWorker(info);
         std::lock_guard lock(mutex_);
         workerId_ = r.workerId;
@@ -174,7 +174,9 @@ void WorkerLoop::run() {
         link_.reportFailure(id, grant->leaseId, grant->jobId, "out of memory loading the scene on " + options_.name);
         continue;
       }
-      // A unit this worker cannot hold is refused with a report, before it allocates anything.
+      // A unit this worker cannot hold is refused with a report, before it allocates anything. A
+      // coordinator that knows the worker's limit (WorkerInfo::maxUnitMemoryBytes) never leases
+      // one; this guards against one that does not.
       const MemoryEstimate memory =
           workerJobMemory(job->scene.render, job->renderScene->caster().triangles().size());
       if (options_.maxMemoryBytes > 0 && memory.total() > options_.maxMemoryBytes) {

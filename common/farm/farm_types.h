@@ -30,6 +30,10 @@ struct WorkerInfo {
   uint32_t threads = 1;
   std::string protocolVersion = kProtocolVersion;
   std::string rendererVersion;
+  // The most memory one unit of a job may take on this worker (render/memory_estimate.h,
+  // workerJobMemory); 0: not said (any unit is leased to it). The coordinator leases a worker only
+  // units it can hold, so a small machine in a big farm never fails a big job.
+  uint64_t maxUnitMemoryBytes = 0;
 };
 
 // A unit leased to one worker. Only an upload quoting the current lease id is counted.

@@ -103,11 +103,75 @@ TEST(CoordinatorMemory, AFailedAllocationRefusesThatJobOnlyAndTheCoordinatorLive
   EXPECT_EQ(next, "job-" + std::to_string(std::stoi(small.substr(4)) + 1)) << "the refused job left no trace";
 }
 
-TEST(CoordinatorMemory, AWorkerRefusesAUnitItCannotHoldWithAReport) {
+// A worker says at registration how much one unit may take on it; the coordinator leases it only
+// units that fit. A small machine in a farm never fails a big job: the job waits for a worker that
+// can hold it, says so, and the small machine renders what it can meanwhile.
+TEST(CoordinatorMemory, ASmallWorkerIsNeverLeasedAUnitItCannotHold) {
   Coordinator::Options options;
   options.maxJobMemoryBytes = uint64_t(1) << 40;
   Coordinator c(options);
   InProcessLink link(c);  // as `lensfarm render` wires its worker
+  WorkerOptions wo;
+  wo.name = "small-box";
+  wo.leaseWaitSeconds = 0.05;
+  wo.maxMemoryBytes = uint64_t(8) << 20;  // 8.4 MB: a 1000x1000 unit buffer is 28 MB
+  WorkerLoop small(link, wo);
+  std::thread t([&] { small.run(); });
+  const std::string big = c.submit(specAt(1000, 1000), 0).id;
+  const std::string tiny = c.submit(specAt(8, 6), 0).id;
+  // The small worker renders the job it can hold, which was submitted after the big one.
+  EXPECT_TRUE(test::waitFor([&] { return c.job(tiny).state == JobState::kDone; }, 30)) << c.job(tiny).error;
+  ASSERT_TRUE(test::waitFor([&] { return !c.job(big).stalledReason.empty(); }, 30));
+  const JobInfo waiting = c.job(big);
+  EXPECT_EQ(waiting.state, JobState::kQueued) << waiting.error;
+  EXPECT_NE(waiting.stalledReason.find("no connected worker can hold a unit of this job"), std::string::npos)
+      << waiting.stalledReason;
+  EXPECT_NE(waiting.stalledReason.find("28.0 MB"), std::string::npos) << waiting.stalledReason;
+  EXPECT_NE(waiting.stalledReason.find("8.39 MB"), std::string::npos) << waiting.stalledReason;
+  EXPECT_EQ(small.counters().unitsAbandoned.load(), 0u);
+
+  // A worker that can hold it joins: the job is rendered, by it alone.
+  WorkerOptions bigOptions = wo;
+  bigOptions.name = "big-box";
+  bigOptions.maxMemoryBytes = uint64_t(1) << 30;
+  WorkerLoop bigWorker(link, bigOptions);
+  std::thread u([&] { bigWorker.run(); });
+  EXPECT_TRUE(test::waitFor([&] { return c.job(big).state == JobState::kDone; }, 60)) << c.job(big).error;
+  EXPECT_EQ(c.job(big).stats.paths, 1000u * 1000u * 2u);
+  small.stopNow();
+  bigWorker.stopNow();
+  t.join();
+  u.join();
+}
+
+// Against a coordinator that does not know a worker's limit (an older one: the field is not
+// sent), the worker itself refuses a unit it cannot hold, with a report, before allocating.
+class ForgetfulLink final : public CoordinatorLink {
+ public:
+  explicit ForgetfulLink(Coordinator& c) : inner_(c) {}
+  Registration registerWorker(const WorkerInfo& info) override {
+    WorkerInfo unsaid = info;
+    unsaid.maxUnitMemoryBytes = 0;
+    return inner_.registerWorker(unsaid);
+  }
+  std::vector<uint64_t> heartbeat(const std::string& w, const std::vector<uint64_t>& l) override { return inner_.heartbeat(w, l); }
+  std::optional<LeaseGrant> lease(const std::string& w, double wait) override { return inner_.lease(w, wait); }
+  JobSpec jobSpec(const std::string& job) override { return inner_.jobSpec(job); }
+  std::string asset(const std::string& sha) override { return inner_.asset(sha); }
+  bool upload(const UnitResult& r) override { return inner_.upload(r); }
+  void reportFailure(const std::string& w, uint64_t lease, const std::string& job, const std::string& e) override {
+    inner_.reportFailure(w, lease, job, e);
+  }
+
+ private:
+  InProcessLink inner_;
+};
+
+TEST(CoordinatorMemory, AWorkerRefusesAUnitItCannotHoldWithAReport) {
+  Coordinator::Options options;
+  options.maxJobMemoryBytes = uint64_t(1) << 40;
+  Coordinator c(options);
+  ForgetfulLink link(c);
   WorkerOptions wo;
   wo.name = "small-box";
   wo.leaseWaitSeconds = 0.05;
