@@ -7,12 +7,16 @@
 #include <thread>
 
 #include "coordinator.h"
+#include "coordinator_fixtures.h"
 #include "test_support.h"
 #include "util/error.h"
 #include "util/version.h"
 
 namespace lensfarm {
 namespace {
+
+using test::workerInfo;
+using test::resultFor;
 
 using nlohmann::json;
 
@@ -26,17 +30,7 @@ JobSpec specFor(json scene, uint64_t spp, uint32_t perUnit) {
   return spec;
 }
 
-WorkerInfo workerInfo(const std::string& name) { return WorkerInfo{name, 1, kProtocolVersion, kRendererVersion}; }
 
-// A result whose every sum is `value` (no rendering needed to test accumulation).
-UnitResult resultFor(const std::string& worker, const LeaseGrant& g, double value) {
-  UnitResult r = resultForLease(worker, g);
-  r.buffer = SensorBuffer(4, 3);
-  std::fill(r.buffer.sums.begin(), r.buffer.sums.end(), value);
-  r.stats.paths = 12 * g.unit.sampleCount;
-  r.stats.rays = 3 * r.stats.paths;
-  return r;
-}
 
 TEST(Coordinator, RefusesBadScenesAndMissingAssets) {
   Coordinator c;

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "coordinator.h"
+#include "coordinator_fixtures.h"
 #include "dashboard.h"
 #include "metrics.h"
 #include "scene/scene_loader.h"
@@ -15,6 +16,8 @@
 
 namespace lensfarm {
 namespace {
+
+using test::workerInfo;
 
 using nlohmann::json;
 
@@ -31,16 +34,9 @@ JobSpec specFor(uint64_t spp, double targetError = 0.0, double timeLimit = 0.0) 
   return spec;
 }
 
-WorkerInfo workerInfo(const std::string& name) { return WorkerInfo{name, 1, kProtocolVersion, kRendererVersion}; }
 
 UnitResult resultFor(const std::string& worker, const LeaseGrant& g, double value) {
-  UnitResult r = resultForLease(worker, g);
-  r.buffer = SensorBuffer(4, 3);
-  std::fill(r.buffer.sums.begin(), r.buffer.sums.end(), value);
-  r.stats.paths = 12 * g.unit.sampleCount;
-  r.stats.rays = 3 * r.stats.paths;
-  r.renderSeconds = 0.1;
-  return r;
+  return test::resultFor(worker, g, value, 0.1);
 }
 
 WorkerView viewOf(const Coordinator& c, const std::string& id) {

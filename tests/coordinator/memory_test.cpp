@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "coordinator.h"
+#include "coordinator_fixtures.h"
 #include "in_process_link.h"
 #include "render/memory_estimate.h"
 #include "test_support.h"
@@ -15,6 +16,8 @@
 
 namespace lensfarm {
 namespace {
+
+using test::workerInfo;
 
 using nlohmann::json;
 
@@ -29,7 +32,6 @@ JobSpec specAt(int w, int h, uint64_t spp = 2) {
   return spec;
 }
 
-WorkerInfo workerInfo(const std::string& name) { return WorkerInfo{name, 1, kProtocolVersion, kRendererVersion}; }
 
 // Renders every unit of `job` as worker `w` with constant sums; the job must end done.
 void finishJob(Coordinator& c, const std::string& job, const std::string& w) {

@@ -5,11 +5,14 @@
 #include <filesystem>
 
 #include "coordinator.h"
+#include "coordinator_fixtures.h"
 #include "test_support.h"
 #include "util/version.h"
 
 namespace lensfarm {
 namespace {
+
+using test::workerInfo;
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -24,7 +27,6 @@ JobSpec sixUnits() {
   return JobSpec{"six.json", scene.dump(), {}, {}};
 }
 
-WorkerInfo workerInfo(const std::string& name) { return WorkerInfo{name, 1, kProtocolVersion, kRendererVersion}; }
 
 UnitResult resultFor(const std::string& worker, const LeaseGrant& g) {
   UnitResult r = resultForLease(worker, g);
