@@ -108,19 +108,6 @@ TEST(CliMemory, ARenderOverTheBudgetIsRefusedBeforeTracingAndWritesNothing) {
     EXPECT_TRUE(contains(r.err, "LENSFARM_MAX_JOB_MEMORY"));
     EXPECT_TRUE(entries(out.path()).empty());
   }
-  {
-    SCOPED_TRACE("the largest frame, on this machine's own budget");
-    RenderSettings largest;
-    largest.width = largest.height = 16384;
-    largest.samplesPerPixel = 1;
-    if (std::getenv("LENSFARM_MAX_JOB_MEMORY") || localRenderMemory(largest, 0).total() <= defaultJobMemoryBudget())
-      GTEST_SKIP() << "this machine can hold a 16384x16384 render";
-    const auto r = cli({"render", scene, "-o", exr.string(), "--resolution", "16384x16384", "--spp", "1", "-q"});
-    EXPECT_EQ(r.exitCode, kBadInput) << r.err;
-    EXPECT_TRUE(contains(r.err, "16384x16384 render needs an estimated 31.7 GB of memory"));
-    EXPECT_TRUE(contains(r.err, "of this machine's"));
-    EXPECT_TRUE(entries(out.path()).empty());
-  }
 }
 
 }  // namespace

@@ -2,6 +2,9 @@
 // types' allocations, the allocator's own count, and the peak RSS of a real `lensfarm render`.
 #include <gtest/gtest.h>
 #include <malloc.h>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <sys/resource.h>
 #include <sys/wait.h>
 
@@ -102,6 +105,51 @@ TEST(MemoryEstimate, HugeFramesAreEstimatedBeforeAnythingIsAllocated) {
   EXPECT_NE(refusal.find("16384x16384"), std::string::npos) << refusal;
   EXPECT_NE(refusal.find("an estimated 31.7 GB"), std::string::npos) << refusal;
   EXPECT_NE(refusal.find("17.2 GB allowed"), std::string::npos) << refusal;
+}
+
+// This machine's memory read independently of the code under test: MemTotal of /proc/meminfo, and
+// the memory.max (cgroup v2) of this process's cgroup and of every cgroup above it, the lowest wins.
+uint64_t memoryThisMachineAllows() {
+  uint64_t limit = 0;
+  std::ifstream meminfo("/proc/meminfo");
+  for (std::string key; meminfo >> key;) {
+    uint64_t kib = 0;
+    meminfo >> kib;
+    if (key == "MemTotal:") limit = kib * 1024;
+    meminfo.ignore(1 << 10, '\n');
+  }
+  std::ifstream self("/proc/self/cgroup");
+  for (std::string line; std::getline(self, line);) {
+    if (line.rfind("0::", 0) != 0) continue;
+    for (std::filesystem::path dir = "/sys/fs/cgroup" + line.substr(3);; dir = dir.parent_path()) {
+      std::ifstream max(dir / "memory.max");
+      uint64_t v = 0;
+      if (max >> v && v > 0) limit = std::min(limit, v);
+      if (dir == "/sys/fs/cgroup" || dir == dir.parent_path()) break;
+    }
+  }
+  return limit;
+}
+
+// Without LENSFARM_MAX_JOB_MEMORY a job may take 3/4 of what this machine (or its cgroup) has, and
+// the messages say so with that figure. (The refusals themselves are tested with a set budget in
+// tests/farm/memory_farm_test.cpp: a machine's own memory cannot be made small for a test.)
+TEST(MemoryEstimate, TheDefaultBudgetIsThreeQuartersOfWhatThisMachineAllows) {
+  const char* set = std::getenv("LENSFARM_MAX_JOB_MEMORY");
+  const std::string saved = set ? set : "";
+  ::unsetenv("LENSFARM_MAX_JOB_MEMORY");
+  const uint64_t allowed = memoryThisMachineAllows();
+  ASSERT_GT(allowed, uint64_t(64) << 20);
+  EXPECT_NEAR(double(machineMemoryBytes()), double(allowed), 1e-6 * double(allowed));
+  EXPECT_NEAR(double(defaultJobMemoryBudget()), 0.75 * double(allowed), 1e-6 * double(allowed));
+  EXPECT_EQ(defaultJobMemoryBudgetSource(), "3/4 of this machine's " + formatBytes(allowed) + " of memory");
+  ::setenv("LENSFARM_MAX_JOB_MEMORY", "3G", 1);
+  EXPECT_EQ(defaultJobMemoryBudget(), uint64_t(3) << 30);
+  EXPECT_EQ(defaultJobMemoryBudgetSource(), "LENSFARM_MAX_JOB_MEMORY");
+  if (set)
+    ::setenv("LENSFARM_MAX_JOB_MEMORY", saved.c_str(), 1);
+  else
+    ::unsetenv("LENSFARM_MAX_JOB_MEMORY");
 }
 
 TEST(MemoryEstimate, SizesParseAndPrint) {
