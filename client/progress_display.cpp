@@ -118,15 +118,9 @@ void ProgressDisplay::update(const v1::JobStatus& status) {
   const auto& p = status.progress();
   if (t - lastDraw_ < (terminal_ ? 0.1 : plainEvery_) && !isFinished(status.state())) return;
   lastDraw_ = t;
-  // The bar shows whichever stopping rule is nearest: samples, the target error (error^2 falls
-  // as 1/time, so the fraction of the time needed is (target / error)^2) or the deadline.
-  double fraction = hasSampleCap(p) && p.units_total() ? double(p.units_done()) / double(p.units_total()) : 0.0;
-  const double estimate = p.estimated_relative_error();
-  if (p.target_error() > 0.0 && estimate > 0.0)
-    fraction = std::max(fraction, std::min(1.0, (p.target_error() / estimate) * (p.target_error() / estimate)));
-  if (p.time_limit_seconds() > 0.0 && p.elapsed_seconds() + p.remaining_seconds() > 0.0)
-    fraction = std::max(fraction, p.elapsed_seconds() / (p.elapsed_seconds() + p.remaining_seconds()));
-  if (status.state() == v1::JOB_STATE_DONE) fraction = 1.0;
+  // The bar shows whichever stopping rule is nearest (samples, target error or deadline), as the
+  // coordinator computes it for every client (JobProgress.progress_fraction).
+  const double fraction = status.state() == v1::JOB_STATE_DONE ? 1.0 : p.progress_fraction();
   const std::string line = progressLine(status, watchTarget_, nowUnix());
   if (terminal_) {
     const int width = 30;

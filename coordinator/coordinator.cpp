@@ -219,7 +219,7 @@ void Coordinator::enforceDeadlines() {
       job.stopUnits = job.foldLimit;
     }
     finish(job, "deadline reached");
-    recordEstimate(job, infoOf(job).elapsedSeconds);
+    recordEstimate(job, elapsedSecondsOf(job));
     touch(job);
   }
 }
@@ -457,6 +457,11 @@ Coordinator::Job& Coordinator::findJob(const std::string& jobId) const {
   return *it->second;
 }
 
+double Coordinator::elapsedSecondsOf(const Job& job) {
+  if (!job.started) return 0.0;
+  return std::chrono::duration<double>(job.finished.value_or(Clock::now()) - *job.started).count();
+}
+
 JobInfo Coordinator::infoOf(const Job& job) const {
   JobInfo info;
   info.id = job.id;
@@ -471,10 +476,7 @@ JobInfo Coordinator::infoOf(const Job& job) const {
   info.unitsDone = job.unitsAdded;
   info.unitsTotal = job.unitsTotal;
   info.stats = job.stats;
-  if (job.started) {
-    const auto end = job.finished.value_or(Clock::now());
-    info.elapsedSeconds = std::chrono::duration<double>(end - *job.started).count();
-  }
+  info.elapsedSeconds = elapsedSecondsOf(job);
   const double fraction = job.unitsTotal ? double(job.unitsAdded) / double(job.unitsTotal) : 0.0;
   if (!isTerminal(job.state) && fraction > 0.0) info.remainingSeconds = info.elapsedSeconds * (1.0 - fraction) / fraction;
   info.estimatedRelativeError = job.estimate.valid ? job.estimate.relativeRmse : -1.0;
@@ -573,7 +575,7 @@ JobImage Coordinator::image(const std::string& jobId) const {
     std::string effects;
     for (const auto& e : job->effects) effects += (effects.empty() ? "" : "; ") + e;
     out.metadata.extra["effects"] = effects;
-    out.metadata.renderSeconds = infoOf(*job).elapsedSeconds;
+    out.metadata.renderSeconds = elapsedSecondsOf(*job);
   }
   std::lock_guard lock(job->accumulate);
   try {
@@ -789,7 +791,7 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
     job->samplesPerPixelDone = sppAdded;
     job->stats = statsAdded;
     job->estimate = estimate;
-    recordEstimate(*job, infoOf(*job).elapsedSeconds);
+    recordEstimate(*job, elapsedSecondsOf(*job));
     if (!stopReason.empty() && job->state == JobState::kRunning) {
       if (foldLimit < job->unitsTotal) job->stopUnits = foldLimit;
       finish(*job, stopReason);

@@ -246,7 +246,8 @@ class Coordinator {
 
   Job& findJob(const std::string& jobId) const;  // requires mutex_
   Worker& findWorker(const std::string& workerId);
-  JobInfo infoOf(const Job& job) const;
+  JobInfo infoOf(const Job& job) const;  // requires mutex_; walks the leases and workers (stalledReason)
+  static double elapsedSecondsOf(const Job& job);  // since its first lease, to its end or now
   void reapExpiredLeases(Clock::time_point now);
   // Revokes the worker's leases and queues their units again (requires mutex_); for messages,
   // "unit 5 queued again" or "" when it held nothing.
