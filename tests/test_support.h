@@ -118,6 +118,10 @@ std::filesystem::path workerPath();       // the built lensfarm-worker
 // Waits until `condition` holds or `timeoutSeconds` pass; returns whether it held.
 bool waitFor(const std::function<bool()>& condition, double timeoutSeconds);
 
+// ---- exit codes the docs promise (docs/cli.md), written here, not read from client/exit_codes.h ----
+inline constexpr int kBadInput = 2;
+inline constexpr int kInterrupted = 130;
+
 // ---- text of a process's output ----
 
 // Succeeds when `text` contains `part`; the failure shows both.

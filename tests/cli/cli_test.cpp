@@ -29,8 +29,8 @@ using test::contains;
 using test::lines;
 using json = nlohmann::json;
 
-constexpr int kBadInput = 2;
-constexpr int kInterrupted = 130;
+using test::kBadInput;
+using test::kInterrupted;
 
 std::string cli() { return test::cliPath().string(); }
 

@@ -22,8 +22,8 @@ using test::contains;
 using test::lines;
 using json = nlohmann::json;
 
-constexpr int kBadInput = 2;
-constexpr int kInterrupted = 130;
+using test::kBadInput;
+using test::kInterrupted;
 const std::string kInternalCap = "1099511627776";  // kMaxSamplesPerPixel, 2^40
 
 std::string cli() { return test::cliPath().string(); }

@@ -16,7 +16,7 @@ namespace fs = std::filesystem;
 using test::contains;
 using json = nlohmann::json;
 
-constexpr int kBadInput = 2;
+using test::kBadInput;
 
 std::vector<std::string> entries(const fs::path& dir) {
   std::vector<std::string> names;
