@@ -206,7 +206,8 @@ Runner addRenderCommand(CLI::App& app) {
   cmd->add_option("--time", f->timeLimit,
                   "Render for this many seconds, in whole units (with --spp: whichever comes first); "
                   "the same as --deadline in seconds")
-      ->check(positiveNumber("seconds"));
+      ->check(positiveNumber("seconds"))
+      ->check(numberIn(0.0, 1e9, "seconds"));
   cmd->add_option("--threads", f->threads, "Threads (default: all cores)")->check(wholeNumberIn(1, 4096));
   cmd->add_option("--snapshot-every", f->snapshotEvery,
                   "Write the outputs every S seconds while rendering, once a unit is done (0: never)")

@@ -30,6 +30,17 @@ std::string show(const DVec3& v) { return "[" + show(v.x) + ", " + show(v.y) + "
 
 // A field of view wider than this (the largest angle_of_view) is a unit mix-up, not a camera.
 constexpr double kMaxFieldOfViewDegrees = 179.999;
+// ... and one narrower than this (the smallest angle_of_view) shows one colour: every cell
+// would look along the same direction in single precision.
+constexpr double kMinFieldOfViewDegrees = 1e-6;
+
+// A camera ray the kernel can trace: finite, with its origin where Embree accepts one (it
+// asserts that every component is within 1.844e18; kMaxRayOriginDistance leaves a margin).
+bool traceable(const CameraRay& ray) {
+  for (int k = 0; k < 3; ++k)
+    if (!std::isfinite(ray.direction[k]) || !(std::abs(ray.origin[k]) <= kMaxRayOriginDistance)) return false;
+  return std::abs(glm::length(ray.direction) - 1.0f) < 1e-5f;
+}
 }  // namespace
 
 ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
@@ -58,35 +69,60 @@ ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
   if (width <= 0 || height <= 0) throw InputError("resolution", "must be positive");
   if (!(p.sensorHeight >= 0.0) || !(p.sensorHeight <= std::numeric_limits<float>::max()))
     throw InputError("sensor_height", "must be a finite number >= 0 (0: sensor_width * H / W, square cells)");
-  if (params_.sensorHeight == 0.0) params_.sensorHeight = p.sensorWidth * height / width;
+  if (params_.sensorHeight == 0.0) {
+    params_.sensorHeight = p.sensorWidth * height / width;
+    if (!(params_.sensorHeight > 0.0))
+      throw InputError("sensor_width", show(p.sensorWidth) + " is too small: the derived sensor_height (sensor_width * H / W) "
+                                                             "underflows to 0");
+  }
   if (!(params_.sensorHeight > 0.0) || !(params_.sensorHeight <= std::numeric_limits<float>::max()))
     throw InputError("sensor_height", "must be a finite number > 0");
   if (!(p.focusDistance > 0.0) || !std::isfinite(p.focusDistance))
     throw InputError("focus_distance", "must be a finite number > 0 (a distance in front of the lens)");
   if (p.focusDistance <= p.focalLength)
-    throw InputError("focus_distance",
-                     "S1 = " + std::to_string(p.focusDistance) + " must exceed the focal length f = " +
-                         std::to_string(p.focalLength) + ": a lens cannot focus a subject at or inside f");
+    throw InputError("focus_distance", "S1 = " + show(p.focusDistance) + " must exceed the focal length f = " +
+                                           show(p.focalLength) + ": a lens cannot focus a subject at or inside f");
   imageDistance_ = p.focalLength * p.focusDistance / (p.focusDistance - p.focalLength);
   if (!std::isfinite(imageDistance_) || imageDistance_ > kMaxImageDistanceOverFocalLength * p.focalLength)
     throw InputError("focus_distance", "S1 is so close to f that the sensor distance S2 = f S1 / (S1 - f) "
                                        "is unbounded; move the subject further away");
-  if (std::isnan(p.fNumber) || p.fNumber <= 0.0)
-    throw InputError("f_number", "must be > 0 (or \"infinity\" for a pinhole)");
+  // N = 1 / (2 NA) for a lens in air, whose numerical aperture NA = sin(half-angle) is at most
+  // 1: no lens is faster than f/0.5 (R = f / (2N) <= f). Smaller N would also let the aperture
+  // grow without bound (N = 1e-20 put ray origins beyond what Embree accepts: an abort).
+  if (!(p.fNumber >= kMinFNumber))
+    throw InputError("f_number", "N = " + show(p.fNumber) + " is below " + show(kMinFNumber) +
+                                     ", the smallest f-number a lens in air can have (N = 1 / (2 NA) with numerical "
+                                     "aperture NA <= 1); give N >= 0.5, or \"infinity\" for a pinhole");
   invImageDistance_ = 1.0 / imageDistance_;
   invFocalLength_ = 1.0 / p.focalLength;
   lensRadius_ = std::isinf(p.fNumber) ? 0.0 : p.focalLength / (2.0 * p.fNumber);
-  if (!(lensRadius_ <= std::numeric_limits<float>::max()))
-    throw InputError("f_number", "N = " + show(p.fNumber) + " makes the lens radius R = f / (2N) too large for single precision");
+  if (!std::isfinite(invImageDistance_) || !std::isfinite(invFocalLength_) || !(invImageDistance_ > 0.0) ||
+      !(invFocalLength_ > 0.0))
+    throw InputError("focal_length", "f = " + show(p.focalLength) + " (S2 = " + show(imageDistance_) +
+                                         ") has no finite reciprocal in double precision");
+  if (!(lensRadius_ <= kMaxRayOriginDistance))
+    throw InputError("f_number", "N = " + show(p.fNumber) + " makes the lens radius R = f / (2N) = " + show(lensRadius_) +
+                                     ", beyond " + show(kMaxRayOriginDistance) +
+                                     ": camera rays would start farther from the camera than the ray tracer accepts; "
+                                     "give a larger N or a shorter focal_length");
 
   // A field of view of 180 degrees or more has no image; it comes from mixed units.
   const double maxHalfTan = std::tan(kMaxFieldOfViewDegrees / 2.0 * std::numbers::pi / 180.0);
+  const double minHalfTan = std::tan(kMinFieldOfViewDegrees / 2.0 * std::numbers::pi / 180.0);
   for (const auto& [field, size] : {std::pair<const char*, double>{"sensor_width", params_.sensorWidth},
                                     std::pair<const char*, double>{"sensor_height", params_.sensorHeight}})
+  {
     if (!(size / (2.0 * imageDistance_) <= maxHalfTan))
       throw InputError(field, show(size) + " at S2 = " + show(imageDistance_) +
                                   " behind the lens gives a field of view of 180 degrees or more (at most " +
                                   show(kMaxFieldOfViewDegrees) + "): the sensor size and focal_length must be in the same unit");
+    if (!(size / (2.0 * imageDistance_) >= minHalfTan))
+      throw InputError(field, show(size) + " at S2 = " + show(imageDistance_) + " behind the lens gives a field of view of " +
+                                  show(2.0 * std::atan(size / (2.0 * imageDistance_)) * 180.0 / std::numbers::pi) +
+                                  " degrees, below " + show(kMinFieldOfViewDegrees) +
+                                  " (the smallest angle_of_view): every pixel would see the same direction in single "
+                                  "precision; the sensor size and focal_length must be in the same unit");
+  }
 
   forward_ = glm::normalize(axis);
   const Vec3 side = glm::cross(forward_, p.up);
@@ -94,6 +130,25 @@ ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
     throw InputError("up", "must not be parallel to the viewing direction");
   right_ = glm::normalize(side);
   up_ = glm::cross(right_, forward_);
+
+  // What reaches the kernel: the rays through the sensor's corners and centre, through the lens
+  // centre and the rim of the aperture, are finite and start where Embree accepts a ray. The
+  // checks above should make this hold; this is the guarantee that no NaN, Inf or out-of-range
+  // origin is ever traced, whatever combination of extremes got through them.
+  if (!traceable(generatePinholeRay(width / 2, height / 2, Vec2(0.5f))))
+    throw InputError("position", "gives camera rays the ray tracer cannot trace (an origin beyond " +
+                                     show(kMaxRayOriginDistance) + " or a non-finite direction)");
+  const float uMax = 0x1.fffffep-1f;  // the largest sample value below 1
+  for (const int i : {0, width - 1})
+    for (const int j : {0, height - 1})
+      for (const Vec2 uSensor : {Vec2(0.0f), Vec2(uMax)}) {
+        if (!traceable(generatePinholeRay(i, j, uSensor)))
+          throw InputError("sensor_width", "gives camera rays with a non-finite direction at the sensor's corners");
+        for (const Vec2 uLens : {Vec2(0.0f, 0.5f), Vec2(uMax, 0.5f), Vec2(0.5f, 0.0f), Vec2(0.5f, uMax)})
+          if (!traceable(generateRay(i, j, uSensor, uLens)))
+            throw InputError("f_number", "N = " + show(p.fNumber) + " (lens radius R = " + show(lensRadius_) +
+                                             ") gives camera rays the ray tracer cannot trace at the aperture's rim");
+      }
 }
 
 namespace {

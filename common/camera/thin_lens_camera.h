@@ -43,6 +43,13 @@ struct CameraRayLanes {
   }
 };
 
+// The smallest f-number: N = 1 / (2 NA) for a lens in air, whose numerical aperture NA is at most
+// 1, so no lens is faster than f/0.5; the aperture radius R = f / (2N) is then at most f.
+inline constexpr double kMinFNumber = 0.5;
+// How far from the camera a camera ray may start (the aperture radius R at most): Embree asserts
+// that every component of a ray origin is within 1.844e18 (its FLT_LARGE) and aborts otherwise.
+inline constexpr double kMaxRayOriginDistance = 1e18;
+
 struct ThinLensParams {
   Vec3 position{0.0f};               // lens centre
   Vec3 lookAt{0.0f, 0.0f, 1.0f};     // defines the optical axis
@@ -59,8 +66,11 @@ class ThinLensCamera {
   // Validates the parameters; throws InputError whose `where` is the offending field name
   // (position, look_at, up, focal_length, sensor_width, sensor_height, focus_distance, f_number).
   // The frame is checked first (look_at == position, a zero up or one parallel to the view
-  // direction), then each number: non-finite, zero or negative values, S1 <= f, a lens radius or
-  // sensor beyond single precision, and a field of view of 180 degrees or more (mixed units).
+  // direction), then each number: non-finite, zero or negative values, S1 <= f, N below
+  // kMinFNumber, a lens radius beyond kMaxRayOriginDistance, a sensor beyond single precision, a
+  // field of view of 180 degrees or more or below 1e-6 degrees (mixed units). Last, the rays
+  // through the sensor's corners and the aperture's rim must be finite and traceable, so nothing
+  // non-finite ever reaches the kernel.
   ThinLensCamera(const ThinLensParams& params, int width, int height);
 
   // The ray for a point of sensor cell (i, j) at offset uSensor in [0,1)^2 within the cell,

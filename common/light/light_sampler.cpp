@@ -9,6 +9,7 @@
 #include "math/lanes.h"
 #include "math/ray_offset.h"
 #include "math/sampling.h"
+#include "math/triangle.h"
 
 namespace lensfarm {
 
@@ -22,11 +23,11 @@ LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const st
     const auto& t = triangles[k];
     const Material& m = scene.materials[t.material];
     if (!m.isEmissive() || (!useful.empty() && !useful[t.material])) continue;
-    const float area = 0.5f * glm::length(glm::cross(t.v1 - t.v0, t.v2 - t.v0));
+    const float area = float(triangleArea(t.v0, t.v1, t.v2));
     const double p = double(area) * luminance(m.emission) * (m.twoSidedEmission ? 2.0 : 1.0);
     if (!(p > 0.0)) continue;
     lightOfTriangle_[k] = int32_t(lights_.size());
-    lights_.push_back(Light{k, area, 0.0f, t.v0, t.v1, t.v2, t.n, positionErrorBound(t.magnitude), m.emission,
+    lights_.push_back(Light{k, area, 0.0f, t.v0, t.v1, t.v2, t.n, t.margin, m.emission,
                             m.twoSidedEmission ? 1.0f : 0.0f});
     power.push_back(p);
     total += p;
@@ -115,14 +116,15 @@ class SelectView {
 // GatherView or a SelectView).
 template <typename Lights>
 [[gnu::always_inline]] inline void sampleLane(Lights lights, uint32_t i, int k, LightSampleLanes& l, float* dist2, float* cosLight) {
-  const Vec3 n = lights.vec3(i, offsetof(Light, n)), pError = lights.vec3(i, offsetof(Light, pError));
+  const Vec3 n = lights.vec3(i, offsetof(Light, n)), v0 = lights.vec3(i, offsetof(Light, v0));
   const TrianglePoint s = sampleTrianglePoint(
       lights.vec3(i, offsetof(Light, v0)), lights.vec3(i, offsetof(Light, v1)), lights.vec3(i, offsetof(Light, v2)), n,
       Vec3(l.refx[k], l.refy[k], l.refz[k]), Vec2(l.u0[k], l.u1[k]), lights.f(i, offsetof(Light, pmf)),
       lights.f(i, offsetof(Light, area)), lights.vec3(i, offsetof(Light, emission)), lights.f(i, offsetof(Light, twoSided)));
   l.px[k] = s.p.x, l.py[k] = s.p.y, l.pz[k] = s.p.z;
   l.nx[k] = n.x, l.ny[k] = n.y, l.nz[k] = n.z;
-  l.ex[k] = pError.x, l.ey[k] = pError.y, l.ez[k] = pError.z;
+  l.v0x[k] = v0.x, l.v0y[k] = v0.y, l.v0z[k] = v0.z;
+  l.margin[k] = lights.f(i, offsetof(Light, margin));
   l.rr[k] = s.radiance.r, l.rg[k] = s.radiance.g, l.rb[k] = s.radiance.b;
   l.pdf[k] = s.pdf;
   dist2[k] = s.dist2, cosLight[k] = s.cosLight;
@@ -163,7 +165,7 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, float uChoice, 
   const TrianglePoint s =
       sampleTrianglePoint(l.v0, l.v1, l.v2, l.n, ref, uPoint, l.pmf, l.area, l.emission, l.twoSided);
   if (!s.valid()) return std::nullopt;
-  return LightSample{s.p, l.n, l.pError, s.radiance, s.pdf};
+  return LightSample{s.p, l.n, l.v0, l.margin, s.radiance, s.pdf};
 }
 
 void LightSampler::sample(LightSampleLanes& lanes) const {

@@ -16,9 +16,12 @@ namespace lensfarm {
 struct LightSample {
   Vec3 p;            // point on the light
   Vec3 n;            // the light's geometric normal at p
-  Vec3 pError;       // error bound of p, for offsetting the shadow ray's end
+  Vec3 v0;           // with n and margin, the light triangle's SpawnPlane, for the shadow ray's end
+  float margin;
   Spectrum radiance; // emitted towards the shading point (zero if it sees the back)
   float pdf;         // solid-angle density at the shading point
+
+  SpawnPlane plane() const { return SpawnPlane{v0, n, margin}; }
 };
 
 // sample() for the lanes of a packet at once, as arrays over the lanes (render/integrator.h).
@@ -30,7 +33,8 @@ struct LightSampleLanes {
   // Out: found[k] is -1 where sample() returns a sample and 0 elsewhere; the fields of LightSample.
   alignas(64) float px[kPacketWidth], py[kPacketWidth], pz[kPacketWidth];
   alignas(64) float nx[kPacketWidth], ny[kPacketWidth], nz[kPacketWidth];
-  alignas(64) float ex[kPacketWidth], ey[kPacketWidth], ez[kPacketWidth];
+  alignas(64) float v0x[kPacketWidth], v0y[kPacketWidth], v0z[kPacketWidth];
+  alignas(64) float margin[kPacketWidth];
   alignas(64) float rr[kPacketWidth], rg[kPacketWidth], rb[kPacketWidth];
   alignas(64) float pdf[kPacketWidth];
 };
@@ -64,7 +68,7 @@ class LightSampler {
     float area;
     float pmf;
     Vec3 v0, v1, v2, n;  // the triangle (RayCaster::Triangle) and its geometric normal
-    Vec3 pError;         // error bound of a point on it
+    float margin;        // with v0 and n, the triangle's SpawnPlane (math/ray_offset.h)
     Spectrum emission;
     float twoSided;      // 1: emits from both faces; 0: from the front face only
   };

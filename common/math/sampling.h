@@ -39,10 +39,21 @@ inline Vec2 sampleConcentricDisk(Vec2 u) {
 
 // Cosine-weighted direction on the hemisphere around +z (Malley's method).
 // pdf(w) = cos(theta) / pi. Replaces the seed's rejection loop (§4.2) with an exact warp.
+//
+// Every u in [0,1)^2 gives a direction with z > 0 (so a positive pdf, and the estimator's weight
+// f cos / pdf = albedo holds exactly). The rim of the square (u.x or u.y exactly 0) maps to the
+// unit circle, where 1 - |d|^2 is 0 (or, by rounding, below): a horizon direction of pdf 0 that
+// the integrator would drop, silently losing the sample. Such a sample instead leaves at height
+// kRimHeight above the same point of the horizon, below the lowest direction an interior sample
+// of 24-bit values reaches (z ~ 2^-11): a set of measure zero, so the estimate is unchanged, and
+// every interior sample keeps its direction bit for bit (the scale there is exactly 1).
+inline constexpr float kRimHeight = 0x1.0p-12f;
 inline Vec3 sampleCosineHemisphere(Vec2 u) {
   const Vec2 d = sampleConcentricDisk(u);
   const float z = std::sqrt(std::max(0.0f, 1.0f - d.x * d.x - d.y * d.y));
-  return Vec3(d.x, d.y, z);
+  const bool rim = !(z > 0.0f);
+  // sqrt(1 - kRimHeight^2) rounds to 1 in float: |(d, kRimHeight)| = 1 within float precision.
+  return Vec3(d.x, d.y, rim ? kRimHeight : z);
 }
 inline float cosineHemispherePdf(float cosTheta) { return cosTheta > 0.0f ? cosTheta * kInvPi : 0.0f; }
 

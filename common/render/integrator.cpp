@@ -130,8 +130,8 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
       const Vec3 wi = glm::normalize(toLight);
       const Spectrum f = material.evalCos(n, wo, wi);
       if (!isBlack(f)) {
-        shadow.from = offsetRayOrigin(hit.p, hit.n, hit.pError, wi);
-        shadow.to = offsetRayOrigin(ls->p, ls->n, ls->pError, -wi);
+        shadow.from = spawnOrigin(hit.p, hit.plane(), wi);
+        shadow.to = spawnOrigin(ls->p, ls->plane(), -wi);
         const float weight = mis && !lastBounce ? powerHeuristic(ls->pdf, material.pdf(n, wo, wi)) : 1.0f;
         shadow.contribution = path.throughput * f * ls->radiance * (weight / ls->pdf);
         outcome.castShadow = true;
@@ -144,7 +144,7 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
   const auto s = kSpecular ? material.sample(n, wo, rng.get2D(base + dims::kMaterial))
                            : material.sampleLambertian(n, rng.get2D(base + dims::kMaterial));
   if (!s || !scatter(rs, rng, base, counts, s->weight, s->specular, s->pdf, path)) return outcome;
-  path.origin = offsetRayOrigin(hit.p, hit.n, hit.pError, s->wi);
+  path.origin = spawnOrigin(hit.p, hit.plane(), s->wi);
   path.direction = s->wi;
   outcome.continues = true;
   return outcome;
@@ -157,7 +157,8 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
   PathState path(cameraRay);
   ShadowQuery shadow;
   ++stats.paths;
-  for (int segment = 0; segment < kMaxPathSegments; ++segment) {
+  const int segments = pathSegmentLimit(rs.settings().maxBounces);
+  for (int segment = 0; segment < segments; ++segment) {
     ++stats.rays;
     const auto hit = rs.caster().intersect(path.origin, path.direction, segment == 0 ? RayKind::kCamera : RayKind::kScattered);
     if (!hit) break;
@@ -262,8 +263,9 @@ LENSFARM_LANE_LOOPS void prepareShadowRays(const RayCaster::PacketHits& __restri
     const Spectrum radiance(ls.rr[k], ls.rg[k], ls.rb[k]);
     const Vec3 wi = glm::normalize(lightPoint - p);
     const Spectrum f = lambertianEvalCos(Spectrum(v.ar[k], v.ag[k], v.ab[k]), n, wi);
-    const Vec3 from = offsetRayOrigin(p, Vec3(h.nx[k], h.ny[k], h.nz[k]), Vec3(h.error[k]), wi);
-    const Vec3 to = offsetRayOrigin(lightPoint, Vec3(ls.nx[k], ls.ny[k], ls.nz[k]), Vec3(ls.ex[k], ls.ey[k], ls.ez[k]), -wi);
+    const Vec3 from = spawnOrigin(p, Vec3(h.v0x[k], h.v0y[k], h.v0z[k]), Vec3(h.nx[k], h.ny[k], h.nz[k]), h.margin[k], wi);
+    const Vec3 to = spawnOrigin(lightPoint, Vec3(ls.v0x[k], ls.v0y[k], ls.v0z[k]), Vec3(ls.nx[k], ls.ny[k], ls.nz[k]),
+                                ls.margin[k], -wi);
     const float weight = v.misOn[k] != 0.0f ? powerHeuristic(ls.pdf[k], lambertianPdf(n, wi)) : 1.0f;
     const Spectrum c = Spectrum(path.tr[k], path.tg[k], path.tb[k]) * f * radiance * (weight / ls.pdf[k]);
     const Vec3 d = to - from;
@@ -281,7 +283,8 @@ LENSFARM_LANE_LOOPS void sampleDirections(const RayCaster::PacketHits& __restric
   for (int k = 0; k < kPacketWidth; ++k) {
     const Vec3 local = sampleCosineHemisphere(Vec2(v.u0[k], v.u1[k]));
     const Vec3 wi = Frame::fromNormal(Vec3(v.nx[k], v.ny[k], v.nz[k])).toWorld(local);
-    const Vec3 o = offsetRayOrigin(Vec3(h.px[k], h.py[k], h.pz[k]), Vec3(h.nx[k], h.ny[k], h.nz[k]), Vec3(h.error[k]), wi);
+    const Vec3 o = spawnOrigin(Vec3(h.px[k], h.py[k], h.pz[k]), Vec3(h.v0x[k], h.v0y[k], h.v0z[k]),
+                               Vec3(h.nx[k], h.ny[k], h.nz[k]), h.margin[k], wi);
     v.cosTheta[k] = local.z;
     v.pdf[k] = cosineHemispherePdf(local.z);
     v.ox[k] = o.x, v.oy[k] = o.y, v.oz[k] = o.z;
@@ -393,7 +396,8 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
   stats.paths += uint64_t(packet.count);
 
   int live = packet.count;
-  for (int segment = 0; segment < kMaxPathSegments && live > 0; ++segment) {
+  const int segments = pathSegmentLimit(settings.maxBounces);
+  for (int segment = 0; segment < segments && live > 0; ++segment) {
     stats.rays += uint64_t(live);
     rs.caster().intersect(rays, segment == 0 ? RayKind::kCamera : RayKind::kScattered, hits);
     shadowRays.clear();

@@ -4,8 +4,8 @@
 //
 // Bounce counting. A path of k bounces reflects k times between the lens and the light; B = 1 is
 // direct light only (seed Fig. 8a). Mirror reflections do not count (seed §4.5) unless the scene
-// says `mirror_bounces_count`; a path still ends after kMaxPathSegments segments so two facing
-// mirrors cannot loop forever.
+// says `mirror_bounces_count`; a path still ends after pathSegmentLimit(B) segments so two
+// facing mirrors cannot loop forever.
 //
 // Estimators:
 //  - naive (the seed's): a path contributes only if a scattered ray happens to hit a light;
@@ -36,7 +36,16 @@
 
 namespace lensfarm {
 
-inline constexpr int kMaxPathSegments = 256;
+// The most segments (rays from a vertex or the lens) a path may have for the bounce limit B:
+// B + 1 for the camera ray and the B counted bounces, as many again for mirror reflections that
+// do not count, and never fewer than kMinPathSegmentLimit, so that B is honoured up to
+// kMaxBounces (1024: 2050 segments) rather than cut at 255 bounces, and two facing mirrors still
+// end. For B <= 127 the limit is 256, what it always was. The sampler gives every segment its
+// own block of dimensions (dims::segment) with no upper end, so no other limit applies.
+inline constexpr int kMinPathSegmentLimit = 256;
+inline constexpr int pathSegmentLimit(int maxBounces) {
+  return maxBounces + 1 > kMinPathSegmentLimit / 2 ? 2 * (maxBounces + 1) : kMinPathSegmentLimit;
+}
 
 struct PathStats {
   uint64_t paths = 0;

@@ -12,6 +12,7 @@
 
 #include "math/lanes.h"
 #include "math/ray_offset.h"
+#include "math/triangle.h"
 
 namespace lensfarm {
 
@@ -27,6 +28,20 @@ Vec3 nudgedDirection(const Vec3& d) {
 }
 
 constexpr float kInfinity = std::numeric_limits<float>::infinity();
+
+// The coplanar rule's test (docs/numerics.md, "Coplanar surfaces"): whether a ray from o in
+// direction d starts in the plane of the triangle it hit, within the triangle's margin (the
+// distance Embree's test resolves): then the hit is the ray leaving that surface, not meeting
+// it. A camera on a wall's plane, or a ray leaving one of two coplanar surfaces, does not see
+// the surface it starts in. The float test first (distance ~ t |cos|), the exact one in double
+// only for hits that close.
+inline bool nearPlane(const Vec3& d, float t, const Vec3& n, float margin) {
+  return t * std::abs(d.x * n.x + d.y * n.y + d.z * n.z) <= 4.0f * margin;
+}
+inline bool startsInPlane(const Vec3& o, const Vec3& v0, const Vec3& n, float margin) {
+  const double s = glm::dot(DVec3(n), DVec3(o) - DVec3(v0));
+  return std::abs(s) <= double(margin);
+}
 
 // The hit point at barycentrics (u, v): interpolating the vertices is far more accurate than
 // o + t d far from the origin. Shared by the one-ray and packet forms, so both give the same bits.
@@ -72,12 +87,15 @@ alignas(64) constexpr float kNoFarEnd[kPacketWidth] = {
 // (math/lanes.h); the same operations as surfaceHit, so the same bits. Lanes without a hit
 // (found 0) read triangle 0 of geometry 0 and keep finite values.
 using Triangle = RayCaster::Triangle;
+// nearPlane[k]: ~0u where lane k's hit passes startsInPlane's first (float) test.
 LENSFARM_LANE_LOOPS void decodeHits(const uint32_t* __restrict geomOffset, GatherView<Triangle> tris,
-                                    const RTCRayHit16& rh, RayCaster::PacketHits& __restrict out) {
+                                    const RTCRayHit16& rh, RayCaster::PacketHits& __restrict out,
+                                    uint32_t* __restrict nearPlane) {
   // Embree's arrays as plain pointers: GCC does not vectorise loads through RTCRayHit16's members.
   const uint32_t* __restrict geomID = rh.hit.geomID;
   const uint32_t* __restrict primID = rh.hit.primID;
   const float *__restrict us = rh.hit.u, *__restrict vs = rh.hit.v, *__restrict tfar = rh.ray.tfar;
+  const float *__restrict dx = rh.ray.dir_x, *__restrict dy = rh.ray.dir_y, *__restrict dz = rh.ray.dir_z;
   // Without branches, so the loop vectorises: a lane without a hit keeps no bit of Embree's output.
   auto keep = [](uint32_t mask, float x) { return std::bit_cast<float>(std::bit_cast<uint32_t>(x) & mask); };
   for (int k = 0; k < kPacketWidth; ++k) {
@@ -87,12 +105,16 @@ LENSFARM_LANE_LOOPS void decodeHits(const uint32_t* __restrict geomOffset, Gathe
     const Vec3 p = pointOnTriangle(tris.vec3(index, offsetof(Triangle, v0)), tris.vec3(index, offsetof(Triangle, v1)),
                                    tris.vec3(index, offsetof(Triangle, v2)), u, v);
     const Vec3 n = tris.vec3(index, offsetof(Triangle, n));
+    const Vec3 v0 = tris.vec3(index, offsetof(Triangle, v0));
     out.triangle[k] = index;
     out.material[k] = tris.u(index, offsetof(Triangle, material));
     out.t[k] = keep(hit, tfar[k]);
     out.px[k] = p.x, out.py[k] = p.y, out.pz[k] = p.z;
     out.nx[k] = n.x, out.ny[k] = n.y, out.nz[k] = n.z;
-    out.error[k] = positionErrorBound(tris.f(index, offsetof(Triangle, magnitude))).x;
+    out.v0x[k] = v0.x, out.v0y[k] = v0.y, out.v0z[k] = v0.z;
+    out.margin[k] = tris.f(index, offsetof(Triangle, margin));
+    const float along = out.t[k] * std::abs(dx[k] * n.x + dy[k] * n.y + dz[k] * n.z);
+    nearPlane[k] = hit & (along <= 4.0f * out.margin[k] ? ~0u : 0u);
   }
 }
 }  // namespace
@@ -141,9 +163,13 @@ RayCaster::RayCaster(const Scene& scene) {
       t.v0 = mesh.positions[mesh.indices[3 * tri]];
       t.v1 = mesh.positions[mesh.indices[3 * tri + 1]];
       t.v2 = mesh.positions[mesh.indices[3 * tri + 2]];
-      t.n = glm::normalize(glm::cross(t.v1 - t.v0, t.v2 - t.v0));
-      const Vec3 m = glm::max(glm::abs(t.v0), glm::max(glm::abs(t.v1), glm::abs(t.v2)));
-      t.magnitude = std::max(m.x, std::max(m.y, m.z));
+      if (triangleNormal(t.v0, t.v1, t.v2)) {
+        const SpawnPlane plane = spawnPlaneOf(t.v0, t.v1, t.v2);
+        t.n = plane.n, t.margin = plane.margin;
+      } else {
+        // The loader drops zero-area triangles; one built in code keeps finite values (Embree never hits it).
+        t.n = Vec3(0.0f, 0.0f, 1.0f), t.margin = 0.0f;
+      }
       t.material = mesh.materialIds[tri];
       triangles_.push_back(t);
     }
@@ -193,7 +219,19 @@ std::optional<SurfaceHit> RayCaster::intersect(const Vec3& o, const Vec3& d, Ray
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
   }
 
-  return surfaceHit(rh.hit.geomID, rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar);
+  SurfaceHit hit = surfaceHit(rh.hit.geomID, rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar);
+  if (nearPlane(d, hit.t, hit.n, hit.margin) && startsInPlane(o, hit.v0, hit.n, hit.margin))
+    return leavePlane(o, d, kind, hit);
+  return hit;
+}
+
+std::optional<SurfaceHit> RayCaster::leavePlane(const Vec3& o, const Vec3& d, RayKind kind, const SurfaceHit& hit) const {
+  // From just off the plane on the side d points to (math/ray_offset.h); the distance keeps
+  // counting from o. A ray can start in several coplanar surfaces: each is left in turn.
+  const Vec3 from = spawnOrigin(o, hit.plane(), d);
+  auto next = intersect(from, d, kind);
+  if (next) next->t += glm::dot(from - o, d);
+  return next;
 }
 
 SurfaceHit RayCaster::surfaceHit(unsigned geomID, unsigned primID, float u, float v, float t) const {
@@ -203,7 +241,8 @@ SurfaceHit RayCaster::surfaceHit(unsigned geomID, unsigned primID, float u, floa
   hit.t = t;
   hit.p = pointOnTriangle(tri.v0, tri.v1, tri.v2, u, v);
   hit.n = tri.n;
-  hit.pError = positionErrorBound(tri.magnitude);
+  hit.v0 = tri.v0;
+  hit.margin = tri.margin;
   hit.material = tri.material;
   hit.triangle = uint32_t(k);
   return hit;
@@ -274,7 +313,22 @@ void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) 
 
   for (int k = 0; k < kPacketWidth; ++k)
     out.found[k] = rays.valid[k] != 0 && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID ? -1 : 0;
-  decodeHits(geomOffset_.data(), GatherView<Triangle>(triangles_.data()), rh, out);
+  alignas(64) uint32_t near[kPacketWidth];
+  decodeHits(geomOffset_.data(), GatherView<Triangle>(triangles_.data()), rh, out, near);
+
+  // The coplanar rule, as the single-ray call applies it (rare: those lanes take that call).
+  uint32_t anyNear = 0;
+  for (int k = 0; k < kPacketWidth; ++k) anyNear |= near[k];
+  if (!anyNear) return;
+  for (int k = 0; k < kPacketWidth; ++k) {
+    if (!near[k]) continue;
+    const Vec3 o = rays.origin(k), d = rays.direction(k);
+    if (!startsInPlane(o, Vec3(out.v0x[k], out.v0y[k], out.v0z[k]), Vec3(out.nx[k], out.ny[k], out.nz[k]), out.margin[k]))
+      continue;
+    const auto next = leavePlane(o, d, kind, out.hit(k));
+    out.found[k] = next ? -1 : 0;
+    if (next) out.set(k, *next);
+  }
 }
 
 void RayCaster::occluded(const RayPacket& rays, bool (&occluded)[kPacketWidth]) const {

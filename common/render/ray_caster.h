@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "math/lanes.h"
+#include "math/ray_offset.h"
 #include "math/vec.h"
 #include "scene/scene.h"
 
@@ -70,9 +71,12 @@ struct SurfaceHit {
   float t;           // distance along the (unit) ray direction
   Vec3 p;            // hit point, interpolated from the vertices
   Vec3 n;            // geometric unit normal, front side: cross(v1 - v0, v2 - v0)
-  Vec3 pError;       // bound on |p - exact| per component (math/ray_offset.h)
+  Vec3 v0;           // the rest of the triangle's SpawnPlane (math/ray_offset.h)
+  float margin;
   uint32_t material;
   uint32_t triangle; // index into RayCaster::triangles()
+
+  SpawnPlane plane() const { return SpawnPlane{v0, n, margin}; }
 };
 
 class RayCaster {
@@ -98,11 +102,26 @@ class RayCaster {
     alignas(64) float t[kPacketWidth];
     alignas(64) float px[kPacketWidth], py[kPacketWidth], pz[kPacketWidth];
     alignas(64) float nx[kPacketWidth], ny[kPacketWidth], nz[kPacketWidth];
-    alignas(64) float error[kPacketWidth];  // pError, the same bound in every component
+    alignas(64) float v0x[kPacketWidth], v0y[kPacketWidth], v0z[kPacketWidth];
+    alignas(64) float margin[kPacketWidth];
 
     SurfaceHit hit(int lane) const {
-      return SurfaceHit{t[lane],          Vec3(px[lane], py[lane], pz[lane]), Vec3(nx[lane], ny[lane], nz[lane]),
-                        Vec3(error[lane]), material[lane],                     triangle[lane]};
+      return SurfaceHit{t[lane],
+                        Vec3(px[lane], py[lane], pz[lane]),
+                        Vec3(nx[lane], ny[lane], nz[lane]),
+                        Vec3(v0x[lane], v0y[lane], v0z[lane]),
+                        margin[lane],
+                        material[lane],
+                        triangle[lane]};
+    }
+    void set(int lane, const SurfaceHit& h) {
+      t[lane] = h.t;
+      px[lane] = h.p.x, py[lane] = h.p.y, pz[lane] = h.p.z;
+      nx[lane] = h.n.x, ny[lane] = h.n.y, nz[lane] = h.n.z;
+      v0x[lane] = h.v0.x, v0y[lane] = h.v0.y, v0z[lane] = h.v0.z;
+      margin[lane] = h.margin;
+      material[lane] = h.material;
+      triangle[lane] = h.triangle;
     }
   };
   void intersect(const RayPacket& rays, RayKind kind, PacketHits& hits) const;
@@ -112,9 +131,11 @@ class RayCaster {
   // All triangles of the scene, meshes concatenated in scene order.
   struct Triangle {
     Vec3 v0, v1, v2;
-    Vec3 n;
-    float magnitude;  // largest |coordinate| of the three vertices
+    Vec3 n;        // unit geometric normal
+    float margin;  // with n and v0, the triangle's SpawnPlane (math/ray_offset.h)
     uint32_t material;
+
+    SpawnPlane plane() const { return SpawnPlane{v0, n, margin}; }
   };
   const std::vector<Triangle>& triangles() const { return triangles_; }
 
@@ -130,6 +151,8 @@ class RayCaster {
   std::vector<uint32_t> geomOffset_;      // first triangle of each Embree geometry
 
   SurfaceHit surfaceHit(unsigned geomID, unsigned primID, float u, float v, float t) const;
+  // The hit after `hit`, for a ray that starts in hit's plane (the coplanar rule).
+  std::optional<SurfaceHit> leavePlane(const Vec3& o, const Vec3& d, RayKind kind, const SurfaceHit& hit) const;
 };
 
 }  // namespace lensfarm

@@ -8,6 +8,7 @@
 #include <map>
 #include <sstream>
 
+#include "math/triangle.h"
 #include "scene/scene_loader.h"
 
 namespace lensfarm {
@@ -203,10 +204,10 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
       const Material& m = scene.materials[id];
       if (!m.isEmissive() || m.twoSidedEmission) continue;
       const Vec3& a = mesh.positions[mesh.indices[3 * t]];
-      const Vec3 n = glm::cross(mesh.positions[mesh.indices[3 * t + 1]] - a, mesh.positions[mesh.indices[3 * t + 2]] - a);
+      const DVec3 n = triangleCross(a, mesh.positions[mesh.indices[3 * t + 1]], mesh.positions[mesh.indices[3 * t + 2]]);
       bool facesSomething = false;
       for (const Vec3& p : points)
-        if (glm::dot(p - a, n) > 0.0f) {
+        if (glm::dot(DVec3(p) - DVec3(a), n) > 0.0) {
           facesSomething = true;
           break;
         }

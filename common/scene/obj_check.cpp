@@ -80,6 +80,11 @@ std::string binaryProblem(std::string_view bytes) {
   return "";
 }
 
+// The largest vertex coordinate accepted. Positions are read in double and re-centred on the
+// camera (where the loader bounds their distance further); beyond 1e30 no file describes a real
+// scene, and the value is a broken or mis-scaled file.
+constexpr double kMaxObjCoordinate = 1e30;
+
 bool isBlank(char c) { return c == ' ' || c == '\t'; }
 
 // The whitespace-separated tokens of a statement (after its keyword).
@@ -206,14 +211,31 @@ class Checker {
     if (kind == Statement::kUnknown) return at + quoted(keyword) + " is not an OBJ statement";
     sawStatement_ = true;
     const std::vector<std::string_view> args = tokens(s.substr(keywordEnd));
+    // Texture coordinates, normals and parameter-space vertices are not rendered, but a NaN or a
+    // word among them is a broken file all the same (tinyobjloader would read it as 0).
+    if (keyword == "vt" || keyword == "vn" || keyword == "vp") {
+      const bool normal = keyword == "vn";
+      const size_t least = normal ? 3 : 1, most = 3;
+      const std::string what = normal ? "a normal is 'vn i j k'" : keyword == "vt" ? "a texture coordinate is 'vt u [v [w]]'"
+                                                                                   : "a parameter vertex is 'vp u [v [w]]'";
+      if (args.size() < least || args.size() > most)
+        return at + what + ", got " + std::to_string(args.size()) + " numbers";
+      for (std::string_view a : args) {
+        double x;
+        if (!parseNumber(a, x)) return at + quoted(a) + " is not a finite number";
+      }
+    }
     switch (kind) {
       case Statement::kVertex: {
         if (args.size() < 3 || args.size() > 7)
           return at + "a vertex is 'v x y z' (with an optional w or colour), got " + std::to_string(args.size()) +
                  " numbers";
-        for (std::string_view a : args) {
+        for (size_t k = 0; k < args.size(); ++k) {
           double x;
-          if (!parseNumber(a, x)) return at + quoted(a) + " is not a finite number";
+          if (!parseNumber(args[k], x)) return at + quoted(args[k]) + " is not a finite number";
+          if (k < 3 && std::abs(x) > kMaxObjCoordinate)
+            return at + "coordinate " + quoted(args[k]) + " is beyond 1e30 in magnitude, the largest accepted: " +
+                   "no scene is that large (a broken or mis-scaled file)";
         }
         ++vertices_;
         break;

@@ -13,7 +13,9 @@
 //
 // Refused, with one reason (docs/scene-format.md lists them): an empty file; a file of another
 // format (glTF, binary glTF, JSON, XML/HTML, PLY, STL, FBX, PNG, JPEG, ZIP, gzip); binary data;
-// a line that is not an OBJ statement; a vertex that is not 3 to 7 finite numbers; a face of
+// a line that is not an OBJ statement; a vertex that is not 3 to 7 finite numbers or whose
+// coordinates exceed 1e30 in magnitude; a normal that is not 3 finite numbers; a texture
+// coordinate or parameter vertex that is not 1 to 3 finite numbers; a face of
 // fewer than 3 vertices, with an index of 0, not an integer, or referring to a vertex not
 // defined before it; a file with no face.
 #include <cstddef>

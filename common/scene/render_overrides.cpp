@@ -14,6 +14,8 @@ void parseResolution(const std::string& text, RenderOverrides& o, const std::str
     throw InputError(flag, "expected WIDTHxHEIGHT, e.g. 800x600, got \"" + text + "\"");
   o.width = std::stoi(m[1]);
   o.height = std::stoi(m[2]);
+  if (*o.width < 1 || *o.height < 1 || *o.width > kMaxResolution || *o.height > kMaxResolution)
+    throw InputError(flag, "each side must be in [1, " + std::to_string(kMaxResolution) + "], got \"" + text + "\"");
 }
 
 void applyOverrides(const RenderOverrides& o, RenderSettings& s, const std::string& where) {

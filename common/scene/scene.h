@@ -13,7 +13,13 @@
 
 namespace lensfarm {
 
-// A triangle soup with one material per triangle. Positions are in world space. Triangles face
+// Render space. The loader moves the whole scene so that the camera sits at the origin: a
+// position p in the file (world space) is p - Scene::origin here, the difference taken in double
+// before rounding to float. Near the camera, where a pixel resolves the finest detail, float
+// then has its full precision wherever the scene lies in the world (docs/numerics.md, "Far from
+// the origin").
+//
+// A triangle soup with one material per triangle. Positions are in render space. Triangles face
 // the side of n = cross(v1 - v0, v2 - v0) (counter-clockwise, as in OBJ).
 struct TriangleMesh {
   std::string name;
@@ -72,7 +78,8 @@ struct Scene {
   std::filesystem::path file;
   std::string hash;  // SHA-256 of the scene JSON (canonical) and every asset it references
   std::map<std::string, std::string> assets;  // relative path -> SHA-256 of every asset read
-  ThinLensParams cameraParams;
+  DVec3 origin{0.0};  // render space's origin in world space: the camera's position in the file
+  ThinLensParams cameraParams;  // in render space: position is the origin
   std::vector<Material> materials;
   std::vector<TriangleMesh> meshes;
   RenderSettings render;

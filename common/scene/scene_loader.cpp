@@ -15,6 +15,8 @@
 #include <set>
 #include <sstream>
 
+#include "math/triangle.h"
+#include "scene/coplanar.h"
 #include "scene/obj_check.h"
 #include "util/error.h"
 #include "util/hash.h"
@@ -32,9 +34,41 @@ std::string shortNumber(double x) {
   return s.str();
 }
 
-std::string showVec3(const Vec3& v) {
+double largestAbs(const DVec3& v) { return std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))); }
+
+std::string showVec3(const DVec3& v) {
   return "[" + shortNumber(v.x) + ", " + shortNumber(v.y) + ", " + shortNumber(v.z) + "]";
 }
+
+// ---------------------------------------------------------------------------------------------
+// What a colour channel may be: 0, or a number in [lo, hi] that the single-precision kernel
+// carries through a path (docs/scene-format.md, "Value types"; docs/numerics.md, "Extreme values").
+struct ColorRange {
+  double lo, hi;
+  const char* belowWhy;  // why (0, lo) is refused
+  const char* aboveWhy;  // why a value above hi is refused
+};
+// Albedos and reflectances. Above 1 a surface would reflect more than it receives. Below 1e-6 it
+// is darker than any real material (the blackest coatings reflect about 4e-4), and a path through
+// it would fall below single precision with the dimmest radiance (1e-30 x 1e-6 = 1e-36 is still
+// above the smallest normal float, 1.2e-38; the kernel flushes anything smaller to 0).
+constexpr ColorRange kReflectanceRange{
+    1e-6, 1.0,
+    "a reflectance below 1e-6 is darker than any real material and would be lost below single precision "
+    "(the kernel flushes numbers under 1.2e-38 to 0); write 0 for black",
+    "a reflectance is the fraction of light a surface reflects: above 1 it would make light from nothing"};
+// Radiance and emission. The kernel multiplies radiance by path weights in single precision
+// (3.4e38 at most, numbers under 1.2e-38 flushed to 0): 1e30 leaves 10^8 of headroom for the
+// weights of a path (albedos, cosines, 1/pdf) before a sample overflows to Inf (and is dropped);
+// 1e-30 keeps a path's contribution (radiance x weights, down to ~1e-8) a normal number, so a
+// dim scene is never silently black.
+constexpr ColorRange kRadianceRange{
+    1e-30, 1e30,
+    "below 1e-30, radiance times a path's weights falls under single precision's smallest normal number "
+    "(1.2e-38), which the kernel flushes to 0: the image would be silently black; choose a larger radiance unit "
+    "(the EXR stores the same unit)",
+    "above 1e30, radiance times a path's weights (up to ~1e8) overflows single precision (3.4e38); choose a "
+    "smaller radiance unit (the EXR stores the same unit)"};
 
 // ---------------------------------------------------------------------------------------------
 // FieldReader: typed, range-checked access to one JSON object that remembers which keys were
@@ -107,30 +141,46 @@ class FieldReader {
   Vec3 vec3(const std::string& key) { return toVec3(raw(key), field(key)); }
   Vec3 vec3(const std::string& key, Vec3 fallback) { return has(key) ? vec3(key) : fallback; }
   Vec3 toVec3(const json& v, const std::string& name) const {
-    if (!v.is_array() || v.size() != 3) fail(name, "must be an array of 3 numbers");
-    Vec3 out;
-    for (int i = 0; i < 3; ++i) {
-      const double x = checkNumber(v[i], name + "[" + std::to_string(i) + "]", -std::numeric_limits<double>::max(),
-                                   std::numeric_limits<double>::max());
-      if (std::abs(x) > std::numeric_limits<float>::max())
+    const DVec3 d = toDVec3(v, name);
+    for (int i = 0; i < 3; ++i)
+      if (std::abs(d[i]) > std::numeric_limits<float>::max())
         fail(name + "[" + std::to_string(i) + "]", "is too large for single precision");
-      out[i] = float(x);
-    }
+    return Vec3(d);
+  }
+  // Positions and offsets in the world: kept in double until the scene is re-centred on the
+  // camera (SceneParser::toRenderSpace).
+  DVec3 dvec3(const std::string& key) { return toDVec3(raw(key), field(key)); }
+  DVec3 toDVec3(const json& v, const std::string& name) const {
+    if (!v.is_array() || v.size() != 3) fail(name, "must be an array of 3 numbers");
+    DVec3 out;
+    for (int i = 0; i < 3; ++i)
+      out[i] = checkNumber(v[i], name + "[" + std::to_string(i) + "]", -std::numeric_limits<double>::max(),
+                           std::numeric_limits<double>::max());
     return out;
   }
 
-  // A colour: three non-negative numbers, or one number for grey.
-  Spectrum color(const std::string& key, float hi) {
+  // A colour: three numbers, or one number for grey; each channel 0 or in [range.lo, range.hi].
+  Spectrum color(const std::string& key, const ColorRange& range) {
     const json& v = raw(key);
-    if (v.is_number()) return Spectrum(float(checkNumber(v, field(key), 0.0, hi)));
-    const Vec3 c = toVec3(v, field(key));
-    for (int i = 0; i < 3; ++i)
-      if (c[i] < 0.0f || c[i] > hi)
-        fail(field(key) + "[" + std::to_string(i) + "]", "must be in [0, " + fmt(hi) + "]");
+    if (v.is_number()) return Spectrum(float(checkChannel(v, field(key), range)));
+    if (!v.is_array() || v.size() != 3) fail(field(key), "must be an array of 3 numbers, or one number for grey");
+    Spectrum c;
+    for (int i = 0; i < 3; ++i) c[i] = float(checkChannel(v[i], field(key) + "[" + std::to_string(i) + "]", range));
     return c;
   }
-  Spectrum color(const std::string& key, Spectrum fallback, float hi) {
-    return has(key) ? color(key, hi) : fallback;
+  Spectrum color(const std::string& key, Spectrum fallback, const ColorRange& range) {
+    return has(key) ? color(key, range) : fallback;
+  }
+  double checkChannel(const json& v, const std::string& name, const ColorRange& range) const {
+    const double x = checkNumber(v, name, -std::numeric_limits<double>::max(), std::numeric_limits<double>::max());
+    if (x == 0.0) return 0.0;  // also -0
+    if (x < 0.0)
+      fail(name, "must be 0 or in [" + fmt(range.lo) + ", " + fmt(range.hi) + "], got " + fmt(x) + ": a colour is never negative");
+    if (x > range.hi)
+      fail(name, "must be 0 or in [" + fmt(range.lo) + ", " + fmt(range.hi) + "], got " + fmt(x) + ": " + range.aboveWhy);
+    if (x < range.lo)
+      fail(name, "must be 0 or in [" + fmt(range.lo) + ", " + fmt(range.hi) + "], got " + fmt(x) + ": " + range.belowWhy);
+    return x;
   }
 
   // Reports the first key that no accessor asked for.
@@ -160,36 +210,37 @@ class FieldReader {
 };
 
 // ---------------------------------------------------------------------------------------------
-// Transform: scale, then rotate, then translate (all optional).
+// Transform: scale, then rotate, then translate (all optional), in double like the positions.
 struct Transform {
-  glm::mat4 matrix{1.0f};
-  Vec3 apply(const Vec3& p) const { return Vec3(matrix * glm::vec4(p, 1.0f)); }
-  bool flipsHandedness() const { return glm::determinant(glm::mat3(matrix)) < 0.0f; }
+  glm::dmat4 matrix{1.0};
+  DVec3 apply(const DVec3& p) const { return DVec3(matrix * glm::dvec4(p, 1.0)); }
+  bool flipsHandedness() const { return glm::determinant(glm::dmat3(matrix)) < 0.0; }
 };
 
 Transform readTransform(FieldReader& parent, const std::string& key) {
   Transform t;
   if (!parent.has(key)) return t;
   FieldReader r(parent.raw(key), parent.field(key), parent.file());
-  glm::mat4 scale(1.0f), rotate(1.0f), translate(1.0f);
+  glm::dmat4 scale(1.0), rotate(1.0), translate(1.0);
   if (r.has("scale")) {
     const json& s = r.raw("scale");
-    const Vec3 k = s.is_number() ? Vec3(float(r.number("scale"))) : r.vec3("scale");
-    if (k.x == 0.0f || k.y == 0.0f || k.z == 0.0f) r.fail(r.field("scale"), "must not be zero");
-    scale = glm::mat4(glm::vec4(k.x, 0, 0, 0), glm::vec4(0, k.y, 0, 0), glm::vec4(0, 0, k.z, 0), glm::vec4(0, 0, 0, 1));
+    const DVec3 k = s.is_number() ? DVec3(r.number("scale")) : r.dvec3("scale");
+    if (k.x == 0.0 || k.y == 0.0 || k.z == 0.0) r.fail(r.field("scale"), "must not be zero");
+    scale = glm::dmat4(glm::dvec4(k.x, 0, 0, 0), glm::dvec4(0, k.y, 0, 0), glm::dvec4(0, 0, k.z, 0), glm::dvec4(0, 0, 0, 1));
   }
   if (r.has("rotate")) {
     FieldReader rot(r.raw("rotate"), r.field("rotate"), r.file());
-    const Vec3 axis = rot.vec3("axis");
-    if (!(glm::length(axis) > 0.0f)) rot.fail(rot.field("axis"), "must not be zero");
+    const DVec3 axis = rot.dvec3("axis");
+    // Divided by its largest component first, so that no length overflows (an axis of 1e300).
+    const double largest = largestAbs(axis);
+    if (!(largest > 0.0)) rot.fail(rot.field("axis"), "must not be zero");
     const double degrees = rot.number("degrees", -360.0, 360.0);
     rot.finish();
-    const glm::mat3 m = glm::mat3(glm::rotate(glm::mat4(1.0f), float(glm::radians(degrees)), glm::normalize(axis)));
-    rotate = glm::mat4(m);
+    rotate = glm::rotate(glm::dmat4(1.0), glm::radians(degrees), glm::normalize(axis / largest));
   }
   if (r.has("translate")) {
-    const Vec3 d = r.vec3("translate");
-    translate[3] = glm::vec4(d, 1.0f);
+    const DVec3 d = r.dvec3("translate");
+    translate[3] = glm::dvec4(d, 1.0);
   }
   r.finish();
   t.matrix = translate * rotate * scale;
@@ -216,6 +267,7 @@ class SceneParser {
     parseShapes(top);
     parseLights(top);
     top.finish();
+    bringFlushLightsForward(scene_);  // the coplanar rule (scene/coplanar.h)
 
     if (shapeTriangles_ == 0) top.fail("shapes", "the scene has no triangles (lights alone show nothing)");
     if (shapeTriangles_ > kMaxTriangles)
@@ -275,18 +327,18 @@ class SceneParser {
       const std::string type = r.string("type");
       if (type == "lambertian") {
         m.kind = MaterialKind::kLambertian;
-        m.albedo = r.color("albedo", 1.0f);
-        m.emission = r.color("emission", Spectrum(0.0f), std::numeric_limits<float>::max());
+        m.albedo = r.color("albedo", kReflectanceRange);
+        m.emission = r.color("emission", Spectrum(0.0f), kRadianceRange);
       } else if (type == "mirror") {
         m.kind = MaterialKind::kMirror;
-        m.albedo = r.color("reflectance", Spectrum(1.0f), 1.0f);
+        m.albedo = r.color("reflectance", Spectrum(1.0f), kReflectanceRange);
       } else if (type == "rippled_mirror") {
         m.kind = MaterialKind::kRippledMirror;
-        m.albedo = r.color("reflectance", Spectrum(0.5f), 1.0f);  // seed §4.2: halves the light
+        m.albedo = r.color("reflectance", Spectrum(0.5f), kReflectanceRange);  // seed §4.2: halves the light
         m.ripple = float(r.number("ripple", 0.02, 0.0, 1.0));
       } else if (type == "emissive") {
         m.kind = MaterialKind::kEmissive;
-        m.emission = r.color("radiance", std::numeric_limits<float>::max());
+        m.emission = r.color("radiance", kRadianceRange);
       } else {
         r.fail(r.field("type"), "unknown material type \"" + type +
                                     "\" (expected lambertian, mirror, rippled_mirror or emissive)");
@@ -321,13 +373,25 @@ class SceneParser {
     const std::string type = r.string("type");
     if (type != "thin_lens" && type != "pinhole")
       r.fail("camera.type", "unknown camera type \"" + type + "\" (expected thin_lens or pinhole)");
-    p.position = r.vec3("position");
-    p.lookAt = r.vec3("look_at");
+    // Render space is the world moved so that the camera sits at its origin (toRenderSpace).
+    const DVec3 position = r.dvec3("position"), lookAt = r.dvec3("look_at");
+    scene_.origin = position;
+    p.position = Vec3(0.0f);
+    if (!(largestAbs(lookAt - position) <= kMaxRenderDistance)) {
+      // Anywhere in the world, but not that far apart: name the one that is off in the distance.
+      const bool positionIsOff = largestAbs(position) > largestAbs(lookAt);
+      r.fail(positionIsOff ? "camera.position" : "camera.look_at",
+             "is " + shortNumber(glm::length(lookAt - position)) + " from camera." +
+                 (positionIsOff ? "look_at" : "position") + "; at most " + shortNumber(kMaxRenderDistance) +
+                 " (per axis) is supported");
+    }
+    p.lookAt = toRenderSpace(lookAt, "camera.look_at");
     p.up = r.vec3("up", Vec3(0.0f, 1.0f, 0.0f));
     // The frame before any length: with look_at at position the focus distance is 0 too, and
     // that is not the problem to report.
     if (p.lookAt == p.position)
-      r.fail("camera.look_at", "equals camera.position (" + showVec3(p.position) + "): the view direction is undefined");
+      r.fail("camera.look_at", "equals camera.position (" + showVec3(position) +
+                                   (lookAt == position ? "" : " in single precision") + "): the view direction is undefined");
     if (p.up == Vec3(0.0f))
       r.fail("camera.up", "must not be [0, 0, 0]: it says which way is up in the image");
     const DVec3 view = glm::normalize(DVec3(p.lookAt) - DVec3(p.position));
@@ -351,7 +415,7 @@ class SceneParser {
     }
     const double angle = hasAngle ? r.number("angle_of_view", 1e-6, 179.999) : 0.0;
     p.focalLength = hasF ? positive(r, "focal_length") : focalLengthFromAngleOfView(p.sensorWidth, angle);
-    const double lookAtDistance = double(glm::length(p.lookAt - p.position));
+    const double lookAtDistance = glm::length(lookAt - position);
     p.focusDistance = r.has("focus_distance") ? positive(r, "focus_distance") : lookAtDistance;
     if (type == "pinhole") {
       p.fNumber = std::numeric_limits<double>::infinity();
@@ -406,14 +470,14 @@ class SceneParser {
     for (size_t i = 0; i < shapes.size(); ++i) {
       FieldReader r(shapes[i], "shapes[" + std::to_string(i) + "]", fileName_);
       const std::string type = r.string("type");
-      TriangleMesh mesh;
-      mesh.name = r.string("name", type + "#" + std::to_string(i));
-      mesh.visibleToCamera = r.boolean("visible_to_camera", true);
+      MeshInput mesh;
+      mesh.mesh.name = r.string("name", type + "#" + std::to_string(i));
+      mesh.mesh.visibleToCamera = r.boolean("visible_to_camera", true);
       if (type == "obj") {
         readObj(r, mesh);
       } else if (type == "quad") {
         const uint32_t material = materialRef(r, "material");
-        addQuad(mesh, r.vec3("corner"), r.vec3("edge1"), r.vec3("edge2"), material);
+        addQuad(mesh, r.dvec3("corner"), r.dvec3("edge1"), r.dvec3("edge2"), material);
       } else if (type == "triangles") {
         readInlineTriangles(r, mesh);
       } else {
@@ -422,7 +486,7 @@ class SceneParser {
       const Transform t = readTransform(r, "transform");
       r.finish();
       applyTransform(mesh, t);
-      shapeTriangles_ += addMesh(std::move(mesh));
+      shapeTriangles_ += addMesh(std::move(mesh), r.path());
     }
   }
 
@@ -438,34 +502,47 @@ class SceneParser {
       Material m;
       m.name = path;
       m.kind = MaterialKind::kEmissive;
-      m.emission = r.color("radiance", std::numeric_limits<float>::max());
+      m.emission = r.color("radiance", kRadianceRange);
       m.twoSidedEmission = r.boolean("two_sided", false);
-      TriangleMesh mesh;
-      mesh.name = r.string("name", path);
-      mesh.visibleToCamera = r.boolean("visible_to_camera", true);
-      const Vec3 corner = r.vec3("corner"), e1 = r.vec3("edge1"), e2 = r.vec3("edge2");
+      MeshInput mesh;
+      mesh.mesh.name = r.string("name", path);
+      mesh.mesh.visibleToCamera = r.boolean("visible_to_camera", true);
+      const DVec3 corner = r.dvec3("corner"), e1 = r.dvec3("edge1"), e2 = r.dvec3("edge2");
       r.finish();
-      if (!(glm::length(glm::cross(e1, e2)) > 0.0f)) r.fail(path + ".edge2", "the quad has zero area");
+      // Divided by their largest components first, so that no product overflows.
+      const DVec3 n = glm::cross(e1 / std::max(largestAbs(e1), 1e-300),
+                                 e2 / std::max(largestAbs(e2), 1e-300));
+      if (!(glm::length(n) > 0.0)) r.fail(path + ".edge2", "the quad has zero area");
       scene_.materials.push_back(m);
       addQuad(mesh, corner, e1, e2, uint32_t(scene_.materials.size() - 1));
-      addMesh(std::move(mesh));
+      if (addMesh(std::move(mesh), path) != 2)
+        r.fail(path + ".edge2", "the quad has zero area in single precision, " +
+                                    shortNumber(glm::length(toRenderSpace(corner, path + ".corner"))) + " from the camera");
     }
   }
 
-  static void addQuad(TriangleMesh& mesh, Vec3 corner, Vec3 e1, Vec3 e2, uint32_t material) {
+  // A shape as read: world positions in double, the rest as it will render.
+  struct MeshInput {
+    TriangleMesh mesh;  // positions empty until addMesh
+    std::vector<DVec3> positions;
+  };
+
+  static void addQuad(MeshInput& in, DVec3 corner, DVec3 e1, DVec3 e2, uint32_t material) {
     // Faces the side of cross(e1, e2).
-    const uint32_t base = uint32_t(mesh.positions.size());
-    mesh.positions.insert(mesh.positions.end(), {corner, corner + e1, corner + e1 + e2, corner + e2});
+    TriangleMesh& mesh = in.mesh;
+    const uint32_t base = uint32_t(in.positions.size());
+    in.positions.insert(in.positions.end(), {corner, corner + e1, corner + e1 + e2, corner + e2});
     mesh.indices.insert(mesh.indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
     mesh.materialIds.insert(mesh.materialIds.end(), {material, material});
   }
 
-  void readInlineTriangles(FieldReader& r, TriangleMesh& mesh) {
+  void readInlineTriangles(FieldReader& r, MeshInput& in) {
+    TriangleMesh& mesh = in.mesh;
     const uint32_t material = materialRef(r, "material");
     const json& verts = r.raw("vertices");
     if (!verts.is_array() || verts.size() < 3) r.fail(r.field("vertices"), "must be an array of at least 3 points");
     for (size_t k = 0; k < verts.size(); ++k)
-      mesh.positions.push_back(r.toVec3(verts[k], r.field("vertices") + "[" + std::to_string(k) + "]"));
+      in.positions.push_back(r.toDVec3(verts[k], r.field("vertices") + "[" + std::to_string(k) + "]"));
     if (r.has("indices")) {
       const json& idx = r.raw("indices");
       if (!idx.is_array()) r.fail(r.field("indices"), "must be an array of [i, j, k] triples");
@@ -473,8 +550,8 @@ class SceneParser {
         const std::string name = r.field("indices") + "[" + std::to_string(k) + "]";
         if (!idx[k].is_array() || idx[k].size() != 3) r.fail(name, "must be [i, j, k]");
         for (const json& v : idx[k]) {
-          if (!v.is_number_unsigned() || v.get<uint64_t>() >= mesh.positions.size())
-            r.fail(name, "vertex index out of range [0, " + std::to_string(mesh.positions.size()) + ")");
+          if (!v.is_number_unsigned() || v.get<uint64_t>() >= in.positions.size())
+            r.fail(name, "vertex index out of range [0, " + std::to_string(in.positions.size()) + ")");
           mesh.indices.push_back(v.get<uint32_t>());
         }
         mesh.materialIds.push_back(material);
@@ -486,7 +563,8 @@ class SceneParser {
     }
   }
 
-  void readObj(FieldReader& r, TriangleMesh& mesh) {
+  void readObj(FieldReader& r, MeshInput& in) {
+    TriangleMesh& mesh = in.mesh;
     const std::string rel = r.string("file");
     const std::string where = r.field("file");
     const fs::path path = file_.parent_path() / rel;
@@ -523,11 +601,14 @@ class SceneParser {
       g.finish();
     }
 
+    // tinyobjloader's double build: a model far from the origin keeps its shape until it is
+    // re-centred on the camera.
+    static_assert(std::is_same_v<tinyobj::real_t, double>, "link tinyobjloader_double");
     for (size_t k = 0; k < attrib.vertices.size(); k += 3) {
-      const Vec3 v(attrib.vertices[k], attrib.vertices[k + 1], attrib.vertices[k + 2]);
+      const DVec3 v(attrib.vertices[k], attrib.vertices[k + 1], attrib.vertices[k + 2]);
       if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
         r.fail(where, "\"" + path.string() + "\": vertex " + std::to_string(k / 3 + 1) + " is not finite");
-      mesh.positions.push_back(v);
+      in.positions.push_back(v);
     }
     for (const auto& shape : reader.GetShapes()) {
       uint32_t material = defaultMaterial;
@@ -539,7 +620,7 @@ class SceneParser {
         r.fail(r.field("material"), "OBJ group \"" + shape.name +
                                         "\" has no material: give material or group_materials." + shape.name);
       for (const auto& index : shape.mesh.indices) {
-        if (index.vertex_index < 0 || size_t(index.vertex_index) >= mesh.positions.size())
+        if (index.vertex_index < 0 || size_t(index.vertex_index) >= in.positions.size())
           r.fail(where, "\"" + path.string() + "\": face refers to a missing vertex");
         mesh.indices.push_back(uint32_t(index.vertex_index));
       }
@@ -550,16 +631,33 @@ class SceneParser {
         r.fail(r.field("group_materials") + "." + group, "no group of that name in \"" + path.string() + "\"");
   }
 
-  void applyTransform(TriangleMesh& mesh, const Transform& t) {
-    for (Vec3& p : mesh.positions) p = t.apply(p);
+  void applyTransform(MeshInput& in, const Transform& t) {
+    for (DVec3& p : in.positions) p = t.apply(p);
     // A mirroring transform would turn every face inside out; swap winding to keep facing.
     if (t.flipsHandedness())
-      for (size_t k = 0; k < mesh.indices.size(); k += 3) std::swap(mesh.indices[k + 1], mesh.indices[k + 2]);
+      for (size_t k = 0; k < in.mesh.indices.size(); k += 3) std::swap(in.mesh.indices[k + 1], in.mesh.indices[k + 2]);
   }
 
-  // Drops zero-area triangles (they have no normal and can never be hit meaningfully) and
-  // returns how many triangles were kept.
-  size_t addMesh(TriangleMesh mesh) {
+  // A world position in render space: relative to the camera, in float. The difference is
+  // taken in double, so a scene placed anywhere renders as it does at the origin
+  // (docs/numerics.md, "Far from the origin"); what must stay finite in float (squared
+  // distances) bounds how far from the camera anything may be.
+  Vec3 toRenderSpace(const DVec3& world, const std::string& field) const {
+    const DVec3 d = world - scene_.origin;
+    if (!(largestAbs(d) <= kMaxRenderDistance))
+      throw InputError(fileName_, field + ": lies " + shortNumber(glm::length(d)) + " from the camera; at most " +
+                                      shortNumber(kMaxRenderDistance) +
+                                      " (per axis) is supported (squared distances must stay finite in single precision)");
+    return Vec3(d);
+  }
+
+  // Moves a shape into render space, drops zero-area triangles (they have no normal and can
+  // never be hit meaningfully) and returns how many triangles were kept.
+  size_t addMesh(MeshInput in, const std::string& field) {
+    TriangleMesh& mesh = in.mesh;
+    mesh.positions.reserve(in.positions.size());
+    for (size_t k = 0; k < in.positions.size(); ++k)
+      mesh.positions.push_back(toRenderSpace(in.positions[k], field + " vertex " + std::to_string(k)));
     TriangleMesh kept = mesh;
     kept.indices.clear();
     kept.materialIds.clear();
@@ -567,8 +665,8 @@ class SceneParser {
       const Vec3& a = mesh.positions[mesh.indices[3 * tri]];
       const Vec3& b = mesh.positions[mesh.indices[3 * tri + 1]];
       const Vec3& c = mesh.positions[mesh.indices[3 * tri + 2]];
-      const Vec3 n = glm::cross(b - a, c - a);
-      if (!(glm::dot(n, n) > 0.0f) || !std::isfinite(glm::dot(n, n))) {
+      // Zero area as the renderer will see the float vertices (math/triangle.h), at any size.
+      if (!triangleNormal(a, b, c)) {
         ++scene_.skippedDegenerateTriangles;
         continue;
       }

@@ -24,6 +24,10 @@ inline constexpr int kMaxBounces = 1024;
 // camera.sensor_width when angle_of_view is given without it: a 36 mm (full-frame) sensor in a
 // scene in metres. Only the thin lens's blur depends on it (through f and the aperture f / N).
 inline constexpr double kDefaultSensorWidth = 0.036;
+// How far from the camera (per axis, in scene units) anything may lie: the bound on ray origins
+// (Embree's, camera/thin_lens_camera.h), and squared distances of 1e36 stay finite in single
+// precision (docs/numerics.md, "Limits the renderer guarantees").
+inline constexpr double kMaxRenderDistance = kMaxRayOriginDistance;
 inline constexpr uint64_t kMaxTriangles = uint64_t(1) << 26;  // 67 M: far beyond any scene we render
 
 // Reads an asset (an OBJ file) that a scene names by its path relative to the scene file;

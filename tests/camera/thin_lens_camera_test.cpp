@@ -1,7 +1,11 @@
 // The thin-lens optics of seed §4.1-§4.6: focusing, the pinhole limit, the image flip, refusals.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
+#include <string>
+#include <utility>
+#include <vector>
 #include <limits>
 #include <random>
 
@@ -207,7 +211,8 @@ TEST(ThinLensCamera, EveryDegenerateFieldIsNamed) {
   p = seedParams();
   p.up = Vec3(0.0f);
   EXPECT_EQ(fieldOf(p), "up");
-  // A lens radius beyond single precision, and a field of view of 180 degrees (mixed units).
+  // An f-number far below 0.5 (once: a lens radius beyond single precision), and a field of view
+  // of 180 degrees (mixed units).
   p = seedParams();
   p.fNumber = 1e-300;
   EXPECT_EQ(fieldOf(p), "f_number");
@@ -217,6 +222,88 @@ TEST(ThinLensCamera, EveryDegenerateFieldIsNamed) {
   p = seedParams();
   p.sensorHeight = 1e5;
   EXPECT_EQ(fieldOf(p), "sensor_height");
+}
+
+TEST(ThinLensCamera, ExtremeLensValuesAreRefusedOnPrincipleOrGiveTraceableRays) {
+  // N >= 0.5 is the physical limit for a lens in air (N = 1 / (2 NA), NA <= 1); below it the
+  // aperture grows without bound (N = 1e-20 put ray origins beyond Embree's range: an abort).
+  // An aperture beyond 1e18 (Embree asserts on origins beyond 1.8e18), a field of view under
+  // 1e-6 degrees and a focal length with no finite reciprocal are refused too; what is accepted
+  // gives finite rays that start within 1e18 of the camera, through every corner of the sensor
+  // and every edge of the aperture.
+  const auto errorOf = [](const ThinLensParams& p, int w = 10, int h = 10) -> std::pair<std::string, std::string> {
+    try {
+      ThinLensCamera c(p, w, h);
+    } catch (const InputError& e) {
+      return {e.where(), e.what()};
+    }
+    return {"", ""};
+  };
+  for (const double n : {0.4999, 1e-20, 1e-300, 5e-324, -0.5}) {
+    ThinLensParams p = seedParams();
+    p.fNumber = n;
+    const auto [field, message] = errorOf(p);
+    EXPECT_EQ(field, "f_number") << n;
+    EXPECT_NE(message.find("0.5"), std::string::npos) << message;
+    EXPECT_NE(message.find("NA <= 1"), std::string::npos) << message;
+  }
+  {
+    ThinLensParams p = seedParams();  // f = 1e25 focused far away: R = 5e24
+    p.focalLength = 1e25, p.sensorWidth = 1e24, p.focusDistance = 1e30, p.fNumber = 1.0;
+    EXPECT_EQ(errorOf(p).first, "f_number");
+    p.fNumber = 1e8;  // R = 5e16: fine
+    EXPECT_EQ(errorOf(p).first, "");
+  }
+  {
+    ThinLensParams p = seedParams();
+    p.focalLength = 5e-324;  // 1 / f overflows
+    EXPECT_EQ(errorOf(p).first, "focal_length");
+  }
+  for (const double lw : {1e-30, 5e-324, 1e-10}) {
+    ThinLensParams p = seedParams();
+    p.sensorWidth = lw;  // under 1e-6 degrees of view on f = 0.095
+    const auto [field, message] = errorOf(p);
+    EXPECT_EQ(field, "sensor_width") << lw;
+    EXPECT_NE(message.find("below 1e-06"), std::string::npos) << message;
+  }
+  {
+    ThinLensParams p = seedParams();
+    p.sensorHeight = 1e-30;
+    EXPECT_EQ(errorOf(p).first, "sensor_height");
+  }
+  // Accepted extremes: N = 0.5, N = 1e30 (R below float's normal range), S1 = 1e300, a
+  // 0.0055 degree telephoto, a 179.99 degree wide angle, 16384 x 1 cells.
+  std::vector<std::pair<ThinLensParams, std::pair<int, int>>> good;
+  ThinLensParams p = seedParams();
+  p.fNumber = 0.5;
+  good.push_back({p, {10, 10}});
+  p.fNumber = 1e30;
+  good.push_back({p, {10, 10}});
+  p = seedParams();
+  p.focusDistance = 1e300;
+  good.push_back({p, {10, 10}});
+  p = seedParams();
+  p.sensorWidth = 1e-5;
+  good.push_back({p, {10, 10}});
+  p = seedParams();
+  p.focalLength = focalLengthFromAngleOfView(0.1, 179.99);
+  good.push_back({p, {10, 10}});
+  good.push_back({seedParams(), {16384, 1}});
+  for (const auto& [params, size] : good) {
+    ASSERT_EQ(errorOf(params, size.first, size.second).second, "");
+    const ThinLensCamera camera(params, size.first, size.second);
+    for (const int i : {0, size.first - 1})
+      for (const int j : {0, size.second - 1})
+        for (const float u : {0.0f, 0x1.fffffep-1f})
+          for (const Vec2 lens : {Vec2(0.0f), Vec2(0.0f, 0.5f), Vec2(0x1.fffffep-1f), Vec2(0.5f, 0.0f)}) {
+            const CameraRay ray = camera.generateRay(i, j, Vec2(u), lens);
+            for (int k = 0; k < 3; ++k) {
+              ASSERT_TRUE(std::isfinite(ray.direction[k]));
+              ASSERT_LE(std::abs(ray.origin[k] - params.position[k]), kMaxRayOriginDistance);
+            }
+            ASSERT_NEAR(glm::length(ray.direction), 1.0f, 1e-5f);
+          }
+  }
 }
 
 }  // namespace

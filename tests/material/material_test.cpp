@@ -51,6 +51,25 @@ TEST(Lambertian, SampledDirectionsFollowTheCosineDensity) {
   EXPECT_LT(chi2, chiSquareCritical99(kCos * kPhi - 1));
 }
 
+TEST(Lambertian, ASampleOnTheRimOfTheUnitSquareStillGivesADirection) {
+  // u.x or u.y exactly 0 used to give no direction (a horizon ray of pdf 0): the path ended
+  // silently. Now it leaves just above the horizon, with weight = albedo and pdf = cos / pi.
+  Material m;
+  m.kind = MaterialKind::kLambertian;
+  m.albedo = Spectrum(0.6f, 0.3f, 0.1f);
+  const Vec3 n = glm::normalize(Vec3(1.0f, -2.0f, 3.0f));
+  for (const Vec2 u : {Vec2(0.0f, 0.0f), Vec2(0.0f, 0.5f), Vec2(0.5f, 0.0f), Vec2(0.0f, 0.999999f)}) {
+    const auto s = m.sampleLambertian(n, u);
+    ASSERT_TRUE(s.has_value()) << u.x << ", " << u.y;
+    const float cosTheta = glm::dot(n, s->wi);
+    EXPECT_GT(cosTheta, 0.0f);
+    EXPECT_NEAR(glm::length(s->wi), 1.0f, 1e-6f);
+    EXPECT_GT(s->pdf, 0.0f);
+    EXPECT_NEAR(s->pdf, m.pdf(n, n, s->wi), 1e-2f * s->pdf);  // the world frame rounds a 2^-12 cosine
+    EXPECT_EQ(s->weight, m.albedo);
+  }
+}
+
 TEST(Lambertian, EvalCosIntegratesToTheAlbedo) {
   // Monte Carlo with uniform hemisphere directions (not the material's own sampler).
   Material m;

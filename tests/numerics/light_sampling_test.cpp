@@ -112,10 +112,12 @@ TEST(LightSampling, PacketFormGivesEachLaneTheOneSampleBitsForAnyNumberOfLights)
                                             Vec2(asked.u0[k], asked.u1[k]));
         ASSERT_EQ(lanes.found[k] != 0, one.has_value()) << quads << " quads, lane " << k;
         if (!one) continue;
-        const float packet[13] = {lanes.px[k], lanes.py[k], lanes.pz[k], lanes.nx[k], lanes.ny[k], lanes.nz[k], lanes.ex[k],
-                                  lanes.ey[k], lanes.ez[k], lanes.rr[k], lanes.rg[k], lanes.rb[k], lanes.pdf[k]};
-        const float single[13] = {one->p.x, one->p.y, one->p.z, one->n.x, one->n.y, one->n.z, one->pError.x,
-                                  one->pError.y, one->pError.z, one->radiance.r, one->radiance.g, one->radiance.b, one->pdf};
+        const float packet[14] = {lanes.px[k],  lanes.py[k],  lanes.pz[k],     lanes.nx[k], lanes.ny[k],
+                                  lanes.nz[k],  lanes.v0x[k], lanes.v0y[k],    lanes.v0z[k], lanes.margin[k],
+                                  lanes.rr[k],  lanes.rg[k],  lanes.rb[k],     lanes.pdf[k]};
+        const float single[14] = {one->p.x,  one->p.y,  one->p.z,  one->n.x,        one->n.y,
+                                  one->n.z,  one->v0.x, one->v0.y, one->v0.z,       one->margin,
+                                  one->radiance.r, one->radiance.g, one->radiance.b, one->pdf};
         EXPECT_EQ(std::memcmp(packet, single, sizeof(packet)), 0) << quads << " quads, lane " << k;
       }
     }

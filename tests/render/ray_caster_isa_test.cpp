@@ -60,7 +60,7 @@ TEST_P(NarrowKernels, PacketLanesNotInUseAreNeverTraced) {
     rays.valid[k] = 0;
     rays.ox[k] = rays.oy[k] = rays.oz[k] = rays.dx[k] = rays.dy[k] = rays.dz[k] = rays.tFar[k] = nan;
   }
-  const Vec3 origin(0.1f, 0.2f, 0.0f);
+  const Vec3 origin(DVec3(0.1, 0.2, 0.0) - scene.origin);  // a point inside the box, in render space
   const Vec3 directions[5] = {{1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {-1, 0.2f, 0.1f}, {0.3f, -0.2f, 1}};
   for (int k = 0; k < 5; ++k) rays.set(2 * k, origin, glm::normalize(directions[k]), 0.5f);
 
@@ -80,7 +80,7 @@ TEST_P(NarrowKernels, PacketLanesNotInUseAreNeverTraced) {
     if (single) {
       ++found;
       // Every field, bit for bit.
-      static_assert(sizeof(SurfaceHit) == 12 * sizeof(float), "SurfaceHit has no padding for memcmp");
+      static_assert(sizeof(SurfaceHit) == 13 * sizeof(float), "SurfaceHit has no padding for memcmp");
       const SurfaceHit lane = hits.hit(k);
       EXPECT_EQ(lane.triangle, single->triangle) << "lane " << k;
       EXPECT_EQ(std::memcmp(&lane, &*single, sizeof(SurfaceHit)), 0) << "lane " << k;

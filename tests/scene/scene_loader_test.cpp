@@ -25,21 +25,22 @@ TEST(SceneLoader, SeedSceneMatchesTheReport) {
 TEST(SceneLoader, BoxIsMappedIntoTheUnitCubeWithTheFloorAtPlusY) {
   const Scene scene = loadScene(test::scenesDir() / "cornell-classic.json");
   const TriangleMesh& box = scene.meshes.front();
+  // Positions are in render space (the camera at the origin); the file's world is origin + p.
+  const auto world = [&](uint32_t k) { return Vec3(DVec3(box.positions[k]) + scene.origin); };
   Vec3 lo(1e9f), hi(-1e9f);
-  for (const Vec3& p : box.positions) {
-    lo = glm::min(lo, p);
-    hi = glm::max(hi, p);
+  for (uint32_t k = 0; k < box.positions.size(); ++k) {
+    lo = glm::min(lo, world(k));
+    hi = glm::max(hi, world(k));
   }
   for (int c = 0; c < 3; ++c) {
     EXPECT_NEAR(lo[c], -1.0f, 1e-5f);
     EXPECT_NEAR(hi[c], 1.0f, 1e-5f);
   }
   // The floor (the OBJ's first group, 2 triangles) lies at y = +1: y points down in the image.
-  for (size_t k = 0; k < 6; ++k) EXPECT_NEAR(box.positions[box.indices[k]].y, 1.0f, 1e-5f);
+  for (size_t k = 0; k < 6; ++k) EXPECT_NEAR(world(box.indices[k]).y, 1.0f, 1e-5f);
   // Every wall faces into the room: its normal points towards the centre.
   for (size_t t = 0; t < 10; ++t) {
-    const Vec3 a = box.positions[box.indices[3 * t]], b = box.positions[box.indices[3 * t + 1]],
-               c = box.positions[box.indices[3 * t + 2]];
+    const Vec3 a = world(box.indices[3 * t]), b = world(box.indices[3 * t + 1]), c = world(box.indices[3 * t + 2]);
     const Vec3 n = glm::cross(b - a, c - a);
     EXPECT_LT(glm::dot(n, a), 0.0f) << "triangle " << t << " faces outwards";
   }
