@@ -80,10 +80,26 @@ struct Named {
   std::string name;
   json scene;
 };
+// A shelf 0.2 above a floor, seen from the side through the gap, lit from above: the floor under
+// the shelf gets only the light that bounces in (moved by 1e5 it came out ~90x too bright).
+json shelf() {
+  json scene = test::minimalSceneJson();
+  scene["camera"] = {{"type", "pinhole"}, {"position", {0, 0.1, -3}}, {"look_at", {0, 0.1, 0}}, {"up", {0, 1, 0}},
+                     {"sensor_width", 0.036}, {"angle_of_view", 30}};
+  scene["materials"]["floor"] = {{"type", "lambertian"}, {"albedo", 0.7}};
+  scene["shapes"] = json::array(
+      {{{"type", "quad"}, {"corner", {-1, 0, -1}}, {"edge1", {0, 0, 2}}, {"edge2", {2, 0, 0}}, {"material", "floor"}},
+       {{"type", "quad"}, {"corner", {-0.5, 0.2, -0.5}}, {"edge1", {0, 0, 1}}, {"edge2", {1, 0, 0}}, {"material", "floor"}}});
+  scene["lights"] = json::array(
+      {{{"type", "quad"}, {"corner", {-0.25, 1, -0.25}}, {"edge1", {0.5, 0, 0}}, {"edge2", {0, 0, 0.5}}, {"radiance", 8}}});
+  return small(scene, 24, 16);
+}
+
 std::vector<Named> placementScenes() {
   return {{"cornell-seed", small(test::bundledSceneJson("cornell-seed.json"), 24, 8)},
           {"cornell-classic", small(test::bundledSceneJson("cornell-classic.json"), 24, 8)},
-          {"furnace", furnace()}};
+          {"furnace", furnace()},
+          {"shelf", shelf()}};
 }
 
 double meanOf(const test::Rendered &r) { return (r.mean[0] + r.mean[1] + r.mean[2]) / 3.0; }
