@@ -8,18 +8,20 @@
 // (measured: 1.39x between naive and nee_mis in Coplanar.*). The loader therefore moves such a
 // light towards the side it emits to by the least distance that Embree's tests resolve: twice
 // both triangles' SpawnPlane margins (math/ray_offset.h) plus the rounding of the moved
-// vertices, about 1e-6 of the light's size at the camera. Lights that overlap nothing in their
-// plane are not touched (their images keep their bits), nor are non-planar emitting meshes or
-// two-sided lights (two coplanar surfaces of which neither is a one-sided light: which one a ray
-// sees is unspecified, the same in every run).
+// vertices, about 1e-6 of the light's size at the camera. A light here is the one-sided
+// emitting triangles of one mesh that share a plane (a light quad, or an OBJ group of an
+// emissive material next to the ceiling's group) and whose vertices no other triangle uses.
+// Lights that overlap nothing in their plane are not touched (their images keep their bits),
+// nor are two-sided lights or lights whose vertices other triangles share (two coplanar
+// surfaces of which neither is such a light: which one a ray sees is unspecified, the same in
+// every run).
 #include <cstddef>
 
 #include "scene/scene.h"
 
 namespace lensfarm {
 
-// Applies the rule to every planar mesh whose triangles all emit from one side; returns how many
-// lights were moved.
+// Applies the rule; returns how many lights were moved.
 size_t bringFlushLightsForward(Scene& scene);
 
 }  // namespace lensfarm

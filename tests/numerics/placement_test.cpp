@@ -286,6 +286,31 @@ json flushLightRoom(const std::string& integrator) {
   return scene;
 }
 
+// The same room with the lamp as a group of an OBJ mesh whose other group is a ceiling panel in
+// the same plane (how exporters write a lamp set into a ceiling).
+json flushLampGroupRoom(const std::string& integrator) {
+  json scene = flushLightRoom(integrator);
+  scene["lights"] = json::array();
+  scene["materials"]["lamp"] = {{"type", "emissive"}, {"radiance", 4}};
+  scene["shapes"].push_back({{"type", "obj"},
+                             {"file", "ceiling.obj"},
+                             {"group_materials", {{"panel", "wall"}, {"lamp", "lamp"}}}});
+  return scene;
+}
+const char* kCeilingObj =
+    "g panel\nv -0.6 1 -0.6\nv 0.6 1 -0.6\nv 0.6 1 0.6\nv -0.6 1 0.6\nf 1 2 3 4\n"
+    "g lamp\nv -0.3 1 -0.3\nv 0.3 1 -0.3\nv 0.3 1 0.3\nv -0.3 1 0.3\nf 5 6 7 8\n";
+
+TEST(Coplanar, ALampGroupFlushWithItsMeshsCeilingPanelIsSeenAlikeByEveryEstimator) {
+  test::TempDir dir;
+  dir.write("ceiling.obj", kCeilingObj);
+  const test::ImageStatistics naive = test::renderStatistics(test::loadSceneJson(dir, flushLampGroupRoom("naive")), 16);
+  ASSERT_GT(naive.imageMean, 0.0);
+  const test::ImageStatistics mis = test::renderStatistics(test::loadSceneJson(dir, flushLampGroupRoom("nee_mis")), 16);
+  EXPECT_NEAR(mis.imageMean, naive.imageMean, 4 * std::hypot(naive.imageMeanError, mis.imageMeanError))
+      << "nee_mis / naive = " << mis.imageMean / naive.imageMean;
+}
+
 TEST(Coplanar, ALightFlushWithTheCeilingIsSeenAlikeByEveryEstimator) {
   test::TempDir dir;
   const test::ImageStatistics naive = test::renderStatistics(test::loadSceneJson(dir, flushLightRoom("naive")), 16);
