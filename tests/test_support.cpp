@@ -75,6 +75,25 @@ json minimalSceneJson() {
   })");
 }
 
+std::string sphereObj(int rings, int segments) {
+  std::ostringstream obj;
+  obj << "v 0 1 0\n";
+  for (int r = 1; r < rings; ++r)
+    for (int s = 0; s < segments; ++s) {
+      const double theta = M_PI * r / rings, phi = 2 * M_PI * s / segments;
+      obj << "v " << std::sin(theta) * std::cos(phi) << " " << std::cos(theta) << " " << std::sin(theta) * std::sin(phi) << "\n";
+    }
+  obj << "v 0 -1 0\n";
+  const auto idx = [&](int r, int s) { return 2 + (r - 1) * segments + (s % segments); };  // 1-based
+  const int south = 2 + (rings - 1) * segments;
+  for (int s = 0; s < segments; ++s) obj << "f 1 " << idx(1, s + 1) << " " << idx(1, s) << "\n";
+  for (int r = 1; r < rings - 1; ++r)
+    for (int s = 0; s < segments; ++s)
+      obj << "f " << idx(r, s) << " " << idx(r, s + 1) << " " << idx(r + 1, s + 1) << " " << idx(r + 1, s) << "\n";
+  for (int s = 0; s < segments; ++s) obj << "f " << south << " " << idx(rings - 1, s) << " " << idx(rings - 1, s + 1) << "\n";
+  return obj.str();
+}
+
 json closedBoxSceneJson(const json& wallMaterial, int resolution, uint64_t spp, int maxBounces) {
   json scene = {
       {"format", "lensfarm-scene/1"},

@@ -41,6 +41,10 @@ nlohmann::json minimalSceneJson();
 // from any directory.
 nlohmann::json bundledSceneJson(const std::string& name);
 
+// A UV sphere of radius 1 as an indexed OBJ (shared vertices, so every edge is shared exactly),
+// its faces facing outwards.
+std::string sphereObj(int rings, int segments);
+
 // Axis-aligned closed box [-1,1]^3 seen from inside by a pinhole camera at the centre looking
 // along +z. Every wall uses material "wall" (inward-facing). Used for furnace-type tests.
 nlohmann::json closedBoxSceneJson(const nlohmann::json& wallMaterial, int resolution, uint64_t spp, int maxBounces);

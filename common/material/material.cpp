@@ -10,6 +10,7 @@ const char* materialKindName(MaterialKind kind) {
     case MaterialKind::kMirror: return "mirror";
     case MaterialKind::kRippledMirror: return "rippled_mirror";
     case MaterialKind::kEmissive: return "emissive";
+    case MaterialKind::kDielectric: return "dielectric";
   }
   return "?";
 }
@@ -36,7 +37,7 @@ std::optional<MaterialSample> Material::sampleLambertian(const Vec3& n, Vec2 u) 
   return MaterialSample{Frame::fromNormal(n).toWorld(local), albedo, cosineHemispherePdf(local.z), false};
 }
 
-std::optional<MaterialSample> Material::sample(const Vec3& n, const Vec3& wo, Vec2 u) const {
+std::optional<MaterialSample> Material::sample(const Vec3& n, const Vec3& wo, Vec2 u, bool front) const {
   switch (kind) {
     case MaterialKind::kLambertian:
       return sampleLambertian(n, u);
@@ -57,6 +58,29 @@ std::optional<MaterialSample> Material::sample(const Vec3& n, const Vec3& wo, Ve
     }
     case MaterialKind::kEmissive:
       return std::nullopt;
+    case MaterialKind::kDielectric: {
+      // Reflect with probability F, refract otherwise: each branch's weight is then the tint
+      // exactly (F / F, T / T), times 1/eta^2 on refraction: radiance is compressed into the
+      // smaller solid angle of the denser side (Veach 1997, §5.2; pbrt-v4 DielectricBxDF), so a
+      // glass object in a uniform field of radiance L shows L (tests: Dielectric.*).
+      const float cosO = glm::dot(n, wo);  // n is on wo's side: > 0
+      if (thinWalled) {
+        // A pane: the two faces' reflections summed over its inter-reflections, R' = 2R/(1+R)
+        // without absorption; light that passes leaves parallel to where it came from.
+        float cosT;
+        const float r = fresnelDielectric(cosO, ior, cosT);
+        const float rPane = r < 1.0f ? 2.0f * r / (1.0f + r) : 1.0f;
+        if (u.x < rPane) return MaterialSample{reflect(wo, n), albedo, 0.0f, true};
+        return MaterialSample{-wo, albedo, 0.0f, true};
+      }
+      const float eta = front ? ior : 1.0f / ior;  // n_transmitted / n_incident
+      float cosT;
+      const float f = fresnelDielectric(cosO, eta, cosT);
+      if (u.x < f) return MaterialSample{reflect(wo, n), albedo, 0.0f, true};
+      // Snell: wi = -wo / eta + (cosO / eta - cosT) n, on the far side of the surface.
+      const Vec3 wi = glm::normalize(-wo / eta + (cosO / eta - cosT) * n);
+      return MaterialSample{wi, albedo / (eta * eta), 0.0f, true};
+    }
   }
   return std::nullopt;
 }

@@ -6,6 +6,8 @@
 // the face whose normal is cross(v1 - v0, v2 - v0)) unless `twoSidedEmission` is set.
 //
 // Colour mixing is the seed's eq. 2: reflected = incident * albedo, channel by channel.
+#include <algorithm>
+#include <cmath>
 #include <optional>
 #include <string>
 
@@ -19,7 +21,26 @@ enum class MaterialKind {
   kMirror,         // perfect specular reflection, weight = reflectance
   kRippledMirror,  // the seed's rippled glass mirror: specular about a randomly tilted normal
   kEmissive,       // a light: emits `emission`, reflects nothing
+  kDielectric,     // smooth glass: Fresnel reflection and refraction (Snell), or a thin-walled pane
 };
+
+// Fresnel reflectance of a smooth dielectric boundary for unpolarised light (the mean of the s
+// and p reflectances, Born & Wolf §1.5.2), at cosine cosI of the incident direction with the
+// normal on its side and relative index eta = n_transmitted / n_incident. 1 beyond the critical
+// angle (total internal reflection). cosTransmitted receives |cos| of the refracted direction.
+inline float fresnelDielectric(float cosI, float eta, float& cosTransmitted) {
+  cosI = std::min(1.0f, std::abs(cosI));
+  const float sin2T = (1.0f - cosI * cosI) / (eta * eta);
+  if (sin2T >= 1.0f) {
+    cosTransmitted = 0.0f;
+    return 1.0f;
+  }
+  const float cosT = std::sqrt(1.0f - sin2T);
+  const float rParallel = (eta * cosI - cosT) / (eta * cosI + cosT);
+  const float rPerpendicular = (cosI - eta * cosT) / (cosI + eta * cosT);
+  cosTransmitted = cosT;
+  return 0.5f * (rParallel * rParallel + rPerpendicular * rPerpendicular);
+}
 
 const char* materialKindName(MaterialKind kind);
 
@@ -45,11 +66,15 @@ struct Material {
   MaterialKind kind = MaterialKind::kLambertian;
   Spectrum albedo{0.0f};       // diffuse albedo, or mirror reflectance (the seed's attenuation)
   float ripple = 0.0f;         // rippled mirror: largest tilt of the normal, as a slope (tan)
+  float ior = 1.5f;            // dielectric: index of refraction inside (the front face's back side)
+  bool thinWalled = false;     // dielectric: a pane of negligible thickness (no bending)
   Spectrum emission{0.0f};     // emitted radiance
   bool twoSidedEmission = false;
 
   bool isEmissive() const { return !isBlack(emission); }
-  bool isSpecular() const { return kind == MaterialKind::kMirror || kind == MaterialKind::kRippledMirror; }
+  bool isSpecular() const {
+    return kind == MaterialKind::kMirror || kind == MaterialKind::kRippledMirror || kind == MaterialKind::kDielectric;
+  }
   bool reflects() const { return kind != MaterialKind::kEmissive && !isBlack(albedo); }
 
   // f(wo, wi) cos(theta_i) for non-specular materials (zero for specular ones).
@@ -57,7 +82,8 @@ struct Material {
   // Density of sample() returning wi, in solid angle (zero for specular ones).
   float pdf(const Vec3& n, const Vec3& wo, const Vec3& wi) const;
   // Samples an incident direction from u in [0,1)^2; nothing when the material reflects nothing.
-  std::optional<MaterialSample> sample(const Vec3& n, const Vec3& wo, Vec2 u) const;
+  // `front`: wo is on the front side of the geometric normal (outside a dielectric).
+  std::optional<MaterialSample> sample(const Vec3& n, const Vec3& wo, Vec2 u, bool front = true) const;
   // sample() for a scene without specular materials: Lambertian or nothing, without the switch.
   std::optional<MaterialSample> sampleLambertian(const Vec3& n, Vec2 u) const;
 };

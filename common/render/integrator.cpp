@@ -141,7 +141,7 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
 
   if (lastBounce) return outcome;
 
-  const auto s = kSpecular ? material.sample(n, wo, rng.get2D(base + dims::kMaterial))
+  const auto s = kSpecular ? material.sample(n, wo, rng.get2D(base + dims::kMaterial), glm::dot(hit.n, wo) >= 0.0f)
                            : material.sampleLambertian(n, rng.get2D(base + dims::kMaterial));
   if (!s || !scatter(rs, rng, base, counts, s->weight, s->specular, s->pdf, path)) return outcome;
   path.origin = spawnOrigin(hit.p, hit.plane(), s->wi);

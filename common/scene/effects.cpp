@@ -181,16 +181,17 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
       used[m] = false;
       ++sealedMirrors;
     }
-  bool mirror = false, rippled = false, diffuse = false;
+  bool mirror = false, rippled = false, glass = false, diffuse = false;
   for (size_t m = 0; m < scene.materials.size(); ++m) {
     if (!used[m]) continue;
     mirror |= scene.materials[m].kind == MaterialKind::kMirror;
     rippled |= scene.materials[m].kind == MaterialKind::kRippledMirror;
+    glass |= scene.materials[m].kind == MaterialKind::kDielectric;
     diffuse |= scene.materials[m].kind == MaterialKind::kLambertian && !isBlack(scene.materials[m].albedo);
   }
-  e.specular = mirror || rippled;
+  e.specular = mirror || rippled || glass;
   e.decisions.push_back({"specular reflection", e.specular,
-                         e.specular    ? std::string(rippled ? "rippled mirror" : "mirror") + " in the scene"
+                         e.specular    ? std::string(glass ? "glass" : rippled ? "rippled mirror" : "mirror") + " in the scene"
                          : sealedMirrors ? "every mirror is sealed inside a closed mesh the camera is outside of"
                                          : "no mirror in the scene"});
 

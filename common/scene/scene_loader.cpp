@@ -339,9 +339,14 @@ class SceneParser {
       } else if (type == "emissive") {
         m.kind = MaterialKind::kEmissive;
         m.emission = r.color("radiance", kRadianceRange);
+      } else if (type == "dielectric") {
+        m.kind = MaterialKind::kDielectric;
+        m.albedo = r.color("transmittance", Spectrum(1.0f), kReflectanceRange);
+        m.ior = float(r.number("ior", 1.5, 1.0, 10.0));
+        m.thinWalled = r.boolean("thin_walled", false);
       } else {
         r.fail(r.field("type"), "unknown material type \"" + type +
-                                    "\" (expected lambertian, mirror, rippled_mirror or emissive)");
+                                    "\" (expected lambertian, mirror, rippled_mirror, dielectric or emissive)");
       }
       if (m.isEmissive() || r.has("two_sided")) m.twoSidedEmission = r.boolean("two_sided", false);
       r.finish();

@@ -21,26 +21,6 @@ namespace {
 
 using nlohmann::json;
 
-// A UV sphere of radius 1 as an indexed OBJ: shared vertices, so every edge is shared exactly.
-std::string sphereObj(int rings, int segments) {
-  std::ostringstream obj;
-  obj << "v 0 1 0\n";
-  for (int r = 1; r < rings; ++r)
-    for (int s = 0; s < segments; ++s) {
-      const double theta = M_PI * r / rings, phi = 2 * M_PI * s / segments;
-      obj << "v " << std::sin(theta) * std::cos(phi) << " " << std::cos(theta) << " " << std::sin(theta) * std::sin(phi) << "\n";
-    }
-  obj << "v 0 -1 0\n";
-  const auto idx = [&](int r, int s) { return 2 + (r - 1) * segments + (s % segments); };  // 1-based
-  const int south = 2 + (rings - 1) * segments;
-  for (int s = 0; s < segments; ++s) obj << "f 1 " << idx(1, s + 1) << " " << idx(1, s) << "\n";
-  for (int r = 1; r < rings - 1; ++r)
-    for (int s = 0; s < segments; ++s)
-      obj << "f " << idx(r, s) << " " << idx(r, s + 1) << " " << idx(r + 1, s + 1) << " " << idx(r + 1, s) << "\n";
-  for (int s = 0; s < segments; ++s) obj << "f " << south << " " << idx(rings - 1, s) << " " << idx(rings - 1, s + 1) << "\n";
-  return obj.str();
-}
-
 // Casts 10^7 rays from `origin` at the vertices, edges and interiors of every triangle and
 // counts those that hit nothing.
 uint64_t escapes(const RenderScene& rs, Vec3 origin) {
@@ -98,7 +78,7 @@ TEST_P(Watertight, NoRayEscapesAFinelyTessellatedSphere) {
   const double radius = far > 0 ? 100.0 : 1.0;
   const DVec3 centre = DVec3(1.5e5, 1.2e3, -2.2e5) * far;
   test::TempDir dir;
-  dir.write("sphere.obj", sphereObj(96, 192));  // 36 480 triangles
+  dir.write("sphere.obj", test::sphereObj(96, 192));  // 36 480 triangles
   json scene = test::minimalSceneJson();
   scene["shapes"] = json::array({{{"type", "obj"}, {"file", "sphere.obj"}, {"material", "white"},
                                   {"transform", {{"scale", radius}, {"translate", {centre.x, centre.y, centre.z}}}}}});
