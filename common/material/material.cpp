@@ -11,6 +11,7 @@ const char* materialKindName(MaterialKind kind) {
     case MaterialKind::kRippledMirror: return "rippled_mirror";
     case MaterialKind::kEmissive: return "emissive";
     case MaterialKind::kDielectric: return "dielectric";
+    case MaterialKind::kConductor: return "conductor";
   }
   return "?";
 }
@@ -58,6 +59,15 @@ std::optional<MaterialSample> Material::sample(const Vec3& n, const Vec3& wo, Ve
     }
     case MaterialKind::kEmissive:
       return std::nullopt;
+    case MaterialKind::kConductor: {
+      // A polished metal: the mirror direction, weighted by the conductor Fresnel term per
+      // channel (grazing light reflects fully, at normal incidence F0 = ((eta-1)^2 + k^2) /
+      // ((eta+1)^2 + k^2)), times the tint.
+      const float cosO = glm::dot(n, wo);
+      const Spectrum f(fresnelConductor(cosO, eta.r, k.r), fresnelConductor(cosO, eta.g, k.g),
+                       fresnelConductor(cosO, eta.b, k.b));
+      return MaterialSample{reflect(wo, n), albedo * f, 0.0f, true};
+    }
     case MaterialKind::kDielectric: {
       // Reflect with probability F, refract otherwise: each branch's weight is then the tint
       // exactly (F / F, T / T), times 1/eta^2 on refraction: radiance is compressed into the
@@ -73,13 +83,13 @@ std::optional<MaterialSample> Material::sample(const Vec3& n, const Vec3& wo, Ve
         if (u.x < rPane) return MaterialSample{reflect(wo, n), albedo, 0.0f, true};
         return MaterialSample{-wo, albedo, 0.0f, true};
       }
-      const float eta = front ? ior : 1.0f / ior;  // n_transmitted / n_incident
+      const float relative = front ? ior : 1.0f / ior;  // n_transmitted / n_incident
       float cosT;
-      const float f = fresnelDielectric(cosO, eta, cosT);
+      const float f = fresnelDielectric(cosO, relative, cosT);
       if (u.x < f) return MaterialSample{reflect(wo, n), albedo, 0.0f, true};
-      // Snell: wi = -wo / eta + (cosO / eta - cosT) n, on the far side of the surface.
-      const Vec3 wi = glm::normalize(-wo / eta + (cosO / eta - cosT) * n);
-      return MaterialSample{wi, albedo / (eta * eta), 0.0f, true};
+      // Snell: wi = -wo / relative + (cosO / relative - cosT) n, on the far side of the surface.
+      const Vec3 wi = glm::normalize(-wo / relative + (cosO / relative - cosT) * n);
+      return MaterialSample{wi, albedo / (relative * relative), 0.0f, true};
     }
   }
   return std::nullopt;

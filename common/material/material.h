@@ -22,7 +22,26 @@ enum class MaterialKind {
   kRippledMirror,  // the seed's rippled glass mirror: specular about a randomly tilted normal
   kEmissive,       // a light: emits `emission`, reflects nothing
   kDielectric,     // smooth glass: Fresnel reflection and refraction (Snell), or a thin-walled pane
+  kConductor,      // smooth metal: specular reflection weighted by the conductor Fresnel term
 };
+
+// Fresnel reflectance of a smooth conductor of complex index eta + i k (relative to the outside
+// medium, air) for unpolarised light at cosine cosI (pbrt-v3 FrConductor; Born & Wolf §14.2).
+inline float fresnelConductor(float cosI, float eta, float k) {
+  cosI = std::min(1.0f, std::abs(cosI));
+  const float cos2 = cosI * cosI, sin2 = 1.0f - cos2;
+  const float eta2 = eta * eta, k2 = k * k;
+  const float t0 = eta2 - k2 - sin2;
+  const float a2b2 = std::sqrt(t0 * t0 + 4.0f * eta2 * k2);
+  const float t1 = a2b2 + cos2;
+  const float a = std::sqrt(std::max(0.0f, 0.5f * (a2b2 + t0)));
+  const float t2 = 2.0f * cosI * a;
+  const float rs = (t1 - t2) / (t1 + t2);
+  const float t3 = cos2 * a2b2 + sin2 * sin2;
+  const float t4 = t2 * sin2;
+  const float rp = rs * (t3 - t4) / (t3 + t4);
+  return 0.5f * (rs + rp);
+}
 
 // Fresnel reflectance of a smooth dielectric boundary for unpolarised light (the mean of the s
 // and p reflectances, Born & Wolf §1.5.2), at cosine cosI of the incident direction with the
@@ -68,12 +87,14 @@ struct Material {
   float ripple = 0.0f;         // rippled mirror: largest tilt of the normal, as a slope (tan)
   float ior = 1.5f;            // dielectric: index of refraction inside (the front face's back side)
   bool thinWalled = false;     // dielectric: a pane of negligible thickness (no bending)
+  Spectrum eta{1.0f}, k{0.0f}; // conductor: complex index of refraction per RGB channel
   Spectrum emission{0.0f};     // emitted radiance
   bool twoSidedEmission = false;
 
   bool isEmissive() const { return !isBlack(emission); }
   bool isSpecular() const {
-    return kind == MaterialKind::kMirror || kind == MaterialKind::kRippledMirror || kind == MaterialKind::kDielectric;
+    return kind == MaterialKind::kMirror || kind == MaterialKind::kRippledMirror || kind == MaterialKind::kDielectric ||
+           kind == MaterialKind::kConductor;
   }
   bool reflects() const { return kind != MaterialKind::kEmissive && !isBlack(albedo); }
 

@@ -184,7 +184,7 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
   bool mirror = false, rippled = false, glass = false, diffuse = false;
   for (size_t m = 0; m < scene.materials.size(); ++m) {
     if (!used[m]) continue;
-    mirror |= scene.materials[m].kind == MaterialKind::kMirror;
+    mirror |= scene.materials[m].kind == MaterialKind::kMirror || scene.materials[m].kind == MaterialKind::kConductor;
     rippled |= scene.materials[m].kind == MaterialKind::kRippledMirror;
     glass |= scene.materials[m].kind == MaterialKind::kDielectric;
     diffuse |= scene.materials[m].kind == MaterialKind::kLambertian && !isBlack(scene.materials[m].albedo);

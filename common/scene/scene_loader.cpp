@@ -57,6 +57,27 @@ constexpr ColorRange kReflectanceRange{
     "a reflectance below 1e-6 is darker than any real material and would be lost below single precision "
     "(the kernel flushes numbers under 1.2e-38 to 0); write 0 for black",
     "a reflectance is the fraction of light a surface reflects: above 1 it would make light from nothing"};
+// A conductor's complex index eta + i k per channel: real metals have eta from about 0.05 (silver)
+// to a few, and k up to about 10 (aluminium in the blue is 4.8, in the infrared more).
+constexpr ColorRange kConductorEtaRange{0.01, 10.0, "an index below 0.01 is not a metal in the visible",
+                                        "an index above 10 is not a material in the visible"};
+constexpr ColorRange kConductorKRange{1e-6, 100.0, "an extinction coefficient below 1e-6 is a dielectric: write 0",
+                                      "an extinction coefficient above 100 is not a material in the visible"};
+
+// Named metals for `conductor.metal`: eta and k at about 650, 550 and 450 nm (the red, green and
+// blue primaries), from measured optical constants (Au, Ag, Cu: Johnson & Christy 1972; Al:
+// Rakic 1995; as tabulated by refractiveindex.info).
+struct NamedMetal {
+  const char* name;
+  Spectrum eta, k;
+};
+constexpr NamedMetal kNamedMetals[] = {
+    {"Au", {0.143f, 0.374f, 1.442f}, {3.983f, 2.385f, 1.603f}},
+    {"Ag", {0.155f, 0.117f, 0.138f}, {4.828f, 3.122f, 2.147f}},
+    {"Cu", {0.200f, 0.924f, 1.102f}, {3.912f, 2.452f, 2.142f}},
+    {"Al", {1.657f, 0.880f, 0.521f}, {9.224f, 6.270f, 4.837f}},
+};
+
 // Radiance and emission. The kernel multiplies radiance by path weights in single precision
 // (3.4e38 at most, numbers under 1.2e-38 flushed to 0): 1e30 leaves 10^8 of headroom for the
 // weights of a path (albedos, cosines, 1/pdf) before a sample overflows to Inf (and is dropped);
@@ -339,6 +360,24 @@ class SceneParser {
       } else if (type == "emissive") {
         m.kind = MaterialKind::kEmissive;
         m.emission = r.color("radiance", kRadianceRange);
+      } else if (type == "conductor") {
+        m.kind = MaterialKind::kConductor;
+        m.albedo = r.color("tint", Spectrum(1.0f), kReflectanceRange);
+        if (r.has("metal") == (r.has("eta") || r.has("k")))
+          r.fail(r.field("metal"), "give either metal (Au, Ag, Cu or Al) or eta and k");
+        if (r.has("metal")) {
+          const std::string metal = r.string("metal");
+          const NamedMetal* found = nullptr;
+          for (const NamedMetal& nm : kNamedMetals)
+            if (metal == nm.name) found = &nm;
+          if (!found) r.fail(r.field("metal"), "unknown metal \"" + metal + "\" (expected Au, Ag, Cu or Al)");
+          m.eta = found->eta, m.k = found->k;
+        } else {
+          m.eta = r.color("eta", kConductorEtaRange);
+          m.k = r.color("k", kConductorKRange);
+        }
+        for (int c = 0; c < 3; ++c)
+          if (m.eta[c] == 0.0f) r.fail(r.field("eta"), "must be > 0 in every channel");
       } else if (type == "dielectric") {
         m.kind = MaterialKind::kDielectric;
         m.albedo = r.color("transmittance", Spectrum(1.0f), kReflectanceRange);
@@ -346,7 +385,7 @@ class SceneParser {
         m.thinWalled = r.boolean("thin_walled", false);
       } else {
         r.fail(r.field("type"), "unknown material type \"" + type +
-                                    "\" (expected lambertian, mirror, rippled_mirror, dielectric or emissive)");
+                                    "\" (expected lambertian, mirror, rippled_mirror, dielectric, conductor or emissive)");
       }
       if (m.isEmissive() || r.has("two_sided")) m.twoSidedEmission = r.boolean("two_sided", false);
       r.finish();
