@@ -7,6 +7,7 @@
 //  - Spectrum is linear RGB. Emitted radiance and the values stored in a sensor are radiance
 //    in the scene's own (arbitrary) radiometric unit; albedos are in [0, 1].
 //  - Directions are unit vectors unless a name says otherwise.
+#include <algorithm>
 #include <cmath>
 
 #include <glm/glm.hpp>
@@ -35,6 +36,9 @@ struct Frame {
   Vec3 toWorld(const Vec3& v) const { return t * v.x + b * v.y + n * v.z; }
   Vec3 toLocal(const Vec3& v) const { return Vec3(glm::dot(v, t), glm::dot(v, b), glm::dot(v, n)); }
 };
+
+// The largest |component|: a vector's size per axis (bounds are per axis), never overflowing.
+inline double largestAbs(const DVec3& v) { return std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))); }
 
 inline float luminance(const Spectrum& s) {
   // Rec. 709 / sRGB primaries.

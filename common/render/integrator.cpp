@@ -97,7 +97,7 @@ inline bool scatter(const RenderScene& rs, const SampleStream& rng, uint32_t bas
 // (next-event estimation) prepared as a shadow query, then the scattered direction and Russian
 // roulette. The caller casts the shadow ray and adds its contribution when it is unblocked; the
 // additions to the radiance keep the order emission, light sample, as the seed's sum does.
-template <bool kNee, bool kSpecular>
+template <bool kNee, bool kGeneral>
 inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng, int segment, const SurfaceHit& hit,
                                  PathState& path, ShadowQuery& shadow) {
   const RenderSettings& settings = rs.settings();
@@ -112,12 +112,13 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
   addEmittedLight<kNee>(rs, hit, material, path);
   if (!material.reflects()) return outcome;
 
-  const bool specular = kSpecular && material.isSpecular();
+  const bool specular = kGeneral && material.isSpecular();
+  const bool front = glm::dot(hit.n, -path.direction) >= 0.0f;  // wo on the front face's side
   const bool counts = !specular || settings.mirrorBouncesCount;
   if (counts && path.bounces >= settings.maxBounces) return outcome;
 
   const Vec3 wo = -path.direction;
-  const Vec3 n = glm::dot(hit.n, wo) >= 0.0f ? hit.n : -hit.n;  // shade the side we came from
+  const Vec3 n = front ? hit.n : -hit.n;  // shade the side we came from
   const uint32_t base = dims::segment(uint32_t(segment));
 
   const bool lastBounce = nee && !specular && counts && isLastBounce(rs, path.bounces);
@@ -128,11 +129,11 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
     if (ls && !isBlack(ls->radiance)) {
       const Vec3 toLight = ls->p - hit.p;
       const Vec3 wi = glm::normalize(toLight);
-      const Spectrum f = material.evalCos(n, wo, wi);
+      const Spectrum f = material.evalCos(n, wo, wi, front);
       if (!isBlack(f)) {
         shadow.from = spawnOrigin(hit.p, hit.plane(), wi);
         shadow.to = spawnOrigin(ls->p, ls->plane(), -wi);
-        const float weight = mis && !lastBounce ? powerHeuristic(ls->pdf, material.pdf(n, wo, wi)) : 1.0f;
+        const float weight = mis && !lastBounce ? powerHeuristic(ls->pdf, material.pdf(n, wo, wi, front)) : 1.0f;
         shadow.contribution = path.throughput * f * ls->radiance * (weight / ls->pdf);
         outcome.castShadow = true;
       }
@@ -141,8 +142,10 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
 
   if (lastBounce) return outcome;
 
-  const auto s = kSpecular ? material.sample(n, wo, rng.get2D(base + dims::kMaterial), glm::dot(hit.n, wo) >= 0.0f)
-                           : material.sampleLambertian(n, rng.get2D(base + dims::kMaterial));
+  // The lobe choice is drawn only where a model has lobes to choose (Lambertian has one).
+  const auto s = kGeneral && !material.isLambertian()
+                     ? material.sample(n, wo, rng.get1D(base + dims::kMaterialLobe), rng.get2D(base + dims::kMaterial), front)
+                     : material.sampleLambertian(n, rng.get2D(base + dims::kMaterial));
   if (!s || !scatter(rs, rng, base, counts, s->weight, s->specular, s->pdf, path)) return outcome;
   path.origin = spawnOrigin(hit.p, hit.plane(), s->wi);
   path.direction = s->wi;
@@ -152,7 +155,7 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
 
 }  // namespace
 
-template <bool kNee, bool kSpecular>
+template <bool kNee, bool kGeneral>
 Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats) {
   PathState path(cameraRay);
   ShadowQuery shadow;
@@ -162,13 +165,14 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
     ++stats.rays;
     const auto hit = rs.caster().intersect(path.origin, path.direction, segment == 0 ? RayKind::kCamera : RayKind::kScattered);
     if (!hit) break;
-    const VertexOutcome outcome = shadeVertex<kNee, kSpecular>(rs, rng, segment, *hit, path, shadow);
+    const VertexOutcome outcome = shadeVertex<kNee, kGeneral>(rs, rng, segment, *hit, path, shadow);
     if (outcome.castShadow) {
       ++stats.rays;
       if (!rs.caster().occluded(shadow.from, shadow.to - shadow.from, 1.0f - kShadowEpsilon))
         path.radiance += shadow.contribution;
     }
     if (!outcome.continues) break;
+    if (segment + 1 == segments) ++stats.truncated;
   }
   if (path.hitLight) ++stats.lightHits;
   return path.radiance;
@@ -300,7 +304,7 @@ struct VertexLanes {
 };
 struct ClassifyRules {
   int maxBounces;
-  uint32_t specularMaterials;  // ~0u where specular materials are compiled in (kSpecular)
+  uint32_t generalMaterials;   // ~0u where materials beyond Lambertian are compiled in (kGeneral)
   uint32_t nee;                // ~0u with next-event estimation
   uint32_t mis;                // ~0u with NEE + MIS
   uint32_t lastBounceEnds;     // ~0u with NEE where lastBounceCanEndPaths (isLastBounce)
@@ -313,13 +317,13 @@ LENSFARM_LANE_LOOPS void classifyVertices(const RayCaster::PacketHits& __restric
   using Record = RenderScene::MaterialRecord;
   for (int k = 0; k < kPacketWidth; ++k) {
     const uint32_t hit = uint32_t(h.found[k]), m = h.material[k];
-    const uint32_t specular = materials.u(m, offsetof(Record, specular)) & rules.specularMaterials;
+    const uint32_t general = materials.u(m, offsetof(Record, general)) & rules.generalMaterials;
     const uint32_t emissive = materials.u(m, offsetof(Record, emissive));
     const uint32_t reflects = materials.u(m, offsetof(Record, reflects));
     const uint32_t withinLimit = path.bounces[k] < rules.maxBounces ? ~0u : 0u;
-    const uint32_t diffuse = hit & ~specular & reflects & withinLimit;
+    const uint32_t diffuse = hit & ~general & reflects & withinLimit;
     const uint32_t lastBounce = (path.bounces[k] + 1 >= rules.maxBounces ? ~0u : 0u) & rules.lastBounceEnds;
-    out.special[k] = hit & (specular | emissive);
+    out.special[k] = hit & (general | emissive);
     out.diffuse[k] = diffuse;
     ls.found[k] = int(diffuse & rules.nee);
     v.misOn[k] = (rules.mis & ~lastBounce) != 0 ? 1.0f : 0.0f;
@@ -368,12 +372,12 @@ LENSFARM_LANE_LOOPS void addUnblocked(const DiffuseLanes& __restrict v, const in
 }
 }  // namespace
 
-template <bool kNee, bool kSpecular>
+template <bool kNee, bool kGeneral>
 void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&radiance)[kPacketWidth], PathStats& stats) {
   const RenderSettings& settings = rs.settings();
   const bool mis = settings.integrator == IntegratorKind::kNeeMis;
   PathLanes paths;
-  ShadowQuery noShadow;  // mirrors take no light sample (a delta lobe): shadeVertex leaves it unused
+  ShadowQuery generalShadows[kPacketWidth];  // the light samples of lanes at materials beyond Lambertian
   VertexLanes vertices;
   alignas(64) int goes[kPacketWidth], unblocked[kPacketWidth];
   RayPacket rays, shadowRays;
@@ -385,7 +389,7 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
   LightSampleLanes lights{};
   const SampleStream::LaneKeys keys = SampleStream::keysOf(packet.rng);
   const GatherView<RenderScene::MaterialRecord> materials(rs.materialRecords().data());
-  const ClassifyRules rules{settings.maxBounces, kSpecular ? ~0u : 0u, kNee ? ~0u : 0u, mis ? ~0u : 0u,
+  const ClassifyRules rules{settings.maxBounces, kGeneral ? ~0u : 0u, kNee ? ~0u : 0u, mis ? ~0u : 0u,
                             kNee && lastBounceCanEndPaths(rs) ? ~0u : 0u};
   paths.start();
   rays.clear();
@@ -415,17 +419,19 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
     // Every lane's decisions in one lane loop; then, lane by lane, the few that meet a mirror or
     // an emitter take the one-path code (shadeVertex, addEmittedLight).
     classifyVertices(hits, paths, materials, rules, vertices, v, lights, goes);
-    alignas(64) int specularGoes[kPacketWidth] = {};
+    alignas(64) int generalGoes[kPacketWidth] = {};
+    bool generalShadow[kPacketWidth] = {};
     for (int k = 0; k < kPacketWidth; ++k) {
       if (!vertices.special[k]) continue;
       const Material& material = rs.material(hits.material[k]);
       PathState path = paths.get(k, rays);
       const SurfaceHit hit = hits.hit(k);
-      if (kSpecular && material.isSpecular()) {
-        const VertexOutcome outcome = shadeVertex<kNee, kSpecular>(rs, packet.rng[k], segment, hit, path, noShadow);
+      if (kGeneral && material.reflects() && !material.isLambertian()) {
+        const VertexOutcome outcome = shadeVertex<kNee, kGeneral>(rs, packet.rng[k], segment, hit, path, generalShadows[k]);
+        generalShadow[k] = outcome.castShadow;
         if (outcome.continues) {
           rays.set(k, path.origin, path.direction);
-          specularGoes[k] = -1;
+          generalGoes[k] = -1;
         }
       } else {
         addEmittedLight<kNee>(rs, hit, material, path);
@@ -461,12 +467,21 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
         }
       takeScatteredRays(v, goes, rays);
     }
-    // The lanes that go on: diffuse ones along their scattered ray, mirrors along theirs.
+    // The lanes that go on: diffuse ones along their scattered ray, the others along theirs.
     live = 0;
     for (int k = 0; k < kPacketWidth; ++k) {
-      rays.valid[k] = vertices.diffuse[k] ? goes[k] : specularGoes[k];
+      rays.valid[k] = vertices.diffuse[k] ? goes[k] : generalGoes[k];
       live += rays.valid[k] != 0;
     }
+    // The light samples of lanes at glossy materials join the packet's shadow rays (after the
+    // lane loops, which write every lane).
+    if (kGeneral && kNee)
+      for (int k = 0; k < kPacketWidth; ++k) {
+        if (!generalShadow[k]) continue;
+        const ShadowQuery& q = generalShadows[k];
+        shadowRays.set(k, q.from, q.to - q.from, 1.0f - kShadowEpsilon);
+        v.cr[k] = q.contribution.r, v.cg[k] = q.contribution.g, v.cb[k] = q.contribution.b;
+      }
 
     int shadowCount = 0;
     for (int k = 0; k < kPacketWidth; ++k) shadowCount += shadowRays.active(k);
@@ -477,6 +492,7 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
       addUnblocked(v, unblocked, paths);
     }
   }
+  stats.truncated += uint64_t(live);
   for (int k = 0; k < packet.count; ++k) {
     if (paths.hitLight[k]) ++stats.lightHits;
     radiance[k] = Spectrum(paths.rr[k], paths.rg[k], paths.rb[k]);

@@ -52,12 +52,16 @@ struct PathStats {
   uint64_t rays = 0;       // every ray cast: camera, scattered and shadow rays
   uint64_t lightHits = 0;  // paths whose camera or scattered ray reached an emitting surface
   uint64_t dropped = 0;    // samples whose radiance was NaN or infinite (counted, not added)
+  // Paths still going when they reached pathSegmentLimit(B) segments (light trapped by total
+  // internal reflection in faceted glass, facing mirrors): their further light is not counted.
+  uint64_t truncated = 0;
 
   PathStats& operator+=(const PathStats& o) {
     paths += o.paths;
     rays += o.rays;
     lightHits += o.lightHits;
     dropped += o.dropped;
+    truncated += o.truncated;
     return *this;
   }
 };
@@ -65,7 +69,7 @@ struct PathStats {
 // Radiance arriving along the camera ray of one sample, with next-event estimation and specular
 // materials compiled in or out (scene/effects.h): a specialisation has no branch for an effect
 // the scene does not need, and gives the general path's bits when the effect is absent.
-template <bool kNee, bool kSpecular>
+template <bool kNee, bool kGeneral>
 Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats);
 
 // The camera paths of one packet: lane k traces its camera ray with the sample values rng[k], for
@@ -76,8 +80,8 @@ struct PathPacket {
   SampleStream rng[kPacketWidth];
 };
 
-// Each lane's radiance into radiance[0, count): tracePath<kNee, kSpecular> for every lane.
-template <bool kNee, bool kSpecular>
+// Each lane's radiance into radiance[0, count): tracePath<kNee, kGeneral> for every lane.
+template <bool kNee, bool kGeneral>
 void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&radiance)[kPacketWidth], PathStats& stats);
 
 }  // namespace lensfarm

@@ -24,7 +24,8 @@ class RenderScene {
         caster_(scene),
         lights_(scene, caster_, effects_.lightUseful) {
     for (const Material& m : scene.materials)
-      materialRecords_.push_back({m.albedo, m.isEmissive() ? ~0u : 0u, m.reflects() ? ~0u : 0u, m.isSpecular() ? ~0u : 0u});
+      materialRecords_.push_back({m.albedo(), m.isEmissive() ? ~0u : 0u, m.reflects() ? ~0u : 0u,
+                                  m.reflects() && !m.isLambertian() ? ~0u : 0u});
   }
 
   const Scene& scene() const { return scene_; }
@@ -38,10 +39,11 @@ class RenderScene {
   const LightSampler& lights() const { return lights_; }
   const Material& material(uint32_t id) const { return scene_.materials[id]; }
   // What the packet tracer's lane loops read of each material (render/integrator.cpp): its
-  // albedo and Material's predicates as masks (~0u where true, 0 where false).
+  // Lambertian albedo and Material's predicates as masks (~0u where true, 0 where false);
+  // `general`: a model beyond Lambertian, which the one-path vertex code shades.
   struct MaterialRecord {
     Spectrum albedo;
-    uint32_t emissive, reflects, specular;
+    uint32_t emissive, reflects, general;
   };
   const std::vector<MaterialRecord>& materialRecords() const { return materialRecords_; }
 

@@ -42,6 +42,7 @@ inline constexpr uint32_t kLightPoint = 0;     // 2D, within a segment block
 inline constexpr uint32_t kMaterial = 2;       // 2D
 inline constexpr uint32_t kLightChoice = 4;    // 1D
 inline constexpr uint32_t kRoulette = 5;       // 1D: Russian roulette
+inline constexpr uint32_t kMaterialLobe = 6;   // 1D: a material's choice of lobe (material/bsdf.h)
 inline constexpr uint32_t segment(uint32_t s) { return kFirstSegment + s * kPerSegment; }
 }  // namespace dims
 

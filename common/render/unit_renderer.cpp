@@ -26,7 +26,7 @@ WorkUnit unitAt(uint64_t index, uint64_t samplesPerPixel, uint32_t samplesPerUni
 namespace {
 
 // The pixel loop for one combination of effects, fixed at compile time.
-template <bool kLens, bool kNee, bool kSpecular>
+template <bool kLens, bool kNee, bool kGeneral>
 bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
                     const std::atomic<bool>* cancel, RayGrouping grouping) {
   const ThinLensCamera& camera = rs.camera();
@@ -90,10 +90,10 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
           camera.generatePinholeRays(column, j, u0, u1, packet.cameraRays);
         }
         if (grouping == RayGrouping::kPackets)
-          tracePacket<kNee, kSpecular>(rs, packet, radiance, local);
+          tracePacket<kNee, kGeneral>(rs, packet, radiance, local);
         else
           for (int k = 0; k < packet.count; ++k)
-            radiance[k] = tracePath<kNee, kSpecular>(rs, packet.cameraRays.ray(k), packet.rng[k], local);
+            radiance[k] = tracePath<kNee, kGeneral>(rs, packet.cameraRays.ray(k), packet.rng[k], local);
         // Each cell's sums start at zero and take its samples in sample order: the same double
         // sums whatever the packets.
         for (int k = 0; k < packet.count; ++k) {
@@ -126,14 +126,14 @@ bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
   const EffectSet& e = rs.effects();
   const bool lens = e.depthOfField;
   const bool nee = e.lightSampling && rs.settings().integrator != IntegratorKind::kNaive && !rs.lights().empty();
-  const bool specular = e.specular;
+  const bool general = e.generalMaterials;
   using Fn = bool (*)(const RenderScene&, const WorkUnit&, SensorBuffer&, PathStats&, const std::atomic<bool>*, RayGrouping);
   static constexpr Fn kTable[2][2][2] = {
       {{renderUnitWith<false, false, false>, renderUnitWith<false, false, true>},
        {renderUnitWith<false, true, false>, renderUnitWith<false, true, true>}},
       {{renderUnitWith<true, false, false>, renderUnitWith<true, false, true>},
        {renderUnitWith<true, true, false>, renderUnitWith<true, true, true>}}};
-  return kTable[lens][nee][specular](rs, unit, out, stats, cancel, grouping);
+  return kTable[lens][nee][general](rs, unit, out, stats, cancel, grouping);
 }
 
 }  // namespace lensfarm

@@ -25,8 +25,6 @@ struct Box {
   }
 };
 
-double largestAbs(const Vec3& v) { return std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))); }
-
 // The one-sided emitting triangles of one mesh that lie in one plane (a lamp), with the vertices
 // that only they use: those can move without moving anything else.
 struct FlushCandidate {
@@ -59,7 +57,7 @@ void planarLamps(const Scene& scene, size_t index, std::vector<FlushCandidate>& 
     const Vec3 &a = mesh.positions[idx[0]], &b = mesh.positions[idx[1]], &d = mesh.positions[idx[2]];
     if (!triangleNormal(a, b, d)) continue;
     const DVec3 n = glm::normalize(triangleCross(a, b, d));
-    const double magnitude = std::max(largestAbs(a), std::max(largestAbs(b), largestAbs(d)));
+    const double magnitude = std::max(largestAbs(DVec3(a)), std::max(largestAbs(DVec3(b)), largestAbs(DVec3(d))));
     size_t g = 0;
     for (; g < groups.size(); ++g) {
       bool same = glm::dot(n, groups[g].n) >= 1.0 - 1e-12;

@@ -6,6 +6,7 @@
 #include <iomanip>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "math/triangle.h"
@@ -181,19 +182,30 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
       used[m] = false;
       ++sealedMirrors;
     }
-  bool mirror = false, rippled = false, glass = false, diffuse = false;
+  // The models the camera's paths can meet, by the effect each stands for (BsdfTraits::effect).
+  std::set<std::string> deltaEffects, glossyEffects;
+  bool diffuse = false;
   for (size_t m = 0; m < scene.materials.size(); ++m) {
-    if (!used[m]) continue;
-    mirror |= scene.materials[m].kind == MaterialKind::kMirror || scene.materials[m].kind == MaterialKind::kConductor;
-    rippled |= scene.materials[m].kind == MaterialKind::kRippledMirror;
-    glass |= scene.materials[m].kind == MaterialKind::kDielectric;
-    diffuse |= scene.materials[m].kind == MaterialKind::kLambertian && !isBlack(scene.materials[m].albedo);
+    const BsdfTraits& t = scene.materials[m].traits();
+    if (!used[m] || !t.reflects) continue;
+    if (t.lambertian)
+      diffuse = true;
+    else
+      (t.delta ? deltaEffects : glossyEffects).insert(t.effect);
   }
-  e.specular = mirror || rippled || glass;
+  const auto list = [](const std::set<std::string>& names) {
+    std::string out;
+    for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
+    return out;
+  };
+  e.specular = !deltaEffects.empty();
+  e.generalMaterials = e.specular || !glossyEffects.empty();
   e.decisions.push_back({"specular reflection", e.specular,
-                         e.specular    ? std::string(glass ? "glass" : rippled ? "rippled mirror" : "mirror") + " in the scene"
+                         e.specular      ? list(deltaEffects) + " in the scene"
                          : sealedMirrors ? "every mirror is sealed inside a closed mesh the camera is outside of"
                                          : "no mirror in the scene"});
+  if (!glossyEffects.empty())
+    e.decisions.push_back({"glossy materials", true, list(glossyEffects) + " in the scene"});
 
   // Lights that can light something: some surface vertex or the camera lies in front of them.
   std::vector<Vec3> points{camera.params().position};
@@ -234,7 +246,7 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
     for (uint32_t id : mesh.materialIds) seenEmitter |= mesh.visibleToCamera && scene.materials[id].isEmissive();
   e.decisions.push_back({"lights seen by the camera", seenEmitter,
                          seenEmitter ? "an emitter is visible to camera rays" : "every light is hidden from the camera"});
-  if (!diffuse && !e.specular)
+  if (!diffuse && !e.generalMaterials)
     e.decisions.push_back({"indirect light", false, "no surface reflects: only emitters are seen"});
   return e;
 }

@@ -8,7 +8,8 @@
 //    second changes what the scene asks for (at a preview resolution, typically): its decision
 //    is marked changesScene, says from which resolution on the lens is simulated, and is one of
 //    warnings();
-//  - specular materials: off when no mirror or rippled mirror occurs;
+//  - specular materials: off when no delta material (mirror, rippled mirror, smooth glass or
+//    metal) can be met; materials beyond Lambertian (the general vertex code): off when none can;
 //  - next-event estimation: off with the naive estimator, or when no light can light anything;
 //  - lights that face away from every surface and from the camera are dropped from sampling.
 #include <string>
@@ -31,7 +32,8 @@ struct EffectDecision {
 
 struct EffectSet {
   bool depthOfField = true;
-  bool specular = true;
+  bool specular = true;          // a delta material (mirror, smooth glass or metal) can be met
+  bool generalMaterials = true;  // a material beyond Lambertian can be met (render/integrator.h)
   bool lightSampling = true;
   std::vector<bool> lightUseful;  // per material index: false for emitters that light nothing
   std::vector<EffectDecision> decisions;

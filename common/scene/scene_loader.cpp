@@ -17,6 +17,7 @@
 
 #include "math/triangle.h"
 #include "scene/coplanar.h"
+#include "scene/field_reader.h"
 #include "scene/obj_check.h"
 #include "util/error.h"
 #include "util/hash.h"
@@ -24,7 +25,6 @@
 namespace lensfarm {
 
 namespace fs = std::filesystem;
-using json = nlohmann::json;
 
 namespace {
 
@@ -34,201 +34,9 @@ std::string shortNumber(double x) {
   return s.str();
 }
 
-double largestAbs(const DVec3& v) { return std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))); }
-
 std::string showVec3(const DVec3& v) {
   return "[" + shortNumber(v.x) + ", " + shortNumber(v.y) + ", " + shortNumber(v.z) + "]";
 }
-
-// ---------------------------------------------------------------------------------------------
-// What a colour channel may be: 0, or a number in [lo, hi] that the single-precision kernel
-// carries through a path (docs/scene-format.md, "Value types"; docs/numerics.md, "Extreme values").
-struct ColorRange {
-  double lo, hi;
-  const char* belowWhy;  // why (0, lo) is refused
-  const char* aboveWhy;  // why a value above hi is refused
-};
-// Albedos and reflectances. Above 1 a surface would reflect more than it receives. Below 1e-6 it
-// is darker than any real material (the blackest coatings reflect about 4e-4), and a path through
-// it would fall below single precision with the dimmest radiance (1e-30 x 1e-6 = 1e-36 is still
-// above the smallest normal float, 1.2e-38; the kernel flushes anything smaller to 0).
-constexpr ColorRange kReflectanceRange{
-    1e-6, 1.0,
-    "a reflectance below 1e-6 is darker than any real material and would be lost below single precision "
-    "(the kernel flushes numbers under 1.2e-38 to 0); write 0 for black",
-    "a reflectance is the fraction of light a surface reflects: above 1 it would make light from nothing"};
-// A conductor's complex index eta + i k per channel: real metals have eta from about 0.05 (silver)
-// to a few, and k up to about 10 (aluminium in the blue is 4.8, in the infrared more).
-constexpr ColorRange kConductorEtaRange{0.01, 10.0, "an index below 0.01 is not a metal in the visible",
-                                        "an index above 10 is not a material in the visible"};
-constexpr ColorRange kConductorKRange{1e-6, 100.0, "an extinction coefficient below 1e-6 is a dielectric: write 0",
-                                      "an extinction coefficient above 100 is not a material in the visible"};
-
-// Named metals for `conductor.metal`: eta and k at about 650, 550 and 450 nm (the red, green and
-// blue primaries), from measured optical constants (Au, Ag, Cu: Johnson & Christy 1972; Al:
-// Rakic 1995; as tabulated by refractiveindex.info).
-struct NamedMetal {
-  const char* name;
-  Spectrum eta, k;
-};
-constexpr NamedMetal kNamedMetals[] = {
-    {"Au", {0.143f, 0.374f, 1.442f}, {3.983f, 2.385f, 1.603f}},
-    {"Ag", {0.155f, 0.117f, 0.138f}, {4.828f, 3.122f, 2.147f}},
-    {"Cu", {0.200f, 0.924f, 1.102f}, {3.912f, 2.452f, 2.142f}},
-    {"Al", {1.657f, 0.880f, 0.521f}, {9.224f, 6.270f, 4.837f}},
-};
-
-// Radiance and emission. The kernel multiplies radiance by path weights in single precision
-// (3.4e38 at most, numbers under 1.2e-38 flushed to 0): 1e30 leaves 10^8 of headroom for the
-// weights of a path (albedos, cosines, 1/pdf) before a sample overflows to Inf (and is dropped);
-// 1e-30 keeps a path's contribution (radiance x weights, down to ~1e-8) a normal number, so a
-// dim scene is never silently black.
-constexpr ColorRange kRadianceRange{
-    1e-30, 1e30,
-    "below 1e-30, radiance times a path's weights falls under single precision's smallest normal number "
-    "(1.2e-38), which the kernel flushes to 0: the image would be silently black; choose a larger radiance unit "
-    "(the EXR stores the same unit)",
-    "above 1e30, radiance times a path's weights (up to ~1e8) overflows single precision (3.4e38); choose a "
-    "smaller radiance unit (the EXR stores the same unit)"};
-
-// ---------------------------------------------------------------------------------------------
-// FieldReader: typed, range-checked access to one JSON object that remembers which keys were
-// read, so that anything left over is reported as an unknown field (a typo must not be ignored).
-class FieldReader {
- public:
-  FieldReader(const json& object, std::string path, const std::string& file)
-      : object_(object), path_(std::move(path)), file_(file) {
-    if (!object_.is_object()) fail(path_.empty() ? "(top level)" : path_, "must be a JSON object");
-  }
-
-  [[noreturn]] void fail(const std::string& field, const std::string& what) const {
-    throw InputError(file_, field + ": " + what);
-  }
-  std::string field(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
-
-  bool has(const std::string& key) {
-    seen_.insert(key);
-    return object_.contains(key);
-  }
-  const json& raw(const std::string& key) {
-    if (!has(key)) fail(field(key), "is required");
-    return object_.at(key);
-  }
-
-  double number(const std::string& key, double lo = -std::numeric_limits<double>::max(),
-                double hi = std::numeric_limits<double>::max()) {
-    return checkNumber(raw(key), field(key), lo, hi);
-  }
-  double number(const std::string& key, double fallback, double lo, double hi) {
-    return has(key) ? number(key, lo, hi) : fallback;
-  }
-  double checkNumber(const json& v, const std::string& name, double lo, double hi) const {
-    if (!v.is_number()) fail(name, "must be a number");
-    const double x = v.get<double>();
-    if (!std::isfinite(x)) fail(name, "must be a finite number");
-    if (x < lo || x > hi) fail(name, "must be in [" + fmt(lo) + ", " + fmt(hi) + "], got " + fmt(x));
-    return x;
-  }
-
-  uint64_t integer(const std::string& key, uint64_t lo, uint64_t hi) {
-    const json& v = raw(key);
-    if (!v.is_number_integer() || (v.is_number_integer() && !v.is_number_unsigned() && v.get<int64_t>() < 0))
-      fail(field(key), "must be a non-negative integer");
-    const uint64_t x = v.get<uint64_t>();
-    if (x < lo || x > hi)
-      fail(field(key), "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + std::to_string(x));
-    return x;
-  }
-  uint64_t integer(const std::string& key, uint64_t fallback, uint64_t lo, uint64_t hi) {
-    return has(key) ? integer(key, lo, hi) : fallback;
-  }
-
-  bool boolean(const std::string& key, bool fallback) {
-    if (!has(key)) return fallback;
-    const json& v = object_.at(key);
-    if (!v.is_boolean()) fail(field(key), "must be true or false");
-    return v.get<bool>();
-  }
-
-  std::string string(const std::string& key) {
-    const json& v = raw(key);
-    if (!v.is_string()) fail(field(key), "must be a string");
-    return v.get<std::string>();
-  }
-  std::string string(const std::string& key, const std::string& fallback) {
-    return has(key) ? string(key) : fallback;
-  }
-
-  Vec3 vec3(const std::string& key) { return toVec3(raw(key), field(key)); }
-  Vec3 vec3(const std::string& key, Vec3 fallback) { return has(key) ? vec3(key) : fallback; }
-  Vec3 toVec3(const json& v, const std::string& name) const {
-    const DVec3 d = toDVec3(v, name);
-    for (int i = 0; i < 3; ++i)
-      if (std::abs(d[i]) > std::numeric_limits<float>::max())
-        fail(name + "[" + std::to_string(i) + "]", "is too large for single precision");
-    return Vec3(d);
-  }
-  // Positions and offsets in the world: kept in double until the scene is re-centred on the
-  // camera (SceneParser::toRenderSpace).
-  DVec3 dvec3(const std::string& key) { return toDVec3(raw(key), field(key)); }
-  DVec3 toDVec3(const json& v, const std::string& name) const {
-    if (!v.is_array() || v.size() != 3) fail(name, "must be an array of 3 numbers");
-    DVec3 out;
-    for (int i = 0; i < 3; ++i)
-      out[i] = checkNumber(v[i], name + "[" + std::to_string(i) + "]", -std::numeric_limits<double>::max(),
-                           std::numeric_limits<double>::max());
-    return out;
-  }
-
-  // A colour: three numbers, or one number for grey; each channel 0 or in [range.lo, range.hi].
-  Spectrum color(const std::string& key, const ColorRange& range) {
-    const json& v = raw(key);
-    if (v.is_number()) return Spectrum(float(checkChannel(v, field(key), range)));
-    if (!v.is_array() || v.size() != 3) fail(field(key), "must be an array of 3 numbers, or one number for grey");
-    Spectrum c;
-    for (int i = 0; i < 3; ++i) c[i] = float(checkChannel(v[i], field(key) + "[" + std::to_string(i) + "]", range));
-    return c;
-  }
-  Spectrum color(const std::string& key, Spectrum fallback, const ColorRange& range) {
-    return has(key) ? color(key, range) : fallback;
-  }
-  double checkChannel(const json& v, const std::string& name, const ColorRange& range) const {
-    const double x = checkNumber(v, name, -std::numeric_limits<double>::max(), std::numeric_limits<double>::max());
-    if (x == 0.0) return 0.0;  // also -0
-    if (x < 0.0)
-      fail(name, "must be 0 or in [" + fmt(range.lo) + ", " + fmt(range.hi) + "], got " + fmt(x) + ": a colour is never negative");
-    if (x > range.hi)
-      fail(name, "must be 0 or in [" + fmt(range.lo) + ", " + fmt(range.hi) + "], got " + fmt(x) + ": " + range.aboveWhy);
-    if (x < range.lo)
-      fail(name, "must be 0 or in [" + fmt(range.lo) + ", " + fmt(range.hi) + "], got " + fmt(x) + ": " + range.belowWhy);
-    return x;
-  }
-
-  // Reports the first key that no accessor asked for.
-  void finish() const {
-    for (auto it = object_.begin(); it != object_.end(); ++it) {
-      if (!seen_.count(it.key())) {
-        std::string allowed;
-        for (const auto& k : seen_) allowed += (allowed.empty() ? "" : ", ") + k;
-        fail(field(it.key()), "unknown field (expected one of: " + allowed + ")");
-      }
-    }
-  }
-
-  const std::string& path() const { return path_; }
-  const std::string& file() const { return file_; }
-
- private:
-  static std::string fmt(double x) {
-    std::ostringstream s;
-    s << x;
-    return s.str();
-  }
-  const json& object_;
-  std::string path_;
-  const std::string& file_;
-  std::set<std::string> seen_;
-};
 
 // ---------------------------------------------------------------------------------------------
 // Transform: scale, then rotate, then translate (all optional), in double like the positions.
@@ -343,52 +151,7 @@ class SceneParser {
     if (!mats.is_object() || mats.empty()) top.fail("materials", "must be an object of named materials");
     for (auto it = mats.begin(); it != mats.end(); ++it) {
       FieldReader r(it.value(), "materials." + it.key(), fileName_);
-      Material m;
-      m.name = it.key();
-      const std::string type = r.string("type");
-      if (type == "lambertian") {
-        m.kind = MaterialKind::kLambertian;
-        m.albedo = r.color("albedo", kReflectanceRange);
-        m.emission = r.color("emission", Spectrum(0.0f), kRadianceRange);
-      } else if (type == "mirror") {
-        m.kind = MaterialKind::kMirror;
-        m.albedo = r.color("reflectance", Spectrum(1.0f), kReflectanceRange);
-      } else if (type == "rippled_mirror") {
-        m.kind = MaterialKind::kRippledMirror;
-        m.albedo = r.color("reflectance", Spectrum(0.5f), kReflectanceRange);  // seed §4.2: halves the light
-        m.ripple = float(r.number("ripple", 0.02, 0.0, 1.0));
-      } else if (type == "emissive") {
-        m.kind = MaterialKind::kEmissive;
-        m.emission = r.color("radiance", kRadianceRange);
-      } else if (type == "conductor") {
-        m.kind = MaterialKind::kConductor;
-        m.albedo = r.color("tint", Spectrum(1.0f), kReflectanceRange);
-        if (r.has("metal") == (r.has("eta") || r.has("k")))
-          r.fail(r.field("metal"), "give either metal (Au, Ag, Cu or Al) or eta and k");
-        if (r.has("metal")) {
-          const std::string metal = r.string("metal");
-          const NamedMetal* found = nullptr;
-          for (const NamedMetal& nm : kNamedMetals)
-            if (metal == nm.name) found = &nm;
-          if (!found) r.fail(r.field("metal"), "unknown metal \"" + metal + "\" (expected Au, Ag, Cu or Al)");
-          m.eta = found->eta, m.k = found->k;
-        } else {
-          m.eta = r.color("eta", kConductorEtaRange);
-          m.k = r.color("k", kConductorKRange);
-        }
-        for (int c = 0; c < 3; ++c)
-          if (m.eta[c] == 0.0f) r.fail(r.field("eta"), "must be > 0 in every channel");
-      } else if (type == "dielectric") {
-        m.kind = MaterialKind::kDielectric;
-        m.albedo = r.color("transmittance", Spectrum(1.0f), kReflectanceRange);
-        m.ior = float(r.number("ior", 1.5, 1.0, 10.0));
-        m.thinWalled = r.boolean("thin_walled", false);
-      } else {
-        r.fail(r.field("type"), "unknown material type \"" + type +
-                                    "\" (expected lambertian, mirror, rippled_mirror, dielectric, conductor or emissive)");
-      }
-      if (m.isEmissive() || r.has("two_sided")) m.twoSidedEmission = r.boolean("two_sided", false);
-      r.finish();
+      Material m = parseMaterial(it.key(), r);
       materialIndex_[m.name] = uint32_t(scene_.materials.size());
       scene_.materials.push_back(m);
     }
@@ -543,11 +306,8 @@ class SceneParser {
       FieldReader r(lights[i], path, fileName_);
       const std::string type = r.string("type");
       if (type != "quad") r.fail(r.field("type"), "unknown light type \"" + type + "\" (expected quad)");
-      Material m;
-      m.name = path;
-      m.kind = MaterialKind::kEmissive;
-      m.emission = r.color("radiance", kRadianceRange);
-      m.twoSidedEmission = r.boolean("two_sided", false);
+      const Spectrum radiance = r.color("radiance", kRadianceRange);
+      const Material m(path, nullptr, radiance, r.boolean("two_sided", false));
       MeshInput mesh;
       mesh.mesh.name = r.string("name", path);
       mesh.mesh.visibleToCamera = r.boolean("visible_to_camera", true);

@@ -9,16 +9,19 @@
 
 namespace lensfarm::test {
 
-// A worker of one thread, of this build's protocol and renderer version.
-inline WorkerInfo workerInfo(const std::string& name) { return WorkerInfo{name, 1, kProtocolVersion, kRendererVersion}; }
+// A worker of `threads` threads, of this build's protocol and renderer version.
+inline WorkerInfo workerInfo(const std::string& name, uint32_t threads = 1) {
+  return WorkerInfo{name, threads, kProtocolVersion, kRendererVersion};
+}
 
-// The result of lease `g` for `worker` on a 4 x 3 frame, every sum `value`, 12 paths and 36 rays a
-// sample, rendered in `renderSeconds`.
-inline UnitResult resultFor(const std::string& worker, const LeaseGrant& g, double value, double renderSeconds = 0.0) {
+// The result of lease `g` for `worker` on a width x height frame (4 x 3 unless given), every sum
+// `value`, one path a pixel and 3 rays a path for each sample, rendered in `renderSeconds`.
+inline UnitResult resultFor(const std::string& worker, const LeaseGrant& g, double value, double renderSeconds = 0.0,
+                            int width = 4, int height = 3) {
   UnitResult r = resultForLease(worker, g);
-  r.buffer = SensorBuffer(4, 3);
+  r.buffer = SensorBuffer(width, height);
   std::fill(r.buffer.sums.begin(), r.buffer.sums.end(), value);
-  r.stats.paths = 12 * g.unit.sampleCount;
+  r.stats.paths = uint64_t(width) * uint64_t(height) * g.unit.sampleCount;
   r.stats.rays = 3 * r.stats.paths;
   r.renderSeconds = renderSeconds;
   return r;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "coordinator.h"
+#include "coordinator_fixtures.h"
 #include "dashboard.h"
 #include "test_support.h"
 #include "util/error.h"
@@ -25,20 +26,11 @@ JobSpec specFor(uint64_t spp, double targetError = 0.0) {
   return spec;
 }
 
-WorkerInfo workerInfo(const std::string& name, uint32_t threads) {
-  return WorkerInfo{name, threads, kProtocolVersion, kRendererVersion};
+// A rendered-looking result on the dashboard tests' 8 x 6 frame, rendered in half a second.
+UnitResult resultFor(const std::string& worker, const LeaseGrant& g, double value) {
+  return test::resultFor(worker, g, value, 0.5, 8, 6);
 }
-
-// A rendered-looking result: every sum `value`, 48 paths rendered in `seconds`.
-UnitResult resultFor(const std::string& worker, const LeaseGrant& g, double value, double seconds = 0.5) {
-  UnitResult r = resultForLease(worker, g);
-  r.buffer = SensorBuffer(8, 6);
-  std::fill(r.buffer.sums.begin(), r.buffer.sums.end(), value);
-  r.stats.paths = 48 * g.unit.sampleCount;
-  r.stats.rays = 3 * r.stats.paths;
-  r.renderSeconds = seconds;
-  return r;
-}
+using test::workerInfo;
 
 // Leases and returns `units` units of whatever is first in line, with values that differ between
 // the halves so that the error estimate is positive.

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <complex>
 
+#include "material/conductor.h"
+#include "material/fresnel.h"
 #include "material/material.h"
 #include "test_support.h"
 #include "util/error.h"
@@ -41,17 +43,14 @@ TEST(Conductor, FresnelMatchesTheComplexIndexEquations) {
 }
 
 TEST(Conductor, ReflectsIntoTheMirrorDirectionWeightedByFresnel) {
-  Material gold;
-  gold.kind = MaterialKind::kConductor;
-  gold.albedo = Spectrum(1.0f);
-  gold.eta = Spectrum(0.143f, 0.374f, 1.442f);
-  gold.k = Spectrum(3.983f, 2.385f, 1.603f);
+  const Spectrum eta(0.143f, 0.374f, 1.442f), k(3.983f, 2.385f, 1.603f);
+  const Material gold("gold", std::make_shared<ConductorBsdf>(eta, k, Spectrum(1.0f)));
   const Vec3 n(0, 0, 1), wo = glm::normalize(Vec3(0.6f, 0.0f, 0.8f));
-  const auto s = gold.sample(n, wo, Vec2(0.3f, 0.7f));
+  const auto s = gold.sample(n, wo, 0.5f, Vec2(0.3f, 0.7f));
   ASSERT_TRUE(s && s->specular);
   EXPECT_NEAR(s->wi.x, -wo.x, 1e-6f);
   EXPECT_NEAR(s->wi.z, wo.z, 1e-6f);
-  for (int c = 0; c < 3; ++c) EXPECT_NEAR(s->weight[c], fresnelComplex(0.8, gold.eta[c], gold.k[c]), 2e-5);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(s->weight[c], fresnelComplex(0.8, eta[c], k[c]), 2e-5);
   EXPECT_GT(s->weight.r, s->weight.b) << "gold reflects red more than blue";
 }
 
@@ -93,7 +92,8 @@ TEST(Conductor, MetalIsNamedOrGivenByEtaAndKAndMistakesAreNamed) {
   }
   scene["materials"]["white"] = {{"type", "conductor"}, {"eta", {0.2, 0.9, 1.1}}, {"k", {3.9, 2.5, 2.1}}, {"tint", 0.9}};
   const Scene s = test::loadSceneJson(dir, scene);
-  EXPECT_EQ(s.materials[0].kind, MaterialKind::kConductor);
+  EXPECT_STREQ(s.materials[0].traits().effect, "metal");
+  EXPECT_TRUE(s.materials[0].isSpecular());
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <random>
 
 #include "material/material.h"
+#include "material/mirror.h"
 #include "math/sampling.h"
 
 namespace lensfarm {
@@ -22,9 +23,7 @@ TEST(Lambertian, SampledDirectionsFollowTheCosineDensity) {
   // Under pdf = cos(theta) / pi, both cos^2(theta) and phi are uniform on their ranges, so an
   // equal grid over (cos^2 theta, phi) has equal expected counts. The test derives this from the
   // density, independently of the warp in math/sampling.cpp.
-  Material m;
-  m.kind = MaterialKind::kLambertian;
-  m.albedo = Spectrum(0.6f, 0.3f, 0.1f);
+  const Material m("diffuse", std::make_shared<LambertianBsdf>(Spectrum(0.6f, 0.3f, 0.1f)));
   const Vec3 n = glm::normalize(Vec3(1.0f, -2.0f, 3.0f));
   const Frame frame = Frame::fromNormal(n);
   const Vec3 wo = glm::normalize(n + Vec3(0.3f, 0.1f, 0.0f));
@@ -33,7 +32,7 @@ TEST(Lambertian, SampledDirectionsFollowTheCosineDensity) {
   std::mt19937 rng(42);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   for (int k = 0; k < kN; ++k) {
-    const auto s = m.sample(n, wo, Vec2(u(rng), u(rng)));
+    const auto s = m.sample(n, wo, 0.5f, Vec2(u(rng), u(rng)));
     ASSERT_TRUE(s.has_value());
     const Vec3 local = frame.toLocal(s->wi);
     ASSERT_GT(local.z, 0.0f);
@@ -54,9 +53,7 @@ TEST(Lambertian, SampledDirectionsFollowTheCosineDensity) {
 TEST(Lambertian, ASampleOnTheRimOfTheUnitSquareStillGivesADirection) {
   // u.x or u.y exactly 0 used to give no direction (a horizon ray of pdf 0): the path ended
   // silently. Now it leaves just above the horizon, with weight = albedo and pdf = cos / pi.
-  Material m;
-  m.kind = MaterialKind::kLambertian;
-  m.albedo = Spectrum(0.6f, 0.3f, 0.1f);
+  const Material m("diffuse", std::make_shared<LambertianBsdf>(Spectrum(0.6f, 0.3f, 0.1f)));
   const Vec3 n = glm::normalize(Vec3(1.0f, -2.0f, 3.0f));
   for (const Vec2 u : {Vec2(0.0f, 0.0f), Vec2(0.0f, 0.5f), Vec2(0.5f, 0.0f), Vec2(0.0f, 0.999999f)}) {
     const auto s = m.sampleLambertian(n, u);
@@ -66,15 +63,13 @@ TEST(Lambertian, ASampleOnTheRimOfTheUnitSquareStillGivesADirection) {
     EXPECT_NEAR(glm::length(s->wi), 1.0f, 1e-6f);
     EXPECT_GT(s->pdf, 0.0f);
     EXPECT_NEAR(s->pdf, m.pdf(n, n, s->wi), 1e-2f * s->pdf);  // the world frame rounds a 2^-12 cosine
-    EXPECT_EQ(s->weight, m.albedo);
+    EXPECT_EQ(s->weight, m.albedo());
   }
 }
 
 TEST(Lambertian, EvalCosIntegratesToTheAlbedo) {
   // Monte Carlo with uniform hemisphere directions (not the material's own sampler).
-  Material m;
-  m.kind = MaterialKind::kLambertian;
-  m.albedo = Spectrum(0.8f);
+  const Material m("diffuse", std::make_shared<LambertianBsdf>(Spectrum(0.8f)));
   const Vec3 n(0, 0, 1);
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(0.0, 1.0);
@@ -89,10 +84,8 @@ TEST(Lambertian, EvalCosIntegratesToTheAlbedo) {
 }
 
 TEST(RippledMirror, KeepsExactlyItsReflectanceAndNeverGoesBelowTheSurface) {
-  Material m;
-  m.kind = MaterialKind::kRippledMirror;
-  m.albedo = Spectrum(0.5f);
-  m.ripple = 0.3f;  // strong ripple, so grazing reflections would dip below the surface
+  // A strong ripple, so grazing reflections would dip below the surface.
+  const Material m("rippled", std::make_shared<RippledMirrorBsdf>(Spectrum(0.5f), 0.3f));
   const Vec3 n = glm::normalize(Vec3(0.2f, 1.0f, -0.4f));
   const Frame frame = Frame::fromNormal(n);
   std::mt19937 rng(5);
@@ -103,7 +96,7 @@ TEST(RippledMirror, KeepsExactlyItsReflectanceAndNeverGoesBelowTheSurface) {
     double energy = 0.0;
     const int kN = 20000;
     for (int k = 0; k < kN; ++k) {
-      const auto s = m.sample(n, wo, Vec2(u(rng), u(rng)));
+      const auto s = m.sample(n, wo, 0.5f, Vec2(u(rng), u(rng)));
       ASSERT_TRUE(s.has_value()) << "a mirror must never lose a ray";
       ASSERT_TRUE(s->specular);
       ASSERT_GE(glm::dot(s->wi, n), 0.0f) << "at " << degrees << " degrees";
@@ -116,18 +109,16 @@ TEST(RippledMirror, KeepsExactlyItsReflectanceAndNeverGoesBelowTheSurface) {
 
 TEST(RippledMirror, SpreadsAroundThePerfectReflectionByTheRipple) {
   Material m;
-  m.kind = MaterialKind::kRippledMirror;
-  m.albedo = Spectrum(1.0f);
   const Vec3 n(0, 0, 1);
   const Vec3 wo = glm::normalize(Vec3(1.0f, 0.0f, 1.0f));
   const Vec3 mirror = glm::normalize(Vec3(-1.0f, 0.0f, 1.0f));
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   for (float ripple : {0.0f, 0.01f, 0.05f}) {
-    m.ripple = ripple;
+    m = Material("rippled", std::make_shared<RippledMirrorBsdf>(Spectrum(1.0f), ripple));
     float maxAngle = 0.0f;
     for (int k = 0; k < 5000; ++k) {
-      const auto s = m.sample(n, wo, Vec2(u(rng), u(rng)));
+      const auto s = m.sample(n, wo, 0.5f, Vec2(u(rng), u(rng)));
       maxAngle = std::max(maxAngle, std::acos(std::min(1.0f, glm::dot(s->wi, mirror))));
     }
     // Tilting the normal by atan(ripple) turns the reflection by at most twice that.
@@ -143,10 +134,7 @@ TEST(RippledMirror, TiltsItsNormalUniformlyOverTheDiskOfSlopes) {
   // From each sampled reflection the tilted normal is recovered as the half vector of wo and wi
   // (no folding happens for wo = n and ripple 0.3); its slope must be uniform in the disk, so an
   // equal-area grid over (slope^2 / ripple^2, angle) has equal expected counts.
-  Material m;
-  m.kind = MaterialKind::kRippledMirror;
-  m.albedo = Spectrum(0.5f);
-  m.ripple = 0.3f;
+  const Material m("rippled", std::make_shared<RippledMirrorBsdf>(Spectrum(0.5f), 0.3f));
   const Vec3 n = glm::normalize(Vec3(0.3f, -1.0f, 0.2f));
   const Frame frame = Frame::fromNormal(n);
   constexpr int kRadial = 10, kAngular = 20, kN = 400000;
@@ -154,7 +142,7 @@ TEST(RippledMirror, TiltsItsNormalUniformlyOverTheDiskOfSlopes) {
   std::mt19937 rng(17);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   for (int k = 0; k < kN; ++k) {
-    const auto s = m.sample(n, n, Vec2(u(rng), u(rng)));
+    const auto s = m.sample(n, n, 0.5f, Vec2(u(rng), u(rng)));
     const Vec3 h = frame.toLocal(glm::normalize(n + s->wi));
     const double sx = h.x / h.z, sy = h.y / h.z;
     const double r2 = (sx * sx + sy * sy) / (0.3 * 0.3);
@@ -170,11 +158,9 @@ TEST(RippledMirror, TiltsItsNormalUniformlyOverTheDiskOfSlopes) {
 }
 
 TEST(Mirror, ReflectsAboutTheNormal) {
-  Material m;
-  m.kind = MaterialKind::kMirror;
-  m.albedo = Spectrum(0.9f);
+  const Material m("mirror", std::make_shared<MirrorBsdf>(Spectrum(0.9f)));
   const Vec3 n(0, 1, 0), wo = glm::normalize(Vec3(1, 2, 3));
-  const auto s = m.sample(n, wo, Vec2(0.3f, 0.7f));
+  const auto s = m.sample(n, wo, 0.5f, Vec2(0.3f, 0.7f));
   ASSERT_TRUE(s.has_value());
   EXPECT_NEAR(s->wi.x, -wo.x, 1e-6f);
   EXPECT_NEAR(s->wi.y, wo.y, 1e-6f);

@@ -1,0 +1,69 @@
+#pragma once
+// The interface every scattering model implements (one per header/source pair in material/:
+// lambertian, mirror, dielectric, conductor, ...), and its conventions, written once:
+//
+//  - Directions are unit vectors pointing away from the surface: wo towards where the light goes
+//    (the camera side of the path), wi towards where it comes from.
+//  - `n` is the geometric normal turned to the side of wo (dot(n, wo) >= 0). `front` says whether
+//    that side is the front face (the face whose normal is cross(v1 - v0, v2 - v0)): a
+//    dielectric's outside, where its `ior` is entered from.
+//  - evalCos returns f(wo, wi) |cos theta_i|, per RGB channel; pdf the solid-angle density with
+//    which sample() returns wi. Both are 0 for delta lobes, which only sample() produces.
+//  - sample() takes one number for the choice of lobe (uLobe) and two for the direction (u), all
+//    in [0, 1), from the sampler's dimensions of the vertex (render/sampler.h, dims).
+//  - A sample's weight is f |cos| / pdf (or the delta lobe's weight), with every discrete choice
+//    already divided out, so a path multiplies its throughput by it.
+// Colour mixing is the seed's eq. 2: reflected = incident * reflectance, channel by channel.
+#include <optional>
+
+#include "math/vec.h"
+
+namespace lensfarm {
+
+struct MaterialSample {
+  Vec3 wi;
+  Spectrum weight;
+  float pdf;      // solid-angle density; 0 for specular (delta) lobes
+  bool specular;  // a delta lobe: no light sampling, no MIS
+};
+
+// What the renderer needs to know of a model before it shades with it (render/integrator.cpp,
+// scene/effects.cpp): constant for a model's lifetime.
+struct BsdfTraits {
+  bool reflects = false;    // scatters some light (false: black; the path ends there)
+  bool delta = false;       // every lobe is a delta: no light sampling; a "mirror" bounce (seed §4.5)
+  bool lambertian = false;  // f = albedo / pi: the packet tracer's lane loops shade it without the Bsdf
+  Spectrum albedo{0.0f};    // lambertian: its albedo
+  // The effect the scene analysis reports for it (scene/effects.h): "mirror", "rippled mirror",
+  // "glass", ...; empty for Lambertian.
+  const char* effect = "";
+
+  // A model whose lobes are all deltas, scattering `weight` (black: nothing), shown as `effect`.
+  static BsdfTraits deltaLobes(const Spectrum& weight, const char* effectName) {
+    BsdfTraits t;
+    t.reflects = !isBlack(weight);
+    t.delta = true;
+    t.effect = effectName;
+    return t;
+  }
+};
+
+class Bsdf {
+ public:
+  virtual ~Bsdf() = default;
+  virtual BsdfTraits traits() const = 0;
+  // f(wo, wi) |cos theta_i| (zero for delta lobes).
+  virtual Spectrum evalCos(const Vec3& /*n*/, const Vec3& /*wo*/, const Vec3& /*wi*/, bool /*front*/) const {
+    return Spectrum(0.0f);
+  }
+  // Density of sample() returning wi, in solid angle (zero for delta lobes).
+  virtual float pdf(const Vec3& /*n*/, const Vec3& /*wo*/, const Vec3& /*wi*/, bool /*front*/) const { return 0.0f; }
+  // An incident direction and its weight; nothing when the sample is absorbed.
+  virtual std::optional<MaterialSample> sample(const Vec3& n, const Vec3& wo, float uLobe, Vec2 u,
+                                               bool front) const = 0;
+};
+
+// Mirror reflection of wo about n.
+inline Vec3 reflect(const Vec3& wo, const Vec3& n) { return 2.0f * glm::dot(wo, n) * n - wo; }
+
+}  // namespace lensfarm
