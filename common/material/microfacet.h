@@ -170,4 +170,16 @@ struct GgxDistribution {
   float pdfVisibleNormal(const Vec3& w, const Vec3& m) const { return D(w, m); }
 };
 
+// Reflection off the microfacets of a GGX surface, without the Fresnel factor (the caller's), in
+// the local frame with wo.z > 0 and wi.z > 0 and h = normalize(wo + wi) [W07 eq. 20, 14]:
+//   f cos(theta_i) = D(h) G(wo, wi) / (4 cos(theta_o)),
+//   pdf(wi) = D_wo(h) / (4 (wo.h))   (visible normals reflected: the Jacobian dh/dwi = 1 / (4 wo.h)).
+inline float ggxReflectionCos(const GgxDistribution& ggx, const Vec3& wo, const Vec3& wi, const Vec3& h) {
+  return ggx.D(h) * ggx.G(wo, wi) / (4.0f * wo.z);
+}
+inline float ggxReflectionPdf(const GgxDistribution& ggx, const Vec3& wo, const Vec3& h) {
+  const float oh = glm::dot(wo, h);
+  return oh > 0.0f ? ggx.pdfVisibleNormal(wo, h) / (4.0f * oh) : 0.0f;
+}
+
 }  // namespace lensfarm
