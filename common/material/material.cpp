@@ -4,6 +4,7 @@
 #include "material/dielectric.h"
 #include "material/lambertian.h"
 #include "material/mirror.h"
+#include "material/principled.h"
 #include "scene/field_reader.h"
 
 namespace lensfarm {
@@ -23,6 +24,7 @@ constexpr MaterialType kMaterialTypes[] = {
     {"rippled_mirror", parseRippledMirror, ""},
     {"dielectric", parseDielectric, ""},
     {"conductor", parseConductor, ""},
+    {"principled", parsePrincipled, "emission"},
     {"emissive", nullptr, "radiance"},
 };
 }  // namespace
@@ -56,6 +58,17 @@ Material parseMaterial(const std::string& name, FieldReader& r) {
     emission = r.color("radiance", kRadianceRange);
   else if (!emissionField.empty())
     emission = r.color(emissionField, Spectrum(0.0f), kRadianceRange);
+  if (!emissionField.empty() && r.has("emission_strength")) {
+    // glTF's KHR_materials_emissive_strength: the emission colour times a factor.
+    const double strength = r.number("emission_strength", 0.0, kRadianceRange.hi);
+    for (int c = 0; c < 3; ++c) {
+      const double e = double(emission[c]) * strength;
+      if (e != 0.0 && (e < kRadianceRange.lo || e > kRadianceRange.hi))
+        r.fail(r.field("emission_strength"), "makes the emitted radiance " + std::to_string(e) +
+                                                 ", outside [1e-30, 1e30] (see the colour ranges)");
+      emission[c] = float(e);
+    }
+  }
   Material m(name, std::move(bsdf), emission);
   if (m.isEmissive() || r.has("two_sided")) m.twoSidedEmission = r.boolean("two_sided", false);
   r.finish();

@@ -55,6 +55,11 @@ std::vector<Case> roughCases() {
                         {"energy_compensation", false}},
                        degrees,
                        true});
+      for (double metallic : {0.0, 0.5, 1.0})
+        cases.push_back({{{"type", "principled"}, {"base_color", {0.8, 0.5, 0.2}}, {"metallic", metallic},
+                          {"roughness", roughness}, {"transmission", metallic < 1.0 ? 0.6 : 0.0}},
+                         degrees,
+                         true});
       for (double ior : {1.1, 1.5, 2.5})
         for (bool front : {true, false})
           cases.push_back({{{"type", "dielectric"}, {"ior", ior}, {"roughness", roughness}}, degrees, front});
@@ -259,6 +264,9 @@ TEST(RoughMaterials, BadFieldsNameTheField) {
       {{{"type", "conductor"}, {"metal", "Au"}, {"reflectance", 0.5}}, "materials.test.metal"},
       {{{"type", "conductor"}, {"reflectance", 1.5}}, "materials.test.reflectance"},
       {{{"type", "velvet"}}, "materials.test.type"},
+      {{{"type", "principled"}, {"metallic", 1.2}}, "materials.test.metallic"},
+      {{{"type", "principled"}, {"transmission", -0.5}}, "materials.test.transmission"},
+      {{{"type", "principled"}, {"roughness", 3}}, "materials.test.roughness"},
   };
   for (const auto& [fields, where] : bad) {
     try {
@@ -267,6 +275,84 @@ TEST(RoughMaterials, BadFieldsNameTheField) {
     } catch (const InputError& e) {
       EXPECT_NE(std::string(e.what()).find(where + ":"), std::string::npos) << e.what();
     }
+  }
+}
+
+// The glTF 2.0 BRDF (Appendix B) written out in double from the specification, independently of
+// PrincipledBsdf, for reflection (wi above) and thin-walled transmission (wi below), with the base
+// weighted by 1 - F_d(N.V) (the one documented difference, material/principled.h).
+double gltfBsdfCos(double c, double metallic, double roughness, double transmission, double ior, const DVec3& v,
+                   const DVec3& l) {
+  const double alpha = roughness * roughness, a2 = alpha * alpha;
+  const DVec3 lr(l.x, l.y, std::abs(l.z));  // thin-walled transmission: the reflection lobe mirrored
+  const DVec3 h = glm::normalize(v + lr);
+  const double nh = h.z, vh = glm::dot(v, h), nv = v.z, nl = lr.z;
+  const double d = a2 / (M_PI * std::pow(nh * nh * (a2 - 1.0) + 1.0, 2.0));
+  const double vis = 0.5 / (nl * std::sqrt(nv * nv * (1 - a2) + a2) + nv * std::sqrt(nl * nl * (1 - a2) + a2));
+  const double specular = vis * d;  // G D / (4 |N.L| |N.V|), glTF's V = G / (4 |N.L| |N.V|)
+  const double f0 = std::pow((ior - 1) / (ior + 1), 2.0), w = std::pow(1.0 - std::abs(vh), 5.0);
+  const double fd = f0 + (1 - f0) * w, fv = f0 + (1 - f0) * std::pow(1.0 - nv, 5.0);
+  if (l.z < 0) return (1 - metallic) * transmission * (1 - fv) * c * specular * nl;
+  const double metal = specular * (c + (1 - c) * w);
+  const double dielectric = (1 - fv) * (1 - transmission) * c / M_PI + fd * specular;
+  return ((1 - metallic) * dielectric + metallic * metal) * nl;
+}
+
+TEST(Principled, IsTheGltfBrdfOfTheSpecification) {
+  test::UniformRng rng(4);
+  for (double metallic : {0.0, 0.3, 1.0})
+    for (double roughness : {0.2, 0.5, 1.0})
+      for (double transmission : {0.0, 0.5}) {
+        const json fields = {{"type", "principled"}, {"base_color", {0.9, 0.4, 0.1}}, {"metallic", metallic},
+                             {"roughness", roughness}, {"transmission", transmission}, {"ior", 1.45}};
+        const Material m = materialFrom(fields);
+        for (int k = 0; k < 50; ++k) {
+          const Vec3 v = sampleCosineHemisphere(rng.next2());
+          Vec3 l = sampleCosineHemisphere(rng.next2());
+          if (k % 2) l.z = -l.z;
+          if (v.z < 1e-2f || std::abs(l.z) < 1e-2f) continue;
+          const Spectrum f = m.evalCos(Vec3(0, 0, 1), v, l);
+          const double base[3] = {0.9, 0.4, 0.1};
+          for (int c = 0; c < 3; ++c) {
+            const double expected = gltfBsdfCos(base[c], metallic, roughness, transmission, 1.45, DVec3(v), DVec3(l));
+            ASSERT_NEAR(f[c], expected, 1e-4 * std::max(1.0, expected)) << fields.dump() << " channel " << c;
+          }
+        }
+      }
+}
+
+TEST(Principled, NeverReflectsMoreThanItReceives) {
+  for (double metallic : {0.0, 0.5, 1.0})
+    for (double roughness : {0.05, 0.4, 1.0})
+      for (double transmission : {0.0, 1.0})
+        for (double degrees : {0.0, 60.0, 85.0}) {
+          const Material m = materialFrom({{"type", "principled"}, {"base_color", 1}, {"metallic", metallic},
+                                           {"roughness", roughness}, {"transmission", transmission}});
+          EXPECT_LE(albedo(m, incident(degrees), true, 20000), 1.01) << metallic << " " << roughness << " " << degrees;
+        }
+}
+
+TEST(Principled, AFullMetalIsTheUncompensatedRoughConductorWithItsBaseColourAsF0) {
+  const Material principled =
+      materialFrom({{"type", "principled"}, {"base_color", {0.9, 0.6, 0.3}}, {"metallic", 1}, {"roughness", 0.5}});
+  const Material conductor = materialFrom(
+      {{"type", "conductor"}, {"reflectance", {0.9, 0.6, 0.3}}, {"roughness", 0.5}, {"energy_compensation", false}});
+  test::UniformRng rng(8);
+  for (int k = 0; k < 200; ++k) {
+    const Vec3 v = sampleCosineHemisphere(rng.next2()), l = sampleCosineHemisphere(rng.next2());
+    const Spectrum a = principled.evalCos(Vec3(0, 0, 1), v, l), b = conductor.evalCos(Vec3(0, 0, 1), v, l);
+    for (int c = 0; c < 3; ++c) ASSERT_NEAR(a[c], b[c], 1e-5f * std::max(1.0f, b[c]));
+  }
+}
+
+TEST(Principled, EmissionStrengthScalesTheEmission) {
+  const Material m = materialFrom({{"type", "principled"}, {"emission", {1, 0.5, 0}}, {"emission_strength", 4}});
+  EXPECT_EQ(m.emission, Spectrum(4.0f, 2.0f, 0.0f));
+  try {
+    materialFrom({{"type", "principled"}, {"emission", 1e20}, {"emission_strength", 1e20}});
+    ADD_FAILURE() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("materials.test.emission_strength:"), std::string::npos) << e.what();
   }
 }
 
