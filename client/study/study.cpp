@@ -18,7 +18,9 @@
 #include "film/image_io.h"
 #include "scene/scene_loader.h"
 #include "study/progressive.h"
+#include "render/render_scene.h"
 #include "study/report.h"
+#include "util/file_contents.h"
 #include "util/error.h"
 #include "util/version.h"
 
@@ -42,12 +44,15 @@ struct Scale {
   uint64_t dofSpp;
   int bounceSide;
   uint64_t bounceSpp;
+  int materialsSide;
+  uint64_t materialsReferenceSpp;
+  double materialsBudget;  // seconds per variant
 };
 constexpr int kStudyBounces = 3;  // B for the convergence and resolution experiments
 // The edge images of the depth-of-field experiment are wide strips (4 rows) so that a pixel is
 // much smaller than the circle of confusion (0.094 mm on the 100 mm sensor).
-const Scale kFull{256, 8192, 128, 6.0, {64, 128, 256}, 12.0, 0.04, 4096, 256, 128, 64};
-const Scale kQuick{32, 256, 16, 0.15, {8, 16, 32}, 0.5, 0.10, 1024, 32, 16, 32};
+const Scale kFull{256, 8192, 128, 6.0, {64, 128, 256}, 12.0, 0.04, 4096, 256, 128, 64, 128, 4096, 8.0};
+const Scale kQuick{32, 256, 16, 0.15, {8, 16, 32}, 0.5, 0.10, 1024, 32, 16, 32, 16, 128, 0.3};
 
 struct Series {
   std::string name, integrator, sampler;
@@ -120,6 +125,7 @@ class Study {
     if (wants("resolution")) body += resolution();
     if (wants("dof")) body += depthOfField();
     if (wants("bounces")) body += bounces();
+    if (wants("materials")) body += materials();
     const double minutes = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / 60.0;
     writeBytesAtomically(report_, header(minutes) + body);
     spdlog::info("wrote {} ({:.1f} min)", report_.string(), minutes);
@@ -147,7 +153,8 @@ class Study {
   }
   Image referenceAt(int side) const { return side == reference_.width ? reference_ : downscaleToFit(reference_, side); }
 
-  Series measure(Scene scene, const Image& reference, const ProgressiveRun& run, const std::string& name) const {
+  Series measure(Scene scene, const Image& reference, const ProgressiveRun& run, const std::string& name,
+                 PathStats* stats = nullptr) const {
     Series s;
     s.name = name;
     s.integrator = integratorName(scene.render.integrator);
@@ -160,10 +167,25 @@ class Study {
       s.error.push_back(e.relativeRmse);
       s.estimate.push_back(c.estimate.valid ? c.estimate.relativeRmse : -1.0);
       s.details.push_back(e);
+      if (stats) *stats = c.stats;
       return true;
     });
     spdlog::info("{}: {} spp in {:.2f} s, relative RMSE {:.4f}", name, s.spp.back(), s.seconds.back(), s.error.back());
     return s;
+  }
+
+  // One line per series of relative RMSE against render time, on log-log axes, into plot `name`.
+  void plotErrorAgainstTime(const std::string& name, const std::vector<Series>& all) const {
+    std::string script = "set terminal pngcairo size 800,600 noenhanced\nset output " + gnuplotPath(plotFile(name)) +
+                         "\nset logscale xy\nset xlabel 'render time (s)'\nset ylabel 'relative RMSE'\nset grid\nplot ";
+    for (size_t k = 0; k < all.size(); ++k)
+      script += (k ? ", " : "") + std::string("'-' with linespoints title '") + all[k].name + "'";
+    script += "\n";
+    for (const Series& s : all) {
+      for (size_t k = 0; k < s.seconds.size(); ++k) script += number(s.seconds[k], 6) + " " + number(s.error[k], 6) + "\n";
+      script += "e\n";
+    }
+    runGnuplot(script);
   }
 
   // ---- convergence: estimators x samplers x roulette ------------------------------------------
@@ -326,18 +348,7 @@ class Study {
     slope_ = sxy / sxx;
     table.writeCsv(options_.out / "resolution.csv");
 
-    std::string script = "set terminal pngcairo size 800,600 noenhanced\nset output " + gnuplotPath(plotFile("resolution")) +
-                         "\nset logscale xy\nset xlabel 'render time (s)'\nset ylabel 'relative RMSE'\nset grid\n"
-                         "plot ";
-    for (size_t k = 0; k < all.size(); ++k) {
-      script += (k ? ", " : "") + std::string("'-' with linespoints title '") + all[k].name + "'";
-    }
-    script += "\n";
-    for (const Series& s : all) {
-      for (size_t k = 0; k < s.seconds.size(); ++k) script += number(s.seconds[k], 6) + " " + number(s.error[k], 6) + "\n";
-      script += "e\n";
-    }
-    runGnuplot(script);
+    plotErrorAgainstTime("resolution", all);
     return "## Resolution and noise (seed Fig. 6)\n\n"
            "cornell-seed, NEE + MIS, Sobol, B = " + std::to_string(kStudyBounces) +
            ". The references for the smaller images are the large reference box-filtered down (a pixel of the "
@@ -517,6 +528,78 @@ class Study {
            "bias no sample count removes). The last column is the noise at equal time (lower is better: "
            "relative RMSE x sqrt(seconds) is constant for a Monte Carlo estimator).\n\n" + table.markdown() + "\n" +
            link("bounces");
+  }
+
+  // ---- materials: what glass and metal cost (issue 20) ----------------------------------------
+  // cornell-glass-metal with its glass ball and tall block in turn diffuse, smooth, rough, and rough
+  // without energy compensation: per variant the time per path, the energy against its own
+  // reference, and the time to reach the same error.
+  std::string materials() {
+    const int side = scale_.materialsSide;
+    const fs::path file = options_.scenes / "cornell-glass-metal.json";
+    const json base = json::parse(readWholeFileOrThrow(file, file.string()));
+    struct Variant {
+      const char* name;
+      json glass, metal;
+    };
+    const json white = {{"type", "lambertian"}, {"albedo", 0.75}};
+    const json glass = {{"type", "dielectric"}, {"ior", 1.5}};
+    const json roughGlass = {{"type", "dielectric"}, {"ior", 1.5}, {"roughness", 0.3}};
+    const json gold = {{"type", "conductor"}, {"metal", "Au"}};
+    const json roughGold = {{"type", "conductor"}, {"metal", "Au"}, {"roughness", 0.3}};
+    json roughGoldSingle = roughGold;
+    roughGoldSingle["energy_compensation"] = false;
+    json veryRoughGold = roughGold, veryRoughGoldSingle = roughGoldSingle;
+    veryRoughGold["roughness"] = veryRoughGoldSingle["roughness"] = 1.0;
+    const std::vector<Variant> variants = {
+        {"diffuse stand-ins", white, white},
+        {"smooth glass, polished gold", glass, gold},
+        {"smooth glass, rough gold 0.3", glass, roughGold},
+        {"rough glass 0.3, rough gold 0.3", roughGlass, roughGold},
+        {"smooth glass, rough gold 1.0", glass, veryRoughGold},
+        {"smooth glass, rough gold 1.0, no energy compensation", glass, veryRoughGoldSingle},
+    };
+    Table table({"variant", "effects", "us per path", "rays per path", "image mean", "rel. RMSE at budget",
+                 "time to 5 % (s)"});
+    std::vector<Series> all;
+    for (const Variant& v : variants) {
+      json j = base;
+      j["materials"]["glass"] = v.glass;
+      j["materials"]["brushed-gold"] = v.metal;
+      j["render"]["resolution"] = {side, side};
+      j["render"]["samples_per_unit"] = 0;
+      Scene scene = parseScene(j.dump(), file);
+      const Image reference = referenceImage(scene, scale_.materialsReferenceSpp, cache_, nullptr, options_.threads);
+      ProgressiveRun run;
+      run.firstCheckpoint = 4;
+      run.budgetSeconds = scale_.materialsBudget;
+      run.threads = options_.threads;
+      PathStats stats;
+      all.push_back(measure(scene, reference, run, v.name, &stats));
+      const Series& s = all.back();
+      bool extrapolated = false;
+      const double t = timeToError(s, 0.05, &extrapolated);
+      const double paths = double(stats.paths);
+      const RenderScene rs(scene);
+      std::string effects;
+      for (const auto& d : rs.effects().decisions)
+        if ((d.effect == "specular reflection" || d.effect == "glossy materials") && d.simulated)
+          effects += (effects.empty() ? "" : "; ") + d.reason;
+      table.add({v.name, effects.empty() ? "diffuse only" : effects,
+                 number(s.seconds.back() / paths * 1e6 * double(std::thread::hardware_concurrency()), 3),
+                 number(double(stats.rays) / paths, 3), number(meanValue(reference), 4), number(s.error.back(), 3),
+                 number(t, 3) + (extrapolated ? " (extrapolated)" : "")});
+    }
+    table.writeCsv(options_.out / "materials.csv");
+    plotErrorAgainstTime("materials", all);
+    return "## Glass and metal (issue 20)\n\n"
+           "cornell-glass-metal at " + std::to_string(side) + "x" + std::to_string(side) + ", NEE + MIS, Sobol, B = " +
+           std::to_string(base["render"].value("max_bounces", 2)) + ", each variant against its own reference (" +
+           std::to_string(scale_.materialsReferenceSpp) + " spp). Time per path is per thread. What a material costs "
+           "is its time per path (refraction and microfacet sampling, longer paths through glass, whose bounces do "
+           "not count towards B when smooth) and its noise (caustics through smooth glass reach the sensor only on "
+           "scattered paths). The image mean shows what energy compensation keeps: without it a rough metal "
+           "darkens (59 % of the light lost at roughness 1 with F = 1).\n\n" + table.markdown() + "\n" + link("materials");
   }
 
   std::string header(double minutes) const {

@@ -9,7 +9,9 @@
 //  - resolution: error at a fixed time and time to a fixed error vs pixel count (seed Fig. 6);
 //  - dof: the blur of a sharp edge at and off the focus plane vs f-number, measured in the image
 //    and predicted by thin-lens optics, beside the depth of field of Table 1 (seed Fig. 7);
-//  - bounces: time per path, light-hit fraction, energy and noise vs the bounce limit B (Fig. 8).
+//  - bounces: time per path, light-hit fraction, energy and noise vs the bounce limit B (Fig. 8);
+//  - materials: glass and metal (smooth, rough, with and without energy compensation) in
+//    cornell-glass-metal: time per path, energy and the time to reach the same error.
 #include <filesystem>
 #include <set>
 #include <string>
@@ -19,14 +21,15 @@ namespace lensfarm::study {
 struct StudyOptions {
   std::filesystem::path out = "study";      // CSV files, plots, and the reference cache
   std::filesystem::path report;             // the Markdown report; default out/accuracy.md
-  std::filesystem::path scenes;             // the folder holding cornell-seed.json
+  std::filesystem::path scenes;             // the folder holding cornell-seed.json and cornell-glass-metal.json
   std::set<std::string> experiments;        // empty: all
   bool quick = false;                       // tiny images and budgets (seconds, for tests)
   unsigned threads = 0;                     // 0: every core
   std::string command;                      // how it was invoked, quoted in the report
 };
 
-inline const std::set<std::string> kExperiments = {"convergence", "estimate", "resolution", "dof", "bounces"};
+inline const std::set<std::string> kExperiments = {"convergence", "estimate", "resolution", "dof", "bounces",
+                                                   "materials"};
 
 // Runs the experiments and writes the outputs; throws InputError for bad options and
 // std::runtime_error when a tool (gnuplot) fails.

@@ -119,6 +119,34 @@ TEST(PacketIntegrator, EveryLaneGivesTheSinglePathBitsWithLensAndMirrors) {
   }
 }
 
+TEST(PacketIntegrator, EveryLaneGivesTheSinglePathBitsWithGlossyMetalGlassAndPrincipled) {
+  // Models beyond Lambertian take the one-path vertex code inside a packet; their light samples
+  // join the packet's shadow rays (render/integrator.cpp). Rough metal, rough glass, principled
+  // and smooth glass side by side, with light sampling on and off.
+  for (const char* integrator : {"nee_mis", "nee", "naive"}) {
+    SCOPED_TRACE(integrator);
+    json scene = sceneFile("cornell-glass.json");
+    scene["render"]["integrator"] = integrator;
+    scene["render"]["max_bounces"] = 4;
+    scene["shapes"][1]["file"] = (test::scenesDir() / "meshes/sphere.obj").string();
+    scene["materials"]["yellow"] = {{"type", "conductor"}, {"metal", "Au"}, {"roughness", 0.4}};
+    scene["materials"]["cyan"] = {{"type", "principled"}, {"base_color", {0.2, 0.7, 0.7}}, {"metallic", 0.3},
+                                  {"roughness", 0.5}, {"transmission", 0.4}};
+    scene["materials"]["blue"] = {{"type", "dielectric"}, {"ior", 1.4}, {"roughness", 0.3}};
+    test::TempDir dir;
+    const Scene loaded = test::loadSceneJson(dir, scene);
+    const RenderScene rs(loaded);
+    ASSERT_TRUE(rs.effects().generalMaterials);
+    const auto lanes = lanesFor(48, 48);
+    for (int width : {16, 5}) {
+      if (std::string(integrator) == "naive")
+        expectPacketsEqualSinglePaths<false, true>(rs, lanes, width);
+      else
+        expectPacketsEqualSinglePaths<true, true>(rs, lanes, width);
+    }
+  }
+}
+
 TEST(PacketIntegrator, UnitsRenderedInPacketsEqualUnitsRenderedOneRayAtATime) {
   // The whole unit renderer, packets against single rays, for unit sizes that put one pixel,
   // several pixels, or a pixel and a half in a packet.

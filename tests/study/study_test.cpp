@@ -21,9 +21,22 @@ Csv readCsv(const fs::path& file) {
   std::vector<std::string> header;
   Csv rows;
   for (std::string line; std::getline(in, line);) {
-    std::vector<std::string> cells;
-    std::stringstream ss(line);
-    for (std::string cell; std::getline(ss, cell, ',');) cells.push_back(cell);
+    // RFC 4180 cells: a quoted cell may hold commas ("" is a quote inside one).
+    std::vector<std::string> cells(1);
+    bool quoted = false;
+    for (size_t k = 0; k < line.size(); ++k) {
+      const char c = line[k];
+      if (quoted && c == '"' && k + 1 < line.size() && line[k + 1] == '"') {
+        cells.back() += '"';
+        ++k;
+      } else if (c == '"') {
+        quoted = !quoted;
+      } else if (c == ',' && !quoted) {
+        cells.emplace_back();
+      } else {
+        cells.back() += c;
+      }
+    }
     if (header.empty()) {
       header = cells;
       continue;
@@ -50,15 +63,16 @@ struct StudyRun {
 void checkReportTablesAndPlots(const StudyRun& run) {
   const std::string report = test::readFile(run.dir.path() / "docs" / "accuracy.md");
   for (const char* section : {"## Convergence", "## The live error estimate", "## Resolution", "## Depth of field",
-                              "## Bounces", "lensfarm study"})
+                              "## Bounces", "## Glass and metal", "lensfarm study"})
     EXPECT_NE(report.find(section), std::string::npos) << section;
-  for (const char* plot : {"convergence", "estimate", "resolution", "dof", "bounces"}) {
+  for (const char* plot : {"convergence", "estimate", "resolution", "dof", "bounces", "materials"}) {
     EXPECT_NE(report.find("(../out/" + std::string(plot) + ".png)"), std::string::npos) << "relative link to " << plot;
     const std::string png = test::readFile(run.out(std::string(plot) + ".png"));
     ASSERT_GT(png.size(), 2000u) << plot;
     EXPECT_EQ(png.substr(1, 3), "PNG") << plot;
   }
-  for (const char* csv : {"convergence.csv", "time-to-error.csv", "estimate.csv", "resolution.csv", "dof.csv", "bounces.csv"})
+  for (const char* csv : {"convergence.csv", "time-to-error.csv", "estimate.csv", "resolution.csv", "dof.csv", "bounces.csv",
+                          "materials.csv"})
     EXPECT_GT(readCsv(run.out(csv)).size(), 2u) << csv;
 }
 
@@ -101,6 +115,18 @@ void checkBounces(const StudyRun& run) {
   EXPECT_GT(lastHits, 0.0);
 }
 
+// Energy compensation keeps a rough metal's light: the variant without it is darker, and the
+// diffuse stand-ins simulate no glass or metal.
+void checkMaterials(const StudyRun& run) {
+  std::map<std::string, std::map<std::string, std::string>> rows;
+  for (const auto& row : readCsv(run.out("materials.csv"))) rows[row.at("variant")] = row;
+  ASSERT_EQ(rows.size(), 6u);
+  EXPECT_LT(num(rows.at("smooth glass, rough gold 1.0, no energy compensation"), "image mean"),
+            num(rows.at("smooth glass, rough gold 1.0"), "image mean"));
+  EXPECT_EQ(rows.at("diffuse stand-ins").at("effects"), "diffuse only");
+  EXPECT_NE(rows.at("rough glass 0.3, rough gold 0.3").at("effects").find("rough glass"), std::string::npos);
+}
+
 TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
   StudyRun run;
   run.result = test::runProcess({test::cliPath().string(), "study", "--quick", "--out", (run.dir.path() / "out").string(),
@@ -122,6 +148,10 @@ TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
   {
     SCOPED_TRACE("bounces");
     checkBounces(run);
+  }
+  {
+    SCOPED_TRACE("materials");
+    checkMaterials(run);
   }
 }
 
