@@ -6,8 +6,8 @@
 // image; the equirectangular version with its Jacobian is the 3rd edition's InfiniteAreaLight,
 // §12.6 and §14.2.4).
 //
-// Convention (owned here; docs/scene-format.md's Conventions table should point here once the
-// scene format has an environment):
+// Convention (owned here; docs/scene-format.md's Conventions table points here, and the scene's
+// "environment" reaches it through light/environment_light.h):
 //  - World up is +y. A direction d = (x, y, z) points from the scene towards the sky.
 //  - theta = acos(y) is the angle from the zenith (0 straight up, pi straight down);
 //    phi = atan2(x, -z) is the azimuth, 0 along -z and +pi/2 along +x.

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 
@@ -13,13 +15,26 @@
 
 namespace lensfarm {
 
-LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const std::vector<bool>& useful)
-    : scene_(scene), caster_(caster) {
+SceneSphere sceneSphereOf(const RayCaster& caster) {
+  // The box of every vertex and the camera (render space's origin), in double; its centre and
+  // half-diagonal, rounded up so that the float sphere still holds every point.
+  DVec3 lo(0.0), hi(0.0);
+  for (const auto& t : caster.triangles())
+    for (const Vec3& v : {t.v0, t.v1, t.v2}) {
+      lo = glm::min(lo, DVec3(v));
+      hi = glm::max(hi, DVec3(v));
+    }
+  return SceneSphere{Vec3(0.5 * (lo + hi)), float(0.5 * glm::length(hi - lo) * (1.0 + 1e-6))};
+}
+
+LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const std::vector<bool>& useful,
+                           bool deltaOnly)
+    : scene_(scene), caster_(caster), sphere_(sceneSphereOf(caster)) {
   const auto& triangles = caster.triangles();
   lightOfTriangle_.assign(triangles.size(), -1);
   double total = 0.0;
   std::vector<double> power;
-  for (uint32_t k = 0; k < triangles.size(); ++k) {
+  for (uint32_t k = 0; k < triangles.size() && !deltaOnly; ++k) {
     const auto& t = triangles[k];
     const Material& m = scene.materials[t.material];
     if (!m.isEmissive() || (!useful.empty() && !useful[t.material])) continue;
@@ -35,14 +50,31 @@ LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const st
   if (lights_.size() > GatherView<Light>::kMaxRecords)  // the packet form's lane loop indexes them with 32 bits
     throw std::runtime_error("the scene has " + std::to_string(lights_.size()) + " emitting triangles; at most " +
                              std::to_string(GatherView<Light>::kMaxRecords) + " are supported");
+  // The other lights follow the triangles in the cdf, so that without them nothing changes.
+  std::vector<size_t> otherOfLight(scene.lights.size(), SIZE_MAX);
+  for (size_t k = 0; k < scene.lights.size(); ++k) {
+    const LightSource& light = *scene.lights[k];
+    if (deltaOnly && !light.isDelta()) continue;
+    const double p = light.powerOverPi(sphere_);
+    if (!(p > 0.0)) continue;
+    otherOfLight[k] = others_.size();
+    others_.push_back(Other{&light, 0.0f});
+    hasDelta_ |= light.isDelta();
+    power.push_back(p);
+    total += p;
+  }
   double running = 0.0;
-  for (size_t i = 0; i < lights_.size(); ++i) {
-    lights_[i].pmf = float(power[i] / total);
+  for (size_t i = 0; i < power.size(); ++i) {
+    (i < lights_.size() ? lights_[i].pmf : others_[i - lights_.size()].pmf) = float(power[i] / total);
     running += power[i] / total;
     cdf_.push_back(float(running));
   }
   if (!cdf_.empty()) cdf_.back() = 1.0f;
   for (size_t i = 0; i < kFewLights; ++i) fewCdf_[i] = i < cdf_.size() ? cdf_[i] : 2.0f;  // above any uChoice
+  for (size_t k = 0; k < scene.lights.size(); ++k)
+    if (scene.lights[k]->isReachedByEscapedRays())
+      escapeLights_.push_back(
+          EscapeLight{scene.lights[k].get(), otherOfLight[k] == SIZE_MAX ? 0.0f : others_[otherOfLight[k]].pmf});
 }
 
 namespace {
@@ -153,15 +185,26 @@ LENSFARM_LANE_LOOPS void sampleGatheredLanes(GatherView<Light> lights, const uin
 
 size_t LightSampler::choose(float uChoice) const {
   // The first cdf entry above uChoice (std::upper_bound).
-  const size_t i = lights_.size() <= kFewLights
-                       ? chooseAmongFew(fewCdf_, uChoice)
-                       : size_t(std::upper_bound(cdf_.begin(), cdf_.end(), uChoice) - cdf_.begin());
-  return std::min(i, lights_.size() - 1);
+  const size_t count = size();
+  const size_t i = count <= kFewLights ? chooseAmongFew(fewCdf_, uChoice)
+                                       : size_t(std::upper_bound(cdf_.begin(), cdf_.end(), uChoice) - cdf_.begin());
+  return std::min(i, count - 1);
+}
+
+std::optional<LightSample> LightSampler::sampleOther(size_t i, const Vec3& ref, Vec2 uPoint) const {
+  const Other& o = others_[i];
+  std::optional<LightSample> s = o.light->sample(ref, uPoint, sphere_);
+  if (!s) return std::nullopt;
+  s->pdf *= o.pmf;
+  if (!(s->pdf > 0.0f && std::isfinite(s->pdf))) return std::nullopt;
+  return s;
 }
 
 std::optional<LightSample> LightSampler::sample(const Vec3& ref, float uChoice, Vec2 uPoint) const {
-  if (lights_.empty()) return std::nullopt;
-  const Light& l = lights_[choose(uChoice)];
+  if (empty()) return std::nullopt;
+  const size_t i = choose(uChoice);
+  if (i >= lights_.size()) return sampleOther(i - lights_.size(), ref, uPoint);
+  const Light& l = lights_[i];
   const TrianglePoint s =
       sampleTrianglePoint(l.v0, l.v1, l.v2, l.n, ref, uPoint, l.pmf, l.area, l.emission, l.twoSided);
   if (!s.valid()) return std::nullopt;
@@ -169,8 +212,12 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, float uChoice, 
 }
 
 void LightSampler::sample(LightSampleLanes& lanes) const {
-  if (lights_.empty()) {
+  if (empty()) {
     for (int& found : lanes.found) found = 0;
+    return;
+  }
+  if (!others_.empty()) {
+    sampleMixedLanes(lanes);
     return;
   }
   // A lane not asked for computes on the first light (finite values) and stays not found.
@@ -186,6 +233,48 @@ void LightSampler::sample(LightSampleLanes& lanes) const {
   for (int k = 0; k < kPacketWidth; ++k) {
     const TrianglePoint s{{}, {}, lanes.pdf[k], dist2[k], cosLight[k]};
     if (!s.valid()) lanes.found[k] = 0;
+  }
+}
+
+void LightSampler::sampleMixedLanes(LightSampleLanes& lanes) const {
+  // Each lane chooses among all lights; those that choose a triangle sample it in the lane loop,
+  // the others one by one (sampleOther, what sample() does for them).
+  alignas(64) uint32_t chosen[kPacketWidth];
+  size_t other[kPacketWidth];
+  bool anyTriangle = false;
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const size_t i = lanes.found[k] != 0 ? choose(lanes.uChoice[k]) : SIZE_MAX;
+    const bool triangle = i < lights_.size();
+    chosen[k] = triangle ? uint32_t(i) : 0u;
+    other[k] = triangle || i == SIZE_MAX ? SIZE_MAX : i - lights_.size();
+    anyTriangle |= triangle;
+    lanes.delta[k] = 0;
+    lanes.reach[k] = 0.0f;
+  }
+  if (anyTriangle) {
+    alignas(64) float dist2[kPacketWidth], cosLight[kPacketWidth];
+    sampleGatheredLanes(GatherView<Light>(lights_.data()), chosen, lanes, dist2, cosLight);
+    for (int k = 0; k < kPacketWidth; ++k) {
+      const TrianglePoint s{{}, {}, lanes.pdf[k], dist2[k], cosLight[k]};
+      if (other[k] == SIZE_MAX && !s.valid()) lanes.found[k] = 0;
+    }
+  }
+  for (int k = 0; k < kPacketWidth; ++k) {
+    if (other[k] == SIZE_MAX) continue;
+    const std::optional<LightSample> s = sampleOther(other[k], Vec3(lanes.refx[k], lanes.refy[k], lanes.refz[k]),
+                                                     Vec2(lanes.u0[k], lanes.u1[k]));
+    if (!s) {
+      lanes.found[k] = 0;
+      continue;
+    }
+    lanes.px[k] = s->p.x, lanes.py[k] = s->p.y, lanes.pz[k] = s->p.z;
+    lanes.nx[k] = s->n.x, lanes.ny[k] = s->n.y, lanes.nz[k] = s->n.z;
+    lanes.v0x[k] = s->v0.x, lanes.v0y[k] = s->v0.y, lanes.v0z[k] = s->v0.z;
+    lanes.margin[k] = s->margin;
+    lanes.rr[k] = s->radiance.r, lanes.rg[k] = s->radiance.g, lanes.rb[k] = s->radiance.b;
+    lanes.pdf[k] = s->pdf;
+    lanes.delta[k] = s->delta ? 1 : 0;
+    lanes.reach[k] = s->reach;
   }
 }
 

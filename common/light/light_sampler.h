@@ -1,28 +1,29 @@
 #pragma once
-// Area lights: every triangle whose material emits (quads from `lights`, emissive meshes).
-// Next-event estimation picks one emitting triangle with probability proportional to its power
-// (area x luminance of the emitted radiance, doubled when two-sided) and a uniform point on it.
+// Next-event estimation's choice of a light: every triangle whose material emits (quads from
+// `lights`, emissive meshes) and every other light of the scene (light/light_source.h: point,
+// spot, directional, the environment), chosen with probability proportional to its power, then a
+// point on it (uniform on a triangle) or a direction (the light's own sampling).
+//
+// Power, in luminance and over pi (only ratios matter): an emitting triangle's is A L (doubled
+// when two-sided, Phi = pi A L); the other lights' is LightSource::powerOverPi, which uses the
+// scene's bounding sphere (SceneSphere: every triangle and the camera) for infinite lights. A
+// scene whose only lights are emitting triangles chooses exactly as it always has (the same cdf,
+// the same bits); only other lights bring in the combined choice, where a packet's lanes that
+// choose one of them take the one-sample code (sample()) lane by lane.
+//
+// With the naive estimator (`deltaOnly`) only delta lights are sampled: nothing else can reach
+// them, and every other light is counted where rays hit it (render/integrator.h).
 #include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <vector>
 
+#include "light/light_source.h"
 #include "math/vec.h"
 #include "render/ray_caster.h"
 #include "scene/scene.h"
 
 namespace lensfarm {
-
-struct LightSample {
-  Vec3 p;            // point on the light
-  Vec3 n;            // the light's geometric normal at p
-  Vec3 v0;           // with n and margin, the light triangle's SpawnPlane, for the shadow ray's end
-  float margin;
-  Spectrum radiance; // emitted towards the shading point (zero if it sees the back)
-  float pdf;         // solid-angle density at the shading point
-
-  SpawnPlane plane() const { return SpawnPlane{v0, n, margin}; }
-};
 
 // sample() for the lanes of a packet at once, as arrays over the lanes (render/integrator.h).
 struct LightSampleLanes {
@@ -37,15 +38,34 @@ struct LightSampleLanes {
   alignas(64) float margin[kPacketWidth];
   alignas(64) float rr[kPacketWidth], rg[kPacketWidth], rb[kPacketWidth];
   alignas(64) float pdf[kPacketWidth];
+  // Out, only where the scene has lights that are not triangles (LightSampler::hasOtherLights):
+  // 1 where the sample is of a delta light (LightSample::delta), else 0; LightSample::reach.
+  alignas(64) int delta[kPacketWidth];
+  alignas(64) float reach[kPacketWidth];
 };
 
 class LightSampler {
  public:
   // `useful[m]` false: emitters of material m light nothing and are not sampled (empty: all are).
-  LightSampler(const Scene& scene, const RayCaster& caster, const std::vector<bool>& useful = {});
+  // `deltaOnly`: sample only the delta lights (the naive estimator).
+  LightSampler(const Scene& scene, const RayCaster& caster, const std::vector<bool>& useful = {},
+               bool deltaOnly = false);
 
-  bool empty() const { return lights_.empty(); }
-  size_t size() const { return lights_.size(); }
+  bool empty() const { return size() == 0; }
+  size_t size() const { return lights_.size() + others_.size(); }  // the lights sampled
+  // Whether a light sample may be of a delta light (LightSample::delta).
+  bool hasDeltaLights() const { return hasDelta_; }
+  // Whether lights other than triangles are sampled: only then does the lane form write the
+  // lanes' delta and reach.
+  bool hasOtherLights() const { return !others_.empty(); }
+  // The lights that rays leaving the scene reach (the environment, a sun with a diameter), each
+  // with the probability of choosing it for a light sample (0 where it is not sampled).
+  struct EscapeLight {
+    const LightSource* light;
+    float pmf;
+  };
+  const std::vector<EscapeLight>& escapeLights() const { return escapeLights_; }
+  const SceneSphere& sceneSphere() const { return sphere_; }
 
   // Samples a point on a light as seen from `ref`; nothing if the chosen point is degenerate.
   std::optional<LightSample> sample(const Vec3& ref, float uChoice, Vec2 uPoint) const;
@@ -53,8 +73,11 @@ class LightSampler {
   void sample(LightSampleLanes& lanes) const;
 
   // Density (solid angle, at a point at distance `distance` in direction d) with which sample()
-  // would have produced the point hit on emitting triangle `triangle` (RayCaster index).
+  // would have produced the point hit on emitting triangle `triangle` (RayCaster index); 0 where
+  // the triangle is not sampled.
   float pdf(uint32_t triangle, float distance, const Vec3& d) const;
+  // The same for a ray leaving the scene in direction d and reaching escape light e.
+  static float pdf(const EscapeLight& e, const Vec3& d) { return e.pmf > 0.0f ? e.pmf * e.light->pdf(d) : 0.0f; }
 
   // Radiance leaving triangle `triangle` towards -d (zero from the back of a one-sided light).
   Spectrum emitted(uint32_t triangle, const Vec3& d) const;
@@ -75,13 +98,27 @@ class LightSampler {
 
  private:
   size_t choose(float uChoice) const;  // the light whose cdf interval holds uChoice
+  // A light sample of other light i (an index into others_).
+  std::optional<LightSample> sampleOther(size_t i, const Vec3& ref, Vec2 uPoint) const;
+  void sampleMixedLanes(LightSampleLanes& lanes) const;  // the lane form with other lights
 
   const Scene& scene_;
   const RayCaster& caster_;
-  std::vector<Light> lights_;
+  std::vector<Light> lights_;  // the emitting triangles; in the cdf first, by index
+  struct Other {
+    const LightSource* light;
+    float pmf;
+  };
+  std::vector<Other> others_;  // the other lights; in the cdf after the triangles
   std::vector<float> cdf_;            // cumulative pmf, cdf_.back() == 1
   float fewCdf_[kFewLights];  // cdf_ padded with 2 (above any uChoice), up to kFewLights lights
   std::vector<int32_t> lightOfTriangle_;  // per RayCaster triangle, -1 if not emitting
+  SceneSphere sphere_;
+  std::vector<EscapeLight> escapeLights_;
+  bool hasDelta_ = false;
 };
+
+// The bounding sphere of the caster's triangles and the camera (render space's origin).
+SceneSphere sceneSphereOf(const RayCaster& caster);
 
 }  // namespace lensfarm

@@ -28,30 +28,67 @@ struct PathState {
 
 // The shadow ray of a vertex's light sample and what it adds if nothing blocks it.
 struct ShadowQuery {
-  Vec3 from, to;  // the segment, both ends offset off their surfaces
+  Vec3 from, direction;  // from the vertex (offset off its surface) ...
+  float tFar;            // ... to from + tFar direction
   Spectrum contribution;
 };
+
+// The shadow ray from a vertex towards the light point, d = to - from (both ends offset off their
+// surfaces). To an emitting triangle (reach 0) it is the segment itself, stopping kShadowEpsilon
+// short, as it always was. To any other light (LightSample::reach > 0) it is cast along the unit
+// direction and runs reach times the distance (less kShadowEpsilon): Embree's triangle test
+// multiplies the direction by products of coordinates, which a direction as long as the scene
+// overflows in float when the scene is larger than about 1e12 (docs/numerics.md).
+inline void unitShadowRay(const Vec3& d, float reach, Vec3& direction, float& tFar) {
+  const float length = glm::length(d);
+  direction = d / length;
+  tFar = reach * length * (1.0f - kShadowEpsilon);
+}
 
 struct VertexOutcome {
   bool castShadow = false;  // `shadow` holds a light sample whose ray must be tested
   bool continues = false;   // `path` holds the next ray to cast
 };
 
-// Light reached by the camera ray or a scattered ray: emission reaching the sensor, weighted by
-// the power heuristic after a diffuse vertex (NEE + MIS), or not counted there (NEE alone, whose
-// light samples count it instead).
+// The weight of light that the camera ray or a scattered ray reaches (an emitter it hits, or a
+// light beyond the scene when it leaves), given lightPdf(), the density with which a light sample
+// would have produced it: 1 after the camera or a delta lobe, and for a light no light sample can
+// produce (lightPdf() 0: with the naive estimator every light but the delta ones, which rays never
+// reach); else the power heuristic after a non-delta vertex (NEE + MIS) or 0 there (NEE alone,
+// whose light samples count it instead).
+template <bool kNee, typename LightPdf>
+inline float reachedLightWeight(const RenderScene& rs, const PathState& path, LightPdf lightPdf) {
+  if (!kNee || path.lastSpecular) return 1.0f;
+  const float pdf = lightPdf();
+  if (!(pdf > 0.0f)) return 1.0f;
+  return rs.settings().integrator == IntegratorKind::kNeeMis ? powerHeuristic(path.lastPdf, pdf) : 0.0f;
+}
+
+// Light reached by the camera ray or a scattered ray: emission reaching the sensor, weighted as
+// reachedLightWeight says.
 template <bool kNee>
 inline void addEmittedLight(const RenderScene& rs, const SurfaceHit& hit, const Material& material, PathState& path) {
   if (!material.isEmissive()) return;
   const Spectrum le = rs.lights().emitted(hit.triangle, path.direction);
   if (isBlack(le)) return;
   path.hitLight = true;
-  float weight = 1.0f;
-  if (kNee && !path.lastSpecular)
-    weight = rs.settings().integrator == IntegratorKind::kNeeMis
-                 ? powerHeuristic(path.lastPdf, rs.lights().pdf(hit.triangle, hit.t, path.direction))
-                 : 0.0f;
+  const float weight =
+      reachedLightWeight<kNee>(rs, path, [&] { return rs.lights().pdf(hit.triangle, hit.t, path.direction); });
   path.radiance += path.throughput * le * weight;
+}
+
+// The camera ray or a scattered ray left the scene: the radiance of the lights beyond it that it
+// reaches (the environment, a sun with an angular diameter), each weighted as an emitter is. Only
+// called where the scene has such lights (RenderScene::hasEscapeLights); the path ends.
+template <bool kNee>
+inline void addEscapedLight(const RenderScene& rs, PathState& path) {
+  for (const LightSampler::EscapeLight& e : rs.lights().escapeLights()) {
+    const Spectrum le = e.light->escaped(path.direction);
+    if (isBlack(le)) continue;
+    path.hitLight = true;
+    const float weight = reachedLightWeight<kNee>(rs, path, [&] { return LightSampler::pdf(e, path.direction); });
+    path.radiance += path.throughput * le * weight;
+  }
 }
 
 // The last counted bounce: the next vertex would end the path at the bounce limit, so the
@@ -59,9 +96,12 @@ inline void addEmittedLight(const RenderScene& rs, const SurfaceHit& hit, const 
 // There the light sample alone (weight 1, a valid MIS weighting of one strategy) carries the
 // direct light and the scattered ray is not cast: about one ray in six fewer at B = 3, same
 // expectation (Furnace and Estimators tests). Not after a mirror could follow: a mirror that
-// does not count would carry the path on to the light (a caustic light sampling cannot see).
+// does not count would carry the path on to the light (a caustic light sampling cannot see). Nor
+// with the naive estimator, whose light samples (of delta lights only) leave the other lights to
+// the scattered ray.
 inline bool lastBounceCanEndPaths(const RenderScene& rs) {
-  return !rs.mirrorsReachable() || rs.settings().mirrorBouncesCount;
+  return (!rs.mirrorsReachable() || rs.settings().mirrorBouncesCount) &&
+         rs.settings().integrator != IntegratorKind::kNaive;
 }
 inline bool isLastBounce(const RenderScene& rs, int bounces) {
   return bounces + 1 >= rs.settings().maxBounces && lastBounceCanEndPaths(rs);
@@ -132,8 +172,11 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
       const Spectrum f = material.evalCos(n, wo, wi, front);
       if (!isBlack(f)) {
         shadow.from = spawnOrigin(hit.p, hit.plane(), wi);
-        shadow.to = spawnOrigin(ls->p, ls->plane(), -wi);
-        const float weight = mis && !lastBounce ? powerHeuristic(ls->pdf, material.pdf(n, wo, wi, front)) : 1.0f;
+        shadow.direction = spawnOrigin(ls->p, ls->plane(), -wi) - shadow.from;
+        shadow.tFar = 1.0f - kShadowEpsilon;
+        if (ls->reach > 0.0f) unitShadowRay(shadow.direction, ls->reach, shadow.direction, shadow.tFar);
+        const float weight =
+            mis && !lastBounce && !ls->delta ? powerHeuristic(ls->pdf, material.pdf(n, wo, wi, front)) : 1.0f;
         shadow.contribution = path.throughput * f * ls->radiance * (weight / ls->pdf);
         outcome.castShadow = true;
       }
@@ -164,11 +207,14 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
   for (int segment = 0; segment < segments; ++segment) {
     ++stats.rays;
     const auto hit = rs.caster().intersect(path.origin, path.direction, segment == 0 ? RayKind::kCamera : RayKind::kScattered);
-    if (!hit) break;
+    if (!hit) {
+      if (rs.hasEscapeLights()) addEscapedLight<kNee>(rs, path);
+      break;
+    }
     const VertexOutcome outcome = shadeVertex<kNee, kGeneral>(rs, rng, segment, *hit, path, shadow);
     if (outcome.castShadow) {
       ++stats.rays;
-      if (!rs.caster().occluded(shadow.from, shadow.to - shadow.from, 1.0f - kShadowEpsilon))
+      if (!rs.caster().occluded(shadow.from, shadow.direction, shadow.tFar))
         path.radiance += shadow.contribution;
     }
     if (!outcome.continues) break;
@@ -405,6 +451,14 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
     stats.rays += uint64_t(live);
     rs.caster().intersect(rays, segment == 0 ? RayKind::kCamera : RayKind::kScattered, hits);
     shadowRays.clear();
+    // Lanes whose ray left the scene end there, with the light beyond it (tracePath's miss).
+    if (rs.hasEscapeLights())
+      for (int k = 0; k < kPacketWidth; ++k) {
+        if (!rays.active(k) || hits.found[k]) continue;
+        PathState path = paths.get(k, rays);
+        addEscapedLight<kNee>(rs, path);
+        paths.put(k, path);
+      }
 
     // The segment's sample values for all lanes: in vector loops (the same bits as each lane's
     // get1D / get2D) where the sampler has a lane form, always from the second vertex on and at
@@ -446,7 +500,19 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
       orientNormals(hits, rays, v, lights);
       if (kNee) {
         rs.lights().sample(lights);
+        // A delta light's sample has MIS weight 1, and a light that is not a triangle a shadow ray
+        // along a unit direction (shadeVertex).
+        const bool otherLights = rs.lights().hasOtherLights();
+        if (otherLights)
+          for (int k = 0; k < kPacketWidth; ++k) v.misOn[k] = lights.delta[k] != 0 ? 0.0f : v.misOn[k];
         prepareShadowRays(hits, paths, v, lights, shadowRays);
+        if (otherLights)
+          for (int k = 0; k < kPacketWidth; ++k) {
+            if (!(lights.reach[k] > 0.0f)) continue;
+            Vec3 d = shadowRays.direction(k);
+            unitShadowRay(d, lights.reach[k], d, shadowRays.tFar[k]);
+            shadowRays.dx[k] = d.x, shadowRays.dy[k] = d.y, shadowRays.dz[k] = d.z;
+          }
         for (int k = 0; k < kPacketWidth; ++k)
           shadowRays.valid[k] = lights.found[k] != 0 && !isBlack(Spectrum(lights.rr[k], lights.rg[k], lights.rb[k])) &&
                                         !isBlack(Spectrum(v.fr[k], v.fg[k], v.fb[k]))
@@ -479,7 +545,7 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
       for (int k = 0; k < kPacketWidth; ++k) {
         if (!generalShadow[k]) continue;
         const ShadowQuery& q = generalShadows[k];
-        shadowRays.set(k, q.from, q.to - q.from, 1.0f - kShadowEpsilon);
+        shadowRays.set(k, q.from, q.direction, q.tFar);
         v.cr[k] = q.contribution.r, v.cg[k] = q.contribution.g, v.cb[k] = q.contribution.b;
       }
 

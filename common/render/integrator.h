@@ -8,9 +8,16 @@
 // facing mirrors cannot loop forever.
 //
 // Estimators:
-//  - naive (the seed's): a path contributes only if a scattered ray happens to hit a light;
-//  - nee_mis: at each diffuse vertex one light sample (next-event estimation) plus the scattered
-//    ray, combined with the power heuristic (Veach 1997). Both are unbiased for the same B.
+//  - naive (the seed's): a path contributes only if a scattered ray happens to hit a light, except
+//    for delta lights (point, spot, a sun without diameter), which no ray can hit: those alone are
+//    light-sampled at each diffuse vertex (weight 1; light/light_sampler.h);
+//  - nee: at each diffuse vertex one light sample (next-event estimation), weight 1; a scattered
+//    ray that reaches a light the samples can produce counts 0;
+//  - nee_mis: one light sample plus the scattered ray, combined with the power heuristic (Veach
+//    1997). All are unbiased for the same B.
+// "Reaching a light" is hitting an emitting triangle or leaving the scene towards the
+// environment or a sun with an angular diameter (addEscapedLight); after the camera or a delta
+// lobe either counts with weight 1. A ray that leaves the scene ends its path.
 //
 // Two forms of the same tracer:
 //  - tracePath traces one camera path, one ray at a time: the readable reference, whose vertex
@@ -21,7 +28,9 @@
 //    switched off). The paths' state, the hits and every step of a diffuse vertex (the decisions,
 //    the light sample, the shadow ray, the scattered direction) are arrays over the lanes and
 //    loops over them, which the compiler vectorises (math/lanes.h); only lanes that meet a mirror
-//    or an emitter go one at a time, through shadeVertex / addEmittedLight. The lane loops evaluate
+//    or an emitter, leave the scene towards a light beyond it (only in a scene that has one) or
+//    choose a light that is not a triangle go one at a time, through shadeVertex /
+//    addEmittedLight / addEscapedLight / LightSampler::sample. The lane loops evaluate
 //    the same shared formulas (the warps, offsets, Lambertian lobe, light sample, MIS weight) in
 //    the same order, so a lane computes exactly what tracePath computes for its sample and its
 //    radiance depends on its own sample only: never on which samples share its packet, on the

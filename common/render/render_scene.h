@@ -22,7 +22,8 @@ class RenderScene {
         effects_(general ? EffectSet::all(scene) : analyzeEffects(scene, camera_)),
         mirrorsReachable_(general ? analyzeEffects(scene, camera_).specular : effects_.specular),
         caster_(scene),
-        lights_(scene, caster_, effects_.lightUseful) {
+        lights_(scene, caster_, effects_.lightUseful, scene.render.integrator == IntegratorKind::kNaive),
+        hasEscapeLights_(!lights_.escapeLights().empty()) {
     for (const Material& m : scene.materials)
       materialRecords_.push_back({m.albedo(), m.isEmissive() ? ~0u : 0u, m.reflects() ? ~0u : 0u,
                                   m.reflects() && !m.isLambertian() ? ~0u : 0u});
@@ -37,6 +38,9 @@ class RenderScene {
   bool mirrorsReachable() const { return mirrorsReachable_; }
   const RayCaster& caster() const { return caster_; }
   const LightSampler& lights() const { return lights_; }
+  // Whether rays that leave the scene can reach a light (the environment, a sun with an angular
+  // diameter): only then does a miss cost more than ending the path (render/integrator.cpp).
+  bool hasEscapeLights() const { return hasEscapeLights_; }
   const Material& material(uint32_t id) const { return scene_.materials[id]; }
   // What the packet tracer's lane loops read of each material (render/integrator.cpp): its
   // Lambertian albedo and Material's predicates as masks (~0u where true, 0 where false);
@@ -54,6 +58,7 @@ class RenderScene {
   bool mirrorsReachable_;
   RayCaster caster_;
   LightSampler lights_;
+  bool hasEscapeLights_;
   std::vector<MaterialRecord> materialRecords_;
 };
 

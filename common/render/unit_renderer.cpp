@@ -125,7 +125,8 @@ bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
   // branch for an effect the scene does not call for.
   const EffectSet& e = rs.effects();
   const bool lens = e.depthOfField;
-  const bool nee = e.lightSampling && rs.settings().integrator != IntegratorKind::kNaive && !rs.lights().empty();
+  // (With the naive estimator the light sampler holds the delta lights alone, if any.)
+  const bool nee = e.lightSampling && !rs.lights().empty();
   const bool general = e.generalMaterials;
   using Fn = bool (*)(const RenderScene&, const WorkUnit&, SensorBuffer&, PathStats&, const std::atomic<bool>*, RayGrouping);
   static constexpr Fn kTable[2][2][2] = {

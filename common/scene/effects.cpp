@@ -100,6 +100,105 @@ bool sealedAway(const Scene& scene, const std::vector<Shell>& shells, uint32_t i
   return any;
 }
 
+// Signed volume of a closed shell (six times it): negative where its triangles face inwards.
+double signedVolume(const Shell& shell) {
+  double v = 0.0;
+  for (size_t t : shell.triangles) {
+    const auto& p = shell.mesh->positions;
+    const uint32_t* i = &shell.mesh->indices[3 * t];
+    v += glm::dot(DVec3(p[i[0]]), glm::cross(DVec3(p[i[1]]), DVec3(p[i[2]])));
+  }
+  return v;
+}
+
+// Emitters that can emit nothing into the scene: for each material, why (empty: it can).
+struct UselessLights {
+  std::vector<std::string> reason;
+};
+
+// A one-sided emitting triangle emits into the half-space in front of it; it lights nothing if no
+// surface vertex and not the camera lies there. A triangle of a closed mesh wound inwards emits
+// only into that mesh's inside, so its own vertices (in front of it) do not count: it lights
+// something only if the camera or another surface's vertex is inside. A material is useless if
+// every one of its triangles is.
+UselessLights findUselessLights(const Scene& scene, const std::vector<Shell>& shells, const Vec3& camera) {
+  std::vector<Vec3> points{camera};
+  for (const auto& mesh : scene.meshes) points.insert(points.end(), mesh.positions.begin(), mesh.positions.end());
+  // Inward shells and, for each, whether something lies inside.
+  std::map<std::pair<const TriangleMesh*, size_t>, bool> inwardTriangle;  // -> something inside its shell
+  for (const Shell& shell : shells) {
+    bool emits = false;
+    for (size_t t : shell.triangles) emits |= scene.materials[shell.mesh->materialIds[t]].isEmissive();
+    if (!emits || !(signedVolume(shell) < 0.0)) continue;
+    std::set<uint32_t> own;
+    DVec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+    for (size_t t : shell.triangles)
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t v = shell.mesh->indices[3 * t + k];
+        own.insert(v);
+        lo = glm::min(lo, DVec3(shell.mesh->positions[v]));
+        hi = glm::max(hi, DVec3(shell.mesh->positions[v]));
+      }
+    const auto within = [&](const Vec3& p) {
+      const DVec3 d(p);
+      return glm::all(glm::greaterThan(d, lo)) && glm::all(glm::lessThan(d, hi)) && inside(shell, d);
+    };
+    bool occupied = within(camera);
+    for (const auto& mesh : scene.meshes)
+      for (uint32_t v = 0; v < mesh.positions.size() && !occupied; ++v)
+        if (&mesh != shell.mesh || !own.count(v)) occupied = within(mesh.positions[v]);
+    for (size_t t : shell.triangles) inwardTriangle[{shell.mesh, t}] = occupied;
+  }
+  UselessLights out;
+  out.reason.assign(scene.materials.size(), "");
+  std::vector<int> useful(scene.materials.size(), 0), inward(scene.materials.size(), 0);
+  for (const auto& mesh : scene.meshes)
+    for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+      const uint32_t id = mesh.materialIds[t];
+      const Material& m = scene.materials[id];
+      if (!m.isEmissive() || useful[id]) continue;
+      if (m.twoSidedEmission) {
+        useful[id] = 1;
+        continue;
+      }
+      if (auto it = inwardTriangle.find({&mesh, t}); it != inwardTriangle.end()) {
+        useful[id] = it->second;
+        inward[id] = 1;
+        continue;
+      }
+      const Vec3& a = mesh.positions[mesh.indices[3 * t]];
+      const DVec3 n = triangleCross(a, mesh.positions[mesh.indices[3 * t + 1]], mesh.positions[mesh.indices[3 * t + 2]]);
+      for (const Vec3& p : points)
+        if (glm::dot(DVec3(p) - DVec3(a), n) > 0.0) {
+          useful[id] = 1;
+          break;
+        }
+    }
+  for (size_t m = 0; m < scene.materials.size(); ++m)
+    if (scene.materials[m].isEmissive() && !useful[m])
+      out.reason[m] = inward[m] ? "faces only into the closed mesh it lies on, where neither the camera nor any other "
+                                  "surface is"
+                                : "faces away from every surface and the camera";
+  return out;
+}
+
+// How a warning names an emitter: `light "lamp"` for a `lights` quad (its material is named after
+// the entry), else `emissive material "glow" (shape "ball")`.
+std::string emitterName(const Scene& scene, uint32_t id) {
+  std::vector<std::string> shapes;
+  for (const auto& mesh : scene.meshes)
+    for (uint32_t m : mesh.materialIds)
+      if (m == id) {
+        shapes.push_back(mesh.name);
+        break;
+      }
+  const std::string& name = scene.materials[id].name;
+  if (name.rfind("lights[", 0) == 0 && shapes.size() == 1) return "light \"" + shapes[0] + "\"";
+  std::string out = "emissive material \"" + name + "\"";
+  for (size_t k = 0; k < shapes.size(); ++k) out += (k ? ", \"" : " (shape \"") + shapes[k] + "\"";
+  return shapes.empty() ? out : out + ")";
+}
+
 }  // namespace
 
 double maxBlurInCells(const Scene& scene, const ThinLensCamera& camera) {
@@ -207,52 +306,75 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
   if (!glossyEffects.empty())
     e.decisions.push_back({"glossy materials", true, list(glossyEffects) + " in the scene"});
 
-  // Lights that can light something: some surface vertex or the camera lies in front of them.
-  std::vector<Vec3> points{camera.params().position};
-  for (const auto& mesh : scene.meshes) points.insert(points.end(), mesh.positions.begin(), mesh.positions.end());
-  int useful = 0, useless = 0;
-  for (const auto& mesh : scene.meshes) {
-    for (size_t t = 0; t < mesh.triangleCount(); ++t) {
-      const uint32_t id = mesh.materialIds[t];
-      const Material& m = scene.materials[id];
-      if (!m.isEmissive() || m.twoSidedEmission) continue;
-      const Vec3& a = mesh.positions[mesh.indices[3 * t]];
-      const DVec3 n = triangleCross(a, mesh.positions[mesh.indices[3 * t + 1]], mesh.positions[mesh.indices[3 * t + 2]]);
-      bool facesSomething = false;
-      for (const Vec3& p : points)
-        if (glm::dot(DVec3(p) - DVec3(a), n) > 0.0) {
-          facesSomething = true;
-          break;
-        }
-      if (!facesSomething) e.lightUseful[id] = false;
+  // Lights that can light something: an emitter is useful if the front of some triangle of its
+  // material faces a surface or the camera (scene/effects.h).
+  const UselessLights useless = findUselessLights(scene, shells, camera.params().position);
+  int usefulLights = 0, uselessLights = 0;
+  for (size_t m = 0; m < scene.materials.size(); ++m) {
+    if (!used[m] || !scene.materials[m].isEmissive()) continue;
+    if (useless.reason[m].empty()) {
+      ++usefulLights;
+      continue;
     }
+    e.lightUseful[m] = false;
+    ++uselessLights;
+    e.sceneWarnings.push_back(emitterName(scene, uint32_t(m)) + " " + useless.reason[m] +
+                              ": it emits nothing into the scene (flip its winding or set two_sided)");
   }
-  for (size_t m = 0; m < scene.materials.size(); ++m)
-    if (used[m] && scene.materials[m].isEmissive()) (e.lightUseful[m] ? useful : useless)++;
-  if (useless > 0)
+  if (uselessLights > 0)
     e.decisions.push_back({"lights facing away", false,
-                           std::to_string(useless) + " light(s) face away from every surface and the camera: not sampled"});
+                           std::to_string(uselessLights) +
+                               " light(s) face away from every surface and the camera: not sampled"});
+  // The lights that are not triangles (light/light_source.h), by type.
+  int deltaLights = 0;
+  bool seenLight = false;
+  std::map<std::string, std::vector<const LightSource*>> byType;
+  for (const auto& light : scene.lights) {
+    byType[light->type()].push_back(light.get());
+    deltaLights += light->isDelta() ? 1 : 0;
+    seenLight |= light->isReachedByEscapedRays();
+  }
+  for (const auto& [type, lights] : byType) {
+    std::ostringstream reason;
+    if (type == "environment") {
+      reason << lights[0]->describe();
+    } else {
+      reason << lights.size() << ": ";
+      for (size_t k = 0; k < lights.size() && k < 3; ++k)
+        reason << (k ? "; " : "") << "\"" << lights[k]->name() << "\" (" << lights[k]->describe() << ")";
+      if (lights.size() > 3) reason << "; ...";
+    }
+    e.decisions.push_back({type == "environment" ? type : type + " lights", true, reason.str()});
+  }
+  usefulLights += int(scene.lights.size());
   if (scene.render.integrator == IntegratorKind::kNaive) {
-    e.lightSampling = false;
-    e.decisions.push_back({"next-event estimation", false, "the naive estimator was asked for"});
-  } else if (useful == 0) {
+    // Nothing but a light sample reaches a delta light: the naive estimator samples those alone.
+    e.lightSampling = deltaLights > 0;
+    e.decisions.push_back({"next-event estimation", e.lightSampling,
+                           e.lightSampling ? "the naive estimator samples only its " + std::to_string(deltaLights) +
+                                                 " delta light(s) (point, spot, sun without diameter), which no ray "
+                                                 "can hit"
+                                           : "the naive estimator was asked for"});
+  } else if (usefulLights == 0) {
     e.lightSampling = false;
     e.decisions.push_back({"next-event estimation", false, "no light can light anything"});
   } else {
-    e.decisions.push_back({"next-event estimation", true, std::to_string(useful) + " light(s) to sample"});
+    e.decisions.push_back({"next-event estimation", true, std::to_string(usefulLights) + " light(s) to sample"});
   }
   bool seenEmitter = false;
   for (const auto& mesh : scene.meshes)
     for (uint32_t id : mesh.materialIds) seenEmitter |= mesh.visibleToCamera && scene.materials[id].isEmissive();
-  e.decisions.push_back({"lights seen by the camera", seenEmitter,
-                         seenEmitter ? "an emitter is visible to camera rays" : "every light is hidden from the camera"});
+  e.decisions.push_back({"lights seen by the camera", seenEmitter || seenLight,
+                         seenEmitter ? "an emitter is visible to camera rays"
+                         : seenLight ? "camera rays that leave the scene see the light beyond it"
+                                     : "every light is hidden from the camera"});
   if (!diffuse && !e.generalMaterials)
     e.decisions.push_back({"indirect light", false, "no surface reflects: only emitters are seen"});
   return e;
 }
 
 std::vector<std::string> EffectSet::warnings() const {
-  std::vector<std::string> out;
+  std::vector<std::string> out = sceneWarnings;
   for (const auto& d : decisions)
     if (d.changesScene) out.push_back(d.effect + " is not simulated: " + d.reason);
   return out;

@@ -11,7 +11,12 @@
 //  - specular materials: off when no delta material (mirror, rippled mirror, smooth glass or
 //    metal) can be met; materials beyond Lambertian (the general vertex code): off when none can;
 //  - next-event estimation: off with the naive estimator, or when no light can light anything;
-//  - lights that face away from every surface and from the camera are dropped from sampling.
+//  - lights that face away from every surface and from the camera (or only into the inside of
+//    the closed mesh they lie on, with nothing there) are dropped from sampling and reported as
+//    warnings: they emit nothing into the scene;
+//  - the lights that are not triangles (point, spot, directional, the environment) are listed,
+//    e.g. "environment: on (sky.exr 2048x1024)"; with the naive estimator, light samples are
+//    taken of the delta lights alone (render/integrator.h).
 #include <string>
 #include <vector>
 
@@ -37,10 +42,14 @@ struct EffectSet {
   bool lightSampling = true;
   std::vector<bool> lightUseful;  // per material index: false for emitters that light nothing
   std::vector<EffectDecision> decisions;
+  // Problems of the scene itself that the render cannot mend, e.g. `light "lamp" faces away from
+  // every surface and the camera: it emits nothing into the scene (flip its winding or set
+  // two_sided)`: part of warnings().
+  std::vector<std::string> sceneWarnings;
 
   // "depth of field: on (blur up to 3.2 px); specular: off (no mirror) ..." for logs and headers.
   std::string summary() const;
-  // One line per decision that changes what the scene asks for, e.g. "depth of field is not
+  // sceneWarnings, then one line per decision that changes what the scene asks for, e.g. "depth of field is not
   // simulated: the scene's f/16 lens is traced as a pinhole at 400x400 px: ...; from 466x466 px
   // on it is simulated". Empty when the render simulates everything the scene calls for.
   std::vector<std::string> warnings() const;

@@ -136,6 +136,15 @@ class FieldReader {
     return out;
   }
 
+  // A direction (light directions): a vec3 that is not zero, normalised in double (divided by its
+  // largest component first, so that no length overflows).
+  Vec3 direction(const std::string& key) { return toDirection(toDVec3(raw(key), field(key)), field(key)); }
+  Vec3 toDirection(const DVec3& d, const std::string& name) const {
+    const double largest = largestAbs(d);
+    if (!(largest > 0.0)) fail(name, "must not be [0, 0, 0]: it gives a direction");
+    return Vec3(glm::normalize(d / largest));
+  }
+
   // A colour: three numbers, or one number for grey; each channel 0 or in [range.lo, range.hi].
   Spectrum color(const std::string& key, const ColorRange& range) {
     const json& v = raw(key);

@@ -4,10 +4,12 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "camera/thin_lens_camera.h"
+#include "light/light_source.h"
 #include "material/material.h"
 #include "math/vec.h"
 
@@ -82,6 +84,9 @@ struct Scene {
   ThinLensParams cameraParams;  // in render space: position is the origin
   std::vector<Material> materials;
   std::vector<TriangleMesh> meshes;
+  // Lights that are not emitting triangles, in render space (light/light_source.h): the point,
+  // spot and directional entries of `lights` in file order, then the environment if there is one.
+  std::vector<std::shared_ptr<const LightSource>> lights;
   RenderSettings render;
   uint64_t skippedDegenerateTriangles = 0;  // zero-area triangles dropped at load
 

@@ -15,6 +15,8 @@
 #include <set>
 #include <sstream>
 
+#include "light/environment_light.h"
+#include "light/light_types.h"
 #include "math/triangle.h"
 #include "scene/coplanar.h"
 #include "scene/field_reader.h"
@@ -95,6 +97,7 @@ class SceneParser {
     parseCamera(top);
     parseShapes(top);
     parseLights(top);
+    parseEnvironment(top);
     top.finish();
     bringFlushLightsForward(scene_);  // the coplanar rule (scene/coplanar.h)
 
@@ -305,7 +308,22 @@ class SceneParser {
       const std::string path = "lights[" + std::to_string(i) + "]";
       FieldReader r(lights[i], path, fileName_);
       const std::string type = r.string("type");
-      if (type != "quad") r.fail(r.field("type"), "unknown light type \"" + type + "\" (expected quad)");
+      if (type != "quad") {
+        const LightParser parseLight = findLightType(type);
+        if (!parseLight) {
+          std::string expected = "quad";
+          const std::vector<std::string> names = lightTypeNames();
+          for (size_t k = 0; k < names.size(); ++k)
+            expected += (k + 1 == names.size() ? " or " : ", ") + names[k];
+          r.fail(r.field("type"), "unknown light type \"" + type + "\" (expected " + expected + ")");
+        }
+        const LightParseContext context{r.string("name", path), [this](const DVec3& world, const std::string& field) {
+                                          return toRenderSpace(world, field);
+                                        }};
+        scene_.lights.push_back(parseLight(r, context));
+        r.finish();
+        continue;
+      }
       const Spectrum radiance = r.color("radiance", kRadianceRange);
       const Material m(path, nullptr, radiance, r.boolean("two_sided", false));
       MeshInput mesh;
@@ -323,6 +341,31 @@ class SceneParser {
         r.fail(path + ".edge2", "the quad has zero area in single precision, " +
                                     shortNumber(glm::length(toRenderSpace(corner, path + ".corner"))) + " from the camera");
     }
+  }
+
+  // The optional top-level "environment" (light/environment_light.h), after the lights.
+  void parseEnvironment(FieldReader& top) {
+    if (!top.has("environment")) return;
+    FieldReader r(top.raw("environment"), "environment", fileName_);
+    scene_.lights.push_back(lensfarm::parseEnvironment(
+        r, [this](FieldReader& reader, const std::string& key, const std::string& kind) {
+          return readAssetFile(reader, key, kind);
+        }));
+    r.finish();
+  }
+
+  // A file named by field `key` of r, relative to the scene file, read through the asset reader
+  // and added to the scene's hash and assets (so the farm ships it to workers), or one error
+  // naming the field and the path.
+  LoadedAsset readAssetFile(FieldReader& r, const std::string& key, const std::string& kind) {
+    const std::string rel = r.string(key);
+    const fs::path path = file_.parent_path() / rel;
+    std::optional<std::string> content = readAsset_(rel);
+    if (!content) r.fail(r.field(key), "cannot read " + kind + " \"" + path.string() + "\"");
+    hash_.update(rel);
+    hash_.update(*content);
+    scene_.assets[rel] = sha256Hex(*content);
+    return LoadedAsset{path.string(), std::move(*content)};
   }
 
   // A shape as read: world positions in double, the rest as it will render.
@@ -369,15 +412,10 @@ class SceneParser {
 
   void readObj(FieldReader& r, MeshInput& in) {
     TriangleMesh& mesh = in.mesh;
-    const std::string rel = r.string("file");
     const std::string where = r.field("file");
-    const fs::path path = file_.parent_path() / rel;
-    const std::optional<std::string> content = readAsset_(rel);
-    if (!content) r.fail(where, "cannot read OBJ file \"" + path.string() + "\"");
-    const std::string& text = *content;
-    hash_.update(rel);
-    hash_.update(text);
-    scene_.assets[rel] = sha256Hex(text);
+    const LoadedAsset file = readAssetFile(r, "file", "OBJ file");
+    const fs::path path = file.shown;
+    const std::string& text = file.bytes;
 
     // tinyobjloader skips what it does not understand: check first that this is an OBJ at all.
     const ObjCheck check = checkObjText(text);

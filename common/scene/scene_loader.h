@@ -1,5 +1,6 @@
 #pragma once
-// Reads a scene file (JSON, docs/scene-format.md) and the OBJ meshes it references.
+// Reads a scene file (JSON, docs/scene-format.md) and the OBJ meshes and OpenEXR environment map
+// it references.
 //
 // Validation is strict: an unknown field, a wrong type, a non-finite number, a value out of
 // range, a missing asset, a mesh that is not OBJ (scene/obj_check.h) or an impossible camera throws
@@ -30,8 +31,9 @@ inline constexpr double kDefaultSensorWidth = 0.036;
 inline constexpr double kMaxRenderDistance = kMaxRayOriginDistance;
 inline constexpr uint64_t kMaxTriangles = uint64_t(1) << 26;  // 67 M: far beyond any scene we render
 
-// Reads an asset (an OBJ file) that a scene names by its path relative to the scene file;
-// nothing if there is no such asset. The farm resolves assets from its content store this way.
+// Reads an asset (an OBJ file, an environment map) that a scene names by its path relative to the
+// scene file; nothing if there is no such asset. The farm resolves assets from its content store
+// this way.
 using AssetReader = std::function<std::optional<std::string>(const std::string& relativePath)>;
 
 // Reads assets from the file system, relative to `sceneFile`'s directory.

@@ -5,6 +5,7 @@
 
 #include <cstring>
 #include <fstream>
+#include <sstream>
 
 #include "coordinator.h"
 #include "render/unit_renderer.h"
@@ -196,6 +197,68 @@ TEST(Effects, LightSamplingOnlyWhenALightCanLightSomething) {
   const EffectSet away = effectsOf(scene);
   EXPECT_FALSE(away.lightSampling);
   EXPECT_NE(away.summary().find("face away from every surface"), std::string::npos) << away.summary();
+}
+
+// The faces of an OBJ reversed: its triangles face the other way.
+std::string reversedFaces(const std::string& obj) {
+  std::istringstream in(obj);
+  std::string out, line;
+  while (std::getline(in, line)) {
+    if (line.rfind("f ", 0) == 0) {
+      std::istringstream f(line.substr(2));
+      std::vector<std::string> v;
+      for (std::string x; f >> x;) v.push_back(x);
+      line = "f";
+      for (auto it = v.rbegin(); it != v.rend(); ++it) line += " " + *it;
+    }
+    out += line + "\n";
+  }
+  return out;
+}
+
+TEST(Effects, ALightThatEmitsNothingIntoTheSceneIsAWarning) {
+  const std::string why = ": it emits nothing into the scene (flip its winding or set two_sided)";
+  // A light quad behind the camera facing away from everything.
+  json scene = test::minimalSceneJson();
+  scene["lights"][0]["name"] = "lamp";
+  scene["lights"][0]["corner"] = {-0.5, -0.5, -5};
+  scene["lights"][0]["edge1"] = {0, 1, 0};
+  scene["lights"][0]["edge2"] = {1, 0, 0};
+  const EffectSet away = effectsOf(scene);
+  ASSERT_EQ(away.warnings().size(), 1u);
+  EXPECT_EQ(away.warnings()[0], "light \"lamp\" faces away from every surface and the camera" + why);
+  scene["lights"][0]["two_sided"] = true;
+  EXPECT_TRUE(effectsOf(scene).warnings().empty());
+
+  // An emissive sphere wound inwards lights only its own inside, where nothing is: it renders
+  // black, and is neither sampled nor counted. Wound outwards, it lights the scene, though the
+  // triangles at its top face nothing: it is sampled whole.
+  test::TempDir dir;
+  const std::string sphere = test::sphereObj(8, 16);
+  dir.write("inward.obj", reversedFaces(sphere));
+  dir.write("outward.obj", sphere);
+  for (const char* file : {"inward.obj", "outward.obj"}) {
+    SCOPED_TRACE(file);
+    json glow = test::minimalSceneJson();
+    glow["lights"] = json::array();
+    glow["materials"]["glow"] = {{"type", "emissive"}, {"radiance", 3}};
+    glow["shapes"].push_back({{"type", "obj"}, {"name", "ball"}, {"file", file}, {"material", "glow"},
+                              {"transform", {{"scale", 0.5}, {"translate", {0, 2, -1}}}}});
+    const Scene s = test::loadSceneJson(dir, glow);
+    const EffectSet e = analyzeEffects(s, s.camera());
+    const RenderScene rs(s);
+    if (std::string(file) == "inward.obj") {
+      ASSERT_EQ(e.warnings().size(), 1u);
+      EXPECT_EQ(e.warnings()[0], "emissive material \"glow\" (shape \"ball\") faces only into the closed mesh it lies "
+                                 "on, where neither the camera nor any other surface is" + why);
+      EXPECT_FALSE(e.lightSampling);
+      EXPECT_EQ(rs.lights().size(), 0u);
+    } else {
+      EXPECT_TRUE(e.warnings().empty()) << e.warnings()[0];
+      EXPECT_TRUE(e.lightSampling);
+      EXPECT_EQ(rs.lights().size(), 8u * 16u * 2u - 2u * 16u);  // every triangle of the sphere
+    }
+  }
 }
 
 TEST(Effects, SpecialisedAndGeneralPathsGiveTheSameBits) {

@@ -10,6 +10,7 @@
 #endif
 #include <fstream>
 
+#include "film/image_io.h"
 #include "render/integrator.h"
 #include "render/render_scene.h"
 #include "render/unit_renderer.h"
@@ -144,6 +145,57 @@ TEST(PacketIntegrator, EveryLaneGivesTheSinglePathBitsWithGlossyMetalGlassAndPri
       else
         expectPacketsEqualSinglePaths<true, true>(rs, lanes, width);
     }
+  }
+}
+
+// A Cornell scene with every kind of light added: a point and a spot inside the box, a sun with
+// and one without an angular diameter and an OpenEXR sky, which reach it through its open front.
+// The camera steps back, so that camera rays at the edges of the frame leave the scene too.
+json withEveryKindOfLight(json scene, const test::TempDir& dir) {
+  scene["camera"]["position"] = {0, 0, -4.5};
+  Image sky;
+  sky.width = 8, sky.height = 4;
+  for (int k = 0; k < 32; ++k) sky.rgb.insert(sky.rgb.end(), {0.5f + 0.1f * float(k % 5), 0.7f, 1.0f + 0.2f * float(k % 3)});
+  writeExr(dir / "sky.exr", sky, ImageMetadata{});
+  for (const json& light : json::array({
+           {{"type", "point"}, {"position", {0.3, 0.2, 0}}, {"intensity", {1, 0.8, 0.6}}},
+           {{"type", "spot"}, {"position", {-0.5, -0.8, -0.2}}, {"look_at", {0, 1, 0.3}}, {"intensity", 2},
+            {"cone_angle", 30}, {"falloff_start", 20}},
+           {{"type", "directional"}, {"direction", {0.2, -0.3, -1}}, {"irradiance", 0.5}},
+           {{"type", "directional"}, {"direction", {-0.3, -0.1, -1}}, {"irradiance", 0.7}, {"angular_diameter", 8}}}))
+    scene["lights"].push_back(light);
+  scene["environment"] = {{"file", "sky.exr"}, {"strength", 0.5}, {"rotation", 20}};
+  return scene;
+}
+
+TEST(PacketIntegrator, EveryLaneGivesTheSinglePathBitsWithEveryKindOfLight) {
+  // With the naive estimator the delta lights are still sampled, so every estimator traces with
+  // light samples compiled in (render/unit_renderer.cpp), and lanes that choose a light that is
+  // not a triangle take the one-sample code.
+  for (const char* integrator : {"nee_mis", "nee", "naive"})
+    for (bool roulette : {false, true}) {
+      SCOPED_TRACE(std::string(integrator) + (roulette ? " with roulette" : ""));
+      test::TempDir dir;
+      json classic = withEveryKindOfLight(sceneFile("cornell-classic.json"), dir);
+      classic["render"]["integrator"] = integrator;
+      classic["render"]["russian_roulette"] = roulette;
+      classic["render"]["max_bounces"] = 4;
+      const Scene scene = test::loadSceneJson(dir, classic);
+      const RenderScene rs(scene);
+      ASSERT_TRUE(rs.effects().lightSampling);
+      ASSERT_TRUE(rs.hasEscapeLights());
+      const auto lanes = lanesFor(48, 48);
+      for (int width : {16, 5}) expectPacketsEqualSinglePaths<true, false>(rs, lanes, width);
+    }
+  // Mirrors and a lens (the general vertex code) too.
+  for (const char* integrator : {"nee_mis", "naive"}) {
+    SCOPED_TRACE(integrator);
+    test::TempDir dir;
+    json seed = withEveryKindOfLight(sceneFile("cornell-seed.json"), dir);
+    seed["render"]["integrator"] = integrator;
+    const Scene scene = test::loadSceneJson(dir, seed);
+    const RenderScene rs(scene, /*general=*/true);
+    expectPacketsEqualSinglePaths<true, true>(rs, lanesFor(48, 48), 16);
   }
 }
 
