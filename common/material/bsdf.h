@@ -33,16 +33,19 @@ struct BsdfTraits {
   bool reflects = false;    // scatters some light (false: black; the path ends there)
   bool delta = false;       // every lobe is a delta: no light sampling; a "mirror" bounce (seed §4.5)
   bool lambertian = false;  // f = albedo / pi: the packet tracer's lane loops shade it without the Bsdf
+  bool choosesLobe = true;  // sample() reads uLobe (false: the integrator need not draw it)
   Spectrum albedo{0.0f};    // lambertian: its albedo
   // The effect the scene analysis reports for it (scene/effects.h): "mirror", "rippled mirror",
   // "glass", ...; empty for Lambertian.
   const char* effect = "";
 
-  // A model whose lobes are all deltas, scattering `weight` (black: nothing), shown as `effect`.
-  static BsdfTraits deltaLobes(const Spectrum& weight, const char* effectName) {
+  // A model whose lobes are all deltas, scattering `weight` (black: nothing), shown as `effect`;
+  // `choosesLobe`: it picks between several (glass: reflection or refraction).
+  static BsdfTraits deltaLobes(const Spectrum& weight, const char* effectName, bool choosesLobe = false) {
     BsdfTraits t;
     t.reflects = !isBlack(weight);
     t.delta = true;
+    t.choosesLobe = choosesLobe;
     t.effect = effectName;
     return t;
   }

@@ -11,7 +11,7 @@ DielectricBsdf::DielectricBsdf(const Spectrum& transmittance, float ior, bool th
 }
 
 BsdfTraits DielectricBsdf::traits() const {
-  if (smooth_) return BsdfTraits::deltaLobes(tint_, "glass");
+  if (smooth_) return BsdfTraits::deltaLobes(tint_, "glass", /*choosesLobe=*/true);
   BsdfTraits t;
   t.reflects = !isBlack(tint_);
   t.effect = "rough glass";

@@ -8,6 +8,7 @@ BsdfTraits LambertianBsdf::traits() const {
   BsdfTraits t;
   t.reflects = !isBlack(albedo_);
   t.lambertian = true;
+  t.choosesLobe = false;
   t.albedo = albedo_;
   return t;
 }

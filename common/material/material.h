@@ -37,6 +37,7 @@ class Material {
   // Every lobe is a delta (mirrors, smooth glass and metal): no light sampling.
   bool isSpecular() const { return traits_.delta; }
   bool isLambertian() const { return traits_.lambertian; }
+  bool choosesLobe() const { return traits_.choosesLobe; }
   // The Lambertian albedo (black for any other model).
   const Spectrum& albedo() const { return traits_.albedo; }
 

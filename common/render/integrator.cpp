@@ -185,9 +185,10 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
 
   if (lastBounce) return outcome;
 
-  // The lobe choice is drawn only where a model has lobes to choose (Lambertian has one).
+  // The lobe choice is drawn only where a model has lobes to choose (not Lambertian, not mirrors).
   const auto s = kGeneral && !material.isLambertian()
-                     ? material.sample(n, wo, rng.get1D(base + dims::kMaterialLobe), rng.get2D(base + dims::kMaterial), front)
+                     ? material.sample(n, wo, material.choosesLobe() ? rng.get1D(base + dims::kMaterialLobe) : 0.0f,
+                                       rng.get2D(base + dims::kMaterial), front)
                      : material.sampleLambertian(n, rng.get2D(base + dims::kMaterial));
   if (!s || !scatter(rs, rng, base, counts, s->weight, s->specular, s->pdf, path)) return outcome;
   path.origin = spawnOrigin(hit.p, hit.plane(), s->wi);
