@@ -541,6 +541,7 @@ class Study {
     struct Variant {
       const char* name;
       json glass, metal;
+      const char* scene = "cornell-glass-metal.json";
     };
     const json white = {{"type", "lambertian"}, {"albedo", 0.75}};
     const json glass = {{"type", "dielectric"}, {"ior", 1.5}};
@@ -558,17 +559,19 @@ class Study {
         {"rough glass 0.3, rough gold 0.3", roughGlass, roughGold},
         {"smooth glass, rough gold 1.0", glass, veryRoughGold},
         {"smooth glass, rough gold 1.0, no energy compensation", glass, veryRoughGoldSingle},
+        {"outdoors, lit by an environment map (sky and sun)", glass, roughGold, "glass-metal-sky.json"},
     };
     Table table({"variant", "effects", "us per path", "rays per path", "image mean", "rel. RMSE at budget",
                  "time to 5 % (s)"});
     std::vector<Series> all;
     for (const Variant& v : variants) {
-      json j = base;
+      const fs::path sceneFile = options_.scenes / v.scene;
+      json j = json::parse(readWholeFileOrThrow(sceneFile, sceneFile.string()));
       j["materials"]["glass"] = v.glass;
       j["materials"]["brushed-gold"] = v.metal;
       j["render"]["resolution"] = {side, side};
       j["render"]["samples_per_unit"] = 0;
-      Scene scene = parseScene(j.dump(), file);
+      Scene scene = parseScene(j.dump(), sceneFile);
       const Image reference = referenceImage(scene, scale_.materialsReferenceSpp, cache_, nullptr, options_.threads);
       ProgressiveRun run;
       run.firstCheckpoint = 4;
@@ -583,8 +586,9 @@ class Study {
       const RenderScene rs(scene);
       std::string effects;
       for (const auto& d : rs.effects().decisions)
-        if ((d.effect == "specular reflection" || d.effect == "glossy materials") && d.simulated)
-          effects += (effects.empty() ? "" : "; ") + d.reason;
+        if ((d.effect == "specular reflection" || d.effect == "glossy materials" || d.effect == "environment") &&
+            d.simulated)
+          effects += (effects.empty() ? "" : "; ") + (d.effect == "environment" ? "environment " + d.reason : d.reason);
       table.add({v.name, effects.empty() ? "diffuse only" : effects,
                  number(s.seconds.back() / paths * 1e6 * double(std::thread::hardware_concurrency()), 3),
                  number(double(stats.rays) / paths, 3), number(meanValue(reference), 4), number(s.error.back(), 3),
@@ -599,7 +603,8 @@ class Study {
            "is its time per path (refraction and microfacet sampling, longer paths through glass, whose bounces do "
            "not count towards B when smooth) and its noise (caustics through smooth glass reach the sensor only on "
            "scattered paths). The image mean shows what energy compensation keeps: without it a rough metal "
-           "darkens (59 % of the light lost at roughness 1 with F = 1).\n\n" + table.markdown() + "\n" + link("materials");
+           "darkens (59 % of the light lost at roughness 1 with F = 1). The last row is glass-metal-sky: the same "
+           "materials outdoors, lit only by an importance-sampled environment map with a small sun.\n\n" + table.markdown() + "\n" + link("materials");
   }
 
   std::string header(double minutes) const {

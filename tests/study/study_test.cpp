@@ -120,7 +120,9 @@ void checkBounces(const StudyRun& run) {
 void checkMaterials(const StudyRun& run) {
   std::map<std::string, std::map<std::string, std::string>> rows;
   for (const auto& row : readCsv(run.out("materials.csv"))) rows[row.at("variant")] = row;
-  ASSERT_EQ(rows.size(), 6u);
+  ASSERT_EQ(rows.size(), 7u);
+  EXPECT_NE(rows.at("outdoors, lit by an environment map (sky and sun)").at("effects").find("environment"),
+            std::string::npos);
   EXPECT_LT(num(rows.at("smooth glass, rough gold 1.0, no energy compensation"), "image mean"),
             num(rows.at("smooth glass, rough gold 1.0"), "image mean"));
   EXPECT_EQ(rows.at("diffuse stand-ins").at("effects"), "diffuse only");
