@@ -51,7 +51,7 @@ Runner addStudyCommand(CLI::App& app) {
     // The full study is long: say so, and where it writes, before the first render.
     spdlog::info("study: {} into {} (report {}); {}", o->experiments.empty() ? "every experiment" : "the chosen experiments",
                  o->out.string(), (o->report.empty() ? o->out / "accuracy.md" : o->report).string(),
-                 o->quick ? "--quick: about a minute" : "about 8 minutes on 2 cores for all experiments (--quick: about a minute)");
+                 o->quick ? "--quick: about a minute" : "about 10 minutes on 2 cores for all experiments (--quick: about a minute)");
     study::runStudy(*o);
     return kOk;
   };
