@@ -39,6 +39,22 @@ struct BsdfTraits {
   // "glass", ...; empty for Lambertian.
   const char* effect = "";
 
+  // The perfectly diffuse lobe of albedo `albedo` (material/lambertian.h).
+  static BsdfTraits lambertianLobe(const Spectrum& albedo) {
+    BsdfTraits t;
+    t.reflects = !isBlack(albedo);
+    t.lambertian = true;
+    t.choosesLobe = false;
+    t.albedo = albedo;
+    return t;
+  }
+  // A model with lobes of finite width (rough and principled models), shown as `effect`.
+  static BsdfTraits glossyLobes(bool reflects, const char* effectName) {
+    BsdfTraits t;
+    t.reflects = reflects;
+    t.effect = effectName;
+    return t;
+  }
   // A model whose lobes are all deltas, scattering `weight` (black: nothing), shown as `effect`;
   // `choosesLobe`: it picks between several (glass: reflection or refraction).
   static BsdfTraits deltaLobes(const Spectrum& weight, const char* effectName, bool choosesLobe = false) {

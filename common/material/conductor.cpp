@@ -90,10 +90,7 @@ ConductorBsdf::ConductorBsdf(const ConductorFresnel& fresnel, const Spectrum& ti
 
 BsdfTraits ConductorBsdf::traits() const {
   if (smooth_) return BsdfTraits::deltaLobes(tint_, "metal");
-  BsdfTraits t;
-  t.reflects = !isBlack(tint_);
-  t.effect = albedo_ ? "rough metal with energy compensation" : "rough metal";
-  return t;
+  return BsdfTraits::glossyLobes(!isBlack(tint_), albedo_ ? "rough metal with energy compensation" : "rough metal");
 }
 
 float ConductorBsdf::compensationProbability(float muO) const {

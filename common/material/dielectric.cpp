@@ -12,10 +12,7 @@ DielectricBsdf::DielectricBsdf(const Spectrum& transmittance, float ior, bool th
 
 BsdfTraits DielectricBsdf::traits() const {
   if (smooth_) return BsdfTraits::deltaLobes(tint_, "glass", /*choosesLobe=*/true);
-  BsdfTraits t;
-  t.reflects = !isBlack(tint_);
-  t.effect = "rough glass";
-  return t;
+  return BsdfTraits::glossyLobes(!isBlack(tint_), "rough glass");
 }
 
 void DielectricBsdf::evalLocal(const Vec3& wo, const Vec3& wi, float eta, Spectrum* f, float* pdf) const {

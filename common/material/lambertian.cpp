@@ -4,14 +4,7 @@
 
 namespace lensfarm {
 
-BsdfTraits LambertianBsdf::traits() const {
-  BsdfTraits t;
-  t.reflects = !isBlack(albedo_);
-  t.lambertian = true;
-  t.choosesLobe = false;
-  t.albedo = albedo_;
-  return t;
-}
+BsdfTraits LambertianBsdf::traits() const { return BsdfTraits::lambertianLobe(albedo_); }
 
 Spectrum LambertianBsdf::evalCos(const Vec3& n, const Vec3& /*wo*/, const Vec3& wi, bool /*front*/) const {
   return lambertianEvalCos(albedo_, n, wi);

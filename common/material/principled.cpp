@@ -24,12 +24,10 @@ PrincipledBsdf::PrincipledBsdf(const PrincipledParams& params)
 }
 
 BsdfTraits PrincipledBsdf::traits() const {
-  BsdfTraits t;
   // Black only when nothing can scatter: a black metal (F0 = 0 still reflects at grazing, but
   // C = 0 with metallic 1 reflects (1 - 0) x^5: not black). Every glTF material scatters something.
-  t.reflects = true;
-  t.effect = p_.transmission > 0.0f && p_.metallic < 1.0f ? "principled (glTF) with transmission" : "principled (glTF)";
-  return t;
+  const bool transmits = p_.transmission > 0.0f && p_.metallic < 1.0f;
+  return BsdfTraits::glossyLobes(true, transmits ? "principled (glTF) with transmission" : "principled (glTF)");
 }
 
 PrincipledBsdf::LobeChoice PrincipledBsdf::lobes(float cosO) const {
