@@ -14,10 +14,37 @@
 
 #include "material/bsdf.h"
 #include "material/lambertian.h"
+#include "material/principled.h"
+#include "texture/texture.h"
 
 namespace lensfarm {
 
 class FieldReader;
+
+// glTF alphaMode: kMask cuts the surface out where alpha < alphaCutoff (render/ray_caster.h skips
+// those hits); kBlend is rendered as kMask with cutoff 0.5 (a warning says so); kOpaque ignores
+// alpha.
+enum class AlphaMode { kOpaque, kMask, kBlend };
+
+// The inputs of a material whose parameters vary over the surface: the glTF metallic-roughness
+// model (material/principled.h) with its textures, as glTF defines them (glTF 2.0 §3.9): each
+// texture multiplies its factor. MTL maps (map_Kd, map_bump, ...) land in the same slots.
+// Occlusion textures are not read: a path tracer computes occlusion (docs/scene-format.md).
+struct MaterialTextures {
+  PrincipledParams factors;        // baseColorFactor (RGB), metallicFactor, roughnessFactor, ...
+  float alphaFactor = 1.0f;        // baseColorFactor's alpha
+  TextureRef baseColor;            // RGB: base colour (decoded from sRGB), A: alpha
+  TextureRef metallicRoughness;    // B: metallic, G: roughness (linear)
+  TextureRef normal;               // tangent-space normal map: RGB = (n + 1) / 2, +y along the v tangent
+  float normalScale = 1.0f;        // scales the map's x and y (glTF normalTexture.scale)
+  TextureRef emissive;             // RGB multiplies the material's emission (decoded from sRGB)
+  AlphaMode alphaMode = AlphaMode::kOpaque;
+  float alphaCutoff = 0.5f;
+
+  // Whether anything varies over the surface (false: the factors alone describe the material).
+  bool varies() const { return baseColor || metallicRoughness || normal || emissive; }
+  bool cutsOut() const { return alphaMode != AlphaMode::kOpaque; }
+};
 
 class Material {
  public:
@@ -58,9 +85,26 @@ class Material {
     return lensfarm::sampleLambertian(traits_.albedo, n, u);
   }
 
+  // A material with textures (glTF, MTL): its Bsdf at a point is the principled model with the
+  // textures' values there (principledAt). `emission` is the emissive factor; the emissive
+  // texture multiplies it.
+  static Material textured(std::string name, std::shared_ptr<const MaterialTextures> textures,
+                           const Spectrum& emission = Spectrum(0.0f), bool twoSidedEmission = false);
+  const MaterialTextures* textures() const { return textures_.get(); }
+  // Whether the material's scattering or emission varies over the surface.
+  bool varies() const { return textures_ && textures_->varies(); }
+  // The principled parameters at a point with texture coordinates uv (both sets), for a footprint
+  // of `width` in texture space (texture/texture.h). Only for materials with textures.
+  PrincipledParams principledAt(const Vec2 (&uv)[2], float width) const;
+  // The emitted radiance at such a point (the emissive texture times the emission).
+  Spectrum emissionAt(const Vec2 (&uv)[2], float width) const;
+  // Alpha at a point (base colour texture's A times alphaFactor; 1 without textures).
+  float alphaAt(const Vec2 (&uv)[2]) const;
+
  private:
   std::shared_ptr<const Bsdf> bsdf_;
   BsdfTraits traits_;
+  std::shared_ptr<const MaterialTextures> textures_;
 };
 
 // Reads one entry of the scene's `materials` (docs/scene-format.md, "Materials"): its `type`, the

@@ -41,6 +41,9 @@ struct PrincipledParams {
   float roughness = 1.0f;
   float transmission = 0.0f;  // KHR_materials_transmission
   float ior = 1.5f;           // KHR_materials_ior
+  // KHR_materials_specular's specularFactor: the weight of the dielectric's specular layer
+  // (0: a purely diffuse surface, as exporters write for one).
+  float specular = 1.0f;
 };
 
 class PrincipledBsdf final : public Bsdf {

@@ -23,13 +23,27 @@ namespace lensfarm {
 //
 // A triangle soup with one material per triangle. Positions are in render space. Triangles face
 // the side of n = cross(v1 - v0, v2 - v0) (counter-clockwise, as in OBJ).
+//
+// Vertex attributes, optional, indexed like positions (an empty array: the mesh has none):
+//  - normals: unit shading normals in render space, interpolated across a triangle (smooth
+//    shading). The renderer never lets a shading normal carry light through the surface
+//    (render/shading_point.h). A mesh without them is shaded with its geometric normals.
+//  - uv[0], uv[1]: texture coordinates (glTF TEXCOORD_0 / TEXCOORD_1; texture/texture.h has the
+//    convention).
+//  - tangents: xyz a unit tangent along +u, w = +1 or -1 the handedness of the bitangent
+//    (glTF TANGENT); without them normal maps use the triangle's own uv tangent.
 struct TriangleMesh {
   std::string name;
   std::vector<Vec3> positions;
   std::vector<uint32_t> indices;      // 3 per triangle
   std::vector<uint32_t> materialIds;  // 1 per triangle, into Scene::materials
+  std::vector<Vec3> normals;
+  std::vector<Vec2> uv[2];
+  std::vector<glm::vec4> tangents;
   bool visibleToCamera = true;        // false: camera rays pass through (seed §4.4's light)
   size_t triangleCount() const { return materialIds.size(); }
+  // Whether anything varies across a triangle (normals or texture coordinates).
+  bool hasAttributes() const { return !normals.empty() || !uv[0].empty() || !uv[1].empty(); }
 };
 
 enum class IntegratorKind {
