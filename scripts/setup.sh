@@ -19,7 +19,7 @@ BUILD_PACKAGES=(
   libopenexr-dev
   libspdlog-dev libfmt-dev
   libembree-dev libtbb-dev
-  nlohmann-json3-dev libcli11-dev libtinyobjloader-dev
+  nlohmann-json3-dev libcli11-dev libtinyobjloader-dev libtinygltf-dev libstb-dev
   libpng-dev zlib1g-dev
   libssl-dev openssl
   libsqlite3-dev

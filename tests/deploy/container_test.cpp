@@ -131,6 +131,8 @@ const std::map<std::string, Dependency>& debianNames() {
       {"PNG", {{"libpng-dev"}, cached("PNG_LIBRARY_RELEASE")}},
       {"nlohmann_json", {{"nlohmann-json3-dev"}, config("nlohmann_json")}},
       {"tinyobjloader", {{"libtinyobjloader-dev"}, config("tinyobjloader")}},
+      {"TinyGLTF", {{"libtinygltf-dev"}, config("TinyGLTF")}},
+      {"stb", {{"libstb-dev"}, [] { return fs::path(cacheValue("STB_LIBDIR")) / "pkgconfig/stb.pc"; }}},
       {"spdlog", {{"libspdlog-dev"}, config("spdlog")}},
       {"CLI11", {{"libcli11-dev"}, config("CLI11")}},
       {"OpenSSL", {{"libssl-dev"}, cached("OPENSSL_CRYPTO_LIBRARY")}},

@@ -1,0 +1,1 @@
+#include "scene/obj_import.h"

@@ -1,0 +1,1 @@
+#include "texture/image_decode.h"
