@@ -1,0 +1,772 @@
+// The glTF 2.0 importer (scene/gltf_import.h): small models written here as JSON with their
+// buffers as a separate .bin (read through a ModelFileReader over a map), as data URIs, or as a
+// .glb assembled byte by byte (glTF 2.0 §4.4), checked against values computed independently.
+#include "scene/gltf_import.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "util/error.h"
+
+namespace lensfarm {
+namespace {
+
+using json = nlohmann::json;
+
+constexpr int kFloat = 5126, kUnsignedByte = 5121, kUnsignedShort = 5123;
+const double kHalfSqrt2 = std::sqrt(0.5);
+const double kPi = std::acos(-1.0);
+
+std::string base64(const std::string& bytes) {
+  static const char* kDigits = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  for (size_t i = 0; i < bytes.size(); i += 3) {
+    uint32_t v = uint32_t(static_cast<unsigned char>(bytes[i])) << 16;
+    if (i + 1 < bytes.size()) v |= uint32_t(static_cast<unsigned char>(bytes[i + 1])) << 8;
+    if (i + 2 < bytes.size()) v |= uint32_t(static_cast<unsigned char>(bytes[i + 2]));
+    out += kDigits[(v >> 18) & 63];
+    out += kDigits[(v >> 12) & 63];
+    out += i + 1 < bytes.size() ? kDigits[(v >> 6) & 63] : '=';
+    out += i + 2 < bytes.size() ? kDigits[v & 63] : '=';
+  }
+  return out;
+}
+
+void appendU32(std::string& out, uint32_t v) {
+  for (int k = 0; k < 4; ++k) out += char((v >> (8 * k)) & 0xff);
+}
+
+// A .glb (glTF 2.0 §4.4): the 12-byte header, the JSON chunk padded with spaces, the BIN chunk
+// padded with zeros.
+std::string glbOf(std::string text, std::string bin) {
+  while (text.size() % 4 != 0) text += ' ';
+  while (bin.size() % 4 != 0) bin += '\0';
+  std::string out = "glTF";
+  appendU32(out, 2);
+  appendU32(out, uint32_t(12 + 8 + text.size() + (bin.empty() ? 0 : 8 + bin.size())));
+  appendU32(out, uint32_t(text.size()));
+  appendU32(out, 0x4E4F534A);  // JSON
+  out += text;
+  if (!bin.empty()) {
+    appendU32(out, uint32_t(bin.size()));
+    appendU32(out, 0x004E4942);  // BIN
+    out += bin;
+  }
+  return out;
+}
+
+template <class T>
+std::string bytesOf(const std::vector<T>& values) {
+  return std::string(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
+}
+
+// A 2 x 1 RGB PNG: a black texel, then a white one (0 and 1 whether decoded as sRGB or not).
+const std::string kBlackWhitePng(
+    "\x89\x50\x4e\x47\x0d\x0a\x1a\x0a\x00\x00\x00\x0d\x49\x48\x44\x52\x00\x00\x00\x02\x00\x00\x00\x01\x08\x02\x00\x00"
+    "\x00\x7b\x40\xe8\xdd\x00\x00\x00\x0f\x49\x44\x41\x54\x78\x9c\x63\x60\x60\x60\xf8\xff\xff\x3f\x00\x06\x01\x02\xfe"
+    "\x02\xb2\x39\xae\x00\x00\x00\x00\x49\x45\x4e\x44\xae\x42\x60\x82",
+    72);
+
+// A glTF model under construction: one buffer, the document around it.
+struct Builder {
+  json doc = {{"asset", {{"version", "2.0"}}}, {"bufferViews", json::array()}, {"accessors", json::array()}};
+  std::string bin;
+
+  int view(const std::string& bytes, int stride = 0) {
+    while (bin.size() % 4 != 0) bin += '\0';
+    json v = {{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", bytes.size()}};
+    if (stride != 0) v["byteStride"] = stride;
+    bin += bytes;
+    doc["bufferViews"].push_back(v);
+    return int(doc["bufferViews"].size()) - 1;
+  }
+  int accessor(int bufferView, int componentType, size_t count, const std::string& type, json extra = json::object()) {
+    json a = {{"bufferView", bufferView}, {"componentType", componentType}, {"count", count}, {"type", type}};
+    a.update(extra);
+    doc["accessors"].push_back(a);
+    return int(doc["accessors"].size()) - 1;
+  }
+  int floats(const std::vector<float>& values, const std::string& type) {
+    const size_t per = type == "VEC2" ? 2 : type == "VEC3" ? 3 : type == "VEC4" ? 4 : 1;
+    return accessor(view(bytesOf(values)), kFloat, values.size() / per, type);
+  }
+  int indices(const std::vector<uint16_t>& values) {
+    return accessor(view(bytesOf(values)), kUnsignedShort, values.size(), "SCALAR");
+  }
+  int add(const char* array, json value) {
+    doc[array].push_back(std::move(value));
+    return int(doc[array].size()) - 1;
+  }
+
+  // As a .gltf whose buffer is the file `uri`, as a .gltf with the buffer in a data URI, as a .glb.
+  std::string gltf(const std::string& uri) const {
+    json d = doc;
+    d["buffers"] = json::array({{{"byteLength", bin.size()}, {"uri", uri}}});
+    return d.dump(1);
+  }
+  std::string embedded() const { return gltf("data:application/octet-stream;base64," + base64(bin)); }
+  std::string glb() const {
+    json d = doc;
+    d["buffers"] = json::array({{{"byteLength", bin.size()}}});
+    return glbOf(d.dump(), bin);
+  }
+};
+
+// The unit cube [0, 1]^3: 8 vertices (i = x + 2y + 4z), 12 triangles facing out, vertex normals
+// pointing away from the centre and uv = (x, y).
+struct Cube {
+  std::vector<float> positions, normals, uvs;
+  std::vector<uint16_t> indices;
+  Cube() {
+    for (int i = 0; i < 8; ++i) {
+      const float x = float(i & 1), y = float((i >> 1) & 1), z = float((i >> 2) & 1);
+      positions.insert(positions.end(), {x, y, z});
+      const float s = 1.0f / std::sqrt(3.0f);
+      normals.insert(normals.end(), {(2 * x - 1) * s, (2 * y - 1) * s, (2 * z - 1) * s});
+      uvs.insert(uvs.end(), {x, y});
+    }
+    const uint16_t quads[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
+    for (const auto& q : quads) indices.insert(indices.end(), {q[0], q[1], q[2], q[0], q[2], q[3]});
+  }
+  // Mesh 0 of `b`: the cube with normals and uvs, material `material` (-1: none).
+  int addTo(Builder& b, int material = -1) const {
+    json primitive = {{"attributes",
+                       {{"POSITION", b.floats(positions, "VEC3")},
+                        {"NORMAL", b.floats(normals, "VEC3")},
+                        {"TEXCOORD_0", b.floats(uvs, "VEC2")}}},
+                      {"indices", b.indices(indices)}};
+    if (material >= 0) primitive["material"] = material;
+    if (!b.doc.contains("meshes")) b.doc["meshes"] = json::array();
+    return b.add("meshes", {{"primitives", json::array({primitive})}});
+  }
+  DVec3 vertex(size_t i) const { return DVec3(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]); }
+};
+
+ModelFileReader readerOf(const std::map<std::string, std::string>& files, std::vector<std::string>* asked = nullptr) {
+  return [files, asked](const std::string& path) -> std::optional<std::string> {
+    if (asked) asked->push_back(path);
+    const auto it = files.find(path);
+    if (it == files.end()) return std::nullopt;
+    return it->second;
+  };
+}
+const ModelFileReader kNoFiles = [](const std::string&) -> std::optional<std::string> { return std::nullopt; };
+
+// The InputError's message, or what else happened.
+std::string errorOf(const std::string& bytes, const std::string& shown, const ModelFileReader& read = kNoFiles) {
+  try {
+    (void)importGltf(bytes, shown, read);
+  } catch (const InputError& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    return std::string("<not an InputError: ") + e.what() + ">";
+  }
+  return "<no error>";
+}
+
+bool hasNote(const ImportedModel& model, const std::string& part) {
+  for (const std::string& n : model.notes)
+    if (n.find(part) != std::string::npos) return true;
+  return false;
+}
+
+void expectNear(const DVec3& actual, const DVec3& expected, double tolerance, const std::string& what) {
+  EXPECT_NEAR(actual.x, expected.x, tolerance) << what;
+  EXPECT_NEAR(actual.y, expected.y, tolerance) << what;
+  EXPECT_NEAR(actual.z, expected.z, tolerance) << what;
+}
+DVec3 vec3Of(const json& j) { return DVec3(j.at(0).get<double>(), j.at(1).get<double>(), j.at(2).get<double>()); }
+
+// The front-face normal of triangle t (cross(v1 - v0, v2 - v0), normalised).
+DVec3 faceNormal(const MeshInput& in, size_t t) {
+  const auto& idx = in.mesh.indices;
+  const DVec3 &a = in.positions[idx[3 * t]], &b = in.positions[idx[3 * t + 1]], &c = in.positions[idx[3 * t + 2]];
+  return glm::normalize(glm::cross(b - a, c - a));
+}
+
+// ------------------------------------------------------------------------------------------------
+// Geometry and nodes
+
+TEST(Gltf, NodeHierarchyPlacesTheCubeWhereTheComposedMatrixSays) {
+  const Cube cube;
+  Builder b;
+  cube.addTo(b);
+  // nodes[0] translates by (10, 0, 0); its child nodes[1] scales by (2, 1, 1) then turns 90 degrees
+  // about +y; its child nodes[2] has a matrix: scale 3, translate (0, 5, 0).
+  b.doc["nodes"] = {
+      {{"name", "parent"}, {"translation", {10, 0, 0}}, {"children", {1, 2}}},
+      {{"name", "turned"}, {"rotation", {0, kHalfSqrt2, 0, kHalfSqrt2}}, {"scale", {2, 1, 1}}, {"mesh", 0}},
+      {{"name", "matrix"}, {"matrix", {3, 0, 0, 0, 0, 3, 0, 0, 0, 0, 3, 0, 0, 5, 0, 1}}, {"mesh", 0}}};
+  b.doc["scenes"] = {{{"nodes", {0}}}};
+  b.doc["scene"] = 0;
+  const ImportedModel model = importGltf(b.embedded(), "cube.gltf", kNoFiles);
+  ASSERT_EQ(model.meshes.size(), 2u);
+  const MeshInput &turned = model.meshes[0], &matrix = model.meshes[1];
+  EXPECT_EQ(turned.mesh.name, "turned");
+  EXPECT_EQ(matrix.mesh.name, "matrix");
+  ASSERT_EQ(turned.positions.size(), 8u);
+  ASSERT_EQ(matrix.positions.size(), 8u);
+  for (size_t i = 0; i < 8; ++i) {
+    const DVec3 p = cube.vertex(i);
+    // Rotating (x, y, z) by 90 degrees about +y gives (z, y, -x); after the scale x is 2x.
+    expectNear(turned.positions[i], DVec3(p.z + 10.0, p.y, -2.0 * p.x), 1e-12, "turned vertex " + std::to_string(i));
+    expectNear(matrix.positions[i], DVec3(3.0 * p.x + 10.0, 3.0 * p.y + 5.0, 3.0 * p.z), 1e-12,
+               "matrix vertex " + std::to_string(i));
+  }
+  EXPECT_EQ(turned.mesh.indices, std::vector<uint32_t>(cube.indices.begin(), cube.indices.end()));
+  EXPECT_EQ(turned.mesh.materialIds, std::vector<uint32_t>(12, 0u));
+  // No material: the glTF default material, appended.
+  ASSERT_EQ(model.materials.size(), 1u);
+  ASSERT_NE(model.materials[0].textures(), nullptr);
+  EXPECT_EQ(model.materials[0].textures()->factors.baseColor, Spectrum(1.0f));
+  EXPECT_EQ(model.materials[0].textures()->factors.metallic, 1.0f);
+  EXPECT_EQ(model.materials[0].textures()->factors.roughness, 1.0f);
+  expectNear(model.lo, DVec3(10.0, 0.0, -2.0), 1e-12, "lo");
+  expectNear(model.hi, DVec3(13.0, 8.0, 3.0), 1e-12, "hi");
+}
+
+TEST(Gltf, ExternalBinEmbeddedAndGlbGiveIdenticalMeshes) {
+  const Cube cube;
+  Builder b;
+  cube.addTo(b);
+  b.doc["nodes"] = {{{"mesh", 0}, {"translation", {0.25, -1, 3}}, {"rotation", {0.1, 0.2, 0.3, 0.927362}}}};
+  std::vector<std::string> asked;
+  // The uri is percent-encoded (and has a '+', which is not a space in a path).
+  const ImportedModel external =
+      importGltf(b.gltf("cube%20data+1.bin"), "models/cube.gltf", readerOf({{"cube data+1.bin", b.bin}}, &asked));
+  EXPECT_EQ(asked, std::vector<std::string>{"cube data+1.bin"});
+  const ImportedModel embedded = importGltf(b.embedded(), "cube.gltf", kNoFiles);
+  const ImportedModel binary = importGltf(b.glb(), "cube.glb", kNoFiles);
+  for (const ImportedModel* other : {&embedded, &binary}) {
+    ASSERT_EQ(other->meshes.size(), 1u);
+    ASSERT_EQ(external.meshes.size(), 1u);
+    const MeshInput &x = external.meshes[0], &y = other->meshes[0];
+    EXPECT_EQ(x.positions, y.positions);
+    EXPECT_EQ(x.mesh.indices, y.mesh.indices);
+    EXPECT_EQ(x.mesh.normals, y.mesh.normals);
+    EXPECT_EQ(x.mesh.uv[0], y.mesh.uv[0]);
+    EXPECT_EQ(x.mesh.materialIds, y.mesh.materialIds);
+    EXPECT_EQ(x.positions.size(), 8u);
+    EXPECT_EQ(x.mesh.normals.size(), 8u);
+    EXPECT_EQ(x.mesh.uv[0].size(), 8u);
+    EXPECT_TRUE(x.mesh.uv[1].empty());
+  }
+  EXPECT_EQ(external.meshes[0].mesh.uv[0][3], Vec2(1.0f, 1.0f));
+}
+
+TEST(Gltf, NormalsUseTheInverseTransposeUnderNonUniformScale) {
+  Builder b;
+  // A triangle in the plane x + y = 0, its normal (1, 1, 0) / sqrt(2).
+  const float s = float(kHalfSqrt2);
+  const int position = b.floats({0, 0, 0, 0, 0, 1, 1, -1, 0}, "VEC3");
+  const int normal = b.floats({s, s, 0, s, s, 0, s, s, 0}, "VEC3");
+  b.doc["meshes"] = {{{"primitives", {{{"attributes", {{"POSITION", position}, {"NORMAL", normal}}}}}}}};
+  b.doc["nodes"] = {{{"mesh", 0}, {"scale", {2, 1, 1}}}};
+  const ImportedModel model = importGltf(b.embedded(), "n.gltf", kNoFiles);
+  ASSERT_EQ(model.meshes.size(), 1u);
+  const MeshInput& in = model.meshes[0];
+  // Scaled, the triangle spans (0, 0, 1) and (2, -1, 0): its plane's normal is their cross product
+  // (1, 2, 0), not the scaled normal (2, 1, 0).
+  const DVec3 expected = glm::normalize(DVec3(1, 2, 0));
+  expectNear(faceNormal(in, 0), expected, 1e-12, "geometric normal");
+  ASSERT_EQ(in.mesh.normals.size(), 3u);
+  for (const Vec3& n : in.mesh.normals) expectNear(glm::normalize(DVec3(n)), expected, 1e-6, "shading normal");
+}
+
+TEST(Gltf, MirroringMatrixFlipsWindingNormalsAndTangentHandedness) {
+  Builder b;
+  const int position = b.floats({0, 0, 0, 1, 0, 0, 0, 1, 0}, "VEC3");
+  const int normal = b.floats({0, 0, 1, 0, 0, 1, 0, 0, 1}, "VEC3");
+  const int tangent = b.floats({1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1}, "VEC4");
+  b.doc["meshes"] = {
+      {{"primitives", {{{"attributes", {{"POSITION", position}, {"NORMAL", normal}, {"TANGENT", tangent}}}}}}}};
+  // Mirrors z (determinant -1) and moves the triangle off its plane.
+  b.doc["nodes"] = {{{"mesh", 0}, {"matrix", {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, -1, 0, 0, 0, 2, 1}}}};
+  const ImportedModel model = importGltf(b.embedded(), "m.gltf", kNoFiles);
+  ASSERT_EQ(model.meshes.size(), 1u);
+  const MeshInput& in = model.meshes[0];
+  EXPECT_EQ(in.mesh.indices, (std::vector<uint32_t>{0, 2, 1}));
+  // The face faced +z; its mirror image faces -z, with its winding swapped.
+  expectNear(faceNormal(in, 0), DVec3(0, 0, -1), 1e-12, "geometric normal");
+  for (const Vec3& n : in.mesh.normals) expectNear(DVec3(n), DVec3(0, 0, -1), 1e-7, "shading normal");
+  // bitangent = cross(n, t) * w: (0, 1, 0) before, and the mirror keeps it, so w becomes -1.
+  for (const glm::vec4& t : in.mesh.tangents) {
+    expectNear(DVec3(t), DVec3(1, 0, 0), 1e-7, "tangent");
+    EXPECT_EQ(t.w, -1.0f);
+    expectNear(glm::cross(DVec3(in.mesh.normals[0]), DVec3(t)) * double(t.w), DVec3(0, 1, 0), 1e-7, "bitangent");
+  }
+  expectNear(in.positions[1], DVec3(1, 0, 2), 1e-12, "vertex 1");
+}
+
+TEST(Gltf, MeshUsedByThreeNodesGivesThreeMeshInputs) {
+  const Cube cube;
+  Builder b;
+  cube.addTo(b);
+  b.doc["nodes"] = {{{"children", {1, 2, 3}}},
+                    {{"mesh", 0}, {"translation", {0, 0, 0}}},
+                    {{"mesh", 0}, {"translation", {5, 0, 0}}},
+                    {{"mesh", 0}, {"translation", {0, 0, -7}}}};
+  b.doc["scenes"] = {{{"nodes", {0}}}};
+  const ImportedModel model = importGltf(b.glb(), "three.glb", kNoFiles);
+  ASSERT_EQ(model.meshes.size(), 3u);
+  const DVec3 offsets[3] = {DVec3(0, 0, 0), DVec3(5, 0, 0), DVec3(0, 0, -7)};
+  for (size_t k = 0; k < 3; ++k) {
+    ASSERT_EQ(model.meshes[k].positions.size(), 8u);
+    for (size_t i = 0; i < 8; ++i) EXPECT_EQ(model.meshes[k].positions[i], cube.vertex(i) + offsets[k]);
+    EXPECT_EQ(model.meshes[k].mesh.triangleCount(), 12u);
+  }
+  EXPECT_TRUE(hasNote(model, "meshes[0]: used by 3 nodes")) << ::testing::PrintToString(model.notes);
+}
+
+TEST(Gltf, StripsFansAndPointsAndNormalizedTexcoords) {
+  Builder b;
+  // Four vertices of a unit square, z = 0; uvs as normalized UNSIGNED_BYTE (255 = 1) with a
+  // byteStride of 4 (2 bytes of padding per vertex).
+  const int position = b.floats({0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0}, "VEC3");
+  const std::string uvBytes = std::string("\x00\x00..\xff\x00..\x00\xff..\xff\x33..", 16);
+  const int uv = b.accessor(b.view(uvBytes, 4), kUnsignedByte, 4, "VEC2", {{"normalized", true}});
+  const json attributes = {{"POSITION", position}, {"TEXCOORD_1", uv}};
+  const std::vector<uint8_t> order = {0, 1, 2, 3};
+  const int indices = b.accessor(b.view(bytesOf(order)), kUnsignedByte, 4, "SCALAR");
+  b.doc["meshes"] = {{{"primitives",
+                       {{{"attributes", attributes}, {"mode", 5}, {"indices", indices}},
+                        {{"attributes", attributes}, {"mode", 6}},
+                        {{"attributes", attributes}, {"mode", 0}}}}}};
+  b.doc["nodes"] = {{{"mesh", 0}}};
+  const ImportedModel model = importGltf(b.embedded(), "modes.gltf", kNoFiles);
+  ASSERT_EQ(model.meshes.size(), 1u);
+  const TriangleMesh& mesh = model.meshes[0].mesh;
+  // Strip 0 1 2 3: (0, 1, 2), (1, 3, 2); fan: (1, 2, 0), (2, 3, 0), its vertices after the strip's 4.
+  EXPECT_EQ(mesh.indices, (std::vector<uint32_t>{0, 1, 2, 1, 3, 2, 5, 6, 4, 6, 7, 4}));
+  ASSERT_EQ(mesh.uv[1].size(), 8u);
+  EXPECT_TRUE(mesh.uv[0].empty());
+  EXPECT_EQ(mesh.uv[1][1], Vec2(1.0f, 0.0f));
+  EXPECT_EQ(mesh.uv[1][3], Vec2(1.0f, float(0x33 / 255.0)));
+  EXPECT_TRUE(hasNote(model, "meshes[0].primitives[2]: mode POINTS skipped")) << ::testing::PrintToString(model.notes);
+}
+
+// ------------------------------------------------------------------------------------------------
+// Materials
+
+TEST(Gltf, MaterialsMapFactorsAlphaModesAndExtensions) {
+  const Cube cube;
+  Builder b;
+  cube.addTo(b, 0);
+  b.doc["materials"] = {
+      {{"name", "red"},
+       {"pbrMetallicRoughness",
+        {{"baseColorFactor", {0.8, 0.1, 0.2, 0.6}}, {"metallicFactor", 0.25}, {"roughnessFactor", 0.7}}},
+       {"emissiveFactor", {1, 0.5, 0}},
+       {"alphaMode", "MASK"},
+       {"alphaCutoff", 0.3},
+       {"extensions", {{"KHR_materials_emissive_strength", {{"emissiveStrength", 4}}}}}},
+      {{"name", "glass"},
+       {"alphaMode", "BLEND"},
+       {"extensions",
+        {{"KHR_materials_transmission", {{"transmissionFactor", 0.9}}},
+         {"KHR_materials_ior", {{"ior", 1.33}}},
+         {"KHR_materials_specular", {{"specularFactor", 0.4}, {"specularColorFactor", {1, 0.5, 0.5}}}}}}},
+      {{"pbrMetallicRoughness", {{"baseColorFactor", {0.2, 0.4, 0.6, 1}}, {"metallicFactor", 0.5}}},
+       {"extensions", {{"KHR_materials_unlit", json::object()}}}}};
+  b.doc["extensionsUsed"] = {
+      "KHR_materials_emissive_strength", "KHR_materials_transmission", "KHR_materials_ior",
+      "KHR_materials_specular",          "KHR_materials_unlit",        "KHR_materials_clearcoat"};
+  b.doc["nodes"] = {{{"mesh", 0}}};
+  const ImportedModel model = importGltf(b.embedded(), "mat.gltf", kNoFiles);
+  ASSERT_EQ(model.materials.size(), 3u);  // used or not, every material; no default needed
+
+  const Material& red = model.materials[0];
+  EXPECT_EQ(red.name, "red");
+  EXPECT_EQ(red.emission, Spectrum(4.0f, 2.0f, 0.0f));
+  EXPECT_FALSE(red.twoSidedEmission);
+  ASSERT_NE(red.textures(), nullptr);
+  const MaterialTextures& r = *red.textures();
+  EXPECT_EQ(r.factors.baseColor, Spectrum(0.8f, 0.1f, 0.2f));
+  EXPECT_EQ(r.alphaFactor, 0.6f);
+  EXPECT_EQ(r.factors.metallic, 0.25f);
+  EXPECT_EQ(r.factors.roughness, 0.7f);
+  EXPECT_EQ(r.factors.transmission, 0.0f);
+  EXPECT_EQ(r.factors.ior, 1.5f);
+  EXPECT_EQ(r.factors.specular, 1.0f);
+  EXPECT_EQ(r.alphaMode, AlphaMode::kMask);
+  EXPECT_EQ(r.alphaCutoff, 0.3f);
+  EXPECT_FALSE(r.varies());
+
+  const MaterialTextures& g = *model.materials[1].textures();
+  EXPECT_EQ(model.materials[1].emission, Spectrum(0.0f));
+  EXPECT_EQ(g.factors.baseColor, Spectrum(1.0f));
+  EXPECT_EQ(g.factors.transmission, 0.9f);
+  EXPECT_EQ(g.factors.ior, 1.33f);
+  EXPECT_EQ(g.factors.specular, 0.4f);
+  EXPECT_EQ(g.alphaMode, AlphaMode::kBlend);
+  EXPECT_EQ(g.alphaCutoff, 0.5f);
+
+  const MaterialTextures& u = *model.materials[2].textures();
+  EXPECT_EQ(model.materials[2].name, "materials[2]");
+  EXPECT_EQ(u.factors.baseColor, Spectrum(0.2f, 0.4f, 0.6f));
+  EXPECT_EQ(u.factors.metallic, 0.0f);
+  EXPECT_EQ(u.factors.specular, 0.0f);
+
+  const std::string notes = ::testing::PrintToString(model.notes);
+  EXPECT_TRUE(hasNote(model, "materials[1] \"glass\": alphaMode BLEND rendered as MASK with cutoff 0.5")) << notes;
+  EXPECT_TRUE(hasNote(model, "materials[1] \"glass\": specularColorFactor")) << notes;
+  EXPECT_TRUE(hasNote(model, "materials[2]: KHR_materials_unlit rendered as a Lambertian")) << notes;
+  EXPECT_TRUE(hasNote(model, "extensionsUsed: KHR_materials_clearcoat not supported")) << notes;
+  EXPECT_EQ(model.meshes[0].mesh.materialIds, std::vector<uint32_t>(12, 0u));
+}
+
+TEST(Gltf, TexturesMapSlotsSamplersTransformsAndShareDecodes) {
+  const Cube cube;
+  Builder b;
+  cube.addTo(b, 0);
+  // images[0] in a bufferView (as a .glb holds it), images[1] in a data URI, images[2] a file.
+  b.doc["images"] = {{{"bufferView", b.view(kBlackWhitePng)}, {"mimeType", "image/png"}},
+                     {{"uri", "data:image/png;base64," + base64(kBlackWhitePng)}},
+                     {{"uri", "textures/normal%20map.png"}}};
+  b.doc["samplers"] = {{{"wrapS", 33071}, {"wrapT", 33648}, {"magFilter", 9728}}};
+  b.doc["textures"] = {{{"source", 0}, {"sampler", 0}}, {{"source", 1}}, {{"source", 2}}};
+  b.doc["materials"] = {{{"pbrMetallicRoughness",
+                          {{"baseColorTexture",
+                            {{"index", 0},
+                             {"extensions",
+                              {{"KHR_texture_transform",
+                                {{"offset", {0.5, 0}}, {"rotation", 0.3}, {"scale", {2, 4}}, {"texCoord", 1}}}}}}},
+                           {"metallicRoughnessTexture", {{"index", 0}}}}},
+                         {"emissiveTexture", {{"index", 0}}},
+                         {"emissiveFactor", {1, 1, 1}},
+                         {"normalTexture", {{"index", 2}, {"scale", 0.5}}},
+                         {"occlusionTexture", {{"index", 1}}}},
+                        {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 1}, {"texCoord", 1}}}}}}};
+  b.doc["nodes"] = {{{"mesh", 0}}};
+  std::vector<std::string> asked;
+  const ImportedModel model =
+      importGltf(b.glb(), "tex.glb", readerOf({{"textures/normal map.png", kBlackWhitePng}}, &asked));
+  EXPECT_EQ(asked, std::vector<std::string>{"textures/normal map.png"});
+  ASSERT_EQ(model.materials.size(), 2u);
+  const MaterialTextures& t = *model.materials[0].textures();
+  ASSERT_TRUE(t.baseColor);
+  EXPECT_EQ(t.baseColor.uvSet, 1);
+  EXPECT_EQ(t.baseColor.transform.offset, Vec2(0.5f, 0.0f));
+  EXPECT_EQ(t.baseColor.transform.scale, Vec2(2.0f, 4.0f));
+  EXPECT_EQ(t.baseColor.transform.rotation, 0.3f);
+  EXPECT_EQ(t.baseColor.texture->name(), "tex.glb: images[0]");
+  EXPECT_EQ(t.baseColor.texture->width(), 2);
+  EXPECT_EQ(t.baseColor.texture->height(), 1);
+  // Base colour and emission are both sRGB with the same sampler: one Texture. The data roles
+  // decode the same image as linear: another.
+  EXPECT_EQ(t.emissive.texture, t.baseColor.texture);
+  ASSERT_TRUE(t.metallicRoughness);
+  EXPECT_NE(t.metallicRoughness.texture, t.baseColor.texture);
+  EXPECT_EQ(t.metallicRoughness.uvSet, 0);
+  EXPECT_TRUE(t.metallicRoughness.transform.identity());
+  ASSERT_TRUE(t.normal);
+  EXPECT_EQ(t.normalScale, 0.5f);
+  EXPECT_EQ(t.normal.texture->name(), "tex.glb: images[2]");
+  EXPECT_EQ(model.materials[0].emission, Spectrum(1.0f));
+  EXPECT_TRUE(t.varies());
+  // CLAMP_TO_EDGE and NEAREST: u = 1.25 reads the white right texel, u = 0.2 the black left one.
+  EXPECT_EQ(t.baseColor.texture->sample(Vec2(1.25f, 0.5f)), Vec4(1.0f));
+  EXPECT_EQ(t.baseColor.texture->sample(Vec2(0.2f, 0.5f)), Vec4(0.0f, 0.0f, 0.0f, 1.0f));
+  // textures[1]: no sampler, so REPEAT: u = 1.125 reads what u = 0.125 reads.
+  const MaterialTextures& second = *model.materials[1].textures();
+  ASSERT_TRUE(second.baseColor);
+  EXPECT_EQ(second.baseColor.uvSet, 1);
+  EXPECT_EQ(second.baseColor.texture->sample(Vec2(1.125f, 0.5f)), second.baseColor.texture->sample(Vec2(0.125f, 0.5f)));
+  EXPECT_TRUE(hasNote(model, "materials[0]: occlusionTexture ignored")) << ::testing::PrintToString(model.notes);
+}
+
+// ------------------------------------------------------------------------------------------------
+// Cameras and lights
+
+TEST(Gltf, CamerasAndPunctualLightsBecomeLensfarmJson) {
+  Builder b;
+  b.doc.erase("bufferViews");
+  b.doc.erase("accessors");
+  const double s = kHalfSqrt2;
+  b.doc["cameras"] = {
+      {{"name", "view"},
+       {"type", "perspective"},
+       {"perspective", {{"yfov", 0.8}, {"aspectRatio", 1.5}, {"znear", 0.1}}}},
+      {{"type", "perspective"}, {"perspective", {{"yfov", 0.6}, {"znear", 0.1}}}},
+      {{"type", "orthographic"}, {"orthographic", {{"xmag", 2}, {"ymag", 1}, {"znear", 0.1}, {"zfar", 10}}}}};
+  b.doc["extensionsUsed"] = {"KHR_lights_punctual"};
+  b.doc["extensions"] = {
+      {"KHR_lights_punctual",
+       {{"lights",
+         {{{"name", "bulb"}, {"type", "point"}, {"color", {1, 0.5, 0.25}}, {"intensity", 8}, {"range", 20}},
+          {{"type", "spot"}, {"intensity", 3}, {"spot", {{"innerConeAngle", 0.2}, {"outerConeAngle", 0.5}}}},
+          {{"name", "sun"}, {"type", "directional"}, {"color", {1, 1, 0.5}}, {"intensity", 2}}}}}}};
+  // Nodes: a camera at (1, 2, 3) turned 90 degrees about +y (looking along -x); the lights, the
+  // spot and the sun turned -90 degrees about +x (shining down, -y).
+  const json down = {-s, 0, 0, s};
+  b.doc["nodes"] = {
+      {{"camera", 0}, {"translation", {1, 2, 3}}, {"rotation", {0, s, 0, s}}},
+      {{"name", "bulb node"}, {"translation", {0, 5, 0}}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}},
+      {{"name", "spot node"},
+       {"translation", {0, 3, 0}},
+       {"rotation", down},
+       {"extensions", {{"KHR_lights_punctual", {{"light", 1}}}}}},
+      {{"rotation", down}, {"extensions", {{"KHR_lights_punctual", {{"light", 2}}}}}},
+      {{"name", "second"}, {"camera", 1}},
+      {{"camera", 2}}};
+  const ImportedModel model = importGltf(b.doc.dump(), "lit.gltf", kNoFiles);
+  EXPECT_TRUE(model.meshes.empty());
+
+  ASSERT_EQ(model.cameras.size(), 3u);
+  const json& c = model.cameras[0];
+  EXPECT_EQ(c.at("type"), "pinhole");
+  EXPECT_EQ(c.at("name"), "view");
+  expectNear(vec3Of(c.at("position")), DVec3(1, 2, 3), 1e-12, "camera position");
+  // No mesh: look_at is 1 unit along the view direction, -z turned to -x.
+  expectNear(vec3Of(c.at("look_at")), DVec3(0, 2, 3), 1e-12, "camera look_at");
+  expectNear(vec3Of(c.at("up")), DVec3(0, 1, 0), 1e-12, "camera up");
+  const double horizontal = 2.0 * std::atan(1.5 * std::tan(0.4)) * 180.0 / kPi;
+  EXPECT_NEAR(c.at("angle_of_view").get<double>(), horizontal, 1e-9);
+  EXPECT_EQ(model.cameras[1].at("name"), "second");
+  EXPECT_NEAR(model.cameras[1].at("angle_of_view").get<double>(), 0.6 * 180.0 / kPi, 1e-9);
+  EXPECT_EQ(model.cameras[2].at("type"), "orthographic");
+
+  ASSERT_EQ(model.lights.size(), 3u);
+  const json& point = model.lights[0];
+  EXPECT_EQ(point.at("type"), "point");
+  EXPECT_EQ(point.at("name"), "bulb");
+  expectNear(vec3Of(point.at("position")), DVec3(0, 5, 0), 1e-12, "point position");
+  expectNear(vec3Of(point.at("intensity")), DVec3(8, 4, 2), 1e-12, "point intensity");
+
+  const json& spot = model.lights[1];
+  EXPECT_EQ(spot.at("type"), "spot");
+  EXPECT_EQ(spot.at("name"), "spot node");
+  expectNear(vec3Of(spot.at("position")), DVec3(0, 3, 0), 1e-12, "spot position");
+  expectNear(vec3Of(spot.at("look_at")), DVec3(0, 2, 0), 1e-12, "spot look_at");
+  expectNear(vec3Of(spot.at("intensity")), DVec3(3, 3, 3), 1e-12, "spot intensity");
+  EXPECT_NEAR(spot.at("cone_angle").get<double>(), 0.5 * 180.0 / kPi, 1e-9);
+  EXPECT_NEAR(spot.at("falloff_start").get<double>(), 0.2 * 180.0 / kPi, 1e-9);
+
+  const json& sun = model.lights[2];
+  EXPECT_EQ(sun.at("type"), "directional");
+  EXPECT_EQ(sun.at("name"), "sun");
+  // Its light travels down (-y); lensfarm's direction points towards the light: up.
+  expectNear(vec3Of(sun.at("direction")), DVec3(0, 1, 0), 1e-12, "sun direction");
+  expectNear(vec3Of(sun.at("irradiance")), DVec3(2, 2, 1), 1e-12, "sun irradiance");
+
+  const std::string notes = ::testing::PrintToString(model.notes);
+  EXPECT_TRUE(hasNote(model, "cameras[1]: no aspectRatio")) << notes;
+  EXPECT_TRUE(hasNote(model, "cameras[2]: orthographic")) << notes;
+  EXPECT_TRUE(hasNote(model, "range ignored")) << notes;
+}
+
+TEST(Gltf, CameraLooksAtTheModelCentreDistance) {
+  const Cube cube;
+  Builder b;
+  cube.addTo(b);
+  b.doc["cameras"] = {{{"type", "perspective"}, {"perspective", {{"yfov", 0.8}, {"znear", 0.1}}}}};
+  b.doc["nodes"] = {{{"mesh", 0}}, {{"camera", 0}, {"translation", {0.5, 0.5, 10.5}}}};
+  const ImportedModel model = importGltf(b.embedded(), "c.gltf", kNoFiles);
+  ASSERT_EQ(model.cameras.size(), 1u);
+  expectNear(vec3Of(model.cameras[0].at("look_at")), DVec3(0.5, 0.5, 0.5), 1e-12, "look_at");
+}
+
+// ------------------------------------------------------------------------------------------------
+// Bad input: one InputError naming the file and the element, never a crash.
+
+struct BadModel {
+  Cube cube;
+  Builder b;
+  BadModel() {
+    cube.addTo(b);  // accessors: 0 POSITION, 1 NORMAL, 2 TEXCOORD_0, 3 indices
+    b.doc["nodes"] = {{{"mesh", 0}}};
+  }
+};
+
+TEST(Gltf, TruncatedOrForeignGlbIsRefused) {
+  const BadModel m;
+  const std::string glb = m.b.glb();
+  EXPECT_EQ(errorOf(glb.substr(0, 100), "model.glb"), "model.glb: truncated glTF binary: its header says " +
+                                                          std::to_string(glb.size()) + " bytes, the file has 100");
+  EXPECT_EQ(errorOf(glb.substr(0, 7), "model.glb"),
+            "model.glb: truncated glTF binary: 7 bytes, shorter than its 12-byte header");
+  std::string magic = glb;
+  magic[3] = 'X';
+  EXPECT_EQ(errorOf(magic, "model.glb"),
+            "model.glb: not a glTF binary: it starts with 67 6c 54 58, not the magic \"glTF\"");
+  std::string version = glb;
+  version[4] = 1;
+  EXPECT_EQ(errorOf(version, "model.glb"), "model.glb: glTF binary version 1 is not supported (only version 2)");
+  // Every prefix and a corrupted byte anywhere: an InputError or a model, nothing else.
+  for (size_t n = 0; n < glb.size(); n += 3) {
+    const std::string e = errorOf(glb.substr(0, n), "model.glb");
+    EXPECT_EQ(e.rfind("model.glb", 0), 0u) << "prefix of " << n << " bytes: " << e;
+  }
+  for (size_t at = 0; at < glb.size(); ++at) {
+    std::string corrupt = glb;
+    corrupt[at] = char(corrupt[at] ^ 0x5a);
+    const std::string e = errorOf(corrupt, "model.glb");
+    EXPECT_TRUE(e == "<no error>" || e.rfind("model.glb", 0) == 0) << "byte " << at << ": " << e;
+  }
+}
+
+TEST(Gltf, AccessorPastTheEndOfItsBufferIsRefused) {
+  BadModel m;
+  m.b.doc["accessors"][0]["count"] = 100;
+  EXPECT_EQ(errorOf(m.b.glb(), "model.glb")
+                .rfind("model.glb: meshes[0].primitives[0]: accessor 0 reads past the end of "
+                       "buffer 0 (POSITION: 100 elements end at byte 1200 of ",
+                       0),
+            0u)
+      << errorOf(m.b.glb(), "model.glb");
+  // Inside the buffer but past its bufferView.
+  BadModel v;
+  v.b.doc["accessors"][1]["byteOffset"] = 4;
+  EXPECT_EQ(errorOf(v.b.glb(), "model.glb")
+                .rfind("model.glb: meshes[0].primitives[0]: accessor 1 reads past the end of "
+                       "bufferView 1",
+                       0),
+            0u)
+      << errorOf(v.b.glb(), "model.glb");
+  // A bufferView past its buffer.
+  BadModel w;
+  w.b.doc["bufferViews"][3]["byteLength"] = 4000;
+  w.b.doc["accessors"][3]["count"] = 1;
+  EXPECT_EQ(errorOf(w.b.glb(), "model.glb")
+                .rfind("model.glb: meshes[0].primitives[0]: bufferView 3 reads past the end of "
+                       "buffer 0",
+                       0),
+            0u)
+      << errorOf(w.b.glb(), "model.glb");
+}
+
+TEST(Gltf, BufferViewIndexOutOfRangeIsRefused) {
+  BadModel m;
+  m.b.doc["accessors"][0]["bufferView"] = 7;
+  EXPECT_EQ(errorOf(m.b.embedded(), "model.gltf"),
+            "model.gltf: accessors[0].bufferView: bufferView 7 does not exist (the model has 4 bufferViews)");
+  BadModel i;
+  i.b.doc["accessors"][3]["bufferView"] = 9;
+  EXPECT_EQ(errorOf(i.b.embedded(), "model.gltf"),
+            "model.gltf: accessors[3].bufferView: bufferView 9 does not exist (the model has 4 bufferViews)");
+}
+
+TEST(Gltf, IndexOutOfVertexRangeIsRefused) {
+  Builder b;
+  Cube cube;
+  cube.indices[5] = 8;
+  cube.addTo(b);
+  b.doc["nodes"] = {{{"mesh", 0}}};
+  EXPECT_EQ(errorOf(b.embedded(), "model.gltf"),
+            "model.gltf: meshes[0].primitives[0]: indices (accessor 3): index 8 at position 5 is out of range "
+            "(POSITION has 8 vertices)");
+}
+
+TEST(Gltf, NonFinitePositionIsRefused) {
+  Builder b;
+  Cube cube;
+  cube.positions[3 * 2 + 1] = std::numeric_limits<float>::quiet_NaN();
+  cube.addTo(b);
+  b.doc["nodes"] = {{{"mesh", 0}}};
+  EXPECT_EQ(errorOf(b.embedded(), "model.gltf"),
+            "model.gltf: meshes[0].primitives[0]: POSITION (accessor 0): element 2 is not finite (0, nan, 0)");
+}
+
+TEST(Gltf, WrongComponentTypeIsRefused) {
+  BadModel m;
+  m.b.doc["accessors"][1]["componentType"] = kUnsignedByte;
+  m.b.doc["accessors"][1]["count"] = 8;
+  EXPECT_EQ(errorOf(m.b.embedded(), "model.gltf"),
+            "model.gltf: meshes[0].primitives[0].attributes.NORMAL: accessor 1 is VEC3 of UNSIGNED_BYTE; NORMAL must "
+            "be VEC3 of FLOAT");
+}
+
+TEST(Gltf, UnsupportedRequiredExtensionIsRefused) {
+  BadModel m;
+  m.b.doc["extensionsUsed"] = {"KHR_draco_mesh_compression"};
+  m.b.doc["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+  EXPECT_EQ(errorOf(m.b.embedded(), "model.gltf"),
+            "model.gltf: extensionsRequired: KHR_draco_mesh_compression is not supported");
+}
+
+TEST(Gltf, MissingExternalBinIsRefused) {
+  const BadModel m;
+  EXPECT_EQ(errorOf(m.b.gltf("cube.bin"), "model.gltf"), "model.gltf: buffers[0]: cannot read \"cube.bin\"");
+  EXPECT_EQ(errorOf(m.b.gltf("cube.bin"), "model.gltf", readerOf({{"cube.bin", "short"}})),
+            "model.gltf: buffers[0]: \"cube.bin\" has 5 bytes, byteLength says " + std::to_string(m.b.bin.size()));
+}
+
+TEST(Gltf, MissingImageIsRefusedWhenUsed) {
+  BadModel m;
+  m.b.doc["images"] = {{{"uri", "wood.png"}}};
+  m.b.doc["textures"] = {{{"source", 0}}};
+  m.b.doc["materials"] = {{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}};
+  EXPECT_EQ(errorOf(m.b.embedded(), "model.gltf"), "model.gltf: images[0]: cannot read \"wood.png\"");
+}
+
+TEST(Gltf, TexCoordTwoIsRefused) {
+  BadModel m;
+  m.b.doc["images"] = {{{"uri", "wood.png"}}};
+  m.b.doc["textures"] = {{{"source", 0}}};
+  m.b.doc["materials"] = {{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}, {"texCoord", 2}}}}}}};
+  EXPECT_EQ(errorOf(m.b.embedded(), "model.gltf"),
+            "model.gltf: materials[0].pbrMetallicRoughness.baseColorTexture.texCoord: TEXCOORD_2 is not supported "
+            "(only TEXCOORD_0 and TEXCOORD_1)");
+}
+
+TEST(Gltf, InvalidJsonIsRefused) {
+  EXPECT_EQ(errorOf("{ \"asset\": ", "model.gltf").rfind("model.gltf: malformed JSON: parse error at line 1", 0), 0u)
+      << errorOf("{ \"asset\": ", "model.gltf");
+  EXPECT_EQ(errorOf("", "model.gltf").rfind("model.gltf: malformed JSON", 0), 0u);
+  EXPECT_EQ(errorOf("[1, 2]", "model.gltf"), "model.gltf: not a glTF model: its JSON is not an object");
+  EXPECT_EQ(errorOf("{}", "model.gltf"), "model.gltf: asset: missing: not a glTF 2.0 model");
+  EXPECT_EQ(errorOf(R"({"asset": {"version": "1.0"}})", "model.gltf"),
+            "model.gltf: asset.version: \"1.0\": only glTF 2.0 is supported");
+  const std::string deep = R"({"asset": {"version": "2.0"}, "extras": )" + std::string(100000, '[');
+  EXPECT_EQ(errorOf(deep, "model.gltf"), "model.gltf: nested deeper than 64 levels");
+  // A corrupted byte anywhere in a .gltf: an InputError or a model.
+  BadModel m;
+  const std::string text = m.b.embedded();
+  for (size_t at = 0; at < text.size(); at += 2) {
+    std::string corrupt = text;
+    corrupt[at] = "0[\"}:,e-"[at % 8];
+    const std::string e = errorOf(corrupt, "model.gltf");
+    EXPECT_TRUE(e == "<no error>" || e.rfind("model.gltf", 0) == 0) << "byte " << at << ": " << e;
+  }
+}
+
+TEST(Gltf, NodeGraphErrorsNameTheNode) {
+  BadModel m;
+  m.b.doc["nodes"] = {{{"children", {1}}}, {{"children", {2}}}, {{"children", {1}}, {"mesh", 0}}};
+  EXPECT_EQ(errorOf(m.b.embedded(), "model.gltf"),
+            "model.gltf: nodes[1]: is a child of both nodes[0] and nodes[2]: a node has at most one parent");
+  BadModel r;
+  r.b.doc["nodes"] = {{{"children", {1}}}, {{"mesh", 0}}};
+  r.b.doc["scenes"] = {{{"nodes", {1}}}};
+  EXPECT_EQ(errorOf(r.b.embedded(), "model.gltf"),
+            "model.gltf: scenes[0].nodes: node 1 is a child of nodes[0], not a root node");
+  BadModel q;
+  q.b.doc["nodes"] = {{{"mesh", 0}, {"rotation", {0, 0, 0, 0}}}};
+  EXPECT_EQ(errorOf(q.b.embedded(), "model.gltf"),
+            "model.gltf: nodes[0].rotation: must be a unit quaternion [x, y, z, w], got [0, 0, 0, 0]");
+  BadModel n;
+  n.b.doc["nodes"] = {{{"mesh", 3}}};
+  EXPECT_EQ(errorOf(n.b.embedded(), "model.gltf"),
+            "model.gltf: nodes[0].mesh: mesh 3 does not exist (the model has 1 mesh)");
+}
+
+TEST(Gltf, ReaderThatThrowsPassesItsErrorThrough) {
+  const BadModel m;
+  const ModelFileReader refusing = [](const std::string& path) -> std::optional<std::string> {
+    throw InputError("scene.json: shapes[0].file", "\"" + path + "\" lies outside the scene's directory");
+  };
+  EXPECT_EQ(errorOf(m.b.gltf("../cube.bin"), "model.gltf", refusing),
+            "scene.json: shapes[0].file: \"../cube.bin\" lies outside the scene's directory");
+}
+
+}  // namespace
+}  // namespace lensfarm
