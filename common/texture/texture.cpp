@@ -7,21 +7,50 @@
 namespace lensfarm {
 
 namespace {
-// The next level of the pyramid: each texel the mean of the 2x2 texels it covers (a side of 1
-// stays 1; an odd side's last texel is averaged with itself).
+// The weights by which the texels of a side of `in` texels make up each texel of the next
+// level's side (max(1, in / 2) texels): a box over the same extent, area-weighted, so that an
+// odd side keeps every texel and the level's mean stays the image's (an even side: 2 texels of
+// weight 1/2).
+struct Tap {
+  int from;
+  float weight;
+};
+std::vector<std::vector<Tap>> boxTaps(int in) {
+  const int out = std::max(1, in / 2);
+  const double scale = double(in) / double(out);
+  std::vector<std::vector<Tap>> taps(static_cast<size_t>(out));
+  for (int o = 0; o < out; ++o) {
+    const double lo = o * scale, hi = (o + 1) * scale;
+    for (int i = int(std::floor(lo)); i < in && double(i) < hi; ++i) {
+      const double overlap = std::min(hi, double(i + 1)) - std::max(lo, double(i));
+      if (overlap > 0.0) taps[size_t(o)].push_back({i, float(overlap / scale)});
+    }
+  }
+  return taps;
+}
+
+// The next level of the pyramid: each side halved (a side of 1 stays 1), each texel the mean of
+// the area of the texels it covers (boxTaps), rows then columns.
 RgbaImage halve(const RgbaImage& in) {
+  const std::vector<std::vector<Tap>> tx = boxTaps(in.width), ty = boxTaps(in.height);
   RgbaImage out;
-  out.width = std::max(1, in.width / 2);
-  out.height = std::max(1, in.height / 2);
+  out.width = int(tx.size());
+  out.height = int(ty.size());
   out.texels.resize(4 * size_t(out.width) * size_t(out.height));
-  for (int y = 0; y < out.height; ++y)
+  std::vector<Vec4> row(size_t(in.width));
+  for (int y = 0; y < out.height; ++y) {
+    for (int x = 0; x < in.width; ++x) {
+      Vec4 sum(0.0f);
+      for (const Tap& t : ty[size_t(y)]) sum += t.weight * in.at(x, t.from);
+      row[size_t(x)] = sum;
+    }
     for (int x = 0; x < out.width; ++x) {
-      const int x0 = std::min(2 * x, in.width - 1), x1 = std::min(2 * x + 1, in.width - 1);
-      const int y0 = std::min(2 * y, in.height - 1), y1 = std::min(2 * y + 1, in.height - 1);
-      const Vec4 mean = 0.25f * (in.at(x0, y0) + in.at(x1, y0) + in.at(x0, y1) + in.at(x1, y1));
+      Vec4 mean(0.0f);
+      for (const Tap& t : tx[size_t(x)]) mean += t.weight * row[size_t(t.from)];
       const size_t k = 4 * (size_t(y) * size_t(out.width) + size_t(x));
       for (int c = 0; c < 4; ++c) out.texels[k + size_t(c)] = mean[c];
     }
+  }
   return out;
 }
 
@@ -75,8 +104,10 @@ Vec4 Texture::bilinear(Vec2 uv, int level) const {
   const float ax = x - fx, ay = y - fy;
   const int xa = wrapIndex(x0, img.width, wrapS_), xb = wrapIndex(x0 + 1, img.width, wrapS_);
   const int ya = wrapIndex(y0, img.height, wrapT_), yb = wrapIndex(y0 + 1, img.height, wrapT_);
-  return (1.0f - ay) * ((1.0f - ax) * img.at(xa, ya) + ax * img.at(xb, ya)) +
-         ay * ((1.0f - ax) * img.at(xa, yb) + ax * img.at(xb, yb));
+  // a + t (b - a): exact where the texels are equal (a constant region, a 1x1 level).
+  const Vec4 top = img.at(xa, ya) + ax * (img.at(xb, ya) - img.at(xa, ya));
+  const Vec4 bottom = img.at(xa, yb) + ax * (img.at(xb, yb) - img.at(xa, yb));
+  return top + ay * (bottom - top);
 }
 
 Vec4 Texture::sample(Vec2 uv, float width) const {
@@ -93,12 +124,16 @@ Vec4 Texture::sample(Vec2 uv, float width) const {
   const int lo = int(std::floor(level));
   const float t = level - float(lo);
   if (t == 0.0f || lo + 1 >= levels()) return bilinear(uv, lo);
-  return (1.0f - t) * bilinear(uv, lo) + t * bilinear(uv, lo + 1);
+  const Vec4 a = bilinear(uv, lo);
+  return a + t * (bilinear(uv, lo + 1) - a);
 }
 
 Vec2 TextureTransform::apply(Vec2 uv) const {
   if (identity()) return uv;
-  // KHR_texture_transform's matrix T * R * S with R = [[cos, sin], [-sin, cos]].
+  // KHR_texture_transform's T * R * S with R = [[cos, sin], [-sin, cos]] (rows): what the
+  // extension's example ("offset [0, 1], rotation pi/2, scale 0.5: the lower-left quadrant,
+  // rotated") and the implementations do in glTF's v-down space. Its GLSL listing, read
+  // column-major, is the transpose (KhronosGroup/glTF issue 1563).
   const float c = std::cos(rotation), s = std::sin(rotation);
   const Vec2 scaled = uv * scale;
   return Vec2(c * scaled.x + s * scaled.y, -s * scaled.x + c * scaled.y) + offset;
