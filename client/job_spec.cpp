@@ -10,15 +10,21 @@ LocalJob makeLocalJob(const std::filesystem::path& sceneFile, const RenderOverri
   LocalJob job;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(sceneFile, ec)) throw InputError(sceneFile.string(), "no such scene file");
-  job.spec.sceneJson = readWholeFileOrThrow(sceneFile, sceneFile.string());
   // Keep what the loader reads, so assets are read once and uploaded exactly as loaded.
   std::map<std::string, std::string> read;
   const AssetReader fromDisk = fileAssetReader(sceneFile);
-  job.scene = parseScene(job.spec.sceneJson, sceneFile, [&](const std::string& path) {
+  const AssetReader keep = [&](const std::string& path) {
     auto bytes = fromDisk(path);
     if (bytes) read[path] = *bytes;
     return bytes;
-  });
+  };
+  if (isModelFile(sceneFile)) {
+    // A model rendered as it is: the farm gets the scene written for it (scene/scene_loader.h).
+    job.scene = modelScene(sceneFile, job.spec.sceneJson, keep);
+  } else {
+    job.spec.sceneJson = readWholeFileOrThrow(sceneFile, sceneFile.string());
+    job.scene = parseScene(job.spec.sceneJson, sceneFile, keep);
+  }
   applyOverrides(overrides, job.scene.render, "command line");
   try {
     (void)job.scene.camera();

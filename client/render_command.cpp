@@ -111,6 +111,7 @@ int runRender(const RenderFlags& flags) {
   spdlog::info("{}: {} triangles, {}x{} px, {} in units of {} spp, B = {}, {}, {} sampler on {} threads", flags.scene,
                triangles, settings.width, settings.height, budget, unitSize(settings), settings.maxBounces,
                integratorName(settings.integrator), samplerName(settings.sampler), threads);
+  for (const std::string& note : scene.notes) spdlog::info("{}: {}", flags.scene, note);
   if (scene.skippedDegenerateTriangles)
     spdlog::warn("{}: skipped {} zero-area triangles", flags.scene, scene.skippedDegenerateTriangles);
   // What the render leaves out of what the scene asks for is said before the first ray, not only

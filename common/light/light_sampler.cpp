@@ -38,6 +38,9 @@ LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const st
     const auto& t = triangles[k];
     const Material& m = scene.materials[t.material];
     if (!m.isEmissive() || (!useful.empty() && !useful[t.material])) continue;
+    // Emission that varies over the surface (an emissive texture) is not light-sampled: the rays
+    // that reach it count it, with weight 1 (render/integrator.cpp).
+    if (m.textures() && m.textures()->emissive) continue;
     const float area = float(triangleArea(t.v0, t.v1, t.v2));
     const double p = double(area) * luminance(m.emission) * (m.twoSidedEmission ? 2.0 : 1.0);
     if (!(p > 0.0)) continue;

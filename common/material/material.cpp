@@ -1,5 +1,7 @@
 #include "material/material.h"
 
+#include <algorithm>
+
 #include "material/conductor.h"
 #include "material/dielectric.h"
 #include "material/lambertian.h"
@@ -33,6 +35,38 @@ Material::Material(std::string materialName, std::shared_ptr<const Bsdf> bsdf, c
                    bool twoSided)
     : name(std::move(materialName)), emission(emitted), twoSidedEmission(twoSided), bsdf_(std::move(bsdf)) {
   if (bsdf_) traits_ = bsdf_->traits();
+}
+
+Material Material::textured(std::string name, std::shared_ptr<const MaterialTextures> textures, const Spectrum& emission,
+                            bool twoSidedEmission) {
+  Material m(std::move(name), std::make_shared<PrincipledBsdf>(textures->factors), emission, twoSidedEmission);
+  m.textures_ = std::move(textures);
+  return m;
+}
+
+PrincipledParams Material::principledAt(const Vec2 (&uv)[2], float width) const {
+  const MaterialTextures& t = *textures_;
+  PrincipledParams p = t.factors;
+  if (t.baseColor) p.baseColor *= Spectrum(t.baseColor.sample(uv, width));
+  if (t.metallicRoughness) {
+    // glTF 2.0 §3.9.2: metalness in B, roughness in G.
+    const Vec4 mr = t.metallicRoughness.sample(uv, width);
+    p.roughness = std::clamp(p.roughness * mr.g, 0.0f, 1.0f);
+    p.metallic = std::clamp(p.metallic * mr.b, 0.0f, 1.0f);
+  }
+  p.baseColor = glm::clamp(p.baseColor, Spectrum(0.0f), Spectrum(1.0f));
+  return p;
+}
+
+Spectrum Material::emissionAt(const Vec2 (&uv)[2], float width) const {
+  if (!textures_ || !textures_->emissive) return emission;
+  return emission * glm::max(Spectrum(textures_->emissive.sample(uv, width)), Spectrum(0.0f));
+}
+
+float Material::alphaAt(const Vec2 (&uv)[2]) const {
+  if (!textures_) return 1.0f;
+  const float a = textures_->baseColor ? textures_->baseColor.sample(uv, 0.0f).a : 1.0f;
+  return textures_->alphaFactor * a;
 }
 
 std::vector<std::string> materialTypeNames() {

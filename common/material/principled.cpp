@@ -31,7 +31,7 @@ BsdfTraits PrincipledBsdf::traits() const {
 }
 
 PrincipledBsdf::LobeChoice PrincipledBsdf::lobes(float cosO) const {
-  const float fd = f0_ + (1.0f - f0_) * schlickWeight(cosO);
+  const float fd = p_.specular * (f0_ + (1.0f - f0_) * schlickWeight(cosO));
   const float metal = p_.metallic;
   const float dielectric = 1.0f - p_.metallic;
   const float colour = std::max(luminance(p_.baseColor), 0.0f);
@@ -53,8 +53,10 @@ Spectrum PrincipledBsdf::evalLocal(const Vec3& wo, const Vec3& wi) const {
   const Vec3 h = sum / length;
   const float vh = glm::dot(wo, h);
   const float lobe = ggxReflectionCos(ggx_, wo, wr, h);  // specular_brdf(alpha) cos_i
-  const float fd = f0_ + (1.0f - f0_) * schlickWeight(vh);
-  const float baseWeight = 1.0f - (f0_ + (1.0f - f0_) * schlickWeight(wo.z));  // see the header: 1 - F_d(N.V)
+  // KHR_materials_specular: the dielectric's Fresnel term times specularFactor, in the layer and
+  // in the base's weight alike.
+  const float fd = p_.specular * (f0_ + (1.0f - f0_) * schlickWeight(vh));
+  const float baseWeight = 1.0f - p_.specular * (f0_ + (1.0f - f0_) * schlickWeight(wo.z));  // see the header: 1 - F_d(N.V)
   const float dielectric = 1.0f - p_.metallic;
   if (!reflection) return p_.baseColor * (dielectric * p_.transmission * baseWeight * lobe);
   const Spectrum metalFresnel = p_.baseColor + (Spectrum(1.0f) - p_.baseColor) * schlickWeight(vh);
@@ -113,6 +115,7 @@ std::shared_ptr<const Bsdf> parsePrincipled(FieldReader& r) {
   p.roughness = float(r.number("roughness", 1.0, 0.0, 1.0));
   p.transmission = float(r.number("transmission", 0.0, 0.0, 1.0));
   p.ior = float(r.number("ior", 1.5, 1.0, 10.0));
+  p.specular = float(r.number("specular", 1.0, 0.0, 1.0));
   return std::make_shared<PrincipledBsdf>(p);
 }
 

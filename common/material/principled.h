@@ -67,7 +67,7 @@ class PrincipledBsdf final : public Bsdf {
   float f0_;  // the dielectric's reflectance at normal incidence
 };
 
-// `principled`: base_color, metallic, roughness, transmission, ior (docs/scene-format.md).
+// `principled`: base_color, metallic, roughness, transmission, ior, specular (docs/scene-format.md).
 std::shared_ptr<const Bsdf> parsePrincipled(FieldReader& r);
 
 }  // namespace lensfarm

@@ -5,6 +5,7 @@
 #include "math/lanes.h"
 #include "math/ray_offset.h"
 #include "math/sampling.h"
+#include "render/shading_point.h"
 
 namespace lensfarm {
 
@@ -69,8 +70,17 @@ inline float reachedLightWeight(const RenderScene& rs, const PathState& path, Li
 template <bool kNee>
 inline void addEmittedLight(const RenderScene& rs, const SurfaceHit& hit, const Material& material, PathState& path) {
   if (!material.isEmissive()) return;
-  const Spectrum le = rs.lights().emitted(hit.triangle, path.direction);
+  Spectrum le = rs.lights().emitted(hit.triangle, path.direction);
   if (isBlack(le)) return;
+  if (const MaterialTextures* t = material.textures(); t && t->emissive) {
+    // An emissive texture (never light-sampled: LightSampler leaves such emitters to the rays
+    // that reach them, which count with weight 1).
+    const Vec3 wo = -path.direction;
+    const bool front = glm::dot(hit.n, wo) >= 0.0f;
+    const ShadingPoint sp = shadingPoint(rs, hit, wo, front ? hit.n : -hit.n, front);
+    le = le * glm::max(Spectrum(t->emissive.sample(sp.uv, sp.footprint)), Spectrum(0.0f));
+    if (isBlack(le)) return;
+  }
   path.hitLight = true;
   const float weight =
       reachedLightWeight<kNee>(rs, path, [&] { return rs.lights().pdf(hit.triangle, hit.t, path.direction); });
@@ -158,8 +168,21 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
   if (counts && path.bounces >= settings.maxBounces) return outcome;
 
   const Vec3 wo = -path.direction;
-  const Vec3 n = front ? hit.n : -hit.n;  // shade the side we came from
+  const Vec3 ng = front ? hit.n : -hit.n;  // shade the side we came from
   const uint32_t base = dims::segment(uint32_t(segment));
+
+  // Where the surface varies (vertex normals, textures): the shading normal and, for a textured
+  // material, the principled model with the textures' values at this point.
+  const bool shaded = kGeneral && rs.shaded(hit.material);
+  const ShadingPoint sp = shaded ? shadingPoint(rs, hit, wo, ng, front) : ShadingPoint{ng, {}, 0.0f};
+  const Vec3& n = sp.n;
+  std::optional<PrincipledBsdf> local;
+  if (shaded && material.varies()) local.emplace(material.principledAt(sp.uv, sp.footprint));
+  const auto evalCos = [&](const Vec3& wi) {
+    if (shaded && !scattersTo(wi, ng, n)) return Spectrum(0.0f);
+    return local ? local->evalCos(n, wo, wi, front) : material.evalCos(n, wo, wi, front);
+  };
+  const auto pdf = [&](const Vec3& wi) { return local ? local->pdf(n, wo, wi, front) : material.pdf(n, wo, wi, front); };
 
   const bool lastBounce = nee && !specular && counts && isLastBounce(rs, path.bounces);
 
@@ -169,14 +192,13 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
     if (ls && !isBlack(ls->radiance)) {
       const Vec3 toLight = ls->p - hit.p;
       const Vec3 wi = glm::normalize(toLight);
-      const Spectrum f = material.evalCos(n, wo, wi, front);
+      const Spectrum f = evalCos(wi);
       if (!isBlack(f)) {
         shadow.from = spawnOrigin(hit.p, hit.plane(), wi);
         shadow.direction = spawnOrigin(ls->p, ls->plane(), -wi) - shadow.from;
         shadow.tFar = 1.0f - kShadowEpsilon;
         if (ls->reach > 0.0f) unitShadowRay(shadow.direction, ls->reach, shadow.direction, shadow.tFar);
-        const float weight =
-            mis && !lastBounce && !ls->delta ? powerHeuristic(ls->pdf, material.pdf(n, wo, wi, front)) : 1.0f;
+        const float weight = mis && !lastBounce && !ls->delta ? powerHeuristic(ls->pdf, pdf(wi)) : 1.0f;
         shadow.contribution = path.throughput * f * ls->radiance * (weight / ls->pdf);
         outcome.castShadow = true;
       }
@@ -186,11 +208,13 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
   if (lastBounce) return outcome;
 
   // The lobe choice is drawn only where a model has lobes to choose (not Lambertian, not mirrors).
-  const auto s = kGeneral && !material.isLambertian()
-                     ? material.sample(n, wo, material.choosesLobe() ? rng.get1D(base + dims::kMaterialLobe) : 0.0f,
-                                       rng.get2D(base + dims::kMaterial), front)
-                     : material.sampleLambertian(n, rng.get2D(base + dims::kMaterial));
-  if (!s || !scatter(rs, rng, base, counts, s->weight, s->specular, s->pdf, path)) return outcome;
+  const float uLobe = material.choosesLobe() || local ? rng.get1D(base + dims::kMaterialLobe) : 0.0f;
+  const Vec2 uDirection = rng.get2D(base + dims::kMaterial);
+  const auto s = local                                 ? local->sample(n, wo, uLobe, uDirection, front)
+                 : kGeneral && !material.isLambertian() ? material.sample(n, wo, uLobe, uDirection, front)
+                                                        : material.sampleLambertian(n, uDirection);
+  if (!s || (shaded && !scattersTo(s->wi, ng, n))) return outcome;
+  if (!scatter(rs, rng, base, counts, s->weight, s->specular, s->pdf, path)) return outcome;
   path.origin = spawnOrigin(hit.p, hit.plane(), s->wi);
   path.direction = s->wi;
   outcome.continues = true;
@@ -481,7 +505,7 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
       const Material& material = rs.material(hits.material[k]);
       PathState path = paths.get(k, rays);
       const SurfaceHit hit = hits.hit(k);
-      if (kGeneral && material.reflects() && !material.isLambertian()) {
+      if (kGeneral && material.reflects() && (!material.isLambertian() || rs.shaded(hits.material[k]))) {
         const VertexOutcome outcome = shadeVertex<kNee, kGeneral>(rs, packet.rng[k], segment, hit, path, generalShadows[k]);
         generalShadow[k] = outcome.castShadow;
         if (outcome.continues) {

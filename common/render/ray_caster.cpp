@@ -107,6 +107,7 @@ LENSFARM_LANE_LOOPS void decodeHits(const uint32_t* __restrict geomOffset, Gathe
     const Vec3 n = tris.vec3(index, offsetof(Triangle, n));
     const Vec3 v0 = tris.vec3(index, offsetof(Triangle, v0));
     out.triangle[k] = index;
+    out.b1[k] = u, out.b2[k] = v;
     out.material[k] = tris.u(index, offsetof(Triangle, material));
     out.t[k] = keep(hit, tfar[k]);
     out.px[k] = p.x, out.py[k] = p.y, out.pz[k] = p.z;
@@ -152,6 +153,17 @@ RayCaster::RayCaster(const Scene& scene) {
     std::copy(mesh.indices.begin(), mesh.indices.end(), indices);
     const unsigned mask = unsigned(RayKind::kScattered) | (mesh.visibleToCamera ? unsigned(RayKind::kCamera) : 0u);
     rtcSetGeometryMask(geom, mask);
+    bool cutsOut = false;
+    for (const uint32_t m : mesh.materialIds) {
+      const MaterialTextures* textures = scene.materials[m].textures();
+      cutsOut |= textures && textures->cutsOut();
+    }
+    if (cutsOut) {
+      cutouts_.push_back(std::make_unique<CutoutMesh>(CutoutMesh{this, &scene, uint32_t(&mesh - scene.meshes.data())}));
+      rtcSetGeometryUserData(geom, cutouts_.back().get());
+      rtcSetGeometryIntersectFilterFunction(geom, cutoutFilter);
+      rtcSetGeometryOccludedFilterFunction(geom, cutoutFilter);
+    }
     rtcCommitGeometry(geom);
     const unsigned id = rtcAttachGeometry(scene_, geom);
     rtcReleaseGeometry(geom);  // the scene holds its own reference
@@ -175,6 +187,30 @@ RayCaster::RayCaster(const Scene& scene) {
     }
   }
   rtcCommitScene(scene_);
+}
+
+// A hit on a mesh with a cut-out material (glTF alphaMode MASK; BLEND is rendered as MASK at 0.5)
+// is rejected where the material's alpha, read at the finest texture level, is below its cutoff:
+// the ray goes on as if the surface were not there. Deterministic: a function of the hit alone.
+void RayCaster::cutoutFilter(const RTCFilterFunctionNArguments* args) {
+  const auto* data = static_cast<const CutoutMesh*>(args->geometryUserPtr);
+  const TriangleMesh& mesh = data->scene->meshes[data->mesh];
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+    const Material& material = data->scene->materials[mesh.materialIds[prim]];
+    const MaterialTextures* textures = material.textures();
+    if (!textures || !textures->cutsOut()) continue;
+    const float u = RTCHitN_u(args->hit, args->N, i), v = RTCHitN_v(args->hit, args->N, i);
+    Vec2 uv[2] = {Vec2(0.0f), Vec2(0.0f)};
+    for (int set = 0; set < 2; ++set) {
+      if (mesh.uv[set].empty()) continue;
+      const uint32_t* idx = &mesh.indices[3 * size_t(prim)];
+      uv[set] = (1.0f - u - v) * mesh.uv[set][idx[0]] + u * mesh.uv[set][idx[1]] + v * mesh.uv[set][idx[2]];
+    }
+    const float cutoff = textures->alphaMode == AlphaMode::kBlend ? 0.5f : textures->alphaCutoff;
+    if (material.alphaAt(uv) < cutoff) args->valid[i] = 0;
+  }
 }
 
 RayCaster::~RayCaster() {
@@ -245,7 +281,14 @@ SurfaceHit RayCaster::surfaceHit(unsigned geomID, unsigned primID, float u, floa
   hit.margin = tri.margin;
   hit.material = tri.material;
   hit.triangle = uint32_t(k);
+  hit.b1 = u, hit.b2 = v;
   return hit;
+}
+
+RayCaster::MeshTriangle RayCaster::meshTriangle(uint32_t triangle) const {
+  const auto it = std::upper_bound(geomOffset_.begin(), geomOffset_.end(), triangle);
+  const uint32_t mesh = uint32_t(it - geomOffset_.begin()) - 1;
+  return {mesh, triangle - geomOffset_[mesh]};
 }
 
 bool RayCaster::occluded(const Vec3& o, const Vec3& d, float tFar) const {

@@ -5,9 +5,13 @@
 // It is built with RTC_SCENE_FLAG_ROBUST (watertight edges; see docs/numerics.md).
 // Ray masks implement `visible_to_camera`: camera rays carry kCameraRay and skip geometry that
 // the camera must not see; every other ray sees everything.
+// Cut-outs (glTF alphaMode MASK, material/material.h): meshes with such a material get Embree
+// filter functions that reject a hit where the material's alpha is below its cutoff, for every
+// ray (camera, scattered, shadow) alike; other meshes have none and pay nothing.
 #include <embree3/rtcore.h>
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -75,6 +79,7 @@ struct SurfaceHit {
   float margin;
   uint32_t material;
   uint32_t triangle; // index into RayCaster::triangles()
+  float b1, b2;      // barycentrics of p: p = (1 - b1 - b2) v0 + b1 v1 + b2 v2 (Embree's u, v)
 
   SpawnPlane plane() const { return SpawnPlane{v0, n, margin}; }
 };
@@ -104,6 +109,7 @@ class RayCaster {
     alignas(64) float nx[kPacketWidth], ny[kPacketWidth], nz[kPacketWidth];
     alignas(64) float v0x[kPacketWidth], v0y[kPacketWidth], v0z[kPacketWidth];
     alignas(64) float margin[kPacketWidth];
+    alignas(64) float b1[kPacketWidth], b2[kPacketWidth];
 
     SurfaceHit hit(int lane) const {
       return SurfaceHit{t[lane],
@@ -112,7 +118,9 @@ class RayCaster {
                         Vec3(v0x[lane], v0y[lane], v0z[lane]),
                         margin[lane],
                         material[lane],
-                        triangle[lane]};
+                        triangle[lane],
+                        b1[lane],
+                        b2[lane]};
     }
     void set(int lane, const SurfaceHit& h) {
       t[lane] = h.t;
@@ -122,6 +130,7 @@ class RayCaster {
       margin[lane] = h.margin;
       material[lane] = h.material;
       triangle[lane] = h.triangle;
+      b1[lane] = h.b1, b2[lane] = h.b2;
     }
   };
   void intersect(const RayPacket& rays, RayKind kind, PacketHits& hits) const;
@@ -138,6 +147,11 @@ class RayCaster {
     SpawnPlane plane() const { return SpawnPlane{v0, n, margin}; }
   };
   const std::vector<Triangle>& triangles() const { return triangles_; }
+  // The mesh (index into Scene::meshes) a triangle belongs to, and the triangle's index there.
+  struct MeshTriangle {
+    uint32_t mesh, index;
+  };
+  MeshTriangle meshTriangle(uint32_t triangle) const;
 
   // Benchmarks only: an observer that sees every ray cast from now on (nullptr: none). It changes
   // nothing the caster computes, hence const; set it while no thread is tracing.
@@ -149,6 +163,14 @@ class RayCaster {
   RTCScene scene_ = nullptr;
   std::vector<Triangle> triangles_;       // all meshes, concatenated
   std::vector<uint32_t> geomOffset_;      // first triangle of each Embree geometry
+  // The cut-out filters' data (ray_caster.cpp), one per mesh that has a cut-out material.
+  struct CutoutMesh {
+    const RayCaster* caster;
+    const Scene* scene;
+    uint32_t mesh;
+  };
+  std::vector<std::unique_ptr<CutoutMesh>> cutouts_;
+  static void cutoutFilter(const RTCFilterFunctionNArguments* args);
 
   SurfaceHit surfaceHit(unsigned geomID, unsigned primID, float u, float v, float t) const;
   // The hit after `hit`, for a ray that starts in hit's plane (the coplanar rule).

@@ -2,6 +2,7 @@
 // Everything a render needs, built once per scene and shared read-only by all threads:
 // the scene, its camera at the render resolution, the effects it calls for (scene/effects.h),
 // the Embree scene and the light sampler.
+#include <cstdint>
 #include <vector>
 
 #include "camera/thin_lens_camera.h"
@@ -24,9 +25,19 @@ class RenderScene {
         caster_(scene),
         lights_(scene, caster_, effects_.lightUseful, scene.render.integrator == IntegratorKind::kNaive),
         hasEscapeLights_(!lights_.escapeLights().empty()) {
-    for (const Material& m : scene.materials)
+    // Materials with textures, and those of meshes with vertex normals, are shaded per point
+    // (render/shading_point.h), by the one-path vertex code.
+    shaded_.assign(scene.materials.size(), 0);
+    for (size_t m = 0; m < scene.materials.size(); ++m) shaded_[m] = scene.materials[m].varies() ? 1 : 0;
+    for (const TriangleMesh& mesh : scene.meshes)
+      if (!mesh.normals.empty())
+        for (uint32_t id : mesh.materialIds) shaded_[id] = 1;
+    for (size_t k = 0; k < scene.materials.size(); ++k) {
+      const Material& m = scene.materials[k];
       materialRecords_.push_back({m.albedo(), m.isEmissive() ? ~0u : 0u, m.reflects() ? ~0u : 0u,
-                                  m.reflects() && !m.isLambertian() ? ~0u : 0u});
+                                  (m.reflects() && !m.isLambertian()) || shaded_[k] ? ~0u : 0u});
+    }
+    pixelAngle_ = float(camera_.params().sensorWidth / (double(scene.render.width) * camera_.params().focalLength));
   }
 
   const Scene& scene() const { return scene_; }
@@ -42,6 +53,11 @@ class RenderScene {
   // diameter): only then does a miss cost more than ending the path (render/integrator.cpp).
   bool hasEscapeLights() const { return hasEscapeLights_; }
   const Material& material(uint32_t id) const { return scene_.materials[id]; }
+  // Whether hits on material `id` are shaded per point (render/shading_point.h): it has textures,
+  // or a mesh with vertex normals uses it.
+  bool shaded(uint32_t id) const { return shaded_[id] != 0; }
+  // The angle one pixel subtends at the lens (for texture footprints, render/shading_point.h).
+  float pixelAngle() const { return pixelAngle_; }
   // What the packet tracer's lane loops read of each material (render/integrator.cpp): its
   // Lambertian albedo and Material's predicates as masks (~0u where true, 0 where false);
   // `general`: a model beyond Lambertian, which the one-path vertex code shades.
@@ -60,6 +76,8 @@ class RenderScene {
   LightSampler lights_;
   bool hasEscapeLights_;
   std::vector<MaterialRecord> materialRecords_;
+  std::vector<uint8_t> shaded_;
+  float pixelAngle_ = 0.0f;
 };
 
 }  // namespace lensfarm

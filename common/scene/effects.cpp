@@ -297,14 +297,22 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
     for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
     return out;
   };
+  // Surfaces that vary across a triangle: smooth shading and textures (render/shading_point.h).
+  size_t smoothMeshes = 0, texturedMaterials = 0;
+  for (const auto& mesh : scene.meshes) smoothMeshes += mesh.normals.empty() ? 0 : 1;
+  for (size_t m = 0; m < scene.materials.size(); ++m) texturedMaterials += used[m] && scene.materials[m].varies();
   e.specular = !deltaEffects.empty();
-  e.generalMaterials = e.specular || !glossyEffects.empty();
+  e.generalMaterials = e.specular || !glossyEffects.empty() || smoothMeshes > 0 || texturedMaterials > 0;
   e.decisions.push_back({"specular reflection", e.specular,
                          e.specular      ? list(deltaEffects) + " in the scene"
                          : sealedMirrors ? "every mirror is sealed inside a closed mesh the camera is outside of"
                                          : "no mirror in the scene"});
   if (!glossyEffects.empty())
     e.decisions.push_back({"glossy materials", true, list(glossyEffects) + " in the scene"});
+  if (smoothMeshes > 0 || texturedMaterials > 0)
+    e.decisions.push_back({"shading normals and textures", true,
+                           std::to_string(smoothMeshes) + " mesh(es) with vertex normals, " +
+                               std::to_string(texturedMaterials) + " textured material(s)"});
 
   // Lights that can light something: an emitter is useful if the front of some triangle of its
   // material faces a surface or the camera (scene/effects.h).

@@ -103,6 +103,9 @@ struct Scene {
   std::vector<std::shared_ptr<const LightSource>> lights;
   RenderSettings render;
   uint64_t skippedDegenerateTriangles = 0;  // zero-area triangles dropped at load
+  // What the loader mapped approximately, ignored or chose for the user (a model's camera, a
+  // framing camera, glTF features it approximates): printed at the start of a render.
+  std::vector<std::string> notes;
 
   // The camera for the current render settings (resolution may be overridden after loading).
   ThinLensCamera camera() const { return ThinLensCamera(cameraParams, render.width, render.height); }

@@ -20,7 +20,10 @@
 #include "math/triangle.h"
 #include "scene/coplanar.h"
 #include "scene/field_reader.h"
+#include "scene/gltf_import.h"
+#include "scene/imported_model.h"
 #include "scene/obj_check.h"
+#include "scene/obj_import.h"
 #include "util/error.h"
 #include "util/hash.h"
 
@@ -45,6 +48,9 @@ std::string showVec3(const DVec3& v) {
 struct Transform {
   glm::dmat4 matrix{1.0};
   DVec3 apply(const DVec3& p) const { return DVec3(matrix * glm::dvec4(p, 1.0)); }
+  // Normals go by the inverse transpose, tangents by the matrix itself (both renormalised later).
+  Vec3 applyToNormal(const Vec3& n) const { return Vec3(glm::transpose(glm::inverse(glm::dmat3(matrix))) * DVec3(n)); }
+  Vec3 applyToVector(const Vec3& v) const { return Vec3(glm::dmat3(matrix) * DVec3(v)); }
   bool flipsHandedness() const { return glm::determinant(glm::dmat3(matrix)) < 0.0; }
 };
 
@@ -94,9 +100,11 @@ class SceneParser {
 
     parseRender(top);
     parseMaterials(top);
+    importModels(top);
     parseCamera(top);
     parseShapes(top);
     parseLights(top);
+    addModelLights();
     parseEnvironment(top);
     top.finish();
     bringFlushLightsForward(scene_);  // the coplanar rule (scene/coplanar.h)
@@ -105,6 +113,7 @@ class SceneParser {
     if (shapeTriangles_ > kMaxTriangles)
       top.fail("shapes", std::to_string(shapeTriangles_) + " triangles exceed the limit of " + std::to_string(kMaxTriangles));
     scene_.hash = hash_.hexDigest();
+    scene_.notes = std::move(notes_);
     return std::move(scene_);
   }
 
@@ -150,8 +159,10 @@ class SceneParser {
   }
 
   void parseMaterials(FieldReader& top) {
+    // Optional where every shape brings its own (glTF, OBJ with MTL).
+    if (!top.has("materials")) return;
     const json& mats = top.raw("materials");
-    if (!mats.is_object() || mats.empty()) top.fail("materials", "must be an object of named materials");
+    if (!mats.is_object()) top.fail("materials", "must be an object of named materials");
     for (auto it = mats.begin(); it != mats.end(); ++it) {
       FieldReader r(it.value(), "materials." + it.key(), fileName_);
       Material m = parseMaterial(it.key(), r);
@@ -178,11 +189,52 @@ class SceneParser {
   }
 
   void parseCamera(FieldReader& top) {
+    if (!top.has("camera")) {
+      json camera = modelCamera();
+      FieldReader r(camera, cameraOrigin_, fileName_);
+      parseCameraFields(r);
+      return;
+    }
     FieldReader r(top.raw("camera"), "camera", fileName_);
+    parseCameraFields(r);
+  }
+
+  // Without a "camera" in the scene: the first camera of the first model that has one, else one
+  // that frames every model (a 40-degree view of their bounding sphere from the front, +z, and a
+  // little above), named in the scene's notes.
+  json modelCamera() {
+    for (const ModelImport& m : imports_) {
+      if (!m.model.cameras.empty()) {
+        json camera = m.model.cameras.front();
+        const std::string name = camera.value("name", std::string("cameras[0]"));
+        camera.erase("name");
+        cameraOrigin_ = m.field + " camera \"" + name + "\"";
+        notes_.push_back("camera: " + m.shown + "'s camera \"" + name + "\"");
+        return camera;
+      }
+    }
+    DVec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+    for (const ModelImport& m : imports_) lo = glm::min(lo, m.worldLo), hi = glm::max(hi, m.worldHi);
+    if (imports_.empty() || !(lo.x <= hi.x))
+      throw InputError(fileName_, "camera: is required (no model in shapes brings one to frame)");
+    const DVec3 centre = 0.5 * (lo + hi);
+    const double radius = std::max(0.5 * glm::length(hi - lo), 1e-6 * std::max(1.0, largestAbs(centre)));
+    const double distance = 1.1 * radius / std::sin(glm::radians(20.0));
+    const DVec3 from = centre + distance * glm::normalize(DVec3(0.0, 0.25, 1.0));
+    cameraOrigin_ = "camera (framing every model)";
+    notes_.push_back("camera: none in the scene or its models; framing them from the front: position " + showVec3(from) +
+                     ", look_at " + showVec3(centre) + ", angle_of_view 40");
+    return json{{"type", "pinhole"},
+                {"position", {from.x, from.y, from.z}},
+                {"look_at", {centre.x, centre.y, centre.z}},
+                {"angle_of_view", 40.0}};
+  }
+
+  void parseCameraFields(FieldReader& r) {
     ThinLensParams& p = scene_.cameraParams;
     const std::string type = r.string("type");
     if (type != "thin_lens" && type != "pinhole")
-      r.fail("camera.type", "unknown camera type \"" + type + "\" (expected thin_lens or pinhole)");
+      r.fail(r.field("type"), "unknown camera type \"" + type + "\" (expected thin_lens or pinhole)");
     // Render space is the world moved so that the camera sits at its origin (toRenderSpace).
     const DVec3 position = r.dvec3("position"), lookAt = r.dvec3("look_at");
     scene_.origin = position;
@@ -190,38 +242,38 @@ class SceneParser {
     if (!(largestAbs(lookAt - position) <= kMaxRenderDistance)) {
       // Anywhere in the world, but not that far apart: name the one that is off in the distance.
       const bool positionIsOff = largestAbs(position) > largestAbs(lookAt);
-      r.fail(positionIsOff ? "camera.position" : "camera.look_at",
+      r.fail(positionIsOff ? r.field("position") : r.field("look_at"),
              "is " + shortNumber(glm::length(lookAt - position)) + " from camera." +
                  (positionIsOff ? "look_at" : "position") + "; at most " + shortNumber(kMaxRenderDistance) +
                  " (per axis) is supported");
     }
-    p.lookAt = toRenderSpace(lookAt, "camera.look_at");
+    p.lookAt = toRenderSpace(lookAt, r.field("look_at"));
     p.up = r.vec3("up", Vec3(0.0f, 1.0f, 0.0f));
     // The frame before any length: with look_at at position the focus distance is 0 too, and
     // that is not the problem to report.
     if (p.lookAt == p.position)
-      r.fail("camera.look_at", "equals camera.position (" + showVec3(position) +
+      r.fail(r.field("look_at"), "equals camera.position (" + showVec3(position) +
                                    (lookAt == position ? "" : " in single precision") + "): the view direction is undefined");
     if (p.up == Vec3(0.0f))
-      r.fail("camera.up", "must not be [0, 0, 0]: it says which way is up in the image");
+      r.fail(r.field("up"), "must not be [0, 0, 0]: it says which way is up in the image");
     const DVec3 view = glm::normalize(DVec3(p.lookAt) - DVec3(p.position));
     if (!(glm::length(glm::cross(view, glm::normalize(DVec3(p.up)))) > 1e-6))
-      r.fail("camera.up", showVec3(p.up) + " is parallel to the view direction (look_at - position = " +
+      r.fail(r.field("up"), showVec3(p.up) + " is parallel to the view direction (look_at - position = " +
                               showVec3(p.lookAt - p.position) + "): the image's up is undefined; give an up that is "
                               "not along the view direction, e.g. " +
                               (std::abs(view.y) < 0.9 ? "[0, 1, 0]" : "[0, 0, 1]"));
 
     const bool hasF = r.has("focal_length"), hasAngle = r.has("angle_of_view");
-    if (hasF == hasAngle) r.fail("camera.focal_length", "give exactly one of focal_length and angle_of_view");
+    if (hasF == hasAngle) r.fail(r.field("focal_length"), "give exactly one of focal_length and angle_of_view");
     const bool hasWidth = r.has("sensor_width");
     if (!hasWidth && hasF)
-      r.fail("camera.sensor_width", "is required with focal_length (it may be left out with angle_of_view, where it is " +
+      r.fail(r.field("sensor_width"), "is required with focal_length (it may be left out with angle_of_view, where it is " +
                                         shortNumber(kDefaultSensorWidth) + ", a 36 mm sensor in a scene in metres)");
     p.sensorWidth = hasWidth ? positive(r, "sensor_width") : kDefaultSensorWidth;
     if (r.has("sensor_height")) {
       p.sensorHeight = r.number("sensor_height");
       if (!(p.sensorHeight >= 0.0))
-        r.fail("camera.sensor_height", "must be >= 0 (0: sensor_width * H / W, square cells), got " + shortNumber(p.sensorHeight));
+        r.fail(r.field("sensor_height"), "must be >= 0 (0: sensor_width * H / W, square cells), got " + shortNumber(p.sensorHeight));
     }
     const double angle = hasAngle ? r.number("angle_of_view", 1e-6, 179.999) : 0.0;
     p.focalLength = hasF ? positive(r, "focal_length") : focalLengthFromAngleOfView(p.sensorWidth, angle);
@@ -236,7 +288,7 @@ class SceneParser {
       else if (n.is_number())
         p.fNumber = positive(r, "f_number");
       else
-        r.fail("camera.f_number", "must be a number > 0 or \"infinity\"");
+        r.fail(r.field("f_number"), "must be a number > 0 or \"infinity\"");
     }
     r.finish();
     // A focal length as long as the whole distance to look_at is a unit mix-up (millimetres for
@@ -248,19 +300,19 @@ class SceneParser {
       // Sensor and lens in one unit (a sensor 1/20 to 20 times f): both were written in millimetres.
       const bool sameUnit = p.sensorWidth / p.focalLength > 0.05 && p.sensorWidth / p.focalLength < 20.0;
       if (hasF)
-        r.fail("camera.focal_length",
+        r.fail(r.field("focal_length"),
                "f = " + shortNumber(p.focalLength) + " is not shorter than " + distance + ": " + units +
                    "; if " + shortNumber(p.focalLength) + " means mm and the scene is in metres, write focal_length " +
                    shortNumber(p.focalLength / 1000) +
                    (sameUnit ? " and sensor_width " + shortNumber(p.sensorWidth / 1000) : std::string()) +
                    " (or give angle_of_view)");
       if (hasWidth)
-        r.fail("camera.sensor_width",
+        r.fail(r.field("sensor_width"),
                shortNumber(p.sensorWidth) + " with angle_of_view " + shortNumber(angle) + " gives f = LW / (2 tan(a/2)) = " +
                    shortNumber(p.focalLength) + ", not shorter than " + distance + ": " + units + "; if " +
                    shortNumber(p.sensorWidth) + " means mm and the scene is in metres, write sensor_width " +
                    shortNumber(p.sensorWidth / 1000) + " (or leave it out: " + shortNumber(kDefaultSensorWidth) + ")");
-      r.fail("camera.angle_of_view",
+      r.fail(r.field("angle_of_view"),
              shortNumber(angle) + " degrees on the default sensor_width " + shortNumber(kDefaultSensorWidth) +
                  " gives f = " + shortNumber(p.focalLength) + ", not shorter than " + distance +
                  ": give sensor_width in the scene's unit, or a wider angle");
@@ -270,7 +322,7 @@ class SceneParser {
     } catch (const InputError& e) {
       // The camera names its own field; report it in the scene file's terms.
       const std::string msg = e.what();
-      r.fail("camera." + e.where(), msg.substr(e.where().size() + 2));
+      r.fail(r.field(e.where()), msg.substr(e.where().size() + 2));
     }
   }
 
@@ -283,15 +335,15 @@ class SceneParser {
       MeshInput mesh;
       mesh.mesh.name = r.string("name", type + "#" + std::to_string(i));
       mesh.mesh.visibleToCamera = r.boolean("visible_to_camera", true);
-      if (type == "obj") {
-        readObj(r, mesh);
+      if (type == "obj" || type == "gltf") {
+        addImportedShape(r, mesh, i);
       } else if (type == "quad") {
         const uint32_t material = materialRef(r, "material");
         addQuad(mesh, r.dvec3("corner"), r.dvec3("edge1"), r.dvec3("edge2"), material);
       } else if (type == "triangles") {
         readInlineTriangles(r, mesh);
       } else {
-        r.fail(r.field("type"), "unknown shape type \"" + type + "\" (expected obj, quad or triangles)");
+        r.fail(r.field("type"), "unknown shape type \"" + type + "\" (expected obj, gltf, quad or triangles)");
       }
       const Transform t = readTransform(r, "transform");
       r.finish();
@@ -304,9 +356,19 @@ class SceneParser {
     if (!top.has("lights")) return;
     const json& lights = top.raw("lights");
     if (!lights.is_array()) top.fail("lights", "must be an array");
-    for (size_t i = 0; i < lights.size(); ++i) {
-      const std::string path = "lights[" + std::to_string(i) + "]";
-      FieldReader r(lights[i], path, fileName_);
+    for (size_t i = 0; i < lights.size(); ++i) parseLightEntry(lights[i], "lights[" + std::to_string(i) + "]");
+  }
+
+  // The lights the models bring (KHR_lights_punctual), after the scene's own.
+  void addModelLights() {
+    for (const ModelImport& m : imports_)
+      for (size_t k = 0; k < m.model.lights.size(); ++k)
+        parseLightEntry(m.model.lights[k], m.field + " light \"" + m.model.lights[k].value("name", std::to_string(k)) + "\"");
+  }
+
+  void parseLightEntry(const json& entry, const std::string& path) {
+    {
+      FieldReader r(entry, path, fileName_);
       const std::string type = r.string("type");
       if (type != "quad") {
         const LightParser parseLight = findLightType(type);
@@ -322,7 +384,7 @@ class SceneParser {
                                         }};
         scene_.lights.push_back(parseLight(r, context));
         r.finish();
-        continue;
+        return;
       }
       const Spectrum radiance = r.color("radiance", kRadianceRange);
       const Material m(path, nullptr, radiance, r.boolean("two_sided", false));
@@ -368,12 +430,6 @@ class SceneParser {
     return LoadedAsset{path.string(), std::move(*content)};
   }
 
-  // A shape as read: world positions in double, the rest as it will render.
-  struct MeshInput {
-    TriangleMesh mesh;  // positions empty until addMesh
-    std::vector<DVec3> positions;
-  };
-
   static void addQuad(MeshInput& in, DVec3 corner, DVec3 e1, DVec3 e2, uint32_t material) {
     // Faces the side of cross(e1, e2).
     TriangleMesh& mesh = in.mesh;
@@ -381,6 +437,188 @@ class SceneParser {
     in.positions.insert(in.positions.end(), {corner, corner + e1, corner + e1 + e2, corner + e2});
     mesh.indices.insert(mesh.indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
     mesh.materialIds.insert(mesh.materialIds.end(), {material, material});
+  }
+
+  // A model file (OBJ with MTL, glTF) a shape names, imported in world space before the camera is
+  // read (a scene may take its camera from a model, or frame the models), with the shape's
+  // transform applied to everything it brings.
+  struct ModelImport {
+    size_t shape;       // index in shapes
+    std::string field;  // "shapes[2]"
+    std::string shown;  // the model file's path, for messages
+    bool obj;
+    ImportedModel model;
+    std::vector<std::string> groupNames;  // OBJ: groups and the group of each triangle
+    std::vector<uint32_t> triangleGroups;
+    DVec3 worldLo{std::numeric_limits<double>::max()}, worldHi{-std::numeric_limits<double>::max()};
+  };
+
+  void importModels(FieldReader& top) {
+    const json& shapes = top.raw("shapes");
+    if (!shapes.is_array()) top.fail("shapes", "must be an array");
+    for (size_t i = 0; i < shapes.size(); ++i) {
+      if (!shapes[i].is_object() || !shapes[i].contains("type")) continue;  // parseShapes reports it
+      const json& type = shapes[i]["type"];
+      if (type != "obj" && type != "gltf") continue;
+      ModelImport m;
+      m.shape = i;
+      m.field = "shapes[" + std::to_string(i) + "]";
+      m.obj = type == "obj";
+      FieldReader r(shapes[i], m.field, fileName_);
+      const std::string rel = r.string("file");
+      const LoadedAsset file = readAssetFile(r, "file", m.obj ? "OBJ file" : "glTF file");
+      m.shown = file.shown;
+      const ModelFileReader read = modelFileReader(rel, m);
+      if (m.obj) {
+        // tinyobjloader skips what it does not understand: check first that this is an OBJ at all.
+        const ObjCheck check = checkObjText(file.bytes);
+        if (!check.ok()) r.fail(r.field("file"), "\"" + m.shown + "\": " + check.problem);
+        ImportedObj obj = importObj(check.text, m.shown, read);
+        m.model = std::move(obj.model);
+        m.groupNames = std::move(obj.groupNames);
+        m.triangleGroups = std::move(obj.triangleGroups);
+      } else {
+        m.model = importGltf(file.bytes, m.shown, read);
+      }
+      const Transform t = readTransform(r, "transform");
+      transformModel(m, t);
+      for (const std::string& note : m.model.notes) notes_.push_back(m.shown + ": " + note);
+      imports_.push_back(std::move(m));
+    }
+  }
+
+  // Files a model refers to, relative to the model file, read through the scene's asset reader
+  // and recorded as assets. A missing MTL library is an empty one (noted): an OBJ exported with
+  // materials still loads when the scene gives its materials.
+  ModelFileReader modelFileReader(const std::string& modelRel, ModelImport& m) {
+    const fs::path dir = fs::path(modelRel).parent_path();
+    return [this, dir, &m](const std::string& rel) -> std::optional<std::string> {
+      const std::string path = (dir / rel).lexically_normal().generic_string();
+      std::optional<std::string> content = readAsset_(path);
+      if (!content) {
+        if (m.obj && fs::path(rel).extension() == ".mtl") {
+          m.model.notes.push_back("mtllib " + rel + " not found: its materials must come from the scene");
+          return std::string();
+        }
+        return std::nullopt;
+      }
+      hash_.update(path);
+      hash_.update(*content);
+      scene_.assets[path] = sha256Hex(*content);
+      return content;
+    };
+  }
+
+  // The shape's transform on every mesh, camera and light of a model (still in world space).
+  static void transformModel(ModelImport& m, const Transform& t) {
+    const auto point = [&](json& j, const char* key) {
+      if (!j.contains(key) || !j[key].is_array() || j[key].size() != 3) return;
+      const DVec3 p = t.apply(DVec3(j[key][0].get<double>(), j[key][1].get<double>(), j[key][2].get<double>()));
+      j[key] = {p.x, p.y, p.z};
+    };
+    const auto vector = [&](json& j, const char* key) {
+      if (!j.contains(key) || !j[key].is_array() || j[key].size() != 3) return;
+      const Vec3 v = t.applyToVector(Vec3(j[key][0].get<float>(), j[key][1].get<float>(), j[key][2].get<float>()));
+      j[key] = {v.x, v.y, v.z};
+    };
+    for (json& c : m.model.cameras) point(c, "position"), point(c, "look_at"), vector(c, "up");
+    for (json& l : m.model.lights) point(l, "position"), point(l, "look_at"), vector(l, "direction");
+    for (MeshInput& in : m.model.meshes) {
+      applyTransform(in, t);
+      for (const DVec3& p : in.positions) m.worldLo = glm::min(m.worldLo, p), m.worldHi = glm::max(m.worldHi, p);
+    }
+  }
+
+  // The shape of a model: its meshes as one, with its materials mapped (the shape's overrides,
+  // then the model's own).
+  void addImportedShape(FieldReader& r, MeshInput& out, size_t shapeIndex) {
+    ModelImport* found = nullptr;
+    for (ModelImport& m : imports_)
+      if (m.shape == shapeIndex) found = &m;
+    (void)r.has("file");
+    (void)r.has("transform");  // read (and applied) by importModels
+    ModelImport& m = *found;
+    const uint32_t all = r.has("material") ? materialRef(r, "material") : UINT32_MAX;
+    // Overrides by the model's material name ("materials") and, for OBJ, by group.
+    std::map<std::string, uint32_t> byName, byGroup;
+    std::set<std::string> namesUsed, groupsUsed;
+    const auto readOverrides = [&](const char* key, std::map<std::string, uint32_t>& into) {
+      if (!r.has(key)) return;
+      FieldReader g(r.raw(key), r.field(key), fileName_);
+      const json& object = r.raw(key);
+      for (auto it = object.begin(); it != object.end(); ++it)
+        into[it.key()] = lookupMaterial(r, g.field(it.key()), g.string(it.key()));
+      g.finish();
+    };
+    readOverrides("materials", byName);
+    if (m.obj) readOverrides("group_materials", byGroup);
+    // The model's materials join the scene's, named after the model.
+    const uint32_t first = uint32_t(scene_.materials.size());
+    for (Material mat : m.model.materials) {
+      mat.name = m.shown + ": " + mat.name;
+      scene_.materials.push_back(std::move(mat));
+    }
+    std::vector<uint32_t> modelToScene(m.model.materials.size());
+    for (size_t k = 0; k < m.model.materials.size(); ++k) {
+      const std::string& name = m.model.materials[k].name;
+      modelToScene[k] = first + uint32_t(k);
+      if (auto it = byName.find(name); it != byName.end()) modelToScene[k] = it->second, namesUsed.insert(name);
+    }
+    for (const auto& [name, id] : byName)
+      if (!namesUsed.count(name))
+        r.fail(r.field("materials") + "." + name, "no material of that name in \"" + m.shown + "\"");
+
+    // One mesh (one Embree geometry) for the whole shape, as an OBJ always was.
+    TriangleMesh& mesh = out.mesh;
+    const bool anyNormals = std::any_of(m.model.meshes.begin(), m.model.meshes.end(), [](const MeshInput& in) { return !in.mesh.normals.empty(); });
+    bool anyUv[2];
+    for (int set = 0; set < 2; ++set)
+      anyUv[set] = std::any_of(m.model.meshes.begin(), m.model.meshes.end(), [set](const MeshInput& in) { return !in.mesh.uv[set].empty(); });
+    const bool anyTangents = std::any_of(m.model.meshes.begin(), m.model.meshes.end(), [](const MeshInput& in) { return !in.mesh.tangents.empty(); });
+    size_t triangle = 0;
+    for (MeshInput& in : m.model.meshes) {
+      const uint32_t base = uint32_t(out.positions.size());
+      const size_t vertices = in.positions.size();
+      out.positions.insert(out.positions.end(), in.positions.begin(), in.positions.end());
+      // Attributes a part lacks where another has them: its face normals are taken from the
+      // geometry (zero: the shading code falls back to the geometric normal), uv 0.
+      if (anyNormals) {
+        if (in.mesh.normals.empty()) in.mesh.normals.assign(vertices, Vec3(0.0f));
+        mesh.normals.insert(mesh.normals.end(), in.mesh.normals.begin(), in.mesh.normals.end());
+      }
+      for (int set = 0; set < 2; ++set) {
+        if (!anyUv[set]) continue;
+        if (in.mesh.uv[set].empty()) in.mesh.uv[set].assign(vertices, Vec2(0.0f));
+        mesh.uv[set].insert(mesh.uv[set].end(), in.mesh.uv[set].begin(), in.mesh.uv[set].end());
+      }
+      if (anyTangents) {
+        if (in.mesh.tangents.empty()) in.mesh.tangents.assign(vertices, glm::vec4(0.0f));
+        mesh.tangents.insert(mesh.tangents.end(), in.mesh.tangents.begin(), in.mesh.tangents.end());
+      }
+      for (uint32_t index : in.mesh.indices) mesh.indices.push_back(base + index);
+      for (uint32_t id : in.mesh.materialIds) {
+        uint32_t material = all;
+        if (m.obj) {
+          const std::string& group = m.groupNames[m.triangleGroups[triangle]];
+          if (auto it = byGroup.find(group); it != byGroup.end()) {
+            material = it->second;
+            groupsUsed.insert(group);
+          } else if (material == UINT32_MAX && id != kNoObjMaterial) {
+            material = modelToScene[id];
+          }
+          if (material == UINT32_MAX)
+            r.fail(r.field("material"), "OBJ group \"" + group + "\" has no material: give material or group_materials." + group +
+                                            " (or a usemtl with an mtllib)");
+        } else if (material == UINT32_MAX) {
+          material = modelToScene[id];
+        }
+        mesh.materialIds.push_back(material);
+        ++triangle;
+      }
+    }
+    for (const auto& [group, material] : byGroup)
+      if (!groupsUsed.count(group))
+        r.fail(r.field("group_materials") + "." + group, "no group of that name in \"" + m.shown + "\"");
   }
 
   void readInlineTriangles(FieldReader& r, MeshInput& in) {
@@ -410,71 +648,10 @@ class SceneParser {
     }
   }
 
-  void readObj(FieldReader& r, MeshInput& in) {
-    TriangleMesh& mesh = in.mesh;
-    const std::string where = r.field("file");
-    const LoadedAsset file = readAssetFile(r, "file", "OBJ file");
-    const fs::path path = file.shown;
-    const std::string& text = file.bytes;
-
-    // tinyobjloader skips what it does not understand: check first that this is an OBJ at all.
-    const ObjCheck check = checkObjText(text);
-    if (!check.ok()) r.fail(where, "\"" + path.string() + "\": " + check.problem);
-
-    tinyobj::ObjReaderConfig config;
-    config.triangulate = true;
-    config.vertex_color = false;
-    config.mtl_search_path = "";  // lensfarm materials come from the scene, never from .mtl files
-    tinyobj::ObjReader reader;
-    if (!reader.ParseFromString(check.text, "", config))
-      r.fail(where, "\"" + path.string() + "\" is not a valid OBJ file: " + reader.Error());
-    const auto& attrib = reader.GetAttrib();
-    const uint32_t defaultMaterial = r.has("material") ? materialRef(r, "material") : UINT32_MAX;
-
-    std::map<std::string, uint32_t> groupMaterials;
-    std::set<std::string> groupsUsed;
-    if (r.has("group_materials")) {
-      FieldReader g(r.raw("group_materials"), r.field("group_materials"), fileName_);
-      const json& gm = r.raw("group_materials");
-      for (auto it = gm.begin(); it != gm.end(); ++it) {
-        const std::string name = g.string(it.key());
-        groupMaterials[it.key()] = lookupMaterial(r, g.field(it.key()), name);
-      }
-      g.finish();
-    }
-
-    // tinyobjloader's double build: a model far from the origin keeps its shape until it is
-    // re-centred on the camera.
-    static_assert(std::is_same_v<tinyobj::real_t, double>, "link tinyobjloader_double");
-    for (size_t k = 0; k < attrib.vertices.size(); k += 3) {
-      const DVec3 v(attrib.vertices[k], attrib.vertices[k + 1], attrib.vertices[k + 2]);
-      if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
-        r.fail(where, "\"" + path.string() + "\": vertex " + std::to_string(k / 3 + 1) + " is not finite");
-      in.positions.push_back(v);
-    }
-    for (const auto& shape : reader.GetShapes()) {
-      uint32_t material = defaultMaterial;
-      if (auto it = groupMaterials.find(shape.name); it != groupMaterials.end()) {
-        material = it->second;
-        groupsUsed.insert(shape.name);
-      }
-      if (material == UINT32_MAX)
-        r.fail(r.field("material"), "OBJ group \"" + shape.name +
-                                        "\" has no material: give material or group_materials." + shape.name);
-      for (const auto& index : shape.mesh.indices) {
-        if (index.vertex_index < 0 || size_t(index.vertex_index) >= in.positions.size())
-          r.fail(where, "\"" + path.string() + "\": face refers to a missing vertex");
-        mesh.indices.push_back(uint32_t(index.vertex_index));
-      }
-      mesh.materialIds.insert(mesh.materialIds.end(), shape.mesh.indices.size() / 3, material);
-    }
-    for (const auto& [group, material] : groupMaterials)
-      if (!groupsUsed.count(group))
-        r.fail(r.field("group_materials") + "." + group, "no group of that name in \"" + path.string() + "\"");
-  }
-
-  void applyTransform(MeshInput& in, const Transform& t) {
+  static void applyTransform(MeshInput& in, const Transform& t) {
     for (DVec3& p : in.positions) p = t.apply(p);
+    for (Vec3& n : in.mesh.normals) n = t.applyToNormal(n);
+    for (glm::vec4& v : in.mesh.tangents) v = glm::vec4(t.applyToVector(Vec3(v)), v.w);
     // A mirroring transform would turn every face inside out; swap winding to keep facing.
     if (t.flipsHandedness())
       for (size_t k = 0; k < in.mesh.indices.size(); k += 3) std::swap(in.mesh.indices[k + 1], in.mesh.indices[k + 2]);
@@ -515,9 +692,30 @@ class SceneParser {
       kept.indices.insert(kept.indices.end(), {mesh.indices[3 * tri], mesh.indices[3 * tri + 1], mesh.indices[3 * tri + 2]});
       kept.materialIds.push_back(mesh.materialIds[tri]);
     }
+    finishAttributes(kept);
     const size_t count = kept.triangleCount();
     if (count > 0) scene_.meshes.push_back(std::move(kept));
     return count;
+  }
+
+  // Vertex normals made unit length (after transforms) and tangents likewise; normals that only
+  // repeat each triangle's geometric normal (a faceted mesh exported with normals) are dropped,
+  // so such a mesh renders exactly, and as fast, as one without them.
+  static void finishAttributes(TriangleMesh& mesh) {
+    const auto unit = [](Vec3 v) {
+      const float length = glm::length(v);
+      return length > 0.0f && std::isfinite(length) ? v / length : Vec3(0.0f);
+    };
+    for (Vec3& n : mesh.normals) n = unit(n);
+    for (glm::vec4& t : mesh.tangents) t = glm::vec4(unit(Vec3(t)), t.w < 0.0f ? -1.0f : 1.0f);
+    if (mesh.normals.empty()) return;
+    bool flat = true;
+    for (size_t tri = 0; tri < mesh.triangleCount() && flat; ++tri) {
+      const uint32_t* idx = &mesh.indices[3 * tri];
+      const auto n = triangleNormal(mesh.positions[idx[0]], mesh.positions[idx[1]], mesh.positions[idx[2]]);
+      for (int k = 0; k < 3 && flat; ++k) flat = n && glm::dot(*n, mesh.normals[idx[k]]) > 1.0f - 1e-6f;
+    }
+    if (flat) mesh.normals.clear();
   }
 
   const json& root_;
@@ -528,6 +726,9 @@ class SceneParser {
   Sha256 hash_;
   std::map<std::string, uint32_t> materialIndex_;
   size_t shapeTriangles_ = 0;
+  std::vector<ModelImport> imports_;
+  std::string cameraOrigin_ = "camera";  // where the camera's fields come from, for messages
+  std::vector<std::string> notes_;        // Scene::notes
 };
 
 }  // namespace
@@ -661,7 +862,37 @@ Scene parseScene(const std::string& text, const fs::path& file, const AssetReade
 Scene loadScene(const fs::path& file) {
   std::error_code ec;
   if (!fs::is_regular_file(file, ec)) throw InputError(file.string(), "no such scene file");
+  if (isModelFile(file)) {
+    std::string text;
+    return modelScene(file, text);
+  }
   return parseScene(readWholeFileOrThrow(file, file.string()), file);
+}
+
+bool isModelFile(const fs::path& file) {
+  std::string ext = file.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return ext == ".gltf" || ext == ".glb" || ext == ".obj";
+}
+
+Scene modelScene(const fs::path& modelFile, std::string& text, const AssetReader& readAsset) {
+  std::string ext = modelFile.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  json scene = {{"format", kSceneFormat},
+                {"render", {{"resolution", {1280, 720}}, {"samples_per_pixel", 64}, {"max_bounces", 4}}},
+                {"shapes", {{{"type", ext == ".obj" ? "obj" : "gltf"}, {"file", modelFile.filename().string()}}}}};
+  // The scene file the model's JSON stands for sits beside the model, so its assets resolve there.
+  const fs::path asFile = modelFile.parent_path() / (modelFile.filename().string() + ".scene.json");
+  text = scene.dump(2);
+  Scene s = parseScene(text, asFile, readAsset);
+  bool lit = !s.lights.empty();
+  for (const Material& m : s.materials) lit |= m.isEmissive();
+  if (lit) return s;
+  scene["environment"] = {{"radiance", {1.0, 1.0, 1.0}}};
+  text = scene.dump(2);
+  s = parseScene(text, asFile, readAsset);
+  s.notes.push_back("environment: the model has no lights; lit by a uniform white environment of radiance 1");
+  return s;
 }
 
 void validateRenderSettings(const RenderSettings& s, const std::string& where) {

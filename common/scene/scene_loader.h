@@ -39,7 +39,17 @@ using AssetReader = std::function<std::optional<std::string>(const std::string& 
 // Reads assets from the file system, relative to `sceneFile`'s directory.
 AssetReader fileAssetReader(const std::filesystem::path& sceneFile);
 
+// A scene file, or a model file (.gltf, .glb, .obj) rendered with modelScene's defaults.
 Scene loadScene(const std::filesystem::path& file);
+
+// Whether `file` names a model rather than a scene (by its extension: .gltf, .glb, .obj).
+bool isModelFile(const std::filesystem::path& file);
+// The scene that renders a model file as it is (`lensfarm render model.glb`): the model as the
+// only shape with its own materials, its first camera (or one framing it), its lights, 1280x720
+// at 64 samples per pixel with 4 bounces; and, if the model has no lights, a uniform white
+// environment of radiance 1 (Scene::notes says so). `text` receives the scene's JSON, which the
+// farm ships as the job's scene.
+Scene modelScene(const std::filesystem::path& modelFile, std::string& text, const AssetReader& readAsset = {});
 
 // Parses scene text as if read from `file`; assets come from `readAsset` (by default the file
 // system, relative to `file`).
