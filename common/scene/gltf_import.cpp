@@ -272,40 +272,30 @@ struct AccessorData {
   double get(size_t i, int c) const {
     const unsigned char* p = base + i * stride + size_t(c) * size;
     switch (componentType) {
-      case TINYGLTF_COMPONENT_TYPE_BYTE: {
-        int8_t v;
-        std::memcpy(&v, p, 1);
-        return normalized ? std::max(double(v) / 127.0, -1.0) : double(v);
-      }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
-        uint8_t v;
-        std::memcpy(&v, p, 1);
-        return normalized ? double(v) / 255.0 : double(v);
-      }
-      case TINYGLTF_COMPONENT_TYPE_SHORT: {
-        int16_t v;
-        std::memcpy(&v, p, 2);
-        return normalized ? std::max(double(v) / 32767.0, -1.0) : double(v);
-      }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-        uint16_t v;
-        std::memcpy(&v, p, 2);
-        return normalized ? double(v) / 65535.0 : double(v);
-      }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
-        uint32_t v;
-        std::memcpy(&v, p, 4);
-        return double(v);
-      }
-      case TINYGLTF_COMPONENT_TYPE_FLOAT: {
-        float v;
-        std::memcpy(&v, p, 4);
-        return double(v);
-      }
+      case TINYGLTF_COMPONENT_TYPE_BYTE:
+        return scaled(load<int8_t>(p), 127.0);
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+        return scaled(load<uint8_t>(p), 255.0);
+      case TINYGLTF_COMPONENT_TYPE_SHORT:
+        return scaled(load<int16_t>(p), 32767.0);
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+        return scaled(load<uint16_t>(p), 65535.0);
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+        return load<uint32_t>(p);
+      case TINYGLTF_COMPONENT_TYPE_FLOAT:
+        return load<float>(p);
       default:
         return 0.0;
     }
   }
+  template <class T>
+  static double load(const unsigned char* p) {
+    T v;
+    std::memcpy(&v, p, sizeof v);
+    return double(v);
+  }
+  // A normalized integer's value: max(v / largest, -1).
+  double scaled(double v, double largest) const { return normalized ? std::max(v / largest, -1.0) : v; }
   DVec3 vec3(size_t i) const { return DVec3(get(i, 0), get(i, 1), get(i, 2)); }
 };
 
@@ -995,29 +985,26 @@ class GltfImporter {
         fail(where, what + " (accessor " + std::to_string(prim.attributes.at(what)) + "): element " +
                         std::to_string(i) + " is not finite (" + value + ")");
     };
-    const auto show = [](const DVec3& v) { return num(v.x) + ", " + num(v.y) + ", " + num(v.z); };
-    d.positions.resize(count);
-    for (size_t i = 0; i < count; ++i) {
-      d.positions[i] = positions.vec3(i);
-      finite(isFinite(d.positions[i]), "POSITION", i, show(d.positions[i]));
-    }
+    // The first three components of attribute `what`'s elements, each finite.
+    const auto vectors = [&](const AccessorData& a, const std::string& what) {
+      std::vector<DVec3> out(count);
+      for (size_t i = 0; i < count; ++i) {
+        out[i] = a.vec3(i);
+        finite(isFinite(out[i]), what, i, num(out[i].x) + ", " + num(out[i].y) + ", " + num(out[i].z));
+      }
+      return out;
+    };
+    d.positions = vectors(positions, "POSITION");
     if (const int* normal = attribute("NORMAL")) {
       const AccessorData a = accessor(*normal, Semantic::kNormal, "NORMAL", where);
       sameCount(a, "NORMAL");
-      d.normals.resize(count);
-      for (size_t i = 0; i < count; ++i) {
-        d.normals[i] = a.vec3(i);
-        finite(isFinite(d.normals[i]), "NORMAL", i, show(d.normals[i]));
-      }
+      d.normals = vectors(a, "NORMAL");
     }
     if (const int* tangent = attribute("TANGENT")) {
       const AccessorData a = accessor(*tangent, Semantic::kTangent, "TANGENT", where);
       sameCount(a, "TANGENT");
-      d.tangents.resize(count);
-      for (size_t i = 0; i < count; ++i) {
-        d.tangents[i] = glm::dvec4(a.vec3(i), a.get(i, 3) < 0.0 ? -1.0 : 1.0);
-        finite(isFinite(DVec3(d.tangents[i])), "TANGENT", i, show(DVec3(d.tangents[i])));
-      }
+      const std::vector<DVec3> xyz = vectors(a, "TANGENT");
+      for (size_t i = 0; i < count; ++i) d.tangents.emplace_back(xyz[i], a.get(i, 3) < 0.0 ? -1.0 : 1.0);
     }
     for (int set = 0; set < 2; ++set) {
       const std::string name = "TEXCOORD_" + std::to_string(set);
