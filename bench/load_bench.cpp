@@ -13,11 +13,14 @@
 //   peak      the process's peak resident memory (VmHWM, /proc/self/status), after loading and
 //             after the build, and that peak over N: bytes per triangle, everything included
 //             (the program itself, Embree, TBB).
-// It prints medians over --repeat runs. --phases adds, per case, the build split into its parts
-// (constructed one after the other as RenderScene does) from one more child each.
+// It prints medians over --repeat runs, with the CPU time beside each wall time (on a shared
+// machine the CPU time is the steadier measure). --phases adds, per case, the build split into its
+// parts (constructed one after the other as RenderScene does) from one more child each. --mirror
+// makes the mesh a mirror: the effects analysis then searches it for closed shells. --digest (with
+// --child) prints a SHA-256 of what was loaded, to check that a change keeps every bit.
 //
 //   build/bench/lensfarm-load-bench [--triangles 1000000 --triangles 10000000] [--repeat 3]
-//                                   [--formats glb,obj] [--dir /tmp/x] [--keep] [--phases]
+//                                   [--formats glb,obj] [--dir /tmp/x] [--keep] [--phases] [--mirror]
 #include <CLI/CLI.hpp>
 #include <sys/resource.h>
 #include <unistd.h>
@@ -37,6 +40,7 @@
 
 #include "render/render_scene.h"
 #include "scene/scene_loader.h"
+#include "util/hash.h"
 
 namespace lensfarm {
 namespace {
@@ -248,12 +252,15 @@ void writeObj(const Grid& g, const fs::path& path) {
 }
 
 // A scene with the model as its one shape, seen from above and the front, lit by a white sky.
-void writeScene(const fs::path& path, const std::string& format, const std::string& model) {
+// `mirror`: the shape is a mirror, which has the effects analysis look for closed meshes.
+void writeScene(const fs::path& path, const std::string& format, const std::string& model, bool mirror) {
   json shape = {{"type", format == "obj" ? "obj" : "gltf"}, {"file", model}};
-  if (format == "obj") shape["material"] = "white";
+  if (format == "obj" || mirror) shape["material"] = mirror ? "mirror" : "white";
   const json scene = {{"format", kSceneFormat},
                       {"render", {{"resolution", {64, 64}}, {"samples_per_pixel", 1}}},
-                      {"materials", {{"white", {{"type", "lambertian"}, {"albedo", {0.8, 0.8, 0.8}}}}}},
+                      {"materials",
+                       {{"white", {{"type", "lambertian"}, {"albedo", {0.8, 0.8, 0.8}}}},
+                        {"mirror", {{"type", "mirror"}, {"reflectance", 0.9}}}}},
                       {"camera", {{"type", "pinhole"}, {"position", {0.5, 1.2, 2.0}}, {"look_at", {0.5, 0.0, 0.5}},
                                   {"angle_of_view", 50}}},
                       {"shapes", {shape}},
@@ -269,7 +276,27 @@ struct Result {
   double effects = 0, caster = 0, lights = 0;  // --phases only
 };
 
-int runChild(const fs::path& scenePath, bool phases) {
+// SHA-256 of every array of the loaded scene's meshes and of the caster's triangle table: equal
+// digests before and after a change to the loading path say it loads the very same bits.
+std::string sceneDigest(const Scene& scene) {
+  Sha256 hash;
+  const auto add = [&](const auto& v) {
+    hash.update(std::string_view(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v[0])));
+  };
+  for (const TriangleMesh& m : scene.meshes) {
+    add(m.positions), add(m.indices), add(m.materialIds), add(m.normals), add(m.uv[0]), add(m.uv[1]), add(m.tangents);
+    hash.update(m.name);
+  }
+  const RayCaster caster(scene);
+  add(caster.triangles());
+  return hash.hexDigest();
+}
+
+int runChild(const fs::path& scenePath, bool phases, bool digest) {
+  if (digest) {
+    std::printf("%s\n", sceneDigest(loadScene(scenePath)).c_str());
+    return 0;
+  }
   Result r;
   const auto start = Clock::now();
   const double cpuStart = cpuSeconds();
@@ -364,17 +391,20 @@ int main(int argc, char** argv) {
   std::vector<std::string> formats{"glb", "obj"};
   int repeat = 3;
   std::string dir, child;
-  bool keep = false, phases = false;
+  bool keep = false, phases = false, mirror = false;
   app.add_option("--triangles", sizes, "Mesh sizes in triangles (default: 1000000 and 10000000)");
   app.add_option("--formats", formats, "glb, obj or both")->delimiter(',')->check(CLI::IsMember({"glb", "obj"}));
   app.add_option("--repeat", repeat, "Runs per case; medians are reported")->check(CLI::Range(1, 100))->capture_default_str();
   app.add_option("--dir", dir, "Where to write the meshes (default: a new temporary directory)");
   app.add_flag("--keep", keep, "Keep the generated files");
   app.add_flag("--phases", phases, "Also time the build's parts (effects analysis, Embree, light sampler)");
+  app.add_flag("--mirror", mirror, "Make the mesh a mirror (the effects analysis then looks for closed meshes)");
   app.add_option("--child", child, "(internal) measure loading this scene file in this process");
+  bool digest = false;
+  app.add_flag("--digest", digest, "With --child: print a SHA-256 of the loaded meshes and triangle table instead");
   CLI11_PARSE(app, argc, argv);
   try {
-    if (!child.empty()) return runChild(child, phases);
+    if (!child.empty()) return runChild(child, phases, digest);
     if (sizes.empty()) sizes = {1000000, 10000000};
     const fs::path root = dir.empty() ? fs::temp_directory_path() / ("lensfarm-load-bench-" + std::to_string(getpid())) : fs::path(dir);
     fs::create_directories(root);
@@ -386,14 +416,15 @@ int main(int argc, char** argv) {
       const Grid grid = gridOf(n);
       for (const std::string& format : formats) {
         const fs::path model = root / ("mesh-" + std::to_string(grid.triangles()) + "." + format);
-        const fs::path scenePath = root / ("scene-" + std::to_string(grid.triangles()) + "-" + format + ".json");
+        const fs::path scenePath = root / ("scene-" + std::to_string(grid.triangles()) + "-" + format +
+                                           (mirror ? "-mirror" : "") + ".json");
         if (!fs::exists(model)) {
           const auto t = Clock::now();
           format == "glb" ? writeGlb(grid, model) : writeObj(grid, model);
           std::fprintf(stderr, "wrote %s (%s) in %.1f s\n", model.c_str(), megabytes(double(fs::file_size(model))).c_str(),
                        secondsSince(t));
         }
-        writeScene(scenePath, format, model.filename().string());
+        writeScene(scenePath, format, model.filename().string(), mirror);
         std::vector<double> load, build, loadCpu, buildCpu, peakLoad, peak;
         uint64_t triangles = 0;
         for (int k = 0; k < repeat; ++k) {
