@@ -21,35 +21,75 @@ constexpr double kNegligibleBlurCells = 0.5;
 // two triangles (a watertight, manifold shell).
 struct Shell {
   const TriangleMesh* mesh;
-  std::vector<size_t> triangles;
+  std::vector<uint32_t> triangles;
 };
 
+// In linear time and with flat arrays (a 10^7-triangle mesh takes well under a second): the
+// components by union-find over vertex indices; each undirected edge bucketed by its smaller
+// vertex (a counting sort), its uses counted within the bucket. Shells in mesh order, each
+// mesh's by ascending root, their triangles in mesh order.
 std::vector<Shell> closedShells(const Scene& scene) {
   std::vector<Shell> shells;
   for (const auto& mesh : scene.meshes) {
+    const size_t vertices = mesh.positions.size(), triangles = mesh.triangleCount();
+    const uint32_t* idx = mesh.indices.data();
     // Union-find over vertex indices.
-    std::vector<uint32_t> parent(mesh.positions.size());
+    std::vector<uint32_t> parent(vertices);
     for (uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
     const auto find = [&](uint32_t x) {
       while (parent[x] != x) x = parent[x] = parent[parent[x]];
       return x;
     };
-    for (size_t t = 0; t < mesh.triangleCount(); ++t)
-      for (int k = 1; k < 3; ++k) parent[find(mesh.indices[3 * t + k])] = find(mesh.indices[3 * t]);
-    std::map<uint32_t, Shell> byRoot;
-    std::map<uint32_t, std::map<std::pair<uint32_t, uint32_t>, int>> edges;
-    for (size_t t = 0; t < mesh.triangleCount(); ++t) {
-      const uint32_t root = find(mesh.indices[3 * t]);
-      byRoot.try_emplace(root, Shell{&mesh, {}}).first->second.triangles.push_back(t);
+    for (size_t t = 0; t < triangles; ++t)
+      for (int k = 1; k < 3; ++k) parent[find(idx[3 * t + k])] = find(idx[3 * t]);
+    // Edges (a, b), a <= b, grouped by a: start[a] .. start[a + 1] index the b's in `other`.
+    std::vector<uint32_t> start(vertices + 1, 0);
+    const auto edge = [&](size_t t, int k) {
+      const uint32_t a = idx[3 * t + k], b = idx[3 * t + (k + 1) % 3];
+      return std::pair<uint32_t, uint32_t>(std::min(a, b), std::max(a, b));
+    };
+    for (size_t t = 0; t < triangles; ++t)
+      for (int k = 0; k < 3; ++k) ++start[edge(t, k).first + 1];
+    for (size_t v = 0; v < vertices; ++v) start[v + 1] += start[v];
+    std::vector<uint32_t> other(3 * triangles), fill(start.begin(), start.end() - 1);
+    for (size_t t = 0; t < triangles; ++t)
       for (int k = 0; k < 3; ++k) {
-        uint32_t a = mesh.indices[3 * t + k], b = mesh.indices[3 * t + (k + 1) % 3];
-        ++edges[root][{std::min(a, b), std::max(a, b)}];
+        const auto [a, b] = edge(t, k);
+        other[fill[a]++] = b;
+      }
+    std::vector<uint32_t>().swap(fill);
+    // A component is open if one of its edges is used other than twice.
+    std::vector<uint8_t> open(vertices, 0);
+    for (size_t a = 0; a < vertices; ++a) {
+      const auto first = other.begin() + start[a], last = other.begin() + start[a + 1];
+      if (first == last) continue;
+      std::sort(first, last);
+      for (auto run = first; run != last;) {
+        const auto end = std::find_if(run, last, [&](uint32_t b) { return b != *run; });
+        if (end - run != 2) open[find(uint32_t(a))] = 1;
+        run = end;
       }
     }
-    for (auto& [root, shell] : byRoot) {
-      bool closed = true;
-      for (const auto& [edge, count] : edges[root]) closed &= count == 2;
-      if (closed) shells.push_back(std::move(shell));
+    std::vector<uint32_t>().swap(other);
+    std::vector<uint32_t>().swap(start);
+    // The triangles of each closed component, components by ascending root.
+    std::vector<uint32_t> shellOf(vertices, UINT32_MAX);
+    std::vector<uint32_t> roots;
+    for (size_t t = 0; t < triangles; ++t) {
+      const uint32_t root = find(idx[3 * t]);
+      if (open[root] || shellOf[root] != UINT32_MAX) continue;
+      shellOf[root] = 0;
+      roots.push_back(root);
+    }
+    std::sort(roots.begin(), roots.end());
+    const size_t first = shells.size();
+    for (size_t k = 0; k < roots.size(); ++k) {
+      shellOf[roots[k]] = uint32_t(first + k);
+      shells.push_back(Shell{&mesh, {}});
+    }
+    for (size_t t = 0; t < triangles; ++t) {
+      const uint32_t root = find(idx[3 * t]);
+      if (!open[root]) shells[shellOf[root]].triangles.push_back(uint32_t(t));
     }
   }
   return shells;
@@ -80,6 +120,8 @@ bool inside(const Shell& shell, const DVec3& p) {
 // True if every triangle of material `id` lies inside a closed shell that the camera is outside
 // of: camera paths can never enter a watertight shell, so nothing there can reach the image.
 bool sealedAway(const Scene& scene, const std::vector<Shell>& shells, uint32_t id, const Vec3& camera) {
+  std::vector<bool> holdsCamera(shells.size());
+  for (size_t k = 0; k < shells.size(); ++k) holdsCamera[k] = inside(shells[k], DVec3(camera));
   bool any = false;
   for (const auto& mesh : scene.meshes)
     for (size_t t = 0; t < mesh.triangleCount(); ++t) {
@@ -87,7 +129,7 @@ bool sealedAway(const Scene& scene, const std::vector<Shell>& shells, uint32_t i
       any = true;
       bool sealed = false;
       for (const Shell& shell : shells) {
-        if (shell.mesh == &mesh || inside(shell, DVec3(camera))) continue;
+        if (shell.mesh == &mesh || holdsCamera[size_t(&shell - shells.data())]) continue;
         bool all = true;
         for (int k = 0; k < 3 && all; ++k) all = inside(shell, DVec3(mesh.positions[mesh.indices[3 * t + k]]));
         if (all) {
@@ -122,20 +164,23 @@ struct UselessLights {
 // something only if the camera or another surface's vertex is inside. A material is useless if
 // every one of its triangles is.
 UselessLights findUselessLights(const Scene& scene, const std::vector<Shell>& shells, const Vec3& camera) {
-  std::vector<Vec3> points{camera};
-  for (const auto& mesh : scene.meshes) points.insert(points.end(), mesh.positions.begin(), mesh.positions.end());
-  // Inward shells and, for each, whether something lies inside.
-  std::map<std::pair<const TriangleMesh*, size_t>, bool> inwardTriangle;  // -> something inside its shell
+  UselessLights out;
+  out.reason.assign(scene.materials.size(), "");
+  if (std::none_of(scene.materials.begin(), scene.materials.end(), [](const Material& m) { return m.isEmissive(); }))
+    return out;  // no emitter: nothing to decide
+  // Inward shells and, for each, whether something lies inside: per mesh and triangle, -1 for a
+  // triangle of no inward emitting shell, else 1 if something lies inside its shell, 0 if not.
+  std::vector<std::vector<int8_t>> inwardTriangle(scene.meshes.size());
   for (const Shell& shell : shells) {
     bool emits = false;
     for (size_t t : shell.triangles) emits |= scene.materials[shell.mesh->materialIds[t]].isEmissive();
     if (!emits || !(signedVolume(shell) < 0.0)) continue;
-    std::set<uint32_t> own;
+    std::vector<bool> own(shell.mesh->positions.size(), false);
     DVec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
     for (size_t t : shell.triangles)
       for (int k = 0; k < 3; ++k) {
         const uint32_t v = shell.mesh->indices[3 * t + k];
-        own.insert(v);
+        own[v] = true;
         lo = glm::min(lo, DVec3(shell.mesh->positions[v]));
         hi = glm::max(hi, DVec3(shell.mesh->positions[v]));
       }
@@ -146,13 +191,22 @@ UselessLights findUselessLights(const Scene& scene, const std::vector<Shell>& sh
     bool occupied = within(camera);
     for (const auto& mesh : scene.meshes)
       for (uint32_t v = 0; v < mesh.positions.size() && !occupied; ++v)
-        if (&mesh != shell.mesh || !own.count(v)) occupied = within(mesh.positions[v]);
-    for (size_t t : shell.triangles) inwardTriangle[{shell.mesh, t}] = occupied;
+        if (&mesh != shell.mesh || !own[v]) occupied = within(mesh.positions[v]);
+    std::vector<int8_t>& inMesh = inwardTriangle[size_t(shell.mesh - scene.meshes.data())];
+    if (inMesh.empty()) inMesh.assign(shell.mesh->triangleCount(), -1);
+    for (size_t t : shell.triangles) inMesh[t] = occupied ? 1 : 0;
   }
-  UselessLights out;
-  out.reason.assign(scene.materials.size(), "");
   std::vector<int> useful(scene.materials.size(), 0), inward(scene.materials.size(), 0);
-  for (const auto& mesh : scene.meshes)
+  // Whether the camera or any vertex of the scene lies in front of the plane through a with normal n.
+  const auto anyInFront = [&](const Vec3& a, const DVec3& n) {
+    if (glm::dot(DVec3(camera) - DVec3(a), n) > 0.0) return true;
+    for (const auto& mesh : scene.meshes)
+      for (const Vec3& p : mesh.positions)
+        if (glm::dot(DVec3(p) - DVec3(a), n) > 0.0) return true;
+    return false;
+  };
+  for (const auto& mesh : scene.meshes) {
+    const std::vector<int8_t>& inMesh = inwardTriangle[size_t(&mesh - scene.meshes.data())];
     for (size_t t = 0; t < mesh.triangleCount(); ++t) {
       const uint32_t id = mesh.materialIds[t];
       const Material& m = scene.materials[id];
@@ -161,19 +215,16 @@ UselessLights findUselessLights(const Scene& scene, const std::vector<Shell>& sh
         useful[id] = 1;
         continue;
       }
-      if (auto it = inwardTriangle.find({&mesh, t}); it != inwardTriangle.end()) {
-        useful[id] = it->second;
+      if (!inMesh.empty() && inMesh[t] >= 0) {
+        useful[id] = inMesh[t];
         inward[id] = 1;
         continue;
       }
       const Vec3& a = mesh.positions[mesh.indices[3 * t]];
       const DVec3 n = triangleCross(a, mesh.positions[mesh.indices[3 * t + 1]], mesh.positions[mesh.indices[3 * t + 2]]);
-      for (const Vec3& p : points)
-        if (glm::dot(DVec3(p) - DVec3(a), n) > 0.0) {
-          useful[id] = 1;
-          break;
-        }
+      if (anyInFront(a, n)) useful[id] = 1;
     }
+  }
   for (size_t m = 0; m < scene.materials.size(); ++m)
     if (scene.materials[m].isEmissive() && !useful[m])
       out.reason[m] = inward[m] ? "faces only into the closed mesh it lies on, where neither the camera nor any other "
@@ -272,8 +323,12 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
   std::vector<bool> used(scene.materials.size(), false);
   for (const auto& mesh : scene.meshes)
     for (uint32_t id : mesh.materialIds) used[id] = true;
-  // A mirror sealed inside a closed shell the camera is outside of can never be reached.
-  const std::vector<Shell> shells = closedShells(scene);
+  // A mirror sealed inside a closed shell the camera is outside of can never be reached. The
+  // shells matter only to mirrors and emitters: a scene with neither is not searched for them.
+  bool shellsMatter = false;
+  for (size_t m = 0; m < scene.materials.size(); ++m)
+    shellsMatter |= (used[m] && scene.materials[m].isSpecular()) || scene.materials[m].isEmissive();
+  const std::vector<Shell> shells = shellsMatter ? closedShells(scene) : std::vector<Shell>();
   int sealedMirrors = 0;
   for (size_t m = 0; m < scene.materials.size(); ++m)
     if (used[m] && scene.materials[m].isSpecular() && !shells.empty() &&
