@@ -142,15 +142,20 @@ RayCaster::RayCaster(const Scene& scene) {
   rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
 
+  uint32_t first = 0;  // of each mesh, in triangles_
   for (const TriangleMesh& mesh : scene.meshes) {
     RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
     auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
         geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.positions.size()));
     for (size_t k = 0; k < mesh.positions.size(); ++k)
       for (int c = 0; c < 3; ++c) vertices[3 * k + c] = mesh.positions[k][c];
-    auto* indices = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
-        geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), mesh.triangleCount()));
-    std::copy(mesh.indices.begin(), mesh.indices.end(), indices);
+    // The mesh's own indices, not a copy (the scene outlives the caster). Vertices are copied:
+    // Embree reads a vertex buffer's last element with a 16-byte load, past a Vec3 array's end.
+    if (mesh.indices.empty())
+      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), 0);
+    else
+      rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, mesh.indices.data(), 0,
+                                 3 * sizeof(uint32_t), mesh.triangleCount());
     const unsigned mask = unsigned(RayKind::kScattered) | (mesh.visibleToCamera ? unsigned(RayKind::kCamera) : 0u);
     rtcSetGeometryMask(geom, mask);
     bool cutsOut = false;
@@ -169,7 +174,15 @@ RayCaster::RayCaster(const Scene& scene) {
     rtcReleaseGeometry(geom);  // the scene holds its own reference
 
     if (geomOffset_.size() <= id) geomOffset_.resize(id + 1);
-    geomOffset_[id] = uint32_t(triangles_.size());
+    geomOffset_[id] = first;
+    first += uint32_t(mesh.triangleCount());
+  }
+  rtcCommitScene(scene_);
+
+  // The triangle table after the BVH: Embree's build memory is freed by then, so the two never
+  // add up at the peak. Reserved whole, it is never reallocated while it grows.
+  triangles_.reserve(triangleCount);
+  for (const TriangleMesh& mesh : scene.meshes) {
     for (size_t tri = 0; tri < mesh.triangleCount(); ++tri) {
       Triangle t;
       t.v0 = mesh.positions[mesh.indices[3 * tri]];
@@ -186,7 +199,6 @@ RayCaster::RayCaster(const Scene& scene) {
       triangles_.push_back(t);
     }
   }
-  rtcCommitScene(scene_);
 }
 
 // A hit on a mesh with a cut-out material (glTF alphaMode MASK; BLEND is rendered as MASK at 0.5)

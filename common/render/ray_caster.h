@@ -1,7 +1,8 @@
 #pragma once
 // Ray casting against the scene's triangles with Embree 3.
 //
-// The Embree scene is built once per loaded scene and shared read-only by every thread.
+// The Embree scene is built once per loaded scene and shared read-only by every thread. The
+// Scene must outlive its caster, unchanged: Embree reads the meshes' index arrays in place.
 // It is built with RTC_SCENE_FLAG_ROBUST (watertight edges; see docs/numerics.md).
 // Ray masks implement `visible_to_camera`: camera rays carry kCameraRay and skip geometry that
 // the camera must not see; every other ray sees everything.
