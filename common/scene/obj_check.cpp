@@ -87,9 +87,16 @@ constexpr double kMaxObjCoordinate = 1e30;
 
 bool isBlank(char c) { return c == ' ' || c == '\t'; }
 
-// The whitespace-separated tokens of a statement (after its keyword).
-std::vector<std::string_view> tokens(std::string_view s) {
-  std::vector<std::string_view> out;
+// The end of the line that starts at `pos`: its first '\r' or '\n', or the end of the text. (A
+// plain loop: string_view::find_first_of calls memchr on the set for every character.)
+size_t lineEnd(std::string_view text, size_t pos) {
+  while (pos < text.size() && text[pos] != '\n' && text[pos] != '\r') ++pos;
+  return pos;
+}
+
+// The whitespace-separated tokens of a statement (after its keyword), into `out`.
+void tokens(std::string_view s, std::vector<std::string_view>& out) {
+  out.clear();
   size_t k = 0;
   while (k < s.size()) {
     while (k < s.size() && isBlank(s[k])) ++k;
@@ -97,7 +104,6 @@ std::vector<std::string_view> tokens(std::string_view s) {
     while (k < s.size() && !isBlank(s[k])) ++k;
     if (k > start) out.push_back(s.substr(start, k - start));
   }
-  return out;
 }
 
 bool parseInteger(std::string_view s, int64_t& value) {
@@ -163,11 +169,12 @@ class Checker {
     while (pos < text.size()) {
       // One statement: a physical line, and the lines it continues onto with a final backslash.
       const size_t firstLine = line + 1;
-      std::string statement;
+      // The statement: the line itself, or (continued) the lines joined in `joined`.
+      std::string_view statement;
+      std::string joined;
       size_t physical = 0;
       for (;;) {
-        size_t end = text.find_first_of("\r\n", pos);
-        if (end == std::string_view::npos) end = text.size();
+        const size_t end = lineEnd(text, pos);
         std::string_view part = text.substr(pos, end - pos);
         pos = end;
         if (pos < text.size()) pos += (text[pos] == '\r' && pos + 1 < text.size() && text[pos + 1] == '\n') ? 2 : 1;
@@ -175,15 +182,20 @@ class Checker {
         ++line;
         while (!part.empty() && isBlank(part.back())) part.remove_suffix(1);
         const size_t lead = part.find_first_not_of(" \t");
-        const bool comment = statement.empty() && lead != std::string_view::npos && part[lead] == '#';
+        const bool comment = joined.empty() && lead != std::string_view::npos && part[lead] == '#';
         if (!comment && !part.empty() && part.back() == '\\' && pos < text.size()) {
           part.remove_suffix(1);
-          statement.append(part);
-          statement += ' ';
+          joined.append(part);
+          joined += ' ';
           continue;
         }
         if (!comment && !part.empty() && part.back() == '\\') part.remove_suffix(1);  // at the end of the file
-        statement.append(part);
+        if (joined.empty()) {
+          statement = part;
+        } else {
+          joined.append(part);
+          statement = joined;
+        }
         break;
       }
       if (std::string problem = checkStatement(statement, firstLine); !problem.empty()) return problem;
@@ -206,45 +218,48 @@ class Checker {
     s.remove_prefix(lead);
     const size_t keywordEnd = std::min(s.find_first_of(" \t"), s.size());
     const std::string_view keyword = s.substr(0, keywordEnd);
-    const std::string at = "line " + std::to_string(line) + ": ";
+    // (Messages are built only for a problem: never for the millions of good statements.)
+    const auto at = [line] { return "line " + std::to_string(line) + ": "; };
     const Statement kind = classify(keyword);
-    if (kind == Statement::kUnknown) return at + quoted(keyword) + " is not an OBJ statement";
+    if (kind == Statement::kUnknown) return at() + quoted(keyword) + " is not an OBJ statement";
     sawStatement_ = true;
-    const std::vector<std::string_view> args = tokens(s.substr(keywordEnd));
+    tokens(s.substr(keywordEnd), args_);
+    const std::vector<std::string_view>& args = args_;
     // Texture coordinates, normals and parameter-space vertices are not rendered, but a NaN or a
     // word among them is a broken file all the same (tinyobjloader would read it as 0).
     if (keyword == "vt" || keyword == "vn" || keyword == "vp") {
       const bool normal = keyword == "vn";
       const size_t least = normal ? 3 : 1, most = 3;
-      const std::string what = normal ? "a normal is 'vn i j k'" : keyword == "vt" ? "a texture coordinate is 'vt u [v [w]]'"
-                                                                                   : "a parameter vertex is 'vp u [v [w]]'";
-      if (args.size() < least || args.size() > most)
-        return at + what + ", got " + std::to_string(args.size()) + " numbers";
+      if (args.size() < least || args.size() > most) {
+        const std::string what = normal            ? "a normal is 'vn i j k'"
+                                 : keyword == "vt" ? "a texture coordinate is 'vt u [v [w]]'"
+                                                   : "a parameter vertex is 'vp u [v [w]]'";
+        return at() + what + ", got " + std::to_string(args.size()) + " numbers";
+      }
       for (std::string_view a : args) {
         double x;
-        if (!parseNumber(a, x)) return at + quoted(a) + " is not a finite number";
+        if (!parseNumber(a, x)) return at() + quoted(a) + " is not a finite number";
       }
     }
     switch (kind) {
       case Statement::kVertex: {
         if (args.size() < 3 || args.size() > 7)
-          return at + "a vertex is 'v x y z' (with an optional w or colour), got " + std::to_string(args.size()) +
+          return at() + "a vertex is 'v x y z' (with an optional w or colour), got " + std::to_string(args.size()) +
                  " numbers";
         for (size_t k = 0; k < args.size(); ++k) {
           double x;
-          if (!parseNumber(args[k], x)) return at + quoted(args[k]) + " is not a finite number";
+          if (!parseNumber(args[k], x)) return at() + quoted(args[k]) + " is not a finite number";
           if (k < 3 && std::abs(x) > kMaxObjCoordinate)
-            return at + "coordinate " + quoted(args[k]) + " is beyond 1e30 in magnitude, the largest accepted: " +
+            return at() + "coordinate " + quoted(args[k]) + " is beyond 1e30 in magnitude, the largest accepted: " +
                    "no scene is that large (a broken or mis-scaled file)";
         }
         ++vertices_;
         break;
       }
       case Statement::kFace: {
-        if (args.size() < 3)
-          return at + "a face needs at least 3 vertices, got " + std::to_string(args.size());
+        if (args.size() < 3) return at() + "a face needs at least 3 vertices, got " + std::to_string(args.size());
         for (std::string_view a : args)
-          if (std::string problem = checkReference(a, true); !problem.empty()) return at + problem;
+          if (std::string problem = checkReference(a, true); !problem.empty()) return at() + problem;
         ++faces_;
         text_ += 'f';
         text_.append(s.substr(keywordEnd));
@@ -252,7 +267,7 @@ class Checker {
       }
       case Statement::kLineOrPoint: {
         for (std::string_view a : args)
-          if (std::string problem = checkReference(a, false); !problem.empty()) return at + problem;
+          if (std::string problem = checkReference(a, false); !problem.empty()) return at() + problem;
         sawLines_ = true;
         break;
       }
@@ -291,6 +306,7 @@ class Checker {
 
   std::string_view bytes_;
   std::string text_;
+  std::vector<std::string_view> args_;  // the current statement's tokens (reused: no allocation per line)
   size_t vertices_ = 0, faces_ = 0;
   bool sawStatement_ = false, sawLines_ = false, sawFreeForm_ = false;
 };

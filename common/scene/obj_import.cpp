@@ -12,7 +12,6 @@
 #include <sstream>
 #include <string_view>
 #include <type_traits>
-#include <unordered_map>
 
 #include "scene/obj_check.h"
 #include "texture/image_decode.h"
@@ -48,8 +47,9 @@ template <typename F>
 void forEachStatement(std::string_view text, F&& f) {
   size_t line = 0, pos = 0;
   while (pos < text.size()) {
-    size_t end = text.find_first_of("\r\n", pos);
-    if (end == std::string_view::npos) end = text.size();
+    // (A plain loop: string_view::find_first_of calls memchr on the set for every character.)
+    size_t end = pos;
+    while (end < text.size() && text[end] != '\n' && text[end] != '\r') ++end;
     std::string_view s = text.substr(pos, end - pos);
     pos = end + ((end + 1 < text.size() && text[end] == '\r' && text[end + 1] == '\n') ? 2 : 1);
     ++line;
@@ -112,10 +112,11 @@ ObjScan scanObj(const std::string& text, const std::string& shown) {
     } else if (keyword == "f") {
       size_t k = 0;
       while (k < rest.size()) {
-        const size_t end = std::min(rest.find_first_of(" \t", k), rest.size());
+        size_t end = k;
+        while (end < rest.size() && rest[end] != ' ' && rest[end] != '\t') ++end;
         const std::string_view ref = rest.substr(k, end - k);
-        k = rest.find_first_not_of(" \t", end);
-        if (k == std::string_view::npos) k = rest.size();
+        k = end;
+        while (k < rest.size() && (rest[k] == ' ' || rest[k] == '\t')) ++k;
         const size_t slash1 = ref.find('/');
         if (slash1 == std::string_view::npos) continue;
         const size_t slash2 = ref.find('/', slash1 + 1);
@@ -459,26 +460,49 @@ class MaterialBuilder {
 // ---------------------------------------------------------------------------------------------
 // Geometry.
 
-struct Corner {
-  int v, vt, vn;
-  bool operator==(const Corner& o) const { return v == o.v && vt == o.vt && vn == o.vn; }
-};
-struct CornerHash {
-  size_t operator()(const Corner& c) const {
-    uint64_t h = uint64_t(uint32_t(c.v)) * 0x9E3779B97F4A7C15ull;
-    h ^= (uint64_t(uint32_t(c.vt)) + 0x632BE59BD9B4E019ull + (h << 6) + (h >> 2));
-    h ^= (uint64_t(uint32_t(c.vn)) + 0x85EBCA77C2B2AE63ull + (h << 6) + (h >> 2));
-    return size_t(h);
+// The vertex made for each distinct (v, vt, vn) corner: per position v, a chain of the vertices
+// made for it with their (vt, vn). Flat arrays (a 10^7-triangle mesh has millions of corners):
+// 4 bytes per position and 16 per vertex, and a lookup walks a chain of one or a few entries.
+class CornerVertices {
+ public:
+  static constexpr uint32_t kNone = UINT32_MAX;
+  explicit CornerVertices(size_t positions) : first_(positions, kNone) {}
+  uint32_t find(int v, int vt, int vn) const {
+    for (uint32_t i = first_[size_t(v)]; i != kNone; i = made_[i].next)
+      if (made_[i].vt == vt && made_[i].vn == vn) return made_[i].vertex;
+    return kNone;
   }
+  void add(int v, int vt, int vn, uint32_t vertex) {
+    made_.push_back(Made{vt, vn, vertex, first_[size_t(v)]});
+    first_[size_t(v)] = uint32_t(made_.size() - 1);
+  }
+
+ private:
+  struct Made {
+    int vt, vn;
+    uint32_t vertex, next;
+  };
+  std::vector<uint32_t> first_;  // per position: its chain's head in made_
+  std::vector<Made> made_;
+};
+
+// An input stream over a string's bytes, without copying them (std::istringstream would).
+class ViewStreamBuf : public std::streambuf {
+ public:
+  explicit ViewStreamBuf(std::string& text) { setg(text.data(), text.data(), text.data() + text.size()); }
 };
 
 }  // namespace
 
 ImportedObj importObj(const std::string& text, const std::string& shown, const ModelFileReader& read) {
   // tinyobjloader skips what it does not understand: check first that this is an OBJ at all.
-  const ObjCheck check = checkObjText(text);
+  ObjCheck check = checkObjText(text);
   if (!check.ok()) throw InputError(shown, check.problem);
-  const ObjScan scan = scanObj(check.text, shown);
+  return importCheckedObj(std::move(check.text), shown, read);
+}
+
+ImportedObj importCheckedObj(std::string text, const std::string& shown, const ModelFileReader& read) {
+  const ObjScan scan = scanObj(text, shown);
   ImportedObj result;
   ImportedModel& model = result.model;
 
@@ -516,12 +540,14 @@ ImportedObj importObj(const std::string& text, const std::string& shown, const M
   std::vector<tinyobj::material_t> parsedMaterials;
   std::string warn, err;
   {
-    std::istringstream stream(check.text);
+    ViewStreamBuf buffer(text);
+    std::istream stream(&buffer);
     PreloadedMaterials reader(materials, materialIndex);
     if (!tinyobj::LoadObj(&attrib, &shapes, &parsedMaterials, &warn, &err, &stream, &reader, /*triangulate=*/true,
                           /*default_vcols_fallback=*/false))
       throw InputError(shown, "not a valid OBJ file: " + err);
   }
+  std::string().swap(text);  // parsed: the text's memory goes before the mesh is built
   for (const std::string& name : scan.materialNames)
     if (!materialIndex.count(name))
       model.notes.push_back(shown + ": usemtl " + quote(name) +
@@ -546,7 +572,7 @@ ImportedObj importObj(const std::string& text, const std::string& shown, const M
   const bool byCorner = scan.faceTexcoords || scan.faceNormals;
   if (!byCorner)
     for (size_t v = 0; v < vertexCount; ++v) in.positions.push_back(position(int(v)));
-  std::unordered_map<Corner, uint32_t, CornerHash> corners;
+  CornerVertices corners(byCorner ? vertexCount : 0);
   size_t withoutTexcoords = 0, withoutNormals = 0;
   std::map<int, uint32_t> usedMaterials;  // tinyobjloader's index -> model.materials
   for (const tinyobj::shape_t& shape : shapes) {
@@ -588,15 +614,15 @@ ImportedObj importObj(const std::string& text, const std::string& shown, const M
               ownNormal = missingNormal = true;
             }
           }
-          const Corner key{index.vertex_index, index.texcoord_index, index.normal_index};
           if (!ownNormal) {
-            if (auto it = corners.find(key); it != corners.end()) {
-              mesh.indices.push_back(it->second);
+            if (const uint32_t made = corners.find(index.vertex_index, index.texcoord_index, index.normal_index);
+                made != CornerVertices::kNone) {
+              mesh.indices.push_back(made);
               continue;
             }
           }
           const uint32_t vertex = uint32_t(in.positions.size());
-          if (!ownNormal) corners.emplace(key, vertex);
+          if (!ownNormal) corners.add(index.vertex_index, index.texcoord_index, index.normal_index, vertex);
           in.positions.push_back(position(index.vertex_index));
           if (scan.faceNormals) mesh.normals.push_back(normal);
           if (scan.faceTexcoords) {
