@@ -357,14 +357,15 @@ DVec3 normalizedOrZero(const DVec3& v) {
 
 class GltfImporter {
  public:
-  GltfImporter(const std::string& bytes, const std::string& shown, const ModelFileReader& read)
-      : bytes_(bytes), shown_(shown), read_(read) {}
+  GltfImporter(std::string bytes, const std::string& shown, const ModelFileReader& read)
+      : bytes_(std::move(bytes)), shown_(shown), read_(read) {}
 
   ImportedModel run() {
     binary_ = isGlb();
     root_ = binary_ ? parseJson(glbJson(), shown_) : parseJson(bytes_, shown_);
     checkDocument();
     load();
+    std::string().swap(bytes_);  // tinygltf holds the buffers now
     root_ = json();
     quantized_ = std::count(gltf_.extensionsUsed.begin(), gltf_.extensionsUsed.end(), "KHR_mesh_quantization") ||
                  std::count(gltf_.extensionsRequired.begin(), gltf_.extensionsRequired.end(), "KHR_mesh_quantization");
@@ -980,17 +981,17 @@ class GltfImporter {
         fail(where + ".attributes." + what,
              "has " + plural(a.count, "element") + ", POSITION has " + std::to_string(count));
     };
-    const auto finite = [&](bool ok, const std::string& what, size_t i, const std::string& value) {
-      if (!ok)
-        fail(where, what + " (accessor " + std::to_string(prim.attributes.at(what)) + "): element " +
-                        std::to_string(i) + " is not finite (" + value + ")");
+    // (The value is formatted only for the message: never for the millions of good ones.)
+    const auto notFinite = [&](const std::string& what, size_t i, const std::string& value) {
+      fail(where, what + " (accessor " + std::to_string(prim.attributes.at(what)) + "): element " + std::to_string(i) +
+                      " is not finite (" + value + ")");
     };
     // The first three components of attribute `what`'s elements, each finite.
     const auto vectors = [&](const AccessorData& a, const std::string& what) {
       std::vector<DVec3> out(count);
       for (size_t i = 0; i < count; ++i) {
         out[i] = a.vec3(i);
-        finite(isFinite(out[i]), what, i, num(out[i].x) + ", " + num(out[i].y) + ", " + num(out[i].z));
+        if (!isFinite(out[i])) notFinite(what, i, num(out[i].x) + ", " + num(out[i].y) + ", " + num(out[i].z));
       }
       return out;
     };
@@ -1015,7 +1016,7 @@ class GltfImporter {
       d.uv[set].resize(count);
       for (size_t i = 0; i < count; ++i) {
         const double u = a.get(i, 0), v = a.get(i, 1);
-        finite(std::isfinite(float(u)) && std::isfinite(float(v)), name, i, num(u) + ", " + num(v));
+        if (!std::isfinite(float(u)) || !std::isfinite(float(v))) notFinite(name, i, num(u) + ", " + num(v));
         d.uv[set][i] = Vec2(float(u), float(v));
       }
     }
@@ -1042,18 +1043,19 @@ class GltfImporter {
       vertices.resize(count);
       for (size_t k = 0; k < count; ++k) vertices[k] = uint32_t(k);
     }
-    triangles(prim.mode, vertices, d.indices, where);
+    triangles(prim.mode, std::move(vertices), d.indices, where);
     return d;
   }
 
   // glTF 2.0 §3.7.2.1: TRIANGLES (4) as they are; TRIANGLE_STRIP (5) {v_i, v_(i+1+i%2),
   // v_(i+2-i%2)}; TRIANGLE_FAN (6) {v_(i+1), v_(i+2), v_0}.
-  void triangles(int mode, const std::vector<uint32_t>& v, std::vector<uint32_t>& out, const std::string& where) {
+  void triangles(int mode, std::vector<uint32_t> v, std::vector<uint32_t>& out, const std::string& where) {
     const size_t n = v.size();
     if (mode == TINYGLTF_MODE_TRIANGLES) {
       if (n % 3 != 0)
         model_.notes.push_back(where + ": " + plural(n % 3, "vertex") + " after the last whole triangle ignored");
-      out.assign(v.begin(), v.begin() + std::ptrdiff_t(n - n % 3));
+      v.resize(n - n % 3);
+      out = std::move(v);
       return;
     }
     for (size_t i = 0; i + 2 < n; ++i) {
@@ -1064,8 +1066,10 @@ class GltfImporter {
     }
   }
 
-  // Mesh m with all its primitives, read once whatever the number of nodes using it.
-  const LocalMesh& localMesh(size_t m) {
+  // Mesh m with all its primitives, read once whatever the number of nodes using it. Each part's
+  // arrays are moved into the mesh (the first part's) or appended to it, then freed: a big mesh
+  // is never held twice. Once every mesh the scene uses is read, the buffers are released.
+  LocalMesh& localMesh(size_t m) {
     if (meshes_[m]) return *meshes_[m];
     const tinygltf::Mesh& mesh = gltf_.meshes[m];
     std::vector<PrimitiveData> parts;
@@ -1088,25 +1092,39 @@ class GltfImporter {
       const size_t base = out->positions.size();
       if (base + d.positions.size() > std::numeric_limits<uint32_t>::max())
         fail(indexed("meshes", m), "more than 2^32 - 1 vertices");
-      out->positions.insert(out->positions.end(), d.positions.begin(), d.positions.end());
-      out->normals.insert(out->normals.end(), d.normals.begin(), d.normals.end());
-      if (allTangents) out->tangents.insert(out->tangents.end(), d.tangents.begin(), d.tangents.end());
+      const size_t vertices = d.positions.size();
+      appendAndFree(out->positions, d.positions);
+      appendAndFree(out->normals, d.normals);
+      if (allTangents) appendAndFree(out->tangents, d.tangents);
       for (int set = 0; set < 2; ++set) {
         if (!anyUv[set]) continue;
-        if (d.uv[set].empty()) d.uv[set].assign(d.positions.size(), Vec2(0.0f));
-        out->uv[set].insert(out->uv[set].end(), d.uv[set].begin(), d.uv[set].end());
+        if (d.uv[set].empty()) d.uv[set].assign(vertices, Vec2(0.0f));
+        appendAndFree(out->uv[set], d.uv[set]);
       }
-      for (uint32_t i : d.indices) out->indices.push_back(uint32_t(base) + i);
       out->materialIds.insert(out->materialIds.end(), d.indices.size() / 3, d.material);
+      for (uint32_t& i : d.indices) i += uint32_t(base);
+      appendAndFree(out->indices, d.indices);
     }
     meshes_[m] = std::move(out);
+    if (meshesToRead_ > 0 && --meshesToRead_ == 0)
+      for (tinygltf::Buffer& buffer : gltf_.buffers) std::vector<unsigned char>().swap(buffer.data);
     return *meshes_[m];
   }
 
-  // One use of mesh m by node n: its vertices in world space.
+  // One use of mesh m by node n: its vertices in world space. The mesh's last use takes its
+  // arrays rather than copying them.
   void placeMesh(size_t n, size_t m, const glm::dmat4& world) {
-    const LocalMesh& local = localMesh(m);
+    LocalMesh& local = localMesh(m);
     ++meshUses_[m];
+    const bool last = --usesLeft_[m] == 0;
+    const auto take = [last](auto& from) {
+      std::remove_reference_t<decltype(from)> out;
+      if (last)
+        out.swap(from);
+      else
+        out = from;
+      return out;
+    };
     if (local.indices.empty()) return;
     const tinygltf::Node& node = gltf_.nodes[n];
     MeshInput in;
@@ -1115,25 +1133,28 @@ class GltfImporter {
     const glm::dmat3 linear(world);
     const double det = glm::determinant(linear);
     const glm::dmat3 normals = cofactor(linear) * (det < 0.0 ? -1.0 : 1.0);
-    in.positions.reserve(local.positions.size());
-    for (const DVec3& p : local.positions) {
+    in.positions = take(local.positions);
+    for (DVec3& p : in.positions) {
       const DVec3 q = DVec3(world * glm::dvec4(p, 1.0));
       if (!isFinite(q))
         fail(indexed("nodes", n),
              "its world transform takes a vertex of " + indexed("meshes", m) + " to a non-finite position");
-      in.positions.push_back(q);
+      p = q;
       model_.lo = glm::min(model_.lo, q);
       model_.hi = glm::max(model_.hi, q);
     }
+    mesh.normals.reserve(local.normals.size());
     for (const DVec3& v : local.normals) mesh.normals.push_back(Vec3(normalizedOrZero(normals * v)));
+    mesh.tangents.reserve(local.tangents.size());
     for (const glm::dvec4& t : local.tangents)
       mesh.tangents.push_back(glm::vec4(Vec3(normalizedOrZero(linear * DVec3(t))), float(det < 0.0 ? -t.w : t.w)));
-    for (int set = 0; set < 2; ++set) mesh.uv[set] = local.uv[set];
-    mesh.indices = local.indices;
+    if (last) std::vector<DVec3>().swap(local.normals), std::vector<glm::dvec4>().swap(local.tangents);
+    for (int set = 0; set < 2; ++set) mesh.uv[set] = take(local.uv[set]);
+    mesh.indices = take(local.indices);
     // A mirroring transform turns faces inside out: swap the winding to keep their facing.
     if (det < 0.0)
       for (size_t k = 0; k < mesh.indices.size(); k += 3) std::swap(mesh.indices[k + 1], mesh.indices[k + 2]);
-    mesh.materialIds = local.materialIds;
+    mesh.materialIds = take(local.materialIds);
     model_.meshes.push_back(std::move(in));
   }
 
@@ -1205,6 +1226,16 @@ class GltfImporter {
       if (gltf_.defaultScene != -1) checkIndex(gltf_.defaultScene, 0, "scene", "scene");
       for (size_t n = 0; n < count; ++n)
         if (parent[n] < 0) roots.push_back(n);
+    }
+    // How many nodes use each mesh, so that its last use can take its arrays (placeMesh) and
+    // the buffers can go once every mesh used is read (localMesh).
+    usesLeft_.assign(gltf_.meshes.size(), 0);
+    for (std::vector<size_t> pending(roots.rbegin(), roots.rend()); !pending.empty();) {
+      const tinygltf::Node& node = gltf_.nodes[pending.back()];
+      pending.pop_back();
+      if (node.mesh >= 0 && size_t(node.mesh) < gltf_.meshes.size() && usesLeft_[size_t(node.mesh)]++ == 0)
+        ++meshesToRead_;
+      for (int c : node.children) pending.push_back(size_t(c));
     }
     // Depth first, children in order, without recursion (a chain of nodes may be long). Every
     // node has at most one parent and roots have none, so no node is reached twice.
@@ -1351,7 +1382,7 @@ class GltfImporter {
                              " ignored (the model is rendered as its nodes place it)");
   }
 
-  const std::string& bytes_;
+  std::string bytes_;  // the file, until tinygltf has read it
   const std::string shown_;
   const ModelFileReader& read_;
   bool binary_ = false;
@@ -1366,6 +1397,8 @@ class GltfImporter {
   std::map<std::tuple<size_t, int, int, int, int>, std::shared_ptr<const Texture>> textures_;
   std::vector<std::unique_ptr<LocalMesh>> meshes_;
   std::vector<size_t> meshUses_;
+  std::vector<size_t> usesLeft_;  // per mesh: the nodes still to place it
+  size_t meshesToRead_ = 0;       // meshes used and not read yet
   std::optional<uint32_t> defaultMaterial_;
   std::vector<Placed> cameras_, lights_;
   std::vector<std::string> occluded_;
@@ -1375,8 +1408,8 @@ class GltfImporter {
 
 }  // namespace
 
-ImportedModel importGltf(const std::string& bytes, const std::string& shown, const ModelFileReader& read) {
-  return GltfImporter(bytes, shown, read).run();
+ImportedModel importGltf(std::string bytes, const std::string& shown, const ModelFileReader& read) {
+  return GltfImporter(std::move(bytes), shown, read).run();
 }
 
 }  // namespace lensfarm

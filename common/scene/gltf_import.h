@@ -12,7 +12,8 @@
 namespace lensfarm {
 
 // `bytes` is the .gltf or .glb file's content, `shown` its path for messages; files it refers to
-// are read through `read`, relative to it.
-ImportedModel importGltf(const std::string& bytes, const std::string& shown, const ModelFileReader& read);
+// are read through `read`, relative to it. (Taken by value: moved in, the bytes are freed as soon
+// as tinygltf has read them, so a big model is not held three times over.)
+ImportedModel importGltf(std::string bytes, const std::string& shown, const ModelFileReader& read);
 
 }  // namespace lensfarm

@@ -27,6 +27,17 @@ struct MeshInput {
   std::vector<DVec3> positions;
 };
 
+// Appends `from` to `to` and frees `from`'s memory; into an empty `to`, `from` is moved (nothing
+// copied). Meshes are merged this way so that a big one is never held twice.
+template <typename T>
+void appendAndFree(std::vector<T>& to, std::vector<T>& from) {
+  if (to.empty())
+    to.swap(from);
+  else
+    to.insert(to.end(), from.begin(), from.end());
+  std::vector<T>().swap(from);
+}
+
 // Reads a file that a model refers to by a path relative to the model file (a .bin buffer, a
 // texture, a .mtl): its bytes, or nothing if there is no such file. The scene loader's reader
 // resolves the path, records the file as an asset and hashes it.
