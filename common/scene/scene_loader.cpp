@@ -1,6 +1,7 @@
 #include "util/file_contents.h"
 #include "scene/scene_loader.h"
 
+#include <tbb/parallel_invoke.h>
 #include <tiny_obj_loader.h>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -49,7 +50,8 @@ struct Transform {
   glm::dmat4 matrix{1.0};
   DVec3 apply(const DVec3& p) const { return DVec3(matrix * glm::dvec4(p, 1.0)); }
   // Normals go by the inverse transpose, tangents by the matrix itself (both renormalised later).
-  Vec3 applyToNormal(const Vec3& n) const { return Vec3(glm::transpose(glm::inverse(glm::dmat3(matrix))) * DVec3(n)); }
+  glm::dmat3 normalMatrix() const { return glm::transpose(glm::inverse(glm::dmat3(matrix))); }
+  Vec3 applyToNormal(const Vec3& n) const { return Vec3(normalMatrix() * DVec3(n)); }
   Vec3 applyToVector(const Vec3& v) const { return Vec3(glm::dmat3(matrix) * DVec3(v)); }
   bool flipsHandedness() const { return glm::determinant(glm::dmat3(matrix)) < 0.0; }
 };
@@ -425,10 +427,16 @@ class SceneParser {
     const fs::path path = file_.parent_path() / rel;
     std::optional<std::string> content = readAsset_(rel);
     if (!content) r.fail(r.field(key), "cannot read " + kind + " \"" + path.string() + "\"");
-    hash_.update(rel);
-    hash_.update(*content);
-    scene_.assets[rel] = sha256Hex(*content);
+    addAssetHash(rel, *content);
     return LoadedAsset{path.string(), std::move(*content)};
+  }
+
+  // An asset into the scene's hash, and its own hash into the scene's assets: two passes over the
+  // bytes (a big model's take a while), side by side.
+  void addAssetHash(const std::string& rel, const std::string& content) {
+    std::string own;
+    tbb::parallel_invoke([&] { hash_.update(rel), hash_.update(content); }, [&] { own = sha256Hex(content); });
+    scene_.assets[rel] = std::move(own);
   }
 
   static void addQuad(MeshInput& in, DVec3 corner, DVec3 e1, DVec3 e2, uint32_t material) {
@@ -467,19 +475,20 @@ class SceneParser {
       m.obj = type == "obj";
       FieldReader r(shapes[i], m.field, fileName_);
       const std::string rel = r.string("file");
-      const LoadedAsset file = readAssetFile(r, "file", m.obj ? "OBJ file" : "glTF file");
+      LoadedAsset file = readAssetFile(r, "file", m.obj ? "OBJ file" : "glTF file");
       m.shown = file.shown;
       const ModelFileReader read = modelFileReader(rel, m);
       if (m.obj) {
         // tinyobjloader skips what it does not understand: check first that this is an OBJ at all.
-        const ObjCheck check = checkObjText(file.bytes);
+        ObjCheck check = checkObjText(file.bytes);
         if (!check.ok()) r.fail(r.field("file"), "\"" + m.shown + "\": " + check.problem);
-        ImportedObj obj = importObj(check.text, m.shown, read);
+        std::string().swap(file.bytes);  // the checked text is what is parsed
+        ImportedObj obj = importCheckedObj(std::move(check.text), m.shown, read);
         m.model = std::move(obj.model);
         m.groupNames = std::move(obj.groupNames);
         m.triangleGroups = std::move(obj.triangleGroups);
       } else {
-        m.model = importGltf(file.bytes, m.shown, read);
+        m.model = importGltf(std::move(file.bytes), m.shown, read);
       }
       const Transform t = readTransform(r, "transform");
       transformModel(m, t);
@@ -503,9 +512,7 @@ class SceneParser {
         }
         return std::nullopt;
       }
-      hash_.update(path);
-      hash_.update(*content);
-      scene_.assets[path] = sha256Hex(*content);
+      addAssetHash(path, *content);
       return content;
     };
   }
@@ -580,24 +587,25 @@ class SceneParser {
     for (MeshInput& in : m.model.meshes) {
       const uint32_t base = uint32_t(out.positions.size());
       const size_t vertices = in.positions.size();
-      out.positions.insert(out.positions.end(), in.positions.begin(), in.positions.end());
+      appendAndFree(out.positions, in.positions);
       // Attributes a part lacks where another has them: its face normals are taken from the
       // geometry (zero: the shading code falls back to the geometric normal), uv 0.
       if (anyNormals) {
         if (in.mesh.normals.empty()) in.mesh.normals.assign(vertices, Vec3(0.0f));
-        mesh.normals.insert(mesh.normals.end(), in.mesh.normals.begin(), in.mesh.normals.end());
+        appendAndFree(mesh.normals, in.mesh.normals);
       }
       for (int set = 0; set < 2; ++set) {
         if (!anyUv[set]) continue;
         if (in.mesh.uv[set].empty()) in.mesh.uv[set].assign(vertices, Vec2(0.0f));
-        mesh.uv[set].insert(mesh.uv[set].end(), in.mesh.uv[set].begin(), in.mesh.uv[set].end());
+        appendAndFree(mesh.uv[set], in.mesh.uv[set]);
       }
       if (anyTangents) {
         if (in.mesh.tangents.empty()) in.mesh.tangents.assign(vertices, glm::vec4(0.0f));
-        mesh.tangents.insert(mesh.tangents.end(), in.mesh.tangents.begin(), in.mesh.tangents.end());
+        appendAndFree(mesh.tangents, in.mesh.tangents);
       }
-      for (uint32_t index : in.mesh.indices) mesh.indices.push_back(base + index);
-      for (uint32_t id : in.mesh.materialIds) {
+      for (uint32_t& index : in.mesh.indices) index += base;
+      appendAndFree(mesh.indices, in.mesh.indices);
+      for (uint32_t& id : in.mesh.materialIds) {
         uint32_t material = all;
         if (m.obj) {
           const std::string& group = m.groupNames[m.triangleGroups[triangle]];
@@ -613,10 +621,13 @@ class SceneParser {
         } else if (material == UINT32_MAX) {
           material = modelToScene[id];
         }
-        mesh.materialIds.push_back(material);
+        id = material;
         ++triangle;
       }
+      appendAndFree(mesh.materialIds, in.mesh.materialIds);
     }
+    std::vector<MeshInput>().swap(m.model.meshes);  // spent: each part was moved or copied and freed
+    std::vector<uint32_t>().swap(m.triangleGroups);
     for (const auto& [group, material] : byGroup)
       if (!groupsUsed.count(group))
         r.fail(r.field("group_materials") + "." + group, "no group of that name in \"" + m.shown + "\"");
@@ -651,7 +662,8 @@ class SceneParser {
 
   static void applyTransform(MeshInput& in, const Transform& t) {
     for (DVec3& p : in.positions) p = t.apply(p);
-    for (Vec3& n : in.mesh.normals) n = t.applyToNormal(n);
+    const glm::dmat3 normalMatrix = t.normalMatrix();  // once, not per normal
+    for (Vec3& n : in.mesh.normals) n = Vec3(normalMatrix * DVec3(n));
     for (glm::vec4& v : in.mesh.tangents) v = glm::vec4(t.applyToVector(Vec3(v)), v.w);
     // A mirroring transform would turn every face inside out; swap winding to keep facing.
     if (t.flipsHandedness())
@@ -673,29 +685,39 @@ class SceneParser {
 
   // Moves a shape into render space, drops zero-area triangles (they have no normal and can
   // never be hit meaningfully) and returns how many triangles were kept.
+  // In place: a big mesh is never copied.
   size_t addMesh(MeshInput in, const std::string& field) {
     TriangleMesh& mesh = in.mesh;
     mesh.positions.reserve(in.positions.size());
-    for (size_t k = 0; k < in.positions.size(); ++k)
-      mesh.positions.push_back(toRenderSpace(in.positions[k], field + " vertex " + std::to_string(k)));
-    TriangleMesh kept = mesh;
-    kept.indices.clear();
-    kept.materialIds.clear();
-    for (size_t tri = 0; tri < mesh.triangleCount(); ++tri) {
-      const Vec3& a = mesh.positions[mesh.indices[3 * tri]];
-      const Vec3& b = mesh.positions[mesh.indices[3 * tri + 1]];
-      const Vec3& c = mesh.positions[mesh.indices[3 * tri + 2]];
+    for (size_t k = 0; k < in.positions.size(); ++k) {
+      // (toRenderSpace's field is built only for a vertex it refuses.)
+      const DVec3 d = in.positions[k] - scene_.origin;
+      mesh.positions.push_back(largestAbs(d) <= kMaxRenderDistance
+                                   ? Vec3(d)
+                                   : toRenderSpace(in.positions[k], field + " vertex " + std::to_string(k)));
+    }
+    std::vector<DVec3>().swap(in.positions);
+    const size_t triangles = mesh.triangleCount();
+    size_t count = 0;
+    for (size_t tri = 0; tri < triangles; ++tri) {
+      const uint32_t* idx = &mesh.indices[3 * tri];
       // Zero area as the renderer will see the float vertices (math/triangle.h), at any size.
-      if (!triangleNormal(a, b, c)) {
+      if (!triangleNormal(mesh.positions[idx[0]], mesh.positions[idx[1]], mesh.positions[idx[2]])) {
         ++scene_.skippedDegenerateTriangles;
         continue;
       }
-      kept.indices.insert(kept.indices.end(), {mesh.indices[3 * tri], mesh.indices[3 * tri + 1], mesh.indices[3 * tri + 2]});
-      kept.materialIds.push_back(mesh.materialIds[tri]);
+      if (count != tri) {
+        std::copy(idx, idx + 3, &mesh.indices[3 * count]);
+        mesh.materialIds[count] = mesh.materialIds[tri];
+      }
+      ++count;
     }
-    finishAttributes(kept);
-    const size_t count = kept.triangleCount();
-    if (count > 0) scene_.meshes.push_back(std::move(kept));
+    if (count < triangles) {
+      mesh.indices.resize(3 * count), mesh.indices.shrink_to_fit();
+      mesh.materialIds.resize(count), mesh.materialIds.shrink_to_fit();
+    }
+    finishAttributes(mesh);
+    if (count > 0) scene_.meshes.push_back(std::move(mesh));
     return count;
   }
 
@@ -716,7 +738,7 @@ class SceneParser {
       const auto n = triangleNormal(mesh.positions[idx[0]], mesh.positions[idx[1]], mesh.positions[idx[2]]);
       for (int k = 0; k < 3 && flat; ++k) flat = n && glm::dot(*n, mesh.normals[idx[k]]) > 1.0f - 1e-6f;
     }
-    if (flat) mesh.normals.clear();
+    if (flat) std::vector<Vec3>().swap(mesh.normals);
   }
 
   const json& root_;
