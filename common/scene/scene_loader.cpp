@@ -652,7 +652,9 @@ class SceneParser {
   static void applyTransform(MeshInput& in, const Transform& t) {
     for (DVec3& p : in.positions) p = t.apply(p);
     for (Vec3& n : in.mesh.normals) n = t.applyToNormal(n);
-    for (glm::vec4& v : in.mesh.tangents) v = glm::vec4(t.applyToVector(Vec3(v)), v.w);
+    // (A mirror reverses the bitangent w cross(n, t): w changes sign with the winding.)
+    const float handedness = t.flipsHandedness() ? -1.0f : 1.0f;
+    for (glm::vec4& v : in.mesh.tangents) v = glm::vec4(t.applyToVector(Vec3(v)), handedness * v.w);
     // A mirroring transform would turn every face inside out; swap winding to keep facing.
     if (t.flipsHandedness())
       for (size_t k = 0; k < in.mesh.indices.size(); k += 3) std::swap(in.mesh.indices[k + 1], in.mesh.indices[k + 2]);
