@@ -71,7 +71,7 @@ void writeOutputs(const std::vector<fs::path>& outputs, const JobImage& image) {
 }
 
 int runRender(const RenderFlags& flags) {
-  const LocalJob local = makeLocalJob(flags.scene, toOverrides(flags));
+  const LocalJob local = makeLocalJob(flags.scene, toOverrides(flags), flags.overrides.camera);
   const Scene& scene = local.scene;
   const RenderSettings& settings = scene.render;
 

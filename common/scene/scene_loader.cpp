@@ -189,8 +189,8 @@ class SceneParser {
   }
 
   void parseCamera(FieldReader& top) {
-    if (!top.has("camera")) {
-      json camera = modelCamera();
+    if (!top.has("camera") || top.raw("camera").is_string()) {
+      json camera = top.has("camera") ? modelCamera(top.raw("camera").get<std::string>()) : modelCamera();
       FieldReader r(camera, cameraOrigin_, fileName_);
       parseCameraFields(r);
       return;
@@ -202,7 +202,26 @@ class SceneParser {
   // Without a "camera" in the scene: the first camera of the first model that has one, else one
   // that frames every model (a 40-degree view of their bounding sphere from the front, +z, and a
   // little above), named in the scene's notes.
-  json modelCamera() {
+  // With `wanted` (the scene's "camera": "NAME"), the model camera of that name, or an error listing
+  // the cameras the models have.
+  json modelCamera(const std::optional<std::string>& wanted = std::nullopt) {
+    if (wanted) {
+      std::string names;
+      for (const ModelImport& m : imports_)
+        for (const json& c : m.model.cameras) {
+          const std::string name = c.value("name", std::string());
+          if (name == *wanted) {
+            json camera = c;
+            camera.erase("name");
+            cameraOrigin_ = m.field + " camera \"" + name + "\"";
+            notes_.push_back("camera: " + m.shown + "'s camera \"" + name + "\"");
+            return camera;
+          }
+          names += (names.empty() ? "\"" : ", \"") + name + "\"";
+        }
+      throw InputError(fileName_, "camera: no model camera named \"" + *wanted + "\" (" +
+                                      (names.empty() ? std::string("the models have no cameras") : "the models have " + names) + ")");
+    }
     for (const ModelImport& m : imports_) {
       if (!m.model.cameras.empty()) {
         json camera = m.model.cameras.front();
@@ -878,12 +897,21 @@ bool isModelFile(const fs::path& file) {
   return ext == ".gltf" || ext == ".glb" || ext == ".obj";
 }
 
-Scene modelScene(const fs::path& modelFile, std::string& text, const AssetReader& readAsset) {
+std::string withModelCamera(const std::string& text, const fs::path& file, const std::string& camera) {
+  json root = json::parse(text, nullptr, false);
+  if (!root.is_object()) throw InputError(file.string(), "is not a JSON object (the scene format)");
+  root["camera"] = camera;
+  return root.dump(2);
+}
+
+Scene modelScene(const fs::path& modelFile, std::string& text, const AssetReader& readAsset,
+                 const std::optional<std::string>& camera) {
   std::string ext = modelFile.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   json scene = {{"format", kSceneFormat},
                 {"render", {{"resolution", {1280, 720}}, {"samples_per_pixel", 64}, {"max_bounces", 4}}},
                 {"shapes", {{{"type", ext == ".obj" ? "obj" : "gltf"}, {"file", modelFile.filename().string()}}}}};
+  if (camera) scene["camera"] = *camera;
   // The scene file the model's JSON stands for sits beside the model, so its assets resolve there.
   const fs::path asFile = modelFile.parent_path() / (modelFile.filename().string() + ".scene.json");
   text = scene.dump(2);

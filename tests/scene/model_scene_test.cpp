@@ -13,6 +13,7 @@
 #include "scene/scene_loader.h"
 #include "support/gltf_builder.h"
 #include "test_support.h"
+#include "util/error.h"
 
 namespace lensfarm {
 namespace {
@@ -178,6 +179,37 @@ TEST(ModelScene, RenderingAModelFileUsesItsDefaultsAndSaysSo) {
   double sum = 0;
   for (float v : image.rgb) sum += v;
   EXPECT_GT(sum, 0.0);
+}
+
+TEST(ModelScene, AModelCameraIsChosenByName) {
+  // Two cameras, "front" at z = 5 and "side" at x = 5, both looking at the origin (a node's -z).
+  test::TempDir dir;
+  test::Builder b;
+  const std::vector<float> p = {-1, -1, 0, 1, -1, 0, 0, 1, 0};
+  b.doc["meshes"] = json::array({{{"primitives", {{{"attributes", {{"POSITION", b.floats(p, "VEC3")}}}}}}}});
+  b.doc["cameras"] = json::array({{{"type", "perspective"}, {"perspective", {{"yfov", 0.8}, {"aspectRatio", 1.0}, {"znear", 0.1}}}},
+                                  {{"type", "perspective"}, {"perspective", {{"yfov", 0.8}, {"aspectRatio", 1.0}, {"znear", 0.1}}}}});
+  const double s = std::sqrt(0.5);
+  b.doc["nodes"] = json::array({{{"mesh", 0}},
+                                {{"name", "front"}, {"camera", 0}, {"translation", {0, 0, 5}}},
+                                {{"name", "side"}, {"camera", 1}, {"translation", {5, 0, 0}}, {"rotation", {0, s, 0, s}}}});
+  b.doc["scenes"] = json::array({{{"nodes", {0, 1, 2}}}});
+  writeFile(dir.path() / "two.glb", b.glb());
+  const auto positionOf = [&](const std::optional<std::string>& camera) {
+    std::string text;
+    const Scene scene = modelScene(dir.path() / "two.glb", text, {}, camera);
+    return scene.origin;  // render space is centred on the camera
+  };
+  const DVec3 first = positionOf(std::nullopt), side = positionOf("side");
+  EXPECT_NEAR(glm::length(first - DVec3(0, 0, 5)), 0.0, 1e-9);
+  EXPECT_NEAR(glm::length(side - DVec3(5, 0, 0)), 0.0, 1e-9);
+  try {
+    positionOf("top");
+    ADD_FAILURE() << "an unknown camera name loads";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no model camera named \"top\""), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("\"front\", \"side\""), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
