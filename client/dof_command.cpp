@@ -32,7 +32,7 @@ Runner addDofCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("dof", "Print the depth of field of a scene's camera for several f-numbers");
   auto scene = std::make_shared<std::string>();
   auto fNumbers = std::make_shared<std::vector<double>>(std::vector<double>{2, 4, 8, 16, 32});
-  cmd->add_option("scene", *scene, "Scene file (JSON)")->required();
+  cmd->add_option("scene", *scene, "Scene file (JSON), or a model to render as it is (.gltf, .glb, .obj)")->required();
   cmd->add_option("--f-numbers", *fNumbers, "f-numbers to tabulate")
       ->delimiter(',')
       ->check(positiveNumber(""));

@@ -1,8 +1,12 @@
 #include "farm_client.h"
 
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
 #include <chrono>
 
 #include "convert.h"
+#include "coordinator.h"
 
 namespace lensfarm::cli {
 
@@ -30,26 +34,64 @@ std::unique_ptr<grpc::ClientContext> FarmClient::context(bool streaming) const {
   return c;
 }
 
-v1::SubmitJobResponse FarmClient::submit(const LocalJob& job, int priority) {
-  for (const auto& [sha, bytes] : job.assetBytes) {
-    auto ctx = context(true);
-    v1::UploadAssetResponse response;
-    auto writer = stub_->UploadAsset(ctx.get(), &response);
-    size_t offset = 0;
-    do {
-      v1::UploadAssetRequest message;
-      if (offset == 0) {
-        message.set_sha256(sha);
-        message.mutable_chunk()->set_total_size(bytes.size());
-      }
-      const size_t n = std::min(proto::kChunkBytes, bytes.size() - offset);
-      message.mutable_chunk()->set_data(bytes.data() + offset, n);
-      if (!writer->Write(message)) break;
-      offset += n;
-    } while (offset < bytes.size());
-    writer->WritesDone();
-    check(writer->Finish(), address_);
+std::optional<std::set<std::string>> FarmClient::missingAssets(const std::vector<std::string>& hashes) {
+  std::set<std::string> missing;
+  for (size_t first = 0; first < hashes.size(); first += Coordinator::kMaxAssetQuery) {
+    v1::FindMissingAssetsRequest request;
+    for (size_t i = first; i < std::min(hashes.size(), first + Coordinator::kMaxAssetQuery); ++i)
+      request.add_sha256(hashes[i]);
+    v1::FindMissingAssetsResponse response;
+    const grpc::Status s = stub_->FindMissingAssets(context().get(), request, &response);
+    if (s.error_code() == grpc::StatusCode::UNIMPLEMENTED) return std::nullopt;
+    check(s, address_);
+    missing.insert(response.missing_sha256().begin(), response.missing_sha256().end());
   }
+  return missing;
+}
+
+bool FarmClient::uploadAsset(const std::string& sha256, const std::string& bytes) {
+  auto ctx = context(true);
+  v1::UploadAssetResponse response;
+  auto writer = stub_->UploadAsset(ctx.get(), &response);
+  size_t offset = 0;
+  do {
+    v1::UploadAssetRequest message;
+    if (offset == 0) {
+      message.set_sha256(sha256);
+      message.mutable_chunk()->set_total_size(bytes.size());
+    }
+    const size_t n = std::min(proto::kChunkBytes, bytes.size() - offset);
+    message.mutable_chunk()->set_data(bytes.data() + offset, n);
+    // A failed write means the call has ended: the coordinator may have answered already_present
+    // after the first message without reading on. Finish says whether that was it or an error.
+    if (!writer->Write(message)) break;
+    offset += n;
+  } while (offset < bytes.size());
+  writer->WritesDone();
+  check(writer->Finish(), address_);
+  return response.already_present();
+}
+
+void FarmClient::uploadAssets(const std::map<std::string, std::string>& assetBytes) {
+  if (assetBytes.empty()) return;
+  std::vector<std::string> hashes;
+  for (const auto& entry : assetBytes) hashes.push_back(entry.first);
+  const std::optional<std::set<std::string>> missing = missingAssets(hashes);
+  if (!missing)
+    spdlog::info("coordinator {} cannot say which assets it holds (no FindMissingAssets): uploading all {}", address_,
+                 assetBytes.size());
+  uint64_t uploaded = 0, uploadedBytes = 0, skipped = 0, skippedBytes = 0;
+  for (const auto& [sha, bytes] : assetBytes) {
+    const bool present = (missing && !missing->count(sha)) || uploadAsset(sha, bytes);
+    ++(present ? skipped : uploaded);
+    (present ? skippedBytes : uploadedBytes) += bytes.size();
+  }
+  spdlog::info("assets: {} uploaded ({:.2f} MB), {} skipped, already on the coordinator ({:.2f} MB)", uploaded,
+               double(uploadedBytes) / 1e6, skipped, double(skippedBytes) / 1e6);
+}
+
+v1::SubmitJobResponse FarmClient::submit(const LocalJob& job, int priority) {
+  uploadAssets(job.assetBytes);
   v1::SubmitJobRequest request;
   *request.mutable_spec() = proto::toProto(job.spec);
   request.set_priority(priority);

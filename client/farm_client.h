@@ -1,8 +1,10 @@
 #pragma once
 // The client side of lensfarm.v1.ClientService, for the CLI's farm commands.
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -27,7 +29,9 @@ class FarmClient {
  public:
   FarmClient(const std::string& address, const ChannelSecurity& security, double timeoutSeconds = 30.0);
 
-  // Uploads the job's assets (skipping none: the coordinator dedupes by hash) and submits it.
+  // Uploads the job's assets the coordinator does not hold (FindMissingAssets; every one for a
+  // coordinator older than it) and submits the job. Logs how many assets and bytes were uploaded
+  // and how many were skipped as already on the coordinator.
   v1::SubmitJobResponse submit(const LocalJob& job, int priority);
   v1::JobStatus get(const std::string& jobId);
   std::vector<v1::JobStatus> list();
@@ -40,6 +44,11 @@ class FarmClient {
 
  private:
   std::unique_ptr<grpc::ClientContext> context(bool streaming = false) const;
+  void uploadAssets(const std::map<std::string, std::string>& assetBytes);  // sha256 -> bytes
+  // The hashes among `hashes` the coordinator lacks; nullopt if it cannot say (UNIMPLEMENTED).
+  std::optional<std::set<std::string>> missingAssets(const std::vector<std::string>& hashes);
+  // Uploads one asset; true if the coordinator had it already.
+  bool uploadAsset(const std::string& sha256, const std::string& bytes);
   std::string address_;
   ChannelSecurity security_;
   double timeout_;

@@ -119,7 +119,7 @@ Runner addSubmitCommand(CLI::App& app) {
   };
   auto f = std::make_shared<Flags>();
   addCoordinatorOption(cmd, f->c);
-  cmd->add_option("scene", f->scene, "Scene file (JSON)")->required();
+  cmd->add_option("scene", f->scene, "Scene file (JSON), or a model to render as it is (.gltf, .glb, .obj)")->required();
   f->overrides.addTo(cmd);
   cmd->add_option("--priority", f->priority, "Higher runs first")->capture_default_str();
   return [f] {

@@ -199,7 +199,7 @@ Runner addRenderCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("render", "Render a scene on this machine's cores");
   cmd->footer(kEmbreeConfigHelp);
   auto f = std::make_shared<RenderFlags>();
-  cmd->add_option("scene", f->scene, "Scene file (JSON)")->required();
+  cmd->add_option("scene", f->scene, "Scene file (JSON), or a model to render as it is (.gltf, .glb, .obj)")->required();
   cmd->add_option("-o,--output", f->outputs,
                   "Output image (.exr: linear radiance; .png: exposed preview); repeatable "
                   "(default: SCENE.exr and SCENE.png here, named after the scene file)");

@@ -26,6 +26,19 @@ uint64_t sceneTriangles(const Scene& scene) {
   return n;
 }
 
+bool isSha256Hex(const std::string& text) {
+  return text.size() == 64 &&
+         std::all_of(text.begin(), text.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
+}
+
+// A client's string in an error message: at most 80 characters, control characters as '?'.
+std::string shown(const std::string& text) {
+  std::string out = text.substr(0, 80);
+  for (char& c : out)
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+  return text.size() > 80 ? out + "..." : out;
+}
+
 std::vector<std::string> describeEffects(const Scene& scene) {
   std::vector<std::string> out;
   for (const auto& d : analyzeEffects(scene, scene.camera()).decisions)
@@ -343,21 +356,49 @@ bool Coordinator::putAsset(const std::string& sha256, std::string bytes) {
   if (actual != sha256)
     throw FarmError(FarmError::Kind::kInvalidArgument,
                     "asset " + sha256 + ": the uploaded bytes hash to " + actual + " (corrupted upload?)");
-  {
-    std::lock_guard lock(mutex_);
-    if (assets_.count(sha256)) return false;
-  }
+  if (uploadFindsAssetPresent(sha256)) return false;
   if (store_) store_->putAsset(sha256, bytes);
   std::lock_guard lock(mutex_);
-  assets_[sha256] = std::make_shared<const std::string>(std::move(bytes));
+  const bool stored = assets_.emplace(sha256, std::make_shared<const std::string>(std::move(bytes))).second;
+  ++(stored ? counters_.assetUploadsStored : counters_.assetUploadsPresent);  // two uploads of it at once: one stored
+  return stored;
+}
+
+bool Coordinator::uploadFindsAssetPresent(const std::string& sha256) {
+  std::lock_guard lock(mutex_);
+  if (!assets_.count(sha256)) return false;
+  ++counters_.assetUploadsPresent;
   return true;
 }
 
-std::shared_ptr<const std::string> Coordinator::asset(const std::string& sha256) const {
+std::vector<std::string> Coordinator::missingAssets(const std::vector<std::string>& sha256s) const {
+  if (sha256s.size() > kMaxAssetQuery)
+    throw FarmError(FarmError::Kind::kInvalidArgument, std::to_string(sha256s.size()) +
+                                                           " hashes in one query; at most " +
+                                                           std::to_string(kMaxAssetQuery) + " (ask in batches)");
+  for (size_t i = 0; i < sha256s.size(); ++i)
+    if (!isSha256Hex(sha256s[i]))
+      throw FarmError(FarmError::Kind::kInvalidArgument, "sha256[" + std::to_string(i) + "]: \"" + shown(sha256s[i]) +
+                                                             "\" is not a SHA-256 (64 lowercase hex digits)");
+  std::vector<std::string> missing;
+  std::set<std::string> seen;
+  std::lock_guard lock(mutex_);
+  for (const std::string& sha : sha256s)
+    if (!assets_.count(sha) && seen.insert(sha).second) missing.push_back(sha);
+  return missing;
+}
+
+std::shared_ptr<const std::string> Coordinator::storedAsset(const std::string& sha256) const {
   std::lock_guard lock(mutex_);
   auto it = assets_.find(sha256);
   if (it == assets_.end()) throw FarmError(FarmError::Kind::kNotFound, "no asset " + sha256);
   return it->second;
+}
+
+std::shared_ptr<const std::string> Coordinator::asset(const std::string& sha256) {
+  std::shared_ptr<const std::string> bytes = storedAsset(sha256);
+  ++counters_.assetsSent;
+  return bytes;
 }
 
 // ---- jobs -----------------------------------------------------------------------------------
@@ -375,7 +416,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
   const AssetReader reader = [&](const std::string& path) -> std::optional<std::string> {
     auto it = spec.assets.find(path);
     if (it == spec.assets.end()) return std::nullopt;
-    return *asset(it->second);
+    return *storedAsset(it->second);
   };
   Scene scene = parseScene(spec.sceneJson, spec.sceneName, reader);
   applyOverrides(spec.overrides, scene.render, spec.sceneName);
@@ -852,6 +893,9 @@ MetricsSnapshot Coordinator::metricsSnapshot() const {
   s.samples = counters_.samples;
   s.unitBytesReceived = counters_.unitBytes;
   s.assetBytesReceived = counters_.assetBytes;
+  s.assetsSent = counters_.assetsSent;
+  s.assetUploadsStored = counters_.assetUploadsStored;
+  s.assetUploadsPresent = counters_.assetUploadsPresent;
   s.leaseTimeoutSeconds = options_.leaseTimeoutSeconds;
   return s;
 }

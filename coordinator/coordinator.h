@@ -132,7 +132,10 @@ struct MetricsSnapshot {
   uint64_t workersLost = 0;         // workers marked lost when their Attach stream broke
   uint64_t samples = 0;             // camera paths in the accepted results
   uint64_t unitBytesReceived = 0;   // result buffers (sums) received from workers
-  uint64_t assetBytesReceived = 0;  // asset bytes uploaded by clients
+  uint64_t assetBytesReceived = 0;  // asset bytes uploaded by clients (read in full)
+  uint64_t assetUploadsStored = 0;  // uploads of assets new to the coordinator
+  uint64_t assetUploadsPresent = 0;  // uploads of assets it held already (a client that asks first makes none)
+  uint64_t assetsSent = 0;           // assets sent to workers (each worker fetches one once)
   uint64_t leasesActive = 0;
   double leaseTimeoutSeconds = 0.0;
   std::vector<JobInfo> jobs;
@@ -165,10 +168,22 @@ class Coordinator {
 
   // ---- assets (content-addressed) ----
   bool hasAsset(const std::string& sha256) const;
+  // The most hashes one missingAssets call takes (FindMissingAssets: 50000 hashes are ~3.3 MB,
+  // within gRPC's 4 MiB message limit).
+  static constexpr size_t kMaxAssetQuery = 50000;
+  // Those of `sha256s` whose assets are not stored, in their order, each once: what a client
+  // must upload before submitting. FarmError(kInvalidArgument) for more than kMaxAssetQuery
+  // hashes, or naming the first that is not 64 lowercase hex digits by its index ("sha256[3]").
+  std::vector<std::string> missingAssets(const std::vector<std::string>& sha256s) const;
   // Stores bytes under their hash; throws FarmError(kInvalidArgument) if they do not match it.
   // Returns false if the asset was already present.
   bool putAsset(const std::string& sha256, std::string bytes);
-  std::shared_ptr<const std::string> asset(const std::string& sha256) const;
+  // An upload of `sha256` has begun (its first message): true if the asset is stored already, so
+  // the rest need not be read. Counted like a putAsset that found it present.
+  bool uploadFindsAssetPresent(const std::string& sha256);
+  // An asset's bytes for a worker (FetchAsset; counted in MetricsSnapshot::assetsSent).
+  // FarmError(kNotFound) if it is not stored.
+  std::shared_ptr<const std::string> asset(const std::string& sha256);
 
   // ---- jobs (client side) ----
   // Validates the scene with its overrides (InputError naming the field) and that every asset
@@ -245,6 +260,7 @@ class Coordinator {
   };
 
   Job& findJob(const std::string& jobId) const;  // requires mutex_
+  std::shared_ptr<const std::string> storedAsset(const std::string& sha256) const;  // FarmError kNotFound
   Worker& findWorker(const std::string& workerId);
   JobInfo infoOf(const Job& job) const;  // requires mutex_; walks the leases and workers (stalledReason)
   static double elapsedSecondsOf(const Job& job);  // since its first lease, to its end or now
@@ -286,7 +302,7 @@ class Coordinator {
   // Counted for metricsSnapshot() since this process started.
   struct Counters {
     std::atomic<uint64_t> unitsLeased{0}, unitsDone{0}, unitsExpired{0}, samples{0}, unitBytes{0}, assetBytes{0};
-    std::atomic<uint64_t> workersLost{0};
+    std::atomic<uint64_t> workersLost{0}, assetsSent{0}, assetUploadsStored{0}, assetUploadsPresent{0};
   };
   Counters counters_;
 };

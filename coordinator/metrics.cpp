@@ -70,6 +70,16 @@ std::string renderMetrics(const MetricsSnapshot& s) {
            "Payload bytes received: kind=\"unit\" result buffers from workers, kind=\"asset\" assets from clients.");
   e.sample(s.unitBytesReceived, "kind=\"unit\"");
   e.sample(s.assetBytesReceived, "kind=\"asset\"");
+  e.family("lensfarm_asset_uploads_total", "counter",
+           "Asset uploads from clients: outcome=\"stored\" an asset new to the coordinator, outcome=\"present\" one "
+           "it held already (answered after the first message). Clients that ask FindMissingAssets first make none of "
+           "the second kind.");
+  e.sample(s.assetUploadsStored, "outcome=\"stored\"");
+  e.sample(s.assetUploadsPresent, "outcome=\"present\"");
+  e.family("lensfarm_assets_sent_total", "counter",
+           "Assets sent to workers (FetchAsset). A worker fetches each asset once into its cache, so this grows by "
+           "the assets of a job once per worker new to them, not per unit.");
+  e.sample(s.assetsSent);
 
   uint64_t alive = 0;
   std::map<WorkerState, uint64_t> workersByState;

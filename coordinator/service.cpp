@@ -107,13 +107,30 @@ v1::JobStatus toProto(const JobInfo& info) {
 
 // ---- ClientService --------------------------------------------------------------------------
 
+grpc::Status ClientServiceImpl::FindMissingAssets(grpc::ServerContext* context,
+                                                  const v1::FindMissingAssetsRequest* request,
+                                                  v1::FindMissingAssetsResponse* response) {
+  return guarded(gate_, context, "FindMissingAssets", [&] {
+    const std::vector<std::string> asked(request->sha256().begin(), request->sha256().end());
+    for (std::string& sha : coordinator_.missingAssets(asked)) response->add_missing_sha256(std::move(sha));
+  });
+}
+
 grpc::Status ClientServiceImpl::UploadAsset(grpc::ServerContext* context, grpc::ServerReader<v1::UploadAssetRequest>* reader,
                                             v1::UploadAssetResponse* response) {
   return guarded(gate_, context, "UploadAsset", [&] {
     v1::UploadAssetRequest message;
     std::string sha, bytes;
     while (reader->Read(&message)) {
-      if (sha.empty()) sha = message.sha256();
+      if (sha.empty()) {
+        sha = message.sha256();
+        // Already stored: answer now and read no more (the client's next writes fail; its call ends OK).
+        if (!sha.empty() && coordinator_.uploadFindsAssetPresent(sha)) {
+          response->set_sha256(sha);
+          response->set_already_present(true);
+          return;
+        }
+      }
       bytes += message.chunk().data();
       if (bytes.size() > kMaxAssetBytes) throw FarmError(FarmError::Kind::kInvalidArgument, "asset larger than 2 GiB");
     }

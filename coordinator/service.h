@@ -18,6 +18,8 @@ class ClientServiceImpl final : public v1::ClientService::Service {
   ClientServiceImpl(Coordinator& coordinator, TokenGate gate = TokenGate({}, "client"))
       : coordinator_(coordinator), gate_(std::move(gate)) {}
 
+  grpc::Status FindMissingAssets(grpc::ServerContext* context, const v1::FindMissingAssetsRequest* request,
+                                 v1::FindMissingAssetsResponse* response) override;
   grpc::Status UploadAsset(grpc::ServerContext* context, grpc::ServerReader<v1::UploadAssetRequest>* reader,
                            v1::UploadAssetResponse* response) override;
   grpc::Status SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request, v1::SubmitJobResponse* response) override;

@@ -83,8 +83,13 @@ std::shared_ptr<WorkerLoop::PreparedJob> WorkerLoop::prepare(const LeaseGrant& g
   if (auto it = jobs_.find(grant.jobId); it != jobs_.end()) return it->second;
   const JobSpec spec = link_.jobSpec(grant.jobId);
   std::map<std::string, std::string> files;
+  // Each asset is fetched once per cache (memory, then --cache-dir), however many jobs share it.
   for (const auto& [path, sha] : spec.assets)
-    files[path] = assets_.get(sha, [&](const std::string& h) { return link_.asset(h); });
+    files[path] = assets_.get(sha, [&](const std::string& h) {
+      std::string bytes = link_.asset(h);
+      spdlog::info("fetched asset {} ({}, {:.2f} MB)", path, h.substr(0, 12), double(bytes.size()) / 1e6);
+      return bytes;
+    });
   auto job = std::make_shared<PreparedJob>();
   job->scene = parseScene(spec.sceneJson, spec.sceneName, [&](const std::string& path) -> std::optional<std::string> {
     auto it = files.find(path);

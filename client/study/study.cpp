@@ -126,6 +126,7 @@ class Study {
     if (wants("dof")) body += depthOfField();
     if (wants("bounces")) body += bounces();
     if (wants("materials")) body += materials();
+    if (wants("models")) body += models();
     const double minutes = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / 60.0;
     writeBytesAtomically(report_, header(minutes) + body);
     spdlog::info("wrote {} ({:.1f} min)", report_.string(), minutes);
@@ -530,6 +531,78 @@ class Study {
            link("bounces");
   }
 
+  // The columns of a table of scene variants, and one variant measured into it (materials and
+  // models): at materialsSide, against its own reference, the time per path, rays per path, the
+  // image's mean, the error at the budget and the time to 5 %; its effects as the analysis lists
+  // them.
+  static Table variantTable() {
+    return Table({"variant", "effects", "us per path", "rays per path", "image mean", "rel. RMSE at budget",
+                  "time to 5 % (s)"});
+  }
+  void measureVariant(const fs::path& sceneFile, json j, const std::string& name, Table& table, std::vector<Series>& all) {
+    const int side = scale_.materialsSide;
+    j["render"]["resolution"] = {side, side};
+    j["render"]["samples_per_unit"] = 0;
+    Scene scene = parseScene(j.dump(), sceneFile);
+    const Image reference = referenceImage(scene, scale_.materialsReferenceSpp, cache_, nullptr, options_.threads);
+    ProgressiveRun run;
+    run.firstCheckpoint = 4;
+    run.budgetSeconds = scale_.materialsBudget;
+    run.threads = options_.threads;
+    PathStats stats;
+    all.push_back(measure(scene, reference, run, name, &stats));
+    const Series& s = all.back();
+    bool extrapolated = false;
+    const double t = timeToError(s, 0.05, &extrapolated);
+    const double paths = double(stats.paths);
+    const RenderScene rs(scene);
+    std::string effects;
+    for (const auto& d : rs.effects().decisions)
+      if ((d.effect == "specular reflection" || d.effect == "glossy materials" || d.effect == "environment" ||
+           d.effect == "shading normals and textures") &&
+          d.simulated)
+        effects += (effects.empty() ? "" : "; ") + (d.effect == "environment" ? "environment " + d.reason : d.reason);
+    table.add({name, effects.empty() ? "diffuse only" : effects,
+               number(s.seconds.back() / paths * 1e6 * double(std::thread::hardware_concurrency()), 3),
+               number(double(stats.rays) / paths, 3), number(meanValue(reference), 4), number(s.error.back(), 3),
+               number(t, 3) + (extrapolated ? " (extrapolated)" : "")});
+  }
+
+  // ---- models: what smooth shading and textures cost (issue 21) --------------------------------
+  // textured-spheres (a glTF model with base-colour, normal, metallic-roughness and cut-out
+  // textures and smooth vertex normals) as modelled, then with its materials replaced by one
+  // untextured principled material, then by one Lambertian: the time textures and the per-point
+  // shading cost, and the image they make.
+  std::string models() {
+    const fs::path sceneFile = options_.scenes / "textured-spheres.json";
+    const json base = json::parse(readWholeFileOrThrow(sceneFile, sceneFile.string()));
+    Table table = variantTable();
+    std::vector<Series> all;
+    const auto withMaterial = [&](const json& material) {
+      json j = base;
+      j["materials"]["override"] = material;
+      j["shapes"][0]["material"] = "override";
+      return j;
+    };
+    measureVariant(sceneFile, base, "as modelled: textures, normal maps, cut-outs, smooth normals", table, all);
+    measureVariant(sceneFile,
+                   withMaterial({{"type", "principled"}, {"base_color", 0.5}, {"metallic", 0.0}, {"roughness", 0.7}}),
+                   "one untextured principled material, smooth normals", table, all);
+    measureVariant(sceneFile, withMaterial({{"type", "lambertian"}, {"albedo", 0.5}}),
+                   "one Lambertian material, smooth normals", table, all);
+    table.writeCsv(options_.out / "models.csv");
+    plotErrorAgainstTime("models", all);
+    return "## Models: textures and smooth shading (issue 21)\n\n"
+           "textured-spheres (a glTF model) at " + std::to_string(scale_.materialsSide) + "x" +
+           std::to_string(scale_.materialsSide) + ", NEE + MIS, Sobol, B = " + std::to_string(base["render"].value("max_bounces", 2)) +
+           ", each variant against its own reference (" + std::to_string(scale_.materialsReferenceSpp) +
+           " spp). Time per path is per thread. Every hit on a textured material or a mesh with vertex normals is "
+           "shaded one path at a time (interpolated normal, normal map, texture lookups at the pixel's footprint) "
+           "instead of in the 16-wide lane loops: the first row against the other two is what textures and "
+           "per-point shading cost; a scene without them pays nothing (the Cornell rows above run the lane "
+           "loops).\n\n" + table.markdown() + "\n" + link("models");
+  }
+
   // ---- materials: what glass and metal cost (issue 20) ----------------------------------------
   // cornell-glass-metal with its glass ball and tall block in turn diffuse, smooth, rough, and rough
   // without energy compensation: per variant the time per path, the energy against its own
@@ -561,38 +634,14 @@ class Study {
         {"smooth glass, rough gold 1.0, no energy compensation", glass, veryRoughGoldSingle},
         {"outdoors, lit by an environment map (sky and sun)", glass, roughGold, "glass-metal-sky.json"},
     };
-    Table table({"variant", "effects", "us per path", "rays per path", "image mean", "rel. RMSE at budget",
-                 "time to 5 % (s)"});
+    Table table = variantTable();
     std::vector<Series> all;
     for (const Variant& v : variants) {
       const fs::path sceneFile = options_.scenes / v.scene;
       json j = json::parse(readWholeFileOrThrow(sceneFile, sceneFile.string()));
       j["materials"]["glass"] = v.glass;
       j["materials"]["brushed-gold"] = v.metal;
-      j["render"]["resolution"] = {side, side};
-      j["render"]["samples_per_unit"] = 0;
-      Scene scene = parseScene(j.dump(), sceneFile);
-      const Image reference = referenceImage(scene, scale_.materialsReferenceSpp, cache_, nullptr, options_.threads);
-      ProgressiveRun run;
-      run.firstCheckpoint = 4;
-      run.budgetSeconds = scale_.materialsBudget;
-      run.threads = options_.threads;
-      PathStats stats;
-      all.push_back(measure(scene, reference, run, v.name, &stats));
-      const Series& s = all.back();
-      bool extrapolated = false;
-      const double t = timeToError(s, 0.05, &extrapolated);
-      const double paths = double(stats.paths);
-      const RenderScene rs(scene);
-      std::string effects;
-      for (const auto& d : rs.effects().decisions)
-        if ((d.effect == "specular reflection" || d.effect == "glossy materials" || d.effect == "environment") &&
-            d.simulated)
-          effects += (effects.empty() ? "" : "; ") + (d.effect == "environment" ? "environment " + d.reason : d.reason);
-      table.add({v.name, effects.empty() ? "diffuse only" : effects,
-                 number(s.seconds.back() / paths * 1e6 * double(std::thread::hardware_concurrency()), 3),
-                 number(double(stats.rays) / paths, 3), number(meanValue(reference), 4), number(s.error.back(), 3),
-                 number(t, 3) + (extrapolated ? " (extrapolated)" : "")});
+      measureVariant(sceneFile, j, v.name, table, all);
     }
     table.writeCsv(options_.out / "materials.csv");
     plotErrorAgainstTime("materials", all);
@@ -645,7 +694,7 @@ void runStudy(const StudyOptions& options) {
   for (const auto& e : options.experiments)
     if (!kExperiments.count(e))
       throw InputError("--experiments", "unknown experiment \"" + e +
-                                            "\" (expected convergence, estimate, resolution, dof or bounces)");
+                                            "\" (expected convergence, estimate, resolution, dof, bounces, materials or models)");
   Study(options).run();
 }
 

@@ -29,7 +29,7 @@ struct StudyOptions {
 };
 
 inline const std::set<std::string> kExperiments = {"convergence", "estimate", "resolution", "dof", "bounces",
-                                                   "materials"};
+                                                   "materials", "models"};
 
 // Runs the experiments and writes the outputs; throws InputError for bad options and
 // std::runtime_error when a tool (gnuplot) fails.

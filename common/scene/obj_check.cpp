@@ -14,7 +14,7 @@ namespace {
 
 constexpr std::string_view kBom = "\xEF\xBB\xBF";
 constexpr std::string_view kGlTFAdvice =
-    "glTF is not supported yet; convert it to OBJ (e.g. with Blender or assimp)";
+    "give it as a glTF shape (\"type\": \"gltf\")";
 
 bool startsWith(std::string_view s, std::string_view prefix) { return s.substr(0, prefix.size()) == prefix; }
 

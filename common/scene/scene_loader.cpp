@@ -345,7 +345,8 @@ class SceneParser {
       } else {
         r.fail(r.field("type"), "unknown shape type \"" + type + "\" (expected obj, gltf, quad or triangles)");
       }
-      const Transform t = readTransform(r, "transform");
+      // (A model's transform was applied when it was imported, to its cameras and lights too.)
+      const Transform t = type == "obj" || type == "gltf" ? Transform{} : readTransform(r, "transform");
       r.finish();
       applyTransform(mesh, t);
       shapeTriangles_ += addMesh(std::move(mesh), r.path());

@@ -80,7 +80,7 @@ TEST_F(BadInputMesh, EveryKindOfNonObjIsRefusedWithTheFileAndTheReason) {
       {"nul.obj", kTriangle + std::string("f 1 2 3\n\0\0\0\0", 12), "binary data"},
       {"ctrl.obj", "v 0 0 0\x01\x02\x03\n", "binary data"},
       {"model.glb", glb, "glTF"},
-      {"glb-as.obj", glb, "not supported yet"},
+      {"glb-as.obj", glb, "give it as a glTF shape"},
       {"model.gltf", gltf, "this is a glTF file (JSON), not OBJ"},
       {"image.png", png, "PNG image"},
       {"scene-as-mesh.obj", test::minimalSceneJson().dump(), "JSON file"},

@@ -1,6 +1,6 @@
 // scenes/ holds only scenes a user can render, and says what each is: every scene in it renders
 // through the real `lensfarm` binary (at a tiny size), every other file is a mesh or texture some
-// scene uses or the folder's README, and the README names every scene. Anything else there (a
+// scene uses (or a model some scene uses refers to) or the folder's README, and the README names every scene. Anything else there (a
 // fuzzer's corpus, a stray output) fails this test.
 #include <gtest/gtest.h>
 
@@ -40,7 +40,18 @@ TEST(ShippedScenes, EveryFileIsASceneTheReadmeOrAnAssetASceneUses) {
       EXPECT_EQ(relative.extension(), ".json") << "only scenes and the README at the top of scenes/";
       EXPECT_NE(readme.find(relative.string()), std::string::npos) << "scenes/README.md does not describe it";
     } else {
-      EXPECT_NE(sceneTexts.find("\"" + relative.generic_string() + "\""), std::string::npos) << "no scene uses it";
+      // Used by a scene, or by a model a scene uses (a glTF's buffers and images, an MTL's maps),
+      // which names it relative to itself.
+      bool used = sceneTexts.find("\"" + relative.generic_string() + "\"") != std::string::npos;
+      for (const auto& sibling : fs::directory_iterator(walk->path().parent_path())) {
+        const std::string ext = sibling.path().extension().string();
+        if (ext != ".gltf" && ext != ".mtl") continue;
+        const std::string model = fs::relative(sibling.path(), test::scenesDir()).generic_string();
+        const std::string text = test::readFile(sibling.path()), name = relative.filename().string();
+        used |= sceneTexts.find("\"" + model + "\"") != std::string::npos &&
+                (text.find("\"" + name + "\"") != std::string::npos || (ext == ".mtl" && text.find(" " + name) != std::string::npos));
+      }
+      EXPECT_TRUE(used) << "no scene uses it";
     }
   }
   EXPECT_LT(files, 30u) << "scenes/ is for scenes, not corpora";

@@ -63,16 +63,16 @@ struct StudyRun {
 void checkReportTablesAndPlots(const StudyRun& run) {
   const std::string report = test::readFile(run.dir.path() / "docs" / "accuracy.md");
   for (const char* section : {"## Convergence", "## The live error estimate", "## Resolution", "## Depth of field",
-                              "## Bounces", "## Glass and metal", "lensfarm study"})
+                              "## Bounces", "## Glass and metal", "## Models", "lensfarm study"})
     EXPECT_NE(report.find(section), std::string::npos) << section;
-  for (const char* plot : {"convergence", "estimate", "resolution", "dof", "bounces", "materials"}) {
+  for (const char* plot : {"convergence", "estimate", "resolution", "dof", "bounces", "materials", "models"}) {
     EXPECT_NE(report.find("(../out/" + std::string(plot) + ".png)"), std::string::npos) << "relative link to " << plot;
     const std::string png = test::readFile(run.out(std::string(plot) + ".png"));
     ASSERT_GT(png.size(), 2000u) << plot;
     EXPECT_EQ(png.substr(1, 3), "PNG") << plot;
   }
   for (const char* csv : {"convergence.csv", "time-to-error.csv", "estimate.csv", "resolution.csv", "dof.csv", "bounces.csv",
-                          "materials.csv"})
+                          "materials.csv", "models.csv"})
     EXPECT_GT(readCsv(run.out(csv)).size(), 2u) << csv;
 }
 
@@ -129,6 +129,19 @@ void checkMaterials(const StudyRun& run) {
   EXPECT_NE(rows.at("rough glass 0.3, rough gold 0.3").at("effects").find("rough glass"), std::string::npos);
 }
 
+// The textured model shades per point and says so; its stand-ins with one material do not
+// texture anything.
+void checkModels(const StudyRun& run) {
+  std::map<std::string, std::map<std::string, std::string>> rows;
+  for (const auto& row : readCsv(run.out("models.csv"))) rows[row.at("variant")] = row;
+  ASSERT_EQ(rows.size(), 3u);
+  const auto& textured = rows.at("as modelled: textures, normal maps, cut-outs, smooth normals");
+  EXPECT_NE(textured.at("effects").find("textured material"), std::string::npos) << textured.at("effects");
+  EXPECT_NE(rows.at("one Lambertian material, smooth normals").at("effects").find("0 textured material(s)"),
+            std::string::npos);
+  EXPECT_GT(num(textured, "image mean"), 0.0);
+}
+
 TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
   StudyRun run;
   run.result = test::runProcess({test::cliPath().string(), "study", "--quick", "--out", (run.dir.path() / "out").string(),
@@ -154,6 +167,10 @@ TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
   {
     SCOPED_TRACE("materials");
     checkMaterials(run);
+  }
+  {
+    SCOPED_TRACE("models");
+    checkModels(run);
   }
 }
 

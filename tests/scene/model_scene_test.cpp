@@ -1,0 +1,185 @@
+// Models as scenes render what the equivalent JSON scene renders: the Cornell box written as a
+// glTF and as an OBJ with an MTL (both by this test, from the JSON scene's own triangles) against
+// the JSON scene, statistically; a .glb and the same .gltf give identical bits; `lensfarm render
+// model.glb` renders a model with its defaults.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "film/image_io.h"
+#include "scene/scene_loader.h"
+#include "support/gltf_builder.h"
+#include "test_support.h"
+
+namespace lensfarm {
+namespace {
+
+using nlohmann::json;
+
+// The Cornell box (cornell-classic) at a test's size: the JSON scene, and its triangles grouped by
+// material in world space.
+struct Cornell {
+  json scene;
+  struct Part {
+    std::string material;
+    Spectrum albedo;
+    std::vector<DVec3> positions;  // 3 per triangle
+  };
+  std::vector<Part> parts;
+
+  Cornell() {
+    scene = test::bundledSceneJson("cornell-classic.json");
+    scene["render"]["resolution"] = {24, 24};
+    scene["render"]["samples_per_pixel"] = 64;
+    test::TempDir dir;
+    const Scene s = test::loadSceneJson(dir, scene);
+    std::map<uint32_t, size_t> partOf;
+    for (const TriangleMesh& mesh : s.meshes) {
+      for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+        const Material& m = s.materials[mesh.materialIds[t]];
+        if (m.isEmissive()) continue;  // the lights stay in the scene's "lights"
+        auto [it, added] = partOf.try_emplace(mesh.materialIds[t], parts.size());
+        if (added) parts.push_back(Part{m.name, m.albedo(), {}});
+        for (int k = 0; k < 3; ++k) parts[it->second].positions.push_back(DVec3(mesh.positions[mesh.indices[3 * t + k]]) + s.origin);
+      }
+    }
+  }
+
+  // The scene with the box replaced by `shape` (its materials come from the model).
+  json withShape(const json& shape) const {
+    json out = scene;
+    out["shapes"] = json::array({shape});
+    out.erase("materials");
+    return out;
+  }
+
+  // The box as glTF: one primitive per material, each a principled material that is exactly
+  // Lambertian (metallic 0, KHR_materials_specular's specularFactor 0).
+  test::Builder gltf() const {
+    test::Builder b;
+    b.doc["materials"] = json::array();
+    json primitives = json::array();
+    for (size_t i = 0; i < parts.size(); ++i) {
+      std::vector<float> p;
+      for (const DVec3& v : parts[i].positions) p.insert(p.end(), {float(v.x), float(v.y), float(v.z)});
+      const Spectrum& a = parts[i].albedo;
+      b.add("materials", {{"name", parts[i].material},
+                          {"pbrMetallicRoughness", {{"baseColorFactor", {a.r, a.g, a.b, 1.0}}, {"metallicFactor", 0.0}}},
+                          {"extensions", {{"KHR_materials_specular", {{"specularFactor", 0.0}}}}}});
+      primitives.push_back({{"attributes", {{"POSITION", b.floats(p, "VEC3")}}}, {"material", int(i)}});
+    }
+    b.doc["extensionsUsed"] = {"KHR_materials_specular"};
+    b.doc["meshes"] = json::array({{{"primitives", primitives}}});
+    b.doc["nodes"] = json::array({{{"mesh", 0}}});
+    b.doc["scenes"] = json::array({{{"nodes", {0}}}});
+    b.doc["scene"] = 0;
+    return b;
+  }
+
+  // The box as OBJ with an MTL library: one usemtl group per material, Kd = albedo, Ks 0.
+  std::pair<std::string, std::string> objAndMtl() const {
+    std::ostringstream obj, mtl;
+    obj.precision(17);
+    mtl.precision(9);
+    obj << "mtllib box.mtl\n";
+    size_t vertex = 1;
+    for (const Part& part : parts) {
+      mtl << "newmtl " << part.material << "\nKd " << part.albedo.r << " " << part.albedo.g << " " << part.albedo.b
+          << "\nKs 0 0 0\nNs 10\nillum 2\n";
+      obj << "o " << part.material << "\nusemtl " << part.material << "\n";
+      for (const DVec3& v : part.positions) obj << "v " << v.x << " " << v.y << " " << v.z << "\n";
+      for (size_t t = 0; t < part.positions.size() / 3; ++t, vertex += 3)
+        obj << "f " << vertex << " " << vertex + 1 << " " << vertex + 2 << "\n";
+    }
+    return {obj.str(), mtl.str()};
+  }
+};
+
+void writeFile(const std::filesystem::path& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary) << bytes;
+}
+
+Scene loadIn(const test::TempDir& dir, const json& scene) { return test::loadSceneJson(dir, scene); }
+
+TEST(ModelScene, CornellBoxAsGltfRendersLikeTheJsonScene) {
+  const Cornell box;
+  ASSERT_EQ(box.parts.size(), 7u);
+  test::TempDir dir;
+  const test::Builder b = box.gltf();
+  writeFile(dir.path() / "box.bin", b.bin);
+  writeFile(dir.path() / "box.gltf", b.gltf("box.bin"));
+  const Scene model = loadIn(dir, box.withShape({{"type", "gltf"}, {"file", "box.gltf"}}));
+  const Scene reference = loadIn(dir, box.scene);
+  const test::ImageStatistics a = test::renderStatistics(model, 16), r = test::renderStatistics(reference, 16);
+  EXPECT_GE(test::agreementFraction(a, r), 0.995);
+  EXPECT_NEAR(a.imageMean, r.imageMean, 4.0 * std::hypot(a.imageMeanError, r.imageMeanError));
+}
+
+TEST(ModelScene, CornellBoxAsObjWithMtlRendersLikeTheJsonScene) {
+  const Cornell box;
+  test::TempDir dir;
+  const auto [obj, mtl] = box.objAndMtl();
+  writeFile(dir.path() / "box.obj", obj);
+  writeFile(dir.path() / "box.mtl", mtl);
+  const Scene model = loadIn(dir, box.withShape({{"type", "obj"}, {"file", "box.obj"}}));
+  const Scene reference = loadIn(dir, box.scene);
+  const test::ImageStatistics a = test::renderStatistics(model, 16), r = test::renderStatistics(reference, 16);
+  EXPECT_GE(test::agreementFraction(a, r), 0.995);
+  EXPECT_NEAR(a.imageMean, r.imageMean, 4.0 * std::hypot(a.imageMeanError, r.imageMeanError));
+}
+
+TEST(ModelScene, GlbAndGltfRenderIdenticalBits) {
+  const Cornell box;
+  test::TempDir dir;
+  const test::Builder b = box.gltf();
+  writeFile(dir.path() / "box.bin", b.bin);
+  writeFile(dir.path() / "box.gltf", b.gltf("box.bin"));
+  writeFile(dir.path() / "box.glb", b.glb());
+  const Image gltf = test::renderScene(loadIn(dir, box.withShape({{"type", "gltf"}, {"file", "box.gltf"}}))).image;
+  const Image glb = test::renderScene(loadIn(dir, box.withShape({{"type", "gltf"}, {"file", "box.glb"}}))).image;
+  ASSERT_EQ(gltf.rgb.size(), glb.rgb.size());
+  EXPECT_EQ(std::memcmp(gltf.rgb.data(), glb.rgb.data(), gltf.rgb.size() * sizeof(float)), 0);
+}
+
+TEST(ModelScene, RenderingAModelFileUsesItsDefaultsAndSaysSo) {
+  // A glTF cube with neither camera nor lights: framed, lit by the white environment.
+  test::TempDir dir;
+  test::Builder b;
+  const std::vector<float> p = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1};
+  const std::vector<uint16_t> idx = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                                     3, 7, 6, 3, 6, 2, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5};
+  b.doc["meshes"] = json::array({{{"primitives", {{{"attributes", {{"POSITION", b.floats(p, "VEC3")}}},
+                                                  {"indices", b.indices(idx)}}}}}});
+  b.doc["nodes"] = json::array({{{"mesh", 0}}});
+  writeFile(dir.path() / "cube.glb", b.glb());
+
+  std::string text;
+  const Scene scene = modelScene(dir.path() / "cube.glb", text);
+  EXPECT_EQ(scene.render.width, 1280);
+  EXPECT_EQ(scene.render.height, 720);
+  ASSERT_EQ(scene.lights.size(), 1u);
+  EXPECT_STREQ(scene.lights[0]->type(), "environment");
+  // The framing camera looks at the cube's centre.
+  const ThinLensCamera camera = scene.camera();
+  const Vec3 toCentre = glm::normalize(Vec3(DVec3(0.5) - scene.origin) - camera.params().position);
+  EXPECT_GT(glm::dot(toCentre, glm::normalize(camera.params().lookAt - camera.params().position)), 0.9999f);
+
+  const auto result = test::runProcess({test::cliPath().string(), "render", (dir.path() / "cube.glb").string(), "--resolution",
+                                        "32x18", "--spp", "4", "-o", (dir.path() / "cube.exr").string(), "--quiet"});
+  const std::string output = result.out + result.err;
+  ASSERT_EQ(result.exitCode, 0) << output;
+  EXPECT_NE(output.find("framing"), std::string::npos) << output;
+  EXPECT_NE(output.find("uniform white environment"), std::string::npos) << output;
+  const Image image = readExr(dir.path() / "cube.exr");
+  EXPECT_EQ(image.width, 32);
+  double sum = 0;
+  for (float v : image.rgb) sum += v;
+  EXPECT_GT(sum, 0.0);
+}
+
+}  // namespace
+}  // namespace lensfarm
+
