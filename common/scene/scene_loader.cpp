@@ -470,6 +470,7 @@ class SceneParser {
     ImportedModel model;
     std::vector<std::string> groupNames;  // OBJ: groups and the group of each triangle
     std::vector<uint32_t> triangleGroups;
+    std::vector<std::string> readerNotes;  // what reading its files noted (a missing mtllib)
     DVec3 worldLo{std::numeric_limits<double>::max()}, worldHi{-std::numeric_limits<double>::max()};
   };
 
@@ -502,6 +503,7 @@ class SceneParser {
       }
       const Transform t = readTransform(r, "transform");
       transformModel(m, t);
+      for (const std::string& note : m.readerNotes) notes_.push_back(m.shown + ": " + note);
       for (const std::string& note : m.model.notes) notes_.push_back(m.shown + ": " + note);
       imports_.push_back(std::move(m));
     }
@@ -517,7 +519,7 @@ class SceneParser {
       std::optional<std::string> content = readAsset_(path);
       if (!content) {
         if (m.obj && fs::path(rel).extension() == ".mtl") {
-          m.model.notes.push_back("mtllib " + rel + " not found: its materials must come from the scene");
+          m.readerNotes.push_back("mtllib " + rel + " not found: its materials must come from the scene");
           return std::string();
         }
         return std::nullopt;
