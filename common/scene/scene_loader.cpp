@@ -561,6 +561,9 @@ class SceneParser {
     (void)r.has("transform");  // read (and applied) by importModels
     ModelImport& m = *found;
     const uint32_t all = r.has("material") ? materialRef(r, "material") : UINT32_MAX;
+    // For triangles that have no material otherwise (an OBJ without usemtl, or without its .mtl).
+    const uint32_t fallback = r.has("fallback_material") ? materialRef(r, "fallback_material") : UINT32_MAX;
+    size_t fellBack = 0;
     // Overrides by the model's material name ("materials") and, for OBJ, by group.
     std::map<std::string, uint32_t> byName, byGroup;
     std::set<std::string> namesUsed, groupsUsed;
@@ -628,6 +631,7 @@ class SceneParser {
           } else if (material == UINT32_MAX && id != kNoObjMaterial) {
             material = modelToScene[id];
           }
+          if (material == UINT32_MAX && fallback != UINT32_MAX) material = fallback, ++fellBack;
           if (material == UINT32_MAX)
             r.fail(r.field("material"), "OBJ group \"" + group + "\" has no material: give material or group_materials." + group +
                                             " (or a usemtl with an mtllib)");
@@ -641,6 +645,9 @@ class SceneParser {
     for (const auto& [group, material] : byGroup)
       if (!groupsUsed.count(group))
         r.fail(r.field("group_materials") + "." + group, "no group of that name in \"" + m.shown + "\"");
+    if (fellBack > 0)
+      notes_.push_back(m.shown + ": " + std::to_string(fellBack) + " triangle(s) without a material use \"" +
+                       scene_.materials[fallback].name + "\"");
   }
 
   void readInlineTriangles(FieldReader& r, MeshInput& in) {
@@ -914,6 +921,11 @@ Scene modelScene(const fs::path& modelFile, std::string& text, const AssetReader
                 {"render", {{"resolution", {1280, 720}}, {"samples_per_pixel", 64}, {"max_bounces", 4}}},
                 {"shapes", {{{"type", ext == ".obj" ? "obj" : "gltf"}, {"file", modelFile.filename().string()}}}}};
   if (camera) scene["camera"] = *camera;
+  if (ext == ".obj") {
+    // Faces without a usemtl material (or whose .mtl is missing) are a light grey diffuse.
+    scene["materials"] = {{"default grey", {{"type", "lambertian"}, {"albedo", 0.7}}}};
+    scene["shapes"][0]["fallback_material"] = "default grey";
+  }
   // The scene file the model's JSON stands for sits beside the model, so its assets resolve there.
   const fs::path asFile = modelFile.parent_path() / (modelFile.filename().string() + ".scene.json");
   text = scene.dump(2);

@@ -183,6 +183,20 @@ TEST(ModelScene, RenderingAModelFileUsesItsDefaultsAndSaysSo) {
   EXPECT_GT(sum, 0.0);
 }
 
+TEST(ModelScene, AnObjWithoutMaterialsRendersInTheDefaultGrey) {
+  // An OBJ exported with an mtllib that did not come along, and faces before any usemtl.
+  test::TempDir dir;
+  writeFile(dir.path() / "part.obj", "mtllib part.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nusemtl steel\nf 1 3 2\n");
+  std::string text;
+  const Scene scene = modelScene(dir.path() / "part.obj", text);
+  ASSERT_EQ(scene.meshes.size(), 1u);
+  for (uint32_t id : scene.meshes[0].materialIds) EXPECT_EQ(scene.materials[id].name, "default grey");
+  std::string notes;
+  for (const std::string& n : scene.notes) notes += n + "\n";
+  EXPECT_NE(notes.find("mtllib part.mtl not found"), std::string::npos) << notes;
+  EXPECT_NE(notes.find("2 triangle(s) without a material use \"default grey\""), std::string::npos) << notes;
+}
+
 TEST(ModelScene, AModelCameraIsChosenByName) {
   // Two cameras, "front" at z = 5 and "side" at x = 5, both looking at the origin (a node's -z).
   test::TempDir dir;
