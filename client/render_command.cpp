@@ -84,7 +84,8 @@ int runRender(const RenderFlags& flags) {
   size_t meshTriangles = 0;
   for (const auto& m : scene.meshes) meshTriangles += m.triangleCount();
   refuseLocalRenderOverBudget(settings, meshTriangles,
-                              toOverrides(flags).width ? "--resolution" : flags.scene + ": render.resolution");
+                              toOverrides(flags).width ? "--resolution" : flags.scene + ": render.resolution",
+                              sceneDataBytes(scene));
 
   // The farm in one process: an embedded coordinator and one worker with all threads, wired by
   // direct calls (design.md): the same scheduling, upload and accumulation as over gRPC.
