@@ -124,7 +124,7 @@ Runner addSubmitCommand(CLI::App& app) {
   cmd->add_option("--priority", f->priority, "Higher runs first")->capture_default_str();
   return [f] {
     const RenderOverrides o = f->overrides.toOverrides();
-    const LocalJob job = makeLocalJob(f->scene, o);
+    const LocalJob job = makeLocalJob(f->scene, o, f->overrides.camera);
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());
       std::printf("%s\n", client.submit(job, f->priority).job_id().c_str());

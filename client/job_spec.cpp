@@ -6,7 +6,8 @@
 
 namespace lensfarm::cli {
 
-LocalJob makeLocalJob(const std::filesystem::path& sceneFile, const RenderOverrides& overrides) {
+LocalJob makeLocalJob(const std::filesystem::path& sceneFile, const RenderOverrides& overrides,
+                      const std::optional<std::string>& camera) {
   LocalJob job;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(sceneFile, ec)) throw InputError(sceneFile.string(), "no such scene file");
@@ -20,9 +21,10 @@ LocalJob makeLocalJob(const std::filesystem::path& sceneFile, const RenderOverri
   };
   if (isModelFile(sceneFile)) {
     // A model rendered as it is: the farm gets the scene written for it (scene/scene_loader.h).
-    job.scene = modelScene(sceneFile, job.spec.sceneJson, keep);
+    job.scene = modelScene(sceneFile, job.spec.sceneJson, keep, camera);
   } else {
     job.spec.sceneJson = readWholeFileOrThrow(sceneFile, sceneFile.string());
+    if (camera) job.spec.sceneJson = withModelCamera(job.spec.sceneJson, sceneFile, *camera);
     job.scene = parseScene(job.spec.sceneJson, sceneFile, keep);
   }
   applyOverrides(overrides, job.scene.render, "command line");

@@ -2,6 +2,7 @@
 // Building a job from a scene file on the client's disk: the scene is loaded (and so validated)
 // here first, and its assets are listed by content hash for upload. Every file is read once.
 #include <filesystem>
+#include <optional>
 #include <map>
 #include <string>
 
@@ -17,6 +18,8 @@ struct LocalJob {
 };
 
 // Throws InputError naming the file and field if the scene (with the overrides) is invalid.
-LocalJob makeLocalJob(const std::filesystem::path& sceneFile, const RenderOverrides& overrides);
+// `camera`: a model camera's name to render through instead of the scene's (--camera).
+LocalJob makeLocalJob(const std::filesystem::path& sceneFile, const RenderOverrides& overrides,
+                      const std::optional<std::string>& camera = std::nullopt);
 
 }  // namespace lensfarm::cli

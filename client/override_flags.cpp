@@ -103,6 +103,7 @@ CLI::Validator durationIn(double lo, double hi) {
 }
 
 void OverrideFlags::addTo(CLI::App* cmd) {
+  cmd->add_option("--camera", camera, "A camera of the scene's glTF models, by name (instead of the scene's camera)");
   cmd->add_option("--spp", spp, "Samples per pixel (overrides the scene)")
       ->check(wholeNumberIn(1, kMaxSamplesPerPixel));
   cmd->add_option("--resolution", resolution, "Image size WIDTHxHEIGHT (overrides the scene)");

@@ -22,6 +22,9 @@ struct OverrideFlags {
   std::optional<double> targetError;
   std::optional<double> deadline;  // seconds
   std::optional<double> ev;
+  // --camera NAME: a camera of the scene's models (glTF) instead of the scene's own; written into
+  // the scene as "camera": NAME (makeLocalJob), so a farm renders the same.
+  std::optional<std::string> camera;
 
   void addTo(CLI::App* cmd);
   // Throws InputError naming the flag (e.g. a malformed --resolution).

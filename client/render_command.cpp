@@ -71,7 +71,7 @@ void writeOutputs(const std::vector<fs::path>& outputs, const JobImage& image) {
 }
 
 int runRender(const RenderFlags& flags) {
-  const LocalJob local = makeLocalJob(flags.scene, toOverrides(flags));
+  const LocalJob local = makeLocalJob(flags.scene, toOverrides(flags), flags.overrides.camera);
   const Scene& scene = local.scene;
   const RenderSettings& settings = scene.render;
 
@@ -84,7 +84,8 @@ int runRender(const RenderFlags& flags) {
   size_t meshTriangles = 0;
   for (const auto& m : scene.meshes) meshTriangles += m.triangleCount();
   refuseLocalRenderOverBudget(settings, meshTriangles,
-                              toOverrides(flags).width ? "--resolution" : flags.scene + ": render.resolution");
+                              toOverrides(flags).width ? "--resolution" : flags.scene + ": render.resolution",
+                              sceneDataBytes(scene));
 
   // The farm in one process: an embedded coordinator and one worker with all threads, wired by
   // direct calls (design.md): the same scheduling, upload and accumulation as over gRPC.

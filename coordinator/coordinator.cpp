@@ -270,7 +270,7 @@ void Coordinator::restore() {
     job->unitSize = unitSize(scene.render);
     job->unitsTotal = unitCount(scene.render.samplesPerPixel, job->unitSize);
     job->effects = describeEffects(scene);
-    job->unitMemoryBytes = workerJobMemory(scene.render, sceneTriangles(scene)).total();
+    job->unitMemoryBytes = workerJobMemory(scene.render, sceneTriangles(scene), sceneDataBytes(scene)).total();
 
     // The checkpoint holds units [0, folded); the ledger lists every accepted unit.
     const auto checkpoint = store_->loadCheckpoint(job->id);
@@ -442,7 +442,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
   job->unitSize = unitSize(scene.render);
   job->unitsTotal = unitCount(scene.render.samplesPerPixel, job->unitSize);
   job->effects = describeEffects(scene);
-  job->unitMemoryBytes = workerJobMemory(scene.render, sceneTriangles(scene)).total();
+  job->unitMemoryBytes = workerJobMemory(scene.render, sceneTriangles(scene), sceneDataBytes(scene)).total();
   try {
     if (options_.beforeJobAllocation) options_.beforeJobAllocation(memory.total());
     job->sensor = std::make_unique<Sensor>(scene.render.width, scene.render.height);

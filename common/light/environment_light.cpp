@@ -5,6 +5,7 @@
 #include "film/image_io.h"
 #include "light/point_light.h"
 #include "scene/field_reader.h"
+#include "texture/image_decode.h"
 #include "util/error.h"
 
 namespace lensfarm {
@@ -35,7 +36,7 @@ std::shared_ptr<const LightSource> parseEnvironment(FieldReader& r, const AssetL
   const bool hasRadiance = r.has("radiance"), hasFile = r.has("file");
   if (hasRadiance == hasFile)
     r.fail(r.field("radiance"),
-           "give exactly one of radiance (a constant colour) and file (an equirectangular OpenEXR image)");
+           "give exactly one of radiance (a constant colour) and file (an equirectangular OpenEXR or Radiance HDR image)");
   if (hasRadiance) {
     const Spectrum radiance = r.color("radiance", kRadianceRange);
     return std::make_shared<EnvironmentLight>("", std::make_shared<EnvironmentMap>(EnvironmentMap::constant(radiance)));
@@ -45,10 +46,23 @@ std::shared_ptr<const LightSource> parseEnvironment(FieldReader& r, const AssetL
   const std::string relative = r.string("file");
   const LoadedAsset file = load(r, "file", "environment map");
   Image image;
-  try {
-    image = decodeExr(file.bytes);
-  } catch (const std::exception& e) {
-    r.fail(r.field("file"), "\"" + file.shown + "\" is not a readable OpenEXR image: " + e.what());
+  if (file.bytes.rfind("#?", 0) == 0) {
+    // A Radiance HDR (RGBE) image, "#?RADIANCE" or "#?RGBE": decoded by stb_image, linear.
+    try {
+      const RgbaImage rgba = decodeImage(file.bytes, file.shown, ColorEncoding::kLinear);
+      image.width = rgba.width, image.height = rgba.height;
+      image.rgb.reserve(3 * size_t(rgba.width) * size_t(rgba.height));
+      for (size_t k = 0; k < rgba.texels.size(); k += 4)
+        image.rgb.insert(image.rgb.end(), {rgba.texels[k], rgba.texels[k + 1], rgba.texels[k + 2]});
+    } catch (const InputError& e) {
+      r.fail(r.field("file"), e.what());
+    }
+  } else {
+    try {
+      image = decodeExr(file.bytes);
+    } catch (const std::exception& e) {
+      r.fail(r.field("file"), "\"" + file.shown + "\" is not a readable OpenEXR image (nor a Radiance HDR): " + e.what());
+    }
   }
   if (auto problem = EnvironmentMap::validate(image)) r.fail(r.field("file"), *problem);
   try {

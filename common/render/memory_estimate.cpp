@@ -11,6 +11,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <set>
 
 #include "render/unit_renderer.h"
 #include "util/error.h"
@@ -87,14 +88,30 @@ MemoryEstimate coordinatorJobMemory(const RenderSettings& s, uint64_t maxBytesAh
   return e;
 }
 
-MemoryEstimate workerJobMemory(const RenderSettings& s, uint64_t triangles) {
+uint64_t sceneDataBytes(const Scene& scene) {
+  uint64_t bytes = 0;
+  std::set<const Texture*> seen;
+  for (const Material& m : scene.materials) {
+    const MaterialTextures* t = m.textures();
+    if (!t) continue;
+    for (const TextureRef* ref : {&t->baseColor, &t->metallicRoughness, &t->normal, &t->emissive})
+      if (ref->texture && seen.insert(ref->texture.get()).second) bytes += ref->texture->bytes();
+  }
+  for (const TriangleMesh& mesh : scene.meshes)
+    bytes += mesh.normals.size() * sizeof(Vec3) + (mesh.uv[0].size() + mesh.uv[1].size()) * sizeof(Vec2) +
+             mesh.tangents.size() * sizeof(glm::vec4);
+  return bytes;
+}
+
+MemoryEstimate workerJobMemory(const RenderSettings& s, uint64_t triangles, uint64_t sceneData) {
   MemoryEstimate e;
   e.items.push_back({"unit buffer", cellsOf(s) * kUnitBufferBytesPerCell});
   e.items.push_back({"scene", triangles * kSceneBytesPerTriangle});
+  if (sceneData > 0) e.items.push_back({"textures and vertex attributes", sceneData});
   return e;
 }
 
-MemoryEstimate localRenderMemory(const RenderSettings& s, uint64_t triangles) {
+MemoryEstimate localRenderMemory(const RenderSettings& s, uint64_t triangles, uint64_t sceneData) {
   const uint64_t cells = cellsOf(s);
   MemoryEstimate e;
   e.items.push_back({"sensor", cells * kSensorBytesPerCell});
@@ -102,6 +119,7 @@ MemoryEstimate localRenderMemory(const RenderSettings& s, uint64_t triangles) {
   e.items.push_back({"unit buffer", cells * kUnitBufferBytesPerCell});
   e.items.push_back({"output image", cells * (kImageBytesPerCell + kPngBytesPerCell)});
   e.items.push_back({"scene", triangles * kSceneBytesPerTriangle});
+  if (sceneData > 0) e.items.push_back({"textures and vertex attributes", sceneData});
   return e;
 }
 
@@ -113,8 +131,9 @@ std::string overBudgetMessage(const RenderSettings& s, const MemoryEstimate& est
          formatBytes(budget) + " allowed per job (" + budgetSource + ")";
 }
 
-void refuseLocalRenderOverBudget(const RenderSettings& settings, uint64_t triangles, const std::string& where) {
-  const MemoryEstimate estimate = localRenderMemory(settings, triangles);
+void refuseLocalRenderOverBudget(const RenderSettings& settings, uint64_t triangles, const std::string& where,
+                                 uint64_t sceneData) {
+  const MemoryEstimate estimate = localRenderMemory(settings, triangles, sceneData);
   const uint64_t budget = defaultJobMemoryBudget();
   if (estimate.total() > budget)
     throw InputError(where, overBudgetMessage(settings, estimate, "", budget, defaultJobMemoryBudgetSource()) +

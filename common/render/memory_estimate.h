@@ -73,14 +73,19 @@ uint64_t unitsAheadWindow(int width, int height, uint64_t maxBytesAhead);
 // state directory, one checkpoint.
 MemoryEstimate coordinatorJobMemory(const RenderSettings& settings, uint64_t maxBytesAhead, bool stateDir);
 
-// Bytes a worker needs for a unit of the job: the unit buffer and the loaded scene.
-MemoryEstimate workerJobMemory(const RenderSettings& settings, uint64_t triangles);
+// Bytes of a loaded scene beyond its triangles: textures (every mip level, each texture once) and
+// vertex attributes (normals, texture coordinates, tangents).
+uint64_t sceneDataBytes(const Scene& scene);
+
+// Bytes a worker needs for a unit of the job: the unit buffer and the loaded scene (its triangles,
+// and `sceneData` bytes of textures and attributes, sceneDataBytes).
+MemoryEstimate workerJobMemory(const RenderSettings& settings, uint64_t triangles, uint64_t sceneData = 0);
 
 // Bytes `lensfarm render` needs (coordinator and one worker in one process, results summed in
 // order as they come): sensor, tracker, one unit buffer, the scene, and the image with its PNG
 // when it writes (snapshots are written while a unit renders, so all at once; EXR files are
 // written straight from the image).
-MemoryEstimate localRenderMemory(const RenderSettings& settings, uint64_t triangles);
+MemoryEstimate localRenderMemory(const RenderSettings& settings, uint64_t triangles, uint64_t sceneData = 0);
 
 // "a 16384x16384 render needs an estimated 31.7 GB of coordinator memory (sensor 12.9 GB + ...), more
 // than the 17.4 GB allowed per job (--max-job-memory)": the refusal, naming the estimate and the limit.
@@ -90,7 +95,8 @@ std::string overBudgetMessage(const RenderSettings& settings, const MemoryEstima
 // `lensfarm render`'s check, before it allocates anything frame-sized: InputError naming `where`
 // (the flag or scene field that set the resolution) and the estimate, if it exceeds
 // defaultJobMemoryBudget().
-void refuseLocalRenderOverBudget(const RenderSettings& settings, uint64_t triangles, const std::string& where);
+void refuseLocalRenderOverBudget(const RenderSettings& settings, uint64_t triangles, const std::string& where,
+                                 uint64_t sceneData = 0);
 
 // This machine's memory: physical memory (sysconf), or the cgroup's limit (memory.max, v2; or
 // memory.limit_in_bytes, v1) when that is lower.

@@ -150,6 +150,7 @@ ObjScan scanObj(const std::string& text, const std::string& shown) {
 // MTL libraries.
 
 struct MtlLibrary {
+  std::string name;   // as the mtllib statement names it, for notes
   std::string shown;  // for messages
   std::string dir;    // its directory relative to the OBJ file, for the reader
   // Per material: the line of each statement (its first), so that values can be told from
@@ -304,7 +305,8 @@ class MaterialBuilder {
   InputError error(const std::string& key, const std::string& what) const {
     return InputError(lib_->shown, at(key) + where_ + ": " + key + ": " + what);
   }
-  void note(const std::string& what) { notes_.push_back(lib_->shown + ": " + where_ + ": " + what); }
+  // Notes name the library as the mtllib statement does (the scene loader prefixes the OBJ).
+  void note(const std::string& what) { notes_.push_back(lib_->name + ": " + where_ + ": " + what); }
 
   float number(const std::string& key, double value) const {
     if (!std::isfinite(value) || std::abs(value) > 1e30) throw error(key, "is not a finite number");
@@ -515,6 +517,7 @@ ImportedObj importCheckedObj(std::string text, const std::string& shown, const M
     const std::optional<std::string> bytes = read(library.name);
     MtlLibrary lib;
     lib.dir = directoryOf(library.name);
+    lib.name = library.name;
     lib.shown = joined(directoryOf(shown), library.name);
     if (!bytes)
       throw InputError(shown, "line " + std::to_string(library.line) + ": mtllib " + quote(library.name) +
@@ -550,7 +553,7 @@ ImportedObj importCheckedObj(std::string text, const std::string& shown, const M
   std::string().swap(text);  // parsed: the text's memory goes before the mesh is built
   for (const std::string& name : scan.materialNames)
     if (!materialIndex.count(name))
-      model.notes.push_back(shown + ": usemtl " + quote(name) +
+      model.notes.push_back("usemtl " + quote(name) +
                             " names no material of the mtllib files: the scene's material is used");
 
   // Positions in double, as they are in the file.
@@ -649,10 +652,10 @@ ImportedObj importCheckedObj(std::string text, const std::string& shown, const M
     }
   }
   if (withoutTexcoords > 0)
-    model.notes.push_back(shown + ": " + std::to_string(withoutTexcoords) +
+    model.notes.push_back(std::to_string(withoutTexcoords) +
                           " triangles have corners without texture coordinates (vt): those read uv (0, 0)");
   if (withoutNormals > 0)
-    model.notes.push_back(shown + ": " + std::to_string(withoutNormals) +
+    model.notes.push_back(std::to_string(withoutNormals) +
                           " triangles have corners without a normal (vn) or with a zero one: those take the "
                           "triangle's own normal");
   for (const DVec3& p : in.positions) {

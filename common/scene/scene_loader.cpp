@@ -191,8 +191,8 @@ class SceneParser {
   }
 
   void parseCamera(FieldReader& top) {
-    if (!top.has("camera")) {
-      json camera = modelCamera();
+    if (!top.has("camera") || top.raw("camera").is_string()) {
+      json camera = top.has("camera") ? modelCamera(top.raw("camera").get<std::string>()) : modelCamera();
       FieldReader r(camera, cameraOrigin_, fileName_);
       parseCameraFields(r);
       return;
@@ -204,7 +204,26 @@ class SceneParser {
   // Without a "camera" in the scene: the first camera of the first model that has one, else one
   // that frames every model (a 40-degree view of their bounding sphere from the front, +z, and a
   // little above), named in the scene's notes.
-  json modelCamera() {
+  // With `wanted` (the scene's "camera": "NAME"), the model camera of that name, or an error listing
+  // the cameras the models have.
+  json modelCamera(const std::optional<std::string>& wanted = std::nullopt) {
+    if (wanted) {
+      std::string names;
+      for (const ModelImport& m : imports_)
+        for (const json& c : m.model.cameras) {
+          const std::string name = c.value("name", std::string());
+          if (name == *wanted) {
+            json camera = c;
+            camera.erase("name");
+            cameraOrigin_ = m.field + " camera \"" + name + "\"";
+            notes_.push_back("camera: " + m.shown + "'s camera \"" + name + "\"");
+            return camera;
+          }
+          names += (names.empty() ? "\"" : ", \"") + name + "\"";
+        }
+      throw InputError(fileName_, "camera: no model camera named \"" + *wanted + "\" (" +
+                                      (names.empty() ? std::string("the models have no cameras") : "the models have " + names) + ")");
+    }
     for (const ModelImport& m : imports_) {
       if (!m.model.cameras.empty()) {
         json camera = m.model.cameras.front();
@@ -459,6 +478,7 @@ class SceneParser {
     ImportedModel model;
     std::vector<std::string> groupNames;  // OBJ: groups and the group of each triangle
     std::vector<uint32_t> triangleGroups;
+    std::vector<std::string> readerNotes;  // what reading its files noted (a missing mtllib)
     DVec3 worldLo{std::numeric_limits<double>::max()}, worldHi{-std::numeric_limits<double>::max()};
   };
 
@@ -492,6 +512,7 @@ class SceneParser {
       }
       const Transform t = readTransform(r, "transform");
       transformModel(m, t);
+      for (const std::string& note : m.readerNotes) notes_.push_back(m.shown + ": " + note);
       for (const std::string& note : m.model.notes) notes_.push_back(m.shown + ": " + note);
       imports_.push_back(std::move(m));
     }
@@ -507,7 +528,7 @@ class SceneParser {
       std::optional<std::string> content = readAsset_(path);
       if (!content) {
         if (m.obj && fs::path(rel).extension() == ".mtl") {
-          m.model.notes.push_back("mtllib " + rel + " not found: its materials must come from the scene");
+          m.readerNotes.push_back("mtllib " + rel + " not found: its materials must come from the scene");
           return std::string();
         }
         return std::nullopt;
@@ -547,6 +568,9 @@ class SceneParser {
     (void)r.has("transform");  // read (and applied) by importModels
     ModelImport& m = *found;
     const uint32_t all = r.has("material") ? materialRef(r, "material") : UINT32_MAX;
+    // For triangles that have no material otherwise (an OBJ without usemtl, or without its .mtl).
+    const uint32_t fallback = r.has("fallback_material") ? materialRef(r, "fallback_material") : UINT32_MAX;
+    size_t fellBack = 0;
     // Overrides by the model's material name ("materials") and, for OBJ, by group.
     std::map<std::string, uint32_t> byName, byGroup;
     std::set<std::string> namesUsed, groupsUsed;
@@ -615,6 +639,7 @@ class SceneParser {
           } else if (material == UINT32_MAX && id != kNoObjMaterial) {
             material = modelToScene[id];
           }
+          if (material == UINT32_MAX && fallback != UINT32_MAX) material = fallback, ++fellBack;
           if (material == UINT32_MAX)
             r.fail(r.field("material"), "OBJ group \"" + group + "\" has no material: give material or group_materials." + group +
                                             " (or a usemtl with an mtllib)");
@@ -631,6 +656,9 @@ class SceneParser {
     for (const auto& [group, material] : byGroup)
       if (!groupsUsed.count(group))
         r.fail(r.field("group_materials") + "." + group, "no group of that name in \"" + m.shown + "\"");
+    if (fellBack > 0)
+      notes_.push_back(m.shown + ": " + std::to_string(fellBack) + " triangle(s) without a material use \"" +
+                       scene_.materials[fallback].name + "\"");
   }
 
   void readInlineTriangles(FieldReader& r, MeshInput& in) {
@@ -664,7 +692,9 @@ class SceneParser {
     for (DVec3& p : in.positions) p = t.apply(p);
     const glm::dmat3 normalMatrix = t.normalMatrix();  // once, not per normal
     for (Vec3& n : in.mesh.normals) n = Vec3(normalMatrix * DVec3(n));
-    for (glm::vec4& v : in.mesh.tangents) v = glm::vec4(t.applyToVector(Vec3(v)), v.w);
+    // (A mirror reverses the bitangent w cross(n, t): w changes sign with the winding.)
+    const float handedness = t.flipsHandedness() ? -1.0f : 1.0f;
+    for (glm::vec4& v : in.mesh.tangents) v = glm::vec4(t.applyToVector(Vec3(v)), handedness * v.w);
     // A mirroring transform would turn every face inside out; swap winding to keep facing.
     if (t.flipsHandedness())
       for (size_t k = 0; k < in.mesh.indices.size(); k += 3) std::swap(in.mesh.indices[k + 1], in.mesh.indices[k + 2]);
@@ -898,12 +928,26 @@ bool isModelFile(const fs::path& file) {
   return ext == ".gltf" || ext == ".glb" || ext == ".obj";
 }
 
-Scene modelScene(const fs::path& modelFile, std::string& text, const AssetReader& readAsset) {
+std::string withModelCamera(const std::string& text, const fs::path& file, const std::string& camera) {
+  json root = json::parse(text, nullptr, false);
+  if (!root.is_object()) throw InputError(file.string(), "is not a JSON object (the scene format)");
+  root["camera"] = camera;
+  return root.dump(2);
+}
+
+Scene modelScene(const fs::path& modelFile, std::string& text, const AssetReader& readAsset,
+                 const std::optional<std::string>& camera) {
   std::string ext = modelFile.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   json scene = {{"format", kSceneFormat},
                 {"render", {{"resolution", {1280, 720}}, {"samples_per_pixel", 64}, {"max_bounces", 4}}},
                 {"shapes", {{{"type", ext == ".obj" ? "obj" : "gltf"}, {"file", modelFile.filename().string()}}}}};
+  if (camera) scene["camera"] = *camera;
+  if (ext == ".obj") {
+    // Faces without a usemtl material (or whose .mtl is missing) are a light grey diffuse.
+    scene["materials"] = {{"default grey", {{"type", "lambertian"}, {"albedo", 0.7}}}};
+    scene["shapes"][0]["fallback_material"] = "default grey";
+  }
   // The scene file the model's JSON stands for sits beside the model, so its assets resolve there.
   const fs::path asFile = modelFile.parent_path() / (modelFile.filename().string() + ".scene.json");
   text = scene.dump(2);

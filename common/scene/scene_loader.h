@@ -49,7 +49,12 @@ bool isModelFile(const std::filesystem::path& file);
 // at 64 samples per pixel with 4 bounces; and, if the model has no lights, a uniform white
 // environment of radiance 1 (Scene::notes says so). `text` receives the scene's JSON, which the
 // farm ships as the job's scene.
-Scene modelScene(const std::filesystem::path& modelFile, std::string& text, const AssetReader& readAsset = {});
+// `camera`: the name of the model camera to use (default: its first).
+Scene modelScene(const std::filesystem::path& modelFile, std::string& text, const AssetReader& readAsset = {},
+                 const std::optional<std::string>& camera = std::nullopt);
+// Scene text whose "camera" is replaced by the name of a model camera ("camera": "NAME"), or an
+// InputError naming `file` if the text is not a JSON object.
+std::string withModelCamera(const std::string& text, const std::filesystem::path& file, const std::string& camera);
 
 // Parses scene text as if read from `file`; assets come from `readAsset` (by default the file
 // system, relative to `file`).

@@ -9,12 +9,12 @@
 //  - Values are linear. 8- and 16-bit images in a colour role (base colour, emission) are decoded
 //    from sRGB when they are loaded (texture/image_decode.h); data roles (roughness, metallic,
 //    normals, alpha) and float images (EXR, HDR) are taken as they are.
-//  - Filtering: the pyramid halves each side per level with a 2x2 box (odd sides: the last row or
-//    column is clamped). A lookup takes a footprint, the width in texture space that one pixel of
-//    the image covers there; the level is log2(footprint * max(width, height)), so a minified
-//    texture is averaged rather than aliased. The renderer estimates the footprint without ray
-//    differentials, from the distance to the camera as pbrt-v4 does for secondary hits
-//    (render/shading_point.h).
+//  - Filtering: the pyramid halves each side per level with an area-weighted box (an odd side's
+//    texels are shared between the two halves they straddle, so every level keeps the mean). A
+//    lookup takes a footprint, the width in texture space that one pixel of the image covers there;
+//    the level is log2(footprint * max(width, height)), so a minified texture is averaged rather
+//    than aliased. The renderer estimates the footprint without ray differentials, from the
+//    distance to the camera as pbrt-v4 does for secondary hits (render/shading_point.h).
 #include <cstdint>
 #include <memory>
 #include <string>

@@ -204,3 +204,35 @@ TEST(MemoryEstimate, ARealRenderPeaksAtTheEstimate) {
 
 }  // namespace
 }  // namespace lensfarm
+
+namespace lensfarm {
+namespace {
+
+// Textures count once however many materials share them, with every mip level; vertex
+// attributes count by their arrays' sizes.
+TEST(MemoryEstimate, TexturesAndVertexAttributesCountInTheScene) {
+  Scene scene;
+  RgbaImage image;
+  image.width = image.height = 4;
+  image.texels.assign(4 * 16, 0.5f);
+  const auto texture = std::make_shared<Texture>("t", image);
+  ASSERT_EQ(texture->bytes(), (16 + 4 + 1) * 4 * sizeof(float));  // 4x4, 2x2, 1x1, RGBA floats
+  auto textures = std::make_shared<MaterialTextures>();
+  textures->baseColor.texture = texture;
+  textures->emissive.texture = texture;
+  scene.materials.push_back(Material::textured("a", textures));
+  scene.materials.push_back(Material::textured("b", textures));
+  TriangleMesh mesh;
+  mesh.normals.assign(3, Vec3(0, 0, 1));
+  mesh.uv[0].assign(3, Vec2(0.0f));
+  scene.meshes.push_back(mesh);
+  const uint64_t expected = texture->bytes() + 3 * sizeof(Vec3) + 3 * sizeof(Vec2);
+  EXPECT_EQ(sceneDataBytes(scene), expected);
+  RenderSettings s;
+  s.width = s.height = 8;
+  EXPECT_EQ(workerJobMemory(s, 1, expected).total(), workerJobMemory(s, 1).total() + expected);
+  EXPECT_NE(workerJobMemory(s, 1, expected).describe().find("textures and vertex attributes"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace lensfarm

@@ -5,11 +5,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 
 #include "film/image_io.h"
 #include "light_test_support.h"
 #include "scene/effects.h"
 #include "test_support.h"
+#include "texture/test_images.h"
+#include "util/error.h"
 
 namespace lensfarm {
 namespace {
@@ -109,6 +112,35 @@ TEST(EnvironmentLight, CameraRaysSeeTheSkyImagesPixelsWhereTheConventionPutsThem
         ASSERT_EQ(r.image.at(x, y), want) << "image pixel " << x << ", " << y;
       }
   }
+}
+
+TEST(EnvironmentLight, ARadianceHdrSkyIsSeenWhereAnExrSkyIs) {
+  // The same 4 x 2 sky as a Radiance HDR (RGBE: values that are powers of two times 8-bit
+  // mantissas survive exactly) and as an EXR: the camera sees the same pixels.
+  test::TempDir dir;
+  Image sky;
+  sky.width = 4, sky.height = 2;
+  std::vector<float> hdrPixels;
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 4; ++i)
+      for (int c = 0; c < 3; ++c) {
+        const float v = std::ldexp(float(1 + i + 4 * j + c), -2);
+        sky.rgb.push_back(v);
+        hdrPixels.push_back(v);
+      }
+  writeExr(dir / "sky.exr", sky, ImageMetadata{});
+  std::ofstream(dir / "sky.hdr", std::ios::binary) << test::hdr(4, 2, 3, hdrPixels);
+  std::vector<Image> seen;
+  for (const char* file : {"sky.exr", "sky.hdr"}) {
+    json scene = skyScene({{"file", file}}, {0, 0, -1}, 60, 8);
+    scene["render"]["max_bounces"] = 0;
+    seen.push_back(test::renderScene(test::loadSceneJson(dir, scene)).image);
+  }
+  ASSERT_EQ(seen[0].rgb.size(), seen[1].rgb.size());
+  for (size_t k = 0; k < seen[0].rgb.size(); ++k) ASSERT_EQ(seen[0].rgb[k], seen[1].rgb[k]) << k;
+  // Neither: named as such.
+  std::ofstream(dir / "sky.png", std::ios::binary) << "GIF89a....";
+  EXPECT_THROW(test::loadSceneJson(dir, skyScene({{"file", "sky.png"}}, {0, 0, -1}, 60, 8)), InputError);
 }
 
 TEST(EnvironmentLight, TheSkyFileIsAnAssetOfTheSceneAndIsListedAmongTheEffects) {
