@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -143,11 +144,20 @@ Statement classify(std::string_view keyword) {
 class Checker {
  public:
   explicit Checker(std::string_view bytes) : bytes_(bytes) {}
+  // In place: the text is written over the bytes already read (it is never longer than they are,
+  // but for a line break after a last line that has none, appended at the end).
+  explicit Checker(std::string&& bytes) : owned_(std::move(bytes)), inPlace_(true) { bytes_ = owned_; }
 
   ObjCheck run() {
     ObjCheck result;
     result.problem = check();
-    if (result.problem.empty()) result.text = std::move(text_);
+    if (result.problem.empty() && inPlace_) {
+      owned_.resize(written_);
+      owned_.append(pendingLineBreak_ ? 1 : 0, '\n');
+      result.text = std::move(owned_);
+    } else if (result.problem.empty()) {
+      result.text = std::move(text_);
+    }
     result.vertices = vertices_;
     result.faces = faces_;
     return result;
@@ -164,7 +174,7 @@ class Checker {
     if (std::string other = otherTextFormat(text.substr(firstVisible)); !other.empty()) return other;
     if (std::string binary = binaryProblem(bytes_); !binary.empty()) return binary;
 
-    text_.reserve(text.size() + 1);
+    if (!inPlace_) text_.reserve(text.size() + 1);
     size_t pos = 0, line = 0;
     while (pos < text.size()) {
       // One statement: a physical line, and the lines it continues onto with a final backslash.
@@ -199,7 +209,7 @@ class Checker {
         break;
       }
       if (std::string problem = checkStatement(statement, firstLine); !problem.empty()) return problem;
-      text_.append(physical, '\n');
+      putLineBreaks(physical);
     }
     if (faces_ == 0) {
       if (vertices_ == 0 && !sawStatement_) return "no faces: the file holds only comments";
@@ -261,8 +271,8 @@ class Checker {
         for (std::string_view a : args)
           if (std::string problem = checkReference(a, true); !problem.empty()) return at() + problem;
         ++faces_;
-        text_ += 'f';
-        text_.append(s.substr(keywordEnd));
+        put("f");
+        put(s.substr(keywordEnd));
         return "";
       }
       case Statement::kLineOrPoint: {
@@ -274,8 +284,30 @@ class Checker {
       case Statement::kFreeForm: sawFreeForm_ = true; break;
       default: break;
     }
-    text_.append(s);
+    put(s);
     return "";
+  }
+
+  // Appends to the text. In place, over bytes already read: a statement is written no longer than
+  // it was read, and its line breaks with at most as many characters as it had (1 or 2 each); so
+  // only the break of a last line that has none can find no room, and run() appends it.
+  void put(std::string_view s) {
+    if (!inPlace_) {
+      text_.append(s);
+      return;
+    }
+    std::memmove(owned_.data() + written_, s.data(), s.size());
+    written_ += s.size();
+  }
+  void putLineBreaks(size_t count) {
+    if (!inPlace_) {
+      text_.append(count, '\n');
+      return;
+    }
+    const size_t room = std::min(count, owned_.size() - written_);
+    std::memset(owned_.data() + written_, '\n', room);
+    written_ += room;
+    pendingLineBreak_ = room < count;
   }
 
   // One vertex of a face (v, v/vt, v//vn or v/vt/vn) or of a line or point element.
@@ -306,6 +338,9 @@ class Checker {
 
   std::string_view bytes_;
   std::string text_;
+  std::string owned_;  // in place: the bytes, then the text over them
+  bool inPlace_ = false, pendingLineBreak_ = false;
+  size_t written_ = 0;  // in place: the text's length so far
   std::vector<std::string_view> args_;  // the current statement's tokens (reused: no allocation per line)
   size_t vertices_ = 0, faces_ = 0;
   bool sawStatement_ = false, sawLines_ = false, sawFreeForm_ = false;
@@ -314,5 +349,7 @@ class Checker {
 }  // namespace
 
 ObjCheck checkObjText(std::string_view bytes) { return Checker(bytes).run(); }
+
+ObjCheck checkObjTextInPlace(std::string bytes) { return Checker(std::move(bytes)).run(); }
 
 }  // namespace lensfarm

@@ -40,4 +40,7 @@ struct ObjCheck {
 
 ObjCheck checkObjText(std::string_view bytes);
 
+// The same, the text written over the bytes themselves (moved in): a big file is not held twice.
+ObjCheck checkObjTextInPlace(std::string bytes);
+
 }  // namespace lensfarm

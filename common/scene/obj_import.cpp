@@ -1,6 +1,8 @@
 #include "scene/obj_import.h"
 
+#include <sys/mman.h>
 #include <tiny_obj_loader.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <charconv>
@@ -488,10 +490,43 @@ class CornerVertices {
   std::vector<Made> made_;
 };
 
-// An input stream over a string's bytes, without copying them (std::istringstream would).
-class ViewStreamBuf : public std::streambuf {
+// An input stream over a string's bytes, without copying them (std::istringstream would), that
+// hands the pages it has passed back to the system as it goes (madvise MADV_DONTNEED; they read
+// as zeros afterwards): tinyobjloader reads the text once, so a big file's text is not held while
+// the mesh is built from it. The string must not be read again, only freed.
+class ConsumingStreamBuf : public std::streambuf {
  public:
-  explicit ViewStreamBuf(std::string& text) { setg(text.data(), text.data(), text.data() + text.size()); }
+  explicit ConsumingStreamBuf(std::string& text)
+      : end_(text.data() + text.size()), released_(pageAbove(uintptr_t(text.data()))) {
+    window(text.data());
+  }
+
+ protected:
+  int_type underflow() override {
+    if (gptr() < egptr()) return traits_type::to_int_type(*gptr());
+    if (egptr() == end_) return traits_type::eof();
+#ifdef MADV_DONTNEED
+    const uintptr_t upTo = uintptr_t(egptr()) / pageSize() * pageSize();
+    if (upTo > released_) {
+      madvise(reinterpret_cast<void*>(released_), upTo - released_, MADV_DONTNEED);
+      released_ = upTo;
+    }
+#endif
+    window(egptr());
+    return traits_type::to_int_type(*gptr());
+  }
+
+ private:
+  static constexpr size_t kWindow = size_t(1) << 22;  // 4 MiB read between releases
+  static uintptr_t pageSize() {
+    static const uintptr_t size = uintptr_t(sysconf(_SC_PAGESIZE));
+    return size;
+  }
+  static uintptr_t pageAbove(uintptr_t at) { return (at + pageSize() - 1) / pageSize() * pageSize(); }
+  void window(char* from) { setg(from, from, from + std::min<size_t>(kWindow, size_t(end_ - from))); }
+
+  char* end_;
+  uintptr_t released_;  // pages below this address (from the first whole page of the text) are released
 };
 
 }  // namespace
@@ -543,14 +578,14 @@ ImportedObj importCheckedObj(std::string text, const std::string& shown, const M
   std::vector<tinyobj::material_t> parsedMaterials;
   std::string warn, err;
   {
-    ViewStreamBuf buffer(text);
+    ConsumingStreamBuf buffer(text);
     std::istream stream(&buffer);
     PreloadedMaterials reader(materials, materialIndex);
     if (!tinyobj::LoadObj(&attrib, &shapes, &parsedMaterials, &warn, &err, &stream, &reader, /*triangulate=*/true,
                           /*default_vcols_fallback=*/false))
       throw InputError(shown, "not a valid OBJ file: " + err);
   }
-  std::string().swap(text);  // parsed: the text's memory goes before the mesh is built
+  std::string().swap(text);  // parsed (and released as it was read): the rest goes now
   for (const std::string& name : scan.materialNames)
     if (!materialIndex.count(name))
       model.notes.push_back("usemtl " + quote(name) +

@@ -34,7 +34,7 @@ ImportedObj importObj(const std::string& text, const std::string& shown, const M
 
 // The same for text that checkObjText accepted, its ObjCheck::text, which is not checked again
 // (the scene loader checks a file itself, to name the scene's field in its message). Taken by
-// value: moved in, it is freed as soon as it is parsed.
+// value: moved in, its memory is handed back as tinyobjloader reads it.
 ImportedObj importCheckedObj(std::string checkedText, const std::string& shown, const ModelFileReader& read);
 
 }  // namespace lensfarm

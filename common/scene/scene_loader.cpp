@@ -500,9 +500,9 @@ class SceneParser {
       const ModelFileReader read = modelFileReader(rel, m);
       if (m.obj) {
         // tinyobjloader skips what it does not understand: check first that this is an OBJ at all.
-        ObjCheck check = checkObjText(file.bytes);
+        // (Checked in place and moved on: the file's bytes become the text that is parsed.)
+        ObjCheck check = checkObjTextInPlace(std::move(file.bytes));
         if (!check.ok()) r.fail(r.field("file"), "\"" + m.shown + "\": " + check.problem);
-        std::string().swap(file.bytes);  // the checked text is what is parsed
         ImportedObj obj = importCheckedObj(std::move(check.text), m.shown, read);
         m.model = std::move(obj.model);
         m.groupNames = std::move(obj.groupNames);

@@ -160,6 +160,30 @@ TEST_F(BadInputMesh, TheCheckKeepsLineNumbersAndTheVertexCounts) {
   EXPECT_EQ(checkObjText("v 0 0 0\n\n\nbad\n").problem, "line 4: 'bad' is not an OBJ statement");
 }
 
+TEST_F(BadInputMesh, TheCheckInPlaceGivesTheCopyingChecksTextAndProblems) {
+  // checkObjTextInPlace writes the text over the bytes it has read (the scene loader's way, so a
+  // big file is not held twice): it must give the very text and problems of checkObjText, with a
+  // byte-order mark, continued lines, fo, comments, blanks, CR and CRLF line ends, and a last line
+  // without a line break (whose break is the one character the text has beyond the bytes).
+  const std::vector<std::string> texts = {
+      "\xEF\xBB\xBFv 0 0 0\nv 1 0 \\\n0\nv 0 1 0\nfo 1 2 3\n",
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3",
+      "# a comment\r\n   v 0 0 0   \r\n\tv 1 0 0\rv 0 1 0\r\n\r\nfo   1 2 \\\n 3 \\",
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\ng part\nusemtl x\nf 1 2 3\nf -3 -2 -1\n# end",
+      "f",
+      "v 0 0 0\nbad\n",
+      "\xEF\xBB\xBF",
+      std::string(40, 'v'),
+  };
+  for (const std::string& text : texts) {
+    const ObjCheck copied = checkObjText(text), inPlace = checkObjTextInPlace(text);
+    EXPECT_EQ(inPlace.problem, copied.problem) << text;
+    EXPECT_EQ(inPlace.text, copied.text) << text;
+    EXPECT_EQ(inPlace.vertices, copied.vertices) << text;
+    EXPECT_EQ(inPlace.faces, copied.faces) << text;
+  }
+}
+
 TEST_F(BadInputMesh, AFarmCoordinatorRefusesABadMeshAssetNamingIt) {
   // `lensfarm submit` checks the scene first, but the coordinator must refuse it on its own too:
   // InputError, which the service returns as INVALID_ARGUMENT.
