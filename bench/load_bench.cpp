@@ -21,10 +21,10 @@
 //
 //   build/bench/lensfarm-load-bench [--triangles 1000000 --triangles 10000000] [--repeat 3]
 //                                   [--formats glb,obj] [--dir /tmp/x] [--keep] [--phases] [--mirror]
-#include <CLI/CLI.hpp>
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <charconv>
 #include <chrono>
@@ -33,8 +33,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <numbers>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -59,14 +59,16 @@ double cpuSeconds() {
   return seconds(u.ru_utime) + seconds(u.ru_stime);
 }
 
-// The process's peak resident set so far, in bytes (VmHWM), or 0 if it cannot be read.
-uint64_t peakResidentBytes() {
+// A field of /proc/self/status in bytes (VmHWM: the peak resident set so far; VmRSS: the resident
+// set now), or 0 if it cannot be read.
+uint64_t statusBytes(const std::string& field) {
   std::ifstream status("/proc/self/status");
   std::string line;
   while (std::getline(status, line))
-    if (line.rfind("VmHWM:", 0) == 0) return uint64_t(std::stoull(line.substr(6))) * 1024;
+    if (line.rfind(field, 0) == 0) return uint64_t(std::stoull(line.substr(field.size()))) * 1024;
   return 0;
 }
+uint64_t peakResidentBytes() { return statusBytes("VmHWM:"); }
 
 // ---------------------------------------------------------------------------------------------
 // The mesh: an nx x nz grid of cells over [0, 1]^2 in the xz plane, y = h(x, z) a few gentle
@@ -181,17 +183,24 @@ void writeGlb(const Grid& g, const fs::path& path) {
       {"nodes", {{{"mesh", 0}, {"name", "grid"}}}},
       {"meshes",
        {{{"name", "grid"},
-         {"primitives", {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}, {"TEXCOORD_0", 2}}}, {"indices", 3}, {"material", 0}}}}}}},
+         {"primitives",
+          {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}, {"TEXCOORD_0", 2}}}, {"indices", 3}, {"material", 0}}}}}}},
       {"materials",
        {{{"name", "grey"},
-         {"pbrMetallicRoughness", {{"baseColorFactor", {0.7, 0.7, 0.7, 1.0}}, {"metallicFactor", 0.0}, {"roughnessFactor", 1.0}}}}}},
+         {"pbrMetallicRoughness",
+          {{"baseColorFactor", {0.7, 0.7, 0.7, 1.0}}, {"metallicFactor", 0.0}, {"roughnessFactor", 1.0}}}}}},
       {"buffers", {{{"byteLength", binBytes}}}},
       {"bufferViews",
        {view(0, positionBytes, 34962), view(positionBytes, normalBytes, 34962),
-        view(positionBytes + normalBytes, uvBytes, 34962), view(positionBytes + normalBytes + uvBytes, indexBytes, 34963)}},
+        view(positionBytes + normalBytes, uvBytes, 34962),
+        view(positionBytes + normalBytes + uvBytes, indexBytes, 34963)}},
       {"accessors",
-       {{{"bufferView", 0}, {"componentType", 5126}, {"count", vertices}, {"type", "VEC3"},
-         {"min", {lo[0], lo[1], lo[2]}}, {"max", {hi[0], hi[1], hi[2]}}},
+       {{{"bufferView", 0},
+         {"componentType", 5126},
+         {"count", vertices},
+         {"type", "VEC3"},
+         {"min", {lo[0], lo[1], lo[2]}},
+         {"max", {hi[0], hi[1], hi[2]}}},
         {{"bufferView", 1}, {"componentType", 5126}, {"count", vertices}, {"type", "VEC3"}},
         {{"bufferView", 2}, {"componentType", 5126}, {"count", vertices}, {"type", "VEC2"}},
         {{"bufferView", 3}, {"componentType", 5125}, {"count", 3 * triangles}, {"type", "SCALAR"}}}}};
@@ -256,15 +265,16 @@ void writeObj(const Grid& g, const fs::path& path) {
 void writeScene(const fs::path& path, const std::string& format, const std::string& model, bool mirror) {
   json shape = {{"type", format == "obj" ? "obj" : "gltf"}, {"file", model}};
   if (format == "obj" || mirror) shape["material"] = mirror ? "mirror" : "white";
-  const json scene = {{"format", kSceneFormat},
-                      {"render", {{"resolution", {64, 64}}, {"samples_per_pixel", 1}}},
-                      {"materials",
-                       {{"white", {{"type", "lambertian"}, {"albedo", {0.8, 0.8, 0.8}}}},
-                        {"mirror", {{"type", "mirror"}, {"reflectance", 0.9}}}}},
-                      {"camera", {{"type", "pinhole"}, {"position", {0.5, 1.2, 2.0}}, {"look_at", {0.5, 0.0, 0.5}},
-                                  {"angle_of_view", 50}}},
-                      {"shapes", {shape}},
-                      {"environment", {{"radiance", {1.0, 1.0, 1.0}}}}};
+  const json scene = {
+      {"format", kSceneFormat},
+      {"render", {{"resolution", {64, 64}}, {"samples_per_pixel", 1}}},
+      {"materials",
+       {{"white", {{"type", "lambertian"}, {"albedo", {0.8, 0.8, 0.8}}}},
+        {"mirror", {{"type", "mirror"}, {"reflectance", 0.9}}}}},
+      {"camera",
+       {{"type", "pinhole"}, {"position", {0.5, 1.2, 2.0}}, {"look_at", {0.5, 0.0, 0.5}}, {"angle_of_view", 50}}},
+      {"shapes", {shape}},
+      {"environment", {{"radiance", {1.0, 1.0, 1.0}}}}};
   std::ofstream(path) << scene.dump(2) << "\n";
 }
 
@@ -274,6 +284,7 @@ struct Result {
   double load = 0, build = 0, loadCpu = 0, buildCpu = 0;
   uint64_t peakLoad = 0, peak = 0, triangles = 0;
   double effects = 0, caster = 0, lights = 0;  // --phases only
+  uint64_t sceneRss = 0, casterRss = 0;        // --phases only: resident after loading; added by the caster
 };
 
 // SHA-256 of every array of the loaded scene's meshes and of the caster's triangle table: equal
@@ -318,9 +329,11 @@ int runChild(const fs::path& scenePath, bool phases, bool digest) {
     const ThinLensCamera camera = scene.camera();
     const EffectSet effects = analyzeEffects(scene, camera);
     r.effects = secondsSince(t);
+    r.sceneRss = statusBytes("VmRSS:");
     t = Clock::now();
     const RayCaster caster(scene);
     r.caster = secondsSince(t);
+    r.casterRss = statusBytes("VmRSS:") - r.sceneRss;
     t = Clock::now();
     const LightSampler lights(scene, caster, effects.lightUseful, scene.render.integrator == IntegratorKind::kNaive);
     r.lights = secondsSince(t);
@@ -328,9 +341,10 @@ int runChild(const fs::path& scenePath, bool phases, bool digest) {
     r.buildCpu = cpuSeconds() - buildCpuStart;
     r.peak = peakResidentBytes();
   }
-  std::printf("RESULT %.6f %.6f %llu %llu %llu %.6f %.6f %.6f %.6f %.6f\n", r.load, r.build,
+  std::printf("RESULT %.6f %.6f %llu %llu %llu %.6f %.6f %.6f %.6f %.6f %llu %llu\n", r.load, r.build,
               (unsigned long long)r.peakLoad, (unsigned long long)r.peak, (unsigned long long)r.triangles, r.effects,
-              r.caster, r.lights, r.loadCpu, r.buildCpu);
+              r.caster, r.lights, r.loadCpu, r.buildCpu, (unsigned long long)r.sceneRss,
+              (unsigned long long)r.casterRss);
   return 0;
 }
 
@@ -355,10 +369,11 @@ Result runCase(const std::string& self, const fs::path& scenePath, bool phases) 
   bool found = false;
   char line[512];
   while (std::fgets(line, sizeof line, pipe)) {
-    unsigned long long peakLoad = 0, peak = 0, triangles = 0;
-    if (std::sscanf(line, "RESULT %lf %lf %llu %llu %llu %lf %lf %lf %lf %lf", &r.load, &r.build, &peakLoad, &peak,
-                    &triangles, &r.effects, &r.caster, &r.lights, &r.loadCpu, &r.buildCpu) == 10) {
-      r.peakLoad = peakLoad, r.peak = peak, r.triangles = triangles;
+    unsigned long long peakLoad = 0, peak = 0, triangles = 0, sceneRss = 0, casterRss = 0;
+    if (std::sscanf(line, "RESULT %lf %lf %llu %llu %llu %lf %lf %lf %lf %lf %llu %llu", &r.load, &r.build, &peakLoad,
+                    &peak, &triangles, &r.effects, &r.caster, &r.lights, &r.loadCpu, &r.buildCpu, &sceneRss,
+                    &casterRss) == 12) {
+      r.peakLoad = peakLoad, r.peak = peak, r.triangles = triangles, r.sceneRss = sceneRss, r.casterRss = casterRss;
       found = true;
     } else {
       std::fputs(line, stderr);  // the child's own messages
@@ -394,7 +409,9 @@ int main(int argc, char** argv) {
   bool keep = false, phases = false, mirror = false;
   app.add_option("--triangles", sizes, "Mesh sizes in triangles (default: 1000000 and 10000000)");
   app.add_option("--formats", formats, "glb, obj or both")->delimiter(',')->check(CLI::IsMember({"glb", "obj"}));
-  app.add_option("--repeat", repeat, "Runs per case; medians are reported")->check(CLI::Range(1, 100))->capture_default_str();
+  app.add_option("--repeat", repeat, "Runs per case; medians are reported")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
   app.add_option("--dir", dir, "Where to write the meshes (default: a new temporary directory)");
   app.add_flag("--keep", keep, "Keep the generated files");
   app.add_flag("--phases", phases, "Also time the build's parts (effects analysis, Embree, light sampler)");
@@ -406,23 +423,26 @@ int main(int argc, char** argv) {
   try {
     if (!child.empty()) return runChild(child, phases, digest);
     if (sizes.empty()) sizes = {1000000, 10000000};
-    const fs::path root = dir.empty() ? fs::temp_directory_path() / ("lensfarm-load-bench-" + std::to_string(getpid())) : fs::path(dir);
+    const fs::path root =
+        dir.empty() ? fs::temp_directory_path() / ("lensfarm-load-bench-" + std::to_string(getpid())) : fs::path(dir);
     fs::create_directories(root);
     const std::string self = selfPath();
-    std::printf("| triangles | format | file | load (s) | load CPU (s) | build (s) | build CPU (s) | peak after load | peak | bytes/triangle |\n");
+    std::printf(
+        "| triangles | format | file | load (s) | load CPU (s) | build (s) | build CPU (s) | peak after load | peak | "
+        "bytes/triangle |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
     std::vector<std::string> phaseLines;
     for (const uint64_t n : sizes) {
       const Grid grid = gridOf(n);
       for (const std::string& format : formats) {
         const fs::path model = root / ("mesh-" + std::to_string(grid.triangles()) + "." + format);
-        const fs::path scenePath = root / ("scene-" + std::to_string(grid.triangles()) + "-" + format +
-                                           (mirror ? "-mirror" : "") + ".json");
+        const fs::path scenePath =
+            root / ("scene-" + std::to_string(grid.triangles()) + "-" + format + (mirror ? "-mirror" : "") + ".json");
         if (!fs::exists(model)) {
           const auto t = Clock::now();
           format == "glb" ? writeGlb(grid, model) : writeObj(grid, model);
-          std::fprintf(stderr, "wrote %s (%s) in %.1f s\n", model.c_str(), megabytes(double(fs::file_size(model))).c_str(),
-                       secondsSince(t));
+          std::fprintf(stderr, "wrote %s (%s) in %.1f s\n", model.c_str(),
+                       megabytes(double(fs::file_size(model))).c_str(), secondsSince(t));
         }
         writeScene(scenePath, format, model.filename().string(), mirror);
         std::vector<double> load, build, loadCpu, buildCpu, peakLoad, peak;
@@ -436,26 +456,30 @@ int main(int argc, char** argv) {
         }
         std::printf("| %llu | %s | %s | %.2f | %.2f | %.2f | %.2f | %s | %s | %.0f |\n", (unsigned long long)triangles,
                     format.c_str(), megabytes(double(fs::file_size(model))).c_str(), median(load), median(loadCpu),
-                    median(build), median(buildCpu),
-                    megabytes(median(peakLoad)).c_str(), megabytes(median(peak)).c_str(),
-                    median(peak) / double(grid.triangles()));
+                    median(build), median(buildCpu), megabytes(median(peakLoad)).c_str(),
+                    megabytes(median(peak)).c_str(), median(peak) / double(grid.triangles()));
         std::fflush(stdout);
         if (phases) {
-          std::vector<double> effects, caster, lights;
+          std::vector<double> effects, caster, lights, sceneRss, casterRss;
           for (int k = 0; k < repeat; ++k) {
             const Result r = runCase(self, scenePath, true);
             effects.push_back(r.effects), caster.push_back(r.caster), lights.push_back(r.lights);
+            sceneRss.push_back(double(r.sceneRss)), casterRss.push_back(double(r.casterRss));
           }
           char line[256];
-          std::snprintf(line, sizeof line, "| %llu | %s | %.3f | %.3f | %.3f |", (unsigned long long)triangles,
-                        format.c_str(), median(effects), median(caster), median(lights));
+          std::snprintf(line, sizeof line, "| %llu | %s | %.3f | %.3f | %.3f | %s | %s |",
+                        (unsigned long long)triangles, format.c_str(), median(effects), median(caster), median(lights),
+                        megabytes(median(sceneRss)).c_str(), megabytes(median(casterRss)).c_str());
           phaseLines.push_back(line);
         }
         if (!keep) fs::remove(model);
       }
     }
     if (phases) {
-      std::printf("\nThe build's parts (s, medians):\n\n| triangles | format | effects analysis | RayCaster (Embree) | light sampler |\n|---|---|---|---|---|\n");
+      std::printf(
+          "\nThe build's parts (s, medians), the memory resident once loaded and what the caster adds (Embree's "
+          "BVH and buffers, the triangle table):\n\n| triangles | format | effects analysis | RayCaster (Embree) | "
+          "light sampler | resident after loading | added by the caster |\n|---|---|---|---|---|---|---|\n");
       for (const std::string& line : phaseLines) std::printf("%s\n", line.c_str());
     }
     if (!keep && dir.empty()) fs::remove_all(root);
