@@ -215,11 +215,8 @@ void RayCaster::cutoutFilter(const RTCFilterFunctionNArguments* args) {
     if (!textures || !textures->cutsOut()) continue;
     const float u = RTCHitN_u(args->hit, args->N, i), v = RTCHitN_v(args->hit, args->N, i);
     Vec2 uv[2] = {Vec2(0.0f), Vec2(0.0f)};
-    for (int set = 0; set < 2; ++set) {
-      if (mesh.uv[set].empty()) continue;
-      const uint32_t* idx = &mesh.indices[3 * size_t(prim)];
-      uv[set] = (1.0f - u - v) * mesh.uv[set][idx[0]] + u * mesh.uv[set][idx[1]] + v * mesh.uv[set][idx[2]];
-    }
+    for (int set = 0; set < 2; ++set)
+      if (!mesh.uv[set].empty()) uv[set] = mesh.interpolate(mesh.uv[set], prim, u, v);
     const float cutoff = textures->alphaMode == AlphaMode::kBlend ? 0.5f : textures->alphaCutoff;
     if (material.alphaAt(uv) < cutoff) args->valid[i] = 0;
   }

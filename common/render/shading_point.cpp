@@ -5,23 +5,18 @@
 namespace lensfarm {
 
 namespace {
-template <typename T>
-T interpolate(const std::vector<T>& values, const uint32_t* idx, float b1, float b2) {
-  return (1.0f - b1 - b2) * values[idx[0]] + b1 * values[idx[1]] + b2 * values[idx[2]];
-}
-
 // |a x b| of two 2D vectors (twice a texture-space triangle's area).
 float cross2(Vec2 a, Vec2 b) { return a.x * b.y - a.y * b.x; }
 
 // The normal map's perturbation of the (front-face) shading normal n at a point of a triangle
 // with vertices p and texture coordinates uv (glTF 2.0 §3.9.3; the header has the frame).
-Vec3 applyNormalMap(const MaterialTextures& t, const Vec4& texel, const TriangleMesh& mesh, const uint32_t* idx,
+Vec3 applyNormalMap(const MaterialTextures& t, const Vec4& texel, const TriangleMesh& mesh, size_t tri,
                     const Vec3 (&p)[3], const Vec2 (&uv)[3], float b1, float b2, const Vec3& n) {
   Vec3 tangent, bitangent;
   if (!mesh.tangents.empty()) {
-    const glm::vec4 t4 = interpolate(mesh.tangents, idx, b1, b2);
+    const glm::vec4 t4 = mesh.interpolate(mesh.tangents, tri, b1, b2);
     tangent = Vec3(t4);
-    bitangent = (mesh.tangents[idx[0]].w < 0.0f ? -1.0f : 1.0f) * glm::cross(n, tangent);
+    bitangent = (mesh.tangents[mesh.indices[3 * tri]].w < 0.0f ? -1.0f : 1.0f) * glm::cross(n, tangent);
   } else {
     // dp/du and dp/dv of the triangle (pbrt-v4 §6.5.3), solved from its edges.
     const Vec3 dp1 = p[1] - p[0], dp2 = p[2] - p[0];
@@ -56,7 +51,7 @@ ShadingPoint shadingPoint(const RenderScene& rs, const SurfaceHit& hit, const Ve
   Vec2 uv[3] = {Vec2(0.0f), Vec2(0.0f), Vec2(0.0f)};
   for (int set = 0; set < 2; ++set) {
     if (mesh.uv[set].empty()) continue;
-    sp.uv[set] = interpolate(mesh.uv[set], idx, hit.b1, hit.b2);
+    sp.uv[set] = mesh.interpolate(mesh.uv[set], where.index, hit.b1, hit.b2);
     if (set == 0) uv[0] = mesh.uv[0][idx[0]], uv[1] = mesh.uv[0][idx[1]], uv[2] = mesh.uv[0][idx[2]];
   }
 
@@ -75,12 +70,12 @@ ShadingPoint shadingPoint(const RenderScene& rs, const SurfaceHit& hit, const Ve
   // The front face's shading normal, then turned to wo's side (rule 1).
   Vec3 n = front ? nSide : -nSide;
   if (!mesh.normals.empty()) {
-    const Vec3 interpolated = interpolate(mesh.normals, idx, hit.b1, hit.b2);
+    const Vec3 interpolated = mesh.interpolate(mesh.normals, where.index, hit.b1, hit.b2);
     const float length = glm::length(interpolated);
     if (length > 0.0f && std::isfinite(length)) n = interpolated / length;
   }
   if (textures && textures->normal)
-    n = applyNormalMap(*textures, textures->normal.sample(sp.uv, sp.footprint), mesh, idx, p, uv, hit.b1, hit.b2, n);
+    n = applyNormalMap(*textures, textures->normal.sample(sp.uv, sp.footprint), mesh, where.index, p, uv, hit.b1, hit.b2, n);
   if (!front) n = -n;
   if (glm::dot(n, nSide) > 0.0f && glm::dot(n, wo) > 0.0f) sp.n = n;
   return sp;

@@ -42,6 +42,13 @@ struct TriangleMesh {
   std::vector<glm::vec4> tangents;
   bool visibleToCamera = true;        // false: camera rays pass through (seed §4.4's light)
   size_t triangleCount() const { return materialIds.size(); }
+  // A vertex attribute (normals, uv[k], tangents) at barycentrics (b1, b2) of triangle `tri`:
+  // (1 - b1 - b2) a0 + b1 a1 + b2 a2, the weights of the hit point (render/ray_caster.h).
+  template <typename T>
+  T interpolate(const std::vector<T>& attribute, size_t tri, float b1, float b2) const {
+    const uint32_t* idx = &indices[3 * tri];
+    return (1.0f - b1 - b2) * attribute[idx[0]] + b1 * attribute[idx[1]] + b2 * attribute[idx[2]];
+  }
   // Whether anything varies across a triangle (normals or texture coordinates).
   bool hasAttributes() const { return !normals.empty() || !uv[0].empty() || !uv[1].empty(); }
 };
