@@ -17,10 +17,13 @@
 // machine the CPU time is the steadier measure). --phases adds, per case, the build split into its
 // parts (constructed one after the other as RenderScene does) from one more child each. --mirror
 // makes the mesh a mirror: the effects analysis then searches it for closed shells. --digest (with
-// --child) prints a SHA-256 of what was loaded, to check that a change keeps every bit.
+// --child) prints a SHA-256 of what was loaded, to check that a change keeps every bit. --uses N
+// places the glb's mesh with N nodes (instanced; with --copies, copied per use): the table's
+// triangles are those held in memory, bytes/triangle are per triangle drawn.
 //
 //   build/bench/lensfarm-load-bench [--triangles 1000000 --triangles 10000000] [--repeat 3]
 //                                   [--formats glb,obj] [--dir /tmp/x] [--keep] [--phases] [--mirror]
+//                                   [--uses 1000 [--copies]]
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -38,6 +41,7 @@
 #include <string>
 #include <vector>
 
+#include "render/memory_estimate.h"
 #include "render/render_scene.h"
 #include "scene/scene_loader.h"
 #include "util/hash.h"
@@ -162,7 +166,8 @@ class Writer {
 
 // A binary glTF (glTF 2.0 §4.4): the 12-byte header, the JSON chunk padded with spaces, the BIN
 // chunk (positions, normals, texture coordinates, 32-bit indices; each a multiple of 4 bytes).
-void writeGlb(const Grid& g, const fs::path& path) {
+// `uses` nodes place the mesh side by side (more than one: the scene loader instances it).
+void writeGlb(const Grid& g, const fs::path& path, int uses) {
   const uint64_t vertices = g.vertices(), triangles = g.triangles();
   const uint64_t positionBytes = 12 * vertices, normalBytes = 12 * vertices, uvBytes = 8 * vertices;
   const uint64_t indexBytes = 12 * triangles;
@@ -176,11 +181,17 @@ void writeGlb(const Grid& g, const fs::path& path) {
   const auto view = [](uint64_t offset, uint64_t length, int target) {
     return json{{"buffer", 0}, {"byteOffset", offset}, {"byteLength", length}, {"target", target}};
   };
+  json nodes = json::array(), roots = json::array();
+  const int side = int(std::ceil(std::sqrt(double(uses))));
+  for (int k = 0; k < uses; ++k) {
+    nodes.push_back({{"mesh", 0}, {"name", "grid"}, {"translation", {1.1 * (k % side), 0.0, 1.1 * (k / side)}}});
+    roots.push_back(k);
+  }
   json doc = {
       {"asset", {{"version", "2.0"}, {"generator", "lensfarm-load-bench"}}},
       {"scene", 0},
-      {"scenes", {{{"nodes", {0}}}}},
-      {"nodes", {{{"mesh", 0}, {"name", "grid"}}}},
+      {"scenes", {{{"nodes", roots}}}},
+      {"nodes", nodes},
       {"meshes",
        {{{"name", "grid"},
          {"primitives",
@@ -262,8 +273,10 @@ void writeObj(const Grid& g, const fs::path& path) {
 
 // A scene with the model as its one shape, seen from above and the front, lit by a white sky.
 // `mirror`: the shape is a mirror, which has the effects analysis look for closed meshes.
-void writeScene(const fs::path& path, const std::string& format, const std::string& model, bool mirror) {
+// `copies`: a mesh several nodes use is copied per use rather than instanced.
+void writeScene(const fs::path& path, const std::string& format, const std::string& model, bool mirror, bool copies) {
   json shape = {{"type", format == "obj" ? "obj" : "gltf"}, {"file", model}};
+  if (copies) shape["instancing"] = false;
   if (format == "obj" || mirror) shape["material"] = mirror ? "mirror" : "white";
   const json scene = {
       {"format", kSceneFormat},
@@ -316,7 +329,7 @@ int runChild(const fs::path& scenePath, bool phases, bool digest) {
   r.loadCpu = cpuSeconds() - cpuStart;
   const double buildCpuStart = cpuSeconds();
   r.peakLoad = peakResidentBytes();
-  for (const TriangleMesh& mesh : scene.meshes) r.triangles += mesh.triangleCount();
+  r.triangles = storedTriangles(scene);
   if (!phases) {
     const auto buildStart = Clock::now();
     const RenderScene render(scene);
@@ -406,7 +419,8 @@ int main(int argc, char** argv) {
   std::vector<std::string> formats{"glb", "obj"};
   int repeat = 3;
   std::string dir, child;
-  bool keep = false, phases = false, mirror = false;
+  bool keep = false, phases = false, mirror = false, copies = false;
+  int uses = 1;
   app.add_option("--triangles", sizes, "Mesh sizes in triangles (default: 1000000 and 10000000)");
   app.add_option("--formats", formats, "glb, obj or both")->delimiter(',')->check(CLI::IsMember({"glb", "obj"}));
   app.add_option("--repeat", repeat, "Runs per case; medians are reported")
@@ -416,6 +430,10 @@ int main(int argc, char** argv) {
   app.add_flag("--keep", keep, "Keep the generated files");
   app.add_flag("--phases", phases, "Also time the build's parts (effects analysis, Embree, light sampler)");
   app.add_flag("--mirror", mirror, "Make the mesh a mirror (the effects analysis then looks for closed meshes)");
+  app.add_option("--uses", uses, "Nodes placing the mesh (glb only; more than one: instanced)")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
+  app.add_flag("--copies", copies, "With --uses: copy the mesh for each use instead of instancing it");
   app.add_option("--child", child, "(internal) measure loading this scene file in this process");
   bool digest = false;
   app.add_flag("--digest", digest, "With --child: print a SHA-256 of the loaded meshes and triangle table instead");
@@ -435,16 +453,23 @@ int main(int argc, char** argv) {
     for (const uint64_t n : sizes) {
       const Grid grid = gridOf(n);
       for (const std::string& format : formats) {
-        const fs::path model = root / ("mesh-" + std::to_string(grid.triangles()) + "." + format);
-        const fs::path scenePath =
-            root / ("scene-" + std::to_string(grid.triangles()) + "-" + format + (mirror ? "-mirror" : "") + ".json");
+        if (uses > 1 && format != "glb") {
+          std::fprintf(stderr, "--uses: %s has no instancing; skipped\n", format.c_str());
+          continue;
+        }
+        const std::string usesTag = uses > 1 ? "-u" + std::to_string(uses) : "";
+        const fs::path model = root / ("mesh-" + std::to_string(grid.triangles()) + usesTag + "." + format);
+        const fs::path scenePath = root / ("scene-" + std::to_string(grid.triangles()) + usesTag + "-" + format +
+                                           (mirror ? "-mirror" : "") + (copies ? "-copies" : "") + ".json");
         if (!fs::exists(model)) {
           const auto t = Clock::now();
-          format == "glb" ? writeGlb(grid, model) : writeObj(grid, model);
+          format == "glb" ? writeGlb(grid, model, uses) : writeObj(grid, model);
           std::fprintf(stderr, "wrote %s (%s) in %.1f s\n", model.c_str(),
                        megabytes(double(fs::file_size(model))).c_str(), secondsSince(t));
         }
-        writeScene(scenePath, format, model.filename().string(), mirror);
+        writeScene(scenePath, format, model.filename().string(), mirror, copies);
+        const std::string label =
+            uses == 1 ? format : format + ", " + std::to_string(uses) + (copies ? " copies" : " instances");
         std::vector<double> load, build, loadCpu, buildCpu, peakLoad, peak;
         uint64_t triangles = 0;
         for (int k = 0; k < repeat; ++k) {
@@ -455,9 +480,9 @@ int main(int argc, char** argv) {
           triangles = r.triangles;
         }
         std::printf("| %llu | %s | %s | %.2f | %.2f | %.2f | %.2f | %s | %s | %.0f |\n", (unsigned long long)triangles,
-                    format.c_str(), megabytes(double(fs::file_size(model))).c_str(), median(load), median(loadCpu),
+                    label.c_str(), megabytes(double(fs::file_size(model))).c_str(), median(load), median(loadCpu),
                     median(build), median(buildCpu), megabytes(median(peakLoad)).c_str(),
-                    megabytes(median(peak)).c_str(), median(peak) / double(grid.triangles()));
+                    megabytes(median(peak)).c_str(), median(peak) / double(grid.triangles() * uint64_t(uses)));
         std::fflush(stdout);
         if (phases) {
           std::vector<double> effects, caster, lights, sceneRss, casterRss;
@@ -468,7 +493,7 @@ int main(int argc, char** argv) {
           }
           char line[256];
           std::snprintf(line, sizeof line, "| %llu | %s | %.3f | %.3f | %.3f | %s | %s |",
-                        (unsigned long long)triangles, format.c_str(), median(effects), median(caster), median(lights),
+                        (unsigned long long)triangles, label.c_str(), median(effects), median(caster), median(lights),
                         megabytes(median(sceneRss)).c_str(), megabytes(median(casterRss)).c_str());
           phaseLines.push_back(line);
         }

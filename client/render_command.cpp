@@ -81,9 +81,7 @@ int runRender(const RenderFlags& flags) {
     outputs.push_back(checkedOutput(o, {".exr", ".png"}));
 
   // Refuse what this machine cannot hold before allocating anything frame-sized.
-  size_t meshTriangles = 0;
-  for (const auto& m : scene.meshes) meshTriangles += m.triangleCount();
-  refuseLocalRenderOverBudget(settings, meshTriangles,
+  refuseLocalRenderOverBudget(settings, storedTriangles(scene),
                               toOverrides(flags).width ? "--resolution" : flags.scene + ": render.resolution",
                               sceneDataBytes(scene));
 

@@ -20,12 +20,6 @@
 namespace lensfarm {
 
 namespace {
-uint64_t sceneTriangles(const Scene& scene) {
-  uint64_t n = 0;
-  for (const auto& m : scene.meshes) n += m.triangleCount();
-  return n;
-}
-
 bool isSha256Hex(const std::string& text) {
   return text.size() == 64 &&
          std::all_of(text.begin(), text.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
@@ -270,7 +264,7 @@ void Coordinator::restore() {
     job->unitSize = unitSize(scene.render);
     job->unitsTotal = unitCount(scene.render.samplesPerPixel, job->unitSize);
     job->effects = describeEffects(scene);
-    job->unitMemoryBytes = workerJobMemory(scene.render, sceneTriangles(scene), sceneDataBytes(scene)).total();
+    job->unitMemoryBytes = workerJobMemory(scene.render, storedTriangles(scene), sceneDataBytes(scene)).total();
 
     // The checkpoint holds units [0, folded); the ledger lists every accepted unit.
     const auto checkpoint = store_->loadCheckpoint(job->id);
@@ -442,7 +436,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
   job->unitSize = unitSize(scene.render);
   job->unitsTotal = unitCount(scene.render.samplesPerPixel, job->unitSize);
   job->effects = describeEffects(scene);
-  job->unitMemoryBytes = workerJobMemory(scene.render, sceneTriangles(scene), sceneDataBytes(scene)).total();
+  job->unitMemoryBytes = workerJobMemory(scene.render, storedTriangles(scene), sceneDataBytes(scene)).total();
   try {
     if (options_.beforeJobAllocation) options_.beforeJobAllocation(memory.total());
     job->sensor = std::make_unique<Sensor>(scene.render.width, scene.render.height);

@@ -107,7 +107,7 @@ std::shared_ptr<WorkerLoop::PreparedJob> WorkerLoop::prepare(const LeaseGrant& g
   jobs_[grant.jobId] = job;
   jobOrder_.push_back(grant.jobId);
   spdlog::info("loaded {} for {}: {}x{}, {} triangles", spec.sceneName, grant.jobId, job->scene.render.width,
-               job->scene.render.height, job->renderScene->caster().triangles().size());
+               job->scene.render.height, storedTriangles(job->scene));
   return job;
 }
 
@@ -183,7 +183,7 @@ void WorkerLoop::run() {
       // coordinator that knows the worker's limit (WorkerInfo::maxUnitMemoryBytes) never leases
       // one; this guards against one that does not.
       const MemoryEstimate memory =
-          workerJobMemory(job->scene.render, job->renderScene->caster().triangles().size(), sceneDataBytes(job->scene));
+          workerJobMemory(job->scene.render, storedTriangles(job->scene), sceneDataBytes(job->scene));
       if (options_.maxMemoryBytes > 0 && memory.total() > options_.maxMemoryBytes) {
         const std::string what = overBudgetMessage(job->scene.render, memory, "worker", options_.maxMemoryBytes,
                                                    "LENSFARM_MAX_JOB_MEMORY, else 3/4 of " + options_.name + "'s memory");

@@ -18,12 +18,7 @@ namespace lensfarm {
 SceneSphere sceneSphereOf(const RayCaster& caster) {
   // The box of every vertex and the camera (render space's origin), in double; its centre and
   // half-diagonal, rounded up so that the float sphere still holds every point.
-  DVec3 lo(0.0), hi(0.0);
-  for (const auto& t : caster.triangles())
-    for (const Vec3& v : {t.v0, t.v1, t.v2}) {
-      lo = glm::min(lo, DVec3(v));
-      hi = glm::max(hi, DVec3(v));
-    }
+  const DVec3 lo = caster.boundsLo(), hi = caster.boundsHi();
   return SceneSphere{Vec3(0.5 * (lo + hi)), float(0.5 * glm::length(hi - lo) * (1.0 + 1e-6))};
 }
 

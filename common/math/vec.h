@@ -40,6 +40,16 @@ struct Frame {
 // The largest |component|: a vector's size per axis (bounds are per axis), never overflowing.
 inline double largestAbs(const DVec3& v) { return std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))); }
 
+// The 3x3 cofactor matrix: det(m) times the inverse transpose, defined for any m. Normals
+// transform with the inverse transpose; this has its direction (times sign(det)) and is scaled
+// first so that no product overflows.
+inline glm::dmat3 cofactorMatrix(glm::dmat3 m) {
+  double largest = 0.0;
+  for (int c = 0; c < 3; ++c) largest = std::max(largest, largestAbs(m[c]));
+  if (largest > 0.0 && std::isfinite(largest)) m /= largest;
+  return glm::dmat3(glm::cross(m[1], m[2]), glm::cross(m[2], m[0]), glm::cross(m[0], m[1]));
+}
+
 inline float luminance(const Spectrum& s) {
   // Rec. 709 / sRGB primaries.
   return 0.2126f * s.r + 0.7152f * s.g + 0.0722f * s.b;

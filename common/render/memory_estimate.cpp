@@ -97,17 +97,25 @@ uint64_t sceneDataBytes(const Scene& scene) {
     for (const TextureRef* ref : {&t->baseColor, &t->metallicRoughness, &t->normal, &t->emissive})
       if (ref->texture && seen.insert(ref->texture.get()).second) bytes += ref->texture->bytes();
   }
-  for (const TriangleMesh& mesh : scene.meshes)
-    bytes += mesh.normals.size() * sizeof(Vec3) + (mesh.uv[0].size() + mesh.uv[1].size()) * sizeof(Vec2) +
-             mesh.tangents.size() * sizeof(glm::vec4);
-  return bytes;
+  for (const auto* meshes : {&scene.meshes, &scene.prototypes})
+    for (const TriangleMesh& mesh : *meshes)
+      bytes += mesh.normals.size() * sizeof(Vec3) + (mesh.uv[0].size() + mesh.uv[1].size()) * sizeof(Vec2) +
+               mesh.tangents.size() * sizeof(glm::vec4);
+  return bytes + scene.instances.size() * kSceneBytesPerInstance;
+}
+
+uint64_t storedTriangles(const Scene& scene) {
+  uint64_t n = 0;
+  for (const auto* meshes : {&scene.meshes, &scene.prototypes})
+    for (const TriangleMesh& mesh : *meshes) n += mesh.triangleCount();
+  return n;
 }
 
 MemoryEstimate workerJobMemory(const RenderSettings& s, uint64_t triangles, uint64_t sceneData) {
   MemoryEstimate e;
   e.items.push_back({"unit buffer", cellsOf(s) * kUnitBufferBytesPerCell});
   e.items.push_back({"scene", triangles * kSceneBytesPerTriangle});
-  if (sceneData > 0) e.items.push_back({"textures and vertex attributes", sceneData});
+  if (sceneData > 0) e.items.push_back({"textures, vertex attributes and instances", sceneData});
   return e;
 }
 
@@ -119,7 +127,7 @@ MemoryEstimate localRenderMemory(const RenderSettings& s, uint64_t triangles, ui
   e.items.push_back({"unit buffer", cells * kUnitBufferBytesPerCell});
   e.items.push_back({"output image", cells * (kImageBytesPerCell + kPngBytesPerCell)});
   e.items.push_back({"scene", triangles * kSceneBytesPerTriangle});
-  if (sceneData > 0) e.items.push_back({"textures and vertex attributes", sceneData});
+  if (sceneData > 0) e.items.push_back({"textures, vertex attributes and instances", sceneData});
   return e;
 }
 

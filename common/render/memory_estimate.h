@@ -51,6 +51,9 @@ inline constexpr uint64_t kExrBytesPerCell = 3 * sizeof(float);  // at most: flo
 inline constexpr uint64_t kPngBytesPerCell = 2 * 3;              // 8-bit sRGB pixels, and at most as many of PNG
 inline constexpr uint64_t kCheckpointBytesPerCell = 3 * 2 * sizeof(double) + sizeof(uint64_t) + 3 * sizeof(double);
 inline constexpr uint64_t kSceneBytesPerTriangle = 256;  // positions, normals, BVH (Embree) and build headroom
+// One use of an instanced mesh (scene/scene.h, MeshInstance): the MeshInstance, Embree's instance
+// geometry and its share of the top-level BVH, with build headroom (docs/performance.md).
+inline constexpr uint64_t kSceneBytesPerInstance = 1024;
 
 // What a job needs, item by item.
 struct MemoryEstimate {
@@ -73,8 +76,12 @@ uint64_t unitsAheadWindow(int width, int height, uint64_t maxBytesAhead);
 // state directory, one checkpoint.
 MemoryEstimate coordinatorJobMemory(const RenderSettings& settings, uint64_t maxBytesAhead, bool stateDir);
 
-// Bytes of a loaded scene beyond its triangles: textures (every mip level, each texture once) and
-// vertex attributes (normals, texture coordinates, tangents).
+// The triangles a loaded scene holds in memory: its meshes' and its prototypes' (each once,
+// however many instances draw it).
+uint64_t storedTriangles(const Scene& scene);
+
+// Bytes of a loaded scene beyond its stored triangles: textures (every mip level, each texture
+// once), vertex attributes (normals, texture coordinates, tangents) and instances.
 uint64_t sceneDataBytes(const Scene& scene);
 
 // Bytes a worker needs for a unit of the job: the unit buffer and the loaded scene (its triangles,

@@ -94,19 +94,23 @@ LENSFARM_LANE_LOOPS void decodeHits(const uint32_t* __restrict geomOffset, Gathe
   // Embree's arrays as plain pointers: GCC does not vectorise loads through RTCRayHit16's members.
   const uint32_t* __restrict geomID = rh.hit.geomID;
   const uint32_t* __restrict primID = rh.hit.primID;
+  const uint32_t* __restrict instID = rh.hit.instID[0];
   const float *__restrict us = rh.hit.u, *__restrict vs = rh.hit.v, *__restrict tfar = rh.ray.tfar;
   const float *__restrict dx = rh.ray.dir_x, *__restrict dy = rh.ray.dir_y, *__restrict dz = rh.ray.dir_z;
   // Without branches, so the loop vectorises: a lane without a hit keeps no bit of Embree's output.
   auto keep = [](uint32_t mask, float x) { return std::bit_cast<float>(std::bit_cast<uint32_t>(x) & mask); };
   for (int k = 0; k < kPacketWidth; ++k) {
     const uint32_t hit = uint32_t(out.found[k]);
-    const uint32_t index = geomOffset[geomID[k] & hit] + (primID[k] & hit);
+    // A lane that hit an instance reads triangle 0 here; RayCaster::intersect decodes it after.
+    const uint32_t mesh = hit & (instID[k] == RTC_INVALID_GEOMETRY_ID ? ~0u : 0u);
+    const uint32_t index = geomOffset[geomID[k] & mesh] + (primID[k] & mesh);
     const float u = keep(hit, us[k]), v = keep(hit, vs[k]);
     const Vec3 p = pointOnTriangle(tris.vec3(index, offsetof(Triangle, v0)), tris.vec3(index, offsetof(Triangle, v1)),
                                    tris.vec3(index, offsetof(Triangle, v2)), u, v);
     const Vec3 n = tris.vec3(index, offsetof(Triangle, n));
     const Vec3 v0 = tris.vec3(index, offsetof(Triangle, v0));
     out.triangle[k] = index;
+    out.instance[k] = kNoInstance;
     out.b1[k] = u, out.b2[k] = v;
     out.material[k] = tris.u(index, offsetof(Triangle, material));
     out.t[k] = keep(hit, tfar[k]);
@@ -115,19 +119,25 @@ LENSFARM_LANE_LOOPS void decodeHits(const uint32_t* __restrict geomOffset, Gathe
     out.v0x[k] = v0.x, out.v0y[k] = v0.y, out.v0z[k] = v0.z;
     out.margin[k] = tris.f(index, offsetof(Triangle, margin));
     const float along = out.t[k] * std::abs(dx[k] * n.x + dy[k] * n.y + dz[k] * n.z);
-    nearPlane[k] = hit & (along <= 4.0f * out.margin[k] ? ~0u : 0u);
+    nearPlane[k] = mesh & (along <= 4.0f * out.margin[k] ? ~0u : 0u);
   }
 }
 }  // namespace
 
-RayCaster::RayCaster(const Scene& scene) {
-  size_t triangleCount = 0;
+RayCaster::RayCaster(const Scene& scene) : source_(scene) {
+  size_t triangleCount = 0, prototypeTriangleCount = 0;
   for (const TriangleMesh& mesh : scene.meshes) triangleCount += mesh.triangleCount();
+  for (const TriangleMesh& mesh : scene.prototypes) prototypeTriangleCount += mesh.triangleCount();
+  for (const MeshInstance& instance : scene.instances)
+    if (instance.prototype >= scene.prototypes.size() || scene.prototypes[instance.prototype].triangleCount() == 0)
+      throw std::runtime_error("instance \"" + instance.name + "\" places prototype " +
+                               std::to_string(instance.prototype) + ", which does not exist or has no triangles");
   // (The scene loader refuses both cases with its own message; this guards scenes built in code.)
-  if (triangleCount == 0) throw std::runtime_error("the scene has no triangles");
-  if (triangleCount > GatherView<Triangle>::kMaxRecords)  // the packet form's lane loops index them with 32 bits
-    throw std::runtime_error("the scene has " + std::to_string(triangleCount) + " triangles; at most " +
-                             std::to_string(GatherView<Triangle>::kMaxRecords) + " are supported");
+  if (triangleCount == 0 && scene.instances.empty()) throw std::runtime_error("the scene has no triangles");
+  if (std::max(triangleCount, prototypeTriangleCount) > GatherView<Triangle>::kMaxRecords)  // indexed with 32 bits
+    throw std::runtime_error("the scene has " + std::to_string(triangleCount + prototypeTriangleCount) +
+                             " triangles; at most " + std::to_string(GatherView<Triangle>::kMaxRecords) +
+                             " are supported");
   // LENSFARM_EMBREE_CONFIG passes an Embree device configuration, e.g. "isa=avx2": Embree's
   // kernels for different instruction sets round differently (about 1e-8 relative in an image),
   // so a farm of mixed machines pins one set on every worker to keep the same bits
@@ -138,37 +148,16 @@ RayCaster::RayCaster(const Scene& scene) {
     throw std::runtime_error(std::string("cannot create an Embree device") +
                              (config ? std::string(" with LENSFARM_EMBREE_CONFIG=\"") + config + "\"" : std::string()));
   rtcSetDeviceErrorFunction(device_, embreeError, nullptr);
+  rtcSetDeviceMemoryMonitorFunction(device_, embreeMemory, this);
   scene_ = rtcNewScene(device_);
   rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
 
   uint32_t first = 0;  // of each mesh, in triangles_
   for (const TriangleMesh& mesh : scene.meshes) {
-    RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
-        geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.positions.size()));
-    for (size_t k = 0; k < mesh.positions.size(); ++k)
-      for (int c = 0; c < 3; ++c) vertices[3 * k + c] = mesh.positions[k][c];
-    // The mesh's own indices, not a copy (the scene outlives the caster). Vertices are copied:
-    // Embree reads a vertex buffer's last element with a 16-byte load, past a Vec3 array's end.
-    if (mesh.indices.empty())
-      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), 0);
-    else
-      rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, mesh.indices.data(), 0,
-                                 3 * sizeof(uint32_t), mesh.triangleCount());
+    RTCGeometry geom = meshGeometry(scene, mesh);
     const unsigned mask = unsigned(RayKind::kScattered) | (mesh.visibleToCamera ? unsigned(RayKind::kCamera) : 0u);
     rtcSetGeometryMask(geom, mask);
-    bool cutsOut = false;
-    for (const uint32_t m : mesh.materialIds) {
-      const MaterialTextures* textures = scene.materials[m].textures();
-      cutsOut |= textures && textures->cutsOut();
-    }
-    if (cutsOut) {
-      cutouts_.push_back(std::make_unique<CutoutMesh>(CutoutMesh{this, &scene, uint32_t(&mesh - scene.meshes.data())}));
-      rtcSetGeometryUserData(geom, cutouts_.back().get());
-      rtcSetGeometryIntersectFilterFunction(geom, cutoutFilter);
-      rtcSetGeometryOccludedFilterFunction(geom, cutoutFilter);
-    }
     rtcCommitGeometry(geom);
     const unsigned id = rtcAttachGeometry(scene_, geom);
     rtcReleaseGeometry(geom);  // the scene holds its own reference
@@ -177,27 +166,138 @@ RayCaster::RayCaster(const Scene& scene) {
     geomOffset_[id] = first;
     first += uint32_t(mesh.triangleCount());
   }
+  // Each prototype is a scene of its own, each use of it an instance geometry of the top scene
+  // (attached after the meshes, so the meshes' geometry ids are 0, 1, ... as geomOffset_ needs).
+  for (const TriangleMesh& mesh : scene.prototypes) {
+    RTCScene child = rtcNewScene(device_);
+    rtcSetSceneFlags(child, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(child, RTC_BUILD_QUALITY_HIGH);
+    RTCGeometry geom = meshGeometry(scene, mesh);
+    rtcCommitGeometry(geom);
+    rtcAttachGeometry(child, geom);
+    rtcReleaseGeometry(geom);
+    rtcCommitScene(child);
+    prototypeScenes_.push_back(child);
+  }
+  for (size_t k = 0; k < scene.instances.size(); ++k) {
+    const MeshInstance& instance = scene.instances[k];
+    RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
+    rtcSetGeometryInstancedScene(geom, prototypeScenes_[instance.prototype]);
+    rtcSetGeometryTimeStepCount(geom, 1);
+    rtcSetGeometryTransform(geom, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, &instance.toRender[0][0]);
+    rtcSetGeometryMask(geom,
+                       unsigned(RayKind::kScattered) | (instance.visibleToCamera ? unsigned(RayKind::kCamera) : 0u));
+    rtcCommitGeometry(geom);
+    const unsigned id = rtcAttachGeometry(scene_, geom);
+    rtcReleaseGeometry(geom);
+    if (instanceOfGeometry_.size() <= id) instanceOfGeometry_.resize(id + 1, kNoInstance);
+    instanceOfGeometry_[id] = uint32_t(k);
+  }
   rtcCommitScene(scene_);
 
-  // The triangle table after the BVH: Embree's build memory is freed by then, so the two never
-  // add up at the peak. Reserved whole, it is never reallocated while it grows.
-  triangles_.reserve(triangleCount);
-  for (const TriangleMesh& mesh : scene.meshes) {
-    for (size_t tri = 0; tri < mesh.triangleCount(); ++tri) {
-      Triangle t;
-      t.v0 = mesh.positions[mesh.indices[3 * tri]];
-      t.v1 = mesh.positions[mesh.indices[3 * tri + 1]];
-      t.v2 = mesh.positions[mesh.indices[3 * tri + 2]];
-      if (triangleNormal(t.v0, t.v1, t.v2)) {
-        const SpawnPlane plane = spawnPlaneOf(t.v0, t.v1, t.v2);
-        t.n = plane.n, t.margin = plane.margin;
-      } else {
-        // The loader drops zero-area triangles; one built in code keeps finite values (Embree never hits it).
-        t.n = Vec3(0.0f, 0.0f, 1.0f), t.margin = 0.0f;
-      }
-      t.material = mesh.materialIds[tri];
-      triangles_.push_back(t);
+  // The triangle tables after the BVH: Embree's build memory is freed by then, so the two never
+  // add up at the peak. Reserved whole, they are never reallocated while they grow.
+  triangles_.reserve(std::max<size_t>(triangleCount, 1));
+  for (const TriangleMesh& mesh : scene.meshes) addTriangles(mesh, triangles_);
+  for (const Triangle& t : triangles_)
+    for (const Vec3& v : {t.v0, t.v1, t.v2}) lo_ = glm::min(lo_, DVec3(v)), hi_ = glm::max(hi_, DVec3(v));
+  if (triangles_.empty()) {
+    // A scene of instances alone: the packet decoder reads triangle 0 for lanes without a mesh
+    // hit. A point at the camera, of a prototype's (never emitting) material; never hit.
+    Triangle t{};
+    t.n = Vec3(0.0f, 0.0f, 1.0f);
+    t.material = scene.prototypes[scene.instances.front().prototype].materialIds.front();
+    triangles_.push_back(t);
+  }
+  prototypeTriangles_.reserve(prototypeTriangleCount);
+  for (const TriangleMesh& mesh : scene.prototypes) {
+    prototypeOffset_.push_back(uint32_t(prototypeTriangles_.size()));
+    addTriangles(mesh, prototypeTriangles_);
+  }
+  // Per instance, what its transform adds to the spawn margin (instanceHit). Embree intersects
+  // an instance in object space, the ray's origin moved there in float as A^-1 o - A^-1 t (A the
+  // linear part, t the translation): near the instance, o ~ t, so the two terms cancel and the
+  // rounding of each stays, about eps (|A^-1| |t|) per object axis (|.| elementwise), however
+  // small the instance; Embree's float inverse adds about eps cond(A) |A^-1| |A| r (r the
+  // prototype's extent), acting on o - t only. Bounded here with a factor 2 to spare.
+  std::vector<double> extent(scene.prototypes.size(), 0.0);
+  for (size_t k = 0; k < scene.prototypes.size(); ++k)
+    for (const Vec3& v : scene.prototypes[k].positions) extent[k] = std::max(extent[k], largestAbs(DVec3(v)));
+  const auto absOf = [](glm::dmat3 m) {
+    for (int c = 0; c < 3; ++c) m[c] = glm::abs(m[c]);
+    return m;
+  };
+  const auto rowNorm = [](const glm::dmat3& m) {
+    double n = 0.0;
+    for (int r = 0; r < 3; ++r) n = std::max(n, std::abs(m[0][r]) + std::abs(m[1][r]) + std::abs(m[2][r]));
+    return n;
+  };
+  for (const MeshInstance& instance : scene.instances) {
+    const glm::dmat3 a(glm::mat3(instance.toRender));
+    const glm::dmat3 inverse = glm::inverse(a);
+    const DVec3 t = glm::abs(DVec3(instance.toRender[3]));
+    const double cond = rowNorm(a) * rowNorm(inverse);
+    const double eps = double(std::numeric_limits<float>::epsilon());
+    const DVec3 r(extent[instance.prototype]);
+    DVec3 error = 2.0 * eps * (2.0 * (absOf(inverse) * t) + (2.0 + cond) * (absOf(inverse) * (absOf(a) * r)));
+    if (!isFinite(Spectrum(error))) error = DVec3(0.0);
+    instanceMargins_.push_back({glm::transpose(glm::mat3(a)), Vec3(error)});
+  }
+  for (const auto& [lo, hi] : instanceBoxes(scene)) lo_ = glm::min(lo_, lo), hi_ = glm::max(hi_, hi);
+}
+
+// Embree reports every allocation (bytes > 0) and release (bytes < 0) on the device.
+bool RayCaster::embreeMemory(void* caster, ssize_t bytes, bool) {
+  auto* self = static_cast<RayCaster*>(caster);
+  const int64_t now = self->embreeBytes_.fetch_add(int64_t(bytes)) + int64_t(bytes);
+  int64_t peak = self->embreePeak_.load();
+  while (now > peak && !self->embreePeak_.compare_exchange_weak(peak, now)) {
+  }
+  return true;  // never refuse: the memory budget is checked before the scene is built
+}
+
+RTCGeometry RayCaster::meshGeometry(const Scene& scene, const TriangleMesh& mesh) {
+  RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                               3 * sizeof(float), mesh.positions.size()));
+  for (size_t k = 0; k < mesh.positions.size(); ++k)
+    for (int c = 0; c < 3; ++c) vertices[3 * k + c] = mesh.positions[k][c];
+  // The mesh's own indices, not a copy (the scene outlives the caster). Vertices are copied:
+  // Embree reads a vertex buffer's last element with a 16-byte load, past a Vec3 array's end.
+  if (mesh.indices.empty())
+    rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), 0);
+  else
+    rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, mesh.indices.data(), 0,
+                               3 * sizeof(uint32_t), mesh.triangleCount());
+  bool cutsOut = false;
+  for (const uint32_t m : mesh.materialIds) {
+    const MaterialTextures* textures = scene.materials[m].textures();
+    cutsOut |= textures && textures->cutsOut();
+  }
+  if (cutsOut) {
+    cutouts_.push_back(std::make_unique<CutoutMesh>(CutoutMesh{&scene, &mesh}));
+    rtcSetGeometryUserData(geom, cutouts_.back().get());
+    rtcSetGeometryIntersectFilterFunction(geom, cutoutFilter);
+    rtcSetGeometryOccludedFilterFunction(geom, cutoutFilter);
+  }
+  return geom;
+}
+
+void RayCaster::addTriangles(const TriangleMesh& mesh, std::vector<Triangle>& into) const {
+  for (size_t tri = 0; tri < mesh.triangleCount(); ++tri) {
+    Triangle t;
+    t.v0 = mesh.positions[mesh.indices[3 * tri]];
+    t.v1 = mesh.positions[mesh.indices[3 * tri + 1]];
+    t.v2 = mesh.positions[mesh.indices[3 * tri + 2]];
+    if (triangleNormal(t.v0, t.v1, t.v2)) {
+      const SpawnPlane plane = spawnPlaneOf(t.v0, t.v1, t.v2);
+      t.n = plane.n, t.margin = plane.margin;
+    } else {
+      // The loader drops zero-area triangles; one built in code keeps finite values (Embree never hits it).
+      t.n = Vec3(0.0f, 0.0f, 1.0f), t.margin = 0.0f;
     }
+    t.material = mesh.materialIds[tri];
+    into.push_back(t);
   }
 }
 
@@ -206,7 +306,7 @@ RayCaster::RayCaster(const Scene& scene) {
 // the ray goes on as if the surface were not there. Deterministic: a function of the hit alone.
 void RayCaster::cutoutFilter(const RTCFilterFunctionNArguments* args) {
   const auto* data = static_cast<const CutoutMesh*>(args->geometryUserPtr);
-  const TriangleMesh& mesh = data->scene->meshes[data->mesh];
+  const TriangleMesh& mesh = *data->mesh;
   for (unsigned i = 0; i < args->N; ++i) {
     if (args->valid[i] != -1) continue;
     const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
@@ -224,6 +324,7 @@ void RayCaster::cutoutFilter(const RTCFilterFunctionNArguments* args) {
 
 RayCaster::~RayCaster() {
   if (scene_) rtcReleaseScene(scene_);
+  for (RTCScene child : prototypeScenes_) rtcReleaseScene(child);
   if (device_) rtcReleaseDevice(device_);
 }
 
@@ -264,7 +365,9 @@ std::optional<SurfaceHit> RayCaster::intersect(const Vec3& o, const Vec3& d, Ray
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
   }
 
-  SurfaceHit hit = surfaceHit(rh.hit.geomID, rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar);
+  SurfaceHit hit = rh.hit.instID[0] == RTC_INVALID_GEOMETRY_ID
+                       ? surfaceHit(rh.hit.geomID, rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar)
+                       : instanceHit(instanceOfGeometry_[rh.hit.instID[0]], rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar);
   if (nearPlane(d, hit.t, hit.n, hit.margin) && startsInPlane(o, hit.v0, hit.n, hit.margin))
     return leavePlane(o, d, kind, hit);
   return hit;
@@ -291,14 +394,55 @@ SurfaceHit RayCaster::surfaceHit(unsigned geomID, unsigned primID, float u, floa
   hit.material = tri.material;
   hit.triangle = uint32_t(k);
   hit.b1 = u, hit.b2 = v;
+  hit.instance = kNoInstance;
   return hit;
 }
 
-RayCaster::MeshTriangle RayCaster::meshTriangle(uint32_t triangle) const {
-  const auto it = std::upper_bound(geomOffset_.begin(), geomOffset_.end(), triangle);
-  const uint32_t mesh = uint32_t(it - geomOffset_.begin()) - 1;
-  return {mesh, triangle - geomOffset_[mesh]};
+// The prototype's triangle placed by the instance's float matrix (the one Embree traced), its
+// normal that of the placed triangle, turned for a mirroring transform so that the front stays
+// the object's front; the spawn margin widened as the constructor explains.
+SurfaceHit RayCaster::instanceHit(uint32_t instance, unsigned primID, float u, float v, float t) const {
+  const MeshInstance& in = source_.instances[instance];
+  const Triangle& o = prototypeTriangles_[prototypeOffset_[in.prototype] + primID];
+  const Vec3 v0 = in.point(o.v0), v1 = in.point(o.v1), v2 = in.point(o.v2);
+  SurfaceHit hit;
+  hit.t = t;
+  hit.p = pointOnTriangle(v0, v1, v2, u, v);
+  hit.v0 = v0;
+  // The margin: the placed triangle's own, plus the object-space test's (a distance d from the
+  // object's plane is |A^T n| d from the placed one), plus the rounding of the origin in object
+  // space (the constructor's bound, seen along n).
+  const InstanceMargin& widen = instanceMargins_[instance];
+  if (triangleNormal(v0, v1, v2)) {
+    const SpawnPlane plane = spawnPlaneOf(v0, v1, v2);
+    hit.n = in.mirrors ? -plane.n : plane.n;
+    hit.margin = plane.margin;
+  } else {
+    // Too small to have a float normal as placed (the object's is transformed instead).
+    const Vec3 n = in.normalMatrix * o.n;
+    const float length = glm::length(n);
+    hit.n = length > 0.0f && std::isfinite(length) ? n / length : o.n;
+    hit.margin = 0.0f;
+  }
+  const Vec3 stretch = glm::abs(widen.linearT * hit.n);
+  hit.margin += glm::length(stretch) * o.margin + glm::dot(stretch, widen.originError);
+  hit.material = o.material;
+  hit.triangle = primID;
+  hit.b1 = u, hit.b2 = v;
+  hit.instance = instance;
+  return hit;
 }
+
+RayCaster::HitMesh RayCaster::hitMesh(const SurfaceHit& hit) const {
+  if (hit.instance != kNoInstance) {
+    const MeshInstance& in = source_.instances[hit.instance];
+    return {&source_.prototypes[in.prototype], hit.triangle, &in};
+  }
+  const auto it = std::upper_bound(geomOffset_.begin(), geomOffset_.end(), hit.triangle);
+  const uint32_t mesh = uint32_t(it - geomOffset_.begin()) - 1;
+  return {&source_.meshes[mesh], hit.triangle - geomOffset_[mesh], nullptr};
+}
+
 
 bool RayCaster::occluded(const Vec3& o, const Vec3& d, float tFar) const {
   if (recorder_) recorder_->record({o, d, tFar, 0u});
@@ -367,6 +511,14 @@ void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) 
     out.found[k] = rays.valid[k] != 0 && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID ? -1 : 0;
   alignas(64) uint32_t near[kPacketWidth];
   decodeHits(geomOffset_.data(), GatherView<Triangle>(triangles_.data()), rh, out, near);
+  // Hits on instances, decoded one by one, the coplanar rule's first test with them.
+  if (!prototypeScenes_.empty())
+    for (int k = 0; k < kPacketWidth; ++k) {
+      if (!out.found[k] || rh.hit.instID[0][k] == RTC_INVALID_GEOMETRY_ID) continue;
+      out.set(k, instanceHit(instanceOfGeometry_[rh.hit.instID[0][k]], rh.hit.primID[k], rh.hit.u[k], rh.hit.v[k],
+                             rh.ray.tfar[k]));
+      near[k] = nearPlane(rays.direction(k), out.t[k], Vec3(out.nx[k], out.ny[k], out.nz[k]), out.margin[k]) ? ~0u : 0u;
+    }
 
   // The coplanar rule, as the single-ray call applies it (rare: those lanes take that call).
   uint32_t anyNear = 0;

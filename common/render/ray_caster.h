@@ -9,8 +9,13 @@
 // Cut-outs (glTF alphaMode MASK, material/material.h): meshes with such a material get Embree
 // filter functions that reject a hit where the material's alpha is below its cutoff, for every
 // ray (camera, scattered, shadow) alike; other meshes have none and pay nothing.
+// Instances (scene/scene.h, MeshInstance): each prototype is an Embree scene of its own, each use
+// an Embree instance of it. A hit on one is returned in render space like any other (its
+// triangle transformed, its spawn margin widened for the transform's rounding, below); a scene
+// without instances pays one test per packet for them.
 #include <embree3/rtcore.h>
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -30,6 +35,8 @@ inline constexpr const char* kEmbreeConfigHelp =
     "of a farm of mixed machines the same, so images keep the same bits (docs/deploy.md).";
 
 enum class RayKind : unsigned { kCamera = 1u, kScattered = 2u };
+
+inline constexpr uint32_t kNoInstance = UINT32_MAX;
 
 
 // Up to kPacketWidth rays, structure of arrays (Embree's own packet layout). A lane is in use when
@@ -79,8 +86,9 @@ struct SurfaceHit {
   Vec3 v0;           // the rest of the triangle's SpawnPlane (math/ray_offset.h)
   float margin;
   uint32_t material;
-  uint32_t triangle; // index into RayCaster::triangles()
+  uint32_t triangle; // index into RayCaster::triangles(), or for an instance its prototype's triangle
   float b1, b2;      // barycentrics of p: p = (1 - b1 - b2) v0 + b1 v1 + b2 v2 (Embree's u, v)
+  uint32_t instance; // index into Scene::instances, or kNoInstance
 
   SpawnPlane plane() const { return SpawnPlane{v0, n, margin}; }
 };
@@ -111,6 +119,7 @@ class RayCaster {
     alignas(64) float v0x[kPacketWidth], v0y[kPacketWidth], v0z[kPacketWidth];
     alignas(64) float margin[kPacketWidth];
     alignas(64) float b1[kPacketWidth], b2[kPacketWidth];
+    alignas(64) uint32_t instance[kPacketWidth];
 
     SurfaceHit hit(int lane) const {
       return SurfaceHit{t[lane],
@@ -121,7 +130,8 @@ class RayCaster {
                         material[lane],
                         triangle[lane],
                         b1[lane],
-                        b2[lane]};
+                        b2[lane],
+                        instance[lane]};
     }
     void set(int lane, const SurfaceHit& h) {
       t[lane] = h.t;
@@ -132,13 +142,14 @@ class RayCaster {
       material[lane] = h.material;
       triangle[lane] = h.triangle;
       b1[lane] = h.b1, b2[lane] = h.b2;
+      instance[lane] = h.instance;
     }
   };
   void intersect(const RayPacket& rays, RayKind kind, PacketHits& hits) const;
   // occluded[lane] for each active lane (inactive lanes: false). Uses rays.tFar.
   void occluded(const RayPacket& rays, bool (&occluded)[kPacketWidth]) const;
 
-  // All triangles of the scene, meshes concatenated in scene order.
+  // All triangles of the scene's meshes (not its instances), concatenated in scene order.
   struct Triangle {
     Vec3 v0, v1, v2;
     Vec3 n;        // unit geometric normal
@@ -148,11 +159,25 @@ class RayCaster {
     SpawnPlane plane() const { return SpawnPlane{v0, n, margin}; }
   };
   const std::vector<Triangle>& triangles() const { return triangles_; }
-  // The mesh (index into Scene::meshes) a triangle belongs to, and the triangle's index there.
-  struct MeshTriangle {
-    uint32_t mesh, index;
+  // The triangles held in memory: the meshes' and the prototypes' (each once, however many
+  // instances draw it).
+  size_t storedTriangles() const { return triangles_.size() + prototypeTriangles_.size(); }
+  // The mesh a hit is on, the triangle's index there, and the instance placing it (null for a
+  // mesh of Scene::meshes, whose vertices are in render space already).
+  struct HitMesh {
+    const TriangleMesh* mesh;
+    uint32_t index;
+    const MeshInstance* instance;
   };
-  MeshTriangle meshTriangle(uint32_t triangle) const;
+  HitMesh hitMesh(const SurfaceHit& hit) const;
+  // The box of every surface in render space, instances included (as placed: their prototype's
+  // box transformed), and of the camera at the origin.
+  DVec3 boundsLo() const { return lo_; }
+  DVec3 boundsHi() const { return hi_; }
+  // The bytes Embree holds for this caster now (its BVHs, vertex copies and instances, as its
+  // memory monitor reports them), and the most it held at once while building.
+  int64_t embreeBytes() const { return embreeBytes_.load(); }
+  int64_t embreePeakBytes() const { return embreePeak_.load(); }
 
   // Benchmarks only: an observer that sees every ray cast from now on (nullptr: none). It changes
   // nothing the caster computes, hence const; set it while no thread is tracing.
@@ -160,20 +185,40 @@ class RayCaster {
 
  private:
   mutable RayRecorder* recorder_ = nullptr;
+  const Scene& source_;
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
   std::vector<Triangle> triangles_;       // all meshes, concatenated
-  std::vector<uint32_t> geomOffset_;      // first triangle of each Embree geometry
+  std::vector<uint32_t> geomOffset_;      // first triangle of each Embree geometry (meshes only)
+  // Instances: the prototypes' triangles in object space, concatenated, and where each
+  // prototype's start; per top-level Embree geometry, the instance it is (kNoInstance for a
+  // mesh); per instance, the spawn margin's widening for its transform (instanceHit).
+  std::vector<Triangle> prototypeTriangles_;
+  std::vector<uint32_t> prototypeOffset_;
+  std::vector<RTCScene> prototypeScenes_;
+  std::vector<uint32_t> instanceOfGeometry_;
+  struct InstanceMargin {
+    glm::mat3 linearT;  // A^T, A the transform's linear part
+    Vec3 originError;   // per object-space axis: how far rounding may move a ray's origin there
+  };
+  std::vector<InstanceMargin> instanceMargins_;
+  DVec3 lo_{0.0}, hi_{0.0};
+  std::atomic<int64_t> embreeBytes_{0}, embreePeak_{0};
+  static bool embreeMemory(void* caster, ssize_t bytes, bool post);
   // The cut-out filters' data (ray_caster.cpp), one per mesh that has a cut-out material.
   struct CutoutMesh {
-    const RayCaster* caster;
     const Scene* scene;
-    uint32_t mesh;
+    const TriangleMesh* mesh;
   };
   std::vector<std::unique_ptr<CutoutMesh>> cutouts_;
   static void cutoutFilter(const RTCFilterFunctionNArguments* args);
 
   SurfaceHit surfaceHit(unsigned geomID, unsigned primID, float u, float v, float t) const;
+  // The hit on triangle primID of instance `instance`, in render space.
+  SurfaceHit instanceHit(uint32_t instance, unsigned primID, float u, float v, float t) const;
+  // Embree's geometry for a mesh's triangles, with the cut-out filter if its materials need it.
+  RTCGeometry meshGeometry(const Scene& scene, const TriangleMesh& mesh);
+  void addTriangles(const TriangleMesh& mesh, std::vector<Triangle>& into) const;
   // The hit after `hit`, for a ray that starts in hit's plane (the coplanar rule).
   std::optional<SurfaceHit> leavePlane(const Vec3& o, const Vec3& d, RayKind kind, const SurfaceHit& hit) const;
 };

@@ -29,9 +29,10 @@ class RenderScene {
     // (render/shading_point.h), by the one-path vertex code.
     shaded_.assign(scene.materials.size(), 0);
     for (size_t m = 0; m < scene.materials.size(); ++m) shaded_[m] = scene.materials[m].varies() ? 1 : 0;
-    for (const TriangleMesh& mesh : scene.meshes)
-      if (!mesh.normals.empty())
-        for (uint32_t id : mesh.materialIds) shaded_[id] = 1;
+    for (const auto* meshes : {&scene.meshes, &scene.prototypes})
+      for (const TriangleMesh& mesh : *meshes)
+        if (!mesh.normals.empty())
+          for (uint32_t id : mesh.materialIds) shaded_[id] = 1;
     for (size_t k = 0; k < scene.materials.size(); ++k) {
       const Material& m = scene.materials[k];
       materialRecords_.push_back({m.albedo(), m.isEmissive() ? ~0u : 0u, m.reflects() ? ~0u : 0u,

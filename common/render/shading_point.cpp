@@ -5,18 +5,37 @@
 namespace lensfarm {
 
 namespace {
+Vec3 unitOrZero(const Vec3& v) {
+  const float length = glm::length(v);
+  return length > 0.0f && std::isfinite(length) ? v / length : Vec3(0.0f);
+}
+
+// A direction attribute (normals, or tangents' xyz) at the hit: on an instance, each vertex's is
+// placed by `place` and made unit length before they are interpolated, exactly as the scene
+// loader does for a mesh it copies, so that an instance shades as its copy would.
+template <typename Attribute, typename Place>
+Vec3 interpolatedDirection(const RayCaster::HitMesh& at, const std::vector<Attribute>& attribute, float b1, float b2,
+                           Place place) {
+  const TriangleMesh& mesh = *at.mesh;
+  if (!at.instance) return Vec3(mesh.interpolate(attribute, at.index, b1, b2));
+  const uint32_t* idx = &mesh.indices[3 * size_t(at.index)];
+  return (1.0f - b1 - b2) * unitOrZero(place(Vec3(attribute[idx[0]]))) + b1 * unitOrZero(place(Vec3(attribute[idx[1]]))) +
+         b2 * unitOrZero(place(Vec3(attribute[idx[2]])));
+}
+
 // |a x b| of two 2D vectors (twice a texture-space triangle's area).
 float cross2(Vec2 a, Vec2 b) { return a.x * b.y - a.y * b.x; }
 
 // The normal map's perturbation of the (front-face) shading normal n at a point of a triangle
 // with vertices p and texture coordinates uv (glTF 2.0 §3.9.3; the header has the frame).
-Vec3 applyNormalMap(const MaterialTextures& t, const Vec4& texel, const TriangleMesh& mesh, size_t tri,
-                    const Vec3 (&p)[3], const Vec2 (&uv)[3], float b1, float b2, const Vec3& n) {
+Vec3 applyNormalMap(const MaterialTextures& t, const Vec4& texel, const RayCaster::HitMesh& at, const Vec3 (&p)[3],
+                    const Vec2 (&uv)[3], float b1, float b2, const Vec3& n) {
+  const TriangleMesh& mesh = *at.mesh;
   Vec3 tangent, bitangent;
   if (!mesh.tangents.empty()) {
-    const glm::vec4 t4 = mesh.interpolate(mesh.tangents, tri, b1, b2);
-    tangent = Vec3(t4);
-    bitangent = (mesh.tangents[mesh.indices[3 * tri]].w < 0.0f ? -1.0f : 1.0f) * glm::cross(n, tangent);
+    tangent = interpolatedDirection(at, mesh.tangents, b1, b2, [&](const Vec3& v) { return at.instance->vector(v); });
+    const bool flipped = (mesh.tangents[mesh.indices[3 * size_t(at.index)]].w < 0.0f) != (at.instance && at.instance->mirrors);
+    bitangent = (flipped ? -1.0f : 1.0f) * glm::cross(n, tangent);
   } else {
     // dp/du and dp/dv of the triangle (pbrt-v4 §6.5.3), solved from its edges.
     const Vec3 dp1 = p[1] - p[0], dp2 = p[2] - p[0];
@@ -44,10 +63,12 @@ Vec3 applyNormalMap(const MaterialTextures& t, const Vec4& texel, const Triangle
 
 ShadingPoint shadingPoint(const RenderScene& rs, const SurfaceHit& hit, const Vec3& wo, const Vec3& nSide, bool front) {
   ShadingPoint sp{nSide, {Vec2(0.0f), Vec2(0.0f)}, 0.0f};
-  const RayCaster::MeshTriangle where = rs.caster().meshTriangle(hit.triangle);
-  const TriangleMesh& mesh = rs.scene().meshes[where.mesh];
+  const RayCaster::HitMesh where = rs.caster().hitMesh(hit);
+  const TriangleMesh& mesh = *where.mesh;
   const uint32_t* idx = &mesh.indices[3 * size_t(where.index)];
-  const Vec3 p[3] = {mesh.positions[idx[0]], mesh.positions[idx[1]], mesh.positions[idx[2]]};
+  Vec3 p[3] = {mesh.positions[idx[0]], mesh.positions[idx[1]], mesh.positions[idx[2]]};
+  if (where.instance)
+    for (Vec3& v : p) v = where.instance->point(v);
   Vec2 uv[3] = {Vec2(0.0f), Vec2(0.0f), Vec2(0.0f)};
   for (int set = 0; set < 2; ++set) {
     if (mesh.uv[set].empty()) continue;
@@ -70,12 +91,13 @@ ShadingPoint shadingPoint(const RenderScene& rs, const SurfaceHit& hit, const Ve
   // The front face's shading normal, then turned to wo's side (rule 1).
   Vec3 n = front ? nSide : -nSide;
   if (!mesh.normals.empty()) {
-    const Vec3 interpolated = mesh.interpolate(mesh.normals, where.index, hit.b1, hit.b2);
+    const Vec3 interpolated = interpolatedDirection(where, mesh.normals, hit.b1, hit.b2,
+                                                    [&](const Vec3& v) { return where.instance->normalMatrix * v; });
     const float length = glm::length(interpolated);
     if (length > 0.0f && std::isfinite(length)) n = interpolated / length;
   }
   if (textures && textures->normal)
-    n = applyNormalMap(*textures, textures->normal.sample(sp.uv, sp.footprint), mesh, where.index, p, uv, hit.b1, hit.b2, n);
+    n = applyNormalMap(*textures, textures->normal.sample(sp.uv, sp.footprint), where, p, uv, hit.b1, hit.b2, n);
   if (!front) n = -n;
   if (glm::dot(n, nSide) > 0.0f && glm::dot(n, wo) > 0.0f) sp.n = n;
   return sp;

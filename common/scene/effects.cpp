@@ -120,6 +120,9 @@ bool inside(const Shell& shell, const DVec3& p) {
 // True if every triangle of material `id` lies inside a closed shell that the camera is outside
 // of: camera paths can never enter a watertight shell, so nothing there can reach the image.
 bool sealedAway(const Scene& scene, const std::vector<Shell>& shells, uint32_t id, const Vec3& camera) {
+  // (Instances are not searched: a material an instance uses counts as reachable.)
+  for (const TriangleMesh& mesh : scene.prototypes)
+    if (std::count(mesh.materialIds.begin(), mesh.materialIds.end(), id)) return false;
   std::vector<bool> holdsCamera(shells.size());
   for (size_t k = 0; k < shells.size(); ++k) holdsCamera[k] = inside(shells[k], DVec3(camera));
   bool any = false;
@@ -170,6 +173,8 @@ UselessLights findUselessLights(const Scene& scene, const std::vector<Shell>& sh
     return out;  // no emitter: nothing to decide
   // Inward shells and, for each, whether something lies inside: per mesh and triangle, -1 for a
   // triangle of no inward emitting shell, else 1 if something lies inside its shell, 0 if not.
+  // Each instance's box as placed stands for its surface, conservatively.
+  const std::vector<std::pair<DVec3, DVec3>> boxes = instanceBoxes(scene);
   std::vector<std::vector<int8_t>> inwardTriangle(scene.meshes.size());
   for (const Shell& shell : shells) {
     bool emits = false;
@@ -192,6 +197,9 @@ UselessLights findUselessLights(const Scene& scene, const std::vector<Shell>& sh
     for (const auto& mesh : scene.meshes)
       for (uint32_t v = 0; v < mesh.positions.size() && !occupied; ++v)
         if (&mesh != shell.mesh || !own[v]) occupied = within(mesh.positions[v]);
+    // An instance counts as inside if its box meets the shell's (conservatively: the light is kept).
+    for (const auto& [a, b] : boxes)
+      occupied |= glm::all(glm::lessThanEqual(a, hi)) && glm::all(glm::lessThanEqual(lo, b));
     std::vector<int8_t>& inMesh = inwardTriangle[size_t(shell.mesh - scene.meshes.data())];
     if (inMesh.empty()) inMesh.assign(shell.mesh->triangleCount(), -1);
     for (size_t t : shell.triangles) inMesh[t] = occupied ? 1 : 0;
@@ -203,6 +211,11 @@ UselessLights findUselessLights(const Scene& scene, const std::vector<Shell>& sh
     for (const auto& mesh : scene.meshes)
       for (const Vec3& p : mesh.positions)
         if (glm::dot(DVec3(p) - DVec3(a), n) > 0.0) return true;
+    // An instance's box has a corner in front if any point of the instance is.
+    for (const auto& [lo, hi] : boxes)
+      for (int c = 0; c < 8; ++c)
+        if (glm::dot(DVec3((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z) - DVec3(a), n) > 0.0)
+          return true;
     return false;
   };
   for (const auto& mesh : scene.meshes) {
@@ -264,6 +277,7 @@ double maxBlurInCells(const Scene& scene, const ThinLensCamera& camera) {
       lo = glm::min(lo, v);
       hi = glm::max(hi, v);
     }
+  for (const auto& [a, b] : instanceBoxes(scene)) lo = glm::min(lo, Vec3(a)), hi = glm::max(hi, Vec3(b));
   double nearest = std::numeric_limits<double>::max(), farthest = 0.0;
   for (int c = 0; c < 8; ++c) {
     const Vec3 corner((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
@@ -323,6 +337,8 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
   std::vector<bool> used(scene.materials.size(), false);
   for (const auto& mesh : scene.meshes)
     for (uint32_t id : mesh.materialIds) used[id] = true;
+  for (const auto& mesh : scene.prototypes)  // (each drawn by at least one instance)
+    for (uint32_t id : mesh.materialIds) used[id] = true;
   // A mirror sealed inside a closed shell the camera is outside of can never be reached. The
   // shells matter only to mirrors and emitters: a scene with neither is not searched for them.
   bool shellsMatter = false;
@@ -355,6 +371,7 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
   // Surfaces that vary across a triangle: smooth shading and textures (render/shading_point.h).
   size_t smoothMeshes = 0, texturedMaterials = 0;
   for (const auto& mesh : scene.meshes) smoothMeshes += mesh.normals.empty() ? 0 : 1;
+  for (const auto& mesh : scene.prototypes) smoothMeshes += mesh.normals.empty() ? 0 : 1;
   for (size_t m = 0; m < scene.materials.size(); ++m) texturedMaterials += used[m] && scene.materials[m].varies();
   e.specular = !deltaEffects.empty();
   e.generalMaterials = e.specular || !glossyEffects.empty() || smoothMeshes > 0 || texturedMaterials > 0;

@@ -340,16 +340,6 @@ void flatShade(PrimitiveData& d) {
   d = std::move(flat);
 }
 
-// The 3x3 cofactor matrix: det(m) times the inverse transpose, defined for any m. Normals
-// transform with the inverse transpose; this has its direction (times sign(det)) and is scaled
-// first so that no product overflows.
-glm::dmat3 cofactor(glm::dmat3 m) {
-  double largest = 0.0;
-  for (int c = 0; c < 3; ++c) largest = std::max(largest, largestAbs(m[c]));
-  if (largest > 0.0 && std::isfinite(largest)) m /= largest;
-  return glm::dmat3(glm::cross(m[1], m[2]), glm::cross(m[2], m[0]), glm::cross(m[0], m[1]));
-}
-
 DVec3 normalizedOrZero(const DVec3& v) {
   const double length = glm::length(v);
   return length > 0.0 && std::isfinite(length) ? v / length : DVec3(0.0);
@@ -1116,6 +1106,7 @@ class GltfImporter {
   void placeMesh(size_t n, size_t m, const glm::dmat4& world) {
     LocalMesh& local = localMesh(m);
     ++meshUses_[m];
+    if (totalUses_[m] > 1) return instanceMesh(n, m, world, local);
     const bool last = --usesLeft_[m] == 0;
     const auto take = [last](auto& from) {
       std::remove_reference_t<decltype(from)> out;
@@ -1132,7 +1123,7 @@ class GltfImporter {
     mesh.name = node.name.empty() ? local.name : node.name;
     const glm::dmat3 linear(world);
     const double det = glm::determinant(linear);
-    const glm::dmat3 normals = cofactor(linear) * (det < 0.0 ? -1.0 : 1.0);
+    const glm::dmat3 normals = cofactorMatrix(linear) * (det < 0.0 ? -1.0 : 1.0);
     in.positions = take(local.positions);
     for (DVec3& p : in.positions) {
       const DVec3 q = DVec3(world * glm::dvec4(p, 1.0));
@@ -1156,6 +1147,52 @@ class GltfImporter {
       for (size_t k = 0; k < mesh.indices.size(); k += 3) std::swap(mesh.indices[k + 1], mesh.indices[k + 2]);
     mesh.materialIds = take(local.materialIds);
     model_.meshes.push_back(std::move(in));
+  }
+
+  // One use of mesh m, which several nodes use, by node n: an instance of the mesh, which is
+  // stored once in its own space (ImportedModel::prototypes). A node whose transform collapses
+  // a dimension (a zero scale, as animations use to hide a part) draws nothing.
+  void instanceMesh(size_t n, size_t m, const glm::dmat4& world, LocalMesh& local) {
+    if (prototypeOf_[m] == UINT32_MAX && local.indices.empty()) return;  // a mesh without triangles
+    const tinygltf::Node& node = gltf_.nodes[n];
+    const double det = glm::determinant(glm::dmat3(world));
+    if (!std::isfinite(det)) fail(indexed("nodes", n), "its world transform is not finite");
+    if (det == 0.0) {
+      noteOnce("collapsed" + std::to_string(n), labelled("nodes", n, node.name) +
+                                                    ": its world transform has a zero scale: the mesh it places is not drawn");
+      return;
+    }
+    if (prototypeOf_[m] == UINT32_MAX) {
+      prototypeOf_[m] = uint32_t(model_.prototypes.size());
+      MeshInput in;
+      TriangleMesh& mesh = in.mesh;
+      mesh.name = local.name;
+      in.positions = std::move(local.positions);
+      for (const DVec3& v : local.normals) mesh.normals.push_back(Vec3(v));
+      for (const glm::dvec4& t : local.tangents) mesh.tangents.push_back(glm::vec4(t));
+      for (int set = 0; set < 2; ++set) mesh.uv[set] = std::move(local.uv[set]);
+      mesh.indices = std::move(local.indices);
+      mesh.materialIds = std::move(local.materialIds);
+      local = LocalMesh{};  // (its arrays are the prototype's now)
+      DVec3& lo = prototypeLo_.emplace_back(std::numeric_limits<double>::max());
+      DVec3& hi = prototypeHi_.emplace_back(-std::numeric_limits<double>::max());
+      for (const DVec3& p : in.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+      model_.prototypes.push_back(std::move(in));
+    }
+    const uint32_t prototype = prototypeOf_[m];
+    // The model's bounds: the box of the prototype's box transformed (a framing camera needs no
+    // tighter one, and the vertices are not visited once per use).
+    for (int c = 0; c < 8; ++c) {
+      const DVec3& lo = prototypeLo_[prototype];
+      const DVec3& hi = prototypeHi_[prototype];
+      const DVec3 corner((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
+      const DVec3 q = DVec3(world * glm::dvec4(corner, 1.0));
+      if (!isFinite(q))
+        fail(indexed("nodes", n), "its world transform takes a vertex of " + indexed("meshes", m) + " to a non-finite position");
+      model_.lo = glm::min(model_.lo, q);
+      model_.hi = glm::max(model_.hi, q);
+    }
+    model_.instances.push_back(ModelInstance{prototype, world, node.name.empty() ? model_.prototypes[prototype].mesh.name : node.name});
   }
 
   // ---------------------------------------------------------------------------------------------
@@ -1237,6 +1274,8 @@ class GltfImporter {
         ++meshesToRead_;
       for (int c : node.children) pending.push_back(size_t(c));
     }
+    totalUses_ = usesLeft_;
+    prototypeOf_.assign(gltf_.meshes.size(), UINT32_MAX);
     // Depth first, children in order, without recursion (a chain of nodes may be long). Every
     // node has at most one parent and roots have none, so no node is reached twice.
     std::vector<std::pair<size_t, glm::dmat4>> stack;
@@ -1376,7 +1415,7 @@ class GltfImporter {
     for (size_t m = 0; m < meshUses_.size(); ++m)
       if (meshUses_[m] > 1)
         model_.notes.push_back(labelled("meshes", m, gltf_.meshes[m].name) + ": used by " +
-                               std::to_string(meshUses_[m]) + " nodes: flattened into as many copies");
+                               std::to_string(meshUses_[m]) + " nodes: stored once and instanced");
     if (!gltf_.animations.empty())
       model_.notes.push_back("animations: " + std::to_string(gltf_.animations.size()) +
                              " ignored (the model is rendered as its nodes place it)");
@@ -1398,6 +1437,9 @@ class GltfImporter {
   std::vector<std::unique_ptr<LocalMesh>> meshes_;
   std::vector<size_t> meshUses_;
   std::vector<size_t> usesLeft_;  // per mesh: the nodes still to place it
+  std::vector<size_t> totalUses_;  // per mesh: the nodes that place it (more than one: instanced)
+  std::vector<uint32_t> prototypeOf_;  // per mesh: its index in model_.prototypes, if instanced
+  std::vector<DVec3> prototypeLo_, prototypeHi_;  // per prototype: its box in its own space
   size_t meshesToRead_ = 0;       // meshes used and not read yet
   std::optional<uint32_t> defaultMaterial_;
   std::vector<Placed> cameras_, lights_;

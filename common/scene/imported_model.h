@@ -43,9 +43,22 @@ void appendAndFree(std::vector<T>& to, std::vector<T>& from) {
 // resolves the path, records the file as an asset and hashes it.
 using ModelFileReader = std::function<std::optional<std::string>(const std::string& relativePath)>;
 
+// One use of a prototype: a node's world transform (model world space, before the scene's
+// render-space move).
+struct ModelInstance {
+  uint32_t prototype;  // into ImportedModel::prototypes
+  glm::dmat4 world;
+  std::string name;
+};
+
 struct ImportedModel {
   std::vector<Material> materials;
   std::vector<MeshInput> meshes;
+  // Meshes that several nodes use, in their own space (positions, normals and tangents not
+  // transformed), and those uses: the scene loader makes them instances (scene/scene.h,
+  // MeshInstance) or, for an emitting one, copies.
+  std::vector<MeshInput> prototypes;
+  std::vector<ModelInstance> instances;
   // The model's cameras as lensfarm "camera" objects (position, look_at, up, angle_of_view or
   // focal_length + sensor_width, ...), in the model's order; "name" holds the model's name.
   std::vector<nlohmann::json> cameras;

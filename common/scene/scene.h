@@ -3,9 +3,11 @@
 // The file format is docs/scene-format.md; scene/scene_loader.h reads it.
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "camera/thin_lens_camera.h"
@@ -51,6 +53,27 @@ struct TriangleMesh {
   }
   // Whether anything varies across a triangle (normals or texture coordinates).
   bool hasAttributes() const { return !normals.empty() || !uv[0].empty() || !uv[1].empty(); }
+};
+
+// A mesh drawn many times (a glTF mesh that several nodes use): stored once, in its own object
+// space, in Scene::prototypes, and placed by each instance's transform. Embree traces it as an
+// instance (render/ray_caster.h), so a thousand uses cost a thousand transforms, not a thousand
+// copies. A prototype's materials never emit: the loader copies an emitting mesh per use, so that
+// each copy is a light the light sampler can pick (docs/scene-format.md, "Instancing").
+struct MeshInstance {
+  uint32_t prototype = 0;  // into Scene::prototypes
+  // Object space -> render space: the columns x, y, z and the translation, in float, exactly the
+  // matrix Embree traces with (RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR has this layout).
+  glm::mat4x3 toRender{1.0f};
+  // Normals go by the cofactor of the linear part (its inverse transpose times det), negated
+  // for a mirroring transform, then renormalised.
+  glm::mat3 normalMatrix{1.0f};
+  bool mirrors = false;  // det < 0: the winding, so the front face, and tangents' handedness flip
+  bool visibleToCamera = true;
+  std::string name;
+
+  Vec3 point(const Vec3& p) const { return toRender * glm::vec4(p, 1.0f); }
+  Vec3 vector(const Vec3& v) const { return glm::mat3(toRender) * v; }
 };
 
 enum class IntegratorKind {
@@ -105,6 +128,9 @@ struct Scene {
   ThinLensParams cameraParams;  // in render space: position is the origin
   std::vector<Material> materials;
   std::vector<TriangleMesh> meshes;
+  // Meshes used many times, in object space, and their uses (MeshInstance above).
+  std::vector<TriangleMesh> prototypes;
+  std::vector<MeshInstance> instances;
   // Lights that are not emitting triangles, in render space (light/light_source.h): the point,
   // spot and directional entries of `lights` in file order, then the environment if there is one.
   std::vector<std::shared_ptr<const LightSource>> lights;
@@ -117,6 +143,28 @@ struct Scene {
   // The camera for the current render settings (resolution may be overridden after loading).
   ThinLensCamera camera() const { return ThinLensCamera(cameraParams, render.width, render.height); }
 };
+
+// The box of each instance as placed, in Scene::instances' order and render space: its
+// prototype's box transformed, which holds the instance's surface.
+inline std::vector<std::pair<DVec3, DVec3>> instanceBoxes(const Scene& scene) {
+  std::vector<std::pair<Vec3, Vec3>> prototype;
+  for (const TriangleMesh& mesh : scene.prototypes) {
+    Vec3 a(std::numeric_limits<float>::max()), b(-std::numeric_limits<float>::max());
+    for (const Vec3& v : mesh.positions) a = glm::min(a, v), b = glm::max(b, v);
+    prototype.emplace_back(a, b);
+  }
+  std::vector<std::pair<DVec3, DVec3>> out;
+  for (const MeshInstance& instance : scene.instances) {
+    const auto& [a, b] = prototype[instance.prototype];
+    DVec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+    for (int c = 0; c < 8 && a.x <= b.x; ++c) {
+      const DVec3 p(instance.point(Vec3((c & 1) ? b.x : a.x, (c & 2) ? b.y : a.y, (c & 4) ? b.z : a.z)));
+      lo = glm::min(lo, p), hi = glm::max(hi, p);
+    }
+    out.emplace_back(lo, hi);
+  }
+  return out;
+}
 
 const char* integratorName(IntegratorKind kind);
 const char* samplerName(SamplerKind kind);

@@ -111,9 +111,15 @@ class SceneParser {
     top.finish();
     bringFlushLightsForward(scene_);  // the coplanar rule (scene/coplanar.h)
 
-    if (shapeTriangles_ == 0) top.fail("shapes", "the scene has no triangles (lights alone show nothing)");
-    if (shapeTriangles_ > kMaxTriangles)
-      top.fail("shapes", std::to_string(shapeTriangles_) + " triangles exceed the limit of " + std::to_string(kMaxTriangles));
+    if (shapeTriangles_ == 0 && instancedTriangles_ == 0)
+      top.fail("shapes", "the scene has no triangles (lights alone show nothing)");
+    size_t stored = shapeTriangles_;
+    for (const TriangleMesh& mesh : scene_.prototypes) stored += mesh.triangleCount();
+    if (stored > kMaxTriangles)
+      top.fail("shapes", std::to_string(stored) + " triangles exceed the limit of " + std::to_string(kMaxTriangles));
+    if (scene_.instances.size() > kMaxInstances)
+      top.fail("shapes", std::to_string(scene_.instances.size()) + " instances exceed the limit of " +
+                             std::to_string(kMaxInstances));
     scene_.hash = hash_.hexDigest();
     scene_.notes = std::move(notes_);
     return std::move(scene_);
@@ -556,6 +562,108 @@ class SceneParser {
       applyTransform(in, t);
       for (const DVec3& p : in.positions) m.worldLo = glm::min(m.worldLo, p), m.worldHi = glm::max(m.worldHi, p);
     }
+    // Instances: the transform joins each node's; the bounds take each prototype's box as placed.
+    std::vector<std::pair<DVec3, DVec3>> boxes;
+    for (const MeshInput& in : m.model.prototypes) {
+      DVec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+      for (const DVec3& p : in.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+      boxes.emplace_back(lo, hi);
+    }
+    for (ModelInstance& instance : m.model.instances) {
+      instance.world = t.matrix * instance.world;
+      const auto& [lo, hi] = boxes[instance.prototype];
+      for (int c = 0; c < 8; ++c) {
+        const DVec3 corner((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
+        const DVec3 p(instance.world * glm::dvec4(corner, 1.0));
+        m.worldLo = glm::min(m.worldLo, p), m.worldHi = glm::max(m.worldHi, p);
+      }
+    }
+  }
+
+  // A model's meshes that several nodes use (ImportedModel::prototypes), their materials mapped
+  // by `material`: each is stored once in object space and placed by instances (scene/scene.h),
+  // unless one of its materials emits or the shape sets "instancing": false; then each use is a
+  // copy, moved into `copies` in world space.
+  template <typename MapMaterial>
+  void addPrototypes(FieldReader& r, ModelImport& m, bool instancing, bool visibleToCamera, MapMaterial material,
+                     std::vector<MeshInput>& copies) {
+    std::vector<uint32_t> sceneIndex(m.model.prototypes.size(), UINT32_MAX);
+    std::vector<size_t> usesLeft(m.model.prototypes.size(), 0);
+    for (const ModelInstance& instance : m.model.instances) ++usesLeft[instance.prototype];
+    for (size_t k = 0; k < m.model.prototypes.size(); ++k) {
+      MeshInput& in = m.model.prototypes[k];
+      for (uint32_t& id : in.mesh.materialIds) id = material(id);
+      const bool emits = std::any_of(in.mesh.materialIds.begin(), in.mesh.materialIds.end(),
+                                     [&](uint32_t id) { return scene_.materials[id].isEmissive(); });
+      if (emits && instancing)
+        notes_.push_back(m.shown + ": mesh \"" + in.mesh.name + "\" emits light: copied for each of its " +
+                         std::to_string(usesLeft[k]) + " uses (each copy is a light to sample)");
+      if (emits || !instancing) continue;
+      // In object space: the float positions are the object's; zero-area triangles there dropped.
+      MeshInput object = std::move(in);
+      sceneIndex[k] = uint32_t(scene_.prototypes.size());
+      TriangleMesh& mesh = object.mesh;
+      for (const DVec3& p : object.positions) {
+        if (!(largestAbs(p) <= kMaxRenderDistance))
+          r.fail(r.field("file"), "\"" + m.shown + "\": mesh \"" + mesh.name + "\" has a vertex " + showVec3(p) +
+                                      " beyond " + shortNumber(kMaxRenderDistance) + " in its own space");
+        mesh.positions.push_back(Vec3(p));
+      }
+      std::vector<DVec3>().swap(object.positions);
+      dropDegenerateTriangles(mesh);
+      finishAttributes(mesh);
+      scene_.prototypes.push_back(std::move(mesh));
+    }
+    for (const ModelInstance& instance : m.model.instances) {
+      const uint32_t k = instance.prototype;
+      const bool last = --usesLeft[k] == 0;
+      if (sceneIndex[k] == UINT32_MAX) {
+        // A copy in world space (the last use takes the prototype's arrays).
+        MeshInput copy;
+        if (last)
+          copy = std::move(m.model.prototypes[k]);
+        else
+          copy = m.model.prototypes[k];
+        copy.mesh.name = instance.name;
+        applyTransform(copy, Transform{instance.world});
+        copies.push_back(std::move(copy));
+        continue;
+      }
+      if (scene_.prototypes[sceneIndex[k]].triangleCount() == 0) continue;
+      addInstance(r, sceneIndex[k], instance, visibleToCamera, m.shown);
+    }
+    std::vector<MeshInput>().swap(m.model.prototypes);
+    std::vector<ModelInstance>().swap(m.model.instances);
+  }
+
+  // One use of prototype `prototype`, placed in render space by `instance.world` (its world
+  // transform): the matrix composed in double with the move to render space, then rounded.
+  void addInstance(FieldReader& r, uint32_t prototype, const ModelInstance& instance, bool visibleToCamera,
+                   const std::string& shown) {
+    const TriangleMesh& mesh = scene_.prototypes[prototype];
+    glm::dmat4 world = instance.world;
+    world[3] = glm::dvec4(DVec3(world[3]) - scene_.origin, 1.0);
+    Vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (const Vec3& p : mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+    for (int c = 0; c < 8; ++c) {
+      const DVec3 corner((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
+      const DVec3 p(world * glm::dvec4(corner, 1.0));
+      if (!(largestAbs(p) <= kMaxRenderDistance))
+        r.fail(r.field("file"), "\"" + shown + "\": instance \"" + instance.name + "\" of mesh \"" + mesh.name +
+                                    "\" reaches " + shortNumber(glm::length(p)) + " from the camera; at most " +
+                                    shortNumber(kMaxRenderDistance) + " (per axis) is supported");
+    }
+    const glm::dmat3 linear(world);
+    const double det = glm::determinant(linear);
+    MeshInstance out;
+    out.prototype = prototype;
+    out.toRender = glm::mat4x3(world);
+    out.normalMatrix = glm::mat3(cofactorMatrix(linear) * (det < 0.0 ? -1.0 : 1.0));
+    out.mirrors = det < 0.0;
+    out.visibleToCamera = visibleToCamera;
+    out.name = instance.name;
+    scene_.instances.push_back(std::move(out));
+    instancedTriangles_ += mesh.triangleCount();
   }
 
   // The shape of a model: its meshes as one, with its materials mapped (the shape's overrides,
@@ -600,6 +708,17 @@ class SceneParser {
       if (!namesUsed.count(name))
         r.fail(r.field("materials") + "." + name, "no material of that name in \"" + m.shown + "\"");
 
+    // Meshes that several nodes use: instances, or copies that join the shape's meshes (their
+    // materials mapped already).
+    size_t firstCopy = SIZE_MAX;
+    {
+      const bool instancing = r.boolean("instancing", true);
+      std::vector<MeshInput> copies;
+      addPrototypes(r, m, instancing, out.mesh.visibleToCamera,
+                    [&](uint32_t id) { return all != UINT32_MAX ? all : modelToScene[id]; }, copies);
+      firstCopy = m.model.meshes.size();
+      for (MeshInput& copy : copies) m.model.meshes.push_back(std::move(copy));
+    }
     // One mesh (one Embree geometry) for the whole shape, as an OBJ always was.
     TriangleMesh& mesh = out.mesh;
     const bool anyNormals = std::any_of(m.model.meshes.begin(), m.model.meshes.end(), [](const MeshInput& in) { return !in.mesh.normals.empty(); });
@@ -608,7 +727,8 @@ class SceneParser {
       anyUv[set] = std::any_of(m.model.meshes.begin(), m.model.meshes.end(), [set](const MeshInput& in) { return !in.mesh.uv[set].empty(); });
     const bool anyTangents = std::any_of(m.model.meshes.begin(), m.model.meshes.end(), [](const MeshInput& in) { return !in.mesh.tangents.empty(); });
     size_t triangle = 0;
-    for (MeshInput& in : m.model.meshes) {
+    for (size_t part = 0; part < m.model.meshes.size(); ++part) {
+      MeshInput& in = m.model.meshes[part];
       const uint32_t base = uint32_t(out.positions.size());
       const size_t vertices = in.positions.size();
       appendAndFree(out.positions, in.positions);
@@ -630,6 +750,7 @@ class SceneParser {
       for (uint32_t& index : in.mesh.indices) index += base;
       appendAndFree(mesh.indices, in.mesh.indices);
       for (uint32_t& id : in.mesh.materialIds) {
+        if (part >= firstCopy) continue;
         uint32_t material = all;
         if (m.obj) {
           const std::string& group = m.groupNames[m.triangleGroups[triangle]];
@@ -727,6 +848,15 @@ class SceneParser {
                                    : toRenderSpace(in.positions[k], field + " vertex " + std::to_string(k)));
     }
     std::vector<DVec3>().swap(in.positions);
+    const size_t count = dropDegenerateTriangles(mesh);
+    finishAttributes(mesh);
+    if (count > 0) scene_.meshes.push_back(std::move(mesh));
+    return count;
+  }
+
+  // Drops the triangles of zero area as the renderer will see the float vertices
+  // (math/triangle.h), at any size, and counts them in the scene; returns how many are kept.
+  size_t dropDegenerateTriangles(TriangleMesh& mesh) {
     const size_t triangles = mesh.triangleCount();
     size_t count = 0;
     for (size_t tri = 0; tri < triangles; ++tri) {
@@ -746,8 +876,6 @@ class SceneParser {
       mesh.indices.resize(3 * count), mesh.indices.shrink_to_fit();
       mesh.materialIds.resize(count), mesh.materialIds.shrink_to_fit();
     }
-    finishAttributes(mesh);
-    if (count > 0) scene_.meshes.push_back(std::move(mesh));
     return count;
   }
 
@@ -779,6 +907,7 @@ class SceneParser {
   Sha256 hash_;
   std::map<std::string, uint32_t> materialIndex_;
   size_t shapeTriangles_ = 0;
+  size_t instancedTriangles_ = 0;  // drawn through instances (each use counted)
   std::vector<ModelImport> imports_;
   std::string cameraOrigin_ = "camera";  // where the camera's fields come from, for messages
   std::vector<std::string> notes_;        // Scene::notes

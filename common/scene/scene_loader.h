@@ -30,6 +30,8 @@ inline constexpr double kDefaultSensorWidth = 0.036;
 // precision (docs/numerics.md, "Limits the renderer guarantees").
 inline constexpr double kMaxRenderDistance = kMaxRayOriginDistance;
 inline constexpr uint64_t kMaxTriangles = uint64_t(1) << 26;  // 67 M: far beyond any scene we render
+// Uses of instanced meshes (scene/scene.h, MeshInstance): 16 M, each about 200 bytes in Embree.
+inline constexpr uint64_t kMaxInstances = uint64_t(1) << 24;
 
 // Reads an asset (an OBJ file, an environment map) that a scene names by its path relative to the
 // scene file; nothing if there is no such asset. The farm resolves assets from its content store

@@ -231,7 +231,7 @@ TEST(MemoryEstimate, TexturesAndVertexAttributesCountInTheScene) {
   RenderSettings s;
   s.width = s.height = 8;
   EXPECT_EQ(workerJobMemory(s, 1, expected).total(), workerJobMemory(s, 1).total() + expected);
-  EXPECT_NE(workerJobMemory(s, 1, expected).describe().find("textures and vertex attributes"), std::string::npos);
+  EXPECT_NE(workerJobMemory(s, 1, expected).describe().find("textures, vertex attributes and instances"), std::string::npos);
 }
 
 }  // namespace

@@ -80,7 +80,7 @@ TEST_P(NarrowKernels, PacketLanesNotInUseAreNeverTraced) {
     if (single) {
       ++found;
       // Every field, bit for bit.
-      static_assert(sizeof(SurfaceHit) == 15 * sizeof(float), "SurfaceHit has no padding for memcmp");
+      static_assert(sizeof(SurfaceHit) == 16 * sizeof(float), "SurfaceHit has no padding for memcmp");
       const SurfaceHit lane = hits.hit(k);
       EXPECT_EQ(lane.triangle, single->triangle) << "lane " << k;
       EXPECT_EQ(std::memcmp(&lane, &*single, sizeof(SurfaceHit)), 0) << "lane " << k;

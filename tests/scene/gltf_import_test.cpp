@@ -124,12 +124,13 @@ TEST(Gltf, NodeHierarchyPlacesTheCubeWhereTheComposedMatrixSays) {
   const Cube cube;
   Builder b;
   cube.addTo(b);
+  cube.addTo(b);  // (each used once: placed in world space; a shared mesh is instanced, below)
   // nodes[0] translates by (10, 0, 0); its child nodes[1] scales by (2, 1, 1) then turns 90 degrees
   // about +y; its child nodes[2] has a matrix: scale 3, translate (0, 5, 0).
   b.doc["nodes"] = {
       {{"name", "parent"}, {"translation", {10, 0, 0}}, {"children", {1, 2}}},
       {{"name", "turned"}, {"rotation", {0, kHalfSqrt2, 0, kHalfSqrt2}}, {"scale", {2, 1, 1}}, {"mesh", 0}},
-      {{"name", "matrix"}, {"matrix", {3, 0, 0, 0, 0, 3, 0, 0, 0, 0, 3, 0, 0, 5, 0, 1}}, {"mesh", 0}}};
+      {{"name", "matrix"}, {"matrix", {3, 0, 0, 0, 0, 3, 0, 0, 0, 0, 3, 0, 0, 5, 0, 1}}, {"mesh", 1}}};
   b.doc["scenes"] = {{{"nodes", {0}}}};
   b.doc["scene"] = 0;
   const ImportedModel model = importGltf(b.embedded(), "cube.gltf", kNoFiles);
@@ -231,24 +232,37 @@ TEST(Gltf, MirroringMatrixFlipsWindingNormalsAndTangentHandedness) {
   expectNear(in.positions[1], DVec3(1, 0, 2), 1e-12, "vertex 1");
 }
 
-TEST(Gltf, MeshUsedByThreeNodesGivesThreeMeshInputs) {
+TEST(Gltf, MeshUsedByThreeNodesIsOnePrototypeWithThreeInstances) {
   const Cube cube;
   Builder b;
   cube.addTo(b);
-  b.doc["nodes"] = {{{"children", {1, 2, 3}}},
+  b.doc["nodes"] = {{{"children", {1, 2, 3}}, {"translation", {0, 1, 0}}},
                     {{"mesh", 0}, {"translation", {0, 0, 0}}},
-                    {{"mesh", 0}, {"translation", {5, 0, 0}}},
-                    {{"mesh", 0}, {"translation", {0, 0, -7}}}};
+                    {{"mesh", 0}, {"translation", {5, 0, 0}}, {"name", "fifth"}},
+                    {{"mesh", 0}, {"scale", {2, 2, 2}}, {"translation", {0, 0, -7}}}};
   b.doc["scenes"] = {{{"nodes", {0}}}};
   const ImportedModel model = importGltf(b.glb(), "three.glb", kNoFiles);
-  ASSERT_EQ(model.meshes.size(), 3u);
-  const DVec3 offsets[3] = {DVec3(0, 0, 0), DVec3(5, 0, 0), DVec3(0, 0, -7)};
+  EXPECT_TRUE(model.meshes.empty());
+  ASSERT_EQ(model.prototypes.size(), 1u);
+  // The prototype is the mesh as stored: its own space, its own normals.
+  const MeshInput& prototype = model.prototypes[0];
+  ASSERT_EQ(prototype.positions.size(), 8u);
+  for (size_t i = 0; i < 8; ++i) EXPECT_EQ(prototype.positions[i], cube.vertex(i));
+  EXPECT_EQ(prototype.mesh.triangleCount(), 12u);
+  EXPECT_EQ(prototype.mesh.normals.size(), 8u);
+  ASSERT_EQ(model.instances.size(), 3u);
+  const DVec3 offsets[3] = {DVec3(0, 1, 0), DVec3(5, 1, 0), DVec3(0, 1, -7)};
+  const double scales[3] = {1, 1, 2};
   for (size_t k = 0; k < 3; ++k) {
-    ASSERT_EQ(model.meshes[k].positions.size(), 8u);
-    for (size_t i = 0; i < 8; ++i) EXPECT_EQ(model.meshes[k].positions[i], cube.vertex(i) + offsets[k]);
-    EXPECT_EQ(model.meshes[k].mesh.triangleCount(), 12u);
+    EXPECT_EQ(model.instances[k].prototype, 0u);
+    for (size_t i = 0; i < 8; ++i)
+      EXPECT_EQ(DVec3(model.instances[k].world * glm::dvec4(cube.vertex(i), 1.0)), scales[k] * cube.vertex(i) + offsets[k]);
   }
-  EXPECT_TRUE(hasNote(model, "meshes[0]: used by 3 nodes")) << ::testing::PrintToString(model.notes);
+  EXPECT_EQ(model.instances[1].name, "fifth");
+  // The model's bounds hold every use.
+  expectNear(model.lo, DVec3(0, 1, -7), 0.0, "lo");
+  expectNear(model.hi, DVec3(6, 3, 1), 0.0, "hi");
+  EXPECT_TRUE(hasNote(model, "meshes[0]: used by 3 nodes: stored once and instanced")) << ::testing::PrintToString(model.notes);
 }
 
 TEST(Gltf, StripsFansAndPointsAndNormalizedTexcoords) {
