@@ -100,14 +100,15 @@ int runRender(const RenderFlags& flags) {
   gInterrupted = false;
   std::signal(SIGINT, onSigint);
   const unsigned threads = flags.threads.value_or(std::max(1u, std::thread::hardware_concurrency()));
-  size_t triangles = 0;
-  for (const auto& m : scene.meshes) triangles += m.triangleCount();
+  std::string triangles = std::to_string(storedTriangles(scene)) + " triangles";
+  if (!scene.instances.empty())
+    triangles += fmt::format(" (shared meshes drawn {} times)", scene.instances.size());
   std::string budget = settings.samplesPerPixel >= kMaxSamplesPerPixel
                            ? std::string("no sample cap")
                            : std::to_string(settings.samplesPerPixel) + " spp";
   if (settings.targetError > 0.0) budget += fmt::format(", to {:.3g} % relative error", 100.0 * settings.targetError);
   if (settings.timeLimitSeconds > 0.0) budget += fmt::format(", for at most {} s", settings.timeLimitSeconds);
-  spdlog::info("{}: {} triangles, {}x{} px, {} in units of {} spp, B = {}, {}, {} sampler on {} threads", flags.scene,
+  spdlog::info("{}: {}, {}x{} px, {} in units of {} spp, B = {}, {}, {} sampler on {} threads", flags.scene,
                triangles, settings.width, settings.height, budget, unitSize(settings), settings.maxBounces,
                integratorName(settings.integrator), samplerName(settings.sampler), threads);
   for (const std::string& note : scene.notes) spdlog::info("{}: {}", flags.scene, note);

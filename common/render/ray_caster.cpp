@@ -88,6 +88,8 @@ alignas(64) constexpr float kNoFarEnd[kPacketWidth] = {
 // (found 0) read triangle 0 of geometry 0 and keep finite values.
 using Triangle = RayCaster::Triangle;
 // nearPlane[k]: ~0u where lane k's hit passes startsInPlane's first (float) test.
+// kInstances: whether the scene has instances (a scene without pays nothing for them).
+template <bool kInstances>
 LENSFARM_LANE_LOOPS void decodeHits(const uint32_t* __restrict geomOffset, GatherView<Triangle> tris,
                                     const RTCRayHit16& rh, RayCaster::PacketHits& __restrict out,
                                     uint32_t* __restrict nearPlane) {
@@ -102,7 +104,7 @@ LENSFARM_LANE_LOOPS void decodeHits(const uint32_t* __restrict geomOffset, Gathe
   for (int k = 0; k < kPacketWidth; ++k) {
     const uint32_t hit = uint32_t(out.found[k]);
     // A lane that hit an instance reads triangle 0 here; RayCaster::intersect decodes it after.
-    const uint32_t mesh = hit & (instID[k] == RTC_INVALID_GEOMETRY_ID ? ~0u : 0u);
+    const uint32_t mesh = kInstances ? hit & (instID[k] == RTC_INVALID_GEOMETRY_ID ? ~0u : 0u) : hit;
     const uint32_t index = geomOffset[geomID[k] & mesh] + (primID[k] & mesh);
     const float u = keep(hit, us[k]), v = keep(hit, vs[k]);
     const Vec3 p = pointOnTriangle(tris.vec3(index, offsetof(Triangle, v0)), tris.vec3(index, offsetof(Triangle, v1)),
@@ -194,6 +196,7 @@ RayCaster::RayCaster(const Scene& scene) : source_(scene) {
     instanceOfGeometry_[id] = uint32_t(k);
   }
   rtcCommitScene(scene_);
+  if (geomOffset_.empty()) geomOffset_.push_back(0);  // (the packet decoder reads entry 0 for every lane)
 
   // The triangle tables after the BVH: Embree's build memory is freed by then, so the two never
   // add up at the peak. Reserved whole, they are never reallocated while they grow.
@@ -510,15 +513,18 @@ void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) 
   for (int k = 0; k < kPacketWidth; ++k)
     out.found[k] = rays.valid[k] != 0 && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID ? -1 : 0;
   alignas(64) uint32_t near[kPacketWidth];
-  decodeHits(geomOffset_.data(), GatherView<Triangle>(triangles_.data()), rh, out, near);
-  // Hits on instances, decoded one by one, the coplanar rule's first test with them.
-  if (!prototypeScenes_.empty())
+  if (prototypeScenes_.empty()) {
+    decodeHits<false>(geomOffset_.data(), GatherView<Triangle>(triangles_.data()), rh, out, near);
+  } else {
+    decodeHits<true>(geomOffset_.data(), GatherView<Triangle>(triangles_.data()), rh, out, near);
+    // Hits on instances, decoded one by one, the coplanar rule's first test with them.
     for (int k = 0; k < kPacketWidth; ++k) {
       if (!out.found[k] || rh.hit.instID[0][k] == RTC_INVALID_GEOMETRY_ID) continue;
       out.set(k, instanceHit(instanceOfGeometry_[rh.hit.instID[0][k]], rh.hit.primID[k], rh.hit.u[k], rh.hit.v[k],
                              rh.ray.tfar[k]));
       near[k] = nearPlane(rays.direction(k), out.t[k], Vec3(out.nx[k], out.ny[k], out.nz[k]), out.margin[k]) ? ~0u : 0u;
     }
+  }
 
   // The coplanar rule, as the single-ray call applies it (rare: those lanes take that call).
   uint32_t anyNear = 0;

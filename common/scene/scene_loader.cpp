@@ -614,6 +614,15 @@ class SceneParser {
       finishAttributes(mesh);
       scene_.prototypes.push_back(std::move(mesh));
     }
+    // Each kept prototype's box, once.
+    const uint32_t firstPrototype = uint32_t(scene_.prototypes.size()) - uint32_t(std::count_if(
+        sceneIndex.begin(), sceneIndex.end(), [](uint32_t index) { return index != UINT32_MAX; }));
+    std::vector<std::pair<Vec3, Vec3>> boxes;
+    for (size_t k = firstPrototype; k < scene_.prototypes.size(); ++k) {
+      Vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+      for (const Vec3& p : scene_.prototypes[k].positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+      boxes.emplace_back(lo, hi);
+    }
     for (const ModelInstance& instance : m.model.instances) {
       const uint32_t k = instance.prototype;
       const bool last = --usesLeft[k] == 0;
@@ -630,7 +639,7 @@ class SceneParser {
         continue;
       }
       if (scene_.prototypes[sceneIndex[k]].triangleCount() == 0) continue;
-      addInstance(r, sceneIndex[k], instance, visibleToCamera, m.shown);
+      addInstance(r, sceneIndex[k], boxes[sceneIndex[k] - firstPrototype], instance, visibleToCamera, m.shown);
     }
     std::vector<MeshInput>().swap(m.model.prototypes);
     std::vector<ModelInstance>().swap(m.model.instances);
@@ -638,13 +647,13 @@ class SceneParser {
 
   // One use of prototype `prototype`, placed in render space by `instance.world` (its world
   // transform): the matrix composed in double with the move to render space, then rounded.
-  void addInstance(FieldReader& r, uint32_t prototype, const ModelInstance& instance, bool visibleToCamera,
-                   const std::string& shown) {
+  // `box`: the prototype's, in its own space.
+  void addInstance(FieldReader& r, uint32_t prototype, const std::pair<Vec3, Vec3>& box, const ModelInstance& instance,
+                   bool visibleToCamera, const std::string& shown) {
     const TriangleMesh& mesh = scene_.prototypes[prototype];
     glm::dmat4 world = instance.world;
     world[3] = glm::dvec4(DVec3(world[3]) - scene_.origin, 1.0);
-    Vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-    for (const Vec3& p : mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+    const auto& [lo, hi] = box;
     for (int c = 0; c < 8; ++c) {
       const DVec3 corner((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
       const DVec3 p(world * glm::dvec4(corner, 1.0));

@@ -354,6 +354,26 @@ TEST(Instancing, AThousandInstancesHoldTheMeshOnce) {
   EXPECT_GE(test::agreementFraction(a, c), 0.995);
 }
 
+// A scene of instances alone (no other mesh, lit by the sky), as `lensfarm render model.glb`
+// gives for a model whose meshes are all shared.
+TEST(Instancing, ASceneOfInstancesAloneRendersLikeItsCopies) {
+  test::TempDir dir;
+  write(dir, "spheres.glb", placedSpheres().glb());
+  const auto sceneOf = [&](bool instancing) {
+    json s = sceneAround("spheres.glb", instancing, 24);
+    s["shapes"] = json::array({s["shapes"][0]});
+    s.erase("lights");
+    s["environment"] = {{"radiance", {1.0, 0.9, 0.8}}};
+    return test::loadSceneJson(dir, s);
+  };
+  const Scene alone = sceneOf(true);
+  ASSERT_TRUE(alone.meshes.empty());
+  ASSERT_EQ(alone.instances.size(), 6u);
+  const test::ImageStatistics a = test::renderStatistics(alone, 16), b = test::renderStatistics(sceneOf(false), 16);
+  EXPECT_GE(test::agreementFraction(a, b), 0.995);
+  EXPECT_NEAR(a.imageMean, b.imageMean, 4.0 * std::hypot(a.imageMeanError, b.imageMeanError));
+}
+
 TEST(Instancing, AnEmittingMeshIsCopiedForEachUseAndSaysSo) {
   test::TempDir dir;
   test::Builder b;
