@@ -3,6 +3,14 @@
 // and its leases, the asset store and the accumulation of results. The gRPC services
 // (service.h) are thin translations onto this class; `lensfarm render` embeds it directly.
 //
+// Coordinator composes plain classes that each own one concern's state: AssetStore
+// (asset_store.h), LeaseTable (lease_table.h), and per job JobUnits (job_units.h) and an
+// Accumulator (accumulator.h). Its own members are implemented by concern: coordinator.cpp (the
+// job table and each job's life), scheduler.cpp (leases: granting, extending, expiry, revoking),
+// results.cpp (accepting results and failures, publishing progress, stopping at deadlines),
+// persistence.cpp (checkpoints and restoring from the state dir) and workers.cpp (workers and
+// their liveness, and why a job is stalled).
+//
 // Invariants:
 //  - A job is a sequence of units (sample ranges over the whole frame, render/unit_renderer.h),
 //    leased lowest index first, so early snapshots cover the whole frame.
@@ -21,10 +29,9 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <cstdint>
 #include <filesystem>
 #include <functional>
-#include <thread>
-#include <cstdint>
 #include <limits>
 #include <map>
 #include <memory>
@@ -32,12 +39,15 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "asset_store.h"
 #include "farm/farm_types.h"
 #include "film/convergence.h"
 #include "film/image_io.h"
 #include "film/sensor.h"
+#include "lease_table.h"
 
 namespace lensfarm {
 
@@ -170,7 +180,7 @@ class Coordinator {
   bool hasAsset(const std::string& sha256) const;
   // The most hashes one missingAssets call takes (FindMissingAssets: 50000 hashes are ~3.3 MB,
   // within gRPC's 4 MiB message limit).
-  static constexpr size_t kMaxAssetQuery = 50000;
+  static constexpr size_t kMaxAssetQuery = AssetStore::kMaxQuery;
   // Those of `sha256s` whose assets are not stored, in their order, each once: what a client
   // must upload before submitting. FarmError(kInvalidArgument) for more than kMaxAssetQuery
   // hashes, or naming the first that is not 64 lowercase hex digits by its index ("sha256[3]").
@@ -252,38 +262,45 @@ class Coordinator {
   using Clock = std::chrono::steady_clock;
   struct Job;
   struct Worker;
-  struct ActiveLease {
-    std::string workerId;
-    std::string jobId;
-    uint64_t unit;
-    Clock::time_point deadline;
-  };
 
+  // ---- the job table (coordinator.cpp) ----
   Job& findJob(const std::string& jobId) const;  // requires mutex_
-  std::shared_ptr<const std::string> storedAsset(const std::string& sha256) const;  // FarmError kNotFound
-  Worker& findWorker(const std::string& workerId);
   JobInfo infoOf(const Job& job) const;  // requires mutex_; walks the leases and workers (stalledReason)
   static double elapsedSecondsOf(const Job& job);  // since its first lease, to its end or now
+  void touch(Job& job);
+  void finish(Job& job, const std::string& reason);  // requires mutex_
+  // Ends a job that has not ended (requires mutex_): its state, its end time, its leases revoked
+  // and its units no longer leased, the state persisted.
+  void end(Job& job, JobState state);
+
+  // ---- leases (scheduler.cpp) ----
+  std::optional<LeaseGrant> tryLease(Worker& worker, Clock::time_point now);
+  Clock::time_point leaseDeadline(Clock::time_point now) const;  // a lease granted or extended at `now`
   void reapExpiredLeases(Clock::time_point now);
   // Revokes the worker's leases and queues their units again (requires mutex_); for messages,
   // "unit 5 queued again" or "" when it held nothing.
   // `verb` and `detail` say what happened ("lost", "connection closed").
-  std::string releaseLeasesOf(Worker& worker, const std::string& verb, const std::string& detail, Clock::time_point now);
-  Worker* liveWorker(const std::string& workerId);  // requires mutex_; null if unknown, lost or left
-  WorkerState stateOf(const Worker& worker, bool holdsLease, Clock::time_point now, double* secondsInState) const;  // requires mutex_
-  std::string stalledReason(const Job& job, Clock::time_point now) const;                        // requires mutex_
-  double staleAfterSeconds() const;
+  std::string releaseLeasesOf(Worker& worker, const std::string& verb, const std::string& detail,
+                              Clock::time_point now);
   void revokeLeasesOf(Job& job);
-  void touch(Job& job);
-  std::optional<LeaseGrant> tryLease(Worker& worker, Clock::time_point now);
+
+  // ---- results and stopping (results.cpp) ----
   bool accept(const UnitResult& result, UnitResult* owned);
-  // Sums the units that are next in order (`next`, if given, is one not kept in job.arrived).
-  void drainInOrder(Job& job, const UnitResult* next = nullptr);  // requires job.accumulate
-  void finish(Job& job, const std::string& reason);  // requires mutex_
-  void enforceDeadlines();                           // requires mutex_
+  void enforceDeadlines();  // requires mutex_
+
+  // ---- durable state (persistence.cpp) ----
   void restore();
   void persistState(const Job& job);  // requires mutex_
   void checkpointLoop();
+
+  // ---- workers (workers.cpp) ----
+  Worker& findWorker(const std::string& workerId);
+  Worker* liveWorker(const std::string& workerId);  // requires mutex_; null if unknown, lost or left
+  WorkerState stateOf(const Worker& worker, bool holdsLease, Clock::time_point now,
+                      double* secondsInState) const;                       // requires mutex_
+  std::string stalledReason(const Job& job, Clock::time_point now) const;  // requires mutex_
+  double staleAfterSeconds() const;
+  void forgetSilentWorkers(Clock::time_point now);  // requires mutex_
 
   Options options_;
   std::unique_ptr<class StateStore> store_;
@@ -293,16 +310,16 @@ class Coordinator {
   bool stopping_ = false;  // guarded by mutex_
   mutable std::mutex mutex_;
   mutable std::condition_variable changed_;  // any job changed, or work became available
-  std::map<std::string, std::shared_ptr<const std::string>> assets_;
+  AssetStore assets_;                        // its own lock
   std::map<std::string, std::unique_ptr<Job>> jobs_;
   std::map<std::string, std::unique_ptr<Worker>> workers_;
-  std::map<uint64_t, ActiveLease> leases_;
-  uint64_t nextJob_ = 1, nextWorker_ = 1, nextLease_ = 1, nextSequence_ = 1, nextAttachment_ = 1;
+  LeaseTable leases_;  // guarded by mutex_
+  uint64_t nextJob_ = 1, nextWorker_ = 1, nextSequence_ = 1, nextAttachment_ = 1;
 
-  // Counted for metricsSnapshot() since this process started.
+  // Counted for metricsSnapshot() since this process started (the assets' by assets_).
   struct Counters {
-    std::atomic<uint64_t> unitsLeased{0}, unitsDone{0}, unitsExpired{0}, samples{0}, unitBytes{0}, assetBytes{0};
-    std::atomic<uint64_t> workersLost{0}, assetsSent{0}, assetUploadsStored{0}, assetUploadsPresent{0};
+    std::atomic<uint64_t> unitsLeased{0}, unitsDone{0}, unitsExpired{0}, samples{0}, unitBytes{0};
+    std::atomic<uint64_t> workersLost{0};
   };
   Counters counters_;
 };

@@ -1,6 +1,6 @@
-// Coordinator, part two: the workers. Registration, heartbeats, the Attach stream's verdicts
-// (attachWorker, workerLost, workerLeft), each worker's state, and why a job is stalled. Jobs,
-// scheduling and accumulation are in coordinator.cpp; the records both use are in
+// Coordinator, the workers: registration, the Attach stream's verdicts (attachWorker, workerLost,
+// workerLeft), forgetting long-silent workers, each worker's state, and why a job is stalled.
+// Leases and heartbeats are in scheduler.cpp; the records the files share are in
 // coordinator_records.h.
 #include <spdlog/spdlog.h>
 
@@ -62,38 +62,11 @@ Coordinator::Worker* Coordinator::liveWorker(const std::string& workerId) {
 
 double Coordinator::staleAfterSeconds() const { return std::max(3.0, 5.0 * options_.heartbeatIntervalSeconds); }
 
-std::string Coordinator::releaseLeasesOf(Worker& worker, const std::string& verb, const std::string& detail,
-                                         Clock::time_point now) {
-  std::map<std::string, std::vector<uint64_t>> byJob;
-  for (auto it = leases_.begin(); it != leases_.end();) {
-    if (it->second.workerId != worker.id) {
-      ++it;
-      continue;
-    }
-    Job& job = findJob(it->second.jobId);
-    const uint64_t unit = it->second.unit;
-    // Back in the queue, leased again before any fresh unit; an upload under the old lease is
-    // refused from now on, so the unit is still counted once.
-    if (!isTerminal(job.state) && !job.isReceived(unit) && !job.inflight.count(unit)) job.returned.insert(unit);
-    byJob[job.id].push_back(unit);
-    ++counters_.unitsExpired;
-    it = leases_.erase(it);
-  }
-  std::string requeued;
-  for (auto& [jobId, units] : byJob) {
-    Job& job = findJob(jobId);
-    std::string list;
-    for (uint64_t u : units) list += (list.empty() ? "" : ", ") + std::to_string(u);
-    const std::string what = (units.size() == 1 ? "unit " : "units ") + list + " of " + jobId + " queued again";
-    spdlog::debug("{} {} ({}): {}", worker.label(), verb, detail, what);
-    requeued += (requeued.empty() ? "" : "; ") + what;
-    job.lastLoss = Job::Loss{worker.label(), verb, detail, now, std::move(units)};
-    touch(job);
-  }
-  worker.currentJobId.clear();
-  worker.currentUnit.reset();
-  changed_.notify_all();  // idle workers waiting in lease() take the units at once
-  return requeued;
+void Coordinator::forgetSilentWorkers(Clock::time_point now) {
+  // Forget workers silent for much longer than a lease: they hold nothing any more.
+  const auto forgetAfter = std::chrono::duration<double>(std::max(60.0, 10.0 * options_.leaseTimeoutSeconds));
+  for (auto it = workers_.begin(); it != workers_.end();)
+    it = now - it->second->lastHeartbeat > forgetAfter ? workers_.erase(it) : std::next(it);
 }
 
 uint64_t Coordinator::attachWorker(const std::string& workerId) {
@@ -159,15 +132,10 @@ std::string secondsText(double seconds) { return std::to_string(long(std::max(0.
 
 std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) const {
   if (isTerminal(job.state)) return "";
-  std::set<std::string> holders;  // workers holding a lease of any job
-  std::vector<const ActiveLease*> mine;
-  for (const auto& [id, lease] : leases_) {
-    holders.insert(lease.workerId);
-    if (lease.jobId == job.id) mine.push_back(&lease);
-  }
+  const std::set<std::string> holders = leases_.holders();  // workers holding a lease of any job
   // Held by a worker that is heard from: it is being rendered.
   std::string silent;
-  for (const ActiveLease* lease : mine) {
+  for (const LeaseTable::Lease* lease : leases_.ofJob(job.id)) {
     auto it = workers_.find(lease->workerId);
     if (it == workers_.end()) continue;
     double s = 0.0;
@@ -179,7 +147,7 @@ std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) co
                secondsText(std::chrono::duration<double>(lease->deadline - now).count());
   }
   if (!silent.empty()) return silent;
-  if (!job.hasPending()) return "";  // every unit is in or being recorded
+  if (!job.units.hasPending()) return "";  // every unit is in or being recorded
   uint64_t busyElsewhere = 0, tooSmall = 0, largest = 0;
   const Worker* recentlyGone = nullptr;
   for (const auto& [id, w] : workers_) {
@@ -229,30 +197,11 @@ std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) co
   return why;
 }
 
-std::vector<uint64_t> Coordinator::heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds) {
-  std::lock_guard lock(mutex_);
-  Worker& worker = findWorker(workerId);
-  const auto now = Clock::now();
-  worker.lastHeartbeat = now;
-  std::vector<uint64_t> revoked;
-  for (uint64_t id : leaseIds) {
-    auto it = leases_.find(id);
-    if (it == leases_.end() || it->second.workerId != workerId)
-      revoked.push_back(id);
-    else
-      it->second.deadline = now + std::chrono::duration_cast<Clock::duration>(
-                                      std::chrono::duration<double>(options_.leaseTimeoutSeconds));
-  }
-  reapExpiredLeases(now);
-  return revoked;
-}
-
 std::vector<WorkerView> Coordinator::workers() const {
   std::lock_guard lock(mutex_);
   std::vector<WorkerView> out;
   const auto now = Clock::now();
-  std::set<std::string> holders;
-  for (const auto& [leaseId, lease] : leases_) holders.insert(lease.workerId);
+  const std::set<std::string> holders = leases_.holders();
   for (const auto& [id, w] : workers_) {
     WorkerView v;
     v.id = w->id;

@@ -1,0 +1,169 @@
+// Accumulator: one job's film, summed in unit order, and the stop at a target error or deadline
+// (accumulator.h).
+#include "accumulator.h"
+
+#include <algorithm>
+#include <utility>
+
+#include "render/unit_renderer.h"
+
+namespace lensfarm {
+
+Accumulator::Accumulator(const RenderSettings& settings, uint32_t unitSize, uint64_t unitsTotal)
+    : samplesPerPixel_(settings.samplesPerPixel),
+      unitSize_(unitSize),
+      unitsTotal_(unitsTotal),
+      targetError_(settings.targetError),
+      sensor_(std::make_unique<Sensor>(settings.width, settings.height)),
+      tracker_(std::make_unique<ConvergenceTracker>(settings.width, settings.height)) {}
+
+Accumulator::Accumulator(const RenderSettings& settings, uint32_t unitSize, uint64_t unitsTotal, Sensor sensor,
+                         ConvergenceTracker tracker, uint64_t folded)
+    : samplesPerPixel_(settings.samplesPerPixel),
+      unitSize_(unitSize),
+      unitsTotal_(unitsTotal),
+      targetError_(settings.targetError),
+      sensor_(std::make_unique<Sensor>(std::move(sensor))),
+      nextToAdd_(folded),
+      checkpointed_(folded),
+      tracker_(std::make_unique<ConvergenceTracker>(std::move(tracker))) {
+  for (uint64_t u = 0; u < folded; ++u) sppAdded_ += unitAt(u, samplesPerPixel_, unitSize_).sampleCount;
+}
+
+std::optional<Accumulator::Progress> Accumulator::add(const UnitResult& result, UnitResult* owned) {
+  std::lock_guard lock(mutex_);
+  // Past a job's stop nothing more is folded (the stop is a prefix of units). The next unit in
+  // order is summed from the caller's buffer; a later one waits in `arrived_`.
+  const bool next = result.unitIndex == nextToAdd_;
+  try {
+    if (result.unitIndex < foldLimit_ && !next) arrived_.emplace(result.unitIndex, owned ? std::move(*owned) : result);
+  } catch (const std::bad_alloc&) {
+    return std::nullopt;
+  }
+  drainInOrder(next && result.unitIndex < foldLimit_ ? &result : nullptr);
+  return progress();
+}
+
+void Accumulator::restoreFolded(const PathStats& stats) {
+  std::lock_guard lock(mutex_);
+  statsAdded_ += stats;
+}
+
+void Accumulator::restoreWaiting(UnitResult result) {
+  std::lock_guard lock(mutex_);
+  const uint64_t unit = result.unitIndex;
+  arrived_.emplace(unit, std::move(result));
+}
+
+void Accumulator::drain() {
+  std::lock_guard lock(mutex_);
+  drainInOrder(nullptr);
+}
+
+void Accumulator::limitTo(uint64_t units) {
+  std::lock_guard lock(mutex_);
+  foldLimit_ = units;
+}
+
+void Accumulator::drainInOrder(const UnitResult* next) {
+  const double target = targetError_;
+  bool folded = false;
+  while (nextToAdd_ < foldLimit_) {
+    // The next unit: the caller's (summed from its buffer, never copied) or one that waited.
+    const UnitResult* r = nullptr;
+    auto it = arrived_.end();
+    if (next && next->unitIndex == nextToAdd_) {
+      r = next;
+      next = nullptr;
+    } else if (it = arrived_.find(nextToAdd_); it != arrived_.end()) {
+      r = &it->second;
+    } else {
+      break;
+    }
+    // Every cell of a unit holds the unit's samples; the count is the coordinator's to know.
+    const uint32_t samples = unitAt(nextToAdd_, samplesPerPixel_, unitSize_).sampleCount;
+    sensor_->add(r->buffer, samples);
+    tracker_->add(nextToAdd_, r->buffer, samples);
+    statsAdded_ += r->stats;
+    sppAdded_ += samples;
+    if (it != arrived_.end()) arrived_.erase(it);
+    ++nextToAdd_;
+    folded = true;
+    // A target-error job checks after every unit: the first prefix that reaches the target is
+    // the image, whichever units arrived early.
+    if (target > 0.0) {
+      estimate_ = tracker_->estimate(*sensor_);
+      estimatedAt_ = Clock::now();
+      if (estimate_.valid && estimate_.relativeRmse <= target) stopFolding("target error reached");
+    }
+    if (stopAtNextFold_ && stopReason_.empty()) stopFolding("deadline reached");
+  }
+  if (nextToAdd_ == unitsTotal_ && stopReason_.empty())
+    stopReason_ = target > 0.0 ? "sample cap reached before the target error" : "all samples done";
+  // Otherwise the estimate is for people watching: a few times a second is enough (it reads the
+  // whole frame), and always at the end.
+  const auto now = Clock::now();
+  if (folded && target <= 0.0 && (now - estimatedAt_ > std::chrono::milliseconds(250) || !stopReason_.empty())) {
+    estimate_ = tracker_->estimate(*sensor_);
+    estimatedAt_ = now;
+  }
+}
+
+void Accumulator::stopFolding(std::string reason) {
+  foldLimit_ = nextToAdd_;
+  stopReason_ = std::move(reason);
+  arrived_.clear();
+}
+
+std::optional<Accumulator::Progress> Accumulator::stopAtDeadline() {
+  std::lock_guard lock(mutex_);
+  if (nextToAdd_ == 0) {
+    stopAtNextFold_ = true;  // no image yet: the first whole pass is the image
+    return std::nullopt;
+  }
+  if (stopReason_.empty()) stopFolding("deadline reached");
+  estimate_ = tracker_->estimate(*sensor_);
+  return progress();
+}
+
+Accumulator::Progress Accumulator::estimateNow() {
+  std::lock_guard lock(mutex_);
+  estimate_ = tracker_->estimate(*sensor_);
+  return progress();
+}
+
+Accumulator::Progress Accumulator::progress() const {
+  return Progress{nextToAdd_, sppAdded_, statsAdded_, estimate_, stopReason_, foldLimit_};
+}
+
+std::optional<Accumulator::Snapshot> Accumulator::snapshotIfChanged() const {
+  std::lock_guard lock(mutex_);
+  if (nextToAdd_ == checkpointed_) return std::nullopt;
+  Snapshot s;
+  s.sensor = sensor_->serialize();
+  s.tracker = tracker_->serialize();
+  s.folded = nextToAdd_;
+  return s;
+}
+
+void Accumulator::checkpointed(uint64_t folded) {
+  std::lock_guard lock(mutex_);
+  checkpointed_ = std::max(checkpointed_, folded);
+}
+
+Accumulator::Developed Accumulator::develop() const {
+  std::lock_guard lock(mutex_);
+  Developed out;
+  out.image = sensor_->developImage();
+  out.samplesPerPixel = sppAdded_;
+  out.totalSamples = sensor_->totalSamples();
+  out.stats = statsAdded_;
+  return out;
+}
+
+std::string Accumulator::serializedSensor() const {
+  std::lock_guard lock(mutex_);
+  return sensor_->serialize();
+}
+
+}  // namespace lensfarm

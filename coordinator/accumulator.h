@@ -1,0 +1,118 @@
+#pragma once
+// One job's film on the coordinator: its sensor and convergence tracker, the results that wait
+// for an earlier unit, and where the job stops. No network code, and nothing of leases, workers
+// or durable state: Coordinator hands it each accepted unit once (results.cpp) and publishes its
+// Progress; a checkpoint saves what it serializes (persistence.cpp).
+//
+// Invariants:
+//  - Units are summed in index order (a later unit waits in memory for the earlier ones), so the
+//    image never depends on which worker finished first.
+//  - Stopping rules (docs/accuracy.md) are decided here so that the kept units are a prefix chosen
+//    in unit order: the same units whatever order results arrive in, and after a restart. A
+//    target-error job stops at the first prefix that reaches its target; at a deadline the units
+//    summed when it passed are kept (at least one).
+//  - Every member takes the accumulator's own lock, which is never held while taking another
+//    (Coordinator::mutex_ may be held while taking it, never the reverse).
+#include <chrono>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "farm/farm_types.h"
+#include "film/convergence.h"
+#include "film/image.h"
+#include "film/sensor.h"
+#include "scene/scene.h"
+
+namespace lensfarm {
+
+class Accumulator {
+ public:
+  // What has been summed, as of one moment.
+  struct Progress {
+    uint64_t units = 0;            // units [0, units) are in the sensor
+    uint64_t samplesPerPixel = 0;  // their samples per pixel
+    PathStats stats;
+    ErrorEstimate estimate;                                     // the latest estimate
+    std::string stopReason;                                     // empty until the job reached its stop
+    uint64_t foldLimit = std::numeric_limits<uint64_t>::max();  // units from here on are never summed
+  };
+
+  // A new job's: an empty sensor and tracker of the frame (std::bad_alloc if they do not fit).
+  Accumulator(const RenderSettings& settings, uint32_t unitSize, uint64_t unitsTotal);
+  // A job resumed from a checkpoint whose sensor and tracker hold units [0, folded).
+  Accumulator(const RenderSettings& settings, uint32_t unitSize, uint64_t unitsTotal, Sensor sensor,
+              ConvergenceTracker tracker, uint64_t folded);
+  Accumulator(const Accumulator&) = delete;
+  Accumulator& operator=(const Accumulator&) = delete;
+
+  // Adds an accepted unit (each unit once). The next unit in order is summed straight from
+  // `result`'s buffer; a later one is kept until the earlier ones arrive (moved from `owned` if
+  // given, else copied); nothing past the stop is kept. nullopt: out of memory keeping it.
+  std::optional<Progress> add(const UnitResult& result, UnitResult* owned);
+
+  // Restoring from the ledger: a unit the checkpoint holds adds only its stats; a later one
+  // waits like an early result until drain() sums it in order.
+  void restoreFolded(const PathStats& stats);
+  void restoreWaiting(UnitResult result);
+  void drain();
+  // Units from `units` on are never summed (a stop that was reached before a restart).
+  void limitTo(uint64_t units);
+
+  // The deadline passed: the units summed so far are the image (their progress, estimated now), or,
+  // before the first was summed, the first one will be (nullopt).
+  std::optional<Progress> stopAtDeadline();
+  // Estimates the error now, and the progress with that estimate.
+  Progress estimateNow();
+
+  // The sensor and tracker as a checkpoint saves them, if units were summed since the last one.
+  struct Snapshot {
+    std::string sensor, tracker;
+    uint64_t folded = 0;  // the units they hold
+  };
+  std::optional<Snapshot> snapshotIfChanged() const;
+  void checkpointed(uint64_t folded);  // a snapshot of `folded` units is durable
+
+  // The image as it is now (std::bad_alloc if it does not fit), with what it holds.
+  struct Developed {
+    Image image;
+    uint64_t samplesPerPixel = 0;
+    uint64_t totalSamples = 0;
+    PathStats stats;
+  };
+  Developed develop() const;
+  std::string serializedSensor() const;  // Sensor::serialize
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  // Sums the units that are next in order (`next`, if given, is one not kept in arrived_).
+  void drainInOrder(const UnitResult* next);  // requires mutex_
+  void stopFolding(std::string reason);       // requires mutex_
+  Progress progress() const;                  // requires mutex_
+
+  // The job's layout, fixed at submission.
+  const uint64_t samplesPerPixel_;
+  const uint32_t unitSize_;
+  const uint64_t unitsTotal_;
+  const double targetError_;  // 0: none
+
+  mutable std::mutex mutex_;  // guards everything below
+  std::unique_ptr<Sensor> sensor_;
+  std::map<uint64_t, UnitResult> arrived_;  // results waiting for an earlier unit
+  uint64_t nextToAdd_ = 0;
+  uint64_t sppAdded_ = 0;
+  PathStats statsAdded_;
+  uint64_t checkpointed_ = 0;  // units in the last saved sensor
+  std::unique_ptr<ConvergenceTracker> tracker_;
+  ErrorEstimate estimate_;
+  Clock::time_point estimatedAt_;
+  uint64_t foldLimit_ = std::numeric_limits<uint64_t>::max();  // units from here on are never folded
+  bool stopAtNextFold_ = false;                                // the deadline passed before the first unit was folded
+  std::string stopReason_;
+};
+
+}  // namespace lensfarm

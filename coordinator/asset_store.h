@@ -1,0 +1,67 @@
+#pragma once
+// The coordinator's content-addressed asset store: the bytes of every uploaded asset by their
+// SHA-256, in memory and, with a state dir, in StateStore's assets/. It checks what clients
+// upload and ask about, and counts what the metrics show. No network code.
+//
+// Invariants:
+//  - An asset is stored only under the hash of its bytes, and never removed or replaced, so a
+//    job's assets stay readable for as long as the job is.
+//  - With a state store, an asset is durable before it is listed.
+//  - Thread-safe: its own lock, held only around the map (never while taking another).
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace lensfarm {
+
+class StateStore;
+
+class AssetStore {
+ public:
+  // The most hashes one missing() call takes (FindMissingAssets: 50000 hashes are ~3.3 MB,
+  // within gRPC's 4 MiB message limit).
+  static constexpr size_t kMaxQuery = 50000;
+
+  // Loads the assets saved in `store`, which keeps every new one from now on.
+  void restore(StateStore& store);
+
+  bool has(const std::string& sha256) const;
+  // Those of `sha256s` that are not stored, in their order, each once. FarmError(kInvalidArgument)
+  // for more than kMaxQuery hashes, or naming the first that is not 64 lowercase hex digits by
+  // its index ("sha256[3]").
+  std::vector<std::string> missing(const std::vector<std::string>& sha256s) const;
+  // Stores bytes under their hash; throws FarmError(kInvalidArgument) if they do not match it.
+  // Returns false if the asset was already present.
+  bool put(const std::string& sha256, std::string bytes);
+  // An upload of `sha256` has begun: true if the asset is stored already (counted like a put()
+  // that found it present).
+  bool uploadFindsPresent(const std::string& sha256);
+  // The asset's bytes; null if it is not stored.
+  std::shared_ptr<const std::string> find(const std::string& sha256) const;
+  // The asset's bytes; FarmError(kNotFound) if it is not stored.
+  std::shared_ptr<const std::string> get(const std::string& sha256) const;
+  // get() for a worker, counted in Counts::sent.
+  std::shared_ptr<const std::string> send(const std::string& sha256);
+
+  // Counted since this process started (MetricsSnapshot).
+  struct Counts {
+    uint64_t bytesReceived = 0;   // asset bytes uploaded (read in full)
+    uint64_t uploadsStored = 0;   // uploads of assets new to the store
+    uint64_t uploadsPresent = 0;  // uploads of assets it held already
+    uint64_t sent = 0;            // assets sent to workers
+  };
+  Counts counts() const;
+
+ private:
+  StateStore* store_ = nullptr;  // null: in memory only
+  mutable std::mutex mutex_;
+  std::map<std::string, std::shared_ptr<const std::string>> assets_;  // guarded by mutex_
+  std::atomic<uint64_t> bytesReceived_{0}, uploadsStored_{0}, uploadsPresent_{0}, sent_{0};
+};
+
+}  // namespace lensfarm

@@ -1,0 +1,59 @@
+#pragma once
+// The coordinator's active leases: which worker holds which unit of which job, and until when.
+// No network code and no lock of its own: Coordinator::mutex_ is held around every call. What a
+// lease's end means for its job and worker (queued again, counted as expired) is the caller's
+// (scheduler.cpp).
+//
+// Invariants:
+//  - A lease id is issued once: ids of one run start at its epoch << 40, so they never repeat
+//    those of an earlier run on the same state.
+//  - Only the worker a lease names may extend it, upload under it or report it failed.
+#include <chrono>
+#include <cstdint>
+#include <map>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace lensfarm {
+
+class LeaseTable {
+ public:
+  using Clock = std::chrono::steady_clock;
+  struct Lease {
+    std::string workerId;
+    std::string jobId;
+    uint64_t unit;
+    Clock::time_point deadline;
+  };
+
+  // Ids are issued from (epoch << 40) + 1 on.
+  void startEpoch(uint64_t epoch) { nextId_ = (epoch << 40) + 1; }
+  // A new lease; returns its id.
+  uint64_t grant(const std::string& workerId, const std::string& jobId, uint64_t unit, Clock::time_point deadline);
+
+  // Whether lease `id` is held by `workerId`.
+  bool heldBy(uint64_t id, const std::string& workerId) const;
+  // Whether lease `id` is held by `workerId` for unit `unit` of `jobId`: what an upload under it must match.
+  bool covers(uint64_t id, const std::string& workerId, const std::string& jobId, uint64_t unit) const;
+  // Moves the deadline of lease `id` if `workerId` holds it; false if it does not (it must drop it).
+  bool extend(uint64_t id, const std::string& workerId, Clock::time_point deadline);
+
+  void erase(uint64_t id);
+  // Removes and returns the leases whose deadline is before `now`, in id order.
+  std::vector<std::pair<uint64_t, Lease>> takeExpired(Clock::time_point now);
+  // Removes and returns the leases `workerId` holds, in id order.
+  std::vector<Lease> takeAllOf(const std::string& workerId);
+  void eraseAllOf(const std::string& jobId);
+
+  std::vector<const Lease*> ofJob(const std::string& jobId) const;  // in id order
+  std::set<std::string> holders() const;                            // workers holding any lease
+  size_t size() const { return leases_.size(); }
+
+ private:
+  std::map<uint64_t, Lease> leases_;
+  uint64_t nextId_ = 1;
+};
+
+}  // namespace lensfarm

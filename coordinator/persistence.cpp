@@ -1,0 +1,154 @@
+// Coordinator, durable state (with a state dir; StateStore in state_store.h does the writing): a
+// job's state as it changes, periodic checkpoints of every job's Accumulator, and restore(),
+// which rebuilds the job table at start-up from the jobs, the last checkpoints and the ledger of
+// accepted units, so a resumed job's image is bitwise the uninterrupted one.
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+
+#include "coordinator.h"
+#include "coordinator_records.h"
+#include "scene/scene_loader.h"
+#include "state_store.h"
+
+namespace lensfarm {
+
+void Coordinator::persistState(const Job& job) {
+  if (store_) store_->updateJobState(job.id, jobStateName(job.state), job.error, job.stopUnits, job.stopReason);
+}
+
+void Coordinator::checkpointLoop() {
+  std::unique_lock lock(mutex_);
+  while (!stopping_) {
+    checkpointWake_.wait_for(lock, std::chrono::duration<double>(options_.checkpointEverySeconds));
+    if (stopping_) break;
+    lock.unlock();
+    try {
+      checkpoint();
+    } catch (const std::exception& e) {
+      spdlog::error("checkpoint failed (the ledger still holds every unit): {}", e.what());
+    }
+    lock.lock();
+  }
+}
+
+uint64_t Coordinator::checkpoint() {
+  if (!store_) return 0;
+  std::vector<Job*> all;
+  {
+    std::lock_guard lock(mutex_);
+    for (auto& [id, job] : jobs_) all.push_back(job.get());
+  }
+  uint64_t bytes = 0;
+  for (Job* job : all) {
+    const std::optional<Accumulator::Snapshot> snapshot = job->film->snapshotIfChanged();
+    if (!snapshot) continue;
+    store_->writeCheckpoint(job->id, snapshot->sensor, snapshot->tracker, snapshot->folded);
+    bytes += snapshot->sensor.size();
+    job->film->checkpointed(snapshot->folded);
+  }
+  return bytes;
+}
+
+static JobState parseJobState(const std::string& name) {
+  for (JobState s : {JobState::kQueued, JobState::kRunning, JobState::kDone, JobState::kCancelled, JobState::kFailed})
+    if (name == jobStateName(s)) return s;
+  throw std::runtime_error("unknown job state " + name);
+}
+
+void Coordinator::restore() {
+  assets_.restore(*store_);
+  const auto now = Clock::now();
+  const auto restoreJob = [&](StateStore::StoredJob& stored) {
+    auto job = std::make_unique<Job>();
+    job->id = stored.id;
+    job->spec = stored.spec;
+    job->priority = stored.priority;
+    job->sequence = stored.sequence;
+    job->submittedUnixSeconds = stored.submittedUnixSeconds;
+    job->state = parseJobState(stored.state);
+    job->error = stored.error;
+    job->stopUnits = stored.stopUnits;
+    job->stopReason = stored.stopReason;
+    const AssetReader reader = [&](const std::string& path) -> std::optional<std::string> {
+      auto it = job->spec.assets.find(path);
+      if (it == job->spec.assets.end()) return std::nullopt;
+      const std::shared_ptr<const std::string> bytes = assets_.find(it->second);
+      if (!bytes) return std::nullopt;
+      return *bytes;
+    };
+    Scene scene = parseScene(job->spec.sceneJson, job->spec.sceneName, reader);
+    applyOverrides(job->spec.overrides, scene.render, job->spec.sceneName);
+    job->setScene(scene);
+
+    // The checkpoint holds units [0, folded); the ledger lists every accepted unit.
+    const auto checkpoint = store_->loadCheckpoint(job->id);
+    if (checkpoint) {
+      Sensor sensor = Sensor::deserialize(checkpoint->sensorBytes);
+      ConvergenceTracker tracker = ConvergenceTracker::deserialize(checkpoint->trackerBytes);
+      job->film = std::make_unique<Accumulator>(scene.render, job->unitSize, job->units.total(), std::move(sensor),
+                                                std::move(tracker), checkpoint->foldedUnits);
+    } else {
+      job->film = std::make_unique<Accumulator>(scene.render, job->unitSize, job->units.total());
+    }
+    if (stored.stopUnits) job->film->limitTo(*stored.stopUnits);
+    const uint64_t folded = checkpoint ? checkpoint->foldedUnits : 0;
+    uint64_t highest = 0;
+    bool any = false;
+    for (const auto& entry : store_->ledger(job->id)) {
+      job->units.markReceived(entry.unit);
+      ++job->unitsByWorker[entry.worker];
+      highest = std::max(highest, entry.unit);
+      any = true;
+      if (entry.unit < folded) {
+        job->film->restoreFolded(entry.stats);
+        continue;
+      }
+      UnitResult r;
+      r.jobId = job->id;
+      r.unitIndex = entry.unit;
+      r.stats = entry.stats;
+      r.buffer.width = scene.render.width;  // the counts are the coordinator's (drainInOrder)
+      r.buffer.height = scene.render.height;
+      r.buffer.sums = store_->loadUnitSums(job->id, entry.unit, size_t(scene.render.width) * scene.render.height * 3);
+      job->film->restoreWaiting(std::move(r));
+    }
+    job->film->drain();
+    // Units leased before the restart and never acknowledged go back to the queue.
+    job->units.resumeAfter(any ? std::optional<uint64_t>(highest) : std::nullopt);
+    if (isTerminal(job->state)) job->units.clearPending();
+    const Accumulator::Progress progress = job->film->estimateNow();
+    job->publish(progress);
+    if (any) job->started = now;  // elapsed time restarts with the coordinator (docs/farm.md)
+    if (isTerminal(job->state)) job->started = job->finished = now;
+    if (job->state == JobState::kRunning && !progress.stopReason.empty()) {
+      // It reached its stop before the restart (or in the replay): same units, same image.
+      job->state = JobState::kDone;
+      job->stopReason = progress.stopReason;
+      if (progress.units < job->units.total()) {
+        job->stopUnits = progress.units;
+        job->film->limitTo(progress.units);
+      }
+      job->units.clearPending();
+      persistState(*job);
+    }
+    nextJob_ = std::max(nextJob_, uint64_t(std::stoull(job->id.substr(4))) + 1);
+    nextSequence_ = std::max(nextSequence_, job->sequence + 1);
+    spdlog::info("restored {}: {}, {} of {} units ({} from the checkpoint)", job->id, jobStateName(job->state),
+                 job->unitsAdded, job->units.total(), folded);
+    jobs_[job->id] = std::move(job);
+  };
+  for (StateStore::StoredJob& stored : store_->loadJobs()) {
+    try {
+      restoreJob(stored);
+    } catch (const std::bad_alloc&) {
+      // One job that no longer fits in memory stays out (and in the state dir), not the coordinator.
+      jobs_.erase(stored.id);
+      nextJob_ = std::max(nextJob_, uint64_t(std::stoull(stored.id.substr(4))) + 1);
+      nextSequence_ = std::max(nextSequence_, stored.sequence + 1);
+      spdlog::error("cannot restore {}: out of memory for its buffers; it stays in the state directory", stored.id);
+    }
+  }
+}
+
+}  // namespace lensfarm

@@ -1,0 +1,129 @@
+// Coordinator, the scheduler: which unit is leased to which worker (tryLease: the job first by
+// priority, then submission, among those whose units fit the worker, a fresh unit only within
+// the window ahead of the summed prefix), heartbeats that extend leases, and the ends of leases
+// (expiry, a worker's loss or departure, a job's end) that queue their units again. The lease
+// records are LeaseTable's (lease_table.h), each job's queue is its JobUnits (job_units.h).
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+
+#include "coordinator.h"
+#include "coordinator_records.h"
+#include "render/memory_estimate.h"
+
+namespace lensfarm {
+
+Coordinator::Clock::time_point Coordinator::leaseDeadline(Clock::time_point now) const {
+  return now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options_.leaseTimeoutSeconds));
+}
+
+void Coordinator::reapExpiredLeases(Clock::time_point now) {
+  for (const auto& [leaseId, lease] : leases_.takeExpired(now)) {
+    Job& job = findJob(lease.jobId);
+    spdlog::warn("job {}: lease {} of unit {} held by {} lapsed; the unit goes back to the queue", job.id, leaseId,
+                 lease.unit, lease.workerId);
+    if (!isTerminal(job.state) && !job.units.isReceived(lease.unit)) job.units.requeue(lease.unit);
+    ++counters_.unitsExpired;
+    if (auto w = workers_.find(lease.workerId); w != workers_.end() && w->second->currentJobId == job.id)
+      w->second->currentJobId.clear();
+    changed_.notify_all();
+  }
+  enforceDeadlines();
+  forgetSilentWorkers(now);
+}
+
+std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_point now) {
+  Job* best = nullptr;
+  for (auto& [id, job] : jobs_) {
+    if (isTerminal(job->state) || !job->units.hasPending()) continue;
+    if (!job->fitsOn(worker.info)) continue;  // its units are for a worker with more memory
+    if (!job->units.hasReturned()) {          // a fresh unit: only within the window ahead of the summed prefix
+      const uint64_t window = unitsAheadWindow(job->settings.width, job->settings.height, options_.maxBytesAhead);
+      if (job->units.nextFresh() >= job->unitsAdded + window) continue;
+    }
+    if (!best || job->priority > best->priority || (job->priority == best->priority && job->sequence < best->sequence))
+      best = job.get();
+  }
+  if (!best) return std::nullopt;
+  Job& job = *best;
+  const uint64_t unit = job.units.takePending();
+  const uint64_t leaseId = leases_.grant(worker.id, job.id, unit, leaseDeadline(now));
+  ++counters_.unitsLeased;
+  if (!job.started) job.started = now;
+  if (job.state == JobState::kQueued) {
+    job.state = JobState::kRunning;
+    persistState(job);
+  }
+  worker.currentJobId = job.id;
+  worker.currentUnit = unit;
+  touch(job);
+  return LeaseGrant{leaseId, job.id, unitAt(unit, job.settings.samplesPerPixel, job.unitSize), job.sceneHash,
+                    options_.leaseTimeoutSeconds};
+}
+
+std::optional<LeaseGrant> Coordinator::lease(const std::string& workerId, double waitSeconds) {
+  std::unique_lock lock(mutex_);
+  const auto until =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(waitSeconds));
+  for (;;) {
+    Worker& worker = findWorker(workerId);
+    const auto now = Clock::now();
+    worker.lastHeartbeat = now;
+    reapExpiredLeases(now);
+    if (auto grant = tryLease(worker, now)) return grant;
+    worker.currentJobId.clear();
+    worker.currentUnit.reset();
+    if (now >= until) return std::nullopt;
+    // Wake on new work, and now and then to reap lapsed leases.
+    changed_.wait_until(lock, std::min(until, now + std::chrono::milliseconds(200)));
+  }
+}
+
+std::vector<uint64_t> Coordinator::heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds) {
+  std::lock_guard lock(mutex_);
+  Worker& worker = findWorker(workerId);
+  const auto now = Clock::now();
+  worker.lastHeartbeat = now;
+  std::vector<uint64_t> revoked;
+  for (uint64_t id : leaseIds)
+    if (!leases_.extend(id, workerId, leaseDeadline(now))) revoked.push_back(id);
+  reapExpiredLeases(now);
+  return revoked;
+}
+
+std::string Coordinator::releaseLeasesOf(Worker& worker, const std::string& verb, const std::string& detail,
+                                         Clock::time_point now) {
+  std::map<std::string, std::vector<uint64_t>> byJob;
+  for (const LeaseTable::Lease& lease : leases_.takeAllOf(worker.id)) {
+    Job& job = findJob(lease.jobId);
+    const uint64_t unit = lease.unit;
+    // Back in the queue, leased again before any fresh unit; an upload under the old lease is
+    // refused from now on, so the unit is still counted once.
+    if (!isTerminal(job.state) && !job.units.isReceived(unit) && !job.units.isRecording(unit)) job.units.requeue(unit);
+    byJob[job.id].push_back(unit);
+    ++counters_.unitsExpired;
+  }
+  std::string requeued;
+  for (auto& [jobId, units] : byJob) {
+    Job& job = findJob(jobId);
+    std::string list;
+    for (uint64_t u : units) list += (list.empty() ? "" : ", ") + std::to_string(u);
+    const std::string what = (units.size() == 1 ? "unit " : "units ") + list + " of " + jobId + " queued again";
+    spdlog::debug("{} {} ({}): {}", worker.label(), verb, detail, what);
+    requeued += (requeued.empty() ? "" : "; ") + what;
+    job.lastLoss = Job::Loss{worker.label(), verb, detail, now, std::move(units)};
+    touch(job);
+  }
+  worker.currentJobId.clear();
+  worker.currentUnit.reset();
+  changed_.notify_all();  // idle workers waiting in lease() take the units at once
+  return requeued;
+}
+
+void Coordinator::revokeLeasesOf(Job& job) {
+  leases_.eraseAllOf(job.id);
+  job.units.clearPending();
+}
+
+}  // namespace lensfarm
