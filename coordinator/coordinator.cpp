@@ -47,12 +47,10 @@ Coordinator::Coordinator(Options options) : options_(std::move(options)) {
   }
   if (options_.stateDir.empty()) {
     epoch_ = std::random_device{}() & 0xfffff;
-    leases_.startEpoch(epoch_);
     return;
   }
   store_ = std::make_unique<StateStore>(options_.stateDir);
   epoch_ = store_->bootCount();
-  leases_.startEpoch(epoch_);
   restore();
   checkpointer_ = std::thread([this] { checkpointLoop(); });
 }
@@ -340,6 +338,31 @@ std::string Coordinator::sensorState(const std::string& jobId) const {
 JobSpec Coordinator::jobSpec(const std::string& jobId) const {
   std::lock_guard lock(mutex_);
   return findJob(jobId).spec;
+}
+
+JobSpec Coordinator::jobSpecFor(const std::string& workerId, const std::string& jobId) const {
+  std::lock_guard lock(mutex_);
+  const Job& job = findJob(jobId);
+  for (const LeaseTable::Lease* lease : leases_.ofJob(jobId))
+    if (lease->workerId == workerId) return job.spec;
+  throw FarmError(FarmError::Kind::kFailedPrecondition, workerId + " holds no lease of " + jobId);
+}
+
+std::shared_ptr<const std::string> Coordinator::assetFor(const std::string& workerId, const std::string& sha256) {
+  {
+    std::lock_guard lock(mutex_);
+    bool held = false;
+    for (const auto& [id, job] : jobs_) {
+      bool jobHeld = false;
+      for (const LeaseTable::Lease* lease : leases_.ofJob(id)) jobHeld |= lease->workerId == workerId;
+      if (!jobHeld) continue;
+      for (const auto& [path, sha] : job->spec.assets) held |= sha == sha256;
+    }
+    if (!held)
+      throw FarmError(FarmError::Kind::kFailedPrecondition,
+                      "asset " + sha256.substr(0, 12) + " belongs to no job " + workerId + " holds a lease of");
+  }
+  return asset(sha256);
 }
 
 // ---- dashboard ------------------------------------------------------------------------------

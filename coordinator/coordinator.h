@@ -168,6 +168,14 @@ class Coordinator {
     // 0: defaultJobMemoryBudget() (LENSFARM_MAX_JOB_MEMORY, else 3/4 of the machine's memory).
     uint64_t maxJobMemoryBytes = 0;
     std::string maxJobMemorySource;  // for messages, e.g. "--max-job-memory"; empty: the default's
+    // The longest a lease may be held, however often it is extended: a worker that heartbeats
+    // without ever uploading loses its unit after this (LeaseTable's longest end).
+    double maxLeaseSeconds = 3600.0;
+    // Failures (ReportFailure, docs/farm.md "Failures"): a worker that failed a job this many
+    // times is not leased its units again (the job's blocklist); a job fails when one unit has
+    // failed on this many different workers, or when every live worker is blocklisted for it.
+    uint32_t maxFailuresPerWorker = 3;
+    uint32_t maxUnitFailures = 3;
     // Test-only: called with a job's estimated bytes just before its frame-sized buffers are
     // allocated; a test throws std::bad_alloc from it to simulate an allocation failing.
     std::function<void(uint64_t bytes)> beforeJobAllocation;
@@ -220,12 +228,21 @@ class Coordinator {
 
   // ---- workers ----
   // FarmError kFailedPrecondition naming both versions when they differ from this process's.
-  std::string registerWorker(const WorkerInfo& info);
+  // `session`, if given, receives the worker's secret (256 random bits, hex): the gRPC service
+  // requires it with the id on every later call (authenticateWorker).
+  std::string registerWorker(const WorkerInfo& info, std::string* session = nullptr);
+  // Whether the caller is the worker it names: FarmError kUnknownWorker if the id is unknown
+  // (it registers again), kUnauthenticated without a session, kPermissionDenied with another's.
+  void authenticateWorker(const std::string& workerId, const std::string& session);
   // Extends the worker's leases; returns those it must drop. FarmError kNotFound if unknown.
   std::vector<uint64_t> heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds);
   // The next unit to render, waiting up to `waitSeconds` for one.
   std::optional<LeaseGrant> lease(const std::string& workerId, double waitSeconds);
   JobSpec jobSpec(const std::string& jobId) const;
+  // The same for a worker over the network: only for a job it holds a lease of, and only an
+  // asset of such a job (FarmError kFailedPrecondition otherwise, naming what it lacks).
+  JobSpec jobSpecFor(const std::string& workerId, const std::string& jobId) const;
+  std::shared_ptr<const std::string> assetFor(const std::string& workerId, const std::string& sha256);
   // Counts a unit's result. Returns false for a duplicate of a unit already counted (ignored);
   // FarmError kFailedPrecondition when the worker does not hold the unit's current lease.
   // A result that is the next unit in order is summed straight from the caller's buffer; one
@@ -233,6 +250,15 @@ class Coordinator {
   // memory runs out holding it, the job fails (FarmError kResourceExhausted); others go on.
   bool acceptResult(UnitResult&& result);
   bool acceptResult(const UnitResult& result);
+  // Before an upload's sums are read (UploadResult's header): the errors acceptResult would
+  // give for its lease and frame size, so that no buffer is allocated for a refused upload.
+  void admitUpload(const std::string& workerId, uint64_t leaseId, const std::string& jobId, uint64_t unit, int width,
+                   int height) const;
+  // The worker cannot render its lease's unit: the lease ends and the unit is queued again for
+  // others; the worker is blocklisted for the job after Options::maxFailuresPerWorker failures;
+  // the job fails, with the reasons, when the unit failed on Options::maxUnitFailures different
+  // workers or no live worker may take it. FarmError kFailedPrecondition, changing nothing, when
+  // the worker does not hold the lease or the lease is not for `jobId`.
   void reportFailure(const std::string& workerId, uint64_t leaseId, const std::string& jobId, const std::string& error);
 
   // ---- liveness (the Attach stream, docs/farm.md "Failures") ----
@@ -286,6 +312,8 @@ class Coordinator {
 
   // ---- results and stopping (results.cpp) ----
   bool accept(const UnitResult& result, UnitResult* owned);
+  // FarmError kInvalidArgument unless the result is one the unit can produce (results.cpp).
+  static void checkPlausible(const UnitResult& result, const RenderSettings& settings, uint32_t sampleCount);
   void enforceDeadlines();  // requires mutex_
 
   // ---- durable state (persistence.cpp) ----

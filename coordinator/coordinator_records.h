@@ -5,6 +5,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -63,6 +64,13 @@ struct Coordinator::Job {
     std::vector<uint64_t> units;
   };
   std::optional<Loss> lastLoss;  // guarded by Coordinator::mutex_
+  // Failures reported by workers (reportFailure), guarded by Coordinator::mutex_: per worker id
+  // its count; the workers each unit failed on; the reasons, oldest first (at most 16 kept);
+  // the workers no longer leased this job's units.
+  std::map<std::string, uint32_t> failuresByWorker;
+  std::map<uint64_t, std::set<std::string>> unitFailedOn;
+  std::vector<std::string> failureReasons;
+  std::set<std::string> blocklist;
 
   // Accumulation: the sensor, tracker and stopping rules, behind the accumulator's own lock
   // (never held while taking Coordinator::mutex_). Set once, before the job is listed.
@@ -71,6 +79,7 @@ struct Coordinator::Job {
 
 struct Coordinator::Worker {
   std::string id;
+  std::string session;  // secret, from registerWorker: what authenticateWorker compares
   WorkerInfo info;
   Clock::time_point lastHeartbeat;
   std::string currentJobId;

@@ -1,13 +1,25 @@
 // LeaseTable: the active leases, their holders and deadlines (lease_table.h).
 #include "lease_table.h"
 
+#include <algorithm>
+#include <random>
+
 namespace lensfarm {
 
 uint64_t LeaseTable::grant(const std::string& workerId, const std::string& jobId, uint64_t unit,
-                           Clock::time_point deadline) {
-  const uint64_t id = nextId_++;
-  leases_[id] = Lease{workerId, jobId, unit, deadline};
+                           Clock::time_point deadline, Clock::time_point longestEnd) {
+  // std::random_device reads the operating system's generator (getrandom on Linux).
+  thread_local std::random_device random;
+  uint64_t id = 0;
+  while (id == 0 || leases_.count(id))
+    id = ((uint64_t(random()) << 32) | uint64_t(random())) & ((uint64_t(1) << 53) - 1);
+  leases_[id] = Lease{workerId, jobId, unit, std::min(deadline, longestEnd), longestEnd};
   return id;
+}
+
+const LeaseTable::Lease* LeaseTable::find(uint64_t id) const {
+  auto it = leases_.find(id);
+  return it == leases_.end() ? nullptr : &it->second;
 }
 
 bool LeaseTable::heldBy(uint64_t id, const std::string& workerId) const {
@@ -23,7 +35,7 @@ bool LeaseTable::covers(uint64_t id, const std::string& workerId, const std::str
 bool LeaseTable::extend(uint64_t id, const std::string& workerId, Clock::time_point deadline) {
   auto it = leases_.find(id);
   if (it == leases_.end() || it->second.workerId != workerId) return false;
-  it->second.deadline = deadline;
+  it->second.deadline = std::min(deadline, it->second.longestEnd);
   return true;
 }
 

@@ -5,9 +5,12 @@
 // (scheduler.cpp).
 //
 // Invariants:
-//  - A lease id is issued once: ids of one run start at its epoch << 40, so they never repeat
-//    those of an earlier run on the same state.
+//  - A lease id is random (53 bits from the operating system's generator, so that it survives a
+//    JSON number), never 0 and never that of a lease held now: one worker's ids say nothing of
+//    another's, and an id of an earlier run names no lease of this one.
 //  - Only the worker a lease names may extend it, upload under it or report it failed.
+//  - No lease outlives its longest end (granted + Options::maxLeaseSeconds), however often it is
+//    extended: a worker that heartbeats without ever uploading loses its units.
 #include <chrono>
 #include <cstdint>
 #include <map>
@@ -26,18 +29,21 @@ class LeaseTable {
     std::string jobId;
     uint64_t unit;
     Clock::time_point deadline;
+    Clock::time_point longestEnd;  // the deadline never moves past this
   };
 
-  // Ids are issued from (epoch << 40) + 1 on.
-  void startEpoch(uint64_t epoch) { nextId_ = (epoch << 40) + 1; }
   // A new lease; returns its id.
-  uint64_t grant(const std::string& workerId, const std::string& jobId, uint64_t unit, Clock::time_point deadline);
+  uint64_t grant(const std::string& workerId, const std::string& jobId, uint64_t unit, Clock::time_point deadline,
+                 Clock::time_point longestEnd);
+  // The lease `id`, or null.
+  const Lease* find(uint64_t id) const;
 
   // Whether lease `id` is held by `workerId`.
   bool heldBy(uint64_t id, const std::string& workerId) const;
   // Whether lease `id` is held by `workerId` for unit `unit` of `jobId`: what an upload under it must match.
   bool covers(uint64_t id, const std::string& workerId, const std::string& jobId, uint64_t unit) const;
-  // Moves the deadline of lease `id` if `workerId` holds it; false if it does not (it must drop it).
+  // Moves the deadline of lease `id` (at most to its longest end) if `workerId` holds it; false
+  // if it does not (it must drop it).
   bool extend(uint64_t id, const std::string& workerId, Clock::time_point deadline);
 
   void erase(uint64_t id);
@@ -53,7 +59,6 @@ class LeaseTable {
 
  private:
   std::map<uint64_t, Lease> leases_;
-  uint64_t nextId_ = 1;
 };
 
 }  // namespace lensfarm

@@ -6,6 +6,8 @@
 #include <spdlog/spdlog.h>
 
 #include <cmath>
+#include <limits>
+#include <set>
 
 #include "coordinator.h"
 #include "coordinator_records.h"
@@ -58,14 +60,53 @@ bool Coordinator::acceptResult(UnitResult&& result) { return accept(result, &res
 
 bool Coordinator::acceptResult(const UnitResult& result) { return accept(result, nullptr); }
 
+// What a unit can produce (docs/farm.md, "Threat model"). Every sample a worker adds is a finite
+// float radiance >= 0 (non-finite samples are dropped and counted; a box filter gives each cell
+// one sample per pass), so each cell's sum lies in [0, sampleCount x FLT_MAX] and the image's
+// mean stays a finite float; one camera path is traced per cell and sample, and lights hit and
+// samples dropped are among those paths. Anything else did not come from the renderer.
+void Coordinator::checkPlausible(const UnitResult& result, const RenderSettings& settings, uint32_t sampleCount) {
+  const std::string what = "result for unit " + std::to_string(result.unitIndex) + " of " + result.jobId;
+  const double most = double(sampleCount) * double(std::numeric_limits<float>::max());
+  const std::vector<double>& sums = result.buffer.sums;
+  for (size_t k = 0; k < sums.size(); ++k)
+    if (!(sums[k] >= 0.0 && sums[k] <= most))  // (false for NaN too)
+      throw FarmError(FarmError::Kind::kInvalidArgument,
+                      what + " holds " + (std::isfinite(sums[k]) ? std::to_string(sums[k]) : std::string("a non-finite sum")) +
+                          " at cell " + std::to_string(k / 3) + ": a unit of " + std::to_string(sampleCount) +
+                          " samples sums each channel of a cell to a value in [0, " + std::to_string(sampleCount) +
+                          " x 3.4e38]");
+  const uint64_t paths = uint64_t(settings.width) * uint64_t(settings.height) * sampleCount;
+  const PathStats& s = result.stats;
+  if (s.paths != paths)
+    throw FarmError(FarmError::Kind::kInvalidArgument, what + " counts " + std::to_string(s.paths) +
+                                                            " paths; the unit traces " + std::to_string(paths));
+  if (s.lightHits > paths || s.dropped > paths || s.rays / 1024 > paths)
+    throw FarmError(FarmError::Kind::kInvalidArgument,
+                    what + " has counters the unit cannot produce (rays " + std::to_string(s.rays) + ", light hits " +
+                        std::to_string(s.lightHits) + ", dropped " + std::to_string(s.dropped) + " for " +
+                        std::to_string(paths) + " paths)");
+  if (!(result.renderSeconds >= 0.0 && result.renderSeconds < 1e9))
+    throw FarmError(FarmError::Kind::kInvalidArgument, what + " has a render time that is not a time");
+}
+
+void Coordinator::admitUpload(const std::string& workerId, uint64_t leaseId, const std::string& jobId, uint64_t unit,
+                              int width, int height) const {
+  std::lock_guard lock(mutex_);
+  const Job& job = findJob(jobId);
+  if (unit >= job.units.total())
+    throw FarmError(FarmError::Kind::kInvalidArgument, "job " + job.id + " has no unit " + std::to_string(unit));
+  if (job.units.isReceived(unit) || job.units.isRecording(unit)) return;  // a late duplicate: ignored by accept
+  if (!leases_.covers(leaseId, workerId, jobId, unit))
+    throw FarmError(FarmError::Kind::kFailedPrecondition, "lease " + std::to_string(leaseId) + " for unit " +
+                                                              std::to_string(unit) + " of " + jobId +
+                                                              " is not held by " + workerId);
+  if (width != job.settings.width || height != job.settings.height)
+    throw FarmError(FarmError::Kind::kInvalidArgument, "result for " + job.id + " has the wrong size");
+}
+
 bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
   counters_.unitBytes += result.buffer.sums.size() * sizeof(double);
-  // Workers drop non-finite samples before they are summed (design.md); a buffer holding one is
-  // corrupt and must not reach the sensor. Checked before taking the lock: it reads every cell.
-  for (double v : result.buffer.sums)
-    if (!std::isfinite(v))
-      throw FarmError(FarmError::Kind::kInvalidArgument, "result for unit " + std::to_string(result.unitIndex) +
-                                                             " of " + result.jobId + " holds a non-finite sum");
   Job* job;
   std::string workerName;
   {
@@ -83,6 +124,9 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
     const int w = job->settings.width, h = job->settings.height;
     if (result.buffer.width != w || result.buffer.height != h || result.buffer.sums.size() != size_t(w) * size_t(h) * 3)
       throw FarmError(FarmError::Kind::kInvalidArgument, "result for " + job->id + " has the wrong size");
+    // Checked under the lock (it reads every cell): a worker's uploads come one at a time.
+    checkPlausible(result, job->settings,
+                   unitAt(result.unitIndex, job->settings.samplesPerPixel, job->unitSize).sampleCount);
     Worker& worker = findWorker(result.workerId);
     workerName = worker.info.name.empty() ? worker.id : worker.info.name;
     leases_.erase(result.leaseId);
@@ -147,14 +191,43 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
 void Coordinator::reportFailure(const std::string& workerId, uint64_t leaseId, const std::string& jobId,
                                 const std::string& error) {
   std::lock_guard lock(mutex_);
+  Worker& worker = findWorker(workerId);
+  const LeaseTable::Lease* lease = leases_.find(leaseId);
+  if (!lease || lease->workerId != workerId)
+    throw FarmError(FarmError::Kind::kFailedPrecondition,
+                    "ReportFailure: lease " + std::to_string(leaseId) + " is not held by " + workerId);
+  if (lease->jobId != jobId)
+    throw FarmError(FarmError::Kind::kFailedPrecondition,
+                    "ReportFailure: lease " + std::to_string(leaseId) + " is for " + lease->jobId + ", not " + jobId);
   Job& job = findJob(jobId);
-  if (!leases_.heldBy(leaseId, workerId)) return;  // stale report
-  if (!isTerminal(job.state)) {
-    job.error = workerId + ": " + error;
+  const uint64_t unit = lease->unit;
+  leases_.erase(leaseId);
+  if (worker.currentUnit == unit) worker.currentUnit.reset();
+  worker.currentJobId.clear();
+  if (isTerminal(job.state)) return;
+  const std::string reason = worker.label() + ": " + error;
+  spdlog::warn("job {}: unit {} failed on {}", job.id, unit, reason);
+  if (job.failureReasons.size() < 16) job.failureReasons.push_back(reason);
+  std::set<std::string>& failedOn = job.unitFailedOn[unit];
+  failedOn.insert(workerId);
+  if (++job.failuresByWorker[workerId] >= options_.maxFailuresPerWorker) job.blocklist.insert(workerId);
+  // The job fails when the unit failed on enough workers, or no live worker may take it.
+  bool anyoneLeft = false;
+  for (const auto& [id, w] : workers_) anyoneLeft |= !w->gone && !job.blocklist.count(id);
+  if (failedOn.size() >= options_.maxUnitFailures || !anyoneLeft) {
+    std::string reasons;
+    for (const std::string& r : job.failureReasons) reasons += (reasons.empty() ? "" : "; ") + r;
+    job.error = failedOn.size() >= options_.maxUnitFailures
+                    ? "unit " + std::to_string(unit) + " failed on " + std::to_string(failedOn.size()) +
+                          " workers: " + reasons
+                    : "no worker left that has not failed it: " + reasons;
     end(job, JobState::kFailed);
-    spdlog::error("job {}: failed on {}: {}", job.id, workerId, error);
-    touch(job);
+    spdlog::error("job {}: failed: {}", job.id, job.error);
+  } else if (!job.units.isReceived(unit) && !job.units.isRecording(unit)) {
+    job.units.requeue(unit);  // for another worker (or this one, until it is blocklisted)
+    changed_.notify_all();
   }
+  touch(job);
 }
 
 }  // namespace lensfarm

@@ -38,6 +38,7 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   for (auto& [id, job] : jobs_) {
     if (isTerminal(job->state) || !job->units.hasPending()) continue;
     if (!job->fitsOn(worker.info)) continue;  // its units are for a worker with more memory
+    if (job->blocklist.count(worker.id)) continue;  // it failed this job too often (reportFailure)
     if (!job->units.hasReturned()) {          // a fresh unit: only within the window ahead of the summed prefix
       const uint64_t window = unitsAheadWindow(job->settings.width, job->settings.height, options_.maxBytesAhead);
       if (job->units.nextFresh() >= job->unitsAdded + window) continue;
@@ -48,7 +49,9 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   if (!best) return std::nullopt;
   Job& job = *best;
   const uint64_t unit = job.units.takePending();
-  const uint64_t leaseId = leases_.grant(worker.id, job.id, unit, leaseDeadline(now));
+  const auto longest = now + std::chrono::duration_cast<Clock::duration>(
+                                 std::chrono::duration<double>(std::max(options_.maxLeaseSeconds, 1e-3)));
+  const uint64_t leaseId = leases_.grant(worker.id, job.id, unit, leaseDeadline(now), longest);
   ++counters_.unitsLeased;
   if (!job.started) job.started = now;
   if (job.state == JobState::kQueued) {

@@ -14,6 +14,20 @@ namespace {
 
 constexpr uint64_t kMaxAssetBytes = uint64_t(2) << 30;  // 2 GiB
 
+// A FarmError's gRPC status.
+grpc::Status farmStatus(const FarmError& e) {
+  switch (e.kind()) {
+    case FarmError::Kind::kNotFound:
+    case FarmError::Kind::kUnknownWorker: return grpc::Status(grpc::StatusCode::NOT_FOUND, e.what());
+    case FarmError::Kind::kInvalidArgument: return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, e.what());
+    case FarmError::Kind::kFailedPrecondition: return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, e.what());
+    case FarmError::Kind::kUnauthenticated: return grpc::Status(grpc::StatusCode::UNAUTHENTICATED, e.what());
+    case FarmError::Kind::kPermissionDenied: return grpc::Status(grpc::StatusCode::PERMISSION_DENIED, e.what());
+    case FarmError::Kind::kResourceExhausted: return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, e.what());
+  }
+  return grpc::Status(grpc::StatusCode::UNKNOWN, e.what());
+}
+
 // Runs a handler body and maps the project's exceptions to gRPC status codes.
 template <class Body>
 grpc::Status guarded(const TokenGate& gate, const grpc::ServerContext* context, const char* rpc, Body&& body) {
@@ -24,15 +38,7 @@ grpc::Status guarded(const TokenGate& gate, const grpc::ServerContext* context, 
   } catch (const InputError& e) {
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, e.what());
   } catch (const FarmError& e) {
-    switch (e.kind()) {
-      case FarmError::Kind::kNotFound:
-      case FarmError::Kind::kUnknownWorker: return grpc::Status(grpc::StatusCode::NOT_FOUND, e.what());
-      case FarmError::Kind::kInvalidArgument: return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, e.what());
-      case FarmError::Kind::kFailedPrecondition: return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, e.what());
-      case FarmError::Kind::kUnauthenticated: return grpc::Status(grpc::StatusCode::UNAUTHENTICATED, e.what());
-      case FarmError::Kind::kResourceExhausted: return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, e.what());
-    }
-    return grpc::Status(grpc::StatusCode::UNKNOWN, e.what());
+    return farmStatus(e);
   } catch (const std::bad_alloc&) {  // this request only: the coordinator goes on
     spdlog::error("{}: out of memory", rpc);
     return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, std::string(rpc) + ": the coordinator ran out of memory");
@@ -238,7 +244,9 @@ grpc::Status WorkerServiceImpl::Register(grpc::ServerContext* context, const v1:
   return guarded(gate_, context, "Register", [&] {
     WorkerInfo info{request->name(), std::max(1u, request->threads()), request->protocol_version(),
                     request->renderer_version(), request->max_unit_memory_bytes()};
-    response->set_worker_id(coordinator_.registerWorker(info));
+    std::string session;
+    response->set_worker_id(coordinator_.registerWorker(info, &session));
+    response->set_session(session);
     response->set_heartbeat_interval_ms(uint32_t(coordinator_.options().heartbeatIntervalSeconds * 1000));
   });
 }
@@ -246,6 +254,7 @@ grpc::Status WorkerServiceImpl::Register(grpc::ServerContext* context, const v1:
 grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext* context, const v1::HeartbeatRequest* request,
                                           v1::HeartbeatResponse* response) {
   return guarded(gate_, context, "Heartbeat", [&] {
+    coordinator_.authenticateWorker(request->worker_id(), request->session());
     const std::vector<uint64_t> leases(request->lease_ids().begin(), request->lease_ids().end());
     for (uint64_t id : coordinator_.heartbeat(request->worker_id(), leases)) response->add_revoked_lease_ids(id);
   });
@@ -254,6 +263,7 @@ grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext* context, const v1
 grpc::Status WorkerServiceImpl::LeaseWork(grpc::ServerContext* context, const v1::LeaseWorkRequest* request,
                                           v1::LeaseWorkResponse* response) {
   return guarded(gate_, context, "LeaseWork", [&] {
+    coordinator_.authenticateWorker(request->worker_id(), request->session());
     const double wait = std::min(10.0, request->wait_ms() / 1000.0);
     if (auto grant = coordinator_.lease(request->worker_id(), wait)) *response->mutable_lease() = proto::toProto(*grant);
   });
@@ -261,12 +271,18 @@ grpc::Status WorkerServiceImpl::LeaseWork(grpc::ServerContext* context, const v1
 
 grpc::Status WorkerServiceImpl::GetJobSpec(grpc::ServerContext* context, const v1::GetJobSpecRequest* request,
                                            v1::JobSpec* response) {
-  return guarded(gate_, context, "GetJobSpec", [&] { *response = proto::toProto(coordinator_.jobSpec(request->job_id())); });
+  return guarded(gate_, context, "GetJobSpec", [&] {
+    coordinator_.authenticateWorker(request->worker_id(), request->session());
+    *response = proto::toProto(coordinator_.jobSpecFor(request->worker_id(), request->job_id()));
+  });
 }
 
 grpc::Status WorkerServiceImpl::FetchAsset(grpc::ServerContext* context, const v1::FetchAssetRequest* request,
                                            grpc::ServerWriter<v1::FileChunk>* writer) {
-  return guarded(gate_, context, "FetchAsset", [&] { writeChunks(writer, *coordinator_.asset(request->sha256())); });
+  return guarded(gate_, context, "FetchAsset", [&] {
+    coordinator_.authenticateWorker(request->worker_id(), request->session());
+    writeChunks(writer, *coordinator_.assetFor(request->worker_id(), request->sha256()));
+  });
 }
 
 grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext* context, grpc::ServerReader<v1::UploadResultRequest>* reader,
@@ -274,7 +290,17 @@ grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext* context, grpc:
   return guarded(gate_, context, "UploadResult", [&] {
     v1::UploadResultRequest message;
     UploadAssembler assembler;
-    while (reader->Read(&message)) assembler.add(message);
+    bool first = true;
+    while (reader->Read(&message)) {
+      if (first && message.has_header()) {  // who sends it, and for what, before any sum is read
+        const v1::ResultHeader& h = message.header();
+        coordinator_.authenticateWorker(h.worker_id(), h.session());
+        coordinator_.admitUpload(h.worker_id(), h.lease_id(), h.job_id(), h.unit_index(), int(h.width()),
+                                 int(h.height()));
+      }
+      first = false;
+      assembler.add(message);
+    }
     response->set_accepted(coordinator_.acceptResult(assembler.finish()));
   });
 }
@@ -310,9 +336,10 @@ class AttachReactor final : public grpc::ServerBidiReactor<v1::AttachRequest, v1
     if (attachment_.load() == 0 && workerId_.empty()) {
       workerId_ = request_.worker_id();
       try {
+        service_.coordinator_.authenticateWorker(workerId_, request_.session());
         attachment_.store(service_.coordinator_.attachWorker(workerId_));
       } catch (const FarmError& e) {
-        finish(grpc::Status(grpc::StatusCode::NOT_FOUND, e.what()));
+        finish(farmStatus(e));
         return;
       } catch (const std::exception& e) {
         finish(grpc::Status(grpc::StatusCode::INTERNAL, std::string("Attach: ") + e.what()));
@@ -390,6 +417,7 @@ WorkerServiceImpl::~WorkerServiceImpl() = default;
 grpc::Status WorkerServiceImpl::ReportFailure(grpc::ServerContext* context, const v1::ReportFailureRequest* request,
                                               v1::ReportFailureResponse*) {
   return guarded(gate_, context, "ReportFailure", [&] {
+    coordinator_.authenticateWorker(request->worker_id(), request->session());
     coordinator_.reportFailure(request->worker_id(), request->lease_id(), request->job_id(), request->error());
   });
 }

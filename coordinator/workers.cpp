@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <random>
 
 #include "coordinator.h"
 #include "coordinator_records.h"
@@ -26,7 +27,33 @@ const char* workerStateName(WorkerState s) {
   return "?";
 }
 
-std::string Coordinator::registerWorker(const WorkerInfo& info) {
+namespace {
+// `bytes` random bytes from the operating system's generator (std::random_device: getrandom on
+// Linux), as hex.
+std::string randomHex(size_t bytes) {
+  std::random_device random;
+  static const char* digits = "0123456789abcdef";
+  std::string out;
+  for (size_t k = 0; k < bytes; k += 4) {
+    const uint32_t word = random();
+    for (int b = 0; b < 4 && k + size_t(b) < bytes; ++b) {
+      const uint32_t byte = (word >> (8 * b)) & 0xffu;
+      out += digits[byte >> 4];
+      out += digits[byte & 15u];
+    }
+  }
+  return out;
+}
+
+// Equal strings, in a time that does not depend on where they differ.
+bool sameSecret(const std::string& a, const std::string& b) {
+  unsigned char diff = a.size() == b.size() ? 0 : 1;
+  for (size_t k = 0; k < a.size(); ++k) diff |= static_cast<unsigned char>(a[k] ^ (k < b.size() ? b[k] : 0));
+  return diff == 0;
+}
+}  // namespace
+
+std::string Coordinator::registerWorker(const WorkerInfo& info, std::string* session) {
   if (info.protocolVersion != kProtocolVersion || info.rendererVersion != kRendererVersion)
     throw FarmError(FarmError::Kind::kFailedPrecondition,
                     "version mismatch: worker speaks " + info.protocolVersion + " with renderer " + info.rendererVersion +
@@ -36,6 +63,8 @@ std::string Coordinator::registerWorker(const WorkerInfo& info) {
   worker->id = "worker-" + std::to_string(epoch_) + "." + std::to_string(nextWorker_++);
   worker->info = info;
   worker->lastHeartbeat = Clock::now();
+  worker->session = randomHex(32);
+  if (session) *session = worker->session;
   const std::string id = worker->id;
   spdlog::info("{} registered: {} with {} threads", id, info.name, info.threads);
   // A lost or departed worker of the same name is this one back: the new entry replaces it.
@@ -43,6 +72,16 @@ std::string Coordinator::registerWorker(const WorkerInfo& info) {
     it = it->second->gone && !info.name.empty() && it->second->info.name == info.name ? workers_.erase(it) : std::next(it);
   workers_[id] = std::move(worker);
   return id;
+}
+
+void Coordinator::authenticateWorker(const std::string& workerId, const std::string& session) {
+  std::lock_guard lock(mutex_);
+  const Worker& worker = findWorker(workerId);
+  if (session.empty())
+    throw FarmError(FarmError::Kind::kUnauthenticated,
+                    "no session for " + workerId + ": quote RegisterResponse.session with the worker id");
+  if (!sameSecret(session, worker.session))
+    throw FarmError(FarmError::Kind::kPermissionDenied, "the session is not " + workerId + "'s");
 }
 
 Coordinator::Worker& Coordinator::findWorker(const std::string& workerId) {

@@ -48,8 +48,18 @@ Registration GrpcCoordinatorLink::registerWorker(const WorkerInfo& info) {
   v1::RegisterResponse response;
   const grpc::Status s = stub_->Register(context().get(), request, &response);
   if (!s.ok()) raise(s, "Register");
+  {
+    std::lock_guard lock(sessionMutex_);
+    session_ = response.session();
+    sessionWorker_ = response.worker_id();
+  }
   attachAs(response.worker_id());
   return Registration{response.worker_id(), std::max(0.01, response.heartbeat_interval_ms() / 1000.0)};
+}
+
+std::string GrpcCoordinatorLink::session() const {
+  std::lock_guard lock(sessionMutex_);
+  return session_;
 }
 
 // ---- the Attach stream ----------------------------------------------------------------------
@@ -98,6 +108,7 @@ void GrpcCoordinatorLink::attachLoop() {
     auto stream = stub_->Attach(&ctx);
     v1::AttachRequest hello;
     hello.set_worker_id(id);
+    hello.set_session(session());
     v1::AttachEvent event;
     if (stream->Write(hello) && stream->Read(&event) && event.attached()) {
       spdlog::debug("attached to the coordinator as {}", id);
@@ -154,6 +165,7 @@ void GrpcCoordinatorLink::leave() {
 std::vector<uint64_t> GrpcCoordinatorLink::heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds) {
   v1::HeartbeatRequest request;
   request.set_worker_id(workerId);
+  request.set_session(session());
   for (uint64_t id : leaseIds) request.add_lease_ids(id);
   v1::HeartbeatResponse response;
   const grpc::Status s = stub_->Heartbeat(context().get(), request, &response);
@@ -164,6 +176,7 @@ std::vector<uint64_t> GrpcCoordinatorLink::heartbeat(const std::string& workerId
 std::optional<LeaseGrant> GrpcCoordinatorLink::lease(const std::string& workerId, double waitSeconds) {
   v1::LeaseWorkRequest request;
   request.set_worker_id(workerId);
+  request.set_session(session());
   request.set_wait_ms(uint32_t(waitSeconds * 1000));
   v1::LeaseWorkResponse response;
   const grpc::Status s = stub_->LeaseWork(context(waitSeconds).get(), request, &response);
@@ -175,6 +188,11 @@ std::optional<LeaseGrant> GrpcCoordinatorLink::lease(const std::string& workerId
 JobSpec GrpcCoordinatorLink::jobSpec(const std::string& jobId) {
   v1::GetJobSpecRequest request;
   request.set_job_id(jobId);
+  {
+    std::lock_guard lock(sessionMutex_);
+    request.set_worker_id(sessionWorker_);
+    request.set_session(session_);
+  }
   v1::JobSpec response;
   const grpc::Status s = stub_->GetJobSpec(context().get(), request, &response);
   if (!s.ok()) raise(s, "GetJobSpec");
@@ -184,6 +202,11 @@ JobSpec GrpcCoordinatorLink::jobSpec(const std::string& jobId) {
 std::string GrpcCoordinatorLink::asset(const std::string& sha256) {
   v1::FetchAssetRequest request;
   request.set_sha256(sha256);
+  {
+    std::lock_guard lock(sessionMutex_);
+    request.set_worker_id(sessionWorker_);
+    request.set_session(session_);
+  }
   auto ctx = context(600.0);
   auto reader = stub_->FetchAsset(ctx.get(), request);
   v1::FileChunk chunk;
@@ -206,6 +229,7 @@ bool GrpcCoordinatorLink::upload(const UnitResult& result) {
     if (offset == 0) {
       auto* h = message.mutable_header();
       h->set_worker_id(result.workerId);
+      h->set_session(session());
       h->set_lease_id(result.leaseId);
       h->set_job_id(result.jobId);
       h->set_unit_index(result.unitIndex);
@@ -229,6 +253,7 @@ void GrpcCoordinatorLink::reportFailure(const std::string& workerId, uint64_t le
                                         const std::string& error) {
   v1::ReportFailureRequest request;
   request.set_worker_id(workerId);
+  request.set_session(session());
   request.set_lease_id(leaseId);
   request.set_job_id(jobId);
   request.set_error(error);

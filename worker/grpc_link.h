@@ -39,6 +39,10 @@ class GrpcCoordinatorLink final : public CoordinatorLink {
 
  private:
   std::unique_ptr<grpc::ClientContext> context(double extraSeconds = 0.0) const;
+  // The session of the current registration (RegisterResponse.session), quoted in every call.
+  std::string session() const;
+  mutable std::mutex sessionMutex_;
+  std::string session_, sessionWorker_;  // and the worker id it is for
   void attachAs(const std::string& workerId);
   void attachLoop();
   void stopAttaching();

@@ -75,6 +75,7 @@ class FarmError : public std::runtime_error {
     kInvalidArgument,     // a malformed request (a bad scene is an InputError instead)
     kFailedPrecondition,  // e.g. assets missing, versions differ, lease not held
     kUnauthenticated,     // missing or wrong token: retrying will not help
+    kPermissionDenied,    // a caller that is not who it names (a worker's session)
     kResourceExhausted,   // the job does not fit in the memory allowed (render/memory_estimate.h)
   };
   FarmError(Kind kind, const std::string& what) : std::runtime_error(what), kind_(kind) {}

@@ -2,6 +2,8 @@
 // exactly-once and in-order accumulation, cancel, failure, versions.
 #include <gtest/gtest.h>
 
+#include <functional>
+
 #include <cstring>
 #include <limits>
 #include <thread>
@@ -84,8 +86,9 @@ TEST(Coordinator, ResultsEnterTheSensorOnceAndInUnitOrder) {
   const auto g0 = c.lease(a, 0), g1 = c.lease(b, 0), g2 = c.lease(a, 0);
   ASSERT_TRUE(g0 && g1 && g2);
   EXPECT_EQ(c.job(job.id).state, JobState::kRunning);
-  // Values whose floating-point sum depends on the order: 1e16 + 1 - 1e16.
-  EXPECT_TRUE(c.acceptResult(resultFor(a, *g2, -1e16)));
+  // Values whose floating-point sum depends on the order (1e16 + 1 + 3, where 1e16's ulp is 2);
+  // sums are never negative (Coordinator::checkPlausible).
+  EXPECT_TRUE(c.acceptResult(resultFor(a, *g2, 3.0)));
   EXPECT_EQ(c.job(job.id).unitsDone, 0u) << "unit 2 must wait for units 0 and 1";
   EXPECT_EQ(c.image(job.id).metadata.samplesPerPixel, 0u);
   EXPECT_TRUE(c.acceptResult(resultFor(b, *g1, 1.0)));
@@ -95,9 +98,9 @@ TEST(Coordinator, ResultsEnterTheSensorOnceAndInUnitOrder) {
   EXPECT_EQ(done.state, JobState::kDone);
   EXPECT_EQ(done.samplesPerPixelDone, 3u);
   EXPECT_EQ(done.stats.paths, 3u * 12u);
-  // In unit order: ((1e16 + 1) - 1e16) with compensation = 1, over 3 samples.
+  // In unit order: (1e16 + 1) + 3 with compensation, over 3 samples.
   Sensor reference(4, 3);
-  for (double v : {1e16, 1.0, -1e16}) {
+  for (double v : {1e16, 1.0, 3.0}) {
     SensorBuffer b2(4, 3);
     std::fill(b2.sums.begin(), b2.sums.end(), v);
     std::fill(b2.samples.begin(), b2.samples.end(), 1u);
@@ -106,7 +109,7 @@ TEST(Coordinator, ResultsEnterTheSensorOnceAndInUnitOrder) {
   const Image expected = reference.developImage();
   const JobImage image = c.image(job.id);
   EXPECT_EQ(image.image.rgb, expected.rgb);
-  EXPECT_FLOAT_EQ(image.image.rgb[0], float(1.0 / 3.0));
+  EXPECT_FLOAT_EQ(image.image.rgb[0], float((1e16 + 4.0) / 3.0));
   EXPECT_EQ(image.metadata.samplesPerPixel, 3u);
   EXPECT_EQ(image.metadata.totalSamples, 3u * 12u);
 }
@@ -185,16 +188,67 @@ TEST(Coordinator, CancelStopsHandingOutUnitsAndKeepsTheImage) {
   EXPECT_EQ(c.cancel(job.id).state, JobState::kCancelled) << "cancelling twice is harmless";
 }
 
-TEST(Coordinator, AWorkerFailureFailsTheJobWithItsReason) {
+// A failure report ends the lease and queues the unit again for another worker; the job fails,
+// with every reason, only once the unit has failed on maxUnitFailures (3) different workers.
+TEST(Coordinator, AFailedUnitIsRetriedElsewhereAndTheJobFailsWithEveryReason) {
+  Coordinator c;
+  const JobInfo job = c.submit(specFor(test::minimalSceneJson(), 1, 1), 0);
+  std::vector<std::string> workers;
+  for (const char* name : {"a", "b", "c"}) workers.push_back(c.registerWorker(workerInfo(name)));
+  for (size_t k = 0; k < workers.size(); ++k) {
+    const auto g = c.lease(workers[k], 0);
+    ASSERT_TRUE(g) << "the unit is offered again after " << k << " failure(s)";
+    EXPECT_EQ(g->unit.index, 0u);
+    c.reportFailure(workers[k], g->leaseId, job.id, "no GPU driver " + std::to_string(k));
+    EXPECT_EQ(c.job(job.id).state, k + 1 < workers.size() ? JobState::kRunning : JobState::kFailed);
+  }
+  const JobInfo failed = c.job(job.id);
+  EXPECT_NE(failed.error.find("unit 0 failed on 3 workers"), std::string::npos) << failed.error;
+  for (int k = 0; k < 3; ++k) EXPECT_NE(failed.error.find("no GPU driver " + std::to_string(k)), std::string::npos);
+}
+
+// A worker that failed a job maxFailuresPerWorker (3) times is not leased it again; when that
+// leaves no live worker for the job, it fails at once (a farm of one: `lensfarm render`).
+TEST(Coordinator, AWorkerThatKeepsFailingAJobIsBlocklistedForIt) {
   Coordinator c;
   const JobInfo job = c.submit(specFor(test::minimalSceneJson(), 2, 1), 0);
   const std::string a = c.registerWorker(workerInfo("a"));
-  const auto g = c.lease(a, 0);
-  c.reportFailure(a, g->leaseId, job.id, "scene did not load");
+  for (int k = 0; k < 3; ++k) {
+    const auto g = c.lease(a, 0);
+    ASSERT_TRUE(g);
+    c.reportFailure(a, g->leaseId, job.id, "scene did not load");
+  }
   const JobInfo failed = c.job(job.id);
   EXPECT_EQ(failed.state, JobState::kFailed);
+  EXPECT_NE(failed.error.find("no worker left that has not failed it"), std::string::npos) << failed.error;
   EXPECT_NE(failed.error.find("scene did not load"), std::string::npos);
   EXPECT_FALSE(c.lease(a, 0));
+}
+
+// A report for a lease the worker does not hold, or for another job than the lease's, changes
+// nothing (the outside check failed a queued job this way).
+TEST(Coordinator, AFailureReportForAnotherWorkersLeaseOrJobChangesNothing) {
+  Coordinator c;
+  const JobInfo running = c.submit(specFor(test::minimalSceneJson(), 2, 1), 0);
+  const JobInfo queued = c.submit(specFor(test::minimalSceneJson(), 2, 1), 0);
+  const std::string a = c.registerWorker(workerInfo("a")), b = c.registerWorker(workerInfo("b"));
+  const auto g = c.lease(a, 0);
+  ASSERT_TRUE(g);
+  const auto refused = [&](const std::function<void()>& call, const std::string& part) {
+    try {
+      call();
+      ADD_FAILURE() << "accepted";
+    } catch (const FarmError& e) {
+      EXPECT_EQ(e.kind(), FarmError::Kind::kFailedPrecondition);
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+    }
+  };
+  refused([&] { c.reportFailure(b, g->leaseId, running.id, "forged"); }, "is not held by " + b);
+  refused([&] { c.reportFailure(a, g->leaseId, queued.id, "wrong job"); }, "is for " + running.id);
+  refused([&] { c.reportFailure(a, g->leaseId + 1, running.id, "no such lease"); }, "is not held by");
+  EXPECT_EQ(c.job(running.id).state, JobState::kRunning);
+  EXPECT_EQ(c.job(queued.id).state, JobState::kQueued);
+  EXPECT_TRUE(c.acceptResult(test::resultFor(a, *g, 1.0))) << "the lease is still a's";
 }
 
 TEST(Coordinator, RefusesWorkersOfAnotherVersionNamingBoth) {

@@ -157,6 +157,7 @@ TEST(Dashboard, SnapshotsArePngsAtTheAskedExposureAndSize) {
   r.unitIndex = 0;
   r.buffer = SensorBuffer(64, 48);
   for (size_t k = 0; k < r.buffer.sums.size(); ++k) r.buffer.sums[k] = double(k % 97) / 50.0;  // a gradient
+  r.stats.paths = 64 * 48 * uint64_t(g->unit.sampleCount);
   ASSERT_TRUE(c.acceptResult(std::move(r)));
 
   const Dashboard::Png automatic = d.snapshot(id, std::nullopt, 32);

@@ -34,7 +34,7 @@ SensorBuffer noisyUnit(uint64_t k) {
   std::mt19937_64 rng(1000 + k);
   std::normal_distribution<double> noise(0.0, 0.5);
   SensorBuffer b(kW, kH);
-  for (double& v : b.sums) v = 1.0 + noise(rng);
+  for (double& v : b.sums) v = std::max(0.0, 1.0 + noise(rng));  // radiance is never negative
   std::fill(b.samples.begin(), b.samples.end(), 1u);
   return b;
 }

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <regex>
 
+#include "farm/farm_fixture.h"
 #include "film/image_io.h"
 #include "test_support.h"
 #include "util/hash.h"
@@ -18,83 +19,7 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-class Farm : public ::testing::Test {
- protected:
-  // The seed scene, small, with its OBJ beside it in a temp dir (the client uploads it).
-  fs::path writeScene(int size, uint64_t spp, uint32_t perUnit) {
-    json scene = json::parse(std::ifstream(test::scenesDir() / "cornell-seed.json"));
-    scene["render"]["resolution"] = {size, size};
-    scene["render"]["samples_per_pixel"] = spp;
-    scene["render"]["samples_per_unit"] = perUnit;
-    dir_.write("meshes/cornell-box.obj", test::readFile(test::scenesDir() / "meshes/cornell-box.obj"));
-    return dir_.write("scene.json", scene.dump(2));
-  }
-
-  std::string startCoordinator(const std::string& listen = "127.0.0.1:0", std::vector<std::string> extra = {}) {
-    const fs::path portFile = dir_ / ("port-" + std::to_string(++started_));
-    std::vector<std::string> argv = {test::coordinatorPath(), "--listen", listen, "--port-file", portFile.string(),
-                                     "--heartbeat-interval", "0.2"};
-    if (std::find(extra.begin(), extra.end(), "--lease-timeout") == extra.end()) extra.insert(extra.end(), {"--lease-timeout", "5"});
-    argv.insert(argv.end(), extra.begin(), extra.end());
-    coordinator_ = std::make_unique<test::ChildProcess>(argv, dir_ / ("coordinator-" + std::to_string(started_)));
-    EXPECT_TRUE(test::waitFor([&] { return fs::exists(portFile) || !coordinator_->running(); }, 30))
-        << coordinator_->log();
-    std::string address = test::readFile(portFile);
-    address.erase(address.find_last_not_of("\n") + 1);
-    if (address.empty()) throw std::runtime_error("the coordinator did not start: " + coordinator_->log());
-    return address;
-  }
-
-  test::ChildProcess& startWorker(const std::string& address, const std::string& name) {
-    workers_.push_back(std::make_unique<test::ChildProcess>(
-        std::vector<std::string>{test::workerPath(), "--coordinator", address, "--threads", "1", "--name", name,
-                                 "--cache-dir", (dir_ / ("cache-" + name)).string(), "--max-backoff", "0.3"},
-        dir_ / ("worker-" + name)));
-    return *workers_.back();
-  }
-
-  test::ProcessResult cli(std::vector<std::string> args) {
-    args.insert(args.begin(), test::cliPath().string());
-    return test::runProcess(args, 120);
-  }
-
-  std::string submit(const std::string& address, const fs::path& scene, std::vector<std::string> extra = {}) {
-    std::vector<std::string> args = {"submit", scene.string(), "--coordinator", address};
-    args.insert(args.end(), extra.begin(), extra.end());
-    const auto r = cli(args);
-    EXPECT_EQ(r.exitCode, 0) << r.err;
-    std::string id = r.out;
-    id.erase(id.find_last_not_of("\n") + 1);
-    EXPECT_TRUE(std::regex_match(id, std::regex("job-[0-9]+"))) << "stdout must be the job id alone: " << r.out;
-    return id;
-  }
-
-  Image download(const std::string& address, const std::string& job, ImageMetadata* metadata) {
-    const fs::path out = dir_ / (job + ".exr");
-    const auto r = cli({"download", job, "-o", out.string(), "--coordinator", address});
-    EXPECT_EQ(r.exitCode, 0) << r.err;
-    return readExr(out, metadata);
-  }
-
-  Image renderInProcess(const fs::path& scene, ImageMetadata* metadata) {
-    const fs::path out = dir_ / "in-process.exr";
-    const auto r = cli({"render", scene.string(), "-o", out.string(), "--threads", "2", "-q"});
-    EXPECT_EQ(r.exitCode, 0) << r.err;
-    return readExr(out, metadata);
-  }
-
-  uint64_t unitsDone(const std::string& address, const std::string& job) {
-    const auto r = cli({"status", job, "--coordinator", address});
-    std::smatch m;
-    if (!std::regex_search(r.out, m, std::regex(R"(\(([0-9]+) / [0-9]+ units\))"))) return 0;
-    return std::stoull(m[1]);
-  }
-
-  test::TempDir dir_;
-  std::unique_ptr<test::ChildProcess> coordinator_;
-  std::vector<std::unique_ptr<test::ChildProcess>> workers_;
-  int started_ = 0;
-};
+class Farm : public test::FarmFixture {};
 
 TEST_F(Farm, TwoWorkersMatchTheInProcessRenderPixelForPixel) {
   const fs::path scene = writeScene(48, 16, 2);  // 8 units

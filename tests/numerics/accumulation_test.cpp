@@ -50,6 +50,7 @@ TEST(LongAccumulation, AJobOfAHundredThousandUnitsInTheCoordinator) {
     r.unitIndex = g->unit.index;
     r.buffer = SensorBuffer(1, 1);
     r.buffer.sums = {value, value, value};
+    r.stats.paths = g->unit.sampleCount;  // one pixel
     c.acceptResult(std::move(r));
   }
   ASSERT_EQ(c.job(job).state, JobState::kDone);
