@@ -92,6 +92,22 @@ int main(int argc, char** argv) {
       ->envname("LENSFARM_HEARTBEAT_INTERVAL")
       ->check(CLI::Range(0.01, 3600.0))
       ->capture_default_str();
+  app.add_option("--max-lease", options.maxLeaseSeconds,
+                 "Seconds a lease may be held however often it is extended: a worker that heartbeats without "
+                 "uploading loses its unit after this")
+      ->envname("LENSFARM_MAX_LEASE")
+      ->check(CLI::Range(1.0, 30.0 * 86400.0))
+      ->capture_default_str();
+  app.add_option("--max-failures-per-worker", options.maxFailuresPerWorker,
+                 "Failures of one job on one worker after which that worker is not leased the job again")
+      ->envname("LENSFARM_MAX_FAILURES_PER_WORKER")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  app.add_option("--max-unit-failures", options.maxUnitFailures,
+                 "Different workers a unit may fail on before its job fails with their reasons")
+      ->envname("LENSFARM_MAX_UNIT_FAILURES")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
   std::string metricsListen, metricsPortFile;
   app.add_option("--metrics-listen", metricsListen,
                  "HOST:PORT to serve Prometheus metrics on over HTTP (GET /metrics; port 0 picks a free port); "

@@ -172,6 +172,32 @@ TEST(Coordinator, HeartbeatsKeepLeasesAlive) {
   EXPECT_TRUE(c.acceptResult(resultFor(a, *g, 1.0)));
 }
 
+// A worker that heartbeats forever without uploading loses its unit at the longest lease.
+TEST(Coordinator, HeartbeatsDoNotKeepALeasePastTheLongestLease) {
+  Coordinator::Options options;
+  options.leaseTimeoutSeconds = 10.0;
+  options.maxLeaseSeconds = 0.3;
+  Coordinator c(options);
+  c.submit(specFor(test::minimalSceneJson(), 1, 1), 0);
+  const std::string a = c.registerWorker(workerInfo("a")), b = c.registerWorker(workerInfo("b"));
+  const auto g = c.lease(a, 0);
+  ASSERT_TRUE(g);
+  EXPECT_TRUE(c.heartbeat(a, {g->leaseId}).empty());
+  std::optional<LeaseGrant> taken;
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        c.heartbeat(a, {g->leaseId});  // (on and on)
+        taken = c.lease(b, 0.02);
+        return taken.has_value();
+      },
+      10))
+      << "the unit never left its squatter";
+  EXPECT_EQ(taken->unit.index, g->unit.index);
+  EXPECT_EQ(c.heartbeat(a, {g->leaseId}), std::vector<uint64_t>{g->leaseId}) << "a must drop it";
+  EXPECT_THROW(c.acceptResult(resultFor(a, *g, 1.0)), FarmError);
+  EXPECT_TRUE(c.acceptResult(resultFor(b, *taken, 1.0)));
+}
+
 TEST(Coordinator, CancelStopsHandingOutUnitsAndKeepsTheImage) {
   Coordinator c;
   const JobInfo job = c.submit(specFor(test::minimalSceneJson(), 4, 1), 0);
