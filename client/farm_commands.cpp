@@ -289,6 +289,8 @@ Runner addWorkersCommand(CLI::App& app) {
           state += std::string(" ") + since + " ago" + (w.state_reason().empty() ? "" : ": " + w.state_reason());
         else if (w.state() == "stale")
           state += std::string(", no heartbeat for ") + since;
+        if (w.failures() > 0) state += "; " + std::to_string(w.failures()) + " failed unit(s)";
+        for (const std::string& job : w.blocklisted_jobs()) state += "; blocklisted for " + job;
         std::printf("%-18s %-28s %7u %-10s %8llu %9.1fs  %s\n", w.worker_id().c_str(), w.name().c_str(), w.threads(),
                     w.current_job_id().empty() ? "-" : w.current_job_id().c_str(), (unsigned long long)w.units_done(),
                     w.seconds_since_heartbeat(), state.c_str());

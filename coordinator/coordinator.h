@@ -117,6 +117,8 @@ struct WorkerView {
   double secondsInState = 0.0;  // lost or left: since then; stale: since last heard from
   std::string stateReason;      // lost: why, and what was queued again
   bool attached = false;        // holds an Attach stream, so a broken connection is seen at once
+  uint64_t failures = 0;                  // units it reported failed (ReportFailure)
+  std::vector<std::string> blocklistedJobs;  // jobs it is no longer leased (docs/farm.md "Failures")
 };
 
 // One point of a job's error-vs-time curve: the published estimate when it changed.

@@ -84,6 +84,7 @@ struct Coordinator::Worker {
   Clock::time_point lastHeartbeat;
   std::string currentJobId;
   uint64_t unitsDone = 0;
+  uint64_t failures = 0;  // units it reported failed
   std::optional<uint64_t> currentUnit;
   double samplesPerSecond = 0.0;
   // Liveness (attachWorker, workerLost, workerLeft).

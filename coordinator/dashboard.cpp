@@ -89,6 +89,8 @@ std::string Dashboard::workersJson() const {
                         {"renderer_version", w.info.rendererVersion},
                         {"state", workerStateName(w.state)},
                         {"seconds_in_state", w.secondsInState},
+                        {"failures", w.failures},
+                        {"blocklisted_jobs", w.blocklistedJobs},
                         {"state_reason", w.stateReason},
                         {"attached", w.attached}});
   }

@@ -205,6 +205,7 @@ void Coordinator::reportFailure(const std::string& workerId, uint64_t leaseId, c
   if (worker.currentUnit == unit) worker.currentUnit.reset();
   worker.currentJobId.clear();
   if (isTerminal(job.state)) return;
+  ++worker.failures;
   const std::string reason = worker.label() + ": " + error;
   spdlog::warn("job {}: unit {} failed on {}", job.id, unit, reason);
   if (job.failureReasons.size() < 16) job.failureReasons.push_back(reason);

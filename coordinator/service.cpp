@@ -233,6 +233,8 @@ grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext* context, const 
       p->set_seconds_in_state(w.secondsInState);
       p->set_state_reason(w.stateReason);
       p->set_attached(w.attached);
+      p->set_failures(w.failures);
+      for (const std::string& job : w.blocklistedJobs) p->add_blocklisted_jobs(job);
     }
   });
 }

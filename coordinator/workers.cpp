@@ -252,6 +252,9 @@ std::vector<WorkerView> Coordinator::workers() const {
     v.samplesPerSecond = w->samplesPerSecond;
     v.state = stateOf(*w, holders.count(id) > 0, now, &v.secondsInState);
     v.attached = w->attachment != 0;
+    v.failures = w->failures;
+    for (const auto& [jobId, job] : jobs_)
+      if (job->blocklist.count(id)) v.blocklistedJobs.push_back(jobId);
     if (w->gone)
       v.stateReason = w->goneReason;
     else if (v.state == WorkerState::kLost)

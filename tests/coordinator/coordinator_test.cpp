@@ -249,6 +249,10 @@ TEST(Coordinator, AWorkerThatKeepsFailingAJobIsBlocklistedForIt) {
   EXPECT_NE(failed.error.find("no worker left that has not failed it"), std::string::npos) << failed.error;
   EXPECT_NE(failed.error.find("scene did not load"), std::string::npos);
   EXPECT_FALSE(c.lease(a, 0));
+  const std::vector<WorkerView> views = c.workers();  // what `lensfarm workers` and the dashboard show
+  ASSERT_EQ(views.size(), 1u);
+  EXPECT_EQ(views[0].failures, 3u);
+  EXPECT_EQ(views[0].blocklistedJobs, std::vector<std::string>{job.id});
 }
 
 // A report for a lease the worker does not hold, or for another job than the lease's, changes
