@@ -78,7 +78,9 @@ std::string timeLeftText(const v1::JobStatus& s) {
 std::string convergenceText(const v1::JobProgress& p, double watchTarget) {
   const double estimate = p.estimated_relative_error();
   const double target = p.target_error() > 0.0 ? p.target_error() : watchTarget;
-  if (estimate < 0.0) return target > 0.0 ? fmt::format("err - (target {:.2f} %)", 100.0 * target) : "err -";
+  // Negative: unknown (fewer than two units, or an image black so far); never shown as a number.
+  if (estimate < 0.0)
+    return target > 0.0 ? fmt::format("err unknown (target {:.2f} %)", 100.0 * target) : "err unknown";
   std::string text = fmt::format("err {:.2f} %", 100.0 * estimate);
   if (target > 0.0) {
     const double eta = p.target_error() > 0.0 ? p.seconds_to_target()

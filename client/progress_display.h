@@ -28,8 +28,8 @@ class ProgressDisplay {
 
 std::string formatDuration(double seconds);
 // "err 2.31 % (target 1.00 % in ~0:42)": the live estimate (film/convergence.h) and the projected
-// time to the job's target, or to `watchTarget` if the job has none; "err - (target 1.00 %)"
-// before the estimate.
+// time to the job's target, or to `watchTarget` if the job has none; "err unknown (target 1.00 %)"
+// while there is no estimate (fewer than two units, or an image black so far).
 std::string convergenceText(const v1::JobProgress& progress, double watchTarget = 0.0);
 const char* stateName(v1::JobState state);
 

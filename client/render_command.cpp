@@ -187,6 +187,8 @@ int runRender(const RenderFlags& flags) {
   std::printf("time:              %.2f s\n", info.elapsedSeconds);
   if (info.estimatedRelativeError >= 0.0)
     std::printf("estimated error:   %.3f %% relative RMSE (film/convergence.h)\n", 100.0 * info.estimatedRelativeError);
+  else if (info.unitsDone > 0)
+    std::printf("estimated error:   unknown\n");  // fewer than two units, or a black image
   if (!info.stopReason.empty()) std::printf("stopped:           %s\n", info.stopReason.c_str());
   for (const auto& e : info.effects) std::printf("effect:            %s\n", e.c_str());
   for (const auto& o : outputs) std::printf("wrote %s\n", o.c_str());

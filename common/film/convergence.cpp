@@ -47,10 +47,12 @@ ErrorEstimate ConvergenceTracker::estimate(const Sensor& total) const {
       }
     }
   const double count = 3.0 * double(width_) * double(height_);
-  e.valid = true;
   e.rmse = std::sqrt(variance / count);
   e.mean = mean / count;
-  e.relativeRmse = e.mean > 0.0 ? e.rmse / e.mean : 0.0;
+  // Without a positive mean there is no relative error: unknown (valid false), not 0.
+  if (!(e.mean > 0.0) || !std::isfinite(e.mean) || !std::isfinite(e.rmse)) return e;
+  e.valid = true;
+  e.relativeRmse = e.rmse / e.mean;
   return e;
 }
 

@@ -28,11 +28,15 @@
 
 namespace lensfarm {
 
+// valid is false while the relative error cannot be computed, and the error is then unknown, never
+// 0: before both halves hold samples, and while the image's mean radiance is not a positive finite
+// number (an image black so far, e.g. a small or hidden light no path has found yet, has no
+// relative error). No stopping rule may act on an estimate that is not valid.
 struct ErrorEstimate {
-  bool valid = false;         // false until both halves hold samples
-  double rmse = 0.0;          // estimated RMSE over pixels and channels, in radiance
-  double relativeRmse = 0.0;  // rmse / mean radiance
-  double mean = 0.0;          // mean radiance over pixels and channels
+  bool valid = false;
+  double rmse = 0.0;          // estimated RMSE over pixels and channels, in radiance (0 before both halves)
+  double relativeRmse = 0.0;  // rmse / mean radiance; meaningful only if valid
+  double mean = 0.0;          // mean radiance over pixels and channels (0 before both halves)
 };
 
 class ConvergenceTracker {

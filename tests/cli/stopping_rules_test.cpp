@@ -54,6 +54,25 @@ TEST(StoppingRules, ATargetErrorRenderLandsWithinAFactorOfOnePointFiveOfItsTarge
   }
 }
 
+// A camera that sees nothing lit: every unit is black, so the estimated error is unknown from the
+// first unit to the last, and the job runs to its sample cap instead of stopping at 0 %.
+TEST(StoppingRules, ATargetErrorRenderOfABlackImageNeverStopsOnAnUnknownEstimate) {
+  test::TempDir dir;
+  json scene = test::minimalSceneJson();
+  scene["camera"]["look_at"] = {0, 0, -6};  // away from the wall and the light
+  scene["render"]["samples_per_unit"] = 1;
+  const fs::path path = dir.write("black.json", scene.dump());
+  const auto r = test::runProcess({test::cliPath().string(), "render", path.string(), "--target-error", "0.05", "--spp",
+                                   "6", "--progress-every", "0.1", "-o", (dir / "black.exr").string()},
+                                  120);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.out.find("samples per pixel: 6\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("estimated error:   unknown\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("stopped:           sample cap reached before the target error"), std::string::npos) << r.out;
+  EXPECT_EQ(r.err.find("err 0.00 %"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("done 6/6 spp  err unknown (target 5.00 %)"), std::string::npos) << r.err;
+}
+
 TEST(StoppingRules, ADeadlineRenderKeepsWholeUnitsAndSaysWhyItStopped) {
   test::TempDir dir;
   const fs::path scene = smallClassicBox(dir, 64);

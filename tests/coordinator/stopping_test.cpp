@@ -92,6 +92,63 @@ TEST(Stopping, ATargetErrorJobKeepsTheFirstPrefixThatReachesItWhateverTheArrival
   EXPECT_FALSE(c.lease(a, 0)) << "a stopped job hands out nothing";
 }
 
+// A scene whose light the first paths miss: units 0-3 are black. Their estimate is unknown (0/0),
+// not 0, so the job goes on until the lit units bring the estimate to the target.
+TEST(Stopping, ATargetErrorJobWhoseFirstUnitsAreBlackDoesNotStopOnThem) {
+  constexpr uint64_t kBlack = 4;
+  const auto unitOf = [](uint64_t k) {
+    if (k >= kBlack) return noisyUnit(k);
+    SensorBuffer black(kW, kH);
+    std::fill(black.samples.begin(), black.samples.end(), 1u);
+    return black;
+  };
+  const double target = 0.12;
+  // The expected stop, worked out with the tracker alone.
+  uint64_t stop = 64;
+  {
+    Sensor sensor(kW, kH);
+    ConvergenceTracker tracker(kW, kH);
+    for (uint64_t k = 0; k < 64; ++k) {
+      sensor.add(unitOf(k));
+      tracker.add(k, unitOf(k));
+      const ErrorEstimate e = tracker.estimate(sensor);
+      if (k < kBlack) {
+        EXPECT_FALSE(e.valid) << "unit " << k << ": black so far";
+      }
+      if (e.valid && e.relativeRmse <= target) {
+        stop = k + 1;
+        break;
+      }
+    }
+  }
+  ASSERT_GT(stop, kBlack + 2);
+  ASSERT_LT(stop, 64u);
+
+  Coordinator c;
+  const JobInfo job = c.submit(noisySpec(64, target, 0), 0);
+  const std::string a = c.registerWorker(WorkerInfo{"a", 1, kProtocolVersion, kRendererVersion});
+  for (uint64_t k = 0; k < kBlack; ++k) {
+    const auto g = c.lease(a, 0);
+    ASSERT_TRUE(g);
+    UnitResult r = resultOf(a, *g);
+    r.buffer = unitOf(g->unit.index);
+    c.acceptResult(r);
+  }
+  const JobInfo dark = c.job(job.id);
+  EXPECT_EQ(dark.state, JobState::kRunning) << dark.stopReason;
+  EXPECT_EQ(dark.unitsDone, kBlack);
+  EXPECT_LT(dark.estimatedRelativeError, 0.0) << "unknown, not 0";
+  EXPECT_EQ(dark.secondsToTarget, 0.0);
+
+  while (auto g = c.lease(a, 0)) c.acceptResult(resultOf(a, *g));
+  const JobInfo done = c.job(job.id);
+  EXPECT_EQ(done.state, JobState::kDone);
+  EXPECT_EQ(done.stopReason, "target error reached");
+  EXPECT_EQ(done.unitsDone, stop);
+  EXPECT_GT(done.estimatedRelativeError, 0.0);
+  EXPECT_LE(done.estimatedRelativeError, target);
+}
+
 TEST(Stopping, ATargetErrorJobStopsAtItsSampleCapIfTheTargetIsOutOfReach) {
   Coordinator c;
   const JobInfo job = c.submit(noisySpec(6, 0.001, 0), 0);

@@ -109,6 +109,34 @@ TEST(Convergence, HalvesOfDifferentUnitSizesStillEstimateTheWholeImage) {
   EXPECT_NEAR(e.relativeRmse / expected, 1.0, 0.10);
 }
 
+// The first units of a scene whose light no path has found yet are black in both halves: their
+// difference is 0, but so is the mean, and a relative error of 0/0 is unknown, never 0 (a
+// target-error job would otherwise stop at its second unit, all black).
+TEST(Convergence, AnImageBlackInBothHalvesHasAnUnknownErrorNotZero) {
+  constexpr int kW = 8, kH = 4;
+  Sensor sensor(kW, kH);
+  ConvergenceTracker tracker(kW, kH);
+  SensorBuffer black(kW, kH);
+  std::fill(black.samples.begin(), black.samples.end(), 2u);
+  for (uint64_t unit = 0; unit < 4; ++unit) {
+    sensor.add(black);
+    tracker.add(unit, black);
+  }
+  const ErrorEstimate dark = tracker.estimate(sensor);
+  EXPECT_FALSE(dark.valid) << "both halves hold samples, but the image is black: no relative error";
+  EXPECT_EQ(dark.mean, 0.0);
+
+  // One path finds the light, in the odd half: the error is known, and large.
+  SensorBuffer lit = black;
+  lit.sums[5] = 40.0;
+  sensor.add(lit);
+  tracker.add(5, lit);
+  const ErrorEstimate found = tracker.estimate(sensor);
+  ASSERT_TRUE(found.valid);
+  EXPECT_GT(found.mean, 0.0);
+  EXPECT_GT(found.relativeRmse, 1.0) << "one hit in 96 values: the estimate is far from converged";
+}
+
 TEST(Convergence, SurvivesACheckpointBitForBit) {
   SyntheticJob job;
   for (int u = 0; u < 5; ++u) job.addUnit(3);
