@@ -3,6 +3,7 @@
 namespace lensfarm::cli {
 inline constexpr int kOk = 0;
 inline constexpr int kFailure = 1;       // an unexpected runtime failure
+inline constexpr int kImagesDiffer = 1;  // `compare`: the relative RMSE is above the tolerance
 inline constexpr int kBadInput = 2;      // a bad flag, scene file, asset or output path (or a request the coordinator refused as such)
 inline constexpr int kUnavailable = 3;   // the coordinator cannot be reached
 inline constexpr int kNotFound = 4;      // no such job
