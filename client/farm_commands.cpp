@@ -211,7 +211,8 @@ Runner addDownloadCommand(CLI::App& app) {
   auto f = std::make_shared<Flags>();
   addJobArgs(cmd, *f);
   cmd->add_option("-o,--output", f->outputs, "Output file(s): .exr or .png")->required();
-  cmd->add_option("--ev", f->ev, "Exposure compensation for PNG (default: the job's)")->check(CLI::Range(-64.0, 64.0));
+  cmd->add_option("--ev", f->ev, "Exposure compensation for PNG (default: the job's)")
+      ->check(numberIn(-kMaxExposureEv, kMaxExposureEv, "stops"));
   return [f] {
     std::vector<std::pair<fs::path, v1::ImageFormat>> targets;
     for (const auto& o : f->outputs) {
@@ -242,7 +243,8 @@ Runner addSnapshotCommand(CLI::App& app) {
   cmd->add_option("--max-size", f->maxSize, "Longer side of the preview, pixels")
       ->check(CLI::Range(1u, 1024u))
       ->capture_default_str();
-  cmd->add_option("--ev", f->ev, "Exposure compensation (default: the job's)")->check(CLI::Range(-64.0, 64.0));
+  cmd->add_option("--ev", f->ev, "Exposure compensation (default: the job's)")
+      ->check(numberIn(-kMaxExposureEv, kMaxExposureEv, "stops"));
   return [f] {
     const fs::path path = checkedOutput(f->output, {".png"});
     return guardedCall([&] {

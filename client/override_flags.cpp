@@ -122,7 +122,7 @@ void OverrideFlags::addTo(CLI::App* cmd) {
                   "Stop this long after submission (e.g. 90s, 10m, 2h), with a whole number of units")
       ->transform(durationIn(1e-3, 1e9));
   cmd->add_option("--ev", ev, "Exposure compensation in stops for PNG images (overrides the scene)")
-      ->check(numberIn(-64.0, 64.0, "stops"));
+      ->check(numberIn(-kMaxExposureEv, kMaxExposureEv, "stops"));
 }
 
 RenderOverrides OverrideFlags::toOverrides() const {

@@ -1,5 +1,7 @@
 #include "scene/render_overrides.h"
 
+#include <cmath>
+#include <cstdio>
 #include <regex>
 
 #include "scene/scene_loader.h"
@@ -19,6 +21,17 @@ void parseResolution(const std::string& text, RenderOverrides& o, const std::str
 }
 
 void applyOverrides(const RenderOverrides& o, RenderSettings& s, const std::string& where) {
+  // A resolution is overridden whole: one side alone would pair with the scene's other side and
+  // change the aspect ratio (a 64-wide override of a 512x512 scene would render 64x512).
+  if (o.width.has_value() != o.height.has_value())
+    throw InputError(where, o.width ? "overrides.width: given without overrides.height; give both or neither"
+                                    : "overrides.height: given without overrides.width; give both or neither");
+  if (o.ev && !(std::isfinite(*o.ev) && std::abs(*o.ev) <= kMaxExposureEv)) {
+    char text[160];
+    std::snprintf(text, sizeof text, "overrides.ev: must be a finite number of stops in [%g, %g], got %g", -kMaxExposureEv,
+                  kMaxExposureEv, *o.ev);
+    throw InputError(where, text);
+  }
   if (o.width) s.width = *o.width;
   if (o.height) s.height = *o.height;
   if (o.samplesPerPixel) s.samplesPerPixel = *o.samplesPerPixel;

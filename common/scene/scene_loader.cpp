@@ -153,7 +153,7 @@ class SceneParser {
     s.samplesPerUnit = uint32_t(r.integer("samples_per_unit", 0, 0, 1u << 20));
     if (r.has("exposure")) {
       FieldReader e(r.raw("exposure"), "render.exposure", fileName_);
-      s.exposure.ev = e.number("ev", 0.0, -64.0, 64.0);
+      s.exposure.ev = e.number("ev", 0.0, -kMaxExposureEv, kMaxExposureEv);
       const std::string tm = e.string("tone_map", "reinhard");
       if (tm == "reinhard")
         s.exposure.toneMap = ToneMap::kReinhard;

@@ -125,6 +125,8 @@ TEST(CliFlags, NumberLimitsAreOneReadableSentence) {
       {{"--threads", "0"}, "--threads: must be a whole number from 1 to 4096, got 0"},
       {{"--seed", "-1"}, "--seed: must be a whole number from 0 to 18446744073709551615, got -1"},
       {{"--ev", "100"}, "--ev: must be from -64 to 64 stops, got 100"},
+      {{"--ev", "nan"}, "--ev: expected a number from -64 to 64 stops, got \"nan\""},
+      {{"--ev", "inf"}, "--ev: expected a number from -64 to 64 stops, got \"inf\""},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.args[0] + " " + c.args[1]);
@@ -138,6 +140,23 @@ TEST(CliFlags, NumberLimitsAreOneReadableSentence) {
   const auto dof = lensfarm({"dof", scene.string(), "--f-numbers", "2,0"}, 30);
   EXPECT_EQ(dof.exitCode, kBadInput);
   EXPECT_EQ(dof.err, "lensfarm: error: --f-numbers: must be more than 0, got 0\n");
+}
+
+// `download` and `snapshot` take an EV of their own: the same finite range, checked before any
+// coordinator is asked (none runs here).
+TEST(CliFlags, ExposureOfADownloadOrSnapshotIsAFiniteNumberOfStops) {
+  test::TempDir dir;
+  for (const char* command : {"download", "snapshot"})
+    for (const char* ev : {"nan", "inf", "-100"}) {
+      SCOPED_TRACE(std::string(command) + " --ev " + ev);
+      const auto r = lensfarm({command, "job-1", "-o", (dir / "x.png").string(), "--ev", ev, "--coordinator",
+                               "127.0.0.1:1"},
+                              30);
+      EXPECT_EQ(r.exitCode, kBadInput);
+      EXPECT_TRUE(r.err.rfind("lensfarm: error: --ev: ", 0) == 0) << r.err;
+      EXPECT_TRUE(contains(r.err, "from -64 to 64 stops")) << r.err;
+      EXPECT_FALSE(fs::exists(dir / "x.png"));
+    }
 }
 
 // ---- default outputs ------------------------------------------------------------------------
