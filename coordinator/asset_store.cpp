@@ -26,6 +26,12 @@ std::string shown(const std::string& text) {
 }
 }  // namespace
 
+void AssetStore::checkSha256(const std::string& sha256, const std::string& field) {
+  if (!isSha256Hex(sha256))
+    throw FarmError(FarmError::Kind::kInvalidArgument,
+                    field + ": \"" + shown(sha256) + "\" is not a SHA-256 (64 lowercase hex digits)");
+}
+
 void AssetStore::restore(StateStore& store) {
   auto loaded = store.loadAssets();
   std::lock_guard lock(mutex_);
@@ -39,6 +45,7 @@ bool AssetStore::has(const std::string& sha256) const {
 }
 
 bool AssetStore::put(const std::string& sha256, std::string bytes) {
+  checkSha256(sha256, "sha256");
   bytesReceived_ += bytes.size();
   const std::string actual = sha256Hex(bytes);
   if (actual != sha256)
@@ -64,10 +71,7 @@ std::vector<std::string> AssetStore::missing(const std::vector<std::string>& sha
     throw FarmError(FarmError::Kind::kInvalidArgument, std::to_string(sha256s.size()) +
                                                            " hashes in one query; at most " +
                                                            std::to_string(kMaxQuery) + " (ask in batches)");
-  for (size_t i = 0; i < sha256s.size(); ++i)
-    if (!isSha256Hex(sha256s[i]))
-      throw FarmError(FarmError::Kind::kInvalidArgument, "sha256[" + std::to_string(i) + "]: \"" + shown(sha256s[i]) +
-                                                             "\" is not a SHA-256 (64 lowercase hex digits)");
+  for (size_t i = 0; i < sha256s.size(); ++i) checkSha256(sha256s[i], "sha256[" + std::to_string(i) + "]");
   std::vector<std::string> out;
   std::set<std::string> seen;
   std::lock_guard lock(mutex_);

@@ -27,6 +27,11 @@ class AssetStore {
   // within gRPC's 4 MiB message limit).
   static constexpr size_t kMaxQuery = 50000;
 
+  // A SHA-256 as every call takes it: 64 lowercase hex digits (uppercase is refused, never folded,
+  // so one asset has one name). Throws FarmError(kInvalidArgument) naming `field`:
+  // `sha256[3]: "..." is not a SHA-256 (64 lowercase hex digits)`.
+  static void checkSha256(const std::string& sha256, const std::string& field);
+
   // Loads the assets saved in `store`, which keeps every new one from now on.
   void restore(StateStore& store);
 
@@ -35,8 +40,8 @@ class AssetStore {
   // for more than kMaxQuery hashes, or naming the first that is not 64 lowercase hex digits by
   // its index ("sha256[3]").
   std::vector<std::string> missing(const std::vector<std::string>& sha256s) const;
-  // Stores bytes under their hash; throws FarmError(kInvalidArgument) if they do not match it.
-  // Returns false if the asset was already present.
+  // Stores bytes under their hash; throws FarmError(kInvalidArgument) if the hash is not one
+  // (checkSha256) or the bytes do not match it. Returns false if the asset was already present.
   bool put(const std::string& sha256, std::string bytes);
   // An upload of `sha256` has begun: true if the asset is stored already (counted like a put()
   // that found it present).

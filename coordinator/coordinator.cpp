@@ -101,6 +101,9 @@ std::shared_ptr<const std::string> Coordinator::asset(const std::string& sha256)
 
 JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
   {
+    // Hashes as every call takes them (AssetStore::checkSha256): a badly written one is an error
+    // of its own, not an asset that was never uploaded.
+    for (const auto& [path, sha] : spec.assets) AssetStore::checkSha256(sha, "assets[" + path + "].sha256");
     std::string missing;
     for (const auto& [path, sha] : spec.assets)
       if (!assets_.has(sha)) missing += (missing.empty() ? "" : ", ") + path + " (" + sha.substr(0, 12) + ")";

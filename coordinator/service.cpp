@@ -12,8 +12,6 @@ namespace lensfarm {
 
 namespace {
 
-constexpr uint64_t kMaxAssetBytes = uint64_t(2) << 30;  // 2 GiB
-
 // A FarmError's gRPC status.
 grpc::Status farmStatus(const FarmError& e) {
   switch (e.kind()) {
@@ -126,23 +124,20 @@ grpc::Status ClientServiceImpl::UploadAsset(grpc::ServerContext* context, grpc::
                                             v1::UploadAssetResponse* response) {
   return guarded(gate_, context, "UploadAsset", [&] {
     v1::UploadAssetRequest message;
-    std::string sha, bytes;
+    AssetUploadAssembler upload;  // refuses a malformed stream before anything is stored
     while (reader->Read(&message)) {
-      if (sha.empty()) {
-        sha = message.sha256();
-        // Already stored: answer now and read no more (the client's next writes fail; its call ends OK).
-        if (!sha.empty() && coordinator_.uploadFindsAssetPresent(sha)) {
-          response->set_sha256(sha);
-          response->set_already_present(true);
-          return;
-        }
+      const bool first = !upload.started();
+      upload.add(message);
+      // Already stored: answer now and read no more (the client's next writes fail; its call ends OK).
+      if (first && coordinator_.uploadFindsAssetPresent(upload.sha256())) {
+        response->set_sha256(upload.sha256());
+        response->set_already_present(true);
+        return;
       }
-      bytes += message.chunk().data();
-      if (bytes.size() > kMaxAssetBytes) throw FarmError(FarmError::Kind::kInvalidArgument, "asset larger than 2 GiB");
     }
-    if (sha.empty()) throw FarmError(FarmError::Kind::kInvalidArgument, "UploadAsset: the first message must name the sha256");
-    response->set_sha256(sha);
-    response->set_already_present(!coordinator_.putAsset(sha, std::move(bytes)));
+    std::string bytes = upload.finish();
+    response->set_sha256(upload.sha256());
+    response->set_already_present(!coordinator_.putAsset(upload.sha256(), std::move(bytes)));
   });
 }
 

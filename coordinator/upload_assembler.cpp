@@ -2,6 +2,7 @@
 
 #include <cstring>
 
+#include "asset_store.h"
 #include "convert.h"
 
 namespace lensfarm {
@@ -10,6 +11,9 @@ namespace {
 constexpr uint64_t kMaxCells = uint64_t(1) << 28;  // 16384 x 16384, the scene format's limit
 
 [[noreturn]] void refuse(const std::string& what) { throw FarmError(FarmError::Kind::kInvalidArgument, "UploadResult: " + what); }
+[[noreturn]] void refuseAsset(const std::string& what) {
+  throw FarmError(FarmError::Kind::kInvalidArgument, "UploadAsset: " + what);
+}
 }  // namespace
 
 void UploadAssembler::add(const v1::UploadResultRequest& piece) {
@@ -44,6 +48,41 @@ UnitResult UploadAssembler::finish() {
   if (filled_ != result_.buffer.sums.size())
     refuse("truncated: " + std::to_string(filled_) + " of " + std::to_string(result_.buffer.sums.size()) + " sums");
   return std::move(result_);
+}
+
+static_assert(AssetUploadAssembler::kMaxChunkBytes == proto::kChunkBytes, "clients send chunks of at most this");
+
+void AssetUploadAssembler::add(const v1::UploadAssetRequest& message) {
+  const std::string chunk = "chunk[" + std::to_string(chunks_) + "]";
+  const uint64_t size = message.chunk().data().size();
+  if (chunks_ == 0) {
+    if (message.sha256().empty()) refuseAsset("the first message must name the sha256");
+    AssetStore::checkSha256(message.sha256(), "UploadAsset: sha256");
+    declared_ = message.chunk().total_size();
+    if (declared_ > kMaxAssetBytes)
+      refuseAsset("total_size " + std::to_string(declared_) + " bytes: an asset is at most 2 GiB (" +
+             std::to_string(kMaxAssetBytes) + " bytes)");
+    sha256_ = message.sha256();
+  } else if (message.chunk().total_size() != 0 && message.chunk().total_size() != declared_) {
+    refuseAsset(chunk + " declares total_size " + std::to_string(message.chunk().total_size()) + ", the first " +
+           std::to_string(declared_));
+  }
+  if (size > kMaxChunkBytes)
+    refuseAsset(chunk + " is " + std::to_string(size) + " bytes; a chunk is at most 1 MiB (" +
+           std::to_string(kMaxChunkBytes) + " bytes)");
+  if (size > declared_ - bytes_.size())
+    refuseAsset(chunk + " goes past the declared total_size: " + std::to_string(bytes_.size() + size) + " bytes of " +
+           std::to_string(declared_));
+  bytes_ += message.chunk().data();
+  ++chunks_;
+}
+
+std::string AssetUploadAssembler::finish() {
+  if (chunks_ == 0) refuseAsset("the first message must name the sha256");
+  if (bytes_.size() != declared_)
+    refuseAsset("the stream ended after " + std::to_string(bytes_.size()) + " bytes of the declared total_size " +
+                std::to_string(declared_));
+  return std::move(bytes_);
 }
 
 }  // namespace lensfarm

@@ -1,12 +1,43 @@
 #pragma once
-// Reassembles a unit's result from the pieces of an UploadResult stream, checking everything a
-// worker (or an attacker) could get wrong: a missing or repeated header, a bad frame size,
-// pieces out of order, overlapping, too long or misaligned, a truncated stream. Nothing it
-// refuses ever reaches a job's sensor (Coordinator::acceptResult checks the rest).
+// Reassembles what a client stream uploads in pieces, checking everything the sender (or an
+// attacker) could get wrong, so that nothing malformed is ever stored:
+//  - UploadAssembler: a unit's result from an UploadResult stream: a missing or repeated header,
+//    a bad frame size, pieces out of order, overlapping, too long or misaligned, a truncated
+//    stream. Nothing it refuses ever reaches a job's sensor (Coordinator::acceptResult checks the
+//    rest).
+//  - AssetUploadAssembler: an asset's bytes from an UploadAsset stream: a hash that is not one, a
+//    chunk over 1 MiB, bytes past or short of the declared total_size. AssetStore::put then checks
+//    that the bytes hash to the name.
+#include <cstdint>
+#include <string>
+
 #include "farm/farm_types.h"
+#include "lensfarm/v1/client_service.pb.h"
 #include "lensfarm/v1/worker_service.pb.h"
 
 namespace lensfarm {
+
+class AssetUploadAssembler {
+ public:
+  static constexpr uint64_t kMaxAssetBytes = uint64_t(2) << 30;  // 2 GiB
+  static constexpr uint64_t kMaxChunkBytes = uint64_t(1) << 20;  // 1 MiB, as clients send (proto::kChunkBytes)
+
+  // The next message of the stream. The first names the asset (sha256, 64 lowercase hex digits)
+  // and its size (chunk.total_size); every one carries at most kMaxChunkBytes. Throws
+  // FarmError(kInvalidArgument) naming what is wrong, a chunk by its index from 0 ("chunk[3]").
+  void add(const v1::UploadAssetRequest& message);
+  bool started() const { return chunks_ > 0; }
+  const std::string& sha256() const { return sha256_; }  // once started
+  // The asset's bytes, exactly total_size of them; throws FarmError(kInvalidArgument) for an
+  // empty stream or one that ended short of its declared size.
+  std::string finish();
+
+ private:
+  std::string sha256_;
+  std::string bytes_;
+  uint64_t declared_ = 0;  // the first message's total_size
+  uint64_t chunks_ = 0;    // messages received
+};
 
 class UploadAssembler {
  public:

@@ -1,6 +1,9 @@
 // Reassembling uploads: every malformed stream is refused before it can touch a sensor.
 #include <gtest/gtest.h>
 
+#include <functional>
+#include <string>
+
 #include "upload_assembler.h"
 
 namespace lensfarm {
@@ -72,6 +75,74 @@ TEST(UploadAssembler, RefusesEveryMalformedStream) {
     auto h = header(2, 1);
     a.add(sums(h, 0, {1, 2, 3}));
   })) << "truncated";
+}
+
+// ---- assets ---------------------------------------------------------------------------------
+
+const std::string kSha(64, 'c');  // well formed; AssetStore::put checks the bytes against it
+
+v1::UploadAssetRequest assetChunk(const std::string& data, uint64_t totalSize = 0, const std::string& sha = "") {
+  v1::UploadAssetRequest m;
+  m.set_sha256(sha);
+  m.mutable_chunk()->set_total_size(totalSize);
+  m.mutable_chunk()->set_data(data);
+  return m;
+}
+
+TEST(AssetUploadAssembler, ReassemblesChunksOfAtMostOneMebibyteToTheDeclaredSize) {
+  const std::string mib(AssetUploadAssembler::kMaxChunkBytes, 'x');
+  AssetUploadAssembler a;
+  EXPECT_FALSE(a.started());
+  a.add(assetChunk(mib, 2 * mib.size() + 3, kSha));
+  EXPECT_TRUE(a.started());
+  EXPECT_EQ(a.sha256(), kSha);
+  a.add(assetChunk(mib));
+  a.add(assetChunk("abc", 2 * mib.size() + 3));  // a later chunk repeating the size agrees with it
+  EXPECT_EQ(a.finish(), mib + mib + "abc");
+
+  AssetUploadAssembler empty;  // an empty asset: one message declaring 0 bytes
+  empty.add(assetChunk("", 0, kSha));
+  EXPECT_EQ(empty.finish(), "");
+}
+
+TEST(AssetUploadAssembler, RefusesEveryMalformedStreamNamingTheFault) {
+  const std::string mib(AssetUploadAssembler::kMaxChunkBytes, 'x');
+  const auto refusal = [](const std::function<void(AssetUploadAssembler&)>& stream) -> std::string {
+    AssetUploadAssembler a;
+    try {
+      stream(a);
+      a.finish();
+    } catch (const FarmError& e) {
+      return e.kind() == FarmError::Kind::kInvalidArgument ? e.what() : "not INVALID_ARGUMENT";
+    }
+    return "accepted";
+  };
+  EXPECT_EQ(refusal([](AssetUploadAssembler&) {}), "UploadAsset: the first message must name the sha256");
+  EXPECT_EQ(refusal([](AssetUploadAssembler& a) { a.add(assetChunk("ab", 2)); }),
+            "UploadAsset: the first message must name the sha256");
+  EXPECT_EQ(refusal([](AssetUploadAssembler& a) { a.add(assetChunk("ab", 2, std::string(64, 'C'))); }),
+            "UploadAsset: sha256: \"" + std::string(64, 'C') + "\" is not a SHA-256 (64 lowercase hex digits)");
+  EXPECT_EQ(refusal([](AssetUploadAssembler& a) { a.add(assetChunk("ab", 2, "c0ffee")); }),
+            "UploadAsset: sha256: \"c0ffee\" is not a SHA-256 (64 lowercase hex digits)");
+  EXPECT_EQ(refusal([&](AssetUploadAssembler& a) {
+              a.add(assetChunk(mib, 4 * mib.size(), kSha));
+              a.add(assetChunk(mib + mib));
+            }),
+            "UploadAsset: chunk[1] is 2097152 bytes; a chunk is at most 1 MiB (1048576 bytes)");
+  EXPECT_EQ(refusal([&](AssetUploadAssembler& a) {
+              a.add(assetChunk(mib, mib.size() + 1, kSha));
+              a.add(assetChunk("ab"));
+            }),
+            "UploadAsset: chunk[1] goes past the declared total_size: 1048578 bytes of 1048577");
+  EXPECT_EQ(refusal([&](AssetUploadAssembler& a) { a.add(assetChunk(mib, mib.size() + 1, kSha)); }),
+            "UploadAsset: the stream ended after 1048576 bytes of the declared total_size 1048577");
+  EXPECT_EQ(refusal([&](AssetUploadAssembler& a) {
+              a.add(assetChunk("ab", 4, kSha));
+              a.add(assetChunk("cd", 5));
+            }),
+            "UploadAsset: chunk[1] declares total_size 5, the first 4");
+  EXPECT_EQ(refusal([](AssetUploadAssembler& a) { a.add(assetChunk("", (uint64_t(2) << 30) + 1, kSha)); }),
+            "UploadAsset: total_size 2147483649 bytes: an asset is at most 2 GiB (2147483648 bytes)");
 }
 
 }  // namespace

@@ -6,12 +6,15 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <fstream>
+#include <optional>
 
 #include "coordinator.h"
 #include "deploy_support.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
 #include "service.h"
+#include "test_support.h"
 #include "util/hash.h"
 
 namespace lensfarm {
@@ -71,15 +74,20 @@ struct Upload {
   size_t written = 0;
 };
 
-// Uploads `bytes` under `sha` in 1 MiB messages, the way `lensfarm submit` does.
-Upload upload(v1::ClientService::Stub& stub, const std::string& sha, const std::string& bytes) {
+// Uploads `bytes` under `sha` in messages of `chunk` bytes, the first declaring `declared` bytes
+// in all (the size of `bytes` unless given): with the defaults, the way `lensfarm submit` does.
+Upload upload(v1::ClientService::Stub& stub, const std::string& sha, const std::string& bytes, size_t chunk = kMiB,
+              std::optional<uint64_t> declared = std::nullopt) {
   grpc::ClientContext context;
   Upload u;
   auto writer = stub.UploadAsset(&context, &u.response);
-  for (size_t offset = 0; offset < bytes.size(); offset += kMiB) {
+  for (size_t offset = 0; offset < bytes.size(); offset += chunk) {
     v1::UploadAssetRequest message;
-    if (offset == 0) message.set_sha256(sha);
-    message.mutable_chunk()->set_data(bytes.substr(offset, kMiB));
+    if (offset == 0) {
+      message.set_sha256(sha);
+      message.mutable_chunk()->set_total_size(declared.value_or(bytes.size()));
+    }
+    message.mutable_chunk()->set_data(bytes.substr(offset, chunk));
     if (!writer->Write(message)) break;
     ++u.written;
   }
@@ -159,6 +167,65 @@ TEST(AssetUpload, AnAssetAlreadyStoredIsAnsweredAfterItsFirstMessage) {
   EXPECT_EQ(*coordinator.asset(sha256Hex(fresh)), fresh);
   const Upload corrupt = upload(*stub, std::string(64, 'b'), fresh);
   EXPECT_EQ(corrupt.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+}
+
+// Each malformed upload is refused with INVALID_ARGUMENT naming what is wrong, and leaves nothing
+// stored: the asset is still missing, no upload is counted as stored, a job naming it is refused.
+TEST(AssetUpload, AMalformedUploadIsInvalidArgumentNamingTheFaultAndStoresNothing) {
+  Coordinator coordinator;
+  ClientServiceImpl service(coordinator);
+  LoopbackServer server(service);
+  auto stub = server.stub();
+  std::string bytes(3 * kMiB + 5, '\0');
+  for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = char((i * 40503u) >> 7);
+  const std::string sha = sha256Hex(bytes);
+  std::string upper = sha;
+  for (char& c : upper) c = char(std::toupper(static_cast<unsigned char>(c)));
+
+  struct Case {
+    const char* what;
+    std::string sha;
+    size_t chunk;
+    std::optional<uint64_t> declared;
+    std::string message;
+  };
+  for (const Case& c : std::vector<Case>{
+           {"2 MiB chunks", sha, 2 * kMiB, std::nullopt,
+            "UploadAsset: chunk[0] is 2097152 bytes; a chunk is at most 1 MiB (1048576 bytes)"},
+           {"declared short", sha, kMiB, bytes.size() - 1,
+            "UploadAsset: chunk[3] goes past the declared total_size: 3145733 bytes of 3145732"},
+           {"declared long", sha, kMiB, bytes.size() + 1,
+            "UploadAsset: the stream ended after 3145733 bytes of the declared total_size 3145734"},
+           {"nothing declared", sha, kMiB, 0, "UploadAsset: chunk[0] goes past the declared total_size: 1048576 bytes of 0"},
+           {"uppercase hash", upper, kMiB, std::nullopt,
+            "UploadAsset: sha256: \"" + upper + "\" is not a SHA-256 (64 lowercase hex digits)"},
+       }) {
+    const Upload u = upload(*stub, c.sha, bytes, c.chunk, c.declared);
+    EXPECT_EQ(u.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << c.what << ": " << u.status.error_message();
+    EXPECT_EQ(u.status.error_message(), c.message) << c.what;
+    EXPECT_EQ(coordinator.missingAssets({sha}), std::vector<std::string>{sha}) << c.what << ": nothing stored";
+  }
+  EXPECT_EQ(coordinator.metricsSnapshot().assetUploadsStored, 0u);
+  EXPECT_EQ(coordinator.metricsSnapshot().assetBytesReceived, 0u) << "no refused upload reached the store";
+
+  // A job naming the asset by an uppercase hash: the same rule, not a missing asset.
+  JobSpec spec;
+  spec.sceneName = "scene.json";
+  spec.sceneJson = test::minimalSceneJson().dump();
+  spec.assets["mesh.obj"] = upper;
+  try {
+    coordinator.submit(spec, 0);
+    ADD_FAILURE() << "an uppercase hash must be refused";
+  } catch (const FarmError& e) {
+    EXPECT_EQ(e.kind(), FarmError::Kind::kInvalidArgument);
+    EXPECT_EQ(std::string(e.what()), "assets[mesh.obj].sha256: \"" + upper + "\" is not a SHA-256 (64 lowercase hex digits)");
+  }
+
+  // The same bytes, well formed: stored.
+  const Upload good = upload(*stub, sha, bytes);
+  ASSERT_TRUE(good.status.ok()) << good.status.error_message();
+  EXPECT_FALSE(good.response.already_present());
+  EXPECT_EQ(*coordinator.asset(sha), bytes);
 }
 
 TEST(AssetUpload, SubmitUploadsEveryAssetToACoordinatorWithoutFindMissingAssets) {
