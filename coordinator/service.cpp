@@ -2,15 +2,27 @@
 
 #include <spdlog/spdlog.h>
 
+#include <cmath>
 #include <cstring>
 
 #include "convert.h"
+#include "scene/scene_loader.h"
 #include "upload_assembler.h"
 #include "util/error.h"
 
 namespace lensfarm {
 
 namespace {
+
+// A request's exposure compensation: finite and within the scene format's range, else
+// INVALID_ARGUMENT naming the field (a NaN would otherwise give a black image).
+double checkedEv(double ev) {
+  if (!(std::abs(ev) <= kMaxExposureEv))
+    throw FarmError(FarmError::Kind::kInvalidArgument,
+                    "ev: must be a finite number of stops in [-" + std::to_string(int(kMaxExposureEv)) + ", " +
+                        std::to_string(int(kMaxExposureEv)) + "]");
+  return ev;
+}
 
 // A FarmError's gRPC status.
 grpc::Status farmStatus(const FarmError& e) {
@@ -180,7 +192,7 @@ grpc::Status ClientServiceImpl::Download(grpc::ServerContext* context, const v1:
     JobImage image = coordinator_.image(request->job_id());
     std::string bytes;
     if (request->format() == v1::IMAGE_FORMAT_PNG) {
-      if (request->has_ev()) image.exposure.ev = request->ev();
+      if (request->has_ev()) image.exposure.ev = checkedEv(request->ev());
       bytes = encodePng(image.image, image.exposure);
     } else if (request->format() == v1::IMAGE_FORMAT_EXR) {
       bytes = encodeExr(image.image, image.metadata);
@@ -198,7 +210,7 @@ grpc::Status ClientServiceImpl::GetSnapshot(grpc::ServerContext* context, const 
     const uint32_t maxSize = std::min(request->max_size() ? request->max_size() : kDefaultSize, kLargest);
     *response->mutable_status() = toProto(coordinator_.job(request->job_id()));
     JobImage image = coordinator_.image(request->job_id());
-    if (request->has_ev()) image.exposure.ev = request->ev();
+    if (request->has_ev()) image.exposure.ev = checkedEv(request->ev());
     // A box filter keeps the mean luminance, so the automatic exposure matches the download's.
     const Image preview = downscaleToFit(image.image, int(maxSize));
     response->set_png(encodePng(preview, image.exposure));

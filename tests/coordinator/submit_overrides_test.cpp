@@ -93,3 +93,30 @@ TEST(SubmitOverrides, CoordinatorSubmitRefusesOneSideOfTheResolution) {
 
 }  // namespace
 }  // namespace lensfarm
+
+namespace lensfarm {
+namespace {
+
+// A snapshot's `ev` is checked like a submission's: a NaN is INVALID_ARGUMENT naming it, not a
+// black image.
+TEST(SubmitOverrides, ASnapshotsEvIsAFiniteNumberOfStops) {
+  Coordinator coordinator;
+  ClientServiceImpl service(coordinator);
+  grpc::ServerContext submitContext;
+  const v1::SubmitJobRequest submitRequest = requestWith({});
+  v1::SubmitJobResponse submitted;
+  ASSERT_TRUE(service.SubmitJob(&submitContext, &submitRequest, &submitted).ok());
+  for (const double ev : {std::numeric_limits<double>::quiet_NaN(), 65.0}) {
+    grpc::ServerContext context;
+    v1::SnapshotRequest request;
+    request.set_job_id(submitted.job_id());
+    request.set_ev(ev);
+    v1::Snapshot snapshot;
+    const grpc::Status s = service.GetSnapshot(&context, &request, &snapshot);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << ev << ": " << s.error_message();
+    EXPECT_NE(s.error_message().find("ev: must be a finite number of stops"), std::string::npos) << s.error_message();
+  }
+}
+
+}  // namespace
+}  // namespace lensfarm
