@@ -12,13 +12,20 @@ namespace lensfarm {
 
 class Dashboard {
  public:
-  // `token`: the client token every /api request must carry ("Bearer <token>"); none: open.
-  Dashboard(Coordinator& coordinator, std::optional<std::string> token)
-      : coordinator_(coordinator), token_(std::move(token)) {}
+  // `clientToken`: the token every /api request must carry ("Bearer <token>"), for everything;
+  // none: open (a loopback-only coordinator). `viewerToken` (only with a client token): read-only.
+  Dashboard(Coordinator& coordinator, std::optional<std::string> clientToken,
+            std::optional<std::string> viewerToken = std::nullopt)
+      : coordinator_(coordinator), token_(std::move(clientToken)), viewerToken_(std::move(viewerToken)) {}
 
-  // Whether an Authorization header value admits the request (constant-time compare).
-  bool authorized(const std::string& authorizationHeader) const;
+  // What an Authorization header value admits: nothing, reading (the viewer token: the lists,
+  // details, images and downloads) or everything (the client token, or no token required).
+  // Both tokens are compared whole, in constant time.
+  enum class Access { kNone, kRead, kFull };
+  Access access(const std::string& authorizationHeader) const;
+  bool authorized(const std::string& authorizationHeader) const { return access(authorizationHeader) != Access::kNone; }
   bool tokenRequired() const { return token_.has_value(); }
+  bool viewerToken() const { return token_.has_value() && viewerToken_.has_value(); }
 
   // JSON texts. FarmError kNotFound for an unknown job.
   std::string jobsJson() const;                          // {"jobs": [job summary...]} in serving order
@@ -45,7 +52,7 @@ class Dashboard {
 
  private:
   Coordinator& coordinator_;
-  std::optional<std::string> token_;
+  std::optional<std::string> token_, viewerToken_;
 };
 
 }  // namespace lensfarm

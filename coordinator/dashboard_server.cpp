@@ -45,7 +45,8 @@ bool loopbackHost(const std::string& host) {
   return name == "localhost" || name.rfind("127.", 0) == 0 || name == "[::1]";
 }
 
-// Wraps an /api handler: the token first, then the project's exceptions as HTTP statuses.
+// Wraps an /api handler: the token first, then the project's exceptions as HTTP statuses. GET
+// routes need the viewer or the client token, POST routes (the actions) the client token.
 // Browsers guard the rest: a POST must be JSON (another site's page cannot send that without a
 // CORS preflight, which this server never grants), and a coordinator without a token answers
 // only requests addressed to this machine by name (no DNS rebinding onto a loopback dashboard).
@@ -55,16 +56,26 @@ httplib::Server::Handler api(Dashboard& dashboard, Body body) {
     const std::string host = request.get_header_value("Host");
     if (!dashboard.tokenRequired() && (host.empty() || !loopbackHost(host)))
       return fail(response, 403, "without a client token the dashboard answers only requests to localhost");
-    if (request.method == "POST" && request.get_header_value("Content-Type").rfind("application/json", 0) != 0)
+    const bool action = request.method == "POST";
+    if (action && request.get_header_value("Content-Type").rfind("application/json", 0) != 0)
       return fail(response, 415, "POST a JSON body (Content-Type: application/json)");
     const std::string header = request.get_header_value("Authorization");
-    if (!dashboard.authorized(header)) {
+    const Dashboard::Access access = dashboard.access(header);
+    const char* tokens = dashboard.viewerToken() ? "client or viewer token" : "client token";
+    if (access == Dashboard::Access::kNone) {
       const char* why = header.empty() ? "missing" : "wrong";
-      spdlog::warn("dashboard: refused {} {} from {}: {} client token", request.method, request.path,
-                   request.remote_addr, why);
+      spdlog::warn("dashboard: refused {} {} from {}: {} {}", request.method, request.path, request.remote_addr, why,
+                   tokens);
       response.set_header("WWW-Authenticate", "Bearer");
-      return fail(response, 401, std::string(why) + " client token");
+      return fail(response, 401, std::string(why) + " " + tokens);
     }
+    if (action && access != Dashboard::Access::kFull) {
+      spdlog::warn("dashboard: refused {} {} from {}: the viewer token is read-only", request.method, request.path,
+                   request.remote_addr);
+      return fail(response, 403, "the viewer token is read-only: this needs the client token");
+    }
+    // Tells the page whether to offer the actions.
+    response.set_header("X-Lensfarm-Access", access == Dashboard::Access::kFull ? "full" : "read");
     try {
       response.set_header("Cache-Control", "no-store");
       body(request, response);
@@ -81,7 +92,7 @@ httplib::Server::Handler api(Dashboard& dashboard, Body body) {
 
 }  // namespace
 
-DashboardServer::DashboardServer(const std::string& listen, Dashboard& dashboard)
+DashboardServer::DashboardServer(const std::string& listen, Dashboard& dashboard, const std::optional<HttpTls>& tls)
     : server_(listen, "--dashboard-listen", "the dashboard", 4, [&dashboard](httplib::Server& server) {
         // The page: public, compiled into the binary.
         for (const DashboardAsset& asset : dashboardAssets()) {
@@ -132,6 +143,6 @@ DashboardServer::DashboardServer(const std::string& listen, Dashboard& dashboard
                       if (priority < -1000000 || priority > 1000000) throw InputError("priority", "out of range");
                       response.set_content(dashboard.setPriority(request.matches[1], int(priority)), kJson);
                     }));
-      }) {}
+      }, tls) {}
 
 }  // namespace lensfarm

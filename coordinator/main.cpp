@@ -3,7 +3,8 @@
 //   lensfarm-coordinator --listen 0.0.0.0:7878
 //   lensfarm-coordinator --listen 127.0.0.1:0 --port-file /tmp/port   (port 0: pick a free one)
 //   lensfarm-coordinator --metrics-listen 0.0.0.0:9464                (Prometheus metrics over HTTP)
-//   lensfarm-coordinator --dashboard-listen 127.0.0.1:8080             (the web dashboard, docs/dashboard.md)
+//   lensfarm-coordinator --dashboard-listen 127.0.0.1:8080             (the web dashboard, docs/dashboard.md;
+//                                                                       HTTPS with --tls-cert)
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <spdlog/spdlog.h>
@@ -69,7 +70,7 @@ int main(int argc, char** argv) {
   CLI::App app{"lensfarm-coordinator: schedules render jobs over workers and accumulates their images"};
   app.set_version_flag("--version", kRendererVersion);
   std::string listen = "127.0.0.1:7878", portFile, logLevel = "info";
-  std::string clientTokenFile, workerTokenFile, tlsCert, tlsKey, tlsClientCa;
+  std::string clientTokenFile, workerTokenFile, viewerTokenFile, tlsCert, tlsKey, tlsClientCa;
   Coordinator::Options options;
   app.add_option("--listen", listen, "HOST:PORT to serve on (port 0 picks a free port)")
       ->envname("LENSFARM_LISTEN")
@@ -78,6 +79,11 @@ int main(int argc, char** argv) {
                  "File holding the token clients must present (or set LENSFARM_CLIENT_TOKEN)");
   app.add_option("--worker-token-file", workerTokenFile,
                  "File holding the token workers must present (or set LENSFARM_WORKER_TOKEN)");
+  app.add_option("--viewer-token-file", viewerTokenFile,
+                 "File holding a read-only token for the dashboard: it shows jobs, workers and images but cannot "
+                 "cancel or reprioritize, and opens no gRPC call (or set LENSFARM_VIEWER_TOKEN to the token itself); "
+                 "needs a client token")
+      ->envname("LENSFARM_VIEWER_TOKEN_FILE");
   app.add_option("--tls-cert", tlsCert, "PEM server certificate chain: serve TLS")->envname("LENSFARM_TLS_CERT");
   app.add_option("--tls-key", tlsKey, "PEM private key of --tls-cert")->envname("LENSFARM_TLS_KEY");
   app.add_option("--tls-client-ca", tlsClientCa, "PEM CA: require and verify client certificates")
@@ -117,8 +123,8 @@ int main(int argc, char** argv) {
       ->envname("LENSFARM_METRICS_PORT_FILE");
   std::string dashboardListen, dashboardPortFile;
   app.add_option("--dashboard-listen", dashboardListen,
-                 "HOST:PORT to serve the web dashboard on over HTTP (port 0 picks a free port; its /api needs the "
-                 "client token); empty: off")
+                 "HOST:PORT to serve the web dashboard on, over HTTPS with --tls-cert and --tls-key, else HTTP (port 0 "
+                 "picks a free port; its /api needs the client or viewer token); empty: off")
       ->envname("LENSFARM_DASHBOARD_LISTEN");
   app.add_option("--dashboard-port-file", dashboardPortFile,
                  "Write the dashboard address actually listened on to this file")
@@ -163,7 +169,7 @@ int main(int argc, char** argv) {
                coordinator.options().maxJobMemorySource);
 
   // Security: tokens per service, TLS if certificates are given, and no open door to the network.
-  std::optional<std::string> clientToken, workerToken;
+  std::optional<std::string> clientToken, workerToken, viewerToken;
   std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
   try {
     clientToken = readToken(clientTokenFile, "LENSFARM_CLIENT_TOKEN");
@@ -172,6 +178,17 @@ int main(int argc, char** argv) {
     if (workerToken) checkTokenStrength(*workerToken, workerTokenFile.empty() ? "LENSFARM_WORKER_TOKEN" : workerTokenFile);
     if (clientToken && workerToken && equalSecrets(*clientToken, *workerToken))
       throw InputError("--worker-token-file", "workers and clients need different tokens");
+    viewerToken = readToken(viewerTokenFile, "LENSFARM_VIEWER_TOKEN");
+    if (viewerToken) {
+      const char* viewerFlag = "--viewer-token-file";
+      checkTokenStrength(*viewerToken, viewerTokenFile.empty() ? "LENSFARM_VIEWER_TOKEN" : viewerTokenFile);
+      if (!clientToken)
+        throw InputError(viewerFlag,
+                         "a viewer token needs a client token (--client-token-file): without one the "
+                         "dashboard is open to anyone on this machine");
+      if (equalSecrets(*viewerToken, *clientToken) || (workerToken && equalSecrets(*viewerToken, *workerToken)))
+        throw InputError(viewerFlag, "viewers need a token of their own, different from the client and worker tokens");
+    }
     if (!tlsClientCa.empty() && tlsCert.empty())
       throw InputError("--tls-client-ca", "client certificates need TLS: give --tls-cert and --tls-key too");
     if (tlsCert.empty() != tlsKey.empty())
@@ -203,6 +220,10 @@ int main(int argc, char** argv) {
   }
   if (!loopback && tlsCert.empty())
     spdlog::warn("serving {} without TLS: tokens and images cross the network in the clear", listen);
+  if (const size_t colon = dashboardListen.rfind(':');
+      colon != std::string::npos && colon > 0 && !isLoopback(dashboardListen.substr(0, colon)) && tlsCert.empty())
+    spdlog::warn("serving the dashboard on {} without TLS: tokens and images cross the network in the clear",
+                 dashboardListen);
 
   ClientServiceImpl clientService(coordinator, TokenGate(clientToken, "client"));
   WorkerServiceImpl workerService(coordinator, TokenGate(workerToken, "worker"));
@@ -239,7 +260,7 @@ int main(int argc, char** argv) {
                tlsCert.empty() ? "plain gRPC" : (tlsClientCa.empty() ? "TLS" : "mutual TLS"),
                clientToken ? "required" : "none", workerToken ? "required" : "none");
   std::unique_ptr<MetricsServer> metrics;
-  Dashboard dashboard(coordinator, clientToken);
+  Dashboard dashboard(coordinator, clientToken, viewerToken);
   std::unique_ptr<DashboardServer> dashboardServer;
   try {
     if (!metricsListen.empty()) {
@@ -247,9 +268,13 @@ int main(int argc, char** argv) {
       spdlog::info("metrics on http://{}/metrics", metrics->address());
     }
     if (!dashboardListen.empty()) {
-      dashboardServer = std::make_unique<DashboardServer>(dashboardListen, dashboard);
-      spdlog::info("dashboard on http://{}/ (client token {})", dashboardServer->address(),
-                   clientToken ? "required" : "none");
+      // The same certificate (and client CA) as the gRPC services.
+      std::optional<HttpTls> dashboardTls;
+      if (!tlsCert.empty()) dashboardTls = HttpTls{tlsCert, tlsKey, tlsClientCa};
+      dashboardServer = std::make_unique<DashboardServer>(dashboardListen, dashboard, dashboardTls);
+      spdlog::info("dashboard on {}://{}/ ({}client token {}, viewer token {})", dashboardServer->scheme(),
+                   dashboardServer->address(), tlsClientCa.empty() ? "" : "client certificate and ",
+                   clientToken ? "required" : "none", viewerToken ? "accepted (read-only)" : "none");
     }
     if (!portFile.empty()) writeAddressFile(portFile, address, "--port-file");
     if (metrics && !metricsPortFile.empty()) writeAddressFile(metricsPortFile, metrics->address(), "--metrics-port-file");

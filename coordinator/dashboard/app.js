@@ -1,6 +1,6 @@
 // The lensfarm dashboard: plain ES module, no framework and no build step. It polls the
-// coordinator's /api (docs/dashboard.md) about once a second, with the client token from
-// session storage in an Authorization header; images and downloads are fetched the same way and
+// coordinator's /api (docs/dashboard.md) about once a second, with the token (client or viewer)
+// from session storage in an Authorization header; images and downloads are fetched the same way and
 // shown or saved through object URLs, so the token never appears in a URL.
 
 const $ = (selector) => document.querySelector(selector);
@@ -13,6 +13,7 @@ let shown = { jobId: null, version: -1, ev: null, url: null };  // the snapshot 
 let evChoice = null;  // null: the scene's exposure; a number: the slider's
 let lastJob = null;
 let pollTimer = null;
+let access = "full";  // "read" with the viewer token (X-Lensfarm-Access): no Cancel, no priority
 
 // ---- talking to the coordinator --------------------------------------------------------------
 
@@ -26,6 +27,8 @@ function authHeaders() {
 async function api(path, options = {}) {
   const response = await fetch(path, { ...options, headers: { ...authHeaders(), ...(options.headers || {}) } });
   if (response.status === 401) throw new Unauthorized((await response.json()).error || "unauthorized");
+  const granted = response.headers.get("X-Lensfarm-Access");
+  if (granted) access = granted;
   if (!response.ok) {
     let message = `${response.status} ${response.statusText}`;
     try { message = (await response.json()).error || message; } catch (_) { /* not JSON */ }
@@ -159,8 +162,9 @@ async function renderJob(jobId) {
     ...stat("Workers busy", job.workers_busy),
     ...(job.stalled_reason ? stat("Stalled", job.stalled_reason, "job-stalled") : []));
   $("#job-priority").textContent = job.priority;
-  $("#cancel").disabled = !running;
-  $("#priority-up").disabled = $("#priority-down").disabled = !running;
+  const mayAct = running && access !== "read";
+  $("#cancel").disabled = !mayAct;
+  $("#priority-up").disabled = $("#priority-down").disabled = !mayAct;
   $("#effects").replaceChildren(...job.effects.map((e) => {
     const m = /^([^:]+): (on|off)(?: \((.*)\))?$/.exec(e);
     if (!m) return el("li", {}, e);
@@ -294,6 +298,7 @@ async function poll() {
     else await renderOverview();
     show(route.view);
     $("#forget-token").hidden = !sessionStorage.getItem(TOKEN_KEY);
+    $("#read-only").hidden = access !== "read";
     $("#connection").textContent = `updated ${new Date().toLocaleTimeString()}`;
     $("#connection").className = "connection";
     if (route.view === "job") $("#job-message").textContent = "";
@@ -317,7 +322,7 @@ function onRoute() {
 $("#token-form").addEventListener("submit", (event) => {
   event.preventDefault();
   const token = $("#token").value.trim();
-  if (!token) { $("#login-error").textContent = "Paste the client token first."; return; }
+  if (!token) { $("#login-error").textContent = "Paste a token first."; return; }
   sessionStorage.setItem(TOKEN_KEY, token);
   $("#token").value = "";
   $("#login-error").textContent = "Checking…";

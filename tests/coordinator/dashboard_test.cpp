@@ -188,6 +188,22 @@ TEST(Dashboard, TokenIsCheckedWhenThereIsOne) {
   EXPECT_TRUE(gated.authorized("Bearer s3cret"));
 }
 
+TEST(Dashboard, TheViewerTokenReadsAndTheClientTokenDoesEverything) {
+  Coordinator c;
+  using Access = Dashboard::Access;
+  const Dashboard open(c, std::nullopt), client(c, std::string("client-s3cret")),
+      both(c, std::string("client-s3cret"), std::string("viewer-s3cret"));
+  EXPECT_EQ(open.access(""), Access::kFull) << "no token required: as today";
+  EXPECT_EQ(client.access("Bearer viewer-s3cret"), Access::kNone) << "no viewer token configured";
+  EXPECT_FALSE(client.viewerToken());
+  EXPECT_TRUE(both.viewerToken());
+  EXPECT_EQ(both.access("Bearer client-s3cret"), Access::kFull);
+  EXPECT_EQ(both.access("Bearer viewer-s3cret"), Access::kRead);
+  for (const char* refused : {"", "viewer-s3cret", "Bearer viewer-s3cre", "Bearer viewer-s3cretX", "Bearer ",
+                              "Basic dmlld2VyLXMzY3JldA==", "bearer viewer-s3cret"})
+    EXPECT_EQ(both.access(refused), Access::kNone) << refused;
+}
+
 TEST(Dashboard, ErrorHistoryStaysBoundedAndKeepsItsSpan) {
   Coordinator c;
   const std::string id = c.submit(specFor(1200, 1e-9), 0).id;

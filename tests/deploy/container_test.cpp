@@ -281,16 +281,21 @@ TEST(Container, ComposeRunsTheBinariesWithTheirFlagsOnThePortsItPublishes) {
   EXPECT_TRUE(test::runsWithItsFlags(c, test::coordinatorPath()));
   EXPECT_TRUE(test::runsWithItsFlags(w, test::workerPath()));
 
-  // The ports the coordinator listens on are the ones published, and the ones the image exposes.
+  // The ports the coordinator listens on (gRPC, metrics and the dashboard) are the ones
+  // published, and the ones the image exposes.
   std::set<int> published;
   for (const auto& p : coordinator["ports"]) published.insert(test::portOf(p.as<std::string>()));
-  const int grpcPort = test::portOf(test::optionOf(c, "--listen")), metricsPort = test::portOf(test::optionOf(c, "--metrics-listen"));
-  EXPECT_EQ(published, (std::set<int>{grpcPort, metricsPort}));
+  const int grpcPort = test::portOf(test::optionOf(c, "--listen")),
+            metricsPort = test::portOf(test::optionOf(c, "--metrics-listen")),
+            dashboardPort = test::portOf(test::optionOf(c, "--dashboard-listen"));
+  EXPECT_GT(dashboardPort, 0) << "the coordinator serves its dashboard (--dashboard-listen)";
+  EXPECT_EQ(published, (std::set<int>{grpcPort, metricsPort, dashboardPort}));
   std::string expose;
   const std::vector<Stage> stages = stagesOf(dockerfile());
   for (const std::string& i : stages.back().instructions)
     if (i.rfind("EXPOSE ", 0) == 0) expose = i;
-  EXPECT_EQ(expose, "EXPOSE " + std::to_string(grpcPort) + " " + std::to_string(metricsPort));
+  EXPECT_EQ(expose, "EXPOSE " + std::to_string(grpcPort) + " " + std::to_string(metricsPort) + " " +
+                        std::to_string(dashboardPort));
 
   // Workers dial the coordinator's service name on its port.
   EXPECT_EQ(test::optionOf(w, "--coordinator"), "coordinator:" + std::to_string(grpcPort));

@@ -102,8 +102,11 @@ TEST_F(Kubernetes, TheCoordinatorServesItsFlagsPortsWithProbesStateAndMetrics) {
 
   const int grpcPort = test::portOf(test::optionOf(args, "--listen"));
   const int metricsPort = test::portOf(test::optionOf(args, "--metrics-listen"));
+  const int dashboardPort = test::portOf(test::optionOf(args, "--dashboard-listen"));
+  EXPECT_GT(dashboardPort, 0) << "the coordinator serves its dashboard (--dashboard-listen)";
   EXPECT_EQ(containerPort(container, "grpc"), grpcPort);
   EXPECT_EQ(containerPort(container, "metrics"), metricsPort);
+  EXPECT_EQ(containerPort(container, "dashboard"), dashboardPort);
   for (const char* probe : {"readinessProbe", "livenessProbe"}) {
     ASSERT_TRUE(container[probe]["grpc"]) << probe << " uses gRPC health checking";
     EXPECT_EQ(container[probe]["grpc"]["port"].as<int>(), grpcPort) << probe;
@@ -142,9 +145,20 @@ TEST_F(Kubernetes, TheCoordinatorServesItsFlagsPortsWithProbesStateAndMetrics) {
   }
   EXPECT_EQ(servicePorts["grpc"], grpcPort);
   EXPECT_EQ(servicePorts["metrics"], metricsPort);
+  EXPECT_EQ(servicePorts["dashboard"], dashboardPort);
   const YAML::Node headless = object("Service/" + set["spec"]["serviceName"].as<std::string>());
   EXPECT_EQ(headless["spec"]["clusterIP"].as<std::string>(), "None");
   EXPECT_TRUE(labelsMatch(headless["spec"]["selector"], set["spec"]["template"]["metadata"]["labels"]));
+
+  // Every Service with the gRPC port has the dashboard port too, targeting the container's.
+  for (const auto& [name, doc] : objects_) {
+    if (doc["kind"].as<std::string>() != "Service") continue;
+    std::map<std::string, std::pair<int, std::string>> ports;  // name -> port, targetPort
+    for (const auto& p : doc["spec"]["ports"])
+      ports[p["name"].as<std::string>()] = {p["port"].as<int>(), p["targetPort"].as<std::string>()};
+    if (!ports.count("grpc")) continue;
+    EXPECT_EQ(ports["dashboard"], std::make_pair(dashboardPort, std::string("dashboard"))) << name;
+  }
 }
 
 // Kubernetes CPU quantities: "4" or "4000m".

@@ -143,6 +143,20 @@ TEST_F(Install, UnitsRunTheInstalledBinariesWithFlagsTheyAccept) {
   EXPECT_EQ(test::optionOf(test::words(only(worker, "ExecStart")), "--cache-dir").rfind("%C/" + only(worker, "CacheDirectory") + "/", 0), 0u);
   EXPECT_EQ(test::optionOf(test::words(only(worker, "ExecStart")), "--coordinator"), "%I:${LENSFARM_COORDINATOR_PORT}");
   EXPECT_EQ(only(worker, "RestartPreventExitStatus"), "2 3") << "a refused token or version is not retried";
+
+  // The example settings serve the dashboard beside the gRPC port, on a port of its own (the loop
+  // above checked that the coordinator reads each variable).
+  std::map<std::string, std::string> assigned;  // the settings not commented out
+  std::ifstream in(prefix_ / "etc/lensfarm/coordinator.env");
+  for (std::string line; std::getline(in, line);)
+    if (const size_t eq = line.find('='); !line.empty() && line[0] != '#' && eq != std::string::npos)
+      assigned[line.substr(0, eq)] = line.substr(eq + 1);
+  ASSERT_TRUE(assigned.count("LENSFARM_LISTEN"));
+  ASSERT_TRUE(assigned.count("LENSFARM_DASHBOARD_LISTEN")) << "the gRPC port is served, so is the dashboard's";
+  const int dashboardPort = test::portOf(assigned["LENSFARM_DASHBOARD_LISTEN"]);
+  EXPECT_GT(dashboardPort, 0);
+  EXPECT_NE(dashboardPort, test::portOf(assigned["LENSFARM_LISTEN"]));
+  EXPECT_NE(dashboardPort, test::portOf(assigned["LENSFARM_METRICS_LISTEN"]));
 }
 
 TEST_F(Install, SystemdAnalyzeVerifiesTheUnits) {

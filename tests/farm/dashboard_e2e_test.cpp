@@ -1,7 +1,8 @@
 // The web dashboard of a real coordinator process (docs/dashboard.md): its HTTP API with and
-// without the client token, and the page itself in a real browser (Debian's chromium, headless,
-// driven through chromedriver's W3C WebDriver API) while a real worker renders a job: the image
-// changes as samples arrive, Cancel cancels, and screenshots land in the build folder.
+// without the client token, the read-only viewer token, HTTPS with the coordinator's certificate
+// (made by openssl at test time), and the page itself in a real browser (Debian's chromium,
+// headless, driven through chromedriver's W3C WebDriver API) while a real worker renders a job:
+// the image changes as samples arrive, Cancel cancels, and screenshots land in the build folder.
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
@@ -13,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include <fstream>
+#include <optional>
 
 #include "deploy_support.h"
 
@@ -25,15 +27,33 @@ using json = nlohmann::json;
 const char* kChromium = "/usr/bin/chromium";
 const char* kChromedriver = "/usr/bin/chromedriver";
 
-// GET or POST on the dashboard with an optional token; the whole response (status 0 if none).
+// How to reach a dashboard served over HTTPS: the CA to verify its certificate (and host) by, and
+// for mutual TLS a client certificate and key.
+struct Https {
+  std::string ca, cert, key;
+};
+
+// GET or POST on the dashboard with an optional token, over HTTPS when `https` is given; the whole
+// response (status 0 if none, e.g. a failed TLS handshake).
 struct Reply {
   int status = 0;
   std::string body, contentType;
   httplib::Headers headers;
+  httplib::Error error = httplib::Error::Success;
 };
 Reply request(const std::string& address, const std::string& method, const std::string& path,
-              const std::string& token = "", const std::string& body = "") {
-  httplib::Client client(address.substr(0, address.rfind(':')), test::portOf(address));
+              const std::string& token = "", const std::string& body = "",
+              const std::optional<Https>& https = std::nullopt) {
+  std::unique_ptr<httplib::Client> owned;
+  if (!https) {
+    owned = std::make_unique<httplib::Client>(address.substr(0, address.rfind(':')), test::portOf(address));
+  } else {
+    owned = https->cert.empty() ? std::make_unique<httplib::Client>("https://" + address)
+                                : std::make_unique<httplib::Client>("https://" + address, https->cert, https->key);
+    owned->set_ca_cert_path(https->ca);
+    owned->enable_server_certificate_verification(true);
+  }
+  httplib::Client& client = *owned;
   client.set_connection_timeout(5);
   client.set_read_timeout(30);
   httplib::Headers headers;
@@ -41,6 +61,7 @@ Reply request(const std::string& address, const std::string& method, const std::
   const auto response = method == "POST" ? client.Post(path.c_str(), headers, body, "application/json")
                                          : client.Get(path.c_str(), headers);
   Reply r;
+  r.error = response.error();
   if (!response) return r;
   r.status = response->status;
   r.body = response->body;
@@ -85,7 +106,10 @@ std::string decodeBase64(const std::string& text) {
 // A browser session through chromedriver's W3C WebDriver HTTP/JSON API.
 class Browser {
  public:
-  Browser(const test::TempDir& dir) : port_(freePort()), client_("127.0.0.1", port_) {
+  // `acceptInsecureCerts`: take a certificate the browser's own store does not trust (the test's
+  // throwaway CA), as a user who accepted it once would.
+  explicit Browser(const test::TempDir& dir, bool acceptInsecureCerts = false)
+      : port_(freePort()), client_("127.0.0.1", port_) {
     driver_ = std::make_unique<test::ChildProcess>(
         std::vector<std::string>{kChromedriver, "--port=" + std::to_string(port_)}, dir / "chromedriver");
     client_.set_connection_timeout(5);
@@ -95,7 +119,8 @@ class Browser {
     const json capabilities = {
         {"capabilities",
          {{"alwaysMatch",
-           {{"goog:chromeOptions",
+           {{"acceptInsecureCerts", acceptInsecureCerts},
+            {"goog:chromeOptions",
              {{"binary", kChromium},
               {"args", {"--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
                         "--disable-dev-shm-usage", "--window-size=1360,1100"}}}}}}}}};
@@ -424,6 +449,206 @@ TEST_F(DashboardFarm, ARealBrowserShowsProgressWithoutASampleCapAndALostWorker) 
       << browser.text("#job-progress-text");
   EXPECT_GT(barWidth("#job-progress-bar"), 0.0);
   EXPECT_EQ(browser.text("#job-spp").find("/"), std::string::npos) << "no total: " << browser.text("#job-spp");
+}
+
+// ---- the viewer token and HTTPS ----------------------------------------------------------------
+
+// A coordinator with all three tokens (client, worker, viewer) and its dashboard; with `tls`, the
+// gRPC services and the dashboard use a throwaway certificate for 127.0.0.1 (ca.pem signed it).
+class DashboardAccess : public ::testing::Test {
+ protected:
+  void start(bool tls, const std::vector<std::string>& extra = {}) {
+    if (tls) test::makeCertificates(dir_, "IP:127.0.0.1,DNS:localhost");
+    std::vector<std::string> args = {"--listen", "127.0.0.1:0", "--dashboard-listen", "127.0.0.1:0"};
+    for (const std::string who : {"client", "worker", "viewer"}) {
+      const std::string& token = who == "client" ? client_ : who == "worker" ? worker_ : viewer_;
+      args.insert(args.end(), {"--" + who + "-token-file", dir_.write(who + ".token", token + "\n").string()});
+    }
+    if (tls) args.insert(args.end(), {"--tls-cert", p("server.pem"), "--tls-key", p("server.key")});
+    args.insert(args.end(), extra.begin(), extra.end());
+    address_ = farm_.startCoordinator(args);
+    dashboard_ = farm_.dashboardAddress();
+    ASSERT_FALSE(dashboard_.empty());
+  }
+  std::string p(const std::string& name) const { return (dir_ / name).string(); }
+  // The `lensfarm` CLI against the coordinator with a token file (and the CA when it serves TLS).
+  test::ProcessResult cli(std::vector<std::string> args, const std::string& tokenFile, bool tls = false) {
+    args.insert(args.end(), {"--coordinator", address_, "--token-file", p(tokenFile)});
+    if (tls) args.insert(args.end(), {"--tls-ca", p("ca.pem")});
+    return farm_.cli(args);
+  }
+
+  test::TempDir dir_;
+  test::FarmProcesses farm_{dir_};
+  const std::string client_ = "client-token-of-the-access-test", worker_ = "worker-token-of-the-access-test",
+                    viewer_ = "viewer-token-of-the-access-test";
+  std::string address_, dashboard_;
+};
+
+// The viewer token reads everything the dashboard shows and changes nothing; on the gRPC services
+// it is no token at all (not even for reading). Wrong or missing tokens get 401 and nothing else.
+TEST_F(DashboardAccess, TheViewerTokenReadsTheDashboardButCannotActNorCallGrpc) {
+  ASSERT_NO_FATAL_FAILURE(start(false));
+  const std::string job = farm_.submit({test::writeSeedScene(dir_, 32, 1 << 20, 8).string(), "--coordinator", address_,
+                                        "--token-file", p("client.token")});
+  const std::string jobPath = "/api/jobs/" + job;
+
+  for (const std::string& path : std::vector<std::string>{"/api/jobs", "/api/workers", jobPath,
+                                                          jobPath + "/snapshot.png", jobPath + "/image.exr"}) {
+    SCOPED_TRACE(path);
+    const Reply missing = request(dashboard_, "GET", path), wrong = request(dashboard_, "GET", path, worker_);
+    EXPECT_EQ(missing.status, 401);
+    EXPECT_EQ(wrong.status, 401) << "the worker token opens nothing on the dashboard";
+    EXPECT_EQ(json::parse(missing.body, nullptr, false), json({{"error", "missing client or viewer token"}}));
+    EXPECT_EQ(json::parse(wrong.body, nullptr, false), json({{"error", "wrong client or viewer token"}}));
+    const Reply asViewer = request(dashboard_, "GET", path, viewer_),
+                asClient = request(dashboard_, "GET", path, client_);
+    EXPECT_EQ(asViewer.status, 200) << asViewer.body;
+    EXPECT_EQ(asClient.status, 200) << asClient.body;
+    EXPECT_EQ(asViewer.contentType, asClient.contentType);
+    EXPECT_EQ(httplib::detail::get_header_value(asViewer.headers, "X-Lensfarm-Access", 0, ""), std::string("read"));
+    EXPECT_EQ(httplib::detail::get_header_value(asClient.headers, "X-Lensfarm-Access", 0, ""), std::string("full"));
+  }
+  EXPECT_EQ(json::parse(request(dashboard_, "GET", "/api/jobs", viewer_).body)["jobs"][0]["id"], job);
+
+  // Actions: 403 for the viewer, and the job is untouched.
+  const Reply cancel = request(dashboard_, "POST", jobPath + "/cancel", viewer_);
+  EXPECT_EQ(cancel.status, 403);
+  EXPECT_NE(cancel.body.find("viewer token is read-only"), std::string::npos) << cancel.body;
+  EXPECT_EQ(request(dashboard_, "POST", jobPath + "/priority", viewer_, R"({"priority": 7})").status, 403);
+  EXPECT_EQ(request(dashboard_, "POST", jobPath + "/cancel", "").status, 401);
+  const json after = json::parse(request(dashboard_, "GET", jobPath, client_).body);
+  EXPECT_EQ(after["state"], "queued");
+  EXPECT_EQ(after["priority"], 0);
+
+  // gRPC: the viewer token is refused by both services, reading calls included.
+  for (const auto& call : std::vector<std::vector<std::string>>{{"status"}, {"status", job}, {"cancel", job}}) {
+    const auto r = cli(call, "viewer.token");
+    EXPECT_EQ(r.exitCode, 6) << call[0] << ": " << r.err;
+    EXPECT_NE(r.err.find("wrong client token"), std::string::npos) << r.err;
+  }
+  const auto submitted = cli({"submit", test::writeSeedScene(dir_, 16, 8, 8).string()}, "viewer.token");
+  EXPECT_EQ(submitted.exitCode, 6) << submitted.err;
+  test::ChildProcess& impostor =
+      farm_.startWorker("viewer-as-worker", {"--coordinator", address_, "--token-file", p("viewer.token")});
+  EXPECT_EQ(impostor.wait(30), 3) << impostor.log();
+  EXPECT_NE(impostor.log().find("wrong worker token"), std::string::npos) << impostor.log();
+  EXPECT_NE(cli({"status", job}, "client.token").out.find("queued"), std::string::npos) << "nothing changed the job";
+
+  // The client token still does everything.
+  EXPECT_EQ(request(dashboard_, "POST", jobPath + "/cancel", client_).status, 200);
+  const std::string log = farm_.coordinator().log();
+  EXPECT_NE(log.find("viewer token accepted (read-only)"), std::string::npos) << log;
+  EXPECT_NE(log.find("dashboard: refused POST " + jobPath + "/cancel from"), std::string::npos) << log;
+  for (const std::string& secret : {client_, worker_, viewer_})
+    EXPECT_EQ(log.find(secret), std::string::npos) << "never logged";
+}
+
+// With --tls-cert the dashboard is HTTPS with the gRPC services' certificate: a client that trusts
+// the farm's CA (and checks the host) reads it with a token, plain HTTP gets no answer, and the
+// tokens work as without TLS.
+TEST_F(DashboardAccess, ServedOverHttpsWithTheCoordinatorsCertificate) {
+  ASSERT_NO_FATAL_FAILURE(start(true));
+  const Https https{p("ca.pem"), "", ""};
+  const Reply jobs = request(dashboard_, "GET", "/api/jobs", client_, "", https);
+  EXPECT_EQ(jobs.status, 200) << httplib::to_string(jobs.error);
+  EXPECT_EQ(json::parse(jobs.body, nullptr, false), json({{"jobs", json::array()}}));
+  EXPECT_EQ(request(dashboard_, "GET", "/api/jobs", viewer_, "", https).status, 200);
+  EXPECT_EQ(request(dashboard_, "GET", "/api/jobs", "", "", https).status, 401);
+  EXPECT_EQ(request(dashboard_, "POST", "/api/jobs/job-1/cancel", viewer_, "", https).status, 403);
+  EXPECT_EQ(request(dashboard_, "GET", "/", "", "", https).contentType.rfind("text/html", 0), 0u);
+
+  // Plain HTTP on the HTTPS port: the handshake fails, no HTTP answer at all.
+  const Reply plain = request(dashboard_, "GET", "/api/jobs", client_);
+  EXPECT_EQ(plain.status, 0) << plain.body;
+  // A client that does not trust the farm's CA refuses the certificate (the client certificate is
+  // signed by nothing it trusts as a CA).
+  const Reply untrusted = request(dashboard_, "GET", "/api/jobs", client_, "", Https{p("client.pem"), "", ""});
+  EXPECT_EQ(untrusted.status, 0);
+  EXPECT_EQ(untrusted.error, httplib::Error::SSLServerVerification) << httplib::to_string(untrusted.error);
+
+  // The gRPC services keep their TLS (the same certificate) and the CLI still works with it.
+  EXPECT_EQ(cli({"status"}, "client.token", true).exitCode, 0);
+  EXPECT_NE(farm_.coordinator().log().find("dashboard on https://" + dashboard_ + "/"), std::string::npos)
+      << farm_.coordinator().log();
+}
+
+// With --tls-client-ca the dashboard, like the gRPC services, takes only connections with a client
+// certificate signed by that CA, and still asks for a token.
+TEST_F(DashboardAccess, MutualTlsNeedsAClientCertificateAndAToken) {
+  ASSERT_NO_FATAL_FAILURE(start(true, {"--tls-client-ca", (dir_ / "ca.pem").string()}));
+  const Reply anonymous = request(dashboard_, "GET", "/api/jobs", client_, "", Https{p("ca.pem"), "", ""});
+  EXPECT_EQ(anonymous.status, 0) << "no client certificate, no connection";
+  const Https withCertificate{p("ca.pem"), p("client.pem"), p("client.key")};
+  EXPECT_EQ(request(dashboard_, "GET", "/api/jobs", viewer_, "", withCertificate).status, 200);
+  EXPECT_EQ(request(dashboard_, "GET", "/api/jobs", "", "", withCertificate).status, 401);
+}
+
+TEST(DashboardFlags, AViewerTokenNeedsAClientTokenAndOneOfItsOwn) {
+  EXPECT_TRUE(test::helpOf(test::coordinatorPath()).flags.count("--viewer-token-file"));
+  EXPECT_NE(test::helpOf(test::coordinatorPath()).text.find("LENSFARM_VIEWER_TOKEN"), std::string::npos);
+  test::TempDir dir;
+  const std::string client = dir.write("client.token", "Y2xpZW50LXNpZGUtcmFuZG9tLXRva2VuLTQ1Ng==\n").string();
+  const std::string worker = dir.write("worker.token", "d29ya2VyLXNpZGUtcmFuZG9tLXRva2VuLTc4OQ==\n").string();
+  const std::string viewer = dir.write("viewer.token", "dmlld2VyLXNpZGUtcmFuZG9tLXRva2VuLTAxMg==\n").string();
+  const std::string weak = dir.write("weak.token", "REPLACE-ME-viewer-token\n").string();
+  const auto run = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), {test::coordinatorPath().string(), "--listen", "127.0.0.1:0"});
+    return test::runProcess(args, 30);
+  };
+  for (const auto& [args, message] : std::vector<std::pair<std::vector<std::string>, std::string>>{
+           {{"--viewer-token-file", viewer}, "--viewer-token-file: a viewer token needs a client token"},
+           {{"--client-token-file", client, "--viewer-token-file", client},
+            "--viewer-token-file: viewers need a token of their own"},
+           {{"--client-token-file", client, "--worker-token-file", worker, "--viewer-token-file", worker},
+            "--viewer-token-file: viewers need a token of their own"},
+           {{"--client-token-file", client, "--viewer-token-file", weak}, weak + ": the token is a placeholder"}}) {
+    const auto r = run(args);
+    EXPECT_EQ(r.exitCode, 2) << message;
+    EXPECT_NE(r.err.find(message), std::string::npos) << r.err;
+  }
+  // LENSFARM_VIEWER_TOKEN works like the file (checked the same way).
+  const auto fromEnvironment =
+      test::runProcess({"/usr/bin/env", "LENSFARM_VIEWER_TOKEN=REPLACE-ME-viewer-token",
+                        test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--client-token-file", client},
+                       30);
+  EXPECT_EQ(fromEnvironment.exitCode, 2);
+  EXPECT_NE(fromEnvironment.err.find("LENSFARM_VIEWER_TOKEN"), std::string::npos) << fromEnvironment.err;
+}
+
+// A person with the viewer token opens the HTTPS dashboard in a real browser: the page loads over
+// TLS, takes the token in its form, shows the job, says "read-only" and offers no Cancel or
+// priority buttons; the client token in the same tab brings them back.
+TEST_F(DashboardAccess, ARealBrowserOpensTheHttpsDashboardWithTheViewerToken) {
+  ASSERT_TRUE(fs::exists(kChromium) && fs::exists(kChromedriver))
+      << "needs Debian's chromium and chromium-driver (scripts/setup.sh installs them)";
+  ASSERT_NO_FATAL_FAILURE(start(true));
+  const std::string job =
+      cli({"submit", test::writeSeedScene(dir_, 32, 1 << 20, 8).string()}, "client.token", true).out;
+  const std::string id = job.substr(0, job.find('\n'));
+  ASSERT_FALSE(id.empty());
+  Browser browser(dir_, true);
+  browser.go("https://" + dashboard_ + "/#/job/" + id);
+  ASSERT_TRUE(test::waitFor([&] { return browser.visible("#token"); }, 30)) << "no token form";
+  browser.type("#token", viewer_);
+  browser.click("#token-submit");
+  ASSERT_TRUE(test::waitFor([&] { return browser.text("#job-id") == id && browser.visible("#job-stats"); }, 30))
+      << browser.text("#login-error");
+  EXPECT_EQ(browser.run("return location.protocol;"), "https:");
+  EXPECT_EQ(browser.text("#job-state"), "queued");
+  EXPECT_TRUE(browser.visible("#read-only"));
+  EXPECT_TRUE(browser.run("return document.querySelector('#cancel').disabled;") == true) << "a viewer cannot cancel";
+  EXPECT_TRUE(browser.run("return document.querySelector('#priority-up').disabled;") == true);
+  browser.screenshot(fs::path(LENSFARM_BINARY_DIR) / "dashboard-viewer.png");
+
+  // The client token in the same tab: the actions are offered again.
+  browser.click("#forget-token");
+  ASSERT_TRUE(test::waitFor([&] { return browser.visible("#token"); }, 30));
+  browser.type("#token", client_);
+  browser.click("#token-submit");
+  ASSERT_TRUE(
+      test::waitFor([&] { return browser.run("return document.querySelector('#cancel').disabled;") == false; }, 30));
+  EXPECT_FALSE(browser.visible("#read-only"));
 }
 
 }  // namespace
