@@ -55,8 +55,10 @@ function fmtDuration(s) {
   if (s < 3600) return `${Math.floor(s / 60)} min ${String(Math.round(s % 60)).padStart(2, "0")} s`;
   return `${Math.floor(s / 3600)} h ${String(Math.round((s % 3600) / 60)).padStart(2, "0")} min`;
 }
-function fmtError(e) {
-  if (e === null || e === undefined || e < 0) return "–";
+// An estimate: "–" before any unit is summed; "unknown" once units are summed but the estimate
+// cannot be computed (an image black so far: film/convergence.h); else a percentage.
+function fmtError(e, unitsDone = 0) {
+  if (e === null || e === undefined || e < 0) return unitsDone > 0 ? "unknown" : "–";
   return e >= 0.1 ? `${(100 * e).toFixed(1)} %` : `${(100 * e).toFixed(2)} %`;
 }
 const fmtEv = (ev) => `${ev >= 0 ? "+" : "−"}${Math.abs(ev).toFixed(2)} EV`;
@@ -113,7 +115,7 @@ async function renderOverview() {
       el("td", { class: "progress-cell", title: `toward ${progressBasis(j)}` }, progressBar(j.progress),
         el("span", { class: "muted" }, `${sppText(j)} spp`)),
       el("td", { class: "num" }, isTerminal(j.state) ? "–" : fmtCount(j.samples_per_second)),
-      el("td", { class: "num" }, fmtError(j.estimated_error)),
+      el("td", { class: "num" }, fmtError(j.estimated_error, j.units_done)),
       el("td", { class: "num time-left" }, timeLeft(j))));
   $("#jobs tbody").replaceChildren(...jobRows);
   $("#jobs-empty").hidden = jobs.length > 0;
@@ -156,7 +158,7 @@ async function renderJob(jobId) {
     ...stat("Units", job.units_total === null ? `${job.units_done}` : `${job.units_done} / ${job.units_total}`),
     ...stat("Progress", `${(100 * job.progress).toFixed(0)} % toward ${progressBasis(job)}`, "job-progress-text"),
     ...stat("Samples/s", running ? fmtCount(job.samples_per_second) : "–"),
-    ...stat("Estimated error", fmtError(job.estimated_error) + target, "job-error"),
+    ...stat("Estimated error", fmtError(job.estimated_error, job.units_done) + target, "job-error"),
     ...stat("Elapsed", fmtDuration(job.elapsed_seconds)),
     ...stat(running ? "Time left" : "Stopped", running ? timeLeft(job) : (job.stop_reason || job.error || job.state), "job-time-left"),
     ...stat("Workers busy", job.workers_busy),
