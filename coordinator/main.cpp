@@ -225,7 +225,10 @@ int main(int argc, char** argv) {
     spdlog::warn("serving the dashboard on {} without TLS: tokens and images cross the network in the clear",
                  dashboardListen);
 
-  ClientServiceImpl clientService(coordinator, TokenGate(clientToken, "client"));
+  // The viewer token reads through gRPC too: status, watch, download, snapshots, workers.
+  ClientServiceImpl clientService(
+      coordinator, TokenGate(clientToken, "client", viewerToken, "viewer",
+                             {"GetJob", "ListJobs", "WatchJob", "Download", "GetSnapshot", "ListWorkers"}));
   WorkerServiceImpl workerService(coordinator, TokenGate(workerToken, "worker"));
   // gRPC health checking (grpc.health.v1.Health): SERVING while the services are up, for load
   // balancers and Kubernetes gRPC probes; it needs no token.
