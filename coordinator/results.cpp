@@ -107,6 +107,21 @@ void Coordinator::admitUpload(const std::string& workerId, uint64_t leaseId, con
 
 bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
   counters_.unitBytes += result.buffer.sums.size() * sizeof(double);
+  // What the unit can produce, checked outside the coordinator's lock (it reads every cell of a
+  // frame: leases and heartbeats must not wait for it). A job's settings never change.
+  {
+    RenderSettings settings;
+    uint32_t sampleCount = 0;
+    {
+      std::lock_guard lock(mutex_);
+      const Job& found = findJob(result.jobId);
+      settings = found.settings;
+      if (result.unitIndex < found.units.total())
+        sampleCount = unitAt(result.unitIndex, settings.samplesPerPixel, found.unitSize).sampleCount;
+    }
+    if (sampleCount > 0 && result.buffer.width == settings.width && result.buffer.height == settings.height)
+      checkPlausible(result, settings, sampleCount);
+  }
   Job* job;
   std::string workerName;
   {
@@ -124,9 +139,6 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
     const int w = job->settings.width, h = job->settings.height;
     if (result.buffer.width != w || result.buffer.height != h || result.buffer.sums.size() != size_t(w) * size_t(h) * 3)
       throw FarmError(FarmError::Kind::kInvalidArgument, "result for " + job->id + " has the wrong size");
-    // Checked under the lock (it reads every cell): a worker's uploads come one at a time.
-    checkPlausible(result, job->settings,
-                   unitAt(result.unitIndex, job->settings.samplesPerPixel, job->unitSize).sampleCount);
     Worker& worker = findWorker(result.workerId);
     workerName = worker.info.name.empty() ? worker.id : worker.info.name;
     leases_.erase(result.leaseId);
