@@ -17,6 +17,7 @@
 #include <string_view>
 #include <vector>
 
+#include "render/memory_estimate.h"
 #include "util/error.h"
 
 namespace lensfarm {
@@ -70,6 +71,17 @@ void checkSize(int64_t width, int64_t height, Format f, const std::string& name)
     throw InputError(name, std::string(formatName(f)) + " of " + std::to_string(width) + " x " +
                                std::to_string(height) + " pixels: each side must be 1 to " +
                                std::to_string(kMaxTextureSide));
+  // What it becomes in memory (float RGBA, and its mip levels, a third more: texture/texture.h)
+  // must fit in one job's memory, or decoding it could take the machine down before any
+  // estimate refuses the job (render/memory_estimate.h).
+  const uint64_t decoded = uint64_t(width) * uint64_t(height) * 4 * sizeof(float) * 4 / 3;
+  const uint64_t budget = defaultJobMemoryBudget();
+  if (decoded > budget)
+    throw InputError(name, std::string(formatName(f)) + " of " + std::to_string(width) + " x " +
+                               std::to_string(height) + " pixels decodes to " + formatBytes(decoded) +
+                               " with its mip levels, more than the " + formatBytes(budget) + " allowed per job (" +
+                               defaultJobMemoryBudgetSource() +
+                               "); lower its resolution, or set LENSFARM_MAX_JOB_MEMORY if this machine can hold it");
 }
 
 // Float texels (HDR, EXR) must be finite and non-negative: a texture multiplies radiance.

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+
 #include <cmath>
 #include <string>
 #include <vector>
@@ -219,6 +221,27 @@ TEST(ImageDecode, SizesBeyondTheLimitAreRefusedBeforeDecoding) {
   exr[box + 9] = '\x86';
   exr[box + 10] = '\x01';
   EXPECT_EQ(errorOf(exr, "env.exr"), "env.exr: EXR of 100000 x 2 pixels: each side must be 1 to 32768");
+}
+
+// A texture within the side limit that would not fit in one job's memory once decoded (float
+// RGBA with its mip levels) is refused from its header, naming the budget: decoding it could
+// take the machine down before any estimate refused the job.
+TEST(ImageDecode, ATextureBeyondTheJobMemoryBudgetIsRefusedBeforeDecoding) {
+  const char* set = std::getenv("LENSFARM_MAX_JOB_MEMORY");
+  const std::string saved = set ? set : "";
+  ::setenv("LENSFARM_MAX_JOB_MEMORY", "1G", 1);
+  const std::string png = png8(2, 2, 3, std::vector<uint8_t>(12, 1));
+  // 8192 x 8192 x 16 bytes x 4/3 = 1.43 GB > 1 GiB; 4096 x 4096 (358 MB) is decoded as usual
+  // (and stb then finds the data truncated).
+  EXPECT_EQ(errorOf(test::withPngSize(png, 8192, 8192)),
+            "tex.png: PNG of 8192 x 8192 pixels decodes to 1.43 GB with its mip levels, more than the 1.07 GB "
+            "allowed per job (LENSFARM_MAX_JOB_MEMORY); lower its resolution, or set LENSFARM_MAX_JOB_MEMORY if "
+            "this machine can hold it");
+  EXPECT_EQ(errorOf(test::withPngSize(png, 4096, 4096)).find("allowed per job"), std::string::npos);
+  if (set)
+    ::setenv("LENSFARM_MAX_JOB_MEMORY", saved.c_str(), 1);
+  else
+    ::unsetenv("LENSFARM_MAX_JOB_MEMORY");
 }
 
 }  // namespace
