@@ -13,6 +13,7 @@
 #include <limits>
 #include <set>
 
+#include "light/environment_light.h"
 #include "render/unit_renderer.h"
 #include "util/error.h"
 
@@ -101,6 +102,8 @@ uint64_t sceneDataBytes(const Scene& scene) {
     for (const TriangleMesh& mesh : *meshes)
       bytes += mesh.normals.size() * sizeof(Vec3) + (mesh.uv[0].size() + mesh.uv[1].size()) * sizeof(Vec2) +
                mesh.tangents.size() * sizeof(glm::vec4);
+  for (const auto& light : scene.lights)
+    if (const auto* environment = dynamic_cast<const EnvironmentLight*>(light.get())) bytes += environment->map().bytes();
   return bytes + scene.instances.size() * kSceneBytesPerInstance;
 }
 

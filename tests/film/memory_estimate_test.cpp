@@ -11,6 +11,7 @@
 #include "film/convergence.h"
 #include "film/image.h"
 #include "film/sensor.h"
+#include "light/environment_light.h"
 #include "render/memory_estimate.h"
 #include "test_support.h"
 
@@ -232,6 +233,14 @@ TEST(MemoryEstimate, TexturesAndVertexAttributesCountInTheScene) {
   s.width = s.height = 8;
   EXPECT_EQ(workerJobMemory(s, 1, expected).total(), workerJobMemory(s, 1).total() + expected);
   EXPECT_NE(workerJobMemory(s, 1, expected).describe().find("textures, vertex attributes and instances"), std::string::npos);
+
+  // An environment map: 12 bytes of radiance and 8 of sampling distribution a pixel.
+  Image sky;
+  sky.width = 64, sky.height = 32;
+  sky.rgb.assign(size_t(64) * 32 * 3, 0.25f);
+  scene.lights.push_back(std::make_shared<EnvironmentLight>(
+      "sky.exr", std::make_shared<const EnvironmentMap>(EnvironmentMap::fromImage(sky))));
+  EXPECT_EQ(sceneDataBytes(scene), expected + 64 * 32 * (12 + 8));
 }
 
 }  // namespace
