@@ -180,6 +180,12 @@ double agreementFraction(const ImageStatistics& a, const ImageStatistics& b, dou
   return a.mean.empty() ? 0.0 : double(agree) / double(a.mean.size());
 }
 
+void expectSameImage(const ImageStatistics& a, const ImageStatistics& b) {
+  EXPECT_GE(agreementFraction(a, b), 0.995);
+  const double se = std::hypot(a.imageMeanError, b.imageMeanError);
+  EXPECT_NEAR(a.imageMean, b.imageMean, 4.0 * se) << "standard error " << se;
+}
+
 Scene loadSceneJson(const TempDir& dir, const json& scene, const std::string& name) {
   return loadScene(dir.write(name, scene.dump(2)));
 }

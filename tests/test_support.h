@@ -74,6 +74,10 @@ ImageStatistics renderStatistics(Scene scene, int renders);
 // with very heavy tails (the naive one with tiny lights) need image means instead.
 double agreementFraction(const ImageStatistics& a, const ImageStatistics& b, double z = 4.5);
 
+// The project's test that two estimates are of one image: per-pixel agreement of at least 0.995
+// (agreementFraction) and image means within 4 standard errors of each other.
+void expectSameImage(const ImageStatistics& a, const ImageStatistics& b);
+
 // Writes `scene` into `dir` and loads it.
 Scene loadSceneJson(const TempDir& dir, const nlohmann::json& scene, const std::string& name = "scene.json");
 

@@ -9,6 +9,9 @@
 //  - Directions are unit vectors unless a name says otherwise.
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <utility>
+#include <vector>
 
 #include <glm/glm.hpp>
 
@@ -39,6 +42,21 @@ struct Frame {
 
 // The largest |component|: a vector's size per axis (bounds are per axis), never overflowing.
 inline double largestAbs(const DVec3& v) { return std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))); }
+
+// The axis-aligned box [lo, hi] of `points` (lo > hi, an empty box, for none).
+template <typename V>
+std::pair<V, V> boundsOf(const std::vector<V>& points) {
+  using T = typename V::value_type;
+  V lo(std::numeric_limits<T>::max()), hi(-std::numeric_limits<T>::max());
+  for (const V& p : points) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  return {lo, hi};
+}
+
+// Corner c (0 to 7) of the box [lo, hi]: bits 0, 1 and 2 of c pick hi's x, y and z.
+template <typename V>
+V boxCorner(const V& lo, const V& hi, int c) {
+  return V((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
+}
 
 // The 3x3 cofactor matrix: det(m) times the inverse transpose, defined for any m. Normals
 // transform with the inverse transpose; this has its direction (times sign(det)) and is scaled

@@ -223,9 +223,11 @@ RayCaster::RayCaster(const Scene& scene) : source_(scene) {
   // rounding of each stays, about eps (|A^-1| |t|) per object axis (|.| elementwise), however
   // small the instance; Embree's float inverse adds about eps cond(A) |A^-1| |A| r (r the
   // prototype's extent), acting on o - t only. Bounded here with a factor 2 to spare.
-  std::vector<double> extent(scene.prototypes.size(), 0.0);
-  for (size_t k = 0; k < scene.prototypes.size(); ++k)
-    for (const Vec3& v : scene.prototypes[k].positions) extent[k] = std::max(extent[k], largestAbs(DVec3(v)));
+  std::vector<double> extent;  // per prototype: its largest coordinate
+  for (const TriangleMesh& mesh : scene.prototypes) {
+    const auto [lo, hi] = boundsOf(mesh.positions);
+    extent.push_back(std::max(largestAbs(DVec3(lo)), largestAbs(DVec3(hi))));
+  }
   const auto absOf = [](glm::dmat3 m) {
     for (int c = 0; c < 3; ++c) m[c] = glm::abs(m[c]);
     return m;

@@ -214,7 +214,7 @@ UselessLights findUselessLights(const Scene& scene, const std::vector<Shell>& sh
     // An instance's box has a corner in front if any point of the instance is.
     for (const auto& [lo, hi] : boxes)
       for (int c = 0; c < 8; ++c)
-        if (glm::dot(DVec3((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z) - DVec3(a), n) > 0.0)
+        if (glm::dot(boxCorner(lo, hi, c) - DVec3(a), n) > 0.0)
           return true;
     return false;
   };
@@ -280,7 +280,7 @@ double maxBlurInCells(const Scene& scene, const ThinLensCamera& camera) {
   for (const auto& [a, b] : instanceBoxes(scene)) lo = glm::min(lo, Vec3(a)), hi = glm::max(hi, Vec3(b));
   double nearest = std::numeric_limits<double>::max(), farthest = 0.0;
   for (int c = 0; c < 8; ++c) {
-    const Vec3 corner((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
+    const Vec3 corner = boxCorner(lo, hi, c);
     const double d = glm::dot(corner - p.position, camera.forward());
     nearest = std::min(nearest, d);
     farthest = std::max(farthest, d);

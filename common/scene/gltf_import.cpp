@@ -1174,19 +1174,15 @@ class GltfImporter {
       mesh.indices = std::move(local.indices);
       mesh.materialIds = std::move(local.materialIds);
       local = LocalMesh{};  // (its arrays are the prototype's now)
-      DVec3& lo = prototypeLo_.emplace_back(std::numeric_limits<double>::max());
-      DVec3& hi = prototypeHi_.emplace_back(-std::numeric_limits<double>::max());
-      for (const DVec3& p : in.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+      prototypeBoxes_.push_back(boundsOf(in.positions));
       model_.prototypes.push_back(std::move(in));
     }
     const uint32_t prototype = prototypeOf_[m];
     // The model's bounds: the box of the prototype's box transformed (a framing camera needs no
     // tighter one, and the vertices are not visited once per use).
+    const auto& [lo, hi] = prototypeBoxes_[prototype];
     for (int c = 0; c < 8; ++c) {
-      const DVec3& lo = prototypeLo_[prototype];
-      const DVec3& hi = prototypeHi_[prototype];
-      const DVec3 corner((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
-      const DVec3 q = DVec3(world * glm::dvec4(corner, 1.0));
+      const DVec3 q = DVec3(world * glm::dvec4(boxCorner(lo, hi, c), 1.0));
       if (!isFinite(q))
         fail(indexed("nodes", n), "its world transform takes a vertex of " + indexed("meshes", m) + " to a non-finite position");
       model_.lo = glm::min(model_.lo, q);
@@ -1439,7 +1435,7 @@ class GltfImporter {
   std::vector<size_t> usesLeft_;  // per mesh: the nodes still to place it
   std::vector<size_t> totalUses_;  // per mesh: the nodes that place it (more than one: instanced)
   std::vector<uint32_t> prototypeOf_;  // per mesh: its index in model_.prototypes, if instanced
-  std::vector<DVec3> prototypeLo_, prototypeHi_;  // per prototype: its box in its own space
+  std::vector<std::pair<DVec3, DVec3>> prototypeBoxes_;  // per prototype: its box in its own space
   size_t meshesToRead_ = 0;       // meshes used and not read yet
   std::optional<uint32_t> defaultMaterial_;
   std::vector<Placed> cameras_, lights_;

@@ -148,17 +148,13 @@ struct Scene {
 // prototype's box transformed, which holds the instance's surface.
 inline std::vector<std::pair<DVec3, DVec3>> instanceBoxes(const Scene& scene) {
   std::vector<std::pair<Vec3, Vec3>> prototype;
-  for (const TriangleMesh& mesh : scene.prototypes) {
-    Vec3 a(std::numeric_limits<float>::max()), b(-std::numeric_limits<float>::max());
-    for (const Vec3& v : mesh.positions) a = glm::min(a, v), b = glm::max(b, v);
-    prototype.emplace_back(a, b);
-  }
+  for (const TriangleMesh& mesh : scene.prototypes) prototype.push_back(boundsOf(mesh.positions));
   std::vector<std::pair<DVec3, DVec3>> out;
   for (const MeshInstance& instance : scene.instances) {
     const auto& [a, b] = prototype[instance.prototype];
     DVec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
     for (int c = 0; c < 8 && a.x <= b.x; ++c) {
-      const DVec3 p(instance.point(Vec3((c & 1) ? b.x : a.x, (c & 2) ? b.y : a.y, (c & 4) ? b.z : a.z)));
+      const DVec3 p(instance.point(boxCorner(a, b, c)));
       lo = glm::min(lo, p), hi = glm::max(hi, p);
     }
     out.emplace_back(lo, hi);

@@ -564,17 +564,12 @@ class SceneParser {
     }
     // Instances: the transform joins each node's; the bounds take each prototype's box as placed.
     std::vector<std::pair<DVec3, DVec3>> boxes;
-    for (const MeshInput& in : m.model.prototypes) {
-      DVec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
-      for (const DVec3& p : in.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
-      boxes.emplace_back(lo, hi);
-    }
+    for (const MeshInput& in : m.model.prototypes) boxes.push_back(boundsOf(in.positions));
     for (ModelInstance& instance : m.model.instances) {
       instance.world = t.matrix * instance.world;
       const auto& [lo, hi] = boxes[instance.prototype];
       for (int c = 0; c < 8; ++c) {
-        const DVec3 corner((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
-        const DVec3 p(instance.world * glm::dvec4(corner, 1.0));
+        const DVec3 p(instance.world * glm::dvec4(boxCorner(lo, hi, c), 1.0));
         m.worldLo = glm::min(m.worldLo, p), m.worldHi = glm::max(m.worldHi, p);
       }
     }
@@ -618,11 +613,7 @@ class SceneParser {
     const uint32_t firstPrototype = uint32_t(scene_.prototypes.size()) - uint32_t(std::count_if(
         sceneIndex.begin(), sceneIndex.end(), [](uint32_t index) { return index != UINT32_MAX; }));
     std::vector<std::pair<Vec3, Vec3>> boxes;
-    for (size_t k = firstPrototype; k < scene_.prototypes.size(); ++k) {
-      Vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-      for (const Vec3& p : scene_.prototypes[k].positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
-      boxes.emplace_back(lo, hi);
-    }
+    for (size_t k = firstPrototype; k < scene_.prototypes.size(); ++k) boxes.push_back(boundsOf(scene_.prototypes[k].positions));
     for (const ModelInstance& instance : m.model.instances) {
       const uint32_t k = instance.prototype;
       const bool last = --usesLeft[k] == 0;
@@ -655,8 +646,7 @@ class SceneParser {
     world[3] = glm::dvec4(DVec3(world[3]) - scene_.origin, 1.0);
     const auto& [lo, hi] = box;
     for (int c = 0; c < 8; ++c) {
-      const DVec3 corner((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
-      const DVec3 p(world * glm::dvec4(corner, 1.0));
+      const DVec3 p(world * glm::dvec4(DVec3(boxCorner(lo, hi, c)), 1.0));
       if (!(largestAbs(p) <= kMaxRenderDistance))
         r.fail(r.field("file"), "\"" + shown + "\": instance \"" + instance.name + "\" of mesh \"" + mesh.name +
                                     "\" reaches " + shortNumber(glm::length(p)) + " from the camera; at most " +

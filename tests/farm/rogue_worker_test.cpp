@@ -28,6 +28,13 @@ class RogueWorker : public test::FarmFixture {
     std::string id, session;
   };
 
+  // Names `who` in a request: its id and session.
+  template <typename Request>
+  static void identify(Request& request, const Identity& who) {
+    request.set_worker_id(who.id);
+    request.set_session(who.session);
+  }
+
   void connect(const std::string& address) {
     stub_ = v1::WorkerService::NewStub(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
   }
@@ -50,15 +57,13 @@ class RogueWorker : public test::FarmFixture {
   }
   grpc::Status heartbeat(const Identity& who, const std::vector<uint64_t>& leases, v1::HeartbeatResponse* out) {
     v1::HeartbeatRequest request;
-    request.set_worker_id(who.id);
-    request.set_session(who.session);
+    identify(request, who);
     for (uint64_t id : leases) request.add_lease_ids(id);
     return stub_->Heartbeat(context().get(), request, out);
   }
   v1::Lease lease(const Identity& who) {
     v1::LeaseWorkRequest request;
-    request.set_worker_id(who.id);
-    request.set_session(who.session);
+    identify(request, who);
     request.set_wait_ms(5000);
     v1::LeaseWorkResponse response;
     const grpc::Status s = stub_->LeaseWork(context().get(), request, &response);
@@ -74,8 +79,7 @@ class RogueWorker : public test::FarmFixture {
     auto writer = stub_->UploadResult(ctx.get(), &response);
     v1::UploadResultRequest message;
     auto* h = message.mutable_header();
-    h->set_worker_id(who.id);
-    h->set_session(who.session);
+    identify(*h, who);
     h->set_lease_id(lease.lease_id());
     h->set_job_id(lease.job_id());
     h->set_unit_index(lease.unit_index());
@@ -91,8 +95,7 @@ class RogueWorker : public test::FarmFixture {
   }
   grpc::Status reportFailure(const Identity& who, uint64_t leaseId, const std::string& job) {
     v1::ReportFailureRequest request;
-    request.set_worker_id(who.id);
-    request.set_session(who.session);
+    identify(request, who);
     request.set_lease_id(leaseId);
     request.set_job_id(job);
     request.set_error("forged");
@@ -102,16 +105,14 @@ class RogueWorker : public test::FarmFixture {
   grpc::Status jobSpec(const Identity& who, const std::string& job) {
     v1::GetJobSpecRequest request;
     request.set_job_id(job);
-    request.set_worker_id(who.id);
-    request.set_session(who.session);
+    identify(request, who);
     v1::JobSpec response;
     return stub_->GetJobSpec(context().get(), request, &response);
   }
   grpc::Status fetchAsset(const Identity& who, const std::string& sha) {
     v1::FetchAssetRequest request;
     request.set_sha256(sha);
-    request.set_worker_id(who.id);
-    request.set_session(who.session);
+    identify(request, who);
     auto ctx = context();
     auto reader = stub_->FetchAsset(ctx.get(), request);
     v1::FileChunk chunk;
