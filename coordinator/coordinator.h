@@ -86,6 +86,19 @@ struct JobInfo {
   // How far the job is toward its stop, 0 to 1: the nearest of its samples (with a cap of its
   // own), its target error ((target / estimate)^2) and its deadline; 1 when done.
   double progressFraction = 0.0;
+  // The cross-worker audit (docs/farm.md "Audit"): units of this job rendered again by another
+  // worker and compared with the counted result.
+  uint64_t auditsPassed = 0;     // agreed within Options::auditTolerance
+  uint64_t auditsFailed = 0;     // disagreed, and a third worker said which one was wrong
+  uint64_t auditsPending = 0;    // waiting for a worker to render them again
+  uint64_t unitsRerendered = 0;  // counted units queued again because a wrong worker was found
+  // What happened to the job that a person watching it should know: audits that failed, workers
+  // quarantined, units queued again. Oldest first, at most kMaxJobEvents (the oldest dropped).
+  struct Event {
+    double unixSeconds = 0.0;
+    std::string text;
+  };
+  std::vector<Event> events;
 
   double raysPerSecond() const { return elapsedSeconds > 0 ? double(stats.rays) / elapsedSeconds : 0.0; }
   double lightHitFraction() const { return stats.paths ? double(stats.lightHits) / double(stats.paths) : 0.0; }
@@ -119,6 +132,11 @@ struct WorkerView {
   bool attached = false;        // holds an Attach stream, so a broken connection is seen at once
   uint64_t failures = 0;                  // units it reported failed (ReportFailure)
   std::vector<std::string> blocklistedJobs;  // jobs it is no longer leased (docs/farm.md "Failures")
+  // The cross-worker audit (docs/farm.md "Audit"): a quarantined worker returned a result that
+  // another two workers disagreed with; it is leased nothing more until the coordinator restarts.
+  uint64_t auditsPassed = 0;  // audits of its results (or by it) that agreed
+  bool quarantined = false;
+  std::string quarantineReason;  // "unit 12 of job-3: sums differ from w2 and w4 by up to 1.0e-03 (cell 4711)"
 };
 
 // One point of a job's error-vs-time curve: the published estimate when it changed.
@@ -142,6 +160,9 @@ struct MetricsSnapshot {
   uint64_t unitsDone = 0;           // results accepted and counted, each unit once
   uint64_t unitsExpired = 0;        // leases that lapsed without a result
   uint64_t workersLost = 0;         // workers marked lost when their Attach stream broke
+  uint64_t auditsPassed = 0;        // audits whose two results agreed
+  uint64_t auditsFailed = 0;        // audits that found a wrong worker
+  uint64_t unitsRerendered = 0;     // counted units queued again after a wrong worker was found
   uint64_t samples = 0;             // camera paths in the accepted results
   uint64_t unitBytesReceived = 0;   // result buffers (sums) received from workers
   uint64_t assetBytesReceived = 0;  // asset bytes uploaded by clients (read in full)
@@ -178,6 +199,12 @@ class Coordinator {
     // failed on this many different workers, or when every live worker is blocklisted for it.
     uint32_t maxFailuresPerWorker = 3;
     uint32_t maxUnitFailures = 3;
+    // The cross-worker audit (docs/farm.md "Audit"): this fraction of counted units (and each
+    // worker's first) is rendered again by another worker; results that differ by more than
+    // auditTolerance (relative, per cell and channel) are settled by a third worker, and the
+    // wrong one is quarantined. 0 turns the audit off.
+    double auditFraction = 0.02;
+    double auditTolerance = 1e-6;
     // Test-only: called with a job's estimated bytes just before its frame-sized buffers are
     // allocated; a test throws std::bad_alloc from it to simulate an allocation failing.
     std::function<void(uint64_t bytes)> beforeJobAllocation;
@@ -226,6 +253,8 @@ class Coordinator {
   // The job's estimate each time it changed, oldest first; at most kMaxErrorPoints (when full,
   // every other point is dropped, so the curve keeps its whole span at half the density).
   static constexpr size_t kMaxErrorPoints = 512;
+  // The most events a job keeps (JobInfo::events).
+  static constexpr size_t kMaxJobEvents = 64;
   std::vector<ErrorPoint> errorHistory(const std::string& jobId) const;
 
   // ---- workers ----
