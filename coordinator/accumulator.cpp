@@ -15,7 +15,9 @@ Accumulator::Accumulator(const RenderSettings& settings, uint32_t unitSize, uint
       unitsTotal_(unitsTotal),
       targetError_(settings.targetError),
       sensor_(std::make_unique<Sensor>(settings.width, settings.height)),
-      tracker_(std::make_unique<ConvergenceTracker>(settings.width, settings.height)) {}
+      tracker_(std::make_unique<ConvergenceTracker>(settings.width, settings.height)),
+      width_(settings.width),
+      height_(settings.height) {}
 
 Accumulator::Accumulator(const RenderSettings& settings, uint32_t unitSize, uint64_t unitsTotal, Sensor sensor,
                          ConvergenceTracker tracker, uint64_t folded)
@@ -26,12 +28,17 @@ Accumulator::Accumulator(const RenderSettings& settings, uint32_t unitSize, uint
       sensor_(std::make_unique<Sensor>(std::move(sensor))),
       nextToAdd_(folded),
       checkpointed_(folded),
-      tracker_(std::make_unique<ConvergenceTracker>(std::move(tracker))) {
+      tracker_(std::make_unique<ConvergenceTracker>(std::move(tracker))),
+      width_(settings.width),
+      height_(settings.height),
+      lastPointAt_(folded) {
   for (uint64_t u = 0; u < folded; ++u) sppAdded_ += unitAt(u, samplesPerPixel_, unitSize_).sampleCount;
 }
 
-std::optional<Accumulator::Progress> Accumulator::add(const UnitResult& result, UnitResult* owned) {
+std::optional<Accumulator::Progress> Accumulator::add(const UnitResult& result, UnitResult* owned,
+                                                      uint64_t generation) {
   std::lock_guard lock(mutex_);
+  if (generation != generation_) return progress();  // accepted before a rewind: it is rendered again
   // Past a job's stop nothing more is folded (the stop is a prefix of units). The next unit in
   // order is summed from the caller's buffer; a later one waits in `arrived_`.
   const bool next = result.unitIndex == nextToAdd_;
@@ -89,6 +96,10 @@ void Accumulator::drainInOrder(const UnitResult* next) {
     if (it != arrived_.end()) arrived_.erase(it);
     ++nextToAdd_;
     folded = true;
+    if (pointSpacing_ > 0 && nextToAdd_ >= lastPointAt_ + pointSpacing_ && points_.size() < mostPoints_) {
+      points_.push_back(RewindPoint{nextToAdd_, sppAdded_, statsAdded_, estimate_, *sensor_, *tracker_});
+      lastPointAt_ = nextToAdd_;
+    }
     // A target-error job checks after every unit: the first prefix that reaches the target is
     // the image, whichever units arrived early.
     if (target > 0.0) {
@@ -139,11 +150,72 @@ Accumulator::Progress Accumulator::progress() const {
 std::optional<Accumulator::Snapshot> Accumulator::snapshotIfChanged() const {
   std::lock_guard lock(mutex_);
   if (nextToAdd_ == checkpointed_) return std::nullopt;
-  Snapshot s;
-  s.sensor = sensor_->serialize();
-  s.tracker = tracker_->serialize();
-  s.folded = nextToAdd_;
-  return s;
+  return snapshotLocked();
+}
+
+Accumulator::Snapshot Accumulator::snapshotLocked() const {
+  return Snapshot{sensor_->serialize(), tracker_->serialize(), nextToAdd_};
+}
+
+void Accumulator::keepRewindPoints(uint64_t spacing, size_t most) {
+  std::lock_guard lock(mutex_);
+  pointSpacing_ = most > 0 ? spacing : 0;
+  mostPoints_ = most;
+}
+
+void Accumulator::trustBelow(uint64_t units) {
+  std::lock_guard lock(mutex_);
+  // Keep the latest point at or below `units` (a rewind may still go back to it) and those above.
+  while (points_.size() >= 2 && points_[1].units <= units) points_.pop_front();
+}
+
+Accumulator::Rewound Accumulator::rewind(uint64_t unit, const std::function<bool(const UnitResult&)>& drop) {
+  std::lock_guard lock(mutex_);
+  ++generation_;
+  if (unit < nextToAdd_) {
+    // The latest point at or before `unit`, else the empty film; points after it hold undone units.
+    while (!points_.empty() && points_.back().units > unit) points_.pop_back();
+    if (points_.empty()) {
+      sensor_ = std::make_unique<Sensor>(width_, height_);
+      tracker_ = std::make_unique<ConvergenceTracker>(width_, height_);
+      nextToAdd_ = sppAdded_ = 0;
+      statsAdded_ = PathStats{};
+      estimate_ = ErrorEstimate{};
+    } else {
+      const RewindPoint& p = points_.back();
+      *sensor_ = p.sensor;
+      *tracker_ = p.tracker;
+      nextToAdd_ = p.units;
+      sppAdded_ = p.samplesPerPixel;
+      statsAdded_ = p.stats;
+      estimate_ = p.estimate;
+    }
+    lastPointAt_ = nextToAdd_;
+    // The stop was decided on units now undone (a deadline ends a job before any rewind).
+    foldLimit_ = std::numeric_limits<uint64_t>::max();
+    stopReason_.clear();
+  }
+  Rewound out;
+  for (auto it = arrived_.begin(); it != arrived_.end();) {
+    if (drop(it->second)) {
+      it = arrived_.erase(it);
+    } else {
+      out.kept.insert(it->first);
+      ++it;
+    }
+  }
+  if (checkpointed_ > nextToAdd_) {
+    out.checkpoint = snapshotLocked();
+    checkpointed_ = nextToAdd_;
+  }
+  out.units = nextToAdd_;
+  out.progress = progress();
+  return out;
+}
+
+uint64_t Accumulator::generation() const {
+  std::lock_guard lock(mutex_);
+  return generation_;
 }
 
 void Accumulator::checkpointed(uint64_t folded) {

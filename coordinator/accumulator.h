@@ -11,15 +11,21 @@
 //    in unit order: the same units whatever order results arrive in, and after a restart. A
 //    target-error job stops at the first prefix that reaches its target; at a deadline the units
 //    summed when it passed are kept (at least one).
+//  - A rewind (the audit found a wrong worker, docs/farm.md "Audit") restores the film exactly as
+//    it was after some prefix of units (a rewind point, a bitwise copy, or the empty film), so
+//    summing the units after it again gives the bits a run without the wrong worker gives.
 //  - Every member takes the accumulator's own lock, which is never held while taking another
 //    (Coordinator::mutex_ may be held while taking it, never the reverse).
 #include <chrono>
 #include <cstdint>
+#include <deque>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 
 #include "farm/farm_types.h"
@@ -53,7 +59,33 @@ class Accumulator {
   // Adds an accepted unit (each unit once). The next unit in order is summed straight from
   // `result`'s buffer; a later one is kept until the earlier ones arrive (moved from `owned` if
   // given, else copied); nothing past the stop is kept. nullopt: out of memory keeping it.
-  std::optional<Progress> add(const UnitResult& result, UnitResult* owned);
+  // A result accepted before a rewind (`generation` below generation()) is ignored.
+  std::optional<Progress> add(const UnitResult& result, UnitResult* owned, uint64_t generation = 0);
+
+  // The sensor and tracker as a checkpoint saves them.
+  struct Snapshot {
+    std::string sensor, tracker;
+    uint64_t folded = 0;  // the units they hold
+  };
+
+  // ---- rewinding (docs/farm.md "Audit") ----
+  // Keeps a copy of the sensor and tracker every `spacing` units summed, at most `most` at once
+  // (a new one waits for trustBelow to free a place); 0: none. Each costs one sensor and tracker.
+  void keepRewindPoints(uint64_t spacing, size_t most);
+  // Units [0, units) will never be undone: of the rewind points at or below `units` only the
+  // latest is kept.
+  void trustBelow(uint64_t units);
+  struct Rewound {
+    uint64_t units = 0;       // the film holds units [0, units)
+    std::set<uint64_t> kept;  // results still waiting to be summed (all above `units`)
+    Progress progress;
+    std::optional<Snapshot> checkpoint;  // when the last checkpoint held more: save this
+  };
+  // Undoes the units from the latest rewind point at or before `unit` on (the empty film if there
+  // is none; nothing if `unit` is not summed yet) and the job's stop with them, and drops the
+  // waiting results `drop` names. Results accepted before now are ignored (generation()).
+  Rewound rewind(uint64_t unit, const std::function<bool(const UnitResult&)>& drop);
+  uint64_t generation() const;
 
   // Restoring from the ledger: a unit the checkpoint holds adds only its stats; a later one
   // waits like an early result until drain() sums it in order.
@@ -70,10 +102,6 @@ class Accumulator {
   Progress estimateNow();
 
   // The sensor and tracker as a checkpoint saves them, if units were summed since the last one.
-  struct Snapshot {
-    std::string sensor, tracker;
-    uint64_t folded = 0;  // the units they hold
-  };
   std::optional<Snapshot> snapshotIfChanged() const;
   void checkpointed(uint64_t folded);  // a snapshot of `folded` units is durable
 
@@ -93,6 +121,7 @@ class Accumulator {
   void drainInOrder(const UnitResult* next);  // requires mutex_
   void stopFolding(std::string reason);       // requires mutex_
   Progress progress() const;                  // requires mutex_
+  Snapshot snapshotLocked() const;            // requires mutex_
 
   // The job's layout, fixed at submission.
   const uint64_t samplesPerPixel_;
@@ -113,6 +142,19 @@ class Accumulator {
   uint64_t foldLimit_ = std::numeric_limits<uint64_t>::max();  // units from here on are never folded
   bool stopAtNextFold_ = false;                                // the deadline passed before the first unit was folded
   std::string stopReason_;
+  // Rewinding: copies of the film after `units` units, oldest first.
+  struct RewindPoint {
+    uint64_t units = 0, samplesPerPixel = 0;
+    PathStats stats;
+    ErrorEstimate estimate;
+    Sensor sensor;
+    ConvergenceTracker tracker;
+  };
+  const int width_, height_;
+  std::deque<RewindPoint> points_;
+  uint64_t pointSpacing_ = 0, lastPointAt_ = 0;
+  size_t mostPoints_ = 0;
+  uint64_t generation_ = 0;
 };
 
 }  // namespace lensfarm

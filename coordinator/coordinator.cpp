@@ -40,7 +40,7 @@ const char* jobStateName(JobState s) {
   return "?";
 }
 
-Coordinator::Coordinator(Options options) : options_(std::move(options)) {
+Coordinator::Coordinator(Options options) : options_(std::move(options)), auditRandom_(std::random_device{}()) {
   if (options_.maxJobMemoryBytes == 0) {
     options_.maxJobMemoryBytes = defaultJobMemoryBudget();
     options_.maxJobMemorySource = defaultJobMemoryBudgetSource();
@@ -139,6 +139,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
   try {
     if (options_.beforeJobAllocation) options_.beforeJobAllocation(memory.total());
     job->film = std::make_unique<Accumulator>(scene.render, job->unitSize, job->units.total());
+    if (options_.auditFraction > 0.0) job->film->keepRewindPoints(rewindPointSpacing(options_.auditFraction), kRewindPoints);
   } catch (const std::bad_alloc&) {
     // This job is refused; the coordinator and its other jobs go on.
     const std::string what = spec.sceneName + ": out of memory allocating the " + std::to_string(scene.render.width) +
@@ -225,6 +226,11 @@ JobInfo Coordinator::infoOf(const Job& job) const {
     info.remainingSeconds = info.remainingSeconds > 0.0 ? std::min(info.remainingSeconds, left) : left;
   }
   info.workersBusy = uint32_t(leases_.ofJob(job.id).size());
+  info.auditsPassed = job.auditsPassed;
+  info.auditsFailed = job.auditsFailed;
+  info.auditsPending = job.audits.size();
+  info.unitsRerendered = job.unitsRerendered;
+  info.events = job.events;
   info.error = job.error;
   info.submittedUnixSeconds = job.submittedUnixSeconds;
   info.version = job.version;
@@ -266,6 +272,11 @@ void Coordinator::touch(Job& job) {
 }
 
 void Coordinator::end(Job& job, JobState state) {
+  if (!job.audits.empty())
+    job.addEvent(std::to_string(job.audits.size()) + " audit(s) not settled: the job ended (" + jobStateName(state) +
+                 ")");
+  job.audits.clear();
+  job.stopAwaitingAudits.reset();
   job.state = state;
   job.finished = Clock::now();
   revokeLeasesOf(job);
@@ -399,6 +410,9 @@ MetricsSnapshot Coordinator::metricsSnapshot() const {
   s.unitsDone = counters_.unitsDone;
   s.unitsExpired = counters_.unitsExpired;
   s.workersLost = counters_.workersLost;
+  s.auditsPassed = counters_.auditsPassed;
+  s.auditsFailed = counters_.auditsFailed;
+  s.unitsRerendered = counters_.unitsRerendered;
   s.samples = counters_.samples;
   s.unitBytesReceived = counters_.unitBytes;
   const AssetStore::Counts assets = assets_.counts();

@@ -37,12 +37,14 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <random>
 #include <set>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "asset_store.h"
+#include "audit.h"
 #include "farm/farm_types.h"
 #include "film/convergence.h"
 #include "film/image_io.h"
@@ -347,6 +349,26 @@ class Coordinator {
   static void checkPlausible(const UnitResult& result, const RenderSettings& settings, uint32_t sampleCount);
   void enforceDeadlines();  // requires mutex_
 
+  // ---- the cross-worker audit (auditing.cpp, docs/farm.md "Audit"); all but acceptAudit
+  // require mutex_ ----
+  // Whether `worker`'s counted unit of `job` is audited: its first one, then Options::auditFraction
+  // of them, when another worker could render it.
+  bool chooseForAudit(const Job& job, Worker& worker);
+  // An audit lease for `worker`, if a job it may render has a unit under audit it did not render.
+  std::optional<LeaseGrant> tryAuditLease(Worker& worker, Clock::time_point now);
+  // A result uploaded under an audit lease (after checkPlausible; takes mutex_ itself, and
+  // compares the sums outside it).
+  bool acceptAudit(const UnitResult& result, UnitResult* owned);
+  void applyVerdict(Job& job, const AuditBook::Verdict& verdict);
+  void quarantine(Worker& worker, const std::string& reason);
+  // Undoes `workerId`'s units of `job` since its last agreeing audit (and the units summed after
+  // the rewind point before them), to render again.
+  void rewindFor(Job& job, const std::string& workerId);
+  void updateTrust(Job& job);  // moves trustedUnits on after an audit agreed
+  // A job whose film reached its stop ends once its audits are settled, or cannot be (no worker left to render them).
+  void settleWaitingJobs();
+  bool mayAudit(const Job& job, const Worker& worker, const std::string& exceptWorker = "") const;
+
   // ---- durable state (persistence.cpp) ----
   void restore();
   void persistState(const Job& job);  // requires mutex_
@@ -374,11 +396,16 @@ class Coordinator {
   std::map<std::string, std::unique_ptr<Worker>> workers_;
   LeaseTable leases_;  // guarded by mutex_
   uint64_t nextJob_ = 1, nextWorker_ = 1, nextSequence_ = 1, nextAttachment_ = 1;
+  uint64_t nextAcceptance_ = 1;  // orders accepted units for the audit (Job::Provenance::seq)
+  std::mt19937_64 auditRandom_;  // which units are audited; seeded by the operating system
+  // Held while a job's checkpoint is taken and written, and by a rewind that rewrites it.
+  std::mutex checkpointMutex_;
 
   // Counted for metricsSnapshot() since this process started (the assets' by assets_).
   struct Counters {
     std::atomic<uint64_t> unitsLeased{0}, unitsDone{0}, unitsExpired{0}, samples{0}, unitBytes{0};
     std::atomic<uint64_t> workersLost{0};
+    std::atomic<uint64_t> auditsPassed{0}, auditsFailed{0}, unitsRerendered{0};
   };
   Counters counters_;
 };

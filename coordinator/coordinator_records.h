@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "accumulator.h"
+#include "audit.h"
 #include "coordinator.h"
 #include "job_units.h"
 #include "scene/scene.h"
@@ -72,6 +73,24 @@ struct Coordinator::Job {
   std::vector<std::string> failureReasons;
   std::set<std::string> blocklist;
 
+  // The cross-worker audit (audit.h, auditing.cpp), guarded by Coordinator::mutex_: the units
+  // under audit; who each counted unit from `trustedUnits` on came from and when it was accepted
+  // (Coordinator's acceptance sequence), for a rewind; units [0, trustedUnits) were delivered
+  // by workers that a later audit found right, and are never undone.
+  AuditBook audits;
+  struct Provenance {
+    std::string worker;
+    uint64_t seq = 0;
+  };
+  std::map<uint64_t, Provenance> provenance;
+  uint64_t trustedUnits = 0;
+  uint64_t generation = 0;  // the film's (Accumulator::generation): grows with every rewind
+  // The stop the film reached while audits were pending: the job ends with it once they settle.
+  std::optional<std::string> stopAwaitingAudits;
+  uint64_t auditsPassed = 0, auditsFailed = 0, unitsRerendered = 0;
+  std::vector<JobInfo::Event> events;  // at most Coordinator::kMaxJobEvents, oldest first
+  void addEvent(std::string text);
+
   // Accumulation: the sensor, tracker and stopping rules, behind the accumulator's own lock
   // (never held while taking Coordinator::mutex_). Set once, before the job is listed.
   std::unique_ptr<Accumulator> film;
@@ -92,6 +111,13 @@ struct Coordinator::Worker {
   std::optional<WorkerState> gone;  // kLost or kLeft: its id is refused from then on
   Clock::time_point goneAt;
   std::string goneReason;
+  // The audit (auditing.cpp): its counted units with an acceptance sequence up to `clearedSeq`
+  // are vouched for by a later audit that agreed; its first counted unit is always audited.
+  uint64_t clearedSeq = 0;
+  bool firstUnitAudited = false;
+  uint64_t auditsPassed = 0;
+  bool quarantined = false;  // leased nothing more
+  std::string quarantineReason;
   std::string label() const { return info.name.empty() ? id : info.name + " (" + id + ")"; }
 };
 

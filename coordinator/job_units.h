@@ -8,6 +8,7 @@
 //    fresh one.
 //  - A unit is counted at most once: acceptance refuses one that is counted or being recorded.
 #include <cstdint>
+#include <algorithm>
 #include <optional>
 #include <set>
 
@@ -32,7 +33,9 @@ class JobUnits {
       returned_.erase(returned_.begin());
       return u;
     }
-    return nextFresh_++;
+    const uint64_t u = nextFresh_++;
+    skipCounted();
+    return u;
   }
   void requeue(uint64_t u) { returned_.insert(u); }
   void clearPending() {
@@ -47,10 +50,30 @@ class JobUnits {
       if (!isReceived(u)) returned_.insert(u);
   }
 
+  // The audit found a wrong worker (docs/farm.md "Audit"): only units [0, units) and `kept` stay
+  // counted; every other unit from `units` on is to lease again, in order. Returns how many
+  // counted units that un-counts.
+  uint64_t rewindTo(uint64_t units, const std::set<uint64_t>& kept) {
+    uint64_t uncounted = 0;
+    for (uint64_t u = units; u < receivedBelow_; ++u) uncounted += !kept.count(u);
+    for (uint64_t u : receivedAbove_) uncounted += u >= units && !kept.count(u);
+    receivedBelow_ = std::min(receivedBelow_, units);
+    std::set<uint64_t> above;
+    for (uint64_t u : receivedAbove_)
+      if (u < units) above.insert(u);
+    receivedAbove_ = std::move(above);
+    for (uint64_t u : kept) markReceived(u);
+    returned_.clear();
+    nextFresh_ = std::min(nextFresh_, units);
+    skipCounted();
+    return uncounted;
+  }
+
   // ---- accepted ----
   bool isRecording(uint64_t u) const { return inflight_.count(u) > 0; }
   void beginRecording(uint64_t u) { inflight_.insert(u); }
   void endRecording(uint64_t u) { inflight_.erase(u); }
+  uint64_t countedPrefix() const { return receivedBelow_; }  // units [0, this) are all counted
   bool isReceived(uint64_t u) const { return u < receivedBelow_ || receivedAbove_.count(u); }
   void markReceived(uint64_t u) {
     receivedAbove_.insert(u);
@@ -61,6 +84,11 @@ class JobUnits {
   }
 
  private:
+  // Fresh units are never counted, except those kept over a rewind.
+  void skipCounted() {
+    while (nextFresh_ < total_ && isReceived(nextFresh_)) ++nextFresh_;
+  }
+
   uint64_t total_ = 0;
   uint64_t nextFresh_ = 0;
   std::set<uint64_t> returned_;

@@ -7,13 +7,13 @@
 namespace lensfarm {
 
 uint64_t LeaseTable::grant(const std::string& workerId, const std::string& jobId, uint64_t unit,
-                           Clock::time_point deadline, Clock::time_point longestEnd) {
+                           Clock::time_point deadline, Clock::time_point longestEnd, bool audit) {
   // std::random_device reads the operating system's generator (getrandom on Linux).
   thread_local std::random_device random;
   uint64_t id = 0;
   while (id == 0 || leases_.count(id))
     id = ((uint64_t(random()) << 32) | uint64_t(random())) & ((uint64_t(1) << 53) - 1);
-  leases_[id] = Lease{workerId, jobId, unit, std::min(deadline, longestEnd), longestEnd};
+  leases_[id] = Lease{workerId, jobId, unit, std::min(deadline, longestEnd), longestEnd, audit};
   return id;
 }
 
@@ -70,6 +70,11 @@ std::vector<LeaseTable::Lease> LeaseTable::takeAllOf(const std::string& workerId
 void LeaseTable::eraseAllOf(const std::string& jobId) {
   for (auto it = leases_.begin(); it != leases_.end();)
     it = it->second.jobId == jobId ? leases_.erase(it) : std::next(it);
+}
+
+void LeaseTable::eraseUnitsOf(const std::string& jobId) {
+  for (auto it = leases_.begin(); it != leases_.end();)
+    it = it->second.jobId == jobId && !it->second.audit ? leases_.erase(it) : std::next(it);
 }
 
 std::vector<const LeaseTable::Lease*> LeaseTable::ofJob(const std::string& jobId) const {

@@ -30,11 +30,12 @@ class LeaseTable {
     uint64_t unit;
     Clock::time_point deadline;
     Clock::time_point longestEnd;  // the deadline never moves past this
+    bool audit = false;  // renders a counted unit again (docs/farm.md "Audit"); the worker is not told
   };
 
   // A new lease; returns its id.
   uint64_t grant(const std::string& workerId, const std::string& jobId, uint64_t unit, Clock::time_point deadline,
-                 Clock::time_point longestEnd);
+                 Clock::time_point longestEnd, bool audit = false);
   // The lease `id`, or null.
   const Lease* find(uint64_t id) const;
 
@@ -52,6 +53,8 @@ class LeaseTable {
   // Removes and returns the leases `workerId` holds, in id order.
   std::vector<Lease> takeAllOf(const std::string& workerId);
   void eraseAllOf(const std::string& jobId);
+  // The same for the job's leases that are not audits.
+  void eraseUnitsOf(const std::string& jobId);
 
   std::vector<const Lease*> ofJob(const std::string& jobId) const;  // in id order
   std::set<std::string> holders() const;                            // workers holding any lease

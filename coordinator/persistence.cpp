@@ -41,6 +41,7 @@ uint64_t Coordinator::checkpoint() {
   }
   uint64_t bytes = 0;
   for (Job* job : all) {
+    std::lock_guard checkpointLock(checkpointMutex_);  // a rewind (auditing.cpp) rewrites it
     const std::optional<Accumulator::Snapshot> snapshot = job->film->snapshotIfChanged();
     if (!snapshot) continue;
     store_->writeCheckpoint(job->id, snapshot->sensor, snapshot->tracker, snapshot->folded);
@@ -92,6 +93,7 @@ void Coordinator::restore() {
       job->film = std::make_unique<Accumulator>(scene.render, job->unitSize, job->units.total());
     }
     if (stored.stopUnits) job->film->limitTo(*stored.stopUnits);
+    if (options_.auditFraction > 0.0) job->film->keepRewindPoints(rewindPointSpacing(options_.auditFraction), kRewindPoints);
     const uint64_t folded = checkpoint ? checkpoint->foldedUnits : 0;
     uint64_t highest = 0;
     bool any = false;

@@ -124,26 +124,41 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
   }
   Job* job;
   std::string workerName;
+  uint64_t generation = 0;
+  bool auditLease = false;  // the upload renders a counted unit again (auditing.cpp)
+  bool audited = false;     // chosen for audit: its sums are kept to compare
   {
     std::lock_guard lock(mutex_);
     job = &findJob(result.jobId);
     if (result.unitIndex >= job->units.total())
       throw FarmError(FarmError::Kind::kInvalidArgument,
                       "job " + job->id + " has no unit " + std::to_string(result.unitIndex));
+    const LeaseTable::Lease* lease = leases_.find(result.leaseId);
+    auditLease = lease && lease->audit && lease->workerId == result.workerId;
     // A late duplicate of a unit already counted (or being counted) is ignored.
-    if (job->units.isReceived(result.unitIndex) || job->units.isRecording(result.unitIndex)) return false;
+    if (!auditLease && (job->units.isReceived(result.unitIndex) || job->units.isRecording(result.unitIndex)))
+      return false;
     if (!leases_.covers(result.leaseId, result.workerId, result.jobId, result.unitIndex))
       throw FarmError(FarmError::Kind::kFailedPrecondition, "lease " + std::to_string(result.leaseId) + " for unit " +
                                                                 std::to_string(result.unitIndex) + " of " +
                                                                 result.jobId + " is not held by " + result.workerId);
-    const int w = job->settings.width, h = job->settings.height;
-    if (result.buffer.width != w || result.buffer.height != h || result.buffer.sums.size() != size_t(w) * size_t(h) * 3)
-      throw FarmError(FarmError::Kind::kInvalidArgument, "result for " + job->id + " has the wrong size");
-    Worker& worker = findWorker(result.workerId);
-    workerName = worker.info.name.empty() ? worker.id : worker.info.name;
-    leases_.erase(result.leaseId);
-    job->units.beginRecording(result.unitIndex);
+    if (!auditLease) {
+      const int w = job->settings.width, h = job->settings.height;
+      if (result.buffer.width != w || result.buffer.height != h ||
+          result.buffer.sums.size() != size_t(w) * size_t(h) * 3)
+        throw FarmError(FarmError::Kind::kInvalidArgument, "result for " + job->id + " has the wrong size");
+      Worker& worker = findWorker(result.workerId);
+      workerName = worker.info.name.empty() ? worker.id : worker.info.name;
+      leases_.erase(result.leaseId);
+      job->units.beginRecording(result.unitIndex);
+      generation = job->generation;
+      audited = chooseForAudit(*job, worker);
+    }
   }
+  if (auditLease) return acceptAudit(result, owned);
+  // An audited unit's sums, copied before the film takes them (outside the lock).
+  AuditBook::Sums kept;
+  if (audited) kept = std::make_shared<const std::vector<double>>(result.buffer.sums);
 
   // Durable before acknowledged: the unit's sums and ledger row, outside the coordinator's lock.
   if (store_) {
@@ -161,7 +176,17 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
   {
     std::lock_guard lock(mutex_);
     job->units.endRecording(result.unitIndex);
+    if (job->generation != generation) {
+      // The audit rewound the film meanwhile (auditing.cpp): this unit is rendered again.
+      if (store_) store_->forgetUnits(job->id, result.unitIndex, {}, result.unitIndex + 1);
+      if (!isTerminal(job->state) && !job->units.isReceived(result.unitIndex)) job->units.requeue(result.unitIndex);
+      changed_.notify_all();
+      return true;
+    }
     job->units.markReceived(result.unitIndex);
+    const uint64_t seq = nextAcceptance_++;
+    if (result.unitIndex >= job->trustedUnits) job->provenance[result.unitIndex] = Job::Provenance{result.workerId, seq};
+    if (kept) job->audits.open(result.unitIndex, {result.workerId, std::move(kept)}, seq);
     ++counters_.unitsDone;
     counters_.samples += result.stats.paths;
     if (auto w = workers_.find(result.workerId); w != workers_.end()) {
@@ -172,7 +197,7 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
     ++job->unitsByWorker[workerName];
   }
   // Sum outside the coordinator's lock: large buffers must not stall leases and heartbeats.
-  const std::optional<Accumulator::Progress> added = job->film->add(result, owned);
+  const std::optional<Accumulator::Progress> added = job->film->add(result, owned, generation);
 
   std::lock_guard lock(mutex_);
   if (!added) {
@@ -188,12 +213,21 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
     }
     throw FarmError(FarmError::Kind::kResourceExhausted, job->id + ": " + what);
   }
-  if (added->units > job->unitsAdded) {
+  if (added->units > job->unitsAdded && job->generation == generation) {
     job->publish(*added);
     recordEstimate(*job, elapsedSecondsOf(*job));
-    if (!added->stopReason.empty() && job->state == JobState::kRunning) {
+    if (!added->stopReason.empty() && job->state == JobState::kRunning && !job->stopAwaitingAudits) {
       if (added->foldLimit < job->units.total()) job->stopUnits = added->foldLimit;
-      finish(*job, added->stopReason);
+      if (job->audits.empty()) {
+        finish(*job, added->stopReason);
+      } else {
+        // The image is complete unless an audit finds a wrong worker: no more units, and the job
+        // ends when its audits settle (settleWaitingJobs).
+        job->stopAwaitingAudits = added->stopReason;
+        job->units.clearPending();
+        leases_.eraseUnitsOf(job->id);
+        settleWaitingJobs();
+      }
     }
     touch(*job);
   }
@@ -213,10 +247,16 @@ void Coordinator::reportFailure(const std::string& workerId, uint64_t leaseId, c
                     "ReportFailure: lease " + std::to_string(leaseId) + " is for " + lease->jobId + ", not " + jobId);
   Job& job = findJob(jobId);
   const uint64_t unit = lease->unit;
+  const bool audit = lease->audit;
   leases_.erase(leaseId);
   if (worker.currentUnit == unit) worker.currentUnit.reset();
   worker.currentJobId.clear();
   if (isTerminal(job.state)) return;
+  if (audit) {  // the counted result stands; another worker may render it
+    job.audits.release(unit, workerId);
+    changed_.notify_all();
+    return;
+  }
   ++worker.failures;
   const std::string reason = worker.label() + ": " + error;
   spdlog::warn("job {}: unit {} failed on {}", job.id, unit, reason);

@@ -23,6 +23,7 @@ void Coordinator::reapExpiredLeases(Clock::time_point now) {
     Job& job = findJob(lease.jobId);
     spdlog::warn("job {}: lease {} of unit {} held by {} lapsed; the unit goes back to the queue", job.id, leaseId,
                  lease.unit, lease.workerId);
+    if (lease.audit) job.audits.release(lease.unit, lease.workerId);
     if (!isTerminal(job.state) && !job.units.isReceived(lease.unit)) job.units.requeue(lease.unit);
     ++counters_.unitsExpired;
     if (auto w = workers_.find(lease.workerId); w != workers_.end() && w->second->currentJobId == job.id)
@@ -30,10 +31,14 @@ void Coordinator::reapExpiredLeases(Clock::time_point now) {
     changed_.notify_all();
   }
   enforceDeadlines();
+  settleWaitingJobs();
   forgetSilentWorkers(now);
 }
 
 std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_point now) {
+  if (worker.quarantined) return std::nullopt;  // auditing.cpp: it is leased nothing more
+  // Units under audit first: they hold back their jobs' ends, and are few.
+  if (auto grant = tryAuditLease(worker, now)) return grant;
   Job* best = nullptr;
   for (auto& [id, job] : jobs_) {
     if (isTerminal(job->state) || !job->units.hasPending()) continue;
@@ -101,6 +106,7 @@ std::string Coordinator::releaseLeasesOf(Worker& worker, const std::string& verb
   for (const LeaseTable::Lease& lease : leases_.takeAllOf(worker.id)) {
     Job& job = findJob(lease.jobId);
     const uint64_t unit = lease.unit;
+    if (lease.audit) job.audits.release(unit, worker.id);
     // Back in the queue, leased again before any fresh unit; an upload under the old lease is
     // refused from now on, so the unit is still counted once.
     if (!isTerminal(job.state) && !job.units.isReceived(unit) && !job.units.isRecording(unit)) job.units.requeue(unit);

@@ -255,6 +255,23 @@ void StateStore::recordUnit(const std::string& jobId, const LedgerEntry& e, cons
       .step();
 }
 
+void StateStore::forgetUnits(const std::string& jobId, uint64_t fromUnit, const std::set<uint64_t>& kept,
+                             uint64_t toUnit) {
+  std::lock_guard lock(mutex_);
+  std::vector<uint64_t> units;
+  {
+    Statement s(db_, "SELECT unit FROM ledger WHERE job_id = ? AND unit >= ? AND unit < ?");
+    s.bind(1, jobId).bind(2, int64_t(fromUnit)).bind(3, int64_t(toUnit));
+    while (s.step())
+      if (!kept.count(uint64_t(s.integer(0)))) units.push_back(uint64_t(s.integer(0)));
+  }
+  // The rows first: a unit file without a row is never read.
+  for (uint64_t unit : units)
+    Statement(db_, "DELETE FROM ledger WHERE job_id = ? AND unit = ?").bind(1, jobId).bind(2, int64_t(unit)).step();
+  std::error_code ignored;
+  for (uint64_t unit : units) fs::remove(jobDir(jobId) / ("unit-" + std::to_string(unit) + ".bin"), ignored);
+}
+
 std::vector<StateStore::LedgerEntry> StateStore::ledger(const std::string& jobId) {
   std::lock_guard lock(mutex_);
   std::vector<LedgerEntry> out;

@@ -13,10 +13,12 @@
 // so a unit acknowledged to a worker survives a SIGKILL: its file and ledger row are durable
 // before the acknowledgement is sent.
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -67,6 +69,10 @@ class StateStore {
   void recordUnit(const std::string& jobId, const LedgerEntry& entry, const std::vector<double>& sums);
   std::vector<LedgerEntry> ledger(const std::string& jobId);
   std::vector<double> loadUnitSums(const std::string& jobId, uint64_t unit, size_t count);
+  // The audit undid units (docs/farm.md "Audit"): every ledger row and unit file of the job in
+  // [fromUnit, toUnit), except those of `kept`, is removed.
+  void forgetUnits(const std::string& jobId, uint64_t fromUnit, const std::set<uint64_t>& kept,
+                   uint64_t toUnit = std::numeric_limits<int64_t>::max());
 
   // Saves the sensor and tracker holding units [0, foldedUnits), then drops their unit files.
   void writeCheckpoint(const std::string& jobId, const std::string& sensorBytes, const std::string& trackerBytes,

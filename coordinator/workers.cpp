@@ -253,6 +253,9 @@ std::vector<WorkerView> Coordinator::workers() const {
     v.state = stateOf(*w, holders.count(id) > 0, now, &v.secondsInState);
     v.attached = w->attachment != 0;
     v.failures = w->failures;
+    v.auditsPassed = w->auditsPassed;
+    v.quarantined = w->quarantined;
+    v.quarantineReason = w->quarantineReason;
     for (const auto& [jobId, job] : jobs_)
       if (job->blocklist.count(id)) v.blocklistedJobs.push_back(jobId);
     if (w->gone)

@@ -1,0 +1,263 @@
+// Coordinator, the cross-worker audit (docs/farm.md "Audit"; one job's units under audit are its
+// AuditBook, audit.h): which counted units are rendered again and by whom, what a verdict does,
+// and when a job whose film reached its stop may end.
+//
+// A unit's counted result is summed into the film at once (the audit costs no latency); a
+// verdict that finds its worker wrong quarantines it and rewinds the film to a point before the
+// worker's first unit since its last agreeing audit (Accumulator::rewind: a bitwise copy of the
+// film), so every unit from there on is rendered again by the others and summed in the same
+// order: the image is bit for bit the one a farm without the wrong worker makes.
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+
+#include "coordinator.h"
+#include "coordinator_records.h"
+#include "render/unit_renderer.h"
+#include "state_store.h"
+#include "util/error.h"
+
+namespace lensfarm {
+
+void Coordinator::Job::addEvent(std::string text) {
+  spdlog::info("job {}: {}", id, text);
+  if (events.size() >= kMaxJobEvents) events.erase(events.begin());
+  const double now = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  events.push_back(JobInfo::Event{now, std::move(text)});
+}
+
+bool Coordinator::mayAudit(const Job& job, const Worker& worker, const std::string& exceptWorker) const {
+  return !worker.gone && !worker.quarantined && worker.id != exceptWorker && job.fitsOn(worker.info) &&
+         !job.blocklist.count(worker.id);
+}
+
+bool Coordinator::chooseForAudit(const Job& job, Worker& worker) {
+  if (!(options_.auditFraction > 0.0)) return false;
+  bool another = false;
+  for (const auto& [id, w] : workers_) another = another || mayAudit(job, *w, worker.id);
+  if (!another) return false;  // a farm of one: nobody to compare with
+  if (!worker.firstUnitAudited) {
+    worker.firstUnitAudited = true;
+    return true;
+  }
+  return std::uniform_real_distribution<double>(0.0, 1.0)(auditRandom_) < options_.auditFraction;
+}
+
+std::optional<LeaseGrant> Coordinator::tryAuditLease(Worker& worker, Clock::time_point now) {
+  Job* best = nullptr;
+  for (auto& [id, job] : jobs_) {
+    if (isTerminal(job->state) || job->audits.empty() || !mayAudit(*job, worker) || !job->audits.offers(worker.id))
+      continue;
+    if (!best || job->priority > best->priority || (job->priority == best->priority && job->sequence < best->sequence))
+      best = job.get();
+  }
+  if (!best) return std::nullopt;
+  Job& job = *best;
+  const uint64_t unit = *job.audits.lease(worker.id);
+  const auto longest = now + std::chrono::duration_cast<Clock::duration>(
+                                 std::chrono::duration<double>(std::max(options_.maxLeaseSeconds, 1e-3)));
+  // The grant looks like any other: a worker cannot tell an audit from a unit queued again.
+  const uint64_t leaseId = leases_.grant(worker.id, job.id, unit, leaseDeadline(now), longest, /*audit=*/true);
+  ++counters_.unitsLeased;
+  worker.currentJobId = job.id;
+  worker.currentUnit = unit;
+  touch(job);
+  return LeaseGrant{leaseId, job.id, unitAt(unit, job.settings.samplesPerPixel, job.unitSize), job.sceneHash,
+                    options_.leaseTimeoutSeconds};
+}
+
+bool Coordinator::acceptAudit(const UnitResult& result, UnitResult* owned) {
+  const uint64_t unit = result.unitIndex;
+  AuditBook::Sums counted, dissent;
+  {
+    std::lock_guard lock(mutex_);
+    Job& job = findJob(result.jobId);
+    if (!leases_.covers(result.leaseId, result.workerId, result.jobId, unit))
+      throw FarmError(FarmError::Kind::kFailedPrecondition, "lease " + std::to_string(result.leaseId) + " for unit " +
+                                                                std::to_string(unit) + " of " + result.jobId +
+                                                                " is not held by " + result.workerId);
+    const int w = job.settings.width, h = job.settings.height;
+    if (result.buffer.width != w || result.buffer.height != h || result.buffer.sums.size() != size_t(w) * size_t(h) * 3)
+      throw FarmError(FarmError::Kind::kInvalidArgument, "result for " + job.id + " has the wrong size");
+    leases_.erase(result.leaseId);
+    Worker& worker = findWorker(result.workerId);
+    if (worker.currentUnit == unit) worker.currentUnit.reset();
+    const AuditBook::Audit* audit = job.audits.find(unit);
+    if (!audit || isTerminal(job.state)) return true;  // closed meanwhile: nothing left to settle
+    counted = audit->counted.sums;
+    if (audit->dissent) dissent = audit->dissent->sums;
+  }
+  // Each comparison reads a whole frame: outside the lock.
+  const std::optional<std::string> fromCounted = sumsDiffer(*counted, result.buffer.sums, options_.auditTolerance);
+  const std::optional<std::string> fromDissent =
+      dissent ? sumsDiffer(*dissent, result.buffer.sums, options_.auditTolerance) : std::nullopt;
+  AuditBook::Sums mine;  // kept only if it disputes the counted result
+  if (fromCounted && !dissent)
+    mine = std::make_shared<const std::vector<double>>(owned ? std::move(owned->buffer.sums) : result.buffer.sums);
+
+  std::lock_guard lock(mutex_);
+  Job& job = findJob(result.jobId);
+  const AuditBook::Audit* audit = job.audits.find(unit);
+  // The audit may have been closed, or its unit rendered again and audited anew, meanwhile.
+  if (!audit || audit->counted.sums != counted || (audit->dissent ? audit->dissent->sums : nullptr) != dissent)
+    return true;
+  if (const auto verdict = job.audits.settle(unit, {result.workerId, std::move(mine)}, fromCounted, fromDissent))
+    applyVerdict(job, *verdict);
+  touch(job);
+  return true;
+}
+
+void Coordinator::applyVerdict(Job& job, const AuditBook::Verdict& v) {
+  const auto labelOf = [&](const std::string& id) {
+    auto it = workers_.find(id);
+    return it == workers_.end() ? id : it->second->label();
+  };
+  // A worker whose result agreed was right then, so are the units it delivered before.
+  const auto vouchFor = [&](const std::string& id, uint64_t seq) {
+    if (auto it = workers_.find(id); it != workers_.end()) {
+      it->second->clearedSeq = std::max(it->second->clearedSeq, seq);
+      ++it->second->auditsPassed;
+    }
+  };
+  const std::string unit = "unit " + std::to_string(v.unit);
+  switch (v.kind) {
+    case AuditBook::Verdict::Kind::kAgreed:
+      vouchFor(v.right[0], v.acceptedSeq);        // the counted result's worker, up to that result
+      vouchFor(v.right[1], nextAcceptance_ - 1);  // the auditor, up to now
+      ++job.auditsPassed;
+      ++counters_.auditsPassed;
+      updateTrust(job);
+      break;
+    case AuditBook::Verdict::Kind::kDisputed:
+      job.addEvent("audit of " + unit + ": the results of " + labelOf(job.audits.find(v.unit)->counted.worker) +
+                   " and " + labelOf(job.audits.find(v.unit)->dissent->worker) + " " + v.detail +
+                   "; a third worker decides");
+      break;
+    case AuditBook::Verdict::Kind::kSettled: {
+      ++job.auditsFailed;
+      ++counters_.auditsFailed;
+      vouchFor(v.right[0], v.acceptedSeq);
+      vouchFor(v.right[1], nextAcceptance_ - 1);
+      const std::string reason = unit + " of " + job.id + ": its sums " + v.detail + " from those of " +
+                                 labelOf(v.right[0]) + " and " + labelOf(v.right[1]) + ", which agree";
+      job.addEvent("audit of " + unit + ": " + labelOf(v.wrong) + " is wrong (" + v.detail + " from " +
+                   labelOf(v.right[0]) + " and " + labelOf(v.right[1]) + ", which agree)");
+      if (auto it = workers_.find(v.wrong); it != workers_.end()) quarantine(*it->second, reason);
+      updateTrust(job);
+      break;
+    }
+    case AuditBook::Verdict::Kind::kInconclusive:
+      job.addEvent("audit of " + unit + " inconclusive: three workers' results disagree (" + v.detail +
+                   "); nobody is quarantined and the counted result stands. Is the scene rendered "
+                   "deterministically on every worker?");
+      break;
+  }
+  settleWaitingJobs();
+}
+
+void Coordinator::quarantine(Worker& worker, const std::string& reason) {
+  if (worker.quarantined) return;
+  worker.quarantined = true;
+  worker.quarantineReason = reason;
+  spdlog::warn("worker {} quarantined: {}", worker.label(), reason);
+  releaseLeasesOf(worker, "quarantined", reason, Clock::now());
+  for (auto& [id, job] : jobs_) {
+    job->audits.forgetWorker(worker.id);
+    if (!isTerminal(job->state)) {
+      rewindFor(*job, worker.id);
+      continue;
+    }
+    // A job that ended before: its image may hold the worker's wrong units. Say so.
+    uint64_t suspect = 0;
+    for (const auto& [unit, p] : job->provenance) suspect += p.worker == worker.id && p.seq > worker.clearedSeq;
+    if (suspect > 0)
+      job->addEvent("worker " + worker.label() + " was quarantined after this job ended; " + std::to_string(suspect) +
+                    " of its units since its last agreeing audit are in this image (render the job again)");
+  }
+  changed_.notify_all();
+}
+
+void Coordinator::rewindFor(Job& job, const std::string& workerId) {
+  const auto w = workers_.find(workerId);
+  const uint64_t cleared = w == workers_.end() ? 0 : w->second->clearedSeq;
+  std::optional<uint64_t> first;  // its first unit since its last agreeing audit
+  for (const auto& [unit, p] : job.provenance)
+    if (p.worker == workerId && p.seq > cleared) {
+      first = unit;
+      break;
+    }
+  if (!first) return;
+  std::lock_guard checkpointLock(checkpointMutex_);  // no checkpoint of the film as it is now
+  const Accumulator::Rewound r =
+      job.film->rewind(*first, [&](const UnitResult& result) { return result.workerId == workerId; });
+  job.generation = job.film->generation();
+  const uint64_t uncounted = job.units.rewindTo(r.units, r.kept);
+  job.publish(r.progress);
+  if (r.progress.stopReason.empty()) {  // the stop was reached with units now undone
+    job.stopAwaitingAudits.reset();
+    job.stopUnits.reset();
+  } else {
+    job.units.clearPending();
+  }
+  for (auto it = job.provenance.lower_bound(r.units); it != job.provenance.end();)
+    it = r.kept.count(it->first) ? std::next(it) : job.provenance.erase(it);
+  job.trustedUnits = std::min(job.trustedUnits, r.units);
+  job.unitsRerendered += uncounted;
+  counters_.unitsRerendered += uncounted;
+  if (store_) {
+    store_->forgetUnits(job.id, r.units, r.kept);
+    if (r.checkpoint) {
+      store_->writeCheckpoint(job.id, r.checkpoint->sensor, r.checkpoint->tracker, r.checkpoint->folded);
+      job.film->checkpointed(r.checkpoint->folded);
+    }
+  }
+  const std::string label = w == workers_.end() ? workerId : w->second->label();
+  job.addEvent("worker " + label + " quarantined; its units from unit " + std::to_string(*first) +
+               " on are rendered again: the film is back at unit " + std::to_string(r.units) + ", " +
+               std::to_string(uncounted) + " counted unit(s) undone");
+  touch(job);
+}
+
+void Coordinator::updateTrust(Job& job) {
+  // The first counted unit not vouched for by a later agreeing audit of its worker, or the first
+  // unit not counted yet: every unit below it is never undone.
+  uint64_t trusted = job.units.countedPrefix();
+  for (const auto& [unit, p] : job.provenance) {
+    if (unit >= trusted) break;
+    auto w = workers_.find(p.worker);
+    if (w == workers_.end() || p.seq > w->second->clearedSeq) {
+      trusted = unit;
+      break;
+    }
+  }
+  if (trusted <= job.trustedUnits) return;
+  job.trustedUnits = trusted;
+  job.provenance.erase(job.provenance.begin(), job.provenance.lower_bound(trusted));
+  job.film->trustBelow(trusted);
+}
+
+void Coordinator::settleWaitingJobs() {
+  for (auto& [id, jobPtr] : jobs_) {
+    Job& job = *jobPtr;
+    if (isTerminal(job.state) || !job.stopAwaitingAudits) continue;
+    std::vector<uint64_t> orphans;
+    for (const auto& [unit, audit] : job.audits.audits()) {
+      if (audit.leasedTo) continue;
+      bool someone = false;
+      for (const auto& [wid, w] : workers_) someone = someone || (mayAudit(job, *w) && !audit.renderedBy.count(wid));
+      if (!someone) orphans.push_back(unit);
+    }
+    for (uint64_t unit : orphans) {
+      job.addEvent("audit of unit " + std::to_string(unit) +
+                   " not settled: no other worker is left to render it; the counted result stands");
+      job.audits.close(unit);
+    }
+    if (!job.audits.empty()) continue;
+    const std::string reason = *job.stopAwaitingAudits;
+    job.stopAwaitingAudits.reset();
+    finish(job, reason);
+    touch(job);
+  }
+}
+
+}  // namespace lensfarm
