@@ -27,7 +27,9 @@ void Coordinator::Job::addEvent(std::string text) {
 }
 
 bool Coordinator::mayAudit(const Job& job, const Worker& worker, const std::string& exceptWorker) const {
-  return !worker.gone && !worker.quarantined && worker.id != exceptWorker && job.fitsOn(worker.info) &&
+  // Only a worker heard from lately: a silent one would hold the job's end back.
+  const bool heard = Clock::now() - worker.lastHeartbeat < std::chrono::duration<double>(staleAfterSeconds());
+  return heard && !worker.gone && !worker.quarantined && worker.id != exceptWorker && job.fitsOn(worker.info) &&
          !job.blocklist.count(worker.id);
 }
 

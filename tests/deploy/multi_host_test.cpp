@@ -192,7 +192,10 @@ TEST(MultiHost, AFarmAcrossHostsSurvivesACutLinkAndRendersTheSameBits) {
   EXPECT_EQ(metrics.at("lensfarm_jobs{state=\"done\"}"), 1.0);
   EXPECT_EQ(metrics.at("lensfarm_units_done_total"), 12.0);
   EXPECT_GE(metrics.at("lensfarm_units_expired_total"), 1.0) << "the cut worker's lease lapsed";
-  EXPECT_EQ(metrics.at("lensfarm_units_leased_total"), 12.0 + metrics.at("lensfarm_units_expired_total"));
+  // Audits (docs/farm.md "Audit") are leases too: each worker's first unit at least.
+  EXPECT_EQ(metrics.at("lensfarm_audits_total{result=\"failed\"}"), 0.0);
+  EXPECT_EQ(metrics.at("lensfarm_units_leased_total"), 12.0 + metrics.at("lensfarm_units_expired_total") +
+                                                           metrics.at("lensfarm_audits_total{result=\"passed\"}"));
   EXPECT_TRUE(test::waitFor([&] {
     const auto m = test::parseMetrics(test::httpGet(coordinatorIp + ":9464", "/metrics", lab.ns("client")));
     return m.count("lensfarm_workers_alive") && m.at("lensfarm_workers_alive") == 1.0;
