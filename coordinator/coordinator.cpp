@@ -124,7 +124,8 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
       throw FarmError(FarmError::Kind::kInvalidArgument, "asset " + path + " is not listed in the job spec");
 
   // Refuse what this coordinator cannot hold before allocating anything frame-sized.
-  const MemoryEstimate memory = coordinatorJobMemory(scene.render, options_.maxBytesAhead, store_ != nullptr);
+  const MemoryEstimate memory = coordinatorJobMemory(scene.render, options_.maxBytesAhead, store_ != nullptr,
+                                                     options_.auditFraction > 0.0 ? kRewindPoints : 0);
   if (memory.total() > options_.maxJobMemoryBytes)
     throw FarmError(FarmError::Kind::kResourceExhausted,
                     spec.sceneName + ": " +

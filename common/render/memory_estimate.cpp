@@ -76,7 +76,8 @@ uint64_t unitsAheadWindow(int width, int height, uint64_t maxBytesAhead) {
   return std::max<uint64_t>(8, maxBytesAhead / std::max<uint64_t>(1, unitBytes));
 }
 
-MemoryEstimate coordinatorJobMemory(const RenderSettings& s, uint64_t maxBytesAhead, bool stateDir) {
+MemoryEstimate coordinatorJobMemory(const RenderSettings& s, uint64_t maxBytesAhead, bool stateDir,
+                                    uint64_t auditCopies) {
   const uint64_t cells = cellsOf(s);
   const uint64_t held = std::min(unitsOf(s), unitsAheadWindow(s.width, s.height, maxBytesAhead));
   MemoryEstimate e;
@@ -86,6 +87,9 @@ MemoryEstimate coordinatorJobMemory(const RenderSettings& s, uint64_t maxBytesAh
                      held * cells * kUnitBufferBytesPerCell});
   e.items.push_back({"a download", cells * (kImageBytesPerCell + 2 * kExrBytesPerCell)});
   if (stateDir) e.items.push_back({"a checkpoint", cells * kCheckpointBytesPerCell});
+  if (auditCopies > 0)
+    e.items.push_back({std::to_string(auditCopies) + " film copies and an audited unit (the audit)",
+                       cells * (auditCopies * (kSensorBytesPerCell + kTrackerBytesPerCell) + kUnitBufferBytesPerCell)});
   return e;
 }
 

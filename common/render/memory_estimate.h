@@ -74,7 +74,10 @@ uint64_t unitsAheadWindow(int width, int height, uint64_t maxBytesAhead);
 // Bytes the coordinator needs for one job: its sensor and tracker, the unit buffers it may hold
 // (unitsAheadWindow, at most the job's units), one EXR download (image and encoded file) and, with a
 // state directory, one checkpoint.
-MemoryEstimate coordinatorJobMemory(const RenderSettings& settings, uint64_t maxBytesAhead, bool stateDir);
+// `auditCopies`: the film copies the cross-worker audit keeps (docs/farm.md "Audit"; 0 without
+// audit), each a sensor and a tracker, plus one audited unit's sums.
+MemoryEstimate coordinatorJobMemory(const RenderSettings& settings, uint64_t maxBytesAhead, bool stateDir,
+                                    uint64_t auditCopies = 0);
 
 // The triangles a loaded scene holds in memory: its meshes' and its prototypes' (each once,
 // however many instances draw it).

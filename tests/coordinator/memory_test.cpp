@@ -6,6 +6,7 @@
 #include <new>
 #include <thread>
 
+#include "audit.h"
 #include "coordinator.h"
 #include "coordinator_fixtures.h"
 #include "in_process_link.h"
@@ -63,7 +64,7 @@ TEST(CoordinatorMemory, AJobOverTheBudgetIsRefusedWithItsEstimateAndOthersGoOn) 
     settings.width = settings.height = 16384;
     settings.samplesPerPixel = 2;
     settings.samplesPerUnit = 1;
-    const uint64_t estimate = coordinatorJobMemory(settings, options.maxBytesAhead, false).total();
+    const uint64_t estimate = coordinatorJobMemory(settings, options.maxBytesAhead, false, kRewindPoints).total();
     EXPECT_NE(what.find("an estimated " + formatBytes(estimate)), std::string::npos) << what;
     EXPECT_NE(what.find(" GB"), std::string::npos) << what;
     EXPECT_NE(what.find("268 MB allowed"), std::string::npos) << what;

@@ -71,6 +71,10 @@ TEST(MemoryEstimate, TheFormulaIsWhatTheBufferTypesAllocate) {
   EXPECT_EQ(local.total(), sensor.memoryBytes() + tracker.memoryBytes() + unit.memoryBytes() +
                                cells * (kImageBytesPerCell + kPngBytesPerCell));
   EXPECT_EQ(itemBytes(coordinator, "a download"), cells * (kImageBytesPerCell + 2 * kExrBytesPerCell));
+  // The audit's film copies (a sensor and a tracker each) and one audited unit's sums.
+  EXPECT_EQ(itemBytes(coordinatorJobMemory(s, uint64_t(2) << 30, true, 3), "3 film copies"),
+            3 * (sensor.memoryBytes() + tracker.memoryBytes()) + unit.memoryBytes());
+  EXPECT_EQ(coordinatorJobMemory(s, uint64_t(2) << 30, true, 0).total(), coordinator.total()) << "no audit, no copies";
 }
 
 TEST(MemoryEstimate, TheAllocatorCountsWhatTheFormulaSays) {
