@@ -91,6 +91,7 @@ int runRender(const RenderFlags& flags) {
   options.maxJobMemoryBytes = std::numeric_limits<uint64_t>::max();  // the whole process was checked above
   options.leaseTimeoutSeconds = 3600.0;  // the worker cannot vanish: it is this process
   options.heartbeatIntervalSeconds = 0.25;
+  options.auditFraction = 0.0;  // one worker: nobody to compare with (docs/farm.md "Audit")
   Coordinator coordinator(options);
   for (const auto& [sha, bytes] : local.assetBytes) coordinator.putAsset(sha, bytes);
   spdlog::set_level(spdlog::level::warn);

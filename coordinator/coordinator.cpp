@@ -140,7 +140,6 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
   try {
     if (options_.beforeJobAllocation) options_.beforeJobAllocation(memory.total());
     job->film = std::make_unique<Accumulator>(scene.render, job->unitSize, job->units.total());
-    if (options_.auditFraction > 0.0) job->film->keepRewindPoints(rewindPointSpacing(options_.auditFraction), kRewindPoints);
   } catch (const std::bad_alloc&) {
     // This job is refused; the coordinator and its other jobs go on.
     const std::string what = spec.sceneName + ": out of memory allocating the " + std::to_string(scene.render.width) +

@@ -93,7 +93,6 @@ void Coordinator::restore() {
       job->film = std::make_unique<Accumulator>(scene.render, job->unitSize, job->units.total());
     }
     if (stored.stopUnits) job->film->limitTo(*stored.stopUnits);
-    if (options_.auditFraction > 0.0) job->film->keepRewindPoints(rewindPointSpacing(options_.auditFraction), kRewindPoints);
     const uint64_t folded = checkpoint ? checkpoint->foldedUnits : 0;
     uint64_t highest = 0;
     bool any = false;

@@ -186,7 +186,13 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
     job->units.markReceived(result.unitIndex);
     const uint64_t seq = nextAcceptance_++;
     if (result.unitIndex >= job->trustedUnits) job->provenance[result.unitIndex] = Job::Provenance{result.workerId, seq};
-    if (kept) job->audits.open(result.unitIndex, {result.workerId, std::move(kept)}, seq);
+    if (kept) {
+      // Film copies to rewind to from the job's first audit on: a job no one audits keeps none.
+      if (!job->keepsRewindPoints)
+        job->film->keepRewindPoints(rewindPointSpacing(options_.auditFraction), kRewindPoints);
+      job->keepsRewindPoints = true;
+      job->audits.open(result.unitIndex, {result.workerId, std::move(kept)}, seq);
+    }
     ++counters_.unitsDone;
     counters_.samples += result.stats.paths;
     if (auto w = workers_.find(result.workerId); w != workers_.end()) {
