@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <optional>
 
@@ -80,6 +81,15 @@ int guardedCall(const std::function<int()>& body) {
   }
 }
 
+// "2026-11-26 01:46:51": a moment in this machine's time zone, to the second.
+std::string localTimeText(double unixSeconds) {
+  const std::time_t t = std::time_t(unixSeconds);
+  std::tm local{};
+  char text[32];
+  if (!::localtime_r(&t, &local) || !std::strftime(text, sizeof text, "%Y-%m-%d %H:%M:%S", &local)) return "?";
+  return text;
+}
+
 void printStatus(const v1::JobStatus& s) {
   const auto& p = s.progress();
   std::printf("job:        %s\n", s.job_id().c_str());
@@ -103,7 +113,13 @@ void printStatus(const v1::JobStatus& s) {
   std::printf("error:      %s\n", convergenceText(p).c_str());
   if (p.time_limit_seconds() > 0.0) std::printf("deadline:   %s after submission\n", formatDuration(p.time_limit_seconds()).c_str());
   if (!p.stop_reason().empty()) std::printf("stopped:    %s\n", p.stop_reason().c_str());
+  if (s.audits_passed() + s.audits_failed() + s.audits_pending() + s.units_rerendered() > 0)
+    std::printf("audit:      %llu passed, %llu failed, %llu pending; %llu units rendered again\n",
+                (unsigned long long)s.audits_passed(), (unsigned long long)s.audits_failed(),
+                (unsigned long long)s.audits_pending(), (unsigned long long)s.units_rerendered());
   for (const auto& e : s.effects()) std::printf("effect:     %s\n", e.c_str());
+  if (!s.events().empty()) std::printf("events:\n");
+  for (const auto& e : s.events()) std::printf("  %s  %s\n", localTimeText(e.unix_seconds()).c_str(), e.text().c_str());
   if (!s.error().empty()) std::printf("error:      %s\n", s.error().c_str());
 }
 
@@ -291,7 +307,11 @@ Runner addWorkersCommand(CLI::App& app) {
           state += std::string(" ") + since + " ago" + (w.state_reason().empty() ? "" : ": " + w.state_reason());
         else if (w.state() == "stale")
           state += std::string(", no heartbeat for ") + since;
+        // A quarantined worker is leased nothing more (docs/farm.md "Audit"): said first.
+        if (w.quarantined())
+          state = "quarantined" + (w.quarantine_reason().empty() ? "" : ": " + w.quarantine_reason()) + "; " + state;
         if (w.failures() > 0) state += "; " + std::to_string(w.failures()) + " failed unit(s)";
+        if (w.audits_passed() > 0) state += "; " + std::to_string(w.audits_passed()) + " audit(s) passed";
         for (const std::string& job : w.blocklisted_jobs()) state += "; blocklisted for " + job;
         std::printf("%-18s %-28s %7u %-10s %8llu %9.1fs  %s\n", w.worker_id().c_str(), w.name().c_str(), w.threads(),
                     w.current_job_id().empty() ? "-" : w.current_job_id().c_str(), (unsigned long long)w.units_done(),

@@ -44,10 +44,55 @@ json summaryOf(const JobInfo& info) {
   j["stop_reason"] = info.stopReason;
   j["submitted_unix_seconds"] = info.submittedUnixSeconds;
   j["version"] = info.version;
+  j["audits_passed"] = info.auditsPassed;  // the cross-worker audit (docs/farm.md "Audit")
+  j["audits_failed"] = info.auditsFailed;
+  j["audits_pending"] = info.auditsPending;
+  j["units_rerendered"] = info.unitsRerendered;
   return j;
 }
 
 }  // namespace
+
+std::string jobDetailJson(const JobInfo& info, const std::vector<ErrorPoint>& errorHistory) {
+  json j = summaryOf(info);
+  j["scene_hash"] = info.sceneHash;
+  j["effects"] = info.effects;
+  j["light_hit_fraction"] = info.lightHitFraction();
+  j["dropped_samples"] = info.stats.dropped;
+  json history = json::array();
+  for (const ErrorPoint& p : errorHistory)
+    history.push_back(json{{"t", p.elapsedSeconds}, {"error", p.relativeError}, {"spp", p.samplesPerPixel}});
+  j["error_history"] = history;
+  json events = json::array();
+  for (const JobInfo::Event& e : info.events) events.push_back(json{{"unix_seconds", e.unixSeconds}, {"text", e.text}});
+  j["events"] = events;
+  return j.dump();
+}
+
+std::string workerListJson(const std::vector<WorkerView>& workers) {
+  json list = json::array();
+  for (const WorkerView& w : workers) {
+    list.push_back(json{{"id", w.id},
+                        {"name", w.info.name},
+                        {"cores", w.info.threads},
+                        {"current_job", w.currentJobId},
+                        {"current_unit", w.currentUnit ? json(*w.currentUnit) : json(nullptr)},
+                        {"units_done", w.unitsDone},
+                        {"samples_per_second", w.samplesPerSecond},
+                        {"seconds_since_heartbeat", w.secondsSinceHeartbeat},
+                        {"renderer_version", w.info.rendererVersion},
+                        {"state", workerStateName(w.state)},
+                        {"seconds_in_state", w.secondsInState},
+                        {"failures", w.failures},
+                        {"blocklisted_jobs", w.blocklistedJobs},
+                        {"state_reason", w.stateReason},
+                        {"attached", w.attached},
+                        {"audits_passed", w.auditsPassed},
+                        {"quarantined", w.quarantined},
+                        {"quarantine_reason", w.quarantineReason}});
+  }
+  return json{{"workers", list}}.dump();
+}
 
 Dashboard::Access Dashboard::access(const std::string& header) const {
   if (!token_) return Access::kFull;
@@ -67,40 +112,11 @@ std::string Dashboard::jobsJson() const {
 }
 
 std::string Dashboard::jobJson(const std::string& jobId) const {
-  const JobInfo info = coordinator_.job(jobId);
-  json j = summaryOf(info);
-  j["scene_hash"] = info.sceneHash;
-  j["effects"] = info.effects;
-  j["light_hit_fraction"] = info.lightHitFraction();
-  j["dropped_samples"] = info.stats.dropped;
-  json history = json::array();
-  for (const ErrorPoint& p : coordinator_.errorHistory(jobId))
-    history.push_back(json{{"t", p.elapsedSeconds}, {"error", p.relativeError}, {"spp", p.samplesPerPixel}});
-  j["error_history"] = history;
-  return j.dump();
+  const JobInfo info = coordinator_.job(jobId);  // FarmError kNotFound for an unknown job
+  return jobDetailJson(info, coordinator_.errorHistory(jobId));
 }
 
-std::string Dashboard::workersJson() const {
-  json list = json::array();
-  for (const WorkerView& w : coordinator_.workers()) {
-    list.push_back(json{{"id", w.id},
-                        {"name", w.info.name},
-                        {"cores", w.info.threads},
-                        {"current_job", w.currentJobId},
-                        {"current_unit", w.currentUnit ? json(*w.currentUnit) : json(nullptr)},
-                        {"units_done", w.unitsDone},
-                        {"samples_per_second", w.samplesPerSecond},
-                        {"seconds_since_heartbeat", w.secondsSinceHeartbeat},
-                        {"renderer_version", w.info.rendererVersion},
-                        {"state", workerStateName(w.state)},
-                        {"seconds_in_state", w.secondsInState},
-                        {"failures", w.failures},
-                        {"blocklisted_jobs", w.blocklistedJobs},
-                        {"state_reason", w.stateReason},
-                        {"attached", w.attached}});
-  }
-  return json{{"workers", list}}.dump();
-}
+std::string Dashboard::workersJson() const { return workerListJson(coordinator_.workers()); }
 
 Dashboard::Png Dashboard::snapshot(const std::string& jobId, std::optional<double> ev, int maxSide) const {
   const uint64_t version = coordinator_.job(jobId).version;  // before the image: never newer than it

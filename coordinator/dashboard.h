@@ -5,10 +5,16 @@
 // endpoints and the JSON fields.
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "coordinator.h"
 
 namespace lensfarm {
+
+// The JSON texts of one job's detail (its summary, effects, error history, audit counts and
+// events) and of the worker list, from what the coordinator reports; Dashboard serves them.
+std::string jobDetailJson(const JobInfo& info, const std::vector<ErrorPoint>& errorHistory);
+std::string workerListJson(const std::vector<WorkerView>& workers);
 
 class Dashboard {
  public:
@@ -29,7 +35,7 @@ class Dashboard {
 
   // JSON texts. FarmError kNotFound for an unknown job.
   std::string jobsJson() const;                          // {"jobs": [job summary...]} in serving order
-  std::string jobJson(const std::string& jobId) const;   // a summary plus effects and error history
+  std::string jobJson(const std::string& jobId) const;   // jobDetailJson of the job
   std::string workersJson() const;                       // {"workers": [...]}
 
   struct Png {

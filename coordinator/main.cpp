@@ -14,8 +14,11 @@
 #include <malloc.h>
 #include <netinet/in.h>
 
+#include <cmath>
 #include <csignal>
+#include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <thread>
 
@@ -60,6 +63,20 @@ void writeAddressFile(const std::string& file, const std::string& address, const
   }
 }
 extern "C" void onSignal(int) { gStop = true; }
+
+// A finite number in [lo, hi], `range` saying which in the error (CLI::Range alone lets "nan"
+// through: it compares false).
+CLI::Validator finiteIn(double lo, double hi, const std::string& range) {
+  return CLI::Validator(
+      [lo, hi, range](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(v) || v < lo || v > hi)
+          return "expected a finite number " + range + ", got \"" + text + "\"";
+        return "";
+      },
+      range);
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -113,6 +130,17 @@ int main(int argc, char** argv) {
                  "Different workers a unit may fail on before its job fails with their reasons")
       ->envname("LENSFARM_MAX_UNIT_FAILURES")
       ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  app.add_option("--audit-fraction", options.auditFraction,
+                 "Fraction of units rendered again by another worker and compared (0: no audit)")
+      ->envname("LENSFARM_AUDIT_FRACTION")
+      ->check(finiteIn(0.0, 1.0, "from 0 to 1"))
+      ->capture_default_str();
+  app.add_option("--audit-tolerance", options.auditTolerance,
+                 "Largest relative difference, per cell and channel, between an audited unit's two results that "
+                 "still agrees")
+      ->envname("LENSFARM_AUDIT_TOLERANCE")
+      ->check(finiteIn(0.0, std::numeric_limits<double>::max(), "of 0 or more"))
       ->capture_default_str();
   std::string metricsListen, metricsPortFile;
   app.add_option("--metrics-listen", metricsListen,

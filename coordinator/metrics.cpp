@@ -59,6 +59,14 @@ std::string renderMetrics(const MetricsSnapshot& s) {
   e.sample(s.unitsExpired);
   e.family("lensfarm_leases_active", "gauge", "Units leased to workers now.");
   e.sample(s.leasesActive);
+  e.family("lensfarm_audits_total", "counter",
+           "Units rendered again by another worker and compared (the cross-worker audit): result=\"passed\" the two "
+           "results agreed, result=\"failed\" they did not and a third worker found the wrong one.");
+  e.sample(s.auditsPassed, "result=\"passed\"");
+  e.sample(s.auditsFailed, "result=\"failed\"");
+  e.family("lensfarm_units_rerendered_total", "counter",
+           "Counted units queued again because an audit found the worker that rendered them wrong.");
+  e.sample(s.unitsRerendered);
 
   e.family("lensfarm_samples_total", "counter", "Samples (camera paths) in the accepted unit results.");
   e.sample(s.samples);
@@ -81,7 +89,7 @@ std::string renderMetrics(const MetricsSnapshot& s) {
            "the assets of a job once per worker new to them, not per unit.");
   e.sample(s.assetsSent);
 
-  uint64_t alive = 0;
+  uint64_t alive = 0, quarantined = 0;
   std::map<WorkerState, uint64_t> workersByState;
   for (WorkerState state : {WorkerState::kRendering, WorkerState::kIdle, WorkerState::kStale, WorkerState::kLost,
                             WorkerState::kLeft})
@@ -90,6 +98,7 @@ std::string renderMetrics(const MetricsSnapshot& s) {
     ++workersByState[w.state];
     if (w.secondsSinceHeartbeat <= s.leaseTimeoutSeconds && w.state != WorkerState::kLost && w.state != WorkerState::kLeft)
       ++alive;
+    if (w.quarantined) ++quarantined;
   }
   e.family("lensfarm_workers_alive", "gauge",
            "Workers heard from (heartbeat or lease request) within the lease timeout, and not lost or left.");
@@ -103,6 +112,9 @@ std::string renderMetrics(const MetricsSnapshot& s) {
   e.family("lensfarm_workers_lost_total", "counter",
            "Workers marked lost at once because their Attach stream broke (their units were queued again).");
   e.sample(s.workersLost);
+  e.family("lensfarm_workers_quarantined", "gauge",
+           "Known workers quarantined by the cross-worker audit: leased nothing more until the coordinator restarts.");
+  e.sample(quarantined);
   return std::move(e).text();
 }
 

@@ -118,7 +118,37 @@ v1::JobStatus toProto(const JobInfo& info) {
   p->set_stop_reason(info.stopReason);
   p->set_stalled_reason(info.stalledReason);
   p->set_progress_fraction(info.progressFraction);
+  s.set_audits_passed(info.auditsPassed);
+  s.set_audits_failed(info.auditsFailed);
+  s.set_audits_pending(info.auditsPending);
+  s.set_units_rerendered(info.unitsRerendered);
+  for (const JobInfo::Event& e : info.events) {
+    v1::JobEvent* event = s.add_events();
+    event->set_unix_seconds(e.unixSeconds);
+    event->set_text(e.text);
+  }
   return s;
+}
+
+v1::WorkerStatus toProto(const WorkerView& w) {
+  v1::WorkerStatus p;
+  p.set_worker_id(w.id);
+  p.set_name(w.info.name);
+  p.set_threads(w.info.threads);
+  p.set_current_job_id(w.currentJobId);
+  p.set_units_done(w.unitsDone);
+  p.set_seconds_since_heartbeat(w.secondsSinceHeartbeat);
+  p.set_renderer_version(w.info.rendererVersion);
+  p.set_state(workerStateName(w.state));
+  p.set_seconds_in_state(w.secondsInState);
+  p.set_state_reason(w.stateReason);
+  p.set_attached(w.attached);
+  p.set_failures(w.failures);
+  for (const std::string& job : w.blocklistedJobs) p.add_blocklisted_jobs(job);
+  p.set_audits_passed(w.auditsPassed);
+  p.set_quarantined(w.quarantined);
+  p.set_quarantine_reason(w.quarantineReason);
+  return p;
 }
 
 // ---- ClientService --------------------------------------------------------------------------
@@ -227,22 +257,7 @@ grpc::Status ClientServiceImpl::CancelJob(grpc::ServerContext* context, const v1
 grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext* context, const v1::ListWorkersRequest*,
                                             v1::ListWorkersResponse* response) {
   return guarded(gate_, context, "ListWorkers", [&] {
-    for (const WorkerView& w : coordinator_.workers()) {
-      auto* p = response->add_workers();
-      p->set_worker_id(w.id);
-      p->set_name(w.info.name);
-      p->set_threads(w.info.threads);
-      p->set_current_job_id(w.currentJobId);
-      p->set_units_done(w.unitsDone);
-      p->set_seconds_since_heartbeat(w.secondsSinceHeartbeat);
-      p->set_renderer_version(w.info.rendererVersion);
-      p->set_state(workerStateName(w.state));
-      p->set_seconds_in_state(w.secondsInState);
-      p->set_state_reason(w.stateReason);
-      p->set_attached(w.attached);
-      p->set_failures(w.failures);
-      for (const std::string& job : w.blocklistedJobs) p->add_blocklisted_jobs(job);
-    }
+    for (const WorkerView& w : coordinator_.workers()) *response->add_workers() = toProto(w);
   });
 }
 

@@ -77,7 +77,8 @@ class WorkerServiceImpl final : public v1::WorkerService::WithCallbackMethod_Att
   bool closing_ = false;
 };
 
-// JobInfo as the wire's JobStatus.
+// JobInfo as the wire's JobStatus, and WorkerView as its WorkerStatus (ListWorkers).
 v1::JobStatus toProto(const JobInfo& info);
+v1::WorkerStatus toProto(const WorkerView& worker);
 
 }  // namespace lensfarm

@@ -92,6 +92,14 @@ function timeLeft(j) {
   if (j.stalled_reason) return el("span", { class: "stalled", title: j.stalled_reason }, "stalled");
   return fmtDuration(j.remaining_seconds);
 }
+// The cross-worker audit's counts, "12 passed, 1 failed, 2 pending; 40 units rendered again", or
+// "" while they are all 0 (no audit yet, or the audit is off).
+function auditText(j) {
+  const passed = j.audits_passed || 0, failed = j.audits_failed || 0, pending = j.audits_pending || 0;
+  const rerendered = j.units_rerendered || 0;
+  if (!(passed || failed || pending || rerendered)) return "";
+  return `${passed} passed, ${failed} failed, ${pending} pending; ${rerendered} units rendered again`;
+}
 function progressBar(fraction) {
   const bar = el("div", { class: "progress small" }, el("div"));
   bar.firstChild.style.width = `${Math.min(100, 100 * fraction).toFixed(1)}%`;
@@ -120,13 +128,18 @@ async function renderOverview() {
   $("#jobs tbody").replaceChildren(...jobRows);
   $("#jobs-empty").hidden = jobs.length > 0;
   const gone = (w) => w.state === "lost" || w.state === "left";
+  // A quarantined worker (the cross-worker audit) says so first, its state beside, the reason below.
+  const workerState = (w) => w.quarantined
+    ? [badge("quarantined"), el("span", { class: "muted" }, ` ${w.state}`),
+       el("div", { class: "quarantine-reason small" }, w.quarantine_reason)]
+    : [badge(w.state),
+       gone(w) || w.state === "stale" ? el("span", { class: "muted" }, ` ${fmtDuration(w.seconds_in_state)}${gone(w) ? " ago" : " silent"}`) : "",
+       w.state_reason ? el("div", { class: "muted small" }, w.state_reason) : ""];
   const workerRows = workers.map((w) =>
-    el("tr", { dataset: { worker: w.id, state: w.state } },
+    el("tr", { dataset: { worker: w.id, state: w.quarantined ? "quarantined" : w.state } },
       el("td", {}, w.name || w.id, " ", el("span", { class: "muted" }, w.id)),
       el("td", { class: "num" }, w.cores),
-      el("td", { class: "worker-state" }, badge(w.state),
-        gone(w) || w.state === "stale" ? el("span", { class: "muted" }, ` ${fmtDuration(w.seconds_in_state)}${gone(w) ? " ago" : " silent"}`) : "",
-        w.state_reason ? el("div", { class: "muted small" }, w.state_reason) : ""),
+      el("td", { class: "worker-state" }, ...workerState(w)),
       el("td", {}, w.current_job
         ? el("a", { href: `#/job/${encodeURIComponent(w.current_job)}` }, `${w.current_job} · unit ${w.current_unit ?? "–"}`)
         : el("span", { class: "muted" }, "–")),
@@ -153,6 +166,7 @@ async function renderJob(jobId) {
   $("#job-progress").title = `${(100 * job.progress).toFixed(0)} % of the way to ${progressBasis(job)}`;
   const running = !isTerminal(job.state);
   const target = job.target_error > 0 ? ` (target ${fmtError(job.target_error)})` : "";
+  const audit = auditText(job);
   $("#job-stats").replaceChildren(
     ...stat("Samples per pixel", sppText(job), "job-spp"),
     ...stat("Units", job.units_total === null ? `${job.units_done}` : `${job.units_done} / ${job.units_total}`),
@@ -162,7 +176,8 @@ async function renderJob(jobId) {
     ...stat("Elapsed", fmtDuration(job.elapsed_seconds)),
     ...stat(running ? "Time left" : "Stopped", running ? timeLeft(job) : (job.stop_reason || job.error || job.state), "job-time-left"),
     ...stat("Workers busy", job.workers_busy),
-    ...(job.stalled_reason ? stat("Stalled", job.stalled_reason, "job-stalled") : []));
+    ...(job.stalled_reason ? stat("Stalled", job.stalled_reason, "job-stalled") : []),
+    ...(audit ? stat("Audit", audit, "job-audit") : []));
   $("#job-priority").textContent = job.priority;
   const mayAct = running && access !== "read";
   $("#cancel").disabled = !mayAct;
@@ -173,6 +188,10 @@ async function renderJob(jobId) {
     return el("li", {}, el("span", { class: `tag ${m[2]}` }, m[2]), " ", el("strong", {}, m[1]),
       m[3] ? el("span", { class: "muted" }, ` — ${m[3]}`) : "");
   }));
+  const events = job.events || [];
+  $("#events-card").hidden = events.length === 0;
+  $("#events").replaceChildren(...events.map((e) =>
+    el("li", {}, el("span", { class: "muted" }, new Date(1000 * e.unix_seconds).toLocaleString()), " ", e.text)));
   drawErrorChart($("#error-chart"), job.error_history, job.target_error);
   if (job.version !== shown.version || evChoice !== shown.ev || shown.jobId !== job.id) await loadSnapshot(job);
 }

@@ -2,6 +2,7 @@
 // changes, the error history, workers' current unit and speed), driven directly: no network.
 #include <gtest/gtest.h>
 
+#include "audit_views.h"
 #include "coordinator.h"
 #include "coordinator_fixtures.h"
 #include "dashboard.h"
@@ -66,11 +67,14 @@ TEST(Dashboard, JsonHasWhatThePagesShow) {
   EXPECT_DOUBLE_EQ(j["target_error"].get<double>(), 1e-6);
   for (const char* key : {"samples_per_second", "elapsed_seconds", "remaining_seconds", "version", "workers_busy"})
     EXPECT_TRUE(j.contains(key)) << key;
+  for (const char* key : {"audits_passed", "audits_failed", "audits_pending", "units_rerendered"})
+    EXPECT_TRUE(j[key].is_number_unsigned()) << key;
 
   const json detail = json::parse(d.jobJson(id));
   EXPECT_EQ(detail["id"], id);
   ASSERT_TRUE(detail["effects"].is_array());
   EXPECT_FALSE(detail["effects"].empty());
+  EXPECT_TRUE(detail["events"].is_array());
   const json& history = detail["error_history"];
   ASSERT_EQ(history.size(), 3u) << "one point per changed estimate, from the second unit on: " << history;
   EXPECT_EQ(history[0]["spp"], 2);
@@ -89,8 +93,42 @@ TEST(Dashboard, JsonHasWhatThePagesShow) {
   EXPECT_EQ(wj["units_done"], 4);
   EXPECT_DOUBLE_EQ(wj["samples_per_second"].get<double>(), 48.0 / 0.5) << "its last unit's paths / render seconds";
   EXPECT_GE(wj["seconds_since_heartbeat"].get<double>(), 0.0);
+  EXPECT_EQ(wj["quarantined"], false);
+  EXPECT_EQ(wj["quarantine_reason"], "");
+  EXPECT_TRUE(wj["audits_passed"].is_number_unsigned());
 
   EXPECT_THROW(d.jobJson("job-404"), FarmError);
+}
+
+// The cross-worker audit (docs/farm.md "Audit") from a hand-filled job and workers: its counts in
+// the job's summary, its events in the detail, and a quarantined worker with the reason.
+TEST(Dashboard, JsonCarriesTheAuditItsEventsAndQuarantinedWorkers) {
+  const JobInfo info = test::auditedJob();
+  const json detail = json::parse(jobDetailJson(info, {}));
+  EXPECT_EQ(detail["id"], "job-7");
+  EXPECT_EQ(detail["audits_passed"], 12);
+  EXPECT_EQ(detail["audits_failed"], 1);
+  EXPECT_EQ(detail["audits_pending"], 2);
+  EXPECT_EQ(detail["units_rerendered"], 40);
+  ASSERT_EQ(detail["events"].size(), 2u) << detail["events"];
+  for (size_t k = 0; k < 2; ++k) {
+    EXPECT_DOUBLE_EQ(detail["events"][k]["unix_seconds"].get<double>(), info.events[k].unixSeconds) << k;
+    EXPECT_EQ(detail["events"][k]["text"], info.events[k].text) << k;
+  }
+  EXPECT_TRUE(detail["error_history"].empty());
+
+  const json workers = json::parse(workerListJson(test::auditedWorkers()))["workers"];
+  ASSERT_EQ(workers.size(), 2u);
+  EXPECT_EQ(workers[0]["id"], "w1");
+  EXPECT_EQ(workers[0]["audits_passed"], 5);
+  EXPECT_EQ(workers[0]["quarantined"], false);
+  EXPECT_EQ(workers[0]["failures"], 2);
+  EXPECT_EQ(workers[0]["blocklisted_jobs"], json::array({"job-2"}));
+  EXPECT_EQ(workers[1]["id"], "w3");
+  EXPECT_EQ(workers[1]["state"], "idle");
+  EXPECT_EQ(workers[1]["audits_passed"], 3);
+  EXPECT_EQ(workers[1]["quarantined"], true);
+  EXPECT_EQ(workers[1]["quarantine_reason"], test::kQuarantineReason);
 }
 
 TEST(Dashboard, EstimateIsNullUntilKnown) {

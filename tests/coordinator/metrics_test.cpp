@@ -3,6 +3,7 @@
 #include <gtest/gtest-spi.h>
 #include <gtest/gtest.h>
 
+#include "audit_views.h"
 #include "coordinator.h"
 #include "deploy_support.h"
 #include "metrics.h"
@@ -38,6 +39,10 @@ TEST(Metrics, FollowWhatTheCoordinatorDoes) {
   for (const char* state : {"queued", "running", "done", "cancelled", "failed"})
     EXPECT_EQ(m.at(std::string("lensfarm_jobs{state=\"") + state + "\"}"), 0.0) << state;
   EXPECT_EQ(m.at("lensfarm_workers_known"), 0.0);
+  EXPECT_EQ(m.at("lensfarm_audits_total{result=\"passed\"}"), 0.0);
+  EXPECT_EQ(m.at("lensfarm_audits_total{result=\"failed\"}"), 0.0);
+  EXPECT_EQ(m.at("lensfarm_units_rerendered_total"), 0.0);
+  EXPECT_EQ(m.at("lensfarm_workers_quarantined"), 0.0);
 
   const std::string sha = "5891b5b522d5df086d0ff0b110fbd9d21bb4fc7163af34d08286a2e846f6be03";  // "hello\n"
   c.putAsset(sha, "hello\n");
@@ -95,6 +100,25 @@ TEST(Metrics, FollowWhatTheCoordinatorDoes) {
   EXPECT_EQ(m.at("lensfarm_samples_per_second"), 0.0) << "no job running";
 }
 
+// The cross-worker audit's (docs/farm.md "Audit") from a hand-filled snapshot: its two counters
+// as they are, and the quarantined workers counted among the known ones.
+TEST(Metrics, CountAuditsUnitsRenderedAgainAndQuarantinedWorkers) {
+  MetricsSnapshot s;
+  s.auditsPassed = 12;
+  s.auditsFailed = 1;
+  s.unitsRerendered = 40;
+  s.workers = test::auditedWorkers();  // w1 rendering, w3 idle and quarantined
+  s.workers.push_back(s.workers[1]);
+  s.workers.back().id = "w4";
+  s.workers.back().state = WorkerState::kLost;  // quarantined, then lost: still known, still counted
+  const auto m = test::parseMetrics(renderMetrics(s));
+  EXPECT_EQ(m.at("lensfarm_audits_total{result=\"passed\"}"), 12.0);
+  EXPECT_EQ(m.at("lensfarm_audits_total{result=\"failed\"}"), 1.0);
+  EXPECT_EQ(m.at("lensfarm_units_rerendered_total"), 40.0);
+  EXPECT_EQ(m.at("lensfarm_workers_quarantined"), 2.0);
+  EXPECT_EQ(m.at("lensfarm_workers_known"), 3.0);
+}
+
 TEST(Metrics, EveryFamilyHasHelpAndTypeAndCountersEndInTotal) {
   const std::string text = renderMetrics(Coordinator().metricsSnapshot());
   // parseMetrics fails the test on any line that breaks the format or the naming rules.
@@ -102,7 +126,8 @@ TEST(Metrics, EveryFamilyHasHelpAndTypeAndCountersEndInTotal) {
   EXPECT_GE(samples.size(), 16u);
   for (const char* family : {"lensfarm_jobs", "lensfarm_units_leased_total", "lensfarm_units_done_total",
                              "lensfarm_units_expired_total", "lensfarm_samples_total", "lensfarm_samples_per_second",
-                             "lensfarm_received_bytes_total", "lensfarm_workers_alive"})
+                             "lensfarm_received_bytes_total", "lensfarm_workers_alive", "lensfarm_audits_total",
+                             "lensfarm_units_rerendered_total", "lensfarm_workers_quarantined"})
     EXPECT_NE(text.find(std::string("# TYPE ") + family + " "), std::string::npos) << family;
   // A broken line is caught: the parser is not a rubber stamp.
   EXPECT_NONFATAL_FAILURE(test::parseMetrics("lensfarm_orphan 1\n"), "without HELP and TYPE");

@@ -14,9 +14,16 @@
 #include <nlohmann/json.hpp>
 
 #include <fstream>
+#include <map>
 #include <optional>
+#include <thread>
+#include <tuple>
 
+#include "coordinator/audit_views.h"
+#include "dashboard.h"
 #include "deploy_support.h"
+#include "film/image.h"
+#include "film/image_io.h"
 
 namespace lensfarm {
 namespace {
@@ -449,6 +456,103 @@ TEST_F(DashboardFarm, ARealBrowserShowsProgressWithoutASampleCapAndALostWorker) 
       << browser.text("#job-progress-text");
   EXPECT_GT(barWidth("#job-progress-bar"), 0.0);
   EXPECT_EQ(browser.text("#job-spp").find("/"), std::string::npos) << "no total: " << browser.text("#job-spp");
+}
+
+// The page with what the cross-worker audit reports (docs/farm.md "Audit"): a quarantined worker
+// with the reason, and a job's audit counts and events. No worker here renders wrongly on purpose,
+// so the page is served from its source files by this test, its /api answering with the
+// coordinator's own JSON (dashboard.h) of a hand-filled job and workers (audit_views.h).
+TEST(DashboardPage, ARealBrowserShowsAQuarantinedWorkerAndAJobsAuditAndEvents) {
+  ASSERT_TRUE(fs::exists(kChromium) && fs::exists(kChromedriver))
+      << "needs Debian's chromium and chromium-driver (scripts/setup.sh installs them)";
+  const fs::path page = fs::path(LENSFARM_SOURCE_DIR) / "coordinator" / "dashboard";
+  const JobInfo audited = test::auditedJob();
+  JobInfo plain;  // no audit yet, no events
+  plain.id = "job-8";
+  plain.state = JobState::kQueued;
+  plain.sceneName = "plain.json";
+  plain.width = plain.height = 16;
+  const std::map<std::string, std::string> details = {{audited.id, jobDetailJson(audited, {})},
+                                                      {plain.id, jobDetailJson(plain, {})}};
+  Image pixels;
+  pixels.width = pixels.height = 16;
+  pixels.rgb.assign(16 * 16 * 3, 0.5f);
+  const std::string png = encodePng(pixels, ExposureSettings{});
+
+  httplib::Server server;
+  for (const auto& [path, file, type] :
+       {std::tuple{"/", "index.html", "text/html"}, std::tuple{"/app.js", "app.js", "text/javascript"},
+        std::tuple{"/style.css", "style.css", "text/css"}}) {
+    const std::string body = test::readFile(page / file), contentType = type;
+    server.Get(path, [body, contentType](const httplib::Request&, httplib::Response& r) {
+      r.set_content(body, contentType);
+    });
+  }
+  server.Get("/api/jobs", [&](const httplib::Request&, httplib::Response& r) {
+    json jobs = json::array();
+    for (const auto& [id, detail] : details) jobs.push_back(json::parse(detail));
+    r.set_content(json{{"jobs", jobs}}.dump(), "application/json");
+  });
+  server.Get("/api/workers", [&](const httplib::Request&, httplib::Response& r) {
+    r.set_content(workerListJson(test::auditedWorkers()), "application/json");
+  });
+  server.Get(R"(/api/jobs/([^/]+)/snapshot\.png)", [&](const httplib::Request&, httplib::Response& r) {
+    for (const auto& [name, value] : {std::pair{"X-Job-Version", "1"}, std::pair{"X-Samples-Per-Pixel", "96"},
+                                      std::pair{"X-Ev", "0"}, std::pair{"X-Width", "16"}, std::pair{"X-Height", "16"}})
+      r.set_header(name, value);
+    r.set_content(png, "image/png");
+  });
+  server.Get(R"(/api/jobs/([^/]+))", [&](const httplib::Request& request, httplib::Response& r) {
+    const auto detail = details.find(request.matches[1].str());
+    if (detail == details.end())
+      r.status = 404;
+    else
+      r.set_content(detail->second, "application/json");
+  });
+  const int port = server.bind_to_any_port("127.0.0.1");
+  ASSERT_GT(port, 0);
+  std::thread serving([&] { server.listen_after_bind(); });
+  struct Stop {
+    httplib::Server& server;
+    std::thread& thread;
+    ~Stop() {
+      server.stop();
+      thread.join();
+    }
+  } stop{server, serving};
+
+  test::TempDir dir;
+  Browser browser(dir);
+  browser.go("http://127.0.0.1:" + std::to_string(port) + "/");
+  const std::string quarantined = "#workers tbody tr[data-state=\"quarantined\"]";
+  ASSERT_TRUE(test::waitFor([&] { return browser.visible(quarantined); }, 30)) << browser.text("#workers");
+  EXPECT_NE(browser.text(quarantined).find("box-3"), std::string::npos) << browser.text(quarantined);
+  EXPECT_EQ(browser.text(quarantined + " .badge"), "quarantined");
+  EXPECT_EQ(browser.text(quarantined + " .quarantine-reason"), test::kQuarantineReason);
+  const std::string healthy = "#workers tbody tr[data-worker=\"w1\"]";
+  EXPECT_EQ(browser.text(healthy).find("quarantined"), std::string::npos) << browser.text(healthy);
+  EXPECT_EQ(browser.text(healthy + " .badge"), "rendering");
+  browser.screenshot(fs::path(LENSFARM_BINARY_DIR) / "dashboard-quarantined-worker.png");
+
+  browser.click("#jobs tbody tr[data-job=\"job-7\"] a");
+  ASSERT_TRUE(test::waitFor([&] { return browser.text("#job-id") == "job-7" && browser.visible("#events-card"); }, 30))
+      << browser.text("#job-stats");
+  EXPECT_EQ(browser.text("#job-audit"), "12 passed, 1 failed, 2 pending; 40 units rendered again");
+  EXPECT_EQ(browser.run("return document.querySelectorAll('#events li').length;"), 2);
+  EXPECT_NE(browser.text("#events li:first-child").find(audited.events[0].text), std::string::npos)
+      << browser.text("#events");
+  EXPECT_NE(browser.text("#events li:last-child").find(audited.events[1].text), std::string::npos)
+      << browser.text("#events");
+  const std::string shownTime =
+      browser.run("return new Date(" + std::to_string(1000 * audited.events[0].unixSeconds) + ").toLocaleString();");
+  EXPECT_NE(browser.text("#events li:first-child").find(shownTime), std::string::npos) << "in the browser's local time";
+  browser.screenshot(fs::path(LENSFARM_BINARY_DIR) / "dashboard-audit-events.png");
+
+  // A job with nothing to say of the audit shows neither the counts nor the events.
+  browser.go("http://127.0.0.1:" + std::to_string(port) + "/#/job/job-8");
+  ASSERT_TRUE(test::waitFor([&] { return browser.text("#job-id") == "job-8" && browser.visible("#job-stats"); }, 30));
+  EXPECT_FALSE(browser.visible("#events-card"));
+  EXPECT_FALSE(browser.visible("#job-audit"));
 }
 
 // ---- the viewer token and HTTPS ----------------------------------------------------------------
