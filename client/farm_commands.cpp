@@ -182,7 +182,7 @@ Runner addWatchCommand(CLI::App& app) {
   addJobArgs(cmd, *f);
   cmd->add_option("--target-error", f->target,
                   "Project the time to this relative error (default: the job's own target, if any)")
-      ->check(CLI::Range(1e-6, 0.999));
+      ->check(numberIn(1e-6, 0.999));
   return [f] {
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());

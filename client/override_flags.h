@@ -7,6 +7,8 @@
 #include <optional>
 #include <string>
 
+#include "util/flag_checks.h"
+
 #include "scene/render_overrides.h"
 
 namespace lensfarm::cli {
@@ -31,14 +33,11 @@ struct OverrideFlags {
   RenderOverrides toOverrides() const;
 };
 
-// Checks of flag values whose failures read as one sentence with the limit and the value given,
-// which CLI11 prefixes with the flag: "--time: must be more than 0 seconds, got 0". `unit` names
-// what the number counts ("seconds"), or is empty.
-CLI::Validator positiveNumber(const std::string& unit);     // a finite number > 0
-CLI::Validator nonNegativeNumber(const std::string& unit);  // a finite number >= 0
-CLI::Validator numberIn(double lo, double hi, const std::string& unit = "");
-CLI::Validator wholeNumberIn(uint64_t lo, uint64_t hi);     // digits only: no sign, no fraction
-// A transform: "45", "90s", "1.5m", "2h" or "250ms" becomes seconds in [lo, hi].
-CLI::Validator durationIn(double lo, double hi);
+// The flag checks (util/flag_checks.h), by their short names here.
+using lensfarm::durationIn;
+using lensfarm::nonNegativeNumber;
+using lensfarm::numberIn;
+using lensfarm::positiveNumber;
+using lensfarm::wholeNumberIn;
 
 }  // namespace lensfarm::cli

@@ -33,6 +33,7 @@
 #include "service.h"
 #include "util/error.h"
 #include "util/logging.h"
+#include "util/flag_checks.h"
 #include "util/service_flags.h"
 #include "util/secret.h"
 #include "util/version.h"
@@ -64,19 +65,6 @@ void writeAddressFile(const std::string& file, const std::string& address, const
 }
 extern "C" void onSignal(int) { gStop = true; }
 
-// A finite number in [lo, hi], `range` saying which in the error (CLI::Range alone lets "nan"
-// through: it compares false).
-CLI::Validator finiteIn(double lo, double hi, const std::string& range) {
-  return CLI::Validator(
-      [lo, hi, range](std::string& text) -> std::string {
-        char* end = nullptr;
-        const double v = std::strtod(text.c_str(), &end);
-        if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(v) || v < lo || v > hi)
-          return "expected a finite number " + range + ", got \"" + text + "\"";
-        return "";
-      },
-      range);
-}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -109,17 +97,17 @@ int main(int argc, char** argv) {
       ->envname("LENSFARM_PORT_FILE");
   app.add_option("--lease-timeout", options.leaseTimeoutSeconds, "Seconds without a heartbeat before a lease lapses")
       ->envname("LENSFARM_LEASE_TIMEOUT")
-      ->check(CLI::Range(0.1, 86400.0))
+      ->check(numberIn(0.1, 86400.0, "seconds"))
       ->capture_default_str();
   app.add_option("--heartbeat-interval", options.heartbeatIntervalSeconds, "Seconds between worker heartbeats")
       ->envname("LENSFARM_HEARTBEAT_INTERVAL")
-      ->check(CLI::Range(0.01, 3600.0))
+      ->check(numberIn(0.01, 3600.0, "seconds"))
       ->capture_default_str();
   app.add_option("--max-lease", options.maxLeaseSeconds,
                  "Seconds a lease may be held however often it is extended: a worker that heartbeats without "
                  "uploading loses its unit after this")
       ->envname("LENSFARM_MAX_LEASE")
-      ->check(CLI::Range(1.0, 30.0 * 86400.0))
+      ->check(numberIn(1.0, 30.0 * 86400.0, "seconds"))
       ->capture_default_str();
   app.add_option("--max-failures-per-worker", options.maxFailuresPerWorker,
                  "Failures of one job on one worker after which that worker is not leased the job again")
@@ -134,13 +122,13 @@ int main(int argc, char** argv) {
   app.add_option("--audit-fraction", options.auditFraction,
                  "Fraction of units rendered again by another worker and compared (0: no audit)")
       ->envname("LENSFARM_AUDIT_FRACTION")
-      ->check(finiteIn(0.0, 1.0, "from 0 to 1"))
+      ->check(numberIn(0.0, 1.0))
       ->capture_default_str();
   app.add_option("--audit-tolerance", options.auditTolerance,
                  "Largest relative difference, per cell and channel, between an audited unit's two results that "
                  "still agrees")
       ->envname("LENSFARM_AUDIT_TOLERANCE")
-      ->check(finiteIn(0.0, std::numeric_limits<double>::max(), "of 0 or more"))
+      ->check(nonNegativeNumber(""))
       ->capture_default_str();
   std::string metricsListen, metricsPortFile;
   app.add_option("--metrics-listen", metricsListen,
@@ -164,7 +152,7 @@ int main(int argc, char** argv) {
   app.add_option("--checkpoint-every", options.checkpointEverySeconds,
                  "Seconds between saves of the accumulated sensors (units are durable before they are acknowledged)")
       ->envname("LENSFARM_CHECKPOINT_EVERY")
-      ->check(CLI::Range(0.01, 86400.0))
+      ->check(numberIn(0.01, 86400.0, "seconds"))
       ->capture_default_str();
   std::string maxJobMemory;
   app.add_option("--max-job-memory", maxJobMemory,

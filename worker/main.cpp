@@ -14,6 +14,7 @@
 #include "render/ray_caster.h"
 #include "util/error.h"
 #include "util/logging.h"
+#include "util/flag_checks.h"
 #include "util/service_flags.h"
 #include "util/secret.h"
 #include "util/version.h"
@@ -61,7 +62,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--max-backoff", options.maxBackoffSeconds, "Longest wait between retries, seconds")
       ->envname("LENSFARM_MAX_BACKOFF")
-      ->check(CLI::Range(0.1, 600.0))
+      ->check(numberIn(0.1, 600.0, "seconds"))
       ->capture_default_str();
   std::string tokenFile;
   ChannelSecurity security;

@@ -114,7 +114,7 @@ TEST_F(CliAuditOutput, WorkersShowQuarantineFirstAndAuditsPassedBesideFailures) 
 
 // ---- the coordinator's flags ----------------------------------------------------------------
 
-TEST(CoordinatorAuditFlags, RefuseWhatIsNotAFractionOrATolerance) {
+TEST(CoordinatorFlags, RefuseWhatIsNotAFiniteNumberInRange) {
   struct Bad {
     std::vector<std::string> args;
     std::string mustName;
@@ -129,6 +129,12 @@ TEST(CoordinatorAuditFlags, RefuseWhatIsNotAFractionOrATolerance) {
       {{"--audit-tolerance", "nan"}, "--audit-tolerance"},
       {{"LENSFARM_AUDIT_FRACTION=2"}, "--audit-fraction"},
       {{"LENSFARM_AUDIT_TOLERANCE=-1"}, "--audit-tolerance"},
+      // Every number flag of the coordinator refuses what is not a finite number (CLI::Range
+      // alone lets "nan" through).
+      {{"--lease-timeout", "nan"}, "--lease-timeout"},
+      {{"--heartbeat-interval", "inf"}, "--heartbeat-interval"},
+      {{"--max-lease", "nan"}, "--max-lease"},
+      {{"--checkpoint-every", "nan"}, "--checkpoint-every"},
   };
   for (const Bad& c : cases) {
     SCOPED_TRACE(c.args[0] + (c.args.size() > 1 ? " " + c.args[1] : ""));
@@ -145,7 +151,15 @@ TEST(CoordinatorAuditFlags, RefuseWhatIsNotAFractionOrATolerance) {
   EXPECT_TRUE(contains(help.out, "LENSFARM_AUDIT_TOLERANCE"));
 }
 
-TEST(CoordinatorAuditFlags, AcceptTheirRangesEnds) {
+TEST(WorkerFlags, RefuseABackoffThatIsNotAFiniteNumber) {
+  for (const char* bad : {"nan", "inf", "0.01"}) {
+    const auto r = test::runProcess({test::workerPath().string(), "--coordinator", "127.0.0.1:1", "--max-backoff", bad}, 30);
+    EXPECT_EQ(r.exitCode, test::kBadInput) << bad << ": " << r.err;
+    EXPECT_TRUE(contains(r.err, "--max-backoff")) << r.err;
+  }
+}
+
+TEST(CoordinatorFlags, AcceptTheirRangesEnds) {
   test::TempDir dir;
   for (const std::vector<std::string>& flags :
        {std::vector<std::string>{"--audit-fraction", "0", "--audit-tolerance", "0"},
