@@ -179,7 +179,10 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
     if (job->generation != generation) {
       // The audit rewound the film meanwhile (auditing.cpp): this unit is rendered again.
       if (store_) store_->forgetUnits(job->id, result.unitIndex, {}, result.unitIndex + 1);
-      if (!isTerminal(job->state) && !job->units.isReceived(result.unitIndex)) job->units.requeue(result.unitIndex);
+      // (The rewind made it pending again if it is at or past the next fresh unit.)
+      if (!isTerminal(job->state) && !job->units.isReceived(result.unitIndex) &&
+          result.unitIndex < job->units.nextFresh())
+        job->units.requeue(result.unitIndex);
       changed_.notify_all();
       return true;
     }

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <set>
+#include <thread>
 
 #include "accumulator.h"
 #include "audit.h"
@@ -243,6 +244,41 @@ TEST(Audit, AWrongWorkerIsQuarantinedAndTheImageKeepsTheCleanBits) {
     const MetricsSnapshot m = c.metricsSnapshot();
     EXPECT_EQ(m.auditsFailed, info.auditsFailed);
     EXPECT_EQ(m.unitsRerendered, info.unitsRerendered);
+  }
+}
+
+// The same with every worker on a thread of its own, so that results arrive while a rewind runs
+// (a unit accepted before the rewind and summed after it is dropped and rendered again).
+TEST(Audit, WorkersOnTheirOwnThreadsStillGiveTheCleanBits) {
+  const uint64_t units = 60;
+  const std::string clean = cleanSensor(units);
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    Coordinator::Options options;
+    options.auditFraction = 0.3;
+    Coordinator c(options);
+    const std::string job = c.submit(auditSpec(units), 0).id;
+    std::vector<Worker> workers;
+    for (const char* name : {"a", "b", "c", "bad"}) workers.push_back({c.registerWorker(test::workerInfo(name))});
+    workers[3].scale = [](uint64_t n) { return n < 3 ? 1.0 : 1.001; };
+    std::vector<std::thread> threads;
+    for (Worker& w : workers)
+      threads.emplace_back([&c, &job, &w] {
+        const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+        while (!isTerminal(c.job(job).state) && std::chrono::steady_clock::now() < deadline)
+          if (auto g = c.lease(w.id, 0.02)) {
+            try {
+              c.acceptResult(rendered(w.id, *g, w.scale(w.results++)));
+            } catch (const FarmError& e) {
+              // Its lease was revoked meanwhile (it was quarantined, or the job stopped): what a
+              // worker does is drop the unit.
+              EXPECT_EQ(e.kind(), FarmError::Kind::kFailedPrecondition) << e.what();
+            }
+          }
+      });
+    for (std::thread& t : threads) t.join();
+    const JobInfo info = c.job(job);
+    ASSERT_EQ(info.state, JobState::kDone) << eventsOf(info);
+    EXPECT_TRUE(c.sensorState(job) == clean) << "iteration " << iteration << "\n" << eventsOf(info);
   }
 }
 
