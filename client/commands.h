@@ -18,5 +18,6 @@ Runner addCancelCommand(CLI::App& app);
 Runner addWorkersCommand(CLI::App& app);
 Runner addStudyCommand(CLI::App& app);
 Runner addCompareCommand(CLI::App& app);
+Runner addLensCommand(CLI::App& app);
 
 }  // namespace lensfarm::cli

@@ -200,14 +200,16 @@ std::optional<double> LensSystem::focusDistanceFromRear(double objectDistance, d
 }
 
 std::optional<LensRay> LensSystem::traceFromImageSide(LensRay ray, double wavelengthNm) const {
-  return trace(ray, int(surfaces_.size()) - 1, 0, -1, wavelengthNm);
+  return trace(ray, int(surfaces_.size()) - 1, 0, -1, wavelengthNm, nullptr);
 }
 
-std::optional<LensRay> LensSystem::traceFromObjectSide(LensRay ray, double wavelengthNm) const {
-  return trace(ray, 0, int(surfaces_.size()) - 1, +1, wavelengthNm);
+std::optional<LensRay> LensSystem::traceFromObjectSide(LensRay ray, double wavelengthNm,
+                                                       std::vector<DVec3>* hits) const {
+  return trace(ray, 0, int(surfaces_.size()) - 1, +1, wavelengthNm, hits);
 }
 
-std::optional<LensRay> LensSystem::trace(LensRay ray, int first, int last, int step, double wavelengthNm) const {
+std::optional<LensRay> LensSystem::trace(LensRay ray, int first, int last, int step, double wavelengthNm,
+                                         std::vector<DVec3>* hits) const {
   for (int k = first; step > 0 ? k <= last : k >= last; k += step) {
     const LensSurface& s = surfaces_[size_t(k)];
     const double z = vertexZ_[size_t(k)];
@@ -233,6 +235,7 @@ std::optional<LensRay> LensSystem::trace(LensRay ray, int first, int last, int s
     const DVec3 p = ray.origin + t * ray.direction;
     if (p.x * p.x + p.y * p.y > 0.25 * s.aperture * s.aperture) return std::nullopt;  // vignetted
     ray.origin = p;
+    if (hits) hits->push_back(p);
     if (s.stop) continue;
     const double n1 = indexAfter(step > 0 ? k - 1 : k, wavelengthNm);
     const double n2 = indexAfter(step > 0 ? k : k - 1, wavelengthNm);

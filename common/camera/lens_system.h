@@ -90,13 +90,16 @@ class LensSystem {
   std::optional<LensRay> traceFromImageSide(LensRay ray, double wavelengthNm = kWavelengthD) const;
   // From the object side: `ray` heads toward +z in front of surface 0; the result leaves the last
   // surface toward the film.
-  std::optional<LensRay> traceFromObjectSide(LensRay ray, double wavelengthNm = kWavelengthD) const;
+  // `hits`, if given, receives the point on each surface passed (for drawings).
+  std::optional<LensRay> traceFromObjectSide(LensRay ray, double wavelengthNm = kWavelengthD,
+                                             std::vector<DVec3>* hits = nullptr) const;
 
   static constexpr double kWavelengthD = 587.56, kWavelengthF = 486.13, kWavelengthC = 656.27;
 
  private:
   // Traces through surfaces `first` .. `last` in the direction `step` (+1 or -1).
-  std::optional<LensRay> trace(LensRay ray, int first, int last, int step, double wavelengthNm) const;
+  std::optional<LensRay> trace(LensRay ray, int first, int last, int step, double wavelengthNm,
+                               std::vector<DVec3>* hits) const;
 
   std::vector<LensSurface> surfaces_;
   std::vector<double> vertexZ_;

@@ -7,6 +7,7 @@
 
 #include <cmath>
 
+#include "camera/paraxial_reference.h"
 #include "test_support.h"
 #include "util/error.h"
 
@@ -22,24 +23,6 @@ LensSystem singlet(double index = 1.5, double abbe = 0.0) {
 
 LensSystem doubleGauss() {
   return LensSystem::parsePbrt(test::readFile(test::scenesDir() / "lenses/dgauss.50mm.dat"), "dgauss.50mm.dat");
-}
-
-// The system matrix (y, n u) of a prescription, multiplied out here independently of LensSystem.
-struct Abcd {
-  double a, b, c, d;
-};
-Abcd systemMatrix(const LensSystem& lens) {
-  Abcd m{1, 0, 0, 1};
-  double n = 1.0;
-  const auto& s = lens.surfaces();
-  for (size_t k = 0; k < s.size(); ++k) {
-    const double c = s[k].radius == 0.0 ? 0.0 : 1.0 / s[k].radius;
-    const double p = (s[k].index - n) * c;
-    m = {m.a, m.b, m.c - p * m.a, m.d - p * m.b};  // refraction [[1, 0], [-p, 1]] * m
-    if (k + 1 < s.size()) m = {m.a + s[k].thickness / s[k].index * m.c, m.b + s[k].thickness / s[k].index * m.d, m.c, m.d};
-    n = s[k].index;
-  }
-  return m;
 }
 
 TEST(LensSystem, ASingletsFocalLengthIsTheThickLensmakersEquation) {
@@ -66,11 +49,11 @@ TEST(LensSystem, ASingletsFocalLengthIsTheThickLensmakersEquation) {
 
 TEST(LensSystem, TheDoubleGaussMatchesAnIndependentRayTransferMatrix) {
   const LensSystem lens = doubleGauss();
-  const Abcd m = systemMatrix(lens);
+  const test::Abcd m = test::systemMatrix(lens.surfaces());
   const LensSystem::Paraxial p = lens.paraxial();
-  EXPECT_NEAR(p.efl, -1.0 / m.c, 1e-9);
-  EXPECT_NEAR(p.bfl, -m.a / m.c, 1e-9);
-  EXPECT_NEAR(p.ffl, -m.d / m.c, 1e-9);
+  EXPECT_NEAR(p.efl, m.efl(), 1e-9);
+  EXPECT_NEAR(p.bfl, m.bfl(), 1e-9);
+  EXPECT_NEAR(p.ffl, m.ffl(), 1e-9);
   EXPECT_NEAR(p.efl, 50.0, 0.01 * 50.0) << "a 50 mm lens (scaled from the patent's 100 mm)";
   EXPECT_NEAR(p.fNumber, 2.0, 0.05) << "an f/2 design";
   EXPECT_EQ(lens.stopIndex(), 5u);

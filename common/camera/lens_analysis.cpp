@@ -1,0 +1,127 @@
+// Field analysis and the cross-section drawing of a real lens (lens_analysis.h).
+#include "camera/lens_analysis.h"
+
+#include <cmath>
+#include <cstdio>
+
+namespace lensfarm {
+
+namespace {
+
+double radians(double degrees) { return degrees * 3.14159265358979323846 / 180.0; }
+
+// The ray of a parallel beam at `angle` (in the y-z plane) through point (x, y) of the entrance
+// pupil's plane, started 1 mm before the front vertex (or the pupil, if that is in front).
+LensRay beamRay(const LensSystem::Paraxial& p, double angle, double x, double y) {
+  const DVec3 d(0.0, std::sin(angle), std::cos(angle));
+  const DVec3 atPupil(x, y, p.entrancePupilZ);
+  const double startZ = std::min(0.0, p.entrancePupilZ) - 1.0;
+  return LensRay{atPupil + (startZ - p.entrancePupilZ) / d.z * d, d};
+}
+
+// Where a ray leaving the last surface meets the plane z = `planeZ`.
+DVec3 onPlane(const LensRay& r, double planeZ) { return r.origin + (planeZ - r.origin.z) / r.direction.z * r.direction; }
+
+}  // namespace
+
+std::vector<FieldPoint> analyzeField(const LensSystem& lens, double maxAngleDegrees, int steps, int raysAcross,
+                                     double wavelengthNm) {
+  const LensSystem::Paraxial p = lens.paraxial(wavelengthNm);
+  const double focusZ = lens.totalTrack() + p.bfl;
+  const double radius = 0.75 * p.entrancePupilDiameter;  // 1.5 x the pupil, across
+  std::vector<FieldPoint> out;
+  double axial = 0.0;
+  for (int s = 0; s <= steps; ++s) {
+    FieldPoint f;
+    f.angleDegrees = steps > 0 ? maxAngleDegrees * s / steps : 0.0;
+    const double angle = radians(f.angleDegrees);
+    DVec3 sum(0.0), sum2(0.0);
+    int passed = 0;
+    for (int i = 0; i < raysAcross; ++i)
+      for (int j = 0; j < raysAcross; ++j) {
+        const double x = radius * (2.0 * (i + 0.5) / raysAcross - 1.0), y = radius * (2.0 * (j + 0.5) / raysAcross - 1.0);
+        if (x * x + y * y > radius * radius) continue;
+        const std::optional<LensRay> r = lens.traceFromObjectSide(beamRay(p, angle, x, y), wavelengthNm);
+        if (!r || r->direction.z <= 0.0) continue;
+        const DVec3 hit = onPlane(*r, focusZ);
+        sum += hit;
+        sum2 += hit * hit;
+        ++passed;
+      }
+    if (s == 0) axial = passed;
+    f.paraxialHeight = p.efl * std::tan(angle);
+    if (passed > 0) {
+      const DVec3 mean = sum / double(passed);
+      const DVec3 var = sum2 / double(passed) - mean * mean;
+      f.imageHeight = mean.y;
+      f.rmsSpot = std::sqrt(std::max(0.0, var.x + var.y));
+      f.distortion = f.paraxialHeight != 0.0 ? f.imageHeight / f.paraxialHeight - 1.0 : 0.0;
+    }
+    f.transmitted = axial > 0 ? passed / axial : 0.0;
+    out.push_back(f);
+  }
+  return out;
+}
+
+std::string crossSectionSvg(const LensSystem& lens, double fieldDegrees) {
+  const LensSystem::Paraxial p = lens.paraxial();
+  const double focusZ = lens.totalTrack() + p.bfl;
+  double halfHeight = 0.0;
+  for (const LensSurface& s : lens.surfaces()) halfHeight = std::max(halfHeight, s.aperture / 2);
+  const double left = -0.3 * focusZ, right = focusZ * 1.05, top = -1.3 * halfHeight, height = 2.6 * halfHeight;
+  std::string svg;
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"%.3f %.3f %.3f %.3f\" width=\"900\" "
+                "height=\"%d\">\n<rect x=\"%.3f\" y=\"%.3f\" width=\"%.3f\" height=\"%.3f\" fill=\"white\"/>\n",
+                left, top, right - left, height, int(900 * height / (right - left)), left, top, right - left, height);
+  svg += buf;
+  const double stroke = (right - left) / 900.0;
+  std::snprintf(buf, sizeof buf,
+                "<line x1=\"%.3f\" y1=\"0\" x2=\"%.3f\" y2=\"0\" stroke=\"#999\" stroke-width=\"%.4f\" "
+                "stroke-dasharray=\"%.3f\"/>\n",
+                left, right, stroke, 4 * stroke);
+  svg += buf;
+  // Surfaces: each sphere's arc within its clear aperture (y down in SVG: flip).
+  for (size_t k = 0; k < lens.surfaces().size(); ++k) {
+    const LensSurface& s = lens.surfaces()[k];
+    const double z = lens.vertexZ(k), h = s.aperture / 2;
+    std::string path;
+    for (int i = 0; i <= 32; ++i) {
+      const double y = -h + 2 * h * i / 32;
+      const double sag = s.radius == 0.0 ? 0.0 : s.radius - std::copysign(std::sqrt(s.radius * s.radius - y * y), s.radius);
+      std::snprintf(buf, sizeof buf, "%s%.4f %.4f", i == 0 ? "M" : " L", z + sag, -y);
+      path += buf;
+    }
+    std::snprintf(buf, sizeof buf, "\" fill=\"none\" stroke=\"%s\" stroke-width=\"%.4f\"/>\n", s.stop ? "#c00" : "#024",
+                  (s.stop ? 2 : 1.5) * stroke);
+    svg += "<path d=\"" + path + buf;
+  }
+  // Rays: 9 across the entrance pupil, on the axis (blue) and at the field angle (green).
+  for (const auto& [angle, colour] : {std::pair<double, const char*>{0.0, "#06c"}, {radians(fieldDegrees), "#090"}}) {
+    for (int i = 0; i < 9; ++i) {
+      const double y = p.entrancePupilDiameter / 2 * (2.0 * i / 8 - 1.0) * 0.98;
+      const LensRay start = beamRay(p, angle, 0.0, y);
+      const LensRay from{start.origin + (left - start.origin.z) / start.direction.z * start.direction, start.direction};
+      std::vector<DVec3> hits = {from.origin};
+      const std::optional<LensRay> out = lens.traceFromObjectSide(from, LensSystem::kWavelengthD, &hits);
+      if (!out) continue;
+      hits.push_back(onPlane(*out, focusZ));
+      std::string points;
+      for (const DVec3& h : hits) {
+        std::snprintf(buf, sizeof buf, "%s%.4f,%.4f", points.empty() ? "" : " ", h.z, -h.y);
+        points += buf;
+      }
+      std::snprintf(buf, sizeof buf, "\" fill=\"none\" stroke=\"%s\" stroke-width=\"%.4f\" opacity=\"0.8\"/>\n",
+                    colour, 0.7 * stroke);
+      svg += "<polyline points=\"" + points;
+      svg += buf;
+    }
+  }
+  std::snprintf(buf, sizeof buf, "<line x1=\"%.3f\" y1=\"%.3f\" x2=\"%.3f\" y2=\"%.3f\" stroke=\"#000\" stroke-width=\"%.4f\"/>\n",
+                focusZ, top, focusZ, top + height, stroke);
+  svg += buf;
+  return svg + "</svg>\n";
+}
+
+}  // namespace lensfarm
