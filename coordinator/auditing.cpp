@@ -68,7 +68,7 @@ std::optional<LeaseGrant> Coordinator::tryAuditLease(Worker& worker, Clock::time
                     options_.leaseTimeoutSeconds};
 }
 
-bool Coordinator::acceptAudit(const UnitResult& result, UnitResult* owned) {
+bool Coordinator::acceptAudit(const UnitResult& result) {
   const uint64_t unit = result.unitIndex;
   AuditBook::Sums counted, dissent;
   {
@@ -89,24 +89,31 @@ bool Coordinator::acceptAudit(const UnitResult& result, UnitResult* owned) {
     counted = audit->counted.sums;
     if (audit->dissent) dissent = audit->dissent->sums;
   }
-  // Each comparison reads a whole frame: outside the lock.
-  const std::optional<std::string> fromCounted = sumsDiffer(*counted, result.buffer.sums, options_.auditTolerance);
-  const std::optional<std::string> fromDissent =
-      dissent ? sumsDiffer(*dissent, result.buffer.sums, options_.auditTolerance) : std::nullopt;
-  AuditBook::Sums mine;  // kept only if it disputes the counted result
-  if (fromCounted && !dissent)
-    mine = std::make_shared<const std::vector<double>>(owned ? std::move(owned->buffer.sums) : result.buffer.sums);
+  // Each comparison reads a whole frame: outside the lock. A dissent withdrawn meanwhile (its
+  // worker quarantined) is compared again with what the audit holds now.
+  for (;;) {
+    const std::optional<std::string> fromCounted = sumsDiffer(*counted, result.buffer.sums, options_.auditTolerance);
+    const std::optional<std::string> fromDissent =
+        dissent ? sumsDiffer(*dissent, result.buffer.sums, options_.auditTolerance) : std::nullopt;
+    AuditBook::Sums mine;  // kept only if it disputes the counted result
+    if (fromCounted && !dissent) mine = std::make_shared<const std::vector<double>>(result.buffer.sums);
 
-  std::lock_guard lock(mutex_);
-  Job& job = findJob(result.jobId);
-  const AuditBook::Audit* audit = job.audits.find(unit);
-  // The audit may have been closed, or its unit rendered again and audited anew, meanwhile.
-  if (!audit || audit->counted.sums != counted || (audit->dissent ? audit->dissent->sums : nullptr) != dissent)
+    std::lock_guard lock(mutex_);
+    Job& job = findJob(result.jobId);
+    const AuditBook::Audit* audit = job.audits.find(unit);
+    // Closed meanwhile, or its unit counted again and audited anew (not under this lease).
+    if (!audit || isTerminal(job.state) || audit->counted.sums != counted || audit->leasedTo != result.workerId)
+      return true;
+    const AuditBook::Sums now = audit->dissent ? audit->dissent->sums : nullptr;
+    if (now != dissent) {
+      dissent = now;
+      continue;
+    }
+    if (const auto verdict = job.audits.settle(unit, {result.workerId, std::move(mine)}, fromCounted, fromDissent))
+      applyVerdict(job, *verdict);
+    touch(job);
     return true;
-  if (const auto verdict = job.audits.settle(unit, {result.workerId, std::move(mine)}, fromCounted, fromDissent))
-    applyVerdict(job, *verdict);
-  touch(job);
-  return true;
+  }
 }
 
 void Coordinator::applyVerdict(Job& job, const AuditBook::Verdict& v) {
@@ -158,11 +165,15 @@ void Coordinator::applyVerdict(Job& job, const AuditBook::Verdict& v) {
 }
 
 void Coordinator::quarantine(Worker& worker, const std::string& reason) {
-  if (worker.quarantined) return;
-  worker.quarantined = true;
-  worker.quarantineReason = reason;
-  spdlog::warn("worker {} quarantined: {}", worker.label(), reason);
-  releaseLeasesOf(worker, "quarantined", reason, Clock::now());
+  // Found wrong again (a unit counted before its quarantine, audited after): its units are
+  // undone all the same.
+  const bool first = !worker.quarantined;
+  if (first) {
+    worker.quarantined = true;
+    worker.quarantineReason = reason;
+    spdlog::warn("worker {} quarantined: {}", worker.label(), reason);
+    releaseLeasesOf(worker, "quarantined", reason, Clock::now());
+  }
   for (auto& [id, job] : jobs_) {
     job->audits.forgetWorker(worker.id);
     if (!isTerminal(job->state)) {
@@ -172,7 +183,7 @@ void Coordinator::quarantine(Worker& worker, const std::string& reason) {
     // A job that ended before: its image may hold the worker's wrong units. Say so.
     uint64_t suspect = 0;
     for (const auto& [unit, p] : job->provenance) suspect += p.worker == worker.id && p.seq > worker.clearedSeq;
-    if (suspect > 0)
+    if (first && suspect > 0)
       job->addEvent("worker " + worker.label() + " was quarantined after this job ended; " + std::to_string(suspect) +
                     " of its units since its last agreeing audit are in this image (render the job again)");
   }

@@ -358,7 +358,7 @@ class Coordinator {
   std::optional<LeaseGrant> tryAuditLease(Worker& worker, Clock::time_point now);
   // A result uploaded under an audit lease (after checkPlausible; takes mutex_ itself, and
   // compares the sums outside it).
-  bool acceptAudit(const UnitResult& result, UnitResult* owned);
+  bool acceptAudit(const UnitResult& result);
   void applyVerdict(Job& job, const AuditBook::Verdict& verdict);
   void quarantine(Worker& worker, const std::string& reason);
   // Undoes `workerId`'s units of `job` since its last agreeing audit (and the units summed after

@@ -155,7 +155,7 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
       audited = chooseForAudit(*job, worker);
     }
   }
-  if (auditLease) return acceptAudit(result, owned);
+  if (auditLease) return acceptAudit(result);
   // An audited unit's sums, copied before the film takes them (outside the lock).
   AuditBook::Sums kept;
   if (audited) kept = std::make_shared<const std::vector<double>>(result.buffer.sums);
@@ -176,8 +176,10 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
   {
     std::lock_guard lock(mutex_);
     job->units.endRecording(result.unitIndex);
-    if (job->generation != generation) {
-      // The audit rewound the film meanwhile (auditing.cpp): this unit is rendered again.
+    const auto from = workers_.find(result.workerId);
+    if (job->generation != generation || (from != workers_.end() && from->second->quarantined)) {
+      // The audit rewound the film, or quarantined this worker, meanwhile (auditing.cpp): this
+      // unit is rendered again.
       if (store_) store_->forgetUnits(job->id, result.unitIndex, {}, result.unitIndex + 1);
       // (The rewind made it pending again if it is at or past the next fresh unit.)
       if (!isTerminal(job->state) && !job->units.isReceived(result.unitIndex) &&

@@ -104,6 +104,9 @@ class ThinLensCamera {
   Vec3 right() const { return right_; }
   Vec3 up() const { return up_; }
   Vec3 forward() const { return forward_; }
+  // The point at uSensor in cell (i, j), in the camera plane (x along right, y along up); see the
+  // orientation note at the top.
+  Vec2 sensorPoint(int i, int j, Vec2 uSensor) const;
 
  private:
   ThinLensParams params_;
@@ -111,7 +114,6 @@ class ThinLensCamera {
   double imageDistance_;
   double invImageDistance_, invFocalLength_;  // 1 / S2 and 1 / f, once, not per ray
 
-  Vec2 sensorPoint(int i, int j, Vec2 uSensor) const;  // the point at uSensor in cell (i, j)
   double lensRadius_;
   Vec3 right_, up_, forward_;
 };

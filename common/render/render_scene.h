@@ -20,6 +20,7 @@ class RenderScene {
   explicit RenderScene(const Scene& scene, bool general = false)
       : scene_(scene),
         camera_(scene.camera()),
+        realCamera_(scene.realLensCamera()),
         effects_(general ? EffectSet::all(scene) : analyzeEffects(scene, camera_)),
         mirrorsReachable_(general ? analyzeEffects(scene, camera_).specular : effects_.specular),
         caster_(scene),
@@ -44,6 +45,8 @@ class RenderScene {
   const Scene& scene() const { return scene_; }
   const RenderSettings& settings() const { return scene_.render; }
   const ThinLensCamera& camera() const { return camera_; }
+  // The real lens's camera, when the scene has one (its rays replace camera()'s).
+  const std::optional<RealLensCamera>& realCamera() const { return realCamera_; }
   const EffectSet& effects() const { return effects_; }
   // Whether a camera path can meet a mirror (the analysis's answer even for a general scene, so
   // both paths make the same choices that depend on it; render/integrator.cpp).
@@ -71,6 +74,7 @@ class RenderScene {
  private:
   const Scene& scene_;
   ThinLensCamera camera_;
+  std::optional<RealLensCamera> realCamera_;
   EffectSet effects_;
   bool mirrorsReachable_;
   RayCaster caster_;

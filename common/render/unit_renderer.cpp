@@ -25,8 +25,11 @@ WorkUnit unitAt(uint64_t index, uint64_t samplesPerPixel, uint32_t samplesPerUni
 
 namespace {
 
+// The cameras the pixel loop specialises on: no lens sample, the thin lens's, a real lens's.
+enum CameraKind { kPinhole, kThinLens, kRealLens };
+
 // The pixel loop for one combination of effects, fixed at compile time.
-template <bool kLens, bool kNee, bool kGeneral>
+template <int kCamera, bool kNee, bool kGeneral>
 bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
                     const std::atomic<bool>* cancel, RayGrouping grouping) {
   const ThinLensCamera& camera = rs.camera();
@@ -82,18 +85,35 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
         // All lanes' camera rays in one vector loop (lanes past the count trace a harmless ray of
         // cell 0). Without depth of field the lens is a pinhole: no lens sample, the same rays.
         for (int k = packet.count; k < kPacketWidth; ++k) column[k] = 0, u0[k] = u1[k] = 0.0f;
-        if (kLens) {
+        if constexpr (kCamera == kRealLens) {
+          // Through every surface of a real lens, lane by lane: a ray the lens stops is a sample
+          // of zero; one that gets out carries the lens's irradiance weight (real_lens_camera.h).
           SampleStream::values2D(packet.rng, keys, packet.count, dims::kLens, lens0, lens1);
-          for (int k = packet.count; k < kPacketWidth; ++k) lens0[k] = lens1[k] = 0.0f;
-          camera.generateRays(column, j, u0, u1, lens0, lens1, packet.cameraRays);
+          const RealLensCamera& real = *rs.realCamera();
+          for (int k = 0; k < packet.count; ++k) {
+            float weight = 0.0f;
+            const std::optional<CameraRay> ray = real.generateRay(column[k], j, Vec2(u0[k], u1[k]), Vec2(lens0[k], lens1[k]), &weight);
+            if (!ray) {
+              radiance[k] = Spectrum(0.0f);
+              ++local.paths;
+              continue;
+            }
+            radiance[k] = tracePath<kNee, kGeneral>(rs, *ray, packet.rng[k], local) * weight;
+          }
         } else {
-          camera.generatePinholeRays(column, j, u0, u1, packet.cameraRays);
+          if constexpr (kCamera == kThinLens) {
+            SampleStream::values2D(packet.rng, keys, packet.count, dims::kLens, lens0, lens1);
+            for (int k = packet.count; k < kPacketWidth; ++k) lens0[k] = lens1[k] = 0.0f;
+            camera.generateRays(column, j, u0, u1, lens0, lens1, packet.cameraRays);
+          } else {
+            camera.generatePinholeRays(column, j, u0, u1, packet.cameraRays);
+          }
+          if (grouping == RayGrouping::kPackets)
+            tracePacket<kNee, kGeneral>(rs, packet, radiance, local);
+          else
+            for (int k = 0; k < packet.count; ++k)
+              radiance[k] = tracePath<kNee, kGeneral>(rs, packet.cameraRays.ray(k), packet.rng[k], local);
         }
-        if (grouping == RayGrouping::kPackets)
-          tracePacket<kNee, kGeneral>(rs, packet, radiance, local);
-        else
-          for (int k = 0; k < packet.count; ++k)
-            radiance[k] = tracePath<kNee, kGeneral>(rs, packet.cameraRays.ray(k), packet.rng[k], local);
         // Each cell's sums start at zero and take its samples in sample order: the same double
         // sums whatever the packets.
         for (int k = 0; k < packet.count; ++k) {
@@ -124,17 +144,19 @@ bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
   // Pick the specialisation once per unit (scene/effects.h); the inner loops then carry no
   // branch for an effect the scene does not call for.
   const EffectSet& e = rs.effects();
-  const bool lens = e.depthOfField;
+  const int cameraKind = rs.realCamera() ? kRealLens : e.depthOfField ? kThinLens : kPinhole;
   // (With the naive estimator the light sampler holds the delta lights alone, if any.)
   const bool nee = e.lightSampling && !rs.lights().empty();
   const bool general = e.generalMaterials;
   using Fn = bool (*)(const RenderScene&, const WorkUnit&, SensorBuffer&, PathStats&, const std::atomic<bool>*, RayGrouping);
-  static constexpr Fn kTable[2][2][2] = {
-      {{renderUnitWith<false, false, false>, renderUnitWith<false, false, true>},
-       {renderUnitWith<false, true, false>, renderUnitWith<false, true, true>}},
-      {{renderUnitWith<true, false, false>, renderUnitWith<true, false, true>},
-       {renderUnitWith<true, true, false>, renderUnitWith<true, true, true>}}};
-  return kTable[lens][nee][general](rs, unit, out, stats, cancel, grouping);
+  static constexpr Fn kTable[3][2][2] = {
+      {{renderUnitWith<kPinhole, false, false>, renderUnitWith<kPinhole, false, true>},
+       {renderUnitWith<kPinhole, true, false>, renderUnitWith<kPinhole, true, true>}},
+      {{renderUnitWith<kThinLens, false, false>, renderUnitWith<kThinLens, false, true>},
+       {renderUnitWith<kThinLens, true, false>, renderUnitWith<kThinLens, true, true>}},
+      {{renderUnitWith<kRealLens, false, false>, renderUnitWith<kRealLens, false, true>},
+       {renderUnitWith<kRealLens, true, false>, renderUnitWith<kRealLens, true, true>}}};
+  return kTable[cameraKind][nee][general](rs, unit, out, stats, cancel, grouping);
 }
 
 }  // namespace lensfarm

@@ -306,8 +306,16 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
   EffectSet e = EffectSet::all(scene);
   std::ostringstream why;
 
-  // Depth of field.
-  if (camera.isPinhole()) {
+  // A real lens: every camera ray through its surfaces (camera/real_lens_camera.h); depth of
+  // field, aberrations, vignetting and distortion are the lens's own.
+  if (scene.realLens) {
+    const LensSystem& lens = *scene.realLens->lens;
+    e.depthOfField = true;
+    why << scene.realLens->name << ": " << lens.surfaces().size() << " surfaces, f/" << std::setprecision(3)
+        << lens.paraxial().fNumber << ", every camera ray traced through them";
+    e.decisions.push_back({"real lens", true, why.str()});
+    why.str("");
+  } else if (camera.isPinhole()) {
     e.depthOfField = false;
     e.decisions.push_back({"depth of field", false, "aperture closed (N = infinity)"});
   } else {

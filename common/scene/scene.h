@@ -6,10 +6,12 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "camera/real_lens_camera.h"
 #include "camera/thin_lens_camera.h"
 #include "light/light_source.h"
 #include "material/material.h"
@@ -126,6 +128,9 @@ struct Scene {
   std::map<std::string, std::string> assets;  // relative path -> SHA-256 of every asset read
   DVec3 origin{0.0};  // render space's origin in world space: the camera's position in the file
   ThinLensParams cameraParams;  // in render space: position is the origin
+  // A real lens (camera type "real_lens", camera/real_lens_camera.h); cameraParams are then its
+  // frame and thin-lens equivalent (focal length and f-number), for the effect analysis.
+  std::optional<RealLensParams> realLens;
   std::vector<Material> materials;
   std::vector<TriangleMesh> meshes;
   // Meshes used many times, in object space, and their uses (MeshInstance above).
@@ -142,6 +147,11 @@ struct Scene {
 
   // The camera for the current render settings (resolution may be overridden after loading).
   ThinLensCamera camera() const { return ThinLensCamera(cameraParams, render.width, render.height); }
+  // The real-lens camera for the current render settings, if the scene has one.
+  std::optional<RealLensCamera> realLensCamera() const {
+    if (!realLens) return std::nullopt;
+    return RealLensCamera(cameraParams, *realLens, render.width, render.height);
+  }
 };
 
 // The box of each instance as placed, in Scene::instances' order and render space: its

@@ -257,11 +257,53 @@ class SceneParser {
                 {"angle_of_view", 40.0}};
   }
 
+  // A camera with a real lens (camera/real_lens_camera.h): the frame is read already; the lens
+  // file, the sensor, the focus and the stop. cameraParams become the lens's thin-lens
+  // equivalent, for the effect analysis and `lensfarm dof`.
+  void parseRealLens(FieldReader& r, double lookAtDistance) {
+    ThinLensParams& p = scene_.cameraParams;
+    RealLensParams lens;
+    const LoadedAsset file = readAssetFile(r, "lens", "lens file");
+    lens.name = r.string("lens");
+    LensSystem system = LensSystem::parsePbrt(file.bytes, file.shown);
+    lens.sceneUnitsPerMm = r.has("scene_units_per_mm") ? positive(r, "scene_units_per_mm") : 0.001;
+    p.sensorWidth = positive(r, "sensor_width");
+    if (r.has("sensor_height")) p.sensorHeight = positive(r, "sensor_height");
+    p.focusDistance = r.has("focus_distance") ? positive(r, "focus_distance") : lookAtDistance;
+    const LensSystem::Paraxial design = system.paraxial();
+    if (!(design.efl > 0.0)) r.fail(r.field("lens"), file.shown + " is not a converging lens (EFL " + shortNumber(design.efl) + " mm)");
+    double n = design.fNumber;
+    if (r.has("f_number")) {
+      n = positive(r, "f_number");
+      if (n < design.fNumber * (1.0 - 1e-9))
+        r.fail(r.field("f_number"), "f/" + shortNumber(n) + " is wider than " + lens.name + " opens (f/" +
+                                        shortNumber(design.fNumber) + ")");
+      // Closing the stop: the entrance pupil, and so the f-number, scales with it.
+      std::vector<LensSurface> surfaces = system.surfaces();
+      surfaces[system.stopIndex()].aperture *= design.fNumber / n;
+      system = LensSystem(std::move(surfaces), file.shown);
+    }
+    r.finish();
+    p.focalLength = design.efl * lens.sceneUnitsPerMm;
+    p.fNumber = n;
+    if (!(p.focusDistance > p.focalLength))
+      r.fail(r.field("focus_distance"), shortNumber(p.focusDistance) + " is not beyond the lens's focal length " +
+                                            shortNumber(p.focalLength) + " (" + shortNumber(design.efl) +
+                                            " mm at scene_units_per_mm " + shortNumber(lens.sceneUnitsPerMm) + ")");
+    lens.lens = std::make_shared<const LensSystem>(std::move(system));
+    scene_.realLens = std::move(lens);
+    try {
+      (void)scene_.realLensCamera();
+    } catch (const InputError& e) {
+      r.fail(r.field(e.where()), e.what());
+    }
+  }
+
   void parseCameraFields(FieldReader& r) {
     ThinLensParams& p = scene_.cameraParams;
     const std::string type = r.string("type");
-    if (type != "thin_lens" && type != "pinhole")
-      r.fail(r.field("type"), "unknown camera type \"" + type + "\" (expected thin_lens or pinhole)");
+    if (type != "thin_lens" && type != "pinhole" && type != "real_lens")
+      r.fail(r.field("type"), "unknown camera type \"" + type + "\" (expected thin_lens, pinhole or real_lens)");
     // Render space is the world moved so that the camera sits at its origin (toRenderSpace).
     const DVec3 position = r.dvec3("position"), lookAt = r.dvec3("look_at");
     scene_.origin = position;
@@ -290,6 +332,7 @@ class SceneParser {
                               "not along the view direction, e.g. " +
                               (std::abs(view.y) < 0.9 ? "[0, 1, 0]" : "[0, 0, 1]"));
 
+    if (type == "real_lens") return parseRealLens(r, glm::length(lookAt - position));
     const bool hasF = r.has("focal_length"), hasAngle = r.has("angle_of_view");
     if (hasF == hasAngle) r.fail(r.field("focal_length"), "give exactly one of focal_length and angle_of_view");
     const bool hasWidth = r.has("sensor_width");

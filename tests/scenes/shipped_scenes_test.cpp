@@ -39,6 +39,11 @@ TEST(ShippedScenes, EveryFileIsASceneTheReadmeOrAnAssetASceneUses) {
     if (relative.parent_path().empty()) {
       EXPECT_EQ(relative.extension(), ".json") << "only scenes and the README at the top of scenes/";
       EXPECT_NE(readme.find(relative.string()), std::string::npos) << "scenes/README.md does not describe it";
+    } else if (relative.parent_path() == "lenses") {
+      // The lens library (docs/optics.md): prescriptions for real_lens cameras and `lensfarm lens`,
+      // each listed in the README.
+      EXPECT_EQ(relative.extension(), ".dat");
+      EXPECT_NE(readme.find(relative.filename().string()), std::string::npos) << "scenes/README.md does not list it";
     } else {
       // Used by a scene, or by a model a scene uses (a glTF's buffers and images, an MTL's maps),
       // which names it relative to itself.

@@ -1,0 +1,108 @@
+// RealLensCamera: camera rays through a real lens (real_lens_camera.h).
+#include "camera/real_lens_camera.h"
+
+#include <cmath>
+
+#include "util/error.h"
+
+namespace lensfarm {
+
+namespace {
+constexpr int kBoundsGrid = 64;  // rear-plane samples across, per pupil-bounds radius
+}
+
+RealLensCamera::RealLensCamera(const ThinLensParams& frame, const RealLensParams& lens, int width, int height)
+    : frame_(frame, width, height), params_(lens) {
+  const LensSystem& l = *params_.lens;
+  const double scale = params_.sceneUnitsPerMm;
+  const std::optional<double> back = l.focusDistanceFromRear(frame.focusDistance / scale);
+  if (!back || !(*back > 0.0))
+    throw InputError("focus_distance", std::to_string(frame.focusDistance) + " (" +
+                                           std::to_string(frame.focusDistance / scale) + " mm from the front vertex) "
+                                           "is inside the lens's front focal length: it forms no real image there");
+  rearZ_ = l.totalTrack();
+  filmZ_ = rearZ_ + *back;
+  rearRadius_ = l.surfaces().back().aperture / 2;
+  const double halfWidth = frame.sensorWidth / scale / 2;
+  const double halfHeight = frame_.params().sensorHeight / scale / 2;
+  maxFilmRadius_ = std::hypot(halfWidth, halfHeight);
+  for (int b = 0; b < kPupilBins; ++b) bounds_[size_t(b)] = boundsAt(maxFilmRadius_ * (b + 1) / kPupilBins);
+  // The normalisation: the mean weight of rays from the film's centre, over its bounds.
+  const Bounds& c = boundsAt(0.0);
+  double sum = 0.0;
+  const int n = 32;
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b) {
+      const DVec3 film(0.0, 0.0, filmZ_);
+      const DVec3 rear(c.x0 + (c.x1 - c.x0) * (a + 0.5) / n, c.y0 + (c.y1 - c.y0) * (b + 0.5) / n, rearZ_);
+      if (traceOut(film, rear)) sum += weightOf(film, rear, (c.x1 - c.x0) * (c.y1 - c.y0));
+    }
+  if (!(sum > 0.0)) throw InputError("lens", params_.name + ": no ray from the film's centre gets through the lens");
+  normalisation_ = double(n) * n / sum;
+  // The share of rays that get through, over the sensor.
+  uint64_t tried = 0, passed = 0;
+  for (int a = 0; a < 32; ++a)
+    for (int b = 0; b < 32; ++b)
+      for (int u = 0; u < 8; ++u)
+        for (int v = 0; v < 8; ++v) {
+          float w = 0.0f;
+          ++tried;
+          passed += generateRay(int(a * width / 32), int(b * height / 32), Vec2(0.5f), Vec2((float(u) + 0.5f) / 8.0f, (float(v) + 0.5f) / 8.0f), &w)
+                        .has_value();
+        }
+  passing_ = double(passed) / double(tried);
+}
+
+std::optional<LensRay> RealLensCamera::traceOut(const DVec3& film, const DVec3& rear) const {
+  return params_.lens->traceFromImageSide(LensRay{film, glm::normalize(rear - film)});
+}
+
+double RealLensCamera::weightOf(const DVec3& film, const DVec3& rear, double area) const {
+  const DVec3 d = rear - film;
+  const double cosTheta = std::abs(d.z) / glm::length(d);
+  const double gap = filmZ_ - rearZ_;
+  return area * cosTheta * cosTheta * cosTheta * cosTheta / (gap * gap);
+}
+
+RealLensCamera::Bounds RealLensCamera::boundsAt(double radius) const {
+  // The rear-plane points through which a ray from (radius, 0) gets out, boxed, grown by a grid
+  // cell on every side (a ray between two that pass may pass).
+  Bounds b{1e30, -1e30, 1e30, -1e30};
+  const double cell = 2.0 * rearRadius_ / kBoundsGrid;
+  const DVec3 film(radius, 0.0, filmZ_);
+  for (int a = 0; a < kBoundsGrid; ++a)
+    for (int c = 0; c < kBoundsGrid; ++c) {
+      const double x = -rearRadius_ + cell * (a + 0.5), y = -rearRadius_ + cell * (c + 0.5);
+      if (x * x + y * y > rearRadius_ * rearRadius_) continue;
+      if (!traceOut(film, DVec3(x, y, rearZ_))) continue;
+      b.x0 = std::min(b.x0, x - cell), b.x1 = std::max(b.x1, x + cell);
+      b.y0 = std::min(b.y0, y - cell), b.y1 = std::max(b.y1, y + cell);
+    }
+  if (b.empty()) return Bounds{};
+  return b;
+}
+
+std::optional<CameraRay> RealLensCamera::generateRay(int i, int j, Vec2 uSensor, Vec2 uLens, float* weight) const {
+  const Vec2 s = frame_.sensorPoint(i, j, uSensor);
+  const double scale = params_.sceneUnitsPerMm;
+  const DVec3 film(double(s.x) / scale, double(s.y) / scale, filmZ_);
+  const double r = std::hypot(film.x, film.y);
+  const int bin = std::min(kPupilBins - 1, int(r / maxFilmRadius_ * kPupilBins));
+  const Bounds& b = bounds_[size_t(bin)];
+  if (b.empty()) return std::nullopt;
+  // The bounds were found for a film point on +x: turn them to this point's direction.
+  const double bx = b.x0 + (b.x1 - b.x0) * double(uLens.x), by = b.y0 + (b.y1 - b.y0) * double(uLens.y);
+  const double cosPhi = r > 0.0 ? film.x / r : 1.0, sinPhi = r > 0.0 ? film.y / r : 0.0;
+  const DVec3 rear(cosPhi * bx - sinPhi * by, sinPhi * bx + cosPhi * by, rearZ_);
+  const std::optional<LensRay> out = traceOut(film, rear);
+  if (!out) return std::nullopt;
+  *weight = float(weightOf(film, rear, (b.x1 - b.x0) * (b.y1 - b.y0)) * normalisation_);
+  // Lens frame to the camera's: x = right, y = up, z = -forward; millimetres to scene units.
+  const Vec3 right = frame_.right(), up = frame_.up(), forward = frame_.forward();
+  const DVec3 o = out->origin * scale, d = out->direction;
+  const Vec3 origin = frame_.params().position + float(o.x) * right + float(o.y) * up - float(o.z) * forward;
+  const Vec3 direction = glm::normalize(float(d.x) * right + float(d.y) * up - float(d.z) * forward);
+  return CameraRay{origin, direction};
+}
+
+}  // namespace lensfarm
