@@ -52,6 +52,7 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
 #endif
     PathStats& local = threadStats.local();
     PathPacket packet;
+    PathPacket liveLanes;  // a real lens's lanes whose rays got out of the lens
     Spectrum radiance[kPacketWidth];
     uint64_t pixelOf[kPacketWidth];
     int column[kPacketWidth];
@@ -87,19 +88,38 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
         for (int k = packet.count; k < kPacketWidth; ++k) column[k] = 0, u0[k] = u1[k] = 0.0f;
         if constexpr (kCamera == kRealLens) {
           // Through every surface of a real lens, lane by lane: a ray the lens stops is a sample
-          // of zero; one that gets out carries the lens's irradiance weight (real_lens_camera.h).
+          // of zero (a path, not traced); the others are traced as one packet of the live lanes
+          // (each lane's radiance is tracePath's bits whatever the packet) and carry the lens's
+          // irradiance weight (real_lens_camera.h).
           SampleStream::values2D(packet.rng, keys, packet.count, dims::kLens, lens0, lens1);
           const RealLensCamera& real = *rs.realCamera();
+          PathPacket& live = liveLanes;
+          int laneOf[kPacketWidth];
+          float weight[kPacketWidth];
+          live.count = 0;
           for (int k = 0; k < packet.count; ++k) {
-            float weight = 0.0f;
-            const std::optional<CameraRay> ray = real.generateRay(column[k], j, Vec2(u0[k], u1[k]), Vec2(lens0[k], lens1[k]), &weight);
+            radiance[k] = Spectrum(0.0f);
+            float w = 0.0f;
+            const std::optional<CameraRay> ray =
+                real.generateRay(column[k], j, Vec2(u0[k], u1[k]), Vec2(lens0[k], lens1[k]), &w);
             if (!ray) {
-              radiance[k] = Spectrum(0.0f);
               ++local.paths;
               continue;
             }
-            radiance[k] = tracePath<kNee, kGeneral>(rs, *ray, packet.rng[k], local) * weight;
+            laneOf[live.count] = k;
+            weight[live.count] = w;
+            live.cameraRays.set(live.count, *ray);
+            live.rng[live.count] = packet.rng[k];
+            ++live.count;
           }
+          Spectrum traced[kPacketWidth];
+          for (int k = live.count; k < kPacketWidth; ++k) live.cameraRays.set(k, live.cameraRays.ray(0));
+          if (live.count > 0 && grouping == RayGrouping::kPackets)
+            tracePacket<kNee, kGeneral>(rs, live, traced, local);
+          else
+            for (int k = 0; k < live.count; ++k)
+              traced[k] = tracePath<kNee, kGeneral>(rs, live.cameraRays.ray(k), live.rng[k], local);
+          for (int k = 0; k < live.count; ++k) radiance[laneOf[k]] = traced[k] * weight[k];
         } else {
           if constexpr (kCamera == kThinLens) {
             SampleStream::values2D(packet.rng, keys, packet.count, dims::kLens, lens0, lens1);

@@ -7,6 +7,8 @@
 
 #include <cmath>
 
+#include "render/render_scene.h"
+#include "render/unit_renderer.h"
 #include "scene/scene_loader.h"
 #include "test_support.h"
 #include "util/error.h"
@@ -122,6 +124,24 @@ TEST(RealLensCamera, ARenderThroughItIsTheSameForAnyThreadCount) {
   EXPECT_TRUE(one.image.rgb == two.image.rgb);
   EXPECT_EQ(one.stats.paths, 48u * 48u * 4u) << "a stopped ray is a path too";
   EXPECT_GT(one.mean[0] + one.mean[1] + one.mean[2], 0.0);
+}
+
+// The lanes whose rays get out of the lens are traced as one packet: the same bits as tracing each
+// path alone (integrator.h's promise for packets, kept with lanes taken out).
+TEST(RealLensCamera, PacketsOfTheLanesThatGetOutGiveTheSingleRaysBits) {
+  test::TempDir dir;
+  json scene = realLensScene();
+  scene["render"]["resolution"] = {40, 40};
+  scene["render"]["samples_per_pixel"] = 8;
+  const Scene s = test::loadSceneJson(dir, scene);
+  const RenderScene rs(s);
+  SensorBuffer packets, singles;
+  PathStats a, b;
+  ASSERT_TRUE(renderUnit(rs, unitAt(0, 8, 8), packets, a, nullptr, RayGrouping::kPackets));
+  ASSERT_TRUE(renderUnit(rs, unitAt(0, 8, 8), singles, b, nullptr, RayGrouping::kSingleRays));
+  EXPECT_TRUE(packets.sums == singles.sums);
+  EXPECT_EQ(a.paths, b.paths);
+  EXPECT_EQ(a.rays, b.rays);
 }
 
 }  // namespace
