@@ -59,7 +59,31 @@ struct ThinLensParams {
   double sensorWidth = 0.0;          // LW
   double sensorHeight = 0.0;         // LH; 0 = derived, LW * H / W (square cells)
   double fNumber = std::numeric_limits<double>::infinity();  // N; inf = pinhole
+  // The aperture's shape (issue 23): 0 = round; n >= 3 = a regular n-gon of straight blades
+  // inscribed in the radius R = f / (2N), turned `apertureRotation` degrees counter-clockwise
+  // from a vertex along `right`. Defocused highlights (bokeh) take its shape.
+  int apertureBlades = 0;
+  double apertureRotation = 0.0;
 };
+
+// A point of the unit aperture, uniform in area: the disk (blades = 0), or the regular n-gon
+// inscribed in it with a vertex at angle `rotation` (radians): triangle k of its fan is picked by
+// u.x (each has area sin(2 pi / n) / 2), and a point within it by the square-root warp.
+inline Vec2 sampleAperture(Vec2 u, int blades, float cosStep, float sinStep, float cosRot, float sinRot) {
+  if (blades == 0) return sampleConcentricDisk(u);
+  const float scaled = u.x * float(blades);
+  const int k = std::min(int(scaled), blades - 1);
+  const float a = std::sqrt(scaled - float(k)), b = u.y;
+  // Vertices k and k + 1 of the unit n-gon turned by the rotation: angle rotation + k * step.
+  float c = cosRot, s = sinRot;
+  for (int t = 0; t < k; ++t) {
+    const float cn = c * cosStep - s * sinStep;
+    s = s * cosStep + c * sinStep;
+    c = cn;
+  }
+  const Vec2 v0(c, s), v1(c * cosStep - s * sinStep, s * cosStep + c * sinStep);
+  return a * ((1.0f - b) * v0 + b * v1);
+}
 
 class ThinLensCamera {
  public:
@@ -116,6 +140,8 @@ class ThinLensCamera {
 
   double lensRadius_;
   Vec3 right_, up_, forward_;
+  // The aperture polygon's step and rotation (sampleAperture), once.
+  float cosStep_ = 1.0f, sinStep_ = 0.0f, cosRotation_ = 1.0f, sinRotation_ = 0.0f;
 };
 
 // Inline, so the lane loops of generateRays and generatePinholeRays evaluate the same formulas.
@@ -127,7 +153,9 @@ inline Vec2 ThinLensCamera::sensorPoint(int i, int j, Vec2 uSensor) const {
 }
 
 inline CameraRay ThinLensCamera::generateRay(int i, int j, Vec2 uSensor, Vec2 uLens) const {
-  return rayThrough(sensorPoint(i, j, uSensor), sampleConcentricDisk(uLens) * float(lensRadius_));
+  return rayThrough(sensorPoint(i, j, uSensor),
+                    sampleAperture(uLens, params_.apertureBlades, cosStep_, sinStep_, cosRotation_, sinRotation_) *
+                        float(lensRadius_));
 }
 
 inline CameraRay ThinLensCamera::generatePinholeRay(int i, int j, Vec2 uSensor) const {

@@ -349,6 +349,10 @@ class SceneParser {
     p.focalLength = hasF ? positive(r, "focal_length") : focalLengthFromAngleOfView(p.sensorWidth, angle);
     const double lookAtDistance = glm::length(lookAt - position);
     p.focusDistance = r.has("focus_distance") ? positive(r, "focus_distance") : lookAtDistance;
+    if (type == "thin_lens") {
+      if (r.has("aperture_blades")) p.apertureBlades = int(r.integer("aperture_blades", 3, 64));
+      if (r.has("aperture_rotation")) p.apertureRotation = r.number("aperture_rotation", -360.0, 360.0);
+    }
     if (type == "pinhole") {
       p.fNumber = std::numeric_limits<double>::infinity();
     } else {

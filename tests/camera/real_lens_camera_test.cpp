@@ -126,6 +126,26 @@ TEST(RealLensCamera, ARenderThroughItIsTheSameForAnyThreadCount) {
   EXPECT_GT(one.mean[0] + one.mean[1] + one.mean[2], 0.0);
 }
 
+// The thin lens's bladed aperture is a scene field too (thin_lens only), checked naming it.
+TEST(ApertureFields, BladesAndRotationAreReadAndChecked) {
+  test::TempDir dir;
+  json scene = test::minimalSceneJson();
+  scene["camera"]["type"] = "thin_lens";
+  scene["camera"]["f_number"] = 2.8;
+  scene["camera"]["aperture_blades"] = 6;
+  scene["camera"]["aperture_rotation"] = 30;
+  const Scene s = test::loadSceneJson(dir, scene);
+  EXPECT_EQ(s.cameraParams.apertureBlades, 6);
+  EXPECT_DOUBLE_EQ(s.cameraParams.apertureRotation, 30.0);
+  scene["camera"]["aperture_blades"] = 2;
+  try {
+    test::loadSceneJson(dir, scene);
+    ADD_FAILURE() << "2 blades make no aperture";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("camera.aperture_blades"), std::string::npos) << e.what();
+  }
+}
+
 // The lanes whose rays get out of the lens are traced as one packet: the same bits as tracing each
 // path alone (integrator.h's promise for packets, kept with lanes taken out).
 TEST(RealLensCamera, PacketsOfTheLanesThatGetOutGiveTheSingleRaysBits) {

@@ -308,3 +308,68 @@ TEST(ThinLensCamera, ExtremeLensValuesAreRefusedOnPrincipleOrGiveTraceableRays) 
 
 }  // namespace
 }  // namespace lensfarm
+
+namespace lensfarm {
+namespace {
+
+// A bladed aperture (ThinLensParams::apertureBlades): the lens points are uniform over the
+// regular n-gon inscribed in R, and a plane out of focus sees every sensor point's rays spread
+// over that polygon's shape, scaled: the bokeh of a defocused point has the aperture's shape and
+// area.
+TEST(ThinLensCamera, ABladedApertureIsAUniformPolygonAndDefocusedPointsTakeItsShape) {
+  for (const int blades : {3, 6, 9}) {
+    ThinLensParams p;
+    p.position = Vec3(0.0f);
+    p.lookAt = Vec3(0.0f, 0.0f, 1.0f);
+    p.focalLength = 0.05;
+    p.focusDistance = 2.0;
+    p.sensorWidth = 0.036;
+    p.fNumber = 2.0;
+    p.apertureBlades = blades;
+    p.apertureRotation = 15.0;
+    const ThinLensCamera camera(p, 64, 64);
+    const double radius = camera.lensRadius(), step = 2.0 * M_PI / blades, rotation = 15.0 * M_PI / 180.0;
+    // Inside the n-gon: for the point at angle t, its distance is within R cos(pi/n) / cos(t - centre of its edge).
+    const auto edgeDistance = [&](double angle) {
+      const double rel = std::fmod(angle - rotation + 4.0 * M_PI, step);
+      return radius * std::cos(step / 2) / std::cos(rel - step / 2);
+    };
+    const int n = 200;
+    int inOuterHalf = 0;
+    double maxRatio = 0.0;
+    // A plane at 4 m, out of focus: the rays from the sensor's centre spread over a scaled copy
+    // of the aperture (the thin lens maps lens point r to r (1 - d / S1) around the axis).
+    const double planeZ = 4.0, scale = 1.0 - planeZ / p.focusDistance;
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b) {
+        const Vec2 u((float(a) + 0.5f) / n, (float(b) + 0.5f) / n);
+        const CameraRay ray = camera.generateRay(32, 32, Vec2(0.0f), u);
+        // The lens point in the camera plane (position is the origin; x along right, y along up).
+        const Vec2 lens(glm::dot(ray.origin, camera.right()), glm::dot(ray.origin, camera.up()));
+        const double r = std::hypot(double(lens.x), double(lens.y)), t = std::atan2(double(lens.y), double(lens.x));
+        maxRatio = std::max(maxRatio, r / edgeDistance(t));
+        inOuterHalf += r > 0.5 * edgeDistance(t) ? 1 : 0;
+        // On the out-of-focus plane: the same shape, scaled.
+        const DVec3 hit = DVec3(ray.origin) + (planeZ - ray.origin.z) / ray.direction.z * DVec3(ray.direction);
+        // The sensor centre's chief ray lies along the axis, so the spread is around it.
+        const double hx = glm::dot(hit, DVec3(camera.right())), hy = glm::dot(hit, DVec3(camera.up()));
+        const double hr = std::hypot(hx, hy), ht = std::atan2(hy, hx) + (scale < 0 ? M_PI : 0.0);
+        EXPECT_LE(hr, std::abs(scale) * edgeDistance(ht) * (1.0 + 1e-4));
+      }
+    EXPECT_LE(maxRatio, 1.0 + 1e-5) << blades << " blades: every lens point inside the polygon";
+    EXPECT_GT(maxRatio, 0.99) << "it reaches the edges";
+    // Uniform in area: the share of points beyond half the edge distance is 3/4.
+    EXPECT_NEAR(double(inOuterHalf) / (n * n), 0.75, 0.01) << blades;
+  }
+  ThinLensParams bad;
+  bad.lookAt = Vec3(0.0f, 0.0f, 1.0f);
+  bad.focalLength = 0.05;
+  bad.focusDistance = 2.0;
+  bad.sensorWidth = 0.036;
+  bad.fNumber = 2.0;
+  bad.apertureBlades = 2;
+  EXPECT_THROW(ThinLensCamera(bad, 8, 8), InputError);
+}
+
+}  // namespace
+}  // namespace lensfarm
