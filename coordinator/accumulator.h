@@ -71,6 +71,7 @@ class Accumulator {
   // ---- rewinding (docs/farm.md "Audit") ----
   // Keeps a copy of the sensor and tracker every `spacing` units summed, at most `most` at once
   // (a new one waits for trustBelow to free a place); 0: none. Each costs one sensor and tracker.
+  // Calling it again with the same values changes nothing.
   void keepRewindPoints(uint64_t spacing, size_t most);
   // Units [0, units) will never be undone: of the rewind points at or below `units` only the
   // latest is kept.

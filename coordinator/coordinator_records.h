@@ -85,7 +85,6 @@ struct Coordinator::Job {
   std::map<uint64_t, Provenance> provenance;
   uint64_t trustedUnits = 0;
   uint64_t generation = 0;  // the film's (Accumulator::generation): grows with every rewind
-  bool keepsRewindPoints = false;  // the film keeps copies (from the job's first audit on)
   // The stop the film reached while audits were pending: the job ends with it once they settle.
   std::optional<std::string> stopAwaitingAudits;
   uint64_t auditsPassed = 0, auditsFailed = 0, unitsRerendered = 0;

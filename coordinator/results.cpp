@@ -193,9 +193,7 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
     if (result.unitIndex >= job->trustedUnits) job->provenance[result.unitIndex] = Job::Provenance{result.workerId, seq};
     if (kept) {
       // Film copies to rewind to from the job's first audit on: a job no one audits keeps none.
-      if (!job->keepsRewindPoints)
-        job->film->keepRewindPoints(rewindPointSpacing(options_.auditFraction), kRewindPoints);
-      job->keepsRewindPoints = true;
+      job->film->keepRewindPoints(rewindPointSpacing(options_.auditFraction), kRewindPoints);
       job->audits.open(result.unitIndex, {result.workerId, std::move(kept)}, seq);
     }
     ++counters_.unitsDone;

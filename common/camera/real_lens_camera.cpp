@@ -39,7 +39,10 @@ RealLensCamera::RealLensCamera(const ThinLensParams& frame, const RealLensParams
     }
   if (!(sum > 0.0)) throw InputError("lens", params_.name + ": no ray from the film's centre gets through the lens");
   normalisation_ = double(n) * n / sum;
-  // The share of rays that get through, over the sensor.
+}
+
+double RealLensCamera::passingFraction() const {
+  const int width = frame_.width(), height = frame_.height();
   uint64_t tried = 0, passed = 0;
   for (int a = 0; a < 32; ++a)
     for (int b = 0; b < 32; ++b)
@@ -47,10 +50,11 @@ RealLensCamera::RealLensCamera(const ThinLensParams& frame, const RealLensParams
         for (int v = 0; v < 8; ++v) {
           float w = 0.0f;
           ++tried;
-          passed += generateRay(int(a * width / 32), int(b * height / 32), Vec2(0.5f), Vec2((float(u) + 0.5f) / 8.0f, (float(v) + 0.5f) / 8.0f), &w)
+          passed += generateRay(int(a * width / 32), int(b * height / 32), Vec2(0.5f),
+                                Vec2((float(u) + 0.5f) / 8.0f, (float(v) + 0.5f) / 8.0f), &w)
                         .has_value();
         }
-  passing_ = double(passed) / double(tried);
+  return double(passed) / double(tried);
 }
 
 std::optional<LensRay> RealLensCamera::traceOut(const DVec3& film, const DVec3& rear) const {

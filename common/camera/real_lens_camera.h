@@ -53,8 +53,8 @@ class RealLensCamera {
   double filmZ() const { return filmZ_; }  // mm behind the front vertex
   const LensSystem& lens() const { return *params_.lens; }
   // The share of camera rays over the whole sensor that get through the lens (a 32 x 32 grid of
-  // film points, 8 x 8 pupil samples each), measured at construction.
-  double passingFraction() const { return passing_; }
+  // film points, 8 x 8 pupil samples each), traced when asked (reports and tests; not at load).
+  double passingFraction() const;
 
  private:
   struct Bounds {
@@ -72,7 +72,6 @@ class RealLensCamera {
   double filmZ_ = 0.0, rearZ_ = 0.0, rearRadius_ = 0.0, maxFilmRadius_ = 0.0;
   std::array<Bounds, kPupilBins> bounds_{};
   double normalisation_ = 1.0;  // 1 / the mean weight at the film's centre
-  double passing_ = 0.0;
 };
 
 }  // namespace lensfarm

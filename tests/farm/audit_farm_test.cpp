@@ -70,11 +70,7 @@ TEST_F(AuditFarm, AWrongWorkerAmongSixIsQuarantinedAndTheImageKeepsItsBits) {
   wrongThread.join();
   ASSERT_EQ(watched.exitCode, 0) << watched.err;
 
-  ImageMetadata farmMeta, localMeta;
-  const Image farm = download(address, job, &farmMeta);
-  const Image local = renderInProcess(scene, &localMeta);
-  ASSERT_EQ(farm.rgb.size(), local.rgb.size());
-  EXPECT_TRUE(farm.rgb == local.rgb) << "a wrong worker must not change a single bit";
+  expectFarmImageIsTheLocalRender(address, job, scene, "a wrong worker must not change a single bit");
 
   const auto workers = cli({"workers", "--coordinator", address});
   ASSERT_EQ(workers.exitCode, 0) << workers.err;

@@ -75,6 +75,18 @@ class FarmFixture : public ::testing::Test {
     return readExr(out, metadata);
   }
 
+  // The farm's promise: job `job`'s downloaded image is `lensfarm render`'s of `scene`, bit for
+  // bit. Returns the farm's image.
+  Image expectFarmImageIsTheLocalRender(const std::string& address, const std::string& job,
+                                        const std::filesystem::path& scene, const std::string& why) {
+    ImageMetadata farmMeta, localMeta;
+    const Image farm = download(address, job, &farmMeta);
+    const Image local = renderInProcess(scene, &localMeta);
+    EXPECT_EQ(farm.rgb.size(), local.rgb.size());
+    EXPECT_TRUE(farm.rgb == local.rgb) << why;
+    return farm;
+  }
+
   Image renderInProcess(const std::filesystem::path& scene, ImageMetadata* metadata) {
     const std::filesystem::path out = dir_ / "in-process.exr";
     const auto r = cli({"render", scene.string(), "-o", out.string(), "--threads", "2", "-q"});

@@ -25,11 +25,7 @@ TEST_F(RealLensFarm, AJobThroughTheDoubleGaussIsBitIdenticalToTheLocalRender) {
   const std::string job = submit(address, file);
   const auto watched = cli({"watch", job, "--coordinator", address});
   ASSERT_EQ(watched.exitCode, 0) << watched.err;
-  ImageMetadata farmMeta, localMeta;
-  const Image farm = download(address, job, &farmMeta);
-  const Image local = renderInProcess(file, &localMeta);
-  ASSERT_EQ(farm.rgb.size(), local.rgb.size());
-  EXPECT_TRUE(farm.rgb == local.rgb) << "the farm's image differs from the local render";
+  const Image farm = expectFarmImageIsTheLocalRender(address, job, file, "the farm's image differs from the local render");
   double sum = 0.0;
   for (float v : farm.rgb) sum += v;
   EXPECT_GT(sum, 0.0);

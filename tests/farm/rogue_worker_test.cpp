@@ -175,11 +175,7 @@ TEST_F(RogueWorker, CanHarmOnlyItsOwnLeasesAndTheImageKeepsItsBits) {
   startWorker(address, "w1");
   const auto watched = cli({"watch", job, "--coordinator", address});
   ASSERT_EQ(watched.exitCode, 0) << watched.err;
-  ImageMetadata farmMeta, localMeta;
-  const Image farm = download(address, job, &farmMeta);
-  const Image local = renderInProcess(scene, &localMeta);
-  ASSERT_EQ(farm.rgb.size(), local.rgb.size());
-  EXPECT_EQ(farm.rgb, local.rgb) << "a rogue worker must not change a single bit";
+  expectFarmImageIsTheLocalRender(address, job, scene, "a rogue worker must not change a single bit");
 }
 
 }  // namespace
