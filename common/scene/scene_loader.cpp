@@ -275,9 +275,12 @@ class SceneParser {
     double n = design.fNumber;
     if (r.has("f_number")) {
       n = positive(r, "f_number");
-      if (n < design.fNumber * (1.0 - 1e-9))
+      // The f-number a lens is sold at is its paraxial one rounded (f/1.4 for f/1.403): within
+      // 1 % of it, the lens is used wide open, at its own.
+      if (n < design.fNumber * (1.0 - 0.01))
         r.fail(r.field("f_number"), "f/" + shortNumber(n) + " is wider than " + lens.name + " opens (f/" +
                                         shortNumber(design.fNumber) + ")");
+      if (n < design.fNumber) n = design.fNumber;
       // Closing the stop: the entrance pupil, and so the f-number, scales with it.
       std::vector<LensSurface> surfaces = system.surfaces();
       surfaces[system.stopIndex()].aperture *= design.fNumber / n;
