@@ -7,6 +7,7 @@
 #include <cmath>
 #include <ctime>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -127,6 +128,7 @@ class Study {
     if (wants("bounces")) body += bounces();
     if (wants("materials")) body += materials();
     if (wants("models")) body += models();
+    if (wants("optics")) body += optics();
     const double minutes = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / 60.0;
     writeBytesAtomically(report_, header(minutes) + body);
     spdlog::info("wrote {} ({:.1f} min)", report_.string(), minutes);
@@ -539,7 +541,11 @@ class Study {
     return Table({"variant", "effects", "us per path", "rays per path", "image mean", "rel. RMSE at budget",
                   "time to 5 % (s)"});
   }
-  void measureVariant(const fs::path& sceneFile, json j, const std::string& name, Table& table, std::vector<Series>& all) {
+  // The effects a variant table lists (the others are the same in every row).
+  static inline const std::set<std::string> kMaterialEffects = {"specular reflection", "glossy materials",
+                                                                "environment", "shading normals and textures"};
+  void measureVariant(const fs::path& sceneFile, json j, const std::string& name, Table& table, std::vector<Series>& all,
+                      const std::set<std::string>& listed = kMaterialEffects) {
     const int side = scale_.materialsSide;
     j["render"]["resolution"] = {side, side};
     j["render"]["samples_per_unit"] = 0;
@@ -558,11 +564,9 @@ class Study {
     const RenderScene rs(scene);
     std::string effects;
     for (const auto& d : rs.effects().decisions)
-      if ((d.effect == "specular reflection" || d.effect == "glossy materials" || d.effect == "environment" ||
-           d.effect == "shading normals and textures") &&
-          d.simulated)
+      if (listed.count(d.effect) && d.simulated)
         effects += (effects.empty() ? "" : "; ") + (d.effect == "environment" ? "environment " + d.reason : d.reason);
-    table.add({name, effects.empty() ? "diffuse only" : effects,
+    table.add({name, effects.empty() ? (&listed == &kMaterialEffects ? "diffuse only" : "none") : effects,
                number(s.seconds.back() / paths * 1e6 * double(std::thread::hardware_concurrency()), 3),
                number(double(stats.rays) / paths, 3), number(meanValue(reference), 4), number(s.error.back(), 3),
                number(t, 3) + (extrapolated ? " (extrapolated)" : "")});
@@ -601,6 +605,50 @@ class Study {
            "instead of in the 16-wide lane loops: the first row against the other two is what textures and "
            "per-point shading cost; a scene without them pays nothing (the Cornell rows above run the lane "
            "loops).\n\n" + table.markdown() + "\n" + link("models");
+  }
+
+  // ---- optics: what the camera's optics cost (issue 23) ----------------------------------------
+  // cornell-seed through each camera model in turn: a pinhole, the seed's thin lens wide open with a
+  // round and a six-bladed aperture, and real lenses traced surface by surface (the double-Gauss
+  // 50 mm at f/2.8; the fast double-Gauss at f/1.4, whose Abbe numbers make it spectral where
+  // lateral colour is simulated). Per variant: the time per path, the energy and the time to the
+  // same error against its own reference.
+  std::string optics() {
+    const fs::path seedFile = options_.scenes / "cornell-seed.json";
+    const json seed = json::parse(readWholeFileOrThrow(seedFile, seedFile.string()));
+    Table table = variantTable();
+    std::vector<Series> all;
+    const std::set<std::string> listed = {"depth of field", "real lens", "aperture", "spectral", "diffraction"};
+    const auto withCamera = [&](const std::function<void(json&)>& edit) {
+      json j = seed;
+      edit(j["camera"]);
+      return j;
+    };
+    measureVariant(seedFile, withCamera([](json& c) { c["f_number"] = "infinity"; }), "pinhole", table, all, listed);
+    measureVariant(seedFile, withCamera([](json& c) { c["f_number"] = 2.8; }), "thin lens f/2.8, round aperture", table,
+                   all, listed);
+    measureVariant(seedFile, withCamera([](json& c) { c["f_number"] = 2.8, c["aperture_blades"] = 6; }),
+                   "thin lens f/2.8, 6 straight blades", table, all, listed);
+    for (const char* scene : {"cornell-real-lens.json", "cornell-seed-fast-lens.json"}) {
+      const fs::path file = options_.scenes / scene;
+      json j = json::parse(readWholeFileOrThrow(file, file.string()));
+      const std::string name = std::string("real lens ") + j["camera"]["lens"].get<std::string>() + " at f/" +
+                               number(j["camera"]["f_number"].get<double>(), 2) + " (" + scene + ")";
+      measureVariant(file, j, name, table, all, listed);
+    }
+    table.writeCsv(options_.out / "optics.csv");
+    plotErrorAgainstTime("optics", all);
+    return "## Camera optics (issue 23)\n\n"
+           "cornell-seed at " + std::to_string(scale_.materialsSide) + "x" + std::to_string(scale_.materialsSide) +
+           " through each camera model, NEE + MIS, Sobol, B = " + std::to_string(seed["render"].value("max_bounces", 2)) +
+           ", each against its own reference (" + std::to_string(scale_.materialsReferenceSpp) +
+           " spp). Time per path is per thread. A thin lens costs two random numbers and a few multiplies per camera "
+           "ray over the pinhole; a bladed aperture a polygon sample; a real lens traces every camera ray through its "
+           "surfaces in double precision, and the rays its rims stop are samples of zero (noise: the real lenses' "
+           "time to the same error is longer by more than their time per path). The real-lens rows frame the box "
+           "their own way (cornell-real-lens: a 36 mm-equivalent sensor; cornell-seed-fast-lens: the seed's framing, "
+           "most of it outside the f/1.4 lens's image circle, docs/figure7.md), so their image means differ.\n\n" +
+           table.markdown() + "\n" + link("optics");
   }
 
   // ---- materials: what glass and metal cost (issue 20) ----------------------------------------
@@ -694,7 +742,7 @@ void runStudy(const StudyOptions& options) {
   for (const auto& e : options.experiments)
     if (!kExperiments.count(e))
       throw InputError("--experiments", "unknown experiment \"" + e +
-                                            "\" (expected convergence, estimate, resolution, dof, bounces, materials or models)");
+                                            "\" (expected convergence, estimate, resolution, dof, bounces, materials, models or optics)");
   Study(options).run();
 }
 

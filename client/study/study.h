@@ -11,7 +11,10 @@
 //    and predicted by thin-lens optics, beside the depth of field of Table 1 (seed Fig. 7);
 //  - bounces: time per path, light-hit fraction, energy and noise vs the bounce limit B (Fig. 8);
 //  - materials: glass and metal (smooth, rough, with and without energy compensation) in
-//    cornell-glass-metal: time per path, energy and the time to reach the same error.
+//    cornell-glass-metal: time per path, energy and the time to reach the same error;
+//  - models: a textured glTF model against untextured stand-ins;
+//  - optics: cornell-seed through a pinhole, the thin lens (round and bladed apertures) and real
+//    lenses: time per path, energy and the time to reach the same error.
 #include <filesystem>
 #include <set>
 #include <string>
@@ -29,7 +32,7 @@ struct StudyOptions {
 };
 
 inline const std::set<std::string> kExperiments = {"convergence", "estimate", "resolution", "dof", "bounces",
-                                                   "materials", "models"};
+                                                   "materials", "models", "optics"};
 
 // Runs the experiments and writes the outputs; throws InputError for bad options and
 // std::runtime_error when a tool (gnuplot) fails.

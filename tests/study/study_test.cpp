@@ -63,16 +63,16 @@ struct StudyRun {
 void checkReportTablesAndPlots(const StudyRun& run) {
   const std::string report = test::readFile(run.dir.path() / "docs" / "accuracy.md");
   for (const char* section : {"## Convergence", "## The live error estimate", "## Resolution", "## Depth of field",
-                              "## Bounces", "## Glass and metal", "## Models", "lensfarm study"})
+                              "## Bounces", "## Glass and metal", "## Models", "## Camera optics", "lensfarm study"})
     EXPECT_NE(report.find(section), std::string::npos) << section;
-  for (const char* plot : {"convergence", "estimate", "resolution", "dof", "bounces", "materials", "models"}) {
+  for (const char* plot : {"convergence", "estimate", "resolution", "dof", "bounces", "materials", "models", "optics"}) {
     EXPECT_NE(report.find("(../out/" + std::string(plot) + ".png)"), std::string::npos) << "relative link to " << plot;
     const std::string png = test::readFile(run.out(std::string(plot) + ".png"));
     ASSERT_GT(png.size(), 2000u) << plot;
     EXPECT_EQ(png.substr(1, 3), "PNG") << plot;
   }
   for (const char* csv : {"convergence.csv", "time-to-error.csv", "estimate.csv", "resolution.csv", "dof.csv", "bounces.csv",
-                          "materials.csv", "models.csv"})
+                          "materials.csv", "models.csv", "optics.csv"})
     EXPECT_GT(readCsv(run.out(csv)).size(), 2u) << csv;
 }
 
@@ -142,6 +142,26 @@ void checkModels(const StudyRun& run) {
   EXPECT_GT(num(textured, "image mean"), 0.0);
 }
 
+// Every camera model renders; the real lenses say they trace every camera ray; the thin lens
+// keeps the seed's convention that the aperture does not change the brightness.
+void checkOptics(const StudyRun& run) {
+  std::map<std::string, std::map<std::string, std::string>> rows;
+  for (const auto& row : readCsv(run.out("optics.csv"))) rows[row.at("variant")] = row;
+  ASSERT_EQ(rows.size(), 5u);
+  const double pinhole = num(rows.at("pinhole"), "image mean");
+  EXPECT_GT(pinhole, 0.0);
+  for (const char* thin : {"thin lens f/2.8, round aperture", "thin lens f/2.8, 6 straight blades"})
+    EXPECT_NEAR(num(rows.at(thin), "image mean") / pinhole, 1.0, 0.05) << thin;
+  int real = 0;
+  for (const auto& [name, row] : rows) {
+    if (name.rfind("real lens", 0) != 0) continue;
+    ++real;
+    EXPECT_NE(row.at("effects").find("every camera ray traced"), std::string::npos) << row.at("effects");
+    EXPECT_GT(num(row, "image mean"), 0.0) << name;
+  }
+  EXPECT_EQ(real, 2);
+}
+
 TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
   StudyRun run;
   run.result = test::runProcess({test::cliPath().string(), "study", "--quick", "--out", (run.dir.path() / "out").string(),
@@ -171,6 +191,10 @@ TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
   {
     SCOPED_TRACE("models");
     checkModels(run);
+  }
+  {
+    SCOPED_TRACE("optics");
+    checkOptics(run);
   }
 }
 
