@@ -1,6 +1,6 @@
 // Where a scene sits and how big it is must not change its image
 // (docs/numerics.md, "Far from the origin", "Scale", "Thin gaps", "Coplanar
-// surfaces"): the Cornell scenes and a closed furnace moved up to 1e7 along
+// surfaces"): the Cornell scenes (one through a real lens) and a closed furnace moved up to 1e7 along
 // each axis or scaled from 1e-6 to 1e10 give the image they give at the origin
 // at scale 1; a floor and a shelf 1e-6 of the floor's size apart stay apart
 // wherever they are; a light flush with a ceiling is seen alike by every
@@ -30,7 +30,7 @@ json mapScene(json scene, Position f, Length g) {
   json &cam = scene["camera"];
   cam["position"] = put(f(vec(cam["position"])));
   cam["look_at"] = put(f(vec(cam["look_at"])));
-  for (const char *key : {"focal_length", "sensor_width", "sensor_height", "focus_distance"})
+  for (const char *key : {"focal_length", "sensor_width", "sensor_height", "focus_distance", "scene_units_per_mm"})
     if (cam.contains(key)) cam[key] = g(cam[key].get<double>());
   auto quad = [&](json &q) {
     q["corner"] = put(f(vec(q["corner"])));
@@ -98,6 +98,7 @@ json shelf() {
 std::vector<Named> placementScenes() {
   return {{"cornell-seed", small(test::bundledSceneJson("cornell-seed.json"), 24, 8)},
           {"cornell-classic", small(test::bundledSceneJson("cornell-classic.json"), 24, 8)},
+          {"cornell-real-lens", small(test::bundledSceneJson("cornell-real-lens.json"), 24, 8)},
           {"furnace", furnace()},
           {"shelf", shelf()}};
 }
