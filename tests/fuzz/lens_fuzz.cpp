@@ -28,6 +28,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
     if (std::isfinite(p.efl) && p.efl > 0.0 && p.efl < 1e6) {
       (void)analyzeField(*lens, 20.0, 2, 6);
+      // A camera traces some 270 k rays to bound its exit pupil: one input in eight builds one,
+      // so that the fuzzer keeps its pace on the rest.
+      if (size % 8 != 0) return 0;
       ThinLensParams frame;
       frame.position = Vec3(0.0f), frame.lookAt = Vec3(0.0f, 0.0f, 1.0f);
       frame.sensorWidth = 0.036, frame.focusDistance = 10.0, frame.focalLength = p.efl * 0.001;
