@@ -12,6 +12,7 @@
 
 #include "coordinator_records.h"
 #include "render/memory_estimate.h"
+#include "film/psf_convolution.h"
 #include "scene/effects.h"
 #include "scene/scene_loader.h"
 #include "state_store.h"
@@ -78,6 +79,7 @@ void Coordinator::Job::setScene(const Scene& scene) {
   unitSize = lensfarm::unitSize(scene.render);
   units = JobUnits(unitCount(scene.render.samplesPerPixel, unitSize));
   effects = describeEffects(scene);
+  diffraction = diffractionKernelFor(scene);
   unitMemoryBytes = workerJobMemory(scene.render, storedTriangles(scene), sceneDataBytes(scene)).total();
 }
 
@@ -333,6 +335,7 @@ JobImage Coordinator::image(const std::string& jobId) const {
                         formatBytes(uint64_t(job->settings.width) * job->settings.height * kImageBytesPerCell) + ")");
   }
   out.image = std::move(developed.image);
+  applyDiffraction(job->diffraction.get(), out.image);  // the same image for the farm and `lensfarm render`
   out.metadata.samplesPerPixel = developed.samplesPerPixel;
   out.metadata.totalSamples = developed.totalSamples;
   out.metadata.extra["rays"] = std::to_string(developed.stats.rays);
