@@ -329,13 +329,13 @@ JobImage Coordinator::image(const std::string& jobId) const {
   Accumulator::Developed developed;
   try {
     developed = job->film->develop();
+    applyDiffraction(job->diffraction.get(), developed.image);  // the same image for the farm and `lensfarm render`
   } catch (const std::bad_alloc&) {
     throw FarmError(FarmError::Kind::kResourceExhausted,
                     "out of memory developing the image of " + job->id + " (" +
                         formatBytes(uint64_t(job->settings.width) * job->settings.height * kImageBytesPerCell) + ")");
   }
   out.image = std::move(developed.image);
-  applyDiffraction(job->diffraction.get(), out.image);  // the same image for the farm and `lensfarm render`
   out.metadata.samplesPerPixel = developed.samplesPerPixel;
   out.metadata.totalSamples = developed.totalSamples;
   out.metadata.extra["rays"] = std::to_string(developed.stats.rays);

@@ -85,5 +85,25 @@ TEST_F(DiffractionInput, TheEffectAnalysisGivesTheAiryRadiusInPixels) {
   for (const std::string& w : f.warnings()) EXPECT_EQ(w.find("diffraction"), std::string::npos) << w;
 }
 
+// A real lens diffracts at its exit pupil: the double-Gauss at f/2.8 focused 2.9 scene units
+// (1044 mm) away works at N_w = z / D_xp a little above 2.8 (N_w = N (1 + m / P) for a
+// magnification m of about 0.05 and a pupil magnification P near 1).
+TEST_F(DiffractionInput, ARealLensDiffractsAtItsExitPupil) {
+  json scene = json::parse(test::readFile(test::scenesDir() / "cornell-real-lens.json"));
+  dir_.write("meshes/cornell-box.obj", test::readFile(test::scenesDir() / "meshes/cornell-box.obj"));
+  dir_.write("lenses/dgauss.50mm.dat", test::readFile(test::scenesDir() / "lenses/dgauss.50mm.dat"));
+  scene["camera"]["diffraction"] = true;
+  const Scene real = load(scene);
+  const DiffractionOptics optics = diffractionOpticsOf(real);
+  EXPECT_EQ(optics.blades, 0);
+  EXPECT_GT(optics.workingFNumber, 2.8);
+  EXPECT_LT(optics.workingFNumber, 3.2);
+  // 0.1 scene units of sensor over 800 cells, 0.0027778 units a mm: 45 um cells.
+  EXPECT_NEAR(optics.pixelWidthMm, 0.1 / 800 / 0.0027778, 1e-9);
+  EXPECT_NE(analyzeEffects(real, real.camera()).summary().find("diffraction: on (f/"), std::string::npos);
+  scene["camera"]["diffraction"] = json{{"scene_units_per_mm", 0.001}};
+  EXPECT_TRUE(namesField(errorOf(scene), "camera.diffraction.scene_units_per_mm", {"camera.scene_units_per_mm"}));
+}
+
 }  // namespace
 }  // namespace lensfarm
