@@ -12,6 +12,7 @@
 
 #include "coordinator_records.h"
 #include "render/memory_estimate.h"
+#include "film/psf_convolution.h"
 #include "scene/effects.h"
 #include "scene/scene_loader.h"
 #include "state_store.h"
@@ -78,6 +79,7 @@ void Coordinator::Job::setScene(const Scene& scene) {
   unitSize = lensfarm::unitSize(scene.render);
   units = JobUnits(unitCount(scene.render.samplesPerPixel, unitSize));
   effects = describeEffects(scene);
+  diffraction = diffractionKernelFor(scene);
   unitMemoryBytes = workerJobMemory(scene.render, storedTriangles(scene), sceneDataBytes(scene)).total();
 }
 
@@ -327,6 +329,7 @@ JobImage Coordinator::image(const std::string& jobId) const {
   Accumulator::Developed developed;
   try {
     developed = job->film->develop();
+    applyDiffraction(job->diffraction.get(), developed.image);  // the same image for the farm and `lensfarm render`
   } catch (const std::bad_alloc&) {
     throw FarmError(FarmError::Kind::kResourceExhausted,
                     "out of memory developing the image of " + job->id + " (" +

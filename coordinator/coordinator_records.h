@@ -13,6 +13,7 @@
 #include "audit.h"
 #include "coordinator.h"
 #include "job_units.h"
+#include "film/diffraction_psf.h"
 #include "scene/scene.h"
 
 namespace lensfarm {
@@ -32,6 +33,9 @@ struct Coordinator::Job {
     return worker.maxUnitMemoryBytes == 0 || unitMemoryBytes <= worker.maxUnitMemoryBytes;
   }
   std::vector<std::string> effects;  // what the renderer simulates for this job, and why
+  // The point-spread function of the aperture applied to every developed image (film/diffraction_psf.h);
+  // null when the scene asks for none. Set by setScene, before the job is published; never changed.
+  std::shared_ptr<const DiffractionKernel> diffraction;
   // Fixes the above (and `units`) from the job's scene, loaded with its overrides.
   void setScene(const Scene& scene);
 

@@ -24,6 +24,7 @@ BUILD_PACKAGES=(
   libssl-dev openssl
   libsqlite3-dev
   libcpp-httplib-dev
+  libfftw3-dev
 )
 
 # tests/ and bench/ (GoogleTest, Google Benchmark, yaml-cpp for the deployment files), and what

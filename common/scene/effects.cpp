@@ -9,6 +9,7 @@
 #include <set>
 #include <sstream>
 
+#include "film/diffraction_psf.h"
 #include "math/triangle.h"
 #include "scene/scene_loader.h"
 
@@ -339,6 +340,26 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
         why << " at every resolution up to " << kMaxResolution << "; open the aperture (a smaller f_number) for depth of field";
     }
     e.decisions.push_back({"depth of field", e.depthOfField, why.str(), !e.depthOfField});
+  }
+
+  // Diffraction by the aperture (film/diffraction_psf.h): a post-process of the developed image.
+  if (!scene.diffraction) {
+    e.decisions.push_back({"diffraction", false, "not asked"});
+  } else {
+    const DiffractionOptics optics = diffractionOpticsOf(scene);
+    const double airy = airyRadiusMm(550.0, optics.workingFNumber);
+    const double pixels = airy / std::max(optics.pixelWidthMm, optics.pixelHeightMm);
+    std::ostringstream text;
+    text << std::setprecision(3) << "f/" << optics.workingFNumber << " working aperture, "
+         << (scene.realLens ? "round exit pupil" : optics.blades ? std::to_string(optics.blades) + " blades" : "round aperture")
+         << ", Airy radius " << airy * 1000.0 << " µm = " << pixels << " px at 550 nm";
+    e.decisions.push_back({"diffraction", true, text.str()});
+    if (pixels < 1.0) {
+      text.str("");
+      text << "diffraction: the Airy radius is " << std::setprecision(2) << pixels
+           << " px, below a pixel: the image changes little; a larger f_number or more pixels show the pattern";
+      e.sceneWarnings.push_back(text.str());
+    }
   }
 
   // Specular materials.

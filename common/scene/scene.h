@@ -94,6 +94,13 @@ struct ExposureSettings {
   ToneMap toneMap = ToneMap::kReinhard;
 };
 
+// Diffraction by the aperture (docs/scene-format.md, camera.diffraction; film/diffraction_psf.h): a
+// point-spread function applied to the developed image, never to the sensor's sums.
+struct DiffractionSettings {
+  int wavelengthsPerChannel = 4;  // wavelengths averaged in each RGB channel's band
+  double sceneUnitsPerMm = 0.001; // a thin lens's scene unit in mm, for the wavelength (a real lens has its own)
+};
+
 struct RenderSettings {
   int width = 0, height = 0;
   uint64_t samplesPerPixel = 0;
@@ -131,6 +138,7 @@ struct Scene {
   // A real lens (camera type "real_lens", camera/real_lens_camera.h); cameraParams are then its
   // frame and thin-lens equivalent (focal length and f-number), for the effect analysis.
   std::optional<RealLensParams> realLens;
+  std::optional<DiffractionSettings> diffraction;  // camera.diffraction; none: the image as developed
   std::vector<Material> materials;
   std::vector<TriangleMesh> meshes;
   // Meshes used many times, in object space, and their uses (MeshInstance above).

@@ -257,6 +257,29 @@ class SceneParser {
                 {"angle_of_view", 40.0}};
   }
 
+  // camera.diffraction (film/diffraction_psf.h): true, false, or an object with `wavelengths` (per
+  // colour channel) and, for a thin lens, `scene_units_per_mm` (a real lens has its own).
+  void parseDiffraction(FieldReader& r, const std::string& type) {
+    if (!r.has("diffraction")) return;
+    const json& v = r.raw("diffraction");
+    if (v.is_boolean()) {
+      if (v.get<bool>()) scene_.diffraction = DiffractionSettings{};
+      return;
+    }
+    if (!v.is_object())
+      r.fail(r.field("diffraction"), "must be true, false or an object {\"wavelengths\", \"scene_units_per_mm\"}");
+    FieldReader d(v, r.field("diffraction"), fileName_);
+    DiffractionSettings settings;
+    settings.wavelengthsPerChannel = int(d.integer("wavelengths", 4, 1, 16));
+    if (d.has("scene_units_per_mm")) {
+      if (type == "real_lens")
+        d.fail(d.field("scene_units_per_mm"), "a real lens's scene unit is camera.scene_units_per_mm; leave it out here");
+      settings.sceneUnitsPerMm = positive(d, "scene_units_per_mm");
+    }
+    d.finish();
+    scene_.diffraction = settings;
+  }
+
   // A camera with a real lens (camera/real_lens_camera.h): the frame is read already; the lens
   // file, the sensor, the focus and the stop. cameraParams become the lens's thin-lens
   // equivalent, for the effect analysis and `lensfarm dof`.
@@ -286,6 +309,7 @@ class SceneParser {
       surfaces[system.stopIndex()].aperture *= design.fNumber / n;
       system = LensSystem(std::move(surfaces), file.shown);
     }
+    parseDiffraction(r, "real_lens");
     r.finish();
     p.focalLength = design.efl * lens.sceneUnitsPerMm;
     p.fNumber = n;
@@ -367,6 +391,11 @@ class SceneParser {
       else
         r.fail(r.field("f_number"), "must be a number > 0 or \"infinity\"");
     }
+    parseDiffraction(r, type);
+    if (scene_.diffraction && std::isinf(p.fNumber))
+      r.fail(r.field("diffraction"), std::string("needs a lens aperture to diffract at: ") +
+                                         (type == "pinhole" ? "a pinhole camera has none" : "f_number is infinity") +
+                                         " (use a thin_lens with a finite f_number)");
     r.finish();
     // A focal length as long as the whole distance to look_at is a unit mix-up (millimetres for
     // the lens, metres for the scene), not a focus problem: name the length that was given.

@@ -144,6 +144,7 @@ const std::map<std::string, Dependency>& debianNames() {
       {"yaml-cpp", {{"libyaml-cpp-dev"}, config("yaml-cpp")}},
       {"PkgConfig", {{"pkg-config"}, cached("PKG_CONFIG_EXECUTABLE")}},
       {"cpp-httplib", {{"libcpp-httplib-dev"}, [] { return fs::path(cacheValue("HTTPLIB_LIBDIR")) / "pkgconfig/cpp-httplib.pc"; }}},
+      {"fftw3", {{"libfftw3-dev"}, [] { return fs::path(cacheValue("FFTW_LIBDIR")) / "pkgconfig/fftw3.pc"; }}},
   };
   return table;
 }

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "film/image_io.h"
@@ -73,6 +74,18 @@ class FarmFixture : public ::testing::Test {
     const auto r = cli({"download", job, "-o", out.string(), "--coordinator", address});
     EXPECT_EQ(r.exitCode, 0) << r.err;
     return readExr(out, metadata);
+  }
+
+  // A coordinator and two workers (w1, w2) render `scene` to the end; returns its address and the
+  // job's id.
+  std::pair<std::string, std::string> renderOnTwoWorkers(const std::filesystem::path& scene) {
+    const std::string address = startCoordinator();
+    startWorker(address, "w1");
+    startWorker(address, "w2");
+    const std::string job = submit(address, scene);
+    const auto watched = cli({"watch", job, "--coordinator", address});
+    EXPECT_EQ(watched.exitCode, 0) << watched.err;
+    return {address, job};
   }
 
   // The farm's promise: job `job`'s downloaded image is `lensfarm render`'s of `scene`, bit for

@@ -19,12 +19,7 @@ TEST_F(RealLensFarm, AJobThroughTheDoubleGaussIsBitIdenticalToTheLocalRender) {
   dir_.write("lenses/dgauss.50mm.dat", test::readFile(test::scenesDir() / "lenses/dgauss.50mm.dat"));
   const std::filesystem::path file = dir_.write("real-lens.json", scene.dump(2));
 
-  const std::string address = startCoordinator();
-  startWorker(address, "w1");
-  startWorker(address, "w2");
-  const std::string job = submit(address, file);
-  const auto watched = cli({"watch", job, "--coordinator", address});
-  ASSERT_EQ(watched.exitCode, 0) << watched.err;
+  const auto [address, job] = renderOnTwoWorkers(file);
   const Image farm = expectFarmImageIsTheLocalRender(address, job, file, "the farm's image differs from the local render");
   double sum = 0.0;
   for (float v : farm.rgb) sum += v;
