@@ -66,8 +66,8 @@ Runner addLensCommand(CLI::App& app) {
       for (const double share : {0.7, 1.0}) {
         const double angle = share * fov(diagonal) / 2.0;
         const LateralColour lc = lateralColour(lens, angle, INFINITY, lens.totalTrack() + p.bfl);
-        std::printf("lateral colour at %.2f°: image height red %.4f, green %.4f, blue %.4f; red - blue %.2f um\n", angle,
-                    lc.heightRed, lc.heightGreen, lc.heightBlue, 1000.0 * lc.lateral);
+        std::printf("lateral colour at %.2f°: image height red %.4f, green %.4f, blue %.4f; red - blue %.2f um\n",
+                    angle, lc.heightRed, lc.heightGreen, lc.heightBlue, 1000.0 * lc.lateral);
       }
     }
     // Across the half diagonal: distortion, vignetting (the share of a beam filling the entrance

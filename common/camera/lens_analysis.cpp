@@ -145,7 +145,8 @@ LateralColour lateralColour(const LensSystem& lens, double fieldDegrees, double 
       const double response = spectral::response(channel, nm);
       for (int i = 0; i < raysAcross; ++i)
         for (int j = 0; j < raysAcross; ++j) {
-          const double x = radius * (2.0 * (i + 0.5) / raysAcross - 1.0), y = radius * (2.0 * (j + 0.5) / raysAcross - 1.0);
+          const double x = radius * (2.0 * (i + 0.5) / raysAcross - 1.0),
+                       y = radius * (2.0 * (j + 0.5) / raysAcross - 1.0);
           if (x * x + y * y > radius * radius) continue;
           LensRay ray = beamRay(p, angle, x, y);
           double solidAngle = 1.0;  // a parallel beam: every ray the same area of the pupil

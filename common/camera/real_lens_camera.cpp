@@ -71,24 +71,40 @@ double RealLensCamera::weightOf(const DVec3& film, const DVec3& rear, double are
 
 RealLensCamera::Bounds RealLensCamera::boundsAt(double radius) const {
   // The rear-plane points through which a ray from (radius, 0) gets out, boxed, grown by a grid
-  // cell on every side (a ray between two that pass may pass). Through a lens that disperses, at
-  // the sensor's shortest and longest wavelengths too (its pupil shifts a little with colour).
+  // cell on every side (a ray between two that pass may pass). Through a lens that disperses the
+  // pupil shifts a little with colour: the box then takes in the grid points just outside it
+  // through which a ray gets out at the sensor's shortest or longest wavelength, until none does
+  // (every grid point, should none get out at the d line).
   Bounds b{1e30, -1e30, 1e30, -1e30};
-  const bool spectralRays = spectral();
-  const auto passes = [&](const DVec3& film, const DVec3& rear) {
-    if (traceOut(film, rear)) return true;
-    return spectralRays && (traceOut(film, rear, spectral::kBandEdges[0]) ||
-                            traceOut(film, rear, spectral::kBandEdges[spectral::kBands]));
-  };
   const double cell = 2.0 * rearRadius_ / kBoundsGrid;
   const DVec3 film(radius, 0.0, filmZ_);
-  for (int a = 0; a < kBoundsGrid; ++a)
-    for (int c = 0; c < kBoundsGrid; ++c) {
-      const double x = -rearRadius_ + cell * (a + 0.5), y = -rearRadius_ + cell * (c + 0.5);
-      if (x * x + y * y > rearRadius_ * rearRadius_) continue;
-      if (!passes(film, DVec3(x, y, rearZ_))) continue;
-      b.x0 = std::min(b.x0, x - cell), b.x1 = std::max(b.x1, x + cell);
-      b.y0 = std::min(b.y0, y - cell), b.y1 = std::max(b.y1, y + cell);
+  const auto scan = [&](double wavelengthNm, bool aroundTheBox) {
+    const Bounds before = b;
+    bool grew = false;
+    for (int a = 0; a < kBoundsGrid; ++a)
+      for (int c = 0; c < kBoundsGrid; ++c) {
+        const double x = -rearRadius_ + cell * (a + 0.5), y = -rearRadius_ + cell * (c + 0.5);
+        if (x * x + y * y > rearRadius_ * rearRadius_) continue;
+        if (aroundTheBox && ((x >= before.x0 && x <= before.x1 && y >= before.y0 && y <= before.y1) ||
+                             x < before.x0 - cell || x > before.x1 + cell || y < before.y0 - cell ||
+                             y > before.y1 + cell))
+          continue;
+        if (!traceOut(film, DVec3(x, y, rearZ_), wavelengthNm)) continue;
+        b.x0 = std::min(b.x0, x - cell), b.x1 = std::max(b.x1, x + cell);
+        b.y0 = std::min(b.y0, y - cell), b.y1 = std::max(b.y1, y + cell);
+        grew = true;
+      }
+    return grew;
+  };
+  scan(LensSystem::kWavelengthD, false);
+  if (spectral())
+    for (const double nm : {spectral::kBandEdges[0], spectral::kBandEdges[spectral::kBands]}) {
+      if (b.empty()) {
+        scan(nm, false);
+      } else {
+        while (scan(nm, true)) {
+        }
+      }
     }
   if (b.empty()) return Bounds{};
   return b;

@@ -4,9 +4,9 @@
 // docs/optics.md "Chromatic aberration").
 //
 // Units and conventions (written once, here):
-//  - Wavelengths in nanometres (in air). The sensor sees [400, 700) nm, cut into three bands:
-//    blue [400, 490), green [490, 580), red [580, 700) (the crossings of typical camera RGB
-//    responses, rounded).
+//  - Wavelengths in nanometres (in air). The sensor sees [400, 700) nm, cut into three equal
+//    bands: blue [400, 500), green [500, 600), red [600, 700), the band model the diffraction
+//    starburst uses too (film/diffraction_psf.h).
 //  - The scene is RGB (math/vec.h). A radiance (r, g, b) is the step spectrum that is r over the
 //    red band, g over the green band and b over the blue band:  L(lambda) = sum_c L_c 1_c(lambda).
 //  - Sensor channel c responds with s_c(lambda) = 1_c(lambda) / |band c|: the normalised band
@@ -49,7 +49,7 @@ namespace lensfarm::spectral {
 
 inline constexpr int kBands = 3;
 // Band edges from short to long wavelengths: band 0 is blue, 1 green, 2 red.
-inline constexpr double kBandEdges[kBands + 1] = {400.0, 490.0, 580.0, 700.0};
+inline constexpr double kBandEdges[kBands + 1] = {400.0, 500.0, 600.0, 700.0};
 // 1 / p(lambda) times the response s_c(lambda) of the band's channel (see above).
 inline constexpr float kBandWeight = 3.0f;
 

@@ -199,9 +199,9 @@ bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
   // Pick the specialisation once per unit (scene/effects.h); the inner loops then carry no
   // branch for an effect the scene does not call for.
   const EffectSet& e = rs.effects();
-  const int cameraKind = rs.realCamera()            ? (rs.realCamera()->spectral() ? kRealLensSpectral : kRealLens)
-                         : e.depthOfField             ? kThinLens
-                                                      : kPinhole;
+  const int cameraKind = rs.realCamera()  ? (rs.realCamera()->spectral() ? kRealLensSpectral : kRealLens)
+                         : e.depthOfField ? kThinLens
+                                          : kPinhole;
   // (With the naive estimator the light sampler holds the delta lights alone, if any.)
   const bool nee = e.lightSampling && !rs.lights().empty();
   const bool general = e.generalMaterials;
