@@ -62,6 +62,13 @@ Runner addLensCommand(CLI::App& app) {
     if (lens.disperses()) {
       const double eflF = lens.paraxial(LensSystem::kWavelengthF).efl, eflC = lens.paraxial(LensSystem::kWavelengthC).efl;
       std::printf("colour: efl %.4f at F (486 nm), %.4f at C (656 nm): %.4f\n", eflF, eflC, eflF - eflC);
+      // Lateral colour: the sensor's red and blue channel image heights (camera/spectral_response.h).
+      for (const double share : {0.7, 1.0}) {
+        const double angle = share * fov(diagonal) / 2.0;
+        const LateralColour lc = lateralColour(lens, angle, INFINITY, lens.totalTrack() + p.bfl);
+        std::printf("lateral colour at %.2f°: image height red %.4f, green %.4f, blue %.4f; red - blue %.2f um\n",
+                    angle, lc.heightRed, lc.heightGreen, lc.heightBlue, 1000.0 * lc.lateral);
+      }
     }
     // Across the half diagonal: distortion, vignetting (the share of a beam filling the entrance
     // pupil that gets through, no cos^4) and the spot at the paraxial focus.

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "camera/spectral_response.h"
+
 namespace lensfarm {
 
 namespace {
@@ -122,6 +124,51 @@ std::string crossSectionSvg(const LensSystem& lens, double fieldDegrees) {
                 focusZ, top, focusZ, top + height, stroke);
   svg += buf;
   return svg + "</svg>\n";
+}
+
+// ---- Lateral colour (lens_analysis.h) ----
+
+LateralColour lateralColour(const LensSystem& lens, double fieldDegrees, double objectDistance, double filmZ,
+                            int raysAcross, int wavelengthsPerBand) {
+  const LensSystem::Paraxial p = lens.paraxial();
+  const double angle = radians(fieldDegrees), radius = 0.75 * p.entrancePupilDiameter;
+  const bool atInfinity = std::isinf(objectDistance);
+  // The object point: on the chief ray through the entrance pupil's centre.
+  const DVec3 object(0.0, -(objectDistance + p.entrancePupilZ) * std::tan(angle), -objectDistance);
+  double height[spectral::kBands] = {};
+  for (int band = 0; band < spectral::kBands; ++band) {
+    const int channel = spectral::channelOfBand(band);
+    const double lo = spectral::kBandEdges[band], hi = spectral::kBandEdges[band + 1];
+    double sum = 0.0, weights = 0.0;
+    for (int w = 0; w < wavelengthsPerBand; ++w) {
+      const double nm = lo + (hi - lo) * (w + 0.5) / wavelengthsPerBand;
+      const double response = spectral::response(channel, nm);
+      for (int i = 0; i < raysAcross; ++i)
+        for (int j = 0; j < raysAcross; ++j) {
+          const double x = radius * (2.0 * (i + 0.5) / raysAcross - 1.0),
+                       y = radius * (2.0 * (j + 0.5) / raysAcross - 1.0);
+          if (x * x + y * y > radius * radius) continue;
+          LensRay ray = beamRay(p, angle, x, y);
+          double solidAngle = 1.0;  // a parallel beam: every ray the same area of the pupil
+          if (!atInfinity) {
+            // From the point through (x, y) of the pupil's plane: dA cos / r^2 of solid angle.
+            const DVec3 toPupil = DVec3(x, y, p.entrancePupilZ) - object;
+            const double r = glm::length(toPupil);
+            ray = LensRay{object, toPupil / r};
+            solidAngle = toPupil.z / (r * r * r);
+          }
+          const std::optional<LensRay> out = lens.traceFromObjectSide(ray, nm);
+          if (!out || out->direction.z <= 0.0) continue;
+          sum += response * solidAngle * onPlane(*out, filmZ).y;
+          weights += response * solidAngle;
+        }
+    }
+    height[channel] = weights > 0.0 ? sum / weights : 0.0;
+  }
+  LateralColour out;
+  out.heightRed = height[0], out.heightGreen = height[1], out.heightBlue = height[2];
+  out.lateral = out.heightRed - out.heightBlue;
+  return out;
 }
 
 }  // namespace lensfarm

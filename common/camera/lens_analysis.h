@@ -29,4 +29,21 @@ std::vector<FieldPoint> analyzeField(const LensSystem& lens, double maxAngleDegr
 // traced to the paraxial focal plane, as a self-contained SVG document.
 std::string crossSectionSvg(const LensSystem& lens, double fieldDegrees);
 
+// ---- Lateral colour (issue 23: chromatic aberration; docs/optics.md "Chromatic aberration") ----
+// Where an object point's image falls on the film in each sensor channel. The object point is at
+// `objectDistance` mm in front of the front vertex (infinity: a parallel beam), seen at
+// `fieldDegrees` from the entrance pupil's centre, in the y-z plane; the film is the plane
+// z = `filmZ` (mm from the front vertex). Rays from it fill a disk 1.5 x the entrance pupil
+// (raysAcross^2 of them, each weighted by the solid angle it stands for), traced at
+// `wavelengthsPerBand` wavelengths evenly spread in each of the sensor's bands
+// (camera/spectral_response.h); a channel's image height is the centroid of the rays that get
+// through, weighted by the channel's response: what the render's channel image of a small white
+// source has as its centroid. Lateral colour is red minus blue.
+struct LateralColour {
+  double heightRed = 0.0, heightGreen = 0.0, heightBlue = 0.0;  // mm, on the film (y)
+  double lateral = 0.0;                                         // heightRed - heightBlue, mm
+};
+LateralColour lateralColour(const LensSystem& lens, double fieldDegrees, double objectDistance, double filmZ,
+                            int raysAcross = 48, int wavelengthsPerBand = 8);
+
 }  // namespace lensfarm

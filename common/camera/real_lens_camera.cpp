@@ -3,6 +3,7 @@
 
 #include <cmath>
 
+#include "camera/spectral_response.h"
 #include "util/error.h"
 
 namespace lensfarm {
@@ -57,8 +58,8 @@ double RealLensCamera::passingFraction() const {
   return double(passed) / double(tried);
 }
 
-std::optional<LensRay> RealLensCamera::traceOut(const DVec3& film, const DVec3& rear) const {
-  return params_.lens->traceFromImageSide(LensRay{film, glm::normalize(rear - film)});
+std::optional<LensRay> RealLensCamera::traceOut(const DVec3& film, const DVec3& rear, double wavelengthNm) const {
+  return params_.lens->traceFromImageSide(LensRay{film, glm::normalize(rear - film)}, wavelengthNm);
 }
 
 double RealLensCamera::weightOf(const DVec3& film, const DVec3& rear, double area) const {
@@ -70,23 +71,47 @@ double RealLensCamera::weightOf(const DVec3& film, const DVec3& rear, double are
 
 RealLensCamera::Bounds RealLensCamera::boundsAt(double radius) const {
   // The rear-plane points through which a ray from (radius, 0) gets out, boxed, grown by a grid
-  // cell on every side (a ray between two that pass may pass).
+  // cell on every side (a ray between two that pass may pass). Through a lens that disperses the
+  // pupil shifts a little with colour: the box then takes in the grid points just outside it
+  // through which a ray gets out at the sensor's shortest or longest wavelength, until none does
+  // (every grid point, should none get out at the d line).
   Bounds b{1e30, -1e30, 1e30, -1e30};
   const double cell = 2.0 * rearRadius_ / kBoundsGrid;
   const DVec3 film(radius, 0.0, filmZ_);
-  for (int a = 0; a < kBoundsGrid; ++a)
-    for (int c = 0; c < kBoundsGrid; ++c) {
-      const double x = -rearRadius_ + cell * (a + 0.5), y = -rearRadius_ + cell * (c + 0.5);
-      if (x * x + y * y > rearRadius_ * rearRadius_) continue;
-      if (!traceOut(film, DVec3(x, y, rearZ_))) continue;
-      b.x0 = std::min(b.x0, x - cell), b.x1 = std::max(b.x1, x + cell);
-      b.y0 = std::min(b.y0, y - cell), b.y1 = std::max(b.y1, y + cell);
+  const auto scan = [&](double wavelengthNm, bool aroundTheBox) {
+    const Bounds before = b;
+    bool grew = false;
+    for (int a = 0; a < kBoundsGrid; ++a)
+      for (int c = 0; c < kBoundsGrid; ++c) {
+        const double x = -rearRadius_ + cell * (a + 0.5), y = -rearRadius_ + cell * (c + 0.5);
+        if (x * x + y * y > rearRadius_ * rearRadius_) continue;
+        if (aroundTheBox && ((x >= before.x0 && x <= before.x1 && y >= before.y0 && y <= before.y1) ||
+                             x < before.x0 - cell || x > before.x1 + cell || y < before.y0 - cell ||
+                             y > before.y1 + cell))
+          continue;
+        if (!traceOut(film, DVec3(x, y, rearZ_), wavelengthNm)) continue;
+        b.x0 = std::min(b.x0, x - cell), b.x1 = std::max(b.x1, x + cell);
+        b.y0 = std::min(b.y0, y - cell), b.y1 = std::max(b.y1, y + cell);
+        grew = true;
+      }
+    return grew;
+  };
+  scan(LensSystem::kWavelengthD, false);
+  if (spectral())
+    for (const double nm : {spectral::kBandEdges[0], spectral::kBandEdges[spectral::kBands]}) {
+      if (b.empty()) {
+        scan(nm, false);
+      } else {
+        while (scan(nm, true)) {
+        }
+      }
     }
   if (b.empty()) return Bounds{};
   return b;
 }
 
-std::optional<CameraRay> RealLensCamera::generateRay(int i, int j, Vec2 uSensor, Vec2 uLens, float* weight) const {
+std::optional<CameraRay> RealLensCamera::generateRay(int i, int j, Vec2 uSensor, Vec2 uLens, float* weight,
+                                                     double wavelengthNm) const {
   const Vec2 s = frame_.sensorPoint(i, j, uSensor);
   const double scale = params_.sceneUnitsPerMm;
   const DVec3 film(double(s.x) / scale, double(s.y) / scale, filmZ_);
@@ -98,7 +123,7 @@ std::optional<CameraRay> RealLensCamera::generateRay(int i, int j, Vec2 uSensor,
   const double bx = b.x0 + (b.x1 - b.x0) * double(uLens.x), by = b.y0 + (b.y1 - b.y0) * double(uLens.y);
   const double cosPhi = r > 0.0 ? film.x / r : 1.0, sinPhi = r > 0.0 ? film.y / r : 0.0;
   const DVec3 rear(cosPhi * bx - sinPhi * by, sinPhi * bx + cosPhi * by, rearZ_);
-  const std::optional<LensRay> out = traceOut(film, rear);
+  const std::optional<LensRay> out = traceOut(film, rear, wavelengthNm);
   if (!out) return std::nullopt;
   *weight = float(weightOf(film, rear, (b.x1 - b.x0) * (b.y1 - b.y0)) * normalisation_);
   // Lens frame to the camera's: x = right, y = up, z = -forward; millimetres to scene units.

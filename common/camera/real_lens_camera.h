@@ -21,6 +21,11 @@
 // computer graphics", SIGGRAPH 1995), divided by its mean at the film's centre: a uniform white
 // scene reads 1 at the centre, as with the seed's cameras, and falls off toward the corners as
 // the lens's relative illumination (vignetting and cos^4) says.
+//
+// Colour. A lens whose glasses disperse (Abbe numbers, lens_system.h) is traced at each camera
+// sample's own wavelength (camera/spectral_response.h: the sensor's bands, the estimator, and
+// why each wavelength takes its own camera ray); its pupil bounds then cover the rays of every
+// band. A lens that does not disperse is traced at the d line: RGB, no wavelength work.
 #include <array>
 #include <memory>
 #include <optional>
@@ -47,8 +52,12 @@ class RealLensCamera {
   RealLensCamera(const ThinLensParams& frame, const RealLensParams& lens, int width, int height);
 
   // The ray for a point of sensor cell (i, j) at offset uSensor in [0,1)^2, aimed with uLens in
-  // [0,1)^2 within the exit pupil's bounds; nullopt if the lens stops it. `weight`: see above.
-  std::optional<CameraRay> generateRay(int i, int j, Vec2 uSensor, Vec2 uLens, float* weight) const;
+  // [0,1)^2 within the exit pupil's bounds, through the lens at `wavelengthNm`; nullopt if the
+  // lens stops it. `weight`: see above (the same for every wavelength).
+  std::optional<CameraRay> generateRay(int i, int j, Vec2 uSensor, Vec2 uLens, float* weight,
+                                       double wavelengthNm = LensSystem::kWavelengthD) const;
+  // Whether camera samples are spectral: the lens disperses.
+  bool spectral() const { return params_.lens->disperses(); }
 
   double filmZ() const { return filmZ_; }  // mm behind the front vertex
   const LensSystem& lens() const { return *params_.lens; }
@@ -63,7 +72,8 @@ class RealLensCamera {
   };
   // Film point (mm, in the lens frame) and rear-plane point -> the ray through the lens (lens
   // frame) and its unnormalised weight, or nullopt.
-  std::optional<LensRay> traceOut(const DVec3& film, const DVec3& rear) const;
+  std::optional<LensRay> traceOut(const DVec3& film, const DVec3& rear,
+                                  double wavelengthNm = LensSystem::kWavelengthD) const;
   Bounds boundsAt(double radius) const;
   double weightOf(const DVec3& film, const DVec3& rear, double area) const;
 

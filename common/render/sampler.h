@@ -44,6 +44,11 @@ inline constexpr uint32_t kLightChoice = 4;    // 1D
 inline constexpr uint32_t kRoulette = 5;       // 1D: Russian roulette
 inline constexpr uint32_t kMaterialLobe = 6;   // 1D: a material's choice of lobe (material/bsdf.h)
 inline constexpr uint32_t segment(uint32_t s) { return kFirstSegment + s * kPerSegment; }
+// 1D: a spectral camera sample's wavelength (camera/spectral_response.h; only through a lens that
+// disperses). Appended past every segment's block (a path has at most 2050 segments,
+// render/integrator.h), so no other dimension moves: images without it keep their bits. Every
+// sampler gives it independent values; the bands are stratified by the sample index instead.
+inline constexpr uint32_t kWavelength = 0xfffffff0u;
 }  // namespace dims
 
 // The stratified and Sobol samplers stratify the dimensions where stratification pays: the pixel

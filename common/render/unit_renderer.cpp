@@ -5,6 +5,11 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <limits>
+
+#include "camera/spectral_response.h"
+#include "render/integrator.h"
+#include "scene/scene_loader.h"  // kMaxBounces
 
 #if defined(__SSE__)
 #include <pmmintrin.h>
@@ -25,8 +30,12 @@ WorkUnit unitAt(uint64_t index, uint64_t samplesPerPixel, uint32_t samplesPerUni
 
 namespace {
 
-// The cameras the pixel loop specialises on: no lens sample, the thin lens's, a real lens's.
-enum CameraKind { kPinhole, kThinLens, kRealLens };
+// The cameras the pixel loop specialises on: no lens sample, the thin lens's, a real lens's, a
+// real lens that disperses (every camera sample at its own wavelength: camera/spectral_response.h).
+enum CameraKind { kPinhole, kThinLens, kRealLens, kRealLensSpectral };
+
+// The wavelength dimension comes after every segment's block.
+static_assert(dims::segment(uint32_t(pathSegmentLimit(kMaxBounces))) < dims::kWavelength);
 
 // The pixel loop for one combination of effects, fixed at compile time.
 template <int kCamera, bool kNee, bool kGeneral>
@@ -57,6 +66,7 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
     uint64_t pixelOf[kPacketWidth];
     int column[kPacketWidth];
     alignas(64) float u0[kPacketWidth], u1[kPacketWidth], lens0[kPacketWidth], lens1[kPacketWidth];
+    [[maybe_unused]] uint64_t sampleOf[kPacketWidth];  // spectral: each lane's sample index
     for (int j = rows.begin(); j != rows.end(); ++j) {
       if (cancel && cancel->load(std::memory_order_relaxed)) {
         cancelled = true;
@@ -75,6 +85,7 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
           pixelOf[k] = uint64_t(j) * width + uint64_t(i);
           packet.rng[k] = SampleStream(sampler, pixelOf[k], s);
           column[k] = i;
+          if constexpr (kCamera == kRealLensSpectral) sampleOf[k] = s;
           if (++sampleInPixel == unit.sampleCount) {
             sampleInPixel = 0;
             ++i;
@@ -86,22 +97,35 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
         // All lanes' camera rays in one vector loop (lanes past the count trace a harmless ray of
         // cell 0). Without depth of field the lens is a pinhole: no lens sample, the same rays.
         for (int k = packet.count; k < kPacketWidth; ++k) column[k] = 0, u0[k] = u1[k] = 0.0f;
-        if constexpr (kCamera == kRealLens) {
+        if constexpr (kCamera == kRealLens || kCamera == kRealLensSpectral) {
           // Through every surface of a real lens, lane by lane: a ray the lens stops is a sample
           // of zero (a path, not traced); the others are traced as one packet of the live lanes
           // (each lane's radiance is tracePath's bits whatever the packet) and carry the lens's
-          // irradiance weight (real_lens_camera.h).
+          // irradiance weight (real_lens_camera.h). Through a lens that disperses, each lane is
+          // traced at its own wavelength and counts in its band's channel alone
+          // (camera/spectral_response.h); otherwise at the d line, with no wavelength work.
           SampleStream::values2D(packet.rng, keys, packet.count, dims::kLens, lens0, lens1);
           const RealLensCamera& real = *rs.realCamera();
           PathPacket& live = liveLanes;
           int laneOf[kPacketWidth];
           float weight[kPacketWidth];
+          [[maybe_unused]] int channelOf[kPacketWidth];
+          [[maybe_unused]] alignas(64) float uWavelength[kPacketWidth];
+          if constexpr (kCamera == kRealLensSpectral)
+            SampleStream::values1D(packet.rng, keys, packet.count, dims::kWavelength, uWavelength);
           live.count = 0;
           for (int k = 0; k < packet.count; ++k) {
             radiance[k] = Spectrum(0.0f);
             float w = 0.0f;
+            double nm = LensSystem::kWavelengthD;
+            if constexpr (kCamera == kRealLensSpectral) {
+              const float uPixel = SampleStream(sampler, pixelOf[k], 0).get1D(dims::kWavelength);
+              const spectral::WavelengthSample ws = spectral::sampleWavelength(sampleOf[k], uPixel, uWavelength[k]);
+              nm = ws.nm;
+              channelOf[live.count] = ws.channel;
+            }
             const std::optional<CameraRay> ray =
-                real.generateRay(column[k], j, Vec2(u0[k], u1[k]), Vec2(lens0[k], lens1[k]), &w);
+                real.generateRay(column[k], j, Vec2(u0[k], u1[k]), Vec2(lens0[k], lens1[k]), &w, nm);
             if (!ray) {
               ++local.paths;
               continue;
@@ -119,7 +143,18 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
           else
             for (int k = 0; k < live.count; ++k)
               traced[k] = tracePath<kNee, kGeneral>(rs, live.cameraRays.ray(k), live.rng[k], local);
-          for (int k = 0; k < live.count; ++k) radiance[laneOf[k]] = traced[k] * weight[k];
+          for (int k = 0; k < live.count; ++k) {
+            if constexpr (kCamera == kRealLensSpectral) {
+              // The path's spectral radiance at its wavelength is its band's channel; the sensor
+              // reads it in that channel alone. A value not finite or negative is dropped below.
+              const float v = traced[k][channelOf[k]];
+              Spectrum l(0.0f);
+              l[channelOf[k]] = spectral::kBandWeight * v * weight[k];
+              radiance[laneOf[k]] = v >= 0.0f ? l : Spectrum(std::numeric_limits<float>::quiet_NaN());
+            } else {
+              radiance[laneOf[k]] = traced[k] * weight[k];
+            }
+          }
         } else {
           if constexpr (kCamera == kThinLens) {
             SampleStream::values2D(packet.rng, keys, packet.count, dims::kLens, lens0, lens1);
@@ -164,18 +199,22 @@ bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
   // Pick the specialisation once per unit (scene/effects.h); the inner loops then carry no
   // branch for an effect the scene does not call for.
   const EffectSet& e = rs.effects();
-  const int cameraKind = rs.realCamera() ? kRealLens : e.depthOfField ? kThinLens : kPinhole;
+  const int cameraKind = rs.realCamera()  ? (rs.realCamera()->spectral() ? kRealLensSpectral : kRealLens)
+                         : e.depthOfField ? kThinLens
+                                          : kPinhole;
   // (With the naive estimator the light sampler holds the delta lights alone, if any.)
   const bool nee = e.lightSampling && !rs.lights().empty();
   const bool general = e.generalMaterials;
   using Fn = bool (*)(const RenderScene&, const WorkUnit&, SensorBuffer&, PathStats&, const std::atomic<bool>*, RayGrouping);
-  static constexpr Fn kTable[3][2][2] = {
+  static constexpr Fn kTable[4][2][2] = {
       {{renderUnitWith<kPinhole, false, false>, renderUnitWith<kPinhole, false, true>},
        {renderUnitWith<kPinhole, true, false>, renderUnitWith<kPinhole, true, true>}},
       {{renderUnitWith<kThinLens, false, false>, renderUnitWith<kThinLens, false, true>},
        {renderUnitWith<kThinLens, true, false>, renderUnitWith<kThinLens, true, true>}},
       {{renderUnitWith<kRealLens, false, false>, renderUnitWith<kRealLens, false, true>},
-       {renderUnitWith<kRealLens, true, false>, renderUnitWith<kRealLens, true, true>}}};
+       {renderUnitWith<kRealLens, true, false>, renderUnitWith<kRealLens, true, true>}},
+      {{renderUnitWith<kRealLensSpectral, false, false>, renderUnitWith<kRealLensSpectral, false, true>},
+       {renderUnitWith<kRealLensSpectral, true, false>, renderUnitWith<kRealLensSpectral, true, true>}}};
   return kTable[cameraKind][nee][general](rs, unit, out, stats, cancel, grouping);
 }
 

@@ -316,6 +316,12 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
         << lens.paraxial().fNumber << ", every camera ray traced through them";
     e.decisions.push_back({"real lens", true, why.str()});
     why.str("");
+    // Spectral camera samples (camera/spectral_response.h; the renderer asks the lens the same).
+    if (lens.disperses())
+      e.decisions.push_back({"spectral", true, scene.realLens->name + " disperses (Abbe numbers): each camera sample "
+                                               "traced at its own wavelength, 400-700 nm in three bands"});
+    else
+      e.decisions.push_back({"spectral", false, scene.realLens->name + " has no Abbe numbers: RGB, traced at the d line"});
   } else if (camera.isPinhole()) {
     e.depthOfField = false;
     e.decisions.push_back({"depth of field", false, "aperture closed (N = infinity)"});

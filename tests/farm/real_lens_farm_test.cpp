@@ -26,6 +26,8 @@ TEST_F(RealLensFarm, AJobThroughTheDoubleGaussIsBitIdenticalToTheLocalRender) {
   EXPECT_GT(sum, 0.0);
   const auto status = cli({"status", job, "--coordinator", address});
   EXPECT_NE(status.out.find("real lens: on"), std::string::npos) << status.out;
+  // The double-Gauss's glasses disperse: every camera sample at its own wavelength, on every worker.
+  EXPECT_NE(status.out.find("spectral: on"), std::string::npos) << status.out;
 }
 
 }  // namespace
