@@ -96,15 +96,9 @@ ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
   invImageDistance_ = 1.0 / imageDistance_;
   invFocalLength_ = 1.0 / p.focalLength;
   lensRadius_ = std::isinf(p.fNumber) ? 0.0 : p.focalLength / (2.0 * p.fNumber);
-  if (p.apertureBlades != 0 && !(p.apertureBlades >= 3 && p.apertureBlades <= 64))
-    throw InputError("aperture_blades", "must be 0 (round) or 3 to 64 blades, got " + std::to_string(p.apertureBlades));
-  if (!std::isfinite(p.apertureRotation))
-    throw InputError("aperture_rotation", "must be a finite number of degrees");
-  if (p.apertureBlades >= 3) {
-    const double step = 2.0 * std::numbers::pi / p.apertureBlades, rotation = p.apertureRotation * std::numbers::pi / 180.0;
-    cosStep_ = float(std::cos(step)), sinStep_ = float(std::sin(step));
-    cosRotation_ = float(std::cos(rotation)), sinRotation_ = float(std::sin(rotation));
-  }
+  aperture_ = Aperture(ApertureSpec{p.apertureBlades, p.apertureRotation, p.apertureCurvature, p.apertureImage});
+  if (p.apertureImage && std::isinf(p.fNumber))
+    throw InputError("aperture_image", "needs a finite f_number: the image covers a square of side f / N");
   if (!std::isfinite(invImageDistance_) || !std::isfinite(invFocalLength_) || !(invImageDistance_ > 0.0) ||
       !(invFocalLength_ > 0.0))
     throw InputError("focal_length", "f = " + show(p.focalLength) + " (S2 = " + show(imageDistance_) +
@@ -171,9 +165,9 @@ LENSFARM_LANE_LOOPS void thinLensLanes(const ThinLensCamera& camera, const int* 
                                        const float* __restrict u0, const float* __restrict u1,
                                        const float* __restrict lens0, const float* __restrict lens1,
                                        CameraRayLanes& __restrict rays) {
-  // The round aperture's loop as it always was; a bladed one only for a scene that asks for it.
+  // The round aperture's loop as it always was; a shaped one only for a scene that asks for it.
   const float r = float(camera.lensRadius());
-  if (camera.params().apertureBlades == 0) {
+  if (camera.aperture().isRound()) {
     for (int k = 0; k < kPacketWidth; ++k)
       rays.set(k, camera.rayThrough(camera.sensorPoint(i[k], j, Vec2(u0[k], u1[k])),
                                     sampleConcentricDisk(Vec2(lens0[k], lens1[k])) * r));

@@ -16,10 +16,13 @@
 //
 // A camera ray leaves the lens point, so a sample measures the radiance arriving at the sensor
 // through the lens; like the seed (§4.6.1) every sample carries the same weight (no cos^4
-// falloff and no brightness change with N).
+// falloff and no brightness change with N); an aperture image darkens by its mean transmission,
+// the weight every sample then carries (camera/aperture.h, "Exposure").
 #include <limits>
+#include <memory>
 #include <string>
 
+#include "camera/aperture.h"
 #include "math/lanes.h"
 #include "math/sampling.h"
 #include "math/vec.h"
@@ -59,31 +62,16 @@ struct ThinLensParams {
   double sensorWidth = 0.0;          // LW
   double sensorHeight = 0.0;         // LH; 0 = derived, LW * H / W (square cells)
   double fNumber = std::numeric_limits<double>::infinity();  // N; inf = pinhole
-  // The aperture's shape (issue 23): 0 = round; n >= 3 = a regular n-gon of straight blades
-  // inscribed in the radius R = f / (2N), turned `apertureRotation` degrees counter-clockwise
-  // from a vertex along `right`. Defocused highlights (bokeh) take its shape.
+  // The aperture's shape (issue 23; camera/aperture.h owns the convention): 0 = round; n >= 3 =
+  // a regular n-gon of blades inscribed in the radius R = f / (2N), turned `apertureRotation`
+  // degrees counter-clockwise from a vertex along `right`, its edges arcs of curvature
+  // `apertureCurvature` (0 straight, 1 the circle); or an image over the square of side 2R.
+  // Defocused highlights (bokeh) take its shape.
   int apertureBlades = 0;
   double apertureRotation = 0.0;
+  double apertureCurvature = 0.0;
+  std::shared_ptr<const ApertureImage> apertureImage;
 };
-
-// A point of the unit aperture, uniform in area: the disk (blades = 0), or the regular n-gon
-// inscribed in it with a vertex at angle `rotation` (radians): triangle k of its fan is picked by
-// u.x (each has area sin(2 pi / n) / 2), and a point within it by the square-root warp.
-inline Vec2 sampleAperture(Vec2 u, int blades, float cosStep, float sinStep, float cosRot, float sinRot) {
-  if (blades == 0) return sampleConcentricDisk(u);
-  const float scaled = u.x * float(blades);
-  const int k = std::min(int(scaled), blades - 1);
-  const float a = std::sqrt(scaled - float(k)), b = u.y;
-  // Vertices k and k + 1 of the unit n-gon turned by the rotation: angle rotation + k * step.
-  float c = cosRot, s = sinRot;
-  for (int t = 0; t < k; ++t) {
-    const float cn = c * cosStep - s * sinStep;
-    s = s * cosStep + c * sinStep;
-    c = cn;
-  }
-  const Vec2 v0(c, s), v1(c * cosStep - s * sinStep, s * cosStep + c * sinStep);
-  return a * ((1.0f - b) * v0 + b * v1);
-}
 
 class ThinLensCamera {
  public:
@@ -94,11 +82,14 @@ class ThinLensCamera {
   // kMinFNumber, a lens radius beyond kMaxRayOriginDistance, a sensor beyond single precision, a
   // field of view of 180 degrees or more or below 1e-6 degrees (mixed units). Last, the rays
   // through the sensor's corners and the aperture's rim must be finite and traceable, so nothing
-  // non-finite ever reaches the kernel.
+  // non-finite ever reaches the kernel. The aperture's fields are checked by Aperture (its
+  // `where` names aperture_blades, aperture_rotation, aperture_curvature or aperture_image); an
+  // aperture image needs a finite f-number.
   ThinLensCamera(const ThinLensParams& params, int width, int height);
 
   // The ray for a point of sensor cell (i, j) at offset uSensor in [0,1)^2 within the cell,
-  // through the lens point at uLens in [0,1)^2 (mapped to the disk).
+  // through the lens point at uLens in [0,1)^2 (mapped to the aperture: Aperture::sample). The
+  // sample's weight is aperture().weight().
   CameraRay generateRay(int i, int j, Vec2 uSensor, Vec2 uLens) const;
 
   // The ray through the lens centre: what generateRay gives for a closed aperture, bit for bit.
@@ -125,6 +116,7 @@ class ThinLensCamera {
   double imageDistance() const { return imageDistance_; }  // S2
   double lensRadius() const { return lensRadius_; }        // R
   bool isPinhole() const { return lensRadius_ == 0.0; }
+  const Aperture& aperture() const { return aperture_; }
   Vec3 right() const { return right_; }
   Vec3 up() const { return up_; }
   Vec3 forward() const { return forward_; }
@@ -140,8 +132,7 @@ class ThinLensCamera {
 
   double lensRadius_;
   Vec3 right_, up_, forward_;
-  // The aperture polygon's step and rotation (sampleAperture), once.
-  float cosStep_ = 1.0f, sinStep_ = 0.0f, cosRotation_ = 1.0f, sinRotation_ = 0.0f;
+  Aperture aperture_;  // its shape, in units of R
 };
 
 // Inline, so the lane loops of generateRays and generatePinholeRays evaluate the same formulas.
@@ -154,8 +145,7 @@ inline Vec2 ThinLensCamera::sensorPoint(int i, int j, Vec2 uSensor) const {
 
 inline CameraRay ThinLensCamera::generateRay(int i, int j, Vec2 uSensor, Vec2 uLens) const {
   return rayThrough(sensorPoint(i, j, uSensor),
-                    sampleAperture(uLens, params_.apertureBlades, cosStep_, sinStep_, cosRotation_, sinRotation_) *
-                        float(lensRadius_));
+                    aperture_.sample(uLens) * float(lensRadius_));
 }
 
 inline CameraRay ThinLensCamera::generatePinholeRay(int i, int j, Vec2 uSensor) const {

@@ -43,6 +43,7 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
                     const std::atomic<bool>* cancel, RayGrouping grouping) {
   const ThinLensCamera& camera = rs.camera();
   const int width = camera.width(), height = camera.height();
+  const float apertureWeight = camera.aperture().weight();
   const RenderSettings& settings = rs.settings();
   const SamplerSetup sampler{settings.sampler, settings.seed, settings.samplesPerPixel, unitSize(settings)};
   out = SensorBuffer(width, height);
@@ -168,6 +169,10 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
           else
             for (int k = 0; k < packet.count; ++k)
               radiance[k] = tracePath<kNee, kGeneral>(rs, packet.cameraRays.ray(k), packet.rng[k], local);
+          // An aperture image passes its mean transmission (camera/aperture.h, "Exposure"); every
+          // other aperture weighs 1 and skips this.
+          if (apertureWeight != 1.0f)
+            for (int k = 0; k < packet.count; ++k) radiance[k] *= apertureWeight;
         }
         // Each cell's sums start at zero and take its samples in sample order: the same double
         // sums whatever the packets.

@@ -269,7 +269,7 @@ std::string emitterName(const Scene& scene, uint32_t id) {
 double maxBlurInCells(const Scene& scene, const ThinLensCamera& camera) {
   if (camera.isPinhole()) return 0.0;
   const ThinLensParams& p = camera.params();
-  const double f = p.focalLength, s2 = camera.imageDistance(), r = camera.lensRadius();
+  const double f = p.focalLength, s2 = camera.imageDistance(), r = camera.lensRadius() * camera.aperture().extent();
   const double cell = std::min(p.sensorWidth / camera.width(), p.sensorHeight / camera.height());
   // Depth range of the scene along the optical axis (bounding box corners).
   Vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());

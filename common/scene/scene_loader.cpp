@@ -16,6 +16,7 @@
 #include <set>
 #include <sstream>
 
+#include "camera/aperture_image.h"
 #include "light/environment_light.h"
 #include "light/light_types.h"
 #include "math/triangle.h"
@@ -379,6 +380,16 @@ class SceneParser {
     if (type == "thin_lens") {
       if (r.has("aperture_blades")) p.apertureBlades = int(r.integer("aperture_blades", 3, 64));
       if (r.has("aperture_rotation")) p.apertureRotation = r.number("aperture_rotation", -360.0, 360.0);
+      if (r.has("aperture_curvature")) p.apertureCurvature = r.number("aperture_curvature", 0.0, 1.0);
+      if (r.has("aperture_image")) {
+        // camera/aperture.h: a square transmission image over the aperture, shipped like a mesh.
+        const LoadedAsset file = readAssetFile(r, "aperture_image", "aperture image");
+        try {
+          p.apertureImage = ApertureImage::decode(file.bytes, file.shown);
+        } catch (const InputError& e) {
+          r.fail(r.field("aperture_image"), e.what());
+        }
+      }
     }
     if (type == "pinhole") {
       p.fNumber = std::numeric_limits<double>::infinity();
