@@ -4,7 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "camera/pupil_mask.h"
+#include "camera/aperture.h"
 #include "math/real_fft2d.h"
 
 namespace lensfarm {
@@ -41,14 +41,22 @@ double FraunhoferPattern::at(double x, double y) const {
 }
 
 FraunhoferPattern fraunhoferPattern(int blades, double rotation, int gridSize, int padding) {
+  return fraunhoferPattern(Aperture(ApertureSpec{blades, rotation * 180.0 / std::acos(-1.0), 0.0, nullptr}), gridSize,
+                           padding);
+}
+
+FraunhoferPattern fraunhoferPattern(const Aperture& aperture, int gridSize, int padding) {
   if (gridSize < 8 || (gridSize & (gridSize - 1)) || padding < 2 || gridSize % padding)
     throw std::invalid_argument("fraunhoferPattern: the grid must be a power of two and the padding >= 2");
   const int n = gridSize, m = gridSize / padding;
-  const std::vector<double> pupil = rasterizePupil(m, blades, rotation);
+  // The pupil's transmission over its bounding square (Aperture::rasterize: row 0 at the top),
+  // placed with row 0 at the bottom so that the pattern's rows run along `up`.
+  std::vector<float> pupil;
+  aperture.rasterize(m, pupil);
   RealFft2d fft(n, n);
   double* field = fft.data();
   for (int r = 0; r < m; ++r)
-    for (int c = 0; c < m; ++c) field[size_t(r) * n + c] = pupil[size_t(r) * m + c];  // the rest stays 0
+    for (int c = 0; c < m; ++c) field[size_t(r) * n + c] = pupil[size_t(m - 1 - r) * m + c];  // the rest stays 0
   fft.forward();
   // |F|^2 over the whole plane from the half FFTW keeps (F(-k) = conj F(k)), moved so that zero
   // frequency sits at (n/2, n/2). Where the pupil sits in the grid only changes F's phase.
@@ -211,8 +219,10 @@ DiffractionKernel diffractionKernel(const FraunhoferPattern& pattern, const Diff
 std::shared_ptr<const DiffractionKernel> diffractionKernelFor(const Scene& scene) {
   if (!scene.diffraction) return nullptr;
   const DiffractionOptics optics = diffractionOpticsOf(scene);
-  return std::make_shared<const DiffractionKernel>(diffractionKernel(fraunhoferPattern(optics.blades, optics.rotation),
-                                                                     optics, scene.diffraction->wavelengthsPerChannel));
+  // A real lens's stop is round; a thin lens's aperture is its shape (blades, curvature, image).
+  const Aperture pupil = scene.realLens ? Aperture() : scene.camera().aperture();
+  return std::make_shared<const DiffractionKernel>(
+      diffractionKernel(fraunhoferPattern(pupil), optics, scene.diffraction->wavelengthsPerChannel));
 }
 
 }  // namespace lensfarm

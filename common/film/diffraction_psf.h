@@ -48,13 +48,14 @@
 #include <string>
 #include <vector>
 
+#include "camera/aperture.h"
 #include "scene/scene.h"
 
 namespace lensfarm {
 
 // What the PSF depends on besides the pupil's shape.
 struct DiffractionOptics {
-  int blades = 0;                                  // 0: round (camera/pupil_mask.h)
+  int blades = 0;                                  // 0: round; for messages (the shape: camera/aperture.h)
   double rotation = 0.0;                           // radians, counter-clockwise from `right`
   double workingFNumber = 0.0;                     // N_w = z / D
   double pixelWidthMm = 0.0, pixelHeightMm = 0.0;  // one sensor cell
@@ -80,8 +81,11 @@ struct FraunhoferPattern {
   double at(double x, double y) const;
 };
 
-// The pattern of the pupil of `blades` (0: round) turned by `rotation`, on a gridSize x gridSize
-// grid (a power of two) zero-padded by `padding` (>= 2).
+// The pattern of an aperture (camera/aperture.h: round, straight or curved blades, an image),
+// rasterised over its bounding square on a (gridSize / padding)^2 grid, zero-padded to
+// gridSize x gridSize (a power of two; padding >= 2).
+FraunhoferPattern fraunhoferPattern(const Aperture& aperture, int gridSize = 1024, int padding = 4);
+// The same for straight blades (0: round) with a vertex at `rotation` radians from `right`.
 FraunhoferPattern fraunhoferPattern(int blades, double rotation, int gridSize = 1024, int padding = 4);
 
 // The wavelengths, in nm, channel c (0 red, 1 green, 2 blue) averages (the band model above).
