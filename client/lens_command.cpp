@@ -3,27 +3,32 @@
 // and spot size across the field, and optionally a cross-section drawing with traced rays.
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 
 #include "camera/lens_analysis.h"
+#include "camera/lens_plots.h"
 #include "camera/lens_system.h"
+#include "scene/lens_prescription.h"
 #include "commands.h"
 #include "exit_codes.h"
 #include "override_flags.h"
 #include "film/image_io.h"
+#include "util/error.h"
 #include "util/file_contents.h"
 
 namespace lensfarm::cli {
 
 Runner addLensCommand(CLI::App& app) {
-  auto* cmd = app.add_subcommand("lens", "Report a real lens's optics from its prescription (pbrt-v4 lens file)");
+  auto* cmd = app.add_subcommand("lens", "Report a real lens's optics from its prescription (pbrt-v4 lens file or JSON)");
   struct Flags {
-    std::string file, svg;
+    std::string file, svg, plots;
     double sensorWidth = 36.0, sensorHeight = 24.0, focus = INFINITY;
     int steps = 6;
   };
   auto f = std::make_shared<Flags>();
-  cmd->add_option("file", f->file, "Lens file: one surface a line, radius thickness index aperture [abbe], in mm")
+  cmd->add_option("file", f->file, "Lens file: pbrt-v4 tabular (one surface a line, radius thickness index aperture [abbe], in mm) or a JSON "
+                  "prescription (docs/scene-format.md)")
       ->required();
   cmd->add_option("--sensor-width", f->sensorWidth, "Sensor width for the field of view, mm")->check(positiveNumber("mm"));
   cmd->add_option("--sensor-height", f->sensorHeight, "Sensor height, mm")->check(positiveNumber("mm"));
@@ -31,11 +36,19 @@ Runner addLensCommand(CLI::App& app) {
       ->check(positiveNumber("mm"));
   cmd->add_option("--field-steps", f->steps, "Field angles in the table, besides the axis")->check(CLI::Range(1, 100));
   cmd->add_option("--svg", f->svg, "Write a cross-section with traced rays to this SVG file");
+  cmd->add_option("--plots", f->plots,
+                  "Write SVG plots to this directory: cross-section.svg, distortion.svg, illumination.svg, spots.svg");
   return [f] {
-    const LensSystem lens = LensSystem::parsePbrt(readWholeFileOrThrow(f->file, f->file), f->file);
+    const LensPrescription prescription = readLensFile(readWholeFileOrThrow(f->file, f->file), f->file);
+    const LensSystem& lens = prescription.system;
     const LensSystem::Paraxial p = lens.paraxial();
     std::printf("lens: %s (%zu surfaces, aperture stop at surface %zu)\n", f->file.c_str(), lens.surfaces().size(),
                 lens.stopIndex() + 1);
+    if (!prescription.name.empty()) std::printf("name: %s\n", prescription.name.c_str());
+    if (!prescription.source.empty()) std::printf("source: %s\n", prescription.source.c_str());
+    size_t aspheres = 0;
+    for (const LensSurface& s : lens.surfaces()) aspheres += s.spherical() ? 0 : 1;
+    if (aspheres > 0) std::printf("aspheric surfaces: %zu (paraxial figures use their vertex curvature)\n", aspheres);
     std::printf("paraxial, at the d line (587.56 nm), object at infinity; lengths in mm, z from the front vertex:\n");
     std::printf("  effective focal length  %10.4f\n", p.efl);
     std::printf("  back focal length       %10.4f   (last vertex to focus)\n", p.bfl);
@@ -48,12 +61,18 @@ Runner addLensCommand(CLI::App& app) {
                 p.petzvalSum != 0.0 ? -1.0 / p.petzvalSum : INFINITY);
     std::printf("  total track             %10.4f   (front vertex to last vertex)\n", lens.totalTrack());
     if (std::isfinite(f->focus)) {
-      const std::optional<double> image = lens.focusDistanceFromRear(f->focus);
-      if (image)
-        std::printf("  focused at %.1f: film %.4f behind the last vertex (%.4f farther than at infinity)\n", f->focus, *image,
-                    *image - p.bfl);
-      else
+      // Focusing by moving the lens group: the thick-lens (paraxial) film distance, then the
+      // exact one where the axial point's RMS spot is least (LensSystem::exactFocus).
+      const std::optional<LensSystem::ExactFocus> focus = lens.exactFocus(f->focus);
+      if (focus) {
+        std::printf("  focused at %.1f: film %.4f behind the last vertex paraxially (%.4f farther than at infinity),\n",
+                    f->focus, focus->paraxial, focus->paraxial - p.bfl);
+        std::printf("    exactly (least RMS spot of the axial point, %d rays) %.4f: RMS spot %.5f there, %.5f at the "
+                    "paraxial film\n",
+                    focus->rays, focus->exact, focus->exactRms, focus->paraxialRms);
+      } else {
         std::printf("  focused at %.1f: no real image (inside the front focal length)\n", f->focus);
+      }
     }
     const double diagonal = std::hypot(f->sensorWidth, f->sensorHeight);
     const auto fov = [&](double size) { return 2.0 * std::atan(size / 2.0 / p.efl) * 180.0 / 3.14159265358979323846; };
@@ -72,15 +91,38 @@ Runner addLensCommand(CLI::App& app) {
     }
     // Across the half diagonal: distortion, vignetting (the share of a beam filling the entrance
     // pupil that gets through, no cos^4) and the spot at the paraxial focus.
-    const std::vector<FieldPoint> field = analyzeField(lens, fov(diagonal) / 2.0, f->steps);
-    std::printf("\n%8s %12s %12s %11s %12s %11s\n", "field", "image h", "paraxial h", "distortion", "transmitted",
-                "RMS spot");
-    for (const FieldPoint& fp : field)
-      std::printf("%7.2f° %12.4f %12.4f %10.3f%% %11.1f%% %11.5f\n", fp.angleDegrees, fp.imageHeight, fp.paraxialHeight,
-                  100.0 * fp.distortion, 100.0 * fp.transmitted, fp.rmsSpot);
+    const double maxField = fov(diagonal) / 2.0;
+    const std::vector<FieldPoint> field = analyzeField(lens, maxField, f->steps);
+    // Relative illumination from the object side (lens_analysis.h): the beam's transmitted
+    // cross-section and the field-angle-to-image-height Jacobian; the vignetting column above is
+    // its first factor.
+    const std::vector<IlluminationPoint> illumination = relativeIllumination(lens, maxField, f->steps);
+    std::printf("\n%8s %12s %12s %11s %12s %11s %11s\n", "field", "image h", "paraxial h", "distortion", "transmitted",
+                "rel. illum.", "RMS spot");
+    for (size_t i = 0; i < field.size(); ++i) {
+      const FieldPoint& fp = field[i];
+      std::printf("%7.2f° %12.4f %12.4f %10.3f%% %11.1f%% %10.1f%% %11.5f\n", fp.angleDegrees, fp.imageHeight,
+                  fp.paraxialHeight, 100.0 * fp.distortion, 100.0 * fp.transmitted, 100.0 * illumination[i].relative,
+                  fp.rmsSpot);
+    }
+    if (!prescription.projection.empty()) std::printf("stated projection: %s\n", prescription.projection.c_str());
     if (!f->svg.empty()) {
-      writeBytesAtomically(f->svg, crossSectionSvg(lens, fov(diagonal) / 2.0 * 0.7));
+      writeBytesAtomically(f->svg, crossSectionSvg(lens, maxField * 0.7));
       std::printf("\ncross-section: %s\n", f->svg.c_str());
+    }
+    if (!f->plots.empty()) {
+      std::error_code error;
+      std::filesystem::create_directories(f->plots, error);
+      if (error) throw InputError(f->plots, "cannot create the plots directory: " + error.message());
+      const std::filesystem::path dir(f->plots);
+      std::vector<double> angles;
+      for (double t : {0.0, 0.5, 0.7, 1.0}) angles.push_back(maxField * t);
+      writeBytesAtomically((dir / "cross-section.svg").string(), crossSectionSvg(lens, maxField * 0.7));
+      writeBytesAtomically((dir / "distortion.svg").string(), distortionSvg(field));
+      writeBytesAtomically((dir / "illumination.svg").string(),
+                           illuminationSvg(relativeIllumination(lens, maxField, std::max(f->steps, 16))));
+      writeBytesAtomically((dir / "spots.svg").string(), spotDiagramsSvg(lens, angles));
+      std::printf("\nplots: %s/{cross-section,distortion,illumination,spots}.svg\n", f->plots.c_str());
     }
     return kOk;
   };

@@ -24,45 +24,162 @@ LensRay beamRay(const LensSystem::Paraxial& p, double angle, double x, double y)
 // Where a ray leaving the last surface meets the plane z = `planeZ`.
 DVec3 onPlane(const LensRay& r, double planeZ) { return r.origin + (planeZ - r.origin.z) / r.direction.z * r.direction; }
 
+// One parallel beam at `angle` through the lens to the plane z = filmZ: its rays on a square
+// grid perpendicular to it, first coarse over the front surface's projection, then
+// `raysAcross` across the box (grown by a coarse cell) of the coarse rays that passed.
+struct Beam {
+  double area = 0.0;  // mm^2 of the cross-section that passes
+  DVec3 centroid{0.0};
+  double rms = 0.0;   // RMS distance of the hits from their centroid
+  int rays = 0;
+};
+
+Beam traceBeam(const LensSystem& lens, double angle, double filmZ, int raysAcross, double wavelengthNm,
+               std::vector<DVec3>* hits = nullptr) {
+  const LensSurface& front = lens.surfaces().front();
+  const double rim = front.aperture / 2, sag = std::abs(front.sag(rim));
+  const DVec3 d(0.0, std::sin(angle), std::cos(angle)), u(1.0, 0.0, 0.0), v(0.0, std::cos(angle), -std::sin(angle));
+  // The grid's plane: through the point of the axis mid-way down the front surface's sag, moved
+  // back along the beam to start in front of the lens.
+  const double reach = rim + sag;
+  const DVec3 centre = DVec3(0.0, 0.0, 0.5 * front.sag(rim)) - (reach + 1.0) * d;
+  struct Hits {
+    int passed = 0;
+    DVec3 sum{0.0}, sum2{0.0};
+    double lo[2] = {1e30, 1e30}, hi[2] = {-1e30, -1e30};
+  };
+  const auto grid = [&](double a0, double a1, double b0, double b1, int n, std::vector<DVec3>* out) {
+    Hits h;
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        const double a = a0 + (a1 - a0) * (i + 0.5) / n, b = b0 + (b1 - b0) * (j + 0.5) / n;
+        const std::optional<LensRay> r = lens.traceFromObjectSide(LensRay{centre + a * u + b * v, d}, wavelengthNm);
+        if (!r || !(r->direction.z > 0.0)) continue;
+        ++h.passed;
+        const DVec3 hit = onPlane(*r, filmZ);
+        h.sum += hit, h.sum2 += hit * hit;
+        if (out) out->push_back(hit);
+        h.lo[0] = std::min(h.lo[0], a), h.hi[0] = std::max(h.hi[0], a);
+        h.lo[1] = std::min(h.lo[1], b), h.hi[1] = std::max(h.hi[1], b);
+      }
+    return h;
+  };
+  constexpr int kCoarse = 96;
+  const Hits coarse = grid(-reach, reach, -reach, reach, kCoarse, nullptr);
+  if (coarse.passed == 0) return Beam{};
+  const double cell = 2.0 * reach / kCoarse;
+  const double a0 = coarse.lo[0] - cell, a1 = coarse.hi[0] + cell, b0 = coarse.lo[1] - cell, b1 = coarse.hi[1] + cell;
+  const Hits fine = grid(a0, a1, b0, b1, raysAcross, hits);
+  if (fine.passed == 0) return Beam{};
+  const DVec3 mean = fine.sum / double(fine.passed), var = fine.sum2 / double(fine.passed) - mean * mean;
+  return Beam{fine.passed * (a1 - a0) * (b1 - b0) / (double(raysAcross) * raysAcross), mean,
+              std::sqrt(std::max(0.0, var.x + var.y)), fine.passed};
+}
+
 }  // namespace
 
 std::vector<FieldPoint> analyzeField(const LensSystem& lens, double maxAngleDegrees, int steps, int raysAcross,
                                      double wavelengthNm) {
   const LensSystem::Paraxial p = lens.paraxial(wavelengthNm);
   const double focusZ = lens.totalTrack() + p.bfl;
-  const double radius = 0.75 * p.entrancePupilDiameter;  // 1.5 x the pupil, across
   std::vector<FieldPoint> out;
   double axial = 0.0;
   for (int s = 0; s <= steps; ++s) {
     FieldPoint f;
     f.angleDegrees = steps > 0 ? maxAngleDegrees * s / steps : 0.0;
     const double angle = radians(f.angleDegrees);
-    DVec3 sum(0.0), sum2(0.0);
-    int passed = 0;
-    for (int i = 0; i < raysAcross; ++i)
-      for (int j = 0; j < raysAcross; ++j) {
-        const double x = radius * (2.0 * (i + 0.5) / raysAcross - 1.0), y = radius * (2.0 * (j + 0.5) / raysAcross - 1.0);
-        if (x * x + y * y > radius * radius) continue;
-        const std::optional<LensRay> r = lens.traceFromObjectSide(beamRay(p, angle, x, y), wavelengthNm);
-        if (!r || r->direction.z <= 0.0) continue;
-        const DVec3 hit = onPlane(*r, focusZ);
-        sum += hit;
-        sum2 += hit * hit;
-        ++passed;
-      }
-    if (s == 0) axial = passed;
+    const Beam b = traceBeam(lens, angle, focusZ, raysAcross, wavelengthNm);
+    if (s == 0) axial = b.area;
     f.paraxialHeight = p.efl * std::tan(angle);
-    if (passed > 0) {
-      const DVec3 mean = sum / double(passed);
-      const DVec3 var = sum2 / double(passed) - mean * mean;
-      f.imageHeight = mean.y;
-      f.rmsSpot = std::sqrt(std::max(0.0, var.x + var.y));
+    if (b.rays > 0) {
+      f.imageHeight = s == 0 ? 0.0 : b.centroid.y;  // on the axis: 0 by symmetry (not -0 from rounding)
+      f.rmsSpot = b.rms;
       f.distortion = f.paraxialHeight != 0.0 ? f.imageHeight / f.paraxialHeight - 1.0 : 0.0;
     }
-    f.transmitted = axial > 0 ? passed / axial : 0.0;
+    f.transmitted = axial > 0.0 ? b.area / (axial * std::cos(angle)) : 0.0;
     out.push_back(f);
   }
   return out;
+}
+
+
+std::vector<IlluminationPoint> relativeIllumination(const LensSystem& lens, double maxAngleDegrees, int steps,
+                                                    double filmZ, int raysAcross, double wavelengthNm) {
+  if (std::isnan(filmZ)) filmZ = lens.totalTrack() + lens.paraxial(wavelengthNm).bfl;
+  const double delta = radians(0.25);
+  const auto beam = [&](double angle) { return traceBeam(lens, angle, filmZ, raysAcross, wavelengthNm); };
+  const Beam axis = beam(0.0);
+  // h'(0) by symmetry: h(-delta) = -h(delta).
+  const double slope0 = beam(delta).centroid.y / delta;
+  std::vector<IlluminationPoint> out;
+  for (int s = 0; s <= steps; ++s) {
+    IlluminationPoint p;
+    p.angleDegrees = steps > 0 ? maxAngleDegrees * s / steps : 0.0;
+    const double angle = radians(p.angleDegrees);
+    if (s == 0) {
+      p.area = p.relative = axis.area > 0.0 ? 1.0 : 0.0;
+      out.push_back(p);
+      continue;
+    }
+    const Beam b = beam(angle);
+    p.imageHeight = b.centroid.y;
+    p.area = axis.area > 0.0 ? b.area / (axis.area * std::cos(angle)) : 0.0;
+    // Central difference; one-sided where the beam beyond is cut off entirely.
+    const Beam plus = beam(angle + delta), minus = beam(angle - delta);
+    const double slope = plus.area > 0.0 ? (plus.centroid.y - minus.centroid.y) / (2.0 * delta)
+                                         : (b.centroid.y - minus.centroid.y) / delta;
+    if (b.area > 0.0 && p.imageHeight != 0.0 && slope != 0.0)
+      p.relative = p.area * std::cos(angle) * std::sin(angle) * slope0 * slope0 / (p.imageHeight * slope);
+    out.push_back(p);
+  }
+  return out;
+}
+
+double relativeIlluminationAt(const std::vector<IlluminationPoint>& table, double h) {
+  for (size_t i = 1; i < table.size(); ++i)
+    if (h <= table[i].imageHeight) {
+      const IlluminationPoint &a = table[i - 1], &b = table[i];
+      const double t = (h - a.imageHeight) / (b.imageHeight - a.imageHeight);
+      return a.relative + t * (b.relative - a.relative);
+    }
+  return NAN;
+}
+
+std::vector<DVec3> spotHits(const LensSystem& lens, double angleDegrees, double filmZ, int raysAcross,
+                            double wavelengthNm) {
+  if (std::isnan(filmZ)) filmZ = lens.totalTrack() + lens.paraxial(wavelengthNm).bfl;
+  std::vector<DVec3> hits;
+  traceBeam(lens, radians(angleDegrees), filmZ, raysAcross, wavelengthNm, &hits);
+  return hits;
+}
+
+std::optional<Projection> projectionNamed(const std::string& name) {
+  for (Projection p : {Projection::kRectilinear, Projection::kEquidistant, Projection::kEquisolid,
+                       Projection::kOrthographic, Projection::kStereographic})
+    if (name == projectionName(p)) return p;
+  return std::nullopt;
+}
+
+const char* projectionName(Projection p) {
+  switch (p) {
+    case Projection::kRectilinear: return "rectilinear";
+    case Projection::kEquidistant: return "equidistant";
+    case Projection::kEquisolid: return "equisolid";
+    case Projection::kOrthographic: return "orthographic";
+    case Projection::kStereographic: return "stereographic";
+  }
+  return "";
+}
+
+double projectedHeight(Projection p, double f, double theta) {
+  switch (p) {
+    case Projection::kRectilinear: return f * std::tan(theta);
+    case Projection::kEquidistant: return f * theta;
+    case Projection::kEquisolid: return 2.0 * f * std::sin(theta / 2.0);
+    case Projection::kOrthographic: return f * std::sin(theta);
+    case Projection::kStereographic: return 2.0 * f * std::tan(theta / 2.0);
+  }
+  return NAN;
 }
 
 std::string crossSectionSvg(const LensSystem& lens, double fieldDegrees) {
@@ -91,7 +208,7 @@ std::string crossSectionSvg(const LensSystem& lens, double fieldDegrees) {
     std::string path;
     for (int i = 0; i <= 32; ++i) {
       const double y = -h + 2 * h * i / 32;
-      const double sag = s.radius == 0.0 ? 0.0 : s.radius - std::copysign(std::sqrt(s.radius * s.radius - y * y), s.radius);
+      const double sag = s.sag(std::abs(y));
       std::snprintf(buf, sizeof buf, "%s%.4f %.4f", i == 0 ? "M" : " L", z + sag, -y);
       path += buf;
     }

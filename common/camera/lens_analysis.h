@@ -4,6 +4,8 @@
 // fraction of a parallel beam filling the entrance pupil that gets through (vignetting), and
 // the RMS spot radius at the paraxial focus; and a cross-section drawing with traced rays.
 // Conventions are lens_system.h's (mm, +z toward the image).
+#include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,9 +23,59 @@ struct FieldPoint {
 };
 
 // `steps` + 1 field angles from 0 to `maxAngleDegrees`, each a square grid of `raysAcross`^2
-// parallel rays over a disk 1.5 x the entrance pupil (vignetting needs rays beyond it).
+// parallel rays normal to the beam over the box of the rays that get through (found by a coarse
+// grid over the front element's projection, so that a fisheye's beam, far from the paraxial
+// entrance pupil at wide angles, is found). `transmitted` is the vignetting factor V of
+// relativeIllumination below: the beam's passing cross-section over the axial one's times
+// cos(angle).
 std::vector<FieldPoint> analyzeField(const LensSystem& lens, double maxAngleDegrees, int steps, int raysAcross = 48,
                                      double wavelengthNm = LensSystem::kWavelengthD);
+
+// ---------------------------------------------------------------------------------------------
+// Relative illumination, from the object side (independent of the camera's image-side Kolb
+// weights). A distant scene of uniform radiance L; the beam from directions within dw of the
+// field angle theta carries the flux  dPhi = L A(theta) dw,  A(theta) the cross-section
+// (perpendicular to the beam) of its rays that get through the lens, and lands on the film
+// annulus between h(theta) and h(theta + dtheta), h the beam's centroid height on the film. With
+// dw = sin(theta) dtheta dphi and dA = h dh dphi (rotational symmetry), the film's irradiance is
+//     E(theta) = L A(theta) sin(theta) / (h(theta) h'(theta)),
+// and on the axis (h ~ h'(0) theta) E(0) = L A(0) / h'(0)^2. Their ratio is the relative
+// illumination. Writing A(theta) = V(theta) A(0) cos(theta), V the vignetting factor (the share
+// of the axial beam's area, measured in a plane normal to the axis, that still passes),
+//     RI(theta) = V(theta) cos(theta) sin(theta) h'(0)^2 / (h(theta) h'(theta)),
+// which for a distortion-free lens (h = f tan theta, h' = f / cos^2 theta) without vignetting
+// (V = 1) is the cos^4 law. A(theta) is counted on a square grid perpendicular to the beam over a box
+// around the rays that pass (found on a coarse grid over the front surface's projection);
+// h'(theta) is a central difference of centroids at theta +- 0.25 degrees.
+struct IlluminationPoint {
+  double angleDegrees = 0.0;
+  double imageHeight = 0.0;  // h: the beam's centroid on the film plane, mm
+  double area = 0.0;         // V: the vignetting factor (1 where nothing clips the beam)
+  double relative = 0.0;     // RI: irradiance / the axis's
+};
+// `steps` + 1 field angles from 0 to `maxAngleDegrees`; the film plane at `filmZ` mm from the
+// front vertex (NaN: the paraxial focus for an object at infinity).
+std::vector<IlluminationPoint> relativeIllumination(const LensSystem& lens, double maxAngleDegrees, int steps,
+                                                    double filmZ = NAN, int raysAcross = 384,
+                                                    double wavelengthNm = LensSystem::kWavelengthD);
+// RI at image height `h` (mm), linear between the tabulated points; NaN beyond the last.
+double relativeIlluminationAt(const std::vector<IlluminationPoint>& table, double h);
+
+// The spot diagram's rays: where a parallel beam at `angleDegrees`, `raysAcross` across the box
+// of its rays that pass (as analyzeField), meets the film plane at `filmZ` (NaN: the paraxial
+// focus). Rays the lens stops are left out.
+std::vector<DVec3> spotHits(const LensSystem& lens, double angleDegrees, double filmZ = NAN, int raysAcross = 31,
+                            double wavelengthNm = LensSystem::kWavelengthD);
+
+// ---------------------------------------------------------------------------------------------
+// Fisheye (and rectilinear) projections: the image height r of a distant point at angle theta
+// for focal length f (Kingslake, A History of the Photographic Lens; Miyamoto, JOSA 54, 1964).
+enum class Projection { kRectilinear, kEquidistant, kEquisolid, kOrthographic, kStereographic };
+// "rectilinear" (f tan), "equidistant" (f theta), "equisolid" (2 f sin(theta/2)), "orthographic"
+// (f sin), "stereographic" (2 f tan(theta/2)); nullopt for another name.
+std::optional<Projection> projectionNamed(const std::string& name);
+const char* projectionName(Projection p);
+double projectedHeight(Projection p, double focalLength, double theta);
 
 // The lens in section (the y-z plane) with rays of an axial beam and of one at `fieldDegrees`
 // traced to the paraxial focal plane, as a self-contained SVG document.

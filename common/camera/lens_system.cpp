@@ -42,7 +42,111 @@ std::optional<DVec3> refract(const DVec3& d, const DVec3& n, double n1, double n
   return glm::normalize(eta * d + (eta * cosI - std::sqrt(1.0 - sin2T)) * n);
 }
 
+// Where `ray` crosses the sphere of radius R (!= 0) through the vertex at z: of its two crossings
+// the one on the vertex's side, the nearer when the ray travels toward the centre. nullopt if it
+// misses the sphere.
+std::optional<double> sphereCrossing(const LensRay& ray, double z, double radius) {
+  const DVec3 centre(0.0, 0.0, z + radius);
+  const DVec3 oc = ray.origin - centre;
+  const double b = glm::dot(oc, ray.direction);
+  const double disc = b * b - (glm::dot(oc, oc) - radius * radius);
+  if (disc < 0.0) return std::nullopt;
+  const double root = std::sqrt(disc);
+  const bool nearer = (ray.direction.z > 0.0) == (radius > 0.0);
+  return nearer ? -b - root : -b + root;
+}
+
+// The even asphere's crossing by Newton's method on f(t) = z(t) - z_vertex - sag(r(t)), started
+// at the vertex sphere's crossing (the plane's for a flat vertex, or when the ray misses the
+// sphere); f'(t) = grad F . d with grad F = (-sag'(r) x / r, -sag'(r) y / r, 1), which is also
+// the surface normal. Converges quadratically from the sphere's crossing for surfaces whose
+// departure from it is small compared with the ray's obliquity; nullopt (a miss) when the sag is
+// undefined at an iterate (beyond the conic's rim), the ray grazes (f' ~ 0) or kMaxNewton steps
+// do not bring the step below kNewtonTolerance mm.
+constexpr int kMaxNewton = 30;
+constexpr double kNewtonTolerance = 1e-12;
+
+std::optional<double> asphereCrossing(const LensRay& ray, double z, const LensSurface& s, DVec3* normal) {
+  std::optional<double> start = s.radius != 0.0 ? sphereCrossing(ray, z, s.radius) : std::nullopt;
+  if (!start) {
+    if (ray.direction.z == 0.0) return std::nullopt;
+    start = (z - ray.origin.z) / ray.direction.z;
+  }
+  double t = *start;
+  for (int i = 0; i < kMaxNewton; ++i) {
+    const DVec3 p = ray.origin + t * ray.direction;
+    const double r = std::hypot(p.x, p.y);
+    const double sag = s.sag(r), slope = s.sagSlope(r);
+    if (!std::isfinite(sag) || !std::isfinite(slope)) return std::nullopt;
+    const DVec3 grad = r > 0.0 ? DVec3(-slope * p.x / r, -slope * p.y / r, 1.0) : DVec3(0.0, 0.0, 1.0);
+    const double f = p.z - z - sag, fPrime = glm::dot(grad, ray.direction);
+    if (std::abs(fPrime) < 1e-12) return std::nullopt;
+    const double dt = f / fPrime;
+    t -= dt;
+    if (std::abs(dt) < kNewtonTolerance * (1.0 + std::abs(t))) {
+      const DVec3 q = ray.origin + t * ray.direction;
+      const double rq = std::hypot(q.x, q.y), sq = s.sagSlope(rq);
+      if (!std::isfinite(sq)) return std::nullopt;
+      *normal = glm::normalize(rq > 0.0 ? DVec3(-sq * q.x / rq, -sq * q.y / rq, 1.0) : DVec3(0.0, 0.0, 1.0));
+      return t;
+    }
+  }
+  return std::nullopt;
+}
+
 }  // namespace
+
+bool LensSurface::spherical() const {
+  if (conic != 0.0) return false;
+  for (double a : aspheric)
+    if (a != 0.0) return false;
+  return true;
+}
+
+double LensSurface::sag(double r) const {
+  const double c = radius == 0.0 ? 0.0 : 1.0 / radius, r2 = r * r;
+  const double root = 1.0 - (1.0 + conic) * c * c * r2;
+  if (root < 0.0) return NAN;
+  double z = c * r2 / (1.0 + std::sqrt(root)), power = r2 * r2;  // r^4
+  for (double a : aspheric) z += a * power, power *= r2;
+  return z;
+}
+
+double LensSurface::sagSlope(double r) const {
+  const double c = radius == 0.0 ? 0.0 : 1.0 / radius, r2 = r * r;
+  const double root = 1.0 - (1.0 + conic) * c * c * r2;
+  if (root <= 0.0) return NAN;
+  double slope = c * r / std::sqrt(root), power = r2 * r;  // r^3
+  for (size_t i = 0; i < aspheric.size(); ++i) slope += double(2 * i + 4) * aspheric[i] * power, power *= r2;
+  return slope;
+}
+
+std::optional<LensSystem::SurfaceProblem> LensSystem::problemWith(const LensSurface& s) {
+  const auto mm = [](double x) { return std::to_string(x); };
+  if (!std::isfinite(s.radius)) return SurfaceProblem{"radius", "radius must be a finite number of mm (0: flat)"};
+  if (!std::isfinite(s.thickness) || s.thickness < 0.0)
+    return SurfaceProblem{"thickness", "thickness must be a finite number of mm, 0 or more"};
+  if (!(s.aperture > 0.0) || !std::isfinite(s.aperture))
+    return SurfaceProblem{"aperture", "aperture (clear diameter) must be a positive number of mm"};
+  if (!(s.abbe >= 0.0) || !std::isfinite(s.abbe)) return SurfaceProblem{"abbe", "Abbe number must be 0 (none) or more"};
+  if (!std::isfinite(s.conic)) return SurfaceProblem{"conic", "conic constant must be a finite number"};
+  if (s.aspheric.size() > LensSurface::kMaxAspheric)
+    return SurfaceProblem{"aspheric", "at most " + std::to_string(LensSurface::kMaxAspheric) +
+                                          " aspheric coefficients (A4 .. A16), found " + std::to_string(s.aspheric.size())};
+  for (double a : s.aspheric)
+    if (!std::isfinite(a)) return SurfaceProblem{"aspheric", "aspheric coefficients must be finite numbers"};
+  if (s.stop && s.radius != 0.0) return SurfaceProblem{"radius", "the aperture stop is flat (radius 0)"};
+  if (!s.spherical()) {
+    if (s.stop) return SurfaceProblem{"conic", "the aperture stop is flat: no conic constant or aspheric coefficients"};
+    if (!std::isfinite(s.sag(s.aperture / 2)) || !std::isfinite(s.sagSlope(s.aperture / 2)))
+      return SurfaceProblem{"aperture", "aperture " + mm(s.aperture) + " mm reaches beyond the rim of the conic (radius " +
+                                            mm(s.radius) + " mm, conic " + mm(s.conic) + ")"};
+  } else if (s.radius != 0.0 && std::abs(s.radius) < s.aperture / 2) {
+    return SurfaceProblem{"aperture", "aperture " + mm(s.aperture) + " mm is wider than the sphere of radius " +
+                                          mm(s.radius) + " mm"};
+  }
+  return std::nullopt;
+}
 
 LensSystem::LensSystem(std::vector<LensSurface> surfaces, const std::string& where) : surfaces_(std::move(surfaces)) {
   if (surfaces_.empty()) throw InputError(where, "a lens needs at least one surface");
@@ -51,23 +155,14 @@ LensSystem::LensSystem(std::vector<LensSurface> surfaces, const std::string& whe
   for (size_t k = 0; k < surfaces_.size(); ++k) {
     LensSurface& s = surfaces_[k];
     const std::string at = where + " surface " + std::to_string(k + 1);
-    if (!std::isfinite(s.radius)) throw InputError(at, "radius must be a finite number of mm (0: flat)");
-    if (!std::isfinite(s.thickness) || s.thickness < 0.0)
-      throw InputError(at, "thickness must be a finite number of mm, 0 or more");
-    if (!(s.aperture > 0.0) || !std::isfinite(s.aperture))
-      throw InputError(at, "aperture (clear diameter) must be a positive number of mm");
-    if (s.radius != 0.0 && std::abs(s.radius) < s.aperture / 2)
-      throw InputError(at, "aperture " + std::to_string(s.aperture) + " mm is wider than the sphere of radius " +
-                               std::to_string(s.radius) + " mm");
+    if (const std::optional<SurfaceProblem> bad = problemWith(s)) throw InputError(at, bad->why);
     if (s.stop) {
       ++stops;
       stop_ = k;
-      if (s.radius != 0.0) throw InputError(at, "the aperture stop is flat (radius 0)");
       s.index = k == 0 ? 1.0 : surfaces_[k - 1].index;  // the stop does not change the medium
       s.abbe = k == 0 ? 0.0 : surfaces_[k - 1].abbe;
     }
     if (!(s.index >= 1.0 && s.index <= 4.0)) throw InputError(at, "index must be from 1 to 4");
-    if (!(s.abbe >= 0.0) || !std::isfinite(s.abbe)) throw InputError(at, "Abbe number must be 0 (none) or more");
     vertexZ_.push_back(z);
     z += s.thickness;
   }
@@ -199,6 +294,60 @@ std::optional<double> LensSystem::focusDistanceFromRear(double objectDistance, d
   return -out.y / out.nu;
 }
 
+std::optional<LensSystem::ExactFocus> LensSystem::exactFocus(double objectDistance, double wavelengthNm) const {
+  const std::optional<double> paraxialBack = focusDistanceFromRear(objectDistance, wavelengthNm);
+  if (!paraxialBack) return std::nullopt;
+  const Paraxial p = paraxial(wavelengthNm);
+  // Rays from the object point through a grid a little wider than the paraxial entrance pupil
+  // (the real pupil differs from it; the stop trims the overfill). Each ray's hit on the plane
+  // z = Z is a + b Z per coordinate, b = d_x / d_z, a = o_x - o_z b.
+  constexpr int kAcross = 64;
+  const double radius = 0.55 * p.entrancePupilDiameter;
+  const bool atInfinity = std::isinf(objectDistance);
+  std::vector<double> ax, bx, ay, by;
+  for (int i = 0; i < kAcross; ++i)
+    for (int j = 0; j < kAcross; ++j) {
+      const double x = radius * (2.0 * (i + 0.5) / kAcross - 1.0), y = radius * (2.0 * (j + 0.5) / kAcross - 1.0);
+      if (x * x + y * y > radius * radius) continue;
+      const DVec3 atPupil(x, y, p.entrancePupilZ);
+      LensRay ray;
+      if (atInfinity) {
+        ray = LensRay{DVec3(x, y, std::min(0.0, p.entrancePupilZ) - 1.0), DVec3(0.0, 0.0, 1.0)};
+      } else {
+        const DVec3 object(0.0, 0.0, -objectDistance);
+        ray = LensRay{object, glm::normalize(atPupil - object)};
+      }
+      const std::optional<LensRay> out = traceFromObjectSide(ray, wavelengthNm);
+      if (!out || !(out->direction.z > 0.0)) continue;
+      const double slopeX = out->direction.x / out->direction.z, slopeY = out->direction.y / out->direction.z;
+      ax.push_back(out->origin.x - out->origin.z * slopeX), bx.push_back(slopeX);
+      ay.push_back(out->origin.y - out->origin.z * slopeY), by.push_back(slopeY);
+    }
+  if (ax.size() < 8) return std::nullopt;
+  const auto mean = [](const std::vector<double>& v) {
+    double sum = 0.0;
+    for (double x : v) sum += x;
+    return sum / double(v.size());
+  };
+  const double max = mean(ax), mbx = mean(bx), may = mean(ay), mby = mean(by);
+  // Variance(Z) = saa + 2 sab Z + sbb Z^2 (per ray, both coordinates, about the centroid).
+  double saa = 0.0, sab = 0.0, sbb = 0.0;
+  for (size_t i = 0; i < ax.size(); ++i) {
+    const double dax = ax[i] - max, dbx = bx[i] - mbx, day = ay[i] - may, dby = by[i] - mby;
+    saa += dax * dax + day * day, sab += dax * dbx + day * dby, sbb += dbx * dbx + dby * dby;
+  }
+  const double n = double(ax.size());
+  const auto rmsAt = [&](double z) { return std::sqrt(std::max(0.0, (saa + 2.0 * sab * z + sbb * z * z) / n)); };
+  ExactFocus f;
+  f.rays = int(ax.size());
+  f.paraxial = *paraxialBack;
+  const double rear = totalTrack();
+  f.exact = sbb > 0.0 ? -sab / sbb - rear : f.paraxial;
+  f.paraxialRms = rmsAt(rear + f.paraxial);
+  f.exactRms = rmsAt(rear + f.exact);
+  return f;
+}
+
 std::optional<LensRay> LensSystem::traceFromImageSide(LensRay ray, double wavelengthNm) const {
   return trace(ray, int(surfaces_.size()) - 1, 0, -1, wavelengthNm, nullptr);
 }
@@ -215,21 +364,18 @@ std::optional<LensRay> LensSystem::trace(LensRay ray, int first, int last, int s
     const double z = vertexZ_[size_t(k)];
     double t;
     DVec3 normal(0.0, 0.0, -1.0);
-    if (s.radius == 0.0) {
+    if (!s.spherical()) {
+      const std::optional<double> hit = asphereCrossing(ray, z, s, &normal);
+      if (!hit) return std::nullopt;
+      t = *hit;
+    } else if (s.radius == 0.0) {
       if (ray.direction.z == 0.0) return std::nullopt;
       t = (z - ray.origin.z) / ray.direction.z;
     } else {
-      // The sphere through the vertex, centred R along the axis; of its two crossings the one on
-      // the vertex's side: the nearer when the ray travels toward the centre.
-      const DVec3 centre(0.0, 0.0, z + s.radius);
-      const DVec3 oc = ray.origin - centre;
-      const double b = glm::dot(oc, ray.direction);
-      const double disc = b * b - (glm::dot(oc, oc) - s.radius * s.radius);
-      if (disc < 0.0) return std::nullopt;
-      const double root = std::sqrt(disc);
-      const bool nearer = (ray.direction.z > 0.0) == (s.radius > 0.0);
-      t = nearer ? -b - root : -b + root;
-      normal = glm::normalize(ray.origin + t * ray.direction - centre);
+      const std::optional<double> hit = sphereCrossing(ray, z, s.radius);
+      if (!hit) return std::nullopt;
+      t = *hit;
+      normal = glm::normalize(ray.origin + t * ray.direction - DVec3(0.0, 0.0, z + s.radius));
     }
     if (!(t > 0.0)) return std::nullopt;
     const DVec3 p = ray.origin + t * ray.direction;

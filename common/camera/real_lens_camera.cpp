@@ -16,18 +16,42 @@ RealLensCamera::RealLensCamera(const ThinLensParams& frame, const RealLensParams
     : frame_(frame, width, height), params_(lens) {
   const LensSystem& l = *params_.lens;
   const double scale = params_.sceneUnitsPerMm;
-  const std::optional<double> back = l.focusDistanceFromRear(frame.focusDistance / scale);
+  // Focusing by moving the lens group: the paraxial (thick-lens) film distance, refined to the
+  // one where an axial point at the focus distance has the least RMS spot (LensSystem::exactFocus).
+  const std::optional<LensSystem::ExactFocus> focus = l.exactFocus(frame.focusDistance / scale);
+  const std::optional<double> back = focus ? std::optional<double>(focus->exact) : std::nullopt;
   if (!back || !(*back > 0.0))
     throw InputError("focus_distance", std::to_string(frame.focusDistance) + " (" +
                                            std::to_string(frame.focusDistance / scale) + " mm from the front vertex) "
                                            "is inside the lens's front focal length: it forms no real image there");
   rearZ_ = l.totalTrack();
   filmZ_ = rearZ_ + *back;
-  rearRadius_ = l.surfaces().back().aperture / 2;
+  // The rear element's rim lies |sag| in front of its vertex plane (a surface curving toward the
+  // object), so a ray from an off-axis film point to the near side of the rim crosses that plane
+  // outside the rim's radius. The pupil bounds search the plane out to where such a ray from the
+  // sensor's corner crosses it (at least 1.5 x the rim, as pbrt-v4's RealisticCamera does).
+  const LensSurface& rearSurface = l.surfaces().back();
+  const double rim = rearSurface.aperture / 2, sag = std::max(0.0, -rearSurface.sag(rim));
   const double halfWidth = frame.sensorWidth / scale / 2;
   const double halfHeight = frame_.params().sensorHeight / scale / 2;
   maxFilmRadius_ = std::hypot(halfWidth, halfHeight);
-  for (int b = 0; b < kPupilBins; ++b) bounds_[size_t(b)] = boundsAt(maxFilmRadius_ * (b + 1) / kPupilBins);
+  rearRadius_ = std::max(1.5 * rim, rim + std::max(0.0, maxFilmRadius_ - rim) * sag / (filmZ_ - rearZ_ + sag) * 1.1);
+  // A bin's bounds serve every film radius in it: the union of those at its two edges (as
+  // pbrt-v4's BoundExitPupil unions over the interval), so that where the pupil shrinks or shifts
+  // quickly with the radius (a wide-angle's vignetted corner), the inner points' rays are not
+  // cut by the outer edge's box.
+  Bounds edge = boundsAt(0.0);
+  for (int b = 0; b < kPupilBins; ++b) {
+    const Bounds next = boundsAt(maxFilmRadius_ * (b + 1) / kPupilBins);
+    Bounds& u = bounds_[size_t(b)];
+    if (edge.empty() || next.empty()) {
+      u = edge.empty() ? next : edge;
+    } else {
+      u = Bounds{std::min(edge.x0, next.x0), std::max(edge.x1, next.x1), std::min(edge.y0, next.y0),
+                 std::max(edge.y1, next.y1)};
+    }
+    edge = next;
+  }
   // The normalisation: the mean weight of rays from the film's centre, over its bounds.
   const Bounds& c = boundsAt(0.0);
   double sum = 0.0;
@@ -84,7 +108,6 @@ RealLensCamera::Bounds RealLensCamera::boundsAt(double radius) const {
     for (int a = 0; a < kBoundsGrid; ++a)
       for (int c = 0; c < kBoundsGrid; ++c) {
         const double x = -rearRadius_ + cell * (a + 0.5), y = -rearRadius_ + cell * (c + 0.5);
-        if (x * x + y * y > rearRadius_ * rearRadius_) continue;
         if (aroundTheBox && ((x >= before.x0 && x <= before.x1 && y >= before.y0 && y <= before.y1) ||
                              x < before.x0 - cell || x > before.x1 + cell || y < before.y0 - cell ||
                              y > before.y1 + cell))

@@ -6,8 +6,10 @@
 // is the camera's -forward, its x is `right`, its y is `up` (camera/thin_lens_camera.h). The
 // prescription is in millimetres; `sceneUnitsPerMm` maps it into the scene (0.001 for a scene in
 // metres). The film is the plane behind the last vertex on which the lens focuses
-// `focusDistance` (scene units, measured from the front vertex), found paraxially
-// (LensSystem::focusDistanceFromRear). Sensor cells are laid out as the thin lens's are, so the
+// `focusDistance` (scene units, measured from the front vertex): the paraxial (thick-lens) film
+// distance refined to the exact one, where an axial point there has the least RMS spot
+// (LensSystem::exactFocus; moving the film is moving the lens group, the object distance being
+// measured from the front vertex). Sensor cells are laid out as the thin lens's are, so the
 // inverted image is undone the same way when a sensor is developed.
 //
 // A camera ray starts at a point of a sensor cell, aims at a point of the rear element sampled
@@ -79,7 +81,8 @@ class RealLensCamera {
 
   ThinLensCamera frame_;
   RealLensParams params_;
-  double filmZ_ = 0.0, rearZ_ = 0.0, rearRadius_ = 0.0, maxFilmRadius_ = 0.0;
+  double filmZ_ = 0.0, rearZ_ = 0.0, maxFilmRadius_ = 0.0;
+  double rearRadius_ = 0.0;  // half the square searched for pupil bounds on the rear vertex's plane
   std::array<Bounds, kPupilBins> bounds_{};
   double normalisation_ = 1.0;  // 1 / the mean weight at the film's centre
 };

@@ -24,6 +24,7 @@
 #include "scene/field_reader.h"
 #include "scene/gltf_import.h"
 #include "scene/imported_model.h"
+#include "scene/lens_prescription.h"
 #include "scene/obj_check.h"
 #include "scene/obj_import.h"
 #include "util/error.h"
@@ -287,15 +288,27 @@ class SceneParser {
   void parseRealLens(FieldReader& r, double lookAtDistance) {
     ThinLensParams& p = scene_.cameraParams;
     RealLensParams lens;
-    const LoadedAsset file = readAssetFile(r, "lens", "lens file");
-    lens.name = r.string("lens");
-    LensSystem system = LensSystem::parsePbrt(file.bytes, file.shown);
+    // `lens`: a lens file (pbrt-v4 tabular or JSON, scene/lens_prescription.h) or the JSON
+    // prescription inline.
+    std::optional<LensPrescription> prescription;
+    std::string shown;
+    if (r.has("lens") && r.raw("lens").is_object()) {
+      prescription = lensFromJson(r.raw("lens"), r.field("lens"), fileName_);
+      shown = r.field("lens");
+      lens.name = prescription->name.empty() ? "the inline lens" : prescription->name;
+    } else {
+      const LoadedAsset file = readAssetFile(r, "lens", "lens file");
+      lens.name = r.string("lens");
+      prescription = readLensFile(file.bytes, file.shown);
+      shown = file.shown;
+    }
+    LensSystem system = std::move(prescription->system);
     lens.sceneUnitsPerMm = r.has("scene_units_per_mm") ? positive(r, "scene_units_per_mm") : 0.001;
     p.sensorWidth = positive(r, "sensor_width");
     if (r.has("sensor_height")) p.sensorHeight = positive(r, "sensor_height");
     p.focusDistance = r.has("focus_distance") ? positive(r, "focus_distance") : lookAtDistance;
     const LensSystem::Paraxial design = system.paraxial();
-    if (!(design.efl > 0.0)) r.fail(r.field("lens"), file.shown + " is not a converging lens (EFL " + shortNumber(design.efl) + " mm)");
+    if (!(design.efl > 0.0)) r.fail(r.field("lens"), shown + " is not a converging lens (EFL " + shortNumber(design.efl) + " mm)");
     double n = design.fNumber;
     if (r.has("f_number")) {
       n = positive(r, "f_number");
@@ -308,7 +321,7 @@ class SceneParser {
       // Closing the stop: the entrance pupil, and so the f-number, scales with it.
       std::vector<LensSurface> surfaces = system.surfaces();
       surfaces[system.stopIndex()].aperture *= design.fNumber / n;
-      system = LensSystem(std::move(surfaces), file.shown);
+      system = LensSystem(std::move(surfaces), shown);
     }
     parseDiffraction(r, "real_lens");
     r.finish();

@@ -57,5 +57,51 @@ TEST(LensCommand, RefusesABadLensFileNamingTheLine) {
   EXPECT_EQ(missing.exitCode, cli::kBadInput) << missing.err;
 }
 
+TEST(LensCommand, PrintsBothFocusesAndWritesThePlots) {
+  const auto lensFile = test::scenesDir() / "lenses/dgauss.50mm.dat";
+  test::TempDir dir;
+  const auto r = test::runProcess({test::cliPath().string(), "lens", lensFile.string(), "--focus", "2900", "--plots",
+                                   (dir / "plots").string()},
+                                  120);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const LensSystem lens = LensSystem::parsePbrt(test::readFile(lensFile), lensFile.string());
+  const auto focus = lens.exactFocus(2900.0);
+  ASSERT_TRUE(focus);
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(r.out, m, std::regex(R"(film ([0-9.]+) behind the last vertex paraxially)"))) << r.out;
+  EXPECT_NEAR(std::stod(m[1]), focus->paraxial, 1e-4);
+  ASSERT_TRUE(std::regex_search(r.out, m, std::regex(R"(rays\) ([0-9.]+): RMS spot)"))) << r.out;
+  EXPECT_NEAR(std::stod(m[1]), focus->exact, 1e-4);
+  // The relative-illumination column: 100 % on the axis, and it falls off.
+  EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(0\.00° +0\.0000 +0\.0000 +0\.000% +100\.0% +100\.0%)"))) << r.out;
+  for (const char* name : {"cross-section.svg", "distortion.svg", "illumination.svg", "spots.svg"}) {
+    const std::string svg = test::readFile(dir / "plots" / name);
+    EXPECT_EQ(svg.rfind("<svg", 0), 0u) << name;
+    EXPECT_NE(svg.find("</svg>\n"), std::string::npos) << name;
+  }
+  // Four spot panels, each with its Airy circle.
+  const std::string spots = test::readFile(dir / "plots/spots.svg");
+  size_t airy = 0;
+  for (size_t at = spots.find("stroke=\"#c00\""); at != std::string::npos; at = spots.find("stroke=\"#c00\"", at + 1)) ++airy;
+  EXPECT_EQ(airy, 4u);
+}
+
+TEST(LensCommand, ReadsAJsonPrescription) {
+  test::TempDir dir;
+  // A plano-convex singlet, f = 25 / 0.5 = 50 mm, its rear face a hyperboloid (constructed).
+  const auto file = dir.write("singlet.json", R"({"name": "hyperbolic singlet", "surfaces": [
+      {"stop": true, "radius": 0, "thickness": 1, "aperture": 10},
+      {"radius": 0, "thickness": 6, "index": 1.5, "aperture": 30},
+      {"radius": -25, "thickness": 0, "index": 1, "aperture": 30, "conic": -2.25}]})");
+  const auto r = test::runProcess({test::cliPath().string(), "lens", file.string()}, 60);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NEAR(figure(r.out, "effective focal length"), 50.0, 1e-4) << r.out;
+  EXPECT_NE(r.out.find("aspheric surfaces: 1"), std::string::npos) << r.out;
+  const auto bad = dir.write("bad.json", R"({"surfaces": [{"radius": "x", "thickness": 1, "aperture": 10}]})");
+  const auto b = test::runProcess({test::cliPath().string(), "lens", bad.string()}, 60);
+  EXPECT_EQ(b.exitCode, cli::kBadInput) << b.err;
+  EXPECT_NE(b.err.find("surfaces[0].radius"), std::string::npos) << b.err;
+}
+
 }  // namespace
 }  // namespace lensfarm
