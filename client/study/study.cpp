@@ -609,7 +609,7 @@ class Study {
 
   // ---- optics: what the camera's optics cost (issue 23) ----------------------------------------
   // cornell-seed through each camera model in turn: a pinhole, the seed's thin lens wide open with a
-  // round and a six-bladed aperture, and real lenses traced surface by surface (the double-Gauss
+  // round, a six-bladed and a rounded seven-bladed aperture, and real lenses traced surface by surface (the double-Gauss
   // 50 mm at f/2.8; the fast double-Gauss at f/1.4, whose Abbe numbers make it spectral where
   // lateral colour is simulated). Per variant: the time per path, the energy and the time to the
   // same error against its own reference.
@@ -629,6 +629,9 @@ class Study {
                    all, listed);
     measureVariant(seedFile, withCamera([](json& c) { c["f_number"] = 2.8, c["aperture_blades"] = 6; }),
                    "thin lens f/2.8, 6 straight blades", table, all, listed);
+    measureVariant(seedFile,
+                   withCamera([](json& c) { c["f_number"] = 2.8, c["aperture_blades"] = 7, c["aperture_curvature"] = 0.15; }),
+                   "thin lens f/2.8, 7 curved blades (curvature 0.15)", table, all, listed);
     for (const char* scene : {"cornell-real-lens.json", "cornell-seed-fast-lens.json"}) {
       const fs::path file = options_.scenes / scene;
       json j = json::parse(readWholeFileOrThrow(file, file.string()));
@@ -643,8 +646,8 @@ class Study {
            " through each camera model, NEE + MIS, Sobol, B = " + std::to_string(seed["render"].value("max_bounces", 2)) +
            ", each against its own reference (" + std::to_string(scale_.materialsReferenceSpp) +
            " spp). Time per path is per thread. A thin lens costs two random numbers and a few multiplies per camera "
-           "ray over the pinhole; a bladed aperture a polygon sample; a real lens traces every camera ray through its "
-           "surfaces in double precision, and the rays its rims stop are samples of zero (noise: the real lenses' "
+           "ray over the pinhole; a bladed aperture a polygon sample, curved blades a table look-up and an arc; a real lens traces every camera ray through its "
+           "surfaces in double precision (at its own wavelength per sample, spectral, when its glasses carry Abbe numbers, as both lenses here do), and the rays its rims stop are samples of zero (noise: the real lenses' "
            "time to the same error is longer by more than their time per path). The real-lens rows frame the box "
            "their own way (cornell-real-lens: a 36 mm-equivalent sensor; cornell-seed-fast-lens: the seed's framing, "
            "most of it outside the f/1.4 lens's image circle, docs/figure7.md), so their image means differ.\n\n" +

@@ -147,16 +147,19 @@ void checkModels(const StudyRun& run) {
 void checkOptics(const StudyRun& run) {
   std::map<std::string, std::map<std::string, std::string>> rows;
   for (const auto& row : readCsv(run.out("optics.csv"))) rows[row.at("variant")] = row;
-  ASSERT_EQ(rows.size(), 5u);
+  ASSERT_EQ(rows.size(), 6u);
   const double pinhole = num(rows.at("pinhole"), "image mean");
   EXPECT_GT(pinhole, 0.0);
-  for (const char* thin : {"thin lens f/2.8, round aperture", "thin lens f/2.8, 6 straight blades"})
+  for (const char* thin : {"thin lens f/2.8, round aperture", "thin lens f/2.8, 6 straight blades",
+                           "thin lens f/2.8, 7 curved blades (curvature 0.15)"})
     EXPECT_NEAR(num(rows.at(thin), "image mean") / pinhole, 1.0, 0.05) << thin;
   int real = 0;
   for (const auto& [name, row] : rows) {
     if (name.rfind("real lens", 0) != 0) continue;
     ++real;
     EXPECT_NE(row.at("effects").find("every camera ray traced"), std::string::npos) << row.at("effects");
+    EXPECT_NE(row.at("effects").find("each camera sample traced at its own wavelength"), std::string::npos)
+        << "both lenses carry Abbe numbers: " << row.at("effects");
     EXPECT_GT(num(row, "image mean"), 0.0) << name;
   }
   EXPECT_EQ(real, 2);
