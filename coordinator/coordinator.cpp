@@ -24,7 +24,8 @@ namespace lensfarm {
 namespace {
 std::vector<std::string> describeEffects(const Scene& scene) {
   std::vector<std::string> out;
-  for (const auto& d : analyzeEffects(scene, scene.camera()).decisions)
+  const std::optional<RealLensCamera> real = scene.realLensCamera();  // for the share of rays it lets through
+  for (const auto& d : analyzeEffects(scene, scene.camera(), real ? &*real : nullptr).decisions)
     out.push_back(d.effect + ": " + (d.simulated ? "on" : "off") + " (" + d.reason + ")");
   return out;
 }

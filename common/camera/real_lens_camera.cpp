@@ -66,18 +66,17 @@ RealLensCamera::RealLensCamera(const ThinLensParams& frame, const RealLensParams
   normalisation_ = double(n) * n / sum;
 }
 
-double RealLensCamera::passingFraction() const {
+double RealLensCamera::passingFraction(int filmGrid, int pupilGrid) const {
   const int width = frame_.width(), height = frame_.height();
   uint64_t tried = 0, passed = 0;
-  for (int a = 0; a < 32; ++a)
-    for (int b = 0; b < 32; ++b)
-      for (int u = 0; u < 8; ++u)
-        for (int v = 0; v < 8; ++v) {
+  for (int a = 0; a < filmGrid; ++a)
+    for (int b = 0; b < filmGrid; ++b)
+      for (int u = 0; u < pupilGrid; ++u)
+        for (int v = 0; v < pupilGrid; ++v) {
           float w = 0.0f;
           ++tried;
-          passed += generateRay(int(a * width / 32), int(b * height / 32), Vec2(0.5f),
-                                Vec2((float(u) + 0.5f) / 8.0f, (float(v) + 0.5f) / 8.0f), &w)
-                        .has_value();
+          const Vec2 lens((float(u) + 0.5f) / float(pupilGrid), (float(v) + 0.5f) / float(pupilGrid));
+          passed += generateRay(a * width / filmGrid, b * height / filmGrid, Vec2(0.5f), lens, &w).has_value();
         }
   return double(passed) / double(tried);
 }

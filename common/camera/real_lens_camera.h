@@ -63,9 +63,10 @@ class RealLensCamera {
 
   double filmZ() const { return filmZ_; }  // mm behind the front vertex
   const LensSystem& lens() const { return *params_.lens; }
-  // The share of camera rays over the whole sensor that get through the lens (a 32 x 32 grid of
-  // film points, 8 x 8 pupil samples each), traced when asked (reports and tests; not at load).
-  double passingFraction() const;
+  // The share of camera rays over the whole sensor that get through the lens (a filmGrid^2 grid
+  // of film points, pupilGrid^2 pupil samples each), traced when asked (reports and tests; not at
+  // load): how many samples the pupil bounds waste on rays the lens stops.
+  double passingFraction(int filmGrid = 32, int pupilGrid = 8) const;
 
  private:
   struct Bounds {

@@ -21,7 +21,7 @@ class RenderScene {
       : scene_(scene),
         camera_(scene.camera()),
         realCamera_(scene.realLensCamera()),
-        effects_(general ? EffectSet::all(scene) : analyzeEffects(scene, camera_)),
+        effects_(general ? EffectSet::all(scene) : analyzeEffects(scene, camera_, realCamera_ ? &*realCamera_ : nullptr)),
         mirrorsReachable_(general ? analyzeEffects(scene, camera_).specular : effects_.specular),
         caster_(scene),
         lights_(scene, caster_, effects_.lightUseful, scene.render.integrator == IntegratorKind::kNaive),

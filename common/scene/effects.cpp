@@ -303,7 +303,7 @@ EffectSet EffectSet::all(const Scene& scene) {
   return e;
 }
 
-EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
+EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const RealLensCamera* real) {
   EffectSet e = EffectSet::all(scene);
   std::ostringstream why;
 
@@ -314,6 +314,7 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera) {
     e.depthOfField = true;
     why << scene.realLens->name << ": " << lens.surfaces().size() << " surfaces, f/" << std::setprecision(3)
         << lens.paraxial().fNumber << ", every camera ray traced through them";
+    if (real) why << "; " << std::setprecision(2) << 100.0 * real->passingFraction(16, 4) << " % of them get through";
     e.decisions.push_back({"real lens", true, why.str()});
     why.str("");
     // Spectral camera samples (camera/spectral_response.h; the renderer asks the lens the same).

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "camera/real_lens_camera.h"
 #include "camera/thin_lens_camera.h"
 #include "scene/scene.h"
 
@@ -57,7 +58,9 @@ struct EffectSet {
   static EffectSet all(const Scene& scene);
 };
 
-EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera);
+// `real`: the scene's real-lens camera, if built (its reason then says what share of camera rays
+// the lens lets through, from a 16 x 16 x 4 x 4 grid: 4096 rays).
+EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const RealLensCamera* real = nullptr);
 
 // Largest blur-circle diameter on the sensor, in sensor cells, of any point of the scene's
 // bounding box in front of the lens (0 for a pinhole).
