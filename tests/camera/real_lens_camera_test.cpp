@@ -27,6 +27,14 @@ json realLensScene(double focus = 2.9, double fNumber = 2.8) {
   return scene;
 }
 
+// The same at side x side pixels and `spp` samples, for renders.
+json smallRealLensScene(int side, uint64_t spp) {
+  json scene = realLensScene();
+  scene["render"]["resolution"] = {side, side};
+  scene["render"]["samples_per_pixel"] = spp;
+  return scene;
+}
+
 // The RMS spread, across the plane `distance` in front of the camera, of the rays from one point
 // of the sensor's central cell: the blur of that plane's points.
 double spreadAt(const RealLensCamera& camera, const Scene& scene, double distance) {
@@ -126,10 +134,7 @@ TEST(RealLensCamera, TheSceneFieldsAreCheckedNamingTheField) {
 
 TEST(RealLensCamera, ARenderThroughItIsTheSameForAnyThreadCount) {
   test::TempDir dir;
-  json scene = realLensScene();
-  scene["render"]["resolution"] = {48, 48};
-  scene["render"]["samples_per_pixel"] = 4;
-  const Scene s = test::loadSceneJson(dir, scene);
+  const Scene s = test::loadSceneJson(dir, smallRealLensScene(48, 4));
   const test::Rendered one = test::renderScene(s, 1), two = test::renderScene(s, 2);
   EXPECT_TRUE(one.image.rgb == two.image.rgb);
   EXPECT_EQ(one.stats.paths, 48u * 48u * 4u) << "a stopped ray is a path too";
@@ -160,10 +165,7 @@ TEST(ApertureFields, BladesAndRotationAreReadAndChecked) {
 // path alone (integrator.h's promise for packets, kept with lanes taken out).
 TEST(RealLensCamera, PacketsOfTheLanesThatGetOutGiveTheSingleRaysBits) {
   test::TempDir dir;
-  json scene = realLensScene();
-  scene["render"]["resolution"] = {40, 40};
-  scene["render"]["samples_per_pixel"] = 8;
-  const Scene s = test::loadSceneJson(dir, scene);
+  const Scene s = test::loadSceneJson(dir, smallRealLensScene(40, 8));
   const RenderScene rs(s);
   SensorBuffer packets, singles;
   PathStats a, b;
