@@ -36,7 +36,7 @@ JobSpec benchJob() {
   scene["render"]["resolution"] = {kSize, kSize};
   scene["render"]["samples_per_pixel"] = uint64_t(1) << 40;
   scene["render"]["samples_per_unit"] = 1;
-  return JobSpec{"ingest.json", scene.dump(), {}, {}};
+  return JobSpec{"ingest.json", scene.dump(), {}, {}, std::nullopt};
 }
 
 UnitResult resultFor(const std::string& worker, const LeaseGrant& g) {

@@ -48,7 +48,7 @@ JobSpec loadJob(uint64_t units) {
     "render": { "resolution": [512, 512], "samples_per_pixel": 1, "samples_per_unit": 1 }
   })");
   scene["render"]["samples_per_pixel"] = units;
-  return JobSpec{"load.json", scene.dump(), {}, {}};
+  return JobSpec{"load.json", scene.dump(), {}, {}, std::nullopt};
 }
 
 struct Totals {

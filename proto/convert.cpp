@@ -15,6 +15,7 @@ v1::RenderOverrides toProto(const RenderOverrides& o) {
   if (o.russianRoulette) p.set_russian_roulette(*o.russianRoulette);
   if (o.targetError) p.set_target_error(*o.targetError);
   if (o.timeLimitSeconds) p.set_time_limit_seconds(*o.timeLimitSeconds);
+  if (o.tileSize) p.set_tile_size(*o.tileSize);
   return p;
 }
 
@@ -43,6 +44,7 @@ RenderOverrides fromProto(const v1::RenderOverrides& p) {
   if (p.has_target_error()) o.targetError = p.target_error();
   if (p.has_time_limit_seconds()) o.timeLimitSeconds = p.time_limit_seconds();
   if (p.has_ev()) o.ev = p.ev();
+  if (p.has_tile_size()) o.tileSize = p.tile_size();
   return o;
 }
 
@@ -56,6 +58,11 @@ v1::JobSpec toProto(const JobSpec& spec) {
     a->set_sha256(sha);
   }
   *p.mutable_overrides() = toProto(spec.overrides);
+  if (spec.frames) {
+    p.mutable_frames()->set_first(spec.frames->first);
+    p.mutable_frames()->set_last(spec.frames->last);
+    p.mutable_frames()->set_step(spec.frames->step);
+  }
   return p;
 }
 
@@ -65,6 +72,7 @@ JobSpec fromProto(const v1::JobSpec& p) {
   spec.sceneJson = p.scene_json();
   for (const auto& a : p.assets()) spec.assets[a.path()] = a.sha256();
   spec.overrides = fromProto(p.overrides());
+  if (p.has_frames()) spec.frames = FrameRange{p.frames().first(), p.frames().last(), p.frames().step()};
   return spec;
 }
 
@@ -77,6 +85,14 @@ v1::Lease toProto(const LeaseGrant& g) {
   p.set_sample_count(g.unit.sampleCount);
   p.set_scene_hash(g.sceneHash);
   p.set_deadline_seconds(g.deadlineSeconds);
+  p.set_frame(g.unit.frame);
+  if (!g.unit.region.empty()) {
+    p.set_region_x(uint32_t(g.unit.region.x));
+    p.set_region_y(uint32_t(g.unit.region.y));
+    p.set_region_width(uint32_t(g.unit.region.width));
+    p.set_region_height(uint32_t(g.unit.region.height));
+  }
+  p.set_pass_samples(g.unit.passSamples);
   return p;
 }
 
@@ -85,6 +101,11 @@ LeaseGrant fromProto(const v1::Lease& p) {
   g.leaseId = p.lease_id();
   g.jobId = p.job_id();
   g.unit = WorkUnit{p.unit_index(), p.first_sample(), p.sample_count()};
+  g.unit.frame = p.frame();
+  g.unit.region = PixelRegion{int(std::min<uint32_t>(p.region_x(), 1u << 30)), int(std::min<uint32_t>(p.region_y(), 1u << 30)),
+                              int(std::min<uint32_t>(p.region_width(), 1u << 30)),
+                              int(std::min<uint32_t>(p.region_height(), 1u << 30))};
+  g.unit.passSamples = p.pass_samples();
   g.sceneHash = p.scene_hash();
   g.deadlineSeconds = p.deadline_seconds();
   return g;

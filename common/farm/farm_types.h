@@ -11,6 +11,9 @@
 #include "film/sensor.h"
 #include "render/integrator.h"
 #include "render/unit_renderer.h"
+#include <optional>
+
+#include "scene/frame_range.h"
 #include "scene/render_overrides.h"
 
 namespace lensfarm {
@@ -23,6 +26,8 @@ struct JobSpec {
   std::string sceneJson;                      // the scene file's text
   std::map<std::string, std::string> assets;  // relative path -> SHA-256 of its bytes
   RenderOverrides overrides;
+  // Unset: a still. Set: an animation, one image per frame (farm/job_layout.h).
+  std::optional<FrameRange> frames;
 };
 
 struct WorkerInfo {

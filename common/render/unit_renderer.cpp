@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "camera/spectral_response.h"
+#include "math/compensated_sum.h"
 #include "render/integrator.h"
 #include "scene/scene_loader.h"  // kMaxBounces
 
@@ -25,7 +26,11 @@ uint64_t unitCount(uint64_t samplesPerPixel, uint32_t samplesPerUnit) {
 WorkUnit unitAt(uint64_t index, uint64_t samplesPerPixel, uint32_t samplesPerUnit) {
   const uint64_t first = index * samplesPerUnit;
   const uint64_t count = std::min<uint64_t>(samplesPerUnit, samplesPerPixel - std::min(first, samplesPerPixel));
-  return WorkUnit{index, first, uint32_t(count)};
+  WorkUnit unit;
+  unit.index = index;
+  unit.firstSample = first;
+  unit.sampleCount = uint32_t(count);
+  return unit;
 }
 
 namespace {
@@ -46,14 +51,17 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
   const float apertureWeight = camera.aperture().weight();
   const RenderSettings& settings = rs.settings();
   const SamplerSetup sampler{settings.sampler, settings.seed, settings.samplesPerPixel, unitSize(settings)};
-  out = SensorBuffer(width, height);
+  // The cells rendered: the unit's region, or the whole frame. Random numbers are keyed by the
+  // frame's pixel index, so a cell's samples are the same bits in a tile and in the frame.
+  const PixelRegion region = unit.region.empty() ? PixelRegion{0, 0, width, height} : unit.region;
+  out = SensorBuffer(region.width, region.height);
   tbb::combinable<PathStats> threadStats;
   std::atomic<bool> cancelled{false};
 #if defined(__SSE__)
   const unsigned callerMode = _mm_getcsr();  // the calling thread runs chunks too (below)
 #endif
 
-  tbb::parallel_for(tbb::blocked_range<int>(0, height, 1), [&](const tbb::blocked_range<int>& rows) {
+  tbb::parallel_for(tbb::blocked_range<int>(region.y, region.y + region.height, 1), [&](const tbb::blocked_range<int>& rows) {
 #if defined(__SSE__)
     // Embree's recommendation: denormals only slow traversal down. Every worker sets the same
     // mode, so results stay identical across threads.
@@ -64,7 +72,8 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
     PathPacket packet;
     PathPacket liveLanes;  // a real lens's lanes whose rays got out of the lens
     Spectrum radiance[kPacketWidth];
-    uint64_t pixelOf[kPacketWidth];
+    uint64_t pixelOf[kPacketWidth];  // the frame's pixel index (keys the random numbers)
+    uint64_t cellOf[kPacketWidth];   // the cell of `out`
     int column[kPacketWidth];
     alignas(64) float u0[kPacketWidth], u1[kPacketWidth], lens0[kPacketWidth], lens1[kPacketWidth];
     [[maybe_unused]] uint64_t sampleOf[kPacketWidth];  // spectral: each lane's sample index
@@ -76,14 +85,16 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
       // The row's samples in pixel-major, sample-minor order, cut into packets of kPacketWidth:
       // with units of 16 samples a packet is one pixel's samples; smaller units put neighbouring
       // pixels together. Packets never span rows, so they are the same for any thread count.
-      const uint64_t rowSamples = uint64_t(width) * unit.sampleCount;
-      int i = 0;                   // the next lane's pixel ...
+      const uint64_t rowSamples = uint64_t(region.width) * unit.sampleCount;
+      int i = region.x;            // the next lane's pixel ...
       uint32_t sampleInPixel = 0;  // ... and its sample within the unit
+      const uint64_t rowCell = uint64_t(j - region.y) * uint64_t(region.width) - uint64_t(region.x);  // + i: out's cell
       for (uint64_t first = 0; first < rowSamples; first += kPacketWidth) {
         packet.count = int(std::min<uint64_t>(kPacketWidth, rowSamples - first));
         for (int k = 0; k < packet.count; ++k) {
           const uint64_t s = unit.firstSample + sampleInPixel;
           pixelOf[k] = uint64_t(j) * width + uint64_t(i);
+          cellOf[k] = rowCell + uint64_t(i);
           packet.rng[k] = SampleStream(sampler, pixelOf[k], s);
           column[k] = i;
           if constexpr (kCamera == kRealLensSpectral) sampleOf[k] = s;
@@ -182,12 +193,12 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
             ++local.dropped;  // counted as a sample of zero, never written (design.md invariant)
             continue;
           }
-          out.sums[3 * pixelOf[k]] += l.r;
-          out.sums[3 * pixelOf[k] + 1] += l.g;
-          out.sums[3 * pixelOf[k] + 2] += l.b;
+          out.sums[3 * cellOf[k]] += l.r;
+          out.sums[3 * cellOf[k] + 1] += l.g;
+          out.sums[3 * cellOf[k] + 2] += l.b;
         }
       }
-      for (int x = 0; x < width; ++x) out.samples[uint64_t(j) * width + uint64_t(x)] = unit.sampleCount;
+      for (int x = 0; x < region.width; ++x) out.samples[uint64_t(j - region.y) * uint64_t(region.width) + uint64_t(x)] = unit.sampleCount;
     }
   });
 #if defined(__SSE__)
@@ -199,7 +210,8 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
 
 }  // namespace
 
-bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
+namespace {
+bool renderPass(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
                 const std::atomic<bool>* cancel, RayGrouping grouping) {
   // Pick the specialisation once per unit (scene/effects.h); the inner loops then carry no
   // branch for an effect the scene does not call for.
@@ -221,6 +233,33 @@ bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
       {{renderUnitWith<kRealLensSpectral, false, false>, renderUnitWith<kRealLensSpectral, false, true>},
        {renderUnitWith<kRealLensSpectral, true, false>, renderUnitWith<kRealLensSpectral, true, true>}}};
   return kTable[cameraKind][nee][general](rs, unit, out, stats, cancel, grouping);
+}
+
+}  // namespace
+
+bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
+                const std::atomic<bool>* cancel, RayGrouping grouping) {
+  if (unit.passSamples == 0 || unit.passSamples >= unit.sampleCount)
+    return renderPass(rs, unit, out, stats, cancel, grouping);
+  // A tile unit: pass after pass, each cell's pass sums folded as Sensor::add folds whole-frame
+  // units (Neumaier, from zero), so the value uploaded is the bits the sensor would develop.
+  SensorBuffer pass;
+  std::vector<CompensatedSum> sums;
+  uint64_t done = 0;
+  while (done < unit.sampleCount) {
+    WorkUnit p = unit;
+    p.firstSample = unit.firstSample + done;
+    p.sampleCount = uint32_t(std::min<uint64_t>(unit.passSamples, unit.sampleCount - done));
+    p.passSamples = 0;
+    if (!renderPass(rs, p, pass, stats, cancel, grouping)) return false;
+    if (sums.empty()) sums.resize(pass.sums.size());
+    for (size_t k = 0; k < sums.size(); ++k) sums[k].add(pass.sums[k]);
+    done += p.sampleCount;
+  }
+  out = SensorBuffer(pass.width, pass.height);
+  for (size_t k = 0; k < sums.size(); ++k) out.sums[k] = sums[k].value();
+  std::fill(out.samples.begin(), out.samples.end(), unit.sampleCount);
+  return true;
 }
 
 }  // namespace lensfarm

@@ -16,10 +16,26 @@
 
 namespace lensfarm {
 
+// Cells [x, x + width) x [y, y + height) of the sensor (sensor orientation); width 0: the whole frame.
+struct PixelRegion {
+  int x = 0, y = 0, width = 0, height = 0;
+  bool empty() const { return width <= 0 || height <= 0; }
+  bool operator==(const PixelRegion& o) const { return x == o.x && y == o.y && width == o.width && height == o.height; }
+};
+
 struct WorkUnit {
+  WorkUnit() = default;
+  WorkUnit(uint64_t i, uint64_t first, uint32_t count) : index(i), firstSample(first), sampleCount(count) {}
   uint64_t index = 0;
   uint64_t firstSample = 0;
   uint32_t sampleCount = 0;
+  // A tile unit (farm/job_layout.h): its cells, and the samples of one pass. The unit's samples
+  // are traced pass by pass (each pass exactly a whole-frame unit's samples, so the same random
+  // numbers) and each cell sums the passes with CompensatedSum from zero, returning its value():
+  // the bits a Sensor holding the same passes develops. 0: one pass of sampleCount.
+  PixelRegion region;
+  uint32_t passSamples = 0;
+  int64_t frame = 0;  // the scene frame (animation); 0 for a still
 };
 
 uint64_t unitCount(uint64_t samplesPerPixel, uint32_t samplesPerUnit);
@@ -29,7 +45,7 @@ WorkUnit unitAt(uint64_t index, uint64_t samplesPerPixel, uint32_t samplesPerUni
 // reference tracer (benchmarks measure what packets gain; tests check both give the same bits).
 enum class RayGrouping { kPackets, kSingleRays };
 
-// Fills `out` (resized to the frame) with the unit's sums and per-cell sample counts and adds to
+// Fills `out` (resized to the unit's region: the frame, or its tile) with the unit's sums and per-cell sample counts and adds to
 // `stats`. Returns false, with `out` incomplete, if `cancel` was raised before it finished.
 bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
                 const std::atomic<bool>* cancel = nullptr, RayGrouping grouping = RayGrouping::kPackets);

@@ -20,6 +20,22 @@ void parseResolution(const std::string& text, RenderOverrides& o, const std::str
     throw InputError(flag, "each side must be in [1, " + std::to_string(kMaxResolution) + "], got \"" + text + "\"");
 }
 
+void parseTileSize(const std::string& text, RenderOverrides& o, const std::string& flag) {
+  if (text == "auto") {
+    o.tileSize = RenderSettings::kTilesAuto;
+    return;
+  }
+  if (text == "off") {
+    o.tileSize = RenderSettings::kTilesOff;
+    return;
+  }
+  static const std::regex kEdge(R"(\d{1,6})");
+  if (!std::regex_match(text, kEdge) || std::stoi(text) < 1 || std::stoi(text) > kMaxResolution)
+    throw InputError(flag, "expected auto, off or a tile edge in pixels in [1, " + std::to_string(kMaxResolution) +
+                               "], got \"" + text + "\"");
+  o.tileSize = std::stoi(text);
+}
+
 void applyOverrides(const RenderOverrides& o, RenderSettings& s, const std::string& where) {
   // A resolution is overridden whole: one side alone would pair with the scene's other side and
   // change the aspect ratio (a 64-wide override of a 512x512 scene would render 64x512).
@@ -43,6 +59,7 @@ void applyOverrides(const RenderOverrides& o, RenderSettings& s, const std::stri
   if (o.targetError) s.targetError = *o.targetError;
   if (o.timeLimitSeconds) s.timeLimitSeconds = *o.timeLimitSeconds;
   if (o.ev) s.exposure.ev = *o.ev;
+  if (o.tileSize) s.tileSize = *o.tileSize;
   validateRenderSettings(s, where);
 }
 

@@ -21,7 +21,13 @@ struct RenderOverrides {
   std::optional<double> targetError;       // relative RMSE; samplesPerPixel becomes a cap
   std::optional<double> timeLimitSeconds;  // the deadline, from submission
   std::optional<double> ev;
+  // RenderSettings::tileSize: kTilesAuto, kTilesOff or an edge in pixels (at least 1).
+  std::optional<int> tileSize;
 };
+
+// Parses "auto", "off" or a tile edge in pixels (at least 1) into `o`; throws InputError naming
+// `flag` ("--tile-size 0: ...").
+void parseTileSize(const std::string& text, RenderOverrides& o, const std::string& flag = "--tile-size");
 
 // Parses "WIDTHxHEIGHT" into `o`; throws InputError naming `flag`.
 void parseResolution(const std::string& text, RenderOverrides& o, const std::string& flag = "--resolution");

@@ -114,6 +114,11 @@ struct RenderSettings {
   // Stopping rules besides samplesPerPixel (which is then a cap); 0 = not set. See docs/accuracy.md.
   double targetError = 0.0;           // stop when the estimated relative RMSE falls to this
   double timeLimitSeconds = 0.0;      // stop this long after submission, in whole units
+  // How the frame is cut into units (farm/job_layout.h): kTilesAuto, kTilesOff (passes over the
+  // whole frame) or N for N x N tiles, each a unit with all its samples. Never changes a bit of
+  // the image, only how it is scheduled, uploaded and held.
+  int tileSize = 0;
+  static constexpr int kTilesAuto = 0, kTilesOff = -1;
   ExposureSettings exposure;
 
   bool convergenceDriven() const { return targetError > 0.0 || timeLimitSeconds > 0.0; }

@@ -153,6 +153,18 @@ class SceneParser {
     s.timeLimitSeconds = r.number("time_limit", 0.0, 0.0, 1e9);
     s.mirrorBouncesCount = r.boolean("mirror_bounces_count", false);
     s.samplesPerUnit = uint32_t(r.integer("samples_per_unit", 0, 0, 1u << 20));
+    if (r.has("tile_size")) {
+      const json& t = r.raw("tile_size");
+      if (t.is_string() && t == "auto")
+        s.tileSize = RenderSettings::kTilesAuto;
+      else if (t.is_string() && t == "off")
+        s.tileSize = RenderSettings::kTilesOff;
+      else if (t.is_number_unsigned() && t.get<uint64_t>() >= 1 && t.get<uint64_t>() <= uint64_t(kMaxResolution))
+        s.tileSize = int(t.get<uint64_t>());
+      else
+        r.fail("render.tile_size", "must be \"auto\", \"off\" or a tile edge in pixels in [1, " +
+                                       std::to_string(kMaxResolution) + "], got " + t.dump());
+    }
     if (r.has("exposure")) {
       FieldReader e(r.raw("exposure"), "render.exposure", fileName_);
       s.exposure.ev = e.number("ev", 0.0, -kMaxExposureEv, kMaxExposureEv);
@@ -1204,6 +1216,15 @@ void validateRenderSettings(const RenderSettings& s, const std::string& where) {
     throw InputError(where, "target_error: must be a relative RMSE in (0, 1), e.g. 0.01");
   if (!(s.timeLimitSeconds >= 0.0 && s.timeLimitSeconds <= 1e9))
     throw InputError(where, "time_limit: must be in [0, 1e9] seconds");
+  if (s.tileSize < RenderSettings::kTilesOff) {
+    throw InputError(where, "tile_size: must be \"auto\", \"off\" or at least 1 pixel, got " + std::to_string(s.tileSize));
+  } else if (s.tileSize > std::max(s.width, s.height)) {
+    throw InputError(where, "tile_size: " + std::to_string(s.tileSize) + " is larger than the " + std::to_string(s.width) +
+                                "x" + std::to_string(s.height) + " frame");
+  }
+  if (s.tileSize > 0 && s.convergenceDriven())
+    throw InputError(where, "tile_size: a job with target_error or time_limit stops after whole passes over the "
+                            "frame; give tile_size \"off\" or \"auto\"");
 }
 
 const char* integratorName(IntegratorKind kind) {

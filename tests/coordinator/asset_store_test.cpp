@@ -107,7 +107,7 @@ TEST(AssetStore, AssetsSentToWorkersAreCountedNotThoseTheCoordinatorReadsItself)
   ASSERT_TRUE(c.putAsset(sha, obj));
   nlohmann::json scene = test::minimalSceneJson();
   scene["shapes"].push_back({{"type", "obj"}, {"file", "cube.obj"}, {"material", "white"}});
-  c.submit(JobSpec{"cube.json", scene.dump(), {{"cube.obj", sha}}, {}}, 0);  // loads the cube itself
+  c.submit(JobSpec{"cube.json", scene.dump(), {{"cube.obj", sha}}, {}, std::nullopt}, 0);  // loads the cube itself
   EXPECT_EQ(c.metricsSnapshot().assetsSent, 0u);
   EXPECT_EQ(*c.asset(sha), obj);
   EXPECT_EQ(*c.asset(sha), obj);

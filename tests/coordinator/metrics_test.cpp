@@ -16,7 +16,7 @@ namespace {
 JobSpec smallJob(uint64_t units) {
   nlohmann::json scene = test::minimalSceneJson();
   scene["render"].update({{"resolution", {4, 3}}, {"samples_per_pixel", units}, {"samples_per_unit", 1}});
-  return JobSpec{"metrics.json", scene.dump(), {}, {}};
+  return JobSpec{"metrics.json", scene.dump(), {}, {}, std::nullopt};
 }
 
 // The result of a granted unit: sums of 0.5, one path per pixel.

@@ -24,7 +24,7 @@ JobSpec sixUnits() {
   scene["render"]["samples_per_pixel"] = 6;
   scene["render"]["samples_per_unit"] = 1;
   scene["render"]["resolution"] = {4, 3};
-  return JobSpec{"six.json", scene.dump(), {}, {}};
+  return JobSpec{"six.json", scene.dump(), {}, {}, std::nullopt};
 }
 
 

@@ -26,7 +26,7 @@ struct Fixture {
       "materials": {"w": {"type": "lambertian", "albedo": 0.5}},
       "shapes": [{"type": "quad", "corner": [-1,-1,0], "edge1": [0,2,0], "edge2": [2,0,0], "material": "w"}],
       "render": {"resolution": [2, 1], "samples_per_pixel": 1000000, "samples_per_unit": 1}})";
-    job = coordinator.submit(lensfarm::JobSpec{"fuzz.json", scene, {}, {}}, 0).id;
+    job = coordinator.submit(lensfarm::JobSpec{"fuzz.json", scene, {}, {}, std::nullopt}, 0).id;
     worker = coordinator.registerWorker(
         lensfarm::WorkerInfo{"fuzz", 1, lensfarm::kProtocolVersion, lensfarm::kRendererVersion});
   }

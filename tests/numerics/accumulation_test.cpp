@@ -39,7 +39,7 @@ TEST(LongAccumulation, AJobOfAHundredThousandUnitsInTheCoordinator) {
   scene["render"]["samples_per_pixel"] = 100000;
   scene["render"]["samples_per_unit"] = 1;
   Coordinator c;
-  const std::string job = c.submit(JobSpec{"long.json", scene.dump(), {}, {}}, 0).id;
+  const std::string job = c.submit(JobSpec{"long.json", scene.dump(), {}, {}, std::nullopt}, 0).id;
   const std::string w = c.registerWorker(WorkerInfo{"w", 1, kProtocolVersion, kRendererVersion});
   const double value = 0.1;
   while (auto g = c.lease(w, 0)) {

@@ -75,7 +75,7 @@ TEST(WorkerLoop, ALeaseEndedByItsOwnUploadIsNotReportedRevoked) {
   scene["render"]["resolution"] = {8, 8};
   scene["render"]["samples_per_pixel"] = 4;
   scene["render"]["samples_per_unit"] = 1;
-  const std::string job = coordinator.submit(JobSpec{"test.json", scene.dump(), {}, {}}, 0).id;
+  const std::string job = coordinator.submit(JobSpec{"test.json", scene.dump(), {}, {}, std::nullopt}, 0).id;
 
   UploadThenHeartbeatLink link(coordinator);
   WorkerOptions wo;

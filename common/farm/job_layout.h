@@ -1,0 +1,67 @@
+#pragma once
+// How a job is cut into units (docs/farm.md "Tiles and passes"), fixed at submission and the
+// same in every process: the coordinator leases, checks and folds units by it, and
+// `lensfarm render` runs the same layout in one process.
+//
+// Two kinds of unit; neither changes a bit of the image:
+//  - a pass: one range of samples (unitSize(settings) of them) over the whole frame. Units are
+//    passes in order; the sensor sums them (Neumaier, film/sensor.h), so every snapshot covers the
+//    whole frame and a job can stop at a target error or deadline after any pass. What a still of
+//    modest size and a convergence-driven job use.
+//  - a tile: a rectangle of the frame with every sample of the job, traced by one worker in the
+//    same passes and summed pass by pass from zero with the same compensated sum
+//    (render/unit_renderer.h, WorkUnit::passSamples). Its sums are therefore exactly the cells'
+//    values the whole-frame passes would give, and a tile is final when it arrives: the coordinator
+//    writes its mean into a float image and holds no sums. Units are frame-major, tiles in rows.
+//    What big frames and animations use: each cell crosses the network once (bytes in = the
+//    frame's sums, whatever the sample count) and the coordinator holds a float image, not a sensor.
+//
+// Frames: an animation's unit u renders frame frames.frameAt(u / unitsPerFrame()).
+#include <cstdint>
+#include <optional>
+
+#include "render/unit_renderer.h"
+#include "scene/frame_range.h"
+#include "scene/scene.h"
+
+namespace lensfarm {
+
+struct JobLayout {
+  int width = 0, height = 0;
+  uint64_t samplesPerPixel = 0;
+  uint32_t passSamples = 1;  // unitSize(settings): the samples of one pass
+  int tileSize = 0;          // 0: units are passes; N: units are tiles of N x N (edge tiles smaller)
+  std::optional<FrameRange> frames;  // unset: a still
+
+  // The layout of a job with these (resolved) settings: RenderSettings::tileSize must not be
+  // kTilesAuto (resolveTileSize decides that).
+  static JobLayout of(const RenderSettings& settings, const std::optional<FrameRange>& frames);
+
+  bool tiled() const { return tileSize > 0; }
+  int tilesX() const { return tiled() ? (width + tileSize - 1) / tileSize : 1; }
+  int tilesY() const { return tiled() ? (height + tileSize - 1) / tileSize : 1; }
+  uint64_t frameCount() const { return frames ? frames->count() : 1; }
+  uint64_t unitsPerFrame() const;
+  uint64_t unitCount() const { return unitsPerFrame() * frameCount(); }
+  // Which frame of the job (0-based) unit `u` belongs to, and its scene frame number.
+  uint64_t frameIndexOf(uint64_t u) const { return u / unitsPerFrame(); }
+  int64_t frameNumber(uint64_t frameIndex) const { return frames ? frames->frameAt(frameIndex) : 0; }
+  // Unit `u` (u < unitCount()): its samples, region and frame.
+  WorkUnit unit(uint64_t u) const;
+  // The cells unit `u` covers (the whole frame for a pass).
+  PixelRegion regionOf(uint64_t u) const;
+  // The doubles a unit's upload carries (3 per cell of its region).
+  uint64_t sumsOf(uint64_t u) const;
+};
+
+// Resolves RenderSettings::kTilesAuto: passes for a job that stops at a target error or
+// deadline, and for a still whose sensor is small (at most kPassMaxCells cells); tiles
+// otherwise — whole frames for an animation with at least two frames per worker, else tiles of
+// kTileEdge (smaller, down to kMinTileEdge, until there are four tiles a worker). `workers` is
+// the number of workers connected at submission (at least 1). Explicit values are returned as
+// given, a tile edge larger than the frame clamped to it.
+inline constexpr uint64_t kPassMaxCells = uint64_t(1) << 22;  // 4.2 Mpixel: a 2048 x 2048 sensor
+inline constexpr int kTileEdge = 256, kMinTileEdge = 64;
+int resolveTileSize(const RenderSettings& settings, const std::optional<FrameRange>& frames, uint32_t workers);
+
+}  // namespace lensfarm
