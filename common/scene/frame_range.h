@@ -4,6 +4,8 @@
 
 namespace lensfarm {
 
+inline constexpr uint64_t kMaxFrames = 1000000;  // frames in one job
+
 struct FrameRange {
   int64_t first = 1, last = 1, step = 1;
   uint64_t count() const { return last < first || step < 1 ? 0 : uint64_t((last - first) / step) + 1; }
