@@ -130,9 +130,9 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
     if (f.last < f.first)
       throw FarmError(FarmError::Kind::kInvalidArgument, "frames: the last frame " + std::to_string(f.last) +
                                                              " is before the first " + std::to_string(f.first));
-    if (f.count() > kMaxFrames)
+    if (f.count() > kMaxFramesInRange)
       throw FarmError(FarmError::Kind::kInvalidArgument, "frames: " + std::to_string(f.count()) +
-                                                             " frames; at most " + std::to_string(kMaxFrames) + " a job");
+                                                             " frames; at most " + std::to_string(kMaxFramesInRange) + " a job");
   }
   Scene scene = parseScene(spec.sceneJson, spec.sceneName, reader);
   applyOverrides(spec.overrides, scene.render, spec.sceneName);
