@@ -112,6 +112,10 @@ struct JobInfo {
     uint64_t tilesTotal = 0;
   };
   std::vector<Frame> frames;  // empty for a still
+  // The job life cycle (docs/farm.md "Job life cycle").
+  std::string owner;              // who submitted it (SubmitJobRequest.owner: the client's $USER or --owner)
+  double endedUnixSeconds = 0.0;  // when it ended (done, cancelled, failed); 0 while it runs
+  bool archived = false;          // its film was freed; its final image, status and events stay readable
 
   double raysPerSecond() const { return elapsedSeconds > 0 ? double(stats.rays) / elapsedSeconds : 0.0; }
   double lightHitFraction() const { return stats.paths ? double(stats.lightHits) / double(stats.paths) : 0.0; }
@@ -119,6 +123,10 @@ struct JobInfo {
 
 // JobInfo::progressFraction: the nearest of the job's stopping rules, 0 to 1.
 double progressFraction(const JobInfo& info, double nowUnixSeconds);
+
+// A duration flag ("7d", "12h", "30m", "3600s", "90", "0.2s"; a bare number is seconds) in
+// seconds (lifecycle.cpp). InputError naming `flag` for anything else, or a negative duration.
+double parseDuration(const std::string& text, const std::string& flag);
 
 // What a worker is doing, as the coordinator sees it.
 enum class WorkerState {
@@ -221,6 +229,11 @@ class Coordinator {
     // Test-only: called with a job's estimated bytes just before its frame-sized buffers are
     // allocated; a test throws std::bad_alloc from it to simulate an allocation failing.
     std::function<void(uint64_t bytes)> beforeJobAllocation;
+    // The job life cycle (lifecycle.cpp, docs/farm.md "Job life cycle"): a job that ended more
+    // than keepSeconds ago is deleted (0: kept forever); one that ended archiveAfterSeconds ago
+    // is archived (0: at once; < 0: never). Checked every few seconds and at start-up.
+    double keepSeconds = 0.0;
+    double archiveAfterSeconds = -1.0;
   };
   explicit Coordinator(Options options);
   Coordinator();
@@ -248,7 +261,7 @@ class Coordinator {
   // ---- jobs (client side) ----
   // Validates the scene with its overrides (InputError naming the field) and that every asset
   // was uploaded (FarmError kFailedPrecondition listing the missing ones).
-  JobInfo submit(const JobSpec& spec, int priority);
+  JobInfo submit(const JobSpec& spec, int priority, const std::string& owner = "");
   JobInfo job(const std::string& jobId) const;  // FarmError kNotFound
   std::vector<JobInfo> jobs() const;            // in serving order
   // Waits until the job's version exceeds `afterVersion` or `timeoutSeconds` pass.
@@ -324,6 +337,28 @@ class Coordinator {
 
   const Options& options() const { return options_; }
 
+  // ---- the job life cycle (lifecycle.cpp, docs/farm.md "Job life cycle") ----
+  // Which jobs ListJobs returns: every condition given must hold.
+  struct JobFilter {
+    std::set<JobState> states;  // empty: any
+    std::string owner;          // empty: anyone's
+    std::string nameContains;   // a substring of the scene name; empty: any
+    size_t limit = 0;           // at most this many, in serving order; 0: all
+  };
+  std::vector<JobInfo> jobs(const JobFilter& filter) const;
+  // Removes a job for good: its leases revoked, its rows (job, ledger) and its files under the
+  // state dir removed, its memory freed; a restart does not bring it back, and an upload under
+  // one of its leases is refused (kFailedPrecondition). A job that has not ended is refused
+  // (kFailedPrecondition) unless `force`, which cancels it first. kNotFound for an unknown id.
+  void deleteJob(const std::string& jobId, bool force = false);
+  // Keeps an ended job's final image (JobArchive) and frees everything else it holds: the
+  // Accumulator (sensor, tracker, waiting results), its ledger rows, unit files and checkpoint.
+  // Its status, events and image stay readable. kFailedPrecondition for a job that has not ended;
+  // archiving an archived job changes nothing.
+  JobInfo archiveJob(const std::string& jobId);
+  // Applies Options::keepSeconds and archiveAfterSeconds now (also done every few seconds).
+  void applyRetention();
+
   // Saves every job's sensor now (also done every checkpointEverySeconds, when a job ends, and
   // on destruction). Without a state dir, does nothing. Returns the bytes written.
   uint64_t checkpoint();
@@ -382,6 +417,40 @@ class Coordinator {
   // A job whose film reached its stop ends once its audits are settled, or cannot be (no worker left to render them).
   void settleWaitingJobs();
   bool mayAudit(const Job& job, const Worker& worker, const std::string& exceptWorker = "") const;
+
+  // ---- the job life cycle (lifecycle.cpp) ----
+  // Keeps a job (and its film) alive while it is used outside mutex_: deleteJob and archiveJob
+  // wait until no pin is left. Made under mutex_ (kFailedPrecondition for a job being deleted);
+  // its destructor takes mutex_, so it must outlive any lock_guard of mutex_ in its scope.
+  class JobPin {
+   public:
+    JobPin() = default;
+    JobPin(const Coordinator& coordinator, Job& job);
+    JobPin(JobPin&& other) noexcept;
+    JobPin& operator=(JobPin&& other) noexcept;
+    ~JobPin();
+
+   private:
+    void release();
+    const Coordinator* coordinator_ = nullptr;
+    Job* job_ = nullptr;
+  };
+  void startLifecycle();  // the constructor's last step: retention at start-up, then its thread
+  void stopLifecycle();   // the destructor's first
+  void lifecycleLoop();
+  // The image of an archived job, and of one with a film (both require a JobPin or archiving).
+  JobImage archivedImage(const Job& job) const;
+  // The job's image from its film (an animation's frame: from the film or the frame store).
+  JobImage developedImage(const Job& job, std::optional<int64_t> frame = std::nullopt) const;
+  // What an archived job keeps of its film's progress (a JSON object, stored with the job).
+  static std::string summaryOf(const Job& job);
+  static void restoreSummary(Job& job, const std::string& summary);
+  std::unique_ptr<class JobArchive> archive_;
+  std::thread lifecycleThread_;
+  std::condition_variable lifecycleWake_;  // with mutex_: a job ended, or the coordinator stops
+  bool lifecycleStopping_ = false;         // guarded by mutex_
+  bool lifecycleDue_ = false;              // guarded by mutex_: a job ended since the last pass
+  std::set<std::string> deletedJobs_;      // guarded by mutex_: ids deleted by this run
 
   // ---- durable state (persistence.cpp) ----
   // Stores the frames a tiled job's film completed (outside mutex_), then drops their unit files.

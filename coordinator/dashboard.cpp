@@ -21,6 +21,8 @@ json summaryOf(const JobInfo& info) {
   j["state"] = jobStateName(info.state);
   j["priority"] = info.priority;
   j["scene"] = info.sceneName;
+  j["owner"] = info.owner;
+  j["archived"] = info.archived;  // its final image is served; its sensor was freed
   j["width"] = info.width;
   j["height"] = info.height;
   j["spp_done"] = info.samplesPerPixelDone;

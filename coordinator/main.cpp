@@ -159,6 +159,17 @@ int main(int argc, char** argv) {
                  "Memory one job may take (e.g. 16G, 512MiB): bigger jobs are refused at submission with their "
                  "estimate; default 3/4 of this machine's memory (or of its cgroup limit)")
       ->envname("LENSFARM_MAX_JOB_MEMORY");
+  // The job life cycle (docs/farm.md "Job life cycle").
+  std::string keep = "0", archiveAfter = "0";
+  app.add_option("--keep", keep,
+                 "Delete jobs this long after they ended (e.g. 7d, 12h, 30m, 3600s); 0: keep them forever")
+      ->envname("LENSFARM_KEEP")
+      ->capture_default_str();
+  app.add_option("--archive-after", archiveAfter,
+                 "Archive jobs this long after they ended: keep the final image, free the sensor and ledger "
+                 "(0: at once; \"never\": keep everything)")
+      ->envname("LENSFARM_ARCHIVE_AFTER")
+      ->capture_default_str();
   addLogLevelOption(app, logLevel);
   if (const auto exitCode = parseServiceFlags(app, argc, argv, "lensfarm-coordinator")) return *exitCode;
   setupLogging("coordinator", logLevel);
@@ -170,6 +181,14 @@ int main(int argc, char** argv) {
                     maxJobMemory);
       return 2;
     }
+  }
+
+  try {
+    options.keepSeconds = parseDuration(keep, "--keep");
+    options.archiveAfterSeconds = archiveAfter == "never" ? -1.0 : parseDuration(archiveAfter, "--archive-after");
+  } catch (const InputError& e) {
+    spdlog::error("{}", e.what());
+    return 2;
   }
 
   options.stateDir = stateDir;

@@ -32,11 +32,18 @@ class ClientServiceImpl final : public v1::ClientService::Service {
   grpc::Status GetSnapshot(grpc::ServerContext* context, const v1::SnapshotRequest* request, v1::Snapshot* response) override;
   grpc::Status CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request, v1::CancelJobResponse* response) override;
   grpc::Status ListWorkers(grpc::ServerContext* context, const v1::ListWorkersRequest*, v1::ListWorkersResponse* response) override;
+  grpc::Status DeleteJob(grpc::ServerContext* context, const v1::DeleteJobRequest* request, v1::DeleteJobResponse*) override;
+  grpc::Status ArchiveJob(grpc::ServerContext* context, const v1::ArchiveJobRequest* request,
+                          v1::ArchiveJobResponse* response) override;
 
  private:
   Coordinator& coordinator_;
   TokenGate gate_;
 };
+
+// ListJobsRequest's filters as Coordinator::JobFilter; FarmError kInvalidArgument naming an
+// unknown state.
+Coordinator::JobFilter jobFilterOf(const v1::ListJobsRequest& request);
 
 class AttachReactor;
 

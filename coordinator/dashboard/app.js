@@ -118,7 +118,8 @@ async function renderOverview() {
     el("tr", { dataset: { job: j.id, state: j.state } },
       el("td", {}, el("a", { href: `#/job/${encodeURIComponent(j.id)}` }, j.id)),
       el("td", {}, `${j.scene} `, el("span", { class: "muted" }, `${j.width}×${j.height}`)),
-      el("td", {}, badge(j.state)),
+      el("td", {}, badge(j.state), j.archived ? el("span", { class: "muted small" }, " archived") : "",
+        j.owner ? el("div", { class: "muted small" }, j.owner) : ""),
       el("td", { class: "num" }, j.priority),
       el("td", { class: "progress-cell", title: `toward ${progressBasis(j)}` }, progressBar(j.progress),
         el("span", { class: "muted" }, `${sppText(j)} spp`)),
@@ -176,6 +177,8 @@ async function renderJob(jobId) {
     ...stat("Elapsed", fmtDuration(job.elapsed_seconds)),
     ...stat(running ? "Time left" : "Stopped", running ? timeLeft(job) : (job.stop_reason || job.error || job.state), "job-time-left"),
     ...stat("Workers busy", job.workers_busy),
+    ...(job.owner ? stat("Owner", job.owner, "job-owner") : []),
+    ...(job.archived ? stat("Archived", "final image kept; sensor and ledger freed", "job-archived") : []),
     ...(job.stalled_reason ? stat("Stalled", job.stalled_reason, "job-stalled") : []),
     ...(audit ? stat("Audit", audit, "job-audit") : []));
   $("#job-priority").textContent = job.priority;
