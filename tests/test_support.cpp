@@ -57,7 +57,8 @@ fs::path workerPath() { return LENSFARM_WORKER_BIN; }
 
 json bundledSceneJson(const std::string& name) {
   json scene = json::parse(std::ifstream(scenesDir() / name));
-  scene["shapes"][0]["file"] = (scenesDir() / "meshes/cornell-box.obj").string();
+  for (json& shape : scene["shapes"])
+    if (shape.contains("file")) shape["file"] = (scenesDir() / shape["file"].get<std::string>()).string();
   if (scene["camera"].contains("lens")) scene["camera"]["lens"] = (scenesDir() / scene["camera"]["lens"].get<std::string>()).string();
   return scene;
 }

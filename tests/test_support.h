@@ -39,7 +39,7 @@ nlohmann::json minimalSceneJson();
 // The minimal scene with `camera`'s fields merged into its camera (a null removes that field).
 nlohmann::json minimalSceneWithCamera(const nlohmann::json& camera);
 
-// A scene from scenes/ (e.g. "cornell-seed.json") with its mesh path made absolute, so it loads
+// A scene from scenes/ (e.g. "cornell-seed.json") with its shapes' file paths made absolute, so it loads
 // from any directory.
 nlohmann::json bundledSceneJson(const std::string& name);
 
