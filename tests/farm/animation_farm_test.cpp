@@ -7,8 +7,10 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -41,6 +43,15 @@ std::optional<v1::JobStatus> getJob(const std::string& address, const std::strin
 int framesComplete(const v1::JobStatus& s) {
   int n = 0;
   for (const v1::FrameStatus& f : s.frames()) n += f.complete();
+  return n;
+}
+
+// The units of an image's provenance ("w1: 3 units, w2: 5 units" -> 8).
+uint64_t unitsNamed(const std::string& workers) {
+  uint64_t n = 0;
+  const std::regex count(R"(: ([0-9]+) units)");
+  for (auto it = std::sregex_iterator(workers.begin(), workers.end(), count); it != std::sregex_iterator(); ++it)
+    n += std::stoull((*it)[1]);
   return n;
 }
 
@@ -78,7 +89,8 @@ class AnimationFarm : public ::testing::Test {
     std::optional<v1::JobStatus> status;
     ASSERT_TRUE(test::waitFor([&] { return (status = getJob(address, job)) && framesComplete(*status) >= 2; }, 120))
         << farm_.coordinator().log();
-    ASSERT_LT(framesComplete(*status), kLastFrame - kFirstFrame + 1) << "the job ended before the kills: make it longer";
+    ASSERT_LT(framesComplete(*status), kLastFrame - kFirstFrame + 1)
+        << "the job ended before the kills: make it longer";
     const int completeBeforeKills = framesComplete(*status);
     doomed.signal(SIGKILL);
     EXPECT_EQ(doomed.wait(10), -1);
@@ -108,7 +120,10 @@ class AnimationFarm : public ::testing::Test {
       EXPECT_EQ(f.tiles_done(), f.tiles_total()) << "frame " << f.frame();
     }
 
-    // Every frame, bit for bit.
+    // Every frame, bit for bit. Each frame's metadata names the units each worker contributed to
+    // the job ("w2: 7 units, ..."): never more than the job has, and all of them at the end — a
+    // unit counted twice (say, once before the restart and again after) would push the sum over.
+    uint64_t mostUnitsNamed = 0;
     const auto downloaded =
         farm_.cli({"download", job, "-o", (dir_ / "farm_####.exr").string(), "--coordinator", address});
     ASSERT_EQ(downloaded.exitCode, 0) << downloaded.err;
@@ -124,7 +139,11 @@ class AnimationFarm : public ::testing::Test {
       EXPECT_EQ(farmMeta.totalSamples, uint64_t(kSize) * kSize * kSpp) << "each sample once";
       EXPECT_EQ(farmImage.width, kSize);
       EXPECT_TRUE(farmImage.rgb == refImage.rgb) << "differs from the clean run";
+      const uint64_t named = unitsNamed(farmMeta.extra["workers"]);
+      EXPECT_LE(named, done->progress().units_total()) << farmMeta.extra["workers"];
+      mostUnitsNamed = std::max(mostUnitsNamed, named);
     }
+    EXPECT_EQ(mostUnitsNamed, done->progress().units_total());
     std::printf("%s: %d of %d frames complete at the kills, %llu units\n", job.c_str(), completeBeforeKills,
                 kLastFrame - kFirstFrame + 1, (unsigned long long)done->progress().units_total());
   }

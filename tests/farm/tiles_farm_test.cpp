@@ -68,7 +68,8 @@ TEST(TilesFarm, A4kJobOnEightWorkersIsTheLocalRenderWithBoundedUploadsAndMemory)
   ASSERT_GT(rssBefore, 0.0);
   const std::string job = farm.submit({file.string(), "--coordinator", address});
   const auto watched = farm.cli({"watch", job, "--coordinator", address});
-  ASSERT_EQ(watched.exitCode, 0) << watched.err << farm.coordinator().log();
+  ASSERT_EQ(watched.exitCode, 0) << watched.err << farm.cli({"status", job, "--coordinator", address}).out
+                                 << farm.coordinator().log();
   // VmHWM is the process's peak resident set since it started; the job's share is the rise over
   // the resident set just before the submit.
   const double peak = procStatusBytes(coordinatorPid, "VmHWM");
@@ -114,7 +115,8 @@ TEST(TilesFarm, A4kJobOnEightWorkersIsTheLocalRenderWithBoundedUploadsAndMemory)
 
   std::printf(
       "4K on %d workers: tile %g px (%g a frame); bytes in %.1f MB (limit %.1f MB); largest upload %.2f MB "
-      "(limit %.2f MB); coordinator RSS before %.1f MB, peak %.1f MB, rise %.1f MB (limit %.1f MB); peak after the download %.1f MB\n",
+      "(limit %.2f MB); coordinator RSS before %.1f MB, peak %.1f MB, rise %.1f MB (limit %.1f MB); peak after the "
+      "download %.1f MB\n",
       kWorkers, tileEdge, tilesPerFrame, bytesIn / 1e6, kFrameFloatBytes * kWorkers * 1.1 / 1e6, largestUpload / 1e6,
       kFrameFloatBytes / 8 / 1e6, rssBefore / 1e6, peak / 1e6, (peak - rssBefore) / 1e6, 3 * kFrameFloatBytes / 1e6,
       peakWithDownload / 1e6);
