@@ -67,7 +67,9 @@ void Coordinator::storeCompletedFrames(Job& job) {
   }
   const uint64_t perFrame = job.layout.unitsPerFrame();
   for (TileFilm::Completed& c : done) {
-    if (!store_ && !job.layout.frames) continue;  // a still without a state dir: its film holds it
+    // A still's film holds its image, and the ledger's unit files are its durable state (a
+    // rewind by the audit may undo some of its tiles): only an animation's frames are stored.
+    if (!job.layout.frames) continue;
     ImageMetadata m = metadata;
     m.samplesPerPixel = job.layout.samplesPerPixel;
     m.totalSamples = uint64_t(job.layout.width) * uint64_t(job.layout.height) * job.layout.samplesPerPixel;
