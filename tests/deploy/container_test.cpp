@@ -145,6 +145,7 @@ const std::map<std::string, Dependency>& debianNames() {
       {"PkgConfig", {{"pkg-config"}, cached("PKG_CONFIG_EXECUTABLE")}},
       {"cpp-httplib", {{"libcpp-httplib-dev"}, [] { return fs::path(cacheValue("HTTPLIB_LIBDIR")) / "pkgconfig/cpp-httplib.pc"; }}},
       {"fftw3", {{"libfftw3-dev"}, [] { return fs::path(cacheValue("FFTW_LIBDIR")) / "pkgconfig/fftw3.pc"; }}},
+      {"libzstd", {{"libzstd-dev"}, [] { return fs::path(cacheValue("ZSTD_LIBDIR")) / "pkgconfig/libzstd.pc"; }}},
   };
   return table;
 }
