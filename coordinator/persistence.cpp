@@ -75,11 +75,14 @@ void Coordinator::storeCompletedFrames(Job& job) {
     m.totalSamples = uint64_t(job.layout.width) * uint64_t(job.layout.height) * job.layout.samplesPerPixel;
     if (job.layout.frames) m.extra["frame"] = std::to_string(job.layout.frameNumber(c.frameIndex));
     try {
-      frames_->write(job.id, c.frameIndex, c.image, m);
-      // Stored durably: its tiles' sums are no longer needed (their ledger rows stay).
+      frames_->write(job.id, c.frameIndex, *c.image, m);
+      // Stored durably: the film lets its image go, and its tiles' sums are no longer needed
+      // (their ledger rows stay).
+      job.film->frameStored(c.frameIndex);
       if (store_) store_->dropUnitFiles(job.id, c.frameIndex * perFrame, (c.frameIndex + 1) * perFrame);
     } catch (const std::exception& e) {
-      // The ledger still holds every tile: a restart stores the frame again.
+      // The film still serves the image, and the ledger still holds every tile: a restart stores
+      // the frame again.
       spdlog::error("job {}: cannot store frame {}: {}", job.id, c.frameIndex, e.what());
     }
   }
