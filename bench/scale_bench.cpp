@@ -49,17 +49,22 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using json = nlohmann::json;
 
-double secondsBetween(Clock::time_point a, Clock::time_point b) {
-  return std::chrono::duration<double>(b - a).count();
+// MemAvailable of /proc/meminfo, in bytes.
+uint64_t availableMemoryBytes() {
+  std::ifstream meminfo("/proc/meminfo");
+  for (std::string line; std::getline(meminfo, line);)
+    if (line.rfind("MemAvailable:", 0) == 0) return std::stoull(line.substr(13)) * 1024;
+  return 0;
 }
+
+double secondsBetween(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
 
 struct JobPlan {
   std::string name;
   int width = 0, height = 0;
   uint64_t samplesPerPixel = 4;
-  int tileSize =
-      0; // RenderOverrides::tileSize: 0 automatic, -1 passes, N tiles
-  std::optional<FrameRange> frames; // an animation
+  int tileSize = 0;                  // RenderOverrides::tileSize: 0 automatic, -1 passes, N tiles
+  std::optional<FrameRange> frames;  // an animation
   uint64_t frameCount() const { return frames ? frames->count() : 1; }
 };
 
@@ -71,46 +76,43 @@ struct Settings {
 };
 
 // A scene with nothing to load: the simulated workers never read it.
-JobSpec jobSpecOf(const JobPlan &plan) {
-  const json scene = {
-      {"format", "lensfarm-scene/1"},
-      {"camera",
-       {{"type", "pinhole"},
-        {"position", {0, 0, -3}},
-        {"look_at", {0, 0, 0}},
-        {"sensor_width", 0.1},
-        {"focal_length", 0.1}}},
-      {"materials", {{"white", {{"type", "lambertian"}, {"albedo", 0.5}}}}},
-      {"shapes",
-       {{{"type", "quad"},
-         {"corner", {-1, -1, 0}},
-         {"edge1", {0, 2, 0}},
-         {"edge2", {2, 0, 0}},
-         {"material", "white"}}}},
-      {"render",
-       {{"resolution", {plan.width, plan.height}},
-        {"samples_per_pixel", plan.samplesPerPixel},
-        {"samples_per_unit", 1}}}};
+JobSpec jobSpecOf(const JobPlan& plan) {
+  const json scene = {{"format", "lensfarm-scene/1"},
+                      {"camera",
+                       {{"type", "pinhole"},
+                        {"position", {0, 0, -3}},
+                        {"look_at", {0, 0, 0}},
+                        {"sensor_width", 0.1},
+                        {"focal_length", 0.1}}},
+                      {"materials", {{"white", {{"type", "lambertian"}, {"albedo", 0.5}}}}},
+                      {"shapes",
+                       {{{"type", "quad"},
+                         {"corner", {-1, -1, 0}},
+                         {"edge1", {0, 2, 0}},
+                         {"edge2", {2, 0, 0}},
+                         {"material", "white"}}}},
+                      {"render",
+                       {{"resolution", {plan.width, plan.height}},
+                        {"samples_per_pixel", plan.samplesPerPixel},
+                        {"samples_per_unit", 1}}}};
   JobSpec spec{plan.name + ".json", scene.dump(), {}, {}, plan.frames};
   spec.overrides.tileSize = plan.tileSize;
   return spec;
 }
 
 class Client {
-public:
-  Client(const std::string &address, const std::string &token)
-      : stub_(v1::ClientService::NewStub(
-            makeChannel(address, ChannelSecurity{"", "", "", token}))),
-        token_(token) {}
+ public:
+  Client(const std::string& address, const std::string& token)
+      : stub_(v1::ClientService::NewStub(makeChannel(address, ChannelSecurity{"", "", "", token}))), token_(token) {}
 
-  std::string submit(const JobSpec &spec) {
+  std::string submit(const JobSpec& spec) {
     v1::SubmitJobRequest request;
     *request.mutable_spec() = proto::toProto(spec);
     v1::SubmitJobResponse response;
     check(stub_->SubmitJob(context().get(), request, &response), "SubmitJob");
     return response.job_id();
   }
-  v1::JobStatus get(const std::string &job) {
+  v1::JobStatus get(const std::string& job) {
     v1::GetJobRequest request;
     request.set_job_id(job);
     v1::JobStatus status;
@@ -118,30 +120,27 @@ public:
     return status;
   }
   // The job's image as EXR bytes.
-  std::string download(const std::string &job) {
+  std::string download(const std::string& job) {
     v1::DownloadRequest request;
     request.set_job_id(job);
     request.set_format(v1::IMAGE_FORMAT_EXR);
     auto ctx = context();
     auto reader = stub_->Download(ctx.get(), request);
     std::string bytes;
-    for (v1::FileChunk chunk; reader->Read(&chunk);)
-      bytes += chunk.data();
+    for (v1::FileChunk chunk; reader->Read(&chunk);) bytes += chunk.data();
     check(reader->Finish(), "Download");
     return bytes;
   }
 
-private:
+ private:
   std::unique_ptr<grpc::ClientContext> context() const {
     auto c = std::make_unique<grpc::ClientContext>();
     c->AddMetadata("authorization", "Bearer " + token_);
-    c->set_deadline(std::chrono::system_clock::now() +
-                    std::chrono::seconds(120));
+    c->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
     return c;
   }
-  static void check(const grpc::Status &s, const char *call) {
-    if (!s.ok())
-      throw std::runtime_error(std::string(call) + ": " + s.error_message());
+  static void check(const grpc::Status& s, const char* call) {
+    if (!s.ok()) throw std::runtime_error(std::string(call) + ": " + s.error_message());
   }
   std::unique_ptr<v1::ClientService::Stub> stub_;
   std::string token_;
@@ -151,10 +150,8 @@ struct RunReport {
   JobPlan plan;
   bool done = false, exact = false, withinMemory = false;
   std::string failure;
-  uint64_t unitsTotal = 0, unitsDone = 0, paths = 0, auditsPassed = 0,
-           auditsFailed = 0;
-  double submitToDone = 0, coordinatorCpu = 0, idleCpuPerCall = 0,
-         idleCallsPerSecond = 0;
+  uint64_t unitsTotal = 0, unitsDone = 0, paths = 0, auditsPassed = 0, auditsFailed = 0;
+  double submitToDone = 0, coordinatorCpu = 0, idleCpuPerCall = 0, idleCallsPerSecond = 0;
   double lastAckToDone = 0, lastAckToDownloaded = 0;
   uint64_t idleRss = 0, peakRss = 0, rssBound = 0, bytesIn = 0, callsInRun = 0;
   FarmTally tally;
@@ -172,27 +169,22 @@ struct RunReport {
 // and glibc's arenas keep freed blocks of that size for reuse; measured, a
 // thousand workers uploading at once raised the peak by 2.9 to 3.9 units a
 // worker.
-uint64_t memoryBound(const JobPlan &plan, uint64_t unitsPerFrame,
-                     uint64_t largestUnitCells, uint64_t idleRss, int workers) {
+uint64_t memoryBound(const JobPlan& plan, uint64_t unitsPerFrame, uint64_t largestUnitCells, uint64_t idleRss,
+                     int workers) {
   const uint64_t cells = uint64_t(plan.width) * uint64_t(plan.height);
-  const uint64_t filmPerCell = (1 + kRewindPoints) * kSensorBytesPerCell +
-                               kTrackerBytesPerCell + kImageBytesPerCell +
-                               kExrBytesPerCell;
+  const uint64_t filmPerCell =
+      (1 + kRewindPoints) * kSensorBytesPerCell + kTrackerBytesPerCell + kImageBytesPerCell + kExrBytesPerCell;
   const uint64_t openFrames =
-      plan.frames ? std::min<uint64_t>(plan.frameCount(),
-                                       uint64_t(workers) / unitsPerFrame + 2)
-                  : 1;
+      plan.frames ? std::min<uint64_t>(plan.frameCount(), uint64_t(workers) / unitsPerFrame + 2) : 1;
   return idleRss + openFrames * cells * filmPerCell +
-         uint64_t(workers) * 5 * largestUnitCells * kUnitBufferBytesPerCell +
-         (uint64_t(64) << 20);
+         uint64_t(workers) * 5 * largestUnitCells * kUnitBufferBytesPerCell + (uint64_t(64) << 20);
 }
 
-RunReport runJob(const Settings &settings, const JobPlan &plan) {
+RunReport runJob(const Settings& settings, const JobPlan& plan) {
   RunReport report;
   report.plan = plan;
   std::vector<std::string> extra;
-  if (settings.auditFraction)
-    extra = {"--audit-fraction", std::to_string(*settings.auditFraction)};
+  if (settings.auditFraction) extra = {"--audit-fraction", std::to_string(*settings.auditFraction)};
   CoordinatorProcess coordinator(settings.coordinator, extra);
   Client client(coordinator.address(), coordinator.clientToken());
   FarmConfig config;
@@ -202,25 +194,23 @@ RunReport runJob(const Settings &settings, const JobPlan &plan) {
   config.width = plan.width;
   config.height = plan.height;
   config.renderSeconds = settings.renderSeconds;
+  // The coordinator holds up to five of a unit's buffers a worker and the simulators one: together
+  // at most half the memory available now.
+  config.maxUnitBytes = availableMemoryBytes() / 2 / (6 * uint64_t(settings.workers));
   SimulatedFarm farm(config);
   const auto registering = Clock::now();
-  while (farm.registered() < settings.workers &&
-         secondsBetween(registering, Clock::now()) < 120)
+  while (farm.registered() < settings.workers && secondsBetween(registering, Clock::now()) < 120)
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  if (farm.registered() < settings.workers)
-    throw std::runtime_error("not every simulated worker could register");
+  if (farm.registered() < settings.workers) throw std::runtime_error("not every simulated worker could register");
 
   // The idle farm: heartbeats and empty long polls only.
   const double idleCpu0 = coordinator.cpuSeconds();
   const uint64_t idleCalls0 = farm.heartbeatsSent() + farm.leaseCalls();
   const auto idleStart = Clock::now();
-  std::this_thread::sleep_for(
-      std::chrono::duration<double>(settings.idleSeconds));
+  std::this_thread::sleep_for(std::chrono::duration<double>(settings.idleSeconds));
   const double idleWall = secondsBetween(idleStart, Clock::now());
-  const double idleCalls =
-      double(farm.heartbeatsSent() + farm.leaseCalls() - idleCalls0);
-  report.idleCpuPerCall =
-      (coordinator.cpuSeconds() - idleCpu0) / std::max(1.0, idleCalls);
+  const double idleCalls = double(farm.heartbeatsSent() + farm.leaseCalls() - idleCalls0);
+  report.idleCpuPerCall = (coordinator.cpuSeconds() - idleCpu0) / std::max(1.0, idleCalls);
   report.idleCallsPerSecond = idleCalls / idleWall;
   report.idleRss = coordinator.residentBytes();
 
@@ -232,18 +222,15 @@ RunReport runJob(const Settings &settings, const JobPlan &plan) {
   v1::JobStatus status;
   for (;;) {
     status = client.get(job);
-    if (status.state() != v1::JOB_STATE_QUEUED &&
-        status.state() != v1::JOB_STATE_RUNNING)
-      break;
-    if (secondsBetween(submitted, Clock::now()) > settings.timeoutSeconds)
-      break;
+    if (status.state() != v1::JOB_STATE_QUEUED && status.state() != v1::JOB_STATE_RUNNING) break;
+    if (secondsBetween(submitted, Clock::now()) > settings.timeoutSeconds) break;
+    if (farm.oversizedUnitBytes() > 0) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   const auto doneAt = Clock::now();
   report.done = status.state() == v1::JOB_STATE_DONE;
   std::string exr;
-  if (report.done)
-    exr = client.download(job);
+  if (report.done) exr = client.download(job);
   const auto downloadedAt = Clock::now();
   report.coordinatorCpu = coordinator.cpuSeconds() - cpu0;
   report.callsInRun = farm.heartbeatsSent() + farm.leaseCalls() - calls0;
@@ -256,23 +243,25 @@ RunReport runJob(const Settings &settings, const JobPlan &plan) {
   report.lastAckToDownloaded = secondsBetween(lastAck, downloadedAt);
   report.peakRss = coordinator.peakResidentBytes();
   const auto metrics = coordinator.metrics();
-  const auto metric = [&](const std::string &name) {
-    return metrics.count(name) ? metrics.at(name) : 0.0;
-  };
-  report.bytesIn =
-      uint64_t(metric("lensfarm_received_bytes_total{kind=\"unit\"}"));
+  const auto metric = [&](const std::string& name) { return metrics.count(name) ? metrics.at(name) : 0.0; };
+  report.bytesIn = uint64_t(metric("lensfarm_received_bytes_total{kind=\"unit\"}"));
   report.unitsTotal = status.progress().units_total();
   report.unitsDone = status.progress().units_done();
   report.paths = status.progress().paths();
   report.auditsPassed = status.audits_passed();
   report.auditsFailed = status.audits_failed();
-  report.rssBound = memoryBound(
-      plan, std::max<uint64_t>(1, report.unitsTotal / plan.frameCount()),
-      report.tally.largestUnitCells, report.idleRss, settings.workers);
+  report.rssBound = memoryBound(plan, std::max<uint64_t>(1, report.unitsTotal / plan.frameCount()),
+                                report.tally.largestUnitCells, report.idleRss, settings.workers);
   report.withinMemory = report.peakRss <= report.rssBound;
+  if (const uint64_t oversized = farm.oversizedUnitBytes(); oversized > 0) {
+    report.done = false;
+    report.failure = "the coordinator leased a unit of " + std::to_string(oversized / 1000000) + " MB of sums; " +
+                     std::to_string(settings.workers) +
+                     " workers uploading such units at once would not fit in this machine's memory (is the job tiled?)";
+    return report;
+  }
   if (!report.done) {
-    report.failure = "the job ended " + v1::JobState_Name(status.state()) +
-                     " " + status.error();
+    report.failure = "the job ended " + v1::JobState_Name(status.state()) + " " + status.error();
     return report;
   }
   // The exact image: every pixel the known mean of its samples.
@@ -281,144 +270,121 @@ RunReport runJob(const Settings &settings, const JobPlan &plan) {
   const int64_t frame = plan.frames ? plan.frames->first : 0;
   for (int y = 0; y < plan.height && report.exact; ++y)
     for (int x = 0; x < plan.width && report.exact; ++x) {
-      const double expected = expectedCell(
-          plan.width - 1 - x, plan.height - 1 - y, frame, plan.samplesPerPixel);
+      const double expected = expectedCell(plan.width - 1 - x, plan.height - 1 - y, frame, plan.samplesPerPixel);
       for (int c = 0; c < 3; ++c) {
-        const float value =
-            image.rgb[3 * (size_t(y) * size_t(plan.width) + size_t(x)) +
-                      size_t(c)];
+        const float value = image.rgb[3 * (size_t(y) * size_t(plan.width) + size_t(x)) + size_t(c)];
         if (value != float(expected)) {
           report.exact = false;
-          report.failure =
-              "pixel (" + std::to_string(x) + ", " + std::to_string(y) +
-              ") holds " + std::to_string(value) +
-              ", not the mean of its samples " + std::to_string(expected);
+          report.failure = "pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") holds " +
+                           std::to_string(value) + ", not the mean of its samples " + std::to_string(expected);
         }
       }
     }
-  const uint64_t paths = uint64_t(plan.width) * uint64_t(plan.height) *
-                         plan.samplesPerPixel * plan.frameCount();
+  const uint64_t paths = uint64_t(plan.width) * uint64_t(plan.height) * plan.samplesPerPixel * plan.frameCount();
   if (report.paths != paths) {
     report.exact = false;
-    report.failure = "the job counts " + std::to_string(report.paths) +
-                     " paths, not " + std::to_string(paths);
+    report.failure = "the job counts " + std::to_string(report.paths) + " paths, not " + std::to_string(paths);
   }
   if (report.unitsDone != report.unitsTotal) {
     report.exact = false;
-    report.failure = "units done " + std::to_string(report.unitsDone) + " of " +
-                     std::to_string(report.unitsTotal);
+    report.failure = "units done " + std::to_string(report.unitsDone) + " of " + std::to_string(report.unitsTotal);
   }
   return report;
 }
 
-json latencyJson(const CallTimes &t) {
+json latencyJson(const CallTimes& t) {
   return {{"count", t.count()},
           {"p50_ms", 1e3 * t.quantile(0.5)},
           {"p99_ms", 1e3 * t.quantile(0.99)},
           {"max_ms", 1e3 * t.max()}};
 }
 
-json reportJson(const RunReport &r, const Settings &s) {
+json reportJson(const RunReport& r, const Settings& s) {
   const double units = double(r.unitsDone);
-  return {{"job", r.plan.name},
-          {"width", r.plan.width},
-          {"height", r.plan.height},
-          {"frames", r.plan.frameCount()},
-          {"spp", r.plan.samplesPerPixel},
-          {"workers", s.workers},
-          {"render_seconds", s.renderSeconds},
-          {"done", r.done},
-          {"exact_image", r.exact},
-          {"units", r.unitsDone},
-          {"submit_to_done_seconds", r.submitToDone},
-          {"units_per_second", units / r.submitToDone},
-          {"coordinator_cpu_seconds", r.coordinatorCpu},
-          {"coordinator_cpu_percent_of_wall",
-           100.0 * r.coordinatorCpu / r.submitToDone},
-          {"idle_cpu_per_call_us", 1e6 * r.idleCpuPerCall},
-          {"idle_calls_per_second", r.idleCallsPerSecond},
-          {"cpu_per_unit_ms",
-           1e3 * (r.coordinatorCpu - r.idleCpuPerCall * double(r.callsInRun)) /
-               std::max(1.0, units)},
-          {"idle_rss_mb", double(r.idleRss) / 1e6},
-          {"peak_rss_mb", double(r.peakRss) / 1e6},
-          {"rss_bound_mb", double(r.rssBound) / 1e6},
-          {"bytes_in", r.bytesIn},
-          {"bytes_uploaded_by_workers", r.tally.bytesUploaded},
-          {"audits_passed", r.auditsPassed},
-          {"audits_failed", r.auditsFailed},
-          {"uploads_acknowledged", r.tally.unitsAccepted},
-          {"uploads_duplicate", r.tally.duplicates},
-          {"uploads_refused", r.tally.refused},
-          {"failed_calls", r.tally.failedCalls},
-          {"last_ack_to_done_seconds", r.lastAckToDone},
-          {"last_ack_to_downloaded_seconds", r.lastAckToDownloaded},
-          {"latency",
-           {{"RegisterWorker", latencyJson(r.tally.registerWorker)},
-            {"LeaseWork", latencyJson(r.tally.leaseGranted)},
-            {"UploadResult", latencyJson(r.tally.upload)},
-            {"Heartbeat", latencyJson(r.tally.heartbeat)},
-            {"GetJobSpec", latencyJson(r.tally.jobSpec)}}},
-          {"failed_call_messages", r.tally.failures},
-          {"failure", r.failure}};
+  return {
+      {"job", r.plan.name},
+      {"width", r.plan.width},
+      {"height", r.plan.height},
+      {"frames", r.plan.frameCount()},
+      {"spp", r.plan.samplesPerPixel},
+      {"workers", s.workers},
+      {"render_seconds", s.renderSeconds},
+      {"done", r.done},
+      {"exact_image", r.exact},
+      {"units", r.unitsDone},
+      {"submit_to_done_seconds", r.submitToDone},
+      {"units_per_second", units / r.submitToDone},
+      {"coordinator_cpu_seconds", r.coordinatorCpu},
+      {"coordinator_cpu_percent_of_wall", 100.0 * r.coordinatorCpu / r.submitToDone},
+      {"idle_cpu_per_call_us", 1e6 * r.idleCpuPerCall},
+      {"idle_calls_per_second", r.idleCallsPerSecond},
+      {"cpu_per_unit_ms", 1e3 * (r.coordinatorCpu - r.idleCpuPerCall * double(r.callsInRun)) / std::max(1.0, units)},
+      {"idle_rss_mb", double(r.idleRss) / 1e6},
+      {"peak_rss_mb", double(r.peakRss) / 1e6},
+      {"rss_bound_mb", double(r.rssBound) / 1e6},
+      {"bytes_in", r.bytesIn},
+      {"bytes_uploaded_by_workers", r.tally.bytesUploaded},
+      {"audits_passed", r.auditsPassed},
+      {"audits_failed", r.auditsFailed},
+      {"uploads_acknowledged", r.tally.unitsAccepted},
+      {"uploads_duplicate", r.tally.duplicates},
+      {"uploads_refused", r.tally.refused},
+      {"failed_calls", r.tally.failedCalls},
+      {"last_ack_to_done_seconds", r.lastAckToDone},
+      {"last_ack_to_downloaded_seconds", r.lastAckToDownloaded},
+      {"latency",
+       {{"RegisterWorker", latencyJson(r.tally.registerWorker)},
+        {"LeaseWork", latencyJson(r.tally.leaseGranted)},
+        {"UploadResult", latencyJson(r.tally.upload)},
+        {"Heartbeat", latencyJson(r.tally.heartbeat)},
+        {"GetJobSpec", latencyJson(r.tally.jobSpec)}}},
+      {"failed_call_messages", r.tally.failures},
+      {"failure", r.failure}};
 }
 
-void printReport(const json &r) {
-  std::printf("\n== %s: %dx%d x %llu frame(s), %llu spp, %d workers, render "
-              "%.3f s a unit ==\n",
-              r["job"].get<std::string>().c_str(), r["width"].get<int>(),
-              r["height"].get<int>(),
-              (unsigned long long)r["frames"].get<uint64_t>(),
-              (unsigned long long)r["spp"].get<uint64_t>(),
-              r["workers"].get<int>(), r["render_seconds"].get<double>());
-  std::printf("  units %llu in %.2f s: %.1f units/s; exact image: %s\n",
-              (unsigned long long)r["units"].get<uint64_t>(),
-              r["submit_to_done_seconds"].get<double>(),
-              r["units_per_second"].get<double>(),
-              r["exact_image"].get<bool>() ? "yes" : "NO");
-  std::printf("  coordinator CPU %.2f s = %.1f %% of wall; idle farm %.0f "
-              "calls/s at %.1f us CPU each; %.3f ms CPU a unit\n",
-              r["coordinator_cpu_seconds"].get<double>(),
-              r["coordinator_cpu_percent_of_wall"].get<double>(),
-              r["idle_calls_per_second"].get<double>(),
-              r["idle_cpu_per_call_us"].get<double>(),
-              r["cpu_per_unit_ms"].get<double>());
+void printReport(const json& r) {
   std::printf(
-      "  coordinator RSS: idle farm %.0f MB, peak %.0f MB (bound %.0f MB)\n",
-      r["idle_rss_mb"].get<double>(), r["peak_rss_mb"].get<double>(),
-      r["rss_bound_mb"].get<double>());
-  std::printf("  bytes in %.1f MB (metrics), uploaded %.1f MB; audits passed "
-              "%llu failed %llu\n",
-              r["bytes_in"].get<double>() / 1e6,
-              r["bytes_uploaded_by_workers"].get<double>() / 1e6,
-              (unsigned long long)r["audits_passed"].get<uint64_t>(),
-              (unsigned long long)r["audits_failed"].get<uint64_t>());
-  std::printf("  uploads acknowledged %llu, duplicate %llu, refused %llu; "
-              "failed calls %llu\n",
-              (unsigned long long)r["uploads_acknowledged"].get<uint64_t>(),
-              (unsigned long long)r["uploads_duplicate"].get<uint64_t>(),
-              (unsigned long long)r["uploads_refused"].get<uint64_t>(),
-              (unsigned long long)r["failed_calls"].get<uint64_t>());
-  for (const auto &[what, n] : r["failed_call_messages"].items())
-    std::printf("    %llu x %s\n", (unsigned long long)n.get<uint64_t>(),
-                what.c_str());
-  std::printf("  last upload acknowledged -> job done %.3f s -> image "
-              "downloaded %.3f s\n",
-              r["last_ack_to_done_seconds"].get<double>(),
-              r["last_ack_to_downloaded_seconds"].get<double>());
-  std::printf("  %-15s %9s %10s %10s %10s\n", "call", "count", "p50 ms",
-              "p99 ms", "max ms");
-  for (const auto &[call, t] : r["latency"].items())
-    std::printf("  %-15s %9llu %10.2f %10.2f %10.2f\n", call.c_str(),
-                (unsigned long long)t["count"].get<uint64_t>(),
-                t["p50_ms"].get<double>(), t["p99_ms"].get<double>(),
-                t["max_ms"].get<double>());
-  if (!r["failure"].get<std::string>().empty())
-    std::printf("  FAILED: %s\n", r["failure"].get<std::string>().c_str());
+      "\n== %s: %dx%d x %llu frame(s), %llu spp, %d workers, render "
+      "%.3f s a unit ==\n",
+      r["job"].get<std::string>().c_str(), r["width"].get<int>(), r["height"].get<int>(),
+      (unsigned long long)r["frames"].get<uint64_t>(), (unsigned long long)r["spp"].get<uint64_t>(),
+      r["workers"].get<int>(), r["render_seconds"].get<double>());
+  std::printf("  units %llu in %.2f s: %.1f units/s; exact image: %s\n", (unsigned long long)r["units"].get<uint64_t>(),
+              r["submit_to_done_seconds"].get<double>(), r["units_per_second"].get<double>(),
+              r["exact_image"].get<bool>() ? "yes" : "NO");
+  std::printf(
+      "  coordinator CPU %.2f s = %.1f %% of wall; idle farm %.0f "
+      "calls/s at %.1f us CPU each; %.3f ms CPU a unit\n",
+      r["coordinator_cpu_seconds"].get<double>(), r["coordinator_cpu_percent_of_wall"].get<double>(),
+      r["idle_calls_per_second"].get<double>(), r["idle_cpu_per_call_us"].get<double>(),
+      r["cpu_per_unit_ms"].get<double>());
+  std::printf("  coordinator RSS: idle farm %.0f MB, peak %.0f MB (bound %.0f MB)\n", r["idle_rss_mb"].get<double>(),
+              r["peak_rss_mb"].get<double>(), r["rss_bound_mb"].get<double>());
+  std::printf(
+      "  bytes in %.1f MB (metrics), uploaded %.1f MB; audits passed "
+      "%llu failed %llu\n",
+      r["bytes_in"].get<double>() / 1e6, r["bytes_uploaded_by_workers"].get<double>() / 1e6,
+      (unsigned long long)r["audits_passed"].get<uint64_t>(), (unsigned long long)r["audits_failed"].get<uint64_t>());
+  std::printf(
+      "  uploads acknowledged %llu, duplicate %llu, refused %llu; "
+      "failed calls %llu\n",
+      (unsigned long long)r["uploads_acknowledged"].get<uint64_t>(),
+      (unsigned long long)r["uploads_duplicate"].get<uint64_t>(),
+      (unsigned long long)r["uploads_refused"].get<uint64_t>(), (unsigned long long)r["failed_calls"].get<uint64_t>());
+  for (const auto& [what, n] : r["failed_call_messages"].items())
+    std::printf("    %llu x %s\n", (unsigned long long)n.get<uint64_t>(), what.c_str());
+  std::printf(
+      "  last upload acknowledged -> job done %.3f s -> image "
+      "downloaded %.3f s\n",
+      r["last_ack_to_done_seconds"].get<double>(), r["last_ack_to_downloaded_seconds"].get<double>());
+  std::printf("  %-15s %9s %10s %10s %10s\n", "call", "count", "p50 ms", "p99 ms", "max ms");
+  for (const auto& [call, t] : r["latency"].items())
+    std::printf("  %-15s %9llu %10.2f %10.2f %10.2f\n", call.c_str(), (unsigned long long)t["count"].get<uint64_t>(),
+                t["p50_ms"].get<double>(), t["p99_ms"].get<double>(), t["max_ms"].get<double>());
+  if (!r["failure"].get<std::string>().empty()) std::printf("  FAILED: %s\n", r["failure"].get<std::string>().c_str());
 }
 
-JobPlan planOf(const std::string &name, const std::string &resolution,
-               uint64_t spp, const std::string &tiles) {
+JobPlan planOf(const std::string& name, const std::string& resolution, uint64_t spp, const std::string& tiles) {
   RenderOverrides o;
   parseResolution(resolution, o);
   parseTileSize(tiles, o);
@@ -431,96 +397,77 @@ JobPlan planOf(const std::string &name, const std::string &resolution,
   return plan;
 }
 
-} // namespace
-} // namespace lensfarm::scale
+}  // namespace
+}  // namespace lensfarm::scale
 
-int main(int argc, char **argv) {
+int main(int argc, char** argv) {
   using namespace lensfarm::scale;
-  CLI::App app{"lensfarm-scale: one coordinator under many simulated workers "
-               "(issue 24)"};
+  CLI::App app{
+      "lensfarm-scale: one coordinator under many simulated workers "
+      "(issue 24)"};
   Settings settings;
-  std::string still = "3840x2160", animation = "1920x1080", tiles = "auto",
-              jsonFile;
+  std::string still = "3840x2160", animation = "1920x1080", tiles = "auto", jsonFile;
   int64_t frames = 240;
   uint64_t spp = 4;
   double auditFraction = -1;
   app.add_option("--workers", settings.workers, "Simulated workers")
       ->check(CLI::Range(1, 10000))
       ->capture_default_str();
-  app.add_option("--render-seconds", settings.renderSeconds,
-                 "A unit's simulated render time (+-50 %)")
+  app.add_option("--render-seconds", settings.renderSeconds, "A unit's simulated render time (+-50 %)")
       ->check(CLI::Range(0.0, 60.0))
       ->capture_default_str();
-  app.add_option("--still", still, "The still's resolution; empty: no still")
-      ->capture_default_str();
-  app.add_option("--animation", animation,
-                 "The animation's resolution; empty: no animation")
-      ->capture_default_str();
+  app.add_option("--still", still, "The still's resolution; empty: no still")->capture_default_str();
+  app.add_option("--animation", animation, "The animation's resolution; empty: no animation")->capture_default_str();
   app.add_option("--frames", frames, "The animation's frames (1-N)")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
-  app.add_option(
-         "--spp", spp,
-         "Samples per pixel (a power of two keeps the image exact in floats)")
+  app.add_option("--spp", spp, "Samples per pixel (a power of two keeps the image exact in floats)")
       ->check(CLI::Range(1, 1 << 16))
       ->capture_default_str();
-  app.add_option("--tile-size", tiles,
-                 "auto, off (passes over the whole frame) or an edge in pixels")
+  app.add_option("--tile-size", tiles, "auto, off (passes over the whole frame) or an edge in pixels")
       ->capture_default_str();
-  app.add_option("--audit-fraction", auditFraction,
-                 "The coordinator's --audit-fraction; default: its own");
-  app.add_option("--idle-seconds", settings.idleSeconds,
-                 "The idle farm's measuring time before the job")
+  app.add_option("--audit-fraction", auditFraction, "The coordinator's --audit-fraction; default: its own");
+  app.add_option("--idle-seconds", settings.idleSeconds, "The idle farm's measuring time before the job")
       ->check(CLI::Range(0.5, 600.0))
       ->capture_default_str();
-  app.add_option("--timeout", settings.timeoutSeconds,
-                 "Give a job up after this long, s")
-      ->capture_default_str();
-  app.add_option("--json", jsonFile,
-                 "Also write the reports to this JSON file");
+  app.add_option("--timeout", settings.timeoutSeconds, "Give a job up after this long, s")->capture_default_str();
+  app.add_option("--json", jsonFile, "Also write the reports to this JSON file");
   CLI11_PARSE(app, argc, argv);
-  if (auditFraction >= 0)
-    settings.auditFraction = auditFraction;
+  if (auditFraction >= 0) settings.auditFraction = auditFraction;
   // Two sockets a simulated worker (its end and the coordinator's) and a few
   // more each.
   rlimit files{};
-  if (::getrlimit(RLIMIT_NOFILE, &files) == 0 &&
-      files.rlim_cur < files.rlim_max) {
+  if (::getrlimit(RLIMIT_NOFILE, &files) == 0 && files.rlim_cur < files.rlim_max) {
     files.rlim_cur = files.rlim_max;
     ::setrlimit(RLIMIT_NOFILE, &files);
   }
   std::vector<JobPlan> plans;
   try {
-    if (!still.empty())
-      plans.push_back(planOf("still", still, spp, tiles));
+    if (!still.empty()) plans.push_back(planOf("still", still, spp, tiles));
     if (!animation.empty()) {
       plans.push_back(planOf("animation", animation, spp, tiles));
       plans.back().frames = lensfarm::FrameRange{1, frames, 1};
     }
-  } catch (const std::exception &e) {
+  } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
   }
   bool ok = true;
   json all = json::array();
-  for (const JobPlan &plan : plans) {
+  for (const JobPlan& plan : plans) {
     try {
       const RunReport r = runJob(settings, plan);
       all.push_back(reportJson(r, settings));
       printReport(all.back());
       ok &= r.done && r.exact && r.withinMemory;
-      if (!r.withinMemory)
-        std::printf(
-            "  FAILED: the coordinator's peak memory is over its bound\n");
-    } catch (const std::exception &e) {
+      if (!r.withinMemory) std::printf("  FAILED: the coordinator's peak memory is over its bound\n");
+    } catch (const std::exception& e) {
       std::printf("FAILED: %s: %s\n", plan.name.c_str(), e.what());
       ok = false;
     }
     std::fflush(stdout);
   }
-  if (!jsonFile.empty())
-    std::ofstream(jsonFile) << all.dump(2) << "\n";
-  std::printf("%s\n", ok ? "every job done, exact and within its memory bound"
-                         : "FAILED");
+  if (!jsonFile.empty()) std::ofstream(jsonFile) << all.dump(2) << "\n";
+  std::printf("%s\n", ok ? "every job done, exact and within its memory bound" : "FAILED");
   return ok ? 0 : 1;
 }

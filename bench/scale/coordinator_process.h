@@ -17,35 +17,34 @@
 namespace lensfarm::scale {
 
 class CoordinatorProcess {
-public:
+ public:
   // Starts `binary` with `extraArgs` and waits (at most 30 s) until it serves;
   // throws with its log if it exits or does not.
-  CoordinatorProcess(const std::filesystem::path &binary,
-                     const std::vector<std::string> &extraArgs);
-  ~CoordinatorProcess(); // SIGKILL, reaped, and the temp dir removed
-  CoordinatorProcess(const CoordinatorProcess &) = delete;
-  CoordinatorProcess &operator=(const CoordinatorProcess &) = delete;
+  CoordinatorProcess(const std::filesystem::path& binary, const std::vector<std::string>& extraArgs);
+  ~CoordinatorProcess();  // SIGKILL, reaped, and the temp dir removed
+  CoordinatorProcess(const CoordinatorProcess&) = delete;
+  CoordinatorProcess& operator=(const CoordinatorProcess&) = delete;
 
-  const std::string &address() const { return address_; }
-  const std::string &clientToken() const { return clientToken_; }
-  const std::string &workerToken() const { return workerToken_; }
+  const std::string& address() const { return address_; }
+  const std::string& clientToken() const { return clientToken_; }
+  const std::string& workerToken() const { return workerToken_; }
   pid_t pid() const { return pid_; }
   bool running();
 
-  double cpuSeconds() const;          // user + system, since it started
-  uint64_t residentBytes() const;     // VmRSS now
-  uint64_t peakResidentBytes() const; // VmHWM: the most it has held resident
+  double cpuSeconds() const;           // user + system, since it started
+  uint64_t residentBytes() const;      // VmRSS now
+  uint64_t peakResidentBytes() const;  // VmHWM: the most it has held resident
   // Its Prometheus exposition (GET /metrics), as "name{labels}" -> value;
   // throws if unreachable.
   std::map<std::string, double> metrics() const;
-  std::string log() const; // stderr so far
+  std::string log() const;  // stderr so far
 
-private:
-  void stop(); // what the destructor does
+ private:
+  void stop();  // what the destructor does
   std::filesystem::path dir_;
   pid_t pid_ = -1;
   bool reaped_ = false;
   std::string address_, metricsAddress_, clientToken_, workerToken_;
 };
 
-} // namespace lensfarm::scale
+}  // namespace lensfarm::scale

@@ -29,11 +29,11 @@ uint32_t cellBase(int x, int y, int64_t frame);
 // width x height frame when the region is empty) and `result.stats` with the
 // counters checkPlausible expects of it (one path per cell and sample, one ray
 // per path).
-void fillUnit(const WorkUnit &unit, int width, int height, UnitResult &result);
+void fillUnit(const WorkUnit& unit, int width, int height, UnitResult& result);
 
 // The value cell (i, j) of scene frame `frame` must hold after all
 // `samplesPerPixel` samples. Cells are in sensor orientation (film/sensor.h):
 // image pixel (x, y) is cell (W-1-x, H-1-y).
 double expectedCell(int i, int j, int64_t frame, uint64_t samplesPerPixel);
 
-} // namespace lensfarm::scale
+}  // namespace lensfarm::scale
