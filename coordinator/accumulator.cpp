@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <utility>
 
+#include "farm/farm_types.h"
 #include "render/unit_renderer.h"
 
 namespace lensfarm {
@@ -18,6 +19,21 @@ Accumulator::Accumulator(const RenderSettings& settings, uint32_t unitSize, uint
       tracker_(std::make_unique<ConvergenceTracker>(settings.width, settings.height)),
       width_(settings.width),
       height_(settings.height) {}
+
+Accumulator::Accumulator(const RenderSettings& settings, const JobLayout& layout)
+    : samplesPerPixel_(settings.samplesPerPixel),
+      unitSize_(layout.passSamples),
+      unitsTotal_(layout.unitCount()),
+      targetError_(settings.targetError),
+      width_(settings.width),
+      height_(settings.height) {
+  if (layout.tiled()) {
+    tiles_ = std::make_unique<TileFilm>(layout);
+  } else {
+    sensor_ = std::make_unique<Sensor>(settings.width, settings.height);
+    tracker_ = std::make_unique<ConvergenceTracker>(settings.width, settings.height);
+  }
+}
 
 Accumulator::Accumulator(const RenderSettings& settings, uint32_t unitSize, uint64_t unitsTotal, Sensor sensor,
                          ConvergenceTracker tracker, uint64_t folded)
@@ -39,6 +55,10 @@ std::optional<Accumulator::Progress> Accumulator::add(const UnitResult& result, 
                                                       uint64_t generation) {
   std::lock_guard lock(mutex_);
   if (generation != generation_) return progress();  // accepted before a rewind: it is rendered again
+  if (tiles_) {
+    writeTile(result);
+    return progress();
+  }
   // Past a job's stop nothing more is folded (the stop is a prefix of units). The next unit in
   // order is summed from the caller's buffer; a later one waits in `arrived_`.
   const bool next = result.unitIndex == nextToAdd_;
@@ -56,15 +76,26 @@ void Accumulator::restoreFolded(const PathStats& stats) {
   statsAdded_ += stats;
 }
 
+void Accumulator::writeTile(const UnitResult& result) {
+  if (!tiles_->write(result.unitIndex, result.buffer, result.workerId)) return;
+  statsAdded_ += result.stats;
+  tileStats_[result.unitIndex] = result.stats;
+  if (tiles_->unitsDone() == unitsTotal_ && stopReason_.empty()) stopReason_ = "all samples done";
+}
+
 void Accumulator::restoreWaiting(UnitResult result) {
   std::lock_guard lock(mutex_);
+  if (tiles_) {
+    writeTile(result);
+    return;
+  }
   const uint64_t unit = result.unitIndex;
   arrived_.emplace(unit, std::move(result));
 }
 
 void Accumulator::drain() {
   std::lock_guard lock(mutex_);
-  drainInOrder(nullptr);
+  if (!tiles_) drainInOrder(nullptr);
 }
 
 void Accumulator::limitTo(uint64_t units) {
@@ -128,6 +159,7 @@ void Accumulator::stopFolding(std::string reason) {
 
 std::optional<Accumulator::Progress> Accumulator::stopAtDeadline() {
   std::lock_guard lock(mutex_);
+  if (tiles_) return progress();  // never: a tiled job has no deadline (validateRenderSettings)
   if (nextToAdd_ == 0) {
     stopAtNextFold_ = true;  // no image yet: the first whole pass is the image
     return std::nullopt;
@@ -139,17 +171,24 @@ std::optional<Accumulator::Progress> Accumulator::stopAtDeadline() {
 
 Accumulator::Progress Accumulator::estimateNow() {
   std::lock_guard lock(mutex_);
+  if (tiles_) return progress();
   estimate_ = tracker_->estimate(*sensor_);
   return progress();
 }
 
 Accumulator::Progress Accumulator::progress() const {
+  if (tiles_) {
+    // Every tile holds every sample: the frame's samples per pixel in the share of its tiles in.
+    const uint64_t done = tiles_->unitsDone();
+    return Progress{done, unitsTotal_ ? uint64_t(double(samplesPerPixel_) * double(done) / double(unitsTotal_)) : 0,
+                    statsAdded_, estimate_, stopReason_, foldLimit_};
+  }
   return Progress{nextToAdd_, sppAdded_, statsAdded_, estimate_, stopReason_, foldLimit_};
 }
 
 std::optional<Accumulator::Snapshot> Accumulator::snapshotIfChanged() const {
   std::lock_guard lock(mutex_);
-  if (nextToAdd_ == checkpointed_) return std::nullopt;
+  if (tiles_ || nextToAdd_ == checkpointed_) return std::nullopt;
   return snapshotLocked();
 }
 
@@ -159,6 +198,7 @@ Accumulator::Snapshot Accumulator::snapshotLocked() const {
 
 void Accumulator::keepRewindPoints(uint64_t spacing, size_t most) {
   std::lock_guard lock(mutex_);
+  if (tiles_) return;  // a tile is undone alone (rewind)
   pointSpacing_ = most > 0 ? spacing : 0;
   mostPoints_ = most;
 }
@@ -169,9 +209,28 @@ void Accumulator::trustBelow(uint64_t units) {
   while (points_.size() >= 2 && points_[1].units <= units) points_.pop_front();
 }
 
-Accumulator::Rewound Accumulator::rewind(uint64_t unit, const std::function<bool(const UnitResult&)>& drop) {
+Accumulator::Rewound Accumulator::rewind(uint64_t unit, const std::function<bool(const UnitResult&)>& drop,
+                                         const std::string& worker) {
   std::lock_guard lock(mutex_);
   ++generation_;
+  if (tiles_) {
+    // Tiles are independent: only the wrong worker's, from `unit` on, are undone (rendered again
+    // and overwritten); every other tile stays. A frame stored already stays as it is.
+    Rewound out;
+    out.kept = tiles_->forgetWorker(unit, worker);
+    for (auto it = tileStats_.lower_bound(unit); it != tileStats_.end();) {
+      if (out.kept.count(it->first)) {
+        ++it;
+      } else {
+        statsAdded_ -= it->second;
+        it = tileStats_.erase(it);
+      }
+    }
+    stopReason_.clear();
+    out.units = unit;
+    out.progress = progress();
+    return out;
+  }
   if (unit < nextToAdd_) {
     // The latest point at or before `unit`, else the empty film; points after it hold undone units.
     while (!points_.empty() && points_.back().units > unit) points_.pop_back();
@@ -226,6 +285,14 @@ void Accumulator::checkpointed(uint64_t folded) {
 Accumulator::Developed Accumulator::develop() const {
   std::lock_guard lock(mutex_);
   Developed out;
+  if (tiles_) {
+    out.image = tiles_->image(0).value_or(Image{width_, height_, std::vector<float>(size_t(width_) * height_ * 3, 0.0f)});
+    const Progress p = progress();
+    out.samplesPerPixel = p.samplesPerPixel;
+    out.totalSamples = statsAdded_.paths;
+    out.stats = statsAdded_;
+    return out;
+  }
   out.image = sensor_->developImage();
   out.samplesPerPixel = sppAdded_;
   out.totalSamples = sensor_->totalSamples();
@@ -235,7 +302,43 @@ Accumulator::Developed Accumulator::develop() const {
 
 std::string Accumulator::serializedSensor() const {
   std::lock_guard lock(mutex_);
+  if (tiles_) throw FarmError(FarmError::Kind::kFailedPrecondition, "a tiled job holds no sensor, only its image");
   return sensor_->serialize();
+}
+
+std::vector<TileFilm::Completed> Accumulator::takeCompletedFrames() {
+  std::lock_guard lock(mutex_);
+  return tiles_ ? tiles_->takeCompleted() : std::vector<TileFilm::Completed>{};
+}
+
+std::optional<Accumulator::Developed> Accumulator::developFrame(uint64_t frameIndex) const {
+  if (!tiles_) {
+    if (frameIndex != 0) return std::nullopt;
+    return develop();
+  }
+  std::lock_guard lock(mutex_);
+  std::optional<Image> image = tiles_->image(frameIndex);
+  if (!image) return std::nullopt;
+  Developed out;
+  out.image = std::move(*image);
+  const uint64_t perFrame = tiles_->layout().unitsPerFrame();
+  out.samplesPerPixel = tiles_->tilesDone(frameIndex) == perFrame ? samplesPerPixel_ : 0;
+  for (auto it = tileStats_.lower_bound(frameIndex * perFrame); it != tileStats_.end() && it->first < (frameIndex + 1) * perFrame; ++it)
+    out.stats += it->second;
+  out.totalSamples = out.stats.paths;
+  return out;
+}
+
+void Accumulator::restoreCompleteFrame(uint64_t frameIndex, std::optional<Image> image) {
+  std::lock_guard lock(mutex_);
+  if (!tiles_) return;
+  tiles_->restoreComplete(frameIndex, std::move(image));
+  if (tiles_->unitsDone() == unitsTotal_ && stopReason_.empty()) stopReason_ = "all samples done";
+}
+
+uint64_t Accumulator::tilesDone(uint64_t frameIndex) const {
+  std::lock_guard lock(mutex_);
+  return tiles_ ? tiles_->tilesDone(frameIndex) : 0;
 }
 
 }  // namespace lensfarm

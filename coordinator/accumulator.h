@@ -14,6 +14,10 @@
 //  - A rewind (the audit found a wrong worker, docs/farm.md "Audit") restores the film exactly as
 //    it was after some prefix of units (a rewind point, a bitwise copy, or the empty film), so
 //    summing the units after it again gives the bits a run without the wrong worker gives.
+//  - A tiled job (farm/job_layout.h) holds a TileFilm instead of a sensor: each tile is final when
+//    it arrives and is written at once, whatever its order; it stops when every tile is in (no
+//    target error or deadline: those need passes), keeps no rewind points and no checkpoint (the
+//    ledger and the stored frames are its durable state).
 //  - Every member takes the accumulator's own lock, which is never held while taking another
 //    (Coordinator::mutex_ may be held while taking it, never the reverse).
 #include <chrono>
@@ -32,7 +36,9 @@
 #include "film/convergence.h"
 #include "film/image.h"
 #include "film/sensor.h"
+#include "farm/job_layout.h"
 #include "scene/scene.h"
+#include "tile_film.h"
 
 namespace lensfarm {
 
@@ -50,6 +56,8 @@ class Accumulator {
 
   // A new job's: an empty sensor and tracker of the frame (std::bad_alloc if they do not fit).
   Accumulator(const RenderSettings& settings, uint32_t unitSize, uint64_t unitsTotal);
+  // A new job's film for its layout: a TileFilm when it is tiled, else as above.
+  Accumulator(const RenderSettings& settings, const JobLayout& layout);
   // A job resumed from a checkpoint whose sensor and tracker hold units [0, folded).
   Accumulator(const RenderSettings& settings, uint32_t unitSize, uint64_t unitsTotal, Sensor sensor,
               ConvergenceTracker tracker, uint64_t folded);
@@ -85,7 +93,8 @@ class Accumulator {
   // Undoes the units from the latest rewind point at or before `unit` on (the empty film if there
   // is none; nothing if `unit` is not summed yet) and the job's stop with them, and drops the
   // waiting results `drop` names. Results accepted before now are ignored (generation()).
-  Rewound rewind(uint64_t unit, const std::function<bool(const UnitResult&)>& drop);
+  // A tiled job undoes only the tiles `worker` rendered from `unit` on (TileFilm::forgetWorker).
+  Rewound rewind(uint64_t unit, const std::function<bool(const UnitResult&)>& drop, const std::string& worker = "");
   uint64_t generation() const;
 
   // Restoring from the ledger: a unit the checkpoint holds adds only its stats; a later one
@@ -114,13 +123,24 @@ class Accumulator {
     PathStats stats;
   };
   Developed develop() const;
-  std::string serializedSensor() const;  // Sensor::serialize
+  std::string serializedSensor() const;  // Sensor::serialize; FarmError kFailedPrecondition for a tiled job
+
+  // ---- tiled jobs (tile_film.h) ----
+  bool tiled() const { return tiles_ != nullptr; }
+  // Frames completed since the last call (TileFilm::takeCompleted); none for a job in passes.
+  std::vector<TileFilm::Completed> takeCompletedFrames();
+  // Frame `frameIndex`'s image as held now; nullopt when the film does not hold it (TileFilm::image).
+  std::optional<Developed> developFrame(uint64_t frameIndex) const;
+  // A frame complete before a restart (its file is stored); a still's image is held again.
+  void restoreCompleteFrame(uint64_t frameIndex, std::optional<Image> image);
+  uint64_t tilesDone(uint64_t frameIndex) const;
 
  private:
   using Clock = std::chrono::steady_clock;
   // Sums the units that are next in order (`next`, if given, is one not kept in arrived_).
   void drainInOrder(const UnitResult* next);  // requires mutex_
   void stopFolding(std::string reason);       // requires mutex_
+  void writeTile(const UnitResult& result);   // requires mutex_; a tiled job's
   Progress progress() const;                  // requires mutex_
   Snapshot snapshotLocked() const;            // requires mutex_
 
@@ -153,6 +173,8 @@ class Accumulator {
   };
   const int width_, height_;
   std::deque<RewindPoint> points_;
+  std::unique_ptr<TileFilm> tiles_;  // a tiled job's film (then no sensor_ or tracker_)
+  std::map<uint64_t, PathStats> tileStats_;  // a tiled job: per unit written, to undo with it
   uint64_t pointSpacing_ = 0, lastPointAt_ = 0;
   size_t mostPoints_ = 0;
   uint64_t generation_ = 0;

@@ -64,7 +64,7 @@ std::optional<LeaseGrant> Coordinator::tryAuditLease(Worker& worker, Clock::time
   worker.currentJobId = job.id;
   worker.currentUnit = unit;
   touch(job);
-  return LeaseGrant{leaseId, job.id, unitAt(unit, job.settings.samplesPerPixel, job.unitSize), job.sceneHash,
+  return LeaseGrant{leaseId, job.id, job.layout.unit(unit), job.sceneHash,
                     options_.leaseTimeoutSeconds};
 }
 
@@ -202,7 +202,7 @@ void Coordinator::rewindFor(Job& job, const std::string& workerId) {
   if (!first) return;
   std::lock_guard checkpointLock(checkpointMutex_);  // no checkpoint of the film as it is now
   const Accumulator::Rewound r =
-      job.film->rewind(*first, [&](const UnitResult& result) { return result.workerId == workerId; });
+      job.film->rewind(*first, [&](const UnitResult& result) { return result.workerId == workerId; }, workerId);
   job.generation = job.film->generation();
   const uint64_t uncounted = job.units.rewindTo(r.units, r.kept);
   job.publish(r.progress);

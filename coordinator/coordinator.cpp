@@ -11,6 +11,7 @@
 #include <random>
 
 #include "coordinator_records.h"
+#include "frame_store.h"
 #include "render/memory_estimate.h"
 #include "film/psf_convolution.h"
 #include "scene/effects.h"
@@ -47,6 +48,7 @@ Coordinator::Coordinator(Options options) : options_(std::move(options)), auditR
     options_.maxJobMemoryBytes = defaultJobMemoryBudget();
     options_.maxJobMemorySource = defaultJobMemoryBudgetSource();
   }
+  frames_ = std::make_unique<FrameStore>(options_.stateDir);
   if (options_.stateDir.empty()) {
     epoch_ = std::random_device{}() & 0xfffff;
     return;
@@ -78,7 +80,8 @@ void Coordinator::Job::setScene(const Scene& scene) {
   settings = scene.render;
   sceneHash = scene.hash;
   unitSize = lensfarm::unitSize(scene.render);
-  units = JobUnits(unitCount(scene.render.samplesPerPixel, unitSize));
+  layout = JobLayout::of(scene.render, spec.frames);
+  units = JobUnits(layout.unitCount());
   effects = describeEffects(scene);
   diffraction = diffractionKernelFor(scene);
   unitMemoryBytes = workerJobMemory(scene.render, storedTriangles(scene), sceneDataBytes(scene)).total();
@@ -119,9 +122,34 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
     if (it == spec.assets.end()) return std::nullopt;
     return *assets_.get(it->second);
   };
+  JobSpec resolved = spec;
+  if (spec.frames) {
+    const FrameRange& f = *spec.frames;
+    if (f.step < 1)
+      throw FarmError(FarmError::Kind::kInvalidArgument, "frames.step: must be at least 1, got " + std::to_string(f.step));
+    if (f.last < f.first)
+      throw FarmError(FarmError::Kind::kInvalidArgument, "frames: the last frame " + std::to_string(f.last) +
+                                                             " is before the first " + std::to_string(f.first));
+    if (f.count() > kMaxFramesInRange)
+      throw FarmError(FarmError::Kind::kInvalidArgument, "frames: " + std::to_string(f.count()) +
+                                                             " frames; at most " + std::to_string(kMaxFramesInRange) + " a job");
+  }
   Scene scene = parseScene(spec.sceneJson, spec.sceneName, reader);
   applyOverrides(spec.overrides, scene.render, spec.sceneName);
   (void)scene.camera();  // validates the camera at the final resolution
+  if (spec.frames && scene.render.convergenceDriven())
+    throw InputError(spec.sceneName, "target_error / time_limit: an animation renders every frame to its samples; "
+                                     "give samples_per_pixel alone");
+  {
+    // The layout is fixed now, in the spec every process reads: the same units after a restart.
+    uint32_t live = 0;
+    {
+      std::lock_guard lock(mutex_);
+      for (const auto& [id, w] : workers_) live += !w->gone;
+    }
+    resolved.overrides.tileSize = resolveTileSize(scene.render, spec.frames, live);
+    scene.render.tileSize = *resolved.overrides.tileSize;
+  }
   for (const auto& [path, sha] : scene.assets)
     if (!spec.assets.count(path) || spec.assets.at(path) != sha)
       throw FarmError(FarmError::Kind::kInvalidArgument, "asset " + path + " is not listed in the job spec");
@@ -137,12 +165,12 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
                         "; lower the resolution (--resolution) or give the coordinator more (--max-job-memory)");
 
   auto job = std::make_unique<Job>();
-  job->spec = spec;
+  job->spec = resolved;
   job->priority = priority;
   job->setScene(scene);
   try {
     if (options_.beforeJobAllocation) options_.beforeJobAllocation(memory.total());
-    job->film = std::make_unique<Accumulator>(scene.render, job->unitSize, job->units.total());
+    job->film = std::make_unique<Accumulator>(scene.render, job->layout);
   } catch (const std::bad_alloc&) {
     // This job is refused; the coordinator and its other jobs go on.
     const std::string what = spec.sceneName + ": out of memory allocating the " + std::to_string(scene.render.width) +
@@ -212,6 +240,15 @@ JobInfo Coordinator::infoOf(const Job& job) const {
   info.unitsDone = job.unitsAdded;
   info.unitsTotal = job.units.total();
   info.stats = job.stats;
+  if (job.layout.tiled()) {
+    info.tileSize = job.layout.tileSize;
+    info.tilesPerFrame = job.layout.unitsPerFrame();
+  }
+  if (job.layout.frames) {
+    info.frames.resize(job.layout.frameCount());
+    for (uint64_t f = 0; f < info.frames.size(); ++f)
+      info.frames[f] = JobInfo::Frame{job.layout.frameNumber(f), job.film->tilesDone(f), info.tilesPerFrame};
+  }
   info.elapsedSeconds = elapsedSecondsOf(job);
   const double fraction = job.units.total() ? double(job.unitsAdded) / double(job.units.total()) : 0.0;
   if (!isTerminal(job.state) && fraction > 0.0) info.remainingSeconds = info.elapsedSeconds * (1.0 - fraction) / fraction;
@@ -304,32 +341,71 @@ JobInfo Coordinator::cancel(const std::string& jobId) {
   return infoOf(job);
 }
 
-JobImage Coordinator::image(const std::string& jobId) const {
+ImageMetadata Coordinator::metadataOf(const Job& job) const {
+  ImageMetadata metadata;
+  metadata.sceneHash = job.sceneHash;
+  metadata.rendererVersion = kRendererVersion;
+  metadata.extra["job"] = job.id;
+  metadata.extra["scene"] = job.spec.sceneName;
+  metadata.extra["integrator"] = integratorName(job.settings.integrator);
+  metadata.extra["maxBounces"] = std::to_string(job.settings.maxBounces);
+  metadata.extra["seed"] = std::to_string(job.settings.seed);
+  std::string provenance;
+  for (const auto& [name, units] : job.unitsByWorker)
+    provenance += (provenance.empty() ? "" : ", ") + name + ": " + std::to_string(units) + " units";
+  metadata.extra["workers"] = provenance;
+  std::string effects;
+  for (const auto& e : job.effects) effects += (effects.empty() ? "" : "; ") + e;
+  metadata.extra["effects"] = effects;
+  metadata.renderSeconds = elapsedSecondsOf(job);
+  return metadata;
+}
+
+JobImage Coordinator::image(const std::string& jobId, std::optional<int64_t> frame) const {
   JobImage out;
   const Job* job;
+  uint64_t frameIndex = 0;
   {
     std::lock_guard lock(mutex_);
     job = &findJob(jobId);  // jobs are never removed, so the pointer stays valid
     out.exposure = job->settings.exposure;
-    out.metadata.sceneHash = job->sceneHash;
-    out.metadata.rendererVersion = kRendererVersion;
-    out.metadata.extra["job"] = job->id;
-    out.metadata.extra["scene"] = job->spec.sceneName;
-    out.metadata.extra["integrator"] = integratorName(job->settings.integrator);
-    out.metadata.extra["maxBounces"] = std::to_string(job->settings.maxBounces);
-    out.metadata.extra["seed"] = std::to_string(job->settings.seed);
-    std::string provenance;
-    for (const auto& [name, units] : job->unitsByWorker)
-      provenance += (provenance.empty() ? "" : ", ") + name + ": " + std::to_string(units) + " units";
-    out.metadata.extra["workers"] = provenance;
-    std::string effects;
-    for (const auto& e : job->effects) effects += (effects.empty() ? "" : "; ") + e;
-    out.metadata.extra["effects"] = effects;
-    out.metadata.renderSeconds = elapsedSecondsOf(*job);
+    out.metadata = metadataOf(*job);
+    if (frame) {
+      const std::optional<FrameRange>& range = job->layout.frames;
+      const int64_t first = range ? range->first : 0, step = range ? range->step : 1;
+      const int64_t last = range ? range->last : 0;
+      if (*frame < first || *frame > last || (*frame - first) % step != 0)
+        throw FarmError(FarmError::Kind::kNotFound,
+                        jobId + " has no frame " + std::to_string(*frame) +
+                            (range ? " (its frames: " + std::to_string(first) + "-" + std::to_string(last) +
+                                         (step > 1 ? "x" + std::to_string(step) : "") + ")"
+                                   : " (a still)"));
+      frameIndex = uint64_t((*frame - first) / step);
+    }
+    if (job->layout.frames) out.metadata.extra["frame"] = std::to_string(job->layout.frameNumber(frameIndex));
   }
   Accumulator::Developed developed;
   try {
-    developed = job->film->develop();
+    if (job->layout.frames) {
+      // An animation frame: held while its tiles arrive, then stored (frame_store.h).
+      std::optional<Accumulator::Developed> held = job->film->developFrame(frameIndex);
+      if (held) {
+        developed = std::move(*held);
+      } else {
+        ImageMetadata stored;
+        std::optional<Image> image = frames_->read(job->id, frameIndex, &stored);
+        if (!image)
+          throw FarmError(FarmError::Kind::kFailedPrecondition,
+                          job->id + ": frame " + out.metadata.extra["frame"] + " has no tile rendered yet");
+        developed.image = std::move(*image);
+        developed.samplesPerPixel = stored.samplesPerPixel;
+        developed.totalSamples = stored.totalSamples;
+        developed.stats.rays = stored.extra.count("rays") ? std::stoull(stored.extra["rays"]) : 0;
+        developed.stats.dropped = stored.extra.count("droppedSamples") ? std::stoull(stored.extra["droppedSamples"]) : 0;
+      }
+    } else {
+      developed = job->film->develop();
+    }
     applyDiffraction(job->diffraction.get(), developed.image);  // the same image for the farm and `lensfarm render`
   } catch (const std::bad_alloc&) {
     throw FarmError(FarmError::Kind::kResourceExhausted,

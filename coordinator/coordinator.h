@@ -101,6 +101,17 @@ struct JobInfo {
     std::string text;
   };
   std::vector<Event> events;
+  // How the job is cut into units (farm/job_layout.h, docs/farm.md "Tiles and passes"): 0 for
+  // passes over the whole frame, else the tile edge; and, for an animation, each frame's state.
+  int tileSize = 0;
+  uint64_t tilesPerFrame = 0;  // 0 for passes
+  struct Frame {
+    int64_t number = 0;       // the scene frame
+    uint64_t tilesDone = 0;   // of tilesPerFrame
+    bool complete() const { return tilesDone > 0 && tilesDone == tilesTotal; }
+    uint64_t tilesTotal = 0;
+  };
+  std::vector<Frame> frames;  // empty for a still
 
   double raysPerSecond() const { return elapsedSeconds > 0 ? double(stats.rays) / elapsedSeconds : 0.0; }
   double lightHitFraction() const { return stats.paths ? double(stats.lightHits) / double(stats.paths) : 0.0; }
@@ -243,7 +254,10 @@ class Coordinator {
   // Waits until the job's version exceeds `afterVersion` or `timeoutSeconds` pass.
   JobInfo waitForChange(const std::string& jobId, uint64_t afterVersion, double timeoutSeconds) const;
   JobInfo cancel(const std::string& jobId);
-  JobImage image(const std::string& jobId) const;
+  // The image of the job's frame `frame` (a scene frame number of its range; nullopt: a still's
+  // one image, or an animation's first frame). FarmError kNotFound for a frame outside the range,
+  // kFailedPrecondition for an animation frame not rendered yet.
+  JobImage image(const std::string& jobId, std::optional<int64_t> frame = std::nullopt) const;
   // The job's sensor in full precision (Sensor::serialize), as a checkpoint would save it.
   std::string sensorState(const std::string& jobId) const;
   std::vector<WorkerView> workers() const;
@@ -346,7 +360,7 @@ class Coordinator {
   // ---- results and stopping (results.cpp) ----
   bool accept(const UnitResult& result, UnitResult* owned);
   // FarmError kInvalidArgument unless the result is one the unit can produce (results.cpp).
-  static void checkPlausible(const UnitResult& result, const RenderSettings& settings, uint32_t sampleCount);
+  static void checkPlausible(const UnitResult& result, uint64_t cells, uint32_t sampleCount);
   void enforceDeadlines();  // requires mutex_
 
   // ---- the cross-worker audit (auditing.cpp, docs/farm.md "Audit"); all but acceptAudit
@@ -370,7 +384,12 @@ class Coordinator {
   bool mayAudit(const Job& job, const Worker& worker, const std::string& exceptWorker = "") const;
 
   // ---- durable state (persistence.cpp) ----
+  // Stores the frames a tiled job's film completed (outside mutex_), then drops their unit files.
+  void storeCompletedFrames(Job& job);
+  ImageMetadata metadataOf(const Job& job) const;  // requires mutex_
   void restore();
+  // A tiled job's film from its stored frames and its ledger; returns the highest unit counted.
+  std::optional<uint64_t> restoreTiled(Job& job);
   void persistState(const Job& job);  // requires mutex_
   void checkpointLoop();
 
@@ -385,6 +404,7 @@ class Coordinator {
 
   Options options_;
   std::unique_ptr<class StateStore> store_;
+  std::unique_ptr<class FrameStore> frames_;  // tiled jobs' completed frames (frame_store.h)
   uint64_t epoch_ = 0;  // distinguishes ids issued by this run from those of earlier runs
   std::thread checkpointer_;
   std::condition_variable checkpointWake_;

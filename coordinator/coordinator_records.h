@@ -12,6 +12,7 @@
 #include "accumulator.h"
 #include "audit.h"
 #include "coordinator.h"
+#include "farm/job_layout.h"
 #include "job_units.h"
 #include "film/diffraction_psf.h"
 #include "scene/scene.h"
@@ -27,6 +28,7 @@ struct Coordinator::Job {
   RenderSettings settings;
   std::string sceneHash;
   uint32_t unitSize = 1;
+  JobLayout layout;  // how the job is cut into units (farm/job_layout.h), fixed at submission
   uint64_t unitMemoryBytes = 0;  // what one unit takes on a worker (workerJobMemory); leases skip smaller workers
   // Whether `worker` can hold one unit (WorkerInfo::maxUnitMemoryBytes; 0: it did not say).
   bool fitsOn(const WorkerInfo& worker) const {

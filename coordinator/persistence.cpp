@@ -9,6 +9,7 @@
 #include "coordinator.h"
 #include "coordinator_records.h"
 #include "scene/scene_loader.h"
+#include "frame_store.h"
 #include "state_store.h"
 
 namespace lensfarm {
@@ -51,10 +52,73 @@ uint64_t Coordinator::checkpoint() {
   return bytes;
 }
 
+void Coordinator::storeCompletedFrames(Job& job) {
+  std::vector<TileFilm::Completed> done = job.film->takeCompletedFrames();
+  if (done.empty()) return;
+  ImageMetadata metadata;
+  {
+    std::lock_guard lock(mutex_);
+    metadata = metadataOf(job);
+  }
+  const uint64_t perFrame = job.layout.unitsPerFrame();
+  for (TileFilm::Completed& c : done) {
+    if (!store_ && !job.layout.frames) continue;  // a still without a state dir: its film holds it
+    ImageMetadata m = metadata;
+    m.samplesPerPixel = job.layout.samplesPerPixel;
+    m.totalSamples = uint64_t(job.layout.width) * uint64_t(job.layout.height) * job.layout.samplesPerPixel;
+    if (job.layout.frames) m.extra["frame"] = std::to_string(job.layout.frameNumber(c.frameIndex));
+    try {
+      frames_->write(job.id, c.frameIndex, c.image, m);
+      // Stored durably: its tiles' sums are no longer needed (their ledger rows stay).
+      if (store_) store_->dropUnitFiles(job.id, c.frameIndex * perFrame, (c.frameIndex + 1) * perFrame);
+    } catch (const std::exception& e) {
+      // The ledger still holds every tile: a restart stores the frame again.
+      spdlog::error("job {}: cannot store frame {}: {}", job.id, c.frameIndex, e.what());
+    }
+  }
+  std::lock_guard lock(mutex_);
+  touch(job);
+}
+
 static JobState parseJobState(const std::string& name) {
   for (JobState s : {JobState::kQueued, JobState::kRunning, JobState::kDone, JobState::kCancelled, JobState::kFailed})
     if (name == jobStateName(s)) return s;
   throw std::runtime_error("unknown job state " + name);
+}
+
+std::optional<uint64_t> Coordinator::restoreTiled(Job& job) {
+  // Frames stored before the restart count whole (a still's image is read back); the ledger's
+  // other tiles are written again from their unit files, in any order (tile_film.h).
+  job.film = std::make_unique<Accumulator>(job.settings, job.layout);
+  const std::set<uint64_t> stored = frames_->storedFrames(job.id);
+  for (uint64_t f : stored) {
+    if (f >= job.layout.frameCount()) continue;
+    std::optional<Image> image;
+    if (!job.layout.frames) image = frames_->read(job.id, f);
+    job.film->restoreCompleteFrame(f, std::move(image));
+  }
+  std::optional<uint64_t> highest;
+  for (const auto& entry : store_->ledger(job.id)) {
+    if (entry.unit >= job.units.total()) continue;
+    job.units.markReceived(entry.unit);
+    ++job.unitsByWorker[entry.worker];
+    highest = std::max(highest.value_or(0), entry.unit);
+    if (stored.count(job.layout.frameIndexOf(entry.unit))) {
+      job.film->restoreFolded(entry.stats);
+      continue;
+    }
+    UnitResult r;
+    r.jobId = job.id;
+    r.unitIndex = entry.unit;
+    r.workerId = entry.worker;
+    r.stats = entry.stats;
+    const PixelRegion region = job.layout.regionOf(entry.unit);
+    r.buffer.width = region.width;
+    r.buffer.height = region.height;
+    r.buffer.sums = store_->loadUnitSums(job.id, entry.unit, job.layout.sumsOf(entry.unit));
+    job.film->restoreWaiting(std::move(r));
+  }
+  return highest;
 }
 
 void Coordinator::restore() {
@@ -82,9 +146,13 @@ void Coordinator::restore() {
     applyOverrides(job->spec.overrides, scene.render, job->spec.sceneName);
     job->setScene(scene);
 
+    std::optional<uint64_t> highest;
+    uint64_t folded = 0;
+    if (job->layout.tiled()) highest = restoreTiled(*job);
     // The checkpoint holds units [0, folded); the ledger lists every accepted unit.
-    const auto checkpoint = store_->loadCheckpoint(job->id);
-    if (checkpoint) {
+    const auto checkpoint = job->layout.tiled() ? std::nullopt : store_->loadCheckpoint(job->id);
+    if (job->layout.tiled()) {
+    } else if (checkpoint) {
       Sensor sensor = Sensor::deserialize(checkpoint->sensorBytes);
       ConvergenceTracker tracker = ConvergenceTracker::deserialize(checkpoint->trackerBytes);
       job->film = std::make_unique<Accumulator>(scene.render, job->unitSize, job->units.total(), std::move(sensor),
@@ -93,14 +161,11 @@ void Coordinator::restore() {
       job->film = std::make_unique<Accumulator>(scene.render, job->unitSize, job->units.total());
     }
     if (stored.stopUnits) job->film->limitTo(*stored.stopUnits);
-    const uint64_t folded = checkpoint ? checkpoint->foldedUnits : 0;
-    uint64_t highest = 0;
-    bool any = false;
-    for (const auto& entry : store_->ledger(job->id)) {
+    if (checkpoint) folded = checkpoint->foldedUnits;
+    for (const auto& entry : job->layout.tiled() ? std::vector<StateStore::LedgerEntry>{} : store_->ledger(job->id)) {
       job->units.markReceived(entry.unit);
       ++job->unitsByWorker[entry.worker];
-      highest = std::max(highest, entry.unit);
-      any = true;
+      highest = std::max(highest.value_or(0), entry.unit);
       if (entry.unit < folded) {
         job->film->restoreFolded(entry.stats);
         continue;
@@ -116,11 +181,11 @@ void Coordinator::restore() {
     }
     job->film->drain();
     // Units leased before the restart and never acknowledged go back to the queue.
-    job->units.resumeAfter(any ? std::optional<uint64_t>(highest) : std::nullopt);
+    job->units.resumeAfter(highest);
     if (isTerminal(job->state)) job->units.clearPending();
     const Accumulator::Progress progress = job->film->estimateNow();
     job->publish(progress);
-    if (any) job->started = now;  // elapsed time restarts with the coordinator (docs/farm.md)
+    if (highest) job->started = now;  // elapsed time restarts with the coordinator (docs/farm.md)
     if (isTerminal(job->state)) job->started = job->finished = now;
     if (job->state == JobState::kRunning && !progress.stopReason.empty()) {
       // It reached its stop before the restart (or in the replay): same units, same image.
@@ -150,6 +215,9 @@ void Coordinator::restore() {
       spdlog::error("cannot restore {}: out of memory for its buffers; it stays in the state directory", stored.id);
     }
   }
+  // Frames the replay completed (stored only in part before the restart) are stored now.
+  for (auto& [id, job] : jobs_)
+    if (job->layout.tiled()) storeCompletedFrames(*job);
 }
 
 }  // namespace lensfarm

@@ -18,6 +18,12 @@
 namespace lensfarm {
 
 namespace {
+std::string wrongSize(const std::string& jobId, uint64_t unit, int width, int height, const PixelRegion& region) {
+  return "result for unit " + std::to_string(unit) + " of " + jobId + " is " + std::to_string(width) + "x" +
+         std::to_string(height) + "; the unit covers " + std::to_string(region.width) + "x" +
+         std::to_string(region.height) + " cells at (" + std::to_string(region.x) + ", " + std::to_string(region.y) + ")";
+}
+
 // Appends the job's published estimate to its curve when it changed (requires mutex_).
 template <class JobT>
 void recordEstimate(JobT& job, double elapsedSeconds) {
@@ -65,7 +71,7 @@ bool Coordinator::acceptResult(const UnitResult& result) { return accept(result,
 // one sample per pass), so each cell's sum lies in [0, sampleCount x FLT_MAX] and the image's
 // mean stays a finite float; one camera path is traced per cell and sample, and lights hit and
 // samples dropped are among those paths. Anything else did not come from the renderer.
-void Coordinator::checkPlausible(const UnitResult& result, const RenderSettings& settings, uint32_t sampleCount) {
+void Coordinator::checkPlausible(const UnitResult& result, uint64_t cells, uint32_t sampleCount) {
   const std::string what = "result for unit " + std::to_string(result.unitIndex) + " of " + result.jobId;
   const double most = double(sampleCount) * double(std::numeric_limits<float>::max());
   const std::vector<double>& sums = result.buffer.sums;
@@ -76,7 +82,7 @@ void Coordinator::checkPlausible(const UnitResult& result, const RenderSettings&
                           " at cell " + std::to_string(k / 3) + ": a unit of " + std::to_string(sampleCount) +
                           " samples sums each channel of a cell to a value in [0, " + std::to_string(sampleCount) +
                           " x 3.4e38]");
-  const uint64_t paths = uint64_t(settings.width) * uint64_t(settings.height) * sampleCount;
+  const uint64_t paths = cells * sampleCount;
   const PathStats& s = result.stats;
   if (s.paths != paths)
     throw FarmError(FarmError::Kind::kInvalidArgument, what + " counts " + std::to_string(s.paths) +
@@ -101,8 +107,9 @@ void Coordinator::admitUpload(const std::string& workerId, uint64_t leaseId, con
     throw FarmError(FarmError::Kind::kFailedPrecondition, "lease " + std::to_string(leaseId) + " for unit " +
                                                               std::to_string(unit) + " of " + jobId +
                                                               " is not held by " + workerId);
-  if (width != job.settings.width || height != job.settings.height)
-    throw FarmError(FarmError::Kind::kInvalidArgument, "result for " + job.id + " has the wrong size");
+  const PixelRegion region = job.layout.regionOf(unit);
+  if (width != region.width || height != region.height)
+    throw FarmError(FarmError::Kind::kInvalidArgument, wrongSize(job.id, unit, width, height, region));
 }
 
 bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
@@ -110,17 +117,18 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
   // What the unit can produce, checked outside the coordinator's lock (it reads every cell of a
   // frame: leases and heartbeats must not wait for it). A job's settings never change.
   {
-    RenderSettings settings;
+    PixelRegion region;
     uint32_t sampleCount = 0;
     {
       std::lock_guard lock(mutex_);
       const Job& found = findJob(result.jobId);
-      settings = found.settings;
-      if (result.unitIndex < found.units.total())
-        sampleCount = unitAt(result.unitIndex, settings.samplesPerPixel, found.unitSize).sampleCount;
+      if (result.unitIndex < found.units.total()) {
+        sampleCount = found.layout.unit(result.unitIndex).sampleCount;
+        region = found.layout.regionOf(result.unitIndex);
+      }
     }
-    if (sampleCount > 0 && result.buffer.width == settings.width && result.buffer.height == settings.height)
-      checkPlausible(result, settings, sampleCount);
+    if (sampleCount > 0 && result.buffer.width == region.width && result.buffer.height == region.height)
+      checkPlausible(result, uint64_t(region.width) * uint64_t(region.height), sampleCount);
   }
   Job* job;
   std::string workerName;
@@ -143,10 +151,11 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
                                                                 std::to_string(result.unitIndex) + " of " +
                                                                 result.jobId + " is not held by " + result.workerId);
     if (!auditLease) {
-      const int w = job->settings.width, h = job->settings.height;
-      if (result.buffer.width != w || result.buffer.height != h ||
-          result.buffer.sums.size() != size_t(w) * size_t(h) * 3)
-        throw FarmError(FarmError::Kind::kInvalidArgument, "result for " + job->id + " has the wrong size");
+      const PixelRegion region = job->layout.regionOf(result.unitIndex);
+      if (result.buffer.width != region.width || result.buffer.height != region.height ||
+          result.buffer.sums.size() != size_t(region.width) * size_t(region.height) * 3)
+        throw FarmError(FarmError::Kind::kInvalidArgument,
+                        wrongSize(job->id, result.unitIndex, result.buffer.width, result.buffer.height, region));
       Worker& worker = findWorker(result.workerId);
       workerName = worker.info.name.empty() ? worker.id : worker.info.name;
       leases_.erase(result.leaseId);
@@ -207,6 +216,7 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
   }
   // Sum outside the coordinator's lock: large buffers must not stall leases and heartbeats.
   const std::optional<Accumulator::Progress> added = job->film->add(result, owned, generation);
+  if (job->layout.tiled()) storeCompletedFrames(*job);
 
   std::lock_guard lock(mutex_);
   if (!added) {

@@ -44,7 +44,7 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
     if (isTerminal(job->state) || !job->units.hasPending()) continue;
     if (!job->fitsOn(worker.info)) continue;  // its units are for a worker with more memory
     if (job->blocklist.count(worker.id)) continue;  // it failed this job too often (reportFailure)
-    if (!job->units.hasReturned()) {          // a fresh unit: only within the window ahead of the summed prefix
+    if (!job->units.hasReturned() && !job->layout.tiled()) {  // a fresh pass: only within the window ahead of the summed prefix
       const uint64_t window = unitsAheadWindow(job->settings.width, job->settings.height, options_.maxBytesAhead);
       if (job->units.nextFresh() >= job->unitsAdded + window) continue;
     }
@@ -66,8 +66,7 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   worker.currentJobId = job.id;
   worker.currentUnit = unit;
   touch(job);
-  return LeaseGrant{leaseId, job.id, unitAt(unit, job.settings.samplesPerPixel, job.unitSize), job.sceneHash,
-                    options_.leaseTimeoutSeconds};
+  return LeaseGrant{leaseId, job.id, job.layout.unit(unit), job.sceneHash, options_.leaseTimeoutSeconds};
 }
 
 std::optional<LeaseGrant> Coordinator::lease(const std::string& workerId, double waitSeconds) {

@@ -127,6 +127,15 @@ v1::JobStatus toProto(const JobInfo& info) {
     event->set_unix_seconds(e.unixSeconds);
     event->set_text(e.text);
   }
+  s.set_tile_size(uint32_t(std::max(0, info.tileSize)));
+  s.set_tiles_per_frame(info.tilesPerFrame);
+  for (const JobInfo::Frame& f : info.frames) {
+    v1::FrameStatus* frame = s.add_frames();
+    frame->set_frame(f.number);
+    frame->set_tiles_done(f.tilesDone);
+    frame->set_tiles_total(f.tilesTotal);
+    frame->set_complete(f.complete());
+  }
   return s;
 }
 
@@ -219,7 +228,8 @@ grpc::Status ClientServiceImpl::WatchJob(grpc::ServerContext* context, const v1:
 grpc::Status ClientServiceImpl::Download(grpc::ServerContext* context, const v1::DownloadRequest* request,
                                          grpc::ServerWriter<v1::FileChunk>* writer) {
   return guarded(gate_, context, "Download", [&] {
-    JobImage image = coordinator_.image(request->job_id());
+    JobImage image = coordinator_.image(
+        request->job_id(), request->has_frame() ? std::optional<int64_t>(request->frame()) : std::nullopt);
     std::string bytes;
     if (request->format() == v1::IMAGE_FORMAT_PNG) {
       if (request->has_ev()) image.exposure.ev = checkedEv(request->ev());
@@ -239,7 +249,8 @@ grpc::Status ClientServiceImpl::GetSnapshot(grpc::ServerContext* context, const 
     constexpr uint32_t kDefaultSize = 512, kLargest = 1024;  // a 1024^2 PNG stays far below 4 MiB
     const uint32_t maxSize = std::min(request->max_size() ? request->max_size() : kDefaultSize, kLargest);
     *response->mutable_status() = toProto(coordinator_.job(request->job_id()));
-    JobImage image = coordinator_.image(request->job_id());
+    JobImage image = coordinator_.image(
+        request->job_id(), request->has_frame() ? std::optional<int64_t>(request->frame()) : std::nullopt);
     if (request->has_ev()) image.exposure.ev = checkedEv(request->ev());
     // A box filter keeps the mean luminance, so the automatic exposure matches the download's.
     const Image preview = downscaleToFit(image.image, int(maxSize));

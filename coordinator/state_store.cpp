@@ -89,7 +89,10 @@ json specToJson(const JobSpec& spec) {
   if (r.russianRoulette) o["russian_roulette"] = *r.russianRoulette;
   if (r.targetError) o["target_error"] = *r.targetError;
   if (r.timeLimitSeconds) o["time_limit_seconds"] = *r.timeLimitSeconds;
-  return json{{"scene_name", spec.sceneName}, {"scene_json", spec.sceneJson}, {"assets", spec.assets}, {"overrides", o}};
+  if (r.tileSize) o["tile_size"] = *r.tileSize;
+  json out{{"scene_name", spec.sceneName}, {"scene_json", spec.sceneJson}, {"assets", spec.assets}, {"overrides", o}};
+  if (spec.frames) out["frames"] = {spec.frames->first, spec.frames->last, spec.frames->step};
+  return out;
 }
 
 JobSpec specFromJson(const json& j) {
@@ -118,6 +121,11 @@ JobSpec specFromJson(const json& j) {
   if (o.contains("target_error")) r.targetError = o["target_error"].get<double>();
   if (o.contains("time_limit_seconds")) r.timeLimitSeconds = o["time_limit_seconds"].get<double>();
   if (o.contains("ev")) r.ev = o["ev"].get<double>();
+  if (o.contains("tile_size")) r.tileSize = o["tile_size"].get<int>();
+  if (j.contains("frames")) {
+    const json& f = j["frames"];
+    spec.frames = FrameRange{f.at(0).get<int64_t>(), f.at(1).get<int64_t>(), f.at(2).get<int64_t>()};
+  }
   return spec;
 }
 
@@ -270,6 +278,12 @@ void StateStore::forgetUnits(const std::string& jobId, uint64_t fromUnit, const 
     Statement(db_, "DELETE FROM ledger WHERE job_id = ? AND unit = ?").bind(1, jobId).bind(2, int64_t(unit)).step();
   std::error_code ignored;
   for (uint64_t unit : units) fs::remove(jobDir(jobId) / ("unit-" + std::to_string(unit) + ".bin"), ignored);
+}
+
+void StateStore::dropUnitFiles(const std::string& jobId, uint64_t fromUnit, uint64_t toUnit) {
+  std::error_code ignored;
+  for (uint64_t unit = fromUnit; unit < toUnit; ++unit)
+    fs::remove(jobDir(jobId) / ("unit-" + std::to_string(unit) + ".bin"), ignored);
 }
 
 std::vector<StateStore::LedgerEntry> StateStore::ledger(const std::string& jobId) {

@@ -7,7 +7,9 @@
 //   jobs/<id>/sensor.bin      folded (uint64), sensor size (uint64), the job's sensor with units
 //                             [0, folded) added, and its convergence tracker (film/convergence.h)
 //   lock                      flock'ed by the one coordinator using the directory
-//   jobs/<id>/unit-<k>.bin    an accepted unit's sums, until a checkpoint folds it in
+//   jobs/<id>/unit-<k>.bin    an accepted unit's sums, until a checkpoint folds it in (a tiled
+//                             job's: until its frame is stored)
+//   jobs/<id>/frame-<i>.exr   a tiled job's completed frame i (frame_store.h)
 //
 // Every file is written atomically (write, fsync, rename) and SQLite runs with synchronous=FULL,
 // so a unit acknowledged to a worker survives a SIGKILL: its file and ledger row are durable
@@ -73,6 +75,10 @@ class StateStore {
   // [fromUnit, toUnit), except those of `kept`, is removed.
   void forgetUnits(const std::string& jobId, uint64_t fromUnit, const std::set<uint64_t>& kept,
                    uint64_t toUnit = std::numeric_limits<int64_t>::max());
+
+  // A tiled job's frame is stored (frame_store.h): the unit files of [fromUnit, toUnit) are
+  // removed; their ledger rows stay (they say the units are counted, and their counters).
+  void dropUnitFiles(const std::string& jobId, uint64_t fromUnit, uint64_t toUnit);
 
   // Saves the sensor and tracker holding units [0, foldedUnits), then drops their unit files.
   void writeCheckpoint(const std::string& jobId, const std::string& sensorBytes, const std::string& trackerBytes,

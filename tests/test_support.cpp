@@ -76,6 +76,17 @@ json minimalSceneJson() {
   })");
 }
 
+json minimalSceneWithCamera(const json& camera) {
+  json j = minimalSceneJson();
+  for (auto it = camera.begin(); it != camera.end(); ++it) {
+    if (it.value().is_null())
+      j["camera"].erase(it.key());
+    else
+      j["camera"][it.key()] = it.value();
+  }
+  return j;
+}
+
 std::string sphereObj(int rings, int segments) {
   std::ostringstream obj;
   obj << "v 0 1 0\n";

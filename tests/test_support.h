@@ -36,6 +36,8 @@ std::filesystem::path cliPath();     // the built `lensfarm` binary
 
 // A minimal valid scene: a pinhole camera looking along +z at a white quad lit by a quad light.
 nlohmann::json minimalSceneJson();
+// The minimal scene with `camera`'s fields merged into its camera (a null removes that field).
+nlohmann::json minimalSceneWithCamera(const nlohmann::json& camera);
 
 // A scene from scenes/ (e.g. "cornell-seed.json") with its mesh path made absolute, so it loads
 // from any directory.

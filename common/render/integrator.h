@@ -73,6 +73,14 @@ struct PathStats {
     truncated += o.truncated;
     return *this;
   }
+  PathStats& operator-=(const PathStats& o) {  // undoing counts added before
+    paths -= o.paths;
+    rays -= o.rays;
+    lightHits -= o.lightHits;
+    dropped -= o.dropped;
+    truncated -= o.truncated;
+    return *this;
+  }
 };
 
 // Radiance arriving along the camera ray of one sample, with next-event estimation and specular

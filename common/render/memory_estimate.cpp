@@ -79,8 +79,16 @@ uint64_t unitsAheadWindow(int width, int height, uint64_t maxBytesAhead) {
 MemoryEstimate coordinatorJobMemory(const RenderSettings& s, uint64_t maxBytesAhead, bool stateDir,
                                     uint64_t auditCopies) {
   const uint64_t cells = cellsOf(s);
-  const uint64_t held = std::min(unitsOf(s), unitsAheadWindow(s.width, s.height, maxBytesAhead));
   MemoryEstimate e;
+  if (s.tileSize > 0) {
+    // Tiled (farm/job_layout.h): the frame's float image, tiles written as they arrive (no sums,
+    // no tracker, no results waiting); an animation may hold a second frame while one completes;
+    // audited tiles' sums are a tile each.
+    e.items.push_back({"the frame's image (tiled: no sensor)", cells * kImageBytesPerCell});
+    e.items.push_back({"a download", cells * (kImageBytesPerCell + 2 * kExrBytesPerCell)});
+    return e;
+  }
+  const uint64_t held = std::min(unitsOf(s), unitsAheadWindow(s.width, s.height, maxBytesAhead));
   e.items.push_back({"sensor", cells * kSensorBytesPerCell});
   e.items.push_back({"error-estimate half-image", cells * kTrackerBytesPerCell});
   e.items.push_back({std::to_string(held) + (held == 1 ? " unit buffer" : " unit buffers in flight"),

@@ -134,9 +134,16 @@ inline constexpr uint64_t kAutoUnitPaths = uint64_t(1) << 23;
 inline constexpr uint64_t kMaxConvergenceUnitSamples = 16;
 uint32_t unitSize(const RenderSettings& settings);
 
+// The frames of an animated scene's first and last keyframe (docs/scene-format.md, "Animation").
+struct KeyframeRange {
+  double first = 0.0, last = 0.0;
+};
+
 struct Scene {
   std::filesystem::path file;
-  std::string hash;  // SHA-256 of the scene JSON (canonical) and every asset it references
+  // SHA-256 of the scene JSON (canonical, as written: with its keyframes, so one hash for every
+  // frame) and every asset it references. A frame of an animation is (hash, frame).
+  std::string hash;
   std::map<std::string, std::string> assets;  // relative path -> SHA-256 of every asset read
   DVec3 origin{0.0};  // render space's origin in world space: the camera's position in the file
   ThinLensParams cameraParams;  // in render space: position is the origin
@@ -157,6 +164,11 @@ struct Scene {
   // What the loader mapped approximately, ignored or chose for the user (a model's camera, a
   // framing camera, glTF features it approximates): printed at the start of a render.
   std::vector<std::string> notes;
+  // Animation (scene/keyframes.h): the first and last keyframe's frames, none for a still scene;
+  // and the frame the scene was loaded at (the one asked for; else the first keyframe's, or 0).
+  std::optional<KeyframeRange> keyframeRange;
+  double frame = 0.0;
+  bool animated() const { return keyframeRange.has_value(); }
 
   // The camera for the current render settings (resolution may be overridden after loading).
   ThinLensCamera camera() const { return ThinLensCamera(cameraParams, render.width, render.height); }

@@ -24,9 +24,11 @@
 #include "scene/field_reader.h"
 #include "scene/gltf_import.h"
 #include "scene/imported_model.h"
+#include "scene/keyframes.h"
 #include "scene/lens_prescription.h"
 #include "scene/obj_check.h"
 #include "scene/obj_import.h"
+#include "scene/transform.h"
 #include "util/error.h"
 #include "util/hash.h"
 
@@ -47,52 +49,11 @@ std::string showVec3(const DVec3& v) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Transform: scale, then rotate, then translate (all optional), in double like the positions.
-struct Transform {
-  glm::dmat4 matrix{1.0};
-  DVec3 apply(const DVec3& p) const { return DVec3(matrix * glm::dvec4(p, 1.0)); }
-  // Normals go by the inverse transpose, tangents by the matrix itself (both renormalised later).
-  glm::dmat3 normalMatrix() const { return glm::transpose(glm::inverse(glm::dmat3(matrix))); }
-  Vec3 applyToNormal(const Vec3& n) const { return Vec3(normalMatrix() * DVec3(n)); }
-  Vec3 applyToVector(const Vec3& v) const { return Vec3(glm::dmat3(matrix) * DVec3(v)); }
-  bool flipsHandedness() const { return glm::determinant(glm::dmat3(matrix)) < 0.0; }
-};
-
-Transform readTransform(FieldReader& parent, const std::string& key) {
-  Transform t;
-  if (!parent.has(key)) return t;
-  FieldReader r(parent.raw(key), parent.field(key), parent.file());
-  glm::dmat4 scale(1.0), rotate(1.0), translate(1.0);
-  if (r.has("scale")) {
-    const json& s = r.raw("scale");
-    const DVec3 k = s.is_number() ? DVec3(r.number("scale")) : r.dvec3("scale");
-    if (k.x == 0.0 || k.y == 0.0 || k.z == 0.0) r.fail(r.field("scale"), "must not be zero");
-    scale = glm::dmat4(glm::dvec4(k.x, 0, 0, 0), glm::dvec4(0, k.y, 0, 0), glm::dvec4(0, 0, k.z, 0), glm::dvec4(0, 0, 0, 1));
-  }
-  if (r.has("rotate")) {
-    FieldReader rot(r.raw("rotate"), r.field("rotate"), r.file());
-    const DVec3 axis = rot.dvec3("axis");
-    // Divided by its largest component first, so that no length overflows (an axis of 1e300).
-    const double largest = largestAbs(axis);
-    if (!(largest > 0.0)) rot.fail(rot.field("axis"), "must not be zero");
-    const double degrees = rot.number("degrees", -360.0, 360.0);
-    rot.finish();
-    rotate = glm::rotate(glm::dmat4(1.0), glm::radians(degrees), glm::normalize(axis / largest));
-  }
-  if (r.has("translate")) {
-    const DVec3 d = r.dvec3("translate");
-    translate[3] = glm::dvec4(d, 1.0);
-  }
-  r.finish();
-  t.matrix = translate * rotate * scale;
-  return t;
-}
-
-// ---------------------------------------------------------------------------------------------
 class SceneParser {
  public:
-  SceneParser(const json& root, const fs::path& file, AssetReader readAsset)
-      : root_(root), file_(file), fileName_(file.string()), readAsset_(std::move(readAsset)) {}
+  // `root` is evaluated at `frame` in place (scene/keyframes.h) after it is hashed.
+  SceneParser(json& root, const fs::path& file, AssetReader readAsset, std::optional<double> frame)
+      : root_(root), file_(file), fileName_(file.string()), readAsset_(std::move(readAsset)), frame_(frame) {}
 
   Scene parse() {
     FieldReader top(root_, "", fileName_);
@@ -100,7 +61,12 @@ class SceneParser {
     if (format != kSceneFormat)
       top.fail("format", "unsupported format \"" + format + "\" (this renderer reads \"" + kSceneFormat + "\")");
     scene_.file = file_;
-    hash_.update(root_.dump());
+    hash_.update(root_.dump());  // the file as written: one hash for every frame of an animation
+    scene_.frame = frame_.value_or(0.0);
+    if (std::optional<Animation> animation = applyKeyframes(root_, frame_, fileName_)) {
+      scene_.keyframeRange = animation->range;
+      scene_.frame = animation->frame;
+    }
 
     parseRender(top);
     parseMaterials(top);
@@ -1013,7 +979,7 @@ class SceneParser {
     if (flat) std::vector<Vec3>().swap(mesh.normals);
   }
 
-  const json& root_;
+  json& root_;
   fs::path file_;
   std::string fileName_;
   Scene scene_;
@@ -1025,6 +991,7 @@ class SceneParser {
   std::vector<ModelImport> imports_;
   std::string cameraOrigin_ = "camera";  // where the camera's fields come from, for messages
   std::vector<std::string> notes_;        // Scene::notes
+  std::optional<double> frame_;           // the frame to evaluate keyframes at (none: the first)
 };
 
 }  // namespace
@@ -1135,7 +1102,8 @@ void checkNesting(const std::string& text, const fs::path& file) {
 }
 }  // namespace
 
-Scene parseScene(const std::string& text, const fs::path& file, const AssetReader& readAsset) {
+Scene parseScene(const std::string& text, const fs::path& file, const AssetReader& readAsset,
+                 std::optional<double> frame) {
   checkNesting(text, file);
   json root;
   try {
@@ -1152,17 +1120,17 @@ Scene parseScene(const std::string& text, const fs::path& file, const AssetReade
     if (!finder.path.empty()) throw InputError(file.string(), finder.path + ": must be a finite number");
     throw InputError(file.string(), std::string("invalid JSON: ") + e.what());
   }
-  return SceneParser(root, file, readAsset ? readAsset : fileAssetReader(file)).parse();
+  return SceneParser(root, file, readAsset ? readAsset : fileAssetReader(file), frame).parse();
 }
 
-Scene loadScene(const fs::path& file) {
+Scene loadScene(const fs::path& file, std::optional<double> frame) {
   std::error_code ec;
   if (!fs::is_regular_file(file, ec)) throw InputError(file.string(), "no such scene file");
   if (isModelFile(file)) {
     std::string text;
     return modelScene(file, text);
   }
-  return parseScene(readWholeFileOrThrow(file, file.string()), file);
+  return parseScene(readWholeFileOrThrow(file, file.string()), file, {}, frame);
 }
 
 bool isModelFile(const fs::path& file) {

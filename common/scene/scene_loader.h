@@ -43,7 +43,10 @@ using AssetReader = std::function<std::optional<std::string>(const std::string& 
 AssetReader fileAssetReader(const std::filesystem::path& sceneFile);
 
 // A scene file, or a model file (.gltf, .glb, .obj) rendered with modelScene's defaults.
-Scene loadScene(const std::filesystem::path& file);
+// `frame`: the frame of an animated scene to evaluate its keyframes at (docs/scene-format.md,
+// "Animation"; scene/keyframes.h); without one, the scene's first keyframe's frame. A scene
+// without keyframes is the same at every frame.
+Scene loadScene(const std::filesystem::path& file, std::optional<double> frame = std::nullopt);
 
 // Whether `file` names a model rather than a scene (by its extension: .gltf, .glb, .obj).
 bool isModelFile(const std::filesystem::path& file);
@@ -60,8 +63,10 @@ Scene modelScene(const std::filesystem::path& modelFile, std::string& text, cons
 std::string withModelCamera(const std::string& text, const std::filesystem::path& file, const std::string& camera);
 
 // Parses scene text as if read from `file`; assets come from `readAsset` (by default the file
-// system, relative to `file`).
-Scene parseScene(const std::string& text, const std::filesystem::path& file, const AssetReader& readAsset = {});
+// system, relative to `file`). `frame` as for loadScene; Scene::hash is that of the text, the
+// same for every frame.
+Scene parseScene(const std::string& text, const std::filesystem::path& file, const AssetReader& readAsset = {},
+                 std::optional<double> frame = std::nullopt);
 
 // Checks render settings against the limits above (used after command-line overrides too).
 // Throws InputError naming `where` and the field.

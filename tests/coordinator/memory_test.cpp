@@ -8,6 +8,7 @@
 
 #include "audit.h"
 #include "coordinator.h"
+#include "farm/job_layout.h"
 #include "coordinator_fixtures.h"
 #include "in_process_link.h"
 #include "render/memory_estimate.h"
@@ -64,6 +65,8 @@ TEST(CoordinatorMemory, AJobOverTheBudgetIsRefusedWithItsEstimateAndOthersGoOn) 
     settings.width = settings.height = 16384;
     settings.samplesPerPixel = 2;
     settings.samplesPerUnit = 1;
+    settings.tileSize = resolveTileSize(settings, std::nullopt, 0);  // as the coordinator lays it out: tiles
+    EXPECT_EQ(settings.tileSize, kTileEdge);
     const uint64_t estimate = coordinatorJobMemory(settings, options.maxBytesAhead, false, kRewindPoints).total();
     EXPECT_NE(what.find("an estimated " + formatBytes(estimate)), std::string::npos) << what;
     EXPECT_NE(what.find(" GB"), std::string::npos) << what;

@@ -27,16 +27,7 @@ class BadInputCamera : public test::SceneErrorTest {
   BadInputCamera() : SceneErrorTest("cam.json") {}
 
   // The minimal scene (a pinhole 3 units from a 2 x 2 quad) with `camera` merged in.
-  static json withCamera(const json& camera) {
-    json j = test::minimalSceneJson();
-    for (auto it = camera.begin(); it != camera.end(); ++it) {
-      if (it.value().is_null())
-        j["camera"].erase(it.key());
-      else
-        j["camera"][it.key()] = it.value();
-    }
-    return j;
-  }
+  static json withCamera(const json& camera) { return test::minimalSceneWithCamera(camera); }
 };
 
 // ---- millimetres in a scene in metres --------------------------------------------------------

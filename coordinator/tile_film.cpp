@@ -1,0 +1,116 @@
+// TileFilm: a tiled job's float images, written tile by tile (tile_film.h).
+#include "tile_film.h"
+
+#include <algorithm>
+#include <utility>
+
+namespace lensfarm {
+
+TileFilm::TileFilm(JobLayout layout) : layout_(std::move(layout)), tilesDone_(layout_.frameCount(), 0) {}
+
+TileFilm::Frame& TileFilm::frame(uint64_t frameIndex) {
+  auto it = held_.find(frameIndex);
+  if (it != held_.end()) return it->second;
+  Frame f;
+  f.image = Image{layout_.width, layout_.height, std::vector<float>(size_t(layout_.width) * layout_.height * 3, 0.0f)};
+  f.workerOf.resize(layout_.unitsPerFrame());
+  return held_.emplace(frameIndex, std::move(f)).first->second;
+}
+
+bool TileFilm::has(uint64_t u) const {
+  const uint64_t f = layout_.frameIndexOf(u);
+  if (completeFrames_.count(f)) return true;
+  auto it = held_.find(f);
+  return it != held_.end() && !it->second.workerOf[u % layout_.unitsPerFrame()].empty();
+}
+
+bool TileFilm::write(uint64_t u, const SensorBuffer& buffer, const std::string& worker) {
+  if (has(u)) return false;
+  const uint64_t f = layout_.frameIndexOf(u);
+  Frame& fr = frame(f);
+  const PixelRegion r = layout_.regionOf(u);
+  const int w = layout_.width, h = layout_.height;
+  // Sensor::mean and developImage, cell by cell: mean = value * (1 / n); image pixel (x, y) is
+  // cell (W-1-x, H-1-y) (seed §4.7: the lens flips both axes).
+  const double inv = 1.0 / double(layout_.samplesPerPixel);
+  for (int j = 0; j < r.height; ++j) {
+    const int cy = r.y + j;
+    for (int i = 0; i < r.width; ++i) {
+      const int cx = r.x + i;
+      const size_t src = 3 * (size_t(j) * size_t(r.width) + size_t(i));
+      const size_t dst = 3 * (size_t(h - 1 - cy) * size_t(w) + size_t(w - 1 - cx));
+      for (int c = 0; c < 3; ++c) fr.image.rgb[dst + c] = float(buffer.sums[src + c] * inv);
+    }
+  }
+  fr.workerOf[u % layout_.unitsPerFrame()] = worker.empty() ? std::string("?") : worker;
+  ++unitsDone_;
+  if (++tilesDone_[f] == layout_.unitsPerFrame()) justCompleted_.push_back(f);
+  return true;
+}
+
+std::vector<TileFilm::Completed> TileFilm::takeCompleted() {
+  std::vector<Completed> out;
+  for (uint64_t f : justCompleted_) {
+    auto it = held_.find(f);
+    if (it == held_.end()) continue;
+    if (layout_.frames) {
+      out.push_back(Completed{f, std::move(it->second.image)});
+      held_.erase(it);
+      completeFrames_.insert(f);
+    } else {
+      out.push_back(Completed{f, it->second.image});
+    }
+  }
+  justCompleted_.clear();
+  return out;
+}
+
+std::optional<Image> TileFilm::image(uint64_t frameIndex) const {
+  auto it = held_.find(frameIndex);
+  if (it == held_.end()) return std::nullopt;
+  return it->second.image;
+}
+
+void TileFilm::restoreComplete(uint64_t frameIndex, std::optional<Image> image) {
+  if (frameIndex >= tilesDone_.size()) return;
+  unitsDone_ += layout_.unitsPerFrame() - tilesDone_[frameIndex];
+  tilesDone_[frameIndex] = uint32_t(layout_.unitsPerFrame());
+  held_.erase(frameIndex);
+  if (image && !layout_.frames) {
+    Frame& fr = frame(frameIndex);
+    fr.image = std::move(*image);
+    std::fill(fr.workerOf.begin(), fr.workerOf.end(), std::string("restored"));
+  } else {
+    completeFrames_.insert(frameIndex);
+  }
+}
+
+std::set<uint64_t> TileFilm::forgetWorker(uint64_t from, const std::string& worker) {
+  std::set<uint64_t> kept;
+  const uint64_t perFrame = layout_.unitsPerFrame();
+  for (uint64_t f : completeFrames_)
+    for (uint64_t t = 0; t < perFrame; ++t)
+      if (f * perFrame + t >= from) kept.insert(f * perFrame + t);
+  for (auto& [f, fr] : held_) {
+    for (uint64_t t = 0; t < perFrame; ++t) {
+      const uint64_t u = f * perFrame + t;
+      if (u < from || fr.workerOf[t].empty()) continue;
+      if (fr.workerOf[t] == worker) {
+        fr.workerOf[t].clear();
+        --tilesDone_[f];
+        --unitsDone_;
+      } else {
+        kept.insert(u);
+      }
+    }
+  }
+  return kept;
+}
+
+uint64_t TileFilm::memoryBytes() const {
+  uint64_t bytes = tilesDone_.size() * sizeof(uint32_t);
+  for (const auto& [f, fr] : held_) bytes += fr.image.rgb.capacity() * sizeof(float);
+  return bytes;
+}
+
+}  // namespace lensfarm

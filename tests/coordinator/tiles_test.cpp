@@ -1,0 +1,258 @@
+// Tiles and frames (farm/job_layout.h, coordinator/tile_film.h, docs/farm.md "Tiles and passes"):
+// a tiled job gives the same bits as the same job in passes, whatever order tiles arrive in;
+// an animation's frames survive a restart; bad layouts are refused with one clear error.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <tbb/task_arena.h>
+
+#include "coordinator.h"
+#include "coordinator_fixtures.h"
+#include "farm/job_layout.h"
+#include "render/memory_estimate.h"
+#include "render/render_scene.h"
+#include "render/unit_renderer.h"
+#include "scene/render_overrides.h"
+#include "scene/scene_loader.h"
+#include "test_support.h"
+#include "util/error.h"
+
+namespace lensfarm {
+namespace {
+
+using nlohmann::json;
+using test::workerInfo;
+namespace fs = std::filesystem;
+
+bool sameBits(const Image& a, const Image& b) {
+  return a.width == b.width && a.height == b.height && a.rgb.size() == b.rgb.size() &&
+         std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)) == 0;
+}
+
+// A lit quad seen by a pinhole: odd sizes, so that edge tiles are partial; 3 passes of 2 samples.
+JobSpec cornell(int tileSize) {
+  json scene = test::minimalSceneJson();
+  scene["lights"][0]["visible_to_camera"] = true;
+  scene["render"]["resolution"] = {37, 23};
+  scene["render"]["samples_per_pixel"] = 6;
+  scene["render"]["samples_per_unit"] = 2;
+  scene["render"]["max_bounces"] = 2;
+  JobSpec spec{"cornell.json", scene.dump(), {}, {}, std::nullopt};
+  spec.overrides.tileSize = tileSize;
+  return spec;
+}
+
+// Leases every unit first, then renders and uploads them in reverse order (the film must not
+// depend on arrival order), like workers that finish out of order.
+Image renderThrough(const JobSpec& spec, JobInfo* info = nullptr) {
+  Coordinator c;
+  const std::string job = c.submit(spec, 0).id;
+  const std::string w = c.registerWorker(workerInfo("w"));
+  Scene scene = parseScene(spec.sceneJson, spec.sceneName);
+  applyOverrides(spec.overrides, scene.render, spec.sceneName);
+  const RenderScene rs(scene);
+  std::vector<LeaseGrant> grants;
+  while (auto g = c.lease(w, 0)) grants.push_back(*g);
+  std::reverse(grants.begin(), grants.end());
+  tbb::task_arena arena(2);
+  for (const LeaseGrant& g : grants) {
+    UnitResult r = resultForLease(w, g);
+    arena.execute([&] { EXPECT_TRUE(renderUnit(rs, g.unit, r.buffer, r.stats)); });
+    EXPECT_TRUE(c.acceptResult(std::move(r)));
+  }
+  while (auto g = c.lease(w, 0)) {  // units an audit (or a pass that waited) still needs
+    UnitResult r = resultForLease(w, *g);
+    arena.execute([&] { EXPECT_TRUE(renderUnit(rs, g->unit, r.buffer, r.stats)); });
+    c.acceptResult(std::move(r));
+  }
+  if (info) *info = c.job(job);
+  EXPECT_EQ(c.job(job).state, JobState::kDone);
+  return c.image(job).image;
+}
+
+TEST(TiledJob, SameBitsAsPassesWhateverTheTilesAndTheirOrder) {
+  JobInfo passes, tiles8, whole;
+  const Image reference = renderThrough(cornell(RenderSettings::kTilesOff), &passes);
+  EXPECT_EQ(passes.tileSize, 0);
+  EXPECT_EQ(passes.unitsTotal, 3u);  // three passes over the frame
+  const Image tiled = renderThrough(cornell(8), &tiles8);
+  EXPECT_EQ(tiles8.tileSize, 8);
+  EXPECT_EQ(tiles8.unitsTotal, 5u * 3u);  // 37 x 23 in tiles of 8: 5 x 3, each with every sample
+  EXPECT_EQ(tiles8.stats.paths, passes.stats.paths);
+  EXPECT_EQ(tiles8.stats.rays, passes.stats.rays);
+  EXPECT_TRUE(sameBits(reference, tiled));
+  const Image one = renderThrough(cornell(37), &whole);  // one tile: the whole frame at once
+  EXPECT_EQ(whole.unitsTotal, 1u);
+  EXPECT_TRUE(sameBits(reference, one));
+  // And the image is not trivially equal: it has light in it.
+  double sum = 0;
+  for (float v : reference.rgb) sum += v;
+  EXPECT_GT(sum, 0.0);
+}
+
+TEST(TiledJob, LayoutCutsTheFrameIntoTilesWithEveryCellOnce) {
+  RenderSettings s;
+  s.width = 1000;
+  s.height = 300;
+  s.samplesPerPixel = 9;
+  s.samplesPerUnit = 4;
+  s.tileSize = 256;
+  const JobLayout l = JobLayout::of(s, FrameRange{10, 20, 5});
+  EXPECT_EQ(l.tilesX(), 4);
+  EXPECT_EQ(l.tilesY(), 2);
+  EXPECT_EQ(l.frameCount(), 3u);
+  EXPECT_EQ(l.unitCount(), 24u);
+  std::vector<int> covered(size_t(s.width) * s.height, 0);
+  for (uint64_t u = 0; u < l.unitsPerFrame(); ++u) {
+    const WorkUnit w = l.unit(u);
+    EXPECT_EQ(w.sampleCount, 9u);
+    EXPECT_EQ(w.passSamples, 4u);
+    for (int y = w.region.y; y < w.region.y + w.region.height; ++y)
+      for (int x = w.region.x; x < w.region.x + w.region.width; ++x) ++covered[size_t(y) * s.width + x];
+  }
+  EXPECT_TRUE(std::all_of(covered.begin(), covered.end(), [](int n) { return n == 1; }));
+  EXPECT_EQ(l.unit(8).frame, 15);   // frame index 1 of 10, 15, 20
+  EXPECT_EQ(l.unit(23).frame, 20);
+  EXPECT_EQ(l.regionOf(7).width, 1000 - 3 * 256);
+  EXPECT_EQ(l.regionOf(7).height, 300 - 256);
+}
+
+TEST(TiledJob, AutomaticLayoutFollowsFrameSizeAnimationAndWorkers) {
+  RenderSettings s;
+  s.width = 800;
+  s.height = 800;
+  s.samplesPerPixel = 64;
+  EXPECT_EQ(resolveTileSize(s, std::nullopt, 8), RenderSettings::kTilesOff);  // a small still: passes
+  s.width = 3840;
+  s.height = 2160;
+  EXPECT_EQ(resolveTileSize(s, std::nullopt, 8), kTileEdge);  // 4K: tiles
+  EXPECT_EQ(resolveTileSize(s, std::nullopt, 1000), kMinTileEdge);  // many workers: smaller tiles
+  s.targetError = 0.01;
+  EXPECT_EQ(resolveTileSize(s, std::nullopt, 8), RenderSettings::kTilesOff);  // stops need passes
+  s.targetError = 0;
+  s.width = 1920;
+  s.height = 1080;
+  EXPECT_EQ(resolveTileSize(s, FrameRange{1, 240, 1}, 100), 1920);  // a big farm: whole frames
+  const int small = resolveTileSize(s, FrameRange{1, 24, 1}, 1000);  // a small farm for its frames: tiles
+  EXPECT_LT(small, kTileEdge);
+  EXPECT_GE(small, kMinTileEdge);
+  // A tiled 4K job's coordinator holds its frame's float image and nothing frame-sized besides,
+  // but for a download while it is served (issue 24); in passes it holds a sensor and a tracker.
+  s.width = 3840;
+  s.height = 2160;
+  s.tileSize = kTileEdge;
+  const uint64_t frame = uint64_t(s.width) * s.height * 3 * sizeof(float);
+  const MemoryEstimate tiled = coordinatorJobMemory(s, uint64_t(2) << 30, true, 2);
+  ASSERT_EQ(tiled.items.size(), 2u);
+  EXPECT_EQ(tiled.items[0].bytes, frame);
+  s.tileSize = RenderSettings::kTilesOff;
+  EXPECT_GT(coordinatorJobMemory(s, uint64_t(2) << 30, true, 2).total(), 10 * frame);
+}
+
+// An animation of constant tiles: frame f's pixels are (unit + 1) / spp exactly.
+JobSpec animation() {
+  json scene = test::minimalSceneJson();
+  scene["render"]["resolution"] = {5, 3};
+  scene["render"]["samples_per_pixel"] = 4;
+  JobSpec spec{"anim.json", scene.dump(), {}, {}, FrameRange{7, 11, 2}};
+  spec.overrides.tileSize = 2;  // 3 x 2 tiles a frame, edge tiles 1 wide or high
+  return spec;
+}
+
+UnitResult tileResult(const std::string& w, const LeaseGrant& g) {
+  return test::resultFor(w, g, double(g.unit.index + 1) * 4.0, 0.0, g.unit.region.width, g.unit.region.height);
+}
+
+TEST(TiledJob, AnimationFramesSurviveARestartBitForBit) {
+  test::TempDir dir;
+  Coordinator::Options options;
+  options.stateDir = dir / "state";
+  options.auditFraction = 0;
+  std::string job;
+  {
+    Coordinator first(options);
+    job = first.submit(animation(), 0).id;
+    const std::string w = first.registerWorker(workerInfo("w"));
+    // Frame 7 whole and half of frame 9, then the coordinator goes.
+    for (int k = 0; k < 9; ++k) ASSERT_TRUE(first.acceptResult(tileResult(w, *first.lease(w, 0))));
+    const JobInfo info = first.job(job);
+    ASSERT_EQ(info.frames.size(), 3u);
+    EXPECT_TRUE(info.frames[0].complete());
+    EXPECT_EQ(info.frames[1].tilesDone, 3u);
+    EXPECT_TRUE(fs::exists(dir / "state" / "jobs" / job / "frame-0.exr"));
+    EXPECT_FALSE(fs::exists(dir / "state" / "jobs" / job / "unit-0.bin"));  // stored: its tiles' sums dropped
+  }
+  Coordinator second(options);
+  EXPECT_EQ(second.job(job).unitsDone, 9u);
+  const std::string w = second.registerWorker(workerInfo("w2"));
+  while (auto g = second.lease(w, 0)) ASSERT_TRUE(second.acceptResult(tileResult(w, *g)));
+  const JobInfo info = second.job(job);
+  EXPECT_EQ(info.state, JobState::kDone);
+  for (int64_t frame : {7, 9, 11}) {
+    const Image image = second.image(job, frame).image;
+    const uint64_t f = uint64_t(frame - 7) / 2;
+    // Image pixel (x, y) is cell (4 - x, 2 - y); the cell's tile is (cx / 2, cy / 2) of 3 x 2.
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < 5; ++x) {
+        const int cx = 4 - x, cy = 2 - y;
+        const uint64_t unit = f * 6 + uint64_t(cy / 2) * 3 + uint64_t(cx / 2);
+        ASSERT_EQ(image.rgb[3 * (size_t(y) * 5 + x)], float(double(unit + 1) * 4.0 * (1.0 / 4.0)))
+            << "frame " << frame << " pixel " << x << "," << y;
+      }
+  }
+  EXPECT_THROW(second.image(job, 8), FarmError);   // not a frame of 7-11x2
+  EXPECT_THROW(second.image(job, 13), FarmError);
+}
+
+TEST(TiledJob, RefusesUploadsOfTheWrongRegion) {
+  Coordinator c;
+  const std::string job = c.submit(animation(), 0).id;
+  const std::string w = c.registerWorker(workerInfo("w"));
+  const LeaseGrant g = *c.lease(w, 0);
+  EXPECT_EQ(g.unit.region.width, 2);
+  try {
+    c.acceptResult(test::resultFor(w, g, 1.0, 0.0, 5, 3));  // the whole frame, not its tile
+    FAIL() << "accepted a frame-sized upload for a tile";
+  } catch (const FarmError& e) {
+    EXPECT_EQ(e.kind(), FarmError::Kind::kInvalidArgument);
+    EXPECT_NE(std::string(e.what()).find("the unit covers 2x2 cells at (0, 0)"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(c.admitUpload(w, g.leaseId, job, g.unit.index, 5, 3), FarmError);
+  EXPECT_TRUE(c.acceptResult(tileResult(w, g)));
+}
+
+TEST(TiledJob, BadLayoutsGetOneClearError) {
+  const auto message = [](const std::function<void()>& f) {
+    try {
+      f();
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  Coordinator c;
+  JobSpec spec = animation();
+  spec.frames = FrameRange{10, 1, 1};
+  EXPECT_NE(message([&] { c.submit(spec, 0); }).find("frames: the last frame 1 is before the first 10"), std::string::npos);
+  spec.frames = FrameRange{1, 10, 0};
+  EXPECT_NE(message([&] { c.submit(spec, 0); }).find("frames.step: must be at least 1"), std::string::npos);
+  spec = animation();
+  spec.overrides.tileSize = 6;  // the frame is 5 x 3
+  EXPECT_NE(message([&] { c.submit(spec, 0); }).find("tile_size: 6 is larger than the 5x3 frame"), std::string::npos);
+  spec = animation();
+  spec.overrides.tileSize.reset();
+  spec.overrides.targetError = 0.05;
+  EXPECT_NE(message([&] { c.submit(spec, 0); }).find("an animation renders every frame"), std::string::npos);
+  RenderOverrides o;
+  EXPECT_NE(message([&] { parseTileSize("0", o); }).find("--tile-size"), std::string::npos);
+  EXPECT_NO_THROW(parseTileSize("auto", o));
+  json scene = test::minimalSceneJson();
+  scene["render"]["tile_size"] = 0;
+  EXPECT_NE(message([&] { parseScene(scene.dump(), "zero.json"); }).find("render.tile_size"), std::string::npos);
+  EXPECT_EQ(c.jobs().size(), 0u);  // nothing was queued
+}
+
+}  // namespace
+}  // namespace lensfarm
