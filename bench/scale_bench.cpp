@@ -112,17 +112,25 @@ class Client {
     check(stub_->SubmitJob(context().get(), request, &response), "SubmitJob");
     return response.job_id();
   }
+  // Retried for 30 s while the coordinator is unreachable (an overloaded one drops connections).
   v1::JobStatus get(const std::string& job) {
     v1::GetJobRequest request;
     request.set_job_id(job);
     v1::JobStatus status;
-    check(stub_->GetJob(context().get(), request, &status), "GetJob");
+    grpc::Status s;
+    for (int attempt = 0; attempt < 60; ++attempt) {
+      s = stub_->GetJob(context().get(), request, &status);
+      if (s.error_code() != grpc::StatusCode::UNAVAILABLE) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    }
+    check(s, "GetJob");
     return status;
   }
-  // The job's image as EXR bytes.
-  std::string download(const std::string& job) {
+  // The job's image (an animation's `frame`) as EXR bytes.
+  std::string download(const std::string& job, std::optional<int64_t> frame) {
     v1::DownloadRequest request;
     request.set_job_id(job);
+    if (frame) request.set_frame(*frame);
     request.set_format(v1::IMAGE_FORMAT_EXR);
     auto ctx = context();
     auto reader = stub_->Download(ctx.get(), request);
@@ -150,6 +158,7 @@ struct RunReport {
   JobPlan plan;
   bool done = false, exact = false, withinMemory = false;
   std::string failure;
+  uint32_t tileSize = 0;  // the coordinator's choice; 0: passes
   uint64_t unitsTotal = 0, unitsDone = 0, paths = 0, auditsPassed = 0, auditsFailed = 0;
   double submitToDone = 0, coordinatorCpu = 0, idleCpuPerCall = 0, idleCallsPerSecond = 0;
   double lastAckToDone = 0, lastAckToDownloaded = 0;
@@ -157,27 +166,48 @@ struct RunReport {
   FarmTally tally;
 };
 
-// The coordinator's peak memory may not exceed what it held with the farm
-// registered and idle (connections, threads, gRPC buffers), plus, per frame
-// open at once, the film (sensor, the convergence tracker's half-image, the
-// developed image and its EXR) and the audit's rewind copies of the sensor
-// (render/memory_estimate.h gives the bytes a cell of each), plus five of the
-// largest unit's buffers for every worker, plus 64 MiB of allocator slack.
-// Five: an upload in flight is held as gRPC's receive slices, the assembled
-// message and the unit's SensorBuffer, the audit keeps a copy of a counted unit
-// until another worker renders it again (each worker's first unit is audited),
-// and glibc's arenas keep freed blocks of that size for reuse; measured, a
-// thousand workers uploading at once raised the peak by 2.9 to 3.9 units a
-// worker.
-uint64_t memoryBound(const JobPlan& plan, uint64_t unitsPerFrame, uint64_t largestUnitCells, uint64_t idleRss,
-                     int workers) {
+// The coordinator's peak memory may not exceed what it held with the farm registered and idle
+// (connections, threads, gRPC buffers), plus the film of every frame open at once, plus five of
+// the largest unit's buffers for every worker, plus 64 MiB of allocator slack.
+//  - Film of a tiled job (coordinator/tile_film.h): a float image a frame being rendered, and when
+//    it is served, the stored frame read back and its EXR: three float frames (12 B a cell each),
+//    the acceptance bound. Frames open at once: the still; for an animation, the frames
+//    the workers' leases span (units are frame-major) and two more.
+//  - Film of a job in passes: the sensor, the convergence tracker's half-image, the developed
+//    image, its EXR and the audit's rewind copies of the sensor (render/memory_estimate.h gives
+//    the bytes a cell of each).
+//  - Five unit buffers a worker: an upload in flight is held as gRPC's receive slices, the
+//    assembled message and the unit's SensorBuffer, the audit keeps a copy of a counted unit until
+//    another worker renders it again (each worker's first unit is audited), and glibc keeps freed
+//    blocks of that size for reuse. Measured, a thousand workers uploading at once raised the peak
+//    by 2.9 to 3.9 units a worker.
+uint64_t memoryBound(const JobPlan& plan, bool tiled, uint64_t unitsPerFrame, uint64_t largestUnitCells,
+                     uint64_t idleRss, int workers) {
   const uint64_t cells = uint64_t(plan.width) * uint64_t(plan.height);
   const uint64_t filmPerCell =
-      (1 + kRewindPoints) * kSensorBytesPerCell + kTrackerBytesPerCell + kImageBytesPerCell + kExrBytesPerCell;
-  const uint64_t openFrames =
-      plan.frames ? std::min<uint64_t>(plan.frameCount(), uint64_t(workers) / unitsPerFrame + 2) : 1;
+      tiled ? 3 * kImageBytesPerCell
+            : (1 + kRewindPoints) * kSensorBytesPerCell + kTrackerBytesPerCell + kImageBytesPerCell + kExrBytesPerCell;
+  const uint64_t framesSpanned = tiled ? uint64_t(workers) / unitsPerFrame + 2 : 1;
+  const uint64_t openFrames = plan.frames ? std::min<uint64_t>(plan.frameCount(), framesSpanned) : 1;
   return idleRss + openFrames * cells * filmPerCell +
          uint64_t(workers) * 5 * largestUnitCells * kUnitBufferBytesPerCell + (uint64_t(64) << 20);
+}
+
+// Where `image` (scene frame `frame` of the job) differs from the known one; "" if nowhere.
+std::string wrongPixel(const Image& image, const JobPlan& plan, int64_t frame) {
+  const std::string where = plan.frames ? "frame " + std::to_string(frame) + ": " : std::string();
+  if (image.width != plan.width || image.height != plan.height) return where + "the image has the wrong size";
+  for (int y = 0; y < plan.height; ++y)
+    for (int x = 0; x < plan.width; ++x) {
+      const double expected = expectedCell(plan.width - 1 - x, plan.height - 1 - y, frame, plan.samplesPerPixel);
+      for (int c = 0; c < 3; ++c) {
+        const float value = image.rgb[3 * (size_t(y) * size_t(plan.width) + size_t(x)) + size_t(c)];
+        if (value != float(expected))
+          return where + "pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") holds " + std::to_string(value) +
+                 ", not the mean of its samples " + std::to_string(expected);
+      }
+    }
+  return "";
 }
 
 RunReport runJob(const Settings& settings, const JobPlan& plan) {
@@ -221,7 +251,13 @@ RunReport runJob(const Settings& settings, const JobPlan& plan) {
   const std::string job = client.submit(jobSpecOf(plan));
   v1::JobStatus status;
   for (;;) {
-    status = client.get(job);
+    try {
+      status = client.get(job);
+    } catch (const std::exception& e) {
+      const std::string log = coordinator.log();
+      throw std::runtime_error(std::string(e.what()) + (coordinator.running() ? "" : " (the coordinator exited)") +
+                               "; its log ends: " + log.substr(log.size() > 2000 ? log.size() - 2000 : 0));
+    }
     if (status.state() != v1::JOB_STATE_QUEUED && status.state() != v1::JOB_STATE_RUNNING) break;
     if (secondsBetween(submitted, Clock::now()) > settings.timeoutSeconds) break;
     if (farm.oversizedUnitBytes() > 0) break;
@@ -229,8 +265,10 @@ RunReport runJob(const Settings& settings, const JobPlan& plan) {
   }
   const auto doneAt = Clock::now();
   report.done = status.state() == v1::JOB_STATE_DONE;
+  // The final image: the still, or the animation's last frame.
+  const std::optional<int64_t> lastFrame = plan.frames ? std::optional<int64_t>(plan.frames->last) : std::nullopt;
   std::string exr;
-  if (report.done) exr = client.download(job);
+  if (report.done) exr = client.download(job, lastFrame);
   const auto downloadedAt = Clock::now();
   report.coordinatorCpu = coordinator.cpuSeconds() - cpu0;
   report.callsInRun = farm.heartbeatsSent() + farm.leaseCalls() - calls0;
@@ -250,7 +288,8 @@ RunReport runJob(const Settings& settings, const JobPlan& plan) {
   report.paths = status.progress().paths();
   report.auditsPassed = status.audits_passed();
   report.auditsFailed = status.audits_failed();
-  report.rssBound = memoryBound(plan, std::max<uint64_t>(1, report.unitsTotal / plan.frameCount()),
+  report.tileSize = status.tile_size();
+  report.rssBound = memoryBound(plan, report.tileSize > 0, std::max<uint64_t>(1, report.unitsTotal / plan.frameCount()),
                                 report.tally.largestUnitCells, report.idleRss, settings.workers);
   report.withinMemory = report.peakRss <= report.rssBound;
   if (const uint64_t oversized = farm.oversizedUnitBytes(); oversized > 0) {
@@ -264,22 +303,12 @@ RunReport runJob(const Settings& settings, const JobPlan& plan) {
     report.failure = "the job ended " + v1::JobState_Name(status.state()) + " " + status.error();
     return report;
   }
-  // The exact image: every pixel the known mean of its samples.
-  const Image image = decodeExr(exr);
-  report.exact = image.width == plan.width && image.height == plan.height;
-  const int64_t frame = plan.frames ? plan.frames->first : 0;
-  for (int y = 0; y < plan.height && report.exact; ++y)
-    for (int x = 0; x < plan.width && report.exact; ++x) {
-      const double expected = expectedCell(plan.width - 1 - x, plan.height - 1 - y, frame, plan.samplesPerPixel);
-      for (int c = 0; c < 3; ++c) {
-        const float value = image.rgb[3 * (size_t(y) * size_t(plan.width) + size_t(x)) + size_t(c)];
-        if (value != float(expected)) {
-          report.exact = false;
-          report.failure = "pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") holds " +
-                           std::to_string(value) + ", not the mean of its samples " + std::to_string(expected);
-        }
-      }
-    }
+  // The exact image: every pixel of every frame the known mean of its samples.
+  report.failure = wrongPixel(decodeExr(exr), plan, lastFrame.value_or(0));
+  for (uint64_t f = 0; plan.frames && f + 1 < plan.frameCount() && report.failure.empty(); ++f)
+    report.failure =
+        wrongPixel(decodeExr(client.download(job, plan.frames->frameAt(f))), plan, plan.frames->frameAt(f));
+  report.exact = report.failure.empty();
   const uint64_t paths = uint64_t(plan.width) * uint64_t(plan.height) * plan.samplesPerPixel * plan.frameCount();
   if (report.paths != paths) {
     report.exact = false;
@@ -307,6 +336,7 @@ json reportJson(const RunReport& r, const Settings& s) {
       {"height", r.plan.height},
       {"frames", r.plan.frameCount()},
       {"spp", r.plan.samplesPerPixel},
+      {"tile_size", r.tileSize},
       {"workers", s.workers},
       {"render_seconds", s.renderSeconds},
       {"done", r.done},
@@ -349,9 +379,11 @@ void printReport(const json& r) {
       r["job"].get<std::string>().c_str(), r["width"].get<int>(), r["height"].get<int>(),
       (unsigned long long)r["frames"].get<uint64_t>(), (unsigned long long)r["spp"].get<uint64_t>(),
       r["workers"].get<int>(), r["render_seconds"].get<double>());
-  std::printf("  units %llu in %.2f s: %.1f units/s; exact image: %s\n", (unsigned long long)r["units"].get<uint64_t>(),
-              r["submit_to_done_seconds"].get<double>(), r["units_per_second"].get<double>(),
-              r["exact_image"].get<bool>() ? "yes" : "NO");
+  const uint64_t tile = r["tile_size"].get<uint64_t>();
+  std::printf(
+      "  units %llu (%s) in %.2f s: %.1f units/s; exact image: %s\n", (unsigned long long)r["units"].get<uint64_t>(),
+      tile > 0 ? ("tiles of " + std::to_string(tile)).c_str() : "passes", r["submit_to_done_seconds"].get<double>(),
+      r["units_per_second"].get<double>(), r["exact_image"].get<bool>() ? "yes" : "NO");
   std::printf(
       "  coordinator CPU %.2f s = %.1f %% of wall; idle farm %.0f "
       "calls/s at %.1f us CPU each; %.3f ms CPU a unit\n",

@@ -162,6 +162,14 @@ void SimulatedFarm::run(int index) {
   std::uniform_real_distribution<double> jitter(0.5, 1.5);
   std::vector<std::string> jobsSeen;
   UnitResult result;
+  // After a failed call (the coordinator unreachable or overloaded), wait as lensfarm-worker does
+  // (--max-backoff, 0.1 s doubling to 2 s, jittered) instead of retrying at once: a thousand
+  // workers retrying in a loop would be a load test of the retries.
+  double backoff = 0.1;
+  const auto backOff = [&] {
+    std::this_thread::sleep_for(std::chrono::duration<double>(backoff * jitter(rng)));
+    backoff = std::min(2.0, 2 * backoff);
+  };
   const auto forget = [&](const std::string& id) {  // the coordinator does not
                                                     // know us: register again
     std::lock_guard lock(w.mutex);
@@ -188,21 +196,23 @@ void SimulatedFarm::run(int index) {
         w.id = r.workerId;
       } catch (const std::exception& e) {
         fail(tally, "RegisterWorker", e);
-        std::this_thread::sleep_for(std::chrono::milliseconds(200));
+        backOff();
       }
       continue;
     }
     std::optional<LeaseGrant> grant;
     const auto t = Clock::now();
     try {
-      ++leaseCalls_;
       grant = w.link.lease(id, config_.leaseWaitSeconds);
+      ++leaseCalls_;
+      backoff = 0.1;
     } catch (const FarmError& e) {
       if (e.kind() == FarmError::Kind::kUnknownWorker) forget(id);
       fail(tally, "LeaseWork", e);
       continue;
     } catch (const std::exception& e) {
       fail(tally, "LeaseWork", e);
+      backOff();
       continue;
     }
     if (!grant) {
@@ -254,8 +264,10 @@ void SimulatedFarm::run(int index) {
     } catch (const FarmError& e) {
       if (e.kind() == FarmError::Kind::kUnknownWorker) forget(id);
       ++tally.refused;
+      ++tally.failures["UploadResult refused: " + std::string(e.what()).substr(0, 100)];
     } catch (const std::exception& e) {
       fail(tally, "UploadResult", e);
+      backOff();
     }
     std::lock_guard lock(w.mutex);
     w.lease.reset();

@@ -78,7 +78,7 @@ class SimulatedFarm {
 
   int registered() const { return registered_.load(); }
   uint64_t heartbeatsSent() const { return heartbeats_.load(); }
-  uint64_t leaseCalls() const { return leaseCalls_.load(); }
+  uint64_t leaseCalls() const { return leaseCalls_.load(); }  // those answered (a unit or none)
   // The sums of a unit larger than FarmConfig::maxUnitBytes a worker was leased; 0 if none.
   uint64_t oversizedUnitBytes() const { return oversized_.load(); }
   // Records the latencies only of calls made from now on (to measure from the
