@@ -264,14 +264,15 @@ RunReport runJob(const Settings& settings, const JobPlan& plan) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   const auto doneAt = Clock::now();
+  // The run's CPU: submission to the job seen done (serving the image is not the farm's work).
+  report.coordinatorCpu = coordinator.cpuSeconds() - cpu0;
+  report.callsInRun = farm.heartbeatsSent() + farm.leaseCalls() - calls0;
   report.done = status.state() == v1::JOB_STATE_DONE;
   // The final image: the still, or the animation's last frame.
   const std::optional<int64_t> lastFrame = plan.frames ? std::optional<int64_t>(plan.frames->last) : std::nullopt;
   std::string exr;
   if (report.done) exr = client.download(job, lastFrame);
   const auto downloadedAt = Clock::now();
-  report.coordinatorCpu = coordinator.cpuSeconds() - cpu0;
-  report.callsInRun = farm.heartbeatsSent() + farm.leaseCalls() - calls0;
   report.submitToDone = secondsBetween(submitted, doneAt);
   report.tally = farm.stop();
   // The job is seen done within one poll (10 ms) of it: the last acknowledgment

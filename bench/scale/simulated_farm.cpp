@@ -163,7 +163,7 @@ void SimulatedFarm::run(int index) {
   std::vector<std::string> jobsSeen;
   UnitResult result;
   // After a failed call (the coordinator unreachable or overloaded), wait as lensfarm-worker does
-  // (--max-backoff, 0.1 s doubling to 2 s, jittered) instead of retrying at once: a thousand
+  // (0.1 s doubling to 2 s, jittered; its --max-backoff is 5 s) instead of retrying at once: a thousand
   // workers retrying in a loop would be a load test of the retries.
   double backoff = 0.1;
   const auto backOff = [&] {
