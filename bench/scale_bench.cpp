@@ -306,10 +306,15 @@ RunReport runJob(const Settings& settings, const JobPlan& plan) {
   }
   // The exact image: every pixel of every frame the known mean of its samples.
   report.failure = wrongPixel(decodeExr(exr), plan, lastFrame.value_or(0));
-  for (uint64_t f = 0; plan.frames && f + 1 < plan.frameCount() && report.failure.empty(); ++f)
-    report.failure =
-        wrongPixel(decodeExr(client.download(job, plan.frames->frameAt(f))), plan, plan.frames->frameAt(f));
+  try {
+    for (uint64_t f = 0; plan.frames && f + 1 < plan.frameCount() && report.failure.empty(); ++f)
+      report.failure =
+          wrongPixel(decodeExr(client.download(job, plan.frames->frameAt(f))), plan, plan.frames->frameAt(f));
+  } catch (const std::exception& e) {
+    report.failure = e.what();
+  }
   report.exact = report.failure.empty();
+  if (!report.exact) report.failure += " (the coordinator's files are kept in " + coordinator.keepFiles() + ")";
   const uint64_t paths = uint64_t(plan.width) * uint64_t(plan.height) * plan.samplesPerPixel * plan.frameCount();
   if (report.paths != paths) {
     report.exact = false;

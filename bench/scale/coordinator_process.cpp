@@ -104,7 +104,7 @@ void CoordinatorProcess::stop() {
     reaped_ = true;
   }
   std::error_code ignored;
-  if (!dir_.empty()) fs::remove_all(dir_, ignored);
+  if (!dir_.empty() && !keep_) fs::remove_all(dir_, ignored);
   dir_.clear();
 }
 

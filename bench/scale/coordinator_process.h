@@ -38,12 +38,17 @@ class CoordinatorProcess {
   // throws if unreachable.
   std::map<std::string, double> metrics() const;
   std::string log() const;  // stderr so far
+  // Leaves the temp dir (state dir, stdout, stderr) in place when the process goes; returns it.
+  std::string keepFiles() {
+    keep_ = true;
+    return dir_.string();
+  }
 
  private:
   void stop();  // what the destructor does
   std::filesystem::path dir_;
   pid_t pid_ = -1;
-  bool reaped_ = false;
+  bool reaped_ = false, keep_ = false;
   std::string address_, metricsAddress_, clientToken_, workerToken_;
 };
 
