@@ -15,6 +15,8 @@ Runner addWatchCommand(CLI::App& app);
 Runner addDownloadCommand(CLI::App& app);
 Runner addSnapshotCommand(CLI::App& app);
 Runner addCancelCommand(CLI::App& app);
+Runner addDeleteCommand(CLI::App& app);
+Runner addArchiveCommand(CLI::App& app);
 Runner addWorkersCommand(CLI::App& app);
 Runner addStudyCommand(CLI::App& app);
 Runner addCompareCommand(CLI::App& app);

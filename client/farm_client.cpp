@@ -90,11 +90,12 @@ void FarmClient::uploadAssets(const std::map<std::string, std::string>& assetByt
                double(uploadedBytes) / 1e6, skipped, double(skippedBytes) / 1e6);
 }
 
-v1::SubmitJobResponse FarmClient::submit(const LocalJob& job, int priority) {
+v1::SubmitJobResponse FarmClient::submit(const LocalJob& job, int priority, const std::string& owner) {
   uploadAssets(job.assetBytes);
   v1::SubmitJobRequest request;
   *request.mutable_spec() = proto::toProto(job.spec);
   request.set_priority(priority);
+  request.set_owner(owner);
   v1::SubmitJobResponse response;
   check(stub_->SubmitJob(context().get(), request, &response), address_);
   return response;
@@ -108,9 +109,9 @@ v1::JobStatus FarmClient::get(const std::string& jobId) {
   return response;
 }
 
-std::vector<v1::JobStatus> FarmClient::list() {
+std::vector<v1::JobStatus> FarmClient::list(const v1::ListJobsRequest& filters) {
   v1::ListJobsResponse response;
-  check(stub_->ListJobs(context().get(), v1::ListJobsRequest{}, &response), address_);
+  check(stub_->ListJobs(context().get(), filters, &response), address_);
   return {response.jobs().begin(), response.jobs().end()};
 }
 
@@ -128,11 +129,13 @@ v1::JobStatus FarmClient::watch(const std::string& jobId, const std::function<vo
   return last;
 }
 
-std::string FarmClient::download(const std::string& jobId, v1::ImageFormat format, std::optional<double> ev) {
+std::string FarmClient::download(const std::string& jobId, v1::ImageFormat format, std::optional<double> ev,
+                                 std::optional<int64_t> frame) {
   v1::DownloadRequest request;
   request.set_job_id(jobId);
   request.set_format(format);
   if (ev) request.set_ev(*ev);
+  if (frame) request.set_frame(*frame);
   auto ctx = context(true);
   auto reader = stub_->Download(ctx.get(), request);
   v1::FileChunk chunk;
@@ -157,6 +160,22 @@ v1::JobStatus FarmClient::cancel(const std::string& jobId) {
   request.set_job_id(jobId);
   v1::CancelJobResponse response;
   check(stub_->CancelJob(context().get(), request, &response), address_);
+  return response.status();
+}
+
+void FarmClient::deleteJob(const std::string& jobId, bool force) {
+  v1::DeleteJobRequest request;
+  request.set_job_id(jobId);
+  request.set_force(force);
+  v1::DeleteJobResponse response;
+  check(stub_->DeleteJob(context().get(), request, &response), address_);
+}
+
+v1::JobStatus FarmClient::archive(const std::string& jobId) {
+  v1::ArchiveJobRequest request;
+  request.set_job_id(jobId);
+  v1::ArchiveJobResponse response;
+  check(stub_->ArchiveJob(context().get(), request, &response), address_);
   return response.status();
 }
 

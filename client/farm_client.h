@@ -32,14 +32,18 @@ class FarmClient {
   // Uploads the job's assets the coordinator does not hold (FindMissingAssets; every one for a
   // coordinator older than it) and submits the job. Logs how many assets and bytes were uploaded
   // and how many were skipped as already on the coordinator.
-  v1::SubmitJobResponse submit(const LocalJob& job, int priority);
+  v1::SubmitJobResponse submit(const LocalJob& job, int priority, const std::string& owner = "");
   v1::JobStatus get(const std::string& jobId);
-  std::vector<v1::JobStatus> list();
+  std::vector<v1::JobStatus> list(const v1::ListJobsRequest& filters = {});
   // Calls `onStatus` for every status the coordinator sends; returns the last one.
   v1::JobStatus watch(const std::string& jobId, const std::function<void(const v1::JobStatus&)>& onStatus);
-  std::string download(const std::string& jobId, v1::ImageFormat format, std::optional<double> ev);
+  // `frame`: an animation's frame (a scene frame number); nullopt: the still or the first frame.
+  std::string download(const std::string& jobId, v1::ImageFormat format, std::optional<double> ev,
+                       std::optional<int64_t> frame = std::nullopt);
   v1::Snapshot snapshot(const std::string& jobId, uint32_t maxSize, std::optional<double> ev);
   v1::JobStatus cancel(const std::string& jobId);
+  void deleteJob(const std::string& jobId, bool force);
+  v1::JobStatus archive(const std::string& jobId);
   std::vector<v1::WorkerStatus> workers();
 
  private:

@@ -1,9 +1,10 @@
-// The farm commands: submit, status, watch, download, cancel, workers. Each talks to the
+// The farm commands: submit, status (alias jobs), watch, download, cancel, delete, archive, workers. Each talks to the
 // coordinator named by --coordinator or LENSFARM_COORDINATOR.
 #include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <optional>
@@ -11,6 +12,7 @@
 #include "commands.h"
 #include "exit_codes.h"
 #include "farm_client.h"
+#include "scene/frame_range.h"
 #include "film/image_io.h"
 #include "output_paths.h"
 #include "override_flags.h"
@@ -96,6 +98,9 @@ void printStatus(const v1::JobStatus& s) {
   std::printf("state:      %s\n", stateName(s.state()));
   std::printf("scene:      %s (%ux%u)\n", s.scene_name().c_str(), s.width(), s.height());
   std::printf("priority:   %d\n", s.priority());
+  if (!s.owner().empty()) std::printf("owner:      %s\n", s.owner().c_str());
+  if (s.ended_unix_seconds() > 0.0) std::printf("ended:      %s\n", localTimeText(s.ended_unix_seconds()).c_str());
+  if (s.archived()) std::printf("archived:   yes (final image kept; sensor and ledger freed)\n");
   if (hasSampleCap(p))
     std::printf("samples:    %llu / %llu per pixel (%llu / %llu units)\n", (unsigned long long)p.samples_per_pixel_done(),
                 (unsigned long long)p.samples_per_pixel_total(), (unsigned long long)p.units_done(),
@@ -103,6 +108,25 @@ void printStatus(const v1::JobStatus& s) {
   else  // running to a target error or a deadline: the internal cap is no total
     std::printf("samples:    %llu per pixel (%llu units; no sample cap)\n", (unsigned long long)p.samples_per_pixel_done(),
                 (unsigned long long)p.units_done());
+  if (s.tile_size() > 0)
+    std::printf("tiles:      %u px, %llu a frame (docs/farm.md \"Tiles and passes\")\n", s.tile_size(),
+                (unsigned long long)s.tiles_per_frame());
+  if (s.frames_size() > 0) {
+    // Per frame: done (#), being rendered (+, with its tiles) or waiting (.).
+    int complete = 0;
+    std::string line, partial;
+    for (const v1::FrameStatus& f : s.frames()) {
+      complete += f.complete();
+      line += f.complete() ? '#' : f.tiles_done() > 0 ? '+' : '.';
+      if (!f.complete() && f.tiles_done() > 0)
+        partial += (partial.empty() ? "" : ", ") + std::to_string(f.frame()) + ": " + std::to_string(f.tiles_done()) +
+                   "/" + std::to_string(f.tiles_total()) + " tiles";
+    }
+    std::printf("frames:     %d of %d complete (%lld-%lld)%s%s\n", complete, s.frames_size(),
+                (long long)s.frames(0).frame(), (long long)s.frames(s.frames_size() - 1).frame(),
+                partial.empty() ? "" : "; rendering ", partial.c_str());
+    if (s.frames_size() <= 480) std::printf("            %s\n", line.c_str());
+  }
   std::printf("rays:       %llu (%.2f M rays/s)\n", (unsigned long long)p.rays(), p.rays_per_second() / 1e6);
   std::printf("elapsed:    %s\n", formatDuration(p.elapsed_seconds()).c_str());
   std::printf("remaining:  %s\n", timeLeftText(s).c_str());
@@ -132,28 +156,43 @@ Runner addSubmitCommand(CLI::App& app) {
     std::string scene;
     OverrideFlags overrides;
     int priority = 0;
+    std::string owner;
   };
   auto f = std::make_shared<Flags>();
   addCoordinatorOption(cmd, f->c);
+  if (const char* user = std::getenv("USER")) f->owner = user;
+  cmd->add_option("--owner", f->owner, "Who submits the job, shown in status and `jobs --owner` (default: $USER)");
   cmd->add_option("scene", f->scene, "Scene file (JSON), or a model to render as it is (.gltf, .glb, .obj)")->required();
   f->overrides.addTo(cmd);
   cmd->add_option("--priority", f->priority, "Higher runs first")->capture_default_str();
   return [f] {
     const RenderOverrides o = f->overrides.toOverrides();
-    const LocalJob job = makeLocalJob(f->scene, o, f->overrides.camera);
+    const LocalJob job = makeLocalJob(f->scene, o, f->overrides.camera, f->overrides.frameRange());
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());
-      std::printf("%s\n", client.submit(job, f->priority).job_id().c_str());
+      std::printf("%s\n", client.submit(job, f->priority, f->owner).job_id().c_str());
       return kOk;
     });
   };
 }
 
 Runner addStatusCommand(CLI::App& app) {
-  auto* cmd = app.add_subcommand("status", "Show one job in detail, or list all jobs");
-  auto f = std::make_shared<JobArgs>();
+  auto* cmd = app.add_subcommand("status", "Show one job in detail, or list jobs (also `lensfarm jobs`), filtered");
+  cmd->alias("jobs");
+  struct Flags : JobArgs {
+    std::vector<std::string> states;
+    std::string owner, name;
+    uint32_t limit = 0;
+  };
+  auto f = std::make_shared<Flags>();
   addCoordinatorOption(cmd, f->c);
-  cmd->add_option("job", f->job, "Job id (default: all jobs)");
+  cmd->add_option("job", f->job, "Job id (default: list the jobs)");
+  cmd->add_option("--state", f->states, "List jobs in these states: queued, running, done, cancelled, failed")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"queued", "running", "done", "cancelled", "failed"}));
+  cmd->add_option("--owner", f->owner, "List the jobs of this owner");
+  cmd->add_option("--name", f->name, "List jobs whose scene name contains this text");
+  cmd->add_option("--limit", f->limit, "List at most this many (0: all)");
   return [f] {
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());
@@ -161,12 +200,20 @@ Runner addStatusCommand(CLI::App& app) {
         printStatus(client.get(f->job));
         return kOk;
       }
-      const std::vector<v1::JobStatus> jobs = client.list();
-      std::printf("%-10s %-10s %8s %-24s %18s %10s\n", "JOB", "STATE", "PRIORITY", "SCENE", "SPP", "ELAPSED");
+      v1::ListJobsRequest filters;
+      for (const std::string& state : f->states) filters.add_state_names(state);
+      filters.set_owner(f->owner);
+      filters.set_name_contains(f->name);
+      filters.set_limit(f->limit);
+      const std::vector<v1::JobStatus> jobs = client.list(filters);
+      // OWNER comes last (before the archived mark), so scripts that read the columns before it keep working.
+      std::printf("%-10s %-10s %8s %-24s %18s %10s  %s\n", "JOB", "STATE", "PRIORITY", "SCENE", "SPP", "ELAPSED",
+                  "OWNER");
       for (const auto& s : jobs) {
         const std::string spp = samplesText(s.progress());
-        std::printf("%-10s %-10s %8d %-24s %18s %10s\n", s.job_id().c_str(), stateName(s.state()), s.priority(),
-                    s.scene_name().c_str(), spp.c_str(), formatDuration(s.progress().elapsed_seconds()).c_str());
+        std::printf("%-10s %-10s %8d %-24s %18s %10s  %s%s\n", s.job_id().c_str(), stateName(s.state()), s.priority(),
+                    s.scene_name().c_str(), spp.c_str(), formatDuration(s.progress().elapsed_seconds()).c_str(),
+                    s.owner().empty() ? "-" : s.owner().c_str(), s.archived() ? " (archived)" : "");
       }
       return kOk;
     });
@@ -223,24 +270,48 @@ Runner addDownloadCommand(CLI::App& app) {
   struct Flags : JobArgs {
     std::vector<std::string> outputs;
     std::optional<double> ev;
+    std::optional<int64_t> frame;
   };
   auto f = std::make_shared<Flags>();
   addJobArgs(cmd, *f);
-  cmd->add_option("-o,--output", f->outputs, "Output file(s): .exr or .png")->required();
+  cmd->add_option("-o,--output", f->outputs,
+                  "Output file(s): .exr or .png; for an animation a pattern (out/shot_####.exr) gets every "
+                  "complete frame")
+      ->required();
+  cmd->add_option("--frame", f->frame, "Only this frame of an animation (a name without #### is then allowed)");
   cmd->add_option("--ev", f->ev, "Exposure compensation for PNG (default: the job's)")
       ->check(numberIn(-kMaxExposureEv, kMaxExposureEv, "stops"));
   return [f] {
-    std::vector<std::pair<fs::path, v1::ImageFormat>> targets;
+    std::vector<std::pair<std::string, v1::ImageFormat>> targets;
     for (const auto& o : f->outputs) {
       const fs::path path = checkedOutput(o, {".exr", ".png"});
-      targets.emplace_back(path, path.extension() == ".exr" ? v1::IMAGE_FORMAT_EXR : v1::IMAGE_FORMAT_PNG);
+      targets.emplace_back(o, path.extension() == ".exr" ? v1::IMAGE_FORMAT_EXR : v1::IMAGE_FORMAT_PNG);
     }
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());
-      for (const auto& [path, format] : targets) {
-        writeBytesAtomically(path, client.download(f->job, format, f->ev));
-        std::printf("wrote %s\n", path.c_str());
+      const v1::JobStatus status = client.get(f->job);
+      if (status.frames_size() == 0 || f->frame) {
+        for (const auto& [path, format] : targets) {
+          const std::string file = f->frame && hasFramePattern(path) ? framePath(path, *f->frame) : path;
+          writeBytesAtomically(file, client.download(f->job, format, f->ev, f->frame));
+          std::printf("wrote %s\n", file.c_str());
+        }
+        return kOk;
       }
+      // An animation: every complete frame, each to the pattern's name for it.
+      for (const auto& [path, format] : targets) checkFramePattern(path, "-o");
+      int written = 0;
+      for (const v1::FrameStatus& frame : status.frames()) {
+        if (!frame.complete()) continue;
+        for (const auto& [path, format] : targets) {
+          const std::string file = framePath(path, frame.frame());
+          writeBytesAtomically(file, client.download(f->job, format, f->ev, frame.frame()));
+          std::printf("wrote %s\n", file.c_str());
+        }
+        ++written;
+      }
+      if (written < status.frames_size())
+        std::printf("%d of %d frames complete; run again for the others\n", written, status.frames_size());
       return kOk;
     });
   };
@@ -283,6 +354,51 @@ Runner addCancelCommand(CLI::App& app) {
       FarmClient client(f->c.coordinator, f->c.resolved());
       const v1::JobStatus s = client.cancel(f->job);
       std::printf("%s %s\n", s.job_id().c_str(), stateName(s.state()));
+      return kOk;
+    });
+  };
+}
+
+Runner addDeleteCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand("delete", "Delete jobs for good: their images, ledger and files (refuses a running "
+                                           "job unless --force)");
+  struct Flags {
+    Connection c;
+    std::vector<std::string> jobs;
+    bool force = false;
+  };
+  auto f = std::make_shared<Flags>();
+  addCoordinatorOption(cmd, f->c);
+  cmd->add_option("job", f->jobs, "Job id(s)")->required();
+  cmd->add_flag("--force", f->force, "Cancel a queued or running job first instead of refusing");
+  return [f] {
+    return guardedCall([&] {
+      FarmClient client(f->c.coordinator, f->c.resolved());
+      for (const std::string& job : f->jobs) {  // stops at the first refused
+        client.deleteJob(job, f->force);
+        std::printf("%s deleted\n", job.c_str());
+      }
+      return kOk;
+    });
+  };
+}
+
+Runner addArchiveCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand("archive", "Archive ended jobs: keep the final image, free the sensor and ledger");
+  struct Flags {
+    Connection c;
+    std::vector<std::string> jobs;
+  };
+  auto f = std::make_shared<Flags>();
+  addCoordinatorOption(cmd, f->c);
+  cmd->add_option("job", f->jobs, "Job id(s)")->required();
+  return [f] {
+    return guardedCall([&] {
+      FarmClient client(f->c.coordinator, f->c.resolved());
+      for (const std::string& job : f->jobs) {
+        const v1::JobStatus s = client.archive(job);
+        std::printf("%s %s, archived\n", s.job_id().c_str(), stateName(s.state()));
+      }
       return kOk;
     });
   };

@@ -7,7 +7,7 @@
 namespace lensfarm::cli {
 
 LocalJob makeLocalJob(const std::filesystem::path& sceneFile, const RenderOverrides& overrides,
-                      const std::optional<std::string>& camera) {
+                      const std::optional<std::string>& camera, const std::optional<FrameRange>& frames) {
   LocalJob job;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(sceneFile, ec)) throw InputError(sceneFile.string(), "no such scene file");
@@ -36,6 +36,10 @@ LocalJob makeLocalJob(const std::filesystem::path& sceneFile, const RenderOverri
   job.spec.sceneName = sceneFile.filename().string();
   job.spec.assets = job.scene.assets;
   job.spec.overrides = overrides;
+  job.spec.frames = frames;
+  if (frames && job.scene.render.convergenceDriven())
+    throw InputError("--frames", "an animation renders every frame to its samples; --target-error and --deadline "
+                                 "are for a still");
   for (const auto& [path, sha] : job.scene.assets) job.assetBytes[sha] = std::move(read.at(path));
   return job;
 }

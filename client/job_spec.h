@@ -19,7 +19,9 @@ struct LocalJob {
 
 // Throws InputError naming the file and field if the scene (with the overrides) is invalid.
 // `camera`: a model camera's name to render through instead of the scene's (--camera).
+// `frames`: an animation's frames (JobSpec::frames); nullopt: a still.
 LocalJob makeLocalJob(const std::filesystem::path& sceneFile, const RenderOverrides& overrides,
-                      const std::optional<std::string>& camera = std::nullopt);
+                      const std::optional<std::string>& camera = std::nullopt,
+                      const std::optional<FrameRange>& frames = std::nullopt);
 
 }  // namespace lensfarm::cli

@@ -32,6 +32,11 @@ void OverrideFlags::addTo(CLI::App* cmd) {
   cmd->add_option("--deadline", deadline,
                   "Stop this long after submission (e.g. 90s, 10m, 2h), with a whole number of units")
       ->transform(durationIn(1e-3, 1e9));
+  cmd->add_option("--tile-size", tileSize,
+                  "How the frame is cut into units: auto (default), off (passes over the whole frame) or a tile "
+                  "edge in pixels; never changes the image");
+  cmd->add_option("--frames", frames,
+                  "Render an animation's frames: 7, 1-240 or 1-240x2 (every 2nd); outputs need #### for the number");
   cmd->add_option("--ev", ev, "Exposure compensation in stops for PNG images (overrides the scene)")
       ->check(numberIn(-kMaxExposureEv, kMaxExposureEv, "stops"));
 }
@@ -52,7 +57,13 @@ RenderOverrides OverrideFlags::toOverrides() const {
   if (deadline) o.timeLimitSeconds = *deadline;
   if (deadline && !spp && !targetError) o.samplesPerPixel = kMaxSamplesPerPixel;  // until the deadline
   o.ev = ev;
+  if (tileSize) parseTileSize(*tileSize, o);
   return o;
+}
+
+std::optional<FrameRange> OverrideFlags::frameRange() const {
+  if (!frames) return std::nullopt;
+  return parseFrameRange(*frames, "--frames");
 }
 
 }  // namespace lensfarm::cli

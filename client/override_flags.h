@@ -9,6 +9,7 @@
 
 #include "util/flag_checks.h"
 
+#include "scene/frame_range.h"
 #include "scene/render_overrides.h"
 
 namespace lensfarm::cli {
@@ -27,10 +28,16 @@ struct OverrideFlags {
   // --camera NAME: a camera of the scene's models (glTF) instead of the scene's own; written into
   // the scene as "camera": NAME (makeLocalJob), so a farm renders the same.
   std::optional<std::string> camera;
+  // --tile-size auto|off|N (docs/farm.md "Tiles and passes") and --frames RANGE (an animation:
+  // "1-240", "1-240x2"; docs/scene-format.md "Frame ranges and output patterns").
+  std::optional<std::string> tileSize;
+  std::optional<std::string> frames;
 
   void addTo(CLI::App* cmd);
   // Throws InputError naming the flag (e.g. a malformed --resolution).
   RenderOverrides toOverrides() const;
+  // The frames asked for (nullopt: a still); InputError naming --frames.
+  std::optional<FrameRange> frameRange() const;
 };
 
 // The flag checks (util/flag_checks.h), by their short names here.

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <limits>
 #include <optional>
+#include <set>
 #include <thread>
 
 #include "commands.h"
@@ -28,6 +29,7 @@
 #include "service.h"
 #include "worker_loop.h"
 #include "scene/effects.h"
+#include "scene/frame_range.h"
 #include "scene/render_overrides.h"
 #include "scene/scene_loader.h"
 #include "util/error.h"
@@ -70,15 +72,35 @@ void writeOutputs(const std::vector<fs::path>& outputs, const JobImage& image) {
   for (const auto& path : outputs) writeImageFile(path, image.image, image.metadata, image.exposure);
 }
 
+// An animation's frames that completed since the last call, each to every output pattern.
+void writeCompleteFrames(const Coordinator& coordinator, const JobInfo& info, const std::vector<fs::path>& patterns,
+                         std::set<int64_t>& written) {
+  for (const JobInfo::Frame& frame : info.frames) {
+    if (!frame.complete() || written.count(frame.number)) continue;
+    const JobImage image = coordinator.image(info.id, frame.number);
+    for (const auto& pattern : patterns)
+      writeImageFile(framePath(pattern.string(), frame.number), image.image, image.metadata, image.exposure);
+    written.insert(frame.number);
+  }
+}
+
 int runRender(const RenderFlags& flags) {
-  const LocalJob local = makeLocalJob(flags.scene, toOverrides(flags), flags.overrides.camera);
+  const std::optional<FrameRange> frames = flags.overrides.frameRange();
+  const LocalJob local = makeLocalJob(flags.scene, toOverrides(flags), flags.overrides.camera, frames);
   const Scene& scene = local.scene;
   const RenderSettings& settings = scene.render;
 
-  // Refuse bad outputs before tracing a single ray.
+  // Refuse bad outputs before tracing a single ray. An animation's are patterns: out/shot_####.exr.
   std::vector<fs::path> outputs;
-  for (const auto& o : flags.outputs.empty() ? defaultOutputs(flags.scene) : flags.outputs)
+  std::vector<std::string> patterns = flags.outputs;
+  if (patterns.empty())
+    for (const fs::path o : defaultOutputs(flags.scene))
+      patterns.push_back(frames ? (o.parent_path() / (o.stem().string() + "_####" + o.extension().string())).string()
+                                : o.string());
+  for (const auto& o : patterns) {
+    if (frames) checkFramePattern(o, "-o");
     outputs.push_back(checkedOutput(o, {".exr", ".png"}));
+  }
 
   // Refuse what this machine cannot hold before allocating anything frame-sized.
   refuseLocalRenderOverBudget(settings, storedTriangles(scene),
@@ -139,6 +161,7 @@ int runRender(const RenderFlags& flags) {
   ProgressDisplay display(!flags.quiet, ::isatty(STDERR_FILENO), 0.0, flags.progressEvery);
   JobInfo info = submitted;
   double lastSnapshot = 0.0;
+  std::set<int64_t> written;  // an animation's frames written so far
   bool interrupted = false;
   for (;;) {
     info = coordinator.waitForChange(info.id, info.version, 0.1);
@@ -152,7 +175,9 @@ int runRender(const RenderFlags& flags) {
       worker.stopNow();
       break;
     }
-    if (flags.snapshotEvery > 0 && info.unitsDone > 0 && info.elapsedSeconds - lastSnapshot >= flags.snapshotEvery) {
+    if (frames) writeCompleteFrames(coordinator, info, outputs, written);
+    if (!frames && flags.snapshotEvery > 0 && info.unitsDone > 0 &&
+        info.elapsedSeconds - lastSnapshot >= flags.snapshotEvery) {
       writeOutputs(outputs, coordinator.image(info.id));
       lastSnapshot = info.elapsedSeconds;
     }
@@ -174,8 +199,14 @@ int runRender(const RenderFlags& flags) {
                  "no file was written\n");
     return kInterrupted;
   }
-  const JobImage image = coordinator.image(info.id);
-  writeOutputs(outputs, image);
+  JobImage image;
+  if (frames) {
+    writeCompleteFrames(coordinator, info, outputs, written);
+    image.metadata.samplesPerPixel = info.samplesPerPixelDone;
+  } else {
+    image = coordinator.image(info.id);
+    writeOutputs(outputs, image);
+  }
   const double seconds = std::max(info.elapsedSeconds, 1e-9);
   std::printf("samples per pixel: %llu%s\n", (unsigned long long)image.metadata.samplesPerPixel,
               interrupted ? " (interrupted)" : "");
@@ -192,7 +223,11 @@ int runRender(const RenderFlags& flags) {
     std::printf("estimated error:   unknown\n");  // fewer than two units, or a black image
   if (!info.stopReason.empty()) std::printf("stopped:           %s\n", info.stopReason.c_str());
   for (const auto& e : info.effects) std::printf("effect:            %s\n", e.c_str());
-  for (const auto& o : outputs) std::printf("wrote %s\n", o.c_str());
+  if (frames)
+    std::printf("frames:            %zu of %llu written (%s), %s\n", written.size(),
+                (unsigned long long)frames->count(), formatFrameRange(*frames).c_str(), patterns.front().c_str());
+  else
+    for (const auto& o : outputs) std::printf("wrote %s\n", o.c_str());
   return interrupted ? kInterrupted : kOk;
 }
 

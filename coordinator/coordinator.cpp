@@ -12,6 +12,7 @@
 
 #include "coordinator_records.h"
 #include "frame_store.h"
+#include "job_archive.h"
 #include "render/memory_estimate.h"
 #include "film/psf_convolution.h"
 #include "scene/effects.h"
@@ -49,19 +50,22 @@ Coordinator::Coordinator(Options options) : options_(std::move(options)), auditR
     options_.maxJobMemorySource = defaultJobMemoryBudgetSource();
   }
   frames_ = std::make_unique<FrameStore>(options_.stateDir);
+  archive_ = std::make_unique<JobArchive>(options_.stateDir);
   if (options_.stateDir.empty()) {
     epoch_ = std::random_device{}() & 0xfffff;
-    return;
+  } else {
+    store_ = std::make_unique<StateStore>(options_.stateDir);
+    epoch_ = store_->bootCount();
+    restore();
+    checkpointer_ = std::thread([this] { checkpointLoop(); });
   }
-  store_ = std::make_unique<StateStore>(options_.stateDir);
-  epoch_ = store_->bootCount();
-  restore();
-  checkpointer_ = std::thread([this] { checkpointLoop(); });
+  startLifecycle();
 }
 
 Coordinator::Coordinator() : Coordinator(Options{}) {}
 
 Coordinator::~Coordinator() {
+  stopLifecycle();
   if (!store_) return;
   {
     std::lock_guard lock(mutex_);
@@ -105,7 +109,7 @@ std::shared_ptr<const std::string> Coordinator::asset(const std::string& sha256)
 
 // ---- jobs -----------------------------------------------------------------------------------
 
-JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
+JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string& owner) {
   {
     // Hashes as every call takes them (AssetStore::checkSha256): a badly written one is an error
     // of its own, not an asset that was never uploaded.
@@ -167,6 +171,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
   auto job = std::make_unique<Job>();
   job->spec = resolved;
   job->priority = priority;
+  job->owner = owner;
   job->setScene(scene);
   try {
     if (options_.beforeJobAllocation) options_.beforeJobAllocation(memory.total());
@@ -187,7 +192,8 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority) {
   job->sequence = nextSequence_++;
   if (store_)
     store_->insertJob(StateStore::StoredJob{job->id, job->sequence, job->priority, job->spec, jobStateName(job->state),
-                                            "", job->submittedUnixSeconds, 0, std::nullopt, ""});
+                                            "", job->submittedUnixSeconds, 0, std::nullopt, "", job->owner, 0.0, false,
+                                            ""});
   spdlog::info("job {}: {} {}x{}, {} spp in {} units of {}, priority {}", job->id, spec.sceneName, job->settings.width,
                job->settings.height, job->settings.samplesPerPixel, job->units.total(), job->unitSize, priority);
   Job& ref = *job;
@@ -217,6 +223,9 @@ double progressFraction(const JobInfo& info, double nowUnixSeconds) {
 
 Coordinator::Job& Coordinator::findJob(const std::string& jobId) const {
   auto it = jobs_.find(jobId);
+  // A deleted job's id is refused like a revoked lease: an upload for it changes nothing.
+  if (it == jobs_.end() && deletedJobs_.count(jobId))
+    throw FarmError(FarmError::Kind::kFailedPrecondition, jobId + " was deleted");
   if (it == jobs_.end()) throw FarmError(FarmError::Kind::kNotFound, "no job " + jobId);
   return *it->second;
 }
@@ -247,7 +256,11 @@ JobInfo Coordinator::infoOf(const Job& job) const {
   if (job.layout.frames) {
     info.frames.resize(job.layout.frameCount());
     for (uint64_t f = 0; f < info.frames.size(); ++f)
-      info.frames[f] = JobInfo::Frame{job.layout.frameNumber(f), job.film->tilesDone(f), info.tilesPerFrame};
+      info.frames[f] = JobInfo::Frame{job.layout.frameNumber(f),
+                                      job.film ? job.film->tilesDone(f)
+                                      : frames_->has(job.id, f) ? info.tilesPerFrame  // archived: stored or not
+                                                                : 0,
+                                      info.tilesPerFrame};
   }
   info.elapsedSeconds = elapsedSecondsOf(job);
   const double fraction = job.units.total() ? double(job.unitsAdded) / double(job.units.total()) : 0.0;
@@ -275,6 +288,9 @@ JobInfo Coordinator::infoOf(const Job& job) const {
   info.submittedUnixSeconds = job.submittedUnixSeconds;
   info.version = job.version;
   info.effects = job.effects;
+  info.owner = job.owner;
+  info.endedUnixSeconds = job.endedUnixSeconds;
+  info.archived = job.archived;
   info.stalledReason = stalledReason(job, Clock::now());
   info.progressFraction = progressFraction(info, std::chrono::duration<double>(
                                                      std::chrono::system_clock::now().time_since_epoch()).count());
@@ -283,6 +299,7 @@ JobInfo Coordinator::infoOf(const Job& job) const {
 
 JobInfo Coordinator::job(const std::string& jobId) const {
   std::lock_guard lock(mutex_);
+  if (deletedJobs_.count(jobId)) throw FarmError(FarmError::Kind::kNotFound, "no job " + jobId + " (it was deleted)");
   return infoOf(findJob(jobId));
 }
 
@@ -300,10 +317,13 @@ std::vector<JobInfo> Coordinator::jobs() const {
 
 JobInfo Coordinator::waitForChange(const std::string& jobId, uint64_t afterVersion, double timeoutSeconds) const {
   std::unique_lock lock(mutex_);
-  const Job& job = findJob(jobId);
-  changed_.wait_for(lock, std::chrono::duration<double>(timeoutSeconds),
-                    [&] { return job.version > afterVersion; });
-  return infoOf(job);
+  findJob(jobId);
+  // The job is looked up again after every wake: it may have been deleted meanwhile.
+  changed_.wait_for(lock, std::chrono::duration<double>(timeoutSeconds), [&] {
+    const auto it = jobs_.find(jobId);
+    return it == jobs_.end() || it->second->version > afterVersion;
+  });
+  return infoOf(findJob(jobId));
 }
 
 void Coordinator::touch(Job& job) {
@@ -319,6 +339,9 @@ void Coordinator::end(Job& job, JobState state) {
   job.stopAwaitingAudits.reset();
   job.state = state;
   job.finished = Clock::now();
+  job.endedUnixSeconds = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  lifecycleDue_ = true;  // archive it, or delete it, when its time comes
+  lifecycleWake_.notify_all();
   revokeLeasesOf(job);
   persistState(job);
 }
@@ -362,12 +385,31 @@ ImageMetadata Coordinator::metadataOf(const Job& job) const {
 }
 
 JobImage Coordinator::image(const std::string& jobId, std::optional<int64_t> frame) const {
-  JobImage out;
+  JobPin pin;  // the job and its film stay while the image is made (lifecycle.cpp)
   const Job* job;
+  bool archived;
+  {
+    std::unique_lock lock(mutex_);
+    // An image being archived is served from the archive once it is stored.
+    changed_.wait(lock, [&] {
+      const auto it = jobs_.find(jobId);
+      return it == jobs_.end() || !it->second->archiving;
+    });
+    Job& found = findJob(jobId);
+    pin = JobPin(*this, found);
+    job = &found;
+    archived = found.archived;
+  }
+  // An animation's frames are stored as they complete (frame_store.h), archived or not.
+  return archived && !job->layout.frames ? archivedImage(*job) : developedImage(*job, frame);
+}
+
+JobImage Coordinator::developedImage(const Job& jobRef, std::optional<int64_t> frame) const {
+  JobImage out;
+  const Job* job = &jobRef;
   uint64_t frameIndex = 0;
   {
     std::lock_guard lock(mutex_);
-    job = &findJob(jobId);  // jobs are never removed, so the pointer stays valid
     out.exposure = job->settings.exposure;
     out.metadata = metadataOf(*job);
     if (frame) {
@@ -376,7 +418,7 @@ JobImage Coordinator::image(const std::string& jobId, std::optional<int64_t> fra
       const int64_t last = range ? range->last : 0;
       if (*frame < first || *frame > last || (*frame - first) % step != 0)
         throw FarmError(FarmError::Kind::kNotFound,
-                        jobId + " has no frame " + std::to_string(*frame) +
+                        job->id + " has no frame " + std::to_string(*frame) +
                             (range ? " (its frames: " + std::to_string(first) + "-" + std::to_string(last) +
                                          (step > 1 ? "x" + std::to_string(step) : "") + ")"
                                    : " (a still)"));
@@ -388,7 +430,8 @@ JobImage Coordinator::image(const std::string& jobId, std::optional<int64_t> fra
   try {
     if (job->layout.frames) {
       // An animation frame: held while its tiles arrive, then stored (frame_store.h).
-      std::optional<Accumulator::Developed> held = job->film->developFrame(frameIndex);
+      std::optional<Accumulator::Developed> held =
+          job->film ? job->film->developFrame(frameIndex) : std::optional<Accumulator::Developed>{};
       if (held) {
         developed = std::move(*held);
       } else {
@@ -421,10 +464,15 @@ JobImage Coordinator::image(const std::string& jobId, std::optional<int64_t> fra
 }
 
 std::string Coordinator::sensorState(const std::string& jobId) const {
+  JobPin pin;
   const Job* job;
   {
     std::lock_guard lock(mutex_);
-    job = &findJob(jobId);
+    Job& found = findJob(jobId);
+    if (found.archived || found.archiving)
+      throw FarmError(FarmError::Kind::kFailedPrecondition, jobId + " is archived: its sensor was freed");
+    pin = JobPin(*this, found);
+    job = &found;
   }
   return job->film->serializedSensor();
 }
@@ -495,6 +543,7 @@ MetricsSnapshot Coordinator::metricsSnapshot() const {
   s.unitsRerendered = counters_.unitsRerendered;
   s.samples = counters_.samples;
   s.unitBytesReceived = counters_.unitBytes;
+  s.unitWireBytesReceived = counters_.unitWireBytes;
   const AssetStore::Counts assets = assets_.counts();
   s.assetBytesReceived = assets.bytesReceived;
   s.assetsSent = assets.sent;

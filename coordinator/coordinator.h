@@ -112,6 +112,10 @@ struct JobInfo {
     uint64_t tilesTotal = 0;
   };
   std::vector<Frame> frames;  // empty for a still
+  // The job life cycle (docs/farm.md "Job life cycle").
+  std::string owner;              // who submitted it (SubmitJobRequest.owner: the client's $USER or --owner)
+  double endedUnixSeconds = 0.0;  // when it ended (done, cancelled, failed); 0 while it runs
+  bool archived = false;          // its film was freed; its final image, status and events stay readable
 
   double raysPerSecond() const { return elapsedSeconds > 0 ? double(stats.rays) / elapsedSeconds : 0.0; }
   double lightHitFraction() const { return stats.paths ? double(stats.lightHits) / double(stats.paths) : 0.0; }
@@ -119,6 +123,10 @@ struct JobInfo {
 
 // JobInfo::progressFraction: the nearest of the job's stopping rules, 0 to 1.
 double progressFraction(const JobInfo& info, double nowUnixSeconds);
+
+// A duration flag ("7d", "12h", "30m", "3600s", "90", "0.2s"; a bare number is seconds) in
+// seconds (lifecycle.cpp). InputError naming `flag` for anything else, or a negative duration.
+double parseDuration(const std::string& text, const std::string& flag);
 
 // What a worker is doing, as the coordinator sees it.
 enum class WorkerState {
@@ -177,7 +185,8 @@ struct MetricsSnapshot {
   uint64_t auditsFailed = 0;        // audits that found a wrong worker
   uint64_t unitsRerendered = 0;     // counted units queued again after a wrong worker was found
   uint64_t samples = 0;             // camera paths in the accepted results
-  uint64_t unitBytesReceived = 0;   // result buffers (sums) received from workers
+  uint64_t unitBytesReceived = 0;   // result buffers (sums) received from workers, as doubles (decoded)
+  uint64_t unitWireBytesReceived = 0;  // the same uploads' sums as sent over gRPC (compressed or not)
   uint64_t assetBytesReceived = 0;  // asset bytes uploaded by clients (read in full)
   uint64_t assetUploadsStored = 0;  // uploads of assets new to the coordinator
   uint64_t assetUploadsPresent = 0;  // uploads of assets it held already (a client that asks first makes none)
@@ -221,6 +230,11 @@ class Coordinator {
     // Test-only: called with a job's estimated bytes just before its frame-sized buffers are
     // allocated; a test throws std::bad_alloc from it to simulate an allocation failing.
     std::function<void(uint64_t bytes)> beforeJobAllocation;
+    // The job life cycle (lifecycle.cpp, docs/farm.md "Job life cycle"): a job that ended more
+    // than keepSeconds ago is deleted (0: kept forever); one that ended archiveAfterSeconds ago
+    // is archived (0: at once; < 0: never). Checked every few seconds and at start-up.
+    double keepSeconds = 0.0;
+    double archiveAfterSeconds = -1.0;
   };
   explicit Coordinator(Options options);
   Coordinator();
@@ -248,7 +262,7 @@ class Coordinator {
   // ---- jobs (client side) ----
   // Validates the scene with its overrides (InputError naming the field) and that every asset
   // was uploaded (FarmError kFailedPrecondition listing the missing ones).
-  JobInfo submit(const JobSpec& spec, int priority);
+  JobInfo submit(const JobSpec& spec, int priority, const std::string& owner = "");
   JobInfo job(const std::string& jobId) const;  // FarmError kNotFound
   std::vector<JobInfo> jobs() const;            // in serving order
   // Waits until the job's version exceeds `afterVersion` or `timeoutSeconds` pass.
@@ -297,6 +311,9 @@ class Coordinator {
   // memory runs out holding it, the job fails (FarmError kResourceExhausted); others go on.
   bool acceptResult(UnitResult&& result);
   bool acceptResult(const UnitResult& result);
+  // Counts the bytes of sums an upload sent over the wire (MetricsSnapshot::unitWireBytesReceived;
+  // acceptResult counts the decoded ones).
+  void countUnitWireBytes(uint64_t bytes) { counters_.unitWireBytes += bytes; }
   // Before an upload's sums are read (UploadResult's header): the errors acceptResult would
   // give for its lease and frame size, so that no buffer is allocated for a refused upload.
   void admitUpload(const std::string& workerId, uint64_t leaseId, const std::string& jobId, uint64_t unit, int width,
@@ -323,6 +340,28 @@ class Coordinator {
   void workerLeft(const std::string& workerId, uint64_t attachment = 0);
 
   const Options& options() const { return options_; }
+
+  // ---- the job life cycle (lifecycle.cpp, docs/farm.md "Job life cycle") ----
+  // Which jobs ListJobs returns: every condition given must hold.
+  struct JobFilter {
+    std::set<JobState> states;  // empty: any
+    std::string owner;          // empty: anyone's
+    std::string nameContains;   // a substring of the scene name; empty: any
+    size_t limit = 0;           // at most this many, in serving order; 0: all
+  };
+  std::vector<JobInfo> jobs(const JobFilter& filter) const;
+  // Removes a job for good: its leases revoked, its rows (job, ledger) and its files under the
+  // state dir removed, its memory freed; a restart does not bring it back, and an upload under
+  // one of its leases is refused (kFailedPrecondition). A job that has not ended is refused
+  // (kFailedPrecondition) unless `force`, which cancels it first. kNotFound for an unknown id.
+  void deleteJob(const std::string& jobId, bool force = false);
+  // Keeps an ended job's final image (JobArchive) and frees everything else it holds: the
+  // Accumulator (sensor, tracker, waiting results), its ledger rows, unit files and checkpoint.
+  // Its status, events and image stay readable. kFailedPrecondition for a job that has not ended;
+  // archiving an archived job changes nothing.
+  JobInfo archiveJob(const std::string& jobId);
+  // Applies Options::keepSeconds and archiveAfterSeconds now (also done every few seconds).
+  void applyRetention();
 
   // Saves every job's sensor now (also done every checkpointEverySeconds, when a job ends, and
   // on destruction). Without a state dir, does nothing. Returns the bytes written.
@@ -383,6 +422,40 @@ class Coordinator {
   void settleWaitingJobs();
   bool mayAudit(const Job& job, const Worker& worker, const std::string& exceptWorker = "") const;
 
+  // ---- the job life cycle (lifecycle.cpp) ----
+  // Keeps a job (and its film) alive while it is used outside mutex_: deleteJob and archiveJob
+  // wait until no pin is left. Made under mutex_ (kFailedPrecondition for a job being deleted);
+  // its destructor takes mutex_, so it must outlive any lock_guard of mutex_ in its scope.
+  class JobPin {
+   public:
+    JobPin() = default;
+    JobPin(const Coordinator& coordinator, Job& job);
+    JobPin(JobPin&& other) noexcept;
+    JobPin& operator=(JobPin&& other) noexcept;
+    ~JobPin();
+
+   private:
+    void release();
+    const Coordinator* coordinator_ = nullptr;
+    Job* job_ = nullptr;
+  };
+  void startLifecycle();  // the constructor's last step: retention at start-up, then its thread
+  void stopLifecycle();   // the destructor's first
+  void lifecycleLoop();
+  // The image of an archived job, and of one with a film (both require a JobPin or archiving).
+  JobImage archivedImage(const Job& job) const;
+  // The job's image from its film (an animation's frame: from the film or the frame store).
+  JobImage developedImage(const Job& job, std::optional<int64_t> frame = std::nullopt) const;
+  // What an archived job keeps of its film's progress (a JSON object, stored with the job).
+  static std::string summaryOf(const Job& job);
+  static void restoreSummary(Job& job, const std::string& summary);
+  std::unique_ptr<class JobArchive> archive_;
+  std::thread lifecycleThread_;
+  std::condition_variable lifecycleWake_;  // with mutex_: a job ended, or the coordinator stops
+  bool lifecycleStopping_ = false;         // guarded by mutex_
+  bool lifecycleDue_ = false;              // guarded by mutex_: a job ended since the last pass
+  std::set<std::string> deletedJobs_;      // guarded by mutex_: ids deleted by this run
+
   // ---- durable state (persistence.cpp) ----
   // Stores the frames a tiled job's film completed (outside mutex_), then drops their unit files.
   void storeCompletedFrames(Job& job);
@@ -423,7 +496,7 @@ class Coordinator {
 
   // Counted for metricsSnapshot() since this process started (the assets' by assets_).
   struct Counters {
-    std::atomic<uint64_t> unitsLeased{0}, unitsDone{0}, unitsExpired{0}, samples{0}, unitBytes{0};
+    std::atomic<uint64_t> unitsLeased{0}, unitsDone{0}, unitsExpired{0}, samples{0}, unitBytes{0}, unitWireBytes{0};
     std::atomic<uint64_t> workersLost{0};
     std::atomic<uint64_t> auditsPassed{0}, auditsFailed{0}, unitsRerendered{0};
   };

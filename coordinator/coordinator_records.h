@@ -100,6 +100,14 @@ struct Coordinator::Job {
   // Accumulation: the sensor, tracker and stopping rules, behind the accumulator's own lock
   // (never held while taking Coordinator::mutex_). Set once, before the job is listed.
   std::unique_ptr<Accumulator> film;
+
+  // The job life cycle (lifecycle.cpp), guarded by Coordinator::mutex_.
+  std::string owner;
+  double endedUnixSeconds = 0.0;  // when it ended; 0 while it runs
+  bool archived = false;          // `film` is freed; its image is in Coordinator's JobArchive
+  bool archiving = false;         // archiveJob is writing its image (image() waits)
+  bool deleting = false;          // deleteJob waits for the pins to go (no new pin is made)
+  uint32_t pins = 0;              // Coordinator::JobPin's alive on this job
 };
 
 struct Coordinator::Worker {

@@ -21,6 +21,8 @@ json summaryOf(const JobInfo& info) {
   j["state"] = jobStateName(info.state);
   j["priority"] = info.priority;
   j["scene"] = info.sceneName;
+  j["owner"] = info.owner;
+  j["archived"] = info.archived;  // its final image is served; its sensor was freed
   j["width"] = info.width;
   j["height"] = info.height;
   j["spp_done"] = info.samplesPerPixelDone;
@@ -48,6 +50,11 @@ json summaryOf(const JobInfo& info) {
   j["audits_failed"] = info.auditsFailed;
   j["audits_pending"] = info.auditsPending;
   j["units_rerendered"] = info.unitsRerendered;
+  j["tile_size"] = info.tileSize;  // 0: passes over the whole frame (docs/farm.md "Tiles and passes")
+  uint64_t complete = 0;
+  for (const JobInfo::Frame& f : info.frames) complete += f.complete();
+  j["frames_total"] = info.frames.size();  // 0 for a still
+  j["frames_complete"] = complete;
   return j;
 }
 
@@ -55,6 +62,9 @@ json summaryOf(const JobInfo& info) {
 
 std::string jobDetailJson(const JobInfo& info, const std::vector<ErrorPoint>& errorHistory) {
   json j = summaryOf(info);
+  json frames = json::array();  // an animation's frames: number, tiles in, tiles a frame
+  for (const JobInfo::Frame& f : info.frames) frames.push_back({f.number, f.tilesDone, f.tilesTotal});
+  j["frames"] = frames;
   j["scene_hash"] = info.sceneHash;
   j["effects"] = info.effects;
   j["light_hit_fraction"] = info.lightHitFraction();

@@ -154,11 +154,29 @@ int main(int argc, char** argv) {
       ->envname("LENSFARM_CHECKPOINT_EVERY")
       ->check(numberIn(0.01, 86400.0, "seconds"))
       ->capture_default_str();
+  std::string uploadEncoding = "shuffle-zstd";
+  app.add_option("--upload-encoding", uploadEncoding,
+                 "How workers are asked to upload unit sums: shuffle-zstd (byte-shuffled doubles, zstd level 1, "
+                 "lossless) or raw (the doubles as they are); uploads in either are accepted")
+      ->envname("LENSFARM_UPLOAD_ENCODING")
+      ->check(CLI::IsMember({"shuffle-zstd", "raw"}))
+      ->capture_default_str();
   std::string maxJobMemory;
   app.add_option("--max-job-memory", maxJobMemory,
                  "Memory one job may take (e.g. 16G, 512MiB): bigger jobs are refused at submission with their "
                  "estimate; default 3/4 of this machine's memory (or of its cgroup limit)")
       ->envname("LENSFARM_MAX_JOB_MEMORY");
+  // The job life cycle (docs/farm.md "Job life cycle").
+  std::string keep = "0", archiveAfter = "0";
+  app.add_option("--keep", keep,
+                 "Delete jobs this long after they ended (e.g. 7d, 12h, 30m, 3600s); 0: keep them forever")
+      ->envname("LENSFARM_KEEP")
+      ->capture_default_str();
+  app.add_option("--archive-after", archiveAfter,
+                 "Archive jobs this long after they ended: keep the final image, free the sensor and ledger "
+                 "(0: at once; \"never\": keep everything)")
+      ->envname("LENSFARM_ARCHIVE_AFTER")
+      ->capture_default_str();
   addLogLevelOption(app, logLevel);
   if (const auto exitCode = parseServiceFlags(app, argc, argv, "lensfarm-coordinator")) return *exitCode;
   setupLogging("coordinator", logLevel);
@@ -170,6 +188,14 @@ int main(int argc, char** argv) {
                     maxJobMemory);
       return 2;
     }
+  }
+
+  try {
+    options.keepSeconds = parseDuration(keep, "--keep");
+    options.archiveAfterSeconds = archiveAfter == "never" ? -1.0 : parseDuration(archiveAfter, "--archive-after");
+  } catch (const InputError& e) {
+    spdlog::error("{}", e.what());
+    return 2;
   }
 
   options.stateDir = stateDir;
@@ -245,7 +271,8 @@ int main(int argc, char** argv) {
   ClientServiceImpl clientService(
       coordinator, TokenGate(clientToken, "client", viewerToken, "viewer",
                              {"GetJob", "ListJobs", "WatchJob", "Download", "GetSnapshot", "ListWorkers"}));
-  WorkerServiceImpl workerService(coordinator, TokenGate(workerToken, "worker"));
+  WorkerServiceImpl workerService(coordinator, TokenGate(workerToken, "worker"),
+                                  uploadEncoding == "raw" ? SumsEncoding::kRaw : SumsEncoding::kShuffleZstd);
   // gRPC health checking (grpc.health.v1.Health): SERVING while the services are up, for load
   // balancers and Kubernetes gRPC probes; it needs no token.
   grpc::EnableDefaultHealthCheckService(true);

@@ -15,7 +15,9 @@
 namespace lensfarm {
 
 void Coordinator::persistState(const Job& job) {
-  if (store_) store_->updateJobState(job.id, jobStateName(job.state), job.error, job.stopUnits, job.stopReason);
+  if (store_)
+    store_->updateJobState(job.id, jobStateName(job.state), job.error, job.stopUnits, job.stopReason,
+                           job.endedUnixSeconds);
 }
 
 void Coordinator::checkpointLoop() {
@@ -35,13 +37,15 @@ void Coordinator::checkpointLoop() {
 
 uint64_t Coordinator::checkpoint() {
   if (!store_) return 0;
-  std::vector<Job*> all;
+  // Each job pinned (lifecycle.cpp): not deleted or archived while its sensor is saved.
+  std::vector<std::pair<Job*, JobPin>> all;
   {
     std::lock_guard lock(mutex_);
-    for (auto& [id, job] : jobs_) all.push_back(job.get());
+    for (auto& [id, job] : jobs_)
+      if (job->film && !job->archiving && !job->deleting) all.emplace_back(job.get(), JobPin(*this, *job));
   }
   uint64_t bytes = 0;
-  for (Job* job : all) {
+  for (auto& [job, pin] : all) {
     std::lock_guard checkpointLock(checkpointMutex_);  // a rewind (auditing.cpp) rewrites it
     const std::optional<Accumulator::Snapshot> snapshot = job->film->snapshotIfChanged();
     if (!snapshot) continue;
@@ -53,6 +57,7 @@ uint64_t Coordinator::checkpoint() {
 }
 
 void Coordinator::storeCompletedFrames(Job& job) {
+  if (!job.film) return;  // archived
   std::vector<TileFilm::Completed> done = job.film->takeCompletedFrames();
   if (done.empty()) return;
   ImageMetadata metadata;
@@ -62,7 +67,9 @@ void Coordinator::storeCompletedFrames(Job& job) {
   }
   const uint64_t perFrame = job.layout.unitsPerFrame();
   for (TileFilm::Completed& c : done) {
-    if (!store_ && !job.layout.frames) continue;  // a still without a state dir: its film holds it
+    // A still's film holds its image, and the ledger's unit files are its durable state (a
+    // rewind by the audit may undo some of its tiles): only an animation's frames are stored.
+    if (!job.layout.frames) continue;
     ImageMetadata m = metadata;
     m.samplesPerPixel = job.layout.samplesPerPixel;
     m.totalSamples = uint64_t(job.layout.width) * uint64_t(job.layout.height) * job.layout.samplesPerPixel;
@@ -123,7 +130,10 @@ std::optional<uint64_t> Coordinator::restoreTiled(Job& job) {
 
 void Coordinator::restore() {
   assets_.restore(*store_);
+  store_->removeOrphanJobDirs();
+  nextJob_ = std::max(nextJob_, store_->lastJobNumber() + 1);  // a deleted job's id is not reissued
   const auto now = Clock::now();
+  const double nowUnix = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   const auto restoreJob = [&](StateStore::StoredJob& stored) {
     auto job = std::make_unique<Job>();
     job->id = stored.id;
@@ -135,6 +145,8 @@ void Coordinator::restore() {
     job->error = stored.error;
     job->stopUnits = stored.stopUnits;
     job->stopReason = stored.stopReason;
+    job->owner = stored.owner;
+    job->endedUnixSeconds = stored.endedUnixSeconds;
     const AssetReader reader = [&](const std::string& path) -> std::optional<std::string> {
       auto it = job->spec.assets.find(path);
       if (it == job->spec.assets.end()) return std::nullopt;
@@ -145,6 +157,18 @@ void Coordinator::restore() {
     Scene scene = parseScene(job->spec.sceneJson, job->spec.sceneName, reader);
     applyOverrides(job->spec.overrides, scene.render, job->spec.sceneName);
     job->setScene(scene);
+    if (stored.archived) {  // its final image is in the archive (lifecycle.cpp): no film, no ledger
+      job->archived = true;
+      restoreSummary(*job, stored.summary);
+      job->units.clearPending();
+      job->started = job->finished = now;
+      store_->markArchived(job->id, stored.summary);  // files a crash left behind
+      nextJob_ = std::max(nextJob_, uint64_t(std::stoull(job->id.substr(4))) + 1);
+      nextSequence_ = std::max(nextSequence_, job->sequence + 1);
+      spdlog::info("restored {}: {}, archived", job->id, jobStateName(job->state));
+      jobs_[job->id] = std::move(job);
+      return;
+    }
 
     std::optional<uint64_t> highest;
     uint64_t folded = 0;
@@ -187,9 +211,15 @@ void Coordinator::restore() {
     job->publish(progress);
     if (highest) job->started = now;  // elapsed time restarts with the coordinator (docs/farm.md)
     if (isTerminal(job->state)) job->started = job->finished = now;
+    // A job that ended before its end time was stored: retention counts from this start.
+    if (isTerminal(job->state) && job->endedUnixSeconds <= 0.0) {
+      job->endedUnixSeconds = nowUnix;
+      persistState(*job);
+    }
     if (job->state == JobState::kRunning && !progress.stopReason.empty()) {
       // It reached its stop before the restart (or in the replay): same units, same image.
       job->state = JobState::kDone;
+      job->endedUnixSeconds = nowUnix;
       job->stopReason = progress.stopReason;
       if (progress.units < job->units.total()) {
         job->stopUnits = progress.units;

@@ -131,6 +131,7 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
       checkPlausible(result, uint64_t(region.width) * uint64_t(region.height), sampleCount);
   }
   Job* job;
+  JobPin pin;  // not deleted or archived while its result is summed (lifecycle.cpp); outlives the locks below
   std::string workerName;
   uint64_t generation = 0;
   bool auditLease = false;  // the upload renders a counted unit again (auditing.cpp)
@@ -138,6 +139,7 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
   {
     std::lock_guard lock(mutex_);
     job = &findJob(result.jobId);
+    pin = JobPin(*this, *job);
     if (result.unitIndex >= job->units.total())
       throw FarmError(FarmError::Kind::kInvalidArgument,
                       "job " + job->id + " has no unit " + std::to_string(result.unitIndex));

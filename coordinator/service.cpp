@@ -136,6 +136,9 @@ v1::JobStatus toProto(const JobInfo& info) {
     frame->set_tiles_total(f.tilesTotal);
     frame->set_complete(f.complete());
   }
+  s.set_owner(info.owner);
+  s.set_ended_unix_seconds(info.endedUnixSeconds);
+  s.set_archived(info.archived);
   return s;
 }
 
@@ -195,7 +198,7 @@ grpc::Status ClientServiceImpl::UploadAsset(grpc::ServerContext* context, grpc::
 grpc::Status ClientServiceImpl::SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request,
                                           v1::SubmitJobResponse* response) {
   return guarded(gate_, context, "SubmitJob", [&] {
-    const JobInfo info = coordinator_.submit(proto::fromProto(request->spec()), request->priority());
+    const JobInfo info = coordinator_.submit(proto::fromProto(request->spec()), request->priority(), request->owner());
     response->set_job_id(info.id);
     *response->mutable_status() = toProto(info);
   });
@@ -205,10 +208,47 @@ grpc::Status ClientServiceImpl::GetJob(grpc::ServerContext* context, const v1::G
   return guarded(gate_, context, "GetJob", [&] { *response = toProto(coordinator_.job(request->job_id())); });
 }
 
-grpc::Status ClientServiceImpl::ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest*, v1::ListJobsResponse* response) {
+Coordinator::JobFilter jobFilterOf(const v1::ListJobsRequest& request) {
+  Coordinator::JobFilter filter;
+  const JobState all[] = {JobState::kQueued, JobState::kRunning, JobState::kDone, JobState::kCancelled,
+                          JobState::kFailed};
+  for (const int state : request.states()) {
+    bool known = false;
+    for (const JobState s : all)
+      if (toProto(s) == state) filter.states.insert(s), known = true;
+    if (!known)
+      throw FarmError(FarmError::Kind::kInvalidArgument, "states: unknown job state " + std::to_string(state));
+  }
+  for (const std::string& name : request.state_names()) {
+    bool known = false;
+    for (const JobState s : all)
+      if (name == jobStateName(s)) filter.states.insert(s), known = true;
+    if (!known)
+      throw FarmError(FarmError::Kind::kInvalidArgument,
+                      "state_names: unknown job state \"" + name + "\" (queued, running, done, cancelled, failed)");
+  }
+  filter.owner = request.owner();
+  filter.nameContains = request.name_contains();
+  filter.limit = request.limit();
+  return filter;
+}
+
+grpc::Status ClientServiceImpl::ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest* request,
+                                         v1::ListJobsResponse* response) {
   return guarded(gate_, context, "ListJobs", [&] {
-    for (const JobInfo& info : coordinator_.jobs()) *response->add_jobs() = toProto(info);
+    for (const JobInfo& info : coordinator_.jobs(jobFilterOf(*request))) *response->add_jobs() = toProto(info);
   });
+}
+
+grpc::Status ClientServiceImpl::DeleteJob(grpc::ServerContext* context, const v1::DeleteJobRequest* request,
+                                          v1::DeleteJobResponse*) {
+  return guarded(gate_, context, "DeleteJob", [&] { coordinator_.deleteJob(request->job_id(), request->force()); });
+}
+
+grpc::Status ClientServiceImpl::ArchiveJob(grpc::ServerContext* context, const v1::ArchiveJobRequest* request,
+                                           v1::ArchiveJobResponse* response) {
+  return guarded(gate_, context, "ArchiveJob",
+                 [&] { *response->mutable_status() = toProto(coordinator_.archiveJob(request->job_id())); });
 }
 
 grpc::Status ClientServiceImpl::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
@@ -300,7 +340,10 @@ grpc::Status WorkerServiceImpl::LeaseWork(grpc::ServerContext* context, const v1
   return guarded(gate_, context, "LeaseWork", [&] {
     coordinator_.authenticateWorker(request->worker_id(), request->session());
     const double wait = std::min(10.0, request->wait_ms() / 1000.0);
-    if (auto grant = coordinator_.lease(request->worker_id(), wait)) *response->mutable_lease() = proto::toProto(*grant);
+    if (auto grant = coordinator_.lease(request->worker_id(), wait)) {
+      grant->uploadEncoding = uploadEncoding_;
+      *response->mutable_lease() = proto::toProto(*grant);
+    }
   });
 }
 
@@ -336,7 +379,9 @@ grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext* context, grpc:
       first = false;
       assembler.add(message);
     }
-    response->set_accepted(coordinator_.acceptResult(assembler.finish()));
+    UnitResult result = assembler.finish();
+    coordinator_.countUnitWireBytes(assembler.wireBytes());
+    response->set_accepted(coordinator_.acceptResult(std::move(result)));
   });
 }
 

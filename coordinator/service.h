@@ -32,11 +32,18 @@ class ClientServiceImpl final : public v1::ClientService::Service {
   grpc::Status GetSnapshot(grpc::ServerContext* context, const v1::SnapshotRequest* request, v1::Snapshot* response) override;
   grpc::Status CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request, v1::CancelJobResponse* response) override;
   grpc::Status ListWorkers(grpc::ServerContext* context, const v1::ListWorkersRequest*, v1::ListWorkersResponse* response) override;
+  grpc::Status DeleteJob(grpc::ServerContext* context, const v1::DeleteJobRequest* request, v1::DeleteJobResponse*) override;
+  grpc::Status ArchiveJob(grpc::ServerContext* context, const v1::ArchiveJobRequest* request,
+                          v1::ArchiveJobResponse* response) override;
 
  private:
   Coordinator& coordinator_;
   TokenGate gate_;
 };
+
+// ListJobsRequest's filters as Coordinator::JobFilter; FarmError kInvalidArgument naming an
+// unknown state.
+Coordinator::JobFilter jobFilterOf(const v1::ListJobsRequest& request);
 
 class AttachReactor;
 
@@ -45,8 +52,11 @@ class AttachReactor;
 // costs no threads.
 class WorkerServiceImpl final : public v1::WorkerService::WithCallbackMethod_Attach<v1::WorkerService::Service> {
  public:
-  WorkerServiceImpl(Coordinator& coordinator, TokenGate gate = TokenGate({}, "worker"))
-      : coordinator_(coordinator), gate_(std::move(gate)) {}
+  // `uploadEncoding`: how leases ask workers to upload their sums (Lease.sums_encoding; uploads
+  // in either encoding are accepted whatever was asked).
+  WorkerServiceImpl(Coordinator& coordinator, TokenGate gate = TokenGate({}, "worker"),
+                    SumsEncoding uploadEncoding = SumsEncoding::kShuffleZstd)
+      : coordinator_(coordinator), gate_(std::move(gate)), uploadEncoding_(uploadEncoding) {}
   ~WorkerServiceImpl() override;
 
   // Ends every Attach stream (UNAVAILABLE, "coordinator shutting down") without marking its
@@ -70,6 +80,7 @@ class WorkerServiceImpl final : public v1::WorkerService::WithCallbackMethod_Att
   friend class AttachReactor;
   Coordinator& coordinator_;
   TokenGate gate_;
+  SumsEncoding uploadEncoding_;
   // The open Attach streams. Recursive: a stream finished by endAttachments() may end (and
   // unregister itself) on the same thread.
   std::recursive_mutex attachMutex_;

@@ -145,6 +145,11 @@ StateStore::StateStore(fs::path dir) : dir_(std::move(dir)) {
   exec("CREATE TABLE IF NOT EXISTS meta(key TEXT PRIMARY KEY, value INTEGER)");
   exec("CREATE TABLE IF NOT EXISTS jobs(id TEXT PRIMARY KEY, sequence INTEGER, priority INTEGER, spec TEXT, "
        "state TEXT, error TEXT, submitted REAL, folded_units INTEGER, stop_units INTEGER, stop_reason TEXT)");
+  // Added by the job life cycle; a state dir written before it gains them empty.
+  addColumnIfMissing("jobs", "owner", "TEXT");
+  addColumnIfMissing("jobs", "ended", "REAL");
+  addColumnIfMissing("jobs", "archived", "INTEGER");
+  addColumnIfMissing("jobs", "summary", "TEXT");
   exec("CREATE TABLE IF NOT EXISTS ledger(job_id TEXT, unit INTEGER, worker TEXT, paths INTEGER, rays INTEGER, "
        "light_hits INTEGER, dropped INTEGER, PRIMARY KEY(job_id, unit))");
   exec("CREATE TABLE IF NOT EXISTS stamp(key TEXT PRIMARY KEY, value TEXT)");
@@ -179,6 +184,11 @@ void StateStore::exec(const std::string& sql) {
   }
 }
 
+void StateStore::addColumnIfMissing(const std::string& table, const std::string& column, const std::string& type) {
+  Statement s(db_, ("SELECT count(*) FROM pragma_table_info('" + table + "') WHERE name = '" + column + "'").c_str());
+  if (s.step() && s.integer(0) == 0) exec("ALTER TABLE " + table + " ADD COLUMN " + column + " " + type);
+}
+
 fs::path StateStore::jobDir(const std::string& jobId) const { return dir_ / "jobs" / jobId; }
 
 void StateStore::putAsset(const std::string& sha256, const std::string& bytes) {
@@ -196,8 +206,8 @@ std::map<std::string, std::shared_ptr<const std::string>> StateStore::loadAssets
 void StateStore::insertJob(const StoredJob& job) {
   std::lock_guard lock(mutex_);
   fs::create_directories(jobDir(job.id));
-  Statement(db_, "INSERT INTO jobs(id, sequence, priority, spec, state, error, submitted, folded_units) "
-                 "VALUES(?, ?, ?, ?, ?, ?, ?, 0)")
+  Statement(db_, "INSERT INTO jobs(id, sequence, priority, spec, state, error, submitted, folded_units, owner, "
+                 "ended, archived) VALUES(?, ?, ?, ?, ?, ?, ?, 0, ?, 0, 0)")
       .bind(1, job.id)
       .bind(2, int64_t(job.sequence))
       .bind(3, int64_t(job.priority))
@@ -205,18 +215,85 @@ void StateStore::insertJob(const StoredJob& job) {
       .bind(5, job.state)
       .bind(6, job.error)
       .bind(7, job.submittedUnixSeconds)
+      .bind(8, job.owner)
       .step();
+  if (job.id.rfind("job-", 0) == 0)
+    Statement(db_, "INSERT INTO meta(key, value) VALUES('last_job', ?) "
+                   "ON CONFLICT(key) DO UPDATE SET value = max(value, excluded.value)")
+        .bind(1, int64_t(std::stoull(job.id.substr(4))))
+        .step();
+}
+
+uint64_t StateStore::lastJobNumber() {
+  std::lock_guard lock(mutex_);
+  Statement s(db_, "SELECT value FROM meta WHERE key = 'last_job'");
+  return s.step() ? uint64_t(s.integer(0)) : 0;
+}
+
+void StateStore::inTransaction(const std::function<void()>& body) {
+  std::lock_guard lock(mutex_);
+  exec("BEGIN IMMEDIATE");
+  try {
+    body();
+    exec("COMMIT");
+  } catch (...) {
+    exec("ROLLBACK");
+    throw;
+  }
+}
+
+void StateStore::markArchived(const std::string& jobId, const std::string& summary) {
+  inTransaction([&] {
+    Statement(db_, "UPDATE jobs SET archived = 1, summary = ?, folded_units = 0 WHERE id = ?")
+        .bind(1, summary)
+        .bind(2, jobId)
+        .step();
+    Statement(db_, "DELETE FROM ledger WHERE job_id = ?").bind(1, jobId).step();
+  });
+  // The row says archived: a crash from here on leaves files that restore() ignores and removes.
+  std::error_code ignored;
+  if (!fs::exists(jobDir(jobId), ignored)) return;
+  for (const auto& entry : fs::directory_iterator(jobDir(jobId))) {
+    const std::string name = entry.path().filename().string();
+    if (name == "sensor.bin" || name.rfind("unit-", 0) == 0 || name.rfind(".", 0) == 0)
+      fs::remove(entry.path(), ignored);
+  }
+}
+
+void StateStore::deleteJob(const std::string& jobId) {
+  inTransaction([&] {
+    Statement(db_, "DELETE FROM ledger WHERE job_id = ?").bind(1, jobId).step();
+    Statement(db_, "DELETE FROM jobs WHERE id = ?").bind(1, jobId).step();
+  });
+  // No row names the job now: a crash before its directory is gone leaves an orphan that the
+  // next start removes (removeOrphanJobDirs).
+  std::error_code ignored;
+  fs::remove_all(jobDir(jobId), ignored);
+}
+
+void StateStore::removeOrphanJobDirs() {
+  std::set<std::string> known;
+  {
+    std::lock_guard lock(mutex_);
+    Statement s(db_, "SELECT id FROM jobs");
+    while (s.step()) known.insert(s.text(0));
+  }
+  std::error_code ignored;
+  for (const auto& entry : fs::directory_iterator(dir_ / "jobs"))
+    if (entry.is_directory() && !known.count(entry.path().filename().string())) fs::remove_all(entry.path(), ignored);
 }
 
 void StateStore::updateJobState(const std::string& jobId, const std::string& state, const std::string& error,
-                                const std::optional<uint64_t>& stopUnits, const std::string& stopReason) {
+                                const std::optional<uint64_t>& stopUnits, const std::string& stopReason,
+                                double endedUnixSeconds) {
   std::lock_guard lock(mutex_);
-  Statement(db_, "UPDATE jobs SET state = ?, error = ?, stop_units = ?, stop_reason = ? WHERE id = ?")
+  Statement(db_, "UPDATE jobs SET state = ?, error = ?, stop_units = ?, stop_reason = ?, ended = ? WHERE id = ?")
       .bind(1, state)
       .bind(2, error)
       .bind(3, stopUnits ? int64_t(*stopUnits) : int64_t(-1))
       .bind(4, stopReason)
-      .bind(5, jobId)
+      .bind(5, endedUnixSeconds)
+      .bind(6, jobId)
       .step();
 }
 
@@ -229,7 +306,8 @@ std::vector<StateStore::StoredJob> StateStore::loadJobs() {
   std::lock_guard lock(mutex_);
   std::vector<StoredJob> out;
   Statement s(db_, "SELECT id, sequence, priority, spec, state, error, submitted, folded_units, "
-                 "coalesce(stop_units, -1), coalesce(stop_reason, '') FROM jobs ORDER BY sequence");
+                 "coalesce(stop_units, -1), coalesce(stop_reason, ''), coalesce(owner, ''), coalesce(ended, 0), "
+                 "coalesce(archived, 0), coalesce(summary, '') FROM jobs ORDER BY sequence");
   while (s.step()) {
     StoredJob j;
     j.id = s.text(0);
@@ -242,6 +320,10 @@ std::vector<StateStore::StoredJob> StateStore::loadJobs() {
     j.foldedUnits = uint64_t(s.integer(7));
     if (s.integer(8) >= 0) j.stopUnits = uint64_t(s.integer(8));
     j.stopReason = s.text(9);
+    j.owner = s.text(10);
+    j.endedUnixSeconds = s.real(11);
+    j.archived = s.integer(12) != 0;
+    j.summary = s.text(13);
     out.push_back(std::move(j));
   }
   return out;

@@ -10,11 +10,14 @@
 //   jobs/<id>/unit-<k>.bin    an accepted unit's sums, until a checkpoint folds it in (a tiled
 //                             job's: until its frame is stored)
 //   jobs/<id>/frame-<i>.exr   a tiled job's completed frame i (frame_store.h)
+//   jobs/<id>/final.exr       an archived job's final image (job_archive.h); its sensor.bin,
+//                             unit files and ledger rows are then gone
 //
 // Every file is written atomically (write, fsync, rename) and SQLite runs with synchronous=FULL,
 // so a unit acknowledged to a worker survives a SIGKILL: its file and ledger row are durable
 // before the acknowledgement is sent.
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -55,12 +58,28 @@ class StateStore {
     uint64_t foldedUnits = 0;  // units in sensor.bin
     std::optional<uint64_t> stopUnits;  // a job stopped early keeps units [0, stopUnits)
     std::string stopReason;
+    std::string owner;
+    double endedUnixSeconds = 0.0;  // 0: not ended (or ended before this column existed)
+    bool archived = false;
+    std::string summary;  // an archived job's progress (Coordinator::summaryOf)
   };
   void insertJob(const StoredJob& job);
   void updateJobState(const std::string& jobId, const std::string& state, const std::string& error,
-                      const std::optional<uint64_t>& stopUnits = std::nullopt, const std::string& stopReason = "");
+                      const std::optional<uint64_t>& stopUnits = std::nullopt, const std::string& stopReason = "",
+                      double endedUnixSeconds = 0.0);
   void updateJobPriority(const std::string& jobId, int priority);
   std::vector<StoredJob> loadJobs();  // in submission order
+  // The highest job number ever inserted ("job-<n>"), so ids of deleted jobs are never reissued.
+  uint64_t lastJobNumber();
+
+  // ---- the job life cycle (docs/farm.md "Job life cycle") ----
+  // Archived: the job row is marked (with `summary`) and its ledger rows go, in one transaction;
+  // then its sensor.bin and unit files (final.exr stays).
+  void markArchived(const std::string& jobId, const std::string& summary);
+  // Deleted: the job row and ledger rows in one transaction, then the job's directory.
+  void deleteJob(const std::string& jobId);
+  // Removes job directories with no job row (a deletion cut short by a crash).
+  void removeOrphanJobDirs();
 
   struct LedgerEntry {
     uint64_t unit = 0;
@@ -92,6 +111,8 @@ class StateStore {
 
  private:
   void exec(const std::string& sql);
+  void addColumnIfMissing(const std::string& table, const std::string& column, const std::string& type);
+  void inTransaction(const std::function<void()>& body);  // takes mutex_; rolls back if body throws
   std::filesystem::path jobDir(const std::string& jobId) const;
 
   std::filesystem::path dir_;

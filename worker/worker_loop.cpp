@@ -80,7 +80,10 @@ void WorkerLoop::heartbeatLoop() {
 }
 
 std::shared_ptr<WorkerLoop::PreparedJob> WorkerLoop::prepare(const LeaseGrant& grant) {
-  if (auto it = jobs_.find(grant.jobId); it != jobs_.end()) return it->second;
+  // An animation's frames are scenes of their own (keyframes evaluated at the frame,
+  // docs/scene-format.md "Animation"): loaded per job and frame; a still's frame is always 0.
+  const std::string key = grant.jobId + "@" + std::to_string(grant.unit.frame);
+  if (auto it = jobs_.find(key); it != jobs_.end()) return it->second;
   const JobSpec spec = link_.jobSpec(grant.jobId);
   std::map<std::string, std::string> files;
   // Each asset is fetched once per cache (memory, then --cache-dir), however many jobs share it.
@@ -95,7 +98,7 @@ std::shared_ptr<WorkerLoop::PreparedJob> WorkerLoop::prepare(const LeaseGrant& g
     auto it = files.find(path);
     if (it == files.end()) return std::nullopt;
     return it->second;
-  });
+  }, spec.frames ? std::optional<double>(double(grant.unit.frame)) : std::nullopt);
   applyOverrides(spec.overrides, job->scene.render, spec.sceneName);
   if (job->scene.hash != grant.sceneHash)
     throw InputError(spec.sceneName, "scene hash " + job->scene.hash + " differs from the job's " + grant.sceneHash);
@@ -104,8 +107,8 @@ std::shared_ptr<WorkerLoop::PreparedJob> WorkerLoop::prepare(const LeaseGrant& g
     jobs_.erase(jobOrder_.front());
     jobOrder_.pop_front();
   }
-  jobs_[grant.jobId] = job;
-  jobOrder_.push_back(grant.jobId);
+  jobs_[key] = job;
+  jobOrder_.push_back(key);
   spdlog::info("loaded {} for {}: {}x{}, {} triangles", spec.sceneName, grant.jobId, job->scene.render.width,
                job->scene.render.height, storedTriangles(job->scene));
   return job;

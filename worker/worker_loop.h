@@ -81,7 +81,7 @@ class WorkerLoop {
   std::atomic<bool> cancelUnit_{false};
   std::atomic<bool> stopping_{false};
   std::atomic<bool> stopNow_{false};
-  std::map<std::string, std::shared_ptr<PreparedJob>> jobs_;  // the few most recent
+  std::map<std::string, std::shared_ptr<PreparedJob>> jobs_;  // the few most recent, by "job@frame"
   std::deque<std::string> jobOrder_;                          // oldest first
   std::thread heartbeat_;
 };

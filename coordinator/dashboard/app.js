@@ -118,7 +118,8 @@ async function renderOverview() {
     el("tr", { dataset: { job: j.id, state: j.state } },
       el("td", {}, el("a", { href: `#/job/${encodeURIComponent(j.id)}` }, j.id)),
       el("td", {}, `${j.scene} `, el("span", { class: "muted" }, `${j.width}×${j.height}`)),
-      el("td", {}, badge(j.state)),
+      el("td", {}, badge(j.state), j.archived ? el("span", { class: "muted small" }, " archived") : "",
+        j.owner ? el("div", { class: "muted small" }, j.owner) : ""),
       el("td", { class: "num" }, j.priority),
       el("td", { class: "progress-cell", title: `toward ${progressBasis(j)}` }, progressBar(j.progress),
         el("span", { class: "muted" }, `${sppText(j)} spp`)),
@@ -170,12 +171,19 @@ async function renderJob(jobId) {
   $("#job-stats").replaceChildren(
     ...stat("Samples per pixel", sppText(job), "job-spp"),
     ...stat("Units", job.units_total === null ? `${job.units_done}` : `${job.units_done} / ${job.units_total}`),
+    ...(job.frames_total > 0
+      ? stat("Frames", `${job.frames_complete} / ${job.frames_total} complete` +
+          (job.frames ? " " + job.frames.map(([n, done, total]) => (done === total ? "#" : done > 0 ? "+" : ".")).join("") : ""),
+          "job-frames")
+      : []),
     ...stat("Progress", `${(100 * job.progress).toFixed(0)} % toward ${progressBasis(job)}`, "job-progress-text"),
     ...stat("Samples/s", running ? fmtCount(job.samples_per_second) : "–"),
     ...stat("Estimated error", fmtError(job.estimated_error, job.units_done) + target, "job-error"),
     ...stat("Elapsed", fmtDuration(job.elapsed_seconds)),
     ...stat(running ? "Time left" : "Stopped", running ? timeLeft(job) : (job.stop_reason || job.error || job.state), "job-time-left"),
     ...stat("Workers busy", job.workers_busy),
+    ...(job.owner ? stat("Owner", job.owner, "job-owner") : []),
+    ...(job.archived ? stat("Archived", "final image kept; sensor and ledger freed", "job-archived") : []),
     ...(job.stalled_reason ? stat("Stalled", job.stalled_reason, "job-stalled") : []),
     ...(audit ? stat("Audit", audit, "job-audit") : []));
   $("#job-priority").textContent = job.priority;

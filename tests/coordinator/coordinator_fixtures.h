@@ -1,10 +1,14 @@
 #pragma once
 // Small pieces the Coordinator tests share (coordinator, liveness, memory, state): a worker's
 // registration and a unit result of constant sums, so accumulation is tested without rendering.
+#include <gtest/gtest.h>
+
 #include <algorithm>
+#include <functional>
 #include <string>
 
 #include "coordinator.h"
+#include "util/error.h"
 #include "util/version.h"
 
 namespace lensfarm::test {
@@ -25,6 +29,17 @@ inline UnitResult resultFor(const std::string& worker, const LeaseGrant& g, doub
   r.stats.rays = 3 * r.stats.paths;
   r.renderSeconds = renderSeconds;
   return r;
+}
+
+// The kind of the FarmError `call` throws (a test failure if it throws none).
+inline FarmError::Kind kindOf(const std::function<void()>& call) {
+  try {
+    call();
+  } catch (const FarmError& e) {
+    return e.kind();
+  }
+  ADD_FAILURE() << "no FarmError";
+  return FarmError::Kind::kInvalidArgument;
 }
 
 }  // namespace lensfarm::test

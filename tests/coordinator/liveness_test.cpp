@@ -46,15 +46,7 @@ WorkerView viewOf(const Coordinator& c, const std::string& id) {
   return {};
 }
 
-FarmError::Kind kindOf(const std::function<void()>& call) {
-  try {
-    call();
-  } catch (const FarmError& e) {
-    return e.kind();
-  }
-  ADD_FAILURE() << "no FarmError";
-  return FarmError::Kind::kInvalidArgument;
-}
+using test::kindOf;
 
 Coordinator::Options longLeases() {
   Coordinator::Options o;

@@ -256,3 +256,48 @@ TEST(TiledJob, BadLayoutsGetOneClearError) {
 
 }  // namespace
 }  // namespace lensfarm
+
+namespace lensfarm {
+namespace {
+
+// The audit in a tiled job (docs/farm.md "Audit"): a worker whose tiles are wrong is found and
+// quarantined, its tiles are rendered again by the others and overwritten, and the image is the
+// honest one, bit for bit.
+TEST(TiledJob, AWrongWorkersTilesAreRenderedAgainAndTheImageIsTheHonestOne) {
+  Coordinator::Options options;
+  options.auditFraction = 1.0;  // every tile is rendered twice
+  Coordinator c(options);
+  JobSpec spec = animation();
+  spec.frames.reset();  // a still of 3 x 2 tiles
+  const std::string job = c.submit(spec, 0).id;
+  const std::vector<std::string> workers = {c.registerWorker(workerInfo("a")), c.registerWorker(workerInfo("wrong")),
+                                            c.registerWorker(workerInfo("b"))};
+  for (int round = 0; round < 200 && c.job(job).state != JobState::kDone; ++round)
+    for (const std::string& w : workers)
+      if (auto g = c.lease(w, 0)) {
+        UnitResult r = tileResult(w, *g);
+        if (w == workers[1])
+          for (double& v : r.buffer.sums) v += 1.0;  // plausible, but wrong
+        try {
+          c.acceptResult(std::move(r));
+        } catch (const FarmError& e) {
+          ADD_FAILURE() << e.what();
+        }
+      }
+  const JobInfo done = c.job(job);
+  ASSERT_EQ(done.state, JobState::kDone) << done.unitsDone << " units, " << done.auditsPending << " audits pending, "
+                                         << done.stalledReason;
+  bool quarantined = false;
+  for (const WorkerView& v : c.workers()) quarantined |= v.id == workers[1] && v.quarantined;
+  EXPECT_TRUE(quarantined);
+  const Image image = c.image(job).image;
+  for (int y = 0; y < 3; ++y)
+    for (int x = 0; x < 5; ++x) {
+      const int cx = 4 - x, cy = 2 - y;
+      const uint64_t unit = uint64_t(cy / 2) * 3 + uint64_t(cx / 2);
+      ASSERT_EQ(image.rgb[3 * (size_t(y) * 5 + x)], float(double(unit + 1) * 4.0 * (1.0 / 4.0))) << x << "," << y;
+    }
+}
+
+}  // namespace
+}  // namespace lensfarm

@@ -1,0 +1,43 @@
+#pragma once
+// A finished job's final image, kept after its film (Accumulator) is freed: the job's developed
+// image (float32 linear RGB, the diffraction PSF applied, as Coordinator::image made it) and its
+// EXR metadata. With a state dir it is the file jobs/<id>/final.exr, written atomically (temp
+// file, fsync, rename: film/image_io.h); without one, the encoded EXR bytes are held in memory.
+// OpenEXR's FLOAT channels with its default (ZIP, lossless) compression give back the same bits.
+//
+// Used by the job life cycle (lifecycle.cpp, docs/farm.md "Job life cycle"): archiving stores the
+// image, Download and snapshots load it, deleting the job removes it.
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "film/image.h"
+#include "film/image_io.h"
+
+namespace lensfarm {
+
+class JobArchive {
+ public:
+  // `stateDir` empty: images held in memory.
+  explicit JobArchive(std::filesystem::path stateDir);
+
+  // Stores the job's final image (replacing any earlier one); durable on return with a state dir.
+  void store(const std::string& jobId, const Image& image, const ImageMetadata& metadata);
+  // The image as stored, with its metadata; nullopt if none was stored (or its file is missing).
+  std::optional<Image> load(const std::string& jobId, ImageMetadata* metadata = nullptr) const;
+  // Forgets the job's image (and removes its file).
+  void remove(const std::string& jobId);
+  // Where the image of `jobId` is kept with a state dir (empty without one).
+  std::filesystem::path pathOf(const std::string& jobId) const;
+  // Bytes held in memory (the encoded images without a state dir; 0 with one).
+  uint64_t bytesInMemory() const;
+
+ private:
+  const std::filesystem::path dir_;
+  mutable std::mutex mutex_;
+  std::map<std::string, std::string> inMemory_;  // job id -> EXR bytes (no state dir)
+};
+
+}  // namespace lensfarm
