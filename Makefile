@@ -5,7 +5,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: bench-goals all setup setup-build configure configure-demo build build-demo demo test bench load fuzz clean
+.PHONY: bench-goals all setup setup-build configure configure-demo build build-demo demo test bench load load-quick soak fuzz clean
 
 all: build
 
@@ -64,8 +64,20 @@ fuzz:
 	@mkdir -p build-fuzz/lens-corpus && cp scenes/lenses/*.dat build-fuzz/lens-corpus/
 	cd build-fuzz && ./tests/fuzz/lens_fuzz -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 -artifact_prefix=lens- lens-corpus
 
-# The bounded soak test of one coordinator: 64 simulated workers for 60 s.
+# The farm at scale (issue 24; docs/performance.md "The farm at scale"): 1,000 simulated workers
+# against one lensfarm-coordinator process over gRPC, a 3840x2160 still and a 240-frame 1920x1080
+# animation, each on a fresh coordinator. Prints the table and writes $(BUILD_DIR)/scale.json.
+# LOAD_FLAGS adds or overrides flags (docs/performance.md's figures: LOAD_FLAGS=--audit-fraction 0).
+LOAD_FLAGS ?=
 load: build
+	$(BUILD_DIR)/bench/lensfarm-scale --workers 1000 --json $(BUILD_DIR)/scale.json $(LOAD_FLAGS)
+# The same at 200 workers on small frames (15 s); the test suite runs it too.
+load-quick: build
+	$(BUILD_DIR)/bench/lensfarm-scale --workers 200 --still 960x540 --animation 480x270 --frames 24 --tile-size 64 \
+	  $(LOAD_FLAGS)
+
+# The bounded soak test of one coordinator: 64 simulated workers for 60 s, some killed mid-unit.
+soak: build
 	$(BUILD_DIR)/bench/lensfarm-load --workers 64 --seconds 60
 
 clean:

@@ -1,6 +1,9 @@
 // Coordinator ingest: how many bytes of partial sensor buffers per second one coordinator can
 // take in and sum, directly (Coordinator::acceptResult) and over gRPC from several simulated
-// workers on loopback (the real WorkerService and the worker's own gRPC link).
+// workers on loopback (the real WorkerService and the worker's own gRPC link). BM_UploadOverGrpc's
+// argument is the upload encoding (0 raw, 1 shuffle + zstd; the coordinator accepts either); its
+// synthetic sums repeat every 97 doubles and compress far better than rendered ones
+// (docs/performance.md, "Upload compression").
 //
 //   build/bench/lensfarm-ingest-bench --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
 //
@@ -122,6 +125,7 @@ void BM_UploadOverGrpc(benchmark::State& state) {
   GrpcCoordinatorLink link(makeChannel(served->address, ChannelSecurity{}), ChannelSecurity{});
   const std::string worker = link.registerWorker(WorkerInfo{"bench", 1, kProtocolVersion, kRendererVersion}).workerId;
   UnitResult result = resultFor(worker, *link.lease(worker, 1.0));
+  result.uploadEncoding = SumsEncoding(state.range(0));
   link.upload(result);
   for (auto _ : state) {
     const auto g = link.lease(worker, 1.0);  // a lease per upload, as a worker does
@@ -131,7 +135,14 @@ void BM_UploadOverGrpc(benchmark::State& state) {
   }
   state.SetBytesProcessed(int64_t(state.iterations()) * int64_t(result.buffer.sums.size() * sizeof(double)));
 }
-BENCHMARK(BM_UploadOverGrpc)->Unit(benchmark::kMillisecond)->UseRealTime()->Threads(1)->Threads(4)->Threads(16);
+BENCHMARK(BM_UploadOverGrpc)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Arg(0)
+    ->Arg(1)
+    ->Threads(1)
+    ->Threads(4)
+    ->Threads(16);
 
 }  // namespace
 }  // namespace lensfarm

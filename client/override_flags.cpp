@@ -33,7 +33,7 @@ void OverrideFlags::addTo(CLI::App* cmd) {
                   "Stop this long after submission (e.g. 90s, 10m, 2h), with a whole number of units")
       ->transform(durationIn(1e-3, 1e9));
   cmd->add_option("--tile-size", tileSize,
-                  "How the frame is cut into units: auto (default), off (passes over the whole frame) or a tile "
+                  "How the frame is cut into units: auto (default), off (every unit covers the whole frame) or a tile "
                   "edge in pixels; never changes the image");
   cmd->add_option("--frames", frames,
                   "Render an animation's frames: 7, 1-240 or 1-240x2 (every 2nd); outputs need #### for the number");

@@ -99,6 +99,11 @@ std::string progressLine(const v1::JobStatus& s, double watchTarget, double nowU
   const auto& p = s.progress();
   std::string line = fmt::format("{} {} spp  {}", stateName(s.state()), samplesText(p), convergenceText(p, watchTarget));
   if (p.time_limit_seconds() > 0.0) line += "  " + deadlineText(s, nowUnixSeconds);
+  if (s.frames_size() > 0) {  // an animation: frames complete of the range
+    int complete = 0;
+    for (const v1::FrameStatus& f : s.frames()) complete += f.complete();
+    line += fmt::format("  frames {}/{}", complete, s.frames_size());
+  }
   // Until a unit is in, there is no rate and no time left to show, only that they are coming.
   const bool noData = !isFinished(s.state()) && p.units_done() == 0;
   if (noData) line += "  estimating";

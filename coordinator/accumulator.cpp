@@ -311,6 +311,11 @@ std::vector<TileFilm::Completed> Accumulator::takeCompletedFrames() {
   return tiles_ ? tiles_->takeCompleted() : std::vector<TileFilm::Completed>{};
 }
 
+void Accumulator::frameStored(uint64_t frameIndex) {
+  std::lock_guard lock(mutex_);
+  if (tiles_) tiles_->stored(frameIndex);
+}
+
 std::optional<Accumulator::Developed> Accumulator::developFrame(uint64_t frameIndex) const {
   if (!tiles_) {
     if (frameIndex != 0) return std::nullopt;

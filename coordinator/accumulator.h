@@ -129,6 +129,7 @@ class Accumulator {
   bool tiled() const { return tiles_ != nullptr; }
   // Frames completed since the last call (TileFilm::takeCompleted); none for a job in passes.
   std::vector<TileFilm::Completed> takeCompletedFrames();
+  void frameStored(uint64_t frameIndex);  // TileFilm::stored
   // Frame `frameIndex`'s image as held now; nullopt when the film does not hold it (TileFilm::image).
   std::optional<Developed> developFrame(uint64_t frameIndex) const;
   // A frame complete before a restart (its file is stored); a still's image is held again.

@@ -78,9 +78,11 @@ bool Coordinator::acceptAudit(const UnitResult& result) {
       throw FarmError(FarmError::Kind::kFailedPrecondition, "lease " + std::to_string(result.leaseId) + " for unit " +
                                                                 std::to_string(unit) + " of " + result.jobId +
                                                                 " is not held by " + result.workerId);
-    const int w = job.settings.width, h = job.settings.height;
-    if (result.buffer.width != w || result.buffer.height != h || result.buffer.sums.size() != size_t(w) * size_t(h) * 3)
-      throw FarmError(FarmError::Kind::kInvalidArgument, "result for " + job.id + " has the wrong size");
+    const PixelRegion region = job.layout.regionOf(unit);  // the whole frame, or the unit's tile
+    if (result.buffer.width != region.width || result.buffer.height != region.height ||
+        result.buffer.sums.size() != size_t(region.width) * size_t(region.height) * 3)
+      throw FarmError(FarmError::Kind::kInvalidArgument, "result for unit " + std::to_string(unit) + " of " + job.id +
+                                                             " has the wrong size for its region");
     leases_.erase(result.leaseId);
     Worker& worker = findWorker(result.workerId);
     if (worker.currentUnit == unit) worker.currentUnit.reset();

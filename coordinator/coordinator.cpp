@@ -543,6 +543,7 @@ MetricsSnapshot Coordinator::metricsSnapshot() const {
   s.unitsRerendered = counters_.unitsRerendered;
   s.samples = counters_.samples;
   s.unitBytesReceived = counters_.unitBytes;
+  s.unitWireBytesReceived = counters_.unitWireBytes;
   const AssetStore::Counts assets = assets_.counts();
   s.assetBytesReceived = assets.bytesReceived;
   s.assetsSent = assets.sent;

@@ -185,7 +185,8 @@ struct MetricsSnapshot {
   uint64_t auditsFailed = 0;        // audits that found a wrong worker
   uint64_t unitsRerendered = 0;     // counted units queued again after a wrong worker was found
   uint64_t samples = 0;             // camera paths in the accepted results
-  uint64_t unitBytesReceived = 0;   // result buffers (sums) received from workers
+  uint64_t unitBytesReceived = 0;   // result buffers (sums) received from workers, as doubles (decoded)
+  uint64_t unitWireBytesReceived = 0;  // the same uploads' sums as sent over gRPC (compressed or not)
   uint64_t assetBytesReceived = 0;  // asset bytes uploaded by clients (read in full)
   uint64_t assetUploadsStored = 0;  // uploads of assets new to the coordinator
   uint64_t assetUploadsPresent = 0;  // uploads of assets it held already (a client that asks first makes none)
@@ -310,6 +311,9 @@ class Coordinator {
   // memory runs out holding it, the job fails (FarmError kResourceExhausted); others go on.
   bool acceptResult(UnitResult&& result);
   bool acceptResult(const UnitResult& result);
+  // Counts the bytes of sums an upload sent over the wire (MetricsSnapshot::unitWireBytesReceived;
+  // acceptResult counts the decoded ones).
+  void countUnitWireBytes(uint64_t bytes) { counters_.unitWireBytes += bytes; }
   // Before an upload's sums are read (UploadResult's header): the errors acceptResult would
   // give for its lease and frame size, so that no buffer is allocated for a refused upload.
   void admitUpload(const std::string& workerId, uint64_t leaseId, const std::string& jobId, uint64_t unit, int width,
@@ -492,7 +496,7 @@ class Coordinator {
 
   // Counted for metricsSnapshot() since this process started (the assets' by assets_).
   struct Counters {
-    std::atomic<uint64_t> unitsLeased{0}, unitsDone{0}, unitsExpired{0}, samples{0}, unitBytes{0};
+    std::atomic<uint64_t> unitsLeased{0}, unitsDone{0}, unitsExpired{0}, samples{0}, unitBytes{0}, unitWireBytes{0};
     std::atomic<uint64_t> workersLost{0};
     std::atomic<uint64_t> auditsPassed{0}, auditsFailed{0}, unitsRerendered{0};
   };

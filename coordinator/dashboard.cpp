@@ -50,6 +50,11 @@ json summaryOf(const JobInfo& info) {
   j["audits_failed"] = info.auditsFailed;
   j["audits_pending"] = info.auditsPending;
   j["units_rerendered"] = info.unitsRerendered;
+  j["tile_size"] = info.tileSize;  // 0: passes over the whole frame (docs/farm.md "Tiles and passes")
+  uint64_t complete = 0;
+  for (const JobInfo::Frame& f : info.frames) complete += f.complete();
+  j["frames_total"] = info.frames.size();  // 0 for a still
+  j["frames_complete"] = complete;
   return j;
 }
 
@@ -57,6 +62,9 @@ json summaryOf(const JobInfo& info) {
 
 std::string jobDetailJson(const JobInfo& info, const std::vector<ErrorPoint>& errorHistory) {
   json j = summaryOf(info);
+  json frames = json::array();  // an animation's frames: number, tiles in, tiles a frame
+  for (const JobInfo::Frame& f : info.frames) frames.push_back({f.number, f.tilesDone, f.tilesTotal});
+  j["frames"] = frames;
   j["scene_hash"] = info.sceneHash;
   j["effects"] = info.effects;
   j["light_hit_fraction"] = info.lightHitFraction();

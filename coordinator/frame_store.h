@@ -1,5 +1,5 @@
 #pragma once
-// Where a tiled job's completed frames live (docs/farm.md "Animation"): one float OpenEXR per
+// Where an animation's completed frames live (docs/farm.md "Animation"): one float OpenEXR per
 // frame, jobs/<id>/frame-<index>.exr under the state dir (beside state_store.h's files), or under
 // a private temporary directory when the coordinator keeps no state (removed with it). Each file
 // is written atomically and durably (util/atomic_file.h) before the frame's unit files are

@@ -154,6 +154,13 @@ int main(int argc, char** argv) {
       ->envname("LENSFARM_CHECKPOINT_EVERY")
       ->check(numberIn(0.01, 86400.0, "seconds"))
       ->capture_default_str();
+  std::string uploadEncoding = "shuffle-zstd";
+  app.add_option("--upload-encoding", uploadEncoding,
+                 "How workers are asked to upload unit sums: shuffle-zstd (byte-shuffled doubles, zstd level 1, "
+                 "lossless) or raw (the doubles as they are); uploads in either are accepted")
+      ->envname("LENSFARM_UPLOAD_ENCODING")
+      ->check(CLI::IsMember({"shuffle-zstd", "raw"}))
+      ->capture_default_str();
   std::string maxJobMemory;
   app.add_option("--max-job-memory", maxJobMemory,
                  "Memory one job may take (e.g. 16G, 512MiB): bigger jobs are refused at submission with their "
@@ -264,7 +271,8 @@ int main(int argc, char** argv) {
   ClientServiceImpl clientService(
       coordinator, TokenGate(clientToken, "client", viewerToken, "viewer",
                              {"GetJob", "ListJobs", "WatchJob", "Download", "GetSnapshot", "ListWorkers"}));
-  WorkerServiceImpl workerService(coordinator, TokenGate(workerToken, "worker"));
+  WorkerServiceImpl workerService(coordinator, TokenGate(workerToken, "worker"),
+                                  uploadEncoding == "raw" ? SumsEncoding::kRaw : SumsEncoding::kShuffleZstd);
   // gRPC health checking (grpc.health.v1.Health): SERVING while the services are up, for load
   // balancers and Kubernetes gRPC probes; it needs no token.
   grpc::EnableDefaultHealthCheckService(true);

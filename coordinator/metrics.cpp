@@ -78,6 +78,10 @@ std::string renderMetrics(const MetricsSnapshot& s) {
            "Payload bytes received: kind=\"unit\" result buffers from workers, kind=\"asset\" assets from clients.");
   e.sample(s.unitBytesReceived, "kind=\"unit\"");
   e.sample(s.assetBytesReceived, "kind=\"asset\"");
+  e.family("lensfarm_unit_wire_bytes_total", "counter",
+           "Bytes of unit result sums received from workers as sent over gRPC: compressed when the lease asked for "
+           "SUMS_ENCODING_SHUFFLE_ZSTD (the decoded doubles are lensfarm_received_bytes_total{kind=\"unit\"}).");
+  e.sample(s.unitWireBytesReceived);
   e.family("lensfarm_asset_uploads_total", "counter",
            "Asset uploads from clients: outcome=\"stored\" an asset new to the coordinator, outcome=\"present\" one "
            "it held already (answered after the first message). Clients that ask FindMissingAssets first make none of "

@@ -67,17 +67,22 @@ void Coordinator::storeCompletedFrames(Job& job) {
   }
   const uint64_t perFrame = job.layout.unitsPerFrame();
   for (TileFilm::Completed& c : done) {
-    if (!store_ && !job.layout.frames) continue;  // a still without a state dir: its film holds it
+    // A still's film holds its image, and the ledger's unit files are its durable state (a
+    // rewind by the audit may undo some of its tiles): only an animation's frames are stored.
+    if (!job.layout.frames) continue;
     ImageMetadata m = metadata;
     m.samplesPerPixel = job.layout.samplesPerPixel;
     m.totalSamples = uint64_t(job.layout.width) * uint64_t(job.layout.height) * job.layout.samplesPerPixel;
     if (job.layout.frames) m.extra["frame"] = std::to_string(job.layout.frameNumber(c.frameIndex));
     try {
-      frames_->write(job.id, c.frameIndex, c.image, m);
-      // Stored durably: its tiles' sums are no longer needed (their ledger rows stay).
+      frames_->write(job.id, c.frameIndex, *c.image, m);
+      // Stored durably: the film lets its image go, and its tiles' sums are no longer needed
+      // (their ledger rows stay).
+      job.film->frameStored(c.frameIndex);
       if (store_) store_->dropUnitFiles(job.id, c.frameIndex * perFrame, (c.frameIndex + 1) * perFrame);
     } catch (const std::exception& e) {
-      // The ledger still holds every tile: a restart stores the frame again.
+      // The film still serves the image, and the ledger still holds every tile: a restart stores
+      // the frame again.
       spdlog::error("job {}: cannot store frame {}: {}", job.id, c.frameIndex, e.what());
     }
   }

@@ -340,7 +340,10 @@ grpc::Status WorkerServiceImpl::LeaseWork(grpc::ServerContext* context, const v1
   return guarded(gate_, context, "LeaseWork", [&] {
     coordinator_.authenticateWorker(request->worker_id(), request->session());
     const double wait = std::min(10.0, request->wait_ms() / 1000.0);
-    if (auto grant = coordinator_.lease(request->worker_id(), wait)) *response->mutable_lease() = proto::toProto(*grant);
+    if (auto grant = coordinator_.lease(request->worker_id(), wait)) {
+      grant->uploadEncoding = uploadEncoding_;
+      *response->mutable_lease() = proto::toProto(*grant);
+    }
   });
 }
 
@@ -376,7 +379,9 @@ grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext* context, grpc:
       first = false;
       assembler.add(message);
     }
-    response->set_accepted(coordinator_.acceptResult(assembler.finish()));
+    UnitResult result = assembler.finish();
+    coordinator_.countUnitWireBytes(assembler.wireBytes());
+    response->set_accepted(coordinator_.acceptResult(std::move(result)));
   });
 }
 

@@ -52,8 +52,11 @@ class AttachReactor;
 // costs no threads.
 class WorkerServiceImpl final : public v1::WorkerService::WithCallbackMethod_Attach<v1::WorkerService::Service> {
  public:
-  WorkerServiceImpl(Coordinator& coordinator, TokenGate gate = TokenGate({}, "worker"))
-      : coordinator_(coordinator), gate_(std::move(gate)) {}
+  // `uploadEncoding`: how leases ask workers to upload their sums (Lease.sums_encoding; uploads
+  // in either encoding are accepted whatever was asked).
+  WorkerServiceImpl(Coordinator& coordinator, TokenGate gate = TokenGate({}, "worker"),
+                    SumsEncoding uploadEncoding = SumsEncoding::kShuffleZstd)
+      : coordinator_(coordinator), gate_(std::move(gate)), uploadEncoding_(uploadEncoding) {}
   ~WorkerServiceImpl() override;
 
   // Ends every Attach stream (UNAVAILABLE, "coordinator shutting down") without marking its
@@ -77,6 +80,7 @@ class WorkerServiceImpl final : public v1::WorkerService::WithCallbackMethod_Att
   friend class AttachReactor;
   Coordinator& coordinator_;
   TokenGate gate_;
+  SumsEncoding uploadEncoding_;
   // The open Attach streams. Recursive: a stream finished by endAttachments() may end (and
   // unregister itself) on the same thread.
   std::recursive_mutex attachMutex_;

@@ -54,11 +54,13 @@ std::vector<TileFilm::Completed> TileFilm::takeCompleted() {
     auto it = held_.find(f);
     if (it == held_.end()) continue;
     if (layout_.frames) {
-      out.push_back(Completed{f, std::move(it->second.image)});
+      auto image = std::make_shared<const Image>(std::move(it->second.image));
+      storing_[f] = image;
+      out.push_back(Completed{f, std::move(image)});
       held_.erase(it);
       completeFrames_.insert(f);
     } else {
-      out.push_back(Completed{f, it->second.image});
+      out.push_back(Completed{f, std::make_shared<const Image>(it->second.image)});
     }
   }
   justCompleted_.clear();
@@ -66,10 +68,12 @@ std::vector<TileFilm::Completed> TileFilm::takeCompleted() {
 }
 
 std::optional<Image> TileFilm::image(uint64_t frameIndex) const {
-  auto it = held_.find(frameIndex);
-  if (it == held_.end()) return std::nullopt;
-  return it->second.image;
+  if (auto it = held_.find(frameIndex); it != held_.end()) return it->second.image;
+  if (auto it = storing_.find(frameIndex); it != storing_.end()) return *it->second;
+  return std::nullopt;
 }
+
+void TileFilm::stored(uint64_t frameIndex) { storing_.erase(frameIndex); }
 
 void TileFilm::restoreComplete(uint64_t frameIndex, std::optional<Image> image) {
   if (frameIndex >= tilesDone_.size()) return;
@@ -110,6 +114,7 @@ std::set<uint64_t> TileFilm::forgetWorker(uint64_t from, const std::string& work
 uint64_t TileFilm::memoryBytes() const {
   uint64_t bytes = tilesDone_.size() * sizeof(uint32_t);
   for (const auto& [f, fr] : held_) bytes += fr.image.rgb.capacity() * sizeof(float);
+  for (const auto& [f, image] : storing_) bytes += image->rgb.capacity() * sizeof(float);
   return bytes;
 }
 

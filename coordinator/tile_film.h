@@ -14,6 +14,7 @@
 // Not thread-safe: the Accumulator's lock guards it.
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
@@ -41,11 +42,14 @@ class TileFilm {
 
   // Frames completed since the last call, with their images, in completion order. A still's
   // image stays held (image() serves it); an animation's is handed over and freed.
+  // Until stored() is called for it, a handed-over frame is still served by image(): the file
+  // is written outside any lock, and the job may be done before the write ends.
   struct Completed {
     uint64_t frameIndex = 0;
-    Image image;
+    std::shared_ptr<const Image> image;
   };
   std::vector<Completed> takeCompleted();
+  void stored(uint64_t frameIndex);  // its file is durable: the film lets the image go
 
   // The frame's image as held now (black where no tile is in yet); nullopt when it is not held
   // (an animation's frame before its first tile or after it completed).
@@ -74,6 +78,7 @@ class TileFilm {
   std::vector<uint32_t> tilesDone_;      // per frame
   std::set<uint64_t> completeFrames_;    // handed over (or restored): every tile counts
   std::vector<uint64_t> justCompleted_;  // for takeCompleted
+  std::map<uint64_t, std::shared_ptr<const Image>> storing_;  // handed over, not yet stored
   uint64_t unitsDone_ = 0;
 };
 

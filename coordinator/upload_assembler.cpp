@@ -30,15 +30,27 @@ void UploadAssembler::add(const v1::UploadResultRequest& piece) {
     result_.buffer = SensorBuffer(int(h.width()), int(h.height()));
     result_.stats = proto::fromProto(h.stats());
     result_.renderSeconds = h.stats().render_seconds();
+    if (h.encoding() != v1::SUMS_ENCODING_RAW && h.encoding() != v1::SUMS_ENCODING_SHUFFLE_ZSTD)
+      refuse("unknown sums encoding " + std::to_string(int(h.encoding())) +
+             " (expected 0, SUMS_ENCODING_RAW, or 1, SUMS_ENCODING_SHUFFLE_ZSTD)");
+    encoding_ = SumsEncoding(h.encoding());
     haveHeader_ = true;
   } else if (!haveHeader_) {
     refuse("the first piece must carry the header");
   }
   const std::string& bytes = piece.sums();
+  wireBytes_ += bytes.size();
+  if (piece.offset() != filled_) refuse("pieces out of order");
+  const uint64_t room = result_.buffer.sums.size() - filled_;
+  if (encoding_ == SumsEncoding::kShuffleZstd) {
+    if (bytes.empty()) return;  // carries no block
+    filled_ += decodeSumsBlock(bytes, result_.buffer.sums.data() + filled_, room,
+                               "UploadResult: the block at offset " + std::to_string(filled_));
+    return;
+  }
   if (bytes.size() % sizeof(double) != 0) refuse("a piece that is not whole doubles");
   const uint64_t count = bytes.size() / sizeof(double);
-  if (piece.offset() != filled_) refuse("pieces out of order");
-  if (count > result_.buffer.sums.size() - filled_) refuse("more sums than the frame holds");
+  if (count > room) refuse("more sums than the frame holds");
   std::memcpy(result_.buffer.sums.data() + filled_, bytes.data(), bytes.size());
   filled_ += count;
 }

@@ -2,8 +2,9 @@
 // Reassembles what a client stream uploads in pieces, checking everything the sender (or an
 // attacker) could get wrong, so that nothing malformed is ever stored:
 //  - UploadAssembler: a unit's result from an UploadResult stream: a missing or repeated header,
-//    a bad frame size, pieces out of order, overlapping, too long or misaligned, a truncated
-//    stream. Nothing it refuses ever reaches a job's sensor (Coordinator::acceptResult checks the
+//    a bad frame size, an unknown encoding, pieces out of order, overlapping, too long or
+//    misaligned, a compressed block that is corrupt, truncated or bigger than it may be
+//    (farm/sums_codec.h), a truncated stream. Nothing it refuses ever reaches a job's sensor (Coordinator::acceptResult checks the
 //    rest).
 //  - AssetUploadAssembler: an asset's bytes from an UploadAsset stream: a hash that is not one, a
 //    chunk over 1 MiB, bytes past or short of the declared total_size. AssetStore::put then checks
@@ -41,15 +42,21 @@ class AssetUploadAssembler {
 
 class UploadAssembler {
  public:
-  // Throws FarmError(kInvalidArgument) naming what is wrong.
+  // Throws FarmError(kInvalidArgument) naming what is wrong. Raw pieces are copied, compressed
+  // ones (SUMS_ENCODING_SHUFFLE_ZSTD) decoded straight into the unit's buffer at their offset,
+  // one block at a time: memory is the unit's buffer and one block, whatever a piece claims.
   void add(const v1::UploadResultRequest& piece);
+  // Bytes of `sums` received so far, as sent (compressed or not).
+  uint64_t wireBytes() const { return wireBytes_; }
   // The complete result; throws FarmError(kInvalidArgument) if the stream was truncated.
   UnitResult finish();
 
  private:
   UnitResult result_;
   bool haveHeader_ = false;
-  uint64_t filled_ = 0;  // doubles received so far
+  SumsEncoding encoding_ = SumsEncoding::kRaw;  // the header's
+  uint64_t filled_ = 0;     // doubles received so far
+  uint64_t wireBytes_ = 0;  // bytes of `sums` received so far
 };
 
 }  // namespace lensfarm

@@ -93,6 +93,7 @@ v1::Lease toProto(const LeaseGrant& g) {
     p.set_region_height(uint32_t(g.unit.region.height));
   }
   p.set_pass_samples(g.unit.passSamples);
+  p.set_sums_encoding(v1::SumsEncoding(g.uploadEncoding));
   return p;
 }
 
@@ -108,6 +109,8 @@ LeaseGrant fromProto(const v1::Lease& p) {
   g.unit.passSamples = p.pass_samples();
   g.sceneHash = p.scene_hash();
   g.deadlineSeconds = p.deadline_seconds();
+  // A value this worker does not know: raw, which every coordinator accepts.
+  g.uploadEncoding = p.sums_encoding() == v1::SUMS_ENCODING_SHUFFLE_ZSTD ? SumsEncoding::kShuffleZstd : SumsEncoding::kRaw;
   return g;
 }
 

@@ -25,6 +25,7 @@ BUILD_PACKAGES=(
   libsqlite3-dev
   libcpp-httplib-dev
   libfftw3-dev
+  libzstd-dev
 )
 
 # tests/ and bench/ (GoogleTest, Google Benchmark, yaml-cpp for the deployment files), and what

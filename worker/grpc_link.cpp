@@ -221,7 +221,10 @@ bool GrpcCoordinatorLink::upload(const UnitResult& result) {
   auto ctx = context(600.0);
   v1::UploadResultResponse response;
   auto writer = stub_->UploadResult(ctx.get(), &response);
-  const size_t perChunk = proto::kChunkBytes / sizeof(double);
+  // Raw: pieces of 1 MiB. Shuffle + zstd: one block of kSumsBlockDoubles (512 KiB decoded, at most
+  // 514 KiB encoded) a piece (worker_service.proto, SumsEncoding).
+  const bool compress = result.uploadEncoding == SumsEncoding::kShuffleZstd;
+  const size_t perChunk = compress ? kSumsBlockDoubles : proto::kChunkBytes / sizeof(double);
   const std::vector<double>& sums = result.buffer.sums;
   size_t offset = 0;
   do {
@@ -236,10 +239,14 @@ bool GrpcCoordinatorLink::upload(const UnitResult& result) {
       h->set_width(uint32_t(result.buffer.width));
       h->set_height(uint32_t(result.buffer.height));
       *h->mutable_stats() = proto::toProto(result.stats, result.renderSeconds);
+      h->set_encoding(compress ? v1::SUMS_ENCODING_SHUFFLE_ZSTD : v1::SUMS_ENCODING_RAW);
     }
     const size_t n = std::min(perChunk, sums.size() - offset);
     message.set_offset(offset);
-    message.set_sums(reinterpret_cast<const char*>(sums.data() + offset), n * sizeof(double));
+    if (compress)
+      message.set_sums(encodeSumsBlock(sums.data() + offset, n));
+    else
+      message.set_sums(reinterpret_cast<const char*>(sums.data() + offset), n * sizeof(double));
     if (!writer->Write(message)) break;  // the server ended the call; Finish() says why
     offset += n;
   } while (offset < sums.size());

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "farm/sums_codec.h"
 #include "film/sensor.h"
 #include "render/integrator.h"
 #include "render/unit_renderer.h"
@@ -48,6 +49,9 @@ struct LeaseGrant {
   WorkUnit unit;
   std::string sceneHash;
   double deadlineSeconds = 0.0;
+  // How the coordinator wants the sums uploaded (a wire concern: the gRPC service sets it, the
+  // gRPC link honours it; an in-process link ignores it).
+  SumsEncoding uploadEncoding = SumsEncoding::kRaw;
 };
 
 // A unit's partial sensor buffer and the counters of its paths.
@@ -59,6 +63,7 @@ struct UnitResult {
   SensorBuffer buffer;
   PathStats stats;
   double renderSeconds = 0.0;
+  SumsEncoding uploadEncoding = SumsEncoding::kRaw;  // the lease's (LeaseGrant::uploadEncoding)
 };
 
 // An empty result addressed to `grant`'s lease: what `workerId` fills in and uploads.
@@ -68,6 +73,7 @@ inline UnitResult resultForLease(const std::string& workerId, const LeaseGrant& 
   r.leaseId = grant.leaseId;
   r.jobId = grant.jobId;
   r.unitIndex = grant.unit.index;
+  r.uploadEncoding = grant.uploadEncoding;
   return r;
 }
 

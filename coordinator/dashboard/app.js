@@ -171,6 +171,11 @@ async function renderJob(jobId) {
   $("#job-stats").replaceChildren(
     ...stat("Samples per pixel", sppText(job), "job-spp"),
     ...stat("Units", job.units_total === null ? `${job.units_done}` : `${job.units_done} / ${job.units_total}`),
+    ...(job.frames_total > 0
+      ? stat("Frames", `${job.frames_complete} / ${job.frames_total} complete` +
+          (job.frames ? " " + job.frames.map(([n, done, total]) => (done === total ? "#" : done > 0 ? "+" : ".")).join("") : ""),
+          "job-frames")
+      : []),
     ...stat("Progress", `${(100 * job.progress).toFixed(0)} % toward ${progressBasis(job)}`, "job-progress-text"),
     ...stat("Samples/s", running ? fmtCount(job.samples_per_second) : "–"),
     ...stat("Estimated error", fmtError(job.estimated_error, job.units_done) + target, "job-error"),

@@ -11,6 +11,7 @@
 #include "coordinator.h"
 #include "coordinator_fixtures.h"
 #include "farm/job_layout.h"
+#include "film/sensor.h"
 #include "render/memory_estimate.h"
 #include "render/render_scene.h"
 #include "render/unit_renderer.h"
@@ -83,6 +84,8 @@ TEST(TiledJob, SameBitsAsPassesWhateverTheTilesAndTheirOrder) {
   EXPECT_EQ(tiles8.stats.paths, passes.stats.paths);
   EXPECT_EQ(tiles8.stats.rays, passes.stats.rays);
   EXPECT_TRUE(sameBits(reference, tiled));
+  EXPECT_TRUE(sameBits(reference, renderThrough(cornell(1))));  // every cell its own tile
+  EXPECT_TRUE(sameBits(reference, renderThrough(cornell(23))));  // taller than wide tiles cut at the edge
   const Image one = renderThrough(cornell(37), &whole);  // one tile: the whole frame at once
   EXPECT_EQ(whole.unitsTotal, 1u);
   EXPECT_TRUE(sameBits(reference, one));
@@ -90,6 +93,43 @@ TEST(TiledJob, SameBitsAsPassesWhateverTheTilesAndTheirOrder) {
   double sum = 0;
   for (float v : reference.rgb) sum += v;
   EXPECT_GT(sum, 0.0);
+}
+
+// The doubles themselves: a tile unit's sums, divided by its samples, are the means the sensor
+// holding the same passes develops, in every cell (the float image could hide a last-bit
+// difference; this would not). (A few floats of similar size sum exactly in double whatever the
+// grouping, so this scene cannot tell a tile summed in one pass from one folded pass by pass.)
+TEST(TiledJob, ATileSumsItsPassesAsTheSensorDoes) {
+  const JobSpec spec = cornell(RenderSettings::kTilesOff);
+  Scene scene = parseScene(spec.sceneJson, spec.sceneName);
+  const RenderScene rs(scene);
+  const int w = scene.render.width, h = scene.render.height;
+  tbb::task_arena arena(2);
+  Sensor sensor(w, h);
+  for (uint64_t p = 0; p < 3; ++p) {
+    SensorBuffer pass;
+    PathStats stats;
+    arena.execute([&] { ASSERT_TRUE(renderUnit(rs, unitAt(p, 6, 2), pass, stats)); });
+    sensor.add(pass, 2);
+  }
+  WorkUnit tile(0, 0, 6);
+  tile.passSamples = 2;
+  tile.region = PixelRegion{5, 3, 17, 11};
+  SensorBuffer out;
+  PathStats stats;
+  arena.execute([&] { ASSERT_TRUE(renderUnit(rs, tile, out, stats)); });
+  ASSERT_EQ(out.width, 17);
+  ASSERT_EQ(out.height, 11);
+  int differing = 0;
+  for (int j = 0; j < 11; ++j)
+    for (int i = 0; i < 17; ++i) {
+      const DVec3 mean = sensor.mean(5 + i, 3 + j);
+      const size_t c = 3 * (size_t(j) * 17 + size_t(i));
+      differing += out.sums[c] * (1.0 / 6.0) != mean.x || out.sums[c + 1] * (1.0 / 6.0) != mean.y ||
+                   out.sums[c + 2] * (1.0 / 6.0) != mean.z;
+    }
+  EXPECT_EQ(differing, 0);
+  EXPECT_EQ(out.samples[0], 6u);
 }
 
 TEST(TiledJob, LayoutCutsTheFrameIntoTilesWithEveryCellOnce) {
@@ -252,6 +292,51 @@ TEST(TiledJob, BadLayoutsGetOneClearError) {
   scene["render"]["tile_size"] = 0;
   EXPECT_NE(message([&] { parseScene(scene.dump(), "zero.json"); }).find("render.tile_size"), std::string::npos);
   EXPECT_EQ(c.jobs().size(), 0u);  // nothing was queued
+}
+
+}  // namespace
+}  // namespace lensfarm
+
+namespace lensfarm {
+namespace {
+
+// The audit in a tiled job (docs/farm.md "Audit"): a worker whose tiles are wrong is found and
+// quarantined, its tiles are rendered again by the others and overwritten, and the image is the
+// honest one, bit for bit.
+TEST(TiledJob, AWrongWorkersTilesAreRenderedAgainAndTheImageIsTheHonestOne) {
+  Coordinator::Options options;
+  options.auditFraction = 1.0;  // every tile is rendered twice
+  Coordinator c(options);
+  JobSpec spec = animation();
+  spec.frames.reset();  // a still of 3 x 2 tiles
+  const std::string job = c.submit(spec, 0).id;
+  const std::vector<std::string> workers = {c.registerWorker(workerInfo("a")), c.registerWorker(workerInfo("wrong")),
+                                            c.registerWorker(workerInfo("b"))};
+  for (int round = 0; round < 200 && c.job(job).state != JobState::kDone; ++round)
+    for (const std::string& w : workers)
+      if (auto g = c.lease(w, 0)) {
+        UnitResult r = tileResult(w, *g);
+        if (w == workers[1])
+          for (double& v : r.buffer.sums) v += 1.0;  // plausible, but wrong
+        try {
+          c.acceptResult(std::move(r));
+        } catch (const FarmError& e) {
+          ADD_FAILURE() << e.what();
+        }
+      }
+  const JobInfo done = c.job(job);
+  ASSERT_EQ(done.state, JobState::kDone) << done.unitsDone << " units, " << done.auditsPending << " audits pending, "
+                                         << done.stalledReason;
+  bool quarantined = false;
+  for (const WorkerView& v : c.workers()) quarantined |= v.id == workers[1] && v.quarantined;
+  EXPECT_TRUE(quarantined);
+  const Image image = c.image(job).image;
+  for (int y = 0; y < 3; ++y)
+    for (int x = 0; x < 5; ++x) {
+      const int cx = 4 - x, cy = 2 - y;
+      const uint64_t unit = uint64_t(cy / 2) * 3 + uint64_t(cx / 2);
+      ASSERT_EQ(image.rgb[3 * (size_t(y) * 5 + x)], float(double(unit + 1) * 4.0 * (1.0 / 4.0))) << x << "," << y;
+    }
 }
 
 }  // namespace

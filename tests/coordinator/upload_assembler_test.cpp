@@ -1,9 +1,11 @@
 // Reassembling uploads: every malformed stream is refused before it can touch a sensor.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <functional>
 #include <string>
 
+#include "farm/sums_codec.h"
 #include "upload_assembler.h"
 
 namespace lensfarm {
@@ -75,6 +77,98 @@ TEST(UploadAssembler, RefusesEveryMalformedStream) {
     auto h = header(2, 1);
     a.add(sums(h, 0, {1, 2, 3}));
   })) << "truncated";
+}
+
+// ---- compressed sums (SUMS_ENCODING_SHUFFLE_ZSTD) ---------------------------------------------
+
+// A w x h unit's sums, 3 per cell, values with every kind of bits in them.
+std::vector<double> unitSums(uint32_t w, uint32_t h) {
+  std::vector<double> v(size_t(w) * h * 3);
+  for (size_t k = 0; k < v.size(); ++k) v[k] = k % 7 == 0 ? -0.0 : double(k) * 0.37 + 1e-310;
+  return v;
+}
+
+// The messages a worker sends for `v` in blocks of `block` doubles (the first with the header).
+std::vector<v1::UploadResultRequest> compressedUpload(uint32_t w, uint32_t h, const std::vector<double>& v,
+                                                      size_t block = kSumsBlockDoubles) {
+  std::vector<v1::UploadResultRequest> pieces;
+  for (size_t offset = 0; offset < v.size(); offset += block) {
+    v1::UploadResultRequest r = offset == 0 ? header(w, h) : v1::UploadResultRequest();
+    if (offset == 0) r.mutable_header()->set_encoding(v1::SUMS_ENCODING_SHUFFLE_ZSTD);
+    r.set_offset(offset);
+    r.set_sums(encodeSumsBlock(v.data() + offset, std::min(block, v.size() - offset)));
+    pieces.push_back(std::move(r));
+  }
+  return pieces;
+}
+
+TEST(UploadAssembler, DecodesCompressedBlocksIntoTheUnitAtTheirOffsets) {
+  // 200 x 150 cells: 90000 doubles, two blocks (65536 + 24464), as a lensfarm worker cuts them.
+  const std::vector<double> v = unitSums(200, 150);
+  for (size_t block : {kSumsBlockDoubles, size_t(1000), size_t(7)}) {  // any block size up to the limit
+    SCOPED_TRACE(block);
+    UploadAssembler a;
+    uint64_t wire = 0;
+    for (const auto& piece : compressedUpload(200, 150, v, block)) {
+      a.add(piece);
+      wire += piece.sums().size();
+    }
+    EXPECT_EQ(a.wireBytes(), wire);
+    const UnitResult r = a.finish();
+    ASSERT_EQ(r.buffer.sums.size(), v.size());
+    EXPECT_EQ(std::memcmp(r.buffer.sums.data(), v.data(), v.size() * sizeof(double)), 0) << "bit for bit";
+  }
+  // An empty `sums` carries no block (e.g. the header alone first).
+  UploadAssembler a;
+  auto first = header(2, 1);
+  first.mutable_header()->set_encoding(v1::SUMS_ENCODING_SHUFFLE_ZSTD);
+  a.add(first);
+  auto pieces = compressedUpload(2, 1, unitSums(2, 1));
+  pieces[0].clear_header();
+  a.add(pieces[0]);
+  EXPECT_EQ(a.finish().buffer.sums.size(), 6u);
+}
+
+TEST(UploadAssembler, RefusesBadCompressedPiecesNamingTheirOffset) {
+  const std::vector<double> v = unitSums(100, 10);  // 3000 doubles
+  const auto refusal = [&](const std::function<void(std::vector<v1::UploadResultRequest>&)>& spoil) -> std::string {
+    auto pieces = compressedUpload(100, 10, v, 1000);
+    spoil(pieces);
+    UploadAssembler a;
+    try {
+      for (const auto& p : pieces) a.add(p);
+      a.finish();
+    } catch (const FarmError& e) {
+      return e.kind() == FarmError::Kind::kInvalidArgument ? e.what() : "not INVALID_ARGUMENT";
+    }
+    return "accepted";
+  };
+  EXPECT_EQ(refusal([](auto&) {}), "accepted");
+  EXPECT_NE(refusal([](auto& p) { p[1].set_sums(p[1].sums().substr(0, p[1].sums().size() - 5)); })
+                .find("UploadResult: the block at offset 1000: "),
+            std::string::npos)
+      << "truncated";
+  EXPECT_NE(refusal([](auto& p) {
+              std::string s = p[2].sums();
+              s[s.size() / 2] = char(s[s.size() / 2] ^ 1);
+              p[2].set_sums(s);
+            }).find("the block at offset 2000: "),
+            std::string::npos)
+      << "corrupt";
+  EXPECT_NE(refusal([&](auto& p) { p[2].set_sums(encodeSumsBlock(v.data(), 1001)); }).find("at most 1000 fit here"),
+            std::string::npos)
+      << "more than the unit has left";
+  EXPECT_NE(refusal([](auto& p) { p.pop_back(); }).find("truncated: 2000 of 3000 sums"), std::string::npos);
+  EXPECT_NE(refusal([](auto& p) { p[1].set_offset(999); }).find("out of order"), std::string::npos);
+  EXPECT_NE(refusal([](auto& p) {
+              // Raw bytes where a block belongs: the encoding is the header's for the whole stream.
+              const std::vector<double> raw(1000, 1.0);
+              p[1].set_sums(reinterpret_cast<const char*>(raw.data()), raw.size() * sizeof(double));
+            }).find("not a whole zstd frame"),
+            std::string::npos);
+  EXPECT_NE(refusal([](auto& p) { p[0].mutable_header()->set_encoding(v1::SumsEncoding(7)); })
+                .find("unknown sums encoding 7"),
+            std::string::npos);
 }
 
 // ---- assets ---------------------------------------------------------------------------------

@@ -145,6 +145,8 @@ const std::map<std::string, Dependency>& debianNames() {
       {"PkgConfig", {{"pkg-config"}, cached("PKG_CONFIG_EXECUTABLE")}},
       {"cpp-httplib", {{"libcpp-httplib-dev"}, [] { return fs::path(cacheValue("HTTPLIB_LIBDIR")) / "pkgconfig/cpp-httplib.pc"; }}},
       {"fftw3", {{"libfftw3-dev"}, [] { return fs::path(cacheValue("FFTW_LIBDIR")) / "pkgconfig/fftw3.pc"; }}},
+      // (libzstd.pc says libdir=/usr/lib; the library pkg-config found is the evidence.)
+      {"libzstd", {{"libzstd-dev"}, cached("pkgcfg_lib_ZSTD_zstd")}},
   };
   return table;
 }
