@@ -26,7 +26,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr int kFirstFrame = 1, kLastFrame = 24, kSize = 64;
-constexpr uint64_t kSpp = 16;
+constexpr uint64_t kSpp = 32;  // long enough that the kills land mid-job on a fast machine
 
 // GetJob over gRPC; nullopt while the coordinator does not answer (e.g. restarting).
 std::optional<v1::JobStatus> getJob(const std::string& address, const std::string& job) {
