@@ -98,7 +98,7 @@ int runRender(const RenderFlags& flags) {
       patterns.push_back(frames ? (o.parent_path() / (o.stem().string() + "_####" + o.extension().string())).string()
                                 : o.string());
   for (const auto& o : patterns) {
-    if (frames) checkFramePattern(o, "-o");
+    if (frames && frames->count() > 1) checkFramePattern(o, "-o");
     outputs.push_back(checkedOutput(o, {".exr", ".png"}));
   }
 
@@ -163,6 +163,17 @@ int runRender(const RenderFlags& flags) {
   double lastSnapshot = 0.0;
   std::set<int64_t> written;  // an animation's frames written so far
   bool interrupted = false;
+  // Whatever the loop throws (an output that cannot be written), the worker thread is stopped and
+  // joined first, so the error is reported, not a std::terminate.
+  struct JoinOnThrow {
+    WorkerLoop& worker;
+    std::thread& thread;
+    ~JoinOnThrow() {
+      if (!thread.joinable()) return;
+      worker.stopNow();
+      thread.join();
+    }
+  } joinOnThrow{worker, workerThread};
   for (;;) {
     info = coordinator.waitForChange(info.id, info.version, 0.1);
     display.update(toProto(info));

@@ -41,8 +41,10 @@ TEST_F(Observability, MetricsFollowARealJob) {
   ASSERT_TRUE(test::waitFor([&] { return metric("lensfarm_workers_alive") == 2.0; }, 30)) << metrics().size();
   const std::string job = farm_.submit({scene.string(), "--coordinator", address});
 
-  // Mid-job: some units in, the job running, samples flowing.
-  ASSERT_TRUE(test::waitFor([&] { return metric("lensfarm_units_done_total") >= 2.0; }, 60));
+  // Mid-job: some units in, the job running, samples flowing (units are summed in order: two
+  // counted may both wait for unit 0, so wait until some are summed too).
+  ASSERT_TRUE(test::waitFor(
+      [&] { return metric("lensfarm_units_done_total") >= 2.0 && metric("lensfarm_samples_per_second") > 0.0; }, 60));
   const auto mid = metrics();
   EXPECT_EQ(mid.at("lensfarm_jobs{state=\"running\"}"), 1.0);
   EXPECT_LT(mid.at("lensfarm_units_done_total"), 12.0);
