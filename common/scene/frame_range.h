@@ -17,7 +17,8 @@
 namespace lensfarm {
 
 inline constexpr int64_t kMaxFrameNumber = 1'000'000'000;
-inline constexpr uint64_t kMaxFramesInRange = 1'000'000;
+// A job's status lists every frame (JobStatus.frames): 100,000 keep it far below gRPC's 4 MiB.
+inline constexpr uint64_t kMaxFramesInRange = 100'000;
 
 struct FrameRange {
   int64_t first = 1, last = 1, step = 1;  // first <= last, step >= 1

@@ -38,8 +38,8 @@ TEST(FrameRange, EveryAcceptedForm) {
   EXPECT_EQ(r.step, 1);
   EXPECT_EQ(r.count(), 240u);
   EXPECT_EQ(parseFrameRange("1-240x2", "--frames").count(), 120u);
-  EXPECT_EQ(parseFrameRange("1-1000000", "--frames").count(), 1000000u);  // the most frames in one range
-  EXPECT_EQ(parseFrameRange("-1000000000-1000000000x4000", "--frames").count(), 500001u);  // the widest frame numbers
+  EXPECT_EQ(parseFrameRange("1-100000", "--frames").count(), 100000u);  // the most frames in one range
+  EXPECT_EQ(parseFrameRange("-1000000000-1000000000x40000", "--frames").count(), 50001u);  // the widest frame numbers
 }
 
 TEST(FrameRange, FormatReadsBack) {
@@ -68,7 +68,7 @@ TEST(FrameRange, EveryBadInputIsOneClearError) {
   EXPECT_EQ(errorOf("-1--5"), "--frames -1--5: the last frame is before the first");
   EXPECT_EQ(errorOf("1-240x0"), "--frames 1-240x0: the step must be a positive integer, got 0");
   EXPECT_EQ(errorOf("1-240x-2"), "--frames 1-240x-2: the step must be a positive integer, got -2");
-  EXPECT_EQ(errorOf("1-2000000"), "--frames 1-2000000: 2000000 frames; at most 1000000 in one range");
+  EXPECT_EQ(errorOf("1-200000"), "--frames 1-200000: 200000 frames; at most 100000 in one range");
   EXPECT_EQ(errorOf("1-99999999999999999999"), "--frames 1-99999999999999999999: frame numbers and steps must be within ±1000000000");
   EXPECT_EQ(errorOf("2000000000"), "--frames 2000000000: frame numbers and steps must be within ±1000000000");
   for (const char* bad : {"a", "1-", "-", "1-b", "1..240", "1-240x", "1-240x2x3", "1-240:2:3", "1 - 240", " 7", "7 ", "+7",
