@@ -54,11 +54,13 @@ Accumulator::Accumulator(const RenderSettings& settings, uint32_t unitSize, uint
 std::optional<Accumulator::Progress> Accumulator::add(const UnitResult& result, UnitResult* owned,
                                                       uint64_t generation) {
   std::lock_guard lock(mutex_);
-  if (generation != generation_) return progress();  // accepted before a rewind: it is rendered again
   if (tiles_) {
+    // Tiles are independent: one accepted before a rewind is as good as after it, unless its
+    // worker is the one the rewind was for (TileFilm refuses those).
     writeTile(result);
     return progress();
   }
+  if (generation != generation_) return progress();  // accepted before a rewind: it is rendered again
   // Past a job's stop nothing more is folded (the stop is a prefix of units). The next unit in
   // order is summed from the caller's buffer; a later one waits in `arrived_`.
   const bool next = result.unitIndex == nextToAdd_;

@@ -25,7 +25,7 @@ bool TileFilm::has(uint64_t u) const {
 }
 
 bool TileFilm::write(uint64_t u, const SensorBuffer& buffer, const std::string& worker) {
-  if (has(u)) return false;
+  if (has(u) || distrusted_.count(worker)) return false;
   const uint64_t f = layout_.frameIndexOf(u);
   Frame& fr = frame(f);
   const PixelRegion r = layout_.regionOf(u);
@@ -90,6 +90,7 @@ void TileFilm::restoreComplete(uint64_t frameIndex, std::optional<Image> image) 
 }
 
 std::set<uint64_t> TileFilm::forgetWorker(uint64_t from, const std::string& worker) {
+  distrusted_.insert(worker);
   std::set<uint64_t> kept;
   const uint64_t perFrame = layout_.unitsPerFrame();
   for (uint64_t f : completeFrames_)

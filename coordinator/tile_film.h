@@ -60,8 +60,8 @@ class TileFilm {
   void restoreComplete(uint64_t frameIndex, std::optional<Image> image);
 
   // The audit found `worker` wrong (docs/farm.md "Audit"): its tiles from unit `from` on, in
-  // frames still held, no longer count (they are rendered again and overwritten). Returns the
-  // units from `from` on that still count.
+  // frames still held, no longer count (they are rendered again and overwritten), and no later
+  // tile of it is written. Returns the units from `from` on that still count.
   std::set<uint64_t> forgetWorker(uint64_t from, const std::string& worker);
 
   uint64_t memoryBytes() const;
@@ -78,6 +78,7 @@ class TileFilm {
   std::vector<uint32_t> tilesDone_;      // per frame
   std::set<uint64_t> completeFrames_;    // handed over (or restored): every tile counts
   std::vector<uint64_t> justCompleted_;  // for takeCompleted
+  std::set<std::string> distrusted_;     // workers forgotten by the audit
   std::map<uint64_t, std::shared_ptr<const Image>> storing_;  // handed over, not yet stored
   uint64_t unitsDone_ = 0;
 };
