@@ -457,7 +457,7 @@ class Coordinator {
   std::set<std::string> deletedJobs_;      // guarded by mutex_: ids deleted by this run
 
   // ---- durable state (persistence.cpp) ----
-  // Stores the frames a tiled job's film completed (outside mutex_), then drops their unit files.
+  // Stores the frames an animation's film completed (outside mutex_), then drops their unit files.
   void storeCompletedFrames(Job& job);
   ImageMetadata metadataOf(const Job& job) const;  // requires mutex_
   void restore();
@@ -477,7 +477,7 @@ class Coordinator {
 
   Options options_;
   std::unique_ptr<class StateStore> store_;
-  std::unique_ptr<class FrameStore> frames_;  // tiled jobs' completed frames (frame_store.h)
+  std::unique_ptr<class FrameStore> frames_;  // animations' completed frames (frame_store.h)
   uint64_t epoch_ = 0;  // distinguishes ids issued by this run from those of earlier runs
   std::thread checkpointer_;
   std::condition_variable checkpointWake_;

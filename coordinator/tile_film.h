@@ -3,8 +3,8 @@
 // final — its sums are the cells' compensated sums over every sample — so its cells' means go
 // straight into a float image of its frame, in whatever order tiles arrive: the coordinator holds
 // one float image per frame being rendered (12 bytes a cell) and no sums, no tracker and no
-// waiting results. A frame whose every tile is in is complete; the coordinator stores it
-// (frame_store.h) and, for an animation, frees it.
+// waiting results. A frame whose every tile is in is complete: an animation's is stored
+// (frame_store.h) and freed; a still's stays held, its tiles' unit files being its durable state.
 //
 // Invariants:
 //  - A cell's value is float(value * (1 / spp)), with the lens flip undone: the bits
