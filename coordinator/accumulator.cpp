@@ -336,16 +336,16 @@ std::optional<Accumulator::Developed> Accumulator::developFrame(uint64_t frameIn
   return out;
 }
 
-void Accumulator::restoreCompleteFrame(uint64_t frameIndex, std::optional<Image> image) {
+void Accumulator::restoreCompleteFrame(uint64_t frameIndex) {
   std::lock_guard lock(mutex_);
   if (!tiles_) return;
-  tiles_->restoreComplete(frameIndex, std::move(image));
+  tiles_->restoreComplete(frameIndex);
   if (tiles_->unitsDone() == unitsTotal_ && stopReason_.empty()) stopReason_ = "all samples done";
 }
 
-uint64_t Accumulator::tilesDone(uint64_t frameIndex) const {
+std::vector<uint32_t> Accumulator::tilesDonePerFrame() const {
   std::lock_guard lock(mutex_);
-  return tiles_ ? tiles_->tilesDone(frameIndex) : 0;
+  return tiles_ ? tiles_->tilesDonePerFrame() : std::vector<uint32_t>{};
 }
 
 }  // namespace lensfarm

@@ -132,9 +132,10 @@ class Accumulator {
   void frameStored(uint64_t frameIndex);  // TileFilm::stored
   // Frame `frameIndex`'s image as held now; nullopt when the film does not hold it (TileFilm::image).
   std::optional<Developed> developFrame(uint64_t frameIndex) const;
-  // A frame complete before a restart (its file is stored); a still's image is held again.
-  void restoreCompleteFrame(uint64_t frameIndex, std::optional<Image> image);
-  uint64_t tilesDone(uint64_t frameIndex) const;
+  // An animation frame stored before a restart: all its tiles count as in.
+  void restoreCompleteFrame(uint64_t frameIndex);
+  // Each frame's tiles in, under one lock (a status of many frames).
+  std::vector<uint32_t> tilesDonePerFrame() const;
 
  private:
   using Clock = std::chrono::steady_clock;

@@ -254,12 +254,13 @@ JobInfo Coordinator::infoOf(const Job& job) const {
     info.tilesPerFrame = job.layout.unitsPerFrame();
   }
   if (job.layout.frames) {
+    // One lock for every frame's count; an archived job (no film) has its stored frames whole.
+    const std::vector<uint32_t> done = job.film ? job.film->tilesDonePerFrame() : std::vector<uint32_t>{};
+    const std::set<uint64_t> stored = job.film ? std::set<uint64_t>{} : frames_->storedFrames(job.id);
     info.frames.resize(job.layout.frameCount());
     for (uint64_t f = 0; f < info.frames.size(); ++f)
       info.frames[f] = JobInfo::Frame{job.layout.frameNumber(f),
-                                      job.film ? job.film->tilesDone(f)
-                                      : frames_->has(job.id, f) ? info.tilesPerFrame  // archived: stored or not
-                                                                : 0,
+                                      f < done.size() ? done[f] : stored.count(f) ? info.tilesPerFrame : 0,
                                       info.tilesPerFrame};
   }
   info.elapsedSeconds = elapsedSecondsOf(job);

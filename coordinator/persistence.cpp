@@ -97,16 +97,12 @@ static JobState parseJobState(const std::string& name) {
 }
 
 std::optional<uint64_t> Coordinator::restoreTiled(Job& job) {
-  // Frames stored before the restart count whole (a still's image is read back); the ledger's
-  // other tiles are written again from their unit files, in any order (tile_film.h).
+  // An animation's frames stored before the restart count whole; the ledger's other tiles are
+  // written again from their unit files, in any order (tile_film.h).
   job.film = std::make_unique<Accumulator>(job.settings, job.layout);
   const std::set<uint64_t> stored = frames_->storedFrames(job.id);
-  for (uint64_t f : stored) {
-    if (f >= job.layout.frameCount()) continue;
-    std::optional<Image> image;
-    if (!job.layout.frames) image = frames_->read(job.id, f);
-    job.film->restoreCompleteFrame(f, std::move(image));
-  }
+  for (uint64_t f : stored)
+    if (job.layout.frames && f < job.layout.frameCount()) job.film->restoreCompleteFrame(f);
   std::optional<uint64_t> highest;
   for (const auto& entry : store_->ledger(job.id)) {
     if (entry.unit >= job.units.total()) continue;

@@ -75,18 +75,12 @@ std::optional<Image> TileFilm::image(uint64_t frameIndex) const {
 
 void TileFilm::stored(uint64_t frameIndex) { storing_.erase(frameIndex); }
 
-void TileFilm::restoreComplete(uint64_t frameIndex, std::optional<Image> image) {
+void TileFilm::restoreComplete(uint64_t frameIndex) {
   if (frameIndex >= tilesDone_.size()) return;
   unitsDone_ += layout_.unitsPerFrame() - tilesDone_[frameIndex];
   tilesDone_[frameIndex] = uint32_t(layout_.unitsPerFrame());
   held_.erase(frameIndex);
-  if (image && !layout_.frames) {
-    Frame& fr = frame(frameIndex);
-    fr.image = std::move(*image);
-    std::fill(fr.workerOf.begin(), fr.workerOf.end(), std::string("restored"));
-  } else {
-    completeFrames_.insert(frameIndex);
-  }
+  completeFrames_.insert(frameIndex);
 }
 
 std::set<uint64_t> TileFilm::forgetWorker(uint64_t from, const std::string& worker) {
@@ -112,11 +106,5 @@ std::set<uint64_t> TileFilm::forgetWorker(uint64_t from, const std::string& work
   return kept;
 }
 
-uint64_t TileFilm::memoryBytes() const {
-  uint64_t bytes = tilesDone_.size() * sizeof(uint32_t);
-  for (const auto& [f, fr] : held_) bytes += fr.image.rgb.capacity() * sizeof(float);
-  for (const auto& [f, image] : storing_) bytes += image->rgb.capacity() * sizeof(float);
-  return bytes;
-}
 
 }  // namespace lensfarm

@@ -55,16 +55,15 @@ class TileFilm {
   // (an animation's frame before its first tile or after it completed).
   std::optional<Image> image(uint64_t frameIndex) const;
 
-  // Restoring: a frame complete before the restart (its file is stored): every tile counts as in;
-  // a still's image is held again.
-  void restoreComplete(uint64_t frameIndex, std::optional<Image> image);
+  // Restoring: an animation frame stored before the restart: every tile counts as in.
+  void restoreComplete(uint64_t frameIndex);
+  const std::vector<uint32_t>& tilesDonePerFrame() const { return tilesDone_; }
 
   // The audit found `worker` wrong (docs/farm.md "Audit"): its tiles from unit `from` on, in
   // frames still held, no longer count (they are rendered again and overwritten), and no later
   // tile of it is written. Returns the units from `from` on that still count.
   std::set<uint64_t> forgetWorker(uint64_t from, const std::string& worker);
 
-  uint64_t memoryBytes() const;
 
  private:
   struct Frame {

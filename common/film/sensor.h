@@ -44,6 +44,9 @@ class Sensor {
   int height() const { return height_; }
   uint64_t totalSamples() const { return totalSamples_; }
   uint64_t samples(int i, int j) const { return samples_.empty() ? uniformSamples_ : samples_[size_t(j) * width_ + i]; }
+  // The compensated sum of value k (cell k / 3, channel k % 3) as it stands: what a tile unit
+  // uploads after folding its passes (render/unit_renderer.cpp).
+  double sum(size_t k) const { return sums_[k].value(); }
   // Mean radiance of cell (i, j) in sensor orientation; zero before any sample.
   DVec3 mean(int i, int j) const;
 

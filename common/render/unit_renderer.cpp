@@ -6,9 +6,9 @@
 
 #include <algorithm>
 #include <limits>
+#include <optional>
 
 #include "camera/spectral_response.h"
-#include "math/compensated_sum.h"
 #include "render/integrator.h"
 #include "scene/scene_loader.h"  // kMaxBounces
 
@@ -241,10 +241,11 @@ bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
                 const std::atomic<bool>* cancel, RayGrouping grouping) {
   if (unit.passSamples == 0 || unit.passSamples >= unit.sampleCount)
     return renderPass(rs, unit, out, stats, cancel, grouping);
-  // A tile unit: pass after pass, each cell's pass sums folded as Sensor::add folds whole-frame
-  // units (Neumaier, from zero), so the value uploaded is the bits the sensor would develop.
+  // A tile unit: pass after pass, folded by a Sensor of the tile's size exactly as the job's
+  // sensor folds whole-frame passes (Neumaier, from zero), so the value uploaded is the bits the
+  // sensor would develop.
   SensorBuffer pass;
-  std::vector<CompensatedSum> sums;
+  std::optional<Sensor> sums;
   uint64_t done = 0;
   while (done < unit.sampleCount) {
     WorkUnit p = unit;
@@ -252,12 +253,12 @@ bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
     p.sampleCount = uint32_t(std::min<uint64_t>(unit.passSamples, unit.sampleCount - done));
     p.passSamples = 0;
     if (!renderPass(rs, p, pass, stats, cancel, grouping)) return false;
-    if (sums.empty()) sums.resize(pass.sums.size());
-    for (size_t k = 0; k < sums.size(); ++k) sums[k].add(pass.sums[k]);
+    if (!sums) sums.emplace(pass.width, pass.height);
+    sums->add(pass, p.sampleCount);
     done += p.sampleCount;
   }
   out = SensorBuffer(pass.width, pass.height);
-  for (size_t k = 0; k < sums.size(); ++k) out.sums[k] = sums[k].value();
+  for (size_t k = 0; k < out.sums.size(); ++k) out.sums[k] = sums->sum(k);
   std::fill(out.samples.begin(), out.samples.end(), unit.sampleCount);
   return true;
 }
