@@ -18,6 +18,7 @@ Runner addCancelCommand(CLI::App& app);
 Runner addDeleteCommand(CLI::App& app);
 Runner addArchiveCommand(CLI::App& app);
 Runner addWorkersCommand(CLI::App& app);
+Runner addSlurmCommand(CLI::App& app);
 Runner addStudyCommand(CLI::App& app);
 Runner addCompareCommand(CLI::App& app);
 Runner addLensCommand(CLI::App& app);

@@ -12,6 +12,7 @@
 #include "commands.h"
 #include "exit_codes.h"
 #include "farm_client.h"
+#include "farm_connection.h"
 #include "scene/frame_range.h"
 #include "film/image_io.h"
 #include "output_paths.h"
@@ -26,62 +27,6 @@ namespace lensfarm::cli {
 namespace fs = std::filesystem;
 
 namespace {
-
-struct Connection {
-  std::string coordinator = "127.0.0.1:7878";
-  std::string tokenFile;
-  ChannelSecurity security;
-
-  // The connection's security with the token read (InputError naming a bad token file).
-  ChannelSecurity resolved() const {
-    ChannelSecurity s = security;
-    s.token = readToken(tokenFile, "LENSFARM_TOKEN");
-    return s;
-  }
-};
-
-void addCoordinatorOption(CLI::App* cmd, Connection& c) {
-  cmd->add_option("--coordinator", c.coordinator, "Coordinator address HOST:PORT")
-      ->envname("LENSFARM_COORDINATOR")
-      ->capture_default_str();
-  cmd->add_option("--token-file", c.tokenFile, "File holding the farm's client token (or set LENSFARM_TOKEN)");
-  cmd->add_option("--tls-ca", c.security.caFile, "PEM CA certificate(s) to verify the coordinator: enables TLS")
-      ->envname("LENSFARM_TLS_CA");
-  cmd->add_option("--tls-cert", c.security.certFile, "PEM client certificate, for coordinators that require one")
-      ->envname("LENSFARM_TLS_CERT");
-  cmd->add_option("--tls-key", c.security.keyFile, "PEM private key of --tls-cert")->envname("LENSFARM_TLS_KEY");
-}
-
-// The arguments of a command about one job: the connection and the job id.
-struct JobArgs {
-  Connection c;
-  std::string job;
-};
-
-void addJobArgs(CLI::App* cmd, JobArgs& f) {
-  addCoordinatorOption(cmd, f.c);
-  cmd->add_option("job", f.job, "Job id")->required();
-}
-
-// Runs a farm command, turning the coordinator's answers into exit codes.
-int guardedCall(const std::function<int()>& body) {
-  try {
-    return body();
-  } catch (const ClientError& e) {
-    std::fprintf(stderr, "lensfarm: error: %s\n", e.what());
-    switch (e.code()) {
-      case grpc::StatusCode::INVALID_ARGUMENT:
-      case grpc::StatusCode::FAILED_PRECONDITION:
-      case grpc::StatusCode::RESOURCE_EXHAUSTED: return kBadInput;  // e.g. a job bigger than --max-job-memory
-      case grpc::StatusCode::NOT_FOUND: return kNotFound;
-      case grpc::StatusCode::UNAVAILABLE:
-      case grpc::StatusCode::DEADLINE_EXCEEDED: return kUnavailable;
-      case grpc::StatusCode::UNAUTHENTICATED:
-      case grpc::StatusCode::PERMISSION_DENIED: return kNotAllowed;
-      default: return kFailure;
-    }
-  }
-}
 
 // "2026-11-26 01:46:51": a moment in this machine's time zone, to the second.
 std::string localTimeText(double unixSeconds) {

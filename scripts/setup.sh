@@ -30,7 +30,8 @@ BUILD_PACKAGES=(
 
 # tests/ and bench/ (GoogleTest, Google Benchmark, yaml-cpp for the deployment files), and what
 # the tests run: ip netns for the multi-host test, gnuplot for `lensfarm study`, systemd-analyze
-# for the units, Chromium for the dashboard.
+# for the units, Chromium for the dashboard, a real Slurm (controller, node daemon, munge) for
+# deploy/slurm.
 TEST_PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libyaml-cpp-dev
@@ -38,6 +39,7 @@ TEST_PACKAGES=(
   gnuplot-nox
   systemd
   chromium chromium-driver
+  slurm-wlm munge
 )
 
 # `make fuzz`: libFuzzer with ASan and UBSan.

@@ -1,6 +1,11 @@
 // lensfarm-worker: renders units leased from a coordinator on this machine's cores.
 //
 //   lensfarm-worker --coordinator farm-host:7878 [--threads N] [--name NAME] [--cache-dir DIR]
+//
+// Signals (docs/farm.md, "Stopping a worker"): SIGINT and SIGUSR1 drain (the unit in progress is
+// finished and uploaded, then the worker leaves); SIGTERM drains too, or with --on-sigterm release
+// gives its lease back at once (batch schedulers: Slurm's scancel, time limit and preemption send
+// SIGTERM, then SIGKILL after KillWait). A second signal of any kind stops at once.
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
@@ -22,9 +27,13 @@
 #include "worker_loop.h"
 
 namespace {
-// Signal handlers only count; a watcher thread turns the count into stop requests.
-std::atomic<int> gSignals{0};
-extern "C" void onSignal(int) { gSignals.fetch_add(1); }
+// Signal handlers only count; a watcher thread turns the counts into stop requests.
+std::atomic<int> gSignals{0};     // every stop signal
+std::atomic<int> gTerminates{0};  // SIGTERM among them
+extern "C" void onSignal(int sig) {
+  if (sig == SIGTERM) gTerminates.fetch_add(1);
+  gSignals.fetch_add(1);
+}
 
 std::string defaultName() {
   char host[256] = {0};
@@ -72,6 +81,18 @@ int main(int argc, char** argv) {
   app.add_option("--tls-cert", security.certFile, "PEM client certificate, for coordinators that require one")
       ->envname("LENSFARM_TLS_CERT");
   app.add_option("--tls-key", security.keyFile, "PEM private key of --tls-cert")->envname("LENSFARM_TLS_KEY");
+  std::string onSigterm = "drain";
+  app.add_option("--on-sigterm", onSigterm,
+                 "On SIGTERM: drain (finish and upload the unit in progress, then leave) or release (give its "
+                 "lease back at once and leave; for batch schedulers that kill soon after SIGTERM)")
+      ->envname("LENSFARM_ON_SIGTERM")
+      ->check(CLI::IsMember({"drain", "release"}))
+      ->capture_default_str();
+  app.add_option("--idle-exit", options.idleExitSeconds,
+                 "Leave the farm after this many seconds without a unit to render (0: never)")
+      ->envname("LENSFARM_IDLE_EXIT")
+      ->check(numberIn(0.0, 1e9, "seconds"))
+      ->capture_default_str();
   addLogLevelOption(app, logLevel);
   if (const auto exitCode = parseServiceFlags(app, argc, argv, "lensfarm-worker")) return *exitCode;
   setupLogging("worker " + options.name, logLevel);
@@ -98,14 +119,21 @@ int main(int argc, char** argv) {
   WorkerLoop loop(link, options);
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
+  std::signal(SIGUSR1, onSignal);
+  const bool releaseOnTerm = onSigterm == "release";
   std::atomic<bool> finished{false};
-  // First signal: drain (finish and upload the current unit). Second: stop at once.
+  // First signal: drain (finish and upload the current unit), or release on SIGTERM with
+  // --on-sigterm release. Second: stop at once. Either way the worker then leaves the farm, and
+  // the coordinator queues the units of its leases again at once.
   std::thread watcher([&] {
     int seen = 0;
     while (!finished) {
       const int n = gSignals.load();
       if (n > seen) {
-        if (seen == 0) {
+        if (releaseOnTerm && gTerminates.load() > 0) {
+          if (seen == 0) spdlog::info("SIGTERM: giving the current unit back and leaving");
+          loop.stopNow();
+        } else if (seen == 0) {
           spdlog::info("draining: finishing the current unit");
           loop.stop();
         }

@@ -146,11 +146,20 @@ void WorkerLoop::run() {
     lastKind.clear();
   };
 
+  // The last moment this worker had a unit (leased or just finished): --idle-exit counts from it,
+  // through an idle farm and an unreachable coordinator alike.
+  auto lastBusy = std::chrono::steady_clock::now();
   while (!stopping_) {
     {
       std::lock_guard lock(mutex_);
+      if (currentLease_) lastBusy = std::chrono::steady_clock::now();
       currentLease_.reset();
       uploading_ = false;
+    }
+    const double idle = std::chrono::duration<double>(std::chrono::steady_clock::now() - lastBusy).count();
+    if (options_.idleExitSeconds > 0 && idle >= options_.idleExitSeconds) {
+      spdlog::info("no work for {:.0f} s (--idle-exit): leaving", idle);
+      break;
     }
     try {
       if (workerId().empty()) {
@@ -167,6 +176,7 @@ void WorkerLoop::run() {
       const std::optional<LeaseGrant> grant = link_.lease(id, options_.leaseWaitSeconds);
       recovered();
       if (!grant) continue;  // the coordinator already waited for work
+      lastBusy = std::chrono::steady_clock::now();
       spdlog::debug("leased unit {} of {} (lease {}, samples {}..{})", grant->unit.index, grant->jobId, grant->leaseId,
                     grant->unit.firstSample, grant->unit.firstSample + grant->unit.sampleCount);
 

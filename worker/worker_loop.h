@@ -31,6 +31,9 @@ struct WorkerOptions {
   // A unit whose estimated memory (render/memory_estimate.h, workerJobMemory) exceeds this is
   // refused with a failure report; 0: no limit. lensfarm-worker: defaultJobMemoryBudget().
   uint64_t maxMemoryBytes = 0;
+  // Leave the farm after this many seconds without a unit to render (a batch-scheduled worker
+  // gives its allocation back when the farm has no work: deploy/slurm); 0: never.
+  double idleExitSeconds = 0.0;
 };
 
 struct WorkerCounters {
@@ -45,8 +48,9 @@ class WorkerLoop {
   WorkerLoop(CoordinatorLink& link, WorkerOptions options);
   ~WorkerLoop();
 
-  // Runs until stop() is called; the unit in progress is finished and uploaded first
-  // unless stopNow() is called.
+  // Runs until stop() is called or, with idleExitSeconds, until no unit came for that long; the
+  // unit in progress is finished and uploaded first unless stopNow() is called. Then it leaves
+  // the farm cleanly: the coordinator queues the units of its leases again at once.
   void run();
   void stop();     // drain: finish the current unit, then return
   void stopNow();  // cancel the current unit and return

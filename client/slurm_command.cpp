@@ -1,0 +1,200 @@
+// `lensfarm slurm`: starts workers as a Slurm job array from a login node, and, given jobs, waits
+// until they end and cancels the array (deploy/slurm/README.md, docs/cli.md "slurm").
+//
+//   lensfarm slurm --workers 50 --cpus-per-task 8 --time 4:00:00 --partition gpu JOB
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <thread>
+
+#include "commands.h"
+#include "exit_codes.h"
+#include "farm_client.h"
+#include "farm_connection.h"
+#include "progress_display.h"
+#include "slurm_array.h"
+#include "subprocess.h"
+#include "util/error.h"
+#include "util/flag_checks.h"
+
+namespace lensfarm::cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::atomic<int> gStopSignal{0};
+extern "C" void onStopSignal(int sig) { gStopSignal = sig; }
+
+// This `lensfarm` binary's directory.
+fs::path executableDir() {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? fs::path() : self.parent_path();
+}
+
+// lensfarm-worker.sbatch: installed beside the binaries (<prefix>/share/lensfarm/slurm), else in
+// the source tree this binary was built from.
+fs::path defaultWorkerScript() {
+  for (const fs::path& candidate : {executableDir() / "../share/lensfarm/slurm/lensfarm-worker.sbatch",
+                                    fs::path(LENSFARM_SOURCE_DIR) / "deploy/slurm/lensfarm-worker.sbatch"})
+    if (fs::is_regular_file(candidate)) return fs::weakly_canonical(candidate);
+  return {};
+}
+
+// The lensfarm-worker installed beside this binary (bin/), or built beside it (build/worker/);
+// empty: the one on the compute nodes' PATH.
+std::string defaultWorkerBinary() {
+  for (const fs::path& candidate : {executableDir() / "lensfarm-worker", executableDir() / "../worker/lensfarm-worker"})
+    if (::access(candidate.c_str(), X_OK) == 0) return fs::weakly_canonical(candidate).string();
+  return "";
+}
+
+bool ended(v1::JobState s) {
+  return s == v1::JOB_STATE_DONE || s == v1::JOB_STATE_CANCELLED || s == v1::JOB_STATE_FAILED;
+}
+
+// scancel of the whole array; says what it did.
+void cancelArray(const std::string& arrayId, const std::string& why) {
+  const CommandResult r = runCommand(scancelArguments(arrayId));
+  if (r.started && r.exitCode == 0)
+    std::fprintf(stderr, "cancelled Slurm job %s (%s)\n", arrayId.c_str(), why.c_str());
+  else
+    std::fprintf(stderr, "lensfarm: warning: scancel %s failed (%s); cancel it by hand\n", arrayId.c_str(),
+                 r.started ? ("exit " + std::to_string(r.exitCode)).c_str() : r.error.c_str());
+}
+
+}  // namespace
+
+Runner addSlurmCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "slurm", "Start workers as a Slurm job array; given jobs, wait until they end, then cancel the array");
+  struct Flags {
+    Connection c;
+    SlurmArray array;
+    std::vector<std::string> jobs;
+  };
+  auto f = std::make_shared<Flags>();
+  addCoordinatorOption(cmd, f->c);
+  cmd->add_option("jobs", f->jobs, "Jobs to work for: wait until they end, then scancel the workers (default: start "
+                                   "the workers and return; they leave after --idle-exit without work)");
+  cmd->add_option("-n,--workers", f->array.workers, "Workers: one Slurm array task each")
+      ->required()
+      ->check(CLI::Range(1u, 1000000u));
+  cmd->add_option("-c,--cpus-per-task", f->array.cpusPerTask, "Cores per worker (its --threads)")
+      ->check(CLI::Range(1u, 4096u))
+      ->capture_default_str();
+  cmd->add_option("--max-running", f->array.maxRunning, "Run at most this many workers at once (0: as Slurm allows)");
+  cmd->add_option("-t,--time", f->array.timeLimit, "Time limit of each worker, as sbatch --time takes it");
+  cmd->add_option("-p,--partition", f->array.partition, "Slurm partition")->envname("SBATCH_PARTITION");
+  cmd->add_option("-A,--account", f->array.account, "Slurm account to charge")->envname("SBATCH_ACCOUNT");
+  cmd->add_option("-q,--qos", f->array.qos, "Slurm quality of service")->envname("SBATCH_QOS");
+  cmd->add_option("--job-name", f->array.jobName, "Name of the Slurm job array")->capture_default_str();
+  cmd->add_option("--log-dir", f->array.logDir, "Where the workers' logs go (lensfarm-worker-ARRAY_TASK.log)")
+      ->default_str("the current directory");
+  cmd->add_option("--worker-token-file", f->array.workerTokenFile,
+                  "The farm's worker token, in a file the compute nodes can read (mode 600)");
+  cmd->add_option("--worker-binary", f->array.workerBinary,
+                  "lensfarm-worker on the compute nodes (default: the one beside this binary, else on their PATH)")
+      ->envname("LENSFARM_WORKER");
+  cmd->add_option("--idle-exit", f->array.idleExitSeconds, "A worker leaves after this many seconds without work")
+      ->check(numberIn(0.0, 1e9, "seconds"))
+      ->capture_default_str();
+  cmd->add_option("--script", f->array.script, "The sbatch script (default: the installed lensfarm-worker.sbatch)")
+      ->envname("LENSFARM_SLURM_SCRIPT");
+  cmd->add_option("--sbatch-arg", f->array.extraSbatchArgs, "One more sbatch argument (repeatable), e.g. --sbatch-arg=--mem=8G");
+  return [f] {
+    SlurmArray& array = f->array;
+    array.coordinator = f->c.coordinator;
+    if (array.script.empty()) array.script = defaultWorkerScript();
+    if (array.script.empty() || !fs::is_regular_file(array.script)) {
+      std::fprintf(stderr, "lensfarm: error: --script %s: no lensfarm-worker.sbatch there\n", array.script.c_str());
+      return kBadInput;
+    }
+    if (array.workerBinary.empty()) array.workerBinary = defaultWorkerBinary();
+    std::error_code ec;
+    array.logDir = fs::absolute(array.logDir.empty() ? fs::current_path() : array.logDir);
+    fs::create_directories(array.logDir, ec);
+    if (ec) {
+      std::fprintf(stderr, "lensfarm: error: --log-dir %s: %s\n", array.logDir.c_str(), ec.message().c_str());
+      return kBadInput;
+    }
+    if (!array.workerTokenFile.empty()) array.workerTokenFile = fs::absolute(array.workerTokenFile);
+    if (isLocalOnlyAddress(array.coordinator))
+      std::fprintf(stderr,
+                   "lensfarm: warning: workers will dial %s, which only reaches this machine; give --coordinator an "
+                   "address the compute nodes can reach\n",
+                   array.coordinator.c_str());
+
+    return guardedCall([&] {
+      FarmClient client(f->c.coordinator, f->c.resolved());
+      // The jobs exist (NOT_FOUND otherwise) before any allocation is asked for.
+      std::vector<std::string> open;
+      for (const std::string& job : f->jobs) {
+        const v1::JobStatus s = client.get(job);
+        if (ended(s.state()))
+          std::fprintf(stderr, "%s already %s\n", job.c_str(), stateName(s.state()));
+        else
+          open.push_back(job);
+      }
+      if (!f->jobs.empty() && open.empty()) return kOk;
+
+      const CommandResult submitted = runCommand(sbatchArguments(array), workerEnvironment(array));
+      if (!submitted.started) {
+        std::fprintf(stderr, "lensfarm: error: %s (run this on a Slurm login node)\n", submitted.error.c_str());
+        return kBadInput;
+      }
+      if (submitted.exitCode != 0) {
+        std::fprintf(stderr, "lensfarm: error: sbatch refused the worker array (exit %d)\n", submitted.exitCode);
+        return kFailure;
+      }
+      const std::string arrayId = parseSbatchJobId(submitted.out);
+      std::printf("%s\n", arrayId.c_str());
+      std::fflush(stdout);
+      std::fprintf(stderr, "submitted %u workers as Slurm job %s (squeue -r -j %s; logs in %s)\n", array.workers,
+                   arrayId.c_str(), arrayId.c_str(), array.logDir.c_str());
+      if (open.empty()) return kOk;
+
+      // Wait for the jobs, then give the allocation back. Ctrl-C (or a SIGTERM to this command)
+      // cancels the array too: no worker outlives the command that started it for them.
+      std::signal(SIGINT, onStopSignal);
+      std::signal(SIGTERM, onStopSignal);
+      bool allDone = true, warned = false;
+      while (!open.empty() && gStopSignal == 0) {
+        try {
+          const v1::JobStatus s = client.get(open.front());
+          warned = false;
+          if (ended(s.state())) {
+            std::fprintf(stderr, "%s %s\n", s.job_id().c_str(), stateName(s.state()));
+            allDone = allDone && s.state() == v1::JOB_STATE_DONE;
+            open.erase(open.begin());
+            continue;
+          }
+        } catch (const ClientError& e) {
+          if (e.code() == grpc::StatusCode::NOT_FOUND) {  // deleted meanwhile
+            std::fprintf(stderr, "%s: %s\n", open.front().c_str(), e.what());
+            allDone = false;
+            open.erase(open.begin());
+            continue;
+          }
+          if (e.code() != grpc::StatusCode::UNAVAILABLE && e.code() != grpc::StatusCode::DEADLINE_EXCEEDED) throw;
+          if (!warned) std::fprintf(stderr, "lensfarm: warning: %s; still waiting\n", e.what());
+          warned = true;
+        }
+        for (int i = 0; i < 10 && gStopSignal == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      }
+      if (gStopSignal != 0) {
+        cancelArray(arrayId, "interrupted");
+        return kInterrupted;
+      }
+      cancelArray(arrayId, f->jobs.size() == 1 ? f->jobs[0] + " ended" : "the jobs ended");
+      return allDone ? kOk : kJobNotDone;
+    });
+  };
+}
+
+}  // namespace lensfarm::cli

@@ -1,0 +1,131 @@
+// Workers on a real Slurm (issue 25; deploy/slurm/README.md): Debian's slurm-wlm with munge,
+// slurmctld and slurmd started here (tests/support/local_slurm.h), a real coordinator, and the
+// workers started by `lensfarm slurm` as a job array through deploy/slurm/lensfarm-worker.sbatch.
+// One task is cancelled with scancel in the middle of a unit: it gives its lease back at once and
+// leaves (shown as left, not lost), and the image is still the in-process render's, bit for bit,
+// with every sample counted once. When the job ends the command cancels the array. The coordinator
+// as a Slurm job is found by workers through the address file it writes, and idle workers leave
+// by themselves.
+//
+// The log of each test shows the sbatch job ids and the squeue states it saw.
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <sstream>
+
+#include "deploy_support.h"
+#include "film/image_io.h"
+#include "support/local_slurm.h"
+
+namespace lensfarm {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The line of `lensfarm workers` output that names `name`, or "".
+std::string lineOf(const std::string& table, const std::string& name) {
+  std::istringstream in(table);
+  for (std::string line; std::getline(in, line);)
+    if (line.find(" " + name + " ") != std::string::npos) return line;
+  return "";
+}
+
+std::string joined(const std::vector<std::string>& rows) {
+  std::string text;
+  for (const auto& r : rows) text += (text.empty() ? "" : ", ") + r;
+  return text.empty() ? "(none)" : text;
+}
+
+class Slurm : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (const auto reason = test::LocalSlurm::unavailableReason()) {
+      // scripts/setup.sh installs Slurm wherever apt-get can: there, a missing binary is a failure.
+      if (fs::exists("/etc/debian_version")) FAIL() << *reason;
+      GTEST_SKIP() << *reason;
+    }
+    slurm_ = std::make_unique<test::LocalSlurm>(dir_ / "slurm");
+    ::setenv("SLURM_CONF", (dir_ / "slurm/slurm.conf").c_str(), 1);  // for `lensfarm slurm`'s sbatch
+    std::printf("slurm: %s\n", slurm_->run({"sinfo", "-h", "-o", "%P %D %c %T"}).out.c_str());
+  }
+  void TearDown() override {
+    farm_.reset();   // the coordinator, before Slurm's jobs are cancelled
+    slurm_.reset();  // cancels every job, waits for them, stops the daemons
+  }
+  // squeue's tasks of `job`, printed for the log.
+  std::vector<std::string> tasks(const std::string& job) {
+    const auto rows = slurm_->tasks(job);
+    std::printf("squeue -r -j %s: %s\n", job.c_str(), joined(rows).c_str());
+    return rows;
+  }
+  std::string workers(const std::string& address) { return farm_->cli({"workers", "--coordinator", address}).out; }
+
+  test::TempDir dir_;
+  std::unique_ptr<test::LocalSlurm> slurm_;
+  std::unique_ptr<test::FarmProcesses> farm_ = std::make_unique<test::FarmProcesses>(dir_);
+};
+
+TEST_F(Slurm, AWorkerArrayRendersTheLocalImageAndAScancelledTaskLosesNothing) {
+  // A lease timeout far longer than the test: a unit comes back quickly only if the cancelled
+  // worker gives it back.
+  const std::string address = farm_->startCoordinator({"--listen", "127.0.0.1:0", "--lease-timeout", "600"});
+  const fs::path scene = test::writeSeedScene(dir_, 128, 4096, 256);  // 16 units of ~4 M paths
+  const std::string job = farm_->submit({scene.string(), "--coordinator", address});
+
+  const fs::path logs = dir_ / "worker-logs";
+  test::ChildProcess helper({test::cliPath().string(), "slurm", job, "--coordinator", address, "--workers", "3",
+                             "--cpus-per-task", "1", "--log-dir", logs.string(), "--worker-binary",
+                             test::workerPath().string(), "--idle-exit", "120"},
+                            dir_ / "slurm-helper");
+  std::string array;
+  ASSERT_TRUE(test::waitFor([&] {
+    array = test::readFile(dir_ / "slurm-helper.stdout");
+    return array.find('\n') != std::string::npos;
+  }, 60)) << helper.log() << slurm_->logs();
+  array = array.substr(0, array.find('\n'));
+  std::printf("sbatch job id: %s\n", array.c_str());
+  ASSERT_FALSE(array.empty());
+  EXPECT_TRUE(test::contains(helper.log(), "submitted 3 workers as Slurm job " + array));
+
+  // The three tasks run, each a worker named after its array task.
+  const std::vector<std::string> running = {array + "_0 RUNNING", array + "_1 RUNNING", array + "_2 RUNNING"};
+  ASSERT_TRUE(test::waitFor([&] { return tasks(array) == running; }, 60)) << slurm_->logs();
+  const std::string victim = "slurm-" + array + "_1";
+  ASSERT_TRUE(test::waitFor([&] { return lineOf(workers(address), victim).find(" rendering") != std::string::npos; }, 60))
+      << workers(address) << test::readFile(logs / ("lensfarm-worker-" + array + "_1.log"));
+
+  // scancel of one task while it renders a unit: Slurm sends SIGTERM; the worker gives the lease
+  // back and leaves at once.
+  const auto cancelled = slurm_->run({"scancel", array + "_1"});
+  ASSERT_EQ(cancelled.exitCode, 0) << cancelled.err;
+  std::printf("scancel %s_1\n", array.c_str());
+  ASSERT_TRUE(test::waitFor([&] { return tasks(array).size() == 2; }, 30));
+  const std::string victimLog = test::readFile(logs / ("lensfarm-worker-" + array + "_1.log"));
+  EXPECT_TRUE(test::contains(victimLog, "SIGTERM: giving the current unit back and leaving"));
+  EXPECT_TRUE(test::contains(victimLog, "abandoned after")) << "it was cancelled in the middle of a unit";
+  EXPECT_TRUE(test::contains(victimLog, "stopped after"));
+  const std::string left = lineOf(workers(address), victim);
+  EXPECT_TRUE(test::contains(left, " left ")) << "a clean exit, not a lost worker";
+  EXPECT_EQ(left.find("lost"), std::string::npos) << left;
+
+  // The helper sees the job end and cancels the rest of the array.
+  ASSERT_EQ(helper.wait(300), 0) << helper.log();
+  EXPECT_TRUE(test::contains(helper.log(), job + " done"));
+  EXPECT_TRUE(test::contains(helper.log(), "cancelled Slurm job " + array));
+  EXPECT_TRUE(test::waitFor([&] { return tasks(array).empty(); }, 60)) << "no worker outlives the job";
+
+  const fs::path farmExr = dir_ / "farm.exr", localExr = dir_ / "local.exr";
+  const auto downloaded = farm_->cli({"download", job, "--coordinator", address, "-o", farmExr.string()});
+  ASSERT_EQ(downloaded.exitCode, 0) << downloaded.err;
+  const auto local = farm_->cli({"render", scene.string(), "-o", localExr.string(), "--threads", "2", "-q"});
+  ASSERT_EQ(local.exitCode, 0) << local.err;
+  ImageMetadata farmMeta, localMeta;
+  const Image farmImage = readExr(farmExr, &farmMeta);
+  EXPECT_EQ(farmMeta.totalSamples, 128u * 128u * 4096u) << "every sample counted exactly once";
+  EXPECT_EQ(farmImage.rgb, readExr(localExr, &localMeta).rgb) << "the farm's image equals the in-process render";
+  for (const char* task : {"_0", "_2"})
+    EXPECT_TRUE(test::contains(farmMeta.extra["workers"], "slurm-" + array + task)) << "every running task rendered";
+}
+
+}  // namespace
+}  // namespace lensfarm
