@@ -25,18 +25,17 @@ fs::path base() { return test::sourceDir() / "deploy/kubernetes"; }
 
 // Runs the validator on `inputs`. Node and the npm packages are installed by scripts/setup.sh test,
 // so their absence is a failure, never a skip.
-test::ProcessResult validate(const std::vector<std::string> &inputs) {
+test::ProcessResult validate(const std::vector<std::string>& inputs) {
   EXPECT_TRUE(fs::exists(kNode)) << "node is missing: scripts/setup.sh test installs nodejs";
   EXPECT_TRUE(fs::exists(deployTests() / "node_modules/kubernetes-models/package.json"))
-      << "the validator's npm packages are missing: scripts/setup.sh test "
-         "installs them (npm ci in tests/deploy)";
+      << "the validator's npm packages are missing: scripts/setup.sh test installs them (npm ci in tests/deploy)";
   std::vector<std::string> argv{kNode.string(), (deployTests() / "kubernetes_schema.js").string()};
   argv.insert(argv.end(), inputs.begin(), inputs.end());
   return test::runProcess(argv, 120);
 }
 
 // The 1-based line of the first line of `text` that contains `needle` (0 if none).
-int lineOf(const std::string &text, const std::string &needle) {
+int lineOf(const std::string& text, const std::string& needle) {
   std::istringstream in(text);
   int n = 0;
   for (std::string line; std::getline(in, line);)
@@ -45,7 +44,7 @@ int lineOf(const std::string &text, const std::string &needle) {
 }
 
 // `text` with `from` replaced by `to` once; fails the test if `from` is not there.
-std::string replaced(std::string text, const std::string &from, const std::string &to) {
+std::string replaced(std::string text, const std::string& from, const std::string& to) {
   const size_t at = text.find(from);
   EXPECT_NE(at, std::string::npos) << from;
   return at == std::string::npos ? text : text.replace(at, from.size(), to);
@@ -71,9 +70,9 @@ TEST(KubernetesSchema, EveryListedObjectIsValidAgainstASchemaNewEnoughForGrpcPro
   // Each object of each listed file (as yaml-cpp reads it) was validated, and nothing else.
   const YAML::Node kustomization = YAML::LoadFile((base() / "kustomization.yaml").string());
   size_t objects = 0;
-  for (const auto &resource : kustomization["resources"]) {
+  for (const auto& resource : kustomization["resources"]) {
     const fs::path file = base() / resource.as<std::string>();
-    for (const YAML::Node &doc : YAML::LoadAllFromFile(file.string())) {
+    for (const YAML::Node& doc : YAML::LoadAllFromFile(file.string())) {
       ++objects;
       const std::string line = "ok " + file.string() + " " + doc["kind"].as<std::string>() + "/" +
                                doc["metadata"]["name"].as<std::string>() + "\n";
@@ -89,10 +88,8 @@ TEST(KubernetesSchema, EveryListedObjectIsValidAgainstASchemaNewEnoughForGrpcPro
 TEST(KubernetesSchema, TheKustomizeBuildIsValid) {
   const fs::path kubectl = "/usr/bin/kubectl";
   if (!fs::exists(kubectl))
-    GTEST_SKIP() << "kubectl is not installed here. It is no Debian 12 package "
-                    "(kubernetes-client is 1.20, whose "
-                    "built-in kustomize predates the `labels:` field); the "
-                    "listed files are validated without it.";
+    GTEST_SKIP() << "kubectl is not installed here. It is no Debian 12 package (kubernetes-client is 1.20, whose "
+                    "built-in kustomize predates the `labels:` field); the listed files are validated without it.";
   const auto build = test::runProcess({kubectl.string(), "kustomize", base().string()}, 60);
   ASSERT_EQ(build.exitCode, 0) << build.err;
   const test::TempDir dir;
@@ -125,8 +122,8 @@ TEST(KubernetesSchema, ABrokenManifestIsRefusedNamingTheFileTheObjectAndTheField
   EXPECT_EQ(r.out.find("\nok "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("\n3 objects, 3 invalid\n"), std::string::npos) << r.out;
 
-  const auto expectError = [&](const fs::path &file, const std::string &text, const std::string &lineText,
-                               const std::string &rest) {
+  const auto expectError = [&](const fs::path& file, const std::string& text, const std::string& lineText,
+                               const std::string& rest) {
     const std::string line = file.string() + ":" + std::to_string(lineOf(text, lineText)) + ": " + rest + "\n";
     EXPECT_NE(r.err.find(line), std::string::npos) << line << "not in:\n" << r.err;
   };
@@ -139,8 +136,7 @@ TEST(KubernetesSchema, ABrokenManifestIsRefusedNamingTheFileTheObjectAndTheField
               w + "/spec/template/spec/containers/0/name: required field missing");
   expectError(brokenWorker, worker, "readOnlyRootFilesytem",
               w +
-                  "/spec/template/spec/containers/0/securityContext/"
-                  "readOnlyRootFilesytem: unknown field "
+                  "/spec/template/spec/containers/0/securityContext/readOnlyRootFilesytem: unknown field "
                   "\"readOnlyRootFilesytem\"" +
                   notInSchema);
   expectError(brokenCoordinator, coordinator,
@@ -150,8 +146,7 @@ TEST(KubernetesSchema, ABrokenManifestIsRefusedNamingTheFileTheObjectAndTheField
   EXPECT_NE(r.err.find(c + "/spec/template/spec/containers: required field missing"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("/containerz/0"), std::string::npos) << r.err;
   expectError(unknownKind, widget, "apiVersion",
-              "Widget/w: /: no schema for apiVersion \"example.com/v1\" kind "
-              "\"Widget\"");
+              "Widget/w: /: no schema for apiVersion \"example.com/v1\" kind \"Widget\"");
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 6) << "exactly the six errors:\n" << r.err;
 }
 
