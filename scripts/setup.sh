@@ -35,6 +35,7 @@ BUILD_PACKAGES=(
 TEST_PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libyaml-cpp-dev
+  nodejs  # runs tests/deploy/kubernetes_schema.js, the Kubernetes schema check (its npm packages: below)
   iproute2
   gnuplot-nox
   systemd
@@ -62,13 +63,26 @@ for p in "${PACKAGES[@]}"; do
   fi
 done
 
-if [ ${#missing[@]} -eq 0 ]; then
-  exit 0
+if [ "$(id -u)" -eq 0 ]; then SUDO=""; else SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+if [ ${#missing[@]} -ne 0 ]; then
+  echo "setup ($profile): installing ${missing[*]}"
+  $SUDO apt-get update -qq >/dev/null
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  echo "setup: done"
 fi
 
-if [ "$(id -u)" -eq 0 ]; then SUDO=""; else SUDO="sudo"; fi
-echo "setup ($profile): installing ${missing[*]}"
-export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -qq >/dev/null
-$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-echo "setup: done"
+# The Kubernetes schema check's npm packages, at the exact versions of tests/deploy/package-lock.json,
+# in tests/deploy/node_modules (not in git); again only when the lock file is newer. Debian's nodejs
+# comes without npm (NodeSource's has it built in and conflicts with Debian's npm package).
+if [ "$profile" != build ]; then
+  deploy_tests="$(cd "$(dirname "$0")/../tests/deploy" && pwd)"
+  if [ ! "$deploy_tests/node_modules/.package-lock.json" -nt "$deploy_tests/package-lock.json" ]; then
+    if ! command -v npm >/dev/null; then
+      $SUDO apt-get update -qq >/dev/null
+      $SUDO apt-get install -y -qq --no-install-recommends npm >/dev/null
+    fi
+    echo "setup: npm ci in tests/deploy"
+    npm ci --prefix "$deploy_tests" --no-audit --no-fund --loglevel=error >/dev/null
+  fi
+fi
