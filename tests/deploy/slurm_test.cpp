@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include <csignal>
+#include <map>
 #include <sstream>
 
 #include "deploy_support.h"
@@ -52,16 +53,34 @@ class Slurm : public ::testing::Test {
     farm_.reset();   // the coordinator, before Slurm's jobs are cancelled
     slurm_.reset();  // cancels every job, waits for them, stops the daemons
   }
-  // squeue's tasks of `job`, printed for the log.
+  // squeue's tasks of `job`, printed for the log when they change.
   std::vector<std::string> tasks(const std::string& job) {
     const auto rows = slurm_->tasks(job);
-    std::printf("squeue -r -j %s: %s\n", job.c_str(), joined(rows).c_str());
+    if (rows != lastTasks_[job]) std::printf("squeue -r -j %s: %s\n", job.c_str(), joined(rows).c_str());
+    lastTasks_[job] = rows;
     return rows;
+  }
+  // sbatch --parsable with `variables` (NAME=VALUE) in its environment; the job id.
+  std::string sbatch(const std::vector<std::string>& variables, const std::vector<std::string>& args) {
+    std::vector<std::string> argv = variables;
+    argv.push_back("sbatch");
+    argv.push_back("--parsable");
+    argv.insert(argv.end(), args.begin(), args.end());
+    const auto r = slurm_->run(argv);
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    const std::string id = r.out.substr(0, r.out.find_first_of(";\n"));
+    std::printf("sbatch %s: job id %s\n", args.back().c_str(), id.c_str());
+    return id;
+  }
+  test::ProcessResult cli(std::vector<std::string> args, const std::vector<std::string>& connection) {
+    args.insert(args.end(), connection.begin(), connection.end());
+    return farm_->cli(args);
   }
   std::string workers(const std::string& address) { return farm_->cli({"workers", "--coordinator", address}).out; }
 
   test::TempDir dir_;
   std::unique_ptr<test::LocalSlurm> slurm_;
+  std::map<std::string, std::vector<std::string>> lastTasks_;
   std::unique_ptr<test::FarmProcesses> farm_ = std::make_unique<test::FarmProcesses>(dir_);
 };
 
@@ -125,6 +144,54 @@ TEST_F(Slurm, AWorkerArrayRendersTheLocalImageAndAScancelledTaskLosesNothing) {
   EXPECT_EQ(farmImage.rgb, readExr(localExr, &localMeta).rgb) << "the farm's image equals the in-process render";
   for (const char* task : {"_0", "_2"})
     EXPECT_TRUE(test::contains(farmMeta.extra["workers"], "slurm-" + array + task)) << "every running task rendered";
+}
+
+TEST_F(Slurm, TheCoordinatorAsASlurmJobIsFoundByWorkersThatLeaveWhenIdle) {
+  const fs::path slurmDir = test::sourceDir() / "deploy/slurm", addressFile = dir_ / "shared/coordinator";
+  const std::string coordinatorJob =
+      sbatch({"LENSFARM_COORDINATOR_FILE=" + addressFile.string(), "LENSFARM_STATE_DIR=" + (dir_ / "state").string(),
+              "LENSFARM_ADVERTISE=127.0.0.1", "LENSFARM_COORDINATOR_BIN=" + test::coordinatorPath().string()},
+             {"--output=" + (dir_ / "coordinator.log").string(), (slurmDir / "lensfarm-coordinator.sbatch").string()});
+  ASSERT_TRUE(test::waitFor([&] { return fs::exists(addressFile); }, 60))
+      << test::readFile(dir_ / "coordinator.log") << slurm_->logs();
+  const std::string address = test::lines(test::readFile(addressFile)).at(0);
+  EXPECT_EQ(address.rfind("127.0.0.1:", 0), 0u) << address;
+
+  const fs::path scene = test::writeSeedScene(dir_, 48, 64, 8);
+  // The coordinator job made the farm's tokens beside its address file.
+  const std::vector<std::string> client = {"--coordinator", address, "--token-file", (dir_ / "shared/client.token").string()};
+  EXPECT_EQ(fs::status(dir_ / "shared/worker.token").permissions() & fs::perms::all, fs::perms::owner_read | fs::perms::owner_write);
+  const auto without = farm_->cli({"status", "--coordinator", address});
+  EXPECT_EQ(without.exitCode, 6) << "no token, no answer: " << without.err;
+  std::vector<std::string> submit = {scene.string()};
+  submit.insert(submit.end(), client.begin(), client.end());
+  const std::string job = farm_->submit(submit);
+  // Workers find the coordinator through the file, render the job, and leave 3 s after it ends.
+  const std::string array = sbatch(
+      {"LENSFARM_COORDINATOR_FILE=" + addressFile.string(), "LENSFARM_IDLE_EXIT=3",
+       "LENSFARM_WORKER=" + test::workerPath().string(), "LENSFARM_CACHE_DIR=" + (dir_ / "cache").string()},
+      {"--array=0-1", "--cpus-per-task=1", "--output=" + (dir_ / "worker-%A_%a.log").string(),
+       (slurmDir / "lensfarm-worker.sbatch").string()});
+  const auto watched = cli({"watch", job}, client);
+  ASSERT_EQ(watched.exitCode, 0) << watched.err;
+  ASSERT_TRUE(test::waitFor([&] { return tasks(array).empty(); }, 60)) << "idle workers leave by themselves";
+  for (const char* task : {"_0", "_1"}) {
+    const std::string log = test::readFile(dir_ / ("worker-" + array + task + ".log"));
+    EXPECT_TRUE(test::contains(log, "coordinator " + address));
+    EXPECT_TRUE(test::contains(log, "(--idle-exit): leaving"));
+    EXPECT_TRUE(test::contains(lineOf(cli({"workers"}, client).out, "slurm-" + array + task), " left "));
+  }
+  ImageMetadata meta;
+  const fs::path exr = dir_ / "farm.exr";
+  ASSERT_EQ(cli({"download", job, "-o", exr.string()}, client).exitCode, 0);
+  readExr(exr, &meta);
+  EXPECT_EQ(meta.totalSamples, 48u * 48u * 64u);
+
+  // scancel: the coordinator saves its jobs and stops; its address file goes with it.
+  ASSERT_EQ(slurm_->run({"scancel", coordinatorJob}).exitCode, 0);
+  ASSERT_TRUE(test::waitFor([&] { return tasks(coordinatorJob).empty(); }, 60));
+  EXPECT_FALSE(fs::exists(addressFile)) << test::readFile(dir_ / "coordinator.log");
+  EXPECT_TRUE(fs::exists(dir_ / "state")) << "the state stays for the next coordinator job";
 }
 
 }  // namespace
