@@ -166,6 +166,13 @@ TEST_F(Slurm, TheCoordinatorAsASlurmJobIsFoundByWorkersThatLeaveWhenIdle) {
   std::vector<std::string> submit = {scene.string()};
   submit.insert(submit.end(), client.begin(), client.end());
   const std::string job = farm_->submit(submit);
+  // A request Slurm refuses: sbatch's own message, exit 1, and nothing queued.
+  const auto refused = cli({"slurm", "--workers", "2", "--partition", "nosuch", "--log-dir", (dir_ / "l").string()}, client);
+  EXPECT_EQ(refused.exitCode, 1) << refused.err;
+  EXPECT_TRUE(test::contains(refused.err, "invalid partition"));
+  EXPECT_TRUE(test::contains(refused.err, "lensfarm: error: sbatch refused the worker array (exit 1)"));
+  EXPECT_EQ(slurm_->run({"squeue", "-h", "-o", "%i"}).out, coordinatorJob + "\n") << "only the coordinator's job";
+
   // Workers find the coordinator through the file, render the job, and leave 3 s after it ends.
   const std::string array = sbatch(
       {"LENSFARM_COORDINATOR_FILE=" + addressFile.string(), "LENSFARM_IDLE_EXIT=3",

@@ -4,6 +4,7 @@
 #include <spdlog/sinks/ringbuffer_sink.h>
 #include <spdlog/spdlog.h>
 
+#include <atomic>
 #include <condition_variable>
 #include <mutex>
 #include <thread>
@@ -95,6 +96,58 @@ TEST(WorkerLoop, ALeaseEndedByItsOwnUploadIsNotReportedRevoked) {
   EXPECT_EQ(worker.counters().unitsAccepted.load(), 4u);
   for (const std::string& line : sink->last_formatted())
     EXPECT_EQ(line.find("revoked"), std::string::npos) << line;
+}
+
+// The real link, counting the worker's goodbyes.
+class LeaveCountingLink final : public CoordinatorLink {
+ public:
+  explicit LeaveCountingLink(Coordinator& c) : inner_(c) {}
+  Registration registerWorker(const WorkerInfo& info) override { return inner_.registerWorker(info); }
+  std::vector<uint64_t> heartbeat(const std::string& w, const std::vector<uint64_t>& leases) override {
+    return inner_.heartbeat(w, leases);
+  }
+  std::optional<LeaseGrant> lease(const std::string& w, double wait) override { return inner_.lease(w, wait); }
+  JobSpec jobSpec(const std::string& job) override { return inner_.jobSpec(job); }
+  std::string asset(const std::string& sha) override { return inner_.asset(sha); }
+  bool upload(const UnitResult& r) override { return inner_.upload(r); }
+  void reportFailure(const std::string& w, uint64_t lease, const std::string& job, const std::string& e) override {
+    inner_.reportFailure(w, lease, job, e);
+  }
+  void leave() override { ++leaves; }
+  std::atomic<int> leaves{0};
+
+ private:
+  InProcessLink inner_;
+};
+
+// --idle-exit (deploy/slurm: a batch worker gives its allocation back): the worker renders every
+// unit there is, then, with nothing to lease for the idle time, returns by itself and says goodbye.
+TEST(WorkerLoop, LeavesByItselfOnceTheFarmHasHadNoWorkForTheIdleTime) {
+  Coordinator coordinator{Coordinator::Options{}};
+  nlohmann::json scene = test::minimalSceneJson();
+  scene["render"]["resolution"] = {8, 8};
+  scene["render"]["samples_per_pixel"] = 6;
+  scene["render"]["samples_per_unit"] = 2;
+  const std::string job = coordinator.submit(JobSpec{"test.json", scene.dump(), {}, {}, std::nullopt}, 0).id;
+
+  LeaveCountingLink link(coordinator);
+  WorkerOptions wo;
+  wo.name = "w";
+  wo.leaseWaitSeconds = 0.05;
+  wo.idleExitSeconds = 0.5;
+  WorkerLoop worker(link, wo);
+  std::atomic<bool> returned{false};
+  std::thread t([&] {
+    worker.run();
+    returned = true;
+  });
+  const bool left = test::waitFor([&] { return returned.load(); }, 60);
+  if (!left) worker.stopNow();
+  t.join();
+  ASSERT_TRUE(left) << "the worker never left an idle farm";
+  EXPECT_EQ(coordinator.job(job).state, JobState::kDone) << "it left only after the work was done";
+  EXPECT_EQ(worker.counters().unitsAccepted.load(), 3u);
+  EXPECT_EQ(link.leaves.load(), 1) << "it said it was leaving (shown as left, not lost)";
 }
 
 }  // namespace
