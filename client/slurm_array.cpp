@@ -39,6 +39,10 @@ std::string parseSbatchJobId(const std::string& output) {
   return id;
 }
 
+std::vector<std::string> squeueArguments(const std::string& arrayJobId) {
+  return {"squeue", "--noheader", "--array", "--jobs=" + arrayJobId, "--format=%i %T"};
+}
+
 std::vector<std::string> scancelArguments(const std::string& arrayJobId) { return {"scancel", arrayJobId}; }
 
 bool isLocalOnlyAddress(const std::string& hostPort) {

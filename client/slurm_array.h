@@ -40,6 +40,9 @@ std::map<std::string, std::string> workerEnvironment(const SlurmArray& array);
 // The job id in `sbatch --parsable` output ("1234" or "1234;cluster"); InputError otherwise.
 std::string parseSbatchJobId(const std::string& output);
 
+// The command that lists the array's tasks still queued (one line each; none once all have ended).
+std::vector<std::string> squeueArguments(const std::string& arrayJobId);
+
 // The command that ends every task of the array (running ones get SIGTERM, pending ones never start).
 std::vector<std::string> scancelArguments(const std::string& arrayJobId);
 

@@ -9,6 +9,7 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <thread>
 
 #include "commands.h"
@@ -56,6 +57,14 @@ std::string defaultWorkerBinary() {
 
 bool ended(v1::JobState s) {
   return s == v1::JOB_STATE_DONE || s == v1::JOB_STATE_CANCELLED || s == v1::JOB_STATE_FAILED;
+}
+
+// Whether the array still has tasks in Slurm's queue (pending, running or completing); nullopt when
+// squeue cannot say (not on PATH, the controller busy).
+std::optional<bool> arrayQueued(const std::string& arrayId) {
+  const CommandResult r = runCommand(squeueArguments(arrayId));
+  if (!r.started || r.exitCode != 0) return std::nullopt;
+  return r.out.find_first_not_of(" \n") != std::string::npos;
 }
 
 // scancel of the whole array; says what it did.
@@ -164,7 +173,20 @@ Runner addSlurmCommand(CLI::App& app) {
       std::signal(SIGINT, onStopSignal);
       std::signal(SIGTERM, onStopSignal);
       bool allDone = true, warned = false;
+      auto lastQueueCheck = std::chrono::steady_clock::now();
       while (!open.empty() && gStopSignal == 0) {
+        // Every task gone (time limit, preemption, scancel by hand, a node failure) with work left:
+        // waiting on would be waiting forever.
+        if (std::chrono::steady_clock::now() - lastQueueCheck >= std::chrono::seconds(5)) {
+          lastQueueCheck = std::chrono::steady_clock::now();
+          if (arrayQueued(arrayId) == false) {
+            std::fprintf(stderr,
+                         "lensfarm: error: every worker of Slurm job %s has ended (time limit, preemption or "
+                         "scancel; their logs are in %s) before %s ended; start more with lensfarm slurm\n",
+                         arrayId.c_str(), array.logDir.c_str(), open.front().c_str());
+            return kJobNotDone;
+          }
+        }
         try {
           const v1::JobStatus s = client.get(open.front());
           warned = false;

@@ -69,6 +69,8 @@ TEST(SlurmArray, TheJobIdOfSbatchParsableOutput) {
   for (const char* bad : {"", "\n", "Submitted batch job 12\n", "12a\n", ";x\n"})
     EXPECT_THROW(parseSbatchJobId(bad), InputError) << bad;
   EXPECT_EQ(scancelArguments("1234"), (std::vector<std::string>{"scancel", "1234"}));
+  EXPECT_TRUE(has(squeueArguments("1234"), "--jobs=1234"));
+  EXPECT_TRUE(has(squeueArguments("1234"), "--noheader")) << "no tasks, no output";
 }
 
 TEST(SlurmArray, AddressesOnlyThisMachineCanDialAreNoticed) {

@@ -157,21 +157,46 @@ TEST_F(Slurm, TheCoordinatorAsASlurmJobIsFoundByWorkersThatLeaveWhenIdle) {
   const std::string address = test::lines(test::readFile(addressFile)).at(0);
   EXPECT_EQ(address.rfind("127.0.0.1:", 0), 0u) << address;
 
-  const fs::path scene = test::writeSeedScene(dir_, 48, 64, 8);
   // The coordinator job made the farm's tokens beside its address file.
   const std::vector<std::string> client = {"--coordinator", address, "--token-file", (dir_ / "shared/client.token").string()};
   EXPECT_EQ(fs::status(dir_ / "shared/worker.token").permissions() & fs::perms::all, fs::perms::owner_read | fs::perms::owner_write);
   const auto without = farm_->cli({"status", "--coordinator", address});
   EXPECT_EQ(without.exitCode, 6) << "no token, no answer: " << without.err;
-  std::vector<std::string> submit = {scene.string()};
-  submit.insert(submit.end(), client.begin(), client.end());
-  const std::string job = farm_->submit(submit);
   // A request Slurm refuses: sbatch's own message, exit 1, and nothing queued.
   const auto refused = cli({"slurm", "--workers", "2", "--partition", "nosuch", "--log-dir", (dir_ / "l").string()}, client);
   EXPECT_EQ(refused.exitCode, 1) << refused.err;
   EXPECT_TRUE(test::contains(refused.err, "invalid partition"));
   EXPECT_TRUE(test::contains(refused.err, "lensfarm: error: sbatch refused the worker array (exit 1)"));
   EXPECT_EQ(slurm_->run({"squeue", "-h", "-o", "%i"}).out, coordinatorJob + "\n") << "only the coordinator's job";
+
+  // Workers that all end before the job does (here a scancel by hand; a time limit alike): the
+  // command says so and exits 5 instead of waiting for ever.
+  const std::string big = farm_->submit([&] {
+    std::vector<std::string> a = {test::writeSeedScene(dir_, 256, 1 << 20, 64).string()};
+    a.insert(a.end(), client.begin(), client.end());
+    return a;
+  }());
+  test::ChildProcess orphaned(
+      [&] {
+        std::vector<std::string> a = {test::cliPath().string(), "slurm", big, "--workers", "1", "--cpus-per-task", "1",
+                                      "--log-dir", (dir_ / "l").string(), "--worker-binary", test::workerPath().string(),
+                                      "--worker-token-file", (dir_ / "shared/worker.token").string()};
+        a.insert(a.end(), client.begin(), client.end());
+        return a;
+      }(),
+      dir_ / "orphaned");
+  std::string orphanArray;
+  ASSERT_TRUE(test::waitFor([&] { return !(orphanArray = test::readFile(dir_ / "orphaned.stdout")).empty(); }, 30));
+  orphanArray = orphanArray.substr(0, orphanArray.find('\n'));
+  ASSERT_EQ(slurm_->run({"scancel", orphanArray}).exitCode, 0);
+  EXPECT_EQ(orphaned.wait(60), 5) << orphaned.log();
+  EXPECT_TRUE(test::contains(orphaned.log(), "every worker of Slurm job " + orphanArray + " has ended"));
+  ASSERT_EQ(cli({"cancel", big}, client).exitCode, 0);
+
+  const fs::path scene = test::writeSeedScene(dir_, 48, 64, 8);
+  std::vector<std::string> submit = {scene.string()};
+  submit.insert(submit.end(), client.begin(), client.end());
+  const std::string job = farm_->submit(submit);
 
   // Workers find the coordinator through the file, render the job, and leave 3 s after it ends.
   const std::string array = sbatch(
