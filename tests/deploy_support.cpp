@@ -81,6 +81,13 @@ int portOf(const std::string& address) {
   return std::stoi(digits);
 }
 
+std::string lineOf(const std::string& table, const std::string& name) {
+  std::istringstream in(table);
+  for (std::string line; std::getline(in, line);)
+    if (line.find(" " + name + " ") != std::string::npos) return line;
+  return "";
+}
+
 fs::path writeSeedScene(const TempDir& dir, int size, uint64_t spp, uint32_t perUnit) {
   json scene = json::parse(std::ifstream(scenesDir() / "cornell-seed.json"));
   scene["render"]["resolution"] = {size, size};

@@ -74,6 +74,9 @@ class FarmProcesses {
   int started_ = 0;
 };
 
+// The line of a table (e.g. `lensfarm workers` output) with ` name ` in it, or "".
+std::string lineOf(const std::string& table, const std::string& name);
+
 // ---- observability ----
 
 // The samples of a Prometheus text exposition: "name" or "name{labels}" -> value. Adds a test

@@ -122,6 +122,9 @@ class ChildProcess {
   std::filesystem::path err_;
 };
 
+// A loopback TCP port nothing listens on now (bound to port 0, read back, closed).
+int freePort();
+
 std::filesystem::path coordinatorPath();  // the built lensfarm-coordinator
 std::filesystem::path workerPath();       // the built lensfarm-worker
 

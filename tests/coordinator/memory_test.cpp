@@ -10,7 +10,7 @@
 #include "coordinator.h"
 #include "farm/job_layout.h"
 #include "coordinator_fixtures.h"
-#include "in_process_link.h"
+#include "support/forwarding_link.h"
 #include "render/memory_estimate.h"
 #include "test_support.h"
 #include "util/version.h"
@@ -152,25 +152,14 @@ TEST(CoordinatorMemory, ASmallWorkerIsNeverLeasedAUnitItCannotHold) {
 
 // Against a coordinator that does not know a worker's limit (an older one: the field is not
 // sent), the worker itself refuses a unit it cannot hold, with a report, before allocating.
-class ForgetfulLink final : public CoordinatorLink {
+class ForgetfulLink final : public test::ForwardingLink {
  public:
-  explicit ForgetfulLink(Coordinator& c) : inner_(c) {}
+  using test::ForwardingLink::ForwardingLink;
   Registration registerWorker(const WorkerInfo& info) override {
     WorkerInfo unsaid = info;
     unsaid.maxUnitMemoryBytes = 0;
     return inner_.registerWorker(unsaid);
   }
-  std::vector<uint64_t> heartbeat(const std::string& w, const std::vector<uint64_t>& l) override { return inner_.heartbeat(w, l); }
-  std::optional<LeaseGrant> lease(const std::string& w, double wait) override { return inner_.lease(w, wait); }
-  JobSpec jobSpec(const std::string& job) override { return inner_.jobSpec(job); }
-  std::string asset(const std::string& sha) override { return inner_.asset(sha); }
-  bool upload(const UnitResult& r) override { return inner_.upload(r); }
-  void reportFailure(const std::string& w, uint64_t lease, const std::string& job, const std::string& e) override {
-    inner_.reportFailure(w, lease, job, e);
-  }
-
- private:
-  InProcessLink inner_;
 };
 
 TEST(CoordinatorMemory, AWorkerRefusesAUnitItCannotHoldWithAReport) {

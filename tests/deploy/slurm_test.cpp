@@ -23,14 +23,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The line of `lensfarm workers` output that names `name`, or "".
-std::string lineOf(const std::string& table, const std::string& name) {
-  std::istringstream in(table);
-  for (std::string line; std::getline(in, line);)
-    if (line.find(" " + name + " ") != std::string::npos) return line;
-  return "";
-}
-
 std::string joined(const std::vector<std::string>& rows) {
   std::string text;
   for (const auto& r : rows) text += (text.empty() ? "" : ", ") + r;
@@ -110,7 +102,7 @@ TEST_F(Slurm, AWorkerArrayRendersTheLocalImageAndAScancelledTaskLosesNothing) {
   const std::vector<std::string> running = {array + "_0 RUNNING", array + "_1 RUNNING", array + "_2 RUNNING"};
   ASSERT_TRUE(test::waitFor([&] { return tasks(array) == running; }, 60)) << slurm_->logs();
   const std::string victim = "slurm-" + array + "_1";
-  ASSERT_TRUE(test::waitFor([&] { return lineOf(workers(address), victim).find(" rendering") != std::string::npos; }, 60))
+  ASSERT_TRUE(test::waitFor([&] { return test::lineOf(workers(address), victim).find(" rendering") != std::string::npos; }, 60))
       << workers(address) << test::readFile(logs / ("lensfarm-worker-" + array + "_1.log"));
 
   // scancel of one task while it renders a unit: Slurm sends SIGTERM; the worker gives the lease
@@ -123,7 +115,7 @@ TEST_F(Slurm, AWorkerArrayRendersTheLocalImageAndAScancelledTaskLosesNothing) {
   EXPECT_TRUE(test::contains(victimLog, "SIGTERM: giving the current unit back and leaving"));
   EXPECT_TRUE(test::contains(victimLog, "abandoned after")) << "it was cancelled in the middle of a unit";
   EXPECT_TRUE(test::contains(victimLog, "stopped after"));
-  const std::string left = lineOf(workers(address), victim);
+  const std::string left = test::lineOf(workers(address), victim);
   EXPECT_TRUE(test::contains(left, " left ")) << "a clean exit, not a lost worker";
   EXPECT_EQ(left.find("lost"), std::string::npos) << left;
 
@@ -211,7 +203,7 @@ TEST_F(Slurm, TheCoordinatorAsASlurmJobIsFoundByWorkersThatLeaveWhenIdle) {
     const std::string log = test::readFile(dir_ / ("worker-" + array + task + ".log"));
     EXPECT_TRUE(test::contains(log, "coordinator " + address));
     EXPECT_TRUE(test::contains(log, "(--idle-exit): leaving"));
-    EXPECT_TRUE(test::contains(lineOf(cli({"workers"}, client).out, "slurm-" + array + task), " left "));
+    EXPECT_TRUE(test::contains(test::lineOf(cli({"workers"}, client).out, "slurm-" + array + task), " left "));
   }
   ImageMetadata meta;
   const fs::path exr = dir_ / "farm.exr";

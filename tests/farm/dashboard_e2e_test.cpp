@@ -77,18 +77,6 @@ Reply request(const std::string& address, const std::string& method, const std::
   return r;
 }
 
-int freePort() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t size = sizeof address;
-  ::bind(fd, reinterpret_cast<sockaddr*>(&address), size);
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &size);
-  ::close(fd);
-  return ntohs(address.sin_port);
-}
-
 std::string decodeBase64(const std::string& text) {
   std::string out;
   uint32_t bits = 0;
@@ -116,7 +104,7 @@ class Browser {
   // `acceptInsecureCerts`: take a certificate the browser's own store does not trust (the test's
   // throwaway CA), as a user who accepted it once would.
   explicit Browser(const test::TempDir& dir, bool acceptInsecureCerts = false)
-      : port_(freePort()), client_("127.0.0.1", port_) {
+      : port_(test::freePort()), client_("127.0.0.1", port_) {
     driver_ = std::make_unique<test::ChildProcess>(
         std::vector<std::string>{kChromedriver, "--port=" + std::to_string(port_)}, dir / "chromedriver");
     client_.set_connection_timeout(5);

@@ -18,14 +18,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The line of `lensfarm workers` output that names `name`, or "".
-std::string lineOf(const std::string& table, const std::string& name) {
-  std::istringstream in(table);
-  for (std::string line; std::getline(in, line);)
-    if (line.find(" " + name + " ") != std::string::npos) return line;
-  return "";
-}
-
 class FarmLiveness : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -60,13 +52,13 @@ TEST_F(FarmLiveness, AWorkerKilledMidUnitIsLostAtOnceAndItsUnitGoesToAnotherWork
 
   // Past its first unit (the scene is loaded) and rendering the next one.
   ASSERT_TRUE(test::waitFor([&] { return unitsDone(job) >= 1; }, 120)) << doomed.log();
-  ASSERT_TRUE(test::waitFor([&] { return lineOf(workers(), "doomed").find("s  rendering") != std::string::npos; }, 30))
+  ASSERT_TRUE(test::waitFor([&] { return test::lineOf(workers(), "doomed").find("s  rendering") != std::string::npos; }, 30))
       << workers();
   doomed.signal(SIGKILL);
   const auto killed = std::chrono::steady_clock::now();
   std::string lost;
   ASSERT_TRUE(test::waitFor([&] {
-    lost = lineOf(workers(), "doomed");
+    lost = test::lineOf(workers(), "doomed");
     return lost.find("s  lost ") != std::string::npos;
   }, 10)) << "still " << lost << " 10 s after SIGKILL (the lease timeout is 60 s)";
   const double toLost = std::chrono::duration<double>(std::chrono::steady_clock::now() - killed).count();
@@ -115,10 +107,10 @@ TEST_F(FarmLiveness, AJobWithoutWorkersSaysSoAndAWorkerStoppedCleanlyIsLeftNotLo
   test::ChildProcess& worker = farm_.startWorker("w", {"--coordinator", address_, "--threads", "1"});
   ASSERT_EQ(cli({"watch", job}).exitCode, 0);
   EXPECT_EQ(cli({"status", job}).out.find("stalled:"), std::string::npos) << "done: nothing to explain";
-  ASSERT_TRUE(test::waitFor([&] { return lineOf(workers(), "w").find("s  idle") != std::string::npos; }, 30)) << workers();
+  ASSERT_TRUE(test::waitFor([&] { return test::lineOf(workers(), "w").find("s  idle") != std::string::npos; }, 30)) << workers();
   worker.signal(SIGTERM);
   EXPECT_EQ(worker.wait(30), 0) << worker.log();
-  const std::string left = lineOf(workers(), "w");
+  const std::string left = test::lineOf(workers(), "w");
   EXPECT_NE(left.find("s  left "), std::string::npos) << left;
   EXPECT_NE(left.find("stopped"), std::string::npos) << left;
   EXPECT_EQ(left.find("lost"), std::string::npos) << left;

@@ -17,21 +17,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// A TCP port nothing listens on now (bound to port 0, read back, closed).
-int freePort() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t length = sizeof address;
-  if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0 ||
-      ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length) != 0)
-    throw std::runtime_error("no free port");
-  const int port = ntohs(address.sin_port);
-  ::close(fd);
-  return port;
-}
-
 std::optional<fs::path> onPath(const std::string& name) {
   for (const char* dir : {"/usr/sbin", "/usr/bin", "/sbin", "/bin", "/usr/local/bin", "/usr/local/sbin"})
     if (::access((fs::path(dir) / name).c_str(), X_OK) == 0) return fs::path(dir) / name;

@@ -10,7 +10,7 @@
 #include <thread>
 
 #include "coordinator.h"
-#include "in_process_link.h"
+#include "support/forwarding_link.h"
 #include "test_support.h"
 #include "worker_loop.h"
 
@@ -20,10 +20,9 @@ namespace {
 // The real link, but each upload, once the coordinator has taken it (and so ended its lease),
 // waits until the worker's heartbeat thread has asked about that very lease and heard it is gone:
 // the interleaving that a busy machine produces now and then.
-class UploadThenHeartbeatLink final : public CoordinatorLink {
+class UploadThenHeartbeatLink final : public test::ForwardingLink {
  public:
-  explicit UploadThenHeartbeatLink(Coordinator& c) : inner_(c) {}
-  Registration registerWorker(const WorkerInfo& info) override { return inner_.registerWorker(info); }
+  using test::ForwardingLink::ForwardingLink;
   std::vector<uint64_t> heartbeat(const std::string& w, const std::vector<uint64_t>& leases) override {
     std::vector<uint64_t> revoked = inner_.heartbeat(w, leases);
     std::lock_guard lock(mutex_);
@@ -32,9 +31,6 @@ class UploadThenHeartbeatLink final : public CoordinatorLink {
     changed_.notify_all();
     return revoked;
   }
-  std::optional<LeaseGrant> lease(const std::string& w, double wait) override { return inner_.lease(w, wait); }
-  JobSpec jobSpec(const std::string& job) override { return inner_.jobSpec(job); }
-  std::string asset(const std::string& sha) override { return inner_.asset(sha); }
   bool upload(const UnitResult& r) override {
     const bool accepted = inner_.upload(r);
     std::unique_lock lock(mutex_);
@@ -43,16 +39,12 @@ class UploadThenHeartbeatLink final : public CoordinatorLink {
     races_ += changed_.wait_for(lock, std::chrono::seconds(10), [&] { return heardRevoked_; }) ? 1 : 0;
     return accepted;
   }
-  void reportFailure(const std::string& w, uint64_t lease, const std::string& job, const std::string& e) override {
-    inner_.reportFailure(w, lease, job, e);
-  }
   int races() {
     std::lock_guard lock(mutex_);
     return races_;
   }
 
  private:
-  InProcessLink inner_;
   std::mutex mutex_;
   std::condition_variable changed_;
   std::optional<uint64_t> uploaded_;
@@ -99,25 +91,11 @@ TEST(WorkerLoop, ALeaseEndedByItsOwnUploadIsNotReportedRevoked) {
 }
 
 // The real link, counting the worker's goodbyes.
-class LeaveCountingLink final : public CoordinatorLink {
+class LeaveCountingLink final : public test::ForwardingLink {
  public:
-  explicit LeaveCountingLink(Coordinator& c) : inner_(c) {}
-  Registration registerWorker(const WorkerInfo& info) override { return inner_.registerWorker(info); }
-  std::vector<uint64_t> heartbeat(const std::string& w, const std::vector<uint64_t>& leases) override {
-    return inner_.heartbeat(w, leases);
-  }
-  std::optional<LeaseGrant> lease(const std::string& w, double wait) override { return inner_.lease(w, wait); }
-  JobSpec jobSpec(const std::string& job) override { return inner_.jobSpec(job); }
-  std::string asset(const std::string& sha) override { return inner_.asset(sha); }
-  bool upload(const UnitResult& r) override { return inner_.upload(r); }
-  void reportFailure(const std::string& w, uint64_t lease, const std::string& job, const std::string& e) override {
-    inner_.reportFailure(w, lease, job, e);
-  }
+  using test::ForwardingLink::ForwardingLink;
   void leave() override { ++leaves; }
   std::atomic<int> leaves{0};
-
- private:
-  InProcessLink inner_;
 };
 
 // --idle-exit (deploy/slurm: a batch worker gives its allocation back): the worker renders every
