@@ -94,6 +94,31 @@ TEST_F(Install, PutsBinariesUnitsAndSettingsInTheirPlaces) {
   EXPECT_EQ(test::readFile(prefix_ / "etc/lensfarm/coordinator.env"), "LENSFARM_LISTEN=10.0.0.1:7878\n");
 }
 
+// The installed `lensfarm slurm` submits the installed worker script and names the installed
+// worker beside it (a recording stand-in for sbatch here; tests/deploy/slurm_test.cpp runs a real Slurm).
+TEST_F(Install, TheSlurmScriptsAreInstalledWhereLensfarmSlurmFindsThem) {
+  for (const char* script : {"lensfarm-worker.sbatch", "lensfarm-coordinator.sbatch"}) {
+    const fs::path path = prefix_ / "share/lensfarm/slurm" / script;
+    ASSERT_TRUE(fs::is_regular_file(path)) << path;
+    EXPECT_NE(fs::status(path).permissions() & fs::perms::owner_exec, fs::perms::none) << path;
+  }
+  EXPECT_TRUE(fs::is_regular_file(prefix_ / "share/lensfarm/slurm/README.md"));
+  const fs::path bin = prefix_ / "fake-bin", record = prefix_ / "sbatch.txt";
+  prefix_.write("fake-bin/sbatch", "#!/bin/sh\n{ printf '%s\\n' \"$@\"; echo \"LENSFARM_WORKER=$LENSFARM_WORKER\"; } > " +
+                                       record.string() + "\necho 4242\n");
+  fs::permissions(bin / "sbatch", fs::perms::owner_all);
+  const auto r = test::runProcess({"/usr/bin/env", "PATH=" + bin.string() + ":/usr/bin:/bin", (prefix_ / "bin/lensfarm").string(),
+                                   "slurm", "--workers", "3", "--coordinator", "farm-host:7878", "--log-dir",
+                                   (prefix_ / "logs").string()},
+                                  30);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_EQ(r.out, "4242\n");
+  const std::string args = test::readFile(record);
+  EXPECT_TRUE(test::contains(args, "--array=0-2\n"));
+  EXPECT_TRUE(test::contains(args, (fs::canonical(prefix_.path()) / "share/lensfarm/slurm/lensfarm-worker.sbatch").string() + "\n"));
+  EXPECT_TRUE(test::contains(args, "LENSFARM_WORKER=" + (fs::canonical(prefix_.path()) / "bin/lensfarm-worker").string()));
+}
+
 TEST_F(Install, UnitsRunTheInstalledBinariesWithFlagsTheyAccept) {
   struct Case {
     const char* unit;
