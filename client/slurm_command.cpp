@@ -20,6 +20,7 @@
 #include "slurm_array.h"
 #include "subprocess.h"
 #include "util/error.h"
+#include "util/secret.h"
 #include "util/flag_checks.h"
 
 namespace lensfarm::cli {
@@ -132,7 +133,11 @@ Runner addSlurmCommand(CLI::App& app) {
       std::fprintf(stderr, "lensfarm: error: --log-dir %s: %s\n", array.logDir.c_str(), ec.message().c_str());
       return kBadInput;
     }
-    if (!array.workerTokenFile.empty()) array.workerTokenFile = fs::absolute(array.workerTokenFile);
+    if (!array.workerTokenFile.empty()) {
+      // Read here, on the login node: a wrong path fails now, not on 50 compute nodes.
+      array.workerTokenFile = fs::absolute(array.workerTokenFile);
+      readToken(array.workerTokenFile.string(), "");
+    }
     if (isLocalOnlyAddress(array.coordinator))
       std::fprintf(stderr,
                    "lensfarm: warning: workers will dial %s, which only reaches this machine; give --coordinator an "

@@ -80,13 +80,18 @@ TEST(SlurmArray, AddressesOnlyThisMachineCanDialAreNoticed) {
     EXPECT_FALSE(isLocalOnlyAddress(remote)) << remote;
 }
 
-// Off a Slurm login node: one clear error and exit 2, before anything is submitted.
-TEST(SlurmCommand, WithoutSbatchItSaysWhereToRunIt) {
+// Off a Slurm login node, with a token file that is not there, or no workers: one clear error and
+// exit 2, before anything is submitted.
+TEST(SlurmCommand, ABadSetUpIsOneClearErrorBeforeAnythingIsSubmitted) {
   const test::TempDir logs;
   const auto r = test::runProcess({"/usr/bin/env", "PATH=/nonexistent", test::cliPath().string(), "slurm", "--workers",
                                    "2", "--coordinator", "farm-host:7878", "--log-dir", logs.path().string()});
   EXPECT_EQ(r.exitCode, test::kBadInput) << r.err;
   EXPECT_TRUE(test::contains(r.err, "lensfarm: error: sbatch: No such file or directory (run this on a Slurm login node)"));
+  const auto noToken = test::runProcess({test::cliPath().string(), "slurm", "--workers", "2", "--worker-token-file",
+                                         (logs / "missing.token").string(), "--log-dir", logs.path().string()});
+  EXPECT_EQ(noToken.exitCode, test::kBadInput) << noToken.err;
+  EXPECT_TRUE(test::contains(noToken.err, (logs / "missing.token").string())) << "the file is named, on the login node";
   const auto none = test::runProcess({test::cliPath().string(), "slurm", "--workers", "0"});
   EXPECT_EQ(none.exitCode, test::kBadInput) << none.err;
   EXPECT_TRUE(test::contains(none.err, "--workers"));
