@@ -42,6 +42,7 @@ bench: build
 	$(BUILD_DIR)/bench/lensfarm-ingest-bench --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
 	BUILD_DIR=$(BUILD_DIR) bash bench/farm_efficiency.sh 3
 	$(BUILD_DIR)/bench/lensfarm-ray-limit --repeat 5
+	BUILD_DIR=$(BUILD_DIR) bash bench/whole_process.sh 7
 
 # The accuracy-per-second goals of docs/performance.md (references are rendered once and cached in
 # $(BUILD_DIR)/accuracy-goals-cache: about 7 minutes the first time on 2 cores, then about 6).

@@ -2,15 +2,19 @@
 // machine's cores through an embedded coordinator and worker (the farm's own classes), writing
 // snapshots while it traces and the final image at the end or on Ctrl-C. An output is only ever
 // written with at least one whole unit in it: never an image of no samples.
+#include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
+#include <tbb/parallel_for_each.h>
 #include <tbb/task_arena.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <thread>
@@ -48,6 +52,45 @@ extern "C" void onSigint(int) {
   std::signal(SIGINT, SIG_DFL);  // a second Ctrl-C stops at once
 }
 
+// Phase timings of the whole process (docs/performance.md, "Everything around the render"), at
+// debug level on a logger of their own, so the render's own levels (warn while tracing) do not
+// hide them: LENSFARM_TIMINGS=1 prints one line per phase on stderr, each with the wall-clock
+// time it ended (Unix seconds, for bench/whole_process.sh to add process start and exit).
+class PhaseTimer {
+ public:
+  using Clock = std::chrono::steady_clock;
+  // A sink of its own: a pattern set on a shared sink would change the main logger's lines too.
+  PhaseTimer() : logger_("lensfarm.timings", std::make_shared<spdlog::sinks::stderr_sink_mt>()) {
+    logger_.set_pattern("%v");
+    logger_.set_level(std::getenv("LENSFARM_TIMINGS") ? spdlog::level::debug : spdlog::level::off);
+    mark("main");  // when the command started: process start-up is what came before
+  }
+  // Ends the phase `name` at now; the next one starts.
+  void mark(const char* name) {
+    std::lock_guard lock(mutex_);
+    last_ = log(name, last_);
+  }
+  // Logs the time from the start of the current phase to now without ending it: for work done
+  // side by side (the outputs), each part's own time, the phase's mark its whole.
+  void lap(const char* name) {
+    std::lock_guard lock(mutex_);
+    log(name, last_);
+  }
+
+ private:
+  Clock::time_point log(const char* name, Clock::time_point since) {
+    const auto now = Clock::now();
+    const double unixSeconds =
+        std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+    logger_.debug("timing {:<14} {:9.2f} ms  (ends at {:.6f})", name,
+                  std::chrono::duration<double, std::milli>(now - since).count(), unixSeconds);
+    return now;
+  }
+  std::mutex mutex_;
+  spdlog::logger logger_;
+  Clock::time_point last_ = Clock::now();
+};
+
 struct RenderFlags {
   std::string scene;
   std::vector<std::string> outputs;
@@ -56,7 +99,10 @@ struct RenderFlags {
   std::optional<unsigned> threads;
   double snapshotEvery = 0.0;
   double progressEvery = 5.0;  // seconds between plain progress lines (stderr not a terminal)
+  std::string exrCompression = "none";
   bool quiet = false;
+
+  ExrCompression compression() const { return exrCompression == "zip" ? ExrCompression::kZip : ExrCompression::kNone; }
 };
 
 RenderOverrides toOverrides(const RenderFlags& f) {
@@ -68,25 +114,38 @@ RenderOverrides toOverrides(const RenderFlags& f) {
   return o;
 }
 
-void writeOutputs(const std::vector<fs::path>& outputs, const JobImage& image) {
-  for (const auto& path : outputs) writeImageFile(path, image.image, image.metadata, image.exposure);
+// Every output of one image, at once: the EXR and the PNG are independent (each file atomic on
+// its own), so on two cores the PNG's exposure and deflate run beside the EXR's write.
+// `written(path)` is called as each is done (from the thread that wrote it).
+template <class OnWritten>
+void writeOutputs(const std::vector<fs::path>& outputs, const JobImage& image, ExrCompression compression,
+                  const OnWritten& written) {
+  tbb::parallel_for_each(outputs.begin(), outputs.end(), [&](const fs::path& path) {
+    writeImageFile(path, image.image, image.metadata, image.exposure, compression);
+    written(path);
+  });
+}
+
+void writeOutputs(const std::vector<fs::path>& outputs, const JobImage& image, ExrCompression compression) {
+  writeOutputs(outputs, image, compression, [](const fs::path&) {});
 }
 
 // An animation's frames that completed since the last call, each to every output pattern.
 void writeCompleteFrames(const Coordinator& coordinator, const JobInfo& info, const std::vector<fs::path>& patterns,
-                         std::set<int64_t>& written) {
+                         ExrCompression compression, std::set<int64_t>& written) {
   for (const JobInfo::Frame& frame : info.frames) {
     if (!frame.complete() || written.count(frame.number)) continue;
-    const JobImage image = coordinator.image(info.id, frame.number);
-    for (const auto& pattern : patterns)
-      writeImageFile(framePath(pattern.string(), frame.number), image.image, image.metadata, image.exposure);
+    std::vector<fs::path> paths;
+    for (const auto& pattern : patterns) paths.push_back(framePath(pattern.string(), frame.number));
+    writeOutputs(paths, coordinator.image(info.id, frame.number), compression);
     written.insert(frame.number);
   }
 }
 
-int runRender(const RenderFlags& flags) {
+int runRender(const RenderFlags& flags, PhaseTimer& timer) {
   const std::optional<FrameRange> frames = flags.overrides.frameRange();
   const LocalJob local = makeLocalJob(flags.scene, toOverrides(flags), flags.overrides.camera, frames);
+  timer.mark("scene_load");
   const Scene& scene = local.scene;
   const RenderSettings& settings = scene.render;
 
@@ -119,6 +178,7 @@ int runRender(const RenderFlags& flags) {
   spdlog::set_level(spdlog::level::warn);
   const JobInfo submitted = coordinator.submit(local.spec, 0);
   spdlog::set_level(spdlog::level::info);
+  timer.mark("submit");
   // From here Ctrl-C stops the render cleanly (the log line below says it has begun).
   gInterrupted = false;
   std::signal(SIGINT, onSigint);
@@ -186,16 +246,18 @@ int runRender(const RenderFlags& flags) {
       worker.stopNow();
       break;
     }
-    if (frames) writeCompleteFrames(coordinator, info, outputs, written);
+    if (frames) writeCompleteFrames(coordinator, info, outputs, flags.compression(), written);
     if (!frames && flags.snapshotEvery > 0 && info.unitsDone > 0 &&
         info.elapsedSeconds - lastSnapshot >= flags.snapshotEvery) {
-      writeOutputs(outputs, coordinator.image(info.id));
+      writeOutputs(outputs, coordinator.image(info.id), flags.compression());
       lastSnapshot = info.elapsedSeconds;
     }
   }
   std::signal(SIGINT, SIG_DFL);
+  timer.mark("render_wait");
   worker.stop();
   workerThread.join();
+  timer.mark("worker_stop");
   // The worker has stopped: no upload is in flight, so the status and the image agree.
   info = coordinator.job(info.id);
   if (interrupted) display.update(toProto(info));  // the last progress line: cancelled
@@ -212,11 +274,14 @@ int runRender(const RenderFlags& flags) {
   }
   JobImage image;
   if (frames) {
-    writeCompleteFrames(coordinator, info, outputs, written);
+    writeCompleteFrames(coordinator, info, outputs, flags.compression(), written);
     image.metadata.samplesPerPixel = info.samplesPerPixelDone;
   } else {
     image = coordinator.image(info.id);
-    writeOutputs(outputs, image);
+    timer.mark("image");
+    writeOutputs(outputs, image, flags.compression(),
+                 [&](const fs::path& path) { timer.lap(path.extension() == ".exr" ? "write_exr" : "write_png"); });
+    timer.mark("write_outputs");
   }
   const double seconds = std::max(info.elapsedSeconds, 1e-9);
   std::printf("samples per pixel: %llu%s\n", (unsigned long long)image.metadata.samplesPerPixel,
@@ -265,8 +330,17 @@ Runner addRenderCommand(CLI::App& app) {
   cmd->add_option("--progress-every", f->progressEvery,
                   "Seconds between progress lines when stderr is not a terminal (logs, CI, batch jobs); default 5")
       ->check(positiveNumber("seconds"));
+  cmd->add_option("--exr-compression", f->exrCompression,
+                  "none (default: fastest; a 1080p EXR is 25 MB) or zip (smaller, about a second more at 1080p); "
+                  "both lossless")
+      ->check(CLI::IsMember({"none", "zip"}));
   cmd->add_flag("-q,--quiet", f->quiet, "No progress bar or progress lines");
-  return [f] { return runRender(*f); };
+  return [f] {
+    PhaseTimer timer;
+    const int code = runRender(*f, timer);
+    timer.mark("teardown");  // the coordinator, worker and scenes freed
+    return code;
+  };
 }
 
 }  // namespace lensfarm::cli

@@ -1,8 +1,13 @@
 #include "film/exposure.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 namespace lensfarm {
 
@@ -27,6 +32,44 @@ float linearToSrgb(float x) {
   return x <= 0.0031308f ? 12.92f * x : 1.055f * std::pow(x, 1.0f / 2.4f) - 0.055f;
 }
 
+uint8_t srgb8(float v) { return uint8_t(std::lround(linearToSrgb(v) * 255.0f)); }
+
+uint8_t Srgb8Quantizer::operator()(float v) const {
+  // Into [0, 1] as linearToSrgb clamps (above 1 is 255, as 1 is); -0, negatives and NaN (which
+  // exposeToSrgb8 never passes) to +0, so the bucket index stays inside the table.
+  v = v > 0.0f ? std::min(v, 1.0f) : 0.0f;
+  const uint8_t code = bucketCodes_[std::bit_cast<uint32_t>(v) >> kBucketShift];
+  return uint8_t(code + (v >= thresholds_[code]));  // at most one step inside a bucket
+}
+
+Srgb8Quantizer::Srgb8Quantizer() {
+  // Non-negative floats order as their bit patterns do: search those between 0 and 1 for the
+  // least whose code reaches i.
+  for (int i = 1; i <= 255; ++i) {
+    uint32_t lo = 0, hi = std::bit_cast<uint32_t>(1.0f);  // srgb8(1) = 255 >= i
+    while (lo < hi) {
+      const uint32_t mid = lo + (hi - lo) / 2;
+      if (srgb8(std::bit_cast<float>(mid)) >= i)
+        hi = mid;
+      else
+        lo = mid + 1;
+    }
+    thresholds_[size_t(i - 1)] = std::bit_cast<float>(lo);
+    // The lookup adds at most one step per bucket: two steps in one bucket would be a wrong code.
+    if (i > 1 && std::bit_cast<uint32_t>(thresholds_[size_t(i - 2)]) >> kBucketShift == lo >> kBucketShift)
+      throw std::logic_error("Srgb8Quantizer: two sRGB steps in one bucket; lower kBucketShift");
+  }
+  thresholds_[255] = std::numeric_limits<float>::infinity();  // no step above 255
+  bucketCodes_.resize((std::bit_cast<uint32_t>(1.0f) >> kBucketShift) + 1);
+  for (size_t b = 0; b < bucketCodes_.size(); ++b)
+    bucketCodes_[b] = srgb8(std::bit_cast<float>(uint32_t(b) << kBucketShift));
+}
+
+const Srgb8Quantizer& Srgb8Quantizer::instance() {
+  static const Srgb8Quantizer quantizer;
+  return quantizer;
+}
+
 std::vector<uint8_t> exposeToSrgb8(const Image& image, const ExposureSettings& settings) {
   const double scaleD = autoExposureScale(image) * std::exp2(settings.ev);
   const float scale = float(scaleD);
@@ -34,14 +77,20 @@ std::vector<uint8_t> exposeToSrgb8(const Image& image, const ExposureSettings& s
   // (3.4e38), or with a large |ev|, is itself beyond float (Inf, or 0 or a denormal without
   // precision): such images are scaled in double, every other one in float as always.
   const bool inFloat = std::isnormal(scale);
+  const Srgb8Quantizer& quantize = Srgb8Quantizer::instance();
   std::vector<uint8_t> out(image.rgb.size());
-  for (size_t k = 0; k < image.rgb.size(); ++k) {
-    float v = inFloat ? image.rgb[k] * scale : float(double(image.rgb[k]) * scaleD);
-    // Far above the mean (with a large ev) the product may overflow: white, not NaN.
-    v = std::min(std::max(0.0f, v), std::numeric_limits<float>::max());
-    if (settings.toneMap == ToneMap::kReinhard) v = v / (1.0f + v);
-    out[k] = uint8_t(std::lround(linearToSrgb(v) * 255.0f));
-  }
+  // Each byte depends on its own value and the scale alone: the same bytes for any thread count.
+  // (The scale's sum above stays in one fixed order, so it too is the same on every machine.)
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, image.rgb.size(), size_t(1) << 16),
+                    [&](const tbb::blocked_range<size_t>& range) {
+                      for (size_t k = range.begin(); k < range.end(); ++k) {
+                        float v = inFloat ? image.rgb[k] * scale : float(double(image.rgb[k]) * scaleD);
+                        // Far above the mean (with a large ev) the product may overflow: white, not NaN.
+                        v = std::min(std::max(0.0f, v), std::numeric_limits<float>::max());
+                        if (settings.toneMap == ToneMap::kReinhard) v = v / (1.0f + v);
+                        out[k] = quantize(v);  // = srgb8(v), without its pow
+                      }
+                    });
   return out;
 }
 

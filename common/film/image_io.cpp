@@ -9,6 +9,7 @@
 #include <OpenEXR/ImfStdIO.h>
 #include <OpenEXR/ImfStringAttribute.h>
 #include <png.h>
+#include <zlib.h>
 
 #include <cstring>
 #include <fstream>
@@ -37,9 +38,9 @@ Imf::FrameBuffer frameBufferFor(float* rgb, int width) {
 
 namespace {
 // Writes the EXR to `stream` straight from the image's pixels (no copy of the frame).
-void writeExrTo(Imf::OStream& stream, const Image& image, const ImageMetadata& metadata) {
+void writeExrTo(Imf::OStream& stream, const Image& image, const ImageMetadata& metadata, ExrCompression compression) {
   Imf::Header header(image.width, image.height);
-  header.compression() = Imf::ZIP_COMPRESSION;
+  header.compression() = compression == ExrCompression::kZip ? Imf::ZIP_COMPRESSION : Imf::NO_COMPRESSION;
   for (const char* name : {"R", "G", "B"}) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
   const std::string p = kPrefix;
   header.insert(p + "samplesPerPixel", Imf::StringAttribute(std::to_string(metadata.samplesPerPixel)));
@@ -77,9 +78,9 @@ class StringOStream final : public Imf::OStream {
 };
 }  // namespace
 
-std::string encodeExr(const Image& image, const ImageMetadata& metadata) {
+std::string encodeExr(const Image& image, const ImageMetadata& metadata, ExrCompression compression) {
   StringOStream stream;
-  writeExrTo(stream, image, metadata);
+  writeExrTo(stream, image, metadata, compression);
   return stream.take();
 }
 
@@ -131,21 +132,50 @@ Image readExr(const fs::path& path, ImageMetadata* metadata) {
   }
 }
 
+namespace {
+// libpng reports errors by longjmp: this function holds no C++ object whose destructor a jump
+// would skip (the bytes are appended through `out`, owned by the caller). Returns libpng's
+// message, or nullptr on success.
+const char* deflatePng(png_structp png, png_infop info, const uint8_t* pixels, int width, int height,
+                       std::string* out) {
+  if (setjmp(png_jmpbuf(png))) return "PNG encoding failed";
+  png_set_write_fn(
+      png, out,
+      [](png_structp p, png_bytep data, png_size_t n) {
+        try {
+          static_cast<std::string*>(png_get_io_ptr(p))->append(reinterpret_cast<const char*>(data), n);
+        } catch (const std::bad_alloc&) {
+          png_error(p, "out of memory");  // no C++ exception through libpng's C frames
+        }
+      },
+      nullptr);
+  png_set_IHDR(png, info, png_uint_32(width), png_uint_32(height), 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  // Lossless whatever is chosen here; only time and size change (header comment).
+  png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_UP);
+  png_set_compression_level(png, 1);
+  png_set_compression_strategy(png, Z_RLE);
+  png_write_info(png, info);
+  const size_t stride = 3 * size_t(width);
+  for (int y = 0; y < height; ++y) png_write_row(png, pixels + size_t(y) * stride);
+  png_write_end(png, nullptr);
+  return nullptr;
+}
+}  // namespace
+
 std::string encodePng(const Image& image, const ExposureSettings& exposure) {
   const std::vector<uint8_t> pixels = exposeToSrgb8(image, exposure);
-  png_image png;
-  std::memset(&png, 0, sizeof(png));
-  png.version = PNG_IMAGE_VERSION;
-  png.width = png_uint_32(image.width);
-  png.height = png_uint_32(image.height);
-  png.format = PNG_FORMAT_RGB;
-  png_alloc_size_t size = 0;
-  if (!png_image_write_to_memory(&png, nullptr, &size, 0, pixels.data(), 3 * image.width, nullptr))
-    throw std::runtime_error(std::string("PNG encoding failed: ") + png.message);
-  std::string bytes(size, '\0');
-  if (!png_image_write_to_memory(&png, bytes.data(), &size, 0, pixels.data(), 3 * image.width, nullptr))
-    throw std::runtime_error(std::string("PNG encoding failed: ") + png.message);
-  bytes.resize(size);
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!info) {
+    png_destroy_write_struct(&png, nullptr);
+    throw std::bad_alloc();
+  }
+  std::string bytes;
+  bytes.reserve(pixels.size() + pixels.size() / 64 + 1024);  // a noisy image hardly shrinks
+  const char* error = deflatePng(png, info, pixels.data(), image.width, image.height, &bytes);
+  png_destroy_write_struct(&png, &info);
+  if (error) throw std::runtime_error(error);
   return bytes;
 }
 
@@ -158,13 +188,13 @@ void writeBytesAtomically(const fs::path& path, const std::string& bytes) {
   });
 }
 
-void writeExr(const fs::path& path, const Image& image, const ImageMetadata& metadata) {
+void writeExr(const fs::path& path, const Image& image, const ImageMetadata& metadata, ExrCompression compression) {
   // Straight into the file: no encoded copy of the frame in memory.
   writeFileAtomically(path, [&](const fs::path& tmp) {
     std::ofstream out(tmp, std::ios::binary);
     if (!out) throw std::runtime_error("cannot create " + tmp.string());
     Imf::StdOFStream stream(out, tmp.c_str());
-    writeExrTo(stream, image, metadata);
+    writeExrTo(stream, image, metadata, compression);
     out.close();
     if (!out) throw std::runtime_error("write failed");
   });
@@ -175,10 +205,10 @@ void writePng(const fs::path& path, const Image& image, const ExposureSettings& 
 }
 
 void writeImageFile(const fs::path& path, const Image& image, const ImageMetadata& metadata,
-                    const ExposureSettings& exposure) {
+                    const ExposureSettings& exposure, ExrCompression compression) {
   const std::string ext = path.extension().string();
   if (ext == ".exr")
-    writeExr(path, image, metadata);
+    writeExr(path, image, metadata, compression);
   else if (ext == ".png")
     writePng(path, image, exposure);
   else
