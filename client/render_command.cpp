@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -173,7 +174,9 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
   options.leaseTimeoutSeconds = 3600.0;  // the worker cannot vanish: it is this process
   options.heartbeatIntervalSeconds = 0.25;
   options.auditFraction = 0.0;  // one worker: nobody to compare with (docs/farm.md "Audit")
-  Coordinator coordinator(options);
+  // Owned through pointers so that they can be freed beside the writing of the outputs (below).
+  auto coordinatorOwner = std::make_unique<Coordinator>(options);
+  Coordinator& coordinator = *coordinatorOwner;
   for (const auto& [sha, bytes] : local.assetBytes) coordinator.putAsset(sha, bytes);
   spdlog::set_level(spdlog::level::warn);
   const JobInfo submitted = coordinator.submit(local.spec, 0);
@@ -203,12 +206,14 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
 
   // The embedded coordinator and worker log only what goes wrong; the summary below says the rest.
   spdlog::set_level(spdlog::level::warn);
-  InProcessLink link(coordinator);
+  auto linkOwner = std::make_unique<InProcessLink>(coordinator);
+  InProcessLink& link = *linkOwner;
   WorkerOptions workerOptions;
   workerOptions.name = "local";
   workerOptions.threads = threads;
   workerOptions.leaseWaitSeconds = 0.25;
-  WorkerLoop worker(link, workerOptions);
+  auto workerOwner = std::make_unique<WorkerLoop>(link, workerOptions);
+  WorkerLoop& worker = *workerOwner;
   std::exception_ptr workerError;
   std::thread workerThread([&] {
     try {
@@ -279,6 +284,19 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
   } else {
     image = coordinator.image(info.id);
     timer.mark("image");
+    // Nothing below needs the coordinator or the worker (the worker thread has been joined, `info`
+    // and `image` are copies): their frame-sized buffers (150 MB at 1080p) and scenes are freed
+    // on a thread of their own while the outputs are written, in the order the stack would have
+    // (worker, link, coordinator). Joined before anything returns, a throw included.
+    std::thread freeing([&] {
+      workerOwner.reset();
+      linkOwner.reset();
+      coordinatorOwner.reset();
+    });
+    struct JoinFreeing {
+      std::thread& thread;
+      ~JoinFreeing() { thread.join(); }
+    } joinFreeing{freeing};
     writeOutputs(outputs, image, flags.compression(),
                  [&](const fs::path& path) { timer.lap(path.extension() == ".exr" ? "write_exr" : "write_png"); });
     timer.mark("write_outputs");
