@@ -114,10 +114,6 @@ class SceneParser {
     const std::string sampler = r.string("sampler", "sobol");
     if (!parseSamplerName(sampler, s.sampler))
       r.fail("render.sampler", "unknown sampler \"" + sampler + "\" (expected sobol, stratified or independent)");
-    // Without the field: the rule that gave the best error per second over the shipped scenes
-    // (docs/performance.md, "Russian roulette by error per second"); RenderSettings made in code
-    // start with kDefaultRoulette (off) instead.
-    s.roulette = kRouletteOn;
     if (r.has("russian_roulette")) {
       // A bool, as before issue 26 (true: the max-throughput rule), or a rule's name.
       const json& rr = r.raw("russian_roulette");

@@ -55,9 +55,9 @@ TEST(Roulette, EveryRuleKeepsTheFurnaceMeanOfAHighAlbedoBox) {
 
 TEST(Roulette, NeverEndsAPathBeforeTheMinimumBounces) {
   // Albedo 0.02: past the minimum, roulette ends nearly every path at once (q = sqrt(0.02^k) <=
-  // 0.02 with the throughput rule, 0.0004 with max). In a closed box every ray hits a wall, so a
-  // path that roulette spares until bounce m + 1 casts at least m + 1 rays (the camera ray and m
-  // scattered ones) with the naive estimator: fewer means a path was ended too early.
+  // 0.14 with the throughput rule, 0.02^k <= 0.02 with max). In a closed box every ray hits a
+  // wall, so a path that roulette spares until bounce m + 1 casts at least m + 1 rays (the camera
+  // ray and m scattered ones) with the naive estimator: fewer means a path was ended too early.
   const int bounces = 10;
   for (const char* rule : {"max", "throughput"})
     for (int minimum : {0, 1, 3}) {
@@ -71,7 +71,7 @@ TEST(Roulette, NeverEndsAPathBeforeTheMinimumBounces) {
       const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
       const double raysPerPath = double(r.stats.rays) / double(r.stats.paths);
       EXPECT_GE(raysPerPath, double(minimum + 1));
-      EXPECT_LT(raysPerPath, double(minimum + 1) + 0.1) << "roulette should end nearly every path right after";
+      EXPECT_LT(raysPerPath, double(minimum + 1) + 0.2) << "roulette should end nearly every path right after";
       const double expected = geometricSeries(0.02, bounces);
       for (int c = 0; c < 3; ++c) EXPECT_NEAR(r.mean[c], expected, 0.01 * expected);
     }
@@ -108,8 +108,7 @@ TEST(Roulette, SameBitsForAnyThreadCountAndForPacketsAndSingleRays) {
 TEST(Roulette, SceneFormatTakesTheBoolOrARuleAndNamesABadValue) {
   test::TempDir dir;
   json scene = test::minimalSceneJson();
-  EXPECT_EQ(test::loadSceneJson(dir, scene).render.roulette, kRouletteOn) << "a scene file without the field";
-  EXPECT_EQ(RenderSettings{}.roulette, RouletteRule::kOff) << "settings made in code";
+  EXPECT_EQ(test::loadSceneJson(dir, scene).render.roulette, kDefaultRoulette) << "a scene file without the field";
   const std::pair<json, RouletteRule> forms[] = {{false, RouletteRule::kOff},
                                                  {true, RouletteRule::kMax},
                                                  {"off", RouletteRule::kOff},
