@@ -179,7 +179,7 @@ Replay replay(const RayCaster& caster, ThreadLogs& logs, tbb::task_arena& arena,
 
 int run(int argc, char** argv) {
   CLI::App app{"lensfarm ray-casting limit: integrator vs Embree alone on the same rays"};
-  std::string sceneName = "cornell-classic.json", integrator = "nee_mis", sampler = "sobol";
+  std::string sceneName = "cornell-classic.json", integrator = "nee_mis", sampler = "sobol", roulette = "scene";
   int resolution = 512, bounces = 3, repeat = 5;
   uint32_t unitSamples = 16;
   bool renderOnly = false, singleRays = false;
@@ -190,6 +190,9 @@ int run(int argc, char** argv) {
   app.add_option("--bounces", bounces)->capture_default_str();
   app.add_option("--integrator", integrator)->check(CLI::IsMember({"nee_mis", "nee", "naive"}))->capture_default_str();
   app.add_option("--sampler", sampler)->check(CLI::IsMember({"sobol", "stratified", "independent"}))->capture_default_str();
+  app.add_option("--roulette", roulette, "Russian roulette: the scene's, off, max or throughput")
+      ->check(CLI::IsMember({"scene", "off", "max", "throughput"}))
+      ->capture_default_str();
   app.add_option("--repeat", repeat, "Runs; medians are reported")->capture_default_str();
   app.add_option("--threads", threads)->capture_default_str();
   app.add_option("--unit-spp", unitSamples, "Samples per pixel in each timed unit")->capture_default_str()->check(CLI::Range(1, 4096));
@@ -205,6 +208,7 @@ int run(int argc, char** argv) {
   scene.render.maxBounces = bounces;
   parseIntegratorName(integrator, scene.render.integrator);
   parseSamplerName(sampler, scene.render.sampler);
+  if (roulette != "scene") parseRouletteName(roulette, scene.render.roulette);
   if (generated > 0) {
     uint32_t white = 0;
     for (uint32_t m = 0; m < scene.materials.size(); ++m)
@@ -250,9 +254,11 @@ int run(int argc, char** argv) {
     occludedRate.push_back(occlusions.occlusions ? double(occlusions.occlusions) / occlusions.seconds : 0.0);
     ratio.push_back(rep.seconds / renderSeconds);
   }
-  std::printf("scene %s, %zu triangles, %dx%d, B = %d, %s, %s sampler, units of %u spp, %u threads, medians of %d runs\n",
-              sceneName.c_str(), triangles, resolution, resolution, bounces, integrator.c_str(), sampler.c_str(),
-              unitSamples, threads, repeat);
+  std::printf(
+      "scene %s, %zu triangles, %dx%d, B = %d, %s, %s sampler, roulette %s, units of %u spp, %u threads, medians of "
+      "%d runs\n",
+      sceneName.c_str(), triangles, resolution, resolution, bounces, integrator.c_str(), sampler.c_str(),
+      rouletteName(scene.render.roulette), unitSamples, threads, repeat);
   std::printf("scene build:           %.3f s, %.1f MB resident added (Embree BVH, triangles, lights)\n", buildSeconds,
               sceneMegabytes);
   std::printf("(a) integrator:        %.3f M pixel-samples/s, %.2f M rays/s\n", median(pathRate) / 1e6,

@@ -25,7 +25,7 @@ void OverrideFlags::addTo(CLI::App* cmd) {
       ->check(CLI::IsMember({"nee_mis", "nee", "naive"}));
   cmd->add_option("--sampler", sampler, "sobol, stratified or independent (overrides the scene)")
       ->check(CLI::IsMember({"sobol", "stratified", "independent"}));
-  cmd->add_option("--russian-roulette", roulette, "on or off (overrides the scene)")->check(CLI::IsMember({"on", "off"}));
+  cmd->add_option("--russian-roulette", roulette, "on (the scene's rule, or throughput where it has none) or off (overrides the scene)")->check(CLI::IsMember({"on", "off"}));
   cmd->add_option("--target-error", targetError,
                   "Stop when the estimated relative RMSE of the image falls to this (e.g. 0.01); --spp becomes a cap")
       ->check(numberIn(1e-6, 0.999));

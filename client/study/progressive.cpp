@@ -59,7 +59,7 @@ Image referenceImage(Scene scene, uint64_t samplesPerPixel, const fs::path& cach
   RenderSettings& s = scene.render;
   s.integrator = IntegratorKind::kNeeMis;
   s.sampler = SamplerKind::kSobol;
-  s.russianRoulette = false;
+  s.roulette = RouletteRule::kOff;
   s.samplesPerUnit = 16;
   // Its own random numbers: a reference sharing the measured renders' samples would be
   // correlated with them and hide part of their error.

@@ -162,7 +162,7 @@ class Study {
     s.name = name;
     s.integrator = integratorName(scene.render.integrator);
     s.sampler = samplerName(scene.render.sampler);
-    s.roulette = scene.render.russianRoulette;
+    s.roulette = scene.render.roulette != RouletteRule::kOff;
     renderProgressive(scene, run, [&](const Checkpoint& c) {
       const ImageError e = compareImages(c.image, reference, scene.render.exposure);
       s.seconds.push_back(c.seconds);
@@ -202,7 +202,7 @@ class Study {
           Scene scene = seedAt(side, kStudyBounces);
           scene.render.integrator = integrator;
           scene.render.sampler = sampler;
-          scene.render.russianRoulette = roulette;
+          scene.render.roulette = roulette ? kRouletteOn : RouletteRule::kOff;
           ProgressiveRun run;
           run.firstCheckpoint = 16;
           run.budgetSeconds = scale_.convergenceBudget;

@@ -25,6 +25,9 @@ struct MaterialSample {
   Spectrum weight;
   float pdf;      // solid-angle density; 0 for specular (delta) lobes
   bool specular;  // a delta lobe: no light sampling, no MIS
+  // A refraction's n_transmitted / n_incident, whose 1/eta^2 radiance scaling the weight holds; 1
+  // for every other sample (Russian roulette divides the scaling out: render/integrator.cpp).
+  float eta = 1.0f;
 };
 
 // What the renderer needs to know of a model before it shades with it (render/integrator.cpp,

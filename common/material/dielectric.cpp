@@ -83,7 +83,7 @@ std::optional<MaterialSample> DielectricBsdf::sample(const Vec3& n, const Vec3& 
     float pdf;
     evalLocal(woLocal, wiLocal, eta, &f, &pdf);
     if (!(pdf > 0.0f) || isBlack(f)) return std::nullopt;  // left on the wrong side: masked, absorbed
-    return MaterialSample{frame.toWorld(wiLocal), f / pdf, pdf, false};
+    return MaterialSample{frame.toWorld(wiLocal), f / pdf, pdf, false, reflection ? 1.0f : eta};
   }
   // Reflect with probability F, refract otherwise: each branch's weight is then the tint exactly
   // (F / F, T / T), times 1/eta^2 on refraction (tests: Dielectric.*).
@@ -103,7 +103,7 @@ std::optional<MaterialSample> DielectricBsdf::sample(const Vec3& n, const Vec3& 
   if (uLobe < f) return MaterialSample{reflect(wo, n), tint_, 0.0f, true};
   // Snell: wi = -wo / relative + (cosO / relative - cosT) n, on the far side of the surface.
   const Vec3 wi = glm::normalize(-wo / relative + (cosO / relative - cosT) * n);
-  return MaterialSample{wi, tint_ / (relative * relative), 0.0f, true};
+  return MaterialSample{wi, tint_ / (relative * relative), 0.0f, true, relative};
 }
 
 std::shared_ptr<const Bsdf> parseDielectric(FieldReader& r) {

@@ -1,6 +1,7 @@
 #include "render/integrator.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "math/lanes.h"
 #include "math/ray_offset.h"
@@ -21,6 +22,7 @@ struct PathState {
   int bounces = 0;           // counted bounces so far (toward B)
   bool lastSpecular = true;  // the camera ray behaves like a specular one: no MIS for it
   float lastPdf = 0.0f;      // solid-angle pdf of the last scattered direction
+  float etaScale = 1.0f;     // product of eta^2 over the refractions so far (Russian roulette)
   bool hitLight = false;
 
   explicit PathState(const CameraRay& ray) : origin(ray.origin), direction(ray.direction) {}
@@ -117,28 +119,43 @@ inline bool isLastBounce(const RenderScene& rs, int bounces) {
   return bounces + 1 >= rs.settings().maxBounces && lastBounceCanEndPaths(rs);
 }
 
-// Russian roulette (optional, render.russian_roulette): from the second bounce on, a path
-// survives with probability q = min(1, max throughput component) and carries 1/q more, so the
-// estimate stays unbiased while dim paths stop early. False where the path ends.
-inline bool survivesRoulette(const RenderScene& rs, const SampleStream& rng, uint32_t base, int bounces,
-                             Spectrum& throughput) {
-  if (!rs.settings().russianRoulette || bounces < 2) return true;
-  const float q = std::min(1.0f, std::max({throughput.r, throughput.g, throughput.b}));
+// Russian roulette (render.russian_roulette, scene.h RouletteRule): once a path has made more
+// than rouletteMinBounces counted bounces, it survives with probability q and carries 1/q more,
+// so the estimate stays unbiased (E[1{u < q} / q] = 1) while dim paths stop early. `max`: q =
+// min(1, max throughput component). `throughput` (Cycles' path_state_continuation_probability):
+// q = min(1, sqrt(max component of throughput x etaScale)), etaScale undoing the 1/eta^2 radiance
+// scaling of the refractions so far (pbrt-v4's PathIntegrator: a path inside glass carries
+// 1/eta^2 that leaving the glass gives back, and is not dim for it); the square root ends paths
+// later than the max rule does. Nor does `throughput` gamble the ray after the last counted bounce
+// (bounces = B), which can only gather emission (no light sample follows it): ending it saves one
+// ray of the path and drops what that ray alone finds, a caustic where mirrors do not count (on
+// cornell-seed, B = 2, roulette there cost 9 % of the error per second; docs/performance.md).
+// The decision draws dims::kRoulette of the vertex: counter-based, the same for any thread
+// count. False where the path ends.
+inline bool survivesRoulette(const RenderSettings& settings, const SampleStream& rng, uint32_t base, int bounces,
+                             float etaScale, Spectrum& throughput) {
+  if (settings.roulette == RouletteRule::kOff || bounces <= settings.rouletteMinBounces) return true;
+  if (settings.roulette == RouletteRule::kThroughput && bounces >= settings.maxBounces) return true;
+  const float largest = std::max({throughput.r, throughput.g, throughput.b});
+  const float q = settings.roulette == RouletteRule::kMax ? std::min(1.0f, largest)
+                                                          : std::min(1.0f, std::sqrt(largest * etaScale));
+  if (q >= 1.0f) return true;
   if (rng.get1D(base + dims::kRoulette) >= q) return false;
   throughput /= q;
   return true;
 }
 
-// The path takes a sampled direction with throughput weight `weight` and density `pdf`: false
+// The path takes a sampled direction (its weight, density, eta): false
 // where it ends there (nothing left to carry, or Russian roulette). The caller sets the ray.
-inline bool scatter(const RenderScene& rs, const SampleStream& rng, uint32_t base, bool counts, const Spectrum& weight,
-                    bool specular, float pdf, PathState& path) {
-  path.throughput *= weight;
+inline bool scatter(const RenderScene& rs, const SampleStream& rng, uint32_t base, bool counts, const MaterialSample& s,
+                    PathState& path) {
+  path.throughput *= s.weight;
   if (isBlack(path.throughput)) return false;
   if (counts) ++path.bounces;
-  if (!survivesRoulette(rs, rng, base, path.bounces, path.throughput)) return false;
-  path.lastSpecular = specular;
-  path.lastPdf = pdf;
+  path.etaScale *= s.eta * s.eta;
+  if (!survivesRoulette(rs.settings(), rng, base, path.bounces, path.etaScale, path.throughput)) return false;
+  path.lastSpecular = s.specular;
+  path.lastPdf = s.pdf;
   return true;
 }
 
@@ -214,7 +231,7 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
                  : kGeneral && !material.isLambertian() ? material.sample(n, wo, uLobe, uDirection, front)
                                                         : material.sampleLambertian(n, uDirection);
   if (!s || (shaded && !scattersTo(s->wi, ng, n))) return outcome;
-  if (!scatter(rs, rng, base, counts, s->weight, s->specular, s->pdf, path)) return outcome;
+  if (!scatter(rs, rng, base, counts, *s, path)) return outcome;
   path.origin = spawnOrigin(hit.p, hit.plane(), s->wi);
   path.direction = s->wi;
   outcome.continues = true;
@@ -256,6 +273,7 @@ struct PathLanes {
   alignas(64) float rr[kPacketWidth], rg[kPacketWidth], rb[kPacketWidth];  // radiance
   alignas(64) float tr[kPacketWidth], tg[kPacketWidth], tb[kPacketWidth];  // throughput
   alignas(64) float lastPdf[kPacketWidth];
+  alignas(64) float etaScale[kPacketWidth];
   alignas(64) int bounces[kPacketWidth];
   alignas(64) int lastSpecular[kPacketWidth];  // 1 or 0 (an int, so lane loops can set it)
   bool hitLight[kPacketWidth];
@@ -266,6 +284,7 @@ struct PathLanes {
       rr[k] = rg[k] = rb[k] = 0.0f;
       tr[k] = tg[k] = tb[k] = 1.0f;
       lastPdf[k] = 0.0f;
+      etaScale[k] = 1.0f;
       bounces[k] = 0;
       lastSpecular[k] = 1;
       hitLight[k] = false;
@@ -280,6 +299,7 @@ struct PathLanes {
     path.bounces = bounces[k];
     path.lastSpecular = lastSpecular[k] != 0;
     path.lastPdf = lastPdf[k];
+    path.etaScale = etaScale[k];
     path.hitLight = hitLight[k];
     return path;
   }
@@ -289,6 +309,7 @@ struct PathLanes {
     bounces[k] = path.bounces;
     lastSpecular[k] = path.lastSpecular ? 1 : 0;
     lastPdf[k] = path.lastPdf;
+    etaScale[k] = path.etaScale;
     hitLight[k] = path.hitLight;
   }
 };
@@ -546,11 +567,11 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
       }
       sampleDirections(hits, v);
       scatterDiffuse(v, goes, paths);
-      if (settings.russianRoulette)
+      if (settings.roulette != RouletteRule::kOff)
         for (int k = 0; k < kPacketWidth; ++k) {
           if (!goes[k]) continue;
           Spectrum throughput(paths.tr[k], paths.tg[k], paths.tb[k]);
-          if (!survivesRoulette(rs, packet.rng[k], segmentBase, paths.bounces[k], throughput)) {
+          if (!survivesRoulette(settings, packet.rng[k], segmentBase, paths.bounces[k], paths.etaScale[k], throughput)) {
             goes[k] = 0;
             continue;
           }

@@ -55,7 +55,9 @@ void applyOverrides(const RenderOverrides& o, RenderSettings& s, const std::stri
   if (o.seed) s.seed = *o.seed;
   if (o.integrator) s.integrator = *o.integrator;
   if (o.sampler) s.sampler = *o.sampler;
-  if (o.russianRoulette) s.russianRoulette = *o.russianRoulette;
+  // on keeps the scene's rule where it has one (else kRouletteOn); off turns roulette off.
+  if (o.russianRoulette)
+    s.roulette = !*o.russianRoulette ? RouletteRule::kOff : s.roulette == RouletteRule::kOff ? kRouletteOn : s.roulette;
   if (o.targetError) s.targetError = *o.targetError;
   if (o.timeLimitSeconds) s.timeLimitSeconds = *o.timeLimitSeconds;
   if (o.ev) s.exposure.ev = *o.ev;

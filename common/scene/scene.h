@@ -101,6 +101,21 @@ struct DiffractionSettings {
   double sceneUnitsPerMm = 0.001; // a thin lens's scene unit in mm, for the wavelength (a real lens has its own)
 };
 
+// Russian roulette's rule (docs/scene-format.md, render.russian_roulette). A path that has made
+// more than rouletteMinBounces counted bounces goes on with probability q and carries 1/q more:
+//  - kMax (`true`, the rule before issue 26): q = min(1, max component of the throughput).
+//  - kThroughput (Cycles' path_state_continuation_probability): q = min(1, sqrt(max component of
+//    throughput x eta^2)), eta^2 the product of the refractions' radiance scalings (pbrt-v4's
+//    etaScale), so a path inside glass is not ended for the 1/eta^2 that leaving it gives back;
+//    and never for the ray after the last counted bounce, which only gathers emission.
+enum class RouletteRule { kOff, kMax, kThroughput };
+// The rule a scene without render.russian_roulette gets (off: unchanged by issue 26, see below),
+// and the one the override --russian-roulette on turns on in a scene that has roulette off
+// (throughput: the best error per second over the shipped scenes, docs/performance.md, "Russian
+// roulette by error per second"; making it the default is left open there).
+inline constexpr RouletteRule kDefaultRoulette = RouletteRule::kOff;
+inline constexpr RouletteRule kRouletteOn = RouletteRule::kThroughput;
+
 struct RenderSettings {
   int width = 0, height = 0;
   uint64_t samplesPerPixel = 0;
@@ -110,7 +125,10 @@ struct RenderSettings {
   bool mirrorBouncesCount = false;    // seed §4.5: mirror reflections do not count toward B
   uint32_t samplesPerUnit = 0;        // samples per pixel in one unit of work; 0 = automatic
   SamplerKind sampler = SamplerKind::kSobol;
-  bool russianRoulette = false;       // integrator.h: unbiased early termination of dim paths
+  // Russian roulette (render/integrator.cpp, survivesRoulette): unbiased early termination of dim
+  // paths, by `roulette`, from the counted bounce after the first `rouletteMinBounces` on.
+  RouletteRule roulette = kDefaultRoulette;
+  int rouletteMinBounces = 1;
   // Stopping rules besides samplesPerPixel (which is then a cap); 0 = not set. See docs/accuracy.md.
   double targetError = 0.0;           // stop when the estimated relative RMSE falls to this
   double timeLimitSeconds = 0.0;      // stop this long after submission, in whole units
@@ -199,8 +217,10 @@ inline std::vector<std::pair<DVec3, DVec3>> instanceBoxes(const Scene& scene) {
 
 const char* integratorName(IntegratorKind kind);
 const char* samplerName(SamplerKind kind);
+const char* rouletteName(RouletteRule rule);  // "off", "max", "throughput"
 // The names above back to kinds; false for an unknown name.
 bool parseIntegratorName(const std::string& name, IntegratorKind& kind);
 bool parseSamplerName(const std::string& name, SamplerKind& kind);
+bool parseRouletteName(const std::string& name, RouletteRule& rule);
 
 }  // namespace lensfarm

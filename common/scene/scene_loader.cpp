@@ -114,7 +114,15 @@ class SceneParser {
     const std::string sampler = r.string("sampler", "sobol");
     if (!parseSamplerName(sampler, s.sampler))
       r.fail("render.sampler", "unknown sampler \"" + sampler + "\" (expected sobol, stratified or independent)");
-    s.russianRoulette = r.boolean("russian_roulette", false);
+    if (r.has("russian_roulette")) {
+      // A bool, as before issue 26 (true: the max-throughput rule), or a rule's name.
+      const json& rr = r.raw("russian_roulette");
+      if (rr.is_boolean())
+        s.roulette = rr.get<bool>() ? RouletteRule::kMax : RouletteRule::kOff;
+      else if (!rr.is_string() || !parseRouletteName(rr.get<std::string>(), s.roulette))
+        r.fail("render.russian_roulette", "must be \"off\", \"max\", \"throughput\", true or false, got " + rr.dump());
+    }
+    s.rouletteMinBounces = int(r.integer("roulette_min_bounces", 1, 0, kMaxBounces));
     s.targetError = r.number("target_error", 0.0, 0.0, 0.999);
     s.timeLimitSeconds = r.number("time_limit", 0.0, 0.0, 1e9);
     s.mirrorBouncesCount = r.boolean("mirror_bounces_count", false);
@@ -1220,6 +1228,24 @@ const char* samplerName(SamplerKind kind) {
     case SamplerKind::kSobol: break;
   }
   return "sobol";
+}
+
+const char* rouletteName(RouletteRule rule) {
+  switch (rule) {
+    case RouletteRule::kOff: return "off";
+    case RouletteRule::kMax: return "max";
+    case RouletteRule::kThroughput: break;
+  }
+  return "throughput";
+}
+
+bool parseRouletteName(const std::string& name, RouletteRule& rule) {
+  for (RouletteRule k : {RouletteRule::kOff, RouletteRule::kMax, RouletteRule::kThroughput})
+    if (name == rouletteName(k)) {
+      rule = k;
+      return true;
+    }
+  return false;
 }
 
 bool parseSamplerName(const std::string& name, SamplerKind& kind) {
