@@ -22,6 +22,10 @@ struct PathState {
   bool lastSpecular = true;  // the camera ray behaves like a specular one: no MIS for it
   float lastPdf = 0.0f;      // solid-angle pdf of the last scattered direction
   bool hitLight = false;
+  // The path so far is one the light tracer also samples, once it reaches a light through a delta
+  // vertex (render/light_tracer.h): its first vertex scattered by a non-delta lobe and every vertex
+  // is of a material the light tracer handles. Only set while light tracing is on.
+  bool lightTraced = false;
 
   explicit PathState(const CameraRay& ray) : origin(ray.origin), direction(ray.direction) {}
   PathState() = default;
@@ -82,6 +86,9 @@ inline void addEmittedLight(const RenderScene& rs, const SurfaceHit& hit, const 
     if (isBlack(le)) return;
   }
   path.hitLight = true;
+  // Binary MIS with the light tracer (render/light_tracer.h): a light reached through a delta
+  // vertex after a diffuse first vertex is the light tracer's to count, where it emits.
+  if (path.lightTraced && path.lastSpecular && rs.lights().samplesTriangle(hit.triangle)) return;
   const float weight =
       reachedLightWeight<kNee>(rs, path, [&] { return rs.lights().pdf(hit.triangle, hit.t, path.direction); });
   path.radiance += path.throughput * le * weight;
@@ -109,6 +116,12 @@ inline void addEscapedLight(const RenderScene& rs, PathState& path) {
 // does not count would carry the path on to the light (a caustic light sampling cannot see). Nor
 // with the naive estimator, whose light samples (of delta lights only) leave the other lights to
 // the scattered ray.
+// After the vertex that `segment`'s ray hit (of material `material`) has scattered: whether the
+// path is still one the light tracer samples (PathState::lightTraced).
+inline bool stillLightTraced(const RenderScene& rs, int segment, uint32_t material, bool traced, bool lastSpecular) {
+  return rs.lightTraced(material) && (segment == 0 ? !lastSpecular : traced);
+}
+
 inline bool lastBounceCanEndPaths(const RenderScene& rs) {
   return (!rs.mirrorsReachable() || rs.settings().mirrorBouncesCount) &&
          rs.settings().integrator != IntegratorKind::kNaive;
@@ -237,6 +250,8 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
       break;
     }
     const VertexOutcome outcome = shadeVertex<kNee, kGeneral>(rs, rng, segment, *hit, path, shadow);
+    if (rs.lightTracing())
+      path.lightTraced = stillLightTraced(rs, segment, hit->material, path.lightTraced, path.lastSpecular);
     if (outcome.castShadow) {
       ++stats.rays;
       if (!rs.caster().occluded(shadow.from, shadow.direction, shadow.tFar))
@@ -259,6 +274,7 @@ struct PathLanes {
   alignas(64) int bounces[kPacketWidth];
   alignas(64) int lastSpecular[kPacketWidth];  // 1 or 0 (an int, so lane loops can set it)
   bool hitLight[kPacketWidth];
+  bool lightTraced[kPacketWidth];
 
   // A fresh path for every lane: what PathState starts with.
   void start() {
@@ -269,6 +285,7 @@ struct PathLanes {
       bounces[k] = 0;
       lastSpecular[k] = 1;
       hitLight[k] = false;
+      lightTraced[k] = false;
     }
   }
   // One lane as a PathState, for the one-path code (shadeVertex, addEmittedLight), and back.
@@ -281,6 +298,7 @@ struct PathLanes {
     path.lastSpecular = lastSpecular[k] != 0;
     path.lastPdf = lastPdf[k];
     path.hitLight = hitLight[k];
+    path.lightTraced = lightTraced[k];
     return path;
   }
   void put(int k, const PathState& path) {
@@ -290,6 +308,7 @@ struct PathLanes {
     lastSpecular[k] = path.lastSpecular ? 1 : 0;
     lastPdf[k] = path.lastPdf;
     hitLight[k] = path.hitLight;
+    lightTraced[k] = path.lightTraced;
   }
 };
 
@@ -564,6 +583,11 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
       rays.valid[k] = vertices.diffuse[k] ? goes[k] : generalGoes[k];
       live += rays.valid[k] != 0;
     }
+    if (rs.lightTracing())
+      for (int k = 0; k < kPacketWidth; ++k)
+        if (rays.valid[k])
+          paths.lightTraced[k] =
+              stillLightTraced(rs, segment, hits.material[k], paths.lightTraced[k], paths.lastSpecular[k] != 0);
     // The light samples of lanes at glossy materials join the packet's shadow rays (after the
     // lane loops, which write every lane).
     if (kGeneral && kNee)
