@@ -25,8 +25,8 @@
 // scene seed ^ 0x5eed5eed5eed5eed); the table gives medians with min .. max, and pixel-samples/s
 // and rays/s (render/integrator.h PathStats: every camera, scattered and shadow ray).
 //
-// Goal 3 runs the default, light tracing included where the analysis turns it on (the seed's
-// caustic: render/light_tracer.h); --light-tracing off|on and --light-tracing-ratio compare.
+// Goal 3 runs the default (render.light_tracing auto: off); --light-tracing on and
+// --light-tracing-ratio measure the light tracer (render/light_tracer.h) on the seed's caustic.
 //
 //   build/bench/lensfarm-accuracy-goals [--repeat 5] [--threads N] [--cache DIR] [--only 1|2|3]
 //                                       [--reference-spp-256 4096] [--reference-spp-800 1024] [--quick]

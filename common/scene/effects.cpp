@@ -498,6 +498,7 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
     if (!mat.reflects() || !lightTraceable(mat)) continue;
     (mat.isSpecular() ? tracedMirror : tracedDiffuse) = true;
   }
+  e.mirrorCaustics = emittingTriangles && tracedMirror && tracedDiffuse;
   const RenderSettings& rs = scene.render;
   std::string ltWhy;
   if (rs.lightTracing == LightTracingMode::kOff)
@@ -511,16 +512,20 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
     ltWhy = "tiled units render a region only; light paths splat over the whole frame";
   else if (!emittingTriangles)
     ltWhy = "no emitting triangle to trace light from";
-  else if (rs.lightTracing == LightTracingMode::kAuto && !(tracedMirror && tracedDiffuse))
+  else if (rs.lightTracing == LightTracingMode::kAuto && !e.mirrorCaustics)
     ltWhy = "no mirror through which a diffuse surface sees a light";
+  else if (rs.lightTracing == LightTracingMode::kAuto)
+    // Measured on cornell-seed (docs/performance.md, "The seed's caustic"): with binary weights
+    // the light paths cost more time than the variance they remove, so auto leaves it off.
+    ltWhy = "mirror caustics, but light tracing with binary weights does not pay at equal time "
+            "(docs/performance.md); render.light_tracing \"on\" forces it";
   e.lightTracing = ltWhy.empty();
   if (e.lightTracing) {
     std::ostringstream ratio;
     ratio << rs.lightTracingRatio;
-    ltWhy = (rs.lightTracing == LightTracingMode::kOn ? "render.light_tracing is on; " : "mirror caustics; ") +
-            ratio.str() + " light path(s) per camera path, connected to the camera";
+    ltWhy = "render.light_tracing is on; " + ratio.str() + " light path(s) per camera path, connected to the camera";
   }
-  if (e.lightTracing || rs.lightTracing != LightTracingMode::kAuto || e.specular)
+  if (e.lightTracing || rs.lightTracing != LightTracingMode::kAuto || e.mirrorCaustics)
     e.decisions.push_back({"light tracing", e.lightTracing, ltWhy});
   return e;
 }

@@ -41,10 +41,13 @@ struct EffectSet {
   bool specular = true;          // a delta material (mirror, smooth glass or metal) can be met
   bool generalMaterials = true;  // a material beyond Lambertian can be met (render/integrator.h)
   bool lightSampling = true;
-  // Light tracing beside the path tracer (render/light_tracer.h): on where a diffuse surface sees
-  // an emitting triangle through a mirror (a caustic next-event estimation cannot sample), with a
-  // thin-lens camera and whole-frame units; render.light_tracing forces it on or off.
+  // Light tracing beside the path tracer (render/light_tracer.h): on where render.light_tracing
+  // is "on" and it can run (a thin-lens camera, an NEE estimator, whole-frame units, an emitting
+  // triangle). `auto` leaves it off: where the scene has mirrorCaustics (a diffuse surface can see
+  // an emitting triangle through a mirror, a caustic next-event estimation cannot sample) the
+  // binary-weighted light tracer was measured not to pay at equal time (docs/performance.md).
   bool lightTracing = false;
+  bool mirrorCaustics = false;
   std::vector<bool> lightUseful;  // per material index: false for emitters that light nothing
   std::vector<EffectDecision> decisions;
   // Problems of the scene itself that the render cannot mend, e.g. `light "lamp" faces away from
