@@ -189,12 +189,22 @@ TEST(LightTracer, LowersTheVarianceOfTheSeedCaustic) {
   EXPECT_GT(vOff / vOn, 1.15);
 }
 
-TEST(LightTracer, TheAnalysisChoosesItOnlyWhereItPays) {
+TEST(LightTracer, TheAnalysisFindsTheCausticAndTheSettingForcesIt) {
   test::TempDir dir;
   const auto decide = [&](json j) {
     return RenderScene(test::loadSceneJson(dir, j)).lightTracing();
   };
   json seed = test::bundledSceneJson("cornell-seed.json");
+  EXPECT_FALSE(decide(seed))
+      << "auto: the caustic is found, but binary weights do not pay";
+  EXPECT_TRUE(
+      RenderScene(test::loadSceneJson(dir, seed)).effects().mirrorCaustics);
+  EXPECT_FALSE(
+      RenderScene(test::loadSceneJson(
+                      dir, test::bundledSceneJson("cornell-classic.json")))
+          .effects()
+          .mirrorCaustics);
+  seed["render"]["light_tracing"] = "on";
   EXPECT_TRUE(decide(seed));
   json classic = test::bundledSceneJson("cornell-classic.json");
   EXPECT_FALSE(decide(classic)) << "no mirror: off and free";
