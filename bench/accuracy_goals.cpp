@@ -25,8 +25,12 @@
 // scene seed ^ 0x5eed5eed5eed5eed); the table gives medians with min .. max, and pixel-samples/s
 // and rays/s (render/integrator.h PathStats: every camera, scattered and shadow ray).
 //
+// Goal 3 runs the default (render.light_tracing auto: off); --light-tracing on and
+// --light-tracing-ratio measure the light tracer (render/light_tracer.h) on the seed's caustic.
+//
 //   build/bench/lensfarm-accuracy-goals [--repeat 5] [--threads N] [--cache DIR] [--only 1|2|3]
 //                                       [--reference-spp-256 4096] [--reference-spp-800 1024] [--quick]
+//                                       [--light-tracing auto|on|off] [--light-tracing-ratio R]
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
@@ -169,6 +173,8 @@ int run(int argc, char** argv) {
   std::string cache = LENSFARM_BINARY_DIR "/accuracy-goals-cache";
   bool quick = false;
   double naiveError = 0.0;
+  std::string lightTracing = "auto";
+  double lightTracingRatio = 0.0;
   Settings set;
   app.add_option("--repeat", repeat, "Runs per goal (seeds differ); medians are reported")
       ->capture_default_str()
@@ -185,6 +191,11 @@ int run(int argc, char** argv) {
   auto* ref800 = app.add_option("--reference-spp-800", set.referenceSpp23, "Reference samples per pixel, goals 2 and 3")
                      ->capture_default_str()
                      ->check(CLI::Range(16, 1 << 20));
+  app.add_option("--light-tracing", lightTracing, "Goal 3's render.light_tracing")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "on", "off"}));
+  app.add_option("--light-tracing-ratio", lightTracingRatio, "Goal 3's light paths per camera path (0: the scene's)")
+      ->check(CLI::NonNegativeNumber);
   app.add_flag("--quick", quick, "Tiny images (32 x 32) and references: a smoke test of seconds");
   CLI11_PARSE(app, argc, argv);
   if (quick) {
@@ -239,6 +250,12 @@ int run(int argc, char** argv) {
     Scene scene = seed;
     scene.render.integrator = IntegratorKind::kNeeMis;
     scene.render.samplesPerUnit = set.unit3;
+    scene.render.lightTracing = lightTracing == "on"    ? LightTracingMode::kOn
+                                : lightTracing == "off" ? LightTracingMode::kOff
+                                                        : LightTracingMode::kAuto;
+    if (lightTracingRatio > 0.0) scene.render.lightTracingRatio = lightTracingRatio;
+    std::printf("goal 3: light tracing %s, %.3g light paths per camera path\n", lightTracing.c_str(),
+                scene.render.lightTracingRatio);
     std::printf(
         "goal 3: cornell-seed %dx%d, B = 2, NEE + MIS, Sobol, units of %u spp, time to the naive job's %.2f %%\n",
         set.side23, set.side23, set.unit3, 100.0 * naiveError);

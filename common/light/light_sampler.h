@@ -82,6 +82,11 @@ class LightSampler {
   // Radiance leaving triangle `triangle` towards -d (zero from the back of a one-sided light).
   Spectrum emitted(uint32_t triangle, const Vec3& d) const;
 
+  // Whether emitting triangle `triangle` is sampled (render/light_tracer.h emits from these).
+  bool samplesTriangle(uint32_t triangle) const {
+    return triangle < lightOfTriangle_.size() && lightOfTriangle_[triangle] >= 0;
+  }
+
   // Up to this many lights, a light is chosen without a search (and in the packet form's lane loop).
   static constexpr size_t kFewLights = 8;
   // Everything sampling needs of one emitting triangle, in one place (the packet form gathers
@@ -95,6 +100,8 @@ class LightSampler {
     Spectrum emission;
     float twoSided;      // 1: emits from both faces; 0: from the front face only
   };
+  // The emitting triangles sampled, their pmf among every light sampled.
+  const std::vector<Light>& triangleLights() const { return lights_; }
 
  private:
   size_t choose(float uChoice) const;  // the light whose cdf interval holds uChoice

@@ -24,6 +24,10 @@ struct PathState {
   float lastPdf = 0.0f;      // solid-angle pdf of the last scattered direction
   float etaScale = 1.0f;     // product of eta^2 over the refractions so far (Russian roulette)
   bool hitLight = false;
+  // The path so far is one the light tracer also samples, once it reaches a light through a delta
+  // vertex (render/light_tracer.h): its first vertex scattered by a non-delta lobe and every vertex
+  // is of a material the light tracer handles. Only set while light tracing is on.
+  bool lightTraced = false;
 
   explicit PathState(const CameraRay& ray) : origin(ray.origin), direction(ray.direction) {}
   PathState() = default;
@@ -84,6 +88,9 @@ inline void addEmittedLight(const RenderScene& rs, const SurfaceHit& hit, const 
     if (isBlack(le)) return;
   }
   path.hitLight = true;
+  // Binary MIS with the light tracer (render/light_tracer.h): a light reached through a delta
+  // vertex after a diffuse first vertex is the light tracer's to count, where it emits.
+  if (path.lightTraced && path.lastSpecular && rs.lights().samplesTriangle(hit.triangle)) return;
   const float weight =
       reachedLightWeight<kNee>(rs, path, [&] { return rs.lights().pdf(hit.triangle, hit.t, path.direction); });
   path.radiance += path.throughput * le * weight;
@@ -111,6 +118,12 @@ inline void addEscapedLight(const RenderScene& rs, PathState& path) {
 // does not count would carry the path on to the light (a caustic light sampling cannot see). Nor
 // with the naive estimator, whose light samples (of delta lights only) leave the other lights to
 // the scattered ray.
+// After the vertex that `segment`'s ray hit (of material `material`) has scattered: whether the
+// path is still one the light tracer samples (PathState::lightTraced).
+inline bool stillLightTraced(const RenderScene& rs, int segment, uint32_t material, bool traced, bool lastSpecular) {
+  return rs.lightTraced(material) && (segment == 0 ? !lastSpecular : traced);
+}
+
 inline bool lastBounceCanEndPaths(const RenderScene& rs) {
   return (!rs.mirrorsReachable() || rs.settings().mirrorBouncesCount) &&
          rs.settings().integrator != IntegratorKind::kNaive;
@@ -254,6 +267,8 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
       break;
     }
     const VertexOutcome outcome = shadeVertex<kNee, kGeneral>(rs, rng, segment, *hit, path, shadow);
+    if (rs.lightTracing())
+      path.lightTraced = stillLightTraced(rs, segment, hit->material, path.lightTraced, path.lastSpecular);
     if (outcome.castShadow) {
       ++stats.rays;
       if (!rs.caster().occluded(shadow.from, shadow.direction, shadow.tFar))
@@ -277,6 +292,7 @@ struct PathLanes {
   alignas(64) int bounces[kPacketWidth];
   alignas(64) int lastSpecular[kPacketWidth];  // 1 or 0 (an int, so lane loops can set it)
   bool hitLight[kPacketWidth];
+  bool lightTraced[kPacketWidth];
 
   // A fresh path for every lane: what PathState starts with.
   void start() {
@@ -288,6 +304,7 @@ struct PathLanes {
       bounces[k] = 0;
       lastSpecular[k] = 1;
       hitLight[k] = false;
+      lightTraced[k] = false;
     }
   }
   // One lane as a PathState, for the one-path code (shadeVertex, addEmittedLight), and back.
@@ -301,6 +318,7 @@ struct PathLanes {
     path.lastPdf = lastPdf[k];
     path.etaScale = etaScale[k];
     path.hitLight = hitLight[k];
+    path.lightTraced = lightTraced[k];
     return path;
   }
   void put(int k, const PathState& path) {
@@ -311,6 +329,7 @@ struct PathLanes {
     lastPdf[k] = path.lastPdf;
     etaScale[k] = path.etaScale;
     hitLight[k] = path.hitLight;
+    lightTraced[k] = path.lightTraced;
   }
 };
 
@@ -585,6 +604,11 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
       rays.valid[k] = vertices.diffuse[k] ? goes[k] : generalGoes[k];
       live += rays.valid[k] != 0;
     }
+    if (rs.lightTracing())
+      for (int k = 0; k < kPacketWidth; ++k)
+        if (rays.valid[k])
+          paths.lightTraced[k] =
+              stillLightTraced(rs, segment, hits.material[k], paths.lightTraced[k], paths.lastSpecular[k] != 0);
     // The light samples of lanes at glossy materials join the packet's shadow rays (after the
     // lane loops, which write every lane).
     if (kGeneral && kNee)

@@ -449,7 +449,7 @@ RayCaster::HitMesh RayCaster::hitMesh(const SurfaceHit& hit) const {
 }
 
 
-bool RayCaster::occluded(const Vec3& o, const Vec3& d, float tFar) const {
+bool RayCaster::occluded(const Vec3& o, const Vec3& d, float tFar, RayKind kind) const {
   if (recorder_) recorder_->record({o, d, tFar, 0u});
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
@@ -462,7 +462,7 @@ bool RayCaster::occluded(const Vec3& o, const Vec3& d, float tFar) const {
   ray.dir_z = d.z;
   ray.tnear = 0.0f;
   ray.tfar = tFar;
-  ray.mask = unsigned(RayKind::kScattered);
+  ray.mask = unsigned(kind);
   ray.flags = 0;
   ray.time = 0.0f;
   rtcOccluded1(scene_, &context, &ray);

@@ -102,7 +102,8 @@ class RayCaster {
 
   std::optional<SurfaceHit> intersect(const Vec3& origin, const Vec3& direction, RayKind kind) const;
   // True if anything blocks the segment origin + t * direction, t in (0, tFar).
-  bool occluded(const Vec3& origin, const Vec3& direction, float tFar) const;
+  // `kind`: kCamera tests what a camera ray would see (a light tracer's connection to the lens).
+  bool occluded(const Vec3& origin, const Vec3& direction, float tFar, RayKind kind = RayKind::kScattered) const;
 
   // The same for the active lanes of a packet, with Embree's 16-wide kernels. Each lane gets the
   // hit the single-ray call gives for its ray (misses are re-cast the same way), as arrays over

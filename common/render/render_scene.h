@@ -23,6 +23,8 @@ class RenderScene {
         realCamera_(scene.realLensCamera()),
         effects_(general ? EffectSet::all(scene) : analyzeEffects(scene, camera_, realCamera_ ? &*realCamera_ : nullptr)),
         mirrorsReachable_(general ? analyzeEffects(scene, camera_).specular : effects_.specular),
+        lightTracing_(general ? analyzeEffects(scene, camera_, realCamera_ ? &*realCamera_ : nullptr).lightTracing
+                              : effects_.lightTracing),
         caster_(scene),
         lights_(scene, caster_, effects_.lightUseful, scene.render.integrator == IntegratorKind::kNaive),
         hasEscapeLights_(!lights_.escapeLights().empty()) {
@@ -39,6 +41,11 @@ class RenderScene {
       materialRecords_.push_back({m.albedo(), m.isEmissive() ? ~0u : 0u, m.reflects() ? ~0u : 0u,
                                   (m.reflects() && !m.isLambertian()) || shaded_[k] ? ~0u : 0u});
     }
+    // The materials whose scattering the light tracer handles (render/light_tracer.h); a path
+    // through any other belongs to the path tracer alone.
+    if (lightTracing_)
+      for (size_t m = 0; m < scene.materials.size(); ++m)
+        lightTraced_.push_back(lightTraceable(scene.materials[m]) && !shaded_[m] ? 1 : 0);
     pixelAngle_ = float(camera_.params().sensorWidth / (double(scene.render.width) * camera_.params().focalLength));
   }
 
@@ -51,6 +58,11 @@ class RenderScene {
   // Whether a camera path can meet a mirror (the analysis's answer even for a general scene, so
   // both paths make the same choices that depend on it; render/integrator.cpp).
   bool mirrorsReachable() const { return mirrorsReachable_; }
+  // Whether light paths are traced beside the camera paths (render/light_tracer.h; the analysis's
+  // answer even for a general scene, like mirrorsReachable), and whether the light tracer handles
+  // scattering by material `id`.
+  bool lightTracing() const { return lightTracing_; }
+  bool lightTraced(uint32_t id) const { return lightTraced_[id] != 0; }
   const RayCaster& caster() const { return caster_; }
   const LightSampler& lights() const { return lights_; }
   // Whether rays that leave the scene can reach a light (the environment, a sun with an angular
@@ -77,6 +89,8 @@ class RenderScene {
   std::optional<RealLensCamera> realCamera_;
   EffectSet effects_;
   bool mirrorsReachable_;
+  bool lightTracing_;
+  std::vector<uint8_t> lightTraced_;  // per material; empty without light tracing
   RayCaster caster_;
   LightSampler lights_;
   bool hasEscapeLights_;

@@ -44,6 +44,13 @@ inline constexpr uint32_t kLightChoice = 4;    // 1D
 inline constexpr uint32_t kRoulette = 5;       // 1D: Russian roulette
 inline constexpr uint32_t kMaterialLobe = 6;   // 1D: a material's choice of lobe (material/bsdf.h)
 inline constexpr uint32_t segment(uint32_t s) { return kFirstSegment + s * kPerSegment; }
+// A light path's (render/light_tracer.h; its own streams, keyed by unit and particle): vertex v
+// (0 on the light) owns segment(v). On the light: kLightChoice picks the light, kLightPoint the
+// point, kEmitDirection (2D) the direction and kMaterialLobe the face of a two-sided light. At a
+// later vertex: kLensPoint (2D) the lens point of its camera connection, then kMaterial and
+// kMaterialLobe as a camera path's vertex.
+inline constexpr uint32_t kEmitDirection = kMaterial;
+inline constexpr uint32_t kLensPoint = kLightPoint;
 // 1D: a spectral camera sample's wavelength (camera/spectral_response.h; only through a lens that
 // disperses). Appended past every segment's block (a path has at most 2050 segments,
 // render/integrator.h), so no other dimension moves: images without it keep their bits. Every

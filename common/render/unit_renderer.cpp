@@ -7,9 +7,11 @@
 #include <algorithm>
 #include <limits>
 #include <optional>
+#include <stdexcept>
 
 #include "camera/spectral_response.h"
 #include "render/integrator.h"
+#include "render/light_tracer.h"
 #include "scene/scene_loader.h"  // kMaxBounces
 
 #if defined(__SSE__)
@@ -232,13 +234,19 @@ bool renderPass(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
        {renderUnitWith<kRealLens, true, false>, renderUnitWith<kRealLens, true, true>}},
       {{renderUnitWith<kRealLensSpectral, false, false>, renderUnitWith<kRealLensSpectral, false, true>},
        {renderUnitWith<kRealLensSpectral, true, false>, renderUnitWith<kRealLensSpectral, true, true>}}};
-  return kTable[cameraKind][nee][general](rs, unit, out, stats, cancel, grouping);
+  if (!kTable[cameraKind][nee][general](rs, unit, out, stats, cancel, grouping)) return false;
+  // The light paths that the path tracer leaves to the light tracer (render/light_tracer.h).
+  return !rs.lightTracing() || traceLightPaths(rs, unit, out, stats, cancel);
 }
 
 }  // namespace
 
 bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
                 const std::atomic<bool>* cancel, RayGrouping grouping) {
+  // A light path splats anywhere in the frame: light tracing needs whole-frame units (the effect
+  // analysis turns it off for tiled layouts, scene/effects.h).
+  if (rs.lightTracing() && !unit.region.empty())
+    throw std::invalid_argument("light tracing renders whole-frame units only (render.light_tracing off for tiles)");
   if (unit.passSamples == 0 || unit.passSamples >= unit.sampleCount)
     return renderPass(rs, unit, out, stats, cancel, grouping);
   // A tile unit: pass after pass, folded by a Sensor of the tile's size exactly as the job's

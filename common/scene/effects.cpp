@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "film/diffraction_psf.h"
+#include "material/mirror.h"
 #include "math/triangle.h"
 #include "scene/scene_loader.h"
 
@@ -486,7 +487,53 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
                                      : "every light is hidden from the camera"});
   if (!diffuse && !e.generalMaterials)
     e.decisions.push_back({"indirect light", false, "no surface reflects: only emitters are seen"});
+
+  // Light tracing (render/light_tracer.h): particles from the emitting triangles, connected to the
+  // thin lens at every diffuse vertex, for the paths light -> mirror -> ... -> diffuse -> camera.
+  bool emittingTriangles = false, tracedMirror = false, tracedDiffuse = false;
+  for (size_t m = 0; m < scene.materials.size(); ++m) {
+    if (!used[m]) continue;
+    const Material& mat = scene.materials[m];
+    emittingTriangles |= mat.isEmissive() && e.lightUseful[m] && !(mat.textures() && mat.textures()->emissive);
+    if (!mat.reflects() || !lightTraceable(mat)) continue;
+    (mat.isSpecular() ? tracedMirror : tracedDiffuse) = true;
+  }
+  e.mirrorCaustics = emittingTriangles && tracedMirror && tracedDiffuse;
+  const RenderSettings& rs = scene.render;
+  std::string ltWhy;
+  if (rs.lightTracing == LightTracingMode::kOff)
+    ltWhy = "render.light_tracing is off";
+  else if (real)
+    ltWhy = "a real lens cannot be connected to: a path from a surface point to the sensor through its "
+            "surfaces has no closed form (the path tracer alone samples the image)";
+  else if (rs.integrator == IntegratorKind::kNaive)
+    ltWhy = "the naive estimator was asked for";
+  else if (rs.tileSize > 0)
+    ltWhy = "tiled units render a region only; light paths splat over the whole frame";
+  else if (!emittingTriangles)
+    ltWhy = "no emitting triangle to trace light from";
+  else if (rs.lightTracing == LightTracingMode::kAuto && !e.mirrorCaustics)
+    ltWhy = "no mirror through which a diffuse surface sees a light";
+  else if (rs.lightTracing == LightTracingMode::kAuto)
+    // Measured on cornell-seed (docs/performance.md, "The seed's caustic"): with binary weights
+    // the light paths cost more time than the variance they remove, so auto leaves it off.
+    ltWhy = "mirror caustics, but light tracing with binary weights does not pay at equal time "
+            "(docs/performance.md); render.light_tracing \"on\" forces it";
+  e.lightTracing = ltWhy.empty();
+  if (e.lightTracing) {
+    std::ostringstream ratio;
+    ratio << rs.lightTracingRatio;
+    ltWhy = "render.light_tracing is on; " + ratio.str() + " light path(s) per camera path, connected to the camera";
+  }
+  if (e.lightTracing || rs.lightTracing != LightTracingMode::kAuto || e.mirrorCaustics)
+    e.decisions.push_back({"light tracing", e.lightTracing, ltWhy});
   return e;
+}
+
+bool lightTraceable(const Material& m) {
+  if (m.textures()) return false;
+  if (!m.reflects() || m.isLambertian()) return true;
+  return dynamic_cast<const MirrorBsdf*>(m.bsdf()) || dynamic_cast<const RippledMirrorBsdf*>(m.bsdf());
 }
 
 std::vector<std::string> EffectSet::warnings() const {

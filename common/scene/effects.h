@@ -41,6 +41,13 @@ struct EffectSet {
   bool specular = true;          // a delta material (mirror, smooth glass or metal) can be met
   bool generalMaterials = true;  // a material beyond Lambertian can be met (render/integrator.h)
   bool lightSampling = true;
+  // Light tracing beside the path tracer (render/light_tracer.h): on where render.light_tracing
+  // is "on" and it can run (a thin-lens camera, an NEE estimator, whole-frame units, an emitting
+  // triangle). `auto` leaves it off: where the scene has mirrorCaustics (a diffuse surface can see
+  // an emitting triangle through a mirror, a caustic next-event estimation cannot sample) the
+  // binary-weighted light tracer was measured not to pay at equal time (docs/performance.md).
+  bool lightTracing = false;
+  bool mirrorCaustics = false;
   std::vector<bool> lightUseful;  // per material index: false for emitters that light nothing
   std::vector<EffectDecision> decisions;
   // Problems of the scene itself that the render cannot mend, e.g. `light "lamp" faces away from
@@ -61,6 +68,10 @@ struct EffectSet {
 // `real`: the scene's real-lens camera, if built (its reason then says what share of camera rays
 // the lens lets through, from a 16 x 16 x 4 x 4 grid: 4096 rays).
 EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const RealLensCamera* real = nullptr);
+
+// Whether the light tracer handles scattering by `m` (render/light_tracer.h): a Lambertian
+// material without textures, a mirror or a rippled mirror (their adjoints are known there).
+bool lightTraceable(const Material& m);
 
 // Largest blur-circle diameter on the sensor, in sensor cells, of any point of the scene's
 // bounding box in front of the lens (0 for a pinhole).

@@ -89,6 +89,10 @@ enum class SamplerKind { kIndependent, kStratified, kSobol };
 
 enum class ToneMap { kClamp, kReinhard };
 
+// Light tracing beside the path tracer (render/light_tracer.h): kAuto lets the effect analysis
+// decide (scene/effects.h), kOn and kOff force it where the camera and layout allow it.
+enum class LightTracingMode { kAuto, kOn, kOff };
+
 struct ExposureSettings {
   double ev = 0.0;  // compensation applied after the automatic exposure, in stops
   ToneMap toneMap = ToneMap::kReinhard;
@@ -129,6 +133,8 @@ struct RenderSettings {
   // paths, by `roulette`, from the counted bounce after the first `rouletteMinBounces` on.
   RouletteRule roulette = kDefaultRoulette;
   int rouletteMinBounces = 1;
+  LightTracingMode lightTracing = LightTracingMode::kAuto;  // render/light_tracer.h
+  double lightTracingRatio = 0.25;    // light paths per camera path (pixel-sample) of a unit
   // Stopping rules besides samplesPerPixel (which is then a cap); 0 = not set. See docs/accuracy.md.
   double targetError = 0.0;           // stop when the estimated relative RMSE falls to this
   double timeLimitSeconds = 0.0;      // stop this long after submission, in whole units

@@ -123,6 +123,14 @@ class SceneParser {
         r.fail("render.russian_roulette", "must be \"off\", \"max\", \"throughput\", true or false, got " + rr.dump());
     }
     s.rouletteMinBounces = int(r.integer("roulette_min_bounces", 1, 0, kMaxBounces));
+    const std::string lightTracing = r.string("light_tracing", "auto");
+    if (lightTracing == "auto" || lightTracing == "on" || lightTracing == "off")
+      s.lightTracing = lightTracing == "on" ? LightTracingMode::kOn
+                       : lightTracing == "off" ? LightTracingMode::kOff
+                                               : LightTracingMode::kAuto;
+    else
+      r.fail("render.light_tracing", "unknown mode \"" + lightTracing + "\" (expected auto, on or off)");
+    s.lightTracingRatio = r.number("light_tracing_ratio", 0.25, 1e-6, 64.0);
     s.targetError = r.number("target_error", 0.0, 0.0, 0.999);
     s.timeLimitSeconds = r.number("time_limit", 0.0, 0.0, 1e9);
     s.mirrorBouncesCount = r.boolean("mirror_bounces_count", false);
