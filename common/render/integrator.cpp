@@ -110,6 +110,12 @@ inline void addEscapedLight(const RenderScene& rs, PathState& path) {
   }
 }
 
+// After the vertex that `segment`'s ray hit (of material `material`) has scattered: whether the
+// path is still one the light tracer samples (PathState::lightTraced).
+inline bool stillLightTraced(const RenderScene& rs, int segment, uint32_t material, bool traced, bool lastSpecular) {
+  return rs.lightTraced(material) && (segment == 0 ? !lastSpecular : traced);
+}
+
 // The last counted bounce: the next vertex would end the path at the bounce limit, so the
 // scattered ray could only bring back emission, light the light sample already estimates.
 // There the light sample alone (weight 1, a valid MIS weighting of one strategy) carries the
@@ -118,12 +124,6 @@ inline void addEscapedLight(const RenderScene& rs, PathState& path) {
 // does not count would carry the path on to the light (a caustic light sampling cannot see). Nor
 // with the naive estimator, whose light samples (of delta lights only) leave the other lights to
 // the scattered ray.
-// After the vertex that `segment`'s ray hit (of material `material`) has scattered: whether the
-// path is still one the light tracer samples (PathState::lightTraced).
-inline bool stillLightTraced(const RenderScene& rs, int segment, uint32_t material, bool traced, bool lastSpecular) {
-  return rs.lightTraced(material) && (segment == 0 ? !lastSpecular : traced);
-}
-
 inline bool lastBounceCanEndPaths(const RenderScene& rs) {
   return (!rs.mirrorsReachable() || rs.settings().mirrorBouncesCount) &&
          rs.settings().integrator != IntegratorKind::kNaive;
