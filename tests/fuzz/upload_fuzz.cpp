@@ -64,7 +64,7 @@ void addCompressedPieces(const uint8_t* data, size_t size, lensfarm::UploadAssem
     at += 3;
     if (count * 8 > size - at) break;
     std::vector<double> values(count);
-    std::memcpy(values.data(), data + at, count * 8);
+    if (count > 0) std::memcpy(values.data(), data + at, count * 8);  // memcpy from null is undefined, even of 0 bytes
     at += count * 8;
     std::string block = lensfarm::encodeSumsBlock(values.data(), count);
     switch (spoil & 3) {
