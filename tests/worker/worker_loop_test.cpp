@@ -17,6 +17,15 @@
 namespace lensfarm {
 namespace {
 
+// An 8x8 job of the minimal scene, `spp` samples per pixel in units of `perUnit`; its id.
+std::string submitTinyJob(Coordinator& coordinator, int spp, int perUnit) {
+  nlohmann::json scene = test::minimalSceneJson();
+  scene["render"]["resolution"] = {8, 8};
+  scene["render"]["samples_per_pixel"] = spp;
+  scene["render"]["samples_per_unit"] = perUnit;
+  return coordinator.submit(JobSpec{"test.json", scene.dump(), {}, {}, std::nullopt}, 0).id;
+}
+
 // The real link, but each upload, once the coordinator has taken it (and so ended its lease),
 // waits until the worker's heartbeat thread has asked about that very lease and heard it is gone:
 // the interleaving that a busy machine produces now and then.
@@ -64,11 +73,7 @@ TEST(WorkerLoop, ALeaseEndedByItsOwnUploadIsNotReportedRevoked) {
   Coordinator::Options options;
   options.heartbeatIntervalSeconds = 0.01;
   Coordinator coordinator(options);
-  nlohmann::json scene = test::minimalSceneJson();
-  scene["render"]["resolution"] = {8, 8};
-  scene["render"]["samples_per_pixel"] = 4;
-  scene["render"]["samples_per_unit"] = 1;
-  const std::string job = coordinator.submit(JobSpec{"test.json", scene.dump(), {}, {}, std::nullopt}, 0).id;
+  const std::string job = submitTinyJob(coordinator, 4, 1);
 
   UploadThenHeartbeatLink link(coordinator);
   WorkerOptions wo;
@@ -102,11 +107,7 @@ class LeaveCountingLink final : public test::ForwardingLink {
 // unit there is, then, with nothing to lease for the idle time, returns by itself and says goodbye.
 TEST(WorkerLoop, LeavesByItselfOnceTheFarmHasHadNoWorkForTheIdleTime) {
   Coordinator coordinator{Coordinator::Options{}};
-  nlohmann::json scene = test::minimalSceneJson();
-  scene["render"]["resolution"] = {8, 8};
-  scene["render"]["samples_per_pixel"] = 6;
-  scene["render"]["samples_per_unit"] = 2;
-  const std::string job = coordinator.submit(JobSpec{"test.json", scene.dump(), {}, {}, std::nullopt}, 0).id;
+  const std::string job = submitTinyJob(coordinator, 6, 2);
 
   LeaveCountingLink link(coordinator);
   WorkerOptions wo;
