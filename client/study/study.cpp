@@ -481,6 +481,7 @@ class Study {
     double energy8 = 0.0;
     {
       Scene scene = seedAt(side, 8);
+      scene.render.roulette = RouletteRule::kOff;
       ProgressiveRun run;
       run.firstCheckpoint = scale_.bounceSpp;
       run.maxSamples = scale_.bounceSpp * 4;
@@ -492,6 +493,7 @@ class Study {
       for (int b = 1; b <= 5; ++b) {
         Scene scene = seedAt(side, b);
         scene.render.integrator = integrator;
+        scene.render.roulette = RouletteRule::kOff;  // Fig. 8 is without roulette: every path reaches B
         ProgressiveRun run;
         run.firstCheckpoint = scale_.bounceSpp;
         run.maxSamples = scale_.bounceSpp;
