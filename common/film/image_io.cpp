@@ -14,6 +14,7 @@
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 
 #include "film/exposure.h"
 #include "util/atomic_file.h"
@@ -26,12 +27,18 @@ namespace fs = std::filesystem;
 namespace {
 constexpr const char* kPrefix = "lensfarm/";
 
-Imf::FrameBuffer frameBufferFor(float* rgb, int width) {
+// The beauty's R, G, B and every layer's channels, straight from the image's memory.
+Imf::FrameBuffer frameBufferFor(Image& image) {
   Imf::FrameBuffer fb;
-  const size_t xStride = 3 * sizeof(float), yStride = xStride * size_t(width);
+  const size_t xStride = 3 * sizeof(float), yStride = xStride * size_t(image.width);
   const char* names[3] = {"R", "G", "B"};
   for (int c = 0; c < 3; ++c)
-    fb.insert(names[c], Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(rgb + c), xStride, yStride));
+    fb.insert(names[c], Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(image.rgb.data() + c), xStride, yStride));
+  for (ImageLayer& layer : image.layers) {
+    const size_t n = layer.channels.size(), lx = n * sizeof(float), ly = lx * size_t(image.width);
+    for (size_t c = 0; c < n; ++c)
+      fb.insert(layer.channelName(c), Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(layer.values.data() + c), lx, ly));
+  }
   return fb;
 }
 }  // namespace
@@ -42,6 +49,12 @@ void writeExrTo(Imf::OStream& stream, const Image& image, const ImageMetadata& m
   Imf::Header header(image.width, image.height);
   header.compression() = compression == ExrCompression::kZip ? Imf::ZIP_COMPRESSION : Imf::NO_COMPRESSION;
   for (const char* name : {"R", "G", "B"}) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+  for (const ImageLayer& layer : image.layers) {
+    if (layer.values.size() != size_t(image.width) * size_t(image.height) * layer.channels.size())
+      throw std::logic_error("image layer " + layer.name + " does not match the image's size");
+    for (size_t c = 0; c < layer.channels.size(); ++c)
+      header.channels().insert(layer.channelName(c), Imf::Channel(Imf::FLOAT));
+  }
   const std::string p = kPrefix;
   header.insert(p + "samplesPerPixel", Imf::StringAttribute(std::to_string(metadata.samplesPerPixel)));
   header.insert(p + "totalSamples", Imf::StringAttribute(std::to_string(metadata.totalSamples)));
@@ -51,7 +64,7 @@ void writeExrTo(Imf::OStream& stream, const Image& image, const ImageMetadata& m
   for (const auto& [key, value] : metadata.extra) header.insert(p + key, Imf::StringAttribute(value));
   Imf::OutputFile file(stream, header);
   // OpenEXR wants non-const slices; an OutputFile only reads them.
-  file.setFrameBuffer(frameBufferFor(const_cast<float*>(image.rgb.data()), image.width));
+  file.setFrameBuffer(frameBufferFor(const_cast<Image&>(image)));
   file.writePixels(image.height);
 }  // the file is complete when OutputFile is destroyed
 }  // namespace
@@ -92,7 +105,22 @@ Image readExrStream(Imf::IStream& stream, ImageMetadata* metadata) {
   image.width = window.max.x - window.min.x + 1;
   image.height = window.max.y - window.min.y + 1;
   image.rgb.assign(size_t(image.width) * image.height * 3, 0.0f);
-  file.setFrameBuffer(frameBufferFor(image.rgb.data(), image.width));
+  // Every channel besides R, G, B joins the layer its name's prefix (before the last '.') names,
+  // in the file's (alphabetical) order; a channel of any pixel type is read as float.
+  for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it) {
+    const std::string name = it.name();
+    if (name == "R" || name == "G" || name == "B") continue;
+    const size_t dot = name.rfind('.');
+    const std::string layerName = dot == std::string::npos ? "" : name.substr(0, dot);
+    ImageLayer* layer = nullptr;
+    for (ImageLayer& l : image.layers)
+      if (l.name == layerName) layer = &l;
+    if (!layer) layer = &image.layers.emplace_back(ImageLayer{layerName, {}, {}});
+    layer->channels.push_back(dot == std::string::npos ? name : name.substr(dot + 1));
+  }
+  for (ImageLayer& layer : image.layers)
+    layer.values.assign(size_t(image.width) * size_t(image.height) * layer.channels.size(), 0.0f);
+  file.setFrameBuffer(frameBufferFor(image));
   file.readPixels(window.min.y, window.max.y);
   if (metadata) {
     *metadata = ImageMetadata{};
