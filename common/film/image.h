@@ -2,6 +2,7 @@
 // A linear RGB image, row-major, row 0 at the top: what a developed sensor gives and what EXR
 // and PNG files hold, with the render's other outputs (AOVs, docs/aovs.md) as named layers.
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "math/vec.h"
@@ -23,6 +24,9 @@ struct ImageLayer {
 };
 
 struct Image {
+  Image() = default;
+  Image(int w, int h, std::vector<float> pixels) : width(w), height(h), rgb(std::move(pixels)) {}
+
   int width = 0, height = 0;
   std::vector<float> rgb;  // 3 per pixel
   std::vector<ImageLayer> layers;  // AOVs, in file order; empty for a beauty-only image

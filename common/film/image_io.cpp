@@ -11,7 +11,9 @@
 #include <png.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <cstring>
+#include <iterator>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -105,8 +107,8 @@ Image readExrStream(Imf::IStream& stream, ImageMetadata* metadata) {
   image.width = window.max.x - window.min.x + 1;
   image.height = window.max.y - window.min.y + 1;
   image.rgb.assign(size_t(image.width) * image.height * 3, 0.0f);
-  // Every channel besides R, G, B joins the layer its name's prefix (before the last '.') names,
-  // in the file's (alphabetical) order; a channel of any pixel type is read as float.
+  // Every channel besides R, G, B joins the layer its name's prefix (before the last '.') names;
+  // a channel of any pixel type is read as float.
   for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it) {
     const std::string name = it.name();
     if (name == "R" || name == "G" || name == "B") continue;
@@ -118,8 +120,19 @@ Image readExrStream(Imf::IStream& stream, ImageMetadata* metadata) {
     if (!layer) layer = &image.layers.emplace_back(ImageLayer{layerName, {}, {}});
     layer->channels.push_back(dot == std::string::npos ? name : name.substr(dot + 1));
   }
-  for (ImageLayer& layer : image.layers)
+  // EXR lists channels alphabetically; a layer's colour and vector channels read back in their
+  // usual order (R, G, B, A; X, Y, Z), any others after them, alphabetically.
+  const auto rank = [](const std::string& c) {
+    static const char* const kOrder[] = {"R", "G", "B", "A", "X", "Y", "Z"};
+    for (size_t k = 0; k < std::size(kOrder); ++k)
+      if (c == kOrder[k]) return k;
+    return std::size(kOrder);
+  };
+  for (ImageLayer& layer : image.layers) {
+    std::stable_sort(layer.channels.begin(), layer.channels.end(),
+                     [&](const std::string& a, const std::string& b) { return rank(a) < rank(b); });
     layer.values.assign(size_t(image.width) * size_t(image.height) * layer.channels.size(), 0.0f);
+  }
   file.setFrameBuffer(frameBufferFor(image));
   file.readPixels(window.min.y, window.max.y);
   if (metadata) {
