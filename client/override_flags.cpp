@@ -37,6 +37,9 @@ void OverrideFlags::addTo(CLI::App* cmd) {
                   "edge in pixels; never changes the image");
   cmd->add_option("--frames", frames,
                   "Render an animation's frames: 7, 1-240 or 1-240x2 (every 2nd); outputs need #### for the number");
+  cmd->add_option("--aov", aovs,
+                  "Outputs beside the beauty, written as EXR layers: albedo, normal, depth, variance, samples, "
+                  "object_id, material_id (comma-separated or repeated; replaces the scene's render.aovs)");
   cmd->add_option("--ev", ev, "Exposure compensation in stops for PNG images (overrides the scene)")
       ->check(numberIn(-kMaxExposureEv, kMaxExposureEv, "stops"));
 }
@@ -58,6 +61,7 @@ RenderOverrides OverrideFlags::toOverrides() const {
   if (deadline && !spp && !targetError) o.samplesPerPixel = kMaxSamplesPerPixel;  // until the deadline
   o.ev = ev;
   if (tileSize) parseTileSize(*tileSize, o);
+  if (!aovs.empty()) parseAovs(aovs, o);
   return o;
 }
 

@@ -3,6 +3,7 @@
 #include "accumulator.h"
 
 #include <algorithm>
+#include <stdexcept>
 #include <utility>
 
 #include "farm/farm_types.h"
@@ -15,10 +16,11 @@ Accumulator::Accumulator(const RenderSettings& settings, uint32_t unitSize, uint
       unitSize_(unitSize),
       unitsTotal_(unitsTotal),
       targetError_(settings.targetError),
-      sensor_(std::make_unique<Sensor>(settings.width, settings.height)),
+      sensor_(std::make_unique<Sensor>(settings.width, settings.height, AovLayout(settings.aovs).channels)),
       tracker_(std::make_unique<ConvergenceTracker>(settings.width, settings.height)),
       width_(settings.width),
-      height_(settings.height) {}
+      height_(settings.height),
+      aovs_(settings.aovs) {}
 
 Accumulator::Accumulator(const RenderSettings& settings, const JobLayout& layout)
     : samplesPerPixel_(settings.samplesPerPixel),
@@ -26,11 +28,12 @@ Accumulator::Accumulator(const RenderSettings& settings, const JobLayout& layout
       unitsTotal_(layout.unitCount()),
       targetError_(settings.targetError),
       width_(settings.width),
-      height_(settings.height) {
+      height_(settings.height),
+      aovs_(settings.aovs) {
   if (layout.tiled()) {
-    tiles_ = std::make_unique<TileFilm>(layout);
+    tiles_ = std::make_unique<TileFilm>(layout, aovs_);
   } else {
-    sensor_ = std::make_unique<Sensor>(settings.width, settings.height);
+    sensor_ = std::make_unique<Sensor>(settings.width, settings.height, aovs_.channels);
     tracker_ = std::make_unique<ConvergenceTracker>(settings.width, settings.height);
   }
 }
@@ -47,7 +50,11 @@ Accumulator::Accumulator(const RenderSettings& settings, uint32_t unitSize, uint
       tracker_(std::make_unique<ConvergenceTracker>(std::move(tracker))),
       width_(settings.width),
       height_(settings.height),
+      aovs_(settings.aovs),
       lastPointAt_(folded) {
+  if (sensor_->channels() != aovs_.channels)
+    throw std::runtime_error("the checkpoint's sensor holds " + std::to_string(sensor_->channels()) +
+                             " sums a cell, the job's AOVs " + std::to_string(aovs_.channels));
   for (uint64_t u = 0; u < folded; ++u) sppAdded_ += unitAt(u, samplesPerPixel_, unitSize_).sampleCount;
 }
 
@@ -237,7 +244,7 @@ Accumulator::Rewound Accumulator::rewind(uint64_t unit, const std::function<bool
     // The latest point at or before `unit`, else the empty film; points after it hold undone units.
     while (!points_.empty() && points_.back().units > unit) points_.pop_back();
     if (points_.empty()) {
-      sensor_ = std::make_unique<Sensor>(width_, height_);
+      sensor_ = std::make_unique<Sensor>(width_, height_, aovs_.channels);
       tracker_ = std::make_unique<ConvergenceTracker>(width_, height_);
       nextToAdd_ = sppAdded_ = 0;
       statsAdded_ = PathStats{};
@@ -289,13 +296,14 @@ Accumulator::Developed Accumulator::develop() const {
   Developed out;
   if (tiles_) {
     out.image = tiles_->image(0).value_or(Image{width_, height_, std::vector<float>(size_t(width_) * height_ * 3, 0.0f)});
+    if (out.image.layers.empty() && aovs_.any()) out.image.layers = aovLayers(aovs_, width_, height_);
     const Progress p = progress();
     out.samplesPerPixel = p.samplesPerPixel;
     out.totalSamples = statsAdded_.paths;
     out.stats = statsAdded_;
     return out;
   }
-  out.image = sensor_->developImage();
+  out.image = sensor_->developImage(aovs_);
   out.samplesPerPixel = sppAdded_;
   out.totalSamples = sensor_->totalSamples();
   out.stats = statsAdded_;

@@ -174,6 +174,7 @@ class Accumulator {
     ConvergenceTracker tracker;
   };
   const int width_, height_;
+  const AovLayout aovs_;  // the AOVs' sums in a cell (film/aov_layout.h)
   std::deque<RewindPoint> points_;
   std::unique_ptr<TileFilm> tiles_;  // a tiled job's film (then no sensor_ or tracker_)
   std::map<uint64_t, PathStats> tileStats_;  // a tiled job: per unit written, to undo with it

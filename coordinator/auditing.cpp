@@ -80,7 +80,7 @@ bool Coordinator::acceptAudit(const UnitResult& result) {
                                                                 " is not held by " + result.workerId);
     const PixelRegion region = job.layout.regionOf(unit);  // the whole frame, or the unit's tile
     if (result.buffer.width != region.width || result.buffer.height != region.height ||
-        result.buffer.sums.size() != size_t(region.width) * size_t(region.height) * 3)
+        result.buffer.sums.size() != job.layout.sumsOf(unit))
       throw FarmError(FarmError::Kind::kInvalidArgument, "result for unit " + std::to_string(unit) + " of " + job.id +
                                                              " has the wrong size for its region");
     leases_.erase(result.leaseId);

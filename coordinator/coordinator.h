@@ -316,8 +316,9 @@ class Coordinator {
   void countUnitWireBytes(uint64_t bytes) { counters_.unitWireBytes += bytes; }
   // Before an upload's sums are read (UploadResult's header): the errors acceptResult would
   // give for its lease and frame size, so that no buffer is allocated for a refused upload.
+  // `channels`: the sums a cell the upload carries (3 and the job's AOVs').
   void admitUpload(const std::string& workerId, uint64_t leaseId, const std::string& jobId, uint64_t unit, int width,
-                   int height) const;
+                   int height, int channels = 3) const;
   // The worker cannot render its lease's unit: the lease ends and the unit is queued again for
   // others; the worker is blocklisted for the job after Options::maxFailuresPerWorker failures;
   // the job fails, with the reasons, when the unit failed on Options::maxUnitFailures different
@@ -399,7 +400,7 @@ class Coordinator {
   // ---- results and stopping (results.cpp) ----
   bool accept(const UnitResult& result, UnitResult* owned);
   // FarmError kInvalidArgument unless the result is one the unit can produce (results.cpp).
-  static void checkPlausible(const UnitResult& result, uint64_t cells, uint32_t sampleCount);
+  static void checkPlausible(const UnitResult& result, uint64_t cells, uint32_t sampleCount, const AovLayout& aovs);
   void enforceDeadlines();  // requires mutex_
 
   // ---- the cross-worker audit (auditing.cpp, docs/farm.md "Audit"); all but acceptAudit

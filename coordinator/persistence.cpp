@@ -199,7 +199,8 @@ void Coordinator::restore() {
       r.stats = entry.stats;
       r.buffer.width = scene.render.width;  // the counts are the coordinator's (drainInOrder)
       r.buffer.height = scene.render.height;
-      r.buffer.sums = store_->loadUnitSums(job->id, entry.unit, size_t(scene.render.width) * scene.render.height * 3);
+      r.buffer.channels = job->layout.channels;
+      r.buffer.sums = store_->loadUnitSums(job->id, entry.unit, job->layout.sumsOf(entry.unit));
       job->film->restoreWaiting(std::move(r));
     }
     job->film->drain();

@@ -71,17 +71,22 @@ bool Coordinator::acceptResult(const UnitResult& result) { return accept(result,
 // one sample per pass), so each cell's sum lies in [0, sampleCount x FLT_MAX] and the image's
 // mean stays a finite float; one camera path is traced per cell and sample, and lights hit and
 // samples dropped are among those paths. Anything else did not come from the renderer.
-void Coordinator::checkPlausible(const UnitResult& result, uint64_t cells, uint32_t sampleCount) {
+void Coordinator::checkPlausible(const UnitResult& result, uint64_t cells, uint32_t sampleCount, const AovLayout& aovs) {
   const std::string what = "result for unit " + std::to_string(result.unitIndex) + " of " + result.jobId;
-  const double most = double(sampleCount) * double(std::numeric_limits<float>::max());
+  // Each channel's range (film/aov_layout.h: the beauty's RGB, then the AOVs' sums).
+  const int channels = aovs.channels;
+  std::vector<double> lo(static_cast<size_t>(channels)), hi(static_cast<size_t>(channels));
+  for (int c = 0; c < channels; ++c) aovSumRange(aovs, c, sampleCount, lo[size_t(c)], hi[size_t(c)]);
   const std::vector<double>& sums = result.buffer.sums;
-  for (size_t k = 0; k < sums.size(); ++k)
-    if (!(sums[k] >= 0.0 && sums[k] <= most))  // (false for NaN too)
+  for (size_t k = 0; k < sums.size(); ++k) {
+    const size_t c = k % size_t(channels);
+    if (!(sums[k] >= lo[c] && sums[k] <= hi[c]))  // (false for NaN too)
       throw FarmError(FarmError::Kind::kInvalidArgument,
                       what + " holds " + (std::isfinite(sums[k]) ? std::to_string(sums[k]) : std::string("a non-finite sum")) +
-                          " at cell " + std::to_string(k / 3) + ": a unit of " + std::to_string(sampleCount) +
-                          " samples sums each channel of a cell to a value in [0, " + std::to_string(sampleCount) +
-                          " x 3.4e38]");
+                          " at cell " + std::to_string(k / size_t(channels)) + " sum " + std::to_string(c) +
+                          ": a unit of " + std::to_string(sampleCount) + " samples sums it to a value in [" +
+                          std::to_string(lo[c]) + ", " + std::to_string(hi[c]) + "]");
+  }
   const uint64_t paths = cells * sampleCount;
   const PathStats& s = result.stats;
   if (s.paths != paths)
@@ -97,7 +102,7 @@ void Coordinator::checkPlausible(const UnitResult& result, uint64_t cells, uint3
 }
 
 void Coordinator::admitUpload(const std::string& workerId, uint64_t leaseId, const std::string& jobId, uint64_t unit,
-                              int width, int height) const {
+                              int width, int height, int channels) const {
   std::lock_guard lock(mutex_);
   const Job& job = findJob(jobId);
   if (unit >= job.units.total())
@@ -110,6 +115,11 @@ void Coordinator::admitUpload(const std::string& workerId, uint64_t leaseId, con
   const PixelRegion region = job.layout.regionOf(unit);
   if (width != region.width || height != region.height)
     throw FarmError(FarmError::Kind::kInvalidArgument, wrongSize(job.id, unit, width, height, region));
+  if (channels != job.layout.channels)
+    throw FarmError(FarmError::Kind::kInvalidArgument,
+                    "result for unit " + std::to_string(unit) + " of " + job.id + " carries " + std::to_string(channels) +
+                        " sums a cell; the job's AOVs (" + aovListText(AovLayout(job.settings.aovs).set) + ") make " +
+                        std::to_string(job.layout.channels));
 }
 
 bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
@@ -119,16 +129,18 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
   {
     PixelRegion region;
     uint32_t sampleCount = 0;
+    AovLayout aovs;
     {
       std::lock_guard lock(mutex_);
       const Job& found = findJob(result.jobId);
       if (result.unitIndex < found.units.total()) {
         sampleCount = found.layout.unit(result.unitIndex).sampleCount;
         region = found.layout.regionOf(result.unitIndex);
+        aovs = AovLayout(found.settings.aovs);
       }
     }
     if (sampleCount > 0 && result.buffer.width == region.width && result.buffer.height == region.height)
-      checkPlausible(result, uint64_t(region.width) * uint64_t(region.height), sampleCount);
+      checkPlausible(result, uint64_t(region.width) * uint64_t(region.height), sampleCount, aovs);
   }
   Job* job;
   JobPin pin;  // not deleted or archived while its result is summed (lifecycle.cpp); outlives the locks below
@@ -154,10 +166,15 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
                                                                 result.jobId + " is not held by " + result.workerId);
     if (!auditLease) {
       const PixelRegion region = job->layout.regionOf(result.unitIndex);
-      if (result.buffer.width != region.width || result.buffer.height != region.height ||
-          result.buffer.sums.size() != size_t(region.width) * size_t(region.height) * 3)
+      if (result.buffer.width != region.width || result.buffer.height != region.height)
         throw FarmError(FarmError::Kind::kInvalidArgument,
                         wrongSize(job->id, result.unitIndex, result.buffer.width, result.buffer.height, region));
+      if (result.buffer.sums.size() != job->layout.sumsOf(result.unitIndex))
+        throw FarmError(FarmError::Kind::kInvalidArgument,
+                        "result for unit " + std::to_string(result.unitIndex) + " of " + job->id + " carries " +
+                            std::to_string(result.buffer.sums.size()) + " sums; its region holds " +
+                            std::to_string(job->layout.sumsOf(result.unitIndex)) + " (" +
+                            std::to_string(job->layout.channels) + " a cell: RGB and the job's AOVs)");
       Worker& worker = findWorker(result.workerId);
       workerName = worker.info.name.empty() ? worker.id : worker.info.name;
       leases_.erase(result.leaseId);

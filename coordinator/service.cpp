@@ -374,7 +374,7 @@ grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext* context, grpc:
         const v1::ResultHeader& h = message.header();
         coordinator_.authenticateWorker(h.worker_id(), h.session());
         coordinator_.admitUpload(h.worker_id(), h.lease_id(), h.job_id(), h.unit_index(), int(h.width()),
-                                 int(h.height()));
+                                 int(h.height()), h.channels() == 0 ? 3 : int(std::min<uint32_t>(h.channels(), 1u << 20)));
       }
       first = false;
       assembler.add(message);

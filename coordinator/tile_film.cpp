@@ -6,13 +6,15 @@
 
 namespace lensfarm {
 
-TileFilm::TileFilm(JobLayout layout) : layout_(std::move(layout)), tilesDone_(layout_.frameCount(), 0) {}
+TileFilm::TileFilm(JobLayout layout, AovLayout aovs)
+    : layout_(std::move(layout)), aovs_(aovs), tilesDone_(layout_.frameCount(), 0) {}
 
 TileFilm::Frame& TileFilm::frame(uint64_t frameIndex) {
   auto it = held_.find(frameIndex);
   if (it != held_.end()) return it->second;
   Frame f;
   f.image = Image{layout_.width, layout_.height, std::vector<float>(size_t(layout_.width) * layout_.height * 3, 0.0f)};
+  if (aovs_.any()) f.image.layers = aovLayers(aovs_, layout_.width, layout_.height);
   f.workerOf.resize(layout_.unitsPerFrame());
   return held_.emplace(frameIndex, std::move(f)).first->second;
 }
@@ -33,13 +35,15 @@ bool TileFilm::write(uint64_t u, const SensorBuffer& buffer, const std::string& 
   // Sensor::mean and developImage, cell by cell: mean = value * (1 / n); image pixel (x, y) is
   // cell (W-1-x, H-1-y) (seed §4.7: the lens flips both axes).
   const double inv = 1.0 / double(layout_.samplesPerPixel);
+  const size_t stride = size_t(aovs_.channels);
   for (int j = 0; j < r.height; ++j) {
     const int cy = r.y + j;
     for (int i = 0; i < r.width; ++i) {
       const int cx = r.x + i;
-      const size_t src = 3 * (size_t(j) * size_t(r.width) + size_t(i));
-      const size_t dst = 3 * (size_t(h - 1 - cy) * size_t(w) + size_t(w - 1 - cx));
-      for (int c = 0; c < 3; ++c) fr.image.rgb[dst + c] = float(buffer.sums[src + c] * inv);
+      const size_t src = stride * (size_t(j) * size_t(r.width) + size_t(i));
+      const size_t pixel = size_t(h - 1 - cy) * size_t(w) + size_t(w - 1 - cx);
+      for (int c = 0; c < 3; ++c) fr.image.rgb[3 * pixel + c] = float(buffer.sums[src + c] * inv);
+      if (aovs_.any()) developAovPixel(aovs_, &buffer.sums[src], layout_.samplesPerPixel, pixel, fr.image.layers);
     }
   }
   fr.workerOf[u % layout_.unitsPerFrame()] = worker.empty() ? std::string("?") : worker;

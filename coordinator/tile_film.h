@@ -29,7 +29,8 @@ namespace lensfarm {
 
 class TileFilm {
  public:
-  explicit TileFilm(JobLayout layout);
+  // `aovs`: the AOV layers developed beside the beauty (film/aov_layout.h; layout.channels sums a cell).
+  explicit TileFilm(JobLayout layout, AovLayout aovs = AovLayout());
 
   const JobLayout& layout() const { return layout_; }
   // Writes unit `u`'s sums (its region's cells; the caller checked the size) into its frame,
@@ -73,6 +74,7 @@ class TileFilm {
   Frame& frame(uint64_t frameIndex);
 
   JobLayout layout_;
+  AovLayout aovs_;
   std::map<uint64_t, Frame> held_;       // frames with tiles in, not yet handed over
   std::vector<uint32_t> tilesDone_;      // per frame
   std::set<uint64_t> completeFrames_;    // handed over (or restored): every tile counts

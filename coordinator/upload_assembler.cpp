@@ -27,7 +27,11 @@ void UploadAssembler::add(const v1::UploadResultRequest& piece) {
     result_.leaseId = h.lease_id();
     result_.jobId = h.job_id();
     result_.unitIndex = h.unit_index();
-    result_.buffer = SensorBuffer(int(h.width()), int(h.height()));
+    const uint32_t channels = h.channels() == 0 ? 3 : h.channels();
+    if (channels < 3 || channels > kMaxChannels)
+      refuse("bad channel count " + std::to_string(h.channels()) + " (3 to " + std::to_string(kMaxChannels) +
+             " sums a cell, or 0 for 3)");
+    result_.buffer = SensorBuffer(int(h.width()), int(h.height()), int(channels));
     result_.stats = proto::fromProto(h.stats());
     result_.renderSeconds = h.stats().render_seconds();
     if (h.encoding() != v1::SUMS_ENCODING_RAW && h.encoding() != v1::SUMS_ENCODING_SHUFFLE_ZSTD)

@@ -42,6 +42,7 @@ class AssetUploadAssembler {
 
 class UploadAssembler {
  public:
+  static constexpr uint32_t kMaxChannels = 64;  // sums a cell (ResultHeader.channels)
   // Throws FarmError(kInvalidArgument) naming what is wrong. Raw pieces are copied, compressed
   // ones (SUMS_ENCODING_SHUFFLE_ZSTD) decoded straight into the unit's buffer at their offset,
   // one block at a time: memory is the unit's buffer and one block, whatever a piece claims.

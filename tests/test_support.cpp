@@ -139,7 +139,7 @@ json closedBoxSceneJson(const json& wallMaterial, int resolution, uint64_t spp, 
 
 Rendered renderScene(const Scene& scene, int threads) {
   const RenderScene rs(scene);
-  Sensor sensor(scene.render.width, scene.render.height);
+  Sensor sensor(scene.render.width, scene.render.height, rs.aovLayout().channels);
   Rendered out;
   tbb::task_arena arena{threads};
   const uint32_t perUnit = unitSize(scene.render);
@@ -148,7 +148,7 @@ Rendered renderScene(const Scene& scene, int threads) {
     arena.execute([&] { renderUnit(rs, unitAt(k, scene.render.samplesPerPixel, perUnit), buffer, out.stats); });
     sensor.add(buffer);
   }
-  out.image = sensor.developImage();
+  out.image = sensor.developImage(rs.aovLayout());
   const size_t pixels = size_t(out.image.width) * out.image.height;
   for (size_t k = 0; k < pixels; ++k)
     for (int c = 0; c < 3; ++c) out.mean[c] += out.image.rgb[3 * k + c] / double(pixels);

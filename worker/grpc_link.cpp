@@ -238,6 +238,7 @@ bool GrpcCoordinatorLink::upload(const UnitResult& result) {
       h->set_unit_index(result.unitIndex);
       h->set_width(uint32_t(result.buffer.width));
       h->set_height(uint32_t(result.buffer.height));
+      if (result.buffer.channels != 3) h->set_channels(uint32_t(result.buffer.channels));
       *h->mutable_stats() = proto::toProto(result.stats, result.renderSeconds);
       h->set_encoding(compress ? v1::SUMS_ENCODING_SHUFFLE_ZSTD : v1::SUMS_ENCODING_RAW);
     }

@@ -12,6 +12,7 @@ JobLayout JobLayout::of(const RenderSettings& s, const std::optional<FrameRange>
   l.passSamples = unitSize(s);
   l.tileSize = s.tileSize > 0 ? std::min(s.tileSize, std::max(s.width, s.height)) : 0;
   l.frames = frames;
+  l.channels = AovLayout(s.aovs).channels;
   return l;
 }
 
@@ -42,7 +43,7 @@ WorkUnit JobLayout::unit(uint64_t u) const {
 
 uint64_t JobLayout::sumsOf(uint64_t u) const {
   const PixelRegion r = regionOf(u);
-  return uint64_t(r.width) * uint64_t(r.height) * 3;
+  return uint64_t(r.width) * uint64_t(r.height) * uint64_t(channels);
 }
 
 int resolveTileSize(const RenderSettings& s, const std::optional<FrameRange>& frames, uint32_t workers) {

@@ -32,6 +32,7 @@ struct JobLayout {
   uint32_t passSamples = 1;  // unitSize(settings): the samples of one pass
   int tileSize = 0;          // 0: units are passes; N: units are tiles of N x N (edge tiles smaller)
   std::optional<FrameRange> frames;  // unset: a still
+  int channels = 3;          // sums per cell: the beauty's RGB and the AOVs' (film/aov_layout.h)
 
   // The layout of a job with these (resolved) settings: RenderSettings::tileSize must not be
   // kTilesAuto (resolveTileSize decides that).
@@ -50,7 +51,7 @@ struct JobLayout {
   WorkUnit unit(uint64_t u) const;
   // The cells unit `u` covers (the whole frame for a pass).
   PixelRegion regionOf(uint64_t u) const;
-  // The doubles a unit's upload carries (3 per cell of its region).
+  // The doubles a unit's upload carries (`channels` per cell of its region).
   uint64_t sumsOf(uint64_t u) const;
 };
 

@@ -21,10 +21,13 @@ void ConvergenceTracker::add(uint64_t unitIndex, const SensorBuffer& unit) {
 }
 
 void ConvergenceTracker::add(uint64_t unitIndex, const SensorBuffer& unit, uint32_t samplesPerCell) {
-  if (unit.width != width_ || unit.height != height_ || unit.sums.size() != evenSums_.size())
+  // The beauty's RGB only: the first 3 of each cell's sums (film/sensor.h), however many it has.
+  const size_t stride = unit.cells() ? unit.sums.size() / unit.cells() : 3;
+  if (unit.width != width_ || unit.height != height_ || stride < 3 || unit.sums.size() != unit.cells() * stride)
     throw std::invalid_argument("ConvergenceTracker::add: buffer size differs from the tracker's");
   if (unitIndex % 2 != 0) return;
-  for (size_t k = 0; k < evenSums_.size(); ++k) evenSums_[k] += unit.sums[k];
+  for (size_t c = 0; c < unit.cells(); ++c)
+    for (size_t k = 0; k < 3; ++k) evenSums_[3 * c + k] += unit.sums[stride * c + k];
   evenSamples_ += samplesPerCell;
 }
 

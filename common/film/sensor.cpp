@@ -6,10 +6,12 @@
 
 namespace lensfarm {
 
-Sensor::Sensor(int width, int height) : width_(width), height_(height), sums_(size_t(width) * height * 3) {}
+Sensor::Sensor(int width, int height, int channels)
+    : width_(width), height_(height), channels_(channels), sums_(size_t(width) * height * size_t(channels)) {}
 
 void Sensor::add(const SensorBuffer& unit) {
-  if (unit.width != width_ || unit.height != height_ || unit.samples.size() != unit.cells())
+  if (unit.width != width_ || unit.height != height_ || unit.samples.size() != unit.cells() ||
+      unit.sums.size() != sums_.size())
     throw std::invalid_argument("Sensor::add: buffer size differs from the sensor's");
   for (size_t k = 0; k < sums_.size(); ++k) sums_[k].add(unit.sums[k]);
   addCounts(unit);
@@ -47,27 +49,37 @@ void Sensor::addCounts(const SensorBuffer& unit) {
 DVec3 Sensor::mean(int i, int j) const {
   const uint64_t n = samples(i, j);
   if (n == 0) return DVec3(0.0);
-  const size_t c = size_t(j) * width_ + i;
+  const size_t c = (size_t(j) * width_ + i) * size_t(channels_);
   const double inv = 1.0 / double(n);
-  return DVec3(sums_[3 * c].value(), sums_[3 * c + 1].value(), sums_[3 * c + 2].value()) * inv;
+  return DVec3(sums_[c].value(), sums_[c + 1].value(), sums_[c + 2].value()) * inv;
 }
 
-Image Sensor::developImage() const {
+Image Sensor::developImage(const AovLayout& layout) const {
+  if (layout.channels != channels_) throw std::invalid_argument("Sensor::developImage: the AOV layout is not the sensor's");
   Image image{width_, height_, std::vector<float>(size_t(width_) * height_ * 3)};
+  if (layout.any()) image.layers = aovLayers(layout, width_, height_);
+  std::vector<double> cell(static_cast<size_t>(channels_));
   for (int y = 0; y < height_; ++y) {
     for (int x = 0; x < width_; ++x) {
-      const DVec3 m = mean(width_ - 1 - x, height_ - 1 - y);  // seed §4.7: the lens flips both axes
-      const size_t k = 3 * (size_t(y) * width_ + x);
+      const int i = width_ - 1 - x, j = height_ - 1 - y;  // seed §4.7: the lens flips both axes
+      const DVec3 m = mean(i, j);
+      const size_t pixel = size_t(y) * width_ + x, k = 3 * pixel;
       image.rgb[k] = float(m.x);
       image.rgb[k + 1] = float(m.y);
       image.rgb[k + 2] = float(m.z);
+      if (!layout.any()) continue;
+      const size_t at = (size_t(j) * width_ + i) * size_t(channels_);
+      for (size_t v = 0; v < cell.size(); ++v) cell[v] = sums_[at + v].value();
+      developAovPixel(layout, cell.data(), samples(i, j), pixel, image.layers);
     }
   }
   return image;
 }
 
 namespace {
+// Version 1 held 3 sums a cell; version 2 names its channels after the size.
 constexpr char kMagic[8] = {'L', 'F', 'S', 'E', 'N', 'S', '1', '\0'};
+constexpr char kMagic2[8] = {'L', 'F', 'S', 'E', 'N', 'S', '2', '\0'};
 
 template <class T>
 void put(std::string& out, const T& v) {
@@ -87,9 +99,10 @@ std::string Sensor::serialize() const {
   std::string out;
   const size_t cells = size_t(width_) * size_t(height_);
   out.reserve(sizeof kMagic + 16 + sums_.size() * 16 + cells * 8);
-  out.append(kMagic, sizeof kMagic);
+  out.append(channels_ == 3 ? kMagic : kMagic2, sizeof kMagic);
   put(out, int32_t(width_));
   put(out, int32_t(height_));
+  if (channels_ != 3) put(out, int32_t(channels_));
   put(out, totalSamples_);
   for (const CompensatedSum& s : sums_) {
     put(out, s.runningSum());
@@ -105,12 +118,15 @@ std::string Sensor::serialize() const {
 }
 
 Sensor Sensor::deserialize(const std::string& bytes) {
-  if (bytes.size() < sizeof kMagic || std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0)
-    throw std::runtime_error("not a lensfarm sensor checkpoint");
+  const bool v1 = bytes.size() >= sizeof kMagic && std::memcmp(bytes.data(), kMagic, sizeof kMagic) == 0;
+  const bool v2 = bytes.size() >= sizeof kMagic2 && std::memcmp(bytes.data(), kMagic2, sizeof kMagic2) == 0;
+  if (!v1 && !v2) throw std::runtime_error("not a lensfarm sensor checkpoint");
   size_t offset = sizeof kMagic;
   const int32_t w = take<int32_t>(bytes, offset), h = take<int32_t>(bytes, offset);
+  const int32_t channels = v2 ? take<int32_t>(bytes, offset) : 3;
   if (w <= 0 || h <= 0 || int64_t(w) * h > (int64_t(1) << 28)) throw std::runtime_error("sensor checkpoint has a bad size");
-  Sensor sensor(w, h);
+  if (channels < 3 || channels > 64) throw std::runtime_error("sensor checkpoint has a bad channel count");
+  Sensor sensor(w, h, channels);
   sensor.totalSamples_ = take<uint64_t>(bytes, offset);
   const size_t cells = size_t(w) * size_t(h);
   if (bytes.size() != offset + sensor.sums_.size() * 16 + cells * 8)

@@ -5,12 +5,15 @@
 //  - Sensor is the accumulated result of many units. Each cell sums units with compensated
 //    (Neumaier) summation, so billions of samples lose no precision, and values are never
 //    clamped (the seed: "not limited to be less than one").
+//  - A cell holds `channels` sums: the beauty's RGB first, then the AOVs' (film/aov_layout.h),
+//    every one summed the same way.
 //  - Cells are indexed in sensor orientation (camera/thin_lens_camera.h); developImage() undoes
 //    the lens's flip and returns linear radiance as the viewer expects it, row 0 at the top.
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "film/aov_layout.h"
 #include "film/image.h"
 #include "math/compensated_sum.h"
 #include "math/vec.h"
@@ -19,11 +22,13 @@ namespace lensfarm {
 
 struct SensorBuffer {
   int width = 0, height = 0;
-  std::vector<double> sums;       // 3 per cell, RGB
+  int channels = 3;               // sums per cell: RGB, then the AOVs' (AovLayout::channels)
+  std::vector<double> sums;       // `channels` per cell
   std::vector<uint32_t> samples;  // per cell
 
   SensorBuffer() = default;
-  SensorBuffer(int w, int h) : width(w), height(h), sums(size_t(w) * h * 3, 0.0), samples(size_t(w) * h, 0) {}
+  SensorBuffer(int w, int h, int c = 3)
+      : width(w), height(h), channels(c), sums(size_t(w) * h * size_t(c), 0.0), samples(size_t(w) * h, 0) {}
   size_t cells() const { return size_t(width) * height; }
   // Bytes of frame-sized memory held (render/memory_estimate.h: kUnitBufferBytesPerCell a cell).
   uint64_t memoryBytes() const { return sums.capacity() * sizeof(double) + samples.capacity() * sizeof(uint32_t); }
@@ -31,7 +36,7 @@ struct SensorBuffer {
 
 class Sensor {
  public:
-  Sensor(int width, int height);
+  Sensor(int width, int height, int channels = 3);
 
   // Adds one unit's partial buffer. Callers add units in a canonical order (by unit index) so
   // that the result does not depend on which unit finished first.
@@ -42,16 +47,18 @@ class Sensor {
 
   int width() const { return width_; }
   int height() const { return height_; }
+  int channels() const { return channels_; }
   uint64_t totalSamples() const { return totalSamples_; }
   uint64_t samples(int i, int j) const { return samples_.empty() ? uniformSamples_ : samples_[size_t(j) * width_ + i]; }
-  // The compensated sum of value k (cell k / 3, channel k % 3) as it stands: what a tile unit
+  // The compensated sum of value k (cell k / channels, channel k % channels) as it stands: what a tile unit
   // uploads after folding its passes (render/unit_renderer.cpp).
   double sum(size_t k) const { return sums_[k].value(); }
   // Mean radiance of cell (i, j) in sensor orientation; zero before any sample.
   DVec3 mean(int i, int j) const;
 
-  // Mean radiance per pixel, the lens flip undone (image pixel (x, y) = cell (W-1-x, H-1-y)).
-  Image developImage() const;
+  // Mean radiance per pixel, the lens flip undone (image pixel (x, y) = cell (W-1-x, H-1-y)), with
+  // the AOV layers `layout` describes (its channels must be the sensor's).
+  Image developImage(const AovLayout& layout = AovLayout()) const;
 
   // The sensor's exact state as bytes (native little-endian doubles), and back: a restored
   // sensor continues to accumulate bit for bit as if it had never been saved. deserialize
@@ -64,8 +71,8 @@ class Sensor {
 
  private:
   void addCounts(const SensorBuffer& unit);
-  int width_, height_;
-  std::vector<CompensatedSum> sums_;  // 3 per cell
+  int width_, height_, channels_;
+  std::vector<CompensatedSum> sums_;  // channels_ per cell
   // Samples per cell. Units cover the whole frame, so every cell holds the same count: one number
   // while that holds (always, in a job), per-cell counts (8 bytes a cell) only once a buffer gave
   // cells different counts.

@@ -277,9 +277,10 @@ bool traceLightPaths(const RenderScene &rs, const WorkUnit &unit,
   const double scale = double(unit.sampleCount) / double(particles);
   for (const auto &chunk : splats)
     for (const Splat &sp : chunk) {
-      out.sums[3 * sp.cell] += scale * double(sp.value.r);
-      out.sums[3 * sp.cell + 1] += scale * double(sp.value.g);
-      out.sums[3 * sp.cell + 2] += scale * double(sp.value.b);
+      const size_t at = size_t(out.channels) * sp.cell;  // the beauty's RGB (no AOV sees a splat)
+      out.sums[at] += scale * double(sp.value.r);
+      out.sums[at + 1] += scale * double(sp.value.g);
+      out.sums[at + 2] += scale * double(sp.value.b);
     }
   return true;
 }

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "camera/thin_lens_camera.h"
+#include "film/aov_layout.h"
 #include "light/light_sampler.h"
 #include "render/ray_caster.h"
 #include "scene/effects.h"
@@ -27,7 +28,8 @@ class RenderScene {
                               : effects_.lightTracing),
         caster_(scene),
         lights_(scene, caster_, effects_.lightUseful, scene.render.integrator == IntegratorKind::kNaive),
-        hasEscapeLights_(!lights_.escapeLights().empty()) {
+        hasEscapeLights_(!lights_.escapeLights().empty()),
+        aovLayout_(scene.render.aovs) {
     // Materials with textures, and those of meshes with vertex normals, are shaded per point
     // (render/shading_point.h), by the one-path vertex code.
     shaded_.assign(scene.materials.size(), 0);
@@ -74,6 +76,8 @@ class RenderScene {
   bool shaded(uint32_t id) const { return shaded_[id] != 0; }
   // The angle one pixel subtends at the lens (for texture footprints, render/shading_point.h).
   float pixelAngle() const { return pixelAngle_; }
+  // Where the AOVs the scene asks for sit in a sensor cell (film/aov_layout.h).
+  const AovLayout& aovLayout() const { return aovLayout_; }
   // What the packet tracer's lane loops read of each material (render/integrator.cpp): its
   // Lambertian albedo and Material's predicates as masks (~0u where true, 0 where false);
   // `general`: a model beyond Lambertian, which the one-path vertex code shades.
@@ -94,6 +98,7 @@ class RenderScene {
   RayCaster caster_;
   LightSampler lights_;
   bool hasEscapeLights_;
+  AovLayout aovLayout_;
   std::vector<MaterialRecord> materialRecords_;
   std::vector<uint8_t> shaded_;
   float pixelAngle_ = 0.0f;

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "camera/spectral_response.h"
+#include "render/aov_tracer.h"
 #include "render/integrator.h"
 #include "render/light_tracer.h"
 #include "scene/scene_loader.h"  // kMaxBounces
@@ -56,7 +57,9 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
   // The cells rendered: the unit's region, or the whole frame. Random numbers are keyed by the
   // frame's pixel index, so a cell's samples are the same bits in a tile and in the frame.
   const PixelRegion region = unit.region.empty() ? PixelRegion{0, 0, width, height} : unit.region;
-  out = SensorBuffer(region.width, region.height);
+  const AovLayout& aovs = rs.aovLayout();
+  out = SensorBuffer(region.width, region.height, aovs.channels);
+  const size_t stride = size_t(aovs.channels);
   tbb::combinable<PathStats> threadStats;
   std::atomic<bool> cancelled{false};
 #if defined(__SSE__)
@@ -78,7 +81,7 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
     uint64_t cellOf[kPacketWidth];   // the cell of `out`
     int column[kPacketWidth];
     alignas(64) float u0[kPacketWidth], u1[kPacketWidth], lens0[kPacketWidth], lens1[kPacketWidth];
-    [[maybe_unused]] uint64_t sampleOf[kPacketWidth];  // spectral: each lane's sample index
+    uint64_t sampleOf[kPacketWidth];  // each lane's sample index
     for (int j = rows.begin(); j != rows.end(); ++j) {
       if (cancel && cancel->load(std::memory_order_relaxed)) {
         cancelled = true;
@@ -99,7 +102,7 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
           cellOf[k] = rowCell + uint64_t(i);
           packet.rng[k] = SampleStream(sampler, pixelOf[k], s);
           column[k] = i;
-          if constexpr (kCamera == kRealLensSpectral) sampleOf[k] = s;
+          sampleOf[k] = s;
           if (++sampleInPixel == unit.sampleCount) {
             sampleInPixel = 0;
             ++i;
@@ -144,6 +147,7 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
               ++local.paths;
               continue;
             }
+            if (aovs.geometric()) addGeometricAovs(rs, aovs, *ray, sampleOf[k] == 0, &out.sums[stride * cellOf[k]]);
             laneOf[live.count] = k;
             weight[live.count] = w;
             live.cameraRays.set(live.count, *ray);
@@ -177,6 +181,9 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
           } else {
             camera.generatePinholeRays(column, j, u0, u1, packet.cameraRays);
           }
+          if (aovs.geometric())
+            for (int k = 0; k < packet.count; ++k)
+              addGeometricAovs(rs, aovs, packet.cameraRays.ray(k), sampleOf[k] == 0, &out.sums[stride * cellOf[k]]);
           if (grouping == RayGrouping::kPackets)
             tracePacket<kNee, kGeneral>(rs, packet, radiance, local);
           else
@@ -195,9 +202,15 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
             ++local.dropped;  // counted as a sample of zero, never written (design.md invariant)
             continue;
           }
-          out.sums[3 * cellOf[k]] += l.r;
-          out.sums[3 * cellOf[k] + 1] += l.g;
-          out.sums[3 * cellOf[k] + 2] += l.b;
+          double* cell = &out.sums[stride * cellOf[k]];
+          cell[0] += l.r;
+          cell[1] += l.g;
+          cell[2] += l.b;
+          if (aovs.variance >= 0) {  // sums of squares, for the variance AOV
+            cell[aovs.variance] += double(l.r) * double(l.r);
+            cell[aovs.variance + 1] += double(l.g) * double(l.g);
+            cell[aovs.variance + 2] += double(l.b) * double(l.b);
+          }
         }
       }
       for (int x = 0; x < region.width; ++x) out.samples[uint64_t(j - region.y) * uint64_t(region.width) + uint64_t(x)] = unit.sampleCount;
@@ -261,11 +274,11 @@ bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
     p.sampleCount = uint32_t(std::min<uint64_t>(unit.passSamples, unit.sampleCount - done));
     p.passSamples = 0;
     if (!renderPass(rs, p, pass, stats, cancel, grouping)) return false;
-    if (!sums) sums.emplace(pass.width, pass.height);
+    if (!sums) sums.emplace(pass.width, pass.height, pass.channels);
     sums->add(pass, p.sampleCount);
     done += p.sampleCount;
   }
-  out = SensorBuffer(pass.width, pass.height);
+  out = SensorBuffer(pass.width, pass.height, pass.channels);
   for (size_t k = 0; k < out.sums.size(); ++k) out.sums[k] = sums->sum(k);
   std::fill(out.samples.begin(), out.samples.end(), unit.sampleCount);
   return true;

@@ -36,6 +36,18 @@ void parseTileSize(const std::string& text, RenderOverrides& o, const std::strin
   o.tileSize = std::stoi(text);
 }
 
+void parseAovs(const std::vector<std::string>& lists, RenderOverrides& o, const std::string& flag) {
+  AovSet all;
+  for (const std::string& list : lists) {
+    AovSet set;
+    std::string bad;
+    if (!parseAovList(list, set, &bad))
+      throw InputError(flag, "unknown AOV \"" + bad + "\" (expected " + aovNames() + ")");
+    all.bits |= set.bits;
+  }
+  o.aovs = all;
+}
+
 void applyOverrides(const RenderOverrides& o, RenderSettings& s, const std::string& where) {
   // A resolution is overridden whole: one side alone would pair with the scene's other side and
   // change the aspect ratio (a 64-wide override of a 512x512 scene would render 64x512).
@@ -62,6 +74,7 @@ void applyOverrides(const RenderOverrides& o, RenderSettings& s, const std::stri
   if (o.timeLimitSeconds) s.timeLimitSeconds = *o.timeLimitSeconds;
   if (o.ev) s.exposure.ev = *o.ev;
   if (o.tileSize) s.tileSize = *o.tileSize;
+  if (o.aovs) s.aovs = *o.aovs;
   validateRenderSettings(s, where);
 }
 

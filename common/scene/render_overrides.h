@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "scene/scene.h"
 
@@ -23,7 +24,11 @@ struct RenderOverrides {
   std::optional<double> ev;
   // RenderSettings::tileSize: kTilesAuto, kTilesOff or an edge in pixels (at least 1).
   std::optional<int> tileSize;
+  std::optional<AovSet> aovs;  // replaces render.aovs (docs/aovs.md)
 };
+
+// Parses AOV lists ("albedo,normal", each a --aov value) into `o`; throws InputError naming `flag`.
+void parseAovs(const std::vector<std::string>& lists, RenderOverrides& o, const std::string& flag = "--aov");
 
 // Parses "auto", "off" or a tile edge in pixels (at least 1) into `o`; throws InputError naming
 // `flag` ("--tile-size 0: ...").

@@ -13,6 +13,7 @@
 
 #include "camera/real_lens_camera.h"
 #include "camera/thin_lens_camera.h"
+#include "film/aov_layout.h"
 #include "light/light_source.h"
 #include "material/material.h"
 #include "math/vec.h"
@@ -134,6 +135,7 @@ struct RenderSettings {
   RouletteRule roulette = kDefaultRoulette;
   int rouletteMinBounces = 1;
   LightTracingMode lightTracing = LightTracingMode::kAuto;  // render/light_tracer.h
+  AovSet aovs;                        // outputs beside the beauty (film/aov_layout.h, docs/aovs.md)
   double lightTracingRatio = 0.25;    // light paths per camera path (pixel-sample) of a unit
   // Stopping rules besides samplesPerPixel (which is then a cap); 0 = not set. See docs/accuracy.md.
   double targetError = 0.0;           // stop when the estimated relative RMSE falls to this

@@ -131,6 +131,24 @@ class SceneParser {
     else
       r.fail("render.light_tracing", "unknown mode \"" + lightTracing + "\" (expected auto, on or off)");
     s.lightTracingRatio = r.number("light_tracing_ratio", 0.25, 1e-6, 64.0);
+    if (r.has("aovs")) {
+      // A list of names (or one comma-separated string), docs/aovs.md.
+      const json& list = r.raw("aovs");
+      std::string text;
+      if (list.is_string()) {
+        text = list.get<std::string>();
+      } else if (list.is_array()) {
+        for (const json& name : list) {
+          if (!name.is_string()) r.fail("render.aovs", "must be a list of AOV names, got " + name.dump() + " in it");
+          text += (text.empty() ? "" : ",") + name.get<std::string>();
+        }
+      } else {
+        r.fail("render.aovs", "must be a list of AOV names (" + aovNames() + "), got " + list.dump());
+      }
+      std::string bad;
+      if (!parseAovList(text, s.aovs, &bad))
+        r.fail("render.aovs", "unknown AOV \"" + bad + "\" (expected " + aovNames() + ")");
+    }
     s.targetError = r.number("target_error", 0.0, 0.0, 0.999);
     s.timeLimitSeconds = r.number("time_limit", 0.0, 0.0, 1e9);
     s.mirrorBouncesCount = r.boolean("mirror_bounces_count", false);

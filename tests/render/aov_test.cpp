@@ -1,0 +1,209 @@
+// AOVs (docs/aovs.md, film/aov_layout.h): each has its analytic value on a scene whose answer is
+// known, the variance AOV agrees with a second estimator (the spread of independent renders),
+// the beauty's bits do not change when AOVs are asked for, and bad names are refused by name.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "film/image_io.h"
+#include "render/render_scene.h"
+#include "test_support.h"
+#include "util/error.h"
+
+namespace lensfarm {
+namespace {
+
+using nlohmann::json;
+
+// minimalSceneJson: a pinhole at z = -3 looking down +z at a 2 x 2 Lambertian quad (albedo 0.5)
+// in the plane z = 0, lit by a quad light the camera does not see. The quad fills the middle of
+// the 16 x 16 frame (half-width 1 of the 1.5 the view spans at the wall): pixels 3..12.
+json wallScene(const std::vector<std::string>& aovs) {
+  json scene = test::minimalSceneJson();
+  scene["render"]["aovs"] = aovs;
+  scene["render"]["samples_per_pixel"] = 8;
+  return scene;
+}
+
+float layerAt(const Image& image, const std::string& layer, int x, int y, size_t c) {
+  const ImageLayer* l = image.layer(layer);
+  EXPECT_NE(l, nullptr) << layer;
+  return l ? l->at(x, y, image.width, c) : std::numeric_limits<float>::quiet_NaN();
+}
+
+TEST(Aov, AWallsAlbedoNormalDepthAndIdsAreTheirAnalyticValues) {
+  test::TempDir dir;
+  const test::Rendered r = test::renderScene(test::loadSceneJson(
+      dir, wallScene({"albedo", "normal", "depth", "samples", "object_id", "material_id"})));
+  const Image& image = r.image;
+  ASSERT_EQ(image.layers.size(), 6u);
+  for (int y = 4; y <= 11; ++y)
+    for (int x = 4; x <= 11; ++x) {
+      for (size_t c = 0; c < 3; ++c) EXPECT_EQ(layerAt(image, "albedo", x, y, c), 0.5f) << x << "," << y;
+      // The wall's normal is +-z; the side the camera sees is -z.
+      EXPECT_EQ(layerAt(image, "normal", x, y, 0), 0.0f);
+      EXPECT_EQ(layerAt(image, "normal", x, y, 1), 0.0f);
+      EXPECT_EQ(layerAt(image, "normal", x, y, 2), -1.0f);
+      // Planar depth: the wall is perpendicular to the axis, 3 from the camera, in every pixel.
+      EXPECT_NEAR(layerAt(image, "", x, y, 0), 3.0f, 3e-6f) << x << "," << y;
+      EXPECT_EQ(layerAt(image, "samples", x, y, 0), 8.0f);
+      EXPECT_EQ(layerAt(image, "object_id", x, y, 0), 1.0f) << "the first mesh";
+      EXPECT_EQ(layerAt(image, "material_id", x, y, 0), 1.0f) << "the first material";
+    }
+  // The corners see nothing: no albedo, no normal, infinite depth, id 0.
+  for (const auto& [x, y] : {std::pair{0, 0}, std::pair{15, 15}, std::pair{0, 15}}) {
+    EXPECT_EQ(layerAt(image, "albedo", x, y, 0), 0.0f);
+    EXPECT_EQ(layerAt(image, "normal", x, y, 2), 0.0f);
+    EXPECT_EQ(layerAt(image, "", x, y, 0), std::numeric_limits<float>::infinity());
+    EXPECT_EQ(layerAt(image, "object_id", x, y, 0), 0.0f);
+    EXPECT_EQ(layerAt(image, "material_id", x, y, 0), 0.0f);
+    EXPECT_EQ(layerAt(image, "samples", x, y, 0), 8.0f);
+  }
+}
+
+TEST(Aov, ATiltedWallsDepthIsPlanarAndItsNormalIsItsOwn) {
+  // A wall at z = 2 + 0.5 x: planar depth 5 + 0.5 x at each pixel centre's ray, normal
+  // (-0.5, 0, 1)/|.| turned to the camera; the quad's other side must give the same.
+  test::TempDir dir;
+  json scene = wallScene({"normal", "depth"});
+  scene["shapes"][0] = {{"type", "quad"}, {"corner", {-4, -4, 0}}, {"edge1", {0, 8, 0}}, {"edge2", {8, 0, 4}}, {"material", "white"}};
+  scene["render"]["samples_per_pixel"] = 64;
+  const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
+  const float k = 1.0f / std::sqrt(1.25f);
+  // The sensor's half-width over its distance behind the lens, focused on the look-at point 3 away.
+  const double halfWidth = 0.05 * (1.0 / 0.1 - 1.0 / 3.0);
+  // Which way image x runs along world X is the camera's business: take it from the first pixel.
+  const double sign = layerAt(r.image, "", 2, 8, 0) < 5.0f ? 1.0 : -1.0;
+  for (int x = 2; x < 14; ++x) {
+    EXPECT_NEAR(layerAt(r.image, "normal", x, 8, 0), 0.5f * k, 1e-5f) << x;
+    EXPECT_NEAR(layerAt(r.image, "normal", x, 8, 2), -k, 1e-5f) << x;
+    // A ray of slope t = X / d meets z = 2 + 0.5 X (d = z + 3) at d = 5 / (1 - 0.5 t); the pixel
+    // averages d over its width of slopes.
+    const double t0 = (double(x) - 8.0) / 8.0 * halfWidth, t1 = (double(x) + 1.0 - 8.0) / 8.0 * halfWidth;
+    double expected = 0.0;
+    for (int i = 0; i < 1000; ++i) expected += 5.0 / (1.0 - 0.5 * sign * (t0 + (t1 - t0) * (i + 0.5) / 1000.0)) / 1000.0;
+    EXPECT_NEAR(layerAt(r.image, "", x, 8, 0), expected, 0.002 * expected) << x;
+  }
+}
+
+TEST(Aov, TheVarianceLayerAgreesWithTheSpreadOfIndependentRenders) {
+  // Second estimator: the variance across 24 renders with independent seeds of each pixel's value.
+  test::TempDir dir;
+  json scene = wallScene({"variance"});
+  scene["render"]["sampler"] = "independent";  // samples within a pixel independent, as the formula assumes
+  Scene s = test::loadSceneJson(dir, scene);
+  const int renders = 24;
+  std::vector<double> sum, sumSq, aov;
+  for (int k = 0; k < renders; ++k) {
+    s.render.seed = 1000 + uint64_t(k);
+    const test::Rendered r = test::renderScene(s);
+    const ImageLayer* v = r.image.layer("variance");
+    ASSERT_NE(v, nullptr);
+    if (sum.empty()) sum.assign(r.image.rgb.size(), 0.0), sumSq.assign(r.image.rgb.size(), 0.0), aov.assign(r.image.rgb.size(), 0.0);
+    for (size_t i = 0; i < r.image.rgb.size(); ++i) {
+      sum[i] += r.image.rgb[i];
+      sumSq[i] += double(r.image.rgb[i]) * r.image.rgb[i];
+      aov[i] += v->values[i] / renders;
+    }
+  }
+  double spread = 0.0, estimated = 0.0;
+  for (size_t i = 0; i < sum.size(); ++i) {
+    const double m = sum[i] / renders;
+    spread += (sumSq[i] - renders * m * m) / (renders - 1);
+    estimated += aov[i];
+  }
+  ASSERT_GT(spread, 0.0);
+  EXPECT_NEAR(estimated / spread, 1.0, 0.1) << "mean variance AOV " << estimated << " vs spread " << spread;
+}
+
+TEST(Aov, TheBeautyKeepsItsBitsWithAovs) {
+  test::TempDir dir;
+  json plain = test::bundledSceneJson("cornell-glass-metal.json");
+  plain["render"]["resolution"] = {24, 24};
+  plain["render"]["samples_per_pixel"] = 4;
+  json withAovs = plain;
+  withAovs["render"]["aovs"] = {"albedo", "normal", "depth", "variance", "samples", "object_id", "material_id"};
+  const test::Rendered a = test::renderScene(test::loadSceneJson(dir, plain));
+  const test::Rendered b = test::renderScene(test::loadSceneJson(dir, withAovs));
+  EXPECT_TRUE(a.image.rgb == b.image.rgb);
+  EXPECT_EQ(a.stats.rays, b.stats.rays) << "the AOV pass is not counted among the path tracer's rays";
+  EXPECT_TRUE(a.image.layers.empty());
+  EXPECT_EQ(b.image.layers.size(), 7u);
+}
+
+TEST(Aov, SameBitsForAnyThreadCount) {
+  test::TempDir dir;
+  json scene = test::bundledSceneJson("cornell-glass-metal.json");
+  scene["render"]["resolution"] = {24, 24};
+  scene["render"]["samples_per_pixel"] = 4;
+  scene["render"]["aovs"] = {"albedo", "normal", "depth", "variance"};
+  const Scene s = test::loadSceneJson(dir, scene);
+  const test::Rendered one = test::renderScene(s, 1), two = test::renderScene(s, 2);
+  ASSERT_EQ(one.image.layers.size(), two.image.layers.size());
+  for (size_t l = 0; l < one.image.layers.size(); ++l) EXPECT_TRUE(one.image.layers[l].values == two.image.layers[l].values);
+}
+
+TEST(Aov, AMirrorShowsTheAlbedoAndNormalOfWhatItReflects) {
+  // A mirror facing the camera in front of... the camera sees the mirror; behind the camera a wall
+  // of albedo 0.3 faces it: the mirror's pixels show albedo 0.3 (times the mirror's reflectance 1)
+  // and the wall's normal, and the depth of the mirror.
+  test::TempDir dir;
+  json scene = wallScene({"albedo", "normal", "depth"});
+  scene["materials"]["mirror"] = {{"type", "mirror"}};
+  scene["materials"]["grey"] = {{"type", "lambertian"}, {"albedo", 0.3}};
+  scene["shapes"][0]["material"] = "mirror";
+  scene["lights"][0]["corner"] = {-0.5, 3, -1};  // out of the mirror's view of the middle row
+  scene["shapes"].push_back({{"type", "quad"}, {"corner", {-10, -10, -6}}, {"edge1", {20, 0, 0}}, {"edge2", {0, 20, 0}}, {"material", "grey"}});
+  const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
+  for (int x = 5; x <= 10; ++x) {
+    EXPECT_NEAR(layerAt(r.image, "albedo", x, 8, 1), 0.3f, 1e-6f) << x;
+    EXPECT_NEAR(layerAt(r.image, "normal", x, 8, 2), 1.0f, 1e-6f) << "the far wall faces +z, towards the mirror";
+    EXPECT_NEAR(layerAt(r.image, "", x, 8, 0), 3.0f, 3e-6f) << "depth is the mirror's";
+  }
+}
+
+TEST(Aov, UnknownNamesAreRefusedNamingTheFieldAndTheName) {
+  test::TempDir dir;
+  json scene = wallScene({"albedo", "normals"});
+  try {
+    test::loadSceneJson(dir, scene);
+    FAIL() << "an unknown AOV loaded";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("render.aovs"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("\"normals\""), std::string::npos) << e.what();
+  }
+  scene["render"]["aovs"] = 3;
+  EXPECT_THROW(test::loadSceneJson(dir, scene), InputError);
+  scene["render"]["aovs"] = "albedo, depth";
+  EXPECT_EQ(test::loadSceneJson(dir, scene).render.aovs, ([] {
+              AovSet s;
+              s.add(Aov::kAlbedo);
+              s.add(Aov::kDepth);
+              return s;
+            })());
+}
+
+TEST(Aov, TheCommandLineWritesTheLayersAndRefusesAnUnknownName) {
+  test::TempDir dir;
+  const auto scene = dir.write("wall.json", wallScene({}).dump());
+  const auto out = dir.path() / "out.exr";
+  const auto ok = test::runProcess({test::cliPath().string(), "render", scene.string(), "-o", out.string(), "-q",
+                                    "--aov", "albedo,depth", "--aov", "normal"});
+  ASSERT_EQ(ok.exitCode, 0) << ok.err;
+  const Image image = readExr(out);
+  EXPECT_NE(image.layer("albedo"), nullptr);
+  EXPECT_NE(image.layer("normal"), nullptr);
+  EXPECT_NE(image.layer(""), nullptr) << "Z";
+  EXPECT_EQ(image.layer("variance"), nullptr);
+
+  const auto bad = test::runProcess({test::cliPath().string(), "render", scene.string(), "-o",
+                                     (dir.path() / "bad.exr").string(), "-q", "--aov", "albedo,shadow"});
+  EXPECT_EQ(bad.exitCode, 2) << bad.err;
+  EXPECT_NE(bad.err.find("--aov"), std::string::npos) << bad.err;
+  EXPECT_NE(bad.err.find("\"shadow\""), std::string::npos) << bad.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "bad.exr"));
+}
+
+}  // namespace
+}  // namespace lensfarm
