@@ -78,7 +78,7 @@ void aovSumRange(const AovLayout& layout, int channel, uint32_t n, double& lo, d
     hi = double(n) * 1.001;
   } else if (in(layout.depth, 1)) {
     lo = -most;
-  } else if (in(layout.depth + 1, 1)) {
+  } else if (layout.depth >= 0 && in(layout.depth + 1, 1)) {
     hi = double(n);
   } else if (in(layout.variance, 3)) {
     hi = most * double(std::numeric_limits<float>::max());

@@ -101,5 +101,29 @@ TEST(AovUpload, AnHonestUploadIsDevelopedIntoTheLayers) {
     }
 }
 
+TEST(AovUpload, EveryLayoutKeepsTheBeautysRangeAndEachAovGetsItsOwn) {
+  // The beauty may sum to n FLT_MAX whatever AOVs follow it (a job without AOVs too).
+  for (uint32_t bits = 0; bits < (1u << kAovCount); ++bits) {
+    const AovLayout layout(AovSet{bits});
+    for (int c = 0; c < 3; ++c) {
+      double lo = 1, hi = 0;
+      aovSumRange(layout, c, 8, lo, hi);
+      EXPECT_EQ(lo, 0.0) << aovListText(layout.set);
+      EXPECT_EQ(hi, 8.0 * double(std::numeric_limits<float>::max())) << aovListText(layout.set);
+    }
+  }
+  AovSet all;
+  for (int k = 0; k < kAovCount; ++k) all.add(Aov(k));
+  const AovLayout layout(all);
+  double lo = 0, hi = 0;
+  aovSumRange(layout, layout.normal + 1, 8, lo, hi);
+  EXPECT_LT(lo, -8.0);
+  EXPECT_LT(hi, 8.01);
+  aovSumRange(layout, layout.depth + 1, 8, lo, hi);
+  EXPECT_EQ(hi, 8.0) << "hit counts";
+  aovSumRange(layout, layout.depth, 8, lo, hi);
+  EXPECT_LT(lo, 0.0) << "planar depth may be negative (a point beside a wide lens)";
+}
+
 }  // namespace
 }  // namespace lensfarm
