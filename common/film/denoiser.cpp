@@ -98,28 +98,47 @@ void forValidNeighbours3x3(const Guides& s, int x, int y, const Visit& visit) {
     }
 }
 
-// g(v), as in SVGF: the channel-summed variance blurred by the 3x3 binomial kernel over valid
-// pixels (renormalised at the borders).
-std::vector<double> blurredVariance(const Guides& s, const Signal& in) {
-  std::vector<double> g(size_t(s.width) * size_t(s.height), 0.0);
+// What the colour weight compares: a colour and its variance (summed over the channels) per pixel.
+struct ColourGuide {
+  std::vector<double> colour;  // 3 per pixel
+  std::vector<double> g;       // 1 per pixel
+};
+
+// The colour weight's inputs for one level. g is the channel-summed variance blurred by the 3x3
+// binomial kernel over valid pixels (renormalised at the borders), as in SVGF. With `patches` (the
+// first level, whose pixels are the render's own, independent), the colour is blurred by the same
+// kernel and g scaled to that blurred colour's variance, Σh² / (Σh)² of it: pixels are compared by
+// their 3x3 neighbourhoods, as non-local means compares patches (Buades et al. 2005), which makes
+// the weight far less sensitive to the skewed noise of Monte Carlo pixels (a dark outlier is not
+// preferred for being close to a dark centre). Later levels compare the filtered pixels themselves.
+ColourGuide colourGuide(const Guides& s, const Signal& in, bool patches) {
+  ColourGuide out{in.colour, std::vector<double>(size_t(s.width) * size_t(s.height), 0.0)};
   constexpr double kBinomial[3] = {0.25, 0.5, 0.25};
   forEachRow(s.height, [&](int y) {
     for (int x = 0; x < s.width; ++x) {
-      double sum = 0.0, weight = 0.0;
+      double variance = 0.0, weight = 0.0, weight2 = 0.0, colour[3] = {0, 0, 0};
       forValidNeighbours3x3(s, x, y, [&](size_t q, int dx, int dy) {
         const double h = kBinomial[dx + 1] * kBinomial[dy + 1];
-        sum += h * (in.variance[3 * q] + in.variance[3 * q + 1] + in.variance[3 * q + 2]);
+        variance += h * (in.variance[3 * q] + in.variance[3 * q + 1] + in.variance[3 * q + 2]);
+        for (int k = 0; k < 3; ++k) colour[k] += h * in.colour[3 * q + k];
         weight += h;
+        weight2 += h * h;
       });
-      g[size_t(y) * size_t(s.width) + size_t(x)] = weight > 0 ? sum / weight : 0.0;
+      const size_t p = size_t(y) * size_t(s.width) + size_t(x);
+      if (!(weight > 0)) continue;
+      out.g[p] = variance / weight;
+      if (!patches) continue;
+      out.g[p] *= weight2 / (weight * weight);
+      for (int k = 0; k < 3; ++k) out.colour[3 * p + k] = colour[k] / weight;
     }
   });
-  return g;
+  return out;
 }
 
 // One à-trous level with taps `step` pixels apart; the new colour and variance.
 Signal atrousLevel(const Guides& s, const Signal& in, int step, const DenoiseOptions& o) {
-  const std::vector<double> g = blurredVariance(s, in);
+  const ColourGuide compared = colourGuide(s, in, step == 1);
+  const std::vector<double>& g = compared.g;
   const double sigmaC = o.sigmaColour * o.strength;
   const double colourScale = sigmaC * sigmaC;
   const double albedoScale = 1.0 / (o.sigmaAlbedo * o.sigmaAlbedo);
@@ -129,7 +148,7 @@ Signal atrousLevel(const Guides& s, const Signal& in, int step, const DenoiseOpt
     for (int x = 0; x < s.width; ++x) {
       const size_t p = size_t(y) * size_t(s.width) + size_t(x);
       if (!s.valid[p]) continue;
-      const double* cp = &in.colour[3 * p];
+      const double* cp = &compared.colour[3 * p];
       double sum[3] = {0, 0, 0}, varSum[3] = {0, 0, 0}, weightSum = 0.0;
       for (int j = -2; j <= 2; ++j) {
         const int qy = y + j * step;
@@ -139,7 +158,7 @@ Signal atrousLevel(const Guides& s, const Signal& in, int step, const DenoiseOpt
           if (qx < 0 || qx >= s.width) continue;
           const size_t q = size_t(qy) * size_t(s.width) + size_t(qx);
           if (!s.valid[q]) continue;
-          const double* cq = &in.colour[3 * q];
+          const double* cq = &compared.colour[3 * q];
           double d2 = 0.0;
           for (int k = 0; k < 3; ++k) d2 += (cp[k] - cq[k]) * (cp[k] - cq[k]);
           double w = std::exp(-d2 / (colourScale * (g[p] + g[q]) + kColourEpsilon));
@@ -155,12 +174,12 @@ Signal atrousLevel(const Guides& s, const Signal& in, int step, const DenoiseOpt
             const float *ap = &s.albedo[3 * p], *aq = &s.albedo[3 * q];
             double a2 = 0.0;
             for (int k = 0; k < 3; ++k) a2 += (double(ap[k]) - aq[k]) * (double(ap[k]) - aq[k]);
-            w *= std::exp(-a2 * albedoScale);
+            if (a2 > 0.0) w *= std::exp(-a2 * albedoScale);
           }
           if (!(w > 0.0)) continue;
           const double hw = kB3[i + 2] * kB3[j + 2] * w;
           for (int k = 0; k < 3; ++k) {
-            sum[k] += hw * cq[k];
+            sum[k] += hw * in.colour[3 * q + k];
             varSum[k] += hw * hw * in.variance[3 * q + k];
           }
           weightSum += hw;

@@ -18,6 +18,10 @@
 //     w_albedo = exp(-|a_p - a_q|² / σ_a²)
 // |.|² and v sum the three channels, so for two pixels of one true value E|c_p - c_q|² = v_p + v_q;
 // g is a 3x3 binomial blur of the variance (as SVGF does: a steadier estimate, for the weight only).
+// In the first iteration, whose pixels are independent, w_colour compares the 3x3 binomial blurs of
+// c_p and c_q (with g scaled to their variance): neighbourhoods, as non-local means compares
+// patches (Buades et al. 2005), which keeps the skewed noise of Monte Carlo pixels from biasing
+// flat regions low (a dark pixel preferring dark neighbours).
 //
 // The filter works on demodulated colour (irradiance): c = beauty / max(albedo, 1e-3) per channel,
 // v = variance / max(albedo, 1e-3)², and the result is multiplied back by the same factor, so a

@@ -127,6 +127,37 @@ TEST(Denoiser, AFlatRegionKeepsItsValueAndLosesMostOfItsNoise) {
   }
 }
 
+// Monte Carlo pixels are skewed (most samples dark, a few bright): an edge-stopping weight prefers
+// neighbours close to the centre, so a skewed flat region comes back darker. The colour weight's
+// first level compares 3x3 neighbourhoods to keep that small; these bounds are the ones
+// docs/aovs.md gives.
+TEST(Denoiser, AFlatRegionWithSkewedNoiseIsBiasedLowByLittle) {
+  struct Case {
+    float shape;   // of the gamma distribution of the pixel values: relative sigma 1 / sqrt(shape)
+    double bound;  // on |denoised mean / noisy mean - 1|
+  };
+  for (const Case c : {Case{4.0f, 0.006}, Case{1.0f, 0.02}}) {
+    std::mt19937 rng(9);
+    std::gamma_distribution<float> gamma(c.shape, 0.3f / c.shape);  // mean 0.3
+    Image noisy = syntheticImage(
+        128, 128, [&](int, int) { return flat(0.3f, 0.0f); }, 9);
+    for (float& v : noisy.rgb) v = gamma(rng);
+    for (float& v : noisy.layers[2].values) v = 0.09f / c.shape;
+    const std::vector<float> truth(noisy.rgb.size(), 0.3f);
+    const Image denoised = denoise(noisy);
+    double noisyMean = 0.0, mean = 0.0;
+    for (size_t k = 0; k < noisy.rgb.size(); ++k) {
+      noisyMean += noisy.rgb[k];
+      mean += denoised.rgb[k];
+    }
+    const double bias = mean / noisyMean - 1;
+    std::printf("flat 0.3, gamma noise of relative sigma %.0f %%: bias %+.2f %%, RMSE %.4f -> %.4f\n",
+                100 / std::sqrt(c.shape), 100 * bias, rmse(noisy.rgb, truth), rmse(denoised.rgb, truth));
+    EXPECT_LT(std::abs(bias), c.bound);
+    EXPECT_GE(rmse(noisy.rgb, truth) / rmse(denoised.rgb, truth), 4.0);
+  }
+}
+
 TEST(Denoiser, WithoutGuidesTheColourWeightAloneStillSmoothsAFlatRegion) {
   std::vector<float> truth;
   Image noisy = syntheticImage(
@@ -165,7 +196,7 @@ TEST(Denoiser, AnEdgeBetweenTwoAlbedosStaysSharpWhereABoxFilterBlursIt) {
       edgeWidth(noisy), denoised, box, unguided);
   EXPECT_LE(denoised, 1.5);
   EXPECT_GT(box, 2.5) << "the plain filter of the kernel's first-level support blurs it";
-  EXPECT_GT(unguided, 1.8) << "the colour weight alone blurs it at this noise";
+  EXPECT_GT(unguided, 1.5) << "the colour weight alone blurs it at this noise";
 }
 
 TEST(Denoiser, AnEdgeWhereTwoWallsMeetStaysSharpByTheNormalWeight) {
@@ -185,7 +216,7 @@ TEST(Denoiser, AnEdgeWhereTwoWallsMeetStaysSharpByTheNormalWeight) {
   std::printf("normal edge (90 degrees), 10-90 %% width: denoised %.2f px, without the normal weight %.2f px\n",
               denoised, blind);
   EXPECT_LE(denoised, 1.5);
-  EXPECT_GT(blind, 3.0) << "without the normals the same filter blurs the edge";
+  EXPECT_GT(blind, 2.5) << "without the normals the same filter blurs the edge";
 }
 
 // A textured image with walls and noise, for the tests below.
