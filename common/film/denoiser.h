@@ -13,11 +13,13 @@
 //     c'_p = Σ_q h(q) w(p,q) c_q / Σ_q h(q) w(p,q)
 //     v'_p = Σ_q h(q)² w(p,q)² v_q / (Σ_q h(q) w(p,q))²    (the variance of c'_p, as SVGF filters it)
 //     w(p,q) = w_colour · w_normal · w_albedo
-//     w_colour = exp(-|c_p - c_q|² / (σ_c² (g(v)_p + g(v)_q) + ε))
+//     w_colour = exp(-|c_p - c_q|² / (σ_c² (g_p + min(g_p, g_q)) + ε))
 //     w_normal = max(0, n̂_p · n̂_q)^σ_n
 //     w_albedo = exp(-|a_p - a_q|² / σ_a²)
 // |.|² and v sum the three channels, so for two pixels of one true value E|c_p - c_q|² = v_p + v_q;
 // g is a 3x3 binomial blur of the variance (as SVGF does: a steadier estimate, for the weight only).
+// min(g_p, g_q) rather than g_q, as in Rousselle et al. 2012's variance cancellation: a pixel of
+// large variance (a firefly, a light's edge) does not make its calm neighbours accept it.
 // In the first iteration, whose pixels are independent, w_colour compares the 3x3 binomial blurs of
 // c_p and c_q (with g scaled to their variance): neighbourhoods, as non-local means compares
 // patches (Buades et al. 2005), which keeps the skewed noise of Monte Carlo pixels from biasing
@@ -61,9 +63,9 @@ std::string denoiseGuidesUsed(const Image& image, const DenoiseOptions& options)
 // holding the input beauty bit for bit (or, if the input already has one, that older raw image).
 //  - With useGuides, throws std::invalid_argument if albedo or normal is missing
 //    (missingDenoiseGuides says which); without, they are ignored.
-//  - Without a variance layer, each pixel's variance is estimated from the sample variance of the
-//    colour in its 3x3 neighbourhood (SVGF's spatial fallback for pixels without history, over a
-//    smaller window).
+//  - Without a variance layer, each pixel's variance is estimated from the colour: the sample
+//    variance of the calmest 3x3 window containing it (after SVGF's spatial fallback for pixels
+//    without history).
 //  - A pixel whose beauty or variance is not finite is kept as it is and given no weight in its
 //    neighbours' sums: a NaN or infinity never spreads.
 Image denoise(const Image& noisy, const DenoiseOptions& options = {});
