@@ -22,5 +22,6 @@ Runner addSlurmCommand(CLI::App& app);
 Runner addStudyCommand(CLI::App& app);
 Runner addCompareCommand(CLI::App& app);
 Runner addLensCommand(CLI::App& app);
+Runner addDenoiseCommand(CLI::App& app);
 
 }  // namespace lensfarm::cli

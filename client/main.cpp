@@ -86,7 +86,8 @@ int main(int argc, char** argv) {
   for (auto add : {cli::addRenderCommand, cli::addDofCommand, cli::addSubmitCommand, cli::addStatusCommand,
                    cli::addWatchCommand, cli::addDownloadCommand, cli::addSnapshotCommand, cli::addCancelCommand,
                    cli::addDeleteCommand, cli::addArchiveCommand,
-                   cli::addWorkersCommand, cli::addSlurmCommand, cli::addStudyCommand, cli::addCompareCommand, cli::addLensCommand}) {
+                   cli::addWorkersCommand, cli::addSlurmCommand, cli::addStudyCommand, cli::addCompareCommand, cli::addLensCommand,
+                   cli::addDenoiseCommand}) {
     cli::Runner run = add(app);
     runners[app.get_subcommands({}).back()] = std::move(run);
   }
