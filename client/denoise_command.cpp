@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "denoise_output.h"
 #include "exit_codes.h"
 #include "film/denoiser.h"
 #include "film/image_io.h"
@@ -23,19 +24,10 @@ namespace lensfarm::cli {
 
 namespace {
 
-// The header attribute that marks a denoised file (lensfarm/denoised).
-constexpr const char* kDenoisedNote = "a-trous (Dammertz 2010), 5 iterations, guided by albedo, normal, variance";
-
 bool hasExtension(const std::string& path, const std::string& extension) {
   std::string e = std::filesystem::path(path).extension().string();
   for (char& c : e) c = char(std::tolower(static_cast<unsigned char>(c)));
   return e == extension;
-}
-
-std::string joined(const std::vector<std::string>& names) {
-  std::string out;
-  for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
-  return out;
 }
 
 }  // namespace
@@ -66,20 +58,11 @@ Runner addDenoiseCommand(CLI::App& app) {
     ImageMetadata metadata;
     const Image noisy = readExr(*input, &metadata);
     options->useGuides = !*noGuides;
-    if (options->useGuides) {
-      const std::vector<std::string> missing = missingDenoiseGuides(noisy);
-      if (!missing.empty())
-        throw InputError(*input, "has no " + joined(missing) + " layer" + (missing.size() > 1 ? "s" : "") +
-                                     " to guide the denoiser: render it with --aov albedo,normal,variance (or give "
-                                     "--no-guides to filter by colour alone)");
-    }
+    if (options->useGuides) requireDenoiseGuides(noisy, *input);
     const auto start = std::chrono::steady_clock::now();
-    const Image denoised = denoise(noisy, *options);
+    Image denoised = noisy;
+    denoiseForOutput(denoised, metadata, *options);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    metadata.extra["denoised"] =
-        options->useGuides ? kDenoisedNote
-                           : "a-trous (Dammertz 2010), 5 iterations, guided by " + denoiseGuidesUsed(noisy, *options);
-    if (options->strength != 1.0) metadata.extra["denoiseStrength"] = std::to_string(options->strength);
     writeExr(*output, denoised, metadata);
     if (!png->empty()) writePng(*png, denoised, ExposureSettings{});
     std::printf("denoised %s (%dx%d, guided by %s) in %.2f s -> %s%s%s\n", input->c_str(), noisy.width, noisy.height,

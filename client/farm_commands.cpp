@@ -7,9 +7,11 @@
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
+#include <functional>
 #include <optional>
 
 #include "commands.h"
+#include "denoise_output.h"
 #include "exit_codes.h"
 #include "farm_client.h"
 #include "farm_connection.h"
@@ -216,9 +218,13 @@ Runner addDownloadCommand(CLI::App& app) {
     std::vector<std::string> outputs;
     std::optional<double> ev;
     std::optional<int64_t> frame;
+    bool denoise = false;
   };
   auto f = std::make_shared<Flags>();
   addJobArgs(cmd, *f);
+  cmd->add_flag("--denoise", f->denoise,
+                "Denoise the image here (docs/aovs.md), guided by the job's albedo, normal and variance AOVs; the "
+                "EXR keeps the raw image as its layer 'noisy', a PNG shows the denoised one (auto exposure, --ev)");
   cmd->add_option("-o,--output", f->outputs,
                   "Output file(s): .exr or .png; for an animation a pattern (out/shot_####.exr) gets every "
                   "complete frame")
@@ -235,12 +241,33 @@ Runner addDownloadCommand(CLI::App& app) {
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());
       const v1::JobStatus status = client.get(f->job);
-      if (status.frames_size() == 0 || f->frame) {
+      // One frame's files: as the coordinator serves them, or with --denoise from its EXR,
+      // denoised here (the guide check comes before any file is written).
+      const auto writeFrame = [&](std::optional<int64_t> frame, const std::function<std::string(const std::string&)>& name) {
+        if (!f->denoise) {
+          for (const auto& [path, format] : targets) {
+            const std::string file = name(path);
+            writeBytesAtomically(file, client.download(f->job, format, f->ev, frame));
+            std::printf("wrote %s\n", file.c_str());
+          }
+          return;
+        }
+        ImageMetadata metadata;
+        Image image = decodeExr(client.download(f->job, v1::IMAGE_FORMAT_EXR, f->ev, frame), &metadata);
+        requireDenoiseGuides(image, f->job + (frame ? " frame " + std::to_string(*frame) : std::string()));
+        denoiseForOutput(image, metadata);
+        ExposureSettings exposure;
+        exposure.ev = f->ev.value_or(0.0);
         for (const auto& [path, format] : targets) {
-          const std::string file = f->frame && hasFramePattern(path) ? framePath(path, *f->frame) : path;
-          writeBytesAtomically(file, client.download(f->job, format, f->ev, f->frame));
+          const std::string file = name(path);
+          writeImageFile(file, image, metadata, exposure);
           std::printf("wrote %s\n", file.c_str());
         }
+      };
+      if (status.frames_size() == 0 || f->frame) {
+        writeFrame(f->frame, [&](const std::string& path) {
+          return f->frame && hasFramePattern(path) ? framePath(path, *f->frame) : path;
+        });
         return kOk;
       }
       // An animation: every complete frame, each to the pattern's name for it.
@@ -248,11 +275,7 @@ Runner addDownloadCommand(CLI::App& app) {
       int written = 0;
       for (const v1::FrameStatus& frame : status.frames()) {
         if (!frame.complete()) continue;
-        for (const auto& [path, format] : targets) {
-          const std::string file = framePath(path, frame.frame());
-          writeBytesAtomically(file, client.download(f->job, format, f->ev, frame.frame()));
-          std::printf("wrote %s\n", file.c_str());
-        }
+        writeFrame(frame.frame(), [&](const std::string& path) { return framePath(path, frame.frame()); });
         ++written;
       }
       if (written < status.frames_size())

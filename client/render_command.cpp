@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "commands.h"
+#include "denoise_output.h"
 #include "coordinator.h"
 #include "exit_codes.h"
 #include "film/image_io.h"
@@ -102,6 +103,7 @@ struct RenderFlags {
   double progressEvery = 5.0;  // seconds between plain progress lines (stderr not a terminal)
   std::string exrCompression = "none";
   bool quiet = false;
+  bool denoise = false;  // --denoise: outputs denoised, the raw beauty kept as layer "noisy"
 
   ExrCompression compression() const { return exrCompression == "zip" ? ExrCompression::kZip : ExrCompression::kNone; }
 };
@@ -131,21 +133,31 @@ void writeOutputs(const std::vector<fs::path>& outputs, const JobImage& image, E
   writeOutputs(outputs, image, compression, [](const fs::path&) {});
 }
 
+// The image as the outputs hold it: with --denoise, denoised (client/denoise_output.h).
+JobImage forOutput(JobImage image, bool denoise) {
+  if (denoise) denoiseForOutput(image.image, image.metadata);
+  return image;
+}
+
 // An animation's frames that completed since the last call, each to every output pattern.
 void writeCompleteFrames(const Coordinator& coordinator, const JobInfo& info, const std::vector<fs::path>& patterns,
-                         ExrCompression compression, std::set<int64_t>& written) {
+                         ExrCompression compression, bool denoise, std::set<int64_t>& written) {
   for (const JobInfo::Frame& frame : info.frames) {
     if (!frame.complete() || written.count(frame.number)) continue;
     std::vector<fs::path> paths;
     for (const auto& pattern : patterns) paths.push_back(framePath(pattern.string(), frame.number));
-    writeOutputs(paths, coordinator.image(info.id, frame.number), compression);
+    writeOutputs(paths, forOutput(coordinator.image(info.id, frame.number), denoise), compression);
     written.insert(frame.number);
   }
 }
 
 int runRender(const RenderFlags& flags, PhaseTimer& timer) {
   const std::optional<FrameRange> frames = flags.overrides.frameRange();
-  const LocalJob local = makeLocalJob(flags.scene, toOverrides(flags), flags.overrides.camera, frames);
+  LocalJob local = makeLocalJob(flags.scene, toOverrides(flags), flags.overrides.camera, frames);
+  if (flags.denoise) {  // the guides' AOVs join the scene's (and --aov's), for every process of the job
+    local.scene.render.aovs.bits |= denoiseGuideAovs().bits;
+    local.spec.overrides.aovs = local.scene.render.aovs;
+  }
   timer.mark("scene_load");
   const Scene& scene = local.scene;
   const RenderSettings& settings = scene.render;
@@ -251,10 +263,10 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
       worker.stopNow();
       break;
     }
-    if (frames) writeCompleteFrames(coordinator, info, outputs, flags.compression(), written);
+    if (frames) writeCompleteFrames(coordinator, info, outputs, flags.compression(), flags.denoise, written);
     if (!frames && flags.snapshotEvery > 0 && info.unitsDone > 0 &&
         info.elapsedSeconds - lastSnapshot >= flags.snapshotEvery) {
-      writeOutputs(outputs, coordinator.image(info.id), flags.compression());
+      writeOutputs(outputs, forOutput(coordinator.image(info.id), flags.denoise), flags.compression());
       lastSnapshot = info.elapsedSeconds;
     }
   }
@@ -279,11 +291,15 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
   }
   JobImage image;
   if (frames) {
-    writeCompleteFrames(coordinator, info, outputs, flags.compression(), written);
+    writeCompleteFrames(coordinator, info, outputs, flags.compression(), flags.denoise, written);
     image.metadata.samplesPerPixel = info.samplesPerPixelDone;
   } else {
     image = coordinator.image(info.id);
     timer.mark("image");
+    if (flags.denoise) {
+      image = forOutput(std::move(image), true);
+      timer.mark("denoise");
+    }
     // Nothing below needs the coordinator or the worker (the worker thread has been joined, `info`
     // and `image` are copies): their frame-sized buffers (150 MB at 1080p) and scenes are freed
     // on a thread of their own while the outputs are written, in the order the stack would have
@@ -353,6 +369,9 @@ Runner addRenderCommand(CLI::App& app) {
                   "both lossless")
       ->check(CLI::IsMember({"none", "zip"}));
   cmd->add_flag("-q,--quiet", f->quiet, "No progress bar or progress lines");
+  cmd->add_flag("--denoise", f->denoise,
+                "Write the image denoised (docs/aovs.md): renders the albedo, normal and variance AOVs it needs; "
+                "the EXR keeps the raw image as its layer 'noisy'");
   return [f] {
     PhaseTimer timer;
     const int code = runRender(*f, timer);
