@@ -62,6 +62,39 @@ TEST(Aov, AWallsAlbedoNormalDepthAndIdsAreTheirAnalyticValues) {
   }
 }
 
+TEST(Aov, FarFromTheOriginAndAtAnyScaleTheAovsKeepTheirValues) {
+  // The class of the first test: the same wall scaled by k and moved 1e7 away along every axis.
+  // Depth scales with k (scene units); albedo, normal, ids and the sample count do not change.
+  for (const double k : {1e-4, 1.0, 1e6}) {
+    test::TempDir dir;
+    json scene = wallScene({"albedo", "normal", "depth", "object_id"});
+    const double shift = 1e7;
+    const auto place = [&](json& p) {
+      for (int a = 0; a < 3; ++a) p[a] = p[a].get<double>() * k + shift;
+    };
+    const auto stretch = [&](json& v) {
+      for (int a = 0; a < 3; ++a) v[a] = v[a].get<double>() * k;
+    };
+    place(scene["camera"]["position"]);
+    place(scene["camera"]["look_at"]);
+    for (const char* length : {"sensor_width", "focal_length"})  // scene units too
+      scene["camera"][length] = scene["camera"][length].get<double>() * k;
+    for (json* shape : {&scene["shapes"][0], &scene["lights"][0]}) {
+      place((*shape)["corner"]);
+      stretch((*shape)["edge1"]);
+      stretch((*shape)["edge2"]);
+    }
+    const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
+    for (int y = 5; y <= 10; ++y)
+      for (int x = 5; x <= 10; ++x) {
+        EXPECT_EQ(layerAt(r.image, "albedo", x, y, 0), 0.5f) << "k = " << k;
+        EXPECT_EQ(layerAt(r.image, "normal", x, y, 2), -1.0f) << "k = " << k;
+        EXPECT_NEAR(layerAt(r.image, "", x, y, 0), 3.0 * k, 3.0 * k * 1e-5) << "k = " << k;
+        EXPECT_EQ(layerAt(r.image, "object_id", x, y, 0), 1.0f) << "k = " << k;
+      }
+  }
+}
+
 TEST(Aov, ATiltedWallsDepthIsPlanarAndItsNormalIsItsOwn) {
   // A wall at z = 2 + 0.5 x: planar depth 5 + 0.5 x at each pixel centre's ray, normal
   // (-0.5, 0, 1)/|.| turned to the camera; the quad's other side must give the same.
