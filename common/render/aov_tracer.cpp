@@ -34,13 +34,14 @@ constexpr float kFollowedLobe = 0.999f;
 
 }  // namespace
 
-void addGeometricAovs(const RenderScene& rs, const AovLayout& layout, const CameraRay& ray, bool firstSample,
-                      double* cell) {
-  Vec3 origin = ray.origin, direction = ray.direction;
+namespace {
+
+// One sample's AOVs from its camera ray's first hit (nothing: the ray left the scene).
+void addAovsFrom(const RenderScene& rs, const AovLayout& layout, Vec3 direction, std::optional<SurfaceHit> hit,
+                 bool firstSample, double* cell) {
   Spectrum tint(1.0f);  // the delta lobes' weights so far
-  for (int hop = 0; hop <= kAovSpecularHops; ++hop) {
-    const std::optional<SurfaceHit> hit = rs.caster().intersect(origin, direction, hop == 0 ? RayKind::kCamera : RayKind::kScattered);
-    if (!hit) return;  // albedo and normal 0; no depth
+  for (int hop = 0;; ++hop) {
+    if (!hit) return;  // albedo and normal 0 (and, for the camera ray, no depth)
     const Material& material = rs.material(hit->material);
     if (hop == 0) {
       if (layout.depth >= 0) {
@@ -70,11 +71,12 @@ void addGeometricAovs(const RenderScene& rs, const AovLayout& layout, const Came
     };
     if (material.isSpecular() && !local) {
       // Follow the delta lobe to the first surface that is not a mirror or smooth glass.
+      if (hop == kAovSpecularHops) return;
       const std::optional<MaterialSample> s = sample(kFollowedLobe, Vec2(0.5f));
       if (!s) return;
       tint *= s->weight;
-      origin = spawnOrigin(hit->p, hit->plane(), s->wi);
       direction = s->wi;
+      hit = rs.caster().intersect(spawnOrigin(hit->p, hit->plane(), s->wi), s->wi, RayKind::kScattered);
       continue;
     }
     if (layout.albedo >= 0) {
@@ -85,6 +87,29 @@ void addGeometricAovs(const RenderScene& rs, const AovLayout& layout, const Came
       for (int c = 0; c < 3; ++c) cell[layout.normal + c] += double(sp.n[c]);
     return;
   }
+}
+
+}  // namespace
+
+void addGeometricAovs(const RenderScene& rs, const AovLayout& layout, const CameraRay& ray, bool firstSample,
+                      double* cell) {
+  addAovsFrom(rs, layout, ray.direction, rs.caster().intersect(ray.origin, ray.direction, RayKind::kCamera),
+              firstSample, cell);
+}
+
+void addGeometricAovs(const RenderScene& rs, const AovLayout& layout, const CameraRayLanes& rays, int count,
+                      const bool (&firstSample)[kPacketWidth], double* const (&cells)[kPacketWidth]) {
+  RayPacket packet;
+  packet.clear();
+  for (int k = 0; k < count; ++k) {
+    const CameraRay ray = rays.ray(k);
+    packet.set(k, ray.origin, ray.direction);
+  }
+  RayCaster::PacketHits hits;
+  rs.caster().intersect(packet, RayKind::kCamera, hits);
+  for (int k = 0; k < count; ++k)
+    addAovsFrom(rs, layout, rays.ray(k).direction, hits.found[k] ? std::optional<SurfaceHit>(hits.hit(k)) : std::nullopt,
+                firstSample[k], cells[k]);
 }
 
 }  // namespace lensfarm

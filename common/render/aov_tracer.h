@@ -16,4 +16,10 @@ inline constexpr int kAovSpecularHops = 16;
 void addGeometricAovs(const RenderScene& rs, const AovLayout& layout, const CameraRay& ray, bool firstSample,
                       double* cell);
 
+// The same for lanes [0, count) of a packet of camera rays, their first hits found by one
+// coherent 16-wide cast (RayCaster::intersect gives each lane the single-ray call's hit, so the
+// sums are addGeometricAovs's bits); cells[k] is lane k's cell.
+void addGeometricAovs(const RenderScene& rs, const AovLayout& layout, const CameraRayLanes& rays, int count,
+                      const bool (&firstSample)[kPacketWidth], double* const (&cells)[kPacketWidth]);
+
 }  // namespace lensfarm

@@ -181,9 +181,17 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
           } else {
             camera.generatePinholeRays(column, j, u0, u1, packet.cameraRays);
           }
-          if (aovs.geometric())
-            for (int k = 0; k < packet.count; ++k)
-              addGeometricAovs(rs, aovs, packet.cameraRays.ray(k), sampleOf[k] == 0, &out.sums[stride * cellOf[k]]);
+          if (aovs.geometric()) {
+            if (grouping == RayGrouping::kPackets) {
+              bool isFirst[kPacketWidth];
+              double* cells[kPacketWidth];
+              for (int k = 0; k < packet.count; ++k) isFirst[k] = sampleOf[k] == 0, cells[k] = &out.sums[stride * cellOf[k]];
+              addGeometricAovs(rs, aovs, packet.cameraRays, packet.count, isFirst, cells);
+            } else {
+              for (int k = 0; k < packet.count; ++k)
+                addGeometricAovs(rs, aovs, packet.cameraRays.ray(k), sampleOf[k] == 0, &out.sums[stride * cellOf[k]]);
+            }
+          }
           if (grouping == RayGrouping::kPackets)
             tracePacket<kNee, kGeneral>(rs, packet, radiance, local);
           else

@@ -8,6 +8,7 @@
 
 #include "film/image_io.h"
 #include "render/render_scene.h"
+#include "render/unit_renderer.h"
 #include "test_support.h"
 #include "util/error.h"
 
@@ -175,6 +176,27 @@ TEST(Aov, SameBitsForAnyThreadCount) {
   const test::Rendered one = test::renderScene(s, 1), two = test::renderScene(s, 2);
   ASSERT_EQ(one.image.layers.size(), two.image.layers.size());
   for (size_t l = 0; l < one.image.layers.size(); ++l) EXPECT_TRUE(one.image.layers[l].values == two.image.layers[l].values);
+}
+
+TEST(Aov, PacketsAndSingleRaysGiveTheSameSums) {
+  // The pass casts its camera rays as 16-wide packets; the reference casts them one at a time.
+  test::TempDir dir;
+  json scene = test::bundledSceneJson("cornell-glass-metal.json");
+  scene["render"]["resolution"] = {20, 20};
+  scene["render"]["samples_per_pixel"] = 4;
+  scene["render"]["aovs"] = {"albedo", "normal", "depth", "object_id", "material_id"};
+  const Scene s = test::loadSceneJson(dir, scene);
+  const RenderScene rs(s);
+  SensorBuffer packets, single;
+  PathStats stats;
+  const WorkUnit unit = unitAt(0, 4, 4);
+  ASSERT_TRUE(renderUnit(rs, unit, packets, stats, nullptr, RayGrouping::kPackets));
+  ASSERT_TRUE(renderUnit(rs, unit, single, stats, nullptr, RayGrouping::kSingleRays));
+  ASSERT_EQ(packets.channels, rs.aovLayout().channels);
+  EXPECT_TRUE(packets.sums == single.sums);
+  double albedo = 0.0;
+  for (size_t c = 0; c < packets.cells(); ++c) albedo += packets.sums[c * size_t(packets.channels) + 3];
+  EXPECT_GT(albedo, 0.0) << "the AOVs were summed";
 }
 
 TEST(Aov, AMirrorShowsTheAlbedoAndNormalOfWhatItReflects) {
