@@ -7,10 +7,11 @@
 
 namespace lensfarm {
 
-std::optional<std::string> sumsDiffer(const std::vector<double>& a, const std::vector<double>& b, double tolerance) {
+std::optional<std::string> sumsDiffer(const std::vector<double>& a, const std::vector<double>& b, double tolerance,
+                                      int channels) {
   if (a.size() != b.size()) return "differ in size (" + std::to_string(a.size()) + " and " + std::to_string(b.size()) + " sums)";
-  // The largest relative difference beyond the tolerance, and its cell. Sums are >= 0 and
-  // finite (Coordinator::checkPlausible), so max(|a|, |b|) is 0 only where both are.
+  // The largest relative difference beyond the tolerance, and its cell. Sums are finite
+  // (Coordinator::checkPlausible), so max(|a|, |b|) is 0 only where both are.
   double worst = 0.0;
   size_t worstAt = 0;
   for (size_t k = 0; k < a.size(); ++k) {
@@ -24,7 +25,7 @@ std::optional<std::string> sumsDiffer(const std::vector<double>& a, const std::v
   }
   if (worst == 0.0) return std::nullopt;
   char text[96];
-  std::snprintf(text, sizeof text, "differ by up to %.1e (cell %zu)", worst, worstAt / 3);
+  std::snprintf(text, sizeof text, "differ by up to %.1e (cell %zu)", worst, worstAt / size_t(std::max(channels, 1)));
   return std::string(text);
 }
 

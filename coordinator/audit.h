@@ -28,9 +28,10 @@ namespace lensfarm {
 
 // Where two results of one unit differ by more than `tolerance`, relative per cell and channel
 // (|a - b| > tolerance * max(|a|, |b|)); nullopt when they agree everywhere. The text gives the
-// largest relative difference and its cell: "differ by up to 1.0e-03 (cell 4711)". Results of
-// different sizes differ.
-std::optional<std::string> sumsDiffer(const std::vector<double>& a, const std::vector<double>& b, double tolerance);
+// largest relative difference and its cell: "differ by up to 1.0e-03 (cell 4711)", cells holding
+// `channels` sums (film/sensor.h). Results of different sizes differ.
+std::optional<std::string> sumsDiffer(const std::vector<double>& a, const std::vector<double>& b, double tolerance,
+                                      int channels = 3);
 
 // While auditing, a job's film keeps a copy of itself every rewindPointSpacing(fraction) units, at
 // most kRewindPoints at once (Accumulator::keepRewindPoints): a wrong worker found costs the

@@ -94,9 +94,9 @@ bool Coordinator::acceptAudit(const UnitResult& result) {
   // Each comparison reads a whole frame: outside the lock. A dissent withdrawn meanwhile (its
   // worker quarantined) is compared again with what the audit holds now.
   for (;;) {
-    const std::optional<std::string> fromCounted = sumsDiffer(*counted, result.buffer.sums, options_.auditTolerance);
+    const std::optional<std::string> fromCounted = sumsDiffer(*counted, result.buffer.sums, options_.auditTolerance, result.buffer.channels);
     const std::optional<std::string> fromDissent =
-        dissent ? sumsDiffer(*dissent, result.buffer.sums, options_.auditTolerance) : std::nullopt;
+        dissent ? sumsDiffer(*dissent, result.buffer.sums, options_.auditTolerance, result.buffer.channels) : std::nullopt;
     AuditBook::Sums mine;  // kept only if it disputes the counted result
     if (fromCounted && !dissent) mine = std::make_shared<const std::vector<double>>(result.buffer.sums);
 

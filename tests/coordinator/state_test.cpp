@@ -92,6 +92,59 @@ TEST(DurableCoordinator, ResumesFromCheckpointAndLedgerBitForBit) {
   first.reset();
 }
 
+TEST(DurableCoordinator, AJobWithAovsResumesItsLayersBitForBit) {
+  // Normal (3 sums) and depth (2) beside the beauty: 8 sums a cell, checkpointed (sensor format 2)
+  // and in the ledger's unit files; the restarted coordinator's layers are the uninterrupted one's.
+  JobSpec spec = sixUnits();
+  AovSet aovs;
+  aovs.add(Aov::kNormal);
+  aovs.add(Aov::kDepth);
+  spec.overrides.aovs = aovs;
+  const auto result = [](const std::string& w, const LeaseGrant& g) {
+    UnitResult r = resultForLease(w, g);
+    r.buffer = SensorBuffer(4, 3, 8);
+    for (size_t c = 0; c < r.buffer.cells(); ++c) {
+      double* v = &r.buffer.sums[8 * c];
+      v[0] = v[1] = v[2] = kValues[g.unit.index];
+      v[3] = 0.25, v[4] = -0.5, v[5] = -0.75;        // one sample's normal
+      v[6] = 2.0 + double(g.unit.index), v[7] = 1.0;  // its depth, one hit
+    }
+    r.stats.paths = 12;
+    r.stats.rays = 40;
+    return r;
+  };
+  const auto finish = [&](Coordinator& c, const std::string& w) {
+    while (auto g = c.lease(w, 0)) c.acceptResult(result(w, *g));
+  };
+  Coordinator reference;
+  const std::string refJob = reference.submit(spec, 0).id;
+  finish(reference, reference.registerWorker(workerInfo("w")));
+  const Image expected = reference.image(refJob).image;
+  ASSERT_EQ(expected.layers.size(), 2u);
+  EXPECT_EQ(expected.layer("")->values[0], float((2.0 + 3.0 + 4.0 + 5.0 + 6.0 + 7.0) / 6.0)) << "mean depth";
+
+  test::TempDir dir;
+  Coordinator::Options options;
+  options.stateDir = dir / "state";
+  options.checkpointEverySeconds = 3600;
+  std::string job;
+  {
+    Coordinator first(options);
+    job = first.submit(spec, 0).id;
+    const std::string a = first.registerWorker(workerInfo("a"));
+    for (int k = 0; k < 2; ++k) first.acceptResult(result(a, *first.lease(a, 0)));
+    EXPECT_GT(first.checkpoint(), 0u);
+    first.acceptResult(result(a, *first.lease(a, 0)));  // the ledger's
+  }
+  Coordinator second(options);
+  EXPECT_EQ(second.job(job).unitsDone, 3u);
+  finish(second, second.registerWorker(workerInfo("b")));
+  const Image image = second.image(job).image;
+  EXPECT_EQ(image.rgb, expected.rgb);
+  ASSERT_EQ(image.layers.size(), 2u);
+  for (size_t l = 0; l < 2; ++l) EXPECT_EQ(image.layers[l].values, expected.layers[l].values) << image.layers[l].name;
+}
+
 TEST(DurableCoordinator, KeepsAssetsStatesAndFinishedImagesAcrossRestarts) {
   test::TempDir dir;
   Coordinator::Options options;

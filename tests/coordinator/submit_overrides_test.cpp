@@ -74,6 +74,30 @@ TEST(SubmitOverrides, OneSideOfTheResolutionOrANonFiniteEvIsInvalidArgumentNamin
   EXPECT_EQ(coordinator.jobs().size(), 1u);
 }
 
+TEST(SubmitOverrides, AnUnknownAovIsInvalidArgumentNamingItAndKnownOnesMakeTheJobsLayers) {
+  Coordinator coordinator;
+  ClientServiceImpl service(coordinator);
+  v1::RenderOverrides overrides;
+  overrides.set_aovs("albedo, sheen");
+  grpc::ServerContext context;
+  v1::SubmitJobRequest request = requestWith(overrides);
+  v1::SubmitJobResponse response;
+  grpc::Status s = service.SubmitJob(&context, &request, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << s.error_message();
+  EXPECT_NE(s.error_message().find("overrides.aovs: unknown AOV \"sheen\""), std::string::npos) << s.error_message();
+  EXPECT_TRUE(coordinator.jobs().empty());
+
+  overrides.set_aovs("depth,albedo");  // any order, as a client in another language may send it
+  request = requestWith(overrides);
+  grpc::ServerContext again;
+  s = service.SubmitJob(&again, &request, &response);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  const Image image = coordinator.image(response.job_id()).image;
+  ASSERT_EQ(image.layers.size(), 2u);
+  EXPECT_EQ(image.layers[0].name, "albedo");
+  EXPECT_EQ(image.layers[1].name, "") << "Z";
+}
+
 // The same rule for every caller of Coordinator::submit (`lensfarm render`'s embedded coordinator,
 // a restart's restore): an InputError, whatever the transport.
 TEST(SubmitOverrides, CoordinatorSubmitRefusesOneSideOfTheResolution) {
