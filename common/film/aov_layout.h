@@ -57,7 +57,12 @@ struct AovLayout {
   int channels = 3;  // doubles per cell, beauty RGB at 0..2
   int albedo = -1, normal = -1, depth = -1, variance = -1, objectId = -1, materialId = -1;
   // depth: [sum of depths, number of samples that hit]
-  bool any() const { return channels > 3; }
+  bool any() const { return channels > 3 || set.has(Aov::kSamples); }
+  // Floats a pixel of the developed layers holds (aovLayers).
+  int layerChannels() const {
+    return (albedo >= 0 ? 3 : 0) + (normal >= 0 ? 3 : 0) + (depth >= 0 ? 1 : 0) + (variance >= 0 ? 3 : 0) +
+           (set.has(Aov::kSamples) ? 1 : 0) + (objectId >= 0 ? 1 : 0) + (materialId >= 0 ? 1 : 0);
+  }
   // Whether a camera-ray pass is needed (albedo, normal, depth or ids).
   bool geometric() const { return albedo >= 0 || normal >= 0 || depth >= 0 || objectId >= 0 || materialId >= 0; }
 };

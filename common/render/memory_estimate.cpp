@@ -19,6 +19,26 @@
 
 namespace lensfarm {
 
+namespace {
+// The AOVs' share (film/aov_layout.h): their sums beside the beauty's in the film (`cells`) and in
+// `held` unit buffers, their layers in the developed images and a download's EXR, and in a
+// checkpoint; a worker's unit buffer alone when `workerCells` is given. Nothing without AOVs.
+void addAovItems(MemoryEstimate& e, const RenderSettings& s, uint64_t cells, uint64_t held, bool stateDir,
+                 uint64_t workerCells = 0) {
+  const AovLayout layout(s.aovs);
+  if (!layout.any()) return;
+  const uint64_t sums = uint64_t(layout.channels - 3), floats = uint64_t(layout.layerChannels());
+  if (workerCells > 0) {
+    e.items.push_back({"AOV sums in the unit buffer", workerCells * sums * sizeof(double)});
+    return;
+  }
+  e.items.push_back({"AOVs (" + aovListText(layout.set) + ")",
+                     cells * (sums * (sizeof(CompensatedSum) + held * sizeof(double) +
+                                      (stateDir ? 2 * sizeof(double) : 0)) +
+                              floats * (kImageBytesPerCell + 2 * kExrBytesPerCell) / 3)});
+}
+}  // namespace
+
 static_assert(sizeof(CompensatedSum) == 2 * sizeof(double), "a compensated sum is a sum and its compensation");
 
 namespace {
@@ -86,6 +106,7 @@ MemoryEstimate coordinatorJobMemory(const RenderSettings& s, uint64_t maxBytesAh
     // audited tiles' sums are a tile each.
     e.items.push_back({"the frame's image (tiled: no sensor)", cells * kImageBytesPerCell});
     e.items.push_back({"a download", cells * (kImageBytesPerCell + 2 * kExrBytesPerCell)});
+    addAovItems(e, s, cells, 0, false);
     return e;
   }
   const uint64_t held = std::min(unitsOf(s), unitsAheadWindow(s.width, s.height, maxBytesAhead));
@@ -95,6 +116,7 @@ MemoryEstimate coordinatorJobMemory(const RenderSettings& s, uint64_t maxBytesAh
                      held * cells * kUnitBufferBytesPerCell});
   e.items.push_back({"a download", cells * (kImageBytesPerCell + 2 * kExrBytesPerCell)});
   if (stateDir) e.items.push_back({"a checkpoint", cells * kCheckpointBytesPerCell});
+  addAovItems(e, s, cells, held, stateDir);
   if (auditCopies > 0)
     e.items.push_back({std::to_string(auditCopies) + " film copies and an audited unit (the audit)",
                        cells * (auditCopies * (kSensorBytesPerCell + kTrackerBytesPerCell) + kUnitBufferBytesPerCell)});
@@ -129,6 +151,7 @@ uint64_t storedTriangles(const Scene& scene) {
 MemoryEstimate workerJobMemory(const RenderSettings& s, uint64_t triangles, uint64_t sceneData) {
   MemoryEstimate e;
   e.items.push_back({"unit buffer", cellsOf(s) * kUnitBufferBytesPerCell});
+  addAovItems(e, s, 0, 0, false, cellsOf(s));
   e.items.push_back({"scene", triangles * kSceneBytesPerTriangle});
   if (sceneData > 0) e.items.push_back({"textures, vertex attributes and instances", sceneData});
   return e;
@@ -141,6 +164,7 @@ MemoryEstimate localRenderMemory(const RenderSettings& s, uint64_t triangles, ui
   e.items.push_back({"error-estimate half-image", cells * kTrackerBytesPerCell});
   e.items.push_back({"unit buffer", cells * kUnitBufferBytesPerCell});
   e.items.push_back({"output image", cells * (kImageBytesPerCell + kPngBytesPerCell)});
+  addAovItems(e, s, cells, 1, false);
   e.items.push_back({"scene", triangles * kSceneBytesPerTriangle});
   if (sceneData > 0) e.items.push_back({"textures, vertex attributes and instances", sceneData});
   return e;

@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "film/image_io.h"
+#include "render/memory_estimate.h"
 #include "render/render_scene.h"
 #include "render/unit_renderer.h"
 #include "test_support.h"
@@ -216,6 +217,28 @@ TEST(Aov, AMirrorShowsTheAlbedoAndNormalOfWhatItReflects) {
     EXPECT_NEAR(layerAt(r.image, "normal", x, 8, 2), 1.0f, 1e-6f) << "the far wall faces +z, towards the mirror";
     EXPECT_NEAR(layerAt(r.image, "", x, 8, 0), 3.0f, 3e-6f) << "depth is the mirror's";
   }
+}
+
+TEST(Aov, TheSampleCountAloneIsALayerToo) {
+  test::TempDir dir;
+  const test::Rendered r = test::renderScene(test::loadSceneJson(dir, wallScene({"samples"})));
+  ASSERT_EQ(r.image.layers.size(), 1u);
+  EXPECT_EQ(layerAt(r.image, "samples", 3, 3, 0), 8.0f);
+}
+
+TEST(Aov, MemoryEstimatesCountTheAovs) {
+  // A job's admission (render/memory_estimate.h) must see the AOVs' sums and layers: every AOV
+  // takes 13 more sums and 13 more floats a cell.
+  test::TempDir dir;
+  Scene plain = test::loadSceneJson(dir, wallScene({}));
+  plain.render.width = plain.render.height = 1000;
+  Scene all = plain;
+  for (int k = 0; k < kAovCount; ++k) all.render.aovs.add(Aov(k));
+  const uint64_t cells = 1000 * 1000;
+  EXPECT_GE(localRenderMemory(all.render, 2, 0).total(), localRenderMemory(plain.render, 2, 0).total() + cells * 13 * 16);
+  EXPECT_GE(workerJobMemory(all.render, 2, 0).total(), workerJobMemory(plain.render, 2, 0).total() + cells * 13 * 8);
+  EXPECT_GE(coordinatorJobMemory(all.render, uint64_t(1) << 30, true, 0).total(),
+            coordinatorJobMemory(plain.render, uint64_t(1) << 30, true, 0).total() + cells * 13 * 16);
 }
 
 TEST(Aov, UnknownNamesAreRefusedNamingTheFieldAndTheName) {
