@@ -8,6 +8,7 @@
 #include <ctime>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -806,17 +807,18 @@ class Study {
     // The crossover: the first time at which the raw image's error (interpolated on log-log axes)
     // is no larger than the denoised image's at the same total time.
     bool extrapolated = false;
-    const double crossover = crossoverTime(raw, denoised, bias.relativeRmse, &extrapolated);
+    const double crossover = crossoverTime(raw, denoised, &extrapolated);
     std::string crossoverText;
     if (crossover <= 0.0)
       crossoverText = "uniform alone is already better at the first checkpoint";
     else if (!extrapolated)
       crossoverText = number(crossover, 3) + " s";
     else
-      crossoverText =
-          "not within the measured range (up to " + number(denoised.seconds.back(), 3) +
-          " s); the raw error, falling as 1/sqrt(time), would reach the denoiser's bias at convergence near " +
-          number(crossover, 3) + " s (extrapolated)";
+      crossoverText = "not within the measured range (up to " + number(denoised.seconds.back(), 3) + " s)" +
+                      (std::isfinite(crossover)
+                           ? "; the two curves, extended along their last segments on log-log axes, would cross "
+                             "near " + number(crossover, 3) + " s (extrapolated)"
+                           : "; along their last segments on log-log axes the curves do not converge");
     Table summary({"bias_at_convergence", "bias_at_convergence_net_of_reference_noise", "reference_estimated_error",
                    "reference_spp", "reference_denoise_seconds", "crossover_seconds", "crossover_extrapolated"});
     summary.add({number(bias.relativeRmse, 4), number(biasNet, 4), number(referenceError, 4),
@@ -834,9 +836,12 @@ class Study {
            "(film/denoiser.h, default settings) is charged its render time plus the denoiser's, the median of "
            "its measured times, " + number(denoiseSeconds, 3) + " s (the table gives each). Its error "
            "against the reference (total) has two parts: the **denoiser's bias at convergence**, the relative RMSE "
-           "of the denoised reference against the reference itself, " + number(bias.relativeRmse, 3) + " (" +
-           number(biasNet, 3) + " with the reference's own noise, which the denoiser removes, taken out in "
-           "quadrature), which no sample count removes; and the **variance part**, the error of the denoised image "
+           "of the denoised reference against the reference itself, " + number(bias.relativeRmse, 3) +
+           (biasNet > 0.0 ? " (" + number(biasNet, 3) +
+                                " with the reference's own noise, which the denoiser removes, taken out in quadrature)"
+                          : " (no more than the reference's own noise, which the denoiser removes: an upper bound, "
+                            "the bias is not resolved at this reference's sample count)") +
+           ", which no sample count removes; and the **variance part**, the error of the denoised image "
            "against the denoised reference. The worst 1 % is the 99th percentile of the per-pixel relative error "
            "(film/error_metrics.h). Crossover, after which uniform sampling alone has the lower total error: " +
            crossoverText + ".\n\n" + table.markdown() + "\n" + link("denoise") +
@@ -845,9 +850,9 @@ class Study {
 
   // The first time at which `raw`'s error (log-log interpolation, errorAtTime) is no larger than
   // `denoised`'s, searched over both series' checkpoint times; 0 if raw is already no worse at the
-  // start. Past the last checkpoint, `extrapolated` is set and the time is when raw, falling as
-  // 1/sqrt(time), reaches `floor` (the denoised error cannot fall below its bias).
-  static double crossoverTime(const Series& raw, const Series& denoised, double floor, bool* extrapolated) {
+  // start. If they do not cross, `extrapolated` is set and the time is where the lines through each
+  // series' last two checkpoints (log-log) cross, or infinity if they do not converge.
+  static double crossoverTime(const Series& raw, const Series& denoised, bool* extrapolated) {
     *extrapolated = false;
     std::vector<double> times = raw.seconds;
     times.insert(times.end(), denoised.seconds.begin(), denoised.seconds.end());
@@ -864,7 +869,13 @@ class Study {
       last = t;
     }
     *extrapolated = true;
-    return std::max(end, raw.seconds.back() * std::pow(raw.error.back() / floor, 2.0));
+    const auto slope = [](const Series& s) {
+      const size_t n = s.seconds.size();
+      return n < 2 ? -0.5 : std::log(s.error[n - 1] / s.error[n - 2]) / std::log(s.seconds[n - 1] / s.seconds[n - 2]);
+    };
+    const double steeper = slope(denoised) - slope(raw);  // > 0: raw falls faster
+    if (!(steeper > 0.0)) return std::numeric_limits<double>::infinity();
+    return std::max(end, end * std::exp(gap(end) / steeper));
   }
 
   std::string header(double minutes) const {

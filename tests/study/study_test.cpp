@@ -194,7 +194,7 @@ void checkDenoise(const StudyRun& run) {
   EXPECT_TRUE(std::isfinite(bias));
   EXPECT_GT(bias, 0.0);
   EXPECT_LT(bias, num(raw.front(), "relative_rmse"));
-  EXPECT_TRUE(std::isfinite(num(summary[0], "crossover_seconds")));
+  EXPECT_GE(num(summary[0], "crossover_seconds"), 0.0) << "a time, or inf where the curves do not converge";
   const std::string report = test::readFile(run.dir.path() / "docs" / "accuracy.md");
   EXPECT_NE(report.find("denoiser's bias at convergence"), std::string::npos);
   EXPECT_NE(report.find("Crossover"), std::string::npos);
