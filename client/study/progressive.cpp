@@ -24,7 +24,9 @@ Checkpoint renderProgressive(Scene scene, const ProgressiveRun& run,
   if (settings.samplesPerUnit == 0) settings.samplesPerUnit = uint32_t(run.firstCheckpoint);
   const RenderScene rs(scene);
   const uint32_t perUnit = settings.samplesPerUnit;
-  Sensor sensor(settings.width, settings.height);
+  // The scene's AOVs (render.aovs) are summed beside the beauty and developed as its layers.
+  const AovLayout& layout = rs.aovLayout();
+  Sensor sensor(settings.width, settings.height, layout.channels);
   ConvergenceTracker tracker(settings.width, settings.height);
   tbb::task_arena arena(int(run.threads ? run.threads : std::max(1u, std::thread::hardware_concurrency())));
 
@@ -44,7 +46,7 @@ Checkpoint renderProgressive(Scene scene, const ProgressiveRun& run,
     if (!run.everyUnit && spp < next && spp < run.maxSamples) continue;
     last.samplesPerPixel = spp;
     last.seconds = seconds;
-    last.image = sensor.developImage();
+    last.image = sensor.developImage(layout);
     last.estimate = tracker.estimate(sensor);
     last.stats = stats;
     if (onCheckpoint && !onCheckpoint(last)) break;
@@ -66,7 +68,8 @@ Image referenceImage(Scene scene, uint64_t samplesPerPixel, const fs::path& cach
   s.seed ^= 0x5eed5eed5eed5eedull;
   const std::string key = sha256Hex(scene.hash + "|" + std::to_string(s.width) + "x" + std::to_string(s.height) +
                                     "|B" + std::to_string(s.maxBounces) + "|" + std::to_string(samplesPerPixel) +
-                                    "|seed" + std::to_string(s.seed) + "|" + kRendererVersion);
+                                    "|seed" + std::to_string(s.seed) + "|" + kRendererVersion +
+                                    (s.aovs.empty() ? "" : "|aovs " + aovListText(s.aovs)));
   const fs::path file = cacheDir / ("reference-" + key.substr(0, 16) + ".exr");
   if (fs::exists(file)) {
     ImageMetadata meta;

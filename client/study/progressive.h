@@ -2,7 +2,8 @@
 // Progressive rendering for the accuracy study: one scene rendered unit after unit on this
 // machine's cores, with the image, its live error estimate and the time taken reported at
 // power-of-two sample counts. The same renderer as every job (render/unit_renderer.h); the
-// time counts tracing and accumulation only (not scene loading or error measurement).
+// time counts tracing and accumulation only (not scene loading or error measurement). The AOVs
+// the scene asks for (render.aovs) are rendered and developed as the images' layers.
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -37,7 +38,8 @@ Checkpoint renderProgressive(Scene scene, const ProgressiveRun& run,
                              const std::function<bool(const Checkpoint&)>& onCheckpoint = {});
 
 // A converged image of `scene`: NEE + MIS with the Sobol sampler at `samplesPerPixel`, cached in
-// `cacheDir` under a key of the scene's hash and settings (the same study command reuses it).
+// `cacheDir` under a key of the scene's hash and settings, its AOVs included (the same study
+// command reuses it).
 // `estimate` receives the reference's own estimated error, the floor of every error measured
 // against it.
 Image referenceImage(Scene scene, uint64_t samplesPerPixel, const std::filesystem::path& cacheDir,

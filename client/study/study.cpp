@@ -8,6 +8,7 @@
 #include <ctime>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -15,6 +16,7 @@
 #include <thread>
 
 #include "camera/depth_of_field.h"
+#include "film/denoiser.h"
 #include "film/error_metrics.h"
 #include "film/image_io.h"
 #include "scene/scene_loader.h"
@@ -48,12 +50,15 @@ struct Scale {
   int materialsSide;
   uint64_t materialsReferenceSpp;
   double materialsBudget;  // seconds per variant
+  int denoiseSide;
+  uint64_t denoiseReferenceSpp;
+  double denoiseBudget;  // seconds of rendering
 };
 constexpr int kStudyBounces = 3;  // B for the convergence and resolution experiments
 // The edge images of the depth-of-field experiment are wide strips (4 rows) so that a pixel is
 // much smaller than the circle of confusion (0.094 mm on the 100 mm sensor).
-const Scale kFull{256, 8192, 128, 6.0, {64, 128, 256}, 12.0, 0.04, 4096, 256, 128, 64, 128, 4096, 8.0};
-const Scale kQuick{32, 256, 16, 0.15, {8, 16, 32}, 0.5, 0.10, 1024, 32, 16, 32, 16, 128, 0.3};
+const Scale kFull{256, 8192, 128, 6.0, {64, 128, 256}, 12.0, 0.04, 4096, 256, 128, 64, 128, 4096, 8.0, 128, 8192, 40.0};
+const Scale kQuick{32, 256, 16, 0.15, {8, 16, 32}, 0.5, 0.10, 1024, 32, 16, 32, 16, 128, 0.3, 24, 256, 0.3};
 
 struct Series {
   std::string name, integrator, sampler;
@@ -129,6 +134,7 @@ class Study {
     if (wants("materials")) body += materials();
     if (wants("models")) body += models();
     if (wants("optics")) body += optics();
+    if (wants("denoise")) body += denoising();
     const double minutes = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / 60.0;
     writeBytesAtomically(report_, header(minutes) + body);
     spdlog::info("wrote {} ({:.1f} min)", report_.string(), minutes);
@@ -709,6 +715,169 @@ class Study {
            "materials outdoors, lit only by an importance-sampled environment map with a small sun.\n\n" + table.markdown() + "\n" + link("materials");
   }
 
+  // ---- denoise: uniform sampling against uniform sampling + denoise (issue 27) ----------------
+  // cornell-seed with the denoiser's guides (albedo, normal, variance), NEE + MIS with Sobol
+  // samples, rendered progressively; at every checkpoint the raw image and its denoised version
+  // are compared with a converged reference (rendered with the same AOVs). The denoised image's
+  // error against the reference is split as E|D(I) - R| ~ bias + variance: the bias is D(R) - R,
+  // what the denoiser does to a converged image; the variance part is D(I) - D(R), its own noise.
+  // The denoised curve is charged the denoiser's time on top of the render's.
+  std::string denoising() {
+    const int side = scale_.denoiseSide;
+    Scene scene = seedAt(side, kStudyBounces);
+    scene.render.integrator = IntegratorKind::kNeeMis;
+    scene.render.sampler = SamplerKind::kSobol;
+    scene.render.roulette = RouletteRule::kOff;
+    for (Aov a : {Aov::kAlbedo, Aov::kNormal, Aov::kVariance}) scene.render.aovs.add(a);
+    const ExposureSettings& exposure = scene.render.exposure;
+    double referenceError = 0.0;
+    const Image reference =
+        referenceImage(scene, scale_.denoiseReferenceSpp, cache_, &referenceError, options_.threads);
+    const auto timed = [](const Image& image, double* seconds) {
+      const auto start = std::chrono::steady_clock::now();
+      Image out = denoise(image);
+      *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      return out;
+    };
+    double referenceDenoiseSeconds = 0.0;
+    const Image denoisedReference = timed(reference, &referenceDenoiseSeconds);
+    const ImageError bias = compareImages(denoisedReference, reference, exposure);
+    // D(R) - R also holds the reference's own noise, which the denoiser removes: out in quadrature.
+    const double biasNet =
+        std::sqrt(std::max(0.0, bias.relativeRmse * bias.relativeRmse - referenceError * referenceError));
+
+    struct Point {
+      double spp, seconds, denoiseSeconds;
+      ImageError raw, denoised, variance;
+    };
+    std::vector<Point> points;
+    ProgressiveRun run;
+    run.firstCheckpoint = 2;  // the variance AOV needs two samples a pixel
+    run.budgetSeconds = scale_.denoiseBudget;
+    run.threads = options_.threads;
+    renderProgressive(scene, run, [&](const Checkpoint& c) {
+      Point p{double(c.samplesPerPixel), c.seconds, 0.0, compareImages(c.image, reference, exposure), {}, {}};
+      const Image d = timed(c.image, &p.denoiseSeconds);
+      p.denoised = compareImages(d, reference, exposure);
+      p.variance = compareImages(d, denoisedReference, exposure);
+      points.push_back(p);
+      return true;
+    });
+
+    Series raw, denoised, variance, biasLine;
+    raw.name = "uniform";
+    denoised.name = "uniform + denoise";
+    variance.name = "uniform + denoise vs denoised reference (variance part)";
+    biasLine.name = "denoiser bias at convergence";
+    Table csv({"series", "spp", "seconds", "render_seconds", "denoise_seconds", "relative_rmse",
+               "relative_rmse_vs_denoised_reference", "worst_1pct_relative_error", "mean_ratio", "display_rmse"});
+    Table table({"spp", "render (s)", "denoise (s)", "uniform rel. RMSE", "+ denoise rel. RMSE", "variance part",
+                 "uniform worst 1 %", "+ denoise worst 1 %", "lower total error"});
+    // The filter's cost depends on the pixel count, not the samples: every checkpoint is charged the
+    // median of the measured times (single timings of a few milliseconds jitter on a shared machine,
+    // and a denoised curve whose time went backwards could not be interpolated).
+    std::vector<double> denoiseTimes;
+    for (const Point& p : points) denoiseTimes.push_back(p.denoiseSeconds);
+    const double denoiseSeconds = median(denoiseTimes);
+    for (const Point& p : points) {
+      const double total = p.seconds + denoiseSeconds;
+      for (Series* s : {&raw, &denoised, &variance}) s->spp.push_back(p.spp);
+      raw.seconds.push_back(p.seconds);
+      raw.error.push_back(p.raw.relativeRmse);
+      denoised.seconds.push_back(total);
+      denoised.error.push_back(p.denoised.relativeRmse);
+      variance.seconds.push_back(total);
+      variance.error.push_back(p.variance.relativeRmse);
+      csv.add({"uniform", number(p.spp, 10), number(p.seconds, 4), number(p.seconds, 4), "0",
+               number(p.raw.relativeRmse, 4), "", number(p.raw.worstPercentRelative, 4), number(p.raw.meanRatio, 5),
+               number(p.raw.displayRmse, 4)});
+      csv.add({"uniform+denoise", number(p.spp, 10), number(total, 4), number(p.seconds, 4),
+               number(p.denoiseSeconds, 4), number(p.denoised.relativeRmse, 4), number(p.variance.relativeRmse, 4),
+               number(p.denoised.worstPercentRelative, 4), number(p.denoised.meanRatio, 5),
+               number(p.denoised.displayRmse, 4)});
+      table.add({number(p.spp, 10), number(p.seconds, 3), number(p.denoiseSeconds, 3), number(p.raw.relativeRmse, 3),
+                 number(p.denoised.relativeRmse, 3), number(p.variance.relativeRmse, 3),
+                 number(p.raw.worstPercentRelative, 3), number(p.denoised.worstPercentRelative, 3),
+                 p.denoised.relativeRmse < p.raw.relativeRmse ? "denoised" : "uniform"});
+    }
+    csv.writeCsv(options_.out / "denoise.csv");
+    biasLine.seconds = {std::min(raw.seconds.front(), denoised.seconds.front()), denoised.seconds.back()};
+    biasLine.error = {bias.relativeRmse, bias.relativeRmse};
+
+    // The crossover: the first time at which the raw image's error (interpolated on log-log axes)
+    // is no larger than the denoised image's at the same total time.
+    bool extrapolated = false;
+    const double crossover = crossoverTime(raw, denoised, &extrapolated);
+    std::string crossoverText;
+    if (crossover <= 0.0)
+      crossoverText = "uniform alone is already better at the first checkpoint";
+    else if (!extrapolated)
+      crossoverText = number(crossover, 3) + " s";
+    else
+      crossoverText = "not within the measured range (up to " + number(denoised.seconds.back(), 3) + " s)" +
+                      (std::isfinite(crossover)
+                           ? "; the two curves, extended along their last segments on log-log axes, would cross "
+                             "near " + number(crossover, 3) + " s (extrapolated)"
+                           : "; along their last segments on log-log axes the curves do not converge");
+    Table summary({"bias_at_convergence", "bias_at_convergence_net_of_reference_noise", "reference_estimated_error",
+                   "reference_spp", "reference_denoise_seconds", "crossover_seconds", "crossover_extrapolated"});
+    summary.add({number(bias.relativeRmse, 4), number(biasNet, 4), number(referenceError, 4),
+                 number(double(scale_.denoiseReferenceSpp), 10), number(referenceDenoiseSeconds, 4),
+                 number(crossover, 4), extrapolated ? "yes" : "no"});
+    summary.writeCsv(options_.out / "denoise-summary.csv");
+    plotErrorAgainstTime("denoise", {raw, denoised, variance, biasLine});
+
+    return "## Uniform sampling against uniform sampling + denoise (issue 27)\n\n"
+           "cornell-seed at " + std::to_string(side) + "x" + std::to_string(side) + ", NEE + MIS, Sobol, B = " +
+           std::to_string(kStudyBounces) + ", rendered with the denoiser's guide AOVs (albedo, normal, variance) and "
+           "compared at every power-of-two sample count with a reference of " +
+           std::to_string(scale_.denoiseReferenceSpp) + " spp rendered the same way (its own estimated relative "
+           "error " + number(100 * referenceError, 3) + " %, a floor under both curves). The denoised image "
+           "(film/denoiser.h, default settings) is charged its render time plus the denoiser's, the median of "
+           "its measured times, " + number(denoiseSeconds, 3) + " s (the table gives each). Its error "
+           "against the reference (total) has two parts: the **denoiser's bias at convergence**, the relative RMSE "
+           "of the denoised reference against the reference itself, " + number(bias.relativeRmse, 3) +
+           (biasNet > 0.0 ? " (" + number(biasNet, 3) +
+                                " with the reference's own noise, which the denoiser removes, taken out in quadrature)"
+                          : " (no more than the reference's own noise, which the denoiser removes: an upper bound, "
+                            "the bias is not resolved at this reference's sample count)") +
+           ", which no sample count removes; and the **variance part**, the error of the denoised image "
+           "against the denoised reference. The worst 1 % is the 99th percentile of the per-pixel relative error "
+           "(film/error_metrics.h). Crossover, after which uniform sampling alone has the lower total error: " +
+           crossoverText + ".\n\n" + table.markdown() + "\n" + link("denoise") +
+           "Data: `denoise.csv` (both series), `denoise-summary.csv` (bias, crossover).\n\n";
+  }
+
+  // The first time at which `raw`'s error (log-log interpolation, errorAtTime) is no larger than
+  // `denoised`'s, searched over both series' checkpoint times; 0 if raw is already no worse at the
+  // start. If they do not cross, `extrapolated` is set and the time is where the lines through each
+  // series' last two checkpoints (log-log) cross, or infinity if they do not converge.
+  static double crossoverTime(const Series& raw, const Series& denoised, bool* extrapolated) {
+    *extrapolated = false;
+    std::vector<double> times = raw.seconds;
+    times.insert(times.end(), denoised.seconds.begin(), denoised.seconds.end());
+    std::sort(times.begin(), times.end());
+    const double start = std::max(raw.seconds.front(), denoised.seconds.front());
+    const double end = std::min(raw.seconds.back(), denoised.seconds.back());
+    const auto gap = [&](double t) { return std::log(errorAtTime(raw, t)) - std::log(errorAtTime(denoised, t)); };
+    if (gap(start) <= 0.0) return 0.0;
+    double last = start;
+    for (double t : times) {
+      if (t <= start || t > end) continue;
+      const double a = gap(last), b = gap(t);
+      if (b <= 0.0) return std::exp(std::log(last) + a / (a - b) * (std::log(t) - std::log(last)));
+      last = t;
+    }
+    *extrapolated = true;
+    const auto slope = [](const Series& s) {
+      const size_t n = s.seconds.size();
+      return n < 2 ? -0.5 : std::log(s.error[n - 1] / s.error[n - 2]) / std::log(s.seconds[n - 1] / s.seconds[n - 2]);
+    };
+    const double steeper = slope(denoised) - slope(raw);  // > 0: raw falls faster
+    if (!(steeper > 0.0)) return std::numeric_limits<double>::infinity();
+    return std::max(end, end * std::exp(gap(end) / steeper));
+  }
+
   std::string header(double minutes) const {
     char date[64];
     const std::time_t now = std::time(nullptr);
@@ -746,8 +915,10 @@ class Study {
 void runStudy(const StudyOptions& options) {
   for (const auto& e : options.experiments)
     if (!kExperiments.count(e))
-      throw InputError("--experiments", "unknown experiment \"" + e +
-                                            "\" (expected convergence, estimate, resolution, dof, bounces, materials, models or optics)");
+      throw InputError(
+          "--experiments",
+          "unknown experiment \"" + e +
+              "\" (expected convergence, estimate, resolution, dof, bounces, materials, models, optics or denoise)");
   Study(options).run();
 }
 

@@ -14,7 +14,10 @@
 //    cornell-glass-metal: time per path, energy and the time to reach the same error;
 //  - models: a textured glTF model against untextured stand-ins;
 //  - optics: cornell-seed through a pinhole, the thin lens (round and bladed apertures) and real
-//    lenses: time per path, energy and the time to reach the same error.
+//    lenses: time per path, energy and the time to reach the same error;
+//  - denoise: uniform sampling against uniform sampling + the denoiser (film/denoiser.h) at every
+//    checkpoint, its error split into the denoiser's bias at convergence and the rest, and the
+//    time after which the raw image is the better one.
 #include <filesystem>
 #include <set>
 #include <string>
@@ -32,7 +35,7 @@ struct StudyOptions {
 };
 
 inline const std::set<std::string> kExperiments = {"convergence", "estimate", "resolution", "dof", "bounces",
-                                                   "materials", "models", "optics"};
+                                                   "materials", "models", "optics", "denoise"};
 
 // Runs the experiments and writes the outputs; throws InputError for bad options and
 // std::runtime_error when a tool (gnuplot) fails.

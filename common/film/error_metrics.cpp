@@ -1,5 +1,6 @@
 #include "film/error_metrics.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -32,6 +33,21 @@ ImageError compareImages(const Image& image, const Image& reference, const Expos
   e.relativeRmse = mean > 0.0 ? e.rmse / mean : 0.0;
   e.relativeMse = relative / n;
   e.meanRatio = mean > 0.0 ? meanValue(image) / mean : 0.0;
+
+  // The worst 1 % of pixels: the 99th percentile (nearest rank) of the per-pixel relative error.
+  const size_t pixels = reference.rgb.size() / 3;
+  std::vector<double> perPixel(pixels);
+  const double floor = 0.01 * std::max(mean, 0.0) + 1e-30;
+  for (size_t p = 0; p < pixels; ++p) {
+    double sum = 0.0;
+    for (size_t c = 3 * p; c < 3 * p + 3; ++c)
+      sum +=
+          std::abs(double(image.rgb[c]) - double(reference.rgb[c])) / (std::max(double(reference.rgb[c]), 0.0) + floor);
+    perPixel[p] = sum / 3.0;
+  }
+  const size_t rank = std::min(pixels - 1, size_t(std::ceil(0.99 * double(pixels))) - 1);
+  std::nth_element(perPixel.begin(), perPixel.begin() + std::ptrdiff_t(rank), perPixel.end());
+  e.worstPercentRelative = perPixel[rank];
 
   const std::vector<uint8_t> shown = exposeToSrgb8(image, exposure), expected = exposeToSrgb8(reference, exposure);
   double displayed = 0.0;

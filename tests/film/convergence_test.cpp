@@ -86,6 +86,20 @@ struct SyntheticJob {
   }
 };
 
+// The worst 1 % of pixels is the 99th percentile (nearest rank) of the per-pixel relative error:
+// of 100 pixels, the 99th worst. Two bad pixels show in it, one alone does not.
+TEST(ErrorMetrics, WorstPercentIsTheNinetyNinthPercentileOfPixels) {
+  const Image reference = constantImage(10, 10, 1.0f);  // mean 1: the floor is 0.01
+  Image twoBad = reference;
+  for (size_t k = 0; k < 6; ++k) twoBad.rgb[k] = 1.5f;  // pixels 0 and 1, every channel
+  EXPECT_NEAR(compareImages(twoBad, reference).worstPercentRelative, 0.5 / 1.01, 1e-6);
+  Image oneBad = reference;
+  oneBad.rgb[0] = 4.0f;  // one channel of one pixel: (3 / 1.01) / 3 for that pixel only
+  EXPECT_EQ(compareImages(oneBad, reference).worstPercentRelative, 0.0);
+  oneBad.rgb[3] = 4.0f;
+  EXPECT_NEAR(compareImages(oneBad, reference).worstPercentRelative, 1.0 / 1.01, 1e-6);
+}
+
 TEST(Convergence, EstimatesTheErrorOfSyntheticNoiseWithinTenPercent) {
   SyntheticJob job;
   job.addUnit(4);

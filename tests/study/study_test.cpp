@@ -3,6 +3,7 @@
 // optics, light-hit fractions and energy grow with the bounce limit).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -63,16 +64,18 @@ struct StudyRun {
 void checkReportTablesAndPlots(const StudyRun& run) {
   const std::string report = test::readFile(run.dir.path() / "docs" / "accuracy.md");
   for (const char* section : {"## Convergence", "## The live error estimate", "## Resolution", "## Depth of field",
-                              "## Bounces", "## Glass and metal", "## Models", "## Camera optics", "lensfarm study"})
+                              "## Bounces", "## Glass and metal", "## Models", "## Camera optics", "## Uniform sampling against",
+                              "lensfarm study"})
     EXPECT_NE(report.find(section), std::string::npos) << section;
-  for (const char* plot : {"convergence", "estimate", "resolution", "dof", "bounces", "materials", "models", "optics"}) {
+  for (const char* plot :
+       {"convergence", "estimate", "resolution", "dof", "bounces", "materials", "models", "optics", "denoise"}) {
     EXPECT_NE(report.find("(../out/" + std::string(plot) + ".png)"), std::string::npos) << "relative link to " << plot;
     const std::string png = test::readFile(run.out(std::string(plot) + ".png"));
     ASSERT_GT(png.size(), 2000u) << plot;
     EXPECT_EQ(png.substr(1, 3), "PNG") << plot;
   }
   for (const char* csv : {"convergence.csv", "time-to-error.csv", "estimate.csv", "resolution.csv", "dof.csv", "bounces.csv",
-                          "materials.csv", "models.csv", "optics.csv"})
+                          "materials.csv", "models.csv", "optics.csv", "denoise.csv"})
     EXPECT_GT(readCsv(run.out(csv)).size(), 2u) << csv;
 }
 
@@ -165,6 +168,38 @@ void checkOptics(const StudyRun& run) {
   EXPECT_EQ(real, 2);
 }
 
+// Uniform sampling against uniform + denoise: both series at the same checkpoints; at 2 spp the
+// denoiser wins on the seed scene (its noise dwarfs the bias); the raw error falls with samples; the
+// denoiser's bias at convergence is reported, finite, and below the raw error at 2 spp.
+void checkDenoise(const StudyRun& run) {
+  std::map<std::string, std::vector<std::map<std::string, std::string>>> series;
+  for (const auto& row : readCsv(run.out("denoise.csv"))) series[row.at("series")].push_back(row);
+  ASSERT_EQ(series.size(), 2u);
+  const auto& raw = series["uniform"];
+  const auto& denoised = series["uniform+denoise"];
+  ASSERT_GE(raw.size(), 3u);
+  ASSERT_EQ(denoised.size(), raw.size());
+  EXPECT_EQ(num(raw.front(), "spp"), 2.0);
+  EXPECT_LT(num(denoised.front(), "relative_rmse"), 0.7 * num(raw.front(), "relative_rmse"))
+      << "at 2 spp the denoiser removes most of the error";
+  EXPECT_LT(num(raw.back(), "relative_rmse"), 0.7 * num(raw.front(), "relative_rmse")) << "more samples, less error";
+  for (size_t k = 0; k < raw.size(); ++k) {
+    EXPECT_EQ(raw[k].at("spp"), denoised[k].at("spp"));
+    EXPECT_GT(num(denoised[k], "seconds"), num(raw[k], "seconds")) << "the denoiser's time is charged";
+    EXPECT_GT(num(denoised[k], "worst_1pct_relative_error"), 0.0);
+  }
+  const Csv summary = readCsv(run.out("denoise-summary.csv"));
+  ASSERT_EQ(summary.size(), 1u);
+  const double bias = num(summary[0], "bias_at_convergence");
+  EXPECT_TRUE(std::isfinite(bias));
+  EXPECT_GT(bias, 0.0);
+  EXPECT_LT(bias, num(raw.front(), "relative_rmse"));
+  EXPECT_GE(num(summary[0], "crossover_seconds"), 0.0) << "a time, or inf where the curves do not converge";
+  const std::string report = test::readFile(run.dir.path() / "docs" / "accuracy.md");
+  EXPECT_NE(report.find("denoiser's bias at convergence"), std::string::npos);
+  EXPECT_NE(report.find("Crossover"), std::string::npos);
+}
+
 TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
   StudyRun run;
   run.result = test::runProcess({test::cliPath().string(), "study", "--quick", "--out", (run.dir.path() / "out").string(),
@@ -198,6 +233,10 @@ TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
   {
     SCOPED_TRACE("optics");
     checkOptics(run);
+  }
+  {
+    SCOPED_TRACE("denoise");
+    checkDenoise(run);
   }
 }
 
