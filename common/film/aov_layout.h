@@ -13,7 +13,8 @@
 //  - variance: of the pixel's mean, per channel, from the sums of squared sample radiance.
 //  - samples: the pixel's sample count.
 //  - object_id / material_id: 1 + the index of the object (a mesh of the loaded scene in load
-//    order, then the instances) / of the material that sample 0 of the pixel hits first; 0: none.
+//    order, then the instances) / of the material (Scene::materials: the file's named materials
+//    alphabetically, then the models') that sample 0 of the pixel hits first; 0: none.
 //
 // Sensor layout: every AOV is a set of extra doubles per sensor cell, summed sample by sample and
 // unit by unit exactly like the beauty (a SensorBuffer of AovLayout::channels doubles a cell:
