@@ -78,15 +78,17 @@ void Coordinator::checkPlausible(const UnitResult& result, uint64_t cells, uint3
   std::vector<double> lo(static_cast<size_t>(channels)), hi(static_cast<size_t>(channels));
   for (int c = 0; c < channels; ++c) aovSumRange(aovs, c, sampleCount, lo[size_t(c)], hi[size_t(c)]);
   const std::vector<double>& sums = result.buffer.sums;
-  for (size_t k = 0; k < sums.size(); ++k) {
-    const size_t c = k % size_t(channels);
-    if (!(sums[k] >= lo[c] && sums[k] <= hi[c]))  // (false for NaN too)
-      throw FarmError(FarmError::Kind::kInvalidArgument,
-                      what + " holds " + (std::isfinite(sums[k]) ? std::to_string(sums[k]) : std::string("a non-finite sum")) +
-                          " at cell " + std::to_string(k / size_t(channels)) + " sum " + std::to_string(c) +
-                          ": a unit of " + std::to_string(sampleCount) + " samples sums it to a value in [" +
-                          std::to_string(lo[c]) + ", " + std::to_string(hi[c]) + "]");
-  }
+  const size_t stride = size_t(channels);
+  for (size_t cell = 0; cell * stride < sums.size(); ++cell)  // cell by cell: no division per sum
+    for (size_t c = 0; c < stride; ++c) {
+      const double v = sums[cell * stride + c];
+      if (!(v >= lo[c] && v <= hi[c]))  // (false for NaN too)
+        throw FarmError(FarmError::Kind::kInvalidArgument,
+                        what + " holds " + (std::isfinite(v) ? std::to_string(v) : std::string("a non-finite sum")) +
+                            " at cell " + std::to_string(cell) + " sum " + std::to_string(c) + ": a unit of " +
+                            std::to_string(sampleCount) + " samples sums it to a value in [" + std::to_string(lo[c]) +
+                            ", " + std::to_string(hi[c]) + "]");
+    }
   const uint64_t paths = cells * sampleCount;
   const PathStats& s = result.stats;
   if (s.paths != paths)

@@ -10,6 +10,7 @@
 #include <bit>
 #include <cmath>
 #include <fstream>
+#include <initializer_list>
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -1229,6 +1230,19 @@ void validateRenderSettings(const RenderSettings& s, const std::string& where) {
                             "frame; give tile_size \"off\" or \"auto\"");
 }
 
+namespace {
+// The value of `kinds` whose name is `name` (the inverse of a *Name function), into `kind`.
+template <class Kind>
+bool parseByName(const std::string& name, std::initializer_list<Kind> kinds, const char* (*nameOf)(Kind), Kind& kind) {
+  for (Kind k : kinds)
+    if (name == nameOf(k)) {
+      kind = k;
+      return true;
+    }
+  return false;
+}
+}  // namespace
+
 const char* integratorName(IntegratorKind kind) {
   switch (kind) {
     case IntegratorKind::kNaive: return "naive";
@@ -1239,12 +1253,7 @@ const char* integratorName(IntegratorKind kind) {
 }
 
 bool parseIntegratorName(const std::string& name, IntegratorKind& kind) {
-  for (IntegratorKind k : {IntegratorKind::kNaive, IntegratorKind::kNee, IntegratorKind::kNeeMis})
-    if (name == integratorName(k)) {
-      kind = k;
-      return true;
-    }
-  return false;
+  return parseByName(name, {IntegratorKind::kNaive, IntegratorKind::kNee, IntegratorKind::kNeeMis}, integratorName, kind);
 }
 
 const char* samplerName(SamplerKind kind) {
@@ -1266,21 +1275,11 @@ const char* rouletteName(RouletteRule rule) {
 }
 
 bool parseRouletteName(const std::string& name, RouletteRule& rule) {
-  for (RouletteRule k : {RouletteRule::kOff, RouletteRule::kMax, RouletteRule::kThroughput})
-    if (name == rouletteName(k)) {
-      rule = k;
-      return true;
-    }
-  return false;
+  return parseByName(name, {RouletteRule::kOff, RouletteRule::kMax, RouletteRule::kThroughput}, rouletteName, rule);
 }
 
 bool parseSamplerName(const std::string& name, SamplerKind& kind) {
-  for (SamplerKind k : {SamplerKind::kIndependent, SamplerKind::kStratified, SamplerKind::kSobol})
-    if (name == samplerName(k)) {
-      kind = k;
-      return true;
-    }
-  return false;
+  return parseByName(name, {SamplerKind::kIndependent, SamplerKind::kStratified, SamplerKind::kSobol}, samplerName, kind);
 }
 
 }  // namespace lensfarm
