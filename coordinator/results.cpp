@@ -79,7 +79,8 @@ void Coordinator::checkPlausible(const UnitResult& result, uint64_t cells, uint3
   for (int c = 0; c < channels; ++c) aovSumRange(aovs, c, sampleCount, lo[size_t(c)], hi[size_t(c)]);
   const std::vector<double>& sums = result.buffer.sums;
   const size_t stride = size_t(channels);
-  for (size_t cell = 0; cell * stride < sums.size(); ++cell)  // cell by cell: no division per sum
+  const size_t whole = sums.size() / stride;  // never reads past the buffer, whatever its size
+  for (size_t cell = 0; cell < whole; ++cell)  // cell by cell: no division per sum
     for (size_t c = 0; c < stride; ++c) {
       const double v = sums[cell * stride + c];
       if (!(v >= lo[c] && v <= hi[c]))  // (false for NaN too)
@@ -141,8 +142,11 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
         aovs = AovLayout(found.settings.aovs);
       }
     }
-    if (sampleCount > 0 && result.buffer.width == region.width && result.buffer.height == region.height)
-      checkPlausible(result, uint64_t(region.width) * uint64_t(region.height), sampleCount, aovs);
+    // Only a buffer of the region's shape is read here; any other is refused by the size checks below.
+    const uint64_t cells = uint64_t(region.width) * uint64_t(region.height);
+    if (sampleCount > 0 && result.buffer.width == region.width && result.buffer.height == region.height &&
+        result.buffer.sums.size() == cells * uint64_t(aovs.channels))
+      checkPlausible(result, cells, sampleCount, aovs);
   }
   Job* job;
   JobPin pin;  // not deleted or archived while its result is summed (lifecycle.cpp); outlives the locks below

@@ -61,7 +61,8 @@ TEST(AovUpload, TheSumsACellMustBeTheJobsBeforeAnyIsRead) {
   EXPECT_NE(e.find("normal,depth"), std::string::npos) << e;
   EXPECT_NO_THROW(c.admitUpload(w, g.leaseId, job, g.unit.index, 4, 3, 8));
   // A beauty-only buffer is the wrong size for this job.
-  EXPECT_NE(errorOf([&] { c.acceptResult(test::resultFor(w, g, 1.0)); }).find("carries 36 sums; its region holds 96 (8 a cell"), std::string::npos);
+  const std::string wrong = errorOf([&] { c.acceptResult(test::resultFor(w, g, 1.0)); });
+  EXPECT_NE(wrong.find("carries 36 sums; its region holds 96 (8 a cell"), std::string::npos) << wrong;
 }
 
 TEST(AovUpload, ASumOutsideWhatTheRendererCanProduceIsRefusedNamingIt) {
