@@ -3,6 +3,7 @@
 #include "accumulator.h"
 
 #include <algorithm>
+#include <cstring>
 #include <stdexcept>
 #include <utility>
 
@@ -23,10 +24,12 @@ Accumulator::Accumulator(const RenderSettings& settings, uint32_t unitSize, uint
       aovs_(settings.aovs) {}
 
 Accumulator::Accumulator(const RenderSettings& settings, const JobLayout& layout)
-    : samplesPerPixel_(settings.samplesPerPixel),
+    : layout_(layout),
+      samplesPerPixel_(layout.samplesPerPixel),
       unitSize_(layout.passSamples),
       unitsTotal_(layout.unitCount()),
       targetError_(settings.targetError),
+      rounds_(layout.roundStarts.size()),
       width_(settings.width),
       height_(settings.height),
       aovs_(settings.aovs) {
@@ -38,16 +41,17 @@ Accumulator::Accumulator(const RenderSettings& settings, const JobLayout& layout
   }
 }
 
-Accumulator::Accumulator(const RenderSettings& settings, uint32_t unitSize, uint64_t unitsTotal, Sensor sensor,
-                         ConvergenceTracker tracker, uint64_t folded)
-    : samplesPerPixel_(settings.samplesPerPixel),
-      unitSize_(unitSize),
-      unitsTotal_(unitsTotal),
+Accumulator::Accumulator(const RenderSettings& settings, const JobLayout& layout, Sensor sensor,
+                         const std::string& filmState, uint64_t folded)
+    : layout_(layout),
+      samplesPerPixel_(layout.samplesPerPixel),
+      unitSize_(layout.passSamples),
+      unitsTotal_(layout.unitCount()),
       targetError_(settings.targetError),
       sensor_(std::make_unique<Sensor>(std::move(sensor))),
       nextToAdd_(folded),
       checkpointed_(folded),
-      tracker_(std::make_unique<ConvergenceTracker>(std::move(tracker))),
+      rounds_(layout.roundStarts.size()),
       width_(settings.width),
       height_(settings.height),
       aovs_(settings.aovs),
@@ -55,7 +59,52 @@ Accumulator::Accumulator(const RenderSettings& settings, uint32_t unitSize, uint
   if (sensor_->channels() != aovs_.channels)
     throw std::runtime_error("the checkpoint's sensor holds " + std::to_string(sensor_->channels()) +
                              " sums a cell, the job's AOVs " + std::to_string(aovs_.channels));
+  size_t at = 0;
+  tracker_ = std::make_unique<ConvergenceTracker>(ConvergenceTracker::deserializePrefix(filmState, at));
+  while (at < filmState.size()) {  // the rounds allocated when the checkpoint was taken
+    uint64_t size = 0;
+    if (filmState.size() - at < sizeof size) throw std::runtime_error("film state: a round allocation is truncated");
+    std::memcpy(&size, filmState.data() + at, sizeof size);
+    at += sizeof size;
+    if (size > filmState.size() - at) throw std::runtime_error("film state: a round allocation is truncated");
+    auto round = std::make_shared<const RoundAllocation>(RoundAllocation::deserialize(filmState.substr(at, size)));
+    at += size;
+    const int r = layout_.roundOf(round->start);
+    if (r < 0 || layout_.roundStarts[size_t(r)] != round->start || round->units != layout_.roundEnd(size_t(r)) - round->start)
+      throw std::runtime_error("film state: a round allocation that is not this job's");
+    rounds_[size_t(r)] = std::move(round);
+  }
   for (uint64_t u = 0; u < folded; ++u) sppAdded_ += unitAt(u, samplesPerPixel_, unitSize_).sampleCount;
+  allocateIfRoundStarts();
+}
+
+std::shared_ptr<const SampleMap> Accumulator::samplesOf(uint64_t u, bool* ready) const {
+  const int r = layout_.roundOf(u);
+  if (ready) *ready = true;
+  if (r < 0) return nullptr;
+  std::lock_guard lock(mutex_);
+  const auto& round = rounds_[size_t(r)];
+  if (ready) *ready = round != nullptr;
+  return round ? round->mapOf(u) : nullptr;
+}
+
+bool Accumulator::leasable(uint64_t u) const {
+  const int r = layout_.roundOf(u);
+  if (r < 0) return true;
+  std::lock_guard lock(mutex_);
+  return rounds_[size_t(r)] != nullptr;
+}
+
+void Accumulator::allocateIfRoundStarts() {
+  const int r = layout_.roundOf(nextToAdd_);
+  if (r < 0 || layout_.roundStarts[size_t(r)] != nextToAdd_ || rounds_[size_t(r)] || nextToAdd_ >= foldLimit_) return;
+  AllocationRequest request;
+  request.start = nextToAdd_;
+  request.units = uint32_t(layout_.roundEnd(size_t(r)) - nextToAdd_);
+  request.passSamples = layout_.passSamples;
+  request.blockEdge = layout_.blockEdge;
+  request.floor = layout_.allocationFloor;
+  rounds_[size_t(r)] = std::make_shared<const RoundAllocation>(allocateRound(*sensor_, *tracker_, request));
 }
 
 std::optional<Accumulator::Progress> Accumulator::add(const UnitResult& result, UnitResult* owned,
@@ -127,10 +176,17 @@ void Accumulator::drainInOrder(const UnitResult* next) {
     } else {
       break;
     }
-    // Every cell of a unit holds the unit's samples; the count is the coordinator's to know.
+    // Every cell of a unit holds the unit's samples, or its block's for an adaptive unit; the
+    // counts are the coordinator's to know.
     const uint32_t samples = unitAt(nextToAdd_, samplesPerPixel_, unitSize_).sampleCount;
-    sensor_->add(r->buffer, samples);
-    tracker_->add(nextToAdd_, r->buffer, samples);
+    if (const int round = layout_.roundOf(nextToAdd_); round >= 0) {
+      const std::shared_ptr<const SampleMap> map = rounds_[size_t(round)]->mapOf(nextToAdd_);
+      sensor_->add(r->buffer, *map);
+      tracker_->add(nextToAdd_, r->buffer, *map);
+    } else {
+      sensor_->add(r->buffer, samples);
+      tracker_->add(nextToAdd_, r->buffer, samples);
+    }
     statsAdded_ += r->stats;
     sppAdded_ += samples;
     if (it != arrived_.end()) arrived_.erase(it);
@@ -148,6 +204,7 @@ void Accumulator::drainInOrder(const UnitResult* next) {
       if (estimate_.valid && estimate_.relativeRmse <= target) stopFolding("target error reached");
     }
     if (stopAtNextFold_ && stopReason_.empty()) stopFolding("deadline reached");
+    allocateIfRoundStarts();
   }
   if (nextToAdd_ == unitsTotal_ && stopReason_.empty())
     stopReason_ = target > 0.0 ? "sample cap reached before the target error" : "all samples done";
@@ -202,7 +259,15 @@ std::optional<Accumulator::Snapshot> Accumulator::snapshotIfChanged() const {
 }
 
 Accumulator::Snapshot Accumulator::snapshotLocked() const {
-  return Snapshot{sensor_->serialize(), tracker_->serialize(), nextToAdd_};
+  std::string state = tracker_->serialize();
+  for (const auto& round : rounds_)
+    if (round && round->start <= nextToAdd_) {  // (one allocated later is allocated again from the film)
+      const std::string bytes = round->serialize();
+      const uint64_t size = bytes.size();
+      state.append(reinterpret_cast<const char*>(&size), sizeof size);
+      state += bytes;
+    }
+  return Snapshot{sensor_->serialize(), std::move(state), nextToAdd_};
 }
 
 void Accumulator::keepRewindPoints(uint64_t spacing, size_t most) {
@@ -259,13 +324,18 @@ Accumulator::Rewound Accumulator::rewind(uint64_t unit, const std::function<bool
       estimate_ = p.estimate;
     }
     lastPointAt_ = nextToAdd_;
+    // Rounds allocated from a film now undone are allocated again when it gets there.
+    for (size_t r = 0; r < rounds_.size(); ++r)
+      if (layout_.roundStarts[r] > nextToAdd_) rounds_[r].reset();
     // The stop was decided on units now undone (a deadline ends a job before any rewind).
     foldLimit_ = std::numeric_limits<uint64_t>::max();
     stopReason_.clear();
   }
+  allocateIfRoundStarts();
   Rewound out;
   for (auto it = arrived_.begin(); it != arrived_.end();) {
-    if (drop(it->second)) {
+    const int round = layout_.roundOf(it->first);  // a unit of a round undone traced another allocation
+    if (drop(it->second) || (round >= 0 && !rounds_[size_t(round)])) {
       it = arrived_.erase(it);
     } else {
       out.kept.insert(it->first);

@@ -33,6 +33,7 @@
 #include <string>
 
 #include "farm/farm_types.h"
+#include "film/adaptive_allocation.h"
 #include "film/convergence.h"
 #include "film/image.h"
 #include "film/sensor.h"
@@ -58,9 +59,10 @@ class Accumulator {
   Accumulator(const RenderSettings& settings, uint32_t unitSize, uint64_t unitsTotal);
   // A new job's film for its layout: a TileFilm when it is tiled, else as above.
   Accumulator(const RenderSettings& settings, const JobLayout& layout);
-  // A job resumed from a checkpoint whose sensor and tracker hold units [0, folded).
-  Accumulator(const RenderSettings& settings, uint32_t unitSize, uint64_t unitsTotal, Sensor sensor,
-              ConvergenceTracker tracker, uint64_t folded);
+  // A job resumed from a checkpoint whose sensor and film state (Snapshot::tracker) hold units
+  // [0, folded); std::runtime_error if they are not this job's.
+  Accumulator(const RenderSettings& settings, const JobLayout& layout, Sensor sensor, const std::string& filmState,
+              uint64_t folded);
   Accumulator(const Accumulator&) = delete;
   Accumulator& operator=(const Accumulator&) = delete;
 
@@ -70,11 +72,20 @@ class Accumulator {
   // A result accepted before a rewind (`generation` below generation()) is ignored.
   std::optional<Progress> add(const UnitResult& result, UnitResult* owned, uint64_t generation = 0);
 
-  // The sensor and tracker as a checkpoint saves them.
+  // The sensor and the rest of the film as a checkpoint saves them: `tracker` holds the
+  // convergence tracker's bytes, then an adaptive job's round allocations (each a 64-bit size and
+  // RoundAllocation's bytes).
   struct Snapshot {
     std::string sensor, tracker;
     uint64_t folded = 0;  // the units they hold
   };
+
+  // ---- adaptive sampling (farm/job_layout.h) ----
+  // What unit `u` traces: null for a unit of one sample range (a uniform pass, any job without
+  // rounds); its map once its round is allocated (every unit before the round summed).
+  // `ready` says whether the unit can be leased now.
+  std::shared_ptr<const SampleMap> samplesOf(uint64_t u, bool* ready = nullptr) const;
+  bool leasable(uint64_t u) const;  // samplesOf's `ready`, without making the map
 
   // ---- rewinding (docs/farm.md "Audit") ----
   // Keeps a copy of the sensor and tracker every `spacing` units summed, at most `most` at once
@@ -146,7 +157,10 @@ class Accumulator {
   Progress progress() const;                  // requires mutex_
   Snapshot snapshotLocked() const;            // requires mutex_
 
+  // An adaptive job's round starting at nextToAdd_, if it has none yet (film/adaptive_allocation.h).
+  void allocateIfRoundStarts();  // requires mutex_
   // The job's layout, fixed at submission.
+  const JobLayout layout_;
   const uint64_t samplesPerPixel_;
   const uint32_t unitSize_;
   const uint64_t unitsTotal_;
@@ -160,6 +174,7 @@ class Accumulator {
   PathStats statsAdded_;
   uint64_t checkpointed_ = 0;  // units in the last saved sensor
   std::unique_ptr<ConvergenceTracker> tracker_;
+  std::vector<std::shared_ptr<const RoundAllocation>> rounds_;  // per round of layout_; null until allocated
   ErrorEstimate estimate_;
   Clock::time_point estimatedAt_;
   uint64_t foldLimit_ = std::numeric_limits<uint64_t>::max();  // units from here on are never folded

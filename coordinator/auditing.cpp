@@ -64,7 +64,7 @@ std::optional<LeaseGrant> Coordinator::tryAuditLease(Worker& worker, Clock::time
   worker.currentJobId = job.id;
   worker.currentUnit = unit;
   touch(job);
-  return LeaseGrant{leaseId, job.id, job.layout.unit(unit), job.sceneHash,
+  return LeaseGrant{leaseId, job.id, unitToLease(job, unit), job.sceneHash,
                     options_.leaseTimeoutSeconds};
 }
 
@@ -206,6 +206,9 @@ void Coordinator::rewindFor(Job& job, const std::string& workerId) {
   const Accumulator::Rewound r =
       job.film->rewind(*first, [&](const UnitResult& result) { return result.workerId == workerId; }, workerId);
   job.generation = job.film->generation();
+  // An adaptive job's rounds after the film's new end are allocated again: a unit leased under
+  // the old allocation traces other samples, so its lease ends here (its unit is leased again).
+  if (job.layout.adaptive()) leases_.eraseUnitsOf(job.id);
   const uint64_t uncounted = job.units.rewindTo(r.units, r.kept);
   job.publish(r.progress);
   if (r.progress.stopReason.empty()) {  // the stop was reached with units now undone

@@ -400,7 +400,11 @@ class Coordinator {
   // ---- results and stopping (results.cpp) ----
   bool accept(const UnitResult& result, UnitResult* owned);
   // FarmError kInvalidArgument unless the result is one the unit can produce (results.cpp).
-  static void checkPlausible(const UnitResult& result, uint64_t cells, uint32_t sampleCount, const AovLayout& aovs);
+  // `map`: an adaptive unit's samples (render/sample_map.h), whose counts then replace sampleCount.
+  static void checkPlausible(const UnitResult& result, uint64_t cells, uint32_t sampleCount, const AovLayout& aovs,
+                             const SampleMap* map = nullptr);
+  // Unit `unit` of `job` as a lease carries it: an adaptive unit with its map (requires mutex_).
+  WorkUnit unitToLease(const Job& job, uint64_t unit) const;
   void enforceDeadlines();  // requires mutex_
 
   // ---- the cross-worker audit (auditing.cpp, docs/farm.md "Audit"); all but acceptAudit

@@ -177,11 +177,10 @@ void Coordinator::restore() {
     if (job->layout.tiled()) {
     } else if (checkpoint) {
       Sensor sensor = Sensor::deserialize(checkpoint->sensorBytes);
-      ConvergenceTracker tracker = ConvergenceTracker::deserialize(checkpoint->trackerBytes);
-      job->film = std::make_unique<Accumulator>(scene.render, job->unitSize, job->units.total(), std::move(sensor),
-                                                std::move(tracker), checkpoint->foldedUnits);
+      job->film = std::make_unique<Accumulator>(scene.render, job->layout, std::move(sensor), checkpoint->trackerBytes,
+                                                checkpoint->foldedUnits);
     } else {
-      job->film = std::make_unique<Accumulator>(scene.render, job->unitSize, job->units.total());
+      job->film = std::make_unique<Accumulator>(scene.render, job->layout);
     }
     if (stored.stopUnits) job->film->limitTo(*stored.stopUnits);
     if (checkpoint) folded = checkpoint->foldedUnits;

@@ -71,26 +71,37 @@ bool Coordinator::acceptResult(const UnitResult& result) { return accept(result,
 // one sample per pass), so each cell's sum lies in [0, sampleCount x FLT_MAX] and the image's
 // mean stays a finite float; one camera path is traced per cell and sample, and lights hit and
 // samples dropped are among those paths. Anything else did not come from the renderer.
-void Coordinator::checkPlausible(const UnitResult& result, uint64_t cells, uint32_t sampleCount, const AovLayout& aovs) {
+void Coordinator::checkPlausible(const UnitResult& result, uint64_t cells, uint32_t sampleCount, const AovLayout& aovs,
+                                 const SampleMap* map) {
   const std::string what = "result for unit " + std::to_string(result.unitIndex) + " of " + result.jobId;
-  // Each channel's range (film/aov_layout.h: the beauty's RGB, then the AOVs' sums).
+  // Each channel's range for a cell of n samples (film/aov_layout.h: the beauty's RGB, then the
+  // AOVs' sums); an adaptive unit's cells have their block's n.
   const int channels = aovs.channels;
   std::vector<double> lo(static_cast<size_t>(channels)), hi(static_cast<size_t>(channels));
-  for (int c = 0; c < channels; ++c) aovSumRange(aovs, c, sampleCount, lo[size_t(c)], hi[size_t(c)]);
+  uint32_t rangeOf = 0;
+  const auto rangesFor = [&](uint32_t n) {
+    for (int c = 0; c < channels; ++c) aovSumRange(aovs, c, n, lo[size_t(c)], hi[size_t(c)]);
+    rangeOf = n;
+  };
+  rangesFor(sampleCount);
   const std::vector<double>& sums = result.buffer.sums;
   const size_t stride = size_t(channels);
   const size_t whole = sums.size() / stride;  // never reads past the buffer, whatever its size
-  for (size_t cell = 0; cell < whole; ++cell)  // cell by cell: no division per sum
+  const int width = std::max(1, result.buffer.width);
+  for (size_t cell = 0; cell < whole; ++cell) {  // cell by cell: no division per sum
+    const uint32_t n = map ? map->countAt(int(cell % size_t(width)), int(cell / size_t(width))) : sampleCount;
+    if (n != rangeOf) rangesFor(n);
     for (size_t c = 0; c < stride; ++c) {
       const double v = sums[cell * stride + c];
       if (!(v >= lo[c] && v <= hi[c]))  // (false for NaN too)
         throw FarmError(FarmError::Kind::kInvalidArgument,
                         what + " holds " + (std::isfinite(v) ? std::to_string(v) : std::string("a non-finite sum")) +
                             " at cell " + std::to_string(cell) + " sum " + std::to_string(c) + ": a unit of " +
-                            std::to_string(sampleCount) + " samples sums it to a value in [" + std::to_string(lo[c]) +
-                            ", " + std::to_string(hi[c]) + "]");
+                            std::to_string(n) + " samples sums it to a value in [" + std::to_string(lo[c]) + ", " +
+                            std::to_string(hi[c]) + "]");
     }
-  const uint64_t paths = cells * sampleCount;
+  }
+  const uint64_t paths = map ? map->totalSamples(result.buffer.width, result.buffer.height) : cells * sampleCount;
   const PathStats& s = result.stats;
   if (s.paths != paths)
     throw FarmError(FarmError::Kind::kInvalidArgument, what + " counts " + std::to_string(s.paths) +
@@ -133,20 +144,24 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
     PixelRegion region;
     uint32_t sampleCount = 0;
     AovLayout aovs;
+    std::shared_ptr<const SampleMap> map;
     {
       std::lock_guard lock(mutex_);
       const Job& found = findJob(result.jobId);
       if (result.unitIndex < found.units.total()) {
+        bool ready = true;
         sampleCount = found.layout.unit(result.unitIndex).sampleCount;
         region = found.layout.regionOf(result.unitIndex);
         aovs = AovLayout(found.settings.aovs);
+        if (found.film && found.layout.adaptive()) map = found.film->samplesOf(result.unitIndex, &ready);
+        if (!ready) sampleCount = 0;  // not leased yet: refused below (no lease covers it)
       }
     }
     // Only a buffer of the region's shape is read here; any other is refused by the size checks below.
     const uint64_t cells = uint64_t(region.width) * uint64_t(region.height);
     if (sampleCount > 0 && result.buffer.width == region.width && result.buffer.height == region.height &&
         result.buffer.sums.size() == cells * uint64_t(aovs.channels))
-      checkPlausible(result, cells, sampleCount, aovs);
+      checkPlausible(result, cells, sampleCount, aovs, map.get());
   }
   Job* job;
   JobPin pin;  // not deleted or archived while its result is summed (lifecycle.cpp); outlives the locks below

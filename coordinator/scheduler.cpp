@@ -47,6 +47,8 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
     if (!job->units.hasReturned() && !job->layout.tiled()) {  // a fresh pass: only within the window ahead of the summed prefix
       const uint64_t window = unitsAheadWindow(job->settings.width, job->settings.height, options_.maxBytesAhead);
       if (job->units.nextFresh() >= job->unitsAdded + window) continue;
+      // An adaptive round is leased once the film before it is summed (farm/job_layout.h).
+      if (job->layout.adaptive() && !job->film->leasable(job->units.nextFresh())) continue;
     }
     if (!best || job->priority > best->priority || (job->priority == best->priority && job->sequence < best->sequence))
       best = job.get();
@@ -66,7 +68,13 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   worker.currentJobId = job.id;
   worker.currentUnit = unit;
   touch(job);
-  return LeaseGrant{leaseId, job.id, job.layout.unit(unit), job.sceneHash, options_.leaseTimeoutSeconds};
+  return LeaseGrant{leaseId, job.id, unitToLease(job, unit), job.sceneHash, options_.leaseTimeoutSeconds};
+}
+
+WorkUnit Coordinator::unitToLease(const Job& job, uint64_t unit) const {
+  WorkUnit w = job.layout.unit(unit);
+  if (job.layout.adaptive() && job.film) w.samples = job.film->samplesOf(unit);
+  return w;
 }
 
 std::optional<LeaseGrant> Coordinator::lease(const std::string& workerId, double waitSeconds) {

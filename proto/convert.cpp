@@ -101,6 +101,16 @@ v1::Lease toProto(const LeaseGrant& g) {
   }
   p.set_pass_samples(g.unit.passSamples);
   p.set_sums_encoding(v1::SumsEncoding(g.uploadEncoding));
+  if (const SampleMap* map = g.unit.samples.get()) {
+    v1::Lease::AdaptiveSamples& a = *p.mutable_adaptive();
+    a.set_block_edge(uint32_t(map->blockEdge));
+    a.set_pass_samples(map->passSamples);
+    a.set_half(map->half);
+    a.set_blocks_x(uint32_t(map->blocksX));
+    a.set_blocks_y(uint32_t(map->blocksY));
+    a.mutable_block_first()->Add(map->first.begin(), map->first.end());
+    a.mutable_block_count()->Add(map->count.begin(), map->count.end());
+  }
   return p;
 }
 
@@ -114,6 +124,19 @@ LeaseGrant fromProto(const v1::Lease& p) {
                               int(std::min<uint32_t>(p.region_width(), 1u << 30)),
                               int(std::min<uint32_t>(p.region_height(), 1u << 30))};
   g.unit.passSamples = p.pass_samples();
+  if (p.has_adaptive()) {
+    // Checked against the frame where it is rendered (renderUnit: SampleMap::whyNotFor).
+    const v1::Lease::AdaptiveSamples& a = p.adaptive();
+    auto map = std::make_shared<SampleMap>();
+    map->blockEdge = int(std::min<uint32_t>(a.block_edge(), 1u << 30));
+    map->passSamples = a.pass_samples();
+    map->half = a.half();
+    map->first.assign(a.block_first().begin(), a.block_first().end());
+    map->count.assign(a.block_count().begin(), a.block_count().end());
+    map->blocksX = int(std::min<uint32_t>(a.blocks_x(), 1u << 30));
+    map->blocksY = int(std::min<uint32_t>(a.blocks_y(), 1u << 30));
+    g.unit.samples = std::move(map);
+  }
   g.sceneHash = p.scene_hash();
   g.deadlineSeconds = p.deadline_seconds();
   // A value this worker does not know: raw, which every coordinator accepts.

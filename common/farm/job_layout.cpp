@@ -1,6 +1,7 @@
 #include "farm/job_layout.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace lensfarm {
 
@@ -13,7 +14,31 @@ JobLayout JobLayout::of(const RenderSettings& s, const std::optional<FrameRange>
   l.tileSize = s.tileSize > 0 ? std::min(s.tileSize, std::max(s.width, s.height)) : 0;
   l.frames = frames;
   l.channels = AovLayout(s.aovs).channels;
+  if (s.adaptive.enabled && !l.tiled() && !frames) {
+    uint64_t passes = lensfarm::unitCount(s.samplesPerPixel, l.passSamples);
+    const uint64_t uniform = std::max<uint64_t>(2, uint64_t(std::llround(double(passes) * s.adaptive.uniform / 2.0)) * 2);
+    if (passes > uniform) {  // else nothing is left to adapt: uniform passes alone
+      if ((passes - uniform) % 2 != 0) ++passes;
+      l.samplesPerPixel = passes * l.passSamples;
+      l.adaptiveStart = uniform;
+      for (uint64_t u = uniform; u < passes;) {
+        l.roundStarts.push_back(u);
+        const uint64_t size = std::max<uint64_t>(2, (u / 2 + 1) / 2 * 2);
+        u += std::min(size, passes - u);
+      }
+      // Blocks of 16 cells, larger for a frame over 4096 of them (a lease carries a block's range).
+      const uint64_t cells = uint64_t(s.width) * uint64_t(s.height);
+      l.blockEdge = s.adaptive.blockEdge > 0 ? s.adaptive.blockEdge
+                                             : std::max(16, int(std::ceil(std::sqrt(double(cells) / 4096.0))));
+      l.allocationFloor = s.adaptive.floor;
+    }
+  }
   return l;
+}
+
+int JobLayout::roundOf(uint64_t u) const {
+  if (!adaptive() || u < adaptiveStart) return -1;
+  return int(std::upper_bound(roundStarts.begin(), roundStarts.end(), u) - roundStarts.begin()) - 1;
 }
 
 uint64_t JobLayout::unitsPerFrame() const {

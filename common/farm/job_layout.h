@@ -17,8 +17,17 @@
 //    frame's sums, whatever the sample count) and the coordinator holds a float image, not a sensor.
 //
 // Frames: an animation's unit u renders frame frames.frameAt(u / unitsPerFrame()).
+//
+// An adaptive job (RenderSettings::adaptive, a still in passes) has unitsPerFrame() passes of P
+// samples a pixel on average: the first `adaptiveStart` (even) are uniform passes, the rest come in
+// rounds (each an even number of units, each round about half the units before it, so the film
+// grows by half each round and a farm waits for a round's last unit about log(samples) times).
+// A round's units trace what film/adaptive_allocation.h decides once every unit before the round
+// is summed; until then they cannot be leased. The samples per pixel are rounded up so that the
+// adaptive units are whole pairs.
 #include <cstdint>
 #include <optional>
+#include <vector>
 
 #include "render/unit_renderer.h"
 #include "scene/frame_range.h"
@@ -33,6 +42,11 @@ struct JobLayout {
   int tileSize = 0;          // 0: units are passes; N: units are tiles of N x N (edge tiles smaller)
   std::optional<FrameRange> frames;  // unset: a still
   int channels = 3;          // sums per cell: the beauty's RGB and the AOVs' (film/aov_layout.h)
+  // Adaptive sampling (above): 0 for a job without it.
+  uint64_t adaptiveStart = 0;         // the uniform passes; rounds start here
+  std::vector<uint64_t> roundStarts;  // each round's first unit (the first is adaptiveStart)
+  int blockEdge = 0;
+  double allocationFloor = 0.0;
 
   // The layout of a job with these (resolved) settings: RenderSettings::tileSize must not be
   // kTilesAuto (resolveTileSize decides that).
@@ -53,6 +67,12 @@ struct JobLayout {
   PixelRegion regionOf(uint64_t u) const;
   // The doubles a unit's upload carries (`channels` per cell of its region).
   uint64_t sumsOf(uint64_t u) const;
+
+  bool adaptive() const { return adaptiveStart > 0; }
+  // The round unit `u` is in; -1 for a uniform pass (and every unit of a job without rounds).
+  int roundOf(uint64_t u) const;
+  // Round r's units: [roundStarts[r], roundEnd(r)).
+  uint64_t roundEnd(size_t r) const { return r + 1 < roundStarts.size() ? roundStarts[r + 1] : unitCount(); }
 };
 
 // Resolves RenderSettings::kTilesAuto: passes for a job that stops at a target error or

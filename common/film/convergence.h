@@ -14,7 +14,9 @@
 // image's mean, the same normalisation as film/error_metrics.h uses against a reference.
 //
 // Only the even half is stored; B = total - A. Units cover the whole frame (render/unit_renderer.h),
-// so every cell has the same number of samples in each half.
+// so every cell has the same number of samples in each half, except once adaptive units (render/
+// sample_map.h) gave blocks their own counts: then the even count is kept per cell, and the
+// formula above holds cell by cell.
 //
 // The estimate sees noise only, not bias (a bounce limit), and it assumes the two halves are
 // independent: the samplers make them so (render/sampler.h: the Sobol sampler draws even and odd
@@ -25,6 +27,7 @@
 #include <vector>
 
 #include "film/sensor.h"
+#include "render/sample_map.h"
 
 namespace lensfarm {
 
@@ -48,6 +51,14 @@ class ConvergenceTracker {
   // The same for a unit whose every cell holds `samplesPerCell` samples (its counts are not read).
   void add(uint64_t unitIndex, const SensorBuffer& unit, uint32_t samplesPerCell);
 
+  // The same for an adaptive unit: each cell holds the samples `counts` gives it (render/sample_map.h).
+  void add(uint64_t unitIndex, const SensorBuffer& unit, const SampleMap& counts);
+
+  // Cell (i, j)'s per-sample variance, estimated from the halves and averaged over RGB:
+  //     s^2 ~ d^2 n_A n_B / n  (Var(mean) = s^2 / n, above);
+  // -1 while a half holds no sample. `mean`, if given, gets the cell's R + G + B mean.
+  double cellVariance(const Sensor& total, int i, int j, double* mean = nullptr) const;
+
   // The estimate for `total`, the sensor holding every unit added here.
   ErrorEstimate estimate(const Sensor& total) const;
 
@@ -55,14 +66,18 @@ class ConvergenceTracker {
   // throws std::runtime_error on bytes that are not a tracker.
   std::string serialize() const;
   static ConvergenceTracker deserialize(const std::string& bytes);
+  // The same for a tracker at the start of `bytes`, followed by anything: `used` gets its size.
+  static ConvergenceTracker deserializePrefix(const std::string& bytes, size_t& used);
 
   // Bytes of frame-sized memory held (render/memory_estimate.h: kTrackerBytesPerCell a cell).
-  uint64_t memoryBytes() const { return evenSums_.capacity() * sizeof(double); }
+  uint64_t memoryBytes() const { return evenSums_.capacity() * sizeof(double) + evenCounts_.capacity() * sizeof(uint64_t); }
 
  private:
   int width_, height_;
+  size_t checkedStride(const SensorBuffer& unit) const;
   std::vector<double> evenSums_;  // 3 per cell
-  uint64_t evenSamples_ = 0;      // per cell
+  uint64_t evenSamples_ = 0;      // per cell, while every cell has the same even count
+  std::vector<uint64_t> evenCounts_;  // per cell once adaptive units gave cells different counts
 };
 
 // Seconds more until `estimate` falls to `target`, if error falls as 1/sqrt(time) (Monte Carlo

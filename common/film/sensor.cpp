@@ -29,6 +29,20 @@ void Sensor::add(const SensorBuffer& unit, uint32_t samplesPerCell) {
   totalSamples_ += cells * samplesPerCell;
 }
 
+void Sensor::add(const SensorBuffer& unit, const SampleMap& counts) {
+  if (unit.width != width_ || unit.height != height_ || unit.sums.size() != sums_.size() ||
+      !counts.whyNotFor(width_, height_).empty())
+    throw std::invalid_argument("Sensor::add: buffer or sample map size differs from the sensor's");
+  for (size_t k = 0; k < sums_.size(); ++k) sums_[k].add(unit.sums[k]);
+  if (samples_.empty()) samples_.assign(size_t(width_) * size_t(height_), uniformSamples_);
+  for (int j = 0; j < height_; ++j)
+    for (int i = 0; i < width_; ++i) {
+      const uint32_t n = counts.countAt(i, j);
+      samples_[size_t(j) * size_t(width_) + size_t(i)] += n;
+      totalSamples_ += n;
+    }
+}
+
 void Sensor::addCounts(const SensorBuffer& unit) {
   const size_t cells = unit.cells();
   const bool uniform = samples_.empty() &&

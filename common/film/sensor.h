@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include "render/sample_map.h"
+
 #include "film/aov_layout.h"
 #include "film/image.h"
 #include "math/compensated_sum.h"
@@ -44,6 +46,8 @@ class Sensor {
   // The same for a unit whose every cell holds `samplesPerCell` samples (a unit covers the whole
   // frame); the buffer's own counts are not read (the coordinator knows each unit's count).
   void add(const SensorBuffer& unit, uint32_t samplesPerCell);
+  // The same for an adaptive unit: each cell holds the samples `counts` gives it (render/sample_map.h).
+  void add(const SensorBuffer& unit, const SampleMap& counts);
 
   int width() const { return width_; }
   int height() const { return height_; }

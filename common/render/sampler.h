@@ -109,7 +109,9 @@ class SampleStream {
       const uint64_t block = sampleIndex / setup.samplesPerUnit;
       const uint64_t first = block * setup.samplesPerUnit;
       local_ = uint32_t(sampleIndex - first);
-      blockSize_ = uint32_t(std::min<uint64_t>(setup.samplesPerUnit, setup.samplesPerPixel - first));
+      // (Adaptive units trace past the job's samples per pixel, in whole patterns.)
+      blockSize_ = uint32_t(first >= setup.samplesPerPixel ? setup.samplesPerUnit
+                                                           : std::min<uint64_t>(setup.samplesPerUnit, setup.samplesPerPixel - first));
       pixelKey_ = mix(pixelKey_ ^ (block * 0xd6e8feb86659fd93ull));
     }
   }

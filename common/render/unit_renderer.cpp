@@ -90,22 +90,38 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
       // The row's samples in pixel-major, sample-minor order, cut into packets of kPacketWidth:
       // with units of 16 samples a packet is one pixel's samples; smaller units put neighbouring
       // pixels together. Packets never span rows, so they are the same for any thread count.
-      const uint64_t rowSamples = uint64_t(region.width) * unit.sampleCount;
+      // An adaptive unit gives each block its own range (render/sample_map.h); the others, every
+      // cell the unit's.
+      uint64_t rowSamples = uint64_t(region.width) * unit.sampleCount;
+      if (unit.samples) {
+        rowSamples = 0;
+        for (int i = region.x; i < region.x + region.width; ++i) rowSamples += unit.countAt(i, j);
+      }
       int i = region.x;            // the next lane's pixel ...
       uint32_t sampleInPixel = 0;  // ... and its sample within the unit
+      uint32_t pixelCount = unit.countAt(i, j);
+      uint64_t pixelFirst = unit.firstAt(i, j);
       const uint64_t rowCell = uint64_t(j - region.y) * uint64_t(region.width) - uint64_t(region.x);  // + i: out's cell
       for (uint64_t first = 0; first < rowSamples; first += kPacketWidth) {
         packet.count = int(std::min<uint64_t>(kPacketWidth, rowSamples - first));
         for (int k = 0; k < packet.count; ++k) {
-          const uint64_t s = unit.firstSample + sampleInPixel;
+          while (pixelCount == 0) {  // (adaptive units only: a block with no samples this unit)
+            ++i;
+            pixelCount = unit.countAt(i, j);
+            pixelFirst = unit.firstAt(i, j);
+          }
+          const uint64_t s = unit.samples ? unit.samples->sampleIndex(pixelFirst + sampleInPixel) : pixelFirst + sampleInPixel;
           pixelOf[k] = uint64_t(j) * width + uint64_t(i);
           cellOf[k] = rowCell + uint64_t(i);
           packet.rng[k] = SampleStream(sampler, pixelOf[k], s);
           column[k] = i;
           sampleOf[k] = s;
-          if (++sampleInPixel == unit.sampleCount) {
+          if (++sampleInPixel == pixelCount) {
             sampleInPixel = 0;
-            ++i;
+            if (++i < region.x + region.width) {
+              pixelCount = unit.countAt(i, j);
+              pixelFirst = unit.firstAt(i, j);
+            }
           }
         }
         // The points in the sensor cells: one vector loop where the sampler has a lane form.
@@ -221,7 +237,8 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
           }
         }
       }
-      for (int x = 0; x < region.width; ++x) out.samples[uint64_t(j - region.y) * uint64_t(region.width) + uint64_t(x)] = unit.sampleCount;
+      for (int x = 0; x < region.width; ++x)
+        out.samples[uint64_t(j - region.y) * uint64_t(region.width) + uint64_t(x)] = unit.countAt(region.x + x, j);
     }
   });
 #if defined(__SSE__)
@@ -266,8 +283,15 @@ bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
                 const std::atomic<bool>* cancel, RayGrouping grouping) {
   // A light path splats anywhere in the frame: light tracing needs whole-frame units (the effect
   // analysis turns it off for tiled layouts, scene/effects.h).
-  if (rs.lightTracing() && !unit.region.empty())
-    throw std::invalid_argument("light tracing renders whole-frame units only (render.light_tracing off for tiles)");
+  if (rs.lightTracing() && (!unit.region.empty() || unit.samples))
+    throw std::invalid_argument("light tracing renders whole-frame units of one sample range only "
+                                "(render.light_tracing off for tiles and adaptive sampling)");
+  if (unit.samples) {
+    if (!unit.region.empty() || unit.passSamples != 0)
+      throw std::invalid_argument("an adaptive unit covers the whole frame in one pass");
+    const std::string why = unit.samples->whyNotFor(rs.camera().width(), rs.camera().height());
+    if (!why.empty()) throw std::invalid_argument("adaptive unit " + std::to_string(unit.index) + ": " + why);
+  }
   if (unit.passSamples == 0 || unit.passSamples >= unit.sampleCount)
     return renderPass(rs, unit, out, stats, cancel, grouping);
   // A tile unit: pass after pass, folded by a Sensor of the tile's size exactly as the job's

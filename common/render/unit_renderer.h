@@ -9,10 +9,12 @@
 // count, and no lock is taken on the hot path.
 #include <atomic>
 #include <cstdint>
+#include <memory>
 
 #include "film/sensor.h"
 #include "render/integrator.h"
 #include "render/render_scene.h"
+#include "render/sample_map.h"
 
 namespace lensfarm {
 
@@ -36,6 +38,13 @@ struct WorkUnit {
   PixelRegion region;
   uint32_t passSamples = 0;
   int64_t frame = 0;  // the scene frame (animation); 0 for a still
+  // An adaptive unit (render/sample_map.h): each block of cells traces its own sample range, and
+  // firstSample and sampleCount are not read. Whole-frame units only. Null: every cell traces
+  // [firstSample, firstSample + sampleCount).
+  std::shared_ptr<const SampleMap> samples;
+  // The samples every cell traces: the map's count, else sampleCount.
+  uint32_t countAt(int i, int j) const { return samples ? samples->countAt(i, j) : sampleCount; }
+  uint64_t firstAt(int i, int j) const { return samples ? samples->firstAt(i, j) : firstSample; }
 };
 
 uint64_t unitCount(uint64_t samplesPerPixel, uint32_t samplesPerUnit);

@@ -510,6 +510,8 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
     ltWhy = "the naive estimator was asked for";
   else if (rs.tileSize > 0)
     ltWhy = "tiled units render a region only; light paths splat over the whole frame";
+  else if (rs.adaptive.enabled)
+    ltWhy = "adaptive sampling gives blocks their own sample counts; light paths splat over the whole frame";
   else if (!emittingTriangles)
     ltWhy = "no emitting triangle to trace light from";
   else if (rs.lightTracing == LightTracingMode::kAuto && !e.mirrorCaustics)

@@ -121,6 +121,16 @@ enum class RouletteRule { kOff, kMax, kThroughput };
 inline constexpr RouletteRule kDefaultRoulette = RouletteRule::kThroughput;
 inline constexpr RouletteRule kRouletteOn = RouletteRule::kThroughput;
 
+// Adaptive sampling (film/adaptive_allocation.h, docs/accuracy.md "Adaptive sampling"): off
+// unless asked for. The job's samples per pixel become a mean: `uniform` of them over every pixel
+// first, the rest in rounds that follow the error.
+struct AdaptiveSettings {
+  bool enabled = false;
+  double uniform = 0.25;  // the fraction of the samples spent uniformly first, in (0, 1]
+  int blockEdge = 0;      // cells of a block's edge; 0: automatic (16, more for frames over 4096 blocks)
+  double floor = 0.125;   // a block's least share of a round, as a fraction of the mean, in (0, 1]
+};
+
 struct RenderSettings {
   int width = 0, height = 0;
   uint64_t samplesPerPixel = 0;
@@ -145,6 +155,7 @@ struct RenderSettings {
   // the image, only how it is scheduled, uploaded and held.
   int tileSize = 0;
   static constexpr int kTilesAuto = 0, kTilesOff = -1;
+  AdaptiveSettings adaptive;  // needs passes (tile_size "off" or "auto")
   ExposureSettings exposure;
 
   bool convergenceDriven() const { return targetError > 0.0 || timeLimitSeconds > 0.0; }
@@ -154,7 +165,8 @@ struct RenderSettings {
 // seconds on a small machine, so a farm's uploads stay small next to its tracing), and never
 // more than the whole job. Jobs that stop at a target error or a deadline use units of at most
 // a quarter of that and at most kMaxConvergenceUnitSamples samples per pixel (a power of two),
-// so they stop close to their target and waste little at the deadline. A function of the
+// so they stop close to their target and waste little at the deadline; adaptive jobs use units of
+// at most a sixteenth of their samples, so that rounds have units to share out. A function of the
 // settings only, so every process agrees on it.
 inline constexpr uint64_t kAutoUnitPaths = uint64_t(1) << 23;
 inline constexpr uint64_t kMaxConvergenceUnitSamples = 16;

@@ -166,6 +166,21 @@ class SceneParser {
         r.fail("render.tile_size", "must be \"auto\", \"off\" or a tile edge in pixels in [1, " +
                                        std::to_string(kMaxResolution) + "], got " + t.dump());
     }
+    if (r.has("adaptive")) {
+      const json& a = r.raw("adaptive");
+      if (a.is_boolean()) {
+        s.adaptive.enabled = a.get<bool>();
+      } else if (a.is_object()) {
+        FieldReader ar(a, "render.adaptive", fileName_);
+        s.adaptive.enabled = true;
+        s.adaptive.uniform = ar.number("uniform", s.adaptive.uniform, 1e-6, 1.0);
+        s.adaptive.blockEdge = int(ar.integer("block", 0, 1, kMaxResolution));
+        s.adaptive.floor = ar.number("floor", s.adaptive.floor, 1e-6, 1.0);
+        ar.finish();
+      } else {
+        r.fail("render.adaptive", "must be true, false or an object {uniform, block, floor}, got " + a.dump());
+      }
+    }
     if (r.has("exposure")) {
       FieldReader e(r.raw("exposure"), "render.exposure", fileName_);
       s.exposure.ev = e.number("ev", 0.0, -kMaxExposureEv, kMaxExposureEv);
@@ -1106,6 +1121,13 @@ uint32_t unitSize(const RenderSettings& s) {
     const uint64_t fit = std::clamp<uint64_t>(kAutoUnitPaths / 4 / pixels, 1, kMaxConvergenceUnitSamples);
     return uint32_t(std::min<uint64_t>(std::bit_floor(fit), std::max<uint64_t>(1, s.samplesPerPixel)));
   }
+  if (s.adaptive.enabled) {
+    // Sixteen passes or more (farm/job_layout.h: a quarter uniform, then rounds), each a power
+    // of two of at most kMaxConvergenceUnitSamples.
+    const uint64_t fit = std::clamp<uint64_t>(std::min<uint64_t>(kAutoUnitPaths / 4 / pixels, s.samplesPerPixel / 16), 1,
+                                              kMaxConvergenceUnitSamples);
+    return uint32_t(std::bit_floor(fit));
+  }
   const uint64_t perUnit = std::clamp<uint64_t>((kAutoUnitPaths + pixels - 1) / pixels, 1, std::max<uint64_t>(1, s.samplesPerPixel));
   return uint32_t(std::min<uint64_t>(perUnit, 1u << 20));
 }
@@ -1224,6 +1246,18 @@ void validateRenderSettings(const RenderSettings& s, const std::string& where) {
   } else if (s.tileSize > std::max(s.width, s.height)) {
     throw InputError(where, "tile_size: " + std::to_string(s.tileSize) + " is larger than the " + std::to_string(s.width) +
                                 "x" + std::to_string(s.height) + " frame");
+  }
+  if (s.adaptive.enabled) {
+    if (s.tileSize > 0)
+      throw InputError(where, "adaptive: adaptive sampling follows the error over the whole frame in passes; give "
+                              "tile_size \"off\" or \"auto\"");
+    if (s.lightTracing == LightTracingMode::kOn)
+      throw InputError(where, "adaptive: light paths splat over the whole frame at one sample count; adaptive "
+                              "sampling gives blocks their own counts: give light_tracing \"auto\" or \"off\"");
+    if (!(s.adaptive.uniform > 0.0 && s.adaptive.uniform <= 1.0) || !(s.adaptive.floor > 0.0 && s.adaptive.floor <= 1.0))
+      throw InputError(where, "adaptive: uniform and floor must be fractions in (0, 1]");
+    if (s.adaptive.blockEdge < 0 || s.adaptive.blockEdge > std::max(s.width, s.height))
+      throw InputError(where, "adaptive.block: must be a block edge in [1, " + std::to_string(std::max(s.width, s.height)) + "] cells");
   }
   if (s.tileSize > 0 && s.convergenceDriven())
     throw InputError(where, "tile_size: a job with target_error or time_limit stops after whole passes over the "
