@@ -40,6 +40,10 @@ void OverrideFlags::addTo(CLI::App* cmd) {
   cmd->add_option("--aov", aovs,
                   "Outputs beside the beauty, written as EXR layers: albedo, normal, depth, variance, samples, "
                   "object_id, material_id (comma-separated or repeated; replaces the scene's render.aovs)");
+  cmd->add_option("--adaptive", adaptive,
+                  "on: spend a quarter of the samples uniformly, then the rest where the estimated error is "
+                  "(docs/accuracy.md \"Adaptive sampling\"; --spp becomes the mean); off: uniform (overrides the scene)")
+      ->check(CLI::IsMember({"on", "off"}));
   cmd->add_option("--ev", ev, "Exposure compensation in stops for PNG images (overrides the scene)")
       ->check(numberIn(-kMaxExposureEv, kMaxExposureEv, "stops"));
 }
@@ -62,6 +66,7 @@ RenderOverrides OverrideFlags::toOverrides() const {
   o.ev = ev;
   if (tileSize) parseTileSize(*tileSize, o);
   if (!aovs.empty()) parseAovs(aovs, o);
+  if (adaptive) o.adaptive = *adaptive == "on";
   return o;
 }
 

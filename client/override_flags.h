@@ -33,6 +33,7 @@ struct OverrideFlags {
   // "1-240", "1-240x2"; docs/scene-format.md "Frame ranges and output patterns").
   std::optional<std::string> tileSize;
   std::optional<std::string> frames;
+  std::optional<std::string> adaptive;  // --adaptive on|off
   std::vector<std::string> aovs;  // --aov, repeatable, each a comma-separated list (docs/aovs.md)
 
   void addTo(CLI::App* cmd);

@@ -23,6 +23,7 @@
 #include "commands.h"
 #include "denoise_output.h"
 #include "coordinator.h"
+#include "farm/job_layout.h"
 #include "exit_codes.h"
 #include "film/image_io.h"
 #include "in_process_link.h"
@@ -209,6 +210,8 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
   spdlog::info("{}: {}, {}x{} px, {} in units of {} spp, B = {}, {}, {} sampler on {} threads", flags.scene,
                triangles, settings.width, settings.height, budget, unitSize(settings), settings.maxBounces,
                integratorName(settings.integrator), samplerName(settings.sampler), threads);
+  if (const std::string a = JobLayout::of(settings, std::nullopt).adaptiveSummary(); !a.empty() && !frames)
+    spdlog::info("{}: {}", flags.scene, a);
   for (const std::string& note : scene.notes) spdlog::info("{}: {}", flags.scene, note);
   if (scene.skippedDegenerateTriangles)
     spdlog::warn("{}: skipped {} zero-area triangles", flags.scene, scene.skippedDegenerateTriangles);

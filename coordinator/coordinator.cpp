@@ -144,6 +144,9 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
   if (spec.frames && scene.render.convergenceDriven())
     throw InputError(spec.sceneName, "target_error / time_limit: an animation renders every frame to its samples; "
                                      "give samples_per_pixel alone");
+  if (spec.frames && scene.render.adaptive.enabled)
+    throw InputError(spec.sceneName, "adaptive: an animation renders every frame uniformly; adaptive sampling is "
+                                     "for stills (give adaptive false, or render the frames one job each)");
   {
     // The layout is fixed now, in the spec every process reads: the same units after a restart.
     uint32_t live = 0;
@@ -194,8 +197,9 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
     store_->insertJob(StateStore::StoredJob{job->id, job->sequence, job->priority, job->spec, jobStateName(job->state),
                                             "", job->submittedUnixSeconds, 0, std::nullopt, "", job->owner, 0.0, false,
                                             ""});
-  spdlog::info("job {}: {} {}x{}, {} spp in {} units of {}, priority {}", job->id, spec.sceneName, job->settings.width,
-               job->settings.height, job->settings.samplesPerPixel, job->units.total(), job->unitSize, priority);
+  spdlog::info("job {}: {} {}x{}, {} spp in {} units of {}, priority {}{}", job->id, spec.sceneName, job->settings.width,
+               job->settings.height, job->layout.samplesPerPixel, job->units.total(), job->unitSize, priority,
+               job->layout.adaptive() ? "; " + job->layout.adaptiveSummary() : "");
   Job& ref = *job;
   jobs_[job->id] = std::move(job);
   changed_.notify_all();

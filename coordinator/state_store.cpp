@@ -91,6 +91,7 @@ json specToJson(const JobSpec& spec) {
   if (r.timeLimitSeconds) o["time_limit_seconds"] = *r.timeLimitSeconds;
   if (r.tileSize) o["tile_size"] = *r.tileSize;
   if (r.aovs) o["aovs"] = aovListText(*r.aovs);
+  if (r.adaptive) o["adaptive"] = *r.adaptive;
   json out{{"scene_name", spec.sceneName}, {"scene_json", spec.sceneJson}, {"assets", spec.assets}, {"overrides", o}};
   if (spec.frames) out["frames"] = {spec.frames->first, spec.frames->last, spec.frames->step};
   return out;
@@ -123,6 +124,7 @@ JobSpec specFromJson(const json& j) {
   if (o.contains("time_limit_seconds")) r.timeLimitSeconds = o["time_limit_seconds"].get<double>();
   if (o.contains("ev")) r.ev = o["ev"].get<double>();
   if (o.contains("tile_size")) r.tileSize = o["tile_size"].get<int>();
+  if (o.contains("adaptive")) r.adaptive = o["adaptive"].get<bool>();
   if (o.contains("aovs") && !parseAovList(o["aovs"].get<std::string>(), r.aovs.emplace(), nullptr))
     throw std::runtime_error("stored job: bad aovs");
   if (j.contains("frames")) {

@@ -17,6 +17,7 @@ v1::RenderOverrides toProto(const RenderOverrides& o) {
   if (o.timeLimitSeconds) p.set_time_limit_seconds(*o.timeLimitSeconds);
   if (o.tileSize) p.set_tile_size(*o.tileSize);
   if (o.aovs) p.set_aovs(aovListText(*o.aovs));
+  if (o.adaptive) p.set_adaptive(*o.adaptive);
   return p;
 }
 
@@ -46,6 +47,7 @@ RenderOverrides fromProto(const v1::RenderOverrides& p) {
   if (p.has_time_limit_seconds()) o.timeLimitSeconds = p.time_limit_seconds();
   if (p.has_ev()) o.ev = p.ev();
   if (p.has_tile_size()) o.tileSize = p.tile_size();
+  if (p.has_adaptive()) o.adaptive = p.adaptive();
   if (p.has_aovs()) {
     std::string bad;
     if (!parseAovList(p.aovs(), o.aovs.emplace(), &bad))

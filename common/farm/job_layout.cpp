@@ -36,6 +36,12 @@ JobLayout JobLayout::of(const RenderSettings& s, const std::optional<FrameRange>
   return l;
 }
 
+std::string JobLayout::adaptiveSummary() const {
+  if (!adaptive()) return "";
+  return "adaptive: " + std::to_string(adaptiveStart) + " uniform passes, then " + std::to_string(roundStarts.size()) +
+         " round(s) over blocks of " + std::to_string(blockEdge) + " px";
+}
+
 int JobLayout::roundOf(uint64_t u) const {
   if (!adaptive() || u < adaptiveStart) return -1;
   return int(std::upper_bound(roundStarts.begin(), roundStarts.end(), u) - roundStarts.begin()) - 1;
@@ -74,7 +80,7 @@ uint64_t JobLayout::sumsOf(uint64_t u) const {
 int resolveTileSize(const RenderSettings& s, const std::optional<FrameRange>& frames, uint32_t workers) {
   if (s.tileSize != RenderSettings::kTilesAuto) return s.tileSize > 0 ? std::min(s.tileSize, std::max(s.width, s.height)) : s.tileSize;
   const uint64_t cells = uint64_t(s.width) * uint64_t(s.height);
-  if (s.convergenceDriven() || (!frames && cells <= kPassMaxCells)) return RenderSettings::kTilesOff;
+  if (s.convergenceDriven() || s.adaptive.enabled || (!frames && cells <= kPassMaxCells)) return RenderSettings::kTilesOff;
   workers = std::max(1u, workers);
   const uint64_t frameCount = frames ? frames->count() : 1;
   if (frames && frameCount >= 2 * uint64_t(workers) && cells <= kPassMaxCells) return std::max(s.width, s.height);

@@ -27,6 +27,7 @@
 // adaptive units are whole pairs.
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "render/unit_renderer.h"
@@ -73,10 +74,12 @@ struct JobLayout {
   int roundOf(uint64_t u) const;
   // Round r's units: [roundStarts[r], roundEnd(r)).
   uint64_t roundEnd(size_t r) const { return r + 1 < roundStarts.size() ? roundStarts[r + 1] : unitCount(); }
+  // For logs: "adaptive: 4 uniform passes, then 3 rounds over blocks of 16 px"; "" without rounds.
+  std::string adaptiveSummary() const;
 };
 
 // Resolves RenderSettings::kTilesAuto: passes for a job that stops at a target error or
-// deadline, and for a still whose sensor is small (at most kPassMaxCells cells); tiles
+// deadline or samples adaptively, and for a still whose sensor is small (at most kPassMaxCells cells); tiles
 // otherwise — whole frames for an animation with at least two frames per worker, else tiles of
 // kTileEdge (smaller, down to kMinTileEdge, until there are four tiles a worker). `workers` is
 // the number of workers connected at submission (at least 1). Explicit values are returned as

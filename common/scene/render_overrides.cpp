@@ -75,6 +75,7 @@ void applyOverrides(const RenderOverrides& o, RenderSettings& s, const std::stri
   if (o.ev) s.exposure.ev = *o.ev;
   if (o.tileSize) s.tileSize = *o.tileSize;
   if (o.aovs) s.aovs = *o.aovs;
+  if (o.adaptive) s.adaptive.enabled = *o.adaptive;
   validateRenderSettings(s, where);
 }
 

@@ -25,6 +25,7 @@ struct RenderOverrides {
   // RenderSettings::tileSize: kTilesAuto, kTilesOff or an edge in pixels (at least 1).
   std::optional<int> tileSize;
   std::optional<AovSet> aovs;  // replaces render.aovs (docs/aovs.md)
+  std::optional<bool> adaptive;  // RenderSettings::adaptive.enabled (its other settings stay the scene's)
 };
 
 // Parses AOV lists ("albedo,normal", each a --aov value) into `o`; throws InputError naming `flag`.

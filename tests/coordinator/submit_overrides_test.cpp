@@ -98,6 +98,41 @@ TEST(SubmitOverrides, AnUnknownAovIsInvalidArgumentNamingItAndKnownOnesMakeTheJo
   EXPECT_EQ(image.layers[1].name, "") << "Z";
 }
 
+// `adaptive` from a client in any language turns the scene's adaptive sampling on (a layout of
+// rounds, kept across a restart: state_store.cpp) or off; with tiles or an animation it is refused.
+TEST(SubmitOverrides, AdaptiveMakesALayoutOfRoundsAndIsRefusedWhereItCannotWork) {
+  Coordinator coordinator;
+  ClientServiceImpl service(coordinator);
+  const auto submit = [&](const v1::RenderOverrides& overrides, v1::SubmitJobResponse* response) {
+    grpc::ServerContext context;
+    v1::SubmitJobRequest request = requestWith(overrides);
+    json scene = json::parse(request.spec().scene_json());
+    scene["render"]["samples_per_pixel"] = 64;
+    request.mutable_spec()->set_scene_json(scene.dump());
+    return service.SubmitJob(&context, &request, response);
+  };
+  v1::RenderOverrides on;
+  on.set_adaptive(true);
+  v1::SubmitJobResponse response;
+  grpc::Status s = submit(on, &response);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  EXPECT_EQ(coordinator.job(response.job_id()).unitsTotal, 16u) << "64 spp in passes of 4: 4 uniform, 12 in rounds";
+  on.set_tile_size(8);
+  s = submit(on, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << s.error_message();
+  EXPECT_NE(s.error_message().find("adaptive"), std::string::npos) << s.error_message();
+  on.clear_tile_size();
+  grpc::ServerContext context;
+  v1::SubmitJobRequest animation = requestWith(on);
+  animation.mutable_spec()->mutable_frames()->set_first(1);
+  animation.mutable_spec()->mutable_frames()->set_last(3);
+  animation.mutable_spec()->mutable_frames()->set_step(1);
+  s = service.SubmitJob(&context, &animation, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << s.error_message();
+  EXPECT_NE(s.error_message().find("adaptive sampling is for stills"), std::string::npos) << s.error_message();
+  EXPECT_EQ(coordinator.jobs().size(), 1u);
+}
+
 // The same rule for every caller of Coordinator::submit (`lensfarm render`'s embedded coordinator,
 // a restart's restore): an InputError, whatever the transport.
 TEST(SubmitOverrides, CoordinatorSubmitRefusesOneSideOfTheResolution) {
