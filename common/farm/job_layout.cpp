@@ -16,7 +16,11 @@ JobLayout JobLayout::of(const RenderSettings& s, const std::optional<FrameRange>
   l.channels = AovLayout(s.aovs).channels;
   if (s.adaptive.enabled && !l.tiled() && !frames) {
     uint64_t passes = lensfarm::unitCount(s.samplesPerPixel, l.passSamples);
-    const uint64_t uniform = std::max<uint64_t>(2, uint64_t(std::llround(double(passes) * s.adaptive.uniform / 2.0)) * 2);
+    uint64_t uniform = std::max<uint64_t>(2, uint64_t(std::llround(double(passes) * s.adaptive.uniform / 2.0)) * 2);
+    // A job that stops at a target error or deadline may never reach its sample cap: its rounds
+    // begin after at most kMaxUniformPasses (x `uniform` x 4) passes.
+    if (s.convergenceDriven())
+      uniform = std::min(uniform, std::max<uint64_t>(2, uint64_t(std::llround(kMaxUniformPasses * s.adaptive.uniform * 2.0)) * 2));
     if (passes > uniform) {  // else nothing is left to adapt: uniform passes alone
       if ((passes - uniform) % 2 != 0) ++passes;
       l.samplesPerPixel = passes * l.passSamples;

@@ -70,6 +70,7 @@ struct JobLayout {
   uint64_t sumsOf(uint64_t u) const;
 
   bool adaptive() const { return adaptiveStart > 0; }
+  static constexpr double kMaxUniformPasses = 16.0;  // (before `uniform`'s share) with a target error or deadline
   // The round unit `u` is in; -1 for a uniform pass (and every unit of a job without rounds).
   int roundOf(uint64_t u) const;
   // Round r's units: [roundStarts[r], roundEnd(r)).

@@ -96,6 +96,14 @@ uint64_t unitsAheadWindow(int width, int height, uint64_t maxBytesAhead) {
   return std::max<uint64_t>(8, maxBytesAhead / std::max<uint64_t>(1, unitBytes));
 }
 
+namespace {
+// Adaptive sampling gives cells their own counts: the sensor's and the tracker's even half's
+// (8 bytes a cell each, film/sensor.h, film/convergence.h), in every film copy an audit keeps.
+void addAdaptiveItems(MemoryEstimate& e, const RenderSettings& s, uint64_t cells, uint64_t auditCopies) {
+  if (s.adaptive.enabled) e.items.push_back({"per-cell sample counts (adaptive)", cells * 16 * (1 + auditCopies)});
+}
+}  // namespace
+
 MemoryEstimate coordinatorJobMemory(const RenderSettings& s, uint64_t maxBytesAhead, bool stateDir,
                                     uint64_t auditCopies) {
   const uint64_t cells = cellsOf(s);
@@ -116,6 +124,7 @@ MemoryEstimate coordinatorJobMemory(const RenderSettings& s, uint64_t maxBytesAh
                      held * cells * kUnitBufferBytesPerCell});
   e.items.push_back({"a download", cells * (kImageBytesPerCell + 2 * kExrBytesPerCell)});
   if (stateDir) e.items.push_back({"a checkpoint", cells * kCheckpointBytesPerCell});
+  addAdaptiveItems(e, s, cells, auditCopies);
   addAovItems(e, s, cells, held, stateDir);
   if (auditCopies > 0)
     e.items.push_back({std::to_string(auditCopies) + " film copies and an audited unit (the audit)",
@@ -165,6 +174,7 @@ MemoryEstimate localRenderMemory(const RenderSettings& s, uint64_t triangles, ui
   e.items.push_back({"unit buffer", cells * kUnitBufferBytesPerCell});
   e.items.push_back({"output image", cells * (kImageBytesPerCell + kPngBytesPerCell)});
   addAovItems(e, s, cells, 1, false);
+  addAdaptiveItems(e, s, cells, 0);
   e.items.push_back({"scene", triangles * kSceneBytesPerTriangle});
   if (sceneData > 0) e.items.push_back({"textures, vertex attributes and instances", sceneData});
   return e;
