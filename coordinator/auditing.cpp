@@ -56,6 +56,12 @@ std::optional<LeaseGrant> Coordinator::tryAuditLease(Worker& worker, Clock::time
   if (!best) return std::nullopt;
   Job& job = *best;
   const uint64_t unit = *job.audits.lease(worker.id);
+  bool ready = true;
+  WorkUnit leased = unitToLease(job, unit, &ready);
+  if (!ready) {  // a unit of a round a rewind undid: its allocation is made again first
+    job.audits.release(unit, worker.id);
+    return std::nullopt;
+  }
   const auto longest = now + std::chrono::duration_cast<Clock::duration>(
                                  std::chrono::duration<double>(std::max(options_.maxLeaseSeconds, 1e-3)));
   // The grant looks like any other: a worker cannot tell an audit from a unit queued again.
@@ -64,8 +70,7 @@ std::optional<LeaseGrant> Coordinator::tryAuditLease(Worker& worker, Clock::time
   worker.currentJobId = job.id;
   worker.currentUnit = unit;
   touch(job);
-  return LeaseGrant{leaseId, job.id, unitToLease(job, unit), job.sceneHash,
-                    options_.leaseTimeoutSeconds};
+  return LeaseGrant{leaseId, job.id, std::move(leased), job.sceneHash, options_.leaseTimeoutSeconds};
 }
 
 bool Coordinator::acceptAudit(const UnitResult& result) {

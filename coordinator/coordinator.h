@@ -404,7 +404,8 @@ class Coordinator {
   static void checkPlausible(const UnitResult& result, uint64_t cells, uint32_t sampleCount, const AovLayout& aovs,
                              const SampleMap* map = nullptr);
   // Unit `unit` of `job` as a lease carries it: an adaptive unit with its map (requires mutex_).
-  WorkUnit unitToLease(const Job& job, uint64_t unit) const;
+  // `ready` (if given) is false for a unit of a round not allocated yet (no map: not to be leased).
+  WorkUnit unitToLease(const Job& job, uint64_t unit, bool* ready = nullptr) const;
   void enforceDeadlines();  // requires mutex_
 
   // ---- the cross-worker audit (auditing.cpp, docs/farm.md "Audit"); all but acceptAudit

@@ -27,6 +27,8 @@ class JobUnits {
   bool hasPending() const { return !returned_.empty() || nextFresh_ < total_; }
   bool hasReturned() const { return !returned_.empty(); }
   uint64_t nextFresh() const { return nextFresh_; }
+  // The unit takePending() would return now (requires hasPending()).
+  uint64_t peekPending() const { return returned_.empty() ? nextFresh_ : *returned_.begin(); }
   uint64_t takePending() {
     if (!returned_.empty()) {
       const uint64_t u = *returned_.begin();

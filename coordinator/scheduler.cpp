@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <stdexcept>
 
 #include "coordinator.h"
 #include "coordinator_records.h"
@@ -47,9 +48,10 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
     if (!job->units.hasReturned() && !job->layout.tiled()) {  // a fresh pass: only within the window ahead of the summed prefix
       const uint64_t window = unitsAheadWindow(job->settings.width, job->settings.height, options_.maxBytesAhead);
       if (job->units.nextFresh() >= job->unitsAdded + window) continue;
-      // An adaptive round is leased once the film before it is summed (farm/job_layout.h).
-      if (job->layout.adaptive() && !job->film->leasable(job->units.nextFresh())) continue;
     }
+    // An adaptive round is leased once the film before it is summed (farm/job_layout.h), a unit
+    // queued again too (after a restart, one above a gap whose round is not allocated yet).
+    if (job->layout.adaptive() && job->film && !job->film->leasable(job->units.peekPending())) continue;
     if (!best || job->priority > best->priority || (job->priority == best->priority && job->sequence < best->sequence))
       best = job.get();
   }
@@ -68,12 +70,17 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   worker.currentJobId = job.id;
   worker.currentUnit = unit;
   touch(job);
-  return LeaseGrant{leaseId, job.id, unitToLease(job, unit), job.sceneHash, options_.leaseTimeoutSeconds};
+  bool ready = true;
+  WorkUnit leased = unitToLease(job, unit, &ready);
+  // (the check above leases a round's unit only once it is allocated)
+  if (!ready) throw std::logic_error("unit " + std::to_string(unit) + " of " + job.id + " leased before its round");
+  return LeaseGrant{leaseId, job.id, std::move(leased), job.sceneHash, options_.leaseTimeoutSeconds};
 }
 
-WorkUnit Coordinator::unitToLease(const Job& job, uint64_t unit) const {
+WorkUnit Coordinator::unitToLease(const Job& job, uint64_t unit, bool* ready) const {
   WorkUnit w = job.layout.unit(unit);
-  if (job.layout.adaptive() && job.film) w.samples = job.film->samplesOf(unit);
+  if (ready) *ready = true;
+  if (job.layout.adaptive() && job.film) w.samples = job.film->samplesOf(unit, ready);
   return w;
 }
 

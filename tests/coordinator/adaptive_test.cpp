@@ -55,9 +55,10 @@ bool sameBits(const Image& a, const Image& b) {
 }
 
 // Leases everything it can, renders and uploads it (reversed if asked), until the job is done.
-Image renderThrough(Coordinator& c, const std::string& job, bool reverse) {
+// (One worker: with two, audits would wait for the other.)
+Image renderThrough(Coordinator& c, const std::string& job, bool reverse, std::string w = "") {
   Renderer r;
-  const std::string w = c.registerWorker(workerInfo("w"));
+  if (w.empty()) w = c.registerWorker(workerInfo("w"));
   for (;;) {
     std::vector<LeaseGrant> grants;
     while (auto g = c.lease(w, 0)) grants.push_back(*g);
@@ -65,7 +66,7 @@ Image renderThrough(Coordinator& c, const std::string& job, bool reverse) {
     if (reverse) std::reverse(grants.begin(), grants.end());
     for (const LeaseGrant& g : grants) EXPECT_TRUE(c.acceptResult(r.render(w, g)));
   }
-  EXPECT_EQ(c.job(job).state, JobState::kDone);
+  EXPECT_EQ(c.job(job).state, JobState::kDone) << c.job(job).unitsDone << " units done";
   return c.image(job).image;
 }
 
@@ -153,13 +154,15 @@ TEST(AdaptiveJob, ARestartInTheMiddleOfARoundGivesTheUninterruptedBits) {
   options.stateDir = dir / "state";
   options.checkpointEverySeconds = 3600;  // only the explicit checkpoint below
   std::string job;
+  SampleMap lostMap;
   {
     Coordinator first(options);
     job = first.submit(spec(), 0).id;
     const std::string w = first.registerWorker(workerInfo("a"));
     Renderer r;
     // The uniform passes and round 0; then 2 of round 1's 4 units, checkpointed in the middle
-    // of the round (its allocation is in the checkpoint), then one more in the ledger only.
+    // of the round (its allocation is in the checkpoint); then units 8 and 9 leased and only 9
+    // acknowledged (the ledger's): 8 is leased again after the restart, with the same map.
     for (int k = 0; k < 8; ++k) {
       const auto g = first.lease(w, 0);
       ASSERT_TRUE(g) << "unit " << k;
@@ -168,14 +171,62 @@ TEST(AdaptiveJob, ARestartInTheMiddleOfARoundGivesTheUninterruptedBits) {
         EXPECT_GT(first.checkpoint(), 0u);
       }
     }
-    const auto g = first.lease(w, 0);
-    ASSERT_TRUE(g);
-    ASSERT_TRUE(first.acceptResult(r.render(w, *g)));  // unit 8: the ledger's
+    const auto eight = first.lease(w, 0), nine = first.lease(w, 0);
+    ASSERT_TRUE(eight && nine);
+    ASSERT_EQ(nine->unit.index, 9u);
+    ASSERT_TRUE(first.acceptResult(r.render(w, *nine)));
+    lostMap = *eight->unit.samples;
   }
   Coordinator second(options);
-  EXPECT_EQ(second.job(job).unitsDone, 9u);
-  const Image image = renderThrough(second, job, false);
+  EXPECT_EQ(second.job(job).unitsDone, 8u) << "unit 9 waits for 8";
+  const std::string b = second.registerWorker(workerInfo("b"));
+  {
+    const std::string& w = b;
+    const auto again = second.lease(w, 0);
+    ASSERT_TRUE(again);
+    ASSERT_EQ(again->unit.index, 8u);
+    ASSERT_NE(again->unit.samples, nullptr);
+    EXPECT_EQ(again->unit.samples->first, lostMap.first);
+    EXPECT_EQ(again->unit.samples->count, lostMap.count);
+    Renderer r;
+    ASSERT_TRUE(second.acceptResult(r.render(w, *again)));
+  }
+  const Image image = renderThrough(second, job, false, b);
   EXPECT_TRUE(sameBits(image, expected)) << "a restart must not change a single bit";
+}
+
+TEST(AdaptiveJob, AWrongWorkerIsCaughtAndTheRewoundRoundsGiveTheCleanBits) {
+  // A worker whose sums go 50 % high (plausible, so only an audit sees it): the audit rewinds
+  // the film to before its units, which may undo whole rounds; their allocations are made again
+  // from the clean film, and the image is a single honest worker's, bit for bit.
+  Coordinator::Options quiet;
+  quiet.auditFraction = 0.0;
+  Coordinator one(quiet);
+  const Image clean = renderThrough(one, one.submit(spec(), 0).id, false);
+  Renderer r;
+  for (int rotation = 0; rotation < 4; ++rotation) {
+    Coordinator::Options options;
+    options.auditFraction = 0.3;
+    Coordinator c(options);
+    const std::string job = c.submit(spec(), 0).id;
+    std::vector<std::string> workers;
+    for (const char* name : {"a", "b", "c", "bad"}) workers.push_back(c.registerWorker(workerInfo(name)));
+    const std::string bad = workers[3];
+    std::rotate(workers.begin(), workers.begin() + rotation, workers.end());
+    uint64_t badResults = 0;
+    for (int turn = 0; turn < 2000 && !isTerminal(c.job(job).state); ++turn)
+      for (const std::string& w : workers)
+        if (auto g = c.lease(w, 0.0)) {
+          UnitResult result = r.render(w, *g);
+          if (w == bad && ++badResults > 2)  // it goes wrong after two good units (its first is audited)
+            for (double& v : result.buffer.sums) v *= 1.5;
+          c.acceptResult(std::move(result));
+        }
+    const JobInfo info = c.job(job);
+    ASSERT_EQ(info.state, JobState::kDone) << info.error;
+    EXPECT_GE(info.auditsFailed, 1u) << "rotation " << rotation;
+    EXPECT_TRUE(sameBits(c.image(job).image, clean)) << "rotation " << rotation;
+  }
 }
 
 TEST(AdaptiveJob, SettingsItCannotWorkWithAreRefusedNamingTheField) {
