@@ -98,13 +98,8 @@ bool Accumulator::leasable(uint64_t u) const {
 void Accumulator::allocateIfRoundStarts() {
   const int r = layout_.roundOf(nextToAdd_);
   if (r < 0 || layout_.roundStarts[size_t(r)] != nextToAdd_ || rounds_[size_t(r)] || nextToAdd_ >= foldLimit_) return;
-  AllocationRequest request;
-  request.start = nextToAdd_;
-  request.units = uint32_t(layout_.roundEnd(size_t(r)) - nextToAdd_);
-  request.passSamples = layout_.passSamples;
-  request.blockEdge = layout_.blockEdge;
-  request.floor = layout_.allocationFloor;
-  rounds_[size_t(r)] = std::make_shared<const RoundAllocation>(allocateRound(*sensor_, *tracker_, request));
+  rounds_[size_t(r)] =
+      std::make_shared<const RoundAllocation>(allocateRound(*sensor_, *tracker_, layout_.roundRequest(size_t(r))));
 }
 
 std::optional<Accumulator::Progress> Accumulator::add(const UnitResult& result, UnitResult* owned,

@@ -40,6 +40,16 @@ JobLayout JobLayout::of(const RenderSettings& s, const std::optional<FrameRange>
   return l;
 }
 
+AllocationRequest JobLayout::roundRequest(size_t r) const {
+  AllocationRequest request;
+  request.start = roundStarts.at(r);
+  request.units = uint32_t(roundEnd(r) - request.start);
+  request.passSamples = passSamples;
+  request.blockEdge = blockEdge;
+  request.floor = allocationFloor;
+  return request;
+}
+
 std::string JobLayout::adaptiveSummary() const {
   if (!adaptive()) return "";
   return "adaptive: " + std::to_string(adaptiveStart) + " uniform passes, then " + std::to_string(roundStarts.size()) +

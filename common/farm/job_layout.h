@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "film/adaptive_allocation.h"
 #include "render/unit_renderer.h"
 #include "scene/frame_range.h"
 #include "scene/scene.h"
@@ -75,6 +76,8 @@ struct JobLayout {
   int roundOf(uint64_t u) const;
   // Round r's units: [roundStarts[r], roundEnd(r)).
   uint64_t roundEnd(size_t r) const { return r + 1 < roundStarts.size() ? roundStarts[r + 1] : unitCount(); }
+  // What round r's allocation (film/adaptive_allocation.h) is asked for.
+  AllocationRequest roundRequest(size_t r) const;
   // For logs: "adaptive: 4 uniform passes, then 3 rounds over blocks of 16 px"; "" without rounds.
   std::string adaptiveSummary() const;
 };
