@@ -265,7 +265,9 @@ TEST(Study, AdaptiveExperimentComparesTheThreeWaysOfSpendingSamples) {
   for (size_t k = 0; k < uniform.size(); ++k) {
     EXPECT_EQ(adaptive[k].at("spp"), uniform[k].at("spp")) << "the same mean samples per pixel";
     EXPECT_EQ(denoised[k].at("spp"), uniform[k].at("spp"));
-    if (k > 0) EXPECT_GT(num(uniform[k], "spp"), num(uniform[k - 1], "spp"));
+    if (k > 0) {
+      EXPECT_GT(num(uniform[k], "spp"), num(uniform[k - 1], "spp"));
+    }
   }
   const double adaptiveLast = num(adaptive.back(), "relative_rmse");
   EXPECT_TRUE(std::isfinite(adaptiveLast));
