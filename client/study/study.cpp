@@ -56,7 +56,7 @@ struct Scale {
   uint64_t denoiseReferenceSpp;
   double denoiseBudget;  // seconds of rendering
   std::vector<uint64_t> adaptiveCounts;  // mean samples per pixel of each render (adaptive experiment)
-  double cheapSeconds;  // renders faster than this are timed three times (median)
+  double cheapSeconds;                   // renders faster than this are timed three times (median)
 };
 constexpr int kStudyBounces = 3;  // B for the convergence and resolution experiments
 // The edge images of the depth-of-field experiment are wide strips (4 rows) so that a pixel is
@@ -951,8 +951,8 @@ class Study {
     csv.writeCsv(options_.out / "adaptive.csv");
 
     Table table({"spp", "uniform (s)", "adaptive (s)", "+ denoise (s)", "uniform rel. RMSE", "its estimate",
-                 "adaptive rel. RMSE", "its estimate", "+ denoise rel. RMSE", "uniform worst 1 %",
-                 "adaptive worst 1 %", "+ denoise worst 1 %", "mean ratio uniform / adaptive"});
+                 "adaptive rel. RMSE", "its estimate", "+ denoise rel. RMSE", "uniform worst 1 %", "adaptive worst 1 %",
+                 "+ denoise worst 1 %", "mean ratio uniform / adaptive"});
     for (size_t k = 0; k < uniform.spp.size(); ++k)
       table.add({number(adapted.spp[k], 10), number(uniform.seconds[k], 3), number(adapted.seconds[k], 3),
                  number(denoised.seconds[k], 3), number(uniform.error[k], 3), number(uniform.estimate[k], 3),
@@ -975,7 +975,8 @@ class Study {
       bool eu = false, ea = false, ed = false, su = false, sa = false;
       const double tu = timeToError(uniform, target, &eu), ta = timeToError(adapted, target, &ea),
                    td = timeToError(denoised, target, &ed);
-      const double samples = timeToError(inSamples(uniform), target, &su) / timeToError(inSamples(adapted), target, &sa);
+      const double samples =
+          timeToError(inSamples(uniform), target, &su) / timeToError(inSamples(adapted), target, &sa);
       const auto t = [](double v, bool e) { return number(v, 3) + (e ? " (extrapolated)" : ""); };
       targets.add({number(100 * target, 3) + " %", t(tu, eu), t(ta, ea), t(td, ed), number(tu / ta, 3) + "x",
                    number(samples, 3) + "x", number(tu / td, 3) + "x"});
@@ -1004,9 +1005,9 @@ class Study {
     for (auto [later, earlier] : {std::pair{&adapted, &uniform}, {&uniform, &denoised}, {&adapted, &denoised}}) {
       bool extrapolated = false;
       const double t = crossoverTime(*later, *earlier, &extrapolated);
-      crossovers.add({later->name, earlier->name,
-                      describeCrossover(t, extrapolated, std::min(later->seconds.back(), earlier->seconds.back()),
-                                        "already")});
+      crossovers.add(
+          {later->name, earlier->name,
+           describeCrossover(t, extrapolated, std::min(later->seconds.back(), earlier->seconds.back()), "already")});
     }
     double worstBias = 0.0;
     for (const ImageError& e : adapted.details) worstBias = std::max(worstBias, std::abs(e.meanRatio - 1.0));

@@ -63,20 +63,20 @@ struct StudyRun {
 
 void checkReportTablesAndPlots(const StudyRun& run) {
   const std::string report = test::readFile(run.dir.path() / "docs" / "accuracy.md");
-  for (const char* section : {"## Convergence", "## The live error estimate", "## Resolution", "## Depth of field",
-                              "## Bounces", "## Glass and metal", "## Models", "## Camera optics", "## Uniform sampling against",
-                              "## Adaptive sampling against uniform sampling",
-                              "lensfarm study"})
+  for (const char* section :
+       {"## Convergence", "## The live error estimate", "## Resolution", "## Depth of field", "## Bounces",
+        "## Glass and metal", "## Models", "## Camera optics", "## Uniform sampling against",
+        "## Adaptive sampling against uniform sampling", "lensfarm study"})
     EXPECT_NE(report.find(section), std::string::npos) << section;
-  for (const char* plot :
-       {"convergence", "estimate", "resolution", "dof", "bounces", "materials", "models", "optics", "denoise", "adaptive"}) {
+  for (const char* plot : {"convergence", "estimate", "resolution", "dof", "bounces", "materials", "models", "optics",
+                           "denoise", "adaptive"}) {
     EXPECT_NE(report.find("(../out/" + std::string(plot) + ".png)"), std::string::npos) << "relative link to " << plot;
     const std::string png = test::readFile(run.out(std::string(plot) + ".png"));
     ASSERT_GT(png.size(), 2000u) << plot;
     EXPECT_EQ(png.substr(1, 3), "PNG") << plot;
   }
-  for (const char* csv : {"convergence.csv", "time-to-error.csv", "estimate.csv", "resolution.csv", "dof.csv", "bounces.csv",
-                          "materials.csv", "models.csv", "optics.csv", "denoise.csv", "adaptive.csv"})
+  for (const char* csv : {"convergence.csv", "time-to-error.csv", "estimate.csv", "resolution.csv", "dof.csv",
+                          "bounces.csv", "materials.csv", "models.csv", "optics.csv", "denoise.csv", "adaptive.csv"})
     EXPECT_GT(readCsv(run.out(csv)).size(), 2u) << csv;
 }
 
@@ -248,10 +248,10 @@ TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
 // each target is reported for all three.
 TEST(Study, AdaptiveExperimentComparesTheThreeWaysOfSpendingSamples) {
   StudyRun run;
-  run.result = test::runProcess({test::cliPath().string(), "study", "--quick", "--experiments", "adaptive", "--out",
-                                 (run.dir.path() / "out").string(), "--report",
-                                 (run.dir.path() / "docs" / "accuracy.md").string()},
-                                300);
+  run.result = test::runProcess(
+      {test::cliPath().string(), "study", "--quick", "--experiments", "adaptive", "--out",
+       (run.dir.path() / "out").string(), "--report", (run.dir.path() / "docs" / "accuracy.md").string()},
+      300);
   ASSERT_EQ(run.result.exitCode, 0) << run.result.err;
   std::map<std::string, std::vector<std::map<std::string, std::string>>> series;
   for (const auto& row : readCsv(run.out("adaptive.csv"))) series[row.at("series")].push_back(row);
