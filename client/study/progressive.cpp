@@ -6,6 +6,8 @@
 #include <chrono>
 #include <thread>
 
+#include "farm/job_layout.h"
+#include "film/adaptive_allocation.h"
 #include "film/image_io.h"
 #include "film/sensor.h"
 #include "render/render_scene.h"
@@ -21,12 +23,16 @@ Checkpoint renderProgressive(Scene scene, const ProgressiveRun& run,
                              const std::function<bool(const Checkpoint&)>& onCheckpoint) {
   RenderSettings& settings = scene.render;
   settings.samplesPerPixel = run.maxSamples;
-  if (settings.samplesPerUnit == 0) settings.samplesPerUnit = uint32_t(run.firstCheckpoint);
+  if (settings.samplesPerUnit == 0)
+    settings.samplesPerUnit = settings.adaptive.enabled ? unitSize(settings) : uint32_t(run.firstCheckpoint);
   const RenderScene rs(scene);
   const uint32_t perUnit = settings.samplesPerUnit;
+  // An adaptive scene's passes and rounds (farm/job_layout.h); any other scene's layout is its passes.
+  const JobLayout layout = JobLayout::of(settings, std::nullopt);
+  const uint64_t samplesPerPixel = layout.samplesPerPixel, units = unitCount(samplesPerPixel, perUnit);
   // The scene's AOVs (render.aovs) are summed beside the beauty and developed as its layers.
-  const AovLayout& layout = rs.aovLayout();
-  Sensor sensor(settings.width, settings.height, layout.channels);
+  const AovLayout& aovs = rs.aovLayout();
+  Sensor sensor(settings.width, settings.height, aovs.channels);
   ConvergenceTracker tracker(settings.width, settings.height);
   tbb::task_arena arena(int(run.threads ? run.threads : std::max(1u, std::thread::hardware_concurrency())));
 
@@ -34,19 +40,39 @@ Checkpoint renderProgressive(Scene scene, const ProgressiveRun& run,
   PathStats stats;
   double seconds = 0.0;
   uint64_t next = run.firstCheckpoint;
-  for (uint64_t unit = 0; unit < unitCount(run.maxSamples, perUnit); ++unit) {
-    const WorkUnit work = unitAt(unit, run.maxSamples, perUnit);
+  std::shared_ptr<const RoundAllocation> round;
+  for (uint64_t unit = 0; unit < units; ++unit) {
+    WorkUnit work = unitAt(unit, samplesPerPixel, perUnit);
     SensorBuffer buffer;
     const auto start = std::chrono::steady_clock::now();
+    if (const int r = layout.roundOf(unit); r >= 0) {
+      // A round is allocated from the film holding every unit before it, as the coordinator does
+      // (coordinator/accumulator.cpp).
+      if (unit == layout.roundStarts[size_t(r)]) {
+        AllocationRequest request;
+        request.start = unit;
+        request.units = uint32_t(layout.roundEnd(size_t(r)) - unit);
+        request.passSamples = layout.passSamples;
+        request.blockEdge = layout.blockEdge;
+        request.floor = layout.allocationFloor;
+        round = std::make_shared<const RoundAllocation>(allocateRound(sensor, tracker, request));
+      }
+      work.samples = round->mapOf(unit);
+    }
     arena.execute([&] { renderUnit(rs, work, buffer, stats); });
-    sensor.add(buffer);
+    if (work.samples) {
+      sensor.add(buffer, *work.samples);
+      tracker.add(unit, buffer, *work.samples);
+    } else {
+      sensor.add(buffer);
+      tracker.add(unit, buffer);
+    }
     seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    tracker.add(unit, buffer);
-    const uint64_t spp = work.firstSample + work.sampleCount;
-    if (!run.everyUnit && spp < next && spp < run.maxSamples) continue;
+    const uint64_t spp = unit + 1 == units ? samplesPerPixel : work.firstSample + work.sampleCount;
+    if (layout.adaptive() ? unit + 1 < units : !run.everyUnit && spp < next && spp < samplesPerPixel) continue;
     last.samplesPerPixel = spp;
     last.seconds = seconds;
-    last.image = sensor.developImage(layout);
+    last.image = sensor.developImage(aovs);
     last.estimate = tracker.estimate(sensor);
     last.stats = stats;
     if (onCheckpoint && !onCheckpoint(last)) break;

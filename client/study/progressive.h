@@ -4,6 +4,12 @@
 // power-of-two sample counts. The same renderer as every job (render/unit_renderer.h); the
 // time counts tracing and accumulation only (not scene loading or error measurement). The AOVs
 // the scene asks for (render.aovs) are rendered and developed as the images' layers.
+//
+// An adaptive scene (render.adaptive, film/adaptive_allocation.h) is laid out as a farm job is
+// (farm/job_layout.h): uniform passes, then rounds whose block maps are allocated from the film
+// before each round, as the coordinator does, the allocations' time counted. Its samples per pixel
+// are a mean, and an adaptive image of N spp is not a prefix of one of 2N spp: such a run has one
+// checkpoint, at its end (maxSamples rounded up to whole pairs of passes).
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -31,7 +37,8 @@ struct ProgressiveRun {
   bool everyUnit = false;         // a checkpoint after every unit instead (time to an error)
 };
 
-// Renders `scene` (its render settings as given; samplesPerUnit 0 means firstCheckpoint) and
+// Renders `scene` (its render settings as given; samplesPerUnit 0 means firstCheckpoint, or the
+// farm's unit size, unitSize(), for an adaptive scene) and
 // calls `onCheckpoint` at each checkpoint; rendering stops there when it returns false. Returns
 // the last checkpoint.
 Checkpoint renderProgressive(Scene scene, const ProgressiveRun& run,

@@ -17,7 +17,11 @@
 //    lenses: time per path, energy and the time to reach the same error;
 //  - denoise: uniform sampling against uniform sampling + the denoiser (film/denoiser.h) at every
 //    checkpoint, its error split into the denoiser's bias at convergence and the rest, and the
-//    time after which the raw image is the better one.
+//    time after which the raw image is the better one;
+//  - adaptive: uniform sampling against adaptive sampling (film/adaptive_allocation.h) and uniform
+//    sampling + the denoiser, each rendered on its own at power-of-two mean sample counts: time to
+//    target errors, the worst 1 % of pixels, the bias check (mean ratio), the live estimate beside
+//    the true error, and the crossovers.
 #include <filesystem>
 #include <set>
 #include <string>
@@ -34,8 +38,8 @@ struct StudyOptions {
   std::string command;                      // how it was invoked, quoted in the report
 };
 
-inline const std::set<std::string> kExperiments = {"convergence", "estimate", "resolution", "dof", "bounces",
-                                                   "materials", "models", "optics", "denoise"};
+inline const std::set<std::string> kExperiments = {"convergence", "estimate", "resolution", "dof",     "bounces",
+                                                   "materials",   "models",   "optics",     "denoise", "adaptive"};
 
 // Runs the experiments and writes the outputs; throws InputError for bad options and
 // std::runtime_error when a tool (gnuplot) fails.

@@ -63,19 +63,20 @@ struct StudyRun {
 
 void checkReportTablesAndPlots(const StudyRun& run) {
   const std::string report = test::readFile(run.dir.path() / "docs" / "accuracy.md");
-  for (const char* section : {"## Convergence", "## The live error estimate", "## Resolution", "## Depth of field",
-                              "## Bounces", "## Glass and metal", "## Models", "## Camera optics", "## Uniform sampling against",
-                              "lensfarm study"})
+  for (const char* section :
+       {"## Convergence", "## The live error estimate", "## Resolution", "## Depth of field", "## Bounces",
+        "## Glass and metal", "## Models", "## Camera optics", "## Uniform sampling against",
+        "## Adaptive sampling against uniform sampling", "lensfarm study"})
     EXPECT_NE(report.find(section), std::string::npos) << section;
-  for (const char* plot :
-       {"convergence", "estimate", "resolution", "dof", "bounces", "materials", "models", "optics", "denoise"}) {
+  for (const char* plot : {"convergence", "estimate", "resolution", "dof", "bounces", "materials", "models", "optics",
+                           "denoise", "adaptive"}) {
     EXPECT_NE(report.find("(../out/" + std::string(plot) + ".png)"), std::string::npos) << "relative link to " << plot;
     const std::string png = test::readFile(run.out(std::string(plot) + ".png"));
     ASSERT_GT(png.size(), 2000u) << plot;
     EXPECT_EQ(png.substr(1, 3), "PNG") << plot;
   }
-  for (const char* csv : {"convergence.csv", "time-to-error.csv", "estimate.csv", "resolution.csv", "dof.csv", "bounces.csv",
-                          "materials.csv", "models.csv", "optics.csv", "denoise.csv"})
+  for (const char* csv : {"convergence.csv", "time-to-error.csv", "estimate.csv", "resolution.csv", "dof.csv",
+                          "bounces.csv", "materials.csv", "models.csv", "optics.csv", "denoise.csv", "adaptive.csv"})
     EXPECT_GT(readCsv(run.out(csv)).size(), 2u) << csv;
 }
 
@@ -238,6 +239,66 @@ TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
     SCOPED_TRACE("denoise");
     checkDenoise(run);
   }
+}
+
+// Uniform against adaptive against uniform + denoise, each rendered on its own at every count: the
+// three series at the same counts; more samples, less error; adaptive sampling really changed where
+// the samples went (its image differs from uniform's once passes hold more than the floor's one
+// sample); it stays unbiased (mean ratio) and its live estimate follows the true error; the time to
+// each target is reported for all three.
+TEST(Study, AdaptiveExperimentComparesTheThreeWaysOfSpendingSamples) {
+  StudyRun run;
+  run.result = test::runProcess(
+      {test::cliPath().string(), "study", "--quick", "--experiments", "adaptive", "--out",
+       (run.dir.path() / "out").string(), "--report", (run.dir.path() / "docs" / "accuracy.md").string()},
+      300);
+  ASSERT_EQ(run.result.exitCode, 0) << run.result.err;
+  std::map<std::string, std::vector<std::map<std::string, std::string>>> series;
+  for (const auto& row : readCsv(run.out("adaptive.csv"))) series[row.at("series")].push_back(row);
+  ASSERT_EQ(series.size(), 3u);
+  const auto& uniform = series["uniform"];
+  const auto& adaptive = series["adaptive"];
+  const auto& denoised = series["uniform + denoise"];
+  ASSERT_GE(uniform.size(), 3u);
+  ASSERT_EQ(adaptive.size(), uniform.size());
+  ASSERT_EQ(denoised.size(), uniform.size());
+  for (size_t k = 0; k < uniform.size(); ++k) {
+    EXPECT_EQ(adaptive[k].at("spp"), uniform[k].at("spp")) << "the same mean samples per pixel";
+    EXPECT_EQ(denoised[k].at("spp"), uniform[k].at("spp"));
+    if (k > 0) {
+      EXPECT_GT(num(uniform[k], "spp"), num(uniform[k - 1], "spp"));
+    }
+  }
+  const double adaptiveLast = num(adaptive.back(), "relative_rmse");
+  EXPECT_TRUE(std::isfinite(adaptiveLast));
+  EXPECT_LT(adaptiveLast, num(uniform.front(), "relative_rmse")) << "more samples, less error";
+  EXPECT_LT(num(uniform.back(), "relative_rmse"), 0.7 * num(uniform.front(), "relative_rmse"));
+  EXPECT_NE(adaptive.back().at("relative_rmse"), uniform.back().at("relative_rmse"))
+      << "the adaptive render spent its samples differently";
+  EXPECT_NEAR(num(adaptive.back(), "mean_ratio"), 1.0, 0.05) << "no bias beyond the reference's noise";
+  const double estimate = num(adaptive.back(), "estimated_relative_rmse");
+  const double trueError = num(adaptive.back(), "relative_rmse_net_of_reference_noise");
+  EXPECT_GT(estimate, 0.5 * trueError) << "the live estimate of an adaptive image follows its error";
+  EXPECT_LT(estimate, 2.0 * trueError);
+  EXPECT_EQ(num(denoised.back(), "estimated_relative_rmse"), -1.0) << "no live estimate of a denoised image";
+  EXPECT_LT(num(denoised.front(), "relative_rmse"), num(uniform.front(), "relative_rmse"))
+      << "at 16 spp the denoiser removes noise";
+
+  const Csv targets = readCsv(run.out("adaptive-targets.csv"));
+  ASSERT_EQ(targets.size(), 3u);
+  for (const auto& row : targets) {
+    for (const char* column : {"uniform_seconds", "adaptive_seconds", "denoise_seconds", "adaptive_speedup_in_samples"})
+      EXPECT_GT(num(row, column), 0.0) << column;
+    EXPECT_NEAR(num(row, "adaptive_speedup"), num(row, "uniform_seconds") / num(row, "adaptive_seconds"), 1e-2);
+  }
+  const std::string report = test::readFile(run.dir.path() / "docs" / "accuracy.md");
+  EXPECT_NE(report.find("## Adaptive sampling against uniform sampling (issue 27)"), std::string::npos);
+  EXPECT_NE(report.find("(../out/adaptive.png)"), std::string::npos);
+  EXPECT_NE(report.find("**How it works**"), std::string::npos);
+  EXPECT_EQ(report.find("## Uniform sampling against"), std::string::npos) << "only the experiment asked for";
+  const std::string png = test::readFile(run.out("adaptive.png"));
+  ASSERT_GT(png.size(), 2000u);
+  EXPECT_EQ(png.substr(1, 3), "PNG");
 }
 
 TEST(StudyInput, AnUnknownExperimentIsRefusedByName) {
