@@ -49,13 +49,7 @@ Checkpoint renderProgressive(Scene scene, const ProgressiveRun& run,
       // A round is allocated from the film holding every unit before it, as the coordinator does
       // (coordinator/accumulator.cpp).
       if (unit == layout.roundStarts[size_t(r)]) {
-        AllocationRequest request;
-        request.start = unit;
-        request.units = uint32_t(layout.roundEnd(size_t(r)) - unit);
-        request.passSamples = layout.passSamples;
-        request.blockEdge = layout.blockEdge;
-        request.floor = layout.allocationFloor;
-        round = std::make_shared<const RoundAllocation>(allocateRound(sensor, tracker, request));
+        round = std::make_shared<const RoundAllocation>(allocateRound(sensor, tracker, layout.roundRequest(size_t(r))));
       }
       work.samples = round->mapOf(unit);
     }
