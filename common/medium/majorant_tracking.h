@@ -15,7 +15,8 @@
 //    expectation is T(t0, t1) = exp(-int sigma_t) and it never terminates early (lower variance,
 //    the estimator for shadow rays).
 // The majorant must satisfy sigma_t(t) <= sigma_maj on [t0, t1) (otherwise both are biased;
-// ratio tracking's factor would go negative). A majorant of 0 means an empty piece: nothing is
+// ratio tracking's factor would go negative), and t1 must be finite where sigma_maj > 0 (ratio
+// tracking walks to t1; GridMedium clips every piece to its box). A majorant of 0 means an empty piece: nothing is
 // sampled there (the "empty space costs nothing" of a majorant grid, medium/grid_medium.h).
 // Because the Poisson process is memoryless, a ray crossing several majorant cells is tracked
 // piece by piece, restarting the exponential step at each piece: the result is the same process.
