@@ -1,0 +1,115 @@
+#include "medium/homogeneous_medium.h"
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "util/error.h"
+
+namespace lensfarm {
+
+HomogeneousMedium::HomogeneousMedium(const Spectrum& sigmaA, const Spectrum& sigmaS, float g)
+    : sigmaA_(sigmaA), sigmaS_(sigmaS), sigmaT_(sigmaA + sigmaS), phase_(g) {}
+
+HomogeneousMedium HomogeneousMedium::fromAttenuation(const Spectrum& attenuationColor, float attenuationDistance,
+                                                     const Spectrum& scatteringAlbedo, float g) {
+  Spectrum sigmaT(0.0f);
+  for (int c = 0; c < 3; ++c) {
+    // -ln(1) = 0 and x / infinity = 0: c = 1 or d = infinity attenuate nothing.
+    sigmaT[c] = attenuationColor[c] >= 1.0f ? 0.0f : -std::log(attenuationColor[c]) / attenuationDistance;
+  }
+  const Spectrum sigmaS = scatteringAlbedo * sigmaT;
+  return HomogeneousMedium(sigmaT - sigmaS, sigmaS, g);
+}
+
+namespace {
+// exp(-sigma t) in double with 0 * infinity = 0.
+double transmit(double sigma, double t) { return sigma > 0.0 ? std::exp(-sigma * t) : 1.0; }
+}  // namespace
+
+FreeFlight HomogeneousMedium::sampleFreeFlight(float tMax, float uChannel, float u) const {
+  const int channel = std::min(2, int(uChannel * 3.0f));
+  const double sigma = sigmaT_[channel];
+  // Inverse CDF of p_c: t = -ln(1 - u) / sigma_c (log1p keeps small u exact); sigma_c = 0 never stops.
+  const double t = sigma > 0.0 ? -std::log1p(-double(u)) / sigma : std::numeric_limits<double>::infinity();
+  FreeFlight out;
+  // Double throughout: a channel's exp(-sigma t) may underflow float where the mixture does not.
+  if (t >= double(tMax)) {
+    double pbar = 0.0;
+    for (int c = 0; c < 3; ++c) pbar += transmit(sigmaT_[c], tMax) / 3.0;
+    // pbar >= P_channel / 3 > 0: the chosen channel just passed, so its exp(-sigma tMax) >= 1 - u.
+    for (int c = 0; c < 3; ++c) out.weight[c] = float(transmit(sigmaT_[c], tMax) / pbar);
+    out.t = tMax;
+    return out;
+  }
+  double pbar = 0.0;
+  for (int c = 0; c < 3; ++c) pbar += double(sigmaT_[c]) * transmit(sigmaT_[c], t) / 3.0;
+  out.scattered = true;
+  out.t = float(t);
+  for (int c = 0; c < 3; ++c) out.weight[c] = float(double(sigmaS_[c]) * transmit(sigmaT_[c], t) / pbar);
+  return out;
+}
+
+float sssSingleScatteringAlbedo(float a) { return 1.0f - std::exp(a * (-5.09406f + a * (2.61188f - a * 4.31805f))); }
+
+SssCoefficients sssCoefficients(const Spectrum& albedo, const Spectrum& distance) {
+  SssCoefficients out;
+  for (int c = 0; c < 3; ++c) {
+    const float a = albedo[c];
+    const float s = 1.9f - a + 3.5f * (a - 0.8f) * (a - 0.8f);
+    const float sigmaT = 1.0f / (distance[c] * s);
+    const float alpha = sssSingleScatteringAlbedo(a);
+    out.sigmaS[c] = alpha * sigmaT;
+    out.sigmaA[c] = (1.0f - alpha) * sigmaT;
+  }
+  return out;
+}
+
+namespace {
+
+std::string show(const Spectrum& s) {
+  std::ostringstream o;
+  o << "[" << s.r << ", " << s.g << ", " << s.b << "]";
+  return o.str();
+}
+
+// Each channel must satisfy ok(); otherwise one InputError naming the field.
+template <typename Ok>
+void requireChannels(const Spectrum& s, Ok ok, const std::string& where, const std::string& field,
+                     const std::string& rule) {
+  for (int c = 0; c < 3; ++c)
+    if (!std::isfinite(s[c]) || !ok(s[c])) throw InputError(where, field + ": " + rule + ", got " + show(s));
+}
+
+}  // namespace
+
+void validateHomogeneousMedium(const Spectrum& sigmaA, const Spectrum& sigmaS, float g, const std::string& where,
+                               const std::string& field) {
+  const auto nonNegative = [](float v) { return v >= 0.0f; };
+  requireChannels(sigmaA, nonNegative, where, field + ".sigma_a", "must be finite and >= 0 (1 / scene units)");
+  requireChannels(sigmaS, nonNegative, where, field + ".sigma_s", "must be finite and >= 0 (1 / scene units)");
+  validateHenyeyGreensteinG(g, where, field + ".g");
+}
+
+void validateAttenuation(const Spectrum& attenuationColor, float attenuationDistance, const Spectrum& scatteringAlbedo,
+                         float g, const std::string& where, const std::string& field) {
+  requireChannels(
+      attenuationColor, [](float v) { return v > 0.0f && v <= 1.0f; }, where, field + ".attenuation_color",
+      "must lie in (0, 1] (1: no attenuation)");
+  if (std::isnan(attenuationDistance) || !(attenuationDistance > 0.0f))
+    throw InputError(where, field + ".attenuation_distance: must be > 0 (infinity: no attenuation), got " +
+                                std::to_string(attenuationDistance));
+  requireChannels(
+      scatteringAlbedo, [](float v) { return v >= 0.0f && v <= 1.0f; }, where, field + ".scattering_albedo",
+      "must lie in [0, 1]");
+  validateHenyeyGreensteinG(g, where, field + ".g");
+}
+
+void validateSss(const Spectrum& albedo, const Spectrum& distance, const std::string& where, const std::string& field) {
+  requireChannels(
+      albedo, [](float v) { return v >= 0.0f && v <= 1.0f; }, where, field + ".albedo", "must lie in [0, 1]");
+  requireChannels(
+      distance, [](float v) { return v > 0.0f; }, where, field + ".distance", "must be finite and > 0 (scene units)");
+}
+
+}  // namespace lensfarm
