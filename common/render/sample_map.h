@@ -37,8 +37,9 @@ struct SampleMap {
   // Samples of every cell of a width x height frame (the unit's paths).
   uint64_t totalSamples(int width, int height) const;
   uint32_t maxCount() const;
-  // Empty if the map fits a width x height frame (blocks cover it exactly, a half of 0 or 1, counts
-  // at most 2^31, sample indices below 2^62), else what is wrong: for a map from the network.
+  // Empty if the map fits a width x height frame (blocks cover it exactly, a pass of at least 1, a
+  // half of 0 or 1, counts at most 2^31, first positions at most 2^60 / P, so that every sample
+  // index stays below 2^62), else what is wrong: for a map from the network.
   std::string whyNotFor(int width, int height) const;
 };
 

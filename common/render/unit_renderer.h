@@ -42,7 +42,9 @@ struct WorkUnit {
   // firstSample and sampleCount are not read. Whole-frame units only. Null: every cell traces
   // [firstSample, firstSample + sampleCount).
   std::shared_ptr<const SampleMap> samples;
-  // The samples every cell traces: the map's count, else sampleCount.
+  // The samples cell (i, j) traces: the map's count, else sampleCount; and its first: the map's
+  // first position in the unit's half (SampleMap::sampleIndex gives its sample index), else
+  // firstSample (a sample index).
   uint32_t countAt(int i, int j) const { return samples ? samples->countAt(i, j) : sampleCount; }
   uint64_t firstAt(int i, int j) const { return samples ? samples->firstAt(i, j) : firstSample; }
 };
