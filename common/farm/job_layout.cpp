@@ -16,11 +16,14 @@ JobLayout JobLayout::of(const RenderSettings& s, const std::optional<FrameRange>
   l.channels = AovLayout(s.aovs).channels;
   if (s.adaptive.enabled && !l.tiled() && !frames) {
     uint64_t passes = lensfarm::unitCount(s.samplesPerPixel, l.passSamples);
-    uint64_t uniform = std::max<uint64_t>(2, uint64_t(std::llround(double(passes) * s.adaptive.uniform / 2.0)) * 2);
+    // `uniform` of the passes, an even number of them (at least 2: one in each half-image).
+    const auto evenShare = [&](double of) {
+      return std::max<uint64_t>(2, uint64_t(std::llround(of * s.adaptive.uniform / 2.0)) * 2);
+    };
+    uint64_t uniform = evenShare(double(passes));
     // A job that stops at a target error or deadline may never reach its sample cap: its rounds
-    // begin after at most kMaxUniformPasses (x `uniform` x 4) passes.
-    if (s.convergenceDriven())
-      uniform = std::min(uniform, std::max<uint64_t>(2, uint64_t(std::llround(kMaxUniformPasses * s.adaptive.uniform * 2.0)) * 2));
+    // begin after at most `uniform` x 4 x kMaxUniformPasses passes.
+    if (s.convergenceDriven()) uniform = std::min(uniform, evenShare(4.0 * kMaxUniformPasses));
     if (passes > uniform) {  // else nothing is left to adapt: uniform passes alone
       if ((passes - uniform) % 2 != 0) ++passes;
       l.samplesPerPixel = passes * l.passSamples;

@@ -71,7 +71,9 @@ struct JobLayout {
   uint64_t sumsOf(uint64_t u) const;
 
   bool adaptive() const { return adaptiveStart > 0; }
-  static constexpr double kMaxUniformPasses = 16.0;  // (before `uniform`'s share) with a target error or deadline
+  // With a target error or deadline, the uniform passes are at most `uniform` x 4 x this (16 at
+  // the default quarter).
+  static constexpr double kMaxUniformPasses = 16.0;
   // The round unit `u` is in; -1 for a uniform pass (and every unit of a job without rounds).
   int roundOf(uint64_t u) const;
   // Round r's units: [roundStarts[r], roundEnd(r)).
