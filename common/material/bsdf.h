@@ -14,11 +14,14 @@
 //  - A sample's weight is f |cos| / pdf (or the delta lobe's weight), with every discrete choice
 //    already divided out, so a path multiplies its throughput by it.
 // Colour mixing is the seed's eq. 2: reflected = incident * reflectance, channel by channel.
+#include <memory>
 #include <optional>
 
 #include "math/vec.h"
 
 namespace lensfarm {
+
+class Medium;
 
 struct MaterialSample {
   Vec3 wi;
@@ -37,6 +40,9 @@ struct BsdfTraits {
   bool delta = false;       // every lobe is a delta: no light sampling; a "mirror" bounce (seed §4.5)
   bool lambertian = false;  // f = albedo / pi: the packet tracer's lane loops shade it without the Bsdf
   bool choosesLobe = true;  // sample() reads uLobe (false: the integrator need not draw it)
+  // Scatters nothing and blocks nothing: a medium's index-matched boundary (material/interface.h),
+  // which rays cross unchanged (only the volume path tracer meets it: render/volume_integrator.h).
+  bool passesThrough = false;
   Spectrum albedo{0.0f};    // lambertian: its albedo
   // The effect the scene analysis reports for it (scene/effects.h): "mirror", "rippled mirror",
   // "glass", ...; empty for Lambertian.
@@ -83,6 +89,8 @@ class Bsdf {
   // An incident direction and its weight; nothing when the sample is absorbed.
   virtual std::optional<MaterialSample> sample(const Vec3& n, const Vec3& wo, float uLobe, Vec2 u,
                                                bool front) const = 0;
+  // The medium the model implies behind its front face (subsurface scattering's), if any.
+  virtual std::shared_ptr<const Medium> interiorMedium() const { return nullptr; }
 };
 
 // Mirror reflection of wo about n.

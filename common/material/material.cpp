@@ -4,9 +4,11 @@
 
 #include "material/conductor.h"
 #include "material/dielectric.h"
+#include "material/interface.h"
 #include "material/lambertian.h"
 #include "material/mirror.h"
 #include "material/principled.h"
+#include "material/subsurface.h"
 #include "scene/field_reader.h"
 
 namespace lensfarm {
@@ -27,6 +29,8 @@ constexpr MaterialType kMaterialTypes[] = {
     {"dielectric", parseDielectric, ""},
     {"conductor", parseConductor, ""},
     {"principled", parsePrincipled, "emission"},
+    {"subsurface", parseSubsurface, ""},
+    {"interface", parseInterface, ""},
     {"emissive", nullptr, "radiance"},
 };
 }  // namespace
@@ -34,7 +38,10 @@ constexpr MaterialType kMaterialTypes[] = {
 Material::Material(std::string materialName, std::shared_ptr<const Bsdf> bsdf, const Spectrum& emitted,
                    bool twoSided)
     : name(std::move(materialName)), emission(emitted), twoSidedEmission(twoSided), bsdf_(std::move(bsdf)) {
-  if (bsdf_) traits_ = bsdf_->traits();
+  if (bsdf_) {
+    traits_ = bsdf_->traits();
+    interior = bsdf_->interiorMedium();
+  }
 }
 
 Material Material::textured(std::string name, std::shared_ptr<const MaterialTextures> textures, const Spectrum& emission,
@@ -75,7 +82,7 @@ std::vector<std::string> materialTypeNames() {
   return names;
 }
 
-Material parseMaterial(const std::string& name, FieldReader& r) {
+Material parseMaterial(const std::string& name, FieldReader& r, const MediumTable& media) {
   const std::string type = r.string("type");
   const MaterialType* found = nullptr;
   for (const MaterialType& t : kMaterialTypes)
@@ -105,6 +112,16 @@ Material parseMaterial(const std::string& name, FieldReader& r) {
   }
   Material m(name, std::move(bsdf), emission);
   if (m.isEmissive() || r.has("two_sided")) m.twoSidedEmission = r.boolean("two_sided", false);
+  if (r.has("interior_medium")) {
+    const std::string mediumName = r.string("interior_medium");
+    if (m.interior)
+      r.fail(r.field("interior_medium"), "a subsurface material makes its own medium from albedo and mean_free_path");
+    const auto it = media.find(mediumName);
+    if (it == media.end()) r.fail(r.field("interior_medium"), "unknown medium \"" + mediumName + "\" (not in media)");
+    m.interior = it->second;
+  } else if (m.passesThrough()) {
+    r.fail(r.field("interior_medium"), "is required: an interface only bounds a medium (without one it is invisible)");
+  }
   r.finish();
   return m;
 }

@@ -7,6 +7,7 @@
 //
 // Material types are registered in one place, kMaterialTypes in material.cpp: a new type adds its
 // own header/source pair (its Bsdf and its parse function) and one line there.
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -59,6 +60,13 @@ class Material {
 
   const Bsdf* bsdf() const { return bsdf_.get(); }
   const BsdfTraits& traits() const { return traits_; }
+  // The medium behind the front face (docs/media.md): a path that crosses the surface against its
+  // normal enters it, one that crosses along the normal leaves it for the scene's medium. Null:
+  // crossing the surface does not change the medium a path is in.
+  std::shared_ptr<const Medium> interior;
+  // A medium's index-matched boundary (material/interface.h): rays cross it unchanged.
+  bool passesThrough() const { return traits_.passesThrough; }
+
   bool isEmissive() const { return !isBlack(emission); }
   bool reflects() const { return traits_.reflects; }
   // Every lobe is a delta (mirrors, smooth glass and metal): no light sampling.
@@ -107,9 +115,13 @@ class Material {
   std::shared_ptr<const MaterialTextures> textures_;
 };
 
+// The scene's named media (docs/scene-format.md, "Media"), for a material's `interior_medium`.
+using MediumTable = std::map<std::string, std::shared_ptr<const Medium>>;
+
 // Reads one entry of the scene's `materials` (docs/scene-format.md, "Materials"): its `type`, the
-// type's fields, and `emission` / `two_sided`. Errors name the field (InputError).
-Material parseMaterial(const std::string& name, FieldReader& r);
+// type's fields, `emission` / `two_sided` and `interior_medium` (a name in `media`). Errors name
+// the field (InputError).
+Material parseMaterial(const std::string& name, FieldReader& r, const MediumTable& media = {});
 // The names of the registered types, in registration order.
 std::vector<std::string> materialTypeNames();
 

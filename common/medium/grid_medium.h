@@ -25,6 +25,7 @@
 #include <glm/vec3.hpp>
 
 #include "math/vec.h"
+#include "medium/homogeneous_medium.h"  // FreeFlight
 #include "medium/majorant_tracking.h"
 #include "medium/phase_function.h"
 
@@ -43,6 +44,8 @@ class GridMedium {
   const Spectrum& sigmaSScale() const { return sigmaS_; }
   const HenyeyGreenstein& phase() const { return phase_; }
   const glm::ivec3& majorantResolution() const { return majorantRes_; }
+  const glm::ivec3& resolution() const { return res_; }
+  const std::vector<float>& densities() const { return density_; }
   float majorantDensity(const glm::ivec3& cell) const { return majorant_[index(cell, majorantRes_)]; }
   // The box of majorant cell `cell`.
   Vec3 majorantCellLo(const glm::ivec3& cell) const { return lo_ + (hi_ - lo_) * Vec3(cell) / Vec3(majorantRes_); }
@@ -61,6 +64,12 @@ class GridMedium {
   // Delta tracking for one channel: 0 or 1, with expectation exp(-int sigma_t[channel]).
   template <typename Uniform>
   float deltaTrackingTransmittance(const Vec3& o, const Vec3& dir, float tMax, int channel, Uniform&& uniform) const;
+  // Free-flight sampling by spectral tracking (medium/medium.h has the estimator): the first real
+  // scattering event along o + t dir, t in [0, tMax], or a pass, with its throughput weight
+  // (black: absorbed). `throughput` steers the event probabilities only.
+  template <typename Uniform>
+  FreeFlight sampleFreeFlight(const Vec3& o, const Vec3& dir, float tMax, const Spectrum& throughput,
+                              Uniform&& uniform) const;
 
  private:
   static int index(const glm::ivec3& c, const glm::ivec3& res) { return (c.z * res.y + c.y) * res.x + c.x; }
@@ -149,6 +158,48 @@ float GridMedium::deltaTrackingTransmittance(const Vec3& o, const Vec3& dir, flo
     return passed;  // the first real collision ends the walk
   });
   return passed ? 1.0f : 0.0f;
+}
+
+template <typename Uniform>
+FreeFlight GridMedium::sampleFreeFlight(const Vec3& o, const Vec3& dir, float tMax, const Spectrum& throughput,
+                                        Uniform&& uniform) const {
+  FreeFlight out;
+  out.weight = Spectrum(1.0f);
+  out.t = tMax;
+  const auto largest = [](const Spectrum& s) { return std::max(s.r, std::max(s.g, s.b)); };
+  forEachMajorantSegment(o, dir, tMax, [&](const glm::ivec3&, float t0, float t1, float maxDensity) {
+    const float sigmaMaj = maxDensity * maxSigmaT_;
+    if (!(sigmaMaj > 0.0f)) return true;
+    float t = t0;
+    for (;;) {
+      t -= std::log1p(-uniform()) / sigmaMaj;
+      if (!(t < t1)) return true;  // on to the next majorant cell (the process is memoryless)
+      const float d = density(o + t * dir);
+      const Spectrum w = throughput * out.weight;
+      // sigma_n = sigma_maj - sigma_t >= 0 in every channel: the majorant bounds the largest.
+      const Spectrum sa = d * sigmaA_, ss = d * sigmaS_, sn = Spectrum(sigmaMaj) - d * sigmaT_;
+      const float pa = largest(w * sa), ps = largest(w * ss), pn = largest(w * sn);
+      const float sum = pa + ps + pn;
+      if (!(sum > 0.0f)) {  // the path carries nothing any more
+        out.weight = Spectrum(0.0f);
+        out.scattered = false;
+        return false;
+      }
+      const float xi = uniform() * sum;
+      if (xi < pa) {  // absorbed: the path ends (no emission in the medium)
+        out.weight = Spectrum(0.0f);
+        return false;
+      }
+      if (xi < pa + ps) {  // a real scattering event
+        out.weight *= ss * (sum / (sigmaMaj * ps));
+        out.scattered = true;
+        out.t = t;
+        return false;
+      }
+      out.weight *= sn * (sum / (sigmaMaj * pn));  // a null collision: go on
+    }
+  });
+  return out;
 }
 
 }  // namespace lensfarm

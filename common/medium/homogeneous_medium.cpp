@@ -28,25 +28,33 @@ double transmit(double sigma, double t) { return sigma > 0.0 ? std::exp(-sigma *
 }  // namespace
 
 FreeFlight HomogeneousMedium::sampleFreeFlight(float tMax, float uChannel, float u) const {
-  const int channel = std::min(2, int(uChannel * 3.0f));
-  const double sigma = sigmaT_[channel];
-  // Inverse CDF of p_c: t = -ln(1 - u) / sigma_c (log1p keeps small u exact); sigma_c = 0 never stops.
+  Spectrum ratio(1.0f);
+  return sampleFreeFlight(tMax, std::min(2, int(uChannel * 3.0f)), u, ratio);
+}
+
+FreeFlight HomogeneousMedium::sampleFreeFlight(float tMax, int hero, float u, Spectrum& ratio) const {
+  const double sigma = sigmaT_[hero];
+  // Inverse CDF of p_hero: t = -ln(1 - u) / sigma (log1p keeps small u exact); sigma = 0 never stops.
   const double t = sigma > 0.0 ? -std::log1p(-double(u)) / sigma : std::numeric_limits<double>::infinity();
-  FreeFlight out;
+  const bool pass = t >= double(tMax);
   // Double throughout: a channel's exp(-sigma t) may underflow float where the mixture does not.
-  if (t >= double(tMax)) {
-    double pbar = 0.0;
-    for (int c = 0; c < 3; ++c) pbar += transmit(sigmaT_[c], tMax) / 3.0;
-    // pbar >= P_channel / 3 > 0: the chosen channel just passed, so its exp(-sigma tMax) >= 1 - u.
-    for (int c = 0; c < 3; ++c) out.weight[c] = float(transmit(sigmaT_[c], tMax) / pbar);
-    out.t = tMax;
-    return out;
+  // f: the integrand's factor per channel; p: each channel's density of this outcome.
+  double f[3], p[3], mean = 0.0;
+  for (int c = 0; c < 3; ++c) {
+    const double tr = transmit(sigmaT_[c], pass ? double(tMax) : t);
+    p[c] = pass ? tr : double(sigmaT_[c]) * tr;
+    f[c] = pass ? tr : double(sigmaS_[c]) * tr;
+    mean += double(ratio[c]) * p[c] / 3.0;
   }
-  double pbar = 0.0;
-  for (int c = 0; c < 3; ++c) pbar += double(sigmaT_[c]) * transmit(sigmaT_[c], t) / 3.0;
-  out.scattered = true;
-  out.t = float(t);
-  for (int c = 0; c < 3; ++c) out.weight[c] = float(double(sigmaS_[c]) * transmit(sigmaT_[c], t) / pbar);
+  // mean >= ratio[hero] p[hero] / 3 > 0: the hero's outcome has positive density (a pass: its
+  // exp(-sigma tMax) >= 1 - u), and ratio[hero] stays positive along the path.
+  FreeFlight out;
+  out.scattered = !pass;
+  out.t = pass ? tMax : float(t);
+  for (int c = 0; c < 3; ++c) {
+    out.weight[c] = float(f[c] / mean);
+    ratio[c] = float(double(ratio[c]) * p[c] / mean);
+  }
   return out;
 }
 
@@ -109,7 +117,7 @@ void validateSss(const Spectrum& albedo, const Spectrum& distance, const std::st
   requireChannels(
       albedo, [](float v) { return v >= 0.0f && v <= 1.0f; }, where, field + ".albedo", "must lie in [0, 1]");
   requireChannels(
-      distance, [](float v) { return v > 0.0f; }, where, field + ".distance", "must be finite and > 0 (scene units)");
+      distance, [](float v) { return v > 0.0f; }, where, field + ".mean_free_path", "must be finite and > 0 (scene units)");
 }
 
 }  // namespace lensfarm

@@ -56,6 +56,8 @@ inline constexpr uint32_t kLensPoint = kLightPoint;
 // render/integrator.h), so no other dimension moves: images without it keep their bits. Every
 // sampler gives it independent values; the bands are stratified by the sample index instead.
 inline constexpr uint32_t kWavelength = 0xfffffff0u;
+// The key (SampleStream::streamKey) of a volume path's hero channel (render/volume_integrator.h).
+inline constexpr uint32_t kHeroChannel = 0xfffffff1u;
 }  // namespace dims
 
 // The stratified and Sobol samplers stratify the dimensions where stratification pays: the pixel
@@ -115,6 +117,12 @@ class SampleStream {
       pixelKey_ = mix(pixelKey_ ^ (block * 0xd6e8feb86659fd93ull));
     }
   }
+
+  // A key unique to this stream's pixel and sample (and job seed), for counter-based streams of a
+  // varying length keyed by it (medium/medium.h, MediumRng).
+  uint64_t key() const { return key_; }
+  // The key of such a stream for `dimension` (e.g. a path segment's).
+  uint64_t streamKey(uint32_t dimension) const { return mix(key_ ^ (uint64_t(dimension) * 0xd1b54a32d192ed03ull)); }
 
   float get1D(uint32_t dimension) const {
     switch (kind_) {

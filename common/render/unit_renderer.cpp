@@ -13,6 +13,7 @@
 #include "render/aov_tracer.h"
 #include "render/integrator.h"
 #include "render/light_tracer.h"
+#include "render/volume_integrator.h"
 #include "scene/scene_loader.h"  // kMaxBounces
 
 #if defined(__SSE__)
@@ -44,6 +45,23 @@ enum CameraKind { kPinhole, kThinLens, kRealLens, kRealLensSpectral };
 
 // The wavelength dimension comes after every segment's block.
 static_assert(dims::segment(uint32_t(pathSegmentLimit(kMaxBounces))) < dims::kWavelength);
+static_assert(dims::segment(uint32_t(pathSegmentLimit(kMaxBounces) + kMaxMediumBounces + 64)) < dims::kWavelength);
+
+// The radiance of a packet's lanes: the volume path tracer's where the scene has media (one path
+// at a time), else the packet tracer's, or the one-ray reference's (render/integrator.h).
+template <bool kNee, bool kGeneral>
+void traceLanes(const RenderScene& rs, const PathPacket& packet, Spectrum (&radiance)[kPacketWidth], PathStats& stats,
+                RayGrouping grouping) {
+  if (rs.effects().media) {
+    for (int k = 0; k < packet.count; ++k)
+      radiance[k] = traceVolumePath<kNee>(rs, packet.cameraRays.ray(k), packet.rng[k], stats);
+  } else if (grouping == RayGrouping::kPackets) {
+    tracePacket<kNee, kGeneral>(rs, packet, radiance, stats);
+  } else {
+    for (int k = 0; k < packet.count; ++k)
+      radiance[k] = tracePath<kNee, kGeneral>(rs, packet.cameraRays.ray(k), packet.rng[k], stats);
+  }
+}
 
 // The pixel loop for one combination of effects, fixed at compile time.
 template <int kCamera, bool kNee, bool kGeneral>
@@ -172,11 +190,7 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
           }
           Spectrum traced[kPacketWidth];
           for (int k = live.count; k < kPacketWidth; ++k) live.cameraRays.set(k, live.cameraRays.ray(0));
-          if (live.count > 0 && grouping == RayGrouping::kPackets)
-            tracePacket<kNee, kGeneral>(rs, live, traced, local);
-          else
-            for (int k = 0; k < live.count; ++k)
-              traced[k] = tracePath<kNee, kGeneral>(rs, live.cameraRays.ray(k), live.rng[k], local);
+          if (live.count > 0) traceLanes<kNee, kGeneral>(rs, live, traced, local, grouping);
           for (int k = 0; k < live.count; ++k) {
             if constexpr (kCamera == kRealLensSpectral) {
               // The path's spectral radiance at its wavelength is its band's channel; the sensor
@@ -208,11 +222,7 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
                 addGeometricAovs(rs, aovs, packet.cameraRays.ray(k), sampleOf[k] == 0, &out.sums[stride * cellOf[k]]);
             }
           }
-          if (grouping == RayGrouping::kPackets)
-            tracePacket<kNee, kGeneral>(rs, packet, radiance, local);
-          else
-            for (int k = 0; k < packet.count; ++k)
-              radiance[k] = tracePath<kNee, kGeneral>(rs, packet.cameraRays.ray(k), packet.rng[k], local);
+          traceLanes<kNee, kGeneral>(rs, packet, radiance, local, grouping);
           // An aperture image passes its mean transmission (camera/aperture.h, "Exposure"); every
           // other aperture weighs 1 and skips this.
           if (apertureWeight != 1.0f)

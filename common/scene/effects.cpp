@@ -11,6 +11,7 @@
 
 #include "film/diffraction_psf.h"
 #include "material/mirror.h"
+#include "medium/medium.h"
 #include "math/triangle.h"
 #include "scene/scene_loader.h"
 
@@ -301,6 +302,8 @@ double maxBlurInCells(const Scene& scene, const ThinLensCamera& camera) {
 EffectSet EffectSet::all(const Scene& scene) {
   EffectSet e;
   e.lightUseful.assign(scene.materials.size(), true);
+  e.media = scene.medium != nullptr;
+  for (const Material& m : scene.materials) e.media |= m.interior != nullptr || m.passesThrough();
   return e;
 }
 
@@ -423,6 +426,21 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
                            std::to_string(smoothMeshes) + " mesh(es) with vertex normals, " +
                                std::to_string(texturedMaterials) + " textured material(s)"});
 
+  // Participating media (docs/media.md): the volume path tracer runs only where a path can be in
+  // one; every other scene keeps the surface tracers, which have no medium code at all.
+  {
+    std::vector<std::string> where;
+    if (scene.medium) where.push_back("\"" + scene.medium->name() + "\" fills the scene");
+    for (size_t m = 0; m < scene.materials.size(); ++m)
+      if (used[m] && scene.materials[m].interior)
+        where.push_back("\"" + scene.materials[m].interior->name() + "\" inside \"" + scene.materials[m].name + "\"");
+    e.media = !where.empty();
+    std::string reason;
+    for (size_t k = 0; k < where.size() && k < 4; ++k) reason += (k ? "; " : "") + where[k];
+    if (where.size() > 4) reason += "; ...";
+    e.decisions.push_back({"participating media", e.media, e.media ? reason : "no medium in the scene"});
+  }
+
   // Lights that can light something: an emitter is useful if the front of some triangle of its
   // material faces a surface or the camera (scene/effects.h).
   const UselessLights useless = findUselessLights(scene, shells, camera.params().position);
@@ -503,6 +521,8 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
   std::string ltWhy;
   if (rs.lightTracing == LightTracingMode::kOff)
     ltWhy = "render.light_tracing is off";
+  else if (e.media)
+    ltWhy = "participating media: light paths are not traced through media (the volume path tracer samples the image)";
   else if (real)
     ltWhy = "a real lens cannot be connected to: a path from a surface point to the sensor through its "
             "surfaces has no closed form (the path tracer alone samples the image)";

@@ -10,6 +10,8 @@
 //    warnings();
 //  - specular materials: off when no delta material (mirror, rippled mirror, smooth glass or
 //    metal) can be met; materials beyond Lambertian (the general vertex code): off when none can;
+//  - participating media: on when the scene has a `medium` or a used material has one inside
+//    (docs/media.md); off, the surface tracers run, with no medium code in them;
 //  - next-event estimation: off with the naive estimator, or when no light can light anything;
 //  - lights that face away from every surface and from the camera (or only into the inside of
 //    the closed mesh they lie on, with nothing there) are dropped from sampling and reported as
@@ -41,6 +43,9 @@ struct EffectSet {
   bool specular = true;          // a delta material (mirror, smooth glass or metal) can be met
   bool generalMaterials = true;  // a material beyond Lambertian can be met (render/integrator.h)
   bool lightSampling = true;
+  // A path can be inside a participating medium (a fog, a medium inside a mesh, subsurface
+  // scattering): camera paths are traced by the volume path tracer (render/volume_integrator.h).
+  bool media = false;
   // Light tracing beside the path tracer (render/light_tracer.h): on where render.light_tracing
   // is "on" and it can run (a thin-lens camera, an NEE estimator, whole-frame units, an emitting
   // triangle). `auto` leaves it off: where the scene has mirrorCaustics (a diffuse surface can see

@@ -135,6 +135,9 @@ struct RenderSettings {
   int width = 0, height = 0;
   uint64_t samplesPerPixel = 0;
   int maxBounces = 2;                 // B (seed §4.5)
+  // Scattering events in participating media a path may make besides its B surface bounces
+  // (render/volume_integrator.h): a random walk through milk or marble takes many.
+  int maxMediumBounces = 256;
   uint64_t seed = 0;
   IntegratorKind integrator = IntegratorKind::kNeeMis;
   bool mirrorBouncesCount = false;    // seed §4.5: mirror reflections do not count toward B
@@ -190,6 +193,10 @@ struct Scene {
   std::optional<RealLensParams> realLens;
   std::optional<DiffractionSettings> diffraction;  // camera.diffraction; none: the image as developed
   std::vector<Material> materials;
+  // Participating media (docs/media.md): the one the camera and every surface's outside are in
+  // (the top-level `medium`, a fog; null: vacuum), and every named medium of `media`, for reports.
+  std::shared_ptr<const Medium> medium;
+  MediumTable media;
   std::vector<TriangleMesh> meshes;
   // Meshes used many times, in object space, and their uses (MeshInstance above).
   std::vector<TriangleMesh> prototypes;

@@ -21,6 +21,7 @@
 #include "light/environment_light.h"
 #include "light/light_types.h"
 #include "math/triangle.h"
+#include "medium/medium.h"
 #include "scene/coplanar.h"
 #include "scene/field_reader.h"
 #include "scene/gltf_import.h"
@@ -70,9 +71,11 @@ class SceneParser {
     }
 
     parseRender(top);
+    parseMedia(top);
     parseMaterials(top);
     importModels(top);
     parseCamera(top);
+    placeMedia(top);
     parseShapes(top);
     parseLights(top);
     addModelLights();
@@ -108,6 +111,7 @@ class SceneParser {
     s.height = int(h);
     s.samplesPerPixel = r.integer("samples_per_pixel", 1, kMaxSamplesPerPixel);
     s.maxBounces = int(r.integer("max_bounces", 2, 0, kMaxBounces));
+    s.maxMediumBounces = int(r.integer("max_medium_bounces", 256, 0, kMaxMediumBounces));
     s.seed = r.integer("seed", 0, 0, std::numeric_limits<uint64_t>::max());
     const std::string integrator = r.string("integrator", "nee_mis");
     if (!parseIntegratorName(integrator, s.integrator))
@@ -196,6 +200,30 @@ class SceneParser {
     r.finish();
   }
 
+  // `media` (docs/scene-format.md, "Media"): named media, read before the materials that put
+  // them inside their meshes.
+  void parseMedia(FieldReader& top) {
+    if (!top.has("media")) return;
+    const json& media = top.raw("media");
+    if (!media.is_object()) top.fail("media", "must be an object of named media");
+    for (auto it = media.begin(); it != media.end(); ++it) {
+      FieldReader r(it.value(), "media." + it.key(), fileName_);
+      std::shared_ptr<Medium> m = parseMedium(it.key(), r);
+      unplacedMedia_.push_back(m);
+      scene_.media[it.key()] = m;
+    }
+  }
+  // Grids move to render space with the rest of the scene; then the scene's own `medium`.
+  void placeMedia(FieldReader& top) {
+    for (const std::shared_ptr<Medium>& m : unplacedMedia_) m->place(scene_.origin);
+    unplacedMedia_.clear();
+    if (!top.has("medium")) return;
+    const std::string name = top.string("medium");
+    const auto it = scene_.media.find(name);
+    if (it == scene_.media.end()) top.fail("medium", "unknown medium \"" + name + "\" (not in media)");
+    scene_.medium = it->second;
+  }
+
   void parseMaterials(FieldReader& top) {
     // Optional where every shape brings its own (glTF, OBJ with MTL).
     if (!top.has("materials")) return;
@@ -203,7 +231,7 @@ class SceneParser {
     if (!mats.is_object()) top.fail("materials", "must be an object of named materials");
     for (auto it = mats.begin(); it != mats.end(); ++it) {
       FieldReader r(it.value(), "materials." + it.key(), fileName_);
-      Material m = parseMaterial(it.key(), r);
+      Material m = parseMaterial(it.key(), r, scene_.media);
       materialIndex_[m.name] = uint32_t(scene_.materials.size());
       scene_.materials.push_back(m);
     }
@@ -1041,6 +1069,7 @@ class SceneParser {
   std::vector<ModelImport> imports_;
   std::string cameraOrigin_ = "camera";  // where the camera's fields come from, for messages
   std::vector<std::string> notes_;        // Scene::notes
+  std::vector<std::shared_ptr<Medium>> unplacedMedia_;  // grids still in world space (placeMedia)
   std::optional<double> frame_;           // the frame to evaluate keyframes at (none: the first)
 };
 

@@ -22,6 +22,8 @@ inline constexpr const char* kSceneFormat = "lensfarm-scene/1";
 inline constexpr int kMaxResolution = 16384;
 inline constexpr uint64_t kMaxSamplesPerPixel = uint64_t(1) << 40;
 inline constexpr int kMaxBounces = 1024;
+// render.max_medium_bounces at most (scattering events in media per path; render/volume_integrator.h).
+inline constexpr int kMaxMediumBounces = 65536;
 inline constexpr double kMaxExposureEv = 64.0;  // exposure.ev (stops) is in [-64, 64]
 // camera.sensor_width when angle_of_view is given without it: a 36 mm (full-frame) sensor in a
 // scene in metres. Only the thin lens's blur depends on it (through f and the aperture f / N).

@@ -183,8 +183,8 @@ TEST(HomogeneousMedium, BadInputNamesTheField) {
   EXPECT_NO_THROW(khr(Spectrum(1.0f), INFINITY, Spectrum(0.0f))());
 
   expectFieldError([&] { validateSss(Spectrum(1.2f), ok, "scene.json", f); }, f + ".albedo");
-  expectFieldError([&] { validateSss(ok, Spectrum(0.0f), "scene.json", f); }, f + ".distance");
-  expectFieldError([&] { validateSss(ok, Spectrum(INFINITY), "scene.json", f); }, f + ".distance");
+  expectFieldError([&] { validateSss(ok, Spectrum(0.0f), "scene.json", f); }, f + ".mean_free_path");
+  expectFieldError([&] { validateSss(ok, Spectrum(INFINITY), "scene.json", f); }, f + ".mean_free_path");
   EXPECT_NO_THROW(validateSss(ok, ok, "scene.json", f));
 }
 

@@ -1,0 +1,328 @@
+// The volume path tracer (render/volume_integrator.h) against analytic answers: Beer-Lambert
+// through an absorbing slab (also far from the origin and in a grid), the white furnace of an
+// albedo-1 medium behind an index-matched boundary, the single-scattering integral of a thin slab
+// under a sun (homogeneous and grid), the reflectance of a thick subsurface slab (the albedo
+// inversion), determinism over thread counts, and the effect analysis that keeps media away from
+// scenes without them.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+
+#include "medium/medium.h"
+#include "render/render_scene.h"
+#include "test_support.h"
+#include "util/error.h"
+
+namespace lensfarm {
+namespace {
+
+using nlohmann::json;
+
+// The 12 triangles of the box [lo, hi], facing outward.
+json boxShape(const std::array<double, 3>& lo, const std::array<double, 3>& hi, const std::string& material) {
+  json vertices = json::array(), indices = json::array();
+  for (int c = 0; c < 8; ++c) vertices.push_back({c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1], c & 4 ? hi[2] : lo[2]});
+  // Per face: four corners in counter-clockwise order seen from outside.
+  const int faces[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
+  for (const auto& f : faces) {
+    indices.push_back({f[0], f[1], f[2]});
+    indices.push_back({f[0], f[2], f[3]});
+  }
+  return {{"type", "triangles"}, {"material", material}, {"vertices", vertices}, {"indices", indices}};
+}
+
+// A pinhole camera at `position` looking at `target` with a field of view of about 1 degree, so
+// every pixel's ray makes nearly the same angle with the scene.
+json narrowCamera(const std::array<double, 3>& position, const std::array<double, 3>& target) {
+  return {{"type", "pinhole"}, {"position", position}, {"look_at", target}, {"up", {0, 0, 1}},
+          {"sensor_width", 0.002}, {"focal_length", 0.1}};
+}
+
+json sceneWith(json camera, json media, json materials, json shapes, int resolution, uint64_t spp) {
+  return {{"format", "lensfarm-scene/1"},
+          {"camera", std::move(camera)},
+          {"media", std::move(media)},
+          {"materials", std::move(materials)},
+          {"shapes", std::move(shapes)},
+          {"render", {{"resolution", {resolution, resolution}}, {"samples_per_pixel", spp}, {"max_bounces", 1},
+                      {"seed", 3}, {"russian_roulette", false}}}};
+}
+
+// An emitting quad of radiance 1 at y = -1 facing +y, seen from above through the box
+// y in [0, thickness] of `medium` (x, z in [-50, 50]), `shift` added to every position.
+json slabOverLight(const json& medium, double thickness, double shift) {
+  const auto at = [&](double x, double y, double z) { return std::array<double, 3>{x + shift, y + shift, z + shift}; };
+  json shapes = json::array({boxShape(at(-50, 0, -50), at(50, thickness, 50), "boundary"),
+                             {{"type", "quad"}, {"material", "lamp"}, {"corner", at(-50, -1, -50)},
+                              {"edge1", {0, 0, 100}}, {"edge2", {100, 0, 0}}}});
+  json materials = {{"boundary", {{"type", "interface"}, {"interior_medium", "slab"}}},
+                    {"lamp", {{"type", "emissive"}, {"radiance", 1.0}}}};
+  return sceneWith(narrowCamera(at(0, 10, 0.001), at(0, 0, 0)), {{"slab", medium}}, materials, shapes, 8, 4);
+}
+
+TEST(VolumeTransmittance, AnAbsorbingSlabPassesExpMinusSigmaTDInEveryChannelAnywhereInTheWorld) {
+  const double d = 0.7;
+  const double sigma[3] = {0.5, 1.0, 2.0};
+  for (double shift : {0.0, 1e6}) {
+    test::TempDir dir;
+    const json scene = slabOverLight({{"sigma_a", {sigma[0], sigma[1], sigma[2]}}}, d, shift);
+    const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(r.mean[c], std::exp(-sigma[c] * d), 1e-3 * std::exp(-sigma[c] * d)) << shift;
+  }
+}
+
+TEST(VolumeTransmittance, KhrAttenuationColourIsWhatWhiteLightTurnsIntoAtTheAttenuationDistance) {
+  // attenuation_color c at attenuation_distance D: a slab of thickness D passes exactly c.
+  test::TempDir dir;
+  const json scene = slabOverLight({{"attenuation_color", {0.9, 0.5, 0.1}}, {"attenuation_distance", 0.4}}, 0.4, 0.0);
+  const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
+  const double c[3] = {0.9, 0.5, 0.1};
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(r.mean[k], c[k], 1e-3 * c[k]);
+}
+
+TEST(VolumeTransmittance, AnAbsorbingGridIsRatioTrackedWithoutBias) {
+  // A grid of density 1 everywhere with sigma_a: its ratio-tracking estimate is noisy but its mean
+  // is Beer-Lambert's (a 2 x 2 x 2 grid whose majorant cells are mostly empty space besides).
+  test::TempDir dir;
+  const double d = 0.7;
+  json grid = {{"type", "grid"}, {"bounds", {{-60, -0.5, -60}, {60, 0.35, 60}}}, {"resolution", {2, 2, 2}},
+               {"density", {1, 1, 1, 1, 1, 1, 1, 1}}, {"sigma_a", {0.5, 1.0, 2.0}}};
+  json scene = slabOverLight(grid, d, 0.0);
+  // The grid's box reaches to y = 0.35, half the slab: the other half is clear.
+  scene["render"]["samples_per_pixel"] = 64;
+  const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
+  const double sigma[3] = {0.5, 1.0, 2.0};
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(r.mean[c], std::exp(-sigma[c] * 0.35), 0.01 * std::exp(-sigma[c] * 0.35));
+}
+
+// A sphere of radius 1 (OBJ) with material `material`, under a uniform environment of radiance 1,
+// seen whole by a camera outside it.
+json sphereInEnvironment(const test::TempDir& dir, const json& materials, const json& media, int resolution,
+                         uint64_t spp) {
+  {
+    std::ofstream obj(dir.path() / "sphere.obj");
+    obj << test::sphereObj(24, 48);
+  }
+  json scene = sceneWith({{"type", "pinhole"}, {"position", {0, 0, -4}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}},
+                          {"sensor_width", 0.06}, {"focal_length", 0.1}},
+                         media, materials,
+                         json::array({{{"type", "obj"}, {"file", "sphere.obj"}, {"material", "skin"}}}), resolution, spp);
+  scene["environment"] = {{"radiance", 1.0}};
+  scene["render"]["max_medium_bounces"] = 65536;
+  return scene;
+}
+
+TEST(VolumeFurnace, AnAlbedoOneMediumInsideAnIndexMatchedBoundaryReturnsAllTheLight) {
+  // Nothing absorbs: every path leaves the sphere sooner or later and sees the environment, so
+  // every pixel is 1. With the naive estimator and a grey medium each path's weight is exactly 1
+  // (free flight sigma_s T / (sigma_t T) = 1, phase sampling p / p = 1): any loss of energy at an
+  // event, a crossing or the phase function shows in every pixel.
+  for (double g : {0.0, 0.8, -0.5}) {
+    test::TempDir dir;
+    json scene = sphereInEnvironment(dir, {{"skin", {{"type", "interface"}, {"interior_medium", "cloud"}}}},
+                                     {{"cloud", {{"sigma_s", 3.0}, {"g", g}}}}, 16, 4);
+    scene["render"]["integrator"] = "naive";
+    const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
+    for (float v : r.image.rgb) {
+      ASSERT_GE(v, 0.999f) << "g " << g;
+      ASSERT_LE(v, 1.001f) << "g " << g;
+    }
+    EXPECT_EQ(r.stats.truncated, 0u);
+  }
+}
+
+TEST(VolumeFurnace, AChromaticMediumWithNextEventEstimationKeepsEveryChannelsEnergy) {
+  // sigma_s differs per channel (spectral MIS weights differ from 1), light samples through the
+  // medium (ratio of transmittance, MIS with the phase function): unbiased, so the mean is 1 in
+  // each channel within its standard error.
+  test::TempDir dir;
+  json scene = sphereInEnvironment(dir, {{"skin", {{"type", "interface"}, {"interior_medium", "cloud"}}}},
+                                   {{"cloud", {{"sigma_s", {0.5, 2.0, 6.0}}, {"g", 0.6}}}}, 24, 32);
+  Scene loaded = test::loadSceneJson(dir, scene);
+  const test::ImageStatistics st = test::renderStatistics(loaded, 8);
+  const size_t pixels = st.mean.size() / 3;
+  for (int c = 0; c < 3; ++c) {
+    double mean = 0.0, variance = 0.0;
+    for (size_t k = 0; k < pixels; ++k) mean += st.mean[3 * k + c] / double(pixels), variance += st.variance[3 * k + c];
+    const double error = std::sqrt(variance / double(st.renders)) / double(pixels);
+    EXPECT_NEAR(mean, 1.0, 4.0 * error) << "channel " << c;
+    EXPECT_LT(error, 0.004) << "channel " << c << ": too noisy to judge";
+  }
+}
+
+// Single scattering in a slab y in [0, d] lit by a sun straight above (irradiance E), seen from
+// the direction at angle theta to the normal: L = E p(theta) sigma_s (1 - exp(-sigma_t d (1 + mu)
+// / mu)) / (sigma_t (1 + mu)), mu = cos(theta), p the HG phase function at the scattering angle
+// between the sun's light (going down) and the view (going up): cos = -mu.
+double singleScattering(double e, double g, double sigmaS, double sigmaT, double d, double mu) {
+  const double cosScatter = -mu;
+  const double p = (1 - g * g) / (4 * M_PI * std::pow(1 + g * g - 2 * g * cosScatter, 1.5));
+  return e * p * sigmaS * (1 - std::exp(-sigmaT * d * (1 + mu) / mu)) / (sigmaT * (1 + mu));
+}
+
+json singleScatteringScene(const json& medium, double d, double theta) {
+  json shapes = json::array({boxShape({-50, 0, -50}, {50, d, 50}, "boundary")});
+  json materials = {{"boundary", {{"type", "interface"}, {"interior_medium", "slab"}}}};
+  const std::array<double, 3> eye{10 * std::sin(theta), 10 * std::cos(theta), 0.001};
+  json scene = sceneWith(narrowCamera(eye, {0, d / 2, 0}), {{"slab", medium}}, materials, shapes, 8, 256);
+  scene["lights"] = json::array({{{"type", "directional"}, {"direction", {0, 1, 0}}, {"irradiance", 2.0}}});
+  scene["render"]["max_medium_bounces"] = 1;
+  return scene;
+}
+
+TEST(VolumeSingleScattering, AThinSlabUnderASunMatchesTheAnalyticIntegralPerChannel) {
+  // Chromatic sigma_s (spectral MIS), one scattering event allowed, the sun's light sample
+  // attenuated along its way down: the image is the integral above in each channel. The camera's
+  // ray hits the slab's top at mid-height (d / 2 above the slab's centre is the target; the
+  // narrow field keeps every pixel's angle within 0.6 degrees of theta).
+  const double d = 0.2, g = 0.5, theta = 40.0 * M_PI / 180.0;
+  const double sigmaS[3] = {0.2, 0.5, 1.0}, sigmaA = 0.25;
+  for (const char* type : {"homogeneous", "grid"}) {
+    test::TempDir dir;
+    json medium = {{"sigma_s", {sigmaS[0], sigmaS[1], sigmaS[2]}}, {"sigma_a", sigmaA}, {"g", g}};
+    if (std::string(type) == "grid") {
+      // The same medium as a density grid (spectral tracking instead of closed-form free flight),
+      // with density 2 and half the coefficients.
+      medium = {{"type", "grid"}, {"bounds", {{-60, -1, -60}, {60, 1, 60}}}, {"resolution", {1, 1, 1}}, {"density", {2.0}},
+                {"sigma_s", {sigmaS[0] / 2, sigmaS[1] / 2, sigmaS[2] / 2}}, {"sigma_a", sigmaA / 2}, {"g", g}};
+    }
+    Scene loaded = test::loadSceneJson(dir, singleScatteringScene(medium, d, theta));
+    const test::ImageStatistics st = test::renderStatistics(loaded, 6);
+    const size_t pixels = st.mean.size() / 3;
+    for (int c = 0; c < 3; ++c) {
+      double mean = 0.0, variance = 0.0;
+      for (size_t k = 0; k < pixels; ++k) mean += st.mean[3 * k + c] / double(pixels), variance += st.variance[3 * k + c];
+      const double error = std::sqrt(variance / double(st.renders)) / double(pixels);
+      const double expected = singleScattering(2.0, g, sigmaS[c], sigmaS[c] + sigmaA, d, std::cos(theta));
+      EXPECT_NEAR(mean, expected, 4.0 * error + 2e-3 * expected) << type << " channel " << c;
+      EXPECT_LT(error, 0.01 * expected) << type << ": too noisy to judge";
+    }
+  }
+}
+
+TEST(Subsurface, AThickSlabShowsTheAlbedoItWasGiven) {
+  // Under a uniform environment, the radiance leaving a thick random-walk slab is the fraction of
+  // walks entering it (cosine-weighted, as the diffuse transmitter lets them in) that come back
+  // out: the albedo A, by Chiang et al.'s inversion, which holds to 0.006 up to A = 0.8
+  // (docs/media.md). Per channel, with mean free paths that differ.
+  test::TempDir dir;
+  const double albedo[3] = {0.3, 0.55, 0.8};
+  json scene = sceneWith(narrowCamera({0, 10, 0.001}, {0, 0, 0}), json::object(),
+                         {{"marble", {{"type", "subsurface"}, {"albedo", {albedo[0], albedo[1], albedo[2]}},
+                                      {"mean_free_path", {0.02, 0.05, 0.1}}}}},
+                         json::array({boxShape({-50, -50, -50}, {50, 0, 50}, "marble")}), 8, 64);
+  scene.erase("media");
+  scene["environment"] = {{"radiance", 1.0}};
+  scene["render"]["max_medium_bounces"] = 65536;
+  scene["render"]["max_bounces"] = 4;
+  const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(r.mean[c], albedo[c], 0.02) << "channel " << c;
+}
+
+TEST(VolumePaths, AreTheSameBitsForAnyThreadCount) {
+  test::TempDir dir;
+  json scene = sphereInEnvironment(dir, {{"skin", {{"type", "dielectric"}, {"ior", 1.33}, {"interior_medium", "milk"}}}},
+                                   {{"milk", {{"type", "grid"}, {"bounds", {{-1, -1, -1}, {1, 1, 1}}}, {"resolution", {2, 2, 2}},
+                                              {"density", {0, 1, 2, 3, 4, 5, 6, 7}}, {"sigma_s", {1, 2, 3}}, {"g", 0.7}}}},
+                                   12, 4);
+  scene["medium"] = "fog";
+  scene["media"]["fog"] = {{"sigma_s", 0.02}, {"sigma_a", 0.01}};
+  const Scene loaded = test::loadSceneJson(dir, scene);
+  const test::Rendered one = test::renderScene(loaded, 1), two = test::renderScene(loaded, 2);
+  ASSERT_EQ(one.image.rgb.size(), two.image.rgb.size());
+  EXPECT_EQ(0, std::memcmp(one.image.rgb.data(), two.image.rgb.data(), one.image.rgb.size() * sizeof(float)));
+  EXPECT_GT(one.mean[0], 0.01);
+}
+
+TEST(VolumeEffects, AreOnOnlyWhereAPathCanBeInAMedium) {
+  test::TempDir dir;
+  const Scene plain = test::loadSceneJson(dir, test::minimalSceneJson());
+  EXPECT_FALSE(RenderScene(plain).effects().media);
+  EXPECT_FALSE(EffectSet::all(plain).media);
+
+  json fog = test::minimalSceneJson();
+  fog["media"] = {{"haze", {{"sigma_s", 0.1}}}};
+  EXPECT_FALSE(RenderScene(test::loadSceneJson(dir, fog)).effects().media) << "a medium nothing uses";
+  fog["medium"] = "haze";
+  const RenderScene foggy(test::loadSceneJson(dir, fog));
+  EXPECT_TRUE(foggy.effects().media);
+  EXPECT_NE(foggy.effects().summary().find("haze"), std::string::npos) << foggy.effects().summary();
+  EXPECT_FALSE(foggy.effects().lightTracing);
+}
+
+TEST(VolumeEffects, FogDimsTheMinimalSceneByItsTransmittance) {
+  // A purely absorbing fog over the whole scene: the camera sees the lit quad (3 units away)
+  // dimmed by at least exp(-sigma_a 3) and the light's path to it dimmed too.
+  test::TempDir dir;
+  json scene = test::minimalSceneJson();
+  const double clear = test::renderScene(test::loadSceneJson(dir, scene)).mean[1];
+  scene["media"] = {{"haze", {{"sigma_a", 0.2}}}};
+  scene["medium"] = "haze";
+  const double foggy = test::renderScene(test::loadSceneJson(dir, scene)).mean[1];
+  EXPECT_LT(foggy, clear * std::exp(-0.2 * 3.0));
+  EXPECT_GT(foggy, clear * std::exp(-0.2 * 8.0));
+}
+
+// One InputError whose message names the field.
+void expectFieldError(const json& scene, const std::string& field) {
+  test::TempDir dir;
+  try {
+    test::loadSceneJson(dir, scene);
+    ADD_FAILURE() << "no error for " << field;
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("scene.json"), std::string::npos) << e.what();
+  }
+}
+
+TEST(VolumeInput, BadMediaAreRefusedNamingTheField) {
+  json base = test::minimalSceneJson();
+  base["media"] = {{"haze", {{"sigma_s", 0.1}}}};
+  base["medium"] = "haze";
+  const auto with = [&](const std::string& key, const json& value) {
+    json s = base;
+    s["media"]["haze"][key] = value;
+    return s;
+  };
+  expectFieldError(with("sigma_a", -1.0), "media.haze.sigma_a");
+  expectFieldError(with("sigma_s", {0.1, -0.2, 0.1}), "media.haze.sigma_s");
+  expectFieldError(with("sigma_s", "thick"), "media.haze.sigma_s");
+  expectFieldError(with("g", 1.0), "media.haze.g");
+  expectFieldError(with("g", -1.5), "media.haze.g");
+  expectFieldError(with("attenuation_color", 0.5), "media.haze.attenuation_color");  // with sigma_s
+  expectFieldError(with("type", "smoke"), "media.haze.type");
+  expectFieldError(with("thickness", 1.0), "media.haze.thickness");
+
+  json s = base;
+  s["medium"] = "mist";
+  expectFieldError(s, "medium");
+  s = base;
+  s["materials"]["glass"] = {{"type", "interface"}};
+  expectFieldError(s, "materials.glass.interior_medium");
+  s["materials"]["glass"] = {{"type", "dielectric"}, {"ior", 1.5}, {"interior_medium", "nothing"}};
+  expectFieldError(s, "materials.glass.interior_medium");
+  s["materials"]["glass"] = {{"type", "subsurface"}, {"albedo", 0.5}};
+  expectFieldError(s, "materials.glass.mean_free_path");
+  s["materials"]["glass"] = {{"type", "subsurface"}, {"albedo", 1.5}, {"mean_free_path", 0.1}};
+  expectFieldError(s, "materials.glass.albedo");
+  s["materials"]["glass"] = {{"type", "subsurface"}, {"albedo", 0.5}, {"mean_free_path", 0.1}, {"g", 2}};
+  expectFieldError(s, "materials.glass.g");
+
+  s = base;
+  s["media"]["haze"] = {{"type", "grid"}, {"bounds", {{0, 0, 0}, {1, 1, 1}}}, {"resolution", {2, 2, 2}}, {"density", {1, 2, 3}}};
+  expectFieldError(s, "media.haze.density");
+  s["media"]["haze"]["density"] = {1, 1, 1, 1, 1, 1, 1, -1};
+  expectFieldError(s, "media.haze.density[7]");
+  s["media"]["haze"]["density"] = {1, 1, 1, 1, 1, 1, 1, 1};
+  s["media"]["haze"]["bounds"] = {{0, 0, 0}, {1, 0, 1}};
+  expectFieldError(s, "media.haze");
+  s["media"]["haze"]["bounds"] = {{0, 0, 0}, {1, 1, 1}};
+  s["media"]["haze"]["resolution"] = {2, 0, 2};
+  expectFieldError(s, "media.haze.resolution[1]");
+}
+
+}  // namespace
+}  // namespace lensfarm
