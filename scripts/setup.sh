@@ -26,6 +26,7 @@ BUILD_PACKAGES=(
   libcpp-httplib-dev
   libfftw3-dev
   libzstd-dev
+  libopenvdb-dev libboost-dev  # OpenVDB grids; its headers include Boost's, which the package does not pull in
 )
 
 # tests/ and bench/ (GoogleTest, Google Benchmark, yaml-cpp for the deployment files), and what

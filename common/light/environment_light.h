@@ -11,6 +11,7 @@
 
 #include "light/environment_map.h"
 #include "light/light_source.h"
+#include "scene/asset_loader.h"
 
 namespace lensfarm {
 
@@ -34,16 +35,6 @@ class EnvironmentLight final : public LightSource {
   std::string source_;
   std::shared_ptr<const EnvironmentMap> map_;
 };
-
-// A file a scene names, read by the scene loader (through its asset reader, so that the file is
-// hashed and shipped to workers like an OBJ): `shown` is its path for messages.
-struct LoadedAsset {
-  std::string shown;
-  std::string bytes;
-};
-// Reads the file named by field `key` of r, or fails naming the field and the path; `kind` says
-// what it is for ("environment map").
-using AssetLoader = std::function<LoadedAsset(FieldReader& r, const std::string& key, const std::string& kind)>;
 
 // The scene's "environment" object: {"radiance": colour} or {"file": path, "strength": s,
 // "rotation": degrees}. Errors are InputErrors naming the field: "environment.file: pixel (12, 7)

@@ -112,16 +112,20 @@ Material parseMaterial(const std::string& name, FieldReader& r, const MediumTabl
   }
   Material m(name, std::move(bsdf), emission);
   if (m.isEmissive() || r.has("two_sided")) m.twoSidedEmission = r.boolean("two_sided", false);
+  const auto medium = [&](const char* key) {
+    const std::string mediumName = r.string(key);
+    const auto it = media.find(mediumName);
+    if (it == media.end()) r.fail(r.field(key), "unknown medium \"" + mediumName + "\" (not in media)");
+    return it->second;
+  };
   if (r.has("interior_medium")) {
-    const std::string mediumName = r.string("interior_medium");
     if (m.interior)
       r.fail(r.field("interior_medium"), "a subsurface material makes its own medium from albedo and mean_free_path");
-    const auto it = media.find(mediumName);
-    if (it == media.end()) r.fail(r.field("interior_medium"), "unknown medium \"" + mediumName + "\" (not in media)");
-    m.interior = it->second;
+    m.interior = medium("interior_medium");
   } else if (m.passesThrough()) {
     r.fail(r.field("interior_medium"), "is required: an interface only bounds a medium (without one it is invisible)");
   }
+  if (r.has("exterior_medium")) m.exterior = medium("exterior_medium");
   r.finish();
   return m;
 }

@@ -61,9 +61,10 @@ class Material {
   const Bsdf* bsdf() const { return bsdf_.get(); }
   const BsdfTraits& traits() const { return traits_; }
   // The medium behind the front face (docs/media.md): a path that crosses the surface against its
-  // normal enters it, one that crosses along the normal leaves it for the scene's medium. Null:
-  // crossing the surface does not change the medium a path is in.
-  std::shared_ptr<const Medium> interior;
+  // normal enters it, one that crosses along the normal leaves it for `exterior`, or the scene's
+  // medium where that is null (pbrt's MediumInterface). Both null: crossing the surface does not
+  // change the medium a path is in.
+  std::shared_ptr<const Medium> interior, exterior;
   // A medium's index-matched boundary (material/interface.h): rays cross it unchanged.
   bool passesThrough() const { return traits_.passesThrough; }
 
@@ -119,7 +120,8 @@ class Material {
 using MediumTable = std::map<std::string, std::shared_ptr<const Medium>>;
 
 // Reads one entry of the scene's `materials` (docs/scene-format.md, "Materials"): its `type`, the
-// type's fields, `emission` / `two_sided` and `interior_medium` (a name in `media`). Errors name
+// type's fields, `emission` / `two_sided`, `interior_medium` and `exterior_medium` (names in
+// `media`). Errors name
 // the field (InputError).
 Material parseMaterial(const std::string& name, FieldReader& r, const MediumTable& media = {});
 // The names of the registered types, in registration order.

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 
+#include "medium/vdb_grid.h"
 #include "scene/field_reader.h"
 #include "util/error.h"
 
@@ -88,31 +89,43 @@ std::shared_ptr<Medium> parseHomogeneous(const std::string& name, FieldReader& r
   return std::make_shared<Medium>(name, HomogeneousMedium(sigmaA, sigmaS, g));
 }
 
-std::shared_ptr<Medium> parseGrid(const std::string& name, FieldReader& r) {
+std::shared_ptr<Medium> parseGrid(const std::string& name, FieldReader& r, const AssetLoader& load) {
   const float g = float(r.number("g", 0.0, -std::numeric_limits<double>::max(), std::numeric_limits<double>::max()));
   const Spectrum sigmaA = readCoefficients(r, "sigma_a", Spectrum(0.0f));
   const Spectrum sigmaS = readCoefficients(r, "sigma_s", Spectrum(0.0f));
-  const json& bounds = r.raw("bounds");
-  if (!bounds.is_array() || bounds.size() != 2)
-    r.fail(r.field("bounds"), "must be [[x0, y0, z0], [x1, y1, z1]], the grid's box in world space");
-  const DVec3 lo = r.toDVec3(bounds[0], r.field("bounds") + "[0]");
-  const DVec3 hi = r.toDVec3(bounds[1], r.field("bounds") + "[1]");
-  const json& res = r.raw("resolution");
-  if (!res.is_array() || res.size() != 3) r.fail(r.field("resolution"), "must be [nx, ny, nz], each >= 1");
-  glm::ivec3 resolution;
-  for (int a = 0; a < 3; ++a)
-    resolution[a] = int(r.checkNumber(res[a], r.field("resolution") + "[" + std::to_string(a) + "]", 1, 1 << 12));
-  for (int a = 0; a < 3; ++a)
-    if (double(int(res[a].get<double>())) != res[a].get<double>())
-      r.fail(r.field("resolution") + "[" + std::to_string(a) + "]", "must be a whole number");
-  const json& d = r.raw("density");
-  if (!d.is_array()) r.fail(r.field("density"), "must be an array of nx * ny * nz numbers, x fastest");
-  std::vector<float> density;
-  density.reserve(d.size());
-  for (size_t i = 0; i < d.size(); ++i) {
-    if (!d[i].is_number()) r.fail(r.field("density") + "[" + std::to_string(i) + "]", "must be a number");
-    density.push_back(float(d[i].get<double>()));
+  DenseGrid grid;
+  if (r.has("file")) {
+    // An OpenVDB file: its grid's box and voxels (medium/vdb_grid.h).
+    for (const char* inline_ : {"bounds", "resolution", "density"})
+      if (r.has(inline_)) r.fail(r.field(inline_), "comes from the file: give either file or bounds, resolution and density");
+    const LoadedAsset vdb = load(r, "file", "OpenVDB file");
+    grid = readVdbGrid(vdb.bytes, r.string("grid", "density"), vdb.shown, r.file(), r.field("file"));
+  } else {
+    if (r.has("grid")) r.fail(r.field("grid"), "names a grid of an OpenVDB `file`");
+    const json& bounds = r.raw("bounds");
+    if (!bounds.is_array() || bounds.size() != 2)
+      r.fail(r.field("bounds"), "must be [[x0, y0, z0], [x1, y1, z1]], the grid's box in world space");
+    grid.lo = r.toDVec3(bounds[0], r.field("bounds") + "[0]");
+    grid.hi = r.toDVec3(bounds[1], r.field("bounds") + "[1]");
+    const json& res = r.raw("resolution");
+    if (!res.is_array() || res.size() != 3) r.fail(r.field("resolution"), "must be [nx, ny, nz], each >= 1");
+    for (int a = 0; a < 3; ++a) {
+      const std::string at = r.field("resolution") + "[" + std::to_string(a) + "]";
+      const double n = r.checkNumber(res[a], at, 1, 4096);
+      if (double(int(n)) != n) r.fail(at, "must be a whole number");
+      grid.resolution[a] = int(n);
+    }
+    const json& d = r.raw("density");
+    if (!d.is_array()) r.fail(r.field("density"), "must be an array of nx * ny * nz numbers, x fastest");
+    grid.density.reserve(d.size());
+    for (size_t i = 0; i < d.size(); ++i) {
+      if (!d[i].is_number()) r.fail(r.field("density") + "[" + std::to_string(i) + "]", "must be a number");
+      grid.density.push_back(float(d[i].get<double>()));
+    }
   }
+  const DVec3 lo = grid.lo, hi = grid.hi;
+  const glm::ivec3 resolution = grid.resolution;
+  std::vector<float> density = std::move(grid.density);
   const Vec3 loF(lo), hiF(hi);
   validateGridMedium(loF, hiF, resolution, density, sigmaA, sigmaS, g, r.file(), r.path());
   return std::make_shared<Medium>(name, GridMedium(loF, hiF, resolution, std::move(density), sigmaA, sigmaS, g), lo,
@@ -121,11 +134,11 @@ std::shared_ptr<Medium> parseGrid(const std::string& name, FieldReader& r) {
 
 }  // namespace
 
-std::shared_ptr<Medium> parseMedium(const std::string& name, FieldReader& r) {
+std::shared_ptr<Medium> parseMedium(const std::string& name, FieldReader& r, const AssetLoader& load) {
   const std::string type = r.string("type", "homogeneous");
   std::shared_ptr<Medium> m;
   if (type == "homogeneous") m = parseHomogeneous(name, r);
-  else if (type == "grid") m = parseGrid(name, r);
+  else if (type == "grid") m = parseGrid(name, r, load);
   else r.fail(r.field("type"), "unknown medium type \"" + type + "\" (expected homogeneous or grid)");
   r.finish();
   return m;

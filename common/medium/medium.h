@@ -24,6 +24,7 @@
 #include "math/vec.h"
 #include "medium/grid_medium.h"
 #include "medium/homogeneous_medium.h"
+#include "scene/asset_loader.h"
 
 namespace lensfarm {
 
@@ -104,9 +105,10 @@ class Medium {
 
 // Reads one entry of the scene's `media` (docs/scene-format.md, "Media"): `type` "homogeneous"
 // (sigma_a and sigma_s, or attenuation_color and attenuation_distance with scattering_albedo; g)
-// or "grid" (bounds in world space, resolution and density; sigma_a, sigma_s, g; place() it
-// before rendering). Errors name the field (InputError).
-std::shared_ptr<Medium> parseMedium(const std::string& name, FieldReader& r);
+// or "grid" (bounds in world space, resolution and density, or an OpenVDB `file` and its `grid`
+// read through `load`; sigma_a, sigma_s, g; place() it before rendering). Errors name the field
+// (InputError).
+std::shared_ptr<Medium> parseMedium(const std::string& name, FieldReader& r, const AssetLoader& load);
 
 // A per-channel coefficient: one number (grey) or three; finite. The sign is the validators'.
 Spectrum readCoefficients(FieldReader& r, const std::string& key, const Spectrum& fallback);

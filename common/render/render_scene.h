@@ -2,6 +2,7 @@
 // Everything a render needs, built once per scene and shared read-only by all threads:
 // the scene, its camera at the render resolution, the effects it calls for (scene/effects.h),
 // the Embree scene and the light sampler.
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -49,6 +50,13 @@ class RenderScene {
       for (size_t m = 0; m < scene.materials.size(); ++m)
         lightTraced_.push_back(lightTraceable(scene.materials[m]) && !shaded_[m] ? 1 : 0);
     pixelAngle_ = float(camera_.params().sensorWidth / (double(scene.render.width) * camera_.params().focalLength));
+    // The media a shadow ray can leave (render/volume_integrator.cpp): the scene's own, and those
+    // inside a material that lets rays through (an interface).
+    if (scene.medium) mediaShadowRaysLeave_.push_back(scene.medium.get());
+    for (const Material& m : scene.materials) {
+      if (m.interior && m.passesThrough()) mediaShadowRaysLeave_.push_back(m.interior.get());
+      if (m.exterior) mediaShadowRaysLeave_.push_back(m.exterior.get());  // (an outside is open)
+    }
   }
 
   const Scene& scene() const { return scene_; }
@@ -78,6 +86,11 @@ class RenderScene {
   float pixelAngle() const { return pixelAngle_; }
   // Where the AOVs the scene asks for sit in a sensor cell (film/aov_layout.h).
   const AovLayout& aovLayout() const { return aovLayout_; }
+  // Whether a shadow ray from inside `medium` can get out of it: false where every surface that
+  // bounds it scatters (a subsurface or glass mesh), so only a light inside could be reached.
+  bool shadowRaysLeave(const Medium* medium) const {
+    return std::find(mediaShadowRaysLeave_.begin(), mediaShadowRaysLeave_.end(), medium) != mediaShadowRaysLeave_.end();
+  }
   // What the packet tracer's lane loops read of each material (render/integrator.cpp): its
   // Lambertian albedo and Material's predicates as masks (~0u where true, 0 where false);
   // `general`: a model beyond Lambertian, which the one-path vertex code shades.
@@ -101,6 +114,7 @@ class RenderScene {
   AovLayout aovLayout_;
   std::vector<MaterialRecord> materialRecords_;
   std::vector<uint8_t> shaded_;
+  std::vector<const Medium*> mediaShadowRaysLeave_;
   float pixelAngle_ = 0.0f;
 };
 

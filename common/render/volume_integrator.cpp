@@ -18,12 +18,13 @@ namespace {
 constexpr int kMaxCrossings = 64;
 
 // The medium a path is in after crossing a surface of material `m` in direction d (`n` the
-// front face's normal): the material's interior against the normal, the scene's medium along
-// it; unchanged where the material bounds no medium.
+// front face's normal): the material's interior against the normal, its exterior (or the
+// scene's medium) along it; unchanged where the material bounds no medium.
 inline const Medium* afterCrossing(const RenderScene& rs, const Material& m, const Vec3& n, const Vec3& d,
                                    const Medium* current) {
-  if (!m.interior) return current;
-  return glm::dot(d, n) < 0.0f ? m.interior.get() : rs.scene().medium.get();
+  if (!m.interior && !m.exterior) return current;
+  if (glm::dot(d, n) < 0.0f) return m.interior ? m.interior.get() : current;
+  return m.exterior ? m.exterior.get() : rs.scene().medium.get();
 }
 
 // The fraction of light that arrives along the shadow ray from + t direction, t in (0, tFar)
@@ -67,9 +68,15 @@ bool scatterInMedium(const RenderScene& rs, const SampleStream& rng, int segment
   const uint32_t base = dims::segment(uint32_t(segment));
   const Vec3 wo = -path.direction;
   const HenyeyGreenstein& phase = medium.phase();
+  // Where every boundary of the medium stops shadow rays (a subsurface or glass mesh), a light
+  // sample could only reach a light inside it: none is taken, and a light the scattered ray
+  // reaches counts with weight 1 instead (set below), which keeps the estimate unbiased and
+  // halves the rays of a random walk.
+  const bool sampleLights = kNee && rs.shadowRaysLeave(&medium);
   // The last event the limit allows: its light sample alone carries the direct light (weight 1).
-  const bool lastBounce = kNee && mediumBounces + 1 >= settings.maxMediumBounces && lastBounceCanEndPaths(rs);
-  if (kNee) {
+  const bool lastBounce =
+      sampleLights && mediumBounces + 1 >= settings.maxMediumBounces && lastBounceCanEndPaths(rs);
+  if (sampleLights) {
     const auto ls = rs.lights().sample(p, rng.get1D(base + dims::kLightChoice), rng.get2D(base + dims::kLightPoint));
     if (ls && !isBlack(ls->radiance)) {
       const Vec3 wi = glm::normalize(ls->p - p);
@@ -91,7 +98,7 @@ bool scatterInMedium(const RenderScene& rs, const SampleStream& rng, int segment
   ++mediumBounces;
   // Roulette by the medium events made (a long walk in a dim medium stops early, unbiased).
   if (!survivesRoulette(settings, rng, base, mediumBounces, path.etaScale, path.throughput)) return false;
-  path.lastSpecular = false;
+  path.lastSpecular = !sampleLights;  // no light sample here: a light reached next weighs 1
   path.lastPdf = s.pdf;
   path.origin = p;
   path.direction = s.wi;

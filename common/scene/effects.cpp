@@ -303,7 +303,7 @@ EffectSet EffectSet::all(const Scene& scene) {
   EffectSet e;
   e.lightUseful.assign(scene.materials.size(), true);
   e.media = scene.medium != nullptr;
-  for (const Material& m : scene.materials) e.media |= m.interior != nullptr || m.passesThrough();
+  for (const Material& m : scene.materials) e.media |= m.interior != nullptr || m.exterior != nullptr || m.passesThrough();
   return e;
 }
 
@@ -434,6 +434,8 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
     for (size_t m = 0; m < scene.materials.size(); ++m)
       if (used[m] && scene.materials[m].interior)
         where.push_back("\"" + scene.materials[m].interior->name() + "\" inside \"" + scene.materials[m].name + "\"");
+      else if (used[m] && scene.materials[m].exterior)
+        where.push_back("\"" + scene.materials[m].exterior->name() + "\" around \"" + scene.materials[m].name + "\"");
     e.media = !where.empty();
     std::string reason;
     for (size_t k = 0; k < where.size() && k < 4; ++k) reason += (k ? "; " : "") + where[k];

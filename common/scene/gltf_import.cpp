@@ -10,6 +10,7 @@
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
 #include <iomanip>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -18,6 +19,7 @@
 #include <tuple>
 #include <utility>
 
+#include "medium/medium.h"
 #include "texture/image_decode.h"
 #include "util/error.h"
 
@@ -42,7 +44,8 @@ using json = nlohmann::json;
 constexpr const char* kSupportedExtensions[] = {"KHR_lights_punctual",        "KHR_materials_emissive_strength",
                                                 "KHR_materials_ior",          "KHR_materials_specular",
                                                 "KHR_materials_transmission", "KHR_materials_unlit",
-                                                "KHR_mesh_quantization",      "KHR_texture_transform"};
+                                                "KHR_materials_volume",       "KHR_mesh_quantization",
+                                                "KHR_texture_transform"};
 
 constexpr int kMaxNesting = 64;  // as the scene loader allows
 constexpr uint32_t kJsonChunk = 0x4E4F534A, kBinChunk = 0x004E4942;
@@ -765,8 +768,45 @@ class GltfImporter {
                              ": KHR_materials_unlit rendered as a Lambertian surface of its base colour "
                              "(lit by the scene's lights)");
     }
-    return Material::textured(m.name.empty() ? where : m.name, std::move(t),
-                              Spectrum(float(emission.x), float(emission.y), float(emission.z)), false);
+    std::shared_ptr<const Medium> interior;
+    if (const tinygltf::Value* e = extension(m.extensions, "KHR_materials_volume"))
+      interior = volumeOf(*e, f.transmission, label, ext + "KHR_materials_volume");
+    Material out = Material::textured(m.name.empty() ? where : m.name, std::move(t),
+                                      Spectrum(float(emission.x), float(emission.y), float(emission.z)), false);
+    out.interior = std::move(interior);
+    return out;
+  }
+
+  // KHR_materials_volume: the absorbing medium behind a transmitting surface (docs/media.md):
+  // sigma_t = -ln(attenuationColor) / attenuationDistance per channel. The extension applies to
+  // transmitting materials with thicknessFactor > 0 (0 means thin-walled: no volume); elsewhere
+  // it is noted and ignored. The mesh's real geometry gives the distances (thicknessFactor and
+  // thicknessTexture are for rasterisers' approximations and are not read).
+  std::shared_ptr<const Medium> volumeOf(const tinygltf::Value& e, float transmission, const std::string& label,
+                                         const std::string& w) {
+    const double thickness = extensionNumber(e, "thicknessFactor", 0.0, 0.0, 1e30, w);
+    const double distance =
+        extensionNumber(e, "attenuationDistance", std::numeric_limits<double>::infinity(), 0.0, 1e300, w);
+    if (e.Has("attenuationDistance") && !(distance > 0.0)) fail(w + ".attenuationDistance", "must be > 0");
+    Spectrum color(1.0f);
+    if (e.Has("attenuationColor")) {
+      const tinygltf::Value& v = e.Get("attenuationColor");
+      if (!v.IsArray() || v.ArrayLen() != 3) fail(w + ".attenuationColor", "must be 3 numbers");
+      for (int c = 0; c < 3; ++c) {
+        if (!v.Get(c).IsNumber()) fail(w + ".attenuationColor", "must be 3 numbers");
+        // 0 (black) is the strongest absorption the extension can say: 1e-6 after one distance.
+        color[c] = std::max(1e-6f, float(inRange(v.Get(c).GetNumberAsDouble(), 0.0, 1.0, w + ".attenuationColor")));
+      }
+    }
+    if (!(transmission > 0.0f) || !(thickness > 0.0)) {
+      model_.notes.push_back(label + ": KHR_materials_volume ignored (" +
+                             (transmission > 0.0f ? std::string("thicknessFactor 0: thin-walled")
+                                                  : std::string("the material transmits no light")) +
+                             ")");
+      return nullptr;
+    }
+    if (color == Spectrum(1.0f) || std::isinf(distance)) return nullptr;  // a clear volume: nothing to simulate
+    return std::make_shared<const Medium>(label, HomogeneousMedium::fromAttenuation(color, float(distance), Spectrum(0.0f), 0.0f));
   }
 
   TextureRef textureRef(const tinygltf::TextureInfo& info, ColorEncoding encoding, const std::string& where) {

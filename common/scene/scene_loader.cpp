@@ -208,7 +208,10 @@ class SceneParser {
     if (!media.is_object()) top.fail("media", "must be an object of named media");
     for (auto it = media.begin(); it != media.end(); ++it) {
       FieldReader r(it.value(), "media." + it.key(), fileName_);
-      std::shared_ptr<Medium> m = parseMedium(it.key(), r);
+      std::shared_ptr<Medium> m =
+          parseMedium(it.key(), r, [this](FieldReader& reader, const std::string& key, const std::string& kind) {
+            return readAssetFile(reader, key, kind);
+          });
       unplacedMedia_.push_back(m);
       scene_.media[it.key()] = m;
     }

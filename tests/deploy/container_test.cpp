@@ -65,8 +65,8 @@ std::set<std::string> setupPackages(const std::string& list) {
   return out;
 }
 
-// Every dependency the CMakeLists.txt files look for: find_package(NAME ...) and
-// pkg_check_modules(VAR ... MODULE), each with whether only the tests and benchmarks need it
+// Every dependency the CMakeLists.txt files look for: find_package(NAME ...),
+// find_library(VAR NAME) and pkg_check_modules(VAR ... MODULE), each with whether only the tests and benchmarks need it
 // (looked for in a CMakeLists.txt under tests/ or bench/, which LENSFARM_BUILD_TESTS=OFF skips).
 std::map<std::string, bool> cmakeDependencies() {
   std::map<std::string, bool> out;  // name -> test-only
@@ -76,6 +76,7 @@ std::map<std::string, bool> cmakeDependencies() {
   };
   const std::regex findPackage(R"(find_package\(\s*([A-Za-z0-9_-]+))");
   const std::regex pkgConfig(R"(pkg_check_modules\(\s*\w+((?:\s+[A-Za-z0-9_.-]+)+)\s*\))");
+  const std::regex findLibrary(R"(find_library\(\s*\w+\s+([A-Za-z0-9_.-]+))");
   const fs::path root = test::sourceDir();
   for (auto walk = fs::recursive_directory_iterator(root); walk != fs::recursive_directory_iterator(); ++walk) {
     const std::string name = walk->path().filename().string();
@@ -86,6 +87,8 @@ std::map<std::string, bool> cmakeDependencies() {
     const bool testOnly = top == "tests" || top == "bench";
     const std::string text = test::readFile(entry.path());
     for (auto it = std::sregex_iterator(text.begin(), text.end(), findPackage); it != std::sregex_iterator(); ++it)
+      add((*it)[1], testOnly);
+    for (auto it = std::sregex_iterator(text.begin(), text.end(), findLibrary); it != std::sregex_iterator(); ++it)
       add((*it)[1], testOnly);
     for (auto it = std::sregex_iterator(text.begin(), text.end(), pkgConfig); it != std::sregex_iterator(); ++it)
       for (const std::string& w : test::words((*it)[1]))
@@ -147,6 +150,7 @@ const std::map<std::string, Dependency>& debianNames() {
       {"fftw3", {{"libfftw3-dev"}, [] { return fs::path(cacheValue("FFTW_LIBDIR")) / "pkgconfig/fftw3.pc"; }}},
       // (libzstd.pc says libdir=/usr/lib; the library pkg-config found is the evidence.)
       {"libzstd", {{"libzstd-dev"}, cached("pkgcfg_lib_ZSTD_zstd")}},
+      {"openvdb", {{"libopenvdb-dev"}, cached("OPENVDB_LIBRARY")}},  // find_library (CMakeLists.txt says why)
   };
   return table;
 }

@@ -74,6 +74,20 @@ TEST(VolumeTransmittance, AnAbsorbingSlabPassesExpMinusSigmaTDInEveryChannelAnyw
   }
 }
 
+TEST(VolumeTransmittance, ASlabInsideASlabReturnsToItsExteriorMedium) {
+  // Medium "outer" (sigma_a 0.5) fills y in [0, 1]; inside it "inner" (sigma_a 2) fills y in
+  // [0.3, 0.6], bounded by an interface whose exterior_medium is "outer". Light from below crosses
+  // 0.7 of outer and 0.3 of inner; without the exterior it would cross only 0.4 of outer.
+  test::TempDir dir;
+  json scene = slabOverLight({{"sigma_a", 0.5}}, 1.0, 0.0);
+  scene["media"]["inner"] = {{"sigma_a", 2.0}};
+  scene["materials"]["inner-boundary"] = {{"type", "interface"}, {"interior_medium", "inner"}, {"exterior_medium", "slab"}};
+  scene["shapes"].push_back(boxShape({-40, 0.3, -40}, {40, 0.6, 40}, "inner-boundary"));
+  const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
+  const double expected = std::exp(-0.5 * 0.7 - 2.0 * 0.3);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(r.mean[c], expected, 1e-3 * expected);
+}
+
 TEST(VolumeTransmittance, KhrAttenuationColourIsWhatWhiteLightTurnsIntoAtTheAttenuationDistance) {
   // attenuation_color c at attenuation_distance D: a slab of thickness D passes exactly c.
   test::TempDir dir;
@@ -310,6 +324,8 @@ TEST(VolumeInput, BadMediaAreRefusedNamingTheField) {
   expectFieldError(s, "materials.glass.albedo");
   s["materials"]["glass"] = {{"type", "subsurface"}, {"albedo", 0.5}, {"mean_free_path", 0.1}, {"g", 2}};
   expectFieldError(s, "materials.glass.g");
+  s["materials"]["glass"] = {{"type", "lambertian"}, {"albedo", 0.5}, {"exterior_medium", "mist"}};
+  expectFieldError(s, "materials.glass.exterior_medium");
 
   s = base;
   s["media"]["haze"] = {{"type", "grid"}, {"bounds", {{0, 0, 0}, {1, 1, 1}}}, {"resolution", {2, 2, 2}}, {"density", {1, 2, 3}}};

@@ -1,6 +1,7 @@
 // The glTF 2.0 importer (scene/gltf_import.h): small models written here as JSON with their
 // buffers as a separate .bin (read through a ModelFileReader over a map), as data URIs, or as a
 // .glb assembled byte by byte (glTF 2.0 §4.4), checked against values computed independently.
+#include "medium/medium.h"
 #include "scene/gltf_import.h"
 
 #include <gtest/gtest.h>
@@ -360,6 +361,51 @@ TEST(Gltf, MaterialsMapFactorsAlphaModesAndExtensions) {
   EXPECT_TRUE(hasNote(model, "materials[2]: KHR_materials_unlit rendered as a Lambertian")) << notes;
   EXPECT_TRUE(hasNote(model, "extensionsUsed: KHR_materials_clearcoat not supported")) << notes;
   EXPECT_EQ(model.meshes[0].mesh.materialIds, std::vector<uint32_t>(12, 0u));
+}
+
+TEST(Gltf, KhrMaterialsVolumeGivesATransmittingMaterialItsAbsorbingInterior) {
+  // attenuationColor c after attenuationDistance D: sigma_t = -ln(c) / D per channel, so the
+  // medium passes exactly c over D (docs/media.md). Without transmission, or thin-walled
+  // (thicknessFactor 0), the extension is noted and ignored; a bad distance is refused by name.
+  const Cube cube;
+  Builder b;
+  cube.addTo(b, 0);
+  const json volume = {{"thicknessFactor", 0.1}, {"attenuationDistance", 0.5}, {"attenuationColor", {0.9, 0.5, 0.25}}};
+  b.doc["materials"] = {
+      {{"name", "juice"},
+       {"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 1.0}}}, {"KHR_materials_volume", volume}}}},
+      {{"name", "paint"}, {"extensions", {{"KHR_materials_volume", volume}}}},
+      {{"name", "film"},
+       {"extensions",
+        {{"KHR_materials_transmission", {{"transmissionFactor", 1.0}}},
+         {"KHR_materials_volume", {{"attenuationColor", {0.5, 0.5, 0.5}}, {"attenuationDistance", 1.0}}}}}}};
+  b.doc["extensionsUsed"] = {"KHR_materials_transmission", "KHR_materials_volume"};
+  b.doc["extensionsRequired"] = {"KHR_materials_volume"};
+  b.doc["nodes"] = {{{"mesh", 0}}};
+  const ImportedModel model = importGltf(b.embedded(), "volume.gltf", kNoFiles);
+  ASSERT_EQ(model.materials.size(), 3u);
+  ASSERT_NE(model.materials[0].interior, nullptr);
+  const HomogeneousMedium* juice = model.materials[0].interior->asHomogeneous();
+  ASSERT_NE(juice, nullptr);
+  const Spectrum t = juice->transmittance(0.5f);
+  EXPECT_NEAR(t.r, 0.9f, 1e-5f);
+  EXPECT_NEAR(t.g, 0.5f, 1e-5f);
+  EXPECT_NEAR(t.b, 0.25f, 1e-5f);
+  EXPECT_EQ(juice->sigmaS(), Spectrum(0.0f));
+  EXPECT_EQ(model.materials[1].interior, nullptr);
+  EXPECT_EQ(model.materials[2].interior, nullptr);
+  EXPECT_TRUE(hasNote(model, "KHR_materials_volume ignored (the material transmits no light)"))
+      << ::testing::PrintToString(model.notes);
+
+  b.doc["materials"][0]["extensions"]["KHR_materials_volume"]["attenuationDistance"] = 0;
+  try {
+    importGltf(b.embedded(), "volume.gltf", kNoFiles);
+    ADD_FAILURE() << "a zero attenuationDistance was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("materials[0].extensions.KHR_materials_volume.attenuationDistance"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(Gltf, TexturesMapSlotsSamplersTransformsAndShareDecodes) {
