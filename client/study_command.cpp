@@ -36,7 +36,7 @@ Runner addStudyCommand(CLI::App& app) {
   cmd->add_option("--report", o->report, "The Markdown report (default: OUT/accuracy.md)");
   cmd->add_option("--scenes", o->scenes, "Folder holding cornell-seed.json")->capture_default_str();
   cmd->add_option("--experiments", *experiments,
-                  "Some of: convergence, estimate, resolution, dof, bounces, materials, models, optics, denoise, adaptive")
+                  "Some of: convergence, estimate, resolution, dof, bounces, materials, models, optics, denoise, adaptive, media")
       ->delimiter(',');
   cmd->add_flag("--quick", o->quick, "Tiny images and budgets: the whole study in seconds (for tests)");
   cmd->add_option("--threads", o->threads, "Threads (default: all cores)")->check(CLI::Range(1u, 4096u));

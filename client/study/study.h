@@ -21,7 +21,10 @@
 //  - adaptive: uniform sampling against adaptive sampling (film/adaptive_allocation.h) and uniform
 //    sampling + the denoiser, each rendered on its own at power-of-two mean sample counts: time to
 //    target errors, the worst 1 % of pixels, the bias check (mean ratio), the live estimate beside
-//    the true error, and the crossovers.
+//    the true error, and the crossovers;
+//  - media: cornell-media without its media, with each alone and with all (the fog bank, the
+//    marble block's random walk, the glass of milk), and with walks cut short: time per path,
+//    rays per path, energy and the time to the same error.
 #include <filesystem>
 #include <set>
 #include <string>
@@ -39,7 +42,8 @@ struct StudyOptions {
 };
 
 inline const std::set<std::string> kExperiments = {"convergence", "estimate", "resolution", "dof",     "bounces",
-                                                   "materials",   "models",   "optics",     "denoise", "adaptive"};
+                                                   "materials",   "models",   "optics",     "denoise", "adaptive",
+                                                   "media"};
 
 // Runs the experiments and writes the outputs; throws InputError for bad options and
 // std::runtime_error when a tool (gnuplot) fails.

@@ -39,7 +39,9 @@ std::shared_ptr<const Bsdf> parseSubsurface(FieldReader& r) {
   validateSss(albedo, distance, r.file(), r.path());
   validateHenyeyGreensteinG(g, r.file(), r.field("g"));
   const SssCoefficients c = sssCoefficients(albedo, distance);
-  auto medium = std::make_shared<Medium>(r.path(), HomogeneousMedium(c.sigmaA, c.sigmaS, g));
+  // Named after its material ("marble (subsurface)"), for the render report.
+  auto medium = std::make_shared<Medium>(r.path().substr(r.path().rfind('.') + 1) + " (subsurface)",
+                                         HomogeneousMedium(c.sigmaA, c.sigmaS, g));
   return std::make_shared<DiffuseTransmissionBsdf>(std::move(medium));
 }
 

@@ -129,20 +129,23 @@ json sphereInEnvironment(const test::TempDir& dir, const json& materials, const 
   return scene;
 }
 
-TEST(VolumeFurnace, AnAlbedoOneMediumInsideAnIndexMatchedBoundaryReturnsAllTheLight) {
+TEST(VolumeFurnace, AnAlbedoOneMediumBehindAnIndexMatchedOrAGlassBoundaryReturnsAllTheLight) {
   // Nothing absorbs: every path leaves the sphere sooner or later and sees the environment, so
   // every pixel is 1. With the naive estimator and a grey medium each path's weight is exactly 1
   // (free flight sigma_s T / (sigma_t T) = 1, phase sampling p / p = 1): any loss of energy at an
   // event, a crossing or the phase function shows in every pixel.
+  // The same behind smooth glass (a glass of milk: Fresnel reflection and refraction, total
+  // internal reflection inside, 1/eta^2 in and eta^2 out) loses nothing either.
+  for (const json& boundary : {json{{"type", "interface"}, {"interior_medium", "cloud"}},
+                               json{{"type", "dielectric"}, {"ior", 1.33}, {"interior_medium", "cloud"}}})
   for (double g : {0.0, 0.8, -0.5}) {
     test::TempDir dir;
-    json scene = sphereInEnvironment(dir, {{"skin", {{"type", "interface"}, {"interior_medium", "cloud"}}}},
-                                     {{"cloud", {{"sigma_s", 3.0}, {"g", g}}}}, 16, 4);
+    json scene = sphereInEnvironment(dir, {{"skin", boundary}}, {{"cloud", {{"sigma_s", 3.0}, {"g", g}}}}, 16, 4);
     scene["render"]["integrator"] = "naive";
     const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
     for (float v : r.image.rgb) {
-      ASSERT_GE(v, 0.999f) << "g " << g;
-      ASSERT_LE(v, 1.001f) << "g " << g;
+      ASSERT_GE(v, 0.999f) << boundary << " g " << g;
+      ASSERT_LE(v, 1.001f) << boundary << " g " << g;
     }
     EXPECT_EQ(r.stats.truncated, 0u);
   }

@@ -66,17 +66,18 @@ void checkReportTablesAndPlots(const StudyRun& run) {
   for (const char* section :
        {"## Convergence", "## The live error estimate", "## Resolution", "## Depth of field", "## Bounces",
         "## Glass and metal", "## Models", "## Camera optics", "## Uniform sampling against",
-        "## Adaptive sampling against uniform sampling", "lensfarm study"})
+        "## Adaptive sampling against uniform sampling", "## Participating media", "lensfarm study"})
     EXPECT_NE(report.find(section), std::string::npos) << section;
   for (const char* plot : {"convergence", "estimate", "resolution", "dof", "bounces", "materials", "models", "optics",
-                           "denoise", "adaptive"}) {
+                           "denoise", "adaptive", "media"}) {
     EXPECT_NE(report.find("(../out/" + std::string(plot) + ".png)"), std::string::npos) << "relative link to " << plot;
     const std::string png = test::readFile(run.out(std::string(plot) + ".png"));
     ASSERT_GT(png.size(), 2000u) << plot;
     EXPECT_EQ(png.substr(1, 3), "PNG") << plot;
   }
   for (const char* csv : {"convergence.csv", "time-to-error.csv", "estimate.csv", "resolution.csv", "dof.csv",
-                          "bounces.csv", "materials.csv", "models.csv", "optics.csv", "denoise.csv", "adaptive.csv"})
+                          "bounces.csv", "materials.csv", "models.csv", "optics.csv", "denoise.csv", "adaptive.csv",
+                          "media.csv"})
     EXPECT_GT(readCsv(run.out(csv)).size(), 2u) << csv;
 }
 
@@ -144,6 +145,24 @@ void checkModels(const StudyRun& run) {
   EXPECT_NE(rows.at("one Lambertian material, smooth normals").at("effects").find("0 textured material(s)"),
             std::string::npos);
   EXPECT_GT(num(textured, "image mean"), 0.0);
+}
+
+// Participating media: the baseline runs without them and says so, each medium is named where it
+// is used, the volume tracer's walks cost rays, and cutting them short loses light.
+void checkMedia(const StudyRun& run) {
+  std::map<std::string, std::map<std::string, std::string>> rows;
+  for (const auto& row : readCsv(run.out("media.csv"))) rows[row.at("variant")] = row;
+  ASSERT_EQ(rows.size(), 6u);
+  const auto& none = rows.at("no media (marble block Lambertian, empty glass)");
+  const auto& all = rows.at("all three (the scene)");
+  EXPECT_EQ(none.at("effects"), "none");
+  EXPECT_NE(rows.at("fog bank only").at("effects").find("\"haze\" inside \"fog-bank\""), std::string::npos)
+      << rows.at("fog bank only").at("effects");
+  EXPECT_NE(rows.at("marble block only (random walk)").at("effects").find("inside \"marble\""), std::string::npos);
+  EXPECT_NE(rows.at("glass of milk only").at("effects").find("\"milk\" inside \"milk-glass\""), std::string::npos);
+  EXPECT_GT(num(all, "rays per path"), 2.0 * num(none, "rays per path")) << "walks cost rays";
+  EXPECT_LT(num(rows.at("all three, max_medium_bounces 16"), "image mean"), num(all, "image mean"))
+      << "a walk cut at 16 events loses light";
 }
 
 // Every camera model renders; the real lenses say they trace every camera ray; the thin lens
@@ -238,6 +257,10 @@ TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
   {
     SCOPED_TRACE("denoise");
     checkDenoise(run);
+  }
+  {
+    SCOPED_TRACE("media");
+    checkMedia(run);
   }
 }
 
