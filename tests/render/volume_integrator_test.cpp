@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <utility>
 
 #include "medium/medium.h"
 #include "render/render_scene.h"
@@ -112,6 +113,14 @@ TEST(VolumeTransmittance, AnAbsorbingGridIsRatioTrackedWithoutBias) {
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(r.mean[c], std::exp(-sigma[c] * 0.35), 0.01 * std::exp(-sigma[c] * 0.35));
 }
 
+// Channel c's mean over the image and its standard error, from independent renders.
+std::pair<double, double> imageMean(const test::ImageStatistics& st, int c) {
+  const size_t pixels = st.mean.size() / 3;
+  double mean = 0.0, variance = 0.0;
+  for (size_t k = 0; k < pixels; ++k) mean += st.mean[3 * k + c] / double(pixels), variance += st.variance[3 * k + c];
+  return {mean, std::sqrt(variance / double(st.renders)) / double(pixels)};
+}
+
 // A sphere of radius 1 (OBJ) with material `material`, under a uniform environment of radiance 1,
 // seen whole by a camera outside it.
 json sphereInEnvironment(const test::TempDir& dir, const json& materials, const json& media, int resolution,
@@ -160,11 +169,8 @@ TEST(VolumeFurnace, AChromaticMediumWithNextEventEstimationKeepsEveryChannelsEne
                                    {{"cloud", {{"sigma_s", {0.5, 2.0, 6.0}}, {"g", 0.6}}}}, 24, 32);
   Scene loaded = test::loadSceneJson(dir, scene);
   const test::ImageStatistics st = test::renderStatistics(loaded, 8);
-  const size_t pixels = st.mean.size() / 3;
   for (int c = 0; c < 3; ++c) {
-    double mean = 0.0, variance = 0.0;
-    for (size_t k = 0; k < pixels; ++k) mean += st.mean[3 * k + c] / double(pixels), variance += st.variance[3 * k + c];
-    const double error = std::sqrt(variance / double(st.renders)) / double(pixels);
+    const auto [mean, error] = imageMean(st, c);
     EXPECT_NEAR(mean, 1.0, 4.0 * error) << "channel " << c;
     EXPECT_LT(error, 0.004) << "channel " << c << ": too noisy to judge";
   }
@@ -208,11 +214,8 @@ TEST(VolumeSingleScattering, AThinSlabUnderASunMatchesTheAnalyticIntegralPerChan
     }
     Scene loaded = test::loadSceneJson(dir, singleScatteringScene(medium, d, theta));
     const test::ImageStatistics st = test::renderStatistics(loaded, 6);
-    const size_t pixels = st.mean.size() / 3;
     for (int c = 0; c < 3; ++c) {
-      double mean = 0.0, variance = 0.0;
-      for (size_t k = 0; k < pixels; ++k) mean += st.mean[3 * k + c] / double(pixels), variance += st.variance[3 * k + c];
-      const double error = std::sqrt(variance / double(st.renders)) / double(pixels);
+      const auto [mean, error] = imageMean(st, c);
       const double expected = singleScattering(2.0, g, sigmaS[c], sigmaS[c] + sigmaA, d, std::cos(theta));
       EXPECT_NEAR(mean, expected, 4.0 * error + 2e-3 * expected) << type << " channel " << c;
       EXPECT_LT(error, 0.01 * expected) << type << ": too noisy to judge";
