@@ -80,6 +80,12 @@ void validateGridMedium(const Vec3& lo, const Vec3& hi, const glm::ivec3& resolu
     if (!std::isfinite(lo[a]) || !std::isfinite(hi[a]) || !(hi[a] > lo[a]))
       throw InputError(where, field + ".bounds: the box needs finite lo < hi on every axis");
   validateHomogeneousMedium(sigmaA, sigmaS, g, where, field);
+  // The densest voxel times the coefficients must stay a valid coefficient too.
+  const float densest = density.empty() ? 0.0f : *std::max_element(density.begin(), density.end());
+  const float largest = std::max({sigmaA.r, sigmaA.g, sigmaA.b}) + std::max({sigmaS.r, sigmaS.g, sigmaS.b});
+  if (double(densest) * double(largest) > double(kMaxCoefficient))
+    throw InputError(where, field + ".density: the densest voxel (" + std::to_string(densest) +
+                                ") times sigma_a + sigma_s exceeds 1e30 / scene unit");
 }
 
 }  // namespace lensfarm

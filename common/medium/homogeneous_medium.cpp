@@ -93,9 +93,12 @@ void requireChannels(const Spectrum& s, Ok ok, const std::string& where, const s
 
 void validateHomogeneousMedium(const Spectrum& sigmaA, const Spectrum& sigmaS, float g, const std::string& where,
                                const std::string& field) {
-  const auto nonNegative = [](float v) { return v >= 0.0f; };
-  requireChannels(sigmaA, nonNegative, where, field + ".sigma_a", "must be finite and >= 0 (1 / scene units)");
-  requireChannels(sigmaS, nonNegative, where, field + ".sigma_s", "must be finite and >= 0 (1 / scene units)");
+  // At most kMaxCoefficient: a free flight is then at least 1e-30 scene units long and sigma_t
+  // stays finite in float (sigma_a + sigma_s of two values near 3.4e38 would be infinite, and
+  // exp(-inf * 0) NaN).
+  const auto inRange = [](float v) { return v >= 0.0f && v <= kMaxCoefficient; };
+  requireChannels(sigmaA, inRange, where, field + ".sigma_a", "must be in [0, 1e30] (1 / scene units)");
+  requireChannels(sigmaS, inRange, where, field + ".sigma_s", "must be in [0, 1e30] (1 / scene units)");
   validateHenyeyGreensteinG(g, where, field + ".g");
 }
 
@@ -104,6 +107,10 @@ void validateAttenuation(const Spectrum& attenuationColor, float attenuationDist
   requireChannels(
       attenuationColor, [](float v) { return v > 0.0f && v <= 1.0f; }, where, field + ".attenuation_color",
       "must lie in (0, 1] (1: no attenuation)");
+  for (int c = 0; c < 3; ++c)
+    if (attenuationColor[c] < 1.0f && -std::log(attenuationColor[c]) / attenuationDistance > kMaxCoefficient)
+      throw InputError(where, field + ".attenuation_distance: makes sigma_t above 1e30 / scene unit (a free flight "
+                                      "shorter than 1e-30); use a longer distance");
   if (std::isnan(attenuationDistance) || !(attenuationDistance > 0.0f))
     throw InputError(where, field + ".attenuation_distance: must be > 0 (infinity: no attenuation), got " +
                                 std::to_string(attenuationDistance));

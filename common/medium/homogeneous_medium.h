@@ -107,8 +107,11 @@ SssCoefficients sssCoefficients(const Spectrum& albedo, const Spectrum& distance
 // The single-scattering albedo alpha(A) of that fit, for one channel.
 float sssSingleScatteringAlbedo(float multipleScatteringAlbedo);
 
+// The largest absorption or scattering coefficient a scene may give (1 / scene units).
+inline constexpr float kMaxCoefficient = 1e30f;
+
 // Validation for the scene loader: each throws one InputError(where, field + "...: ...").
-// sigma_a, sigma_s: finite and >= 0 per channel; g in (-1, 1).
+// sigma_a, sigma_s: in [0, kMaxCoefficient] per channel; g in (-1, 1).
 void validateHomogeneousMedium(const Spectrum& sigmaA, const Spectrum& sigmaS, float g, const std::string& where,
                                const std::string& field);
 // attenuation_color in (0, 1] per channel, attenuation_distance > 0 (+infinity allowed), the

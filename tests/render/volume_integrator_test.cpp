@@ -98,19 +98,23 @@ TEST(VolumeTransmittance, KhrAttenuationColourIsWhatWhiteLightTurnsIntoAtTheAtte
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(r.mean[k], c[k], 1e-3 * c[k]);
 }
 
-TEST(VolumeTransmittance, AnAbsorbingGridIsRatioTrackedWithoutBias) {
+TEST(VolumeTransmittance, AnAbsorbingGridIsRatioTrackedWithoutBiasAnywhereInTheWorld) {
   // A grid of density 1 everywhere with sigma_a: its ratio-tracking estimate is noisy but its mean
   // is Beer-Lambert's (a 2 x 2 x 2 grid whose majorant cells are mostly empty space besides).
-  test::TempDir dir;
-  const double d = 0.7;
-  json grid = {{"type", "grid"}, {"bounds", {{-60, -0.5, -60}, {60, 0.35, 60}}}, {"resolution", {2, 2, 2}},
-               {"density", {1, 1, 1, 1, 1, 1, 1, 1}}, {"sigma_a", {0.5, 1.0, 2.0}}};
-  json scene = slabOverLight(grid, d, 0.0);
-  // The grid's box reaches to y = 0.35, half the slab: the other half is clear.
-  scene["render"]["samples_per_pixel"] = 64;
-  const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
-  const double sigma[3] = {0.5, 1.0, 2.0};
-  for (int c = 0; c < 3; ++c) EXPECT_NEAR(r.mean[c], std::exp(-sigma[c] * 0.35), 0.01 * std::exp(-sigma[c] * 0.35));
+  for (double shift : {0.0, 1e6}) {
+    test::TempDir dir;
+    const double d = 0.7;
+    json grid = {{"type", "grid"},
+                 {"bounds", {{-60 + shift, -0.5 + shift, -60 + shift}, {60 + shift, 0.35 + shift, 60 + shift}}},
+                 {"resolution", {2, 2, 2}}, {"density", {1, 1, 1, 1, 1, 1, 1, 1}}, {"sigma_a", {0.5, 1.0, 2.0}}};
+    json scene = slabOverLight(grid, d, shift);
+    // The grid's box reaches to y = 0.35, half the slab: the other half is clear.
+    scene["render"]["samples_per_pixel"] = 64;
+    const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
+    const double sigma[3] = {0.5, 1.0, 2.0};
+      for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(r.mean[c], std::exp(-sigma[c] * 0.35), 0.01 * std::exp(-sigma[c] * 0.35)) << "shift " << shift;
+  }
 }
 
 // Channel c's mean over the image and its standard error, from independent renders.
@@ -146,17 +150,18 @@ TEST(VolumeFurnace, AnAlbedoOneMediumBehindAnIndexMatchedOrAGlassBoundaryReturns
   // The same behind smooth glass (a glass of milk: Fresnel reflection and refraction, total
   // internal reflection inside, 1/eta^2 in and eta^2 out) loses nothing either.
   for (const json& boundary : {json{{"type", "interface"}, {"interior_medium", "cloud"}},
-                               json{{"type", "dielectric"}, {"ior", 1.33}, {"interior_medium", "cloud"}}})
-  for (double g : {0.0, 0.8, -0.5}) {
-    test::TempDir dir;
-    json scene = sphereInEnvironment(dir, {{"skin", boundary}}, {{"cloud", {{"sigma_s", 3.0}, {"g", g}}}}, 16, 4);
-    scene["render"]["integrator"] = "naive";
-    const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
-    for (float v : r.image.rgb) {
-      ASSERT_GE(v, 0.999f) << boundary << " g " << g;
-      ASSERT_LE(v, 1.001f) << boundary << " g " << g;
+                               json{{"type", "dielectric"}, {"ior", 1.33}, {"interior_medium", "cloud"}}}) {
+    for (double g : {0.0, 0.8, -0.5}) {
+      test::TempDir dir;
+      json scene = sphereInEnvironment(dir, {{"skin", boundary}}, {{"cloud", {{"sigma_s", 3.0}, {"g", g}}}}, 16, 4);
+      scene["render"]["integrator"] = "naive";
+      const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
+      for (float v : r.image.rgb) {
+        ASSERT_GE(v, 0.999f) << boundary << " g " << g;
+        ASSERT_LE(v, 1.001f) << boundary << " g " << g;
+      }
+      EXPECT_EQ(r.stats.truncated, 0u);
     }
-    EXPECT_EQ(r.stats.truncated, 0u);
   }
 }
 
@@ -310,6 +315,12 @@ TEST(VolumeInput, BadMediaAreRefusedNamingTheField) {
   expectFieldError(with("sigma_a", -1.0), "media.haze.sigma_a");
   expectFieldError(with("sigma_s", {0.1, -0.2, 0.1}), "media.haze.sigma_s");
   expectFieldError(with("sigma_s", "thick"), "media.haze.sigma_s");
+  expectFieldError(with("sigma_s", 1e38), "media.haze.sigma_s");  // sigma_t would overflow float
+  {
+    json s = base;
+    s["media"]["haze"] = {{"attenuation_color", 0.5}, {"attenuation_distance", 1e-35}};
+    expectFieldError(s, "media.haze.attenuation_distance");
+  }
   expectFieldError(with("g", 1.0), "media.haze.g");
   expectFieldError(with("g", -1.5), "media.haze.g");
   expectFieldError(with("attenuation_color", 0.5), "media.haze.attenuation_color");  // with sigma_s
