@@ -43,6 +43,9 @@ struct BsdfTraits {
   // Scatters nothing and blocks nothing: a medium's index-matched boundary (material/interface.h),
   // which rays cross unchanged (only the volume path tracer meets it: render/volume_integrator.h).
   bool passesThrough = false;
+  // Can send a path through the surface (glass, transmission, subsurface, an interface): a closed
+  // mesh of it is no wall the effect analysis may seal things behind (scene/effects.cpp).
+  bool transmits = false;
   Spectrum albedo{0.0f};    // lambertian: its albedo
   // The effect the scene analysis reports for it (scene/effects.h): "mirror", "rippled mirror",
   // "glass", ...; empty for Lambertian.

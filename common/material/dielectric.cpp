@@ -11,8 +11,10 @@ DielectricBsdf::DielectricBsdf(const Spectrum& transmittance, float ior, bool th
 }
 
 BsdfTraits DielectricBsdf::traits() const {
-  if (smooth_) return BsdfTraits::deltaLobes(tint_, "glass", /*choosesLobe=*/true);
-  return BsdfTraits::glossyLobes(!isBlack(tint_), "rough glass");
+  BsdfTraits t = smooth_ ? BsdfTraits::deltaLobes(tint_, "glass", /*choosesLobe=*/true)
+                         : BsdfTraits::glossyLobes(!isBlack(tint_), "rough glass");
+  t.transmits = true;
+  return t;
 }
 
 void DielectricBsdf::evalLocal(const Vec3& wo, const Vec3& wi, float eta, Spectrum* f, float* pdf) const {

@@ -5,6 +5,7 @@ namespace lensfarm {
 BsdfTraits InterfaceBsdf::traits() const {
   BsdfTraits t;
   t.passesThrough = true;
+  t.transmits = true;
   t.choosesLobe = false;
   t.effect = "medium boundary";
   return t;

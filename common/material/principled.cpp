@@ -27,7 +27,9 @@ BsdfTraits PrincipledBsdf::traits() const {
   // Black only when nothing can scatter: a black metal (F0 = 0 still reflects at grazing, but
   // C = 0 with metallic 1 reflects (1 - 0) x^5: not black). Every glTF material scatters something.
   const bool transmits = p_.transmission > 0.0f && p_.metallic < 1.0f;
-  return BsdfTraits::glossyLobes(true, transmits ? "principled (glTF) with transmission" : "principled (glTF)");
+  BsdfTraits t = BsdfTraits::glossyLobes(true, transmits ? "principled (glTF) with transmission" : "principled (glTF)");
+  t.transmits = transmits;
+  return t;
 }
 
 PrincipledBsdf::LobeChoice PrincipledBsdf::lobes(float cosO) const {

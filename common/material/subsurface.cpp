@@ -11,6 +11,7 @@ namespace lensfarm {
 BsdfTraits DiffuseTransmissionBsdf::traits() const {
   BsdfTraits t = BsdfTraits::glossyLobes(true, "subsurface scattering");
   t.choosesLobe = false;
+  t.transmits = true;
   return t;
 }
 

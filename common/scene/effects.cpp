@@ -34,6 +34,11 @@ struct Shell {
 std::vector<Shell> closedShells(const Scene& scene) {
   std::vector<Shell> shells;
   for (const auto& mesh : scene.meshes) {
+    // A mesh any of whose materials lets paths through (glass, an interface, subsurface) is no
+    // wall: camera paths enter it.
+    if (std::any_of(mesh.materialIds.begin(), mesh.materialIds.end(),
+                    [&](uint32_t id) { return scene.materials[id].traits().transmits; }))
+      continue;
     const size_t vertices = mesh.positions.size(), triangles = mesh.triangleCount();
     const uint32_t* idx = mesh.indices.data();
     // Union-find over vertex indices.

@@ -175,6 +175,16 @@ TEST(Effects, AMirrorNoRayCanReachIsNotSimulated) {
   EXPECT_TRUE(analyzeEffects(open, open.camera()).specular) << "an open box lets rays in";
   const Scene inside = test::loadSceneJson(dir, sealedMirrorScene(dir, true, {0.2, 0.2, -0.3}), "inside.json");
   EXPECT_TRUE(analyzeEffects(inside, inside.camera()).specular) << "the camera is in the box with the mirror";
+  // A closed box that lets paths through is no wall: glass, a medium's interface, subsurface.
+  for (const json& wall : {json{{"type", "dielectric"}, {"ior", 1.5}}, json{{"type", "interface"}, {"interior_medium", "fog"}},
+                           json{{"type", "subsurface"}, {"mean_free_path", 0.1}}}) {
+    json scene = sealedMirrorScene(dir, true, {0, 0, -3});
+    scene["media"] = {{"fog", {{"sigma_s", 0.1}}}};
+    scene["materials"]["wall"] = wall;
+    scene["shapes"][1]["material"] = "wall";
+    const Scene s = test::loadSceneJson(dir, scene, "transmitting.json");
+    EXPECT_TRUE(analyzeEffects(s, s.camera()).specular) << wall;
+  }
   // Leaving the sealed mirror out changes no bit.
   const Scene s = test::loadSceneJson(dir, sealedMirrorScene(dir, true, {0, 0, -3}), "sealed.json");
   const std::vector<double> specialised = unitSums(s, false), general = unitSums(s, true);
