@@ -1,7 +1,9 @@
 #pragma once
 // The renderer's version. It changes whenever an identical job could produce different bits,
 // so that images (EXR headers) and farm peers can tell renderers apart. 0.3.0: leases of adaptive
-// units (Lease.adaptive), which a 0.2.0 worker would ignore and trace the wrong samples.
+// units (Lease.adaptive), which a 0.2.0 worker would ignore and trace the wrong samples. 0.4.0:
+// participating media (a 0.3.0 worker refuses such scenes), and a mirror inside a closed glass
+// mesh is simulated where 0.3.0 dropped it as unreachable (other bits for those scenes).
 namespace lensfarm {
-inline constexpr const char* kRendererVersion = "lensfarm-renderer/0.3.0";
+inline constexpr const char* kRendererVersion = "lensfarm-renderer/0.4.0";
 }
