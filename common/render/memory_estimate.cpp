@@ -14,6 +14,7 @@
 #include <set>
 
 #include "light/environment_light.h"
+#include "medium/medium.h"
 #include "render/unit_renderer.h"
 #include "util/error.h"
 
@@ -147,6 +148,12 @@ uint64_t sceneDataBytes(const Scene& scene) {
                mesh.tangents.size() * sizeof(glm::vec4);
   for (const auto& light : scene.lights)
     if (const auto* environment = dynamic_cast<const EnvironmentLight*>(light.get())) bytes += environment->map().bytes();
+  // Density grids (medium/grid_medium.h): their voxels and majorant cells, each grid once.
+  for (const auto& [name, medium] : scene.media)
+    if (const GridMedium* g = medium->asGrid()) {
+      const glm::ivec3 m = g->majorantResolution();
+      bytes += (g->densities().size() + size_t(m.x) * size_t(m.y) * size_t(m.z)) * sizeof(float);
+    }
   return bytes + scene.instances.size() * kSceneBytesPerInstance;
 }
 

@@ -84,8 +84,8 @@ MemoryEstimate coordinatorJobMemory(const RenderSettings& settings, uint64_t max
 uint64_t storedTriangles(const Scene& scene);
 
 // Bytes of a loaded scene beyond its stored triangles: textures (every mip level, each texture
-// once), vertex attributes (normals, texture coordinates, tangents), instances and the
-// environment map (its pixels and sampling distribution).
+// once), vertex attributes (normals, texture coordinates, tangents), instances, the
+// environment map (its pixels and sampling distribution) and density grids (voxels and majorants).
 uint64_t sceneDataBytes(const Scene& scene);
 
 // Bytes a worker needs for a unit of the job: the unit buffer and the loaded scene (its triangles,

@@ -12,6 +12,7 @@
 #include "film/image.h"
 #include "film/sensor.h"
 #include "light/environment_light.h"
+#include "medium/medium.h"
 #include "render/memory_estimate.h"
 #include "test_support.h"
 
@@ -245,6 +246,15 @@ TEST(MemoryEstimate, TexturesAndVertexAttributesCountInTheScene) {
   scene.lights.push_back(std::make_shared<EnvironmentLight>(
       "sky.exr", std::make_shared<const EnvironmentMap>(EnvironmentMap::fromImage(sky))));
   EXPECT_EQ(sceneDataBytes(scene), expected + 64 * 32 * (12 + 8));
+
+  // A density grid: 4 bytes a voxel and a majorant cell (16^3), each grid once however many
+  // materials use it; a homogeneous medium holds no array.
+  auto grid = std::make_shared<Medium>("smoke", GridMedium(Vec3(0.0f), Vec3(1.0f), glm::ivec3(10, 20, 30),
+                                                           std::vector<float>(6000, 1.0f), Spectrum(1.0f), Spectrum(0.0f), 0.0f),
+                                       DVec3(0.0), DVec3(1.0));
+  scene.media["smoke"] = grid;
+  scene.media["haze"] = std::make_shared<Medium>("haze", HomogeneousMedium(Spectrum(0.1f), Spectrum(0.1f), 0.0f));
+  EXPECT_EQ(sceneDataBytes(scene), expected + 64 * 32 * (12 + 8) + (6000 + 16 * 16 * 16) * 4);
 }
 
 }  // namespace
