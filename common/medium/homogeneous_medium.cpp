@@ -47,8 +47,11 @@ FreeFlight HomogeneousMedium::sampleFreeFlight(float tMax, int hero, float u, Sp
     mean += double(ratio[c]) * p[c] / 3.0;
   }
   // mean >= ratio[hero] p[hero] / 3 > 0: the hero's outcome has positive density (a pass: its
-  // exp(-sigma tMax) >= 1 - u), and ratio[hero] stays positive along the path.
+  // exp(-sigma tMax) >= 1 - u), and ratio[hero] stays positive along the path, in exact arithmetic.
+  // Should float underflow make them all 0 after a very long walk, the path ends (weight 0)
+  // rather than carry a NaN.
   FreeFlight out;
+  if (!(mean > 0.0)) return out;
   out.scattered = !pass;
   out.t = pass ? tMax : float(t);
   for (int c = 0; c < 3; ++c) {
