@@ -126,10 +126,15 @@ std::shared_ptr<Medium> parseGrid(const std::string& name, FieldReader& r, const
   const DVec3 lo = grid.lo, hi = grid.hi;
   const glm::ivec3 resolution = grid.resolution;
   std::vector<float> density = std::move(grid.density);
-  const Vec3 loF(lo), hiF(hi);
-  validateGridMedium(loF, hiF, resolution, density, sigmaA, sigmaS, g, r.file(), r.path());
-  return std::make_shared<Medium>(name, GridMedium(loF, hiF, resolution, std::move(density), sigmaA, sigmaS, g), lo,
-                                  hi);
+  // The box is checked in double, in world space: a small grid far from the origin has lo < hi
+  // only there. Until place() moves it to render space the grid sits at the origin.
+  for (int a = 0; a < 3; ++a)
+    if (!(hi[a] > lo[a]))
+      r.fail(r.field(r.has("file") ? "file" : "bounds"), "the grid's box needs lo < hi on every axis");
+  const Vec3 size(hi - lo);
+  validateGridMedium(Vec3(0.0f), size, resolution, density, sigmaA, sigmaS, g, r.file(), r.path());
+  return std::make_shared<Medium>(name, GridMedium(Vec3(0.0f), size, resolution, std::move(density), sigmaA, sigmaS, g),
+                                  lo, hi);
 }
 
 }  // namespace

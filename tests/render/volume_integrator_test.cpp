@@ -352,6 +352,8 @@ TEST(VolumeInput, BadMediaAreRefusedNamingTheField) {
   s["media"]["haze"]["density"] = {1, 1, 1, 1, 1, 1, 1, 1};
   s["media"]["haze"]["bounds"] = {{0, 0, 0}, {1, 0, 1}};
   expectFieldError(s, "media.haze");
+  s["media"]["haze"]["bounds"] = {{1e7, 1e7, 1e7}, {1e7 + 0.01, 1e7 + 0.01, 1e7 + 0.01}};
+  EXPECT_NO_THROW(test::loadSceneJson(test::TempDir(), s)) << "a centimetre grid ten million units away is a box";
   s["media"]["haze"]["bounds"] = {{0, 0, 0}, {1, 1, 1}};
   s["media"]["haze"]["resolution"] = {2, 0, 2};
   expectFieldError(s, "media.haze.resolution[1]");
