@@ -1,6 +1,7 @@
 // `lensfarm dof SCENE`: depth of field of the scene's camera, with the seed's formulas (8)-(10)
 // (reproducing its Table 1) and the textbook ones; with --spots N, the blur of points on the plane
 // of focus across the image (camera/focus_spots.h: the report's Figure 7d question, docs/figure7.md).
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -102,10 +103,17 @@ Runner addDofCommand(CLI::App& app) {
       ->check(wholeNumberIn(1, 64));
   return [scene, fNumbers, spots] {
     const Scene s = loadScene(*scene);
-    const ThinLensParams p = s.camera().params();
+    ThinLensParams p = s.camera().params();
+    // A pinhole has no focus (its sensor is at f): the tables are for a lens of its focal length
+    // focused on look_at, which is what an aperture would make of it.
+    if (std::isinf(p.focusDistance)) {
+      p.focusDistance = glm::length(DVec3(p.lookAt) - DVec3(p.position));
+      std::printf("pinhole: no focus; the tables are for a thin lens of its f focused on look_at\n");
+    }
     const double c = circleOfConfusion(p.sensorWidth, p.sensorHeight);
+    const double s2 = p.focalLength * p.focusDistance / (p.focusDistance - p.focalLength);
     std::printf("thin lens: f = %g, S1 = %g, sensor %g x %g, S2 = %.6g, c = d/1500 = %.6g\n\n", p.focalLength,
-                p.focusDistance, p.sensorWidth, p.sensorHeight, s.camera().imageDistance(), c);
+                p.focusDistance, p.sensorWidth, p.sensorHeight, s2, c);
     std::vector<DepthOfField> seed, textbook;
     for (double n : *fNumbers) {
       seed.push_back(seedDepthOfField(p.focalLength, p.focusDistance, n, c));

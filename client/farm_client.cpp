@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 
 #include "convert.h"
 #include "coordinator.h"
@@ -11,16 +12,57 @@
 namespace lensfarm::cli {
 
 namespace {
+bool mentions(const std::string& text, const char* part) { return text.find(part) != std::string::npos; }
+
+// A failure that says the peer is not a lensfarm coordinator (an HTTP server such as the
+// dashboard, another gRPC service), as a sentence; nothing for a coordinator's own answer.
+std::optional<std::string> wrongServer(const grpc::Status& s, const std::string& address) {
+  const std::string& m = s.error_message();
+  const std::string hint = " (the coordinator's gRPC port is its --listen, 7878 by default; its dashboard and metrics "
+                           "ports serve HTTP to browsers)";
+  if (mentions(m, "http1.x") || mentions(m, "HTTP/1") || mentions(m, "Received http2 header with status") ||
+      mentions(m, "Bad Request") || mentions(m, "received initial metadata size exceeds limit"))
+    return "coordinator " + address + ": an HTTP server answered, not a lensfarm coordinator" + hint;
+  if (s.error_code() == grpc::StatusCode::UNIMPLEMENTED && !mentions(m, "lensfarm"))
+    return "coordinator " + address + ": a gRPC server answered that is not a lensfarm coordinator (it does not know "
+           "the lensfarm.v1.ClientService)" + hint;
+  return std::nullopt;
+}
+
 void check(const grpc::Status& s, const std::string& address) {
   if (s.ok()) return;
-  if (s.error_code() == grpc::StatusCode::UNAVAILABLE || s.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED)
-    throw ClientError(s.error_code(), "coordinator " + address + " unreachable: " + s.error_message());
+  // Not a coordinator: the farm is unreachable at that address (exit code 3), whatever the code.
+  if (const std::optional<std::string> wrong = wrongServer(s, address))
+    throw ClientError(grpc::StatusCode::UNAVAILABLE, *wrong);
+  if (s.error_code() == grpc::StatusCode::UNAVAILABLE || s.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) {
+    const std::string& m = s.error_message();
+    if (mentions(m, "Connection refused") || mentions(m, "connection refused"))
+      throw ClientError(s.error_code(), "coordinator " + address + " unreachable: nothing listens on that port (is the "
+                                        "coordinator running, and is this its --listen address?)");
+    if (mentions(m, "DNS resolution failed") || mentions(m, "Name or service not known"))
+      throw ClientError(s.error_code(), "coordinator " + address + " unreachable: the host name does not resolve");
+    if (s.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED)
+      throw ClientError(s.error_code(), "coordinator " + address + " did not answer in time (a firewall, a wrong host, "
+                                        "or a TLS coordinator without --tls-ca?)");
+    throw ClientError(s.error_code(), "coordinator " + address + " unreachable: " + m);
+  }
   throw ClientError(s.error_code(), s.error_message());
+}
+
+// A coordinator address is HOST:PORT for gRPC; a URL scheme in front is a common slip.
+const std::string& checkedAddress(const std::string& address) {
+  for (const char* scheme : {"http://", "https://", "grpc://", "grpcs://"})
+    if (address.rfind(scheme, 0) == 0)
+      throw ClientError(grpc::StatusCode::INVALID_ARGUMENT,
+                        "--coordinator \"" + address + "\": give HOST:PORT without \"" + scheme +
+                            "\" (lensfarm speaks gRPC, not HTTP; for TLS give --tls-ca), e.g. --coordinator " +
+                            address.substr(std::string(scheme).size()));
+  return address;
 }
 }  // namespace
 
 FarmClient::FarmClient(const std::string& address, const ChannelSecurity& security, double timeoutSeconds)
-    : address_(address),
+    : address_(checkedAddress(address)),
       security_(security),
       timeout_(timeoutSeconds),
       stub_(v1::ClientService::NewStub(makeChannel(address, security))) {}

@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <functional>
 #include <optional>
+#include <set>
+#include <string>
 
 #include "commands.h"
 #include "denoise_output.h"
@@ -114,7 +116,7 @@ Runner addSubmitCommand(CLI::App& app) {
   cmd->add_option("--priority", f->priority, "Higher runs first")->capture_default_str();
   return [f] {
     const RenderOverrides o = f->overrides.toOverrides();
-    const LocalJob job = makeLocalJob(f->scene, o, f->overrides.camera, f->overrides.frameRange());
+    const LocalJob job = makeLocalJob(f->scene, o, f->overrides.camera, f->overrides.frameRange(), f->overrides.allowedFolders());
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());
       std::printf("%s\n", client.submit(job, f->priority, f->owner).job_id().c_str());
@@ -188,7 +190,15 @@ Runner addWatchCommand(CLI::App& app) {
         text.erase(std::remove_if(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; }), text.end());
         return text;
       };
+      // The job's events (workers lost, rejoining or quarantined; audits), each printed once, as
+      // it arrives: the list holds the latest 64, so they are told apart by time and text.
+      std::set<std::pair<double, std::string>> told;
       const v1::JobStatus last = client.watch(f->job, [&](const v1::JobStatus& s) {
+        for (const v1::JobEvent& e : s.events()) {
+          if (!told.emplace(e.unix_seconds(), e.text()).second) continue;
+          display.finish();
+          std::fprintf(stderr, "%s: %s  %s\n", s.job_id().c_str(), localTimeText(e.unix_seconds()).c_str(), e.text().c_str());
+        }
         const std::string& reason = s.progress().stalled_reason();
         if (withoutDigits(reason) != withoutDigits(stall)) {
           display.finish();
@@ -395,7 +405,8 @@ Runner addWorkersCommand(CLI::App& app) {
         if (w.quarantined())
           state = "quarantined" + (w.quarantine_reason().empty() ? "" : ": " + w.quarantine_reason()) + "; " + state;
         if (w.failures() > 0) state += "; " + std::to_string(w.failures()) + " failed unit(s)";
-        if (w.audits_passed() > 0) state += "; " + std::to_string(w.audits_passed()) + " audit(s) passed";
+        if (w.audits_passed() > 0) state += "; " + std::to_string(w.audits_passed()) + " of its units confirmed by audit";
+        if (w.audits_rendered() > 0) state += "; audited " + std::to_string(w.audits_rendered()) + " of other workers'";
         for (const std::string& job : w.blocklisted_jobs()) state += "; blocklisted for " + job;
         std::printf("%-18s %-28s %7u %-10s %8llu %9.1fs  %s\n", w.worker_id().c_str(), w.name().c_str(), w.threads(),
                     w.current_job_id().empty() ? "-" : w.current_job_id().c_str(), (unsigned long long)w.units_done(),

@@ -7,13 +7,14 @@
 namespace lensfarm::cli {
 
 LocalJob makeLocalJob(const std::filesystem::path& sceneFile, const RenderOverrides& overrides,
-                      const std::optional<std::string>& camera, const std::optional<FrameRange>& frames) {
+                      const std::optional<std::string>& camera, const std::optional<FrameRange>& frames,
+                      const std::vector<std::filesystem::path>& allowedFolders) {
   LocalJob job;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(sceneFile, ec)) throw InputError(sceneFile.string(), "no such scene file");
   // Keep what the loader reads, so assets are read once and uploaded exactly as loaded.
   std::map<std::string, std::string> read;
-  const AssetReader fromDisk = fileAssetReader(sceneFile);
+  const AssetReader fromDisk = fileAssetReader(sceneFile, allowedFolders);
   const AssetReader keep = [&](const std::string& path) {
     auto bytes = fromDisk(path);
     if (bytes) read[path] = *bytes;

@@ -5,6 +5,7 @@
 #include <optional>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "farm/farm_types.h"
 #include "scene/scene.h"
@@ -19,9 +20,11 @@ struct LocalJob {
 
 // Throws InputError naming the file and field if the scene (with the overrides) is invalid.
 // `camera`: a model camera's name to render through instead of the scene's (--camera).
-// `frames`: an animation's frames (JobSpec::frames); nullopt: a still.
+// `frames`: an animation's frames (JobSpec::frames); nullopt: a still. Files are read inside the
+// scene's folder or `allowedFolders` only (scene/asset_path.h).
 LocalJob makeLocalJob(const std::filesystem::path& sceneFile, const RenderOverrides& overrides,
                       const std::optional<std::string>& camera = std::nullopt,
-                      const std::optional<FrameRange>& frames = std::nullopt);
+                      const std::optional<FrameRange>& frames = std::nullopt,
+                      const std::vector<std::filesystem::path>& allowedFolders = {});
 
 }  // namespace lensfarm::cli

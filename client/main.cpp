@@ -16,39 +16,18 @@
 #include "commands.h"
 #include "exit_codes.h"
 #include "util/error.h"
+#include "util/spelling.h"
 #include "util/version.h"
 
 namespace {
 
 using namespace lensfarm;
 
-// The number of single-character insertions, deletions and substitutions from `a` to `b`.
-size_t editDistance(const std::string& a, const std::string& b) {
-  std::vector<size_t> row(b.size() + 1);
-  std::iota(row.begin(), row.end(), size_t(0));
-  for (size_t i = 1; i <= a.size(); ++i) {
-    size_t diagonal = row[0];
-    row[0] = i;
-    for (size_t j = 1; j <= b.size(); ++j) {
-      const size_t substitute = diagonal + (a[i - 1] == b[j - 1] ? 0 : 1);
-      diagonal = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, substitute});
-    }
-  }
-  return row[b.size()];
-}
-
 // "unknown command 'rendr'; did you mean 'render'?" when a command is at most two edits away.
 int unknownCommand(const CLI::App& app, const std::string& word) {
-  std::optional<std::string> nearest;
-  size_t best = 3;
-  for (const auto* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
-    const size_t d = editDistance(word, sub->get_name());
-    if (d < best) {
-      best = d;
-      nearest = sub->get_name();
-    }
-  }
+  std::vector<std::string> names;
+  for (const auto* sub : app.get_subcommands([](const CLI::App*) { return true; })) names.push_back(sub->get_name());
+  const std::optional<std::string> nearest = nearestName(word, names);
   std::cerr << "lensfarm: error: unknown command '" << word << "'; "
             << (nearest ? "did you mean '" + *nearest + "'?" : std::string("run 'lensfarm help' for the list")) << "\n";
   return cli::kBadInput;

@@ -46,6 +46,10 @@ void OverrideFlags::addTo(CLI::App* cmd) {
       ->check(CLI::IsMember({"on", "off"}));
   cmd->add_option("--ev", ev, "Exposure compensation in stops for PNG images (overrides the scene)")
       ->check(numberIn(-kMaxExposureEv, kMaxExposureEv, "stops"));
+  cmd->add_option("--allow-path", allowPaths,
+                  "A folder outside the scene's that the scene and its models may read files from (repeatable); "
+                  "by default every file must lie inside the scene's folder")
+      ->check(CLI::ExistingDirectory);
 }
 
 RenderOverrides OverrideFlags::toOverrides() const {

@@ -4,6 +4,7 @@
 // number checks every `lensfarm` flag uses.
 #include <CLI/CLI.hpp>
 #include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
@@ -35,12 +36,16 @@ struct OverrideFlags {
   std::optional<std::string> frames;
   std::optional<std::string> adaptive;  // --adaptive on|off
   std::vector<std::string> aovs;  // --aov, repeatable, each a comma-separated list (docs/aovs.md)
+  // --allow-path FOLDER, repeatable: a folder outside the scene's that its files may come from
+  // (scene/asset_path.h); the job is read on the client, so this never reaches the farm.
+  std::vector<std::string> allowPaths;
 
   void addTo(CLI::App* cmd);
   // Throws InputError naming the flag (e.g. a malformed --resolution).
   RenderOverrides toOverrides() const;
   // The frames asked for (nullopt: a still); InputError naming --frames.
   std::optional<FrameRange> frameRange() const;
+  std::vector<std::filesystem::path> allowedFolders() const { return {allowPaths.begin(), allowPaths.end()}; }
 };
 
 // The flag checks (util/flag_checks.h), by their short names here.

@@ -154,7 +154,7 @@ void writeCompleteFrames(const Coordinator& coordinator, const JobInfo& info, co
 
 int runRender(const RenderFlags& flags, PhaseTimer& timer) {
   const std::optional<FrameRange> frames = flags.overrides.frameRange();
-  LocalJob local = makeLocalJob(flags.scene, toOverrides(flags), flags.overrides.camera, frames);
+  LocalJob local = makeLocalJob(flags.scene, toOverrides(flags), flags.overrides.camera, frames, flags.overrides.allowedFolders());
   if (flags.denoise) {  // the guides' AOVs join the scene's (and --aov's), for every process of the job
     local.scene.render.aovs.bits |= denoiseGuideAovs().bits;
     local.spec.overrides.aovs = local.scene.render.aovs;
@@ -213,6 +213,11 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
   if (const std::string a = JobLayout::of(settings, std::nullopt).adaptiveSummary(); !a.empty() && !frames)
     spdlog::info("{}: {}", flags.scene, a);
   for (const std::string& note : scene.notes) spdlog::info("{}: {}", flags.scene, note);
+  if (const double framed = scene.cameraFramedAspect, image = double(settings.width) / settings.height;
+      framed > 0.0 && std::abs(framed / image - 1.0) > 0.01)
+    spdlog::info("{}: the camera was framed for aspect ratio {:.4g}, rendered at {:.4g} ({}x{}): its vertical angle of "
+                 "view is kept, so the sides show {}",
+                 flags.scene, framed, image, settings.width, settings.height, image > framed ? "more" : "less");
   if (scene.skippedDegenerateTriangles)
     spdlog::warn("{}: skipped {} zero-area triangles", flags.scene, scene.skippedDegenerateTriangles);
   // What the render leaves out of what the scene asks for is said before the first ray, not only

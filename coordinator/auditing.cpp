@@ -128,18 +128,19 @@ void Coordinator::applyVerdict(Job& job, const AuditBook::Verdict& v) {
     auto it = workers_.find(id);
     return it == workers_.end() ? id : it->second->label();
   };
-  // A worker whose result agreed was right then, so are the units it delivered before.
-  const auto vouchFor = [&](const std::string& id, uint64_t seq) {
+  // A worker whose result agreed was right then, so are the units it delivered before. Each
+  // audit is counted once per worker, by role: its own unit confirmed, or another's checked.
+  const auto vouchFor = [&](const std::string& id, uint64_t seq, bool ownUnit) {
     if (auto it = workers_.find(id); it != workers_.end()) {
       it->second->clearedSeq = std::max(it->second->clearedSeq, seq);
-      ++it->second->auditsPassed;
+      ++(ownUnit ? it->second->auditsPassed : it->second->auditsRendered);
     }
   };
   const std::string unit = "unit " + std::to_string(v.unit);
   switch (v.kind) {
     case AuditBook::Verdict::Kind::kAgreed:
-      vouchFor(v.right[0], v.acceptedSeq);        // the counted result's worker, up to that result
-      vouchFor(v.right[1], nextAcceptance_ - 1);  // the auditor, up to now
+      vouchFor(v.right[0], v.acceptedSeq, true);           // the counted result's worker, up to that result
+      vouchFor(v.right[1], nextAcceptance_ - 1, false);  // the auditor, up to now
       ++job.auditsPassed;
       ++counters_.auditsPassed;
       updateTrust(job);
@@ -152,8 +153,13 @@ void Coordinator::applyVerdict(Job& job, const AuditBook::Verdict& v) {
     case AuditBook::Verdict::Kind::kSettled: {
       ++job.auditsFailed;
       ++counters_.auditsFailed;
-      vouchFor(v.right[0], v.acceptedSeq);
-      vouchFor(v.right[1], nextAcceptance_ - 1);
+      {
+        // The counted worker is right[0] when it was right; otherwise both rendered it again.
+        const AuditBook::Audit* audit = job.audits.find(v.unit);
+        const bool countedRight = audit && audit->counted.worker == v.right[0];
+        vouchFor(v.right[0], v.acceptedSeq, countedRight);
+        vouchFor(v.right[1], nextAcceptance_ - 1, false);
+      }
       const std::string reason = unit + " of " + job.id + ": its sums " + v.detail + " from those of " +
                                  labelOf(v.right[0]) + " and " + labelOf(v.right[1]) + ", which agree";
       job.addEvent("audit of " + unit + ": " + labelOf(v.wrong) + " is wrong (" + v.detail + " from " +

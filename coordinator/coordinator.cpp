@@ -15,6 +15,7 @@
 #include "job_archive.h"
 #include "render/memory_estimate.h"
 #include "film/psf_convolution.h"
+#include "scene/asset_path.h"
 #include "scene/effects.h"
 #include "scene/scene_loader.h"
 #include "state_store.h"
@@ -114,6 +115,12 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
     // Hashes as every call takes them (AssetStore::checkSha256): a badly written one is an error
     // of its own, not an asset that was never uploaded.
     for (const auto& [path, sha] : spec.assets) AssetStore::checkSha256(sha, "assets[" + path + "].sha256");
+    // Asset names are paths relative to the scene, as the client's loader read them
+    // (scene/asset_path.h): never a URL or an absolute path. (They name uploaded files only;
+    // nothing on the coordinator's disk is read by them.)
+    for (const auto& [path, sha] : spec.assets)
+      if (const std::optional<std::string> problem = unreadablePathProblem(path))
+        throw FarmError(FarmError::Kind::kInvalidArgument, "assets[\"" + path + "\"]: " + *problem);
     std::string missing;
     for (const auto& [path, sha] : spec.assets)
       if (!assets_.has(sha)) missing += (missing.empty() ? "" : ", ") + path + " (" + sha.substr(0, 12) + ")";

@@ -155,7 +155,8 @@ struct WorkerView {
   std::vector<std::string> blocklistedJobs;  // jobs it is no longer leased (docs/farm.md "Failures")
   // The cross-worker audit (docs/farm.md "Audit"): a quarantined worker returned a result that
   // another two workers disagreed with; it is leased nothing more until the coordinator restarts.
-  uint64_t auditsPassed = 0;  // audits of its results (or by it) that agreed
+  uint64_t auditsPassed = 0;    // its own counted units an audit confirmed
+  uint64_t auditsRendered = 0;  // audits it rendered for another worker's units, which agreed
   bool quarantined = false;
   std::string quarantineReason;  // "unit 12 of job-3: sums differ from w2 and w4 by up to 1.0e-03 (cell 4711)"
 };

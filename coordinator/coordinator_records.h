@@ -71,6 +71,9 @@ struct Coordinator::Job {
     std::vector<uint64_t> units;
   };
   std::optional<Loss> lastLoss;  // guarded by Coordinator::mutex_
+  // The names (ids where unnamed) of workers that went while holding its units, so that one
+  // registering again is announced to the job's watchers; guarded by Coordinator::mutex_.
+  std::set<std::string> workersLost;
   // Failures reported by workers (reportFailure), guarded by Coordinator::mutex_: per worker id
   // its count; the workers each unit failed on; the reasons, oldest first (at most 16 kept);
   // the workers no longer leased this job's units.
@@ -129,7 +132,8 @@ struct Coordinator::Worker {
   // are vouched for by a later audit that agreed; its first counted unit is always audited.
   uint64_t clearedSeq = 0;
   bool firstUnitAudited = false;
-  uint64_t auditsPassed = 0;
+  uint64_t auditsPassed = 0;    // its own counted units an audit confirmed
+  uint64_t auditsRendered = 0;  // units it rendered again for another worker's audit, which agreed
   bool quarantined = false;  // leased nothing more
   std::string quarantineReason;
   std::string label() const { return info.name.empty() ? id : info.name + " (" + id + ")"; }

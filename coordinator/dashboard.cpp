@@ -98,6 +98,7 @@ std::string workerListJson(const std::vector<WorkerView>& workers) {
                         {"state_reason", w.stateReason},
                         {"attached", w.attached},
                         {"audits_passed", w.auditsPassed},
+                        {"audits_rendered", w.auditsRendered},
                         {"quarantined", w.quarantined},
                         {"quarantine_reason", w.quarantineReason}});
   }

@@ -10,6 +10,7 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <cstdio>
 #include <arpa/inet.h>
 #include <malloc.h>
 #include <netinet/in.h>
@@ -32,6 +33,7 @@
 #include "render/memory_estimate.h"
 #include "service.h"
 #include "util/error.h"
+#include "util/listen_check.h"
 #include "util/logging.h"
 #include "util/flag_checks.h"
 #include "util/service_flags.h"
@@ -292,6 +294,16 @@ int main(int argc, char** argv) {
   builder.AddChannelArgument(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);
   builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS, 4000);
   builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+  // Each address checked before any server takes one: a port in use is one line naming its flag.
+  for (const auto& [flag, address] : {std::pair<const char*, const std::string*>{"--listen", &listen},
+                                      {"--metrics-listen", &metricsListen},
+                                      {"--dashboard-listen", &dashboardListen}}) {
+    if (address->empty()) continue;
+    if (const std::optional<std::string> problem = listenProblem(*address)) {
+      std::fprintf(stderr, "lensfarm-coordinator: error: %s %s: %s\n", flag, address->c_str(), problem->c_str());
+      return 2;
+    }
+  }
   int port = 0;
   builder.AddListeningPort(listen, credentials, &port);
   builder.RegisterService(&clientService);

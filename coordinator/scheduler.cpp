@@ -135,6 +135,11 @@ std::string Coordinator::releaseLeasesOf(Worker& worker, const std::string& verb
     const std::string what = (units.size() == 1 ? "unit " : "units ") + list + " of " + jobId + " queued again";
     spdlog::debug("{} {} ({}): {}", worker.label(), verb, detail, what);
     requeued += (requeued.empty() ? "" : "; ") + what;
+    if (!isTerminal(job.state)) {
+      // The watcher's line (lensfarm watch, status, the dashboard): who went, why, what is redone.
+      job.addEvent("worker " + worker.label() + " " + verb + " (" + detail + "): " + what);
+      job.workersLost.insert(worker.info.name.empty() ? worker.id : worker.info.name);
+    }
     job.lastLoss = Job::Loss{worker.label(), verb, detail, now, std::move(units)};
     touch(job);
   }

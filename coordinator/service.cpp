@@ -158,6 +158,7 @@ v1::WorkerStatus toProto(const WorkerView& w) {
   p.set_failures(w.failures);
   for (const std::string& job : w.blocklistedJobs) p.add_blocklisted_jobs(job);
   p.set_audits_passed(w.auditsPassed);
+  p.set_audits_rendered(w.auditsRendered);
   p.set_quarantined(w.quarantined);
   p.set_quarantine_reason(w.quarantineReason);
   return p;

@@ -67,9 +67,20 @@ std::string Coordinator::registerWorker(const WorkerInfo& info, std::string* ses
   if (session) *session = worker->session;
   const std::string id = worker->id;
   spdlog::info("{} registered: {} with {} threads", id, info.name, info.threads);
-  // A lost or departed worker of the same name is this one back: the new entry replaces it.
-  for (auto it = workers_.begin(); it != workers_.end();)
-    it = it->second->gone && !info.name.empty() && it->second->info.name == info.name ? workers_.erase(it) : std::next(it);
+  // A lost or departed worker of the same name is this one back: the new entry replaces it, and
+  // the running jobs it left say so to their watchers.
+  bool back = false;
+  for (auto it = workers_.begin(); it != workers_.end();) {
+    const bool same = it->second->gone && !info.name.empty() && it->second->info.name == info.name;
+    back |= same;
+    it = same ? workers_.erase(it) : std::next(it);
+  }
+  if (back)
+    for (auto& [jobId, job] : jobs_)
+      if (!isTerminal(job->state) && job->workersLost.erase(info.name)) {
+        job->addEvent("worker " + info.name + " (" + id + ") rejoined");
+        touch(*job);
+      }
   workers_[id] = std::move(worker);
   return id;
 }
@@ -254,6 +265,7 @@ std::vector<WorkerView> Coordinator::workers() const {
     v.attached = w->attachment != 0;
     v.failures = w->failures;
     v.auditsPassed = w->auditsPassed;
+    v.auditsRendered = w->auditsRendered;
     v.quarantined = w->quarantined;
     v.quarantineReason = w->quarantineReason;
     for (const auto& [jobId, job] : jobs_)

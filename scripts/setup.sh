@@ -32,7 +32,7 @@ BUILD_PACKAGES=(
 # tests/ and bench/ (GoogleTest, Google Benchmark, yaml-cpp for the deployment files), and what
 # the tests run: ip netns for the multi-host test, gnuplot for `lensfarm study`, systemd-analyze
 # for the units, Chromium for the dashboard, a real Slurm (controller, node daemon, munge) for
-# deploy/slurm.
+# deploy/slurm, Blender (Cycles and its glTF exporter) for tests/blender.
 TEST_PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libyaml-cpp-dev
@@ -42,6 +42,7 @@ TEST_PACKAGES=(
   systemd
   chromium chromium-driver
   slurm-wlm munge
+  blender python3-numpy  # tests/blender: Cycles, and Blender's glTF exporter, which needs numpy
 )
 
 # `make fuzz`: libFuzzer with ASan and UBSan.

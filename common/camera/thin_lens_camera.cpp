@@ -1,5 +1,6 @@
 #include "camera/thin_lens_camera.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <sstream>
@@ -62,7 +63,7 @@ ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
     throw InputError("up", show(DVec3(p.up)) + " is parallel to the view direction look_at - position = " + show(axisD) +
                                ": the image's up is undefined; give an up that is not along the view direction");
 
-  if (!(p.focalLength > 0.0) || !std::isfinite(p.focalLength))
+  if (p.angleOfView == 0.0 && (!(p.focalLength > 0.0) || !std::isfinite(p.focalLength)))
     throw InputError("focal_length", "must be a finite number > 0");
   if (!(p.sensorWidth > 0.0) || !(p.sensorWidth <= std::numeric_limits<float>::max()))
     throw InputError("sensor_width", "must be a finite number > 0 (within single precision)");
@@ -77,13 +78,23 @@ ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
   }
   if (!(params_.sensorHeight > 0.0) || !(params_.sensorHeight <= std::numeric_limits<float>::max()))
     throw InputError("sensor_height", "must be a finite number > 0");
-  if (!(p.focusDistance > 0.0) || !std::isfinite(p.focusDistance))
-    throw InputError("focus_distance", "must be a finite number > 0 (a distance in front of the lens)");
-  if (p.focusDistance <= p.focalLength)
-    throw InputError("focus_distance", "S1 = " + show(p.focusDistance) + " must exceed the focal length f = " +
-                                           show(p.focalLength) + ": a lens cannot focus a subject at or inside f");
-  imageDistance_ = p.focalLength * p.focusDistance / (p.focusDistance - p.focalLength);
-  if (!std::isfinite(imageDistance_) || imageDistance_ > kMaxImageDistanceOverFocalLength * p.focalLength)
+  if (p.angleOfView != 0.0) {
+    if (!(p.angleOfView >= kMinFieldOfViewDegrees && p.angleOfView <= kMaxFieldOfViewDegrees))
+      throw InputError("angle_of_view", "must be in [" + show(kMinFieldOfViewDegrees) + ", " + show(kMaxFieldOfViewDegrees) +
+                                            "] degrees, got " + show(p.angleOfView));
+    params_.focalLength =
+        focalLengthFromAngleOfView(sensorExtent(params_.sensorWidth, params_.sensorHeight, p.fovAxis), p.angleOfView);
+    if (!(params_.focalLength > 0.0) || !std::isfinite(params_.focalLength))
+      throw InputError("angle_of_view", show(p.angleOfView) + " degrees gives no finite focal length on this sensor");
+  }
+  const double f = params_.focalLength;
+  if (!(p.focusDistance > 0.0) || std::isnan(p.focusDistance))
+    throw InputError("focus_distance", "must be a number > 0 (a distance in front of the lens), or infinity");
+  if (p.focusDistance <= f)
+    throw InputError("focus_distance", "S1 = " + show(p.focusDistance) + " must exceed the focal length f = " + show(f) +
+                                           ": a lens cannot focus a subject at or inside f");
+  imageDistance_ = std::isinf(p.focusDistance) ? f : f * p.focusDistance / (p.focusDistance - f);
+  if (!std::isfinite(imageDistance_) || imageDistance_ > kMaxImageDistanceOverFocalLength * f)
     throw InputError("focus_distance", "S1 is so close to f that the sensor distance S2 = f S1 / (S1 - f) "
                                        "is unbounded; move the subject further away");
   // N = 1 / (2 NA) for a lens in air, whose numerical aperture NA = sin(half-angle) is at most
@@ -94,14 +105,14 @@ ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
                                      ", the smallest f-number a lens in air can have (N = 1 / (2 NA) with numerical "
                                      "aperture NA <= 1); give N >= 0.5, or \"infinity\" for a pinhole");
   invImageDistance_ = 1.0 / imageDistance_;
-  invFocalLength_ = 1.0 / p.focalLength;
-  lensRadius_ = std::isinf(p.fNumber) ? 0.0 : p.focalLength / (2.0 * p.fNumber);
+  invFocalLength_ = 1.0 / f;
+  lensRadius_ = std::isinf(p.fNumber) ? 0.0 : f / (2.0 * p.fNumber);
   aperture_ = Aperture(ApertureSpec{p.apertureBlades, p.apertureRotation, p.apertureCurvature, p.apertureImage});
   if (p.apertureImage && std::isinf(p.fNumber))
     throw InputError("aperture_image", "needs a finite f_number: the image covers a square of side f / N");
   if (!std::isfinite(invImageDistance_) || !std::isfinite(invFocalLength_) || !(invImageDistance_ > 0.0) ||
       !(invFocalLength_ > 0.0))
-    throw InputError("focal_length", "f = " + show(p.focalLength) + " (S2 = " + show(imageDistance_) +
+    throw InputError("focal_length", "f = " + show(f) + " (S2 = " + show(imageDistance_) +
                                          ") has no finite reciprocal in double precision");
   if (!(lensRadius_ <= kMaxRayOriginDistance))
     throw InputError("f_number", "N = " + show(p.fNumber) + " makes the lens radius R = f / (2N) = " + show(lensRadius_) +
@@ -189,9 +200,35 @@ void ThinLensCamera::generatePinholeRays(const int (&i)[kPacketWidth], int j, co
   pinholeLanes(*this, i, j, u0, u1, rays);
 }
 
-double focalLengthFromAngleOfView(double sensorWidth, double angleOfViewDegrees) {
+double focalLengthFromAngleOfView(double sensorExtent, double angleOfViewDegrees) {
   const double alpha = angleOfViewDegrees * std::numbers::pi / 180.0;
-  return sensorWidth / (2.0 * std::tan(alpha / 2.0));
+  return sensorExtent / (2.0 * std::tan(alpha / 2.0));
+}
+
+const char* fovAxisName(FovAxis axis) {
+  switch (axis) {
+    case FovAxis::kHorizontal: return "horizontal";
+    case FovAxis::kVertical: return "vertical";
+    case FovAxis::kDiagonal: return "diagonal";
+    case FovAxis::kSmaller: return "smaller";
+    case FovAxis::kLarger: return "larger";
+  }
+  return "horizontal";
+}
+
+double sensorExtent(double sensorWidth, double sensorHeight, FovAxis axis) {
+  switch (axis) {
+    case FovAxis::kHorizontal: return sensorWidth;
+    case FovAxis::kVertical: return sensorHeight;
+    case FovAxis::kDiagonal: return std::hypot(sensorWidth, sensorHeight);
+    case FovAxis::kSmaller: return std::min(sensorWidth, sensorHeight);
+    case FovAxis::kLarger: return std::max(sensorWidth, sensorHeight);
+  }
+  return sensorWidth;
+}
+
+double angleOfViewDegrees(double sensorExtent, double imageDistance) {
+  return 2.0 * std::atan(sensorExtent / (2.0 * imageDistance)) * 180.0 / std::numbers::pi;
 }
 
 }  // namespace lensfarm

@@ -53,12 +53,24 @@ inline constexpr double kMinFNumber = 0.5;
 // that every component of a ray origin is within 1.844e18 (its FLT_LARGE) and aborts otherwise.
 inline constexpr double kMaxRayOriginDistance = 1e18;
 
+// The image axis an angle of view is measured along (Mitsuba 3's fov_axis): the sensor's width,
+// height or diagonal, or the shorter or longer of width and height.
+enum class FovAxis { kHorizontal, kVertical, kDiagonal, kSmaller, kLarger };
+
 struct ThinLensParams {
   Vec3 position{0.0f};               // lens centre
   Vec3 lookAt{0.0f, 0.0f, 1.0f};     // defines the optical axis
   Vec3 up{0.0f, 1.0f, 0.0f};         // the sensor's `up` is this, made orthogonal to the axis
   double focalLength = 0.0;          // f
-  double focusDistance = 0.0;        // S1, along the axis
+  // An angle of view in degrees along fovAxis, or 0. When set, f is derived from it at the
+  // camera's resolution, f = L / (2 tan(a/2)) with L the sensor's extent along the axis (seed
+  // eq. 4), because the sensor's height, and so every axis but the width, follows the image's
+  // aspect ratio; focalLength then holds f at the scene's own resolution.
+  double angleOfView = 0.0;
+  FovAxis fovAxis = FovAxis::kHorizontal;
+  // S1, along the axis; infinity focuses at infinity (S2 = f), as a pinhole is: its angle of view
+  // is then exactly 2 atan(L / 2f) whatever the distance to look_at.
+  double focusDistance = 0.0;
   double sensorWidth = 0.0;          // LW
   double sensorHeight = 0.0;         // LH; 0 = derived, LW * H / W (square cells)
   double fNumber = std::numeric_limits<double>::infinity();  // N; inf = pinhole
@@ -163,7 +175,17 @@ inline CameraRay ThinLensCamera::rayThrough(Vec2 s, Vec2 r) const {
   return CameraRay{params_.position + r.x * right_ + r.y * up_, dir};
 }
 
-// Focal length from a horizontal angle of view, seed eq. 4: alpha = 2 atan(L / 2f).
-double focalLengthFromAngleOfView(double sensorWidth, double angleOfViewDegrees);
+// Focal length from an angle of view across a sensor extent L, seed eq. 4: alpha = 2 atan(L / 2f).
+double focalLengthFromAngleOfView(double sensorExtent, double angleOfViewDegrees);
+
+// The axis's name in the scene format: horizontal, vertical, diagonal, smaller, larger.
+const char* fovAxisName(FovAxis axis);
+
+// The sensor's extent along an axis (width, height, diagonal, the smaller or larger side).
+double sensorExtent(double sensorWidth, double sensorHeight, FovAxis axis);
+
+// The angle of view in degrees that a sensor extent L at distance S2 behind the lens sees:
+// 2 atan(L / 2 S2). At infinity focus S2 = f; focused nearer, S2 > f and the angle narrows.
+double angleOfViewDegrees(double sensorExtent, double imageDistance);
 
 }  // namespace lensfarm

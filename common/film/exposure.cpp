@@ -27,6 +27,47 @@ double autoExposureScale(const Image& image) {
   return mean > 0.0 && std::isfinite(mean) && std::isfinite(1.0 / mean) ? 1.0 / mean : 1.0;
 }
 
+double litExposureScale(const Image& image) {
+  // Luminance per pixel as the mean meter takes it (in double where float would lose it).
+  const int w = image.width, h = image.height;
+  std::vector<double> lum(size_t(w) * size_t(h));
+  for (size_t k = 0; k < lum.size(); ++k) {
+    const float r = image.rgb[3 * k], g = image.rgb[3 * k + 1], b = image.rgb[3 * k + 2];
+    const float l = luminance(Spectrum(r, g, b));
+    const double ld = std::isnormal(l) ? double(l) : 0.2126 * double(r) + 0.7152 * double(g) + 0.0722 * double(b);
+    lum[k] = ld > 0.0 && std::isfinite(ld) ? ld : 0.0;
+  }
+  // A pixel sees something if it or a neighbour (3 x 3) is not black: a background the camera sees
+  // nothing in is black throughout, while a dark, noisy region has light somewhere near every
+  // pixel, so it is counted whatever the sample count. Summed in pixel order: the same factor on
+  // every machine.
+  double total = 0.0;
+  size_t lit = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      bool seen = false;
+      for (int dy = -1; dy <= 1 && !seen; ++dy)
+        for (int dx = -1; dx <= 1 && !seen; ++dx) {
+          const int nx = x + dx, ny = y + dy;
+          seen = nx >= 0 && ny >= 0 && nx < w && ny < h && lum[size_t(ny) * w + nx] > 0.0;
+        }
+      if (!seen) continue;
+      total += lum[size_t(y) * w + x];
+      ++lit;
+    }
+  const double mean = lit ? total / double(lit) : 0.0;
+  return mean > 0.0 && std::isfinite(mean) && std::isfinite(1.0 / mean) ? 1.0 / mean : 1.0;
+}
+
+double exposureScale(const Image& image, ExposureMeter meter) {
+  switch (meter) {
+    case ExposureMeter::kLit: return litExposureScale(image);
+    case ExposureMeter::kMean: return autoExposureScale(image);
+    case ExposureMeter::kFixed: return 1.0;
+  }
+  return 1.0;
+}
+
 float linearToSrgb(float x) {
   x = std::clamp(x, 0.0f, 1.0f);
   return x <= 0.0031308f ? 12.92f * x : 1.055f * std::pow(x, 1.0f / 2.4f) - 0.055f;
@@ -71,7 +112,7 @@ const Srgb8Quantizer& Srgb8Quantizer::instance() {
 }
 
 std::vector<uint8_t> exposeToSrgb8(const Image& image, const ExposureSettings& settings) {
-  const double scaleD = autoExposureScale(image) * std::exp2(settings.ev);
+  const double scaleD = exposureScale(image, settings.meter) * std::exp2(settings.ev);
   const float scale = float(scaleD);
   // The scale of an image whose mean is below float's normal range (1.2e-38) or near its top
   // (3.4e38), or with a large |ev|, is itself beyond float (Inf, or 0 or a denormal without

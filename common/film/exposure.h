@@ -1,9 +1,16 @@
 #pragma once
 // From linear radiance to a viewable 8-bit sRGB picture.
 //
-// Automatic exposure (seed §4.7.4): every pixel is divided by the average per-cell intensity,
-// so the image is never over- or under-exposed however long it rendered. Intensity here is
-// luminance (Rec. 709). Then the EV compensation (x 2^EV), a tone map (clamp, or Reinhard
+// Automatic exposure scales every pixel by one factor, chosen by the meter (scene/scene.h,
+// ExposureMeter), so the image is never over- or under-exposed however long it rendered:
+//  - lit (the default): the mean luminance of the pixels that see something maps to 1, a pixel
+//    seeing something when it or a neighbour is not black. A black background (every model
+//    exported without a world) is left out instead of pulling the exposure up, and, being a mean,
+//    the factor does not drift with the noise of a progressive image (a log-average or a median
+//    of noisy pixels does: measured, docs/scene-format.md "render.exposure");
+//  - mean (the seed's, §4.7.4): every pixel is divided by the mean luminance of all pixels;
+//  - fixed: no automatic factor.
+// Luminance is Rec. 709's. Then the EV compensation (x 2^EV), a tone map (clamp, or Reinhard
 // x / (1 + x) per channel), and the sRGB transfer function.
 #include <array>
 #include <cstdint>
@@ -14,8 +21,15 @@
 
 namespace lensfarm {
 
-// The factor that maps the image's mean luminance to 1 (1 for a black image).
+// The factor that maps the image's mean luminance to 1 (1 for a black image): the mean meter.
 double autoExposureScale(const Image& image);
+
+// The factor that maps the mean luminance of the pixels that see something (a pixel or one of
+// its 3 x 3 neighbours not black) to 1 (1 for a black image): the lit meter.
+double litExposureScale(const Image& image);
+
+// The meter's factor (without the EV).
+double exposureScale(const Image& image, ExposureMeter meter);
 
 // 8-bit sRGB, 3 bytes per pixel, row 0 at the top.
 std::vector<uint8_t> exposeToSrgb8(const Image& image, const ExposureSettings& settings);

@@ -9,6 +9,10 @@
 // a point at distance r receives E = I cos(theta) / r^2. Directional `irradiance` E is in
 // L x steradian (W/m^2): what a surface facing the light receives. The environment's `radiance`
 // (or its image's pixels times `strength`) is radiance, L.
+// Photometric inputs (glTF's KHR_lights_punctual: candela for point and spot, lux for directional)
+// are converted at kLumensPerWatt, the 683 lm/W that Blender's glTF exporter and importer use:
+// I = cd / 683 W/sr, E = lx / 683 W/m^2; then a lamp keeps its balance with emissive surfaces,
+// whose radiance both exporter and scene take as it is.
 //
 // Delta lights (a point, a spot, a sun without angular diameter) can only be reached by light
 // samples: no ray hits them, and their light sample has no solid-angle density (weight 1, no
@@ -27,6 +31,10 @@
 namespace lensfarm {
 
 class FieldReader;
+
+// Luminous efficacy for photometric light units: lumens per watt (the peak of the photopic
+// curve, 555 nm; the convention of Blender's glTF exporter, PBR_WATTS_TO_LUMENS).
+inline constexpr double kLumensPerWatt = 683.0;
 
 // A point on a light as seen from a shading point, for next-event estimation.
 struct LightSample {

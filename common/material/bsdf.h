@@ -31,6 +31,10 @@ struct MaterialSample {
   // A refraction's n_transmitted / n_incident, whose 1/eta^2 radiance scaling the weight holds; 1
   // for every other sample (Russian roulette divides the scaling out: render/integrator.cpp).
   float eta = 1.0f;
+  // Passed straight through a thin wall (a delta sample along -wo; BsdfTraits::thinWall): not a
+  // scattering vertex. The volume path tracer crosses it as a null event, keeping the last
+  // vertex's density for MIS and its bounce count, as shadow rays cross it attenuated.
+  bool straight = false;
 };
 
 // What the renderer needs to know of a model before it shades with it (render/integrator.cpp,
@@ -46,6 +50,11 @@ struct BsdfTraits {
   // Can send a path through the surface (glass, transmission, subsurface, an interface): a closed
   // mesh of it is no wall the effect analysis may seal things behind (scene/effects.cpp).
   bool transmits = false;
+  // A thin wall that lets light straight through with a tint (smooth thin-walled transmission: a
+  // window pane, glTF transmission without KHR_materials_volume): its straight part is a delta
+  // sample marked `straight`, and Bsdf::straightTransmittance gives it to shadow rays, which
+  // cross the wall attenuated instead of stopping (render/volume_integrator.h).
+  bool thinWall = false;
   Spectrum albedo{0.0f};    // lambertian: its albedo
   // The effect the scene analysis reports for it (scene/effects.h): "mirror", "rippled mirror",
   // "glass", ...; empty for Lambertian.
@@ -94,6 +103,13 @@ class Bsdf {
                                                bool front) const = 0;
   // The medium the model implies behind its front face (subsurface scattering's), if any.
   virtual std::shared_ptr<const Medium> interiorMedium() const { return nullptr; }
+  // A thin wall's straight transmittance from wo's side to the other (BsdfTraits::thinWall): the
+  // expected weight of its `straight` samples; zero for every other model.
+  virtual Spectrum straightTransmittance(const Vec3& /*n*/, const Vec3& /*wo*/) const { return Spectrum(0.0f); }
+  // The probability q that sample() goes straight through at wo: a thin wall's sample() does so
+  // exactly when uLobe < q (with weight straightTransmittance / q), so a path tracer can tell a
+  // crossing from a vertex before it samples; zero for every other model.
+  virtual float straightProbability(const Vec3& /*n*/, const Vec3& /*wo*/) const { return 0.0f; }
 };
 
 // Mirror reflection of wo about n.

@@ -11,10 +11,28 @@ DielectricBsdf::DielectricBsdf(const Spectrum& transmittance, float ior, bool th
 }
 
 BsdfTraits DielectricBsdf::traits() const {
-  BsdfTraits t = smooth_ ? BsdfTraits::deltaLobes(tint_, "glass", /*choosesLobe=*/true)
+  BsdfTraits t = smooth_ ? BsdfTraits::deltaLobes(tint_, thinWalled_ ? "thin glass" : "glass", /*choosesLobe=*/true)
                          : BsdfTraits::glossyLobes(!isBlack(tint_), "rough glass");
   t.transmits = true;
+  t.thinWall = thinWalled_;
   return t;
+}
+
+namespace {
+// A pane's reflectance summed over its inter-reflections without absorption: R' = 2R / (1 + R).
+float paneReflectance(float cosO, float ior) {
+  float cosT;
+  const float r = fresnelDielectric(cosO, ior, cosT);
+  return r < 1.0f ? 2.0f * r / (1.0f + r) : 1.0f;
+}
+}  // namespace
+
+Spectrum DielectricBsdf::straightTransmittance(const Vec3& n, const Vec3& wo) const {
+  return tint_ * straightProbability(n, wo);
+}
+
+float DielectricBsdf::straightProbability(const Vec3& n, const Vec3& wo) const {
+  return thinWalled_ ? 1.0f - paneReflectance(std::abs(glm::dot(n, wo)), ior_) : 0.0f;
 }
 
 void DielectricBsdf::evalLocal(const Vec3& wo, const Vec3& wi, float eta, Spectrum* f, float* pdf) const {
@@ -93,11 +111,9 @@ std::optional<MaterialSample> DielectricBsdf::sample(const Vec3& n, const Vec3& 
   if (thinWalled_) {
     // A pane: the two faces' reflections summed over its inter-reflections, R' = 2R/(1+R) without
     // absorption; light that passes leaves parallel to where it came from.
-    float cosT;
-    const float r = fresnelDielectric(cosO, ior_, cosT);
-    const float rPane = r < 1.0f ? 2.0f * r / (1.0f + r) : 1.0f;
-    if (uLobe < rPane) return MaterialSample{reflect(wo, n), tint_, 0.0f, true};
-    return MaterialSample{-wo, tint_, 0.0f, true};
+    // Straight through first (Bsdf::straightProbability's convention), else reflected.
+    if (uLobe < 1.0f - paneReflectance(cosO, ior_)) return MaterialSample{-wo, tint_, 0.0f, true, 1.0f, /*straight=*/true};
+    return MaterialSample{reflect(wo, n), tint_, 0.0f, true};
   }
   const float relative = front ? ior_ : 1.0f / ior_;  // n_transmitted / n_incident
   float cosT;

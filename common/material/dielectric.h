@@ -35,6 +35,9 @@ class DielectricBsdf final : public Bsdf {
   Spectrum evalCos(const Vec3& n, const Vec3& wo, const Vec3& wi, bool front) const override;
   float pdf(const Vec3& n, const Vec3& wo, const Vec3& wi, bool front) const override;
   std::optional<MaterialSample> sample(const Vec3& n, const Vec3& wo, float uLobe, Vec2 u, bool front) const override;
+  // A thin-walled pane: tint (1 - R'), R' = 2R / (1 + R) its reflectance at wo's angle.
+  Spectrum straightTransmittance(const Vec3& n, const Vec3& wo) const override;
+  float straightProbability(const Vec3& n, const Vec3& wo) const override;
   bool smooth() const { return smooth_; }
 
  private:

@@ -67,6 +67,14 @@ class Material {
   std::shared_ptr<const Medium> interior, exterior;
   // A medium's index-matched boundary (material/interface.h): rays cross it unchanged.
   bool passesThrough() const { return traits_.passesThrough; }
+  // A thin wall that lets light straight through with a tint (BsdfTraits::thinWall).
+  bool isThinWall() const { return traits_.thinWall; }
+  Spectrum straightTransmittance(const Vec3& n, const Vec3& wo) const {
+    return traits_.thinWall ? bsdf_->straightTransmittance(n, wo) : Spectrum(0.0f);
+  }
+  float straightProbability(const Vec3& n, const Vec3& wo) const {
+    return traits_.thinWall ? bsdf_->straightProbability(n, wo) : 0.0f;
+  }
 
   bool isEmissive() const { return !isBlack(emission); }
   bool reflects() const { return traits_.reflects; }

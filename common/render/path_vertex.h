@@ -58,6 +58,7 @@ inline void unitShadowRay(const Vec3& d, float reach, Vec3& direction, float& tF
 struct VertexOutcome {
   bool castShadow = false;  // `shadow` holds a light sample whose ray must be tested
   bool continues = false;   // `path` holds the next ray to cast
+  bool straight = false;    // it went straight through a thin wall: no vertex (kThinWalls)
 };
 
 // The weight of light that the camera ray or a scattered ray reaches (an emitter it hits, or a
@@ -180,7 +181,13 @@ inline bool scatter(const RenderScene& rs, const SampleStream& rng, uint32_t bas
 // (next-event estimation) prepared as a shadow query, then the scattered direction and Russian
 // roulette. The caller casts the shadow ray and adds its contribution when it is unblocked; the
 // additions to the radiance keep the order emission, light sample, as the seed's sum does.
-template <bool kNee, bool kGeneral>
+// kThinWalls (the volume path tracer, whose shadow rays cross thin walls attenuated): a path that
+// goes straight through a thin wall (MaterialSample::straight) meets no vertex there: the
+// throughput takes the sample's weight, and the bounce count, roulette and the last vertex's
+// density and kind (for the MIS of a light reached next) stay as they were. The light sample of
+// the vertex before counts the light through the wall, attenuated by it, and the light reached
+// through it is weighed against that sample as if the wall were not there: one strategy each.
+template <bool kNee, bool kGeneral, bool kThinWalls = false>
 inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng, int segment, const SurfaceHit& hit,
                                  PathState& path, ShadowQuery& shadow) {
   const RenderSettings& settings = rs.settings();
@@ -198,7 +205,8 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
   const bool specular = kGeneral && material.isSpecular();
   const bool front = glm::dot(hit.n, -path.direction) >= 0.0f;  // wo on the front face's side
   const bool counts = !specular || settings.mirrorBouncesCount;
-  if (counts && path.bounces >= settings.maxBounces) return outcome;
+  const bool thinWall = kThinWalls && material.isThinWall();
+  if (!thinWall && counts && path.bounces >= settings.maxBounces) return outcome;
 
   const Vec3 wo = -path.direction;
   const Vec3 ng = front ? hit.n : -hit.n;  // shade the side we came from
@@ -217,6 +225,30 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
   };
   const auto pdf = [&](const Vec3& wi) { return local ? local->pdf(n, wo, wi, front) : material.pdf(n, wo, wi, front); };
 
+  // A thin wall: first whether the path crosses it straight, with the model's probability q
+  // (Bsdf::straightProbability), as a null event before any bounce is counted; otherwise it is a
+  // vertex with probability 1 - q, whose light sample is weighed by 1 / (1 - q). (Its scattered
+  // sample needs no such factor: drawn from the same uLobe >= q, its weight f / pdf already holds
+  // the density of the non-straight lobes.)
+  float vertexWeight = 1.0f;
+  if (thinWall) {
+    const float uLobe = rng.get1D(base + dims::kMaterialLobe);
+    const float q = local ? local->straightProbability(n, wo) : material.straightProbability(n, wo);
+    if (uLobe < q) {
+      const auto s = local ? local->sample(n, wo, uLobe, rng.get2D(base + dims::kMaterial), front)
+                           : material.sample(n, wo, uLobe, rng.get2D(base + dims::kMaterial), front);
+      if (!s || !s->straight) return outcome;
+      path.throughput *= s->weight;
+      if (isBlack(path.throughput)) return outcome;
+      path.origin = spawnOrigin(hit.p, hit.plane(), s->wi);
+      path.direction = s->wi;
+      outcome.continues = outcome.straight = true;
+      return outcome;
+    }
+    if (counts && path.bounces >= settings.maxBounces) return outcome;
+    vertexWeight = 1.0f / (1.0f - q);
+  }
+
   const bool lastBounce = nee && !specular && counts && isLastBounce(rs, path.bounces);
 
   // Next-event estimation: one shadow ray to a point on a light.
@@ -232,7 +264,7 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
         shadow.tFar = 1.0f - kShadowEpsilon;
         if (ls->reach > 0.0f) unitShadowRay(shadow.direction, ls->reach, shadow.direction, shadow.tFar);
         const float weight = mis && !lastBounce && !ls->delta ? powerHeuristic(ls->pdf, pdf(wi)) : 1.0f;
-        shadow.contribution = path.throughput * f * ls->radiance * (weight / ls->pdf);
+        shadow.contribution = path.throughput * f * ls->radiance * (vertexWeight * weight / ls->pdf);
         outcome.castShadow = true;
       }
     }

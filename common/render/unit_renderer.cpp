@@ -47,12 +47,12 @@ enum CameraKind { kPinhole, kThinLens, kRealLens, kRealLensSpectral };
 static_assert(dims::segment(uint32_t(pathSegmentLimit(kMaxBounces))) < dims::kWavelength);
 static_assert(dims::segment(uint32_t(pathSegmentLimit(kMaxBounces) + kMaxMediumBounces + 64)) < dims::kWavelength);
 
-// The radiance of a packet's lanes: the volume path tracer's where the scene has media (one path
-// at a time), else the packet tracer's, or the one-ray reference's (render/integrator.h).
+// The radiance of a packet's lanes: the volume path tracer's where the scene has media or thin
+// walls (one path at a time), else the packet tracer's, or the one-ray reference's (render/integrator.h).
 template <bool kNee, bool kGeneral>
 void traceLanes(const RenderScene& rs, const PathPacket& packet, Spectrum (&radiance)[kPacketWidth], PathStats& stats,
                 RayGrouping grouping) {
-  if (rs.effects().media) {
+  if (rs.effects().media || rs.effects().thinWalls) {
     for (int k = 0; k < packet.count; ++k)
       radiance[k] = traceVolumePath<kNee>(rs, packet.cameraRays.ray(k), packet.rng[k], stats);
   } else if (grouping == RayGrouping::kPackets) {

@@ -27,10 +27,22 @@ inline const Medium* afterCrossing(const RenderScene& rs, const Material& m, con
   return m.exterior ? m.exterior.get() : rs.scene().medium.get();
 }
 
+// A thin wall's straight transmittance for a ray along `dir` (BsdfTraits::thinWall), with the
+// textures' values at the hit where the material has them.
+Spectrum thinWallTransmittance(const RenderScene& rs, const SurfaceHit& hit, const Material& m, const Vec3& dir) {
+  const Vec3 wo = -dir;
+  const bool front = glm::dot(hit.n, wo) >= 0.0f;
+  const Vec3 ng = front ? hit.n : -hit.n;
+  if (!rs.shaded(hit.material)) return m.straightTransmittance(ng, wo);
+  const ShadingPoint sp = shadingPoint(rs, hit, wo, ng, front);
+  if (!m.varies()) return m.straightTransmittance(sp.n, wo);
+  return PrincipledBsdf(m.principledAt(sp.uv, sp.footprint)).straightTransmittance(sp.n, wo);
+}
+
 // The fraction of light that arrives along the shadow ray from + t direction, t in (0, tFar)
 // (direction need not be unit: tFar is in its units), starting in `medium`: the media's
-// transmittance across every index-matched boundary it crosses, 0 where an opaque surface blocks
-// it. A segment's tracking numbers come from a MediumRng keyed by (key, crossing).
+// transmittance across every index-matched boundary it crosses and every thin wall's straight
+// transmittance, 0 where another surface blocks it. A segment's tracking numbers come from a MediumRng keyed by (key, crossing).
 Spectrum shadowTransmittance(const RenderScene& rs, Vec3 from, const Vec3& direction, float tFar, const Medium* medium,
                              uint64_t key, PathStats& stats) {
   const float length = glm::length(direction);
@@ -48,7 +60,9 @@ Spectrum shadowTransmittance(const RenderScene& rs, Vec3 from, const Vec3& direc
     }
     if (!blocks) return tr;
     const Material& m = rs.material(hit->material);
-    if (!m.passesThrough() || isBlack(tr)) return Spectrum(0.0f);
+    if (m.isThinWall()) tr *= thinWallTransmittance(rs, *hit, m, dir);
+    else if (!m.passesThrough()) return Spectrum(0.0f);
+    if (isBlack(tr)) return Spectrum(0.0f);
     medium = afterCrossing(rs, m, hit->n, dir, medium);
     from = spawnOrigin(hit->p, hit->plane(), dir);
     remaining = glm::dot(end - from, dir);
@@ -156,7 +170,7 @@ Spectrum traceVolumePath(const RenderScene& rs, const CameraRay& cameraRay, cons
     SurfaceHit at = *hit;
     at.t += sinceVertex;
     const Vec3 incoming = path.direction;
-    const VertexOutcome outcome = shadeVertex<kNee, true>(rs, rng, segment, at, path, shadow);
+    const VertexOutcome outcome = shadeVertex<kNee, true, true>(rs, rng, segment, at, path, shadow);
     if (outcome.castShadow) {
       // The shadow ray leaves on the side of its direction: through the surface into (or out of)
       // the material's interior where it is transmitted.
@@ -169,6 +183,10 @@ Spectrum traceVolumePath(const RenderScene& rs, const CameraRay& cameraRay, cons
     if (!outcome.continues) break;
     if (glm::dot(path.direction, hit->n) * glm::dot(incoming, hit->n) > 0.0f)  // transmitted
       medium = afterCrossing(rs, material, hit->n, path.direction, medium);
+    if (outcome.straight) {  // through a thin wall: no vertex, as across an interface
+      sinceVertex += hit->t;
+      continue;
+    }
     fromCamera = false;
     sinceVertex = 0.0f;
   }

@@ -308,7 +308,10 @@ EffectSet EffectSet::all(const Scene& scene) {
   EffectSet e;
   e.lightUseful.assign(scene.materials.size(), true);
   e.media = scene.medium != nullptr;
-  for (const Material& m : scene.materials) e.media |= m.interior != nullptr || m.exterior != nullptr || m.passesThrough();
+  for (const Material& m : scene.materials) {
+    e.media |= m.interior != nullptr || m.exterior != nullptr || m.passesThrough();
+    e.thinWalls |= m.isThinWall();
+  }
   return e;
 }
 
@@ -447,6 +450,16 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
     if (where.size() > 4) reason += "; ...";
     e.decisions.push_back({"participating media", e.media, e.media ? reason : "no medium in the scene"});
   }
+  // Thin walls: only a scene with one pays for shadow rays that cross surfaces.
+  {
+    std::set<std::string> walls;
+    for (size_t m = 0; m < scene.materials.size(); ++m)
+      if (used[m] && scene.materials[m].isThinWall()) walls.insert("\"" + scene.materials[m].name + "\"");
+    e.thinWalls = !walls.empty();
+    if (e.thinWalls)
+      e.decisions.push_back({"thin walls", true,
+                             list(walls) + " let light straight through: shadow rays cross them with their tint"});
+  }
 
   // Lights that can light something: an emitter is useful if the front of some triangle of its
   // material faces a surface or the camera (scene/effects.h).
@@ -530,6 +543,8 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
     ltWhy = "render.light_tracing is off";
   else if (e.media)
     ltWhy = "participating media: light paths are not traced through media (the volume path tracer samples the image)";
+  else if (e.thinWalls)
+    ltWhy = "thin walls: light paths are not connected through them (the volume path tracer samples the image)";
   else if (real)
     ltWhy = "a real lens cannot be connected to: a path from a surface point to the sensor through its "
             "surfaces has no closed form (the path tracer alone samples the image)";

@@ -12,6 +12,9 @@
 //    metal) can be met; materials beyond Lambertian (the general vertex code): off when none can;
 //  - participating media: on when the scene has a `medium` or a used material has one inside
 //    (docs/media.md); off, the surface tracers run, with no medium code in them;
+//  - thin walls: on when a used material lets light straight through with a tint (a pane, glTF
+//    transmission without a volume): then, too, the volume path tracer runs, and shadow rays
+//    cross those walls attenuated by them instead of stopping;
 //  - next-event estimation: off with the naive estimator, or when no light can light anything;
 //  - lights that face away from every surface and from the camera (or only into the inside of
 //    the closed mesh they lie on, with nothing there) are dropped from sampling and reported as
@@ -46,6 +49,11 @@ struct EffectSet {
   // A path can be inside a participating medium (a fog, a medium inside a mesh, subsurface
   // scattering): camera paths are traced by the volume path tracer (render/volume_integrator.h).
   bool media = false;
+  // A used material is a thin wall that lets light straight through with a tint (BsdfTraits::
+  // thinWall: a window pane, glTF glass without a volume): camera paths are traced by the volume
+  // path tracer, whose shadow rays cross such walls attenuated and whose paths cross them as null
+  // events; light tracing is off (its connections could not cross them).
+  bool thinWalls = false;
   // Light tracing beside the path tracer (render/light_tracer.h): on where render.light_tracing
   // is "on" and it can run (a thin-lens camera, an NEE estimator, whole-frame units, an emitting
   // triangle). `auto` leaves it off: where the scene has mirrorCaustics (a diffuse surface can see

@@ -10,9 +10,11 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "math/vec.h"
 #include "util/error.h"
+#include "util/spelling.h"
 
 namespace lensfarm {
 
@@ -57,8 +59,10 @@ class FieldReader {
     if (!object_.is_object()) fail(path_.empty() ? "(top level)" : path_, "must be a JSON object");
   }
 
+  // A field missing from the object ("is required", "give exactly one of ...") is often there
+  // under a slightly different name: the message then shows it.
   [[noreturn]] void fail(const std::string& field, const std::string& what) const {
-    throw InputError(file_, field + ": " + what);
+    throw InputError(file_, field + ": " + what + misspellingHint(field));
   }
   std::string field(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
 
@@ -175,7 +179,9 @@ class FieldReader {
       if (!seen_.count(it.key())) {
         std::string allowed;
         for (const auto& k : seen_) allowed += (allowed.empty() ? "" : ", ") + k;
-        fail(field(it.key()), "unknown field (expected one of: " + allowed + ")");
+        const std::optional<std::string> meant = nearestName(it.key(), std::vector<std::string>(seen_.begin(), seen_.end()));
+        fail(field(it.key()), meant ? "unknown field; did you mean \"" + *meant + "\"? (expected one of: " + allowed + ")"
+                                    : "unknown field (expected one of: " + allowed + ")");
       }
     }
   }
@@ -184,6 +190,20 @@ class FieldReader {
   const std::string& file() const { return file_; }
 
  private:
+  // "; the object has \"focal_lenght\": a misspelling of \"focal_length\"?" when `name` is a key of
+  // this object that it lacks and a key nobody asked for is within a slip of it.
+  std::string misspellingHint(const std::string& name) const {
+    const std::string prefix = path_.empty() ? "" : path_ + ".";
+    if (!object_.is_object() || name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) return "";
+    const std::string key = name.substr(prefix.size());
+    if (key.find_first_of(".[") != std::string::npos || object_.contains(key)) return "";
+    std::vector<std::string> unread;
+    for (auto it = object_.begin(); it != object_.end(); ++it)
+      if (!seen_.count(it.key())) unread.push_back(it.key());
+    const std::optional<std::string> written = nearestName(key, unread);
+    return written ? "; the object has \"" + *written + "\": a misspelling of \"" + key + "\"?" : "";
+  }
+
   static std::string fmt(double x) {
     std::ostringstream s;
     s << x;

@@ -19,6 +19,8 @@
 #include <tuple>
 #include <utility>
 
+#include "light/light_source.h"
+#include "scene/asset_path.h"
 #include "medium/medium.h"
 #include "texture/image_decode.h"
 #include "util/error.h"
@@ -478,12 +480,12 @@ class GltfImporter {
         const json* uri = member((*buffers)[i], "uri");
         if (!binary_ && (!uri || !uri->is_string()))
           fail(indexed("buffers", i), "has no uri (only a .glb's buffer may leave it out, for its BIN chunk)");
-        if (uri && uri->is_string()) addUri(uri->get<std::string>());
+        if (uri && uri->is_string()) addUri(uri->get<std::string>(), indexed("buffers", i) + ".uri");
       }
     if (const json* images = member(root_, "images"); images && images->is_array())
       for (size_t i = 0; i < images->size(); ++i) {
         const json* uri = member((*images)[i], "uri");
-        if (uri && uri->is_string()) addUri(uri->get<std::string>());
+        if (uri && uri->is_string()) addUri(uri->get<std::string>(), indexed("images", i) + ".uri");
         const json* view = member((*images)[i], "bufferView");
         if (view && view->is_number_integer()) checkImageView(i, view->get<int64_t>(), buffers, views);
       }
@@ -527,8 +529,13 @@ class GltfImporter {
     return v->get<uint64_t>();
   }
 
-  void addUri(const std::string& uri) {
-    if (!isDataUri(uri)) uriPaths_[decodeUri(uri, true)] = decodeUri(uri, false);
+  // A uri that names a file: refused at once if it can name none (a remote URL, an absolute path:
+  // scene/asset_path.h); the reader decides whether a relative one stays inside the asset root.
+  void addUri(const std::string& uri, const std::string& where) {
+    if (isDataUri(uri)) return;
+    const std::string path = decodeUri(uri, false);
+    if (const std::optional<std::string> problem = unreadablePathProblem(path)) fail(where, "\"" + uri + "\" " + *problem);
+    uriPaths_[decodeUri(uri, true)] = path;
   }
 
   // tinygltf reads an image's bufferView from its buffer unchecked: it must lie inside it.
@@ -750,10 +757,20 @@ class GltfImporter {
       const std::string w = ext + "KHR_materials_specular";
       f.specular = float(extensionNumber(*e, "specularFactor", 1.0, 0.0, 1.0, w));
       if (e->Has("specularTexture")) model_.notes.push_back(label + ": specularTexture ignored (specularFactor used)");
-      if (e->Has("specularColorFactor") || e->Has("specularColorTexture"))
-        model_.notes.push_back(label +
-                               ": specularColorFactor/specularColorTexture approximated: the specular layer is "
-                               "untinted (F0 from ior only)");
+      if (e->Has("specularColorFactor")) {
+        const tinygltf::Value& v = e->Get("specularColorFactor");
+        if (!v.IsArray() || v.ArrayLen() != 3) fail(w + ".specularColorFactor", "must be 3 numbers");
+        Spectrum c;
+        for (int k = 0; k < 3; ++k) {
+          if (!v.Get(k).IsNumber()) fail(w + ".specularColorFactor", "must be 3 numbers");
+          c[k] = float(inRange(v.Get(k).GetNumberAsDouble(), 0.0, 1e6, w + ".specularColorFactor"));
+        }
+        f.specularColor = luminance(c);  // F0 scaled, untinted
+        if (c.r != c.g || c.g != c.b)
+          model_.notes.push_back(label + ": specularColorFactor approximated: F0 is scaled by its luminance, untinted");
+      }
+      if (e->Has("specularColorTexture"))
+        model_.notes.push_back(label + ": specularColorTexture ignored (specularColorFactor used)");
     }
     if (extension(m.extensions, "KHR_materials_unlit")) {
       // Unlit: the base colour as it is, whatever the light. A path tracer has no such surface;
@@ -769,10 +786,16 @@ class GltfImporter {
                              "(lit by the scene's lights)");
     }
     std::shared_ptr<const Medium> interior;
-    if (const tinygltf::Value* e = extension(m.extensions, "KHR_materials_volume"))
+    if (const tinygltf::Value* e = extension(m.extensions, "KHR_materials_volume")) {
+      // thicknessFactor > 0 makes the surface a volume's boundary: a solid that refracts
+      // (KHR_materials_volume: "the material is thin-walled" only where it is 0).
+      f.thinWalled = !(f.transmission > 0.0f && extensionNumber(*e, "thicknessFactor", 0.0, 0.0, 1e30, ext + "KHR_materials_volume") > 0.0);
       interior = volumeOf(*e, f.transmission, label, ext + "KHR_materials_volume");
+    }
+    // doubleSided: lit (and emitting) on both faces, as rasterisers and Cycles show it; one-sided
+    // emission otherwise (glTF 2.0 §3.9.5).
     Material out = Material::textured(m.name.empty() ? where : m.name, std::move(t),
-                                      Spectrum(float(emission.x), float(emission.y), float(emission.z)), false);
+                                      Spectrum(float(emission.x), float(emission.y), float(emission.z)), m.doubleSided);
     out.interior = std::move(interior);
     return out;
   }
@@ -1384,12 +1407,12 @@ class GltfImporter {
       const double aspect = c.perspective.aspectRatio;
       if (aspect < 0.0 || !std::isfinite(aspect))
         fail(where + ".perspective.aspectRatio", "must be > 0, got " + num(aspect));
-      double horizontal = yfov;
-      if (aspect > 0.0)
-        horizontal = 2.0 * std::atan(aspect * std::tan(yfov / 2.0));
-      else
-        model_.notes.push_back(label + ": no aspectRatio: angle_of_view is its yfov (as for a square image)");
-      j["angle_of_view"] = glm::degrees(horizontal);
+      // yfov is the vertical field of view whatever the output's aspect ratio (glTF 2.0, 3.10.2;
+      // Blender's importer reads it so too); aspectRatio only says what the author framed for,
+      // which the scene loader compares with the resolution (a note when they differ).
+      j["angle_of_view"] = glm::degrees(yfov);
+      j["fov_axis"] = "vertical";
+      if (aspect > 0.0) j["aspect_ratio"] = aspect;
     } else {
       // lensfarm has no orthographic camera: the scene loader refuses this one by its type if chosen.
       j["type"] = "orthographic";
@@ -1409,7 +1432,10 @@ class GltfImporter {
       if (l.color.size() != 3) fail(where + ".color", "must be 3 numbers");
       for (int c = 0; c < 3; ++c) color[c] = inRange(l.color[size_t(c)], 0.0, 1e30, where + ".color");
     }
-    const DVec3 power = color * inRange(l.intensity, 0.0, 1e30, where + ".intensity");
+    // Candela (point, spot) and lux (directional) to W/sr and W/m^2 (light/light_source.h).
+    const DVec3 power = color * (inRange(l.intensity, 0.0, 1e30, where + ".intensity") / kLumensPerWatt);
+    noteOnce("photometric", "KHR_lights_punctual: intensities in candela and lux converted to W/sr and W/m^2 at " +
+                                num(kLumensPerWatt) + " lm/W (as Blender's glTF exporter writes them)");
     if (l.range > 0.0) noteOnce("range", label + ": range ignored (inverse-square fall-off without a cut-off)");
     const DVec3 position(p.world[3]);
     const std::string& nodeName = gltf_.nodes[p.node].name;

@@ -60,7 +60,8 @@ struct ImportedModel {
   std::vector<MeshInput> prototypes;
   std::vector<ModelInstance> instances;
   // The model's cameras as lensfarm "camera" objects (position, look_at, up, angle_of_view or
-  // focal_length + sensor_width, ...), in the model's order; "name" holds the model's name.
+  // focal_length + sensor_width, ...), in the model's order; "name" holds the model's name and
+  // "aspect_ratio" (if the model gives one) the aspect the author framed for.
   std::vector<nlohmann::json> cameras;
   // The model's lights as entries of a lensfarm "lights" array (point, spot, directional).
   std::vector<nlohmann::json> lights;

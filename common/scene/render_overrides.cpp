@@ -10,7 +10,7 @@
 namespace lensfarm {
 
 void parseResolution(const std::string& text, RenderOverrides& o, const std::string& flag) {
-  static const std::regex kWxH(R"((\d{1,6})x(\d{1,6}))");
+  static const std::regex kWxH(R"(\s*(\d{1,6})\s*[xX]\s*(\d{1,6})\s*)");
   std::smatch m;
   if (!std::regex_match(text, m, kWxH))
     throw InputError(flag, "expected WIDTHxHEIGHT, e.g. 800x600, got \"" + text + "\"");

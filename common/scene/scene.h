@@ -94,9 +94,16 @@ enum class ToneMap { kClamp, kReinhard };
 // decide (scene/effects.h), kOn and kOff force it where the camera and layout allow it.
 enum class LightTracingMode { kAuto, kOn, kOff };
 
+// How the automatic exposure meters an image (film/exposure.h): kLit maps the mean luminance of
+// the pixels that see something to 1, so a black background does not blow out what stands in
+// front of it; kMean maps the mean luminance of every pixel to 1 (the seed's, §4.7.4); kFixed
+// applies no automatic scale (the EV alone: the same exposure on every frame of an animation).
+enum class ExposureMeter { kLit, kMean, kFixed };
+
 struct ExposureSettings {
   double ev = 0.0;  // compensation applied after the automatic exposure, in stops
   ToneMap toneMap = ToneMap::kReinhard;
+  ExposureMeter meter = ExposureMeter::kLit;
 };
 
 // Diffraction by the aperture (docs/scene-format.md, camera.diffraction; film/diffraction_psf.h): a
@@ -209,6 +216,9 @@ struct Scene {
   // What the loader mapped approximately, ignored or chose for the user (a model's camera, a
   // framing camera, glTF features it approximates): printed at the start of a render.
   std::vector<std::string> notes;
+  // The aspect ratio (width / height) a model's camera was framed for (glTF's aspectRatio), 0
+  // where none was said. Its vertical angle holds at any image size; the sides show more or less.
+  double cameraFramedAspect = 0.0;
   // Animation (scene/keyframes.h): the first and last keyframe's frames, none for a still scene;
   // and the frame the scene was loaded at (the one asked for; else the first keyframe's, or 0).
   std::optional<KeyframeRange> keyframeRange;

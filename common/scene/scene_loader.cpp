@@ -26,6 +26,7 @@
 #include "scene/field_reader.h"
 #include "scene/gltf_import.h"
 #include "scene/imported_model.h"
+#include "scene/asset_path.h"
 #include "scene/keyframes.h"
 #include "scene/lens_prescription.h"
 #include "scene/obj_check.h"
@@ -195,6 +196,15 @@ class SceneParser {
         s.exposure.toneMap = ToneMap::kClamp;
       else
         e.fail("render.exposure.tone_map", "unknown tone map \"" + tm + "\" (expected reinhard or clamp)");
+      const std::string meter = e.string("meter", "lit");
+      if (meter == "lit")
+        s.exposure.meter = ExposureMeter::kLit;
+      else if (meter == "mean")
+        s.exposure.meter = ExposureMeter::kMean;
+      else if (meter == "fixed")
+        s.exposure.meter = ExposureMeter::kFixed;
+      else
+        e.fail("render.exposure.meter", "unknown meter \"" + meter + "\" (expected lit, mean or fixed)");
       e.finish();
     }
     r.finish();
@@ -269,8 +279,9 @@ class SceneParser {
   }
 
   // Without a "camera" in the scene: the first camera of the first model that has one, else one
-  // that frames every model (a 40-degree view of their bounding sphere from the front, +z, and a
-  // little above), named in the scene's notes.
+  // that frames every model: a pinhole whose 40-degree view along the image's shorter side holds
+  // every corner of their bounds (with a 10 % margin), from the front, +z, and a little above,
+  // so the whole model shows at any aspect ratio; named in the scene's notes.
   // With `wanted` (the scene's "camera": "NAME"), the model camera of that name, or an error listing
   // the cameras the models have.
   json modelCamera(const std::optional<std::string>& wanted = std::nullopt) {
@@ -279,27 +290,15 @@ class SceneParser {
       for (const ModelImport& m : imports_)
         for (const json& c : m.model.cameras) {
           const std::string name = c.value("name", std::string());
-          if (name == *wanted) {
-            json camera = c;
-            camera.erase("name");
-            cameraOrigin_ = m.field + " camera \"" + name + "\"";
-            notes_.push_back("camera: " + m.shown + "'s camera \"" + name + "\"");
-            return camera;
-          }
+          if (name == *wanted) return useModelCamera(m.field, m.shown, c, name);
           names += (names.empty() ? "\"" : ", \"") + name + "\"";
         }
       throw InputError(fileName_, "camera: no model camera named \"" + *wanted + "\" (" +
                                       (names.empty() ? std::string("the models have no cameras") : "the models have " + names) + ")");
     }
     for (const ModelImport& m : imports_) {
-      if (!m.model.cameras.empty()) {
-        json camera = m.model.cameras.front();
-        const std::string name = camera.value("name", std::string("cameras[0]"));
-        camera.erase("name");
-        cameraOrigin_ = m.field + " camera \"" + name + "\"";
-        notes_.push_back("camera: " + m.shown + "'s camera \"" + name + "\"");
-        return camera;
-      }
+      if (!m.model.cameras.empty())
+        return useModelCamera(m.field, m.shown, m.model.cameras.front(), m.model.cameras.front().value("name", std::string("cameras[0]")));
     }
     DVec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
     for (const ModelImport& m : imports_) lo = glm::min(lo, m.worldLo), hi = glm::max(hi, m.worldHi);
@@ -307,15 +306,42 @@ class SceneParser {
       throw InputError(fileName_, "camera: is required (no model in shapes brings one to frame)");
     const DVec3 centre = 0.5 * (lo + hi);
     const double radius = std::max(0.5 * glm::length(hi - lo), 1e-6 * std::max(1.0, largestAbs(centre)));
-    const double distance = 1.1 * radius / std::sin(glm::radians(20.0));
-    const DVec3 from = centre + distance * glm::normalize(DVec3(0.0, 0.25, 1.0));
+    // The nearest distance from which every corner of the bounds lies within 20 degrees of the
+    // axis, less a 10 % margin, both across and up (the shorter side's half-angle: it holds on the
+    // longer side too, whatever the aspect ratio); never inside the bounds.
+    const DVec3 back = glm::normalize(DVec3(0.0, 0.25, 1.0));  // from the centre towards the camera
+    const DVec3 right = glm::normalize(glm::cross(-back, DVec3(0.0, 1.0, 0.0))), up = glm::cross(right, -back);
+    const double slope = std::tan(glm::radians(20.0)) / 1.1;
+    double distance = 0.0;
+    for (int c = 0; c < 8; ++c) {
+      const DVec3 d = boxCorner(lo, hi, c) - centre;
+      const double across = std::max(std::abs(glm::dot(d, right)), std::abs(glm::dot(d, up)));
+      distance = std::max({distance, across / slope + glm::dot(d, back), glm::dot(d, back) + 0.05 * radius});
+    }
+    distance = std::max(distance, 0.05 * radius);
+    const DVec3 from = centre + distance * back;
     cameraOrigin_ = "camera (framing every model)";
     notes_.push_back("camera: none in the scene or its models; framing them from the front: position " + showVec3(from) +
-                     ", look_at " + showVec3(centre) + ", angle_of_view 40");
+                     ", look_at " + showVec3(centre) + ", angle_of_view 40, fov_axis smaller");
     return json{{"type", "pinhole"},
                 {"position", {from.x, from.y, from.z}},
                 {"look_at", {centre.x, centre.y, centre.z}},
-                {"angle_of_view", 40.0}};
+                {"angle_of_view", 40.0},
+                {"fov_axis", "smaller"}};
+  }
+
+  // A model's camera as the scene's, with a note naming it, and the aspect ratio it was framed for
+  // (Scene::cameraFramedAspect).
+  json useModelCamera(const std::string& field, const std::string& shown, const json& modelCamera, const std::string& name) {
+    json camera = modelCamera;
+    camera.erase("name");
+    cameraOrigin_ = field + " camera \"" + name + "\"";
+    notes_.push_back("camera: " + shown + "'s camera \"" + name + "\"");
+    if (camera.contains("aspect_ratio")) {
+      scene_.cameraFramedAspect = camera["aspect_ratio"].get<double>();
+      camera.erase("aspect_ratio");
+    }
+    return camera;
   }
 
   // camera.diffraction (film/diffraction_psf.h): true, false, or an object with `wavelengths` (per
@@ -446,9 +472,25 @@ class SceneParser {
         r.fail(r.field("sensor_height"), "must be >= 0 (0: sensor_width * H / W, square cells), got " + shortNumber(p.sensorHeight));
     }
     const double angle = hasAngle ? r.number("angle_of_view", 1e-6, 179.999) : 0.0;
-    p.focalLength = hasF ? positive(r, "focal_length") : focalLengthFromAngleOfView(p.sensorWidth, angle);
+    if (r.has("fov_axis")) {
+      if (!hasAngle) r.fail(r.field("fov_axis"), "says which axis angle_of_view is measured along; give angle_of_view");
+      p.fovAxis = fovAxisNamed(r, r.string("fov_axis"));
+    }
+    p.angleOfView = angle;
+    p.focalLength = hasF ? positive(r, "focal_length")
+                         : focalLengthFromAngleOfView(
+                               sensorExtent(p.sensorWidth, sceneSensorHeight(p), p.fovAxis), angle);
     const double lookAtDistance = glm::length(lookAt - position);
-    p.focusDistance = r.has("focus_distance") ? positive(r, "focus_distance") : lookAtDistance;
+    // A pinhole has no focus: its sensor sits at f, so the angle of view is the one given.
+    if (type == "pinhole") {
+      if (r.has("focus_distance")) {
+        (void)positive(r, "focus_distance");
+        notes_.push_back("camera.focus_distance: a pinhole has no focus; it is ignored");
+      }
+      p.focusDistance = std::numeric_limits<double>::infinity();
+    } else {
+      p.focusDistance = r.has("focus_distance") ? positive(r, "focus_distance") : lookAtDistance;
+    }
     if (type == "thin_lens") {
       if (r.has("aperture_blades")) p.apertureBlades = int(r.integer("aperture_blades", 3, 64));
       if (r.has("aperture_rotation")) p.apertureRotation = r.number("aperture_rotation", -360.0, 360.0);
@@ -483,8 +525,7 @@ class SceneParser {
     // A focal length as long as the whole distance to look_at is a unit mix-up (millimetres for
     // the lens, metres for the scene), not a focus problem: name the length that was given.
     if (!(lookAtDistance > p.focalLength) && !(p.focusDistance > p.focalLength)) {
-      const std::string distance = "the distance to look_at (" + shortNumber(lookAtDistance) +
-                                   "), on which the lens focuses (a pinhole's sensor is placed by it too)";
+      const std::string distance = "the distance to look_at (" + shortNumber(lookAtDistance) + "), on which the lens focuses";
       const std::string units = "camera lengths are in the scene's unit (that of positions), not millimetres";
       // Sensor and lens in one unit (a sensor 1/20 to 20 times f): both were written in millimetres.
       const bool sameUnit = p.sensorWidth / p.focalLength > 0.05 && p.sensorWidth / p.focalLength < 20.0;
@@ -507,12 +548,38 @@ class SceneParser {
                  ": give sensor_width in the scene's unit, or a wider angle");
     }
     try {
-      (void)ThinLensCamera(p, scene_.render.width, scene_.render.height);
+      const ThinLensCamera camera(p, scene_.render.width, scene_.render.height);
+      if (type == "thin_lens") noteFocusBreathing(camera, hasAngle);
     } catch (const InputError& e) {
       // The camera names its own field; report it in the scene file's terms.
       const std::string msg = e.what();
       r.fail(r.field(e.where()), msg.substr(e.where().size() + 2));
     }
+  }
+
+  // A thin lens focused near moves its sensor back (S2 > f) and sees a narrower angle than at
+  // infinity focus, as a real lens "breathes": say so when the difference shows (0.5 %).
+  void noteFocusBreathing(const ThinLensCamera& camera, bool hasAngle) {
+    const ThinLensParams& p = camera.params();
+    const double extent = sensorExtent(p.sensorWidth, p.sensorHeight, p.fovAxis);
+    const double atInfinity = angleOfViewDegrees(extent, p.focalLength),
+                 focused = angleOfViewDegrees(extent, camera.imageDistance());
+    if (!(focused < atInfinity * (1.0 - 0.005))) return;
+    notes_.push_back("camera: focused at " + shortNumber(p.focusDistance) + ", the thin lens sees " +
+                     shortNumber(focused) + " degrees " + fovAxisName(p.fovAxis) + ", not the " + shortNumber(atInfinity) +
+                     (hasAngle ? " of its angle_of_view (which holds at infinity focus)" : " it sees at infinity focus") +
+                     "; a pinhole sees its angle_of_view exactly");
+  }
+
+  // The sensor height the camera will have at the scene's resolution (0 in the scene: square cells).
+  double sceneSensorHeight(const ThinLensParams& p) const {
+    return p.sensorHeight > 0.0 ? p.sensorHeight : p.sensorWidth * scene_.render.height / scene_.render.width;
+  }
+
+  static FovAxis fovAxisNamed(FieldReader& r, const std::string& name) {
+    for (const FovAxis axis : {FovAxis::kHorizontal, FovAxis::kVertical, FovAxis::kDiagonal, FovAxis::kSmaller, FovAxis::kLarger})
+      if (name == fovAxisName(axis)) return axis;
+    r.fail(r.field("fov_axis"), "unknown axis \"" + name + "\" (expected horizontal, vertical, diagonal, smaller or larger)");
   }
 
   void parseShapes(FieldReader& top) {
@@ -609,13 +676,31 @@ class SceneParser {
   // A file named by field `key` of r, relative to the scene file, read through the asset reader
   // and added to the scene's hash and assets (so the farm ships it to workers), or one error
   // naming the field and the path.
+  // A path the asset root refuses (scene/asset_path.h) is named with the reason.
   LoadedAsset readAssetFile(FieldReader& r, const std::string& key, const std::string& kind) {
     const std::string rel = r.string(key);
+    if (const std::optional<std::string> problem = unreadablePathProblem(rel))
+      r.fail(r.field(key), "\"" + rel + "\" " + *problem);
     const fs::path path = file_.parent_path() / rel;
-    std::optional<std::string> content = readAsset_(rel);
-    if (!content) r.fail(r.field(key), "cannot read " + kind + " \"" + path.string() + "\"");
+    std::optional<std::string> content;
+    try {
+      content = readAsset_(rel);
+    } catch (const AssetRefused& e) {
+      r.fail(r.field(key), "\"" + rel + "\" " + e.what());
+    }
+    if (!content) r.fail(r.field(key), "cannot read " + kind + " \"" + path.string() + "\": " + missingFile(path));
     addAssetHash(rel, *content);
     return LoadedAsset{path.string(), std::move(*content)};
+  }
+
+  // Why a file could not be read, with the path it was looked for at.
+  static std::string missingFile(const fs::path& path) {
+    std::error_code ec;
+    const fs::path absolute = fs::absolute(path, ec).lexically_normal();
+    const std::string shown = ec ? path.string() : absolute.string();
+    if (fs::is_directory(path, ec)) return "is a folder, not a file (" + shown + ")";
+    if (fs::exists(path, ec)) return "cannot be opened (" + shown + "; check its permissions)";
+    return "no such file (looked for " + shown + ")";
   }
 
   // An asset into the scene's hash, and its own hash into the scene's assets: two passes over the
@@ -692,8 +777,15 @@ class SceneParser {
   ModelFileReader modelFileReader(const std::string& modelRel, ModelImport& m) {
     const fs::path dir = fs::path(modelRel).parent_path();
     return [this, dir, &m](const std::string& rel) -> std::optional<std::string> {
+      if (const std::optional<std::string> problem = unreadablePathProblem(rel))
+        throw InputError(m.shown, "\"" + rel + "\" " + *problem);
       const std::string path = (dir / rel).lexically_normal().generic_string();
-      std::optional<std::string> content = readAsset_(path);
+      std::optional<std::string> content;
+      try {
+        content = readAsset_(path);
+      } catch (const AssetRefused& e) {
+        throw InputError(m.shown, "\"" + rel + "\" " + e.what());
+      }
       if (!content) {
         if (m.obj && fs::path(rel).extension() == ".mtl") {
           m.readerNotes.push_back("mtllib " + rel + " not found: its materials must come from the scene");
@@ -1139,9 +1231,9 @@ class NonFiniteNumberFinder : public nlohmann::json_sax<json> {
 };
 }  // namespace
 
-AssetReader fileAssetReader(const fs::path& sceneFile) {
+AssetReader fileAssetReader(const fs::path& sceneFile, const std::vector<fs::path>& allowed) {
   const fs::path dir = sceneFile.parent_path();
-  return [dir](const std::string& rel) { return readWholeFile(dir / rel); };
+  return [dir, allowed](const std::string& rel) { return readWholeFile(confinedFile(dir, rel, allowed)); };
 }
 
 uint32_t unitSize(const RenderSettings& s) {
@@ -1191,8 +1283,28 @@ void checkNesting(const std::string& text, const fs::path& file) {
 }
 }  // namespace
 
+namespace {
+// What a binary file given as a scene is, by its magic bytes; nothing for text.
+std::optional<std::string> binaryKind(const std::string& text) {
+  static const std::pair<std::string, const char*> kMagic[] = {
+      {"\x89PNG\r\n\x1a\n", "a PNG image"},   {"\xff\xd8\xff", "a JPEG image"},
+      {"\x76\x2f\x31\x01", "an OpenEXR image"}, {"glTF", "a binary glTF model (.glb): give it a .glb name"},
+      {"%PDF", "a PDF document"},                {"PK\x03\x04", "a zip archive"},
+      {"\x1f\x8b", "a gzip archive"},             {"\x7f" "ELF", "a program"},
+      {"BM", "a BMP image"},                     {"GIF8", "a GIF image"}};
+  for (const auto& [magic, kind] : kMagic)
+    if (text.compare(0, magic.size(), magic) == 0) return std::string(kind);
+  const size_t head = std::min<size_t>(text.size(), 4096);
+  if (text.find('\0') < head) return std::string("a binary file");
+  return std::nullopt;
+}
+}  // namespace
+
 Scene parseScene(const std::string& text, const fs::path& file, const AssetReader& readAsset,
                  std::optional<double> frame) {
+  if (const std::optional<std::string> kind = binaryKind(text))
+    throw InputError(file.string(), "is " + *kind + ", not a scene: a scene is a JSON file (docs/scene-format.md), a "
+                                    "model a .gltf, .glb or .obj file");
   checkNesting(text, file);
   json root;
   try {
@@ -1248,17 +1360,42 @@ Scene modelScene(const fs::path& modelFile, std::string& text, const AssetReader
     scene["materials"] = {{"default grey", {{"type", "lambertian"}, {"albedo", 0.7}}}};
     scene["shapes"][0]["fallback_material"] = "default grey";
   }
-  // The scene file the model's JSON stands for sits beside the model, so its assets resolve there.
+  // The scene file the model's JSON stands for sits beside the model, so its assets resolve there;
+  // its errors name the model, the file the user gave (the scene's own fields, "shapes[0]", are
+  // left out: the user never wrote them).
   const fs::path asFile = modelFile.parent_path() / (modelFile.filename().string() + ".scene.json");
+  const auto parse = [&]() {
+    try {
+      return parseScene(text, asFile, readAsset);
+    } catch (const InputError& e) {
+      std::string what = e.what();
+      const std::string written = asFile.string() + ": ";
+      if (what.rfind(written, 0) != 0) throw;
+      what.erase(0, written.size());
+      for (const std::string field : {"shapes[0] ", "shapes[0].", "shapes[0]: "})
+        if (what.rfind(field, 0) == 0) what.erase(0, field.size());
+      throw InputError(modelFile.string(), what);
+    }
+  };
   text = scene.dump(2);
-  Scene s = parseScene(text, asFile, readAsset);
+  Scene s = parse();
   bool lit = !s.lights.empty();
   for (const Material& m : s.materials) lit |= m.isEmissive();
   if (lit) return s;
-  scene["environment"] = {{"radiance", {1.0, 1.0, 1.0}}};
+  // A studio look that shows the shape: a key light from above the camera's left shoulder
+  // (irradiance 3: a white surface facing it has radiance 3 / pi ~ 1) and a dim uniform fill
+  // (radiance 0.25), which is also the background; key to fill about 4:1.
+  const ThinLensCamera view = s.camera();
+  const Vec3 towardKey = glm::normalize(-0.5f * view.right() + 0.8f * view.up() - 0.6f * view.forward());
+  scene["environment"] = {{"radiance", {0.25, 0.25, 0.25}}};
+  scene["lights"] = {{{"type", "directional"},
+                      {"name", "studio key"},
+                      {"direction", {towardKey.x, towardKey.y, towardKey.z}},
+                      {"irradiance", {3.0, 3.0, 3.0}}}};
   text = scene.dump(2);
-  s = parseScene(text, asFile, readAsset);
-  s.notes.push_back("environment: the model has no lights; lit by a uniform white environment of radiance 1");
+  s = parse();
+  s.notes.push_back("lights: the model has none; lit as in a studio: a directional key light from above the camera's "
+                    "left (irradiance 3) and a uniform grey environment (radiance 0.25) as fill and background");
   return s;
 }
 

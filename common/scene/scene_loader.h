@@ -41,8 +41,10 @@ inline constexpr uint64_t kMaxInstances = uint64_t(1) << 24;
 // this way.
 using AssetReader = std::function<std::optional<std::string>(const std::string& relativePath)>;
 
-// Reads assets from the file system, relative to `sceneFile`'s directory.
-AssetReader fileAssetReader(const std::filesystem::path& sceneFile);
+// Reads assets from the file system, relative to `sceneFile`'s directory, inside it or inside one
+// of the `allowed` folders (scene/asset_path.h); a path outside them throws AssetRefused, which
+// the scene loader reports naming the field or the model file.
+AssetReader fileAssetReader(const std::filesystem::path& sceneFile, const std::vector<std::filesystem::path>& allowed = {});
 
 // A scene file, or a model file (.gltf, .glb, .obj) rendered with modelScene's defaults.
 // `frame`: the frame of an animated scene to evaluate its keyframes at (docs/scene-format.md,
@@ -54,8 +56,9 @@ Scene loadScene(const std::filesystem::path& file, std::optional<double> frame =
 bool isModelFile(const std::filesystem::path& file);
 // The scene that renders a model file as it is (`lensfarm render model.glb`): the model as the
 // only shape with its own materials, its first camera (or one framing it), its lights, 1280x720
-// at 64 samples per pixel with 4 bounces; and, if the model has no lights, a uniform white
-// environment of radiance 1 (Scene::notes says so). `text` receives the scene's JSON, which the
+// at 64 samples per pixel with 4 bounces; and, if the model has no lights, a studio light: a
+// directional key light from above the camera's left and a dim grey environment as fill and
+// background (Scene::notes says so). `text` receives the scene's JSON, which the
 // farm ships as the job's scene.
 // `camera`: the name of the model camera to use (default: its first).
 Scene modelScene(const std::filesystem::path& modelFile, std::string& text, const AssetReader& readAsset = {},

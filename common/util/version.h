@@ -3,7 +3,10 @@
 // so that images (EXR headers) and farm peers can tell renderers apart. 0.3.0: leases of adaptive
 // units (Lease.adaptive), which a 0.2.0 worker would ignore and trace the wrong samples. 0.4.0:
 // participating media (a 0.3.0 worker refuses such scenes), and a mirror inside a closed glass
-// mesh is simulated where 0.3.0 dropped it as unreachable (other bits for those scenes).
+// mesh is simulated where 0.3.0 dropped it as unreachable (other bits for those scenes). 0.5.0:
+// a pinhole's sensor sits at f (its angle no longer depends on look_at), fov_axis, glTF cameras'
+// vertical yfov, photometric glTF lights, solid glTF glass and thin walls (other bits for those
+// scenes; a 0.4.0 worker would refuse fov_axis and thin_walled).
 namespace lensfarm {
-inline constexpr const char* kRendererVersion = "lensfarm-renderer/0.4.0";
+inline constexpr const char* kRendererVersion = "lensfarm-renderer/0.5.0";
 }

@@ -107,8 +107,8 @@ TEST_F(CliAuditOutput, WorkersShowQuarantineFirstAndAuditsPassedBesideFailures) 
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const std::string w1 = lineStarting(r.out, "w1 "), w3 = lineStarting(r.out, "w3 ");
   ASSERT_FALSE(w1.empty() || w3.empty()) << r.out;
-  EXPECT_TRUE(contains(w3, std::string("  quarantined: ") + test::kQuarantineReason + "; idle; 3 audit(s) passed"));
-  EXPECT_TRUE(contains(w1, "  rendering; 2 failed unit(s); 5 audit(s) passed; blocklisted for job-2"));
+  EXPECT_TRUE(contains(w3, std::string("  quarantined: ") + test::kQuarantineReason + "; idle; 3 of its units confirmed by audit"));
+  EXPECT_TRUE(contains(w1, "  rendering; 2 failed unit(s); 5 of its units confirmed by audit; blocklisted for job-2"));
   EXPECT_FALSE(contains(w1, "quarantined")) << w1;
 }
 

@@ -83,6 +83,11 @@ TEST_F(FarmLiveness, AWorkerKilledMidUnitIsLostAtOnceAndItsUnitGoesToAnotherWork
   const std::string watched = watch.log();
   EXPECT_NE(watched.find(job + ": stalled: worker doomed (worker-"), std::string::npos) << watched;
   EXPECT_NE(watched.find(job + ": rendering again"), std::string::npos) << watched;
+  // The watcher was told who went, why, and what is rendered again, as it happened; so is status.
+  EXPECT_TRUE(std::regex_search(watched, std::regex(job + ": [0-9:-]+ [0-9:]+  worker doomed \\(worker-[0-9.]+\\) lost "
+                                                          "\\(connection broke[^)]*\\): units? [0-9, ]+ of " + job + " queued again")))
+      << watched;
+  EXPECT_NE(cli({"status", job}).out.find("worker doomed (worker-"), std::string::npos);
 
   const fs::path farmExr = dir_ / "farm.exr", localExr = dir_ / "local.exr";
   const auto downloaded = cli({"download", job, "-o", farmExr.string()});
@@ -94,6 +99,24 @@ TEST_F(FarmLiveness, AWorkerKilledMidUnitIsLostAtOnceAndItsUnitGoesToAnotherWork
   EXPECT_EQ(farmMeta.totalSamples, 128u * 128u * 512u) << "every unit counted exactly once";
   EXPECT_NE(farmMeta.extra["workers"].find("survivor:"), std::string::npos) << farmMeta.extra["workers"];
   EXPECT_EQ(farmImage.rgb, readExr(localExr, &localMeta).rgb) << "the farm's image equals the in-process render";
+}
+
+TEST_F(FarmLiveness, TheWatcherIsToldWhenAWorkerOfTheJobIsLostAndWhenItRejoins) {
+  const fs::path scene = test::writeSeedScene(dir_, 128, 512, 128);
+  test::ChildProcess& first = farm_.startWorker("w1", {"--coordinator", address_, "--threads", "1"});
+  const std::string job = farm_.submit({scene.string(), "--coordinator", address_});
+  test::ChildProcess watch({test::cliPath().string(), "watch", job, "--coordinator", address_}, dir_ / "watch");
+  ASSERT_TRUE(test::waitFor([&] { return test::lineOf(workers(), "w1").find("s  rendering") != std::string::npos; }, 60))
+      << workers();
+  first.signal(SIGKILL);
+  ASSERT_TRUE(test::waitFor([&] { return watch.log().find("worker w1 (worker-") != std::string::npos; }, 20)) << watch.log();
+  EXPECT_NE(watch.log().find(") lost (connection broke"), std::string::npos) << watch.log();
+  // The same machine comes back under its name: the job's watchers hear of it.
+  farm_.startWorker("w1", {"--coordinator", address_, "--threads", "1"});
+  ASSERT_TRUE(test::waitFor([&] { return watch.log().find(") rejoined") != std::string::npos; }, 30)) << watch.log();
+  ASSERT_EQ(watch.wait(180), 0) << watch.log();
+  const std::string status = cli({"status", job}).out;
+  EXPECT_NE(status.find(") rejoined"), std::string::npos) << status;
 }
 
 TEST_F(FarmLiveness, AJobWithoutWorkersSaysSoAndAWorkerStoppedCleanlyIsLeftNotLost) {

@@ -55,11 +55,12 @@ TEST(Sensor, LongAccumulationKeepsFullPrecision) {
 }
 
 TEST(Exposure, AutomaticExposureMapsTheMeanToOneThenAppliesEvAndToneMap) {
-  // A uniform image of any brightness gives the same picture (seed §4.7.4, Fig. 5c vs 5d).
+  // The seed's meter: a uniform image of any brightness gives the same picture (seed §4.7.4,
+  // Fig. 5c vs 5d).
   for (float radiance : {0.001f, 1.0f, 5000.0f}) {
     Image image{2, 2, std::vector<float>(12, radiance)};
     for (double ev : {0.0, -1.0}) {
-      const auto rgb = exposeToSrgb8(image, ExposureSettings{ev, ToneMap::kReinhard});
+      const auto rgb = exposeToSrgb8(image, ExposureSettings{ev, ToneMap::kReinhard, ExposureMeter::kMean});
       const double v = std::exp2(ev);  // luminance of a grey pixel equals its value
       const double toned = v / (1 + v);
       const double srgb = toned <= 0.0031308 ? 12.92 * toned : 1.055 * std::pow(toned, 1 / 2.4) - 0.055;
@@ -68,7 +69,55 @@ TEST(Exposure, AutomaticExposureMapsTheMeanToOneThenAppliesEvAndToneMap) {
   }
   Image black{1, 1, {0, 0, 0}};
   EXPECT_EQ(autoExposureScale(black), 1.0);
+  EXPECT_EQ(litExposureScale(black), 1.0);
   EXPECT_EQ(exposeToSrgb8(black, {}), std::vector<uint8_t>(3, 0));
+}
+
+// The lit meter (the default): the mean luminance of the pixels that see something (a pixel or a
+// 3 x 3 neighbour not black) goes to 1. Computed here from that definition.
+TEST(Exposure, TheLitMeterMapsTheMeanOfThePixelsThatSeeSomethingToOne) {
+  // A 6 x 3 image: a 2 x 1 subject of luminance 1 and 4 in the top left corner, black elsewhere.
+  // Seen: the subject and its neighbours (columns 0-2 of rows 0-1): 6 pixels, luminance 5.
+  Image image{6, 3, std::vector<float>(54, 0.0f)};
+  for (int c = 0; c < 3; ++c) image.rgb[c] = 1.0f, image.rgb[3 + c] = 4.0f;
+  EXPECT_NEAR(litExposureScale(image), 6.0 / 5.0, 1e-12);
+  // Uniform images of any brightness give the same picture, as with the mean meter.
+  for (float radiance : {1e-20f, 0.001f, 1.0f, 5000.0f, 1e30f}) {
+    const Image uniform{2, 2, std::vector<float>(12, radiance)};
+    EXPECT_NEAR(litExposureScale(uniform) * radiance, 1.0, 1e-6) << radiance;  // luminance in float
+  }
+  EXPECT_EQ(exposureScale(image, ExposureMeter::kFixed), 1.0);
+  EXPECT_EQ(exposureScale(image, ExposureMeter::kMean), autoExposureScale(image));
+  EXPECT_EQ(exposureScale(image, ExposureMeter::kLit), litExposureScale(image));
+}
+
+TEST(Exposure, ABlackBackgroundDoesNotBlowOutTheSubject) {
+  // A 0.6-grey floor lit to radiance 0.6 / pi fills the top two rows of a 10 x 10 frame; the rest
+  // is black (a model exported without a world). The mean meter takes the black for dim light and
+  // renders the floor white; the lit meter leaves out all of it but the row beside the floor.
+  const float floor = 0.6f / 3.14159265f;
+  Image image{10, 10, std::vector<float>(300, 0.0f)};
+  for (int k = 0; k < 20; ++k) image.rgb[3 * k] = image.rgb[3 * k + 1] = image.rgb[3 * k + 2] = floor;
+  const auto seed = exposeToSrgb8(image, ExposureSettings{0.0, ToneMap::kClamp, ExposureMeter::kMean});
+  EXPECT_EQ(seed[0], 255);  // 5 x the mean: clipped
+  // Seen: rows 0-2 (30 pixels), 20 of them floor: the floor at 30 / 20 = 1.5, after Reinhard
+  // 1.5 / 2.5 = 0.6: light grey, not white.
+  const auto lit = exposeToSrgb8(image, ExposureSettings{0.0, ToneMap::kReinhard, ExposureMeter::kLit});
+  EXPECT_EQ(lit[0], srgb8(1.5f / 2.5f));
+  EXPECT_LT(lit[0], 230);
+  EXPECT_EQ(lit[3 * 50], 0);  // the background stays black
+}
+
+TEST(Exposure, TheLitMeterDoesNotDriftWithNoise) {
+  // A progressive render's dark region is noisy: at few samples many of its pixels are black. A
+  // meter that left out every black pixel would brighten the picture as it converges; the lit
+  // meter counts a black pixel with a lit neighbour, so a noisy image of mean m meters as m.
+  Image converged{64, 64, std::vector<float>(64 * 64 * 3, 0.1f)};
+  Image noisy = converged;
+  // Every other pixel black, the rest twice as bright: the same mean.
+  for (size_t k = 0; k < 64 * 64; ++k)
+    for (int c = 0; c < 3; ++c) noisy.rgb[3 * k + c] = (k + k / 64) % 2 ? 0.2f : 0.0f;
+  EXPECT_NEAR(litExposureScale(noisy), litExposureScale(converged), 1e-6 * litExposureScale(converged));
 }
 
 TEST(ImageFiles, ExrRoundTripKeepsEveryBitAndTheHeader) {

@@ -23,7 +23,7 @@ namespace {
 
 // What exposeToSrgb8 computed before the quantizer and the threads: one value at a time, with pow.
 std::vector<uint8_t> referenceExposure(const Image& image, const ExposureSettings& settings) {
-  const double scaleD = autoExposureScale(image) * std::exp2(settings.ev);
+  const double scaleD = exposureScale(image, settings.meter) * std::exp2(settings.ev);
   const float scale = float(scaleD);
   const bool inFloat = std::isnormal(scale);
   std::vector<uint8_t> out(image.rgb.size());

@@ -63,6 +63,13 @@ std::vector<Case> roughCases() {
       for (double ior : {1.1, 1.5, 2.5})
         for (bool front : {true, false})
           cases.push_back({{{"type", "dielectric"}, {"ior", ior}, {"roughness", roughness}}, degrees, front});
+      // A solid (not thin-walled) principled surface: its transmitting share refracts, from
+      // outside and from inside (glTF with KHR_materials_volume).
+      for (bool front : {true, false})
+        cases.push_back({{{"type", "principled"}, {"base_color", {0.8, 0.5, 0.2}}, {"metallic", 0.0},
+                          {"roughness", roughness}, {"transmission", 0.6}, {"ior", 1.5}, {"thin_walled", false}},
+                         degrees,
+                         front});
     }
   return cases;
 }
@@ -343,6 +350,82 @@ TEST(Principled, AFullMetalIsTheUncompensatedRoughConductorWithItsBaseColourAsF0
     const Spectrum a = principled.evalCos(Vec3(0, 0, 1), v, l), b = conductor.evalCos(Vec3(0, 0, 1), v, l);
     for (int c = 0; c < 3; ++c) ASSERT_NEAR(a[c], b[c], 1e-5f * std::max(1.0f, b[c]));
   }
+}
+
+// Not thin-walled (glTF's KHR_materials_volume), a principled surface that transmits everything
+// is the dielectric boundary of its index, tinted by the base colour: smooth, the same delta
+// samples (Snell's direction, the 1/eta^2 radiance scaling) from outside and from inside (total
+// internal reflection included); rough, the same evalCos and pdf.
+TEST(Principled, ASolidThatTransmitsEverythingIsTheDielectric) {
+  for (double roughness : {0.0, 0.4}) {
+    const Material solid = materialFrom({{"type", "principled"}, {"base_color", {0.9, 0.8, 0.7}}, {"metallic", 0},
+                                         {"roughness", roughness}, {"transmission", 1}, {"ior", 1.5}, {"thin_walled", false}});
+    const Material glass =
+        materialFrom({{"type", "dielectric"}, {"transmittance", {0.9, 0.8, 0.7}}, {"ior", 1.5}, {"roughness", roughness}});
+    EXPECT_EQ(solid.isSpecular(), roughness == 0.0);
+    EXPECT_TRUE(solid.traits().transmits);
+    test::UniformRng rng(21);
+    for (const bool front : {true, false})
+      for (double degrees : {0.0, 30.0, 50.0, 80.0}) {
+        const Vec3 n(0, 0, 1), wo = incident(degrees);
+        for (int k = 0; k < 64; ++k) {
+          const float uLobe = rng.next();
+          const Vec2 u = rng.next2();
+          const auto a = solid.sample(n, wo, uLobe, u, front), b = glass.sample(n, wo, uLobe, u, front);
+          ASSERT_EQ(a.has_value(), b.has_value());
+          if (!a) continue;
+          ASSERT_EQ(a->specular, b->specular);
+          for (int c = 0; c < 3; ++c) {
+            ASSERT_NEAR(a->wi[c], b->wi[c], 1e-6f) << degrees << (front ? " outside" : " inside");
+            ASSERT_NEAR(a->weight[c], b->weight[c], 1e-5f * std::max(1.0f, b->weight[c]));
+          }
+          ASSERT_EQ(a->eta, b->eta);
+          if (a->specular) continue;
+          const Vec3 wi = a->wi;
+          ASSERT_NEAR(solid.pdf(n, wo, wi, front), glass.pdf(n, wo, wi, front), 1e-4f * glass.pdf(n, wo, wi, front));
+        }
+      }
+  }
+}
+
+// Partly transmitting, the solid is the mixture of material/principled.h: w = t (1 - m) of the
+// dielectric and the rest the opaque principled model with metallic m / (1 - w).
+TEST(Principled, ASolidThatTransmitsSomeIsTheDocumentedMixture) {
+  const double t = 0.6, metallic = 0.2, w = t * (1 - metallic);
+  const Material solid = materialFrom({{"type", "principled"}, {"base_color", {0.9, 0.5, 0.3}}, {"metallic", metallic},
+                                       {"roughness", 0.5}, {"transmission", t}, {"ior", 1.4}, {"thin_walled", false}});
+  const Material glass =
+      materialFrom({{"type", "dielectric"}, {"transmittance", {0.9, 0.5, 0.3}}, {"ior", 1.4}, {"roughness", 0.5}});
+  const Material opaque = materialFrom({{"type", "principled"}, {"base_color", {0.9, 0.5, 0.3}},
+                                        {"metallic", metallic / (1 - w)}, {"roughness", 0.5}, {"ior", 1.4}});
+  test::UniformRng rng(22);
+  for (int k = 0; k < 300; ++k) {
+    const Vec3 v = sampleCosineHemisphere(rng.next2());
+    Vec3 l = sampleCosineHemisphere(rng.next2());
+    if (k % 2) l.z = -l.z;
+    if (v.z < 1e-2f || std::abs(l.z) < 1e-2f) continue;
+    const bool front = k % 3 != 0;
+    const Spectrum f = solid.evalCos(Vec3(0, 0, 1), v, l, front);
+    const Spectrum expected = glass.evalCos(Vec3(0, 0, 1), v, l, front) * float(w) +
+                              opaque.evalCos(Vec3(0, 0, 1), v, l, front) * float(1 - w);
+    for (int c = 0; c < 3; ++c) ASSERT_NEAR(f[c], expected[c], 1e-5f * std::max(1.0f, expected[c]));
+  }
+}
+
+// KHR_materials_specular's specularColorFactor scales F0 (by its luminance): 0, as Blender writes
+// its Specular 0, leaves no reflection at normal incidence, so the base is Lambertian there; 1 is
+// the plain model.
+TEST(Principled, ASpecularColourOfZeroLeavesOnlyGrazingReflection) {
+  const Material none = materialFrom({{"type", "principled"}, {"base_color", 0.8}, {"metallic", 0}, {"roughness", 1},
+                                      {"specular_color", 0}});
+  const Vec3 n(0, 0, 1);
+  const Spectrum f = none.evalCos(n, n, n);
+  EXPECT_NEAR(f.g, 0.8f / float(M_PI), 1e-6f);
+  const Material plain = materialFrom({{"type", "principled"}, {"base_color", 0.8}, {"metallic", 0}, {"roughness", 1}});
+  const Material unit = materialFrom({{"type", "principled"}, {"base_color", 0.8}, {"metallic", 0}, {"roughness", 1},
+                                      {"specular_color", 1}});
+  EXPECT_EQ(plain.evalCos(n, incident(40), incident(-20)), unit.evalCos(n, incident(40), incident(-20)));
+  EXPECT_LT(plain.evalCos(n, n, n).g, f.g);  // F0 = 0.04 takes its share from the base
 }
 
 TEST(Principled, EmissionStrengthScalesTheEmission) {

@@ -310,18 +310,22 @@ TEST_F(ExtremeValues, ColoursAreZeroOrWithinWhatTheFloatKernelCarries) {
 }
 
 TEST(ExtremeValuesExposure, TinyAndHugeImagesExposeLikeAnyOther) {
-  // A uniform image of any brightness maps its mean to 1 (seed §4.7.4), also where 1 / mean is
-  // beyond float (a denormal image) or the mean is near the top of float: Reinhard gives 0.5.
-  const double toned = 0.5, srgb = 1.055 * std::pow(toned, 1 / 2.4) - 0.055;
-  const uint8_t expected = uint8_t(std::lround(srgb * 255));
-  for (float v : {1e-45f, 1e-40f, 1e-38f, 1.0f, 1e30f, 3e38f, std::numeric_limits<float>::max()}) {
-    Image image{2, 2, std::vector<float>(12, v)};
-    const double scale = autoExposureScale(image);
-    EXPECT_TRUE(std::isfinite(scale) && scale > 0.0) << v;
-    for (uint8_t b : exposeToSrgb8(image, ExposureSettings{0.0, ToneMap::kReinhard})) EXPECT_EQ(b, expected) << v;
-    // +-64 stops on top: white or black, never NaN (which lround would turn into anything).
-    for (uint8_t b : exposeToSrgb8(image, ExposureSettings{64.0, ToneMap::kReinhard})) EXPECT_EQ(b, 255) << v;
-    for (uint8_t b : exposeToSrgb8(image, ExposureSettings{-64.0, ToneMap::kClamp})) EXPECT_EQ(b, 0) << v;
+  // A uniform image of any brightness maps its mean to 1 (the seed's meter, §4.7.4) or its
+  // lit pixels' mean to 1 (the lit meter), also where the factor is beyond float (a denormal
+  // image) or the value is near the top of float: Reinhard gives 0.5.
+  for (const ExposureMeter meter : {ExposureMeter::kMean, ExposureMeter::kLit}) {
+    const double value = 1.0;
+    const double toned = value / (1.0 + value), srgb = 1.055 * std::pow(toned, 1 / 2.4) - 0.055;
+    const uint8_t expected = uint8_t(std::lround(srgb * 255));
+    for (float v : {1e-45f, 1e-40f, 1e-38f, 1.0f, 1e30f, 3e38f, std::numeric_limits<float>::max()}) {
+      Image image{2, 2, std::vector<float>(12, v)};
+      const double scale = exposureScale(image, meter);
+      EXPECT_TRUE(std::isfinite(scale) && scale > 0.0) << v;
+      for (uint8_t b : exposeToSrgb8(image, ExposureSettings{0.0, ToneMap::kReinhard, meter})) EXPECT_EQ(b, expected) << v;
+      // +-64 stops on top: white or black, never NaN (which lround would turn into anything).
+      for (uint8_t b : exposeToSrgb8(image, ExposureSettings{64.0, ToneMap::kReinhard, meter})) EXPECT_EQ(b, 255) << v;
+      for (uint8_t b : exposeToSrgb8(image, ExposureSettings{-64.0, ToneMap::kClamp, meter})) EXPECT_EQ(b, 0) << v;
+    }
   }
   // One huge pixel among dark ones: the mean is finite, the huge pixel white, the others dark.
   Image mixed{2, 1, {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),

@@ -305,6 +305,7 @@ TEST(Gltf, MaterialsMapFactorsAlphaModesAndExtensions) {
        {"pbrMetallicRoughness",
         {{"baseColorFactor", {0.8, 0.1, 0.2, 0.6}}, {"metallicFactor", 0.25}, {"roughnessFactor", 0.7}}},
        {"emissiveFactor", {1, 0.5, 0}},
+       {"doubleSided", true},
        {"alphaMode", "MASK"},
        {"alphaCutoff", 0.3},
        {"extensions", {{"KHR_materials_emissive_strength", {{"emissiveStrength", 4}}}}}},
@@ -326,7 +327,7 @@ TEST(Gltf, MaterialsMapFactorsAlphaModesAndExtensions) {
   const Material& red = model.materials[0];
   EXPECT_EQ(red.name, "red");
   EXPECT_EQ(red.emission, Spectrum(4.0f, 2.0f, 0.0f));
-  EXPECT_FALSE(red.twoSidedEmission);
+  EXPECT_TRUE(red.twoSidedEmission);  // doubleSided: emitting from both faces
   ASSERT_NE(red.textures(), nullptr);
   const MaterialTextures& r = *red.textures();
   EXPECT_EQ(r.factors.baseColor, Spectrum(0.8f, 0.1f, 0.2f));
@@ -346,6 +347,9 @@ TEST(Gltf, MaterialsMapFactorsAlphaModesAndExtensions) {
   EXPECT_EQ(g.factors.transmission, 0.9f);
   EXPECT_EQ(g.factors.ior, 1.33f);
   EXPECT_EQ(g.factors.specular, 0.4f);
+  // specularColorFactor's luminance scales F0: 0.2126 + 0.5 (0.7152 + 0.0722).
+  EXPECT_NEAR(g.factors.specularColor, 0.2126f + 0.5f * (0.7152f + 0.0722f), 1e-6f);
+  EXPECT_FALSE(model.materials[1].twoSidedEmission);
   EXPECT_EQ(g.alphaMode, AlphaMode::kBlend);
   EXPECT_EQ(g.alphaCutoff, 0.5f);
 
@@ -357,7 +361,7 @@ TEST(Gltf, MaterialsMapFactorsAlphaModesAndExtensions) {
 
   const std::string notes = ::testing::PrintToString(model.notes);
   EXPECT_TRUE(hasNote(model, "materials[1] \"glass\": alphaMode BLEND rendered as MASK with cutoff 0.5")) << notes;
-  EXPECT_TRUE(hasNote(model, "materials[1] \"glass\": specularColorFactor")) << notes;
+  EXPECT_TRUE(hasNote(model, "materials[1] \"glass\": specularColorFactor approximated: F0 is scaled by its luminance")) << notes;
   EXPECT_TRUE(hasNote(model, "materials[2]: KHR_materials_unlit rendered as a Lambertian")) << notes;
   EXPECT_TRUE(hasNote(model, "extensionsUsed: KHR_materials_clearcoat not supported")) << notes;
   EXPECT_EQ(model.meshes[0].mesh.materialIds, std::vector<uint32_t>(12, 0u));
@@ -513,10 +517,15 @@ TEST(Gltf, CamerasAndPunctualLightsBecomeLensfarmJson) {
   // No mesh: look_at is 1 unit along the view direction, -z turned to -x.
   expectVec(c, "look_at", DVec3(0, 2, 3));
   expectVec(c, "up", DVec3(0, 1, 0));
-  const double horizontal = 2.0 * std::atan(1.5 * std::tan(0.4)) * 180.0 / kPi;
-  EXPECT_NEAR(c.at("angle_of_view").get<double>(), horizontal, 1e-9);
+  // yfov is the vertical angle (glTF 2.0 §3.10.2), with or without an aspectRatio, which is kept
+  // only to compare with the image's.
+  EXPECT_NEAR(c.at("angle_of_view").get<double>(), 0.8 * 180.0 / kPi, 1e-9);
+  EXPECT_EQ(c.at("fov_axis"), "vertical");
+  EXPECT_EQ(c.at("aspect_ratio"), 1.5);
   EXPECT_EQ(model.cameras[1].at("name"), "second");
   EXPECT_NEAR(model.cameras[1].at("angle_of_view").get<double>(), 0.6 * 180.0 / kPi, 1e-9);
+  EXPECT_EQ(model.cameras[1].at("fov_axis"), "vertical");
+  EXPECT_FALSE(model.cameras[1].contains("aspect_ratio"));
   EXPECT_EQ(model.cameras[2].at("type"), "orthographic");
 
   ASSERT_EQ(model.lights.size(), 3u);
@@ -524,14 +533,15 @@ TEST(Gltf, CamerasAndPunctualLightsBecomeLensfarmJson) {
   EXPECT_EQ(point.at("type"), "point");
   EXPECT_EQ(point.at("name"), "bulb");
   expectVec(point, "position", DVec3(0, 5, 0));
-  expectVec(point, "intensity", DVec3(8, 4, 2));
+  // Candela and lux to W/sr and W/m^2 at 683 lm/W.
+  expectVec(point, "intensity", DVec3(8, 4, 2) / 683.0);
 
   const json& spot = model.lights[1];
   EXPECT_EQ(spot.at("type"), "spot");
   EXPECT_EQ(spot.at("name"), "spot node");
   expectVec(spot, "position", DVec3(0, 3, 0));
   expectVec(spot, "look_at", DVec3(0, 2, 0));
-  expectVec(spot, "intensity", DVec3(3, 3, 3));
+  expectVec(spot, "intensity", DVec3(3, 3, 3) / 683.0);
   EXPECT_NEAR(spot.at("cone_angle").get<double>(), 0.5 * 180.0 / kPi, 1e-9);
   EXPECT_NEAR(spot.at("falloff_start").get<double>(), 0.2 * 180.0 / kPi, 1e-9);
 
@@ -540,10 +550,10 @@ TEST(Gltf, CamerasAndPunctualLightsBecomeLensfarmJson) {
   EXPECT_EQ(sun.at("name"), "sun");
   // Its light travels down (-y); lensfarm's direction points towards the light: up.
   expectVec(sun, "direction", DVec3(0, 1, 0));
-  expectVec(sun, "irradiance", DVec3(2, 2, 1));
+  expectVec(sun, "irradiance", DVec3(2, 2, 1) / 683.0);
 
   const std::string notes = ::testing::PrintToString(model.notes);
-  EXPECT_TRUE(hasNote(model, "cameras[1]: no aspectRatio")) << notes;
+  EXPECT_TRUE(hasNote(model, "intensities in candela and lux converted")) << notes;
   EXPECT_TRUE(hasNote(model, "cameras[2]: orthographic")) << notes;
   EXPECT_TRUE(hasNote(model, "range ignored")) << notes;
 }

@@ -1,0 +1,198 @@
+// Files a scene names stay inside its folder (scene/asset_path.h): a `..` that climbs out, an
+// absolute path, a symlink whose target lies outside and a URL are each refused with one
+// sentence naming the file and field, for every kind of reference (a scene's mesh, a glTF
+// buffer or image, an OBJ's mtllib) and on every path in (loading, `lensfarm render`, `lensfarm
+// submit`, the coordinator's asset names); a folder the user allows is read.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "coordinator.h"
+#include "scene/asset_path.h"
+#include "scene/scene_loader.h"
+#include "support/gltf_builder.h"
+#include "test_support.h"
+#include "util/error.h"
+#include "util/hash.h"
+
+namespace lensfarm {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+const std::string kTriangleObj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+// A scene folder `root` inside a temporary directory, with a secret file beside it (outside).
+struct Layout {
+  test::TempDir dir;
+  fs::path root = dir / "project";
+  fs::path secret = dir / "secret.obj";
+  Layout() {
+    fs::create_directories(root / "models");
+    dir.write("secret.obj", kTriangleObj);
+    dir.write("secret.bin", std::string(36, '\0'));
+  }
+  fs::path write(const std::string& name, const std::string& text) const {
+    const fs::path p = root / name;
+    fs::create_directories(p.parent_path());
+    std::ofstream(p, std::ios::binary) << text;
+    return p;
+  }
+  // A scene whose one shape is an OBJ at `file`.
+  fs::path sceneWithMesh(const std::string& file) const {
+    json j = test::minimalSceneJson();
+    j["shapes"] = {{{"type", "obj"}, {"file", file}, {"material", "white"}}};
+    return write("scene.json", j.dump());
+  }
+};
+
+std::string loadError(const fs::path& scene, const std::vector<fs::path>& allowed = {}) {
+  try {
+    std::string text;
+    if (isModelFile(scene))
+      (void)modelScene(scene, text, fileAssetReader(scene, allowed));
+    else
+      (void)parseScene(test::readFile(scene), scene, fileAssetReader(scene, allowed));
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "<no error>";
+}
+
+TEST(AssetConfinement, AScenesFilesMustLieInsideItsFolder) {
+  const Layout l;
+  EXPECT_EQ(loadError(l.sceneWithMesh("models/../models/../inside.obj")),
+            (l.root / "scene.json").string() +
+                ": shapes[0].file: cannot read OBJ file \"" + (l.root / "models/../models/../inside.obj").string() +
+                "\": no such file (looked for " + (l.root / "inside.obj").string() + ")");
+  l.write("inside.obj", kTriangleObj);
+  EXPECT_EQ(loadError(l.sceneWithMesh("models/../inside.obj")), "<no error>");
+
+  const std::string climbs = loadError(l.sceneWithMesh("../secret.obj"));
+  EXPECT_TRUE(test::contains(climbs, "shapes[0].file: \"../secret.obj\" lies outside " + l.root.string()));
+  EXPECT_TRUE(test::contains(climbs, "--allow-path"));
+  EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh("models/../../secret.obj")), "lies outside"));
+  EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh(l.secret.string())), "shapes[0].file: \"" + l.secret.string() +
+                                                                                "\" is an absolute path"));
+  EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh("https://example.com/x.obj")),
+                             "shapes[0].file: \"https://example.com/x.obj\" is a URL (https:)"));
+  EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh("file:///etc/passwd")), "is a URL (file:)"));
+}
+
+TEST(AssetConfinement, ASymlinkOutOfTheFolderIsRefusedAndOneInsideIsRead) {
+  const Layout l;
+  fs::create_symlink(l.secret, l.root / "link.obj");
+  EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh("link.obj")),
+                             "shapes[0].file: \"link.obj\" is a symlink to " + l.secret.string() + ", outside"));
+  // A folder symlinked out: the same.
+  fs::create_directory_symlink(l.dir.path(), l.root / "up");
+  EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh("up/secret.obj")), "is a symlink to"));
+  // Inside the folder a symlink is a file like any other.
+  l.write("models/real.obj", kTriangleObj);
+  fs::create_symlink(l.root / "models/real.obj", l.root / "alias.obj");
+  EXPECT_EQ(loadError(l.sceneWithMesh("alias.obj")), "<no error>");
+}
+
+TEST(AssetConfinement, AnAllowedFolderIsRead) {
+  const Layout l;
+  const fs::path scene = l.sceneWithMesh("../secret.obj");
+  EXPECT_EQ(loadError(scene, {l.dir.path()}), "<no error>");
+  fs::create_symlink(l.secret, l.root / "link.obj");
+  EXPECT_EQ(loadError(l.sceneWithMesh("link.obj"), {l.dir.path()}), "<no error>");
+  // Allowing one folder allows nothing beside it.
+  fs::create_directories(l.dir / "other");
+  EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh("../secret.obj"), {l.dir / "other"}), "lies outside"));
+}
+
+TEST(AssetConfinement, AGltfModelReadsOnlyItsOwnFolder) {
+  // A downloaded model whose buffer names a file elsewhere, with the right byteLength: refused
+  // before a byte is read, naming the model; a remote buffer gets one sentence.
+  const Layout l;
+  test::Builder b;
+  b.doc["meshes"] = json::array();
+  const auto model = [&](const std::string& uri) {
+    json d = json::parse(b.gltf(uri));
+    d["buffers"][0]["byteLength"] = 36;
+    return l.write("models/model.gltf", d.dump());
+  };
+  for (const std::string uri : {"../../secret.bin", "..%2F..%2Fsecret.bin"}) {
+    const std::string e = loadError(model(uri));
+    EXPECT_TRUE(test::contains(e, "model.gltf")) << uri;
+    EXPECT_TRUE(test::contains(e, "lies outside")) << uri;
+  }
+  const std::string remote = loadError(model("https://example.com/buffer.bin"));
+  EXPECT_TRUE(test::contains(remote, "buffers[0].uri: \"https://example.com/buffer.bin\" is a URL (https:)"));
+  EXPECT_TRUE(test::contains(loadError(model("/etc/passwd")), "buffers[0].uri: \"/etc/passwd\" is an absolute path"));
+  // An image too (beside a buffer of data, which is read).
+  b.floats({0.0f, 0.0f, 0.0f}, "VEC3");
+  json d = json::parse(b.embedded());
+  d["images"] = {{{"uri", "../../secret.png"}}};
+  EXPECT_TRUE(test::contains(loadError(l.write("models/textured.gltf", d.dump())), "lies outside"));
+}
+
+TEST(AssetConfinement, AnObjsMaterialLibraryStaysInside) {
+  const Layout l;
+  l.dir.write("secret.mtl", "newmtl red\nKd 1 0 0\n");
+  l.write("models/m.obj", "mtllib ../../secret.mtl\n" + kTriangleObj);
+  json j = test::minimalSceneJson();
+  j["shapes"] = {{{"type", "obj"}, {"file", "models/m.obj"}, {"material", "white"}}};
+  const std::string e = loadError(l.write("scene.json", j.dump()));
+  EXPECT_TRUE(test::contains(e, "\"../../secret.mtl\" lies outside")) << e;
+}
+
+TEST(AssetConfinement, RenderAndSubmitRefuseWithExitCode2) {
+  const Layout l;
+  const fs::path scene = l.sceneWithMesh("../secret.obj");
+  const auto render = test::runProcess({test::cliPath().string(), "render", scene.string(), "-o",
+                                        (l.dir / "out.png").string(), "--spp", "1"});
+  EXPECT_EQ(render.exitCode, test::kBadInput) << render.err;
+  EXPECT_TRUE(test::contains(render.err, "lies outside"));
+  EXPECT_FALSE(fs::exists(l.dir / "out.png"));
+  const std::string coordinator = "127.0.0.1:" + std::to_string(test::freePort());
+  const auto submit = test::runProcess({test::cliPath().string(), "submit", scene.string(), "--coordinator", coordinator});
+  EXPECT_EQ(submit.exitCode, test::kBadInput) << submit.err;
+  EXPECT_TRUE(test::contains(submit.err, "lies outside"));
+  // Allowed, the scene is read and the submit goes on to the (absent) coordinator: exit 3.
+  const auto allowed = test::runProcess(
+      {test::cliPath().string(), "submit", scene.string(), "--coordinator", coordinator, "--allow-path", l.dir.path().string()});
+  EXPECT_EQ(allowed.exitCode, 3) << allowed.err;
+  const auto rendered = test::runProcess({test::cliPath().string(), "render", scene.string(), "-o",
+                                          (l.dir / "out.png").string(), "--spp", "1", "--resolution", "8x8",
+                                          "--allow-path", l.dir.path().string()});
+  EXPECT_EQ(rendered.exitCode, 0) << rendered.err;
+}
+
+TEST(AssetConfinement, TheCoordinatorRefusesAssetNamesThatAreNotRelativePaths) {
+  Coordinator c;
+  for (const std::string name : {"/etc/passwd", "https://example.com/x.obj", "C:\\secret.obj"}) {
+    JobSpec spec;
+    spec.sceneName = "scene.json";
+    spec.sceneJson = test::minimalSceneJson().dump();
+    spec.assets[name] = sha256Hex("x");
+    try {
+      c.submit(spec, 0);
+      ADD_FAILURE() << name << " accepted";
+    } catch (const FarmError& e) {
+      EXPECT_EQ(e.kind(), FarmError::Kind::kInvalidArgument) << name;
+      EXPECT_TRUE(test::contains(e.what(), "assets[\"" + name + "\"]")) << e.what();
+    }
+  }
+}
+
+TEST(AssetConfinement, PathProblemsAreRecognisedByForm) {
+  EXPECT_FALSE(unreadablePathProblem("meshes/a.obj"));
+  EXPECT_FALSE(unreadablePathProblem("../a.obj"));  // relative: the reader decides
+  EXPECT_TRUE(unreadablePathProblem("/a.obj"));
+  EXPECT_TRUE(unreadablePathProblem("\\\\server\\share\\a.obj"));
+  EXPECT_TRUE(unreadablePathProblem("C:/a.obj"));
+  EXPECT_TRUE(unreadablePathProblem("http://a/b.obj"));
+  EXPECT_TRUE(unreadablePathProblem("S3://bucket/b.obj"));
+  EXPECT_TRUE(unreadablePathProblem(""));
+  EXPECT_TRUE(unreadablePathProblem(std::string("a\0b", 3)));
+}
+
+}  // namespace
+}  // namespace lensfarm
