@@ -48,7 +48,7 @@ void OverrideFlags::addTo(CLI::App* cmd) {
       ->check(numberIn(-kMaxExposureEv, kMaxExposureEv, "stops"));
   cmd->add_option("--allow-path", allowPaths,
                   "A folder outside the scene's that the scene and its models may read files from (repeatable); "
-                  "by default every file must lie inside the scene's folder")
+                  "by default every file must lie inside the scene's folder (LENSFARM_ALLOW_PATH: more, colon-separated)")
       ->check(CLI::ExistingDirectory);
 }
 

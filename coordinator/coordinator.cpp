@@ -115,9 +115,9 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
     // Hashes as every call takes them (AssetStore::checkSha256): a badly written one is an error
     // of its own, not an asset that was never uploaded.
     for (const auto& [path, sha] : spec.assets) AssetStore::checkSha256(sha, "assets[" + path + "].sha256");
-    // Asset names are paths relative to the scene, as the client's loader read them
-    // (scene/asset_path.h): never a URL or an absolute path. (They name uploaded files only;
-    // nothing on the coordinator's disk is read by them.)
+    // Asset names are the paths the client's loader read (scene/asset_path.h): never a URL. They
+    // are keys of uploaded files only: nothing on the coordinator's (or a worker's) disk is read
+    // by them.
     for (const auto& [path, sha] : spec.assets)
       if (const std::optional<std::string> problem = unreadablePathProblem(path))
         throw FarmError(FarmError::Kind::kInvalidArgument, "assets[\"" + path + "\"]: " + *problem);

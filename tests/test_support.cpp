@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -53,6 +54,16 @@ fs::path TempDir::write(const std::string& name, const std::string& text) const 
 
 fs::path sourceDir() { return LENSFARM_SOURCE_DIR; }
 fs::path scenesDir() { return sourceDir() / "scenes"; }
+
+namespace {
+// Tests load the shipped scenes' meshes from temporary folders by absolute paths
+// (bundledSceneJson): the scenes folder is allowed for them, as a user allows an asset library
+// (scene/asset_path.h), and for every process they start. A value already set is kept.
+const bool kScenesAllowed = [] {
+  setenv("LENSFARM_ALLOW_PATH", (sourceDir() / "scenes").c_str(), 0);
+  return true;
+}();
+}  // namespace
 fs::path cliPath() { return LENSFARM_CLI; }
 fs::path coordinatorPath() { return LENSFARM_COORDINATOR_BIN; }
 fs::path workerPath() { return LENSFARM_WORKER_BIN; }
@@ -114,7 +125,7 @@ json closedBoxSceneJson(const json& wallMaterial, int resolution, uint64_t spp, 
       {"format", "lensfarm-scene/1"},
       {"camera",
        {{"type", "pinhole"}, {"position", {0, 0, 0}}, {"look_at", {0, 0, 1}}, {"up", {0, 1, 0}},
-        {"sensor_width", 0.1}, {"angle_of_view", 90}}},
+        {"sensor_width", 0.1}, {"angle_of_view", 87.06}}},  // 2 atan(0.95): the walls' edges out of view
       {"materials", {{"wall", wallMaterial}}},
       {"render", {{"resolution", {resolution, resolution}}, {"samples_per_pixel", spp}, {"max_bounces", maxBounces}, {"seed", 3}}},
   };

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdlib>
 #include <system_error>
 
 namespace lensfarm {
@@ -56,29 +57,42 @@ std::optional<std::string> unreadablePathProblem(const std::string& path) {
     return "is a URL (" + lower + ":): lensfarm reads only files beside the scene and downloads nothing; download it and "
            "name the file by a relative path";
   }
-  const bool windowsDrive = path.size() >= 2 && std::isalpha(static_cast<unsigned char>(path[0])) && path[1] == ':';
-  if (path[0] == '/' || path[0] == '\\' || windowsDrive)
-    return "is an absolute path: files are named relative to the file that names them, inside its folder";
   return std::nullopt;
 }
 
-fs::path confinedFile(const fs::path& root, const std::string& relative, const std::vector<fs::path>& allowed) {
-  if (const std::optional<std::string> problem = unreadablePathProblem(relative)) throw AssetRefused(*problem);
+fs::path confinedFile(const fs::path& root, const std::string& path, const std::vector<fs::path>& allowed) {
+  if (const std::optional<std::string> problem = unreadablePathProblem(path)) throw AssetRefused(*problem);
   const fs::path rootAbs = absoluteNormal(root);
-  const fs::path file = (rootAbs / relative).lexically_normal();
+  const bool windowsDrive = path.size() >= 2 && std::isalpha(static_cast<unsigned char>(path[0])) && path[1] == ':';
+  const bool absolute = path[0] == '/' || path[0] == '\\' || windowsDrive;
+  const fs::path file = (rootAbs / path).lexically_normal();
   std::vector<fs::path> roots{rootAbs};
   for (const fs::path& a : allowed) roots.push_back(absoluteNormal(a));
+  for (const fs::path& a : allowedFoldersFromEnvironment()) roots.push_back(absoluteNormal(a));
   const auto insideAny = [&](const fs::path& p, bool resolveRoots) {
     return std::any_of(roots.begin(), roots.end(), [&](const fs::path& r) { return isInside(p, resolveRoots ? resolved(r) : r); });
   };
-  if (!insideAny(file, false))
-    throw AssetRefused("lies outside " + rootAbs.string() +
-                       ", the folder of the scene: a scene's files must lie inside its folder (to allow another folder, "
-                       "give --allow-path FOLDER)");
+  if ((absolute && windowsDrive) || !insideAny(file, false))
+    throw AssetRefused(std::string(absolute ? "is an absolute path outside " : "lies outside ") + rootAbs.string() +
+                       ", the folder of the scene: a scene's files are named relative to it and lie inside it (to allow "
+                       "another folder, give --allow-path FOLDER or set LENSFARM_ALLOW_PATH)");
   if (!insideAny(resolved(file), true))
     throw AssetRefused("is a symlink to " + resolved(file).string() + ", outside " + rootAbs.string() +
                        ", the folder of the scene (to allow that folder, give --allow-path FOLDER)");
   return file;
+}
+
+std::vector<fs::path> allowedFoldersFromEnvironment() {
+  std::vector<fs::path> folders;
+  const char* value = std::getenv("LENSFARM_ALLOW_PATH");
+  if (!value) return folders;
+  const std::string text = value;
+  for (size_t start = 0; start <= text.size();) {
+    const size_t end = std::min(text.find(':', start), text.size());
+    if (end > start) folders.emplace_back(text.substr(start, end - start));
+    start = end + 1;
+  }
+  return folders;
 }
 
 }  // namespace lensfarm

@@ -523,9 +523,14 @@ class SceneParser {
                                          " (use a thin_lens with a finite f_number)");
     r.finish();
     // A focal length as long as the whole distance to look_at is a unit mix-up (millimetres for
-    // the lens, metres for the scene), not a focus problem: name the length that was given.
-    if (!(lookAtDistance > p.focalLength) && !(p.focusDistance > p.focalLength)) {
-      const std::string distance = "the distance to look_at (" + shortNumber(lookAtDistance) + "), on which the lens focuses";
+    // the lens, metres for the scene), not a focus problem: name the length that was given. (A
+    // pinhole's image would not change with the unit, but its sensor would then sit farther behind
+    // it than the subject stands in front: the same slip, said the same way.)
+    // (A pinhole given only an angle has no length of the user's to blame.)
+    const bool pinholeLength = type == "pinhole" && (hasF || hasWidth);
+    if (!(lookAtDistance > p.focalLength) && (pinholeLength || (type != "pinhole" && !(p.focusDistance > p.focalLength)))) {
+      const std::string distance = "the distance to look_at (" + shortNumber(lookAtDistance) + ")" +
+                                   (type == "pinhole" ? std::string() : ", on which the lens focuses");
       const std::string units = "camera lengths are in the scene's unit (that of positions), not millimetres";
       // Sensor and lens in one unit (a sensor 1/20 to 20 times f): both were written in millimetres.
       const bool sameUnit = p.sensorWidth / p.focalLength > 0.05 && p.sensorWidth / p.focalLength < 20.0;
@@ -1382,20 +1387,21 @@ Scene modelScene(const fs::path& modelFile, std::string& text, const AssetReader
   bool lit = !s.lights.empty();
   for (const Material& m : s.materials) lit |= m.isEmissive();
   if (lit) return s;
-  // A studio look that shows the shape: a key light from above the camera's left shoulder
-  // (irradiance 3: a white surface facing it has radiance 3 / pi ~ 1) and a dim uniform fill
-  // (radiance 0.25), which is also the background; key to fill about 4:1.
+  // A studio look that shows the shape: a key light from 45 degrees above and to the left of the
+  // camera (irradiance 3: a white surface facing it has radiance 3 / pi ~ 1), so the faces turned
+  // up, left and right differ, and a dim uniform fill (radiance 0.15), which is also the
+  // background; key to fill about 6:1.
   const ThinLensCamera view = s.camera();
-  const Vec3 towardKey = glm::normalize(-0.5f * view.right() + 0.8f * view.up() - 0.6f * view.forward());
-  scene["environment"] = {{"radiance", {0.25, 0.25, 0.25}}};
+  const Vec3 towardKey = glm::normalize(-1.0f * view.right() + 1.0f * view.up() - 1.4f * view.forward());
+  scene["environment"] = {{"radiance", {0.15, 0.15, 0.15}}};
   scene["lights"] = {{{"type", "directional"},
                       {"name", "studio key"},
                       {"direction", {towardKey.x, towardKey.y, towardKey.z}},
                       {"irradiance", {3.0, 3.0, 3.0}}}};
   text = scene.dump(2);
   s = parse();
-  s.notes.push_back("lights: the model has none; lit as in a studio: a directional key light from above the camera's "
-                    "left (irradiance 3) and a uniform grey environment (radiance 0.25) as fill and background");
+  s.notes.push_back("lights: the model has none; lit as in a studio: a directional key light from 45 degrees above "
+                    "the camera's left (irradiance 3) and a uniform grey environment (radiance 0.15) as fill and background");
   return s;
 }
 

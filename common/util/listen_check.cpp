@@ -10,13 +10,14 @@
 namespace lensfarm {
 
 std::optional<std::string> listenProblem(const std::string& address) {
+  // A malformed address is the flag's own check to name (it says what form it expects).
   const size_t colon = address.rfind(':');
-  if (colon == std::string::npos) return "is not HOST:PORT (e.g. 127.0.0.1:7878, or 0.0.0.0:7878 for every interface)";
+  if (colon == std::string::npos) return std::nullopt;
   std::string host = address.substr(0, colon);
   const std::string port = address.substr(colon + 1);
   if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
   if (port.empty() || port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos || std::stoi(port) > 65535)
-    return "the port \"" + port + "\" is not a number in [0, 65535] (0 picks a free port)";
+    return std::nullopt;
   if (port == "0" || port == "00" || std::stoi(port) == 0) return std::nullopt;
   addrinfo hints{};
   hints.ai_family = AF_UNSPEC;

@@ -70,6 +70,8 @@ TEST(FieldOfView, APinholeSeesItsAngleWhateverTheDistanceToLookAt) {
   const test::TempDir dir;
   for (const double distance : {1e-3, 1.0, 3.0, 1e4})
     for (const json& lens : {json{{"angle_of_view", 39.3077}}, json{{"focal_length", 0.05}, {"sensor_width", 0.036}}}) {
+      // (Lengths longer than the distance to look_at are refused as a unit slip: not this case.)
+      if (lens.contains("focal_length") && distance < 0.05) continue;
       json camera = {{"type", "pinhole"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, -3 + distance}}, {"up", {0, 1, 0}}};
       camera.update(lens);
       const Scene s = sceneWith(dir, camera, 256, 256);

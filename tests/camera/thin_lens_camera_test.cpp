@@ -179,6 +179,7 @@ TEST(ThinLensCamera, EveryDegenerateFieldIsNamed) {
     for (const double v : {0.0, -0.0, -1.0, nan, inf, -inf, 1e300}) {
       if ((std::string(l.field) == "sensor_height" && v == 0.0) || (std::string(l.field) == "f_number" && (v == inf || v == 1e300)))
         continue;
+      if (std::string(l.field) == "focus_distance" && v == inf) continue;  // focused at infinity: S2 = f
       // 1e300: beyond single precision for a sensor; a focus at infinity (fine); for f, the
       // scene loader names the unit mix-up (the camera alone sees S1 <= f).
       if (v == 1e300 && std::string(l.field) != "sensor_width" && std::string(l.field) != "sensor_height") continue;

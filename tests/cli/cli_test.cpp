@@ -82,7 +82,9 @@ TEST(CliBadInput, BadScenesExitTwoWithOneLineAndWriteNothing) {
   unknownField["camera"]["focus_distanse"] = 3.0;
   json missingObj = test::minimalSceneJson();
   missingObj["shapes"].push_back({{"type", "obj"}, {"file", "no-such-mesh.obj"}, {"material", "white"}});
-  json focusInsideF = test::minimalSceneJson();
+  json focusInsideF = test::minimalSceneJson();  // a lens focused inside its focal length
+  focusInsideF["camera"]["type"] = "thin_lens";
+  focusInsideF["camera"]["f_number"] = 8;
   focusInsideF["camera"]["focus_distance"] = 0.05;
 
   const std::vector<BadRender> cases = {

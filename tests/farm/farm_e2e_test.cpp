@@ -192,7 +192,9 @@ TEST_F(Farm, BadRequestsGetClearErrorsAndExitCodes) {
   ::unsetenv("LENSFARM_COORDINATOR");
   EXPECT_EQ(missing.exitCode, 4) << missing.err;
   EXPECT_NE(missing.err.find("job-999"), std::string::npos);
-  json bad = test::minimalSceneJson();
+  json bad = test::minimalSceneJson();  // a lens focused inside its focal length
+  bad["camera"]["type"] = "thin_lens";
+  bad["camera"]["f_number"] = 8;
   bad["camera"]["focus_distance"] = 0.01;
   const fs::path badScene = dir_.write("bad.json", bad.dump());
   const auto refused = cli({"submit", badScene.string(), "--coordinator", address});

@@ -106,15 +106,17 @@ TEST_F(Observability, AnAddressItCannotUseStopsTheCoordinator) {
   const auto malformed = test::runProcess({test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--metrics-listen", "9464"}, 30);
   EXPECT_EQ(malformed.exitCode, 2);
   EXPECT_NE(malformed.err.find("--metrics-listen: expected HOST:PORT"), std::string::npos) << malformed.err;
-  // Ports another coordinator holds: the second one does not start (no silent port sharing).
+  // Ports another coordinator holds: the second one does not start (no silent port sharing), and
+  // says so in one line naming the flag, as a bad flag (exit 2).
   const std::string address = farm_.startCoordinator({"--listen", "127.0.0.1:0", "--metrics-listen", "127.0.0.1:0"});
   const auto grpcTaken = test::runProcess({test::coordinatorPath().string(), "--listen", address}, 30);
-  EXPECT_EQ(grpcTaken.exitCode, 1);
-  EXPECT_NE(grpcTaken.err.find("cannot listen on " + address), std::string::npos) << grpcTaken.err;
+  EXPECT_EQ(grpcTaken.exitCode, 2);
+  EXPECT_NE(grpcTaken.err.find("--listen " + address + ": the port"), std::string::npos) << grpcTaken.err;
+  EXPECT_NE(grpcTaken.err.find("is in use"), std::string::npos) << grpcTaken.err;
   const auto taken = test::runProcess(
       {test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--metrics-listen", farm_.metricsAddress()}, 30);
-  EXPECT_EQ(taken.exitCode, 1);
-  EXPECT_NE(taken.err.find("cannot listen on " + farm_.metricsAddress() + " for metrics"), std::string::npos) << taken.err;
+  EXPECT_EQ(taken.exitCode, 2);
+  EXPECT_NE(taken.err.find("--metrics-listen " + farm_.metricsAddress() + ": the port"), std::string::npos) << taken.err;
 }
 
 }  // namespace

@@ -106,8 +106,8 @@ TEST(Aov, ATiltedWallsDepthIsPlanarAndItsNormalIsItsOwn) {
   scene["render"]["samples_per_pixel"] = 64;
   const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
   const float k = 1.0f / std::sqrt(1.25f);
-  // The sensor's half-width over its distance behind the lens, focused on the look-at point 3 away.
-  const double halfWidth = 0.05 * (1.0 / 0.1 - 1.0 / 3.0);
+  // The sensor's half-width over its distance behind the pinhole, which is f = 0.1.
+  const double halfWidth = 0.05 / 0.1;
   // Which way image x runs along world X is the camera's business: take it from the first pixel.
   const double sign = layerAt(r.image, "", 2, 8, 0) < 5.0f ? 1.0 : -1.0;
   for (int x = 2; x < 14; ++x) {

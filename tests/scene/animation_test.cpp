@@ -54,10 +54,8 @@ TEST(Animation, CameraMovesLinearlyBetweenKeyframesAndHoldsBeyondThem) {
     EXPECT_EQ(s.frame, frame);
     EXPECT_DOUBLE_EQ(s.origin.z, z);  // the camera's world position
     EXPECT_EQ(s.origin.x, 0.0);
-    // look_at stays at the world origin: in render space it is -position; the focus distance
-    // (not given) is the distance to it.
+    // look_at stays at the world origin: in render space it is -position (a pinhole: no focus).
     EXPECT_FLOAT_EQ(s.cameraParams.lookAt.z, float(-z));
-    EXPECT_DOUBLE_EQ(s.cameraParams.focusDistance, -z);
   }
   // Without a frame: the first keyframe's.
   const Scene first = parseAt(scene, std::nullopt);

@@ -5,6 +5,7 @@
 // submit`, the coordinator's asset names); a folder the user allows is read.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -76,7 +77,7 @@ TEST(AssetConfinement, AScenesFilesMustLieInsideItsFolder) {
   EXPECT_TRUE(test::contains(climbs, "--allow-path"));
   EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh("models/../../secret.obj")), "lies outside"));
   EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh(l.secret.string())), "shapes[0].file: \"" + l.secret.string() +
-                                                                                "\" is an absolute path"));
+                                                                                "\" is an absolute path outside"));
   EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh("https://example.com/x.obj")),
                              "shapes[0].file: \"https://example.com/x.obj\" is a URL (https:)"));
   EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh("file:///etc/passwd")), "is a URL (file:)"));
@@ -100,6 +101,13 @@ TEST(AssetConfinement, AnAllowedFolderIsRead) {
   const Layout l;
   const fs::path scene = l.sceneWithMesh("../secret.obj");
   EXPECT_EQ(loadError(scene, {l.dir.path()}), "<no error>");
+  // By an absolute path too (a shared asset library), and allowed through the environment.
+  EXPECT_EQ(loadError(l.sceneWithMesh(l.secret.string()), {l.dir.path()}), "<no error>");
+  const char* before = std::getenv("LENSFARM_ALLOW_PATH");
+  const std::string saved = before ? before : "";
+  setenv("LENSFARM_ALLOW_PATH", ("/nonexistent:" + l.dir.path().string()).c_str(), 1);
+  EXPECT_EQ(loadError(l.sceneWithMesh(l.secret.string())), "<no error>");
+  if (before) setenv("LENSFARM_ALLOW_PATH", saved.c_str(), 1); else unsetenv("LENSFARM_ALLOW_PATH");
   fs::create_symlink(l.secret, l.root / "link.obj");
   EXPECT_EQ(loadError(l.sceneWithMesh("link.obj"), {l.dir.path()}), "<no error>");
   // Allowing one folder allows nothing beside it.
@@ -125,7 +133,7 @@ TEST(AssetConfinement, AGltfModelReadsOnlyItsOwnFolder) {
   }
   const std::string remote = loadError(model("https://example.com/buffer.bin"));
   EXPECT_TRUE(test::contains(remote, "buffers[0].uri: \"https://example.com/buffer.bin\" is a URL (https:)"));
-  EXPECT_TRUE(test::contains(loadError(model("/etc/passwd")), "buffers[0].uri: \"/etc/passwd\" is an absolute path"));
+  EXPECT_TRUE(test::contains(loadError(model("/etc/passwd")), "\"/etc/passwd\" is an absolute path outside"));
   // An image too (beside a buffer of data, which is read).
   b.floats({0.0f, 0.0f, 0.0f}, "VEC3");
   json d = json::parse(b.embedded());
@@ -165,9 +173,11 @@ TEST(AssetConfinement, RenderAndSubmitRefuseWithExitCode2) {
   EXPECT_EQ(rendered.exitCode, 0) << rendered.err;
 }
 
-TEST(AssetConfinement, TheCoordinatorRefusesAssetNamesThatAreNotRelativePaths) {
+TEST(AssetConfinement, TheCoordinatorRefusesAssetNamesThatAreURLs) {
+  // Asset names are keys of the job's uploaded files: never a URL. (An absolute name is a key like
+  // any other, allowed where the client allowed its folder; the coordinator reads no file by it.)
   Coordinator c;
-  for (const std::string name : {"/etc/passwd", "https://example.com/x.obj", "C:\\secret.obj"}) {
+  for (const std::string name : {"https://example.com/x.obj", "file:///etc/passwd", ""}) {
     JobSpec spec;
     spec.sceneName = "scene.json";
     spec.sceneJson = test::minimalSceneJson().dump();
@@ -183,15 +193,17 @@ TEST(AssetConfinement, TheCoordinatorRefusesAssetNamesThatAreNotRelativePaths) {
 }
 
 TEST(AssetConfinement, PathProblemsAreRecognisedByForm) {
-  EXPECT_FALSE(unreadablePathProblem("meshes/a.obj"));
-  EXPECT_FALSE(unreadablePathProblem("../a.obj"));  // relative: the reader decides
-  EXPECT_TRUE(unreadablePathProblem("/a.obj"));
-  EXPECT_TRUE(unreadablePathProblem("\\\\server\\share\\a.obj"));
-  EXPECT_TRUE(unreadablePathProblem("C:/a.obj"));
-  EXPECT_TRUE(unreadablePathProblem("http://a/b.obj"));
-  EXPECT_TRUE(unreadablePathProblem("S3://bucket/b.obj"));
-  EXPECT_TRUE(unreadablePathProblem(""));
-  EXPECT_TRUE(unreadablePathProblem(std::string("a\0b", 3)));
+  // By their form alone: URLs and paths that name nothing.
+  for (const std::string& bad : std::vector<std::string>{"http://a/b.obj", "S3://bucket/b.obj", "file:///x", "",
+                                                         std::string("a\0b", 3)})
+    EXPECT_TRUE(unreadablePathProblem(bad)) << bad;
+  for (const std::string path : {"meshes/a.obj", "../a.obj", "/a.obj", "C:/a.obj", "a:b.obj"})
+    EXPECT_FALSE(unreadablePathProblem(path)) << path;
+  // Where they lead, by the reader: out of the root, absolute or on another drive, refused.
+  const test::TempDir dir;
+  for (const std::string out : {"../a.obj", "/etc/passwd", "C:/a.obj", "C:\\a.obj"})
+    EXPECT_THROW((void)confinedFile(dir.path(), out, {}), AssetRefused) << out;
+  EXPECT_EQ(confinedFile(dir.path(), "a/../b.obj", {}), dir.path() / "b.obj");
 }
 
 }  // namespace

@@ -179,6 +179,8 @@ TEST_F(BadInput, Vec3WithTwoElements) {
 
 TEST_F(BadInput, FocusDistanceInsideFocalLength) {
   json j = test::minimalSceneJson();
+  j["camera"]["type"] = "thin_lens";  // a lens: a pinhole has no focus
+  j["camera"]["f_number"] = 8;
   j["camera"]["focus_distance"] = 0.05;  // f = 0.1
   EXPECT_TRUE(namesField(errorOf(j), "camera.focus_distance"));
   j["camera"]["focus_distance"] = 0.1;  // S1 == f
@@ -187,6 +189,8 @@ TEST_F(BadInput, FocusDistanceInsideFocalLength) {
 
 TEST_F(BadInput, FocusDistanceBarelyBeyondFocalLengthMakesS2Unbounded) {
   json j = test::minimalSceneJson();
+  j["camera"]["type"] = "thin_lens";
+  j["camera"]["f_number"] = 8;
   const double f = j["camera"]["focal_length"].get<double>();
   j["camera"]["focus_distance"] = f * (1.0 + 1e-9);
   ASSERT_GT(j["camera"]["focus_distance"].get<double>(), f);

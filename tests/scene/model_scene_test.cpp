@@ -161,8 +161,10 @@ TEST(ModelScene, RenderingAModelFileUsesItsDefaultsAndSaysSo) {
   const Scene scene = modelScene(dir.path() / "cube.glb", text);
   EXPECT_EQ(scene.render.width, 1280);
   EXPECT_EQ(scene.render.height, 720);
-  ASSERT_EQ(scene.lights.size(), 1u);
-  EXPECT_STREQ(scene.lights[0]->type(), "environment");
+  // Without lights of its own: the studio key light and the environment's fill.
+  ASSERT_EQ(scene.lights.size(), 2u);
+  EXPECT_STREQ(scene.lights[0]->type(), "directional");
+  EXPECT_STREQ(scene.lights[1]->type(), "environment");
   // The framing camera looks at the cube's centre.
   const ThinLensCamera camera = scene.camera();
   const Vec3 toCentre = glm::normalize(Vec3(DVec3(0.5) - scene.origin) - camera.params().position);
@@ -173,7 +175,7 @@ TEST(ModelScene, RenderingAModelFileUsesItsDefaultsAndSaysSo) {
   const std::string output = result.out + result.err;
   ASSERT_EQ(result.exitCode, 0) << output;
   EXPECT_NE(output.find("framing"), std::string::npos) << output;
-  EXPECT_NE(output.find("uniform white environment"), std::string::npos) << output;
+  EXPECT_NE(output.find("lit as in a studio"), std::string::npos) << output;
   const Image image = readExr(dir.path() / "cube.exr");
   EXPECT_EQ(image.width, 32);
   double sum = 0;
