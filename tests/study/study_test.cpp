@@ -134,9 +134,13 @@ void checkBounces(const StudyRun& run) {
 void checkMaterials(const StudyRun& run) {
   std::map<std::string, std::map<std::string, std::string>> rows;
   for (const auto& row : readCsv(run.out("materials.csv"))) rows[row.at("variant")] = row;
-  ASSERT_EQ(rows.size(), 7u);
+  ASSERT_EQ(rows.size(), 8u);
   EXPECT_NE(rows.at("outdoors, lit by an environment map (sky and sun)").at("effects").find("environment"),
             std::string::npos);
+  // The thin-walled ball is a thin wall, and only that variant pays for one.
+  EXPECT_NE(rows.at("thin-walled glass (a thin wall), rough gold 0.3").at("effects").find("let light straight through"),
+            std::string::npos);
+  EXPECT_EQ(rows.at("smooth glass, rough gold 0.3").at("effects").find("let light straight through"), std::string::npos);
   EXPECT_LT(num(rows.at("smooth glass, rough gold 1.0, no energy compensation"), "image mean"),
             num(rows.at("smooth glass, rough gold 1.0"), "image mean"));
   EXPECT_EQ(rows.at("diffuse stand-ins").at("effects"), "diffuse only");
