@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstddef>
 #include <cstdlib>
 #include <limits>
@@ -55,7 +56,7 @@ inline Vec3 pointOnTriangle(const Vec3& v0, const Vec3& v1, const Vec3& v2, floa
 // use is also switched off that way, with harmless finite values, whatever the packet held there
 // (tests/render/ray_caster_isa_test.cpp renders with Embree's narrower kernels).
 inline void loadPacket(const int (&valid)[kPacketWidth], const RayPacket& __restrict rays, const float* __restrict tFar,
-                       RTCRay16& __restrict ray, unsigned mask) {
+                       RTCRay16& __restrict ray, unsigned mask, float scale) {
   // Branch-free, so the loop vectorises: a lane's bits are kept (valid -1) or replaced (valid 0).
   auto pick = [](int lane, float in, float off) {
     const uint32_t keep = uint32_t(lane);
@@ -63,12 +64,12 @@ inline void loadPacket(const int (&valid)[kPacketWidth], const RayPacket& __rest
   };
   for (int k = 0; k < kPacketWidth; ++k) {
     const int on = valid[k] != 0 ? -1 : 0;
-    ray.org_x[k] = pick(on, rays.ox[k], 0.0f);
-    ray.org_y[k] = pick(on, rays.oy[k], 0.0f);
-    ray.org_z[k] = pick(on, rays.oz[k], 0.0f);
-    ray.dir_x[k] = pick(on, rays.dx[k], 0.0f);
-    ray.dir_y[k] = pick(on, rays.dy[k], 0.0f);
-    ray.dir_z[k] = pick(on, rays.dz[k], 1.0f);
+    ray.org_x[k] = pick(on, rays.ox[k] * scale, 0.0f);
+    ray.org_y[k] = pick(on, rays.oy[k] * scale, 0.0f);
+    ray.org_z[k] = pick(on, rays.oz[k] * scale, 0.0f);
+    ray.dir_x[k] = pick(on, rays.dx[k] * scale, 0.0f);
+    ray.dir_y[k] = pick(on, rays.dy[k] * scale, 0.0f);
+    ray.dir_z[k] = pick(on, rays.dz[k] * scale, 1.0f);
     ray.tnear[k] = pick(on, 0.0f, 1.0f);
     ray.tfar[k] = pick(on, tFar[k], 0.0f);
     ray.mask[k] = mask;
@@ -92,7 +93,7 @@ using Triangle = RayCaster::Triangle;
 template <bool kInstances>
 LENSFARM_LANE_LOOPS void decodeHits(const uint32_t* __restrict geomOffset, GatherView<Triangle> tris,
                                     const RTCRayHit16& rh, RayCaster::PacketHits& __restrict out,
-                                    uint32_t* __restrict nearPlane) {
+                                    uint32_t* __restrict nearPlane, float scale) {
   // Embree's arrays as plain pointers: GCC does not vectorise loads through RTCRayHit16's members.
   const uint32_t* __restrict geomID = rh.hit.geomID;
   const uint32_t* __restrict primID = rh.hit.primID;
@@ -121,7 +122,8 @@ LENSFARM_LANE_LOOPS void decodeHits(const uint32_t* __restrict geomOffset, Gathe
     out.v0x[k] = v0.x, out.v0y[k] = v0.y, out.v0z[k] = v0.z;
     out.margin[k] = tris.f(index, offsetof(Triangle, margin));
     const float along = out.t[k] * std::abs(dx[k] * n.x + dy[k] * n.y + dz[k] * n.z);
-    nearPlane[k] = mesh & (along <= 4.0f * out.margin[k] ? ~0u : 0u);
+    // (The directions Embree was given are scale times the rays': embreeScale_.)
+    nearPlane[k] = mesh & (along <= 4.0f * out.margin[k] * scale ? ~0u : 0u);
   }
 }
 }  // namespace
@@ -155,9 +157,19 @@ RayCaster::RayCaster(const Scene& scene) : source_(scene) {
   rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
 
+  // Embree's scale (embreeScale_): from the scene's extent, meshes and placed instances.
+  {
+    DVec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+    for (const TriangleMesh& mesh : scene.meshes)
+      for (const Vec3& v : mesh.positions) lo = glm::min(lo, DVec3(v)), hi = glm::max(hi, DVec3(v));
+    for (const auto& [a, b] : instanceBoxes(scene)) lo = glm::min(lo, a), hi = glm::max(hi, b);
+    const double extent = lo.x <= hi.x ? largestAbs(hi - lo) : 0.0;
+    if (extent > 0.0 && extent < kSmallScene) embreeScale_ = float(std::exp2(std::floor(-std::log2(extent))));
+  }
+
   uint32_t first = 0;  // of each mesh, in triangles_
   for (const TriangleMesh& mesh : scene.meshes) {
-    RTCGeometry geom = meshGeometry(scene, mesh);
+    RTCGeometry geom = meshGeometry(scene, mesh, embreeScale_);
     const unsigned mask = unsigned(RayKind::kScattered) | (mesh.visibleToCamera ? unsigned(RayKind::kCamera) : 0u);
     rtcSetGeometryMask(geom, mask);
     rtcCommitGeometry(geom);
@@ -174,7 +186,7 @@ RayCaster::RayCaster(const Scene& scene) : source_(scene) {
     RTCScene child = rtcNewScene(device_);
     rtcSetSceneFlags(child, RTC_SCENE_FLAG_ROBUST);
     rtcSetSceneBuildQuality(child, RTC_BUILD_QUALITY_HIGH);
-    RTCGeometry geom = meshGeometry(scene, mesh);
+    RTCGeometry geom = meshGeometry(scene, mesh, 1.0f);
     rtcCommitGeometry(geom);
     rtcAttachGeometry(child, geom);
     rtcReleaseGeometry(geom);
@@ -186,7 +198,10 @@ RayCaster::RayCaster(const Scene& scene) : source_(scene) {
     RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
     rtcSetGeometryInstancedScene(geom, prototypeScenes_[instance.prototype]);
     rtcSetGeometryTimeStepCount(geom, 1);
-    rtcSetGeometryTransform(geom, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, &instance.toRender[0][0]);
+    // Scaled whole: object space to Embree's (embreeScale_ times render space).
+    glm::mat4x3 placed = instance.toRender;
+    for (int c = 0; c < 4; ++c) placed[c] *= embreeScale_;
+    rtcSetGeometryTransform(geom, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, &placed[0][0]);
     rtcSetGeometryMask(geom,
                        unsigned(RayKind::kScattered) | (instance.visibleToCamera ? unsigned(RayKind::kCamera) : 0u));
     rtcCommitGeometry(geom);
@@ -261,12 +276,12 @@ bool RayCaster::embreeMemory(void* caster, ssize_t bytes, bool) {
   return true;  // never refuse: the memory budget is checked before the scene is built
 }
 
-RTCGeometry RayCaster::meshGeometry(const Scene& scene, const TriangleMesh& mesh) {
+RTCGeometry RayCaster::meshGeometry(const Scene& scene, const TriangleMesh& mesh, float scale) {
   RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
   auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                                3 * sizeof(float), mesh.positions.size()));
   for (size_t k = 0; k < mesh.positions.size(); ++k)
-    for (int c = 0; c < 3; ++c) vertices[3 * k + c] = mesh.positions[k][c];
+    for (int c = 0; c < 3; ++c) vertices[3 * k + c] = mesh.positions[k][c] * scale;
   // The mesh's own indices, not a copy (the scene outlives the caster). Vertices are copied:
   // Embree reads a vertex buffer's last element with a 16-byte load, past a Vec3 array's end.
   if (mesh.indices.empty())
@@ -338,12 +353,12 @@ std::optional<SurfaceHit> RayCaster::intersect(const Vec3& o, const Vec3& d, Ray
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRayHit rh;
-  rh.ray.org_x = o.x;
-  rh.ray.org_y = o.y;
-  rh.ray.org_z = o.z;
-  rh.ray.dir_x = d.x;
-  rh.ray.dir_y = d.y;
-  rh.ray.dir_z = d.z;
+  rh.ray.org_x = o.x * embreeScale_;
+  rh.ray.org_y = o.y * embreeScale_;
+  rh.ray.org_z = o.z * embreeScale_;
+  rh.ray.dir_x = d.x * embreeScale_;
+  rh.ray.dir_y = d.y * embreeScale_;
+  rh.ray.dir_z = d.z * embreeScale_;
   rh.ray.tnear = 0.0f;  // origins are offset off their surface (math/ray_offset.h)
   rh.ray.tfar = std::numeric_limits<float>::infinity();
   rh.ray.mask = unsigned(kind);
@@ -361,9 +376,9 @@ std::optional<SurfaceHit> RayCaster::intersect(const Vec3& o, const Vec3& d, Ray
     // Turned by about 1e-6 radians about an axis perpendicular to d: far more than the rounding
     // around a vertex, far less than anything a pixel could show.
     const Vec3 nudged = nudgedDirection(d);
-    rh.ray.dir_x = nudged.x;
-    rh.ray.dir_y = nudged.y;
-    rh.ray.dir_z = nudged.z;
+    rh.ray.dir_x = nudged.x * embreeScale_;
+    rh.ray.dir_y = nudged.y * embreeScale_;
+    rh.ray.dir_z = nudged.z * embreeScale_;
     rh.ray.tfar = std::numeric_limits<float>::infinity();
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(scene_, &context, &rh);
@@ -454,12 +469,12 @@ bool RayCaster::occluded(const Vec3& o, const Vec3& d, float tFar, RayKind kind)
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRay ray;
-  ray.org_x = o.x;
-  ray.org_y = o.y;
-  ray.org_z = o.z;
-  ray.dir_x = d.x;
-  ray.dir_y = d.y;
-  ray.dir_z = d.z;
+  ray.org_x = o.x * embreeScale_;
+  ray.org_y = o.y * embreeScale_;
+  ray.org_z = o.z * embreeScale_;
+  ray.dir_x = d.x * embreeScale_;
+  ray.dir_y = d.y * embreeScale_;
+  ray.dir_z = d.z * embreeScale_;
   ray.tnear = 0.0f;
   ray.tfar = tFar;
   ray.mask = unsigned(kind);
@@ -477,7 +492,7 @@ void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) 
   // Camera packets hold the samples of one or a few neighbouring sensor cells.
   if (kind == RayKind::kCamera) context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
   alignas(64) RTCRayHit16 rh;
-  loadPacket(rays.valid, rays, kNoFarEnd, rh.ray, unsigned(kind));
+  loadPacket(rays.valid, rays, kNoFarEnd, rh.ray, unsigned(kind), embreeScale_);
   for (int k = 0; k < kPacketWidth; ++k) {
     rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
@@ -498,9 +513,9 @@ void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) 
       tHit[k] = rh.ray.tfar[k];
       if (retry[k]) {
         const Vec3 nudged = nudgedDirection(rays.direction(k));
-        rh.ray.dir_x[k] = nudged.x;
-        rh.ray.dir_y[k] = nudged.y;
-        rh.ray.dir_z[k] = nudged.z;
+        rh.ray.dir_x[k] = nudged.x * embreeScale_;
+        rh.ray.dir_y[k] = nudged.y * embreeScale_;
+        rh.ray.dir_z[k] = nudged.z * embreeScale_;
       } else {
         rh.ray.tnear[k] = 1.0f;
         rh.ray.tfar[k] = 0.0f;
@@ -516,9 +531,9 @@ void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) 
     out.found[k] = rays.valid[k] != 0 && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID ? -1 : 0;
   alignas(64) uint32_t near[kPacketWidth];
   if (prototypeScenes_.empty()) {
-    decodeHits<false>(geomOffset_.data(), GatherView<Triangle>(triangles_.data()), rh, out, near);
+    decodeHits<false>(geomOffset_.data(), GatherView<Triangle>(triangles_.data()), rh, out, near, embreeScale_);
   } else {
-    decodeHits<true>(geomOffset_.data(), GatherView<Triangle>(triangles_.data()), rh, out, near);
+    decodeHits<true>(geomOffset_.data(), GatherView<Triangle>(triangles_.data()), rh, out, near, embreeScale_);
     // Hits on instances, decoded one by one, the coplanar rule's first test with them.
     for (int k = 0; k < kPacketWidth; ++k) {
       if (!out.found[k] || rh.hit.instID[0][k] == RTC_INVALID_GEOMETRY_ID) continue;
@@ -548,7 +563,7 @@ void RayCaster::occluded(const RayPacket& rays, bool (&occluded)[kPacketWidth]) 
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   alignas(64) RTCRay16 ray;
-  loadPacket(rays.valid, rays, rays.tFar, ray, unsigned(RayKind::kScattered));
+  loadPacket(rays.valid, rays, rays.tFar, ray, unsigned(RayKind::kScattered), embreeScale_);
   rtcOccluded16(rays.valid, scene_, &context, &ray);
   for (int k = 0; k < kPacketWidth; ++k) occluded[k] = rays.valid[k] != 0 && ray.tfar[k] < 0.0f;
 }

@@ -204,6 +204,14 @@ class RayCaster {
   };
   std::vector<InstanceMargin> instanceMargins_;
   DVec3 lo_{0.0}, hi_{0.0};
+  // The scale of the scene as Embree sees it: a power of two that makes a scene smaller than
+  // kSmallScene about one unit across (1 for every other), applied to its vertices, instance
+  // transforms and every ray's origin and direction. Embree's float tests multiply up to four
+  // lengths, which underflow in a scene a few 1e-10 across (a quad there shaded black); a power
+  // of two scales every float exactly, so distances along a ray (its parameter t) and barycentrics
+  // come back unchanged, and a scene of ordinary size keeps every bit.
+  float embreeScale_ = 1.0f;
+  static constexpr double kSmallScene = 1.0 / 1024.0;
   std::atomic<int64_t> embreeBytes_{0}, embreePeak_{0};
   static bool embreeMemory(void* caster, ssize_t bytes, bool post);
   // The cut-out filters' data (ray_caster.cpp), one per mesh that has a cut-out material.
@@ -218,7 +226,8 @@ class RayCaster {
   // The hit on triangle primID of instance `instance`, in render space.
   SurfaceHit instanceHit(uint32_t instance, unsigned primID, float u, float v, float t) const;
   // Embree's geometry for a mesh's triangles, with the cut-out filter if its materials need it.
-  RTCGeometry meshGeometry(const Scene& scene, const TriangleMesh& mesh);
+  // `scale`: embreeScale_ for the scene's meshes, 1 for prototypes (their instances carry it).
+  RTCGeometry meshGeometry(const Scene& scene, const TriangleMesh& mesh, float scale);
   void addTriangles(const TriangleMesh& mesh, std::vector<Triangle>& into) const;
   // The hit after `hit`, for a ray that starts in hit's plane (the coplanar rule).
   std::optional<SurfaceHit> leavePlane(const Vec3& o, const Vec3& d, RayKind kind, const SurfaceHit& hit) const;
