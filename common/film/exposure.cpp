@@ -8,34 +8,38 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <vector>
 
 namespace lensfarm {
+
+namespace {
+// Pixel k's Rec. 709 luminance, in double where float would lose it: a pixel near the top of
+// single precision (3.4e38) overflows a float sum, a denormal one loses its digits.
+double pixelLuminance(const Image& image, size_t k) {
+  const float r = image.rgb[3 * k], g = image.rgb[3 * k + 1], b = image.rgb[3 * k + 2];
+  const float l = luminance(Spectrum(r, g, b));
+  return std::isnormal(l) ? double(l) : 0.2126 * double(r) + 0.7152 * double(g) + 0.0722 * double(b);
+}
+
+// The factor that maps `mean` to 1, or 1 where it has none. In double, the mean of a float image
+// and its reciprocal are finite and non-zero for any finite image that is not black, from
+// denormal pixels (1e-45) to the largest float.
+double scaleToOne(double mean) { return mean > 0.0 && std::isfinite(mean) && std::isfinite(1.0 / mean) ? 1.0 / mean : 1.0; }
+}  // namespace
 
 double autoExposureScale(const Image& image) {
   double total = 0.0;
   const size_t pixels = size_t(image.width) * image.height;
-  for (size_t k = 0; k < pixels; ++k) {
-    const float r = image.rgb[3 * k], g = image.rgb[3 * k + 1], b = image.rgb[3 * k + 2];
-    const float l = luminance(Spectrum(r, g, b));
-    // A pixel near the top of single precision (3.4e38) overflows the float sum, a denormal one
-    // loses its digits: those in double.
-    total += std::isnormal(l) ? double(l) : 0.2126 * double(r) + 0.7152 * double(g) + 0.0722 * double(b);
-  }
-  // In double, the mean of a float image and its reciprocal are finite and non-zero for any
-  // finite image that is not black, from denormal pixels (1e-45) to the largest float.
-  const double mean = pixels ? total / double(pixels) : 0.0;
-  return mean > 0.0 && std::isfinite(mean) && std::isfinite(1.0 / mean) ? 1.0 / mean : 1.0;
+  for (size_t k = 0; k < pixels; ++k) total += pixelLuminance(image, k);
+  return scaleToOne(pixels ? total / double(pixels) : 0.0);
 }
 
 double litExposureScale(const Image& image) {
-  // Luminance per pixel as the mean meter takes it (in double where float would lose it).
   const int w = image.width, h = image.height;
   std::vector<double> lum(size_t(w) * size_t(h));
   for (size_t k = 0; k < lum.size(); ++k) {
-    const float r = image.rgb[3 * k], g = image.rgb[3 * k + 1], b = image.rgb[3 * k + 2];
-    const float l = luminance(Spectrum(r, g, b));
-    const double ld = std::isnormal(l) ? double(l) : 0.2126 * double(r) + 0.7152 * double(g) + 0.0722 * double(b);
-    lum[k] = ld > 0.0 && std::isfinite(ld) ? ld : 0.0;
+    const double l = pixelLuminance(image, k);
+    lum[k] = l > 0.0 && std::isfinite(l) ? l : 0.0;
   }
   // A pixel sees something if it or a neighbour (3 x 3) is not black: a background the camera sees
   // nothing in is black throughout, while a dark, noisy region has light somewhere near every
@@ -55,8 +59,7 @@ double litExposureScale(const Image& image) {
       total += lum[size_t(y) * w + x];
       ++lit;
     }
-  const double mean = lit ? total / double(lit) : 0.0;
-  return mean > 0.0 && std::isfinite(mean) && std::isfinite(1.0 / mean) ? 1.0 / mean : 1.0;
+  return scaleToOne(lit ? total / double(lit) : 0.0);
 }
 
 double exposureScale(const Image& image, ExposureMeter meter) {
