@@ -327,6 +327,31 @@ TEST(Audit, TwoWorkersThatDisagreeWithNoThirdQuarantineNobody) {
 }
 
 // One worker alone (`lensfarm render`) is never audited: nothing to compare with, nothing spent.
+// Each agreeing audit is counted once per worker, by role: the counted unit's worker confirmed
+// (auditsPassed), the worker that rendered it again (auditsRendered). Over a farm the two sums
+// are each the job's passed audits: a count doubled (both roles as "passed") would give twice.
+TEST(Audit, EachWorkersAuditsAreCountedOnceByRole) {
+  Coordinator::Options options;
+  options.auditFraction = 0.25;
+  Coordinator c(options);
+  const std::string job = c.submit(auditSpec(40), 0).id;
+  std::vector<Worker> workers;
+  for (const char* name : {"a", "b", "c"}) workers.push_back({c.registerWorker(test::workerInfo(name))});
+  drive(c, job, workers);
+  const JobInfo info = c.job(job);
+  ASSERT_GE(info.auditsPassed, 3u) << "each worker's first unit at least";
+  EXPECT_EQ(info.auditsFailed, 0u);
+  uint64_t confirmed = 0, rendered = 0;
+  std::vector<WorkerView> keep;
+  for (const Worker& w : workers) {
+    const WorkerView& v = viewOf(c, w.id, keep);
+    EXPECT_GE(v.auditsPassed, 1u) << w.id << ": its first unit is audited";
+    confirmed += v.auditsPassed, rendered += v.auditsRendered;
+  }
+  EXPECT_EQ(confirmed, info.auditsPassed);
+  EXPECT_EQ(rendered, info.auditsPassed);
+}
+
 TEST(Audit, AFarmOfOneAuditsNothing) {
   Coordinator c;
   const std::string job = c.submit(auditSpec(8), 0).id;
