@@ -12,7 +12,7 @@ Usage (Blender 3.4, tested with Debian's 3.4.1):
 Writes:
     OUTDIR/scene.blend   the scene as built here
     OUTDIR/scene.glb     Blender's own glTF exporter, export_lights=True, export_cameras=True,
-                         default lighting mode ('SPEC': W -> cd via /(4*pi)*683, sun W/m^2 -> lx 1:1)
+                         default lighting mode ('SPEC': W -> cd via /(4*pi)*683, sun W/m^2 -> lx *683)
     OUTDIR/cycles.exr    Cycles CPU render, fixed seed, no denoiser, linear float EXR
                          (view transform 'Standard', look None, exposure 0, gamma 1)
 and prints one line "RESULT_JSON {...}" with the per-channel image means and a summary of what the
