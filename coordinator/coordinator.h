@@ -402,8 +402,9 @@ class Coordinator {
   bool accept(const UnitResult& result, UnitResult* owned);
   // FarmError kInvalidArgument unless the result is one the unit can produce (results.cpp).
   // `map`: an adaptive unit's samples (render/sample_map.h), whose counts then replace sampleCount.
+  // `maxRaysPerPath`: the job's (render/unit_renderer.h).
   static void checkPlausible(const UnitResult& result, uint64_t cells, uint32_t sampleCount, const AovLayout& aovs,
-                             const SampleMap* map = nullptr);
+                             const SampleMap* map, uint64_t maxRaysPerPath);
   // Unit `unit` of `job` as a lease carries it: an adaptive unit with its map (requires mutex_).
   // `ready` (if given) is false for a unit of a round not allocated yet (no map: not to be leased).
   WorkUnit unitToLease(const Job& job, uint64_t unit, bool* ready = nullptr) const;

@@ -12,6 +12,7 @@
 #include "coordinator.h"
 #include "coordinator_records.h"
 #include "render/memory_estimate.h"
+#include "render/unit_renderer.h"
 #include "state_store.h"
 #include "util/error.h"
 
@@ -72,7 +73,7 @@ bool Coordinator::acceptResult(const UnitResult& result) { return accept(result,
 // mean stays a finite float; one camera path is traced per cell and sample, and lights hit and
 // samples dropped are among those paths. Anything else did not come from the renderer.
 void Coordinator::checkPlausible(const UnitResult& result, uint64_t cells, uint32_t sampleCount, const AovLayout& aovs,
-                                 const SampleMap* map) {
+                                 const SampleMap* map, uint64_t maxRaysPerPath) {
   const std::string what = "result for unit " + std::to_string(result.unitIndex) + " of " + result.jobId;
   // Each channel's range for a cell of n samples (film/aov_layout.h: the beauty's RGB, then the
   // AOVs' sums); an adaptive unit's cells have their block's n.
@@ -106,7 +107,7 @@ void Coordinator::checkPlausible(const UnitResult& result, uint64_t cells, uint3
   if (s.paths != paths)
     throw FarmError(FarmError::Kind::kInvalidArgument, what + " counts " + std::to_string(s.paths) +
                                                             " paths; the unit traces " + std::to_string(paths));
-  if (s.lightHits > paths || s.dropped > paths || s.rays / 1024 > paths)
+  if (s.lightHits > paths || s.dropped > paths || s.rays / maxRaysPerPath > paths)
     throw FarmError(FarmError::Kind::kInvalidArgument,
                     what + " has counters the unit cannot produce (rays " + std::to_string(s.rays) + ", light hits " +
                         std::to_string(s.lightHits) + ", dropped " + std::to_string(s.dropped) + " for " +
@@ -144,6 +145,7 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
     PixelRegion region;
     uint32_t sampleCount = 0;
     AovLayout aovs;
+    uint64_t raysPerPath = 1;
     std::shared_ptr<const SampleMap> map;
     {
       std::lock_guard lock(mutex_);
@@ -153,6 +155,7 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
         sampleCount = found.layout.unit(result.unitIndex).sampleCount;
         region = found.layout.regionOf(result.unitIndex);
         aovs = AovLayout(found.settings.aovs);
+        raysPerPath = maxRaysPerPath(found.settings);
         if (found.film && found.layout.adaptive()) map = found.film->samplesOf(result.unitIndex, &ready);
         if (!ready) sampleCount = 0;  // not leased yet: refused below (no lease covers it)
       }
@@ -161,7 +164,7 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
     const uint64_t cells = uint64_t(region.width) * uint64_t(region.height);
     if (sampleCount > 0 && result.buffer.width == region.width && result.buffer.height == region.height &&
         result.buffer.sums.size() == cells * uint64_t(aovs.channels))
-      checkPlausible(result, cells, sampleCount, aovs, map.get());
+      checkPlausible(result, cells, sampleCount, aovs, map.get(), raysPerPath);
   }
   Job* job;
   JobPin pin;  // not deleted or archived while its result is summed (lifecycle.cpp); outlives the locks below

@@ -41,7 +41,7 @@ LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const st
     if (!(p > 0.0)) continue;
     lightOfTriangle_[k] = int32_t(lights_.size());
     lights_.push_back(Light{k, area, 0.0f, t.v0, t.v1, t.v2, t.n, t.margin, m.emission,
-                            m.twoSidedEmission ? 1.0f : 0.0f});
+                            m.twoSidedEmission ? 1.0f : 0.0f, caster.isPrecise(k) ? 1.0f : 0.0f});
     power.push_back(p);
     total += p;
   }
@@ -153,7 +153,8 @@ template <typename Lights>
       lights.f(i, offsetof(Light, area)), lights.vec3(i, offsetof(Light, emission)), lights.f(i, offsetof(Light, twoSided)));
   l.px[k] = s.p.x, l.py[k] = s.p.y, l.pz[k] = s.p.z;
   l.nx[k] = n.x, l.ny[k] = n.y, l.nz[k] = n.z;
-  l.v0x[k] = v0.x, l.v0y[k] = v0.y, l.v0z[k] = v0.z;
+  const Vec3 anchor = lights.f(i, offsetof(Light, anchored)) > 0.0f ? s.p : v0;  // Light::planeAt
+  l.v0x[k] = anchor.x, l.v0y[k] = anchor.y, l.v0z[k] = anchor.z;
   l.margin[k] = lights.f(i, offsetof(Light, margin));
   l.rr[k] = s.radiance.r, l.rg[k] = s.radiance.g, l.rb[k] = s.radiance.b;
   l.pdf[k] = s.pdf;
@@ -206,7 +207,8 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, float uChoice, 
   const TrianglePoint s =
       sampleTrianglePoint(l.v0, l.v1, l.v2, l.n, ref, uPoint, l.pmf, l.area, l.emission, l.twoSided);
   if (!s.valid()) return std::nullopt;
-  return LightSample{s.p, l.n, l.v0, l.margin, s.radiance, s.pdf};
+  const SpawnPlane plane = l.planeAt(s.p);
+  return LightSample{s.p, l.n, plane.v0, l.margin, s.radiance, s.pdf};
 }
 
 void LightSampler::sample(LightSampleLanes& lanes) const {

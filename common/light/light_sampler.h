@@ -99,6 +99,12 @@ class LightSampler {
     float margin;        // with v0 and n, the triangle's SpawnPlane (math/ray_offset.h)
     Spectrum emission;
     float twoSided;      // 1: emits from both faces; 0: from the front face only
+    // 1: a precise triangle (render/precise_triangles.h), whose spawn plane is anchored at the
+    // point sampled on it, as the caster anchors its hits; 0: at v0.
+    float anchored;
+
+    // The spawn plane at point p of the triangle.
+    SpawnPlane planeAt(const Vec3& p) const { return SpawnPlane{anchored > 0.0f ? p : v0, n, margin}; }
   };
   // The emitting triangles sampled, their pmf among every light sampled.
   const std::vector<Light>& triangleLights() const { return lights_; }

@@ -141,7 +141,7 @@ void traceParticle(const Setup &s, uint64_t particle,
       light.emission *
       (kPi * light.area * (light.twoSided > 0.0f ? 2.0f : 1.0f) / s.pmf[li]);
   Vec3 origin =
-      spawnOrigin(p, SpawnPlane{light.v0, light.n, light.margin}, direction);
+      spawnOrigin(p, light.planeAt(p), direction);
   int bounces = 0;
   // Vertex v is reached by the v-th ray; its camera connection is the path's (v
   // + 1)-th segment.

@@ -14,6 +14,7 @@
 #include "math/lanes.h"
 #include "math/ray_offset.h"
 #include "math/triangle.h"
+#include "render/cutout.h"
 
 namespace lensfarm {
 
@@ -36,11 +37,19 @@ constexpr float kInfinity = std::numeric_limits<float>::infinity();
 // it. A camera on a wall's plane, or a ray leaving one of two coplanar surfaces, does not see
 // the surface it starts in. The float test first (distance ~ t |cos|), the exact one in double
 // only for hits that close.
+// A scattered ray that starts within the margin but on the side it comes from (approaching the
+// plane, not leaving it) meets the surface: that is a ray spawned from one wall near its edge
+// with another, a hair inside the box; leaving the second wall put it outside, and it escaped
+// (about 3 in 10^7 rays of a closed furnace, a lost path tail in one pixel in 65,536). Camera
+// rays keep the rule either way: a camera standing in a plane is on one side of it only by
+// rounding.
 inline bool nearPlane(const Vec3& d, float t, const Vec3& n, float margin) {
   return t * std::abs(d.x * n.x + d.y * n.y + d.z * n.z) <= 4.0f * margin;
 }
-inline bool startsInPlane(const Vec3& o, const Vec3& v0, const Vec3& n, float margin) {
-  const double s = glm::dot(DVec3(n), DVec3(o) - DVec3(v0));
+inline bool startsInPlane(const Vec3& o, const Vec3& d, RayKind kind, const Vec3& v0, const Vec3& n, float margin) {
+  const DVec3 nd(n);
+  const double s = glm::dot(nd, DVec3(o) - DVec3(v0));
+  if (kind == RayKind::kScattered && s * glm::dot(nd, DVec3(d)) < 0.0) return false;  // approaching
   return std::abs(s) <= double(margin);
 }
 
@@ -165,23 +174,40 @@ RayCaster::RayCaster(const Scene& scene) : source_(scene) {
     for (const auto& [a, b] : instanceBoxes(scene)) lo = glm::min(lo, a), hi = glm::max(hi, b);
     const double extent = lo.x <= hi.x ? largestAbs(hi - lo) : 0.0;
     if (extent > 0.0 && extent < kSmallScene) embreeScale_ = float(std::exp2(std::floor(-std::log2(extent))));
+    if (extent > kLargeScene) embreeScale_ = float(std::exp2(std::floor(std::log2(kLargeScene / extent))));
   }
 
+  // Each Embree geometry's first triangle in triangles_, and whether it is precise.
+  const auto place = [&](unsigned id, uint32_t first, bool precise) {
+    if (geomOffset_.size() <= id) geomOffset_.resize(id + 1, 0), isPrecise_.resize(id + 1, 0);
+    geomOffset_[id] = first;
+    isPrecise_[id] = precise ? 1 : 0;
+  };
+  const std::vector<std::vector<uint32_t>> precise = preciseTrianglesOf(scene);
   uint32_t first = 0;  // of each mesh, in triangles_
-  for (const TriangleMesh& mesh : scene.meshes) {
-    RTCGeometry geom = meshGeometry(scene, mesh, embreeScale_);
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    const TriangleMesh& mesh = scene.meshes[m];
+    RTCGeometry geom = meshGeometry(scene, mesh, embreeScale_, precise[m]);
     const unsigned mask = unsigned(RayKind::kScattered) | (mesh.visibleToCamera ? unsigned(RayKind::kCamera) : 0u);
     rtcSetGeometryMask(geom, mask);
     rtcCommitGeometry(geom);
     const unsigned id = rtcAttachGeometry(scene_, geom);
     rtcReleaseGeometry(geom);  // the scene holds its own reference
-
-    if (geomOffset_.size() <= id) geomOffset_.resize(id + 1);
-    geomOffset_[id] = first;
+    place(id, first, false);
+    meshFirst_.push_back(first);
+    if (!precise[m].empty()) {
+      for (const uint32_t tri : precise[m]) preciseTriangles_.push_back(first + tri);
+      precise_.push_back(std::make_unique<PreciseTriangles>(scene, mesh, precise[m], embreeScale_, mask));
+      RTCGeometry user = precise_.back()->geometry(device_);
+      rtcCommitGeometry(user);
+      place(rtcAttachGeometry(scene_, user), first, true);
+      rtcReleaseGeometry(user);
+      spdlog::debug("mesh {}: {} triangles too large for Embree's float test are tested in double", m,
+                    precise[m].size());
+    }
     first += uint32_t(mesh.triangleCount());
   }
-  // Each prototype is a scene of its own, each use of it an instance geometry of the top scene
-  // (attached after the meshes, so the meshes' geometry ids are 0, 1, ... as geomOffset_ needs).
+  // Each prototype is a scene of its own, each use of it an instance geometry of the top scene.
   for (const TriangleMesh& mesh : scene.prototypes) {
     RTCScene child = rtcNewScene(device_);
     rtcSetSceneFlags(child, RTC_SCENE_FLAG_ROBUST);
@@ -211,12 +237,12 @@ RayCaster::RayCaster(const Scene& scene) : source_(scene) {
     instanceOfGeometry_[id] = uint32_t(k);
   }
   rtcCommitScene(scene_);
-  if (geomOffset_.empty()) geomOffset_.push_back(0);  // (the packet decoder reads entry 0 for every lane)
+  if (geomOffset_.empty()) place(0, 0, false);  // (the packet decoder reads entry 0 for every lane)
 
   // The triangle tables after the BVH: Embree's build memory is freed by then, so the two never
   // add up at the peak. Reserved whole, they are never reallocated while they grow.
   triangles_.reserve(std::max<size_t>(triangleCount, 1));
-  for (const TriangleMesh& mesh : scene.meshes) addTriangles(mesh, triangles_);
+  for (size_t m = 0; m < scene.meshes.size(); ++m) addTriangles(scene.meshes[m], triangles_, precise[m]);
   for (const Triangle& t : triangles_)
     for (const Vec3& v : {t.v0, t.v1, t.v2}) lo_ = glm::min(lo_, DVec3(v)), hi_ = glm::max(hi_, DVec3(v));
   if (triangles_.empty()) {
@@ -276,7 +302,8 @@ bool RayCaster::embreeMemory(void* caster, ssize_t bytes, bool) {
   return true;  // never refuse: the memory budget is checked before the scene is built
 }
 
-RTCGeometry RayCaster::meshGeometry(const Scene& scene, const TriangleMesh& mesh, float scale) {
+RTCGeometry RayCaster::meshGeometry(const Scene& scene, const TriangleMesh& mesh, float scale,
+                                    const std::vector<uint32_t>& precise) {
   RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
   auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                                3 * sizeof(float), mesh.positions.size()));
@@ -284,17 +311,20 @@ RTCGeometry RayCaster::meshGeometry(const Scene& scene, const TriangleMesh& mesh
     for (int c = 0; c < 3; ++c) vertices[3 * k + c] = mesh.positions[k][c] * scale;
   // The mesh's own indices, not a copy (the scene outlives the caster). Vertices are copied:
   // Embree reads a vertex buffer's last element with a 16-byte load, past a Vec3 array's end.
-  if (mesh.indices.empty())
+  if (mesh.indices.empty()) {
     rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), 0);
-  else
+  } else if (!precise.empty()) {
+    // A copy, the precise triangles made points (zero area: Embree's test never reports them),
+    // so that every other triangle keeps its index.
+    auto* indices = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                                   3 * sizeof(uint32_t), mesh.triangleCount()));
+    std::copy(mesh.indices.begin(), mesh.indices.end(), indices);
+    for (const uint32_t tri : precise) indices[3 * tri + 1] = indices[3 * tri + 2] = indices[3 * tri];
+  } else {
     rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, mesh.indices.data(), 0,
                                3 * sizeof(uint32_t), mesh.triangleCount());
-  bool cutsOut = false;
-  for (const uint32_t m : mesh.materialIds) {
-    const MaterialTextures* textures = scene.materials[m].textures();
-    cutsOut |= textures && textures->cutsOut();
   }
-  if (cutsOut) {
+  if (meshCutsOut(scene, mesh)) {
     cutouts_.push_back(std::make_unique<CutoutMesh>(CutoutMesh{&scene, &mesh}));
     rtcSetGeometryUserData(geom, cutouts_.back().get());
     rtcSetGeometryIntersectFilterFunction(geom, cutoutFilter);
@@ -303,7 +333,9 @@ RTCGeometry RayCaster::meshGeometry(const Scene& scene, const TriangleMesh& mesh
   return geom;
 }
 
-void RayCaster::addTriangles(const TriangleMesh& mesh, std::vector<Triangle>& into) const {
+void RayCaster::addTriangles(const TriangleMesh& mesh, std::vector<Triangle>& into,
+                             const std::vector<uint32_t>& precise) const {
+  auto nextPrecise = precise.begin();
   for (size_t tri = 0; tri < mesh.triangleCount(); ++tri) {
     Triangle t;
     t.v0 = mesh.positions[mesh.indices[3 * tri]];
@@ -312,6 +344,7 @@ void RayCaster::addTriangles(const TriangleMesh& mesh, std::vector<Triangle>& in
     if (triangleNormal(t.v0, t.v1, t.v2)) {
       const SpawnPlane plane = spawnPlaneOf(t.v0, t.v1, t.v2);
       t.n = plane.n, t.margin = plane.margin;
+      if (nextPrecise != precise.end() && *nextPrecise == tri) t.margin = preciseMargin(t.v0, t.v1, t.v2), ++nextPrecise;
     } else {
       // The loader drops zero-area triangles; one built in code keeps finite values (Embree never hits it).
       t.n = Vec3(0.0f, 0.0f, 1.0f), t.margin = 0.0f;
@@ -321,24 +354,15 @@ void RayCaster::addTriangles(const TriangleMesh& mesh, std::vector<Triangle>& in
   }
 }
 
-// A hit on a mesh with a cut-out material (glTF alphaMode MASK; BLEND is rendered as MASK at 0.5)
-// is rejected where the material's alpha, read at the finest texture level, is below its cutoff:
-// the ray goes on as if the surface were not there. Deterministic: a function of the hit alone.
+// A hit on a mesh with a cut-out material is rejected where render/cutout.h says so: the ray
+// goes on as if the surface were not there.
 void RayCaster::cutoutFilter(const RTCFilterFunctionNArguments* args) {
   const auto* data = static_cast<const CutoutMesh*>(args->geometryUserPtr);
-  const TriangleMesh& mesh = *data->mesh;
   for (unsigned i = 0; i < args->N; ++i) {
     if (args->valid[i] != -1) continue;
-    const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
-    const Material& material = data->scene->materials[mesh.materialIds[prim]];
-    const MaterialTextures* textures = material.textures();
-    if (!textures || !textures->cutsOut()) continue;
-    const float u = RTCHitN_u(args->hit, args->N, i), v = RTCHitN_v(args->hit, args->N, i);
-    Vec2 uv[2] = {Vec2(0.0f), Vec2(0.0f)};
-    for (int set = 0; set < 2; ++set)
-      if (!mesh.uv[set].empty()) uv[set] = mesh.interpolate(mesh.uv[set], prim, u, v);
-    const float cutoff = textures->alphaMode == AlphaMode::kBlend ? 0.5f : textures->alphaCutoff;
-    if (material.alphaAt(uv) < cutoff) args->valid[i] = 0;
+    if (cutsAway(*data->scene, *data->mesh, RTCHitN_primID(args->hit, args->N, i), RTCHitN_u(args->hit, args->N, i),
+                 RTCHitN_v(args->hit, args->N, i)))
+      args->valid[i] = 0;
   }
 }
 
@@ -386,9 +410,10 @@ std::optional<SurfaceHit> RayCaster::intersect(const Vec3& o, const Vec3& d, Ray
   }
 
   SurfaceHit hit = rh.hit.instID[0] == RTC_INVALID_GEOMETRY_ID
-                       ? surfaceHit(rh.hit.geomID, rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar)
+                       ? surfaceHit(rh.hit.geomID, rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar,
+                                    Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z))
                        : instanceHit(instanceOfGeometry_[rh.hit.instID[0]], rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar);
-  if (nearPlane(d, hit.t, hit.n, hit.margin) && startsInPlane(o, hit.v0, hit.n, hit.margin))
+  if (nearPlane(d, hit.t, hit.n, hit.margin) && startsInPlane(o, d, kind, hit.v0, hit.n, hit.margin))
     return leavePlane(o, d, kind, hit);
   return hit;
 }
@@ -402,7 +427,7 @@ std::optional<SurfaceHit> RayCaster::leavePlane(const Vec3& o, const Vec3& d, Ra
   return next;
 }
 
-SurfaceHit RayCaster::surfaceHit(unsigned geomID, unsigned primID, float u, float v, float t) const {
+SurfaceHit RayCaster::surfaceHit(unsigned geomID, unsigned primID, float u, float v, float t, const Vec3& ng) const {
   const size_t k = geomOffset_[geomID] + primID;
   const Triangle& tri = triangles_[k];
   SurfaceHit hit;
@@ -415,6 +440,9 @@ SurfaceHit RayCaster::surfaceHit(unsigned geomID, unsigned primID, float u, floa
   hit.triangle = uint32_t(k);
   hit.b1 = u, hit.b2 = v;
   hit.instance = kNoInstance;
+  // A precise triangle's point, from its own test; its spawn plane is anchored there, which the
+  // float normal's tilt cannot move (its tilt over the triangle's size would be ulps of 1e10).
+  if (isPrecise_[geomID]) hit.p = ng, hit.v0 = ng;
   return hit;
 }
 
@@ -458,9 +486,9 @@ RayCaster::HitMesh RayCaster::hitMesh(const SurfaceHit& hit) const {
     const MeshInstance& in = source_.instances[hit.instance];
     return {&source_.prototypes[in.prototype], hit.triangle, &in};
   }
-  const auto it = std::upper_bound(geomOffset_.begin(), geomOffset_.end(), hit.triangle);
-  const uint32_t mesh = uint32_t(it - geomOffset_.begin()) - 1;
-  return {&source_.meshes[mesh], hit.triangle - geomOffset_[mesh], nullptr};
+  const auto it = std::upper_bound(meshFirst_.begin(), meshFirst_.end(), hit.triangle);
+  const uint32_t mesh = uint32_t(it - meshFirst_.begin()) - 1;
+  return {&source_.meshes[mesh], hit.triangle - meshFirst_[mesh], nullptr};
 }
 
 
@@ -543,6 +571,15 @@ void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) 
     }
   }
 
+  // Hits on precise triangles carry their point (surfaceHit).
+  if (!precise_.empty())
+    for (int k = 0; k < kPacketWidth; ++k) {
+      if (!out.found[k] || rh.hit.instID[0][k] != RTC_INVALID_GEOMETRY_ID || !isPrecise_[rh.hit.geomID[k]]) continue;
+      out.px[k] = out.v0x[k] = rh.hit.Ng_x[k];
+      out.py[k] = out.v0y[k] = rh.hit.Ng_y[k];
+      out.pz[k] = out.v0z[k] = rh.hit.Ng_z[k];
+    }
+
   // The coplanar rule, as the single-ray call applies it (rare: those lanes take that call).
   uint32_t anyNear = 0;
   for (int k = 0; k < kPacketWidth; ++k) anyNear |= near[k];
@@ -550,7 +587,8 @@ void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) 
   for (int k = 0; k < kPacketWidth; ++k) {
     if (!near[k]) continue;
     const Vec3 o = rays.origin(k), d = rays.direction(k);
-    if (!startsInPlane(o, Vec3(out.v0x[k], out.v0y[k], out.v0z[k]), Vec3(out.nx[k], out.ny[k], out.nz[k]), out.margin[k]))
+    if (!startsInPlane(o, d, kind, Vec3(out.v0x[k], out.v0y[k], out.v0z[k]), Vec3(out.nx[k], out.ny[k], out.nz[k]),
+                       out.margin[k]))
       continue;
     const auto next = leavePlane(o, d, kind, out.hit(k));
     out.found[k] = next ? -1 : 0;

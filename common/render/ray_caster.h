@@ -15,6 +15,7 @@
 // without instances pays one test per packet for them.
 #include <embree3/rtcore.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -24,6 +25,7 @@
 #include "math/lanes.h"
 #include "math/ray_offset.h"
 #include "math/vec.h"
+#include "render/precise_triangles.h"
 #include "scene/scene.h"
 
 namespace lensfarm {
@@ -160,6 +162,9 @@ class RayCaster {
     SpawnPlane plane() const { return SpawnPlane{v0, n, margin}; }
   };
   const std::vector<Triangle>& triangles() const { return triangles_; }
+  // Whether triangle k of triangles() is tested in double (render/precise_triangles.h): its
+  // hits' spawn planes are anchored at the hit point.
+  bool isPrecise(uint32_t k) const { return std::binary_search(preciseTriangles_.begin(), preciseTriangles_.end(), k); }
   // The triangles held in memory: the meshes' and the prototypes' (each once, however many
   // instances draw it).
   size_t storedTriangles() const { return triangles_.size() + prototypeTriangles_.size(); }
@@ -190,7 +195,13 @@ class RayCaster {
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
   std::vector<Triangle> triangles_;       // all meshes, concatenated
-  std::vector<uint32_t> geomOffset_;      // first triangle of each Embree geometry (meshes only)
+  std::vector<uint32_t> meshFirst_;       // first triangle of each mesh, in triangles_
+  // Per top-level Embree geometry: its mesh's first triangle (0 for an instance), and whether it
+  // is a mesh's precise triangles (render/precise_triangles.h), whose hits carry their point.
+  std::vector<uint32_t> geomOffset_;
+  std::vector<uint8_t> isPrecise_;
+  std::vector<std::unique_ptr<PreciseTriangles>> precise_;
+  std::vector<uint32_t> preciseTriangles_;  // their indices in triangles_, ascending
   // Instances: the prototypes' triangles in object space, concatenated, and where each
   // prototype's start; per top-level Embree geometry, the instance it is (kNoInstance for a
   // mesh); per instance, the spawn margin's widening for its transform (instanceHit).
@@ -205,16 +216,19 @@ class RayCaster {
   std::vector<InstanceMargin> instanceMargins_;
   DVec3 lo_{0.0}, hi_{0.0};
   // The scale of the scene as Embree sees it: a power of two that makes a scene smaller than
-  // kSmallScene about one unit across (1 for every other), applied to its vertices, instance
-  // transforms and every ray's origin and direction. Embree's float tests multiply up to four
-  // lengths, which underflow in a scene a few 1e-10 across (a quad there shaded black); a power
-  // of two scales every float exactly, so distances along a ray (its parameter t) and barycentrics
-  // come back unchanged, and a scene of ordinary size keeps every bit.
+  // kSmallScene about one unit across, and one larger than kLargeScene that size (1 for every
+  // other), applied to its vertices, instance transforms and every ray's origin and direction.
+  // Embree's float tests multiply up to four lengths, which underflow in a scene a few 1e-10
+  // across (a quad there shaded black) and overflow in one 1e14 across (a distance times an edge
+  // squared: shadow rays passed through blockers, the image 10 % too bright); a power of two
+  // scales every float exactly, so distances along a ray (its parameter t) and barycentrics come
+  // back unchanged, and a scene of ordinary size keeps every bit.
   float embreeScale_ = 1.0f;
   static constexpr double kSmallScene = 1.0 / 1024.0;
+  static constexpr double kLargeScene = 4294967296.0;  // 2^32
   std::atomic<int64_t> embreeBytes_{0}, embreePeak_{0};
   static bool embreeMemory(void* caster, ssize_t bytes, bool post);
-  // The cut-out filters' data (ray_caster.cpp), one per mesh that has a cut-out material.
+  // The cut-out filters' data (render/cutout.h), one per mesh that has a cut-out material.
   struct CutoutMesh {
     const Scene* scene;
     const TriangleMesh* mesh;
@@ -222,13 +236,16 @@ class RayCaster {
   std::vector<std::unique_ptr<CutoutMesh>> cutouts_;
   static void cutoutFilter(const RTCFilterFunctionNArguments* args);
 
-  SurfaceHit surfaceHit(unsigned geomID, unsigned primID, float u, float v, float t) const;
+  // ng: the hit's Ng, which for a precise triangle holds the hit point.
+  SurfaceHit surfaceHit(unsigned geomID, unsigned primID, float u, float v, float t, const Vec3& ng) const;
   // The hit on triangle primID of instance `instance`, in render space.
   SurfaceHit instanceHit(uint32_t instance, unsigned primID, float u, float v, float t) const;
   // Embree's geometry for a mesh's triangles, with the cut-out filter if its materials need it.
   // `scale`: embreeScale_ for the scene's meshes, 1 for prototypes (their instances carry it).
-  RTCGeometry meshGeometry(const Scene& scene, const TriangleMesh& mesh, float scale);
-  void addTriangles(const TriangleMesh& mesh, std::vector<Triangle>& into) const;
+  // `precise`: the triangles Embree must not test (the precise geometry does), ascending.
+  RTCGeometry meshGeometry(const Scene& scene, const TriangleMesh& mesh, float scale,
+                           const std::vector<uint32_t>& precise = {});
+  void addTriangles(const TriangleMesh& mesh, std::vector<Triangle>& into, const std::vector<uint32_t>& precise = {}) const;
   // The hit after `hit`, for a ray that starts in hit's plane (the coplanar rule).
   std::optional<SurfaceHit> leavePlane(const Vec3& o, const Vec3& d, RayKind kind, const SurfaceHit& hit) const;
 };

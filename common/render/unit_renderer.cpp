@@ -326,4 +326,10 @@ bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
   return true;
 }
 
+uint64_t maxRaysPerPath(const RenderSettings& settings) {
+  const uint64_t camera = uint64_t(volumePathSegmentLimit(settings)) * 2 * uint64_t(kMaxCrossings);
+  const uint64_t light = uint64_t(pathSegmentLimit(settings.maxBounces)) * 2;
+  return camera + light;
+}
+
 }  // namespace lensfarm

@@ -52,6 +52,13 @@ struct WorkUnit {
 uint64_t unitCount(uint64_t samplesPerPixel, uint32_t samplesPerUnit);
 WorkUnit unitAt(uint64_t index, uint64_t samplesPerPixel, uint32_t samplesPerUnit);
 
+// The most rays one camera path of a unit may cast, the light paths traced beside it included,
+// for any integrator: each of a volume path's segments (volumePathSegmentLimit) casts up to
+// kMaxCrossings rays and as many for its shadow ray, and a light path per camera path two rays
+// per segment. The coordinator refuses a worker's counters beyond it (docs/farm.md, "Threat
+// model"); a fixed bound (1024) once refused honest units of B = 1000 with light sampling.
+uint64_t maxRaysPerPath(const RenderSettings& settings);
+
 // How rays are cast: as 16-wide packets (always, in production), or one at a time with the
 // reference tracer (benchmarks measure what packets gain; tests check both give the same bits).
 enum class RayGrouping { kPackets, kSingleRays };

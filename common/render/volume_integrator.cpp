@@ -13,10 +13,6 @@ using namespace path_vertex;
 
 namespace {
 
-// Index-matched boundaries one ray (or shadow ray) may cross before it is given up: a bound on
-// the work of a degenerate scene (coincident interface layers), far above any real one.
-constexpr int kMaxCrossings = 64;
-
 // The medium a path is in after crossing a surface of material `m` in direction d (`n` the
 // front face's normal): the material's interior against the normal, its exterior (or the
 // scene's medium) along it; unchanged where the material bounds no medium.

@@ -664,7 +664,22 @@ class SceneParser {
       if (addMesh(std::move(mesh), path) != 2)
         r.fail(path + ".edge2", "the quad has zero area in single precision, " +
                                     shortNumber(glm::length(toRenderSpace(corner, path + ".corner"))) + " from the camera");
+      holdQuadPower(scene_.meshes.back(), glm::length(glm::cross(e1, e2)), scene_.materials.back());
     }
+  }
+
+  // A quad light far smaller than its distance from the camera has its float corners rounded by a
+  // good part of its size (a 1e-6 quad 2 from the camera: ~10 % of its area), which changes its
+  // power. Its radiance is scaled by the written area over the float one, so that the power is
+  // what the scene says; a light whose float area is within 1e-4 of the written one keeps its
+  // radiance (and every scene of ordinary proportions its bits).
+  static void holdQuadPower(const TriangleMesh& placed, double writtenArea, Material& material) {
+    double floatArea = 0.0;
+    for (size_t tri = 0; tri < placed.triangleCount(); ++tri)
+      floatArea += triangleArea(placed.positions[placed.indices[3 * tri]], placed.positions[placed.indices[3 * tri + 1]],
+                                placed.positions[placed.indices[3 * tri + 2]]);
+    const double ratio = writtenArea / floatArea;
+    if (std::isfinite(ratio) && std::abs(ratio - 1.0) > 1e-4) material.emission *= float(ratio);
   }
 
   // The optional top-level "environment" (light/environment_light.h), after the lights.

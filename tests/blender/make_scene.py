@@ -8,6 +8,8 @@ Usage (Blender 3.4, tested with Debian's 3.4.1):
     --bounces N  Cycles max_bounces (and every per-type limit) = N; default 8 (diffuse/glossy 4)
     --only X     keep only one light source (the others are deleted, the emitter's strength is 0
                  unless X is 'emission'), to compare renderers light by light
+    --thin-glass export the glass sphere without its thickness (glTF then says thin-walled glass,
+                 which Cycles does not render: it always treats Blender glass as solid)
 
 Writes:
     OUTDIR/scene.blend   the scene as built here
@@ -42,6 +44,7 @@ OUTDIR = os.path.abspath(argv[0] if argv and not argv[0].startswith("--") else "
 SPP = int(argv[argv.index("--spp") + 1]) if "--spp" in argv else 128
 BOUNCES = int(argv[argv.index("--bounces") + 1]) if "--bounces" in argv else None
 ONLY = argv[argv.index("--only") + 1] if "--only" in argv else None
+THIN_GLASS = "--thin-glass" in argv
 assert ONLY in (None, "point", "spot", "sun", "emission"), ONLY
 WIDTH, HEIGHT = 160, 90
 os.makedirs(OUTDIR, exist_ok=True)
@@ -77,6 +80,21 @@ box_mat = principled("Box", base=(0.8, 0.25, 0.1), roughness=1.0)
 emit_mat = principled("Emitter", base=(0.0, 0.0, 0.0), roughness=1.0,
                       emission=(1.0, 0.6, 0.2), emission_strength=5.0)
 glass_mat = principled("Glass", base=(1.0, 1.0, 1.0), roughness=0.0, transmission=1.0, ior=1.5)
+
+
+def mark_solid(material, thickness):
+    """Tell glTF the object is solid, as an author does in Blender: the exporter's own "glTF Material
+    Output" node group with a Thickness, which it writes as KHR_materials_volume (without it, glTF
+    transmission is a thin wall, while Cycles renders a solid)."""
+    from io_scene_gltf2.blender.com.gltf2_blender_material_helpers import create_settings_group, get_gltf_node_name
+    group = bpy.data.node_groups.get(get_gltf_node_name()) or create_settings_group(get_gltf_node_name())
+    node = material.node_tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = group
+    node.inputs["Thickness"].default_value = thickness
+
+
+if not THIN_GLASS:
+    mark_solid(glass_mat, 1.0)  # the glass sphere's diameter
 metal_mat = principled("Metal", base=(0.9, 0.9, 0.9), metallic=1.0, roughness=0.3)
 
 

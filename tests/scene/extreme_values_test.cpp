@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -336,6 +337,8 @@ TEST(ExtremeValuesExposure, TinyAndHugeImagesExposeLikeAnyOther) {
   EXPECT_EQ(rgb[3], 0);
 }
 
+std::string cli() { return test::cliPath().string(); }
+
 TEST(ExtremeValuesBounces, ABounceLimitAbove255IsHonoured) {
   // A closed box whose walls emit 1 and reflect a = 0.99: every path of the naive estimator sees
   // exactly 1 + a + ... + a^B (every scattered ray hits an emitter). B = 300 must give that sum,
@@ -365,9 +368,28 @@ TEST(ExtremeValuesBounces, ABounceLimitAbove255IsHonoured) {
   EXPECT_EQ(pathSegmentLimit(2), 256) << "small bounce limits keep the limit they always had";
 }
 
-// ---- the real process: refusals exit 2 naming the field or flag; nothing aborts ---------------
+TEST(ExtremeValuesBounces, ALongPathWithLightSamplingPassesTheFarmsCountersCheck) {
+  // Through the real program (its in-process coordinator checks each unit's counters): B = 1024
+  // with light sampling casts about two rays per bounce, ~1,900 per path in this box, where a
+  // fixed 1024-rays-per-path bound refused every unit and the render never ended.
+  test::TempDir dir;
+  json scene = test::closedBoxSceneJson({{"type", "lambertian"}, {"albedo", 0.99}, {"emission", 1.0}}, 4, 2, 1024);
+  scene["render"]["russian_roulette"] = "off";
+  const auto file = dir.path() / "long.json";
+  std::ofstream(file) << scene.dump();
+  const auto out = dir.path() / "long.exr";
+  const test::ProcessResult r = test::runProcess({cli(), "render", file.string(), "-o", out.string()}, 300.0);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_EQ(r.err.find("refused"), std::string::npos) << r.err;
+  const Image image = readExr(out);
+  double sum = 0.0;
+  for (float v : image.rgb) sum += v;
+  const double mean = sum / double(image.rgb.size());
+  // 1 + a + ... + a^1024 = (1 - a^1025) / (1 - a), within the noise of 32 light-sampled paths.
+  EXPECT_NEAR(mean / ((1.0 - std::pow(0.99, 1025)) / 0.01), 1.0, 0.05);
+}
 
-std::string cli() { return test::cliPath().string(); }
+// ---- the real process: refusals exit 2 naming the field or flag; nothing aborts ---------------
 
 std::string withValue(const std::string& field, const std::string& value, const json& patch = json::object()) {
   return sceneText(Case{field, value, Outcome::kRefused, 0.0, "", patch}, value);
