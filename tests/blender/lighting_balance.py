@@ -2,8 +2,8 @@
 
 (A whole mixed scene -- oblique camera, glass, metal, every light kind -- is built by make_scene.py
 beside this file, a measurement rather than a test: there lensfarm / Cycles is about 0.84, because
-Cycles 3.4's Principled diffuse is Burley's retro-reflective lobe, not glTF's Lambertian, and
-Cycles renders Blender glass solid where glTF without KHR_materials_volume says thin-walled.)
+Cycles 3.4's Principled diffuse is Burley's retro-reflective lobe with the specular added on top,
+not glTF's Lambertian under a Fresnel-weighted layer; docs/other-renderers.md has the figures.)
 
     blender -b --factory-startup --python tests/blender/lighting_balance.py -- \
             --lensfarm PATH --out DIR [--only CASE[,CASE...]] [--cycles-spp N] [--lensfarm-spp N] [--seed N] [--tol T]
