@@ -1,5 +1,6 @@
 #include "job_spec.h"
 
+#include "farm/job_scene.h"
 #include "scene/scene_loader.h"
 #include "util/error.h"
 #include "util/file_contents.h"
@@ -20,27 +21,23 @@ LocalJob makeLocalJob(const std::filesystem::path& sceneFile, const RenderOverri
     if (bytes) read[path] = *bytes;
     return bytes;
   };
+  job.spec.sceneName = sceneFile.filename().string();
+  job.spec.overrides = overrides;
+  job.spec.frames = frames;
+  // The coordinator and every worker build this scene again the same way (farm/job_scene.h).
+  JobSceneOptions options;
+  options.shownAs = sceneFile;
+  options.overridesFrom = "command line";
   if (isModelFile(sceneFile)) {
     // A model rendered as it is: the farm gets the scene written for it (scene/scene_loader.h).
     job.scene = modelScene(sceneFile, job.spec.sceneJson, keep, camera);
+    finishJobScene(job.scene, job.spec, options);
   } else {
     job.spec.sceneJson = readWholeFileOrThrow(sceneFile, sceneFile.string());
     if (camera) job.spec.sceneJson = withModelCamera(job.spec.sceneJson, sceneFile, *camera);
-    job.scene = parseScene(job.spec.sceneJson, sceneFile, keep);
+    job.scene = jobScene(job.spec, keep, options);
   }
-  applyOverrides(overrides, job.scene.render, "command line");
-  try {
-    (void)job.scene.camera();
-  } catch (const InputError& e) {
-    throw InputError(sceneFile.string(), std::string("camera.") + e.what());
-  }
-  job.spec.sceneName = sceneFile.filename().string();
   job.spec.assets = job.scene.assets;
-  job.spec.overrides = overrides;
-  job.spec.frames = frames;
-  if (frames && job.scene.render.convergenceDriven())
-    throw InputError("--frames", "an animation renders every frame to its samples; --target-error and --deadline "
-                                 "are for a still");
   for (const auto& [path, sha] : job.scene.assets) job.assetBytes[sha] = std::move(read.at(path));
   return job;
 }

@@ -17,6 +17,7 @@
 #include "film/psf_convolution.h"
 #include "scene/asset_path.h"
 #include "scene/effects.h"
+#include "farm/job_scene.h"
 #include "scene/scene_loader.h"
 #include "state_store.h"
 #include "util/error.h"
@@ -145,15 +146,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
       throw FarmError(FarmError::Kind::kInvalidArgument, "frames: " + std::to_string(f.count()) +
                                                              " frames; at most " + std::to_string(kMaxFramesInRange) + " a job");
   }
-  Scene scene = parseScene(spec.sceneJson, spec.sceneName, reader);
-  applyOverrides(spec.overrides, scene.render, spec.sceneName);
-  (void)scene.camera();  // validates the camera at the final resolution
-  if (spec.frames && scene.render.convergenceDriven())
-    throw InputError(spec.sceneName, "target_error / time_limit: an animation renders every frame to its samples; "
-                                     "give samples_per_pixel alone");
-  if (spec.frames && scene.render.adaptive.enabled)
-    throw InputError(spec.sceneName, "adaptive: an animation renders every frame uniformly; adaptive sampling is "
-                                     "for stills (give adaptive false, or render the frames one job each)");
+  Scene scene = jobScene(spec, reader);
   {
     // The layout is fixed now, in the spec every process reads: the same units after a restart.
     uint32_t live = 0;

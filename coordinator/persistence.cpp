@@ -8,6 +8,7 @@
 
 #include "coordinator.h"
 #include "coordinator_records.h"
+#include "farm/job_scene.h"
 #include "scene/scene_loader.h"
 #include "frame_store.h"
 #include "state_store.h"
@@ -153,8 +154,7 @@ void Coordinator::restore() {
       if (!bytes) return std::nullopt;
       return *bytes;
     };
-    Scene scene = parseScene(job->spec.sceneJson, job->spec.sceneName, reader);
-    applyOverrides(job->spec.overrides, scene.render, job->spec.sceneName);
+    Scene scene = jobScene(job->spec, reader);
     job->setScene(scene);
     if (stored.archived) {  // its final image is in the archive (lifecycle.cpp): no film, no ledger
       job->archived = true;

@@ -7,7 +7,7 @@
 #include <chrono>
 
 #include "render/memory_estimate.h"
-#include "scene/render_overrides.h"
+#include "farm/job_scene.h"
 #include "scene/scene_loader.h"
 #include "util/error.h"
 #include "util/version.h"
@@ -94,12 +94,14 @@ std::shared_ptr<WorkerLoop::PreparedJob> WorkerLoop::prepare(const LeaseGrant& g
       return bytes;
     });
   auto job = std::make_shared<PreparedJob>();
-  job->scene = parseScene(spec.sceneJson, spec.sceneName, [&](const std::string& path) -> std::optional<std::string> {
+  const AssetReader reader = [&](const std::string& path) -> std::optional<std::string> {
     auto it = files.find(path);
     if (it == files.end()) return std::nullopt;
     return it->second;
-  }, spec.frames ? std::optional<double>(double(grant.unit.frame)) : std::nullopt);
-  applyOverrides(spec.overrides, job->scene.render, spec.sceneName);
+  };
+  JobSceneOptions options;
+  if (spec.frames) options.frame = double(grant.unit.frame);
+  job->scene = jobScene(spec, reader, options);
   if (job->scene.hash != grant.sceneHash)
     throw InputError(spec.sceneName, "scene hash " + job->scene.hash + " differs from the job's " + grant.sceneHash);
   job->renderScene = std::make_unique<RenderScene>(job->scene);
