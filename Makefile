@@ -65,7 +65,7 @@ fuzz:
 	@mkdir -p build-fuzz/lens-corpus && cp scenes/lenses/*.dat build-fuzz/lens-corpus/
 	cd build-fuzz && ./tests/fuzz/lens_fuzz -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 -artifact_prefix=lens- lens-corpus
 
-# The farm at scale (issue 24; docs/performance.md "The farm at scale"): 1,000 simulated workers
+# The farm at scale (docs/performance.md "The farm at scale"): 1,000 simulated workers
 # against one lensfarm-coordinator process over gRPC, a 3840x2160 still and a 240-frame 1920x1080
 # animation, each on a fresh coordinator. Prints the table and writes $(BUILD_DIR)/scale.json.
 # LOAD_FLAGS adds or overrides flags (docs/performance.md's figures: LOAD_FLAGS=--audit-fraction 0).

@@ -1,4 +1,4 @@
-// Accuracy per second: the three goals of the performance issue, measured on this machine with
+// Accuracy per second: the three goals set for it, measured on this machine with
 // the real renderer (renderUnit, render/unit_renderer.h, driven unit by unit by the progressive
 // loop of study/progressive.h, in a TBB arena of --threads threads):
 //

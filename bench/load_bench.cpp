@@ -1,5 +1,6 @@
-// Loading big scenes (issue 21, "Big scenes"): how long a generated mesh of N triangles takes to
-// load and to make ready for rendering, and how much memory that needs at its peak.
+// Loading big scenes (docs/performance.md, "Loading big scenes"): how long a generated mesh of N
+// triangles takes to load and to make ready for rendering, and how much memory that needs at its
+// peak.
 //
 // For each size the mesh (a heightfield grid over the unit square: smooth bumps, vertex normals
 // and texture coordinates, 2 triangles per grid cell, N / 2 vertices or so) is written into a

@@ -1,4 +1,4 @@
-// Cost of the participating-media building blocks (issue 28; common/medium/): one homogeneous
+// Cost of the participating-media building blocks (common/medium/): one homogeneous
 // transmittance, one chromatic free-flight sample, one HG sample, and a ratio-tracked and a
 // delta-tracked transmittance through a 64^3 grid with a 16^3 majorant grid (a ray across it),
 // and a ray that crosses only empty majorant cells.

@@ -1,4 +1,4 @@
-// The ray-casting limit (issue 8): how close the integrator comes to what Embree alone allows
+// The ray-casting limit: how close the integrator comes to what Embree alone allows
 // for the very rays it casts, cast the same way, on the same scene and threads.
 //
 //   (a) the integrator traces units (1 spp over the frame) on all threads: paths/s, rays/s;

@@ -50,7 +50,7 @@ void renderUnits(benchmark::State& state, const char* sceneName, int maxBounces,
   traceUnits(state, RenderScene(scene), grouping);
 }
 
-// The issue's reference point: cornell-classic, 512x512, B = 3, NEE+MIS, all cores.
+// The performance goals' reference point: cornell-classic, 512x512, B = 3, NEE+MIS, all cores.
 void BM_ClassicNeeMisB3(benchmark::State& s) { renderUnits(s, "cornell-classic.json", 3, IntegratorKind::kNeeMis, 512); }
 // The same with one ray per Embree call (the reference tracer): what packets gain.
 void BM_ClassicNeeMisB3SingleRays(benchmark::State& s) {
@@ -102,7 +102,7 @@ BENCHMARK(BM_Paths)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
-// One row per material, light and camera kind (issue 26, goal 5): every shipped scene with its own
+// One row per material, light and camera kind: every shipped scene with its own
 // settings (materials: Lambertian, rippled mirror, dielectric, conductor, principled and textured
 // glTF; cameras: pinhole, thin lens, real lens; lights: quads, the sky and sun) at 128 pixels on
 // its longer side, and cornell-classic with its quad light swapped for each light kind that no

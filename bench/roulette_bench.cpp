@@ -1,4 +1,4 @@
-// Russian roulette by error per second (issue 26, goal 1): every shipped scene (scenes/*.json)
+// Russian roulette by error per second: every shipped scene (scenes/*.json)
 // rendered with each roulette rule (render.russian_roulette: off, max, throughput; scene.h
 // RouletteRule) at the same samples per pixel, and its efficiency 1 / (relative MSE x seconds)
 // (the inverse of the time the estimator needs for a given relative MSE, since an unbiased

@@ -1,5 +1,5 @@
-// lensfarm-scale: one coordinator under a thousand workers (issue 24,
-// docs/performance.md "The farm at scale"). The real lensfarm-coordinator runs
+// lensfarm-scale: one coordinator under a thousand workers
+// (docs/performance.md "The farm at scale"). The real lensfarm-coordinator runs
 // as a child process (temp state dir, tokens, audit on as in production);
 // simulated workers (bench/scale/simulated_farm.h) register, long-poll leases,
 // heartbeat and upload exactly the leased region over real gRPC on loopback,
@@ -17,7 +17,7 @@
 // polls) is measured there, so the per-unit CPU can be told apart from it.
 //
 //   build/bench/lensfarm-scale --workers 1000                      (make load:
-//   the issue's two jobs) build/bench/lensfarm-scale --workers 200 --still
+//   the two full-size jobs) build/bench/lensfarm-scale --workers 200 --still
 //   960x540 --animation 480x270 --frames 24
 //
 // Exit code 0 when every job finished with the exact image within the memory
@@ -171,8 +171,8 @@ struct RunReport {
 // the largest unit's buffers for every worker, plus 64 MiB of allocator slack.
 //  - Film of a tiled job (coordinator/tile_film.h): a float image a frame being rendered, and when
 //    it is served, the stored frame read back and its EXR: three float frames (12 B a cell each),
-//    the issue's acceptance bound. Frames open at once: the still; for an animation, the frames
-//    the workers' leases span (units are frame-major) and two more.
+//    the bound tests/farm/tiles_farm_test.cpp checks. Frames open at once: the still; for an
+//    animation, the frames the workers' leases span (units are frame-major) and two more.
 //  - Film of a job in passes: the sensor, the convergence tracker's half-image, the developed
 //    image, its EXR and the audit's rewind copies of the sensor (render/memory_estimate.h gives
 //    the bytes a cell of each).
@@ -440,9 +440,7 @@ JobPlan planOf(const std::string& name, const std::string& resolution, uint64_t 
 
 int main(int argc, char** argv) {
   using namespace lensfarm::scale;
-  CLI::App app{
-      "lensfarm-scale: one coordinator under many simulated workers "
-      "(issue 24)"};
+  CLI::App app{"lensfarm-scale: one coordinator under many simulated workers"};
   Settings settings;
   std::string still = "3840x2160", animation = "1920x1080", tiles = "auto", jsonFile;
   int64_t frames = 240;

@@ -1,5 +1,5 @@
-// Upload compression (issue 24, "Bounded upload per unit"): how small farm/sums_codec.h makes a
-// unit's sums, and how fast it encodes and decodes them, on real unit buffers.
+// Upload compression (docs/performance.md, "Upload compression"): how small farm/sums_codec.h
+// makes a unit's sums, and how fast it encodes and decodes them, on real unit buffers.
 //
 // Renders one whole-frame unit of a scene (default the Cornell seed at 400x400) for each
 // --spp (few samples: noisy sums; many: smoother), then, per zstd --level, splits the unit's sums

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Everything around the render (docs/performance.md, issue 26 goal 4): `lensfarm render` of a
+# Everything around the render (docs/performance.md): `lensfarm render` of a
 # scene at 1080p and 1 spp, writing an EXR and a PNG, run N times. Prints, as medians over the
 # runs: the whole-process wall time, the render time the renderer prints ("time:"), their
 # difference, and each phase of the overhead from the command's own timings (LENSFARM_TIMINGS=1,

@@ -591,7 +591,7 @@ class Study {
                number(t, 3) + (extrapolated ? " (extrapolated)" : "")});
   }
 
-  // ---- models: what smooth shading and textures cost (issue 21) --------------------------------
+  // ---- models: what smooth shading and textures cost ------------------------------------------
   // textured-spheres (a glTF model with base-colour, normal, metallic-roughness and cut-out
   // textures and smooth vertex normals) as modelled, then with its materials replaced by one
   // untextured principled material, then by one Lambertian: the time textures and the per-point
@@ -615,7 +615,7 @@ class Study {
                    "one Lambertian material, smooth normals", table, all);
     table.writeCsv(options_.out / "models.csv");
     plotErrorAgainstTime("models", all);
-    return "## Models: textures and smooth shading (issue 21)\n\n"
+    return "## Models: textures and smooth shading\n\n"
            "textured-spheres (a glTF model) at " + std::to_string(scale_.materialsSide) + "x" +
            std::to_string(scale_.materialsSide) + ", NEE + MIS, Sobol, B = " + std::to_string(base["render"].value("max_bounces", 2)) +
            ", each variant against its own reference (" + std::to_string(scale_.materialsReferenceSpp) +
@@ -626,7 +626,7 @@ class Study {
            "loops).\n\n" + table.markdown() + "\n" + link("models");
   }
 
-  // ---- optics: what the camera's optics cost (issue 23) ----------------------------------------
+  // ---- optics: what the camera's optics cost --------------------------------------------------
   // cornell-seed through each camera model in turn: a pinhole, the seed's thin lens wide open with a
   // round, a six-bladed and a rounded seven-bladed aperture, and real lenses traced surface by surface (the double-Gauss
   // 50 mm at f/2.8; the fast double-Gauss at f/1.4, whose Abbe numbers make it spectral where
@@ -660,7 +660,7 @@ class Study {
     }
     table.writeCsv(options_.out / "optics.csv");
     plotErrorAgainstTime("optics", all);
-    return "## Camera optics (issue 23)\n\n"
+    return "## Camera optics\n\n"
            "cornell-seed at " + std::to_string(scale_.materialsSide) + "x" + std::to_string(scale_.materialsSide) +
            " through each camera model, NEE + MIS, Sobol, B = " + std::to_string(seed["render"].value("max_bounces", 2)) +
            ", each against its own reference (" + std::to_string(scale_.materialsReferenceSpp) +
@@ -673,7 +673,7 @@ class Study {
            table.markdown() + "\n" + link("optics");
   }
 
-  // ---- materials: what glass and metal cost (issue 20) ----------------------------------------
+  // ---- materials: what glass and metal cost ---------------------------------------------------
   // cornell-glass-metal with its glass ball and tall block in turn diffuse, smooth, rough, and rough
   // without energy compensation: per variant the time per path, the energy against its own
   // reference, and the time to reach the same error.
@@ -719,7 +719,7 @@ class Study {
     }
     table.writeCsv(options_.out / "materials.csv");
     plotErrorAgainstTime("materials", all);
-    return "## Glass and metal (issue 20)\n\n"
+    return "## Glass and metal\n\n"
            "cornell-glass-metal at " + std::to_string(side) + "x" + std::to_string(side) + ", NEE + MIS, Sobol, B = " +
            std::to_string(base["render"].value("max_bounces", 2)) + ", each variant against its own reference (" +
            std::to_string(scale_.materialsReferenceSpp) + " spp). Time per path is per thread. What a material costs "
@@ -732,7 +732,7 @@ class Study {
            "materials outdoors, lit only by an importance-sampled environment map with a small sun.\n\n" + table.markdown() + "\n" + link("materials");
   }
 
-  // ---- media: what participating media cost (issue 28) ---------------------------------------
+  // ---- media: what participating media cost ---------------------------------------------------
   // cornell-media without its media, with each of them alone (the fog bank, the marble block's
   // random walk, the glass of milk), with all three, and with all three but a walk cut at 16
   // events: per variant the time per path, rays per path, the image mean (what the cut loses) and
@@ -772,7 +772,7 @@ class Study {
     measureVariant(sceneFile, cut, "all three, max_medium_bounces 16", table, all, listed);
     table.writeCsv(options_.out / "media.csv");
     plotErrorAgainstTime("media", all);
-    return "## Participating media and subsurface scattering (issue 28)\n\n"
+    return "## Participating media and subsurface scattering\n\n"
            "cornell-media at " + std::to_string(scale_.materialsSide) + "x" + std::to_string(scale_.materialsSide) +
            ", NEE + MIS, Sobol, B = " + std::to_string(base["render"].value("max_bounces", 2)) +
            ", each variant against its own reference (" + std::to_string(scale_.materialsReferenceSpp) +
@@ -783,7 +783,7 @@ class Study {
            "sample count removes).\n\n" + table.markdown() + "\n" + link("media");
   }
 
-  // ---- denoise: uniform sampling against uniform sampling + denoise (issue 27) ----------------
+  // ---- denoise: uniform sampling against uniform sampling + denoise ---------------------------
   // cornell-seed with the denoiser's guides (albedo, normal, variance), NEE + MIS with Sobol
   // samples, rendered progressively; at every checkpoint the raw image and its denoised version
   // are compared with a converged reference (rendered with the same AOVs). The denoised image's
@@ -902,7 +902,7 @@ class Study {
     summary.writeCsv(options_.out / "denoise-summary.csv");
     plotErrorAgainstTime("denoise", {raw, denoised, variance, biasLine});
 
-    return "## Uniform sampling against uniform sampling + denoise (issue 27)\n\n"
+    return "## Uniform sampling against uniform sampling + denoise\n\n"
            "cornell-seed at " + std::to_string(side) + "x" + std::to_string(side) + ", NEE + MIS, Sobol, B = " +
            std::to_string(kStudyBounces) + ", rendered with the denoiser's guide AOVs (albedo, normal, variance) and "
            "compared at every power-of-two sample count with a reference of " +
@@ -923,7 +923,7 @@ class Study {
            "Data: `denoise.csv` (both series), `denoise-summary.csv` (bias, crossover).\n\n";
   }
 
-  // ---- adaptive: uniform sampling against adaptive sampling and uniform + denoise (issue 27) ----
+  // ---- adaptive: uniform sampling against adaptive sampling and uniform + denoise -------------
   // The denoise experiment's scene and reference. Each method is rendered on its own at each mean
   // sample count (an adaptive render of N spp is not a prefix of one of 2N spp), all three in the
   // passes the farm gives an adaptive job of N spp (unitSize()), so that only where the samples go
@@ -1079,7 +1079,7 @@ class Study {
     const AdaptiveSettings defaults;
     const JobLayout layout = JobLayout::of(adaptive.render, std::nullopt);
     const int side = scale_.denoiseSide;
-    return "## Adaptive sampling against uniform sampling (issue 27)\n\n"
+    return "## Adaptive sampling against uniform sampling\n\n"
            "cornell-seed at " + std::to_string(side) + "x" + std::to_string(side) + ", NEE + MIS, Sobol, B = " +
            std::to_string(kStudyBounces) + ", the denoise experiment's reference (" +
            std::to_string(scale_.denoiseReferenceSpp) + " spp, its own estimated relative error " +
@@ -1097,7 +1097,7 @@ class Study {
            "Time to a target relative RMSE, interpolated on log-log axes between counts (extrapolated as "
            "1/sqrt(time) past the ends); *in samples* is the adaptive speed-up in mean samples per pixel, free of "
            "timing noise:\n\n" + targets.markdown() +
-           "\nAdaptive against uniform (the issue asks for 1.3x): " + acceptance +
+           "\nAdaptive against uniform (the goal is 1.3x): " + acceptance +
            ".\n\nCrossovers, on log-log axes between counts (the curves' last segments extended past the end):\n\n" +
            crossovers.markdown() + "\nThe live estimate against the true error net of the reference's noise (median ratio, counts whose "
            "error is at least twice the reference's): uniform " + estimateRatio(uniform) + ", adaptive " +

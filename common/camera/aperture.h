@@ -1,5 +1,5 @@
 #pragma once
-// The thin lens's aperture (issue 23): the shape through which it lets light pass, how lens points
+// The thin lens's aperture: the shape through which it lets light pass, how lens points
 // are sampled over it, and what it lets through.
 //
 // Units and conventions (owned here; docs/optics.md "Aperture shape" describes them):

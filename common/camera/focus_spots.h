@@ -1,5 +1,5 @@
 #pragma once
-// The blur of points on the plane of focus, across the image (docs/figure7.md; issue 23): the
+// The blur of points on the plane of focus, across the image (docs/figure7.md): the
 // report's Figure 7d question. At f/1.4 the author saw "focus only in the centre of the image"
 // and guessed at optical aberration, "either because a thin lens is not of ideal shape for
 // focusing light, or that the implementation of the thin lens is a completely flat surface"

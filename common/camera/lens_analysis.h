@@ -81,7 +81,7 @@ double projectedHeight(Projection p, double focalLength, double theta);
 // traced to the paraxial focal plane, as a self-contained SVG document.
 std::string crossSectionSvg(const LensSystem& lens, double fieldDegrees);
 
-// ---- Lateral colour (issue 23: chromatic aberration; docs/optics.md "Chromatic aberration") ----
+// ---- Lateral colour (chromatic aberration; docs/optics.md "Chromatic aberration") ----
 // Where an object point's image falls on the film in each sensor channel. The object point is at
 // `objectDistance` mm in front of the front vertex (infinity: a parallel beam), seen at
 // `fieldDegrees` from the entrance pupil's centre, in the y-z plane; the film is the plane

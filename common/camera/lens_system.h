@@ -1,7 +1,7 @@
 #pragma once
 // A real lens: a sequence of refracting surfaces, from its prescription (docs/optics.md
-// "Real lenses"). The issue-23 answer to the report's future work ("more advanced optical systems
-// for simulation of cameras").
+// "Real lenses"). The answer to the report's future work ("more advanced optical systems for
+// simulation of cameras").
 //
 // Units and conventions (written once, here):
 //  - Lengths in millimetres, as lens prescriptions give them.

@@ -1,5 +1,5 @@
 #pragma once
-// A camera with a real lens (docs/optics.md "Real lenses"; issue 23): the sensor behind a
+// A camera with a real lens (docs/optics.md "Real lenses"): the sensor behind a
 // LensSystem (lens_system.h), every camera ray traced through every surface of the lens.
 //
 // Frame. The lens's front vertex sits at the camera's `position`; the lens's +z (toward the film)

@@ -1,6 +1,6 @@
 #pragma once
 // How an RGB radiance is a spectrum, how the sensor's three channels respond to a spectrum, and
-// how a camera sample draws its wavelength (issue 23: chromatic aberration through a real lens;
+// how a camera sample draws its wavelength (for chromatic aberration through a real lens;
 // docs/optics.md "Chromatic aberration").
 //
 // Units and conventions (written once, here):

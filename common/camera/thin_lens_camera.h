@@ -74,7 +74,7 @@ struct ThinLensParams {
   double sensorWidth = 0.0;          // LW
   double sensorHeight = 0.0;         // LH; 0 = derived, LW * H / W (square cells)
   double fNumber = std::numeric_limits<double>::infinity();  // N; inf = pinhole
-  // The aperture's shape (issue 23; camera/aperture.h owns the convention): 0 = round; n >= 3 =
+  // The aperture's shape (camera/aperture.h owns the convention): 0 = round; n >= 3 =
   // a regular n-gon of blades inscribed in the radius R = f / (2N), turned `apertureRotation`
   // degrees counter-clockwise from a vertex along `right`, its edges arcs of curvature
   // `apertureCurvature` (0 straight, 1 the circle); or an image over the square of side 2R.

@@ -1,5 +1,5 @@
 #pragma once
-// Diffraction by the aperture (issue 23; docs/optics.md "Diffraction"): the point-spread function
+// Diffraction by the aperture (docs/optics.md "Diffraction"): the point-spread function
 // (PSF) that turns a point of light into an Airy disk, or into a starburst behind a bladed
 // aperture, applied to the developed image (film/psf_convolution.h).
 //

@@ -1,5 +1,5 @@
 #pragma once
-// Metals (issue 20): reflection weighted by a conductor's Fresnel term per RGB channel, times a
+// Metals: reflection weighted by a conductor's Fresnel term per RGB channel, times a
 // tint; smooth (a delta lobe) or rough (GGX microfacets).
 //
 // Fresnel: the exact term of a complex index eta + i k (material/fresnel.h; at normal incidence

@@ -1,5 +1,5 @@
 #pragma once
-// Glass and other clear dielectrics (issue 20): a boundary between the outside (index 1) and a
+// Glass and other clear dielectrics: a boundary between the outside (index 1) and a
 // medium of index `ior` behind the front face.
 //
 // Smooth: exact Fresnel for unpolarised light (material/fresnel.h), Snell refraction, total

@@ -1,7 +1,7 @@
 #pragma once
-// A heterogeneous medium from a dense grid of densities (the simple option of issue 28; OpenVDB
-// comes later), with a coarse majorant grid traversed by a 3D DDA so that empty space is cheap
-// (PBR 4th ed. §11.4.3 and §14.2.3, pbrt-v4's MajorantGrid / DDAMajorantIterator idea).
+// A heterogeneous medium from a dense grid of densities (the simple form; OpenVDB files are read
+// into it by medium/vdb_grid.h), with a coarse majorant grid traversed by a 3D DDA so that empty
+// space is cheap (PBR 4th ed. §11.4.3 and §14.2.3, pbrt-v4's MajorantGrid / DDAMajorantIterator idea).
 //
 //  - The box [lo, hi] (axis-aligned, in the medium's space: scene units) holds nx x ny x nz density
 //    values, stored x fastest: density[(z * ny + y) * nx + x]. Each value sits at its voxel's

@@ -17,8 +17,8 @@
 // itself models absorption only (scattering is KHR_materials_volume_scatter's); fromAttenuation
 // takes a scattering albedo besides (0 for a plain KHR volume): sigma_s = albedo sigma_t.
 //
-// Subsurface scattering (next session's random walk, issue 28): artists give the albedo A a thick
-// slab should show (the multiple-scattering albedo) and a distance d per channel, not sigma_a and
+// Subsurface scattering (the random walk of material/subsurface.h): artists give the albedo A a
+// thick slab should show (the multiple-scattering albedo) and a distance d per channel, not sigma_a and
 // sigma_s. Chiang, Kutz & Burley 2016 ("Practical and Controllable Subsurface Scattering for
 // Production Path Tracing", SIGGRAPH Talks; the mapping Cycles' random-walk SSS uses) fit, for an
 // isotropic random walk in a semi-infinite index-matched medium,

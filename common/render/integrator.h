@@ -22,7 +22,7 @@
 // Two forms of the same tracer:
 //  - tracePath traces one camera path, one ray at a time: the readable reference, whose vertex
 //    logic is shadeVertex (integrator.cpp);
-//  - tracePacket traces up to kPacketWidth paths at once (issue 8; docs/performance.md): each
+//  - tracePacket traces up to kPacketWidth paths at once (docs/performance.md): each
 //    segment of the packet's live paths is one 16-wide Embree intersection call and at most one
 //    16-wide occlusion call for their shadow rays; paths that end leave the packet (their lane is
 //    switched off). The paths' state, the hits and every step of a diffuse vertex (the decisions,

@@ -115,7 +115,7 @@ struct DiffractionSettings {
 
 // Russian roulette's rule (docs/scene-format.md, render.russian_roulette). A path that has made
 // more than rouletteMinBounces counted bounces goes on with probability q and carries 1/q more:
-//  - kMax (`true`, the rule before issue 26): q = min(1, max component of the throughput).
+//  - kMax (`true`, the original rule): q = min(1, max component of the throughput).
 //  - kThroughput (Cycles' path_state_continuation_probability): q = min(1, sqrt(max component of
 //    throughput x eta^2)), eta^2 the product of the refractions' radiance scalings (pbrt-v4's
 //    etaScale), so a path inside glass is not ended for the 1/eta^2 that leaving it gives back;

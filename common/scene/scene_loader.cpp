@@ -121,7 +121,7 @@ class SceneParser {
     if (!parseSamplerName(sampler, s.sampler))
       r.fail("render.sampler", "unknown sampler \"" + sampler + "\" (expected sobol, stratified or independent)");
     if (r.has("russian_roulette")) {
-      // A bool, as before issue 26 (true: the max-throughput rule), or a rule's name.
+      // A bool, as in the older form (true: the max-throughput rule), or a rule's name.
       const json& rr = r.raw("russian_roulette");
       if (rr.is_boolean())
         s.roulette = rr.get<bool>() ? RouletteRule::kMax : RouletteRule::kOff;

@@ -1,4 +1,4 @@
-// Bokeh shows the aperture's shape (issue 23's acceptance): a small emitter far beyond the focus,
+// Bokeh shows the aperture's shape: a small emitter far beyond the focus,
 // against black, rendered through straight blades, curved blades and an aperture image; its
 // image, binarised, is the aperture's shape scaled by the thin lens's blur, with its area, and the
 // light it brings is the aperture's open share of the full square's (camera/aperture.h,

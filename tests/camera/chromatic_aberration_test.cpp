@@ -1,4 +1,4 @@
-// Chromatic aberration through a real lens (issue 23's acceptance: "colour fringes whose width
+// Chromatic aberration through a real lens (the requirement: "colour fringes whose width
 // matches the lens's computed lateral colour within 10 %"). A small white emitter near the edge
 // of the field is rendered through a lens whose glass disperses (every camera sample at its own
 // wavelength, camera/spectral_response.h); its red and blue images lie apart on the sensor by

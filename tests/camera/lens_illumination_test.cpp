@@ -1,7 +1,7 @@
 // Relative illumination (camera/lens_analysis.h), computed from the object side (a beam's
 // transmitted cross-section and the Jacobian from field angle to image height), against (a) the
-// cos^4 law it must reduce to for a lens without distortion or vignetting, and (b) issue 23's
-// acceptance: a render of a uniform white environment through the real-lens camera, whose pixels
+// cos^4 law it must reduce to for a lens without distortion or vignetting, and (b) the render
+// check: a render of a uniform white environment through the real-lens camera, whose pixels
 // come from the image side (Kolb et al.'s weights over the exit pupil), falls off toward the
 // corners as the computed relative illumination says, within 2 %.
 #include <gtest/gtest.h>

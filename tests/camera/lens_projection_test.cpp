@@ -1,4 +1,4 @@
-// A fisheye's projection (issue 23's acceptance: "measured distortion of the fisheye matches its
+// A fisheye's projection (the requirement: "measured distortion of the fisheye matches its
 // stated projection within 2 %"). Every lens in scenes/lenses/ with a `# projection: NAME` header
 // line is traced across its field (camera/lens_analysis.h analyzeField: the real image height
 // is the centroid of a parallel beam on the paraxial focal plane) and its image height compared

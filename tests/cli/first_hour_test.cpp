@@ -1,4 +1,4 @@
-// What a new user meets first (issue 18), through the real `lensfarm` binary: usage instead of a
+// What a new user meets first, through the real `lensfarm` binary: usage instead of a
 // bare error, a suggestion for a typo, flag limits in words, default output names, progress lines
 // in logs, no internal sample cap on screen, and a Ctrl-C before the first unit that overwrites
 // nothing.

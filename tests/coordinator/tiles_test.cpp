@@ -179,7 +179,7 @@ TEST(TiledJob, AutomaticLayoutFollowsFrameSizeAnimationAndWorkers) {
   EXPECT_LT(small, kTileEdge);
   EXPECT_GE(small, kMinTileEdge);
   // A tiled 4K job's coordinator holds its frame's float image and nothing frame-sized besides,
-  // but for a download while it is served (issue 24); in passes it holds a sensor and a tracker.
+  // but for a download while it is served; in passes it holds a sensor and a tracker.
   s.width = 3840;
   s.height = 2160;
   s.tileSize = kTileEdge;

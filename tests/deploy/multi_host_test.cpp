@@ -77,7 +77,7 @@ class Lab {
   std::string ns(const std::string& name) const { return prefix_ + name; }
 
   // Whether namespaces can be made here; if not, why.
-  // The one reason to skip: not root (the issue asks for a skip with a clear message then). As
+  // The one reason to skip: not root (then the test skips with a clear message). As
   // root, a missing `ip` (scripts/setup.sh installs iproute2) or a failing `ip netns add` is a
   // failure, never a silent skip.
   static bool isRoot() { return ::geteuid() == 0; }

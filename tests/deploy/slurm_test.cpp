@@ -1,4 +1,4 @@
-// Workers on a real Slurm (issue 25; deploy/slurm/README.md): Debian's slurm-wlm with munge,
+// Workers on a real Slurm (deploy/slurm/README.md): Debian's slurm-wlm with munge,
 // slurmctld and slurmd started here (tests/support/local_slurm.h), a real coordinator, and the
 // workers started by `lensfarm slurm` as a job array through deploy/slurm/lensfarm-worker.sbatch.
 // One task is cancelled with scancel in the middle of a unit: it gives its lease back at once and

@@ -1,4 +1,4 @@
-// Issue 24's acceptance for animations (docs/farm.md "Tiles and passes", "Failures"): a 24-frame
+// What the farm promises for animations (docs/farm.md "Tiles and passes", "Failures"): a 24-frame
 // job on a farm of real processes over gRPC with a state dir survives a worker's SIGKILL and the
 // coordinator's SIGKILL and restart on the same state dir and port. Every frame downloaded
 // afterwards is `lensfarm render --frames`'s, bit for bit; none is lost; and the ledger counts

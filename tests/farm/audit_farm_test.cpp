@@ -1,4 +1,4 @@
-// The cross-worker audit over real gRPC between real processes (issue 22's acceptance): a real
+// The cross-worker audit over real gRPC between real processes, end to end: a real
 // coordinator, five honest worker processes, and one worker whose every upload is its rendered
 // sums times 1.001 (a broken machine or a wrong build: its results are plausible, only wrong).
 // With the default audit fraction it is caught by the audit of its first unit, quarantined, and

@@ -1,4 +1,4 @@
-// A real-lens job on the farm (issue 23's acceptance): the lens file travels as an asset like a
+// A real-lens job on the farm: the lens file travels as an asset like a
 // mesh, every worker traces the same rays through it, and the farm's image equals the in-process
 // render bit for bit.
 #include <gtest/gtest.h>

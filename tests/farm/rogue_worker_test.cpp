@@ -1,4 +1,4 @@
-// A worker that does not behave, over real gRPC against a real coordinator process (issue 22's
+// A worker that does not behave, over real gRPC against a real coordinator process (an
 // outside check, as a foreign client generated from proto/ would drive it): it may only harm its
 // own leases. Every forged call gets its status and changes nothing; the job then finishes with
 // an honest worker process and its image equals the in-process render bit for bit.

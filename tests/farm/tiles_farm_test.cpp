@@ -1,4 +1,4 @@
-// Issue 24's acceptance for a big still (docs/farm.md "Tiles and passes"): a 3840x2160 job on 8
+// What the farm promises for a big still (docs/farm.md "Tiles and passes"): a 3840x2160 job on 8
 // local worker processes over real gRPC. The image is `lensfarm render`'s, bit for bit; the bytes
 // the coordinator receives are about one frame of sums, not one per worker; no single upload is
 // more than an eighth of a frame-sized float buffer; and the coordinator's memory for the job

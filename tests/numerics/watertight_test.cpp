@@ -97,7 +97,7 @@ INSTANTIATE_TEST_SUITE_P(NearAndFar, Watertight, ::testing::Values(0.0, 1.0, 4.0
                                                  : "FarFromTheCamera" + std::to_string(int(p.param));
                          });
 
-// The class, as a user meets it: the closed Cornell box and its camera moved together to
+// The failure as a user would meet it: the closed Cornell box and its camera moved together to
 // about 1e6 from the origin.
 TEST(Watertight, NoRayEscapesAClosedBoxAMillionFromTheOriginWithItsCamera) {
   EXPECT_EQ(closedBoxEscapes(DVec3(7.5e5, 6e3, -1.1e6), true), 0u);

@@ -1,4 +1,4 @@
-// Extreme values (issue 19, class A): every lens field, the resolution, samples per pixel, the
+// Extreme values (docs/numerics.md): every lens field, the resolution, samples per pixel, the
 // bounce limit and every colour (albedo, reflectance, emission, radiance) at 0, a denormal,
 // 1e-30, 1e30, the largest float, beyond it, an overflowing literal and NaN / Inf written as
 // strings. Each is either refused with an error naming its field (and, on the command line, the

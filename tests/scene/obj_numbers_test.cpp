@@ -1,4 +1,4 @@
-// Numbers in OBJ files (issue 19, class B): a NaN, an infinity, a word or too few numbers in a
+// Numbers in OBJ files: a NaN, an infinity, a word or too few numbers in a
 // vertex, normal or texture coordinate used to be read as 0 by tinyobjloader, with no message.
 // Each is refused through the scene loader with one error naming the scene, the mesh entry, the
 // OBJ file and the line. Coordinates are read in double: anything finite up to 1e30 in magnitude
