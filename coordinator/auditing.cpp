@@ -13,6 +13,7 @@
 
 #include "coordinator.h"
 #include "coordinator_records.h"
+#include "result_checks.h"
 #include "render/unit_renderer.h"
 #include "state_store.h"
 #include "util/error.h"
@@ -79,15 +80,9 @@ bool Coordinator::acceptAudit(const UnitResult& result) {
   {
     std::lock_guard lock(mutex_);
     Job& job = findJob(result.jobId);
-    if (!leases_.covers(result.leaseId, result.workerId, result.jobId, unit))
-      throw FarmError(FarmError::Kind::kFailedPrecondition, "lease " + std::to_string(result.leaseId) + " for unit " +
-                                                                std::to_string(unit) + " of " + result.jobId +
-                                                                " is not held by " + result.workerId);
-    const PixelRegion region = job.layout.regionOf(unit);  // the whole frame, or the unit's tile
-    if (result.buffer.width != region.width || result.buffer.height != region.height ||
-        result.buffer.sums.size() != job.layout.sumsOf(unit))
-      throw FarmError(FarmError::Kind::kInvalidArgument, "result for unit " + std::to_string(unit) + " of " + job.id +
-                                                             " has the wrong size for its region");
+    checkLeaseHeld(leases_, result.leaseId, result.workerId, result.jobId, unit);
+    checkRegion(job, unit, result.buffer.width, result.buffer.height);  // the whole frame, or the unit's tile
+    checkSumCount(job, unit, result.buffer.sums.size());
     leases_.erase(result.leaseId);
     Worker& worker = findWorker(result.workerId);
     if (worker.currentUnit == unit) worker.currentUnit.reset();

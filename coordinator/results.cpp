@@ -11,6 +11,7 @@
 
 #include "coordinator.h"
 #include "coordinator_records.h"
+#include "result_checks.h"
 #include "render/memory_estimate.h"
 #include "render/unit_renderer.h"
 #include "state_store.h"
@@ -19,12 +20,6 @@
 namespace lensfarm {
 
 namespace {
-std::string wrongSize(const std::string& jobId, uint64_t unit, int width, int height, const PixelRegion& region) {
-  return "result for unit " + std::to_string(unit) + " of " + jobId + " is " + std::to_string(width) + "x" +
-         std::to_string(height) + "; the unit covers " + std::to_string(region.width) + "x" +
-         std::to_string(region.height) + " cells at (" + std::to_string(region.x) + ", " + std::to_string(region.y) + ")";
-}
-
 // Appends the job's published estimate to its curve when it changed (requires mutex_).
 template <class JobT>
 void recordEstimate(JobT& job, double elapsedSeconds) {
@@ -120,16 +115,10 @@ void Coordinator::admitUpload(const std::string& workerId, uint64_t leaseId, con
                               int width, int height, int channels) const {
   std::lock_guard lock(mutex_);
   const Job& job = findJob(jobId);
-  if (unit >= job.units.total())
-    throw FarmError(FarmError::Kind::kInvalidArgument, "job " + job.id + " has no unit " + std::to_string(unit));
+  checkUnitExists(job, unit);
   if (job.units.isReceived(unit) || job.units.isRecording(unit)) return;  // a late duplicate: ignored by accept
-  if (!leases_.covers(leaseId, workerId, jobId, unit))
-    throw FarmError(FarmError::Kind::kFailedPrecondition, "lease " + std::to_string(leaseId) + " for unit " +
-                                                              std::to_string(unit) + " of " + jobId +
-                                                              " is not held by " + workerId);
-  const PixelRegion region = job.layout.regionOf(unit);
-  if (width != region.width || height != region.height)
-    throw FarmError(FarmError::Kind::kInvalidArgument, wrongSize(job.id, unit, width, height, region));
+  checkLeaseHeld(leases_, leaseId, workerId, jobId, unit);
+  checkRegion(job, unit, width, height);
   if (channels != job.layout.channels)
     throw FarmError(FarmError::Kind::kInvalidArgument,
                     "result for unit " + std::to_string(unit) + " of " + job.id + " carries " + std::to_string(channels) +
@@ -176,29 +165,16 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
     std::lock_guard lock(mutex_);
     job = &findJob(result.jobId);
     pin = JobPin(*this, *job);
-    if (result.unitIndex >= job->units.total())
-      throw FarmError(FarmError::Kind::kInvalidArgument,
-                      "job " + job->id + " has no unit " + std::to_string(result.unitIndex));
+    checkUnitExists(*job, result.unitIndex);
     const LeaseTable::Lease* lease = leases_.find(result.leaseId);
     auditLease = lease && lease->audit && lease->workerId == result.workerId;
     // A late duplicate of a unit already counted (or being counted) is ignored.
     if (!auditLease && (job->units.isReceived(result.unitIndex) || job->units.isRecording(result.unitIndex)))
       return false;
-    if (!leases_.covers(result.leaseId, result.workerId, result.jobId, result.unitIndex))
-      throw FarmError(FarmError::Kind::kFailedPrecondition, "lease " + std::to_string(result.leaseId) + " for unit " +
-                                                                std::to_string(result.unitIndex) + " of " +
-                                                                result.jobId + " is not held by " + result.workerId);
+    checkLeaseHeld(leases_, result.leaseId, result.workerId, result.jobId, result.unitIndex);
     if (!auditLease) {
-      const PixelRegion region = job->layout.regionOf(result.unitIndex);
-      if (result.buffer.width != region.width || result.buffer.height != region.height)
-        throw FarmError(FarmError::Kind::kInvalidArgument,
-                        wrongSize(job->id, result.unitIndex, result.buffer.width, result.buffer.height, region));
-      if (result.buffer.sums.size() != job->layout.sumsOf(result.unitIndex))
-        throw FarmError(FarmError::Kind::kInvalidArgument,
-                        "result for unit " + std::to_string(result.unitIndex) + " of " + job->id + " carries " +
-                            std::to_string(result.buffer.sums.size()) + " sums; its region holds " +
-                            std::to_string(job->layout.sumsOf(result.unitIndex)) + " (" +
-                            std::to_string(job->layout.channels) + " a cell: RGB and the job's AOVs)");
+      checkRegion(*job, result.unitIndex, result.buffer.width, result.buffer.height);
+      checkSumCount(*job, result.unitIndex, result.buffer.sums.size());
       Worker& worker = findWorker(result.workerId);
       workerName = worker.info.name.empty() ? worker.id : worker.info.name;
       leases_.erase(result.leaseId);
