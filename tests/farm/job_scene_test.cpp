@@ -29,7 +29,7 @@ std::string messageOf(const std::function<void()>& call) {
   return "";
 }
 
-TEST(JobScene, TheSpecsOverridesAndFrameMakeTheScene) {
+TEST(JobScene, TheSpecsOverridesMakeTheScene) {
   json scene = test::minimalSceneJson();
   scene["render"]["samples_per_pixel"] = 4;
   JobSpec spec = specOf(scene);
