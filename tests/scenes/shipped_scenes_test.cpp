@@ -4,7 +4,11 @@
 // fuzzer's corpus, a stray output) fails this test.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <map>
 #include <set>
 
 #include "film/image_io.h"
@@ -82,6 +86,51 @@ TEST(ShippedScenes, EverySceneRendersThroughTheCli) {
     EXPECT_GT(sum, 0.0) << "the scene is lit";
     EXPECT_NE(r.out.find("samples per pixel: 2"), std::string::npos) << r.out;
   }
+}
+
+// Every shipped scene renders the same bits as when tests/scenes/golden_bits.txt was written: a guard
+// for changes of shape (layout, interfaces, refactors) that must not change a single pixel. The
+// traversal kernel is pinned to SSE2 so that the hashes do not depend on this machine's instruction
+// sets (Embree's kernels differ in the last bits of a hit). A change meant to alter images rewrites
+// the file: LENSFARM_UPDATE_GOLDEN=1 ./lensfarm_tests --gtest_filter='ShippedScenes.EverySceneKeepsItsBits'.
+uint64_t fnv1a(const std::vector<float>& values) {
+  uint64_t h = 1469598103934665603ull;
+  for (const float v : values) {
+    uint32_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    for (int b = 0; b < 4; ++b) h = (h ^ ((bits >> (8 * b)) & 0xffu)) * 1099511628211ull;
+  }
+  return h;
+}
+
+TEST(ShippedScenes, EverySceneKeepsItsBits) {
+  const fs::path goldenFile = test::sourceDir() / "tests" / "scenes" / "golden_bits.txt";
+  const bool update = std::getenv("LENSFARM_UPDATE_GOLDEN") != nullptr;
+  std::map<std::string, std::string> golden;
+  if (!update) {
+    std::ifstream in(goldenFile);
+    std::string name, hash;
+    while (in >> name >> hash) golden[name] = hash;
+    ASSERT_FALSE(golden.empty()) << goldenFile;
+  }
+  ::setenv("LENSFARM_EMBREE_CONFIG", "isa=sse2", 1);
+  test::TempDir dir;
+  std::ofstream out;
+  if (update) out.open(goldenFile);
+  for (const fs::path& scene : sceneFiles()) {
+    SCOPED_TRACE(scene.string());
+    const fs::path exr = dir / (scene.stem().string() + ".exr");
+    const auto r = test::runProcess({test::cliPath().string(), "render", scene.string(), "--resolution", "32x24", "--spp", "4",
+                                     "--threads", "2", "-q", "-o", exr.string()},
+                                    300);
+    ASSERT_EQ(r.exitCode, 0) << r.out << r.err;
+    char hash[17];
+    std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(fnv1a(readExr(exr).rgb)));
+    const std::string name = scene.filename().string();
+    if (update) out << name << " " << hash << "\n";
+    else EXPECT_EQ(golden[name], hash) << "the scene's pixels changed";
+  }
+  ::unsetenv("LENSFARM_EMBREE_CONFIG");
 }
 
 }  // namespace
