@@ -1,11 +1,13 @@
-# The two commands the README promises: `make demo` and `make test`.
-# Both run the set-up first (apt-get for what is missing), then build: the demo only the three
-# binaries and the packages they need (scripts/setup.sh build), the tests everything (setup.sh test).
+# The two commands the README promises: `make demo` and `make test`. Each runs the set-up first
+# (scripts/setup.sh: apt-get for what is missing, nothing else), then builds: the demo only the
+# three binaries and the packages they need, the tests everything. `make build` only builds (run
+# `make setup` once on a new machine); a build directory is configured once, after which CMake
+# re-configures itself when a CMakeLists.txt changes. Configure logs stay in the build directory.
 BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: bench-goals all setup setup-build configure configure-demo build build-demo demo test bench load load-quick soak fuzz clean
+.PHONY: bench-goals all setup setup-build build build-demo demo test unit bench load load-quick soak fuzz format format-check clean
 
 all: build
 
@@ -15,27 +17,38 @@ setup:
 setup-build:
 	@bash scripts/setup.sh build
 
-configure: setup
-	@cmake -S . -B $(BUILD_DIR) $(CMAKE_FLAGS) -DLENSFARM_BUILD_TESTS=ON > $(BUILD_DIR).configure.log 2>&1 || (cat $(BUILD_DIR).configure.log; exit 1)
+# Configures a new build directory with the tests; prints the log (and the hint) when CMake fails.
+$(BUILD_DIR)/CMakeCache.txt:
+	@mkdir -p $(BUILD_DIR)
+	@cmake -S . -B $(BUILD_DIR) $(CMAKE_FLAGS) -DLENSFARM_BUILD_TESTS=ON > $(BUILD_DIR)/configure.log 2>&1 || \
+	  (cat $(BUILD_DIR)/configure.log; rm -f $(BUILD_DIR)/CMakeCache.txt; echo "missing packages? run: make setup"; exit 1)
 
-build: configure
+build: $(BUILD_DIR)/CMakeCache.txt
 	@cmake --build $(BUILD_DIR) -j $(JOBS)
 
 # The demo's build: a new build directory without the tests and benchmarks; an existing one keeps
 # its setting (a developer's build with tests goes on building them with `make test`).
-configure-demo: setup-build
-	@if [ -f $(BUILD_DIR)/CMakeCache.txt ]; then flags=""; else flags="-DLENSFARM_BUILD_TESTS=OFF"; fi; \
-	  cmake -S . -B $(BUILD_DIR) $(CMAKE_FLAGS) $$flags > $(BUILD_DIR).configure.log 2>&1 || (cat $(BUILD_DIR).configure.log; exit 1)
-
-build-demo: configure-demo
+build-demo: setup-build
+	@mkdir -p $(BUILD_DIR)
+	@if [ ! -f $(BUILD_DIR)/CMakeCache.txt ]; then \
+	  cmake -S . -B $(BUILD_DIR) $(CMAKE_FLAGS) -DLENSFARM_BUILD_TESTS=OFF > $(BUILD_DIR)/configure.log 2>&1 || \
+	    (cat $(BUILD_DIR)/configure.log; rm -f $(BUILD_DIR)/CMakeCache.txt; exit 1); fi
 	@cmake --build $(BUILD_DIR) -j $(JOBS) --target lensfarm lensfarm-coordinator lensfarm-worker
 
 # A coordinator and two workers on localhost render the seed scene into out/ (scripts/demo.sh).
 demo: build-demo
 	@BUILD_DIR=$(BUILD_DIR) bash scripts/demo.sh
 
-test: build
+# A build directory the demo made without tests is switched to build them.
+test: setup
+	@if grep -qs '^LENSFARM_BUILD_TESTS:BOOL=OFF' $(BUILD_DIR)/CMakeCache.txt; then \
+	  cmake -S . -B $(BUILD_DIR) -DLENSFARM_BUILD_TESTS=ON > $(BUILD_DIR)/configure.log 2>&1 || (cat $(BUILD_DIR)/configure.log; exit 1); fi
+	@$(MAKE) --no-print-directory build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS)
+
+# The unit tests alone (CTest label unit: no process, network or browser; under a minute).
+unit: build
+	cd $(BUILD_DIR) && ctest -L unit -j $(JOBS)
 
 bench: build
 	$(BUILD_DIR)/bench/lensfarm-bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
@@ -54,8 +67,9 @@ bench-goals: build
 FUZZ_SECONDS ?= 60
 fuzz:
 	@bash scripts/setup.sh fuzz
+	@mkdir -p build-fuzz
 	@cmake -S . -B build-fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-	  -DLENSFARM_FUZZ=ON -DLENSFARM_WERROR=OFF -DLENSFARM_BUILD_TESTS=OFF > build-fuzz.configure.log 2>&1 || (cat build-fuzz.configure.log; exit 1)
+	  -DLENSFARM_FUZZ=ON -DLENSFARM_WERROR=OFF -DLENSFARM_BUILD_TESTS=OFF > build-fuzz/configure.log 2>&1 || (cat build-fuzz/configure.log; exit 1)
 	@cmake --build build-fuzz -j $(JOBS) --target scene_parser_fuzz gltf_import_fuzz upload_fuzz lens_fuzz
 	@mkdir -p build-fuzz/scene-corpus && cp scenes/*.json build-fuzz/scene-corpus/
 	cd build-fuzz && ./tests/fuzz/scene_parser_fuzz -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 \
@@ -82,4 +96,11 @@ soak: build
 	$(BUILD_DIR)/bench/lensfarm-load --workers 64 --seconds 60
 
 clean:
-	rm -rf $(BUILD_DIR) $(BUILD_DIR).configure.log build-fuzz build-fuzz.configure.log out
+	rm -rf $(BUILD_DIR) build-fuzz out
+
+# The style (.clang-format) applied to every source; `make test` checks it (Style.*).
+FORMAT_SOURCES = find common coordinator worker client proto tests bench \( -name '*.h' -o -name '*.cpp' \) -not -path '*/node_modules/*' -print0
+format:
+	@$(FORMAT_SOURCES) | xargs -0 clang-format -i
+format-check:
+	@$(FORMAT_SOURCES) | xargs -0 clang-format --dry-run --Werror

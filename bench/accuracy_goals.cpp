@@ -3,7 +3,7 @@
 // loop of study/progressive.h, in a TBB arena of --threads threads):
 //
 //   1. time to 1.7 % relative RMSE: cornell-classic, 256 x 256, B = 3, NEE + MIS, Sobol. Goal <= 2.4 s.
-//   2. the seed's Figure 4 job: cornell-seed, 800 x 800, B = 2, the naive estimator, 1.2e8 paths
+//   2. the 2013 report's Figure 4 job: cornell-seed, 800 x 800, B = 2, the naive estimator, 1.2e8 paths
 //      (187.5 samples per pixel, rounded up to 188), in units of the automatic size as
 //      `lensfarm render` would. Goal <= 10 s. Its relative RMSE is measured as well.
 //   3. NEE + MIS on the same scene, resolution and B: the time at which its relative RMSE first
@@ -26,7 +26,7 @@
 // and rays/s (render/integrator.h PathStats: every camera, scattered and shadow ray).
 //
 // Goal 3 runs the default (render.light_tracing auto: off); --light-tracing on and
-// --light-tracing-ratio measure the light tracer (render/light_tracer.h) on the seed's caustic.
+// --light-tracing-ratio measure the light tracer (render/light_tracer.h) on the 2013 report's caustic.
 //
 //   build/bench/lensfarm-accuracy-goals [--repeat 5] [--threads N] [--cache DIR] [--only 1|2|3]
 //                                       [--reference-spp-256 4096] [--reference-spp-800 1024] [--quick]
@@ -41,9 +41,9 @@
 #include <thread>
 #include <vector>
 
-#include "film/error_metrics.h"
-#include "scene/scene_loader.h"
-#include "study/progressive.h"
+#include "common/film/error_metrics.h"
+#include "common/scene/scene_loader.h"
+#include "client/study/progressive.h"
 
 namespace lensfarm {
 namespace {

@@ -20,11 +20,11 @@
 #include <mutex>
 #include <sstream>
 
-#include "coordinator.h"
-#include "grpc_link.h"
-#include "scene/scene_loader.h"
-#include "service.h"
-#include "util/version.h"
+#include "coordinator/coordinator.h"
+#include "worker/grpc_link.h"
+#include "common/scene/scene_loader.h"
+#include "coordinator/service.h"
+#include "common/util/version.h"
 
 namespace lensfarm {
 namespace {
@@ -32,7 +32,7 @@ namespace {
 constexpr int kSize = 800;
 
 JobSpec benchJob() {
-  // The seed scene with its box replaced by one quad: no asset to upload, the same frame size.
+  // cornell-seed with its box replaced by one quad: no asset to upload, the same frame size.
   nlohmann::json scene = nlohmann::json::parse(std::ifstream(LENSFARM_SOURCE_DIR "/scenes/cornell-seed.json"));
   scene["shapes"] = nlohmann::json::array(
       {{{"type", "quad"}, {"corner", {-1, 1, 1}}, {"edge1", {2, 0, 0}}, {"edge2", {0, -2, 0}}, {"material", "white"}}});

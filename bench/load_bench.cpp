@@ -42,10 +42,10 @@
 #include <string>
 #include <vector>
 
-#include "render/memory_estimate.h"
-#include "render/render_scene.h"
-#include "scene/scene_loader.h"
-#include "util/hash.h"
+#include "common/farm/memory_estimate.h"
+#include "common/render/render_scene.h"
+#include "common/scene/scene_loader.h"
+#include "common/util/hash.h"
 
 namespace lensfarm {
 namespace {

@@ -21,11 +21,11 @@
 #include <random>
 #include <thread>
 
-#include "channel_security.h"
-#include "coordinator.h"
-#include "grpc_link.h"
-#include "service.h"
-#include "util/version.h"
+#include "proto/channel_security.h"
+#include "coordinator/coordinator.h"
+#include "worker/grpc_link.h"
+#include "coordinator/service.h"
+#include "common/util/version.h"
 
 namespace lensfarm {
 namespace {

@@ -8,8 +8,8 @@
 
 #include <random>
 
-#include "medium/grid_medium.h"
-#include "medium/homogeneous_medium.h"
+#include "common/medium/grid_medium.h"
+#include "common/medium/homogeneous_medium.h"
 
 namespace lensfarm {
 namespace {

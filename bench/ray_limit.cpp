@@ -27,9 +27,9 @@
 #include <numbers>
 #include <thread>
 
-#include "render/render_scene.h"
-#include "render/unit_renderer.h"
-#include "scene/scene_loader.h"
+#include "common/render/render_scene.h"
+#include "common/render/unit_renderer.h"
+#include "common/scene/scene_loader.h"
 
 namespace lensfarm {
 namespace {

@@ -14,9 +14,9 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "render/render_scene.h"
-#include "render/unit_renderer.h"
-#include "scene/scene_loader.h"
+#include "common/render/render_scene.h"
+#include "common/render/unit_renderer.h"
+#include "common/scene/scene_loader.h"
 
 namespace lensfarm {
 namespace {
@@ -57,7 +57,7 @@ void BM_ClassicNeeMisB3SingleRays(benchmark::State& s) {
   renderUnits(s, "cornell-classic.json", 3, IntegratorKind::kNeeMis, 512, RayGrouping::kSingleRays);
 }
 void BM_ClassicNaiveB3(benchmark::State& s) { renderUnits(s, "cornell-classic.json", 3, IntegratorKind::kNaive, 512); }
-// The seed scene (thin lens, rippled mirror, hidden light), B = 2 as in the report's Figure 4.
+// The 2013 report's scene (thin lens, rippled mirror, hidden light), B = 2 as in its Figure 4.
 void BM_SeedNeeMisB2(benchmark::State& s) { renderUnits(s, "cornell-seed.json", 2, IntegratorKind::kNeeMis, 512); }
 void BM_SeedNaiveB2(benchmark::State& s) { renderUnits(s, "cornell-seed.json", 2, IntegratorKind::kNaive, 512); }
 

@@ -32,16 +32,16 @@
 #include <optional>
 #include <thread>
 
-#include "audit.h"
-#include "channel_security.h"
-#include "convert.h"
-#include "film/image_io.h"
+#include "coordinator/audit.h"
+#include "proto/channel_security.h"
+#include "proto/convert.h"
+#include "common/film/image_io.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
-#include "render/memory_estimate.h"
-#include "scale/coordinator_process.h"
-#include "scale/simulated_farm.h"
-#include "scale/synthetic_image.h"
-#include "scene/render_overrides.h"
+#include "common/farm/memory_estimate.h"
+#include "bench/scale/coordinator_process.h"
+#include "bench/scale/simulated_farm.h"
+#include "bench/scale/synthetic_image.h"
+#include "common/scene/render_overrides.h"
 
 namespace lensfarm::scale {
 namespace {
@@ -174,7 +174,7 @@ struct RunReport {
 //    the bound tests/farm/tiles_farm_test.cpp checks. Frames open at once: the still; for an
 //    animation, the frames the workers' leases span (units are frame-major) and two more.
 //  - Film of a job in passes: the sensor, the convergence tracker's half-image, the developed
-//    image, its EXR and the audit's rewind copies of the sensor (render/memory_estimate.h gives
+//    image, its EXR and the audit's rewind copies of the sensor (farm/memory_estimate.h gives
 //    the bytes a cell of each).
 //  - Five unit buffers a worker: an upload in flight is held as gRPC's receive slices, the
 //    assembled message and the unit's SensorBuffer, the audit keeps a copy of a counted unit until

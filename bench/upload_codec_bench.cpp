@@ -1,7 +1,7 @@
 // Upload compression (docs/performance.md, "Upload compression"): how small farm/sums_codec.h
 // makes a unit's sums, and how fast it encodes and decodes them, on real unit buffers.
 //
-// Renders one whole-frame unit of a scene (default the Cornell seed at 400x400) for each
+// Renders one whole-frame unit of a scene (default cornell-seed at 400x400) for each
 // --spp (few samples: noisy sums; many: smoother), then, per zstd --level, splits the unit's sums
 // into blocks of kSumsBlockDoubles as the worker does and reports:
 //   ratio      raw bytes / encoded bytes (higher is better);
@@ -24,10 +24,10 @@
 #include <string>
 #include <vector>
 
-#include "farm/sums_codec.h"
-#include "render/render_scene.h"
-#include "render/unit_renderer.h"
-#include "scene/scene_loader.h"
+#include "common/farm/sums_codec.h"
+#include "common/render/render_scene.h"
+#include "common/render/unit_renderer.h"
+#include "common/scene/scene_loader.h"
 
 namespace lensfarm {
 namespace {

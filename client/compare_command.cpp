@@ -7,12 +7,12 @@
 #include <cstdio>
 #include <string>
 
-#include "commands.h"
-#include "exit_codes.h"
-#include "film/error_metrics.h"
-#include "film/image_io.h"
-#include "override_flags.h"
-#include "util/error.h"
+#include "client/commands.h"
+#include "client/exit_codes.h"
+#include "common/film/error_metrics.h"
+#include "common/film/image_io.h"
+#include "client/override_flags.h"
+#include "common/util/error.h"
 
 namespace lensfarm::cli {
 

@@ -12,13 +12,13 @@
 #include <string>
 #include <vector>
 
-#include "commands.h"
-#include "denoise_output.h"
-#include "exit_codes.h"
-#include "film/denoiser.h"
-#include "film/image_io.h"
-#include "override_flags.h"
-#include "util/error.h"
+#include "client/commands.h"
+#include "client/denoise_output.h"
+#include "client/exit_codes.h"
+#include "common/film/denoiser.h"
+#include "common/film/image_io.h"
+#include "client/override_flags.h"
+#include "common/util/error.h"
 
 namespace lensfarm::cli {
 

@@ -1,8 +1,8 @@
-#include "denoise_output.h"
+#include "client/denoise_output.h"
 
 #include <vector>
 
-#include "util/error.h"
+#include "common/util/error.h"
 
 namespace lensfarm::cli {
 

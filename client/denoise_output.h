@@ -4,9 +4,9 @@
 // beauty, every layer kept, the raw beauty as the layer "noisy", and lensfarm/denoised in the header.
 #include <string>
 
-#include "film/aov_layout.h"
-#include "film/denoiser.h"
-#include "film/image_io.h"
+#include "common/film/aov_layout.h"
+#include "common/film/denoiser.h"
+#include "common/film/image_io.h"
 
 namespace lensfarm::cli {
 

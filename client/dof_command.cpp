@@ -1,4 +1,4 @@
-// `lensfarm dof SCENE`: depth of field of the scene's camera, with the seed's formulas (8)-(10)
+// `lensfarm dof SCENE`: depth of field of the scene's camera, with the 2013 report's formulas (8)-(10)
 // (reproducing its Table 1) and the textbook ones; with --spots N, the blur of points on the plane
 // of focus across the image (camera/focus_spots.h: the report's Figure 7d question, docs/figure7.md).
 #include <cmath>
@@ -6,14 +6,14 @@
 #include <string>
 #include <vector>
 
-#include "camera/depth_of_field.h"
-#include "camera/focus_spots.h"
-#include "commands.h"
-#include "exit_codes.h"
-#include "override_flags.h"
-#include "scene/scene_loader.h"
-#include "film/image_io.h"
-#include "util/error.h"
+#include "common/camera/depth_of_field.h"
+#include "common/camera/focus_spots.h"
+#include "client/commands.h"
+#include "client/exit_codes.h"
+#include "client/override_flags.h"
+#include "common/scene/scene_loader.h"
+#include "common/film/image_io.h"
+#include "common/util/error.h"
 
 namespace lensfarm::cli {
 
@@ -37,7 +37,7 @@ struct SpotFlags {
   int steps = 8;
 };
 
-// The spot table (and plot) for the scene's thin lens at f/N, with the seed's eq. 1 as written
+// The spot table (and plot) for the scene's thin lens at f/N, with the 2013 report's eq. 1 as written
 // and the ideal thin lens, and a real-lens scene's spots beside them.
 void printSpots(const Scene& s, const SpotFlags& flags, double c) {
   if (s.realLens) throw InputError("--spots", "the scene's camera is a real lens: give it with --compare beside a "
@@ -46,7 +46,7 @@ void printSpots(const Scene& s, const SpotFlags& flags, double c) {
   p.fNumber = *flags.fNumber;
   p.apertureBlades = 0;
   std::vector<SpotSeries> series{
-      {"seed eq. 1 as written (unit n1)", "#d62728", thinLensFocusSpots(p, ThinLensRule::kSeedEquationAsWritten, flags.steps)},
+      {"2013 report eq. 1 as written (unit n1)", "#d62728", thinLensFocusSpots(p, ThinLensRule::kSeedEquationAsWritten, flags.steps)},
       {"ideal thin lens (lensfarm): 0, drawn on the floor", "#1f77b4", thinLensFocusSpots(p, ThinLensRule::kIdealThinLens, flags.steps)}};
   std::string lensName;
   if (!flags.compare.empty()) {
@@ -59,7 +59,7 @@ void printSpots(const Scene& s, const SpotFlags& flags, double c) {
   }
   std::printf("\nspots of points on the plane of focus (S1 = %g): RMS diameter on the sensor, in c; thin lens at f/%g\n",
               p.focusDistance, p.fNumber);
-  std::printf("%6s %10s %14s %12s", "field", "height", "seed eq. 1", "ideal");
+  std::printf("%6s %10s %14s %12s", "field", "height", "report eq. 1", "ideal");
   if (series.size() > 2) std::printf(" %14s %8s", "real lens", "passing");
   std::printf("\n");
   for (size_t k = 0; k < series[0].spots.size(); ++k) {
@@ -95,7 +95,7 @@ Runner addDofCommand(CLI::App& app) {
   auto spots = std::make_shared<SpotFlags>();
   cmd->add_option("--spots", spots->fNumber,
                   "Also measure the blur of points on the plane of focus across the image at this f-number: the "
-                  "seed's eq. 1 as written against the ideal thin lens (docs/figure7.md)")
+                  "the 2013 report's eq. 1 as written against the ideal thin lens (docs/figure7.md)")
       ->check(numberIn(kMinFNumber, 1e6));
   cmd->add_option("--compare", spots->compare, "With --spots: a scene with a real_lens camera to measure beside them");
   cmd->add_option("--svg", spots->svg, "With --spots: write the plot to this SVG file");
@@ -119,7 +119,7 @@ Runner addDofCommand(CLI::App& app) {
       seed.push_back(seedDepthOfField(p.focalLength, p.focusDistance, n, c));
       textbook.push_back(textbookDepthOfField(p.focalLength, p.focusDistance, n, c));
     }
-    printTable("seed report, formulas (8)-(10):", seed);
+    printTable("2013 report, formulas (8)-(10):", seed);
     std::printf("\n");
     printTable("textbook (DF = inf at and beyond the hyperfocal distance):", textbook);
     if (spots->fNumber) {

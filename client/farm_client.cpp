@@ -1,4 +1,4 @@
-#include "farm_client.h"
+#include "client/farm_client.h"
 
 #include <spdlog/spdlog.h>
 
@@ -6,8 +6,8 @@
 #include <chrono>
 #include <optional>
 
-#include "convert.h"
-#include "coordinator.h"
+#include "proto/convert.h"
+#include "coordinator/coordinator.h"
 
 namespace lensfarm::cli {
 

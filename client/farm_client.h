@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "channel_security.h"
-#include "job_spec.h"
+#include "proto/channel_security.h"
+#include "client/job_spec.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
 
 namespace lensfarm::cli {

@@ -12,19 +12,19 @@
 #include <set>
 #include <string>
 
-#include "commands.h"
-#include "denoise_output.h"
-#include "exit_codes.h"
-#include "farm_client.h"
-#include "farm_connection.h"
-#include "scene/frame_range.h"
-#include "film/image_io.h"
-#include "output_paths.h"
-#include "override_flags.h"
-#include "progress_display.h"
-#include "scene/scene_loader.h"
-#include "util/secret.h"
-#include "util/error.h"
+#include "client/commands.h"
+#include "client/denoise_output.h"
+#include "client/exit_codes.h"
+#include "client/farm_client.h"
+#include "client/farm_connection.h"
+#include "common/scene/frame_range.h"
+#include "common/film/image_io.h"
+#include "client/output_paths.h"
+#include "client/override_flags.h"
+#include "client/progress_display.h"
+#include "common/scene/scene_loader.h"
+#include "common/util/secret.h"
+#include "common/util/error.h"
 
 namespace lensfarm::cli {
 

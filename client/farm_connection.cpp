@@ -1,9 +1,9 @@
-#include "farm_connection.h"
+#include "client/farm_connection.h"
 
 #include <cstdio>
 
-#include "exit_codes.h"
-#include "farm_client.h"
+#include "client/exit_codes.h"
+#include "client/farm_client.h"
 
 namespace lensfarm::cli {
 

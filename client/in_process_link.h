@@ -1,8 +1,8 @@
 #pragma once
 // CoordinatorLink by direct calls to a Coordinator in the same process: `lensfarm render` runs an
 // embedded coordinator and worker through the same classes the farm uses over gRPC.
-#include "coordinator.h"
-#include "coordinator_link.h"
+#include "coordinator/coordinator.h"
+#include "worker/coordinator_link.h"
 
 namespace lensfarm {
 

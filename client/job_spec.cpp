@@ -1,9 +1,9 @@
-#include "job_spec.h"
+#include "client/job_spec.h"
 
-#include "farm/job_scene.h"
-#include "scene/scene_loader.h"
-#include "util/error.h"
-#include "util/file_contents.h"
+#include "common/farm/job_scene.h"
+#include "common/scene/scene_loader.h"
+#include "common/util/error.h"
+#include "common/util/file_contents.h"
 
 namespace lensfarm::cli {
 

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "farm/farm_types.h"
-#include "scene/scene.h"
+#include "common/farm/farm_types.h"
+#include "common/scene/scene.h"
 
 namespace lensfarm::cli {
 

@@ -6,16 +6,16 @@
 #include <filesystem>
 #include <string>
 
-#include "camera/lens_analysis.h"
-#include "camera/lens_plots.h"
-#include "camera/lens_system.h"
-#include "scene/lens_prescription.h"
-#include "commands.h"
-#include "exit_codes.h"
-#include "override_flags.h"
-#include "film/image_io.h"
-#include "util/error.h"
-#include "util/file_contents.h"
+#include "common/camera/lens_analysis.h"
+#include "common/camera/lens_plots.h"
+#include "common/camera/lens_system.h"
+#include "common/scene/lens_prescription.h"
+#include "client/commands.h"
+#include "client/exit_codes.h"
+#include "client/override_flags.h"
+#include "common/film/image_io.h"
+#include "common/util/error.h"
+#include "common/util/file_contents.h"
 
 namespace lensfarm::cli {
 

@@ -13,11 +13,11 @@
 #include <string>
 #include <vector>
 
-#include "commands.h"
-#include "exit_codes.h"
-#include "util/error.h"
-#include "util/spelling.h"
-#include "util/version.h"
+#include "client/commands.h"
+#include "client/exit_codes.h"
+#include "common/util/error.h"
+#include "common/util/spelling.h"
+#include "common/util/version.h"
 
 namespace {
 

@@ -1,6 +1,6 @@
-#include "output_paths.h"
+#include "client/output_paths.h"
 
-#include "util/error.h"
+#include "common/util/error.h"
 
 namespace lensfarm::cli {
 

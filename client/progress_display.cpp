@@ -1,4 +1,4 @@
-#include "progress_display.h"
+#include "client/progress_display.h"
 
 #include <algorithm>
 #include <chrono>
@@ -6,8 +6,8 @@
 
 #include <fmt/format.h>
 
-#include "film/convergence.h"
-#include "scene/scene_loader.h"
+#include "common/film/convergence.h"
+#include "common/scene/scene_loader.h"
 
 namespace lensfarm::cli {
 

@@ -20,27 +20,27 @@
 #include <set>
 #include <thread>
 
-#include "commands.h"
-#include "denoise_output.h"
-#include "coordinator.h"
-#include "farm/job_layout.h"
-#include "exit_codes.h"
-#include "film/image_io.h"
-#include "in_process_link.h"
-#include "job_spec.h"
-#include "output_paths.h"
-#include "render/memory_estimate.h"
-#include "render/ray_caster.h"
-#include "override_flags.h"
-#include "progress_display.h"
-#include "service.h"
-#include "worker_loop.h"
-#include "scene/effects.h"
-#include "scene/frame_range.h"
-#include "scene/render_overrides.h"
-#include "scene/scene_loader.h"
-#include "util/error.h"
-#include "util/version.h"
+#include "client/commands.h"
+#include "client/denoise_output.h"
+#include "coordinator/coordinator.h"
+#include "common/farm/job_layout.h"
+#include "client/exit_codes.h"
+#include "common/film/image_io.h"
+#include "client/in_process_link.h"
+#include "client/job_spec.h"
+#include "client/output_paths.h"
+#include "common/farm/memory_estimate.h"
+#include "common/render/ray_caster.h"
+#include "client/override_flags.h"
+#include "client/progress_display.h"
+#include "coordinator/service.h"
+#include "worker/worker_loop.h"
+#include "common/scene/effects.h"
+#include "common/scene/frame_range.h"
+#include "common/scene/render_overrides.h"
+#include "common/scene/scene_loader.h"
+#include "common/util/error.h"
+#include "common/util/version.h"
 
 namespace lensfarm::cli {
 
@@ -180,8 +180,8 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
                               toOverrides(flags).width ? "--resolution" : flags.scene + ": render.resolution",
                               sceneDataBytes(scene));
 
-  // The farm in one process: an embedded coordinator and one worker with all threads, wired by
-  // direct calls (design.md): the same scheduling, upload and accumulation as over gRPC.
+  // The farm in one process: an embedded coordinator and one worker with all threads, wired by direct calls
+  // (docs/architecture.md, "The farm in one process"): the same scheduling, upload and accumulation as over gRPC.
   Coordinator::Options options;
   options.maxJobMemoryBytes = std::numeric_limits<uint64_t>::max();  // the whole process was checked above
   options.leaseTimeoutSeconds = 3600.0;  // the worker cannot vanish: it is this process

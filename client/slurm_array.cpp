@@ -1,9 +1,9 @@
-#include "slurm_array.h"
+#include "client/slurm_array.h"
 
 #include <cctype>
 #include <sstream>
 
-#include "util/error.h"
+#include "common/util/error.h"
 
 namespace lensfarm::cli {
 

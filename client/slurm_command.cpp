@@ -12,16 +12,16 @@
 #include <optional>
 #include <thread>
 
-#include "commands.h"
-#include "exit_codes.h"
-#include "farm_client.h"
-#include "farm_connection.h"
-#include "progress_display.h"
-#include "slurm_array.h"
-#include "subprocess.h"
-#include "util/error.h"
-#include "util/secret.h"
-#include "util/flag_checks.h"
+#include "client/commands.h"
+#include "client/exit_codes.h"
+#include "client/farm_client.h"
+#include "client/farm_connection.h"
+#include "client/progress_display.h"
+#include "client/slurm_array.h"
+#include "client/subprocess.h"
+#include "common/util/error.h"
+#include "common/util/secret.h"
+#include "common/util/flag_checks.h"
 
 namespace lensfarm::cli {
 

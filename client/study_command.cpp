@@ -4,9 +4,9 @@
 
 #include <filesystem>
 
-#include "commands.h"
-#include "exit_codes.h"
-#include "study/study.h"
+#include "client/commands.h"
+#include "client/exit_codes.h"
+#include "client/study/study.h"
 
 namespace lensfarm::cli {
 

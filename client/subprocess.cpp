@@ -1,4 +1,4 @@
-#include "subprocess.h"
+#include "client/subprocess.h"
 
 #include <spawn.h>
 #include <sys/wait.h>

@@ -1,14 +1,14 @@
 // Accumulator: one job's film, summed in unit order, and the stop at a target error or deadline
 // (accumulator.h).
-#include "accumulator.h"
+#include "coordinator/accumulator.h"
 
 #include <algorithm>
 #include <cstring>
 #include <stdexcept>
 #include <utility>
 
-#include "farm/farm_types.h"
-#include "render/unit_renderer.h"
+#include "common/farm/farm_types.h"
+#include "common/render/unit_renderer.h"
 
 namespace lensfarm {
 

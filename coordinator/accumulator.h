@@ -32,14 +32,14 @@
 #include <set>
 #include <string>
 
-#include "farm/farm_types.h"
-#include "film/adaptive_allocation.h"
-#include "film/convergence.h"
-#include "film/image.h"
-#include "film/sensor.h"
-#include "farm/job_layout.h"
-#include "scene/scene.h"
-#include "tile_film.h"
+#include "common/farm/farm_types.h"
+#include "common/film/adaptive_allocation.h"
+#include "common/film/convergence.h"
+#include "common/film/image.h"
+#include "common/film/sensor.h"
+#include "common/farm/job_layout.h"
+#include "common/scene/scene.h"
+#include "coordinator/tile_film.h"
 
 namespace lensfarm {
 

@@ -1,13 +1,13 @@
 // AssetStore: assets by SHA-256, the checks on uploads and queries, and their counts
 // (asset_store.h).
-#include "asset_store.h"
+#include "coordinator/asset_store.h"
 
 #include <algorithm>
 #include <set>
 
-#include "farm/farm_types.h"
-#include "state_store.h"
-#include "util/hash.h"
+#include "common/farm/farm_types.h"
+#include "coordinator/state_store.h"
+#include "common/util/hash.h"
 
 namespace lensfarm {
 

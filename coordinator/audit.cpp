@@ -1,5 +1,5 @@
 // AuditBook: one job's units under audit and their verdicts (audit.h).
-#include "audit.h"
+#include "coordinator/audit.h"
 
 #include <algorithm>
 #include <cmath>

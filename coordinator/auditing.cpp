@@ -11,12 +11,12 @@
 
 #include <algorithm>
 
-#include "coordinator.h"
-#include "coordinator_records.h"
-#include "result_checks.h"
-#include "render/unit_renderer.h"
-#include "state_store.h"
-#include "util/error.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/coordinator_records.h"
+#include "coordinator/result_checks.h"
+#include "common/render/unit_renderer.h"
+#include "coordinator/state_store.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

@@ -1,8 +1,8 @@
-#include "auth.h"
+#include "coordinator/auth.h"
 
 #include <spdlog/spdlog.h>
 
-#include "util/secret.h"
+#include "common/util/secret.h"
 
 namespace lensfarm {
 

@@ -3,25 +3,26 @@
 // the image, the error curve, metrics), and the asset calls, forwarded to AssetStore. Leases are
 // in scheduler.cpp, results in results.cpp, durable state in persistence.cpp, workers in
 // workers.cpp; the records they share are in coordinator_records.h.
-#include "coordinator.h"
+#include "coordinator/coordinator.h"
+#include "common/scene/scene_diffraction.h"
 
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <random>
 
-#include "coordinator_records.h"
-#include "frame_store.h"
-#include "job_archive.h"
-#include "render/memory_estimate.h"
-#include "film/psf_convolution.h"
-#include "scene/asset_path.h"
-#include "scene/effects.h"
-#include "farm/job_scene.h"
-#include "scene/scene_loader.h"
-#include "state_store.h"
-#include "util/error.h"
-#include "util/version.h"
+#include "coordinator/coordinator_records.h"
+#include "coordinator/frame_store.h"
+#include "coordinator/job_archive.h"
+#include "common/farm/memory_estimate.h"
+#include "common/film/psf_convolution.h"
+#include "common/scene/asset_path.h"
+#include "common/scene/effects.h"
+#include "common/farm/job_scene.h"
+#include "common/scene/scene_loader.h"
+#include "coordinator/state_store.h"
+#include "common/util/error.h"
+#include "common/util/version.h"
 
 namespace lensfarm {
 

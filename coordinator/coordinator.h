@@ -43,13 +43,13 @@
 #include <thread>
 #include <vector>
 
-#include "asset_store.h"
-#include "audit.h"
-#include "farm/farm_types.h"
-#include "film/convergence.h"
-#include "film/image_io.h"
-#include "film/sensor.h"
-#include "lease_table.h"
+#include "coordinator/asset_store.h"
+#include "coordinator/audit.h"
+#include "common/farm/farm_types.h"
+#include "common/film/convergence.h"
+#include "common/film/image_io.h"
+#include "common/film/sensor.h"
+#include "coordinator/lease_table.h"
 
 namespace lensfarm {
 
@@ -209,7 +209,7 @@ class Coordinator {
     // (canonical order). Fresh units are leased at most this many bytes of buffers ahead of the
     // summed prefix, which bounds that memory however many workers there are.
     uint64_t maxBytesAhead = uint64_t(2) << 30;
-    // The memory one job may take (render/memory_estimate.h, coordinatorJobMemory): submit
+    // The memory one job may take (farm/memory_estimate.h, coordinatorJobMemory): submit
     // refuses a bigger job (FarmError kResourceExhausted naming the estimate and this limit).
     // 0: defaultJobMemoryBudget() (LENSFARM_MAX_JOB_MEMORY, else 3/4 of the machine's memory).
     uint64_t maxJobMemoryBytes = 0;
@@ -401,7 +401,7 @@ class Coordinator {
   // ---- results and stopping (results.cpp) ----
   bool accept(const UnitResult& result, UnitResult* owned);
   // FarmError kInvalidArgument unless the result is one the unit can produce (results.cpp).
-  // `map`: an adaptive unit's samples (render/sample_map.h), whose counts then replace sampleCount.
+  // `map`: an adaptive unit's samples (film/sample_map.h), whose counts then replace sampleCount.
   // `maxRaysPerPath`: the job's (render/unit_renderer.h).
   static void checkPlausible(const UnitResult& result, uint64_t cells, uint32_t sampleCount, const AovLayout& aovs,
                              const SampleMap* map, uint64_t maxRaysPerPath);

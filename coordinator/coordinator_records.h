@@ -9,13 +9,13 @@
 #include <string>
 #include <vector>
 
-#include "accumulator.h"
-#include "audit.h"
-#include "coordinator.h"
-#include "farm/job_layout.h"
-#include "job_units.h"
-#include "film/diffraction_psf.h"
-#include "scene/scene.h"
+#include "coordinator/accumulator.h"
+#include "coordinator/audit.h"
+#include "coordinator/coordinator.h"
+#include "common/farm/job_layout.h"
+#include "coordinator/job_units.h"
+#include "common/film/diffraction_psf.h"
+#include "common/scene/scene.h"
 
 namespace lensfarm {
 

@@ -1,13 +1,13 @@
-#include "dashboard.h"
+#include "coordinator/dashboard.h"
 
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 
-#include "film/image.h"
-#include "film/image_io.h"
-#include "scene/scene_loader.h"
-#include "util/secret.h"
+#include "common/film/image.h"
+#include "common/film/image_io.h"
+#include "common/scene/scene_loader.h"
+#include "common/util/secret.h"
 
 namespace lensfarm {
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "coordinator.h"
+#include "coordinator/coordinator.h"
 
 namespace lensfarm {
 

@@ -1,12 +1,12 @@
-#include "dashboard_server.h"
+#include "coordinator/dashboard_server.h"
 
 #include <httplib.h>
 #include <spdlog/spdlog.h>
 
 #include <nlohmann/json.hpp>
 
-#include "dashboard_assets.h"
-#include "util/error.h"
+#include "coordinator/dashboard_assets.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

@@ -6,8 +6,8 @@
 // the GET routes only (a POST with it is 403). The routes are listed in docs/dashboard.md.
 #include <string>
 
-#include "dashboard.h"
-#include "http_server.h"
+#include "coordinator/dashboard.h"
+#include "coordinator/http_server.h"
 
 namespace lensfarm {
 

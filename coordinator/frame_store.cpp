@@ -1,5 +1,5 @@
 // FrameStore: completed frames as float OpenEXR files (frame_store.h).
-#include "frame_store.h"
+#include "coordinator/frame_store.h"
 
 #include <cstdlib>
 #include <system_error>

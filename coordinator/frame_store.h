@@ -11,8 +11,8 @@
 #include <set>
 #include <string>
 
-#include "film/image.h"
-#include "film/image_io.h"
+#include "common/film/image.h"
+#include "common/film/image_io.h"
 
 namespace lensfarm {
 

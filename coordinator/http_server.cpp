@@ -1,4 +1,4 @@
-#include "http_server.h"
+#include "coordinator/http_server.h"
 
 #include <httplib.h>
 #include <openssl/err.h>
@@ -7,7 +7,7 @@
 #include <charconv>
 #include <stdexcept>
 
-#include "util/error.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

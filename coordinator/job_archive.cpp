@@ -1,4 +1,4 @@
-#include "job_archive.h"
+#include "coordinator/job_archive.h"
 
 namespace lensfarm {
 

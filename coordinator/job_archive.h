@@ -13,8 +13,8 @@
 #include <optional>
 #include <string>
 
-#include "film/image.h"
-#include "film/image_io.h"
+#include "common/film/image.h"
+#include "common/film/image_io.h"
 
 namespace lensfarm {
 

@@ -1,5 +1,5 @@
 // LeaseTable: the active leases, their holders and deadlines (lease_table.h).
-#include "lease_table.h"
+#include "coordinator/lease_table.h"
 
 #include <algorithm>
 #include <random>

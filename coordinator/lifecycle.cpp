@@ -18,12 +18,12 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 
-#include "coordinator.h"
-#include "coordinator_records.h"
-#include "frame_store.h"
-#include "job_archive.h"
-#include "state_store.h"
-#include "util/error.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/coordinator_records.h"
+#include "coordinator/frame_store.h"
+#include "coordinator/job_archive.h"
+#include "coordinator/state_store.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

@@ -1,9 +1,9 @@
-#include "metrics.h"
+#include "coordinator/metrics.h"
 
 #include <charconv>
 #include <map>
 
-#include "util/version.h"
+#include "common/util/version.h"
 
 namespace lensfarm {
 

@@ -5,7 +5,7 @@
 // docs/deploy.md lists them with their meanings.
 #include <string>
 
-#include "coordinator.h"
+#include "coordinator/coordinator.h"
 
 namespace lensfarm {
 

@@ -1,8 +1,8 @@
-#include "metrics_server.h"
+#include "coordinator/metrics_server.h"
 
 #include <httplib.h>
 
-#include "metrics.h"
+#include "coordinator/metrics.h"
 
 namespace lensfarm {
 

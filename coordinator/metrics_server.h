@@ -5,7 +5,7 @@
 #include <functional>
 #include <string>
 
-#include "http_server.h"
+#include "coordinator/http_server.h"
 
 namespace lensfarm {
 

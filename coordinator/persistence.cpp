@@ -6,12 +6,12 @@
 
 #include <algorithm>
 
-#include "coordinator.h"
-#include "coordinator_records.h"
-#include "farm/job_scene.h"
-#include "scene/scene_loader.h"
-#include "frame_store.h"
-#include "state_store.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/coordinator_records.h"
+#include "common/farm/job_scene.h"
+#include "common/scene/scene_loader.h"
+#include "coordinator/frame_store.h"
+#include "coordinator/state_store.h"
 
 namespace lensfarm {
 

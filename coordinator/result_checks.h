@@ -6,8 +6,8 @@
 #include <cstdint>
 #include <string>
 
-#include "farm/farm_types.h"
-#include "lease_table.h"
+#include "common/farm/farm_types.h"
+#include "coordinator/lease_table.h"
 
 namespace lensfarm {
 

@@ -9,13 +9,13 @@
 #include <limits>
 #include <set>
 
-#include "coordinator.h"
-#include "coordinator_records.h"
-#include "result_checks.h"
-#include "render/memory_estimate.h"
-#include "render/unit_renderer.h"
-#include "state_store.h"
-#include "util/error.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/coordinator_records.h"
+#include "coordinator/result_checks.h"
+#include "common/farm/memory_estimate.h"
+#include "common/render/unit_renderer.h"
+#include "coordinator/state_store.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

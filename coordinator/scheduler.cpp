@@ -9,9 +9,9 @@
 #include <chrono>
 #include <stdexcept>
 
-#include "coordinator.h"
-#include "coordinator_records.h"
-#include "render/memory_estimate.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/coordinator_records.h"
+#include "common/farm/memory_estimate.h"
 
 namespace lensfarm {
 

@@ -1,14 +1,14 @@
-#include "service.h"
+#include "coordinator/service.h"
 
 #include <spdlog/spdlog.h>
 
 #include <cmath>
 #include <cstring>
 
-#include "convert.h"
-#include "scene/scene_loader.h"
-#include "upload_assembler.h"
-#include "util/error.h"
+#include "proto/convert.h"
+#include "common/scene/scene_loader.h"
+#include "coordinator/upload_assembler.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

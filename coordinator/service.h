@@ -6,8 +6,8 @@
 #include <mutex>
 #include <set>
 
-#include "auth.h"
-#include "coordinator.h"
+#include "coordinator/auth.h"
+#include "coordinator/coordinator.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
 #include "lensfarm/v1/worker_service.grpc.pb.h"
 

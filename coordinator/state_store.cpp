@@ -1,5 +1,5 @@
-#include "util/file_contents.h"
-#include "state_store.h"
+#include "common/util/file_contents.h"
+#include "coordinator/state_store.h"
 
 #include <fcntl.h>
 #include <sqlite3.h>
@@ -12,10 +12,10 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "film/image_io.h"
-#include "util/atomic_file.h"
-#include "scene/scene.h"
-#include "util/version.h"
+#include "common/film/image_io.h"
+#include "common/util/atomic_file.h"
+#include "common/scene/scene.h"
+#include "common/util/version.h"
 
 namespace lensfarm {
 
@@ -76,23 +76,7 @@ void writePiecesAtomically(const fs::path& path, std::initializer_list<std::pair
 }
 
 json specToJson(const JobSpec& spec) {
-  json o = json::object();
-  const RenderOverrides& r = spec.overrides;
-  if (r.samplesPerPixel) o["samples_per_pixel"] = *r.samplesPerPixel;
-  if (r.width) o["width"] = *r.width;
-  if (r.height) o["height"] = *r.height;
-  if (r.maxBounces) o["max_bounces"] = *r.maxBounces;
-  if (r.seed) o["seed"] = *r.seed;
-  if (r.integrator) o["integrator"] = integratorName(*r.integrator);
-  if (r.ev) o["ev"] = *r.ev;
-  if (r.sampler) o["sampler"] = samplerName(*r.sampler);
-  if (r.russianRoulette) o["russian_roulette"] = *r.russianRoulette;
-  if (r.targetError) o["target_error"] = *r.targetError;
-  if (r.timeLimitSeconds) o["time_limit_seconds"] = *r.timeLimitSeconds;
-  if (r.tileSize) o["tile_size"] = *r.tileSize;
-  if (r.aovs) o["aovs"] = aovListText(*r.aovs);
-  if (r.adaptive) o["adaptive"] = *r.adaptive;
-  json out{{"scene_name", spec.sceneName}, {"scene_json", spec.sceneJson}, {"assets", spec.assets}, {"overrides", o}};
+  json out{{"scene_name", spec.sceneName}, {"scene_json", spec.sceneJson}, {"assets", spec.assets}, {"overrides", overridesToJson(spec.overrides)}};
   if (spec.frames) out["frames"] = {spec.frames->first, spec.frames->last, spec.frames->step};
   return out;
 }
@@ -102,31 +86,7 @@ JobSpec specFromJson(const json& j) {
   spec.sceneName = j.at("scene_name").get<std::string>();
   spec.sceneJson = j.at("scene_json").get<std::string>();
   spec.assets = j.at("assets").get<std::map<std::string, std::string>>();
-  const json& o = j.at("overrides");
-  RenderOverrides& r = spec.overrides;
-  if (o.contains("samples_per_pixel")) r.samplesPerPixel = o["samples_per_pixel"].get<uint64_t>();
-  if (o.contains("width")) r.width = o["width"].get<int>();
-  if (o.contains("height")) r.height = o["height"].get<int>();
-  if (o.contains("max_bounces")) r.maxBounces = o["max_bounces"].get<int>();
-  if (o.contains("seed")) r.seed = o["seed"].get<uint64_t>();
-  if (o.contains("integrator")) {
-    IntegratorKind kind;
-    if (!parseIntegratorName(o["integrator"].get<std::string>(), kind)) throw std::runtime_error("stored job: bad integrator");
-    r.integrator = kind;
-  }
-  if (o.contains("sampler")) {
-    SamplerKind kind;
-    if (!parseSamplerName(o["sampler"].get<std::string>(), kind)) throw std::runtime_error("stored job: bad sampler");
-    r.sampler = kind;
-  }
-  if (o.contains("russian_roulette")) r.russianRoulette = o["russian_roulette"].get<bool>();
-  if (o.contains("target_error")) r.targetError = o["target_error"].get<double>();
-  if (o.contains("time_limit_seconds")) r.timeLimitSeconds = o["time_limit_seconds"].get<double>();
-  if (o.contains("ev")) r.ev = o["ev"].get<double>();
-  if (o.contains("tile_size")) r.tileSize = o["tile_size"].get<int>();
-  if (o.contains("adaptive")) r.adaptive = o["adaptive"].get<bool>();
-  if (o.contains("aovs") && !parseAovList(o["aovs"].get<std::string>(), r.aovs.emplace(), nullptr))
-    throw std::runtime_error("stored job: bad aovs");
+  spec.overrides = overridesFromJson(j.at("overrides"));
   if (j.contains("frames")) {
     const json& f = j["frames"];
     spec.frames = FrameRange{f.at(0).get<int64_t>(), f.at(1).get<int64_t>(), f.at(2).get<int64_t>()};

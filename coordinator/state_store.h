@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "farm/farm_types.h"
+#include "common/farm/farm_types.h"
 
 struct sqlite3;
 

@@ -1,5 +1,5 @@
 // TileFilm: a tiled job's float images, written tile by tile (tile_film.h).
-#include "tile_film.h"
+#include "coordinator/tile_film.h"
 
 #include <algorithm>
 #include <utility>
@@ -33,7 +33,7 @@ bool TileFilm::write(uint64_t u, const SensorBuffer& buffer, const std::string& 
   const PixelRegion r = layout_.regionOf(u);
   const int w = layout_.width, h = layout_.height;
   // Sensor::mean and developImage, cell by cell: mean = value * (1 / n); image pixel (x, y) is
-  // cell (W-1-x, H-1-y) (seed §4.7: the lens flips both axes).
+  // cell (W-1-x, H-1-y) (2013 report §4.7: the lens flips both axes).
   const double inv = 1.0 / double(layout_.samplesPerPixel);
   const size_t stride = size_t(aovs_.channels);
   for (int j = 0; j < r.height; ++j) {

@@ -20,10 +20,10 @@
 #include <string>
 #include <vector>
 
-#include "farm/job_layout.h"
-#include "film/image.h"
-#include "film/sensor.h"
-#include "render/integrator.h"
+#include "common/farm/job_layout.h"
+#include "common/film/image.h"
+#include "common/film/sensor.h"
+#include "common/render/integrator.h"
 
 namespace lensfarm {
 

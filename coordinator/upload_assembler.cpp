@@ -1,9 +1,9 @@
-#include "upload_assembler.h"
+#include "coordinator/upload_assembler.h"
 
 #include <cstring>
 
-#include "asset_store.h"
-#include "convert.h"
+#include "coordinator/asset_store.h"
+#include "proto/convert.h"
 
 namespace lensfarm {
 

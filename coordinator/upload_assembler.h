@@ -12,7 +12,7 @@
 #include <cstdint>
 #include <string>
 
-#include "farm/farm_types.h"
+#include "common/farm/farm_types.h"
 #include "lensfarm/v1/client_service.pb.h"
 #include "lensfarm/v1/worker_service.pb.h"
 

@@ -8,11 +8,11 @@
 #include <chrono>
 #include <random>
 
-#include "coordinator.h"
-#include "coordinator_records.h"
-#include "render/memory_estimate.h"
-#include "util/error.h"
-#include "util/version.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/coordinator_records.h"
+#include "common/farm/memory_estimate.h"
+#include "common/util/error.h"
+#include "common/util/version.h"
 
 namespace lensfarm {
 

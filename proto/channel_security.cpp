@@ -1,10 +1,10 @@
-#include "util/file_contents.h"
-#include "channel_security.h"
+#include "common/util/file_contents.h"
+#include "proto/channel_security.h"
 
 #include <fstream>
 #include <sstream>
 
-#include "util/error.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

@@ -1,58 +1,68 @@
-#include "convert.h"
+#include "proto/convert.h"
+
+#include <nlohmann/json.hpp>
+
+#include <stdexcept>
+
+#include "common/util/error.h"
 
 namespace lensfarm::proto {
 
+// The overrides travel field by field through overrideTable(): each row's name is its field in
+// lensfarm.v1.RenderOverrides (a test holds the two lists equal), its value JSON of the field's type.
+namespace {
+
+using google::protobuf::FieldDescriptor;
+
+const FieldDescriptor& overrideField(const std::string& name) {
+  const FieldDescriptor* f = v1::RenderOverrides::descriptor()->FindFieldByName(name);
+  if (!f) throw std::logic_error("lensfarm.v1.RenderOverrides has no field " + name);
+  return *f;
+}
+
+}  // namespace
+
 v1::RenderOverrides toProto(const RenderOverrides& o) {
   v1::RenderOverrides p;
-  if (o.samplesPerPixel) p.set_samples_per_pixel(*o.samplesPerPixel);
-  if (o.width) p.set_width(uint32_t(*o.width));
-  if (o.height) p.set_height(uint32_t(*o.height));
-  if (o.maxBounces) p.set_max_bounces(uint32_t(*o.maxBounces));
-  if (o.seed) p.set_seed(*o.seed);
-  if (o.integrator) p.set_integrator(integratorName(*o.integrator));
-  if (o.ev) p.set_ev(*o.ev);
-  if (o.sampler) p.set_sampler(samplerName(*o.sampler));
-  if (o.russianRoulette) p.set_russian_roulette(*o.russianRoulette);
-  if (o.targetError) p.set_target_error(*o.targetError);
-  if (o.timeLimitSeconds) p.set_time_limit_seconds(*o.timeLimitSeconds);
-  if (o.tileSize) p.set_tile_size(*o.tileSize);
-  if (o.aovs) p.set_aovs(aovListText(*o.aovs));
-  if (o.adaptive) p.set_adaptive(*o.adaptive);
+  const auto* reflection = p.GetReflection();
+  for (const OverrideRow& row : overrideTable()) {
+    const std::optional<nlohmann::json> v = row.get(o);
+    if (!v) continue;
+    const FieldDescriptor& f = overrideField(row.name);
+    switch (f.cpp_type()) {
+      case FieldDescriptor::CPPTYPE_UINT64: reflection->SetUInt64(&p, &f, v->get<uint64_t>()); break;
+      case FieldDescriptor::CPPTYPE_UINT32: reflection->SetUInt32(&p, &f, uint32_t(v->get<int64_t>())); break;
+      case FieldDescriptor::CPPTYPE_INT32: reflection->SetInt32(&p, &f, v->get<int32_t>()); break;
+      case FieldDescriptor::CPPTYPE_DOUBLE: reflection->SetDouble(&p, &f, v->get<double>()); break;
+      case FieldDescriptor::CPPTYPE_BOOL: reflection->SetBool(&p, &f, v->get<bool>()); break;
+      case FieldDescriptor::CPPTYPE_STRING: reflection->SetString(&p, &f, v->get<std::string>()); break;
+      default: throw std::logic_error("RenderOverrides." + row.name + ": a field type the table does not carry");
+    }
+  }
   return p;
 }
 
 RenderOverrides fromProto(const v1::RenderOverrides& p) {
   RenderOverrides o;
-  if (p.has_samples_per_pixel()) o.samplesPerPixel = p.samples_per_pixel();
-  if (p.has_width()) o.width = int(std::min<uint32_t>(p.width(), 1u << 30));
-  if (p.has_height()) o.height = int(std::min<uint32_t>(p.height(), 1u << 30));
-  if (p.has_max_bounces()) o.maxBounces = int(std::min<uint32_t>(p.max_bounces(), 1u << 30));
-  if (p.has_seed()) o.seed = p.seed();
-  if (p.has_integrator()) {
-    IntegratorKind kind;
-    if (!parseIntegratorName(p.integrator(), kind))
-      throw FarmError(FarmError::Kind::kInvalidArgument, "overrides.integrator: unknown integrator \"" +
-                                                             p.integrator() + "\" (expected nee_mis, nee or naive)");
-    o.integrator = kind;
-  }
-  if (p.has_sampler()) {
-    SamplerKind kind;
-    if (!parseSamplerName(p.sampler(), kind))
-      throw FarmError(FarmError::Kind::kInvalidArgument, "overrides.sampler: unknown sampler \"" + p.sampler() +
-                                                             "\" (expected sobol, stratified or independent)");
-    o.sampler = kind;
-  }
-  if (p.has_russian_roulette()) o.russianRoulette = p.russian_roulette();
-  if (p.has_target_error()) o.targetError = p.target_error();
-  if (p.has_time_limit_seconds()) o.timeLimitSeconds = p.time_limit_seconds();
-  if (p.has_ev()) o.ev = p.ev();
-  if (p.has_tile_size()) o.tileSize = p.tile_size();
-  if (p.has_adaptive()) o.adaptive = p.adaptive();
-  if (p.has_aovs()) {
-    std::string bad;
-    if (!parseAovList(p.aovs(), o.aovs.emplace(), &bad))
-      throw FarmError(FarmError::Kind::kInvalidArgument,
-                      "overrides.aovs: unknown AOV \"" + bad + "\" (expected " + aovNames() + ")");
+  const auto* reflection = p.GetReflection();
+  for (const OverrideRow& row : overrideTable()) {
+    const FieldDescriptor& f = overrideField(row.name);
+    if (!reflection->HasField(p, &f)) continue;
+    nlohmann::json v;
+    switch (f.cpp_type()) {
+      case FieldDescriptor::CPPTYPE_UINT64: v = reflection->GetUInt64(p, &f); break;
+      case FieldDescriptor::CPPTYPE_UINT32: v = reflection->GetUInt32(p, &f); break;
+      case FieldDescriptor::CPPTYPE_INT32: v = reflection->GetInt32(p, &f); break;
+      case FieldDescriptor::CPPTYPE_DOUBLE: v = reflection->GetDouble(p, &f); break;
+      case FieldDescriptor::CPPTYPE_BOOL: v = reflection->GetBool(p, &f); break;
+      case FieldDescriptor::CPPTYPE_STRING: v = reflection->GetString(p, &f); break;
+      default: throw std::logic_error("RenderOverrides." + row.name + ": a field type the table does not carry");
+    }
+    try {
+      row.set(o, v);
+    } catch (const InputError& e) {
+      throw FarmError(FarmError::Kind::kInvalidArgument, e.what());
+    }
   }
   return o;
 }

@@ -1,7 +1,7 @@
 #pragma once
 // Translations between the farm's plain C++ types (common/farm/farm_types.h) and the lensfarm.v1
 // messages. Both services and every client use these, so a field is mapped in one place.
-#include "farm/farm_types.h"
+#include "common/farm/farm_types.h"
 #include "lensfarm/v1/client_service.pb.h"
 #include "lensfarm/v1/common.pb.h"
 #include "lensfarm/v1/worker_service.pb.h"

@@ -43,6 +43,7 @@ TEST_PACKAGES=(
   chromium chromium-driver
   slurm-wlm munge
   blender python3-numpy  # tests/blender: Cycles, and Blender's glTF exporter, which needs numpy
+  clang-format  # the style check (.clang-format; tests/CMakeLists.txt Style.EverySourceIsClangFormatted)
 )
 
 # `make fuzz`: libFuzzer with ASan and UBSan.

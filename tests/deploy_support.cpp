@@ -1,4 +1,4 @@
-#include "deploy_support.h"
+#include "tests/deploy_support.h"
 
 #include <fcntl.h>
 #include <grpcpp/generic/generic_stub.h>

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "test_support.h"
+#include "tests/test_support.h"
 
 namespace lensfarm::test {
 
@@ -39,7 +39,7 @@ int portOf(const std::string& address);
 
 // ---- real processes ----
 
-// The seed scene (its OBJ beside it) at size x size, `spp` samples in units of `perUnit`.
+// cornell-seed, the 2013 report's scene (its OBJ beside it), at size x size, `spp` samples in units of `perUnit`.
 std::filesystem::path writeSeedScene(const TempDir& dir, int size, uint64_t spp, uint32_t perUnit);
 
 // Runs farm processes for a test and kills them all when it goes away. `wrapper` (e.g.

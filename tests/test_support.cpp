@@ -1,5 +1,5 @@
-#include "util/file_contents.h"
-#include "test_support.h"
+#include "common/util/file_contents.h"
+#include "tests/test_support.h"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -17,9 +17,9 @@
 #include <sstream>
 #include <thread>
 
-#include "film/sensor.h"
-#include "render/unit_renderer.h"
-#include "scene/scene_loader.h"
+#include "common/film/sensor.h"
+#include "common/render/unit_renderer.h"
+#include "common/scene/scene_loader.h"
 
 #include <tbb/task_arena.h>
 

@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "film/image.h"
-#include "render/integrator.h"
-#include "scene/scene.h"
+#include "common/film/image.h"
+#include "common/render/integrator.h"
+#include "common/scene/scene.h"
 
 namespace lensfarm::test {
 

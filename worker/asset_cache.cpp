@@ -1,5 +1,5 @@
-#include "util/file_contents.h"
-#include "asset_cache.h"
+#include "common/util/file_contents.h"
+#include "worker/asset_cache.h"
 
 #include <spdlog/spdlog.h>
 
@@ -7,8 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "film/image_io.h"
-#include "util/hash.h"
+#include "common/film/image_io.h"
+#include "common/util/hash.h"
 
 namespace lensfarm {
 

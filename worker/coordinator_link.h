@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "farm/farm_types.h"
+#include "common/farm/farm_types.h"
 
 namespace lensfarm {
 

@@ -1,11 +1,11 @@
-#include "grpc_link.h"
+#include "worker/grpc_link.h"
 
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <chrono>
 
-#include "convert.h"
+#include "proto/convert.h"
 
 namespace lensfarm {
 

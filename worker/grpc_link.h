@@ -8,8 +8,8 @@
 #include <string>
 #include <thread>
 
-#include "channel_security.h"
-#include "coordinator_link.h"
+#include "proto/channel_security.h"
+#include "worker/coordinator_link.h"
 #include "lensfarm/v1/worker_service.grpc.pb.h"
 
 namespace lensfarm {

@@ -15,16 +15,16 @@
 #include <cstdlib>
 #include <thread>
 
-#include "grpc_link.h"
-#include "render/ray_caster.h"
-#include "util/error.h"
-#include "util/logging.h"
-#include "util/flag_checks.h"
-#include "util/service_flags.h"
-#include "util/secret.h"
-#include "util/version.h"
-#include "render/memory_estimate.h"
-#include "worker_loop.h"
+#include "worker/grpc_link.h"
+#include "common/render/ray_caster.h"
+#include "common/util/error.h"
+#include "common/util/logging.h"
+#include "common/util/flag_checks.h"
+#include "common/util/service_flags.h"
+#include "common/util/secret.h"
+#include "common/util/version.h"
+#include "common/farm/memory_estimate.h"
+#include "worker/worker_loop.h"
 
 namespace {
 // Signal handlers only count; a watcher thread turns the counts into stop requests.

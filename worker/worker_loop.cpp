@@ -1,4 +1,4 @@
-#include "worker_loop.h"
+#include "worker/worker_loop.h"
 
 #include <spdlog/spdlog.h>
 #include <tbb/task_arena.h>
@@ -6,11 +6,11 @@
 #include <algorithm>
 #include <chrono>
 
-#include "render/memory_estimate.h"
-#include "farm/job_scene.h"
-#include "scene/scene_loader.h"
-#include "util/error.h"
-#include "util/version.h"
+#include "common/farm/memory_estimate.h"
+#include "common/farm/job_scene.h"
+#include "common/scene/scene_loader.h"
+#include "common/util/error.h"
+#include "common/util/version.h"
 
 namespace lensfarm {
 

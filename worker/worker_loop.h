@@ -16,9 +16,9 @@
 #include <string>
 #include <thread>
 
-#include "asset_cache.h"
-#include "coordinator_link.h"
-#include "render/render_scene.h"
+#include "worker/asset_cache.h"
+#include "worker/coordinator_link.h"
+#include "common/render/render_scene.h"
 
 namespace lensfarm {
 
@@ -28,7 +28,7 @@ struct WorkerOptions {
   double leaseWaitSeconds = 2.0;   // long-poll time per lease request
   double maxBackoffSeconds = 5.0;  // cap of the retry delay
   std::filesystem::path cacheDir;  // empty: assets cached in memory only
-  // A unit whose estimated memory (render/memory_estimate.h, workerJobMemory) exceeds this is
+  // A unit whose estimated memory (farm/memory_estimate.h, workerJobMemory) exceeds this is
   // refused with a failure report; 0: no limit. lensfarm-worker: defaultJobMemoryBudget().
   uint64_t maxMemoryBytes = 0;
   // Leave the farm after this many seconds without a unit to render (a batch-scheduled worker

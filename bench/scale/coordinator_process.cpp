@@ -1,4 +1,4 @@
-#include "coordinator_process.h"
+#include "bench/scale/coordinator_process.h"
 
 #include <fcntl.h>
 #include <httplib.h>

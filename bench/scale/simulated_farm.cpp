@@ -1,14 +1,14 @@
-#include "simulated_farm.h"
+#include "bench/scale/simulated_farm.h"
 
 #include <algorithm>
 #include <cmath>
 #include <random>
 
-#include "channel_security.h"
-#include "farm/farm_types.h"
-#include "grpc_link.h"
-#include "synthetic_image.h"
-#include "util/version.h"
+#include "proto/channel_security.h"
+#include "common/farm/farm_types.h"
+#include "worker/grpc_link.h"
+#include "bench/scale/synthetic_image.h"
+#include "common/util/version.h"
 
 namespace lensfarm::scale {
 namespace {

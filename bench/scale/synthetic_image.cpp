@@ -1,4 +1,4 @@
-#include "synthetic_image.h"
+#include "bench/scale/synthetic_image.h"
 
 #include <algorithm>
 

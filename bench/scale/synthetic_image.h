@@ -16,9 +16,9 @@
 // has the wrong b.
 #include <cstdint>
 
-#include "farm/farm_types.h"
-#include "film/sensor.h"
-#include "render/unit_renderer.h"
+#include "common/farm/farm_types.h"
+#include "common/film/sensor.h"
+#include "common/render/unit_renderer.h"
 
 namespace lensfarm::scale {
 

@@ -1,4 +1,4 @@
-#include "study/progressive.h"
+#include "client/study/progressive.h"
 
 #include <spdlog/spdlog.h>
 #include <tbb/task_arena.h>
@@ -6,14 +6,14 @@
 #include <chrono>
 #include <thread>
 
-#include "farm/job_layout.h"
-#include "film/adaptive_allocation.h"
-#include "film/image_io.h"
-#include "film/sensor.h"
-#include "render/render_scene.h"
-#include "render/unit_renderer.h"
-#include "util/hash.h"
-#include "util/version.h"
+#include "common/farm/job_layout.h"
+#include "common/film/adaptive_allocation.h"
+#include "common/film/image_io.h"
+#include "common/film/sensor.h"
+#include "common/render/render_scene.h"
+#include "common/render/unit_renderer.h"
+#include "common/util/hash.h"
+#include "common/util/version.h"
 
 namespace lensfarm::study {
 

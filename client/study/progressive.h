@@ -14,10 +14,10 @@
 #include <filesystem>
 #include <functional>
 
-#include "film/convergence.h"
-#include "film/image.h"
-#include "render/integrator.h"
-#include "scene/scene.h"
+#include "common/film/convergence.h"
+#include "common/film/image.h"
+#include "common/render/integrator.h"
+#include "common/scene/scene.h"
 
 namespace lensfarm::study {
 

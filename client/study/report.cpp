@@ -1,11 +1,11 @@
-#include "study/report.h"
+#include "client/study/report.h"
 
 #include <sys/wait.h>
 
 #include <cstdio>
 #include <stdexcept>
 
-#include "film/image_io.h"
+#include "common/film/image_io.h"
 
 namespace lensfarm::study {
 

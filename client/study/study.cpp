@@ -1,4 +1,4 @@
-#include "study/study.h"
+#include "client/study/study.h"
 
 #include <spdlog/spdlog.h>
 
@@ -15,19 +15,19 @@
 #include <sstream>
 #include <thread>
 
-#include "camera/depth_of_field.h"
-#include "farm/job_layout.h"
-#include "film/adaptive_allocation.h"
-#include "film/denoiser.h"
-#include "film/error_metrics.h"
-#include "film/image_io.h"
-#include "scene/scene_loader.h"
-#include "study/progressive.h"
-#include "render/render_scene.h"
-#include "study/report.h"
-#include "util/file_contents.h"
-#include "util/error.h"
-#include "util/version.h"
+#include "common/camera/depth_of_field.h"
+#include "common/farm/job_layout.h"
+#include "common/film/adaptive_allocation.h"
+#include "common/film/denoiser.h"
+#include "common/film/error_metrics.h"
+#include "common/film/image_io.h"
+#include "common/scene/scene_loader.h"
+#include "client/study/progressive.h"
+#include "common/render/render_scene.h"
+#include "client/study/report.h"
+#include "common/util/file_contents.h"
+#include "common/util/error.h"
+#include "common/util/version.h"
 
 namespace lensfarm::study {
 
@@ -251,7 +251,7 @@ class Study {
     bool ext = false;
     const double seedTime = timeToError(seedConfig, common, &ext);
     Table table({"integrator", "sampler", "roulette", "M paths/s", "time to " + number(100 * common, 2) + " % (s)",
-                 "speed-up vs the seed's", "rel. RMSE at " + number(scale_.convergenceBudget, 2) + " s",
+                 "speed-up vs the 2013 report's", "rel. RMSE at " + number(scale_.convergenceBudget, 2) + " s",
                  "display RMSE at the end"});
     for (const Series& s : all) {
       bool extrapolated = false;
@@ -263,7 +263,7 @@ class Study {
     }
     table.writeCsv(options_.out / "time-to-error.csv");
 
-    // Fig. 5 as numbers: the seed's configuration, checkpoint by checkpoint.
+    // Fig. 5 as numbers: the 2013 report's configuration, checkpoint by checkpoint.
     Table progressive({"spp", "seconds", "relative RMSE", "relMSE", "display RMSE (8-bit sRGB, 0..1)"});
     for (size_t k = 0; k < seedConfig.spp.size(); ++k)
       progressive.add({number(seedConfig.spp[k], 10), number(seedConfig.seconds[k], 3), number(seedConfig.error[k], 3),
@@ -286,7 +286,7 @@ class Study {
            "needs to reach the same relative RMSE (the largest final error among them, so every configuration "
            "reaches it), interpolated on log-log axes between checkpoints.\n\n" +
            table.markdown() + "\n" + link("convergence") +
-           "### Progressive rendering (seed Fig. 5) as numbers\n\nThe report's configuration (naive estimator, "
+           "### Progressive rendering (2013 report Fig. 5) as numbers\n\nThe report's configuration (naive estimator, "
            "independent random numbers): the error falls as 1/sqrt(samples), so each halving of the noise costs four "
            "times the time.\n\n" + progressive.markdown() + "\n" + "Data: `convergence.csv`, `time-to-error.csv`.\n\n";
   }
@@ -330,7 +330,7 @@ class Study {
            table.markdown() + "\n" + link("estimate");
   }
 
-  // ---- resolution (seed Fig. 6) ---------------------------------------------------------------
+  // ---- resolution (2013 report Fig. 6) ---------------------------------------------------------------
   std::string resolution() {
     Table table({"resolution", "pixels", "rel. RMSE at " + number(scale_.resolutionBudget / 4, 2) + " s",
                  "time to " + number(100 * scale_.resolutionTarget, 2) + " % (s)", "time per pixel (us)"});
@@ -369,7 +369,7 @@ class Study {
     table.writeCsv(options_.out / "resolution.csv");
 
     plotErrorAgainstTime("resolution", all);
-    return "## Resolution and noise (seed Fig. 6)\n\n"
+    return "## Resolution and noise (2013 report Fig. 6)\n\n"
            "cornell-seed, NEE + MIS, Sobol, B = " + std::to_string(kStudyBounces) +
            ". The references for the smaller images are the large reference box-filtered down (a pixel of the "
            "smaller image covers exactly the cells it replaces); the reference's own noise at each resolution is "
@@ -379,8 +379,8 @@ class Study {
            link("resolution");
   }
 
-  // ---- depth of field (seed Fig. 7, Table 1) --------------------------------------------------
-  // A knife edge: an emitting half-plane (x < 0) at distance d in front of the seed's camera,
+  // ---- depth of field (2013 report Fig. 7, Table 1) --------------------------------------------------
+  // A knife edge: an emitting half-plane (x < 0) at distance d in front of the report's camera,
   // nothing else. Camera rays that hit it see radiance 1, the others 0, so the image is the edge
   // convolved with the lens blur and the pixel footprint, with no other noise.
   Image renderEdge(double distance, double fNumber) const {
@@ -453,7 +453,7 @@ class Study {
     const double pitch = sensor / scale_.dofWidth;           // metres per pixel on the sensor
     const double s2 = f * s1 / (s1 - f);
     Table table({"N", "plane", "distance", "blur circle (mm)", "blur (px)", "predicted 10-90 width (px)",
-                 "measured 10-90 width (px)", "DoF seed eq. 9-10", "DoF textbook"});
+                 "measured 10-90 width (px)", "DoF report eq. 9-10", "DoF textbook"});
     std::vector<std::vector<double>> points;
     for (double n : {16.0, 8.0, 4.0, 2.0}) {
       const DepthOfField seedDof = seedDepthOfField(f, s1, n, coc), book = textbookDepthOfField(f, s1, n, coc);
@@ -462,7 +462,7 @@ class Study {
       if (std::isfinite(book.farLimit)) planes.insert(planes.begin() + 2, {"far limit DF (textbook)", book.farLimit});
       for (const auto& [plane, d] : planes) {
         // Thin lens: the plane at d focuses at v = f d / (d - f); the sensor sits at S2, so a
-        // point spreads over a disk of diameter A |S2 - v| / v, A = f / N (seed eq. 6-7).
+        // point spreads over a disk of diameter A |S2 - v| / v, A = f / N (2013 report eq. 6-7).
         const double v = f * d / (d - f);
         const double blur = (f / n) * std::abs(s2 - v) / v;
         const double predicted = predictedEdgeWidth(blur / pitch);
@@ -479,18 +479,18 @@ class Study {
                          "'measured = predicted'\n";
     for (const auto& p : points) script += number(p[0], 6) + " " + number(p[1], 6) + "\n";
     runGnuplot(script + "e\n");
-    return "## Depth of field vs f-number (seed Fig. 7, Table 1)\n\n"
-           "The seed's camera (f = 0.095, sensor 0.1 wide, focused at S1 = 2.9) looks at a sharp emitting edge; the "
+    return "## Depth of field vs f-number (2013 report Fig. 7, Table 1)\n\n"
+           "The 2013 report's camera (f = 0.095, sensor 0.1 wide, focused at S1 = 2.9) looks at a sharp emitting edge; the "
            "10 %-90 % width of the edge in a " + std::to_string(scale_.dofWidth) + "-pixel-wide image (" +
            number(pitch * 1e3, 3) + " mm per pixel, " + std::to_string(scale_.dofSpp) +
            " spp) is measured and compared with thin-lens optics: a disk of diameter A |S2 - v| / v convolved "
            "with the pixel. At the focus plane only the pixel blurs the edge (0.8 px); at the near limit DN of the "
            "textbook depth of field the blur circle equals the circle of confusion c = " + number(coc * 1e3, 3) +
-           " mm (d/1500), by definition. The last two columns are Table 1's depth of field DF - DN from the seed's "
+           " mm (d/1500), by definition. The last two columns are Table 1's depth of field DF - DN from the report's "
            "equations and from the textbook's (`lensfarm dof` prints both).\n\n" + table.markdown() + "\n" + link("dof");
   }
 
-  // ---- bounces (seed Fig. 8) ------------------------------------------------------------------
+  // ---- bounces (2013 report Fig. 8) ------------------------------------------------------------------
   std::string bounces() {
     const int side = scale_.bounceSide;
     Table table({"estimator", "B", "us per path", "rays per path", "light-hit fraction", "energy vs B = 8",
@@ -542,7 +542,7 @@ class Study {
     }
     script += "1 6.1\n2 9.3\n3 12\ne\n";
     runGnuplot(script);
-    return "## Bounces (seed Fig. 8)\n\n"
+    return "## Bounces (2013 report Fig. 8)\n\n"
            "cornell-seed, " + std::to_string(side) + "x" + std::to_string(side) + ", " + std::to_string(scale_.bounceSpp) +
            " spp. Time per path is per thread (wall time x threads / paths). The light-hit fraction is the share of "
            "paths whose camera or scattered ray reached a light (the report measured 6.1, 9.3 and 12 % for "
@@ -627,7 +627,7 @@ class Study {
   }
 
   // ---- optics: what the camera's optics cost --------------------------------------------------
-  // cornell-seed through each camera model in turn: a pinhole, the seed's thin lens wide open with a
+  // cornell-seed through each camera model in turn: a pinhole, the 2013 report's thin lens wide open with a
   // round, a six-bladed and a rounded seven-bladed aperture, and real lenses traced surface by surface (the double-Gauss
   // 50 mm at f/2.8; the fast double-Gauss at f/1.4, whose Abbe numbers make it spectral where
   // lateral colour is simulated). Per variant: the time per path, the energy and the time to the

@@ -4,11 +4,11 @@
 // Experiments, each a table (Markdown and CSV) and a plot:
 //  - convergence: error against a converged reference vs time for every estimator (naive, NEE,
 //    NEE + MIS), sampler (independent, stratified, Sobol) and Russian roulette on/off, and the
-//    time each needs to reach the same error (seed Fig. 5, progressive rendering);
+//    time each needs to reach the same error (2013 report Fig. 5, progressive rendering);
 //  - estimate: the live error estimate (film/convergence.h) against the true error;
-//  - resolution: error at a fixed time and time to a fixed error vs pixel count (seed Fig. 6);
+//  - resolution: error at a fixed time and time to a fixed error vs pixel count (2013 report Fig. 6);
 //  - dof: the blur of a sharp edge at and off the focus plane vs f-number, measured in the image
-//    and predicted by thin-lens optics, beside the depth of field of Table 1 (seed Fig. 7);
+//    and predicted by thin-lens optics, beside the depth of field of Table 1 (2013 report Fig. 7);
 //  - bounces: time per path, light-hit fraction, energy and noise vs the bounce limit B (Fig. 8);
 //  - materials: glass and metal (smooth, rough, with and without energy compensation) in
 //    cornell-glass-metal: time per path, energy and the time to reach the same error;

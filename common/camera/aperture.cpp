@@ -1,10 +1,10 @@
-#include "camera/aperture.h"
+#include "common/camera/aperture.h"
 
 #include <algorithm>
 #include <cmath>
 #include <string>
 
-#include "util/error.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

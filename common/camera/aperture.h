@@ -3,11 +3,11 @@
 // are sampled over it, and what it lets through.
 //
 // Units and conventions (owned here; docs/optics.md "Aperture shape" describes them):
-//  - The unit aperture. Lens points are in units of R = f / (2N), the radius of the seed's round
-//    aperture (camera/thin_lens_camera.h, seed eq. 7), which the camera multiplies in. x runs along
+//  - The unit aperture. Lens points are in units of R = f / (2N), the radius of the 2013 report's round
+//    aperture (camera/thin_lens_camera.h, report eq. 7), which the camera multiplies in. x runs along
 //    the camera's `right`, y along its `up`: the aperture as the photographer behind the camera
 //    sees it, looking along the view.
-//  - Round (the seed's): the unit disk.
+//  - Round (the report's): the unit disk.
 //  - Blades: n straight blades (3 to 64) make the regular n-gon inscribed in the unit circle, its
 //    vertex k at angle a + 2 pi k / n (a = `rotation`, counter-clockwise from `right`).
 //  - Curved blades, curvature c in [0, 1]: each edge of the n-gon becomes a circular arc through
@@ -31,7 +31,7 @@
 // Sampling is uniform in area over the shape (the image: in proportion to t), from the two lens
 // sample dimensions with a fixed amount of work, no rejection: deterministic, counter-based.
 //  - Round: the concentric map; blades: one of the n fan triangles by u.x, a point in it by the
-//    square-root warp (the seed's bits, unchanged).
+//    square-root warp (the original sampler's bits, unchanged).
 //  - Curved: the shape is star-shaped about the centre, so a direction phi is drawn with density
 //    proportional to r(phi)^2 / 2 (the area of the thin wedge) and then a radius r(phi) sqrt(u.y).
 //    u.x picks one of the 2n half-sectors (equal areas, by symmetry) and the area fraction within
@@ -44,11 +44,11 @@
 //  - Image: a pixel in proportion to t by the project's piecewise-constant 2D distribution
 //    (math/distribution.h), uniform within it.
 //
-// Exposure: what the f-number means for a non-round aperture. The seed's convention (§4.6.1)
+// Exposure: what the f-number means for a non-round aperture. The 2013 report's convention (§4.6.1)
 // is that the exposure is made for the aperture: every sample weighs 1, and the picture is as
 // bright at f/8 as at f/2. The f-number N sets the aperture's size: the round aperture's diameter,
 // the diameter of the circle the blades are inscribed in, the side of an image's square, all
-// f / N. An iris (round or bladed, straight or curved) is the aperture at N, exposed as the seed
+// f / N. An iris (round or bladed, straight or curved) is the aperture at N, exposed as the report
 // exposes it: weight 1, its shape changes the blur, not the brightness. An aperture image is a
 // mask over that opening (as a cut-out card over a lens is): it passes the share of the light of
 // the fully open square that its mean transmission T = (1 / 4) integral t says, as physics does.
@@ -66,9 +66,9 @@
 #include <string>
 #include <vector>
 
-#include "camera/aperture_image.h"
-#include "math/sampling.h"
-#include "math/vec.h"
+#include "common/camera/aperture_image.h"
+#include "common/math/sampling.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 
@@ -126,7 +126,7 @@ class Aperture {
   Kind kind_ = Kind::kRound;
   float weight_ = 1.0f;
   double openArea_ = std::numbers::pi;
-  // Blades: the polygon's step and rotation, for the fan sampler (single precision, the seed's).
+  // Blades: the polygon's step and rotation, for the fan sampler (single precision, as the original sampler).
   float cosStep_ = 1.0f, sinStep_ = 0.0f, cosRotation_ = 1.0f, sinRotation_ = 0.0f;
   // Curved blades: the arc (units R), its half-sector and the table of psi at equal area steps.
   double step_ = 0.0, rotation_ = 0.0, rho_ = 0.0, apex_ = 0.0, negD_ = 0.0, q_ = 0.0, psiVertex_ = 0.0;
@@ -135,7 +135,7 @@ class Aperture {
   std::vector<double> cosBisector_, sinBisector_;  // per sector
 };
 
-// The seed's straight-bladed sampler, as it was (kept inline for the lane loop's bits): triangle k
+// The original straight-bladed sampler, as it was (kept inline for the lane loop's bits): triangle k
 // of the n-gon's fan is picked by u.x (each has area sin(2 pi / n) / 2), a point within it by
 // the square-root warp.
 inline Vec2 Aperture::samplePolygon(Vec2 u) const {

@@ -1,11 +1,11 @@
-#include "camera/aperture_image.h"
+#include "common/camera/aperture_image.h"
 
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 
-#include "texture/image_decode.h"
-#include "util/error.h"
+#include "common/texture/image_decode.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "math/distribution.h"
+#include "common/math/distribution.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "camera/depth_of_field.h"
+#include "common/camera/depth_of_field.h"
 
 #include <cmath>
 #include <limits>

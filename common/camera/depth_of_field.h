@@ -1,7 +1,7 @@
 #pragma once
-// Depth of field for the thin-lens camera (seed §4.6.1, Table 1).
+// Depth of field for the thin-lens camera (2013 report §4.6.1, Table 1).
 //
-// The circle of confusion is c = d / 1500 with d the sensor diagonal. The seed's formulas are
+// The circle of confusion is c = d / 1500 with d the sensor diagonal. The report's formulas are
 //     H  = f^2 / (N c) + f              (8)
 //     DN = S1 H / (H + S1 - f)          (9)
 //     DF = S1 H / (H - S1 - f)          (10)

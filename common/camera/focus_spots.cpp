@@ -1,13 +1,13 @@
 // Spots of points on the plane of focus across the image (focus_spots.h).
-#include "camera/focus_spots.h"
+#include "common/camera/focus_spots.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <optional>
 
-#include "math/sampling.h"
-#include "util/error.h"
+#include "common/math/sampling.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 
@@ -68,7 +68,7 @@ std::vector<FocusSpot> thinLensFocusSpots(const ThinLensParams& params, ThinLens
           if (p) spread.add(p->x, p->y, 1.0);
           continue;
         }
-        // Seed eq. 1 as written, in the camera frame (lens at the origin, sensor at -S2, the
+        // The 2013 report's eq. 1 as written, in the camera frame (lens at the origin, sensor at -S2, the
         // scene toward +z): n1 the unit vector from (s, -S2) to (r, 0); n2 = n1 - r / f.
         const DVec3 n1 = glm::normalize(DVec3(double(r.x) - s.x, double(r.y) - s.y, s2));
         const DVec3 n2(n1.x - r.x / f, n1.y - r.y / f, n1.z);

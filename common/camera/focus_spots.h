@@ -3,10 +3,10 @@
 // report's Figure 7d question. At f/1.4 the author saw "focus only in the centre of the image"
 // and guessed at optical aberration, "either because a thin lens is not of ideal shape for
 // focusing light, or that the implementation of the thin lens is a completely flat surface"
-// (seed §5.3). These functions measure the spot that a point ON the plane of focus makes on the
+// (2013 report §5.3). These functions measure the spot that a point ON the plane of focus makes on the
 // sensor, at image heights from the centre to the corner, for three cameras:
 //
-//  - kSeedEquationAsWritten: the seed's eq. 1, n2 = n1 - r/f, with n1 the *unit* incident
+//  - kSeedEquationAsWritten: the report's eq. 1, n2 = n1 - r/f, with n1 the *unit* incident
 //    direction, as §4.1.2 defines it. Its transverse part is n1's (r - s) / |(r - s, S2)|, where
 //    an ideal lens needs (r - s) / S2: the bend r/f is the right one only for n1 scaled to a unit
 //    axial component. With the unit vector it is too strong by |(r - s, S2)| / S2 = 1 / cos(theta)
@@ -27,12 +27,12 @@
 // own, distortion included; on the axis, that of the next field point). Rays carry the camera's
 // weight (a real lens's irradiance weight). Result: the RMS spot diameter (twice the RMS distance
 // from the centroid), in the scene's units on the sensor, to compare with the circle of
-// confusion c = d / 1500 that the seed's depth of field assumes (camera/depth_of_field.h).
+// confusion c = d / 1500 that the report's depth of field assumes (camera/depth_of_field.h).
 #include <string>
 #include <vector>
 
-#include "camera/real_lens_camera.h"
-#include "camera/thin_lens_camera.h"
+#include "common/camera/real_lens_camera.h"
+#include "common/camera/thin_lens_camera.h"
 
 namespace lensfarm {
 

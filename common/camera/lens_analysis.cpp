@@ -1,10 +1,10 @@
 // Field analysis and the cross-section drawing of a real lens (lens_analysis.h).
-#include "camera/lens_analysis.h"
+#include "common/camera/lens_analysis.h"
 
 #include <cmath>
 #include <cstdio>
 
-#include "camera/spectral_response.h"
+#include "common/camera/spectral_response.h"
 
 namespace lensfarm {
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "camera/lens_system.h"
+#include "common/camera/lens_system.h"
 
 namespace lensfarm {
 

@@ -1,5 +1,5 @@
 // SVG plots of a real lens (lens_plots.h).
-#include "camera/lens_plots.h"
+#include "common/camera/lens_plots.h"
 
 #include <algorithm>
 #include <cmath>

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "camera/lens_analysis.h"
-#include "camera/lens_system.h"
+#include "common/camera/lens_analysis.h"
+#include "common/camera/lens_system.h"
 
 namespace lensfarm {
 

@@ -1,11 +1,11 @@
 // LensSystem: a real lens's prescription, its first-order properties and exact ray tracing
 // (lens_system.h).
-#include "camera/lens_system.h"
+#include "common/camera/lens_system.h"
 
 #include <cmath>
 #include <sstream>
 
-#include "util/error.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

@@ -1,10 +1,10 @@
 // RealLensCamera: camera rays through a real lens (real_lens_camera.h).
-#include "camera/real_lens_camera.h"
+#include "common/camera/real_lens_camera.h"
 
 #include <cmath>
 
-#include "camera/spectral_response.h"
-#include "util/error.h"
+#include "common/camera/spectral_response.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

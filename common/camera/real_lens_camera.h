@@ -21,7 +21,7 @@
 // (A the bounds' area, theta the ray's angle to the axis at the film, d the film-to-rear-vertex
 // distance: the irradiance measure of Kolb, Mitchell and Hanrahan, "A realistic camera model for
 // computer graphics", SIGGRAPH 1995), divided by its mean at the film's centre: a uniform white
-// scene reads 1 at the centre, as with the seed's cameras, and falls off toward the corners as
+// scene reads 1 at the centre, as with the 2013 report's cameras, and falls off toward the corners as
 // the lens's relative illumination (vignetting and cos^4) says.
 //
 // Colour. A lens whose glasses disperse (Abbe numbers, lens_system.h) is traced at each camera
@@ -33,8 +33,8 @@
 #include <optional>
 #include <string>
 
-#include "camera/lens_system.h"
-#include "camera/thin_lens_camera.h"
+#include "common/camera/lens_system.h"
+#include "common/camera/thin_lens_camera.h"
 
 namespace lensfarm {
 

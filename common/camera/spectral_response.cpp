@@ -1,5 +1,5 @@
 // The sensor's spectral response (spectral_response.h).
-#include "camera/spectral_response.h"
+#include "common/camera/spectral_response.h"
 
 namespace lensfarm::spectral {
 

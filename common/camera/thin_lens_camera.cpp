@@ -1,4 +1,4 @@
-#include "camera/thin_lens_camera.h"
+#include "common/camera/thin_lens_camera.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,9 +7,9 @@
 #include <string>
 #include <utility>
 
-#include "math/lanes.h"
-#include "math/sampling.h"
-#include "util/error.h"
+#include "common/math/lanes.h"
+#include "common/math/sampling.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

@@ -1,12 +1,12 @@
 #pragma once
-// The seed's optical system (§4.1, §4.6): a rectangular sensor behind a thin lens.
+// The 2013 report's optical system (§4.1, §4.6): a rectangular sensor behind a thin lens.
 //
 // Geometry, in the camera frame (right, up, forward; forward is the optical axis):
 //  - the lens is a disk of radius R centred on the camera position, perpendicular to the axis;
 //  - the sensor is a LW x LH rectangle at distance S2 behind the lens, centred on the axis;
 //  - the lens focuses the plane at distance S1 in front of it onto the sensor:
-//        1/S1 + 1/S2 = 1/f                                   (seed eq. 6)
-//  - the aperture follows from the f-number N:  2R = f / N   (seed eq. 7); N = inf is a pinhole.
+//        1/S1 + 1/S2 = 1/f                                   (report eq. 6)
+//  - the aperture follows from the f-number N:  2R = f / N   (report eq. 7); N = inf is a pinhole.
 //
 // Sensor orientation. Cell (i, j), i in [0, W), j in [0, H), has its centre at
 //     x = LW * ((i + 0.5) / W - 0.5) along `right`,  y = LH * (0.5 - (j + 0.5) / H) along `up`.
@@ -15,17 +15,17 @@
 // once, when a sensor is developed into an image (film/sensor.h), never in the camera.
 //
 // A camera ray leaves the lens point, so a sample measures the radiance arriving at the sensor
-// through the lens; like the seed (§4.6.1) every sample carries the same weight (no cos^4
+// through the lens; like the report (§4.6.1) every sample carries the same weight (no cos^4
 // falloff and no brightness change with N); an aperture image darkens by its mean transmission,
 // the weight every sample then carries (camera/aperture.h, "Exposure").
 #include <limits>
 #include <memory>
 #include <string>
 
-#include "camera/aperture.h"
-#include "math/lanes.h"
-#include "math/sampling.h"
-#include "math/vec.h"
+#include "common/camera/aperture.h"
+#include "common/math/lanes.h"
+#include "common/math/sampling.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 
@@ -63,8 +63,8 @@ struct ThinLensParams {
   Vec3 up{0.0f, 1.0f, 0.0f};         // the sensor's `up` is this, made orthogonal to the axis
   double focalLength = 0.0;          // f
   // An angle of view in degrees along fovAxis, or 0. When set, f is derived from it at the
-  // camera's resolution, f = L / (2 tan(a/2)) with L the sensor's extent along the axis (seed
-  // eq. 4), because the sensor's height, and so every axis but the width, follows the image's
+  // camera's resolution, f = L / (2 tan(a/2)) with L the sensor's extent along the axis (2013
+  // report eq. 4), because the sensor's height, and so every axis but the width, follows the image's
   // aspect ratio; focalLength then holds f at the scene's own resolution.
   double angleOfView = 0.0;
   FovAxis fovAxis = FovAxis::kHorizontal;
@@ -165,7 +165,7 @@ inline CameraRay ThinLensCamera::generatePinholeRay(int i, int j, Vec2 uSensor) 
 }
 
 inline CameraRay ThinLensCamera::rayThrough(Vec2 s, Vec2 r) const {
-  // Seed eq. 1 in the camera frame: the incident direction n1 from the sensor point
+  // The 2013 report's eq. 1 in the camera frame: the incident direction n1 from the sensor point
   // (s, -S2) to the lens point (r, 0), scaled to a unit axial component, is bent to
   //     n2 = n1 - r / f.
   // Every ray from s then meets the focal plane at -s * S1 / S2, whatever r is.
@@ -175,7 +175,7 @@ inline CameraRay ThinLensCamera::rayThrough(Vec2 s, Vec2 r) const {
   return CameraRay{params_.position + r.x * right_ + r.y * up_, dir};
 }
 
-// Focal length from an angle of view across a sensor extent L, seed eq. 4: alpha = 2 atan(L / 2f).
+// Focal length from an angle of view across a sensor extent L, 2013 report eq. 4: alpha = 2 atan(L / 2f).
 double focalLengthFromAngleOfView(double sensorExtent, double angleOfViewDegrees);
 
 // The axis's name in the scene format: horizontal, vertical, diagonal, smaller, larger.

@@ -8,14 +8,14 @@
 #include <stdexcept>
 #include <string>
 
-#include "farm/sums_codec.h"
-#include "film/sensor.h"
-#include "render/integrator.h"
-#include "render/unit_renderer.h"
+#include "common/farm/sums_codec.h"
+#include "common/film/sensor.h"
+#include "common/render/integrator.h"
+#include "common/render/unit_renderer.h"
 #include <optional>
 
-#include "scene/frame_range.h"
-#include "scene/render_overrides.h"
+#include "common/scene/frame_range.h"
+#include "common/scene/render_overrides.h"
 
 namespace lensfarm {
 
@@ -36,7 +36,7 @@ struct WorkerInfo {
   uint32_t threads = 1;
   std::string protocolVersion = kProtocolVersion;
   std::string rendererVersion;
-  // The most memory one unit of a job may take on this worker (render/memory_estimate.h,
+  // The most memory one unit of a job may take on this worker (farm/memory_estimate.h,
   // workerJobMemory); 0: not said (any unit is leased to it). The coordinator leases a worker only
   // units it can hold, so a small machine in a big farm never fails a big job.
   uint64_t maxUnitMemoryBytes = 0;
@@ -87,7 +87,7 @@ class FarmError : public std::runtime_error {
     kFailedPrecondition,  // e.g. assets missing, versions differ, lease not held
     kUnauthenticated,     // missing or wrong token: retrying will not help
     kPermissionDenied,    // a caller that is not who it names (a worker's session)
-    kResourceExhausted,   // the job does not fit in the memory allowed (render/memory_estimate.h)
+    kResourceExhausted,   // the job does not fit in the memory allowed (farm/memory_estimate.h)
   };
   FarmError(Kind kind, const std::string& what) : std::runtime_error(what), kind_(kind) {}
   Kind kind() const { return kind_; }

@@ -1,4 +1,4 @@
-#include "farm/job_layout.h"
+#include "common/farm/job_layout.h"
 
 #include <algorithm>
 #include <cmath>

@@ -30,10 +30,10 @@
 #include <string>
 #include <vector>
 
-#include "film/adaptive_allocation.h"
-#include "render/unit_renderer.h"
-#include "scene/frame_range.h"
-#include "scene/scene.h"
+#include "common/film/adaptive_allocation.h"
+#include "common/render/unit_renderer.h"
+#include "common/scene/frame_range.h"
+#include "common/scene/scene.h"
 
 namespace lensfarm {
 

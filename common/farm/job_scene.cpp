@@ -1,7 +1,7 @@
-#include "farm/job_scene.h"
+#include "common/farm/job_scene.h"
 
-#include "scene/render_overrides.h"
-#include "util/error.h"
+#include "common/scene/render_overrides.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

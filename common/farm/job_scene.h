@@ -8,8 +8,8 @@
 #include <optional>
 #include <string>
 
-#include "farm/farm_types.h"
-#include "scene/scene_loader.h"
+#include "common/farm/farm_types.h"
+#include "common/scene/scene_loader.h"
 
 namespace lensfarm {
 

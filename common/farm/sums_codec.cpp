@@ -1,4 +1,4 @@
-#include "farm/sums_codec.h"
+#include "common/farm/sums_codec.h"
 
 #include <zstd.h>
 
@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "farm/farm_types.h"
+#include "common/farm/farm_types.h"
 
 namespace lensfarm {
 

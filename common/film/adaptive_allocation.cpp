@@ -1,4 +1,4 @@
-#include "film/adaptive_allocation.h"
+#include "common/film/adaptive_allocation.h"
 
 #include <algorithm>
 #include <cmath>

@@ -24,9 +24,9 @@
 #include <string>
 #include <vector>
 
-#include "film/convergence.h"
-#include "film/sensor.h"
-#include "render/sample_map.h"
+#include "common/film/convergence.h"
+#include "common/film/sensor.h"
+#include "common/film/sample_map.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "film/aov_layout.h"
+#include "common/film/aov_layout.h"
 
 #include <algorithm>
 #include <limits>

@@ -24,7 +24,7 @@
 #include <string>
 #include <vector>
 
-#include "film/image.h"
+#include "common/film/image.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "film/convergence.h"
+#include "common/film/convergence.h"
 
 #include <cmath>
 #include <cstring>

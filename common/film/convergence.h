@@ -26,8 +26,8 @@
 #include <string>
 #include <vector>
 
-#include "film/sensor.h"
-#include "render/sample_map.h"
+#include "common/film/sensor.h"
+#include "common/film/sample_map.h"
 
 namespace lensfarm {
 
@@ -51,7 +51,7 @@ class ConvergenceTracker {
   // The same for a unit whose every cell holds `samplesPerCell` samples (its counts are not read).
   void add(uint64_t unitIndex, const SensorBuffer& unit, uint32_t samplesPerCell);
 
-  // The same for an adaptive unit: each cell holds the samples `counts` gives it (render/sample_map.h).
+  // The same for an adaptive unit: each cell holds the samples `counts` gives it (film/sample_map.h).
   void add(uint64_t unitIndex, const SensorBuffer& unit, const SampleMap& counts);
 
   // Cell (i, j)'s per-sample variance, estimated from the halves and averaged over RGB:
@@ -69,7 +69,7 @@ class ConvergenceTracker {
   // The same for a tracker at the start of `bytes`, followed by anything: `used` gets its size.
   static ConvergenceTracker deserializePrefix(const std::string& bytes, size_t& used);
 
-  // Bytes of frame-sized memory held (render/memory_estimate.h: kTrackerBytesPerCell a cell).
+  // Bytes of frame-sized memory held (farm/memory_estimate.h: kTrackerBytesPerCell a cell).
   uint64_t memoryBytes() const { return evenSums_.capacity() * sizeof(double) + evenCounts_.capacity() * sizeof(uint64_t); }
 
  private:

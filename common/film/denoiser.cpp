@@ -1,4 +1,4 @@
-#include "film/denoiser.h"
+#include "common/film/denoiser.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

@@ -35,7 +35,7 @@
 #include <string>
 #include <vector>
 
-#include "film/image.h"
+#include "common/film/image.h"
 
 namespace lensfarm {
 

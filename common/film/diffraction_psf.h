@@ -48,8 +48,7 @@
 #include <string>
 #include <vector>
 
-#include "camera/aperture.h"
-#include "scene/scene.h"
+#include "common/camera/aperture.h"
 
 namespace lensfarm {
 
@@ -61,11 +60,6 @@ struct DiffractionOptics {
   double pixelWidthMm = 0.0, pixelHeightMm = 0.0;  // one sensor cell
   int width = 0, height = 0;                       // the image, in pixels
 };
-
-// The optics of `scene`'s camera: a thin lens's aperture at the image distance S2 (z = S2,
-// D = f / N, so N_w = S2 N / f); a real lens's exit pupil and film (paraxial, round stop).
-// Requires scene.diffraction and a lens (not a pinhole).
-DiffractionOptics diffractionOpticsOf(const Scene& scene);
 
 // The radius of the Airy pattern's first dark ring, 1.22 lambda N_w, in mm.
 inline double airyRadiusMm(double wavelengthNm, double workingFNumber) {
@@ -103,8 +97,5 @@ struct DiffractionKernel {
 
 DiffractionKernel diffractionKernel(const FraunhoferPattern& pattern, const DiffractionOptics& optics,
                                     int wavelengthsPerChannel);
-
-// The kernel `scene` calls for, or null when it asks for no diffraction (nothing computed then).
-std::shared_ptr<const DiffractionKernel> diffractionKernelFor(const Scene& scene);
 
 }  // namespace lensfarm

@@ -1,10 +1,10 @@
-#include "film/error_metrics.h"
+#include "common/film/error_metrics.h"
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
-#include "film/exposure.h"
+#include "common/film/exposure.h"
 
 namespace lensfarm {
 

@@ -11,11 +11,11 @@
 //  - the worst 1 % of pixels: the 99th percentile over pixels of the per-pixel relative error
 //    e_p = (1/3) sum over channels of |I - R| / (R + 0.01 mean(R)), the floor keeping dark pixels
 //    from dividing by ~0 (scale-free, unlike relMSE's constant);
-//  - the RMSE of the displayed picture: both images exposed automatically (seed §4.7.4), tone
+//  - the RMSE of the displayed picture: both images exposed automatically (2013 report §4.7.4), tone
 //    mapped and encoded as 8-bit sRGB as a PNG preview is, compared in [0, 1] units. This is
 //    the error a viewer sees.
-#include "film/image.h"
-#include "scene/scene.h"
+#include "common/film/image.h"
+#include "common/film/exposure.h"
 
 namespace lensfarm {
 

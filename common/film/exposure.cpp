@@ -1,4 +1,4 @@
-#include "film/exposure.h"
+#include "common/film/exposure.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

@@ -1,14 +1,14 @@
 #pragma once
 // From linear radiance to a viewable 8-bit sRGB picture.
 //
-// Automatic exposure scales every pixel by one factor, chosen by the meter (scene/scene.h,
-// ExposureMeter), so the image is never over- or under-exposed however long it rendered:
+// Automatic exposure scales every pixel by one factor, chosen by the meter (ExposureMeter,
+// below), so the image is never over- or under-exposed however long it rendered:
 //  - lit (the default): the mean luminance of the pixels that see something maps to 1, a pixel
 //    seeing something when it or a neighbour is not black. A black background (every model
 //    exported without a world) is left out instead of pulling the exposure up, and, being a mean,
 //    the factor does not drift with the noise of a progressive image (a log-average or a median
 //    of noisy pixels does: measured, docs/scene-format.md "render.exposure");
-//  - mean (the seed's, §4.7.4): every pixel is divided by the mean luminance of all pixels;
+//  - mean (the 2013 report's, §4.7.4): every pixel is divided by the mean luminance of all pixels;
 //  - fixed: no automatic factor.
 // Luminance is Rec. 709's. Then the EV compensation (x 2^EV), a tone map (clamp, or Reinhard
 // x / (1 + x) per channel), and the sRGB transfer function.
@@ -16,10 +16,23 @@
 #include <cstdint>
 #include <vector>
 
-#include "film/sensor.h"
-#include "scene/scene.h"
+#include "common/film/sensor.h"
 
 namespace lensfarm {
+
+enum class ToneMap { kClamp, kReinhard };
+
+// How the automatic exposure meters an image (below): kLit maps the mean luminance of
+// the pixels that see something to 1, so a black background does not blow out what stands in
+// front of it; kMean maps the mean luminance of every pixel to 1 (the 2013 report's, §4.7.4); kFixed
+// applies no automatic scale (the EV alone: the same exposure on every frame of an animation).
+enum class ExposureMeter { kLit, kMean, kFixed };
+
+struct ExposureSettings {
+  double ev = 0.0;  // compensation applied after the automatic exposure, in stops
+  ToneMap toneMap = ToneMap::kReinhard;
+  ExposureMeter meter = ExposureMeter::kLit;
+};
 
 // The factor that maps the image's mean luminance to 1 (1 for a black image): the mean meter.
 double autoExposureScale(const Image& image);

@@ -1,4 +1,4 @@
-#include "film/image.h"
+#include "common/film/image.h"
 
 #include <algorithm>
 

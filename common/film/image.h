@@ -5,7 +5,7 @@
 #include <utility>
 #include <vector>
 
-#include "math/vec.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 

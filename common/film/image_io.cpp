@@ -1,4 +1,4 @@
-#include "film/image_io.h"
+#include "common/film/image_io.h"
 
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfDoubleAttribute.h>
@@ -18,9 +18,9 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "film/exposure.h"
-#include "util/atomic_file.h"
-#include "util/error.h"
+#include "common/film/exposure.h"
+#include "common/util/atomic_file.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

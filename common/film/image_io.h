@@ -13,8 +13,8 @@
 #include <map>
 #include <string>
 
-#include "film/sensor.h"
-#include "scene/scene.h"
+#include "common/film/sensor.h"
+#include "common/film/exposure.h"
 
 namespace lensfarm {
 

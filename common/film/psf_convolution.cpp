@@ -1,8 +1,8 @@
-#include "film/psf_convolution.h"
+#include "common/film/psf_convolution.h"
 
 #include <algorithm>
 
-#include "math/real_fft2d.h"
+#include "common/math/real_fft2d.h"
 
 namespace lensfarm {
 

@@ -7,8 +7,8 @@
 // total exactly up to rounding. By FFT (math/real_fft2d.h) on a grid padded by the kernel's
 // width on every side so that nothing wraps around; values below 0 (rounding, about 1e-16 of the
 // brightest) are set to 0.
-#include "film/diffraction_psf.h"
-#include "film/image.h"
+#include "common/film/diffraction_psf.h"
+#include "common/film/image.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "film/sensor.h"
+#include "common/film/sensor.h"
 
 #include <algorithm>
 #include <cstring>
@@ -75,7 +75,7 @@ Image Sensor::developImage(const AovLayout& layout) const {
   std::vector<double> cell(static_cast<size_t>(channels_));
   for (int y = 0; y < height_; ++y) {
     for (int x = 0; x < width_; ++x) {
-      const int i = width_ - 1 - x, j = height_ - 1 - y;  // seed §4.7: the lens flips both axes
+      const int i = width_ - 1 - x, j = height_ - 1 - y;  // 2013 report §4.7: the lens flips both axes
       const DVec3 m = mean(i, j);
       const size_t pixel = size_t(y) * width_ + x, k = 3 * pixel;
       image.rgb[k] = float(m.x);

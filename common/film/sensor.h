@@ -1,10 +1,10 @@
 #pragma once
-// The light sensor (seed §4.7.1): one cell per pixel, RGB radiance sums and a sample count.
+// The light sensor (2013 report §4.7.1): one cell per pixel, RGB radiance sums and a sample count.
 //
 //  - SensorBuffer is what one unit of work produces: plain double sums over its samples.
 //  - Sensor is the accumulated result of many units. Each cell sums units with compensated
 //    (Neumaier) summation, so billions of samples lose no precision, and values are never
-//    clamped (the seed: "not limited to be less than one").
+//    clamped (the report: "not limited to be less than one").
 //  - A cell holds `channels` sums: the beauty's RGB first, then the AOVs' (film/aov_layout.h),
 //    every one summed the same way.
 //  - Cells are indexed in sensor orientation (camera/thin_lens_camera.h); developImage() undoes
@@ -13,12 +13,12 @@
 #include <string>
 #include <vector>
 
-#include "render/sample_map.h"
+#include "common/film/sample_map.h"
 
-#include "film/aov_layout.h"
-#include "film/image.h"
-#include "math/compensated_sum.h"
-#include "math/vec.h"
+#include "common/film/aov_layout.h"
+#include "common/film/image.h"
+#include "common/math/compensated_sum.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 
@@ -32,7 +32,7 @@ struct SensorBuffer {
   SensorBuffer(int w, int h, int c = 3)
       : width(w), height(h), channels(c), sums(size_t(w) * h * size_t(c), 0.0), samples(size_t(w) * h, 0) {}
   size_t cells() const { return size_t(width) * height; }
-  // Bytes of frame-sized memory held (render/memory_estimate.h: kUnitBufferBytesPerCell a cell).
+  // Bytes of frame-sized memory held (farm/memory_estimate.h: kUnitBufferBytesPerCell a cell).
   uint64_t memoryBytes() const { return sums.capacity() * sizeof(double) + samples.capacity() * sizeof(uint32_t); }
 };
 
@@ -46,7 +46,7 @@ class Sensor {
   // The same for a unit whose every cell holds `samplesPerCell` samples (a unit covers the whole
   // frame); the buffer's own counts are not read (the coordinator knows each unit's count).
   void add(const SensorBuffer& unit, uint32_t samplesPerCell);
-  // The same for an adaptive unit: each cell holds the samples `counts` gives it (render/sample_map.h).
+  // The same for an adaptive unit: each cell holds the samples `counts` gives it (film/sample_map.h).
   void add(const SensorBuffer& unit, const SampleMap& counts);
 
   int width() const { return width_; }
@@ -70,7 +70,7 @@ class Sensor {
   std::string serialize() const;
   static Sensor deserialize(const std::string& bytes);
 
-  // Bytes of frame-sized memory held (render/memory_estimate.h: kSensorBytesPerCell a cell).
+  // Bytes of frame-sized memory held (farm/memory_estimate.h: kSensorBytesPerCell a cell).
   uint64_t memoryBytes() const { return sums_.capacity() * sizeof(CompensatedSum) + samples_.capacity() * sizeof(uint64_t); }
 
  private:

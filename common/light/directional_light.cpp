@@ -1,12 +1,12 @@
-#include "light/directional_light.h"
+#include "common/light/directional_light.h"
 
 #include <cmath>
 #include <numbers>
 #include <sstream>
 
-#include "light/point_light.h"
-#include "math/sampling.h"
-#include "scene/field_reader.h"
+#include "common/light/point_light.h"
+#include "common/math/sampling.h"
+#include "common/util/field_reader.h"
 
 namespace lensfarm {
 

@@ -1,12 +1,12 @@
-#include "light/environment_light.h"
+#include "common/light/environment_light.h"
 
 #include <sstream>
 
-#include "film/image_io.h"
-#include "light/point_light.h"
-#include "scene/field_reader.h"
-#include "texture/image_decode.h"
-#include "util/error.h"
+#include "common/film/image_io.h"
+#include "common/light/point_light.h"
+#include "common/util/field_reader.h"
+#include "common/texture/image_decode.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

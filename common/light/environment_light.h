@@ -9,9 +9,9 @@
 #include <optional>
 #include <string>
 
-#include "light/environment_map.h"
-#include "light/light_source.h"
-#include "scene/asset_loader.h"
+#include "common/light/environment_map.h"
+#include "common/light/light_source.h"
+#include "common/util/asset_loader.h"
 
 namespace lensfarm {
 

@@ -1,12 +1,12 @@
-#include "light/environment_map.h"
+#include "common/light/environment_map.h"
 
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <sstream>
 
-#include "math/sampling.h"
-#include "util/error.h"
+#include "common/math/sampling.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -36,9 +36,9 @@
 #include <string>
 #include <vector>
 
-#include "film/image.h"
-#include "math/distribution.h"
-#include "math/vec.h"
+#include "common/film/image.h"
+#include "common/math/distribution.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 

@@ -2,7 +2,7 @@
 // Lights that are not emitting triangles: point, spot and directional lights (a scene's `lights`
 // beyond "quad") and the environment (docs/scene-format.md, "lights" and "environment"). Each
 // type has its own header/source pair and registers once, in light_types.cpp; the light sampler
-// (light/light_sampler.h) chooses among them and the emitting triangles by power.
+// (render/light_sampler.h) chooses among them and the emitting triangles by power.
 //
 // Units (written once): a scene's radiance unit is L (whatever `radiance` is in: W/(sr m^2) in a
 // scene in metres and watts). Point and spot `intensity` is radiant intensity I in L x area (W/sr):
@@ -25,8 +25,8 @@
 #include <optional>
 #include <string>
 
-#include "math/ray_offset.h"
-#include "math/vec.h"
+#include "common/math/ray_offset.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 

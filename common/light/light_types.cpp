@@ -1,8 +1,8 @@
-#include "light/light_types.h"
+#include "common/light/light_types.h"
 
-#include "light/directional_light.h"
-#include "light/point_light.h"
-#include "light/spot_light.h"
+#include "common/light/directional_light.h"
+#include "common/light/point_light.h"
+#include "common/light/spot_light.h"
 
 namespace lensfarm {
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "light/light_source.h"
+#include "common/light/light_source.h"
 
 namespace lensfarm {
 

@@ -1,8 +1,8 @@
-#include "light/point_light.h"
+#include "common/light/point_light.h"
 
 #include <sstream>
 
-#include "scene/field_reader.h"
+#include "common/util/field_reader.h"
 
 namespace lensfarm {
 

@@ -6,7 +6,7 @@
 #include <optional>
 #include <string>
 
-#include "light/light_source.h"
+#include "common/light/light_source.h"
 
 namespace lensfarm {
 

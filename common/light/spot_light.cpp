@@ -1,10 +1,10 @@
-#include "light/spot_light.h"
+#include "common/light/spot_light.h"
 
 #include <cmath>
 #include <numbers>
 #include <sstream>
 
-#include "scene/field_reader.h"
+#include "common/util/field_reader.h"
 
 namespace lensfarm {
 

@@ -9,7 +9,7 @@
 #include <optional>
 #include <string>
 
-#include "light/point_light.h"
+#include "common/light/point_light.h"
 
 namespace lensfarm {
 

@@ -13,11 +13,11 @@
 //    in [0, 1), from the sampler's dimensions of the vertex (render/sampler.h, dims).
 //  - A sample's weight is f |cos| / pdf (or the delta lobe's weight), with every discrete choice
 //    already divided out, so a path multiplies its throughput by it.
-// Colour mixing is the seed's eq. 2: reflected = incident * reflectance, channel by channel.
+// Colour mixing is the 2013 report's eq. 2: reflected = incident * reflectance, channel by channel.
 #include <memory>
 #include <optional>
 
-#include "math/vec.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 
@@ -41,7 +41,7 @@ struct MaterialSample {
 // scene/effects.cpp): constant for a model's lifetime.
 struct BsdfTraits {
   bool reflects = false;    // scatters some light (false: black; the path ends there)
-  bool delta = false;       // every lobe is a delta: no light sampling; a "mirror" bounce (seed §4.5)
+  bool delta = false;       // every lobe is a delta: no light sampling; a "mirror" bounce (2013 report §4.5)
   bool lambertian = false;  // f = albedo / pi: the packet tracer's lane loops shade it without the Bsdf
   bool choosesLobe = true;  // sample() reads uLobe (false: the integrator need not draw it)
   // Scatters nothing and blocks nothing: a medium's index-matched boundary (material/interface.h),

@@ -1,12 +1,12 @@
-#include "material/conductor.h"
+#include "common/material/conductor.h"
 
 #include <algorithm>
 #include <string>
 
-#include "material/fresnel.h"
-#include "material/ggx_albedo.h"
-#include "math/sampling.h"
-#include "scene/field_reader.h"
+#include "common/material/fresnel.h"
+#include "common/material/ggx_albedo.h"
+#include "common/math/sampling.h"
+#include "common/util/field_reader.h"
 
 namespace lensfarm {
 

@@ -16,8 +16,8 @@
 #include <memory>
 #include <string>
 
-#include "material/bsdf.h"
-#include "material/microfacet.h"
+#include "common/material/bsdf.h"
+#include "common/material/microfacet.h"
 
 namespace lensfarm {
 

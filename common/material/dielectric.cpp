@@ -1,7 +1,7 @@
-#include "material/dielectric.h"
+#include "common/material/dielectric.h"
 
-#include "material/fresnel.h"
-#include "scene/field_reader.h"
+#include "common/material/fresnel.h"
+#include "common/util/field_reader.h"
 
 namespace lensfarm {
 

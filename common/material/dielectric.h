@@ -19,8 +19,8 @@
 // (tests: RoughDielectric.*). Below GgxDistribution::kSmoothAlpha the surface is the smooth one.
 #include <memory>
 
-#include "material/bsdf.h"
-#include "material/microfacet.h"
+#include "common/material/bsdf.h"
+#include "common/material/microfacet.h"
 
 namespace lensfarm {
 

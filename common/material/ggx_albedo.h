@@ -30,9 +30,9 @@
 #include <array>
 #include <cmath>
 
-#include "material/microfacet.h"
-#include "math/sampling.h"
-#include "math/vec.h"
+#include "common/material/microfacet.h"
+#include "common/math/sampling.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "material/interface.h"
+#include "common/material/interface.h"
 
 namespace lensfarm {
 

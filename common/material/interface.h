@@ -6,7 +6,7 @@
 // it would be invisible, which the scene loader refuses as a likely mistake.
 #include <memory>
 
-#include "material/bsdf.h"
+#include "common/material/bsdf.h"
 
 namespace lensfarm {
 

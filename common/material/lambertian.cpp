@@ -1,6 +1,6 @@
-#include "material/lambertian.h"
+#include "common/material/lambertian.h"
 
-#include "scene/field_reader.h"
+#include "common/util/field_reader.h"
 
 namespace lensfarm {
 

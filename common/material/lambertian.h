@@ -1,10 +1,10 @@
 #pragma once
-// The perfectly diffuse surface of the seed (§4.2): f = albedo / pi, sampled cosine-weighted so a
+// The perfectly diffuse surface of the 2013 report (§4.2): f = albedo / pi, sampled cosine-weighted so a
 // sample's weight is the albedo exactly.
 #include <memory>
 
-#include "material/bsdf.h"
-#include "math/sampling.h"
+#include "common/material/bsdf.h"
+#include "common/math/sampling.h"
 
 namespace lensfarm {
 

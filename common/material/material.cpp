@@ -1,15 +1,15 @@
-#include "material/material.h"
+#include "common/material/material.h"
 
 #include <algorithm>
 
-#include "material/conductor.h"
-#include "material/dielectric.h"
-#include "material/interface.h"
-#include "material/lambertian.h"
-#include "material/mirror.h"
-#include "material/principled.h"
-#include "material/subsurface.h"
-#include "scene/field_reader.h"
+#include "common/material/conductor.h"
+#include "common/material/dielectric.h"
+#include "common/material/interface.h"
+#include "common/material/lambertian.h"
+#include "common/material/mirror.h"
+#include "common/material/principled.h"
+#include "common/material/subsurface.h"
+#include "common/util/field_reader.h"
 
 namespace lensfarm {
 

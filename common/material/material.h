@@ -1,5 +1,5 @@
 #pragma once
-// Surface materials (seed §4.2, §4.5.1): a scattering model (material/bsdf.h, whose header holds
+// Surface materials (2013 report §4.2, §4.5.1): a scattering model (material/bsdf.h, whose header holds
 // the conventions) and emission.
 //
 // All materials shade both sides of a surface. Emission is one-sided (front face, the face whose
@@ -13,10 +13,10 @@
 #include <string>
 #include <vector>
 
-#include "material/bsdf.h"
-#include "material/lambertian.h"
-#include "material/principled.h"
-#include "texture/texture.h"
+#include "common/material/bsdf.h"
+#include "common/material/lambertian.h"
+#include "common/material/principled.h"
+#include "common/texture/texture.h"
 
 namespace lensfarm {
 

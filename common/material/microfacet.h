@@ -31,8 +31,8 @@
 #include <cmath>
 #include <limits>
 
-#include "math/sampling.h"
-#include "math/vec.h"
+#include "common/math/sampling.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 

@@ -1,7 +1,7 @@
-#include "material/mirror.h"
+#include "common/material/mirror.h"
 
-#include "math/sampling.h"
-#include "scene/field_reader.h"
+#include "common/math/sampling.h"
+#include "common/util/field_reader.h"
 
 namespace lensfarm {
 
@@ -34,7 +34,7 @@ std::shared_ptr<const Bsdf> parseMirror(FieldReader& r) {
 }
 
 std::shared_ptr<const Bsdf> parseRippledMirror(FieldReader& r) {
-  const Spectrum reflectance = r.color("reflectance", Spectrum(0.5f), kReflectanceRange);  // seed §4.2: halves the light
+  const Spectrum reflectance = r.color("reflectance", Spectrum(0.5f), kReflectanceRange);  // 2013 report §4.2: halves it
   return std::make_shared<RippledMirrorBsdf>(reflectance, float(r.number("ripple", 0.02, 0.0, 1.0)));
 }
 

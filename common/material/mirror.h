@@ -1,10 +1,10 @@
 #pragma once
-// Perfect mirrors (seed §4.2): the ideal mirror, and the seed's rippled glass mirror, which
+// Perfect mirrors (2013 report §4.2): the ideal mirror, and the report's rippled glass mirror, which
 // reflects about a randomly tilted normal. Both are delta-like for the integrator: no light
-// sampling, and their bounces do not count toward B unless the scene says so (seed §4.5).
+// sampling, and their bounces do not count toward B unless the scene says so (the report's §4.5).
 #include <memory>
 
-#include "material/bsdf.h"
+#include "common/material/bsdf.h"
 
 namespace lensfarm {
 
@@ -21,7 +21,7 @@ class MirrorBsdf final : public Bsdf {
   Spectrum reflectance_;
 };
 
-// The seed's rippled mirror: reflection about the normal tilted by a random slope (tan) of at
+// The 2013 report's rippled mirror: reflection about the normal tilted by a random slope (tan) of at
 // most `ripple`, uniform over the disk of slopes; weight = reflectance.
 class RippledMirrorBsdf final : public Bsdf {
  public:

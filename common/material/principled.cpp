@@ -1,10 +1,10 @@
-#include "material/principled.h"
+#include "common/material/principled.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "math/sampling.h"
-#include "scene/field_reader.h"
+#include "common/math/sampling.h"
+#include "common/util/field_reader.h"
 
 namespace lensfarm {
 

@@ -42,9 +42,9 @@
 #include <memory>
 #include <optional>
 
-#include "material/bsdf.h"
-#include "material/dielectric.h"
-#include "material/microfacet.h"
+#include "common/material/bsdf.h"
+#include "common/material/dielectric.h"
+#include "common/material/microfacet.h"
 
 namespace lensfarm {
 

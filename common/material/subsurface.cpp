@@ -1,10 +1,10 @@
-#include "material/subsurface.h"
+#include "common/material/subsurface.h"
 
 #include <limits>
 
-#include "math/sampling.h"
-#include "medium/medium.h"
-#include "scene/field_reader.h"
+#include "common/math/sampling.h"
+#include "common/medium/medium.h"
+#include "common/util/field_reader.h"
 
 namespace lensfarm {
 

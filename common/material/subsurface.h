@@ -15,7 +15,7 @@
 // front faces).
 #include <memory>
 
-#include "material/bsdf.h"
+#include "common/material/bsdf.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "math/distribution.h"
+#include "common/math/distribution.h"
 
 #include <algorithm>
 #include <cfloat>

@@ -32,7 +32,7 @@
 #include <span>
 #include <vector>
 
-#include "math/vec.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 

@@ -17,7 +17,7 @@
 #include <cstdint>
 #include <type_traits>
 
-#include "math/vec.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 // Rays travel in packets of up to 16 (render/integrator.h): Embree's 16-wide kernels trace them

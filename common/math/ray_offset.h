@@ -24,7 +24,7 @@
 #include <cmath>
 #include <limits>
 
-#include "math/vec.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 

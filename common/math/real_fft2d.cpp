@@ -1,4 +1,4 @@
-#include "math/real_fft2d.h"
+#include "common/math/real_fft2d.h"
 
 #include <fftw3.h>
 

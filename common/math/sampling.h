@@ -5,7 +5,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "math/vec.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 
@@ -38,7 +38,7 @@ inline Vec2 sampleConcentricDisk(Vec2 u) {
 }
 
 // Cosine-weighted direction on the hemisphere around +z (Malley's method).
-// pdf(w) = cos(theta) / pi. Replaces the seed's rejection loop (§4.2) with an exact warp.
+// pdf(w) = cos(theta) / pi. Replaces the 2013 report's rejection loop (§4.2) with an exact warp.
 //
 // Every u in [0,1)^2 gives a direction with z > 0 (so a positive pdf, and the estimator's weight
 // f cos / pdf = albedo holds exactly). The rim of the square (u.x or u.y exactly 0) maps to the

@@ -11,7 +11,7 @@
 #include <cmath>
 #include <optional>
 
-#include "math/vec.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 

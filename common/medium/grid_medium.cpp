@@ -1,10 +1,10 @@
-#include "medium/grid_medium.h"
+#include "common/medium/grid_medium.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "medium/homogeneous_medium.h"
-#include "util/error.h"
+#include "common/medium/homogeneous_medium.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

@@ -24,10 +24,10 @@
 
 #include <glm/vec3.hpp>
 
-#include "math/vec.h"
-#include "medium/homogeneous_medium.h"  // FreeFlight
-#include "medium/majorant_tracking.h"
-#include "medium/phase_function.h"
+#include "common/math/vec.h"
+#include "common/medium/homogeneous_medium.h"  // FreeFlight
+#include "common/medium/majorant_tracking.h"
+#include "common/medium/phase_function.h"
 
 namespace lensfarm {
 

@@ -1,10 +1,10 @@
-#include "medium/homogeneous_medium.h"
+#include "common/medium/homogeneous_medium.h"
 
 #include <cmath>
 #include <limits>
 #include <sstream>
 
-#include "util/error.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

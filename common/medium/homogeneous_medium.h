@@ -29,8 +29,8 @@
 // 0.006 in A up to A = 0.8 and underestimates above (0.87 at A = 0.9, 0.92 at A = 0.99).
 #include <string>
 
-#include "math/vec.h"
-#include "medium/phase_function.h"
+#include "common/math/vec.h"
+#include "common/medium/phase_function.h"
 
 namespace lensfarm {
 

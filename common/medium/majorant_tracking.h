@@ -31,7 +31,7 @@
 // Header only: all of it is these templates.
 #include <cmath>
 
-#include "math/vec.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 

@@ -1,11 +1,11 @@
-#include "medium/medium.h"
+#include "common/medium/medium.h"
 
 #include <cmath>
 #include <limits>
 
-#include "medium/vdb_grid.h"
-#include "scene/field_reader.h"
-#include "util/error.h"
+#include "common/medium/vdb_grid.h"
+#include "common/util/field_reader.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

@@ -21,10 +21,10 @@
 #include <string>
 #include <variant>
 
-#include "math/vec.h"
-#include "medium/grid_medium.h"
-#include "medium/homogeneous_medium.h"
-#include "scene/asset_loader.h"
+#include "common/math/vec.h"
+#include "common/medium/grid_medium.h"
+#include "common/medium/homogeneous_medium.h"
+#include "common/util/asset_loader.h"
 
 namespace lensfarm {
 

@@ -1,9 +1,9 @@
-#include "medium/phase_function.h"
+#include "common/medium/phase_function.h"
 
 #include <cmath>
 
-#include "math/sampling.h"
-#include "util/error.h"
+#include "common/math/sampling.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

@@ -20,7 +20,7 @@
 // a relative error above 1e-4 beyond that; pbrt-v4 clamps to 0.99 for the same reason.
 #include <string>
 
-#include "math/vec.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "medium/vdb_grid.h"
+#include "common/medium/vdb_grid.h"
 
 #include <openvdb/openvdb.h>
 
@@ -9,7 +9,7 @@
 #include <random>
 #include <sstream>
 
-#include "util/error.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

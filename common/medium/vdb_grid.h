@@ -13,7 +13,7 @@
 
 #include <glm/vec3.hpp>
 
-#include "math/vec.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 

@@ -1,11 +1,11 @@
-#include "render/aov_tracer.h"
+#include "common/render/aov_tracer.h"
 
 #include <optional>
 
-#include "material/principled.h"
-#include "math/ray_offset.h"
-#include "render/render_scene.h"
-#include "render/shading_point.h"
+#include "common/material/principled.h"
+#include "common/math/ray_offset.h"
+#include "common/render/render_scene.h"
+#include "common/render/shading_point.h"
 
 namespace lensfarm {
 

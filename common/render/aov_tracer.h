@@ -2,8 +2,8 @@
 // The geometric AOVs of a camera ray (albedo, normal, depth, ids; conventions in film/aov_layout.h
 // and docs/aovs.md): a pass of its own beside the path tracer, so that the integrator's lane loops
 // carry nothing for them and a scene without AOVs runs none of it.
-#include "camera/thin_lens_camera.h"
-#include "film/aov_layout.h"
+#include "common/camera/thin_lens_camera.h"
+#include "common/film/aov_layout.h"
 
 namespace lensfarm {
 

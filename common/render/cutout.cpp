@@ -1,4 +1,4 @@
-#include "render/cutout.h"
+#include "common/render/cutout.h"
 
 namespace lensfarm {
 

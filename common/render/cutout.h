@@ -3,7 +3,7 @@
 // material's alpha, read at the finest texture level, is below its cutoff is no hit at all, for
 // every ray alike. The ray caster applies it in Embree's filter functions and in the precise
 // triangles' own test (render/precise_triangles.h).
-#include "scene/scene.h"
+#include "common/scene/scene.h"
 
 namespace lensfarm {
 

@@ -1,13 +1,13 @@
-#include "render/integrator.h"
+#include "common/render/integrator.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "math/lanes.h"
-#include "math/ray_offset.h"
-#include "math/sampling.h"
-#include "render/path_vertex.h"
-#include "render/shading_point.h"
+#include "common/math/lanes.h"
+#include "common/math/ray_offset.h"
+#include "common/math/sampling.h"
+#include "common/render/path_vertex.h"
+#include "common/render/shading_point.h"
 
 namespace lensfarm {
 

@@ -1,16 +1,16 @@
 #pragma once
-// Path tracing from the camera (seed §4.3: "the best direction of shooting photons is from the
+// Path tracing from the camera (2013 report §4.3: "the best direction of shooting photons is from the
 // camera"), with a bounce limit B (§4.5) and RGB colour mixing (§4.5.1, eq. 2).
 //
 // Bounce counting. A path of k bounces reflects k times between the lens and the light; B = 1 is
-// direct light only (seed Fig. 8a). Mirror reflections do not count (seed §4.5) unless the scene
+// direct light only (the report's Fig. 8a). Mirror reflections do not count (the report's §4.5) unless the scene
 // says `mirror_bounces_count`; a path still ends after pathSegmentLimit(B) segments so two
 // facing mirrors cannot loop forever.
 //
 // Estimators:
-//  - naive (the seed's): a path contributes only if a scattered ray happens to hit a light, except
+//  - naive (the report's): a path contributes only if a scattered ray happens to hit a light, except
 //    for delta lights (point, spot, a sun without diameter), which no ray can hit: those alone are
-//    light-sampled at each diffuse vertex (weight 1; light/light_sampler.h);
+//    light-sampled at each diffuse vertex (weight 1; render/light_sampler.h);
 //  - nee: at each diffuse vertex one light sample (next-event estimation), weight 1; a scattered
 //    ray that reaches a light the samples can produce counts 0;
 //  - nee_mis: one light sample plus the scattered ray, combined with the power heuristic (Veach
@@ -38,10 +38,10 @@
 
 #include <cstdint>
 
-#include "camera/thin_lens_camera.h"
-#include "math/vec.h"
-#include "render/render_scene.h"
-#include "render/sampler.h"
+#include "common/camera/thin_lens_camera.h"
+#include "common/math/vec.h"
+#include "common/render/render_scene.h"
+#include "common/render/sampler.h"
 
 namespace lensfarm {
 

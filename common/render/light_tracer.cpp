@@ -1,4 +1,4 @@
-#include "render/light_tracer.h"
+#include "common/render/light_tracer.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
@@ -8,9 +8,9 @@
 #include <cmath>
 #include <vector>
 
-#include "math/ray_offset.h"
-#include "math/sampling.h"
-#include "render/unit_renderer.h"
+#include "common/math/ray_offset.h"
+#include "common/math/sampling.h"
+#include "common/render/unit_renderer.h"
 
 #if defined(__SSE__)
 #include <pmmintrin.h>

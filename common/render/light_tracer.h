@@ -1,11 +1,11 @@
 #pragma once
 // Light tracing (Veach 1997 ch. 10: bidirectional strategy t = 1; pbrt-v4
 // ConnectBDPT), beside the path tracer, for the caustics next-event estimation
-// cannot sample: light -> mirror -> diffuse surface -> camera (the seed scene's
+// cannot sample: light -> mirror -> diffuse surface -> camera (cornell-seed's
 // floor lit through its rippled mirror).
 //
 // Particles leave the emitting triangles the light sampler samples
-// (light/light_sampler.h): a triangle chosen by power, a uniform point on it, a
+// (render/light_sampler.h): a triangle chosen by power, a uniform point on it, a
 // cosine-weighted direction (either face of a two-sided light with probability
 // 1/2). Their weight beta is flux: after k scatterings,
 //     E[sum over particle vertices y of beta(y) g(y, w_l)] = int_A int L_i(y,
@@ -61,9 +61,9 @@
 // worker count.
 #include <atomic>
 
-#include "film/sensor.h"
-#include "render/integrator.h"
-#include "render/render_scene.h"
+#include "common/film/sensor.h"
+#include "common/render/integrator.h"
+#include "common/render/render_scene.h"
 
 namespace lensfarm {
 

@@ -7,10 +7,10 @@
 #include <cmath>
 #include <optional>
 
-#include "math/ray_offset.h"
-#include "math/sampling.h"
-#include "render/integrator.h"
-#include "render/shading_point.h"
+#include "common/math/ray_offset.h"
+#include "common/math/sampling.h"
+#include "common/render/integrator.h"
+#include "common/render/shading_point.h"
 
 namespace lensfarm::path_vertex {
 

@@ -1,12 +1,12 @@
-#include "render/precise_triangles.h"
+#include "common/render/precise_triangles.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <utility>
 
-#include "math/triangle.h"
-#include "render/cutout.h"
+#include "common/math/triangle.h"
+#include "common/render/cutout.h"
 
 namespace lensfarm {
 

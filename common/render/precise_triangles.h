@@ -26,8 +26,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "math/vec.h"
-#include "scene/scene.h"
+#include "common/math/vec.h"
+#include "common/scene/scene.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "render/ray_caster.h"
+#include "common/render/ray_caster.h"
 
 #include <spdlog/spdlog.h>
 
@@ -11,10 +11,10 @@
 #include <stdexcept>
 #include <string>
 
-#include "math/lanes.h"
-#include "math/ray_offset.h"
-#include "math/triangle.h"
-#include "render/cutout.h"
+#include "common/math/lanes.h"
+#include "common/math/ray_offset.h"
+#include "common/math/triangle.h"
+#include "common/render/cutout.h"
 
 namespace lensfarm {
 

@@ -22,11 +22,11 @@
 #include <optional>
 #include <vector>
 
-#include "math/lanes.h"
-#include "math/ray_offset.h"
-#include "math/vec.h"
-#include "render/precise_triangles.h"
-#include "scene/scene.h"
+#include "common/math/lanes.h"
+#include "common/math/ray_offset.h"
+#include "common/math/vec.h"
+#include "common/render/precise_triangles.h"
+#include "common/scene/scene.h"
 
 namespace lensfarm {
 

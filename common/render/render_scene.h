@@ -6,12 +6,12 @@
 #include <cstdint>
 #include <vector>
 
-#include "camera/thin_lens_camera.h"
-#include "film/aov_layout.h"
-#include "light/light_sampler.h"
-#include "render/ray_caster.h"
-#include "scene/effects.h"
-#include "scene/scene.h"
+#include "common/camera/thin_lens_camera.h"
+#include "common/film/aov_layout.h"
+#include "common/render/light_sampler.h"
+#include "common/render/ray_caster.h"
+#include "common/scene/effects.h"
+#include "common/scene/scene.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "render/sampler.h"
+#include "common/render/sampler.h"
 
 namespace lensfarm {
 

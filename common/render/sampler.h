@@ -1,7 +1,7 @@
 #pragma once
 // Counter-based sample values: every value is a pure function of
 //     (job seed, pixel, sample index, dimension),
-// so a sample traces the same path on any worker, thread count or retry (design.md invariant),
+// so a sample traces the same path on any worker, thread count or retry (docs/architecture.md, "Invariants"),
 // and no state is carried from one sample or pixel to the next.
 //
 // Three samplers, chosen per job (render.sampler, docs/scene-format.md; compared in
@@ -24,9 +24,9 @@
 #include <bit>
 #include <cstdint>
 
-#include "math/lanes.h"
-#include "math/vec.h"
-#include "scene/scene.h"  // SamplerKind
+#include "common/math/lanes.h"
+#include "common/math/vec.h"
+#include "common/scene/scene.h"  // SamplerKind
 
 namespace lensfarm {
 

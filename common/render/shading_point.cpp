@@ -1,4 +1,4 @@
-#include "render/shading_point.h"
+#include "common/render/shading_point.h"
 
 #include <cmath>
 

@@ -23,8 +23,8 @@
 // approximates the footprint of every hit this way, from its distance to the camera
 // (Camera::Approximate_dp_dxy, pbrt-v4 §10.1.2). It is turned into texture space by the
 // triangle's ratio of texture area to world area.
-#include "math/vec.h"
-#include "render/render_scene.h"
+#include "common/math/vec.h"
+#include "common/render/render_scene.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "render/unit_renderer.h"
+#include "common/render/unit_renderer.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
@@ -9,12 +9,12 @@
 #include <optional>
 #include <stdexcept>
 
-#include "camera/spectral_response.h"
-#include "render/aov_tracer.h"
-#include "render/integrator.h"
-#include "render/light_tracer.h"
-#include "render/volume_integrator.h"
-#include "scene/scene_loader.h"  // kMaxBounces
+#include "common/camera/spectral_response.h"
+#include "common/render/aov_tracer.h"
+#include "common/render/integrator.h"
+#include "common/render/light_tracer.h"
+#include "common/render/volume_integrator.h"
+#include "common/scene/scene_loader.h"  // kMaxBounces
 
 #if defined(__SSE__)
 #include <pmmintrin.h>
@@ -108,7 +108,7 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
       // The row's samples in pixel-major, sample-minor order, cut into packets of kPacketWidth:
       // with units of 16 samples a packet is one pixel's samples; smaller units put neighbouring
       // pixels together. Packets never span rows, so they are the same for any thread count.
-      // An adaptive unit gives each block its own range (render/sample_map.h); the others, every
+      // An adaptive unit gives each block its own range (film/sample_map.h); the others, every
       // cell the unit's.
       uint64_t rowSamples = uint64_t(region.width) * unit.sampleCount;
       if (unit.samples) {
@@ -233,7 +233,7 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
         for (int k = 0; k < packet.count; ++k) {
           const Spectrum& l = radiance[k];
           if (!isFinite(l)) {
-            ++local.dropped;  // counted as a sample of zero, never written (design.md invariant)
+            ++local.dropped;  // counted as a sample of zero, never written (docs/architecture.md, "Invariants")
             continue;
           }
           double* cell = &out.sums[stride * cellOf[k]];

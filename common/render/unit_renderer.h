@@ -11,10 +11,10 @@
 #include <cstdint>
 #include <memory>
 
-#include "film/sensor.h"
-#include "render/integrator.h"
-#include "render/render_scene.h"
-#include "render/sample_map.h"
+#include "common/film/sensor.h"
+#include "common/render/integrator.h"
+#include "common/render/render_scene.h"
+#include "common/film/sample_map.h"
 
 namespace lensfarm {
 
@@ -38,7 +38,7 @@ struct WorkUnit {
   PixelRegion region;
   uint32_t passSamples = 0;
   int64_t frame = 0;  // the scene frame (animation); 0 for a still
-  // An adaptive unit (render/sample_map.h): each block of cells traces its own sample range, and
+  // An adaptive unit (film/sample_map.h): each block of cells traces its own sample range, and
   // firstSample and sampleCount are not read. Whole-frame units only. Null: every cell traces
   // [firstSample, firstSample + sampleCount).
   std::shared_ptr<const SampleMap> samples;

@@ -1,11 +1,11 @@
-#include "render/volume_integrator.h"
+#include "common/render/volume_integrator.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-#include "medium/medium.h"
-#include "render/path_vertex.h"
+#include "common/medium/medium.h"
+#include "common/render/path_vertex.h"
 
 namespace lensfarm {
 

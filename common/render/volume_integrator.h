@@ -31,7 +31,7 @@
 // BSDF direction, roulette); tracking, whose count of random numbers varies, draws from a
 // MediumRng keyed by the sample's stream and the segment (medium/medium.h). A path's value thus
 // depends on its pixel and sample only.
-#include "render/integrator.h"
+#include "common/render/integrator.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "scene/asset_path.h"
+#include "common/scene/asset_path.h"
 
 #include <algorithm>
 #include <cctype>

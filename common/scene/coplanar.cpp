@@ -1,4 +1,4 @@
-#include "scene/coplanar.h"
+#include "common/scene/coplanar.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,8 +6,8 @@
 #include <optional>
 #include <vector>
 
-#include "math/ray_offset.h"
-#include "math/triangle.h"
+#include "common/math/ray_offset.h"
+#include "common/math/triangle.h"
 
 namespace lensfarm {
 

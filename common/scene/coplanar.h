@@ -17,7 +17,7 @@
 // every run).
 #include <cstddef>
 
-#include "scene/scene.h"
+#include "common/scene/scene.h"
 
 namespace lensfarm {
 

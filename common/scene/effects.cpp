@@ -1,4 +1,4 @@
-#include "scene/effects.h"
+#include "common/scene/effects.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,11 +9,12 @@
 #include <set>
 #include <sstream>
 
-#include "film/diffraction_psf.h"
-#include "material/mirror.h"
-#include "medium/medium.h"
-#include "math/triangle.h"
-#include "scene/scene_loader.h"
+#include "common/film/diffraction_psf.h"
+#include "common/scene/scene_diffraction.h"
+#include "common/material/mirror.h"
+#include "common/medium/medium.h"
+#include "common/math/triangle.h"
+#include "common/scene/scene_loader.h"
 
 namespace lensfarm {
 
@@ -559,8 +560,8 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
   else if (rs.lightTracing == LightTracingMode::kAuto && !e.mirrorCaustics)
     ltWhy = "no mirror through which a diffuse surface sees a light";
   else if (rs.lightTracing == LightTracingMode::kAuto)
-    // Measured on cornell-seed (docs/performance.md, "The seed's caustic"): with binary weights
-    // the light paths cost more time than the variance they remove, so auto leaves it off.
+    // Measured on cornell-seed (docs/performance.md, "Light tracing for the 2013 report's caustic"): with binary
+    // weights the light paths cost more time than the variance they remove, so auto leaves it off.
     ltWhy = "mirror caustics, but light tracing with binary weights does not pay at equal time "
             "(docs/performance.md); render.light_tracing \"on\" forces it";
   e.lightTracing = ltWhy.empty();

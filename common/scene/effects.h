@@ -25,9 +25,9 @@
 #include <string>
 #include <vector>
 
-#include "camera/real_lens_camera.h"
-#include "camera/thin_lens_camera.h"
-#include "scene/scene.h"
+#include "common/camera/real_lens_camera.h"
+#include "common/camera/thin_lens_camera.h"
+#include "common/scene/scene.h"
 
 namespace lensfarm {
 

@@ -1,9 +1,9 @@
-#include "scene/frame_range.h"
+#include "common/scene/frame_range.h"
 
 #include <charconv>
 #include <cstdlib>
 
-#include "util/error.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "scene/gltf_import.h"
+#include "common/scene/gltf_import.h"
 
 #include <tiny_gltf.h>
 
@@ -19,11 +19,11 @@
 #include <tuple>
 #include <utility>
 
-#include "light/light_source.h"
-#include "scene/asset_path.h"
-#include "medium/medium.h"
-#include "texture/image_decode.h"
-#include "util/error.h"
+#include "common/light/light_source.h"
+#include "common/scene/asset_path.h"
+#include "common/medium/medium.h"
+#include "common/texture/image_decode.h"
+#include "common/util/error.h"
 
 // How the importer uses tinygltf (libtinygltf-dev 2.7.0):
 //  - The document is parsed and checked here first (nesting depth, asset.version,

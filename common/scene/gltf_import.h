@@ -7,7 +7,7 @@
 //   "model.glb: meshes[3].primitives[0]: accessor 12 reads past the end of buffer 2".
 #include <string>
 
-#include "scene/imported_model.h"
+#include "common/scene/imported_model.h"
 
 namespace lensfarm {
 

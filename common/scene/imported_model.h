@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "material/material.h"
-#include "scene/scene.h"
+#include "common/material/material.h"
+#include "common/scene/scene.h"
 
 namespace lensfarm {
 

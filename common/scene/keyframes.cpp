@@ -1,11 +1,11 @@
-#include "scene/keyframes.h"
+#include "common/scene/keyframes.h"
 
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <vector>
 
-#include "util/error.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

@@ -1,7 +1,7 @@
 // JSON lens prescriptions (lens_prescription.h).
-#include "scene/lens_prescription.h"
+#include "common/scene/lens_prescription.h"
 
-#include "scene/field_reader.h"
+#include "common/util/field_reader.h"
 
 namespace lensfarm {
 

@@ -15,7 +15,7 @@
 #include <optional>
 #include <string>
 
-#include "camera/lens_system.h"
+#include "common/camera/lens_system.h"
 
 namespace lensfarm {
 

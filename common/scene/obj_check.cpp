@@ -1,4 +1,4 @@
-#include "scene/obj_check.h"
+#include "common/scene/obj_check.h"
 
 #include <array>
 #include <charconv>

@@ -1,4 +1,4 @@
-#include "scene/obj_import.h"
+#include "common/scene/obj_import.h"
 
 #include <sys/mman.h>
 #include <tiny_obj_loader.h>
@@ -15,9 +15,9 @@
 #include <string_view>
 #include <type_traits>
 
-#include "scene/obj_check.h"
-#include "texture/image_decode.h"
-#include "util/error.h"
+#include "common/scene/obj_check.h"
+#include "common/texture/image_decode.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

@@ -14,7 +14,7 @@
 #include <cstdint>
 #include <string>
 
-#include "scene/imported_model.h"
+#include "common/scene/imported_model.h"
 
 namespace lensfarm {
 

@@ -11,12 +11,13 @@
 #include <utility>
 #include <vector>
 
-#include "camera/real_lens_camera.h"
-#include "camera/thin_lens_camera.h"
-#include "film/aov_layout.h"
-#include "light/light_source.h"
-#include "material/material.h"
-#include "math/vec.h"
+#include "common/camera/real_lens_camera.h"
+#include "common/camera/thin_lens_camera.h"
+#include "common/film/aov_layout.h"
+#include "common/film/exposure.h"
+#include "common/light/light_source.h"
+#include "common/material/material.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 
@@ -45,7 +46,7 @@ struct TriangleMesh {
   std::vector<Vec3> normals;
   std::vector<Vec2> uv[2];
   std::vector<glm::vec4> tangents;
-  bool visibleToCamera = true;        // false: camera rays pass through (seed §4.4's light)
+  bool visibleToCamera = true;        // false: camera rays pass through (the 2013 report's light, §4.4)
   size_t triangleCount() const { return materialIds.size(); }
   // A vertex attribute (normals, uv[k], tangents) at barycentrics (b1, b2) of triangle `tri`:
   // (1 - b1 - b2) a0 + b1 a1 + b2 a2, the weights of the hit point (render/ray_caster.h).
@@ -80,7 +81,7 @@ struct MeshInstance {
 };
 
 enum class IntegratorKind {
-  kNaive,   // the seed's estimator: a path counts only when a scattered ray hits a light (§4.7)
+  kNaive,   // the 2013 report's estimator: a path counts only when a scattered ray hits a light (§4.7)
   kNee,     // next-event estimation: one shadow ray per diffuse vertex, scattered hits ignored
   kNeeMis,  // next-event estimation and scattered hits, combined by MIS (power heuristic)
 };
@@ -88,23 +89,9 @@ enum class IntegratorKind {
 // How sample values are drawn (render/sampler.h).
 enum class SamplerKind { kIndependent, kStratified, kSobol };
 
-enum class ToneMap { kClamp, kReinhard };
-
 // Light tracing beside the path tracer (render/light_tracer.h): kAuto lets the effect analysis
 // decide (scene/effects.h), kOn and kOff force it where the camera and layout allow it.
 enum class LightTracingMode { kAuto, kOn, kOff };
-
-// How the automatic exposure meters an image (film/exposure.h): kLit maps the mean luminance of
-// the pixels that see something to 1, so a black background does not blow out what stands in
-// front of it; kMean maps the mean luminance of every pixel to 1 (the seed's, §4.7.4); kFixed
-// applies no automatic scale (the EV alone: the same exposure on every frame of an animation).
-enum class ExposureMeter { kLit, kMean, kFixed };
-
-struct ExposureSettings {
-  double ev = 0.0;  // compensation applied after the automatic exposure, in stops
-  ToneMap toneMap = ToneMap::kReinhard;
-  ExposureMeter meter = ExposureMeter::kLit;
-};
 
 // Diffraction by the aperture (docs/scene-format.md, camera.diffraction; film/diffraction_psf.h): a
 // point-spread function applied to the developed image, never to the sensor's sums.
@@ -141,13 +128,13 @@ struct AdaptiveSettings {
 struct RenderSettings {
   int width = 0, height = 0;
   uint64_t samplesPerPixel = 0;
-  int maxBounces = 2;                 // B (seed §4.5)
+  int maxBounces = 2;                 // B (2013 report §4.5)
   // Scattering events in participating media a path may make besides its B surface bounces
   // (render/volume_integrator.h): a random walk through milk or marble takes many.
   int maxMediumBounces = 256;
   uint64_t seed = 0;
   IntegratorKind integrator = IntegratorKind::kNeeMis;
-  bool mirrorBouncesCount = false;    // seed §4.5: mirror reflections do not count toward B
+  bool mirrorBouncesCount = false;    // 2013 report §4.5: mirror reflections do not count toward B
   uint32_t samplesPerUnit = 0;        // samples per pixel in one unit of work; 0 = automatic
   SamplerKind sampler = SamplerKind::kSobol;
   // Russian roulette (render/integrator.cpp, survivesRoulette): unbiased early termination of dim

@@ -1,5 +1,5 @@
-#include "util/file_contents.h"
-#include "scene/scene_loader.h"
+#include "common/util/file_contents.h"
+#include "common/scene/scene_loader.h"
 
 #include <tbb/parallel_invoke.h>
 #include <tiny_obj_loader.h>
@@ -17,23 +17,24 @@
 #include <set>
 #include <sstream>
 
-#include "camera/aperture_image.h"
-#include "light/environment_light.h"
-#include "light/light_types.h"
-#include "math/triangle.h"
-#include "medium/medium.h"
-#include "scene/coplanar.h"
-#include "scene/field_reader.h"
-#include "scene/gltf_import.h"
-#include "scene/imported_model.h"
-#include "scene/asset_path.h"
-#include "scene/keyframes.h"
-#include "scene/lens_prescription.h"
-#include "scene/obj_check.h"
-#include "scene/obj_import.h"
-#include "scene/transform.h"
-#include "util/error.h"
-#include "util/hash.h"
+#include "common/camera/aperture_image.h"
+#include "common/light/environment_light.h"
+#include "common/light/light_types.h"
+#include "common/math/triangle.h"
+#include "common/medium/medium.h"
+#include "common/scene/coplanar.h"
+#include "common/util/field_reader.h"
+#include "common/scene/gltf_import.h"
+#include "common/scene/imported_model.h"
+#include "common/scene/asset_path.h"
+#include "common/scene/keyframes.h"
+#include "common/scene/lens_prescription.h"
+#include "common/scene/obj_check.h"
+#include "common/scene/obj_import.h"
+#include "common/scene/tile_size.h"
+#include "common/scene/transform.h"
+#include "common/util/error.h"
+#include "common/util/hash.h"
 
 namespace lensfarm {
 
@@ -161,15 +162,9 @@ class SceneParser {
     s.samplesPerUnit = uint32_t(r.integer("samples_per_unit", 0, 0, 1u << 20));
     if (r.has("tile_size")) {
       const json& t = r.raw("tile_size");
-      if (t.is_string() && t == "auto")
-        s.tileSize = RenderSettings::kTilesAuto;
-      else if (t.is_string() && t == "off")
-        s.tileSize = RenderSettings::kTilesOff;
-      else if (t.is_number_unsigned() && t.get<uint64_t>() >= 1 && t.get<uint64_t>() <= uint64_t(kMaxResolution))
-        s.tileSize = int(t.get<uint64_t>());
-      else
-        r.fail("render.tile_size", "must be \"auto\", \"off\" or a tile edge in pixels in [1, " +
-                                       std::to_string(kMaxResolution) + "], got " + t.dump());
+      const std::optional<int> code = tileSizeFromJson(t);
+      if (!code) r.fail("render.tile_size", "must be " + tileSizeForms() + ", got " + t.dump());
+      s.tileSize = *code;
     }
     if (r.has("adaptive")) {
       const json& a = r.raw("adaptive");

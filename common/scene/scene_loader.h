@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "scene/scene.h"
+#include "common/scene/scene.h"
 
 namespace lensfarm {
 

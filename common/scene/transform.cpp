@@ -1,4 +1,4 @@
-#include "scene/transform.h"
+#include "common/scene/transform.h"
 
 #include <glm/gtc/matrix_transform.hpp>
 

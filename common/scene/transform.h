@@ -6,8 +6,8 @@
 
 #include <glm/gtc/quaternion.hpp>
 
-#include "math/vec.h"
-#include "scene/field_reader.h"
+#include "common/math/vec.h"
+#include "common/util/field_reader.h"
 
 namespace lensfarm {
 

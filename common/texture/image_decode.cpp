@@ -1,4 +1,4 @@
-#include "texture/image_decode.h"
+#include "common/texture/image_decode.h"
 
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
@@ -17,8 +17,8 @@
 #include <string_view>
 #include <vector>
 
-#include "render/memory_estimate.h"
-#include "util/error.h"
+#include "common/util/byte_size.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 
@@ -73,7 +73,7 @@ void checkSize(int64_t width, int64_t height, Format f, const std::string& name)
                                std::to_string(kMaxTextureSide));
   // What it becomes in memory (float RGBA, and its mip levels, a third more: texture/texture.h)
   // must fit in one job's memory, or decoding it could take the machine down before any
-  // estimate refuses the job (render/memory_estimate.h).
+  // estimate refuses the job (farm/memory_estimate.h).
   const uint64_t decoded = uint64_t(width) * uint64_t(height) * 4 * sizeof(float) * 4 / 3;
   const uint64_t budget = defaultJobMemoryBudget();
   if (decoded > budget)

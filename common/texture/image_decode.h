@@ -12,7 +12,7 @@
 //   "model.glb: images[3]: not a PNG, JPEG, HDR or EXR image (starts with 47 49 46 38)".
 #include <string>
 
-#include "texture/texture.h"
+#include "common/texture/texture.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "texture/texture.h"
+#include "common/texture/texture.h"
 
 #include <algorithm>
 #include <cmath>

@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "math/vec.h"
+#include "common/math/vec.h"
 
 namespace lensfarm {
 

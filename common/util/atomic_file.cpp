@@ -1,11 +1,11 @@
-#include "util/atomic_file.h"
+#include "common/util/atomic_file.h"
 
 #include <fcntl.h>
 #include <unistd.h>
 
 #include <cstring>
 
-#include "util/error.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

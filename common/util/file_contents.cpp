@@ -1,9 +1,9 @@
-#include "util/file_contents.h"
+#include "common/util/file_contents.h"
 
 #include <fstream>
 #include <sstream>
 
-#include "util/error.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

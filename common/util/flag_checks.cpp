@@ -1,5 +1,5 @@
 // Checks of command-line flag values (flag_checks.h).
-#include "util/flag_checks.h"
+#include "common/util/flag_checks.h"
 
 #include <fmt/format.h>
 

@@ -1,4 +1,4 @@
-#include "util/hash.h"
+#include "common/util/hash.h"
 
 #include <openssl/evp.h>
 

@@ -1,4 +1,4 @@
-#include "util/listen_check.h"
+#include "common/util/listen_check.h"
 
 #include <netdb.h>
 #include <sys/socket.h>

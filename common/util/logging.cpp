@@ -1,4 +1,4 @@
-#include "util/logging.h"
+#include "common/util/logging.h"
 
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>

@@ -1,5 +1,5 @@
-#include "util/file_contents.h"
-#include "util/secret.h"
+#include "common/util/file_contents.h"
+#include "common/util/secret.h"
 
 #include <algorithm>
 #include <cctype>
@@ -7,7 +7,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "util/error.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "util/service_flags.h"
+#include "common/util/service_flags.h"
 
 #include <CLI/CLI.hpp>
 #include <iostream>

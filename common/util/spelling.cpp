@@ -1,4 +1,4 @@
-#include "util/spelling.h"
+#include "common/util/spelling.h"
 
 #include <algorithm>
 #include <cctype>

@@ -1,5 +1,6 @@
-// The house rules of design.md, checked on the sources: common/ knows nothing of the network or
-// of the services; coordinator/ and worker/ never include each other.
+// The house rules, checked on the sources (docs/architecture.md): every include names its path
+// from the repository root; common/'s folders include only the layers below them; common/ knows
+// nothing of the network or of the services; coordinator/ and worker/ never include each other.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -7,7 +8,7 @@
 #include <regex>
 #include <set>
 
-#include "test_support.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -30,38 +31,87 @@ std::vector<std::pair<std::string, std::string>> includesIn(const std::string& f
   return out;
 }
 
-std::set<std::string> headersOf(const std::string& folder) {
-  std::set<std::string> names;
-  for (const auto& entry : fs::directory_iterator(test::sourceDir() / folder))
-    if (entry.path().extension() == ".h") names.insert(entry.path().filename().string());
-  return names;
+// The layers of common/, lowest first (common/CMakeLists.txt builds each into its own library):
+// a folder includes only folders before it. Folders on one rung may not include each other.
+const std::vector<std::vector<std::string>> kLayers = {
+    {"math"}, {"util"}, {"texture"}, {"camera", "medium"}, {"film", "material"}, {"light"}, {"scene"}, {"render"}, {"farm"}};
+
+int rungOf(const std::string& folder) {
+  for (size_t i = 0; i < kLayers.size(); ++i)
+    for (const std::string& f : kLayers[i])
+      if (f == folder) return int(i);
+  return -1;
+}
+
+// "common/render/integrator.h" -> "render"; "" for anything outside common/.
+std::string commonFolderOf(const std::string& path) {
+  const std::string prefix = "common/";
+  if (path.rfind(prefix, 0) != 0) return "";
+  const size_t slash = path.find('/', prefix.size());
+  return slash == std::string::npos ? "" : path.substr(prefix.size(), slash - prefix.size());
+}
+
+// The quoted includes of every source in the tree, each rooted at the repository.
+TEST(IncludeRules, EveryIncludeNamesItsPathFromTheRoot) {
+  size_t count = 0;
+  for (const char* root : {"common", "coordinator", "worker", "client", "proto", "tests", "bench"}) {
+    for (const auto& [file, header] : includesIn(root)) {
+      if (fs::exists(test::sourceDir() / header)) {
+        ++count;
+      } else if (fs::exists(fs::path(file).parent_path() / header)) {
+        ADD_FAILURE() << file << " includes \"" << header << "\" by its path from its own folder, not from the root";
+      }  // else a library's header, or a generated one (lensfarm/v1/*.pb.h)
+    }
+  }
+  EXPECT_GT(count, 1000u) << "the scan found the project's includes";
+}
+
+TEST(IncludeRules, CommonIncludesOnlyTheLayersBelow) {
+  for (const auto& layer : kLayers) {
+    for (const std::string& folder : layer) {
+      ASSERT_TRUE(fs::is_directory(test::sourceDir() / "common" / folder)) << folder;
+    }
+  }
+  for (const auto& entry : fs::directory_iterator(test::sourceDir() / "common")) {
+    if (!entry.is_directory()) continue;
+    EXPECT_GE(rungOf(entry.path().filename().string()), 0) << entry.path() << " has no layer";
+  }
+  size_t checked = 0;
+  for (const auto& [file, header] : includesIn("common")) {
+    const std::string from = commonFolderOf(fs::relative(file, test::sourceDir()).generic_string());
+    const std::string to = commonFolderOf(header);
+    if (to.empty() || to == from) continue;
+    ++checked;
+    EXPECT_LT(rungOf(to), rungOf(from)) << file << " includes " << header << ": common/" << from
+                                        << " may include only the layers below it (math < util < texture < camera, "
+                                           "medium < film, material < light < scene < render < farm)";
+  }
+  EXPECT_GT(checked, 100u);
 }
 
 TEST(IncludeRules, CommonHasNoNetworkAndNoServiceCode) {
   const auto includes = includesIn("common");
   ASSERT_GT(includes.size(), 50u) << "the scan found the sources";
-  const std::set<std::string> services = [] {
-    std::set<std::string> s = headersOf("coordinator");
-    for (const auto& h : headersOf("worker")) s.insert(h);
-    for (const auto& h : headersOf("client")) s.insert(h);
-    return s;
-  }();
   for (const auto& [file, header] : includes) {
     EXPECT_EQ(header.find("grpc"), std::string::npos) << file << " includes " << header;
     EXPECT_EQ(header.find(".pb.h"), std::string::npos) << file << " includes " << header;
     EXPECT_EQ(header.find("google/protobuf"), std::string::npos) << file << " includes " << header;
-    EXPECT_FALSE(services.count(fs::path(header).filename().string())) << file << " includes " << header;
+    for (const char* service : {"coordinator/", "worker/", "client/", "proto/"})
+      EXPECT_NE(header.rfind(service, 0), 0u) << file << " includes " << header;
   }
 }
 
 TEST(IncludeRules, CoordinatorAndWorkerMeetOnlyInProtoAndCommon) {
-  const std::set<std::string> workerHeaders = headersOf("worker"), coordinatorHeaders = headersOf("coordinator");
-  ASSERT_TRUE(workerHeaders.count("worker_loop.h"));
-  ASSERT_TRUE(coordinatorHeaders.count("coordinator.h"));
-  for (const auto& [file, header] : includesIn("coordinator"))
-    EXPECT_FALSE(workerHeaders.count(header)) << file << " includes the worker's " << header;
-  for (const auto& [file, header] : includesIn("worker"))
-    EXPECT_FALSE(coordinatorHeaders.count(header)) << file << " includes the coordinator's " << header;
+  size_t checked = 0;
+  for (const auto& [file, header] : includesIn("coordinator")) {
+    EXPECT_NE(header.rfind("worker/", 0), 0u) << file << " includes the worker's " << header;
+    ++checked;
+  }
+  for (const auto& [file, header] : includesIn("worker")) {
+    EXPECT_NE(header.rfind("coordinator/", 0), 0u) << file << " includes the coordinator's " << header;
+    ++checked;
+  }
+  EXPECT_GT(checked, 50u);
 }
 
 }  // namespace

@@ -1,8 +1,8 @@
 // The thin lens's aperture (camera/aperture.h): its samplers against geometry derived here
 // independently (the curved blades' boundary as a ray meeting the arc's circle, their area as the
-// polygon plus circular segments), the seed's straight-blade bits, the image sampler's histogram,
+// polygon plus circular segments), the original straight-blade sampler's bits, the image sampler's histogram,
 // the rasterised transmission, and the scene fields that ask for it.
-#include "camera/aperture.h"
+#include "common/camera/aperture.h"
 
 #include <gtest/gtest.h>
 
@@ -10,11 +10,11 @@
 #include <fstream>
 #include <vector>
 
-#include "film/image_io.h"
-#include "scene/scene_loader.h"
-#include "support/chi2.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/film/image_io.h"
+#include "common/scene/scene_loader.h"
+#include "tests/support/chi2.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {
@@ -144,7 +144,7 @@ TEST(Aperture, CurvatureOneIsTheCircle) {
   }
 }
 
-// The straight blades' sampler gives the seed's bits: lens points the seed's sampleAperture
+// The straight blades' sampler gives the original bits: lens points the original sampleAperture
 // (thin_lens_camera.h before the aperture had a file of its own) gave for rotation 15 degrees,
 // recorded as exact hexadecimal floats.
 TEST(Aperture, StraightBladesKeepTheSeedsBits) {

@@ -16,10 +16,10 @@
 #include <functional>
 #include <vector>
 
-#include "camera/aperture.h"
-#include "film/image_io.h"
-#include "scene/scene_loader.h"
-#include "test_support.h"
+#include "common/camera/aperture.h"
+#include "common/film/image_io.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -244,7 +244,7 @@ TEST(Bokeh, AnApertureImageGivesItsShapeAndItsShareOfTheLight) {
   EXPECT_NEAR(bh.total / bo.total, areaHalf / areaOpen, 4.0 * noiseHalf * areaHalf / areaOpen);
 }
 
-// The bladed iris keeps the seed's exposure (camera/aperture.h): straight or curved blades let
+// The bladed iris keeps the 2013 report's exposure (camera/aperture.h): straight or curved blades let
 // through the same light as the round aperture at the same N; only the shape of the blur changes.
 TEST(Bokeh, AnIrisOfAnyShapeKeepsTheSeedsExposure) {
   test::TempDir dir;

@@ -1,9 +1,9 @@
-// Depth of field: the seed's Table 1 and the textbook formulas' behaviour at the hyperfocal distance.
+// Depth of field: the 2013 report's Table 1 and the textbook formulas' behaviour at the hyperfocal distance.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "camera/depth_of_field.h"
+#include "common/camera/depth_of_field.h"
 
 namespace lensfarm {
 namespace {
@@ -14,7 +14,7 @@ double round3(double x) { return std::round(x * 1000.0) / 1000.0; }
 
 TEST(DepthOfField, ReproducesSeedTable1ToThreeDecimals) {
   struct Row { double n, h, dn, df, depth; };
-  // Seed report, Table 1 (S1 = 2.9, f = 0.095, L = 0.1, c = sqrt(2) L / 1500).
+  // 2013 report, Table 1 (S1 = 2.9, f = 0.095, L = 0.1, c = sqrt(2) L / 1500).
   const Row table[] = {{2, 47.957, 2.740, 3.093, 0.353},
                        {4, 24.026, 2.597, 3.313, 0.716},
                        {8, 12.061, 2.353, 3.858, 1.505},

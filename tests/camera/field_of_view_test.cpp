@@ -10,11 +10,11 @@
 #include <numbers>
 #include <string>
 
-#include "camera/thin_lens_camera.h"
-#include "scene/render_overrides.h"
-#include "scene/scene_loader.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/camera/thin_lens_camera.h"
+#include "common/scene/render_overrides.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -9,8 +9,8 @@
 #include <cmath>
 #include <functional>
 
-#include "camera/lens_system.h"
-#include "util/error.h"
+#include "common/camera/lens_system.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -9,8 +9,8 @@
 
 #include <cmath>
 
-#include "camera/lens_system.h"
-#include "test_support.h"
+#include "common/camera/lens_system.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

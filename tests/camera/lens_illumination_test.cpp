@@ -8,10 +8,10 @@
 
 #include <cmath>
 
-#include "camera/lens_analysis.h"
-#include "camera/real_lens_camera.h"
-#include "scene/scene_loader.h"
-#include "test_support.h"
+#include "common/camera/lens_analysis.h"
+#include "common/camera/real_lens_camera.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

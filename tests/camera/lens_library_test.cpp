@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "camera/lens_system.h"
-#include "test_support.h"
+#include "common/camera/lens_system.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

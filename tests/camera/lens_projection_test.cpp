@@ -10,9 +10,9 @@
 #include <filesystem>
 #include <regex>
 
-#include "camera/lens_analysis.h"
-#include "camera/lens_system.h"
-#include "test_support.h"
+#include "common/camera/lens_analysis.h"
+#include "common/camera/lens_system.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -1,15 +1,15 @@
 // A real lens from its prescription (camera/lens_system.h), checked against values computed
 // independently: the thick-lens lensmaker's equation, a 2x2 ray-transfer-matrix product written
 // here, Newton's imaging equation, and the exact trace's paraxial limit.
-#include "camera/lens_system.h"
+#include "common/camera/lens_system.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "camera/paraxial_reference.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "tests/camera/paraxial_reference.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

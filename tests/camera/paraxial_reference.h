@@ -2,7 +2,7 @@
 // An independent first-order reference for lens tests: the 2x2 ray-transfer matrix (height,
 // reduced angle n u) of a prescription, multiplied out surface by surface (Hecht, Optics, §6.2),
 // without LensSystem::paraxial. EFL = -1/C, BFL = -A/C, FFL = -D/C for a lens in air.
-#include "camera/lens_system.h"
+#include "common/camera/lens_system.h"
 
 namespace lensfarm::test {
 

@@ -1,18 +1,18 @@
 // A camera with a real lens (camera/real_lens_camera.h): the focus, the irradiance weights and
 // the pupil sampling, checked by tracing its rays; the scene field that asks for it; and a render
 // through it that does not depend on the thread count.
-#include "camera/real_lens_camera.h"
+#include "common/camera/real_lens_camera.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <regex>
 
-#include "render/render_scene.h"
-#include "render/unit_renderer.h"
-#include "scene/scene_loader.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/render/render_scene.h"
+#include "common/render/unit_renderer.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -1,4 +1,4 @@
-// The thin-lens optics of seed §4.1-§4.6: focusing, the pinhole limit, the image flip, refusals.
+// The thin-lens optics of 2013 report §4.1-§4.6: focusing, the pinhole limit, the image flip, refusals.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,8 +9,8 @@
 #include <limits>
 #include <random>
 
-#include "camera/thin_lens_camera.h"
-#include "util/error.h"
+#include "common/camera/thin_lens_camera.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {
@@ -29,8 +29,8 @@ ThinLensParams seedParams() {
 
 TEST(ThinLensCamera, ImageDistanceFollowsTheThinLensEquation) {
   const ThinLensCamera camera(seedParams(), 100, 100);
-  EXPECT_NEAR(1.0 / 2.9 + 1.0 / camera.imageDistance(), 1.0 / 0.095, 1e-9);  // seed eq. 6
-  EXPECT_NEAR(camera.lensRadius(), 0.095 / 4.0, 1e-12);                    // seed eq. 7: 2R = f/N
+  EXPECT_NEAR(1.0 / 2.9 + 1.0 / camera.imageDistance(), 1.0 / 0.095, 1e-9);  // 2013 report eq. 6
+  EXPECT_NEAR(camera.lensRadius(), 0.095 / 4.0, 1e-12);                    // 2013 report eq. 7: 2R = f/N
 }
 
 TEST(ThinLensCamera, RaysFromOneSensorPointMeetAtOnePointOfTheFocalPlane) {

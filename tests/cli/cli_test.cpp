@@ -1,6 +1,6 @@
 // The real `lensfarm` binary, run as a child process: bad input exits 2 with one line on stderr
-// and writes nothing; a good render writes its images and statistics; `dof` prints the seed's
-// Table 1; Ctrl-C writes the image so far and exits 130.
+// and writes nothing; a good render writes its images and statistics; `dof` prints the 2013
+// report's Table 1; Ctrl-C writes the image so far and exits 130.
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -17,9 +17,9 @@
 #include <string>
 #include <vector>
 
-#include "film/image_io.h"
-#include "scene/scene_loader.h"
-#include "test_support.h"
+#include "common/film/image_io.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -210,18 +210,18 @@ TEST(CliRender, TinyRenderWritesBothImagesAndStatistics) {
   EXPECT_TRUE(hiddenEntries(out.path()).empty()) << joined(hiddenEntries(out.path()));
 }
 
-// ---- dof: the seed's Table 1 ----------------------------------------------------------------
+// ---- dof: the 2013 report's Table 1 ---------------------------------------------------------
 
 TEST(CliDof, SeedSceneReproducesTable1AndTextbookFarLimitIsSane) {
   const auto r = test::runProcess({cli(), "dof", (test::scenesDir() / "cornell-seed.json").string()}, 30.0);
   ASSERT_FALSE(r.timedOut);
   ASSERT_EQ(r.exitCode, 0) << r.err;
 
-  // Rows by section ("seed" / "textbook") and N: N H DN DF DF-DN.
+  // Rows by section ("seed": the 2013 report's formulas / "textbook") and N: N H DN DF DF-DN.
   std::map<std::string, std::map<std::string, std::vector<std::string>>> rows;
   std::string section;
   for (const auto& line : lines(r.out)) {
-    if (line.rfind("seed report", 0) == 0) section = "seed";
+    if (line.rfind("2013 report", 0) == 0) section = "seed";
     else if (line.rfind("textbook", 0) == 0) section = "textbook";
     const auto t = tokens(line);
     if (section.empty() || t.size() != 5 || t[0] == "N") continue;

@@ -6,8 +6,8 @@
 #include <cmath>
 #include <limits>
 
-#include "film/image_io.h"
-#include "test_support.h"
+#include "common/film/image_io.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -7,8 +7,8 @@
 #include <algorithm>
 #include <random>
 
-#include "film/image_io.h"
-#include "test_support.h"
+#include "common/film/image_io.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

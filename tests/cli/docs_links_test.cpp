@@ -10,7 +10,7 @@
 #include <sstream>
 #include <string>
 
-#include "test_support.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

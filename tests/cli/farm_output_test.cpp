@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "coordinator/audit_views.h"
+#include "tests/coordinator/audit_views.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
-#include "service.h"
-#include "test_support.h"
+#include "coordinator/service.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "test_support.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -274,7 +274,7 @@ TEST(CliProgress, StatusOfAJobWithoutSppNeverShowsTheInternalCap) {
 // ---- Ctrl-C before the first unit ----------------------------------------------------------
 
 // A render that leaves out what the scene asks for says so before the first ray (not only in the
-// summary at the end): the seed's f/16 lens at a preview size is traced as a pinhole.
+// summary at the end): the 2013 report's f/16 lens at a preview size is traced as a pinhole.
 TEST(CliEffects, DepthOfFieldLeftOutAtAPreviewSizeIsAWarningBeforeTheRender) {
   test::TempDir dir;
   const std::string scene = (test::scenesDir() / "cornell-seed.json").string();

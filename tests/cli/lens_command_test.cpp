@@ -5,9 +5,9 @@
 
 #include <regex>
 
-#include "camera/paraxial_reference.h"
-#include "exit_codes.h"
-#include "test_support.h"
+#include "tests/camera/paraxial_reference.h"
+#include "client/exit_codes.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "support/gltf_builder.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "tests/support/gltf_builder.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -4,9 +4,9 @@
 
 #include <algorithm>
 
-#include "slurm_array.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "client/slurm_array.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm::cli {
 namespace {

@@ -5,9 +5,9 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 
-#include "film/error_metrics.h"
-#include "film/image_io.h"
-#include "test_support.h"
+#include "common/film/error_metrics.h"
+#include "common/film/image_io.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

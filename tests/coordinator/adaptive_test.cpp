@@ -9,15 +9,15 @@
 #include <filesystem>
 #include <tbb/task_arena.h>
 
-#include "coordinator.h"
-#include "coordinator_fixtures.h"
-#include "farm/job_layout.h"
-#include "render/render_scene.h"
-#include "render/unit_renderer.h"
-#include "scene/render_overrides.h"
-#include "scene/scene_loader.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "coordinator/coordinator.h"
+#include "tests/coordinator/coordinator_fixtures.h"
+#include "common/farm/job_layout.h"
+#include "common/render/render_scene.h"
+#include "common/render/unit_renderer.h"
+#include "common/scene/render_overrides.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

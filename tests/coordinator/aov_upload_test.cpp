@@ -4,9 +4,9 @@
 // layers. No network: the plain Coordinator class.
 #include <gtest/gtest.h>
 
-#include "coordinator.h"
-#include "coordinator_fixtures.h"
-#include "test_support.h"
+#include "coordinator/coordinator.h"
+#include "tests/coordinator/coordinator_fixtures.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -3,12 +3,12 @@
 // malformed queries by index, and the count of assets sent to workers.
 #include <gtest/gtest.h>
 
-#include "coordinator.h"
-#include "deploy_support.h"
-#include "metrics.h"
-#include "test_support.h"
-#include "util/error.h"
-#include "util/hash.h"
+#include "coordinator/coordinator.h"
+#include "tests/deploy_support.h"
+#include "coordinator/metrics.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
+#include "common/util/hash.h"
 
 namespace lensfarm {
 namespace {

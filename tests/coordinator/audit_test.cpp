@@ -8,12 +8,12 @@
 #include <set>
 #include <thread>
 
-#include "accumulator.h"
-#include "audit.h"
-#include "coordinator.h"
-#include "coordinator_fixtures.h"
-#include "job_units.h"
-#include "test_support.h"
+#include "coordinator/accumulator.h"
+#include "coordinator/audit.h"
+#include "coordinator/coordinator.h"
+#include "tests/coordinator/coordinator_fixtures.h"
+#include "coordinator/job_units.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -5,8 +5,8 @@
 // copied into the wrong one shows.
 #include <vector>
 
-#include "coordinator.h"
-#include "util/version.h"
+#include "coordinator/coordinator.h"
+#include "common/util/version.h"
 
 namespace lensfarm::test {
 

@@ -7,9 +7,9 @@
 #include <functional>
 #include <string>
 
-#include "coordinator.h"
-#include "util/error.h"
-#include "util/version.h"
+#include "coordinator/coordinator.h"
+#include "common/util/error.h"
+#include "common/util/version.h"
 
 namespace lensfarm::test {
 

@@ -8,11 +8,11 @@
 #include <limits>
 #include <thread>
 
-#include "coordinator.h"
-#include "coordinator_fixtures.h"
-#include "test_support.h"
-#include "util/error.h"
-#include "util/version.h"
+#include "coordinator/coordinator.h"
+#include "tests/coordinator/coordinator_fixtures.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
+#include "common/util/version.h"
 
 namespace lensfarm {
 namespace {

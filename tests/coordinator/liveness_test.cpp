@@ -5,14 +5,14 @@
 // dashboard's progress toward a target error or a deadline when the job has no sample cap.
 #include <gtest/gtest.h>
 
-#include "coordinator.h"
-#include "coordinator_fixtures.h"
-#include "dashboard.h"
-#include "metrics.h"
-#include "scene/scene_loader.h"
-#include "test_support.h"
-#include "util/error.h"
-#include "util/version.h"
+#include "coordinator/coordinator.h"
+#include "tests/coordinator/coordinator_fixtures.h"
+#include "coordinator/dashboard.h"
+#include "coordinator/metrics.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
+#include "common/util/version.h"
 
 namespace lensfarm {
 namespace {

@@ -6,15 +6,15 @@
 #include <new>
 #include <thread>
 
-#include "audit.h"
-#include "coordinator.h"
-#include "farm/job_layout.h"
-#include "coordinator_fixtures.h"
-#include "support/forwarding_link.h"
-#include "render/memory_estimate.h"
-#include "test_support.h"
-#include "util/version.h"
-#include "worker_loop.h"
+#include "coordinator/audit.h"
+#include "coordinator/coordinator.h"
+#include "common/farm/job_layout.h"
+#include "tests/coordinator/coordinator_fixtures.h"
+#include "tests/support/forwarding_link.h"
+#include "common/farm/memory_estimate.h"
+#include "tests/test_support.h"
+#include "common/util/version.h"
+#include "worker/worker_loop.h"
 
 namespace lensfarm {
 namespace {

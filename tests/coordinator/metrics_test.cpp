@@ -3,11 +3,11 @@
 #include <gtest/gtest-spi.h>
 #include <gtest/gtest.h>
 
-#include "audit_views.h"
-#include "coordinator.h"
-#include "deploy_support.h"
-#include "metrics.h"
-#include "util/version.h"
+#include "tests/coordinator/audit_views.h"
+#include "coordinator/coordinator.h"
+#include "tests/deploy_support.h"
+#include "coordinator/metrics.h"
+#include "common/util/version.h"
 
 namespace lensfarm {
 namespace {

@@ -5,9 +5,9 @@
 
 #include <random>
 
-#include "coordinator.h"
-#include "test_support.h"
-#include "util/version.h"
+#include "coordinator/coordinator.h"
+#include "tests/test_support.h"
+#include "common/util/version.h"
 
 namespace lensfarm {
 namespace {

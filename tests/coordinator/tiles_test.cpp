@@ -8,17 +8,17 @@
 #include <filesystem>
 #include <tbb/task_arena.h>
 
-#include "coordinator.h"
-#include "coordinator_fixtures.h"
-#include "farm/job_layout.h"
-#include "film/sensor.h"
-#include "render/memory_estimate.h"
-#include "render/render_scene.h"
-#include "render/unit_renderer.h"
-#include "scene/render_overrides.h"
-#include "scene/scene_loader.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "coordinator/coordinator.h"
+#include "tests/coordinator/coordinator_fixtures.h"
+#include "common/farm/job_layout.h"
+#include "common/film/sensor.h"
+#include "common/farm/memory_estimate.h"
+#include "common/render/render_scene.h"
+#include "common/render/unit_renderer.h"
+#include "common/scene/render_overrides.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

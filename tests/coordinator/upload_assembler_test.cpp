@@ -5,8 +5,8 @@
 #include <functional>
 #include <string>
 
-#include "farm/sums_codec.h"
-#include "upload_assembler.h"
+#include "common/farm/sums_codec.h"
+#include "coordinator/upload_assembler.h"
 
 namespace lensfarm {
 namespace {

@@ -12,7 +12,7 @@
 #include <regex>
 #include <sstream>
 
-#include "deploy_support.h"
+#include "tests/deploy_support.h"
 
 namespace lensfarm {
 namespace {

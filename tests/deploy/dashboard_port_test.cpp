@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
-#include "deploy_support.h"
+#include "tests/deploy_support.h"
 
 namespace lensfarm {
 namespace {

@@ -14,7 +14,7 @@
 #include <set>
 #include <sstream>
 
-#include "test_support.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

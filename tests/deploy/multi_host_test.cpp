@@ -13,8 +13,8 @@
 #include <regex>
 #include <sstream>
 
-#include "deploy_support.h"
-#include "film/image_io.h"
+#include "tests/deploy_support.h"
+#include "common/film/image_io.h"
 
 namespace lensfarm {
 namespace {

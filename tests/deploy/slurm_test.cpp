@@ -14,9 +14,9 @@
 #include <map>
 #include <sstream>
 
-#include "deploy_support.h"
-#include "film/image_io.h"
-#include "support/local_slurm.h"
+#include "tests/deploy_support.h"
+#include "common/film/image_io.h"
+#include "tests/support/local_slurm.h"
 
 namespace lensfarm {
 namespace {

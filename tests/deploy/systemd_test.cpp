@@ -8,9 +8,9 @@
 #include <fstream>
 #include <regex>
 
-#include "deploy_support.h"
-#include "test_support.h"
-#include "util/version.h"
+#include "tests/deploy_support.h"
+#include "tests/test_support.h"
+#include "common/util/version.h"
 
 namespace lensfarm {
 namespace {

@@ -6,7 +6,7 @@
 
 #include <algorithm>
 
-#include "farm/farm_fixture.h"
+#include "tests/farm/farm_fixture.h"
 
 namespace lensfarm {
 namespace {

@@ -14,11 +14,11 @@
 #include <string>
 #include <vector>
 
-#include "deploy_support.h"
-#include "film/image_io.h"
+#include "tests/deploy_support.h"
+#include "common/film/image_io.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
-#include "scene/frame_range.h"
-#include "test_support.h"
+#include "common/scene/frame_range.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -2,7 +2,7 @@
 // layers are `lensfarm render`'s bit for bit, in passes and in tiles, with any number of workers.
 #include <gtest/gtest.h>
 
-#include "farm/farm_fixture.h"
+#include "tests/farm/farm_fixture.h"
 
 namespace lensfarm {
 namespace {

@@ -9,9 +9,9 @@
 #include <fstream>
 #include <regex>
 
-#include "deploy_support.h"
+#include "tests/deploy_support.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
-#include "util/hash.h"
+#include "common/util/hash.h"
 
 namespace lensfarm {
 namespace {

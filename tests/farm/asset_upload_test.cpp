@@ -10,12 +10,12 @@
 #include <fstream>
 #include <optional>
 
-#include "coordinator.h"
-#include "deploy_support.h"
+#include "coordinator/coordinator.h"
+#include "tests/deploy_support.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
-#include "service.h"
-#include "test_support.h"
-#include "util/hash.h"
+#include "coordinator/service.h"
+#include "tests/test_support.h"
+#include "common/util/hash.h"
 
 namespace lensfarm {
 namespace {

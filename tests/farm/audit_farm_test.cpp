@@ -8,10 +8,10 @@
 
 #include <thread>
 
-#include "channel_security.h"
-#include "farm/farm_fixture.h"
-#include "grpc_link.h"
-#include "worker_loop.h"
+#include "proto/channel_security.h"
+#include "tests/farm/farm_fixture.h"
+#include "worker/grpc_link.h"
+#include "worker/worker_loop.h"
 
 namespace lensfarm {
 namespace {

@@ -19,11 +19,11 @@
 #include <thread>
 #include <tuple>
 
-#include "coordinator/audit_views.h"
-#include "dashboard.h"
-#include "deploy_support.h"
-#include "film/image.h"
-#include "film/image_io.h"
+#include "tests/coordinator/audit_views.h"
+#include "coordinator/dashboard.h"
+#include "tests/deploy_support.h"
+#include "common/film/image.h"
+#include "common/film/image_io.h"
 
 namespace lensfarm {
 namespace {

@@ -3,7 +3,7 @@
 // `lensfarm render`'s image bit for bit, and both differ from the same scene without it.
 #include <gtest/gtest.h>
 
-#include "farm/farm_fixture.h"
+#include "tests/farm/farm_fixture.h"
 
 namespace lensfarm {
 namespace {

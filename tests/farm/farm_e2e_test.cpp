@@ -8,10 +8,10 @@
 #include <fstream>
 #include <regex>
 
-#include "farm/farm_fixture.h"
-#include "film/image_io.h"
-#include "test_support.h"
-#include "util/hash.h"
+#include "tests/farm/farm_fixture.h"
+#include "common/film/image_io.h"
+#include "tests/test_support.h"
+#include "common/util/hash.h"
 
 namespace lensfarm {
 namespace {

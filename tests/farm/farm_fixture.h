@@ -13,14 +13,14 @@
 #include <utility>
 #include <vector>
 
-#include "film/image_io.h"
-#include "test_support.h"
+#include "common/film/image_io.h"
+#include "tests/test_support.h"
 
 namespace lensfarm::test {
 
 class FarmFixture : public ::testing::Test {
  protected:
-  // The seed scene, small, with its OBJ beside it in a temp dir (the client uploads it).
+  // cornell-seed (the 2013 report's scene), small, with its OBJ beside it in a temp dir (the client uploads it).
   std::filesystem::path writeScene(int size, uint64_t spp, uint32_t perUnit) {
     nlohmann::json scene = nlohmann::json::parse(std::ifstream(scenesDir() / "cornell-seed.json"));
     scene["render"]["resolution"] = {size, size};

@@ -1,16 +1,16 @@
 // One way for a job to enter (farm/job_scene.h): the scene a spec describes is the same, and is
 // refused in the same words, wherever it is built: by the client (the real `lensfarm` binary),
 // by the coordinator at submit and at restore, and by a worker.
-#include "farm/job_scene.h"
+#include "common/farm/job_scene.h"
 
 #include <gtest/gtest.h>
 
 #include <fstream>
 #include <string>
 
-#include "coordinator.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "coordinator/coordinator.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -6,8 +6,8 @@
 
 #include <filesystem>
 
-#include "farm/farm_fixture.h"
-#include "test_support.h"
+#include "tests/farm/farm_fixture.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -6,8 +6,8 @@
 #include <fstream>
 #include <regex>
 
-#include "render/memory_estimate.h"
-#include "test_support.h"
+#include "common/farm/memory_estimate.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -5,7 +5,7 @@
 
 #include <regex>
 
-#include "deploy_support.h"
+#include "tests/deploy_support.h"
 
 namespace lensfarm {
 namespace {

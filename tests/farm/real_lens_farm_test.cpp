@@ -3,7 +3,7 @@
 // render bit for bit.
 #include <gtest/gtest.h>
 
-#include "farm/farm_fixture.h"
+#include "tests/farm/farm_fixture.h"
 
 namespace lensfarm {
 namespace {

@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
-#include "farm/farm_fixture.h"
+#include "tests/farm/farm_fixture.h"
 #include "lensfarm/v1/worker_service.grpc.pb.h"
-#include "farm/farm_types.h"
-#include "util/hash.h"
-#include "util/version.h"
+#include "common/farm/farm_types.h"
+#include "common/util/hash.h"
+#include "common/util/version.h"
 
 namespace lensfarm {
 namespace {

@@ -7,7 +7,7 @@
 #include <fstream>
 #include <regex>
 
-#include "test_support.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

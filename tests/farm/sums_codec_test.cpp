@@ -1,7 +1,7 @@
 // The upload codec (farm/sums_codec.h): byte-plane shuffle + zstd gives every bit back, on rendered
 // unit buffers and on doubles chosen to break a codec that interprets them; and every block that
 // is not what the format says (truncated, corrupt, oversized, a bomb) is one clear error.
-#include "farm/sums_codec.h"
+#include "common/farm/sums_codec.h"
 
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
@@ -13,11 +13,11 @@
 #include <string>
 #include <vector>
 
-#include "farm/farm_types.h"
-#include "render/render_scene.h"
-#include "render/unit_renderer.h"
-#include "scene/scene_loader.h"
-#include "test_support.h"
+#include "common/farm/farm_types.h"
+#include "common/render/render_scene.h"
+#include "common/render/unit_renderer.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -41,7 +41,7 @@ bool roundTrips(const std::vector<double>& values) {
   return at == values.size() && std::memcmp(back.data(), values.data(), values.size() * sizeof(double)) == 0;
 }
 
-// The sums of one whole-frame unit of the Cornell seed at 96x96 (27648 doubles).
+// The sums of one whole-frame unit of cornell-seed at 96x96 (27648 doubles).
 std::vector<double> renderedSums(uint32_t spp) {
   Scene scene = loadScene(test::scenesDir() / "cornell-seed.json");
   scene.render.width = scene.render.height = 96;

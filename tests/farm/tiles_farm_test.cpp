@@ -15,9 +15,9 @@
 #include <regex>
 #include <sstream>
 
-#include "deploy_support.h"
-#include "film/image_io.h"
-#include "test_support.h"
+#include "tests/deploy_support.h"
+#include "common/film/image_io.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -4,7 +4,7 @@
 
 #include <random>
 
-#include "film/adaptive_allocation.h"
+#include "common/film/adaptive_allocation.h"
 
 namespace lensfarm {
 namespace {

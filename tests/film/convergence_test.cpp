@@ -5,8 +5,8 @@
 #include <cmath>
 #include <random>
 
-#include "film/convergence.h"
-#include "film/error_metrics.h"
+#include "common/film/convergence.h"
+#include "common/film/error_metrics.h"
 
 namespace lensfarm {
 namespace {

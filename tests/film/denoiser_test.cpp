@@ -12,7 +12,7 @@
 #include <limits>
 #include <random>
 
-#include "film/denoiser.h"
+#include "common/film/denoiser.h"
 
 namespace lensfarm {
 namespace {

@@ -12,8 +12,8 @@
 #include <numbers>
 #include <vector>
 
-#include "film/diffraction_psf.h"
-#include "film/psf_convolution.h"
+#include "common/film/diffraction_psf.h"
+#include "common/film/psf_convolution.h"
 
 namespace lensfarm {
 namespace {

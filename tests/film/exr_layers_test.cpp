@@ -11,8 +11,8 @@
 
 #include <set>
 
-#include "film/image_io.h"
-#include "test_support.h"
+#include "common/film/image_io.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -3,11 +3,11 @@
 
 #include <random>
 
-#include "film/exposure.h"
-#include "film/image_io.h"
-#include "film/sensor.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/film/exposure.h"
+#include "common/film/image_io.h"
+#include "common/film/sensor.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {
@@ -31,7 +31,7 @@ TEST(Sensor, MeanIsSumOverSamplesAndNeverClamped) {
   sensor.add(unit);
   sensor.add(unit);
   EXPECT_EQ(sensor.totalSamples(), 6u);
-  EXPECT_DOUBLE_EQ(sensor.mean(0, 0).x, 10.0);  // values above 1 stay (seed §4.7.1)
+  EXPECT_DOUBLE_EQ(sensor.mean(0, 0).x, 10.0);  // values above 1 stay (2013 report §4.7.1)
   EXPECT_DOUBLE_EQ(sensor.mean(0, 0).y, 2.0);
 }
 
@@ -55,7 +55,7 @@ TEST(Sensor, LongAccumulationKeepsFullPrecision) {
 }
 
 TEST(Exposure, AutomaticExposureMapsTheMeanToOneThenAppliesEvAndToneMap) {
-  // The seed's meter: a uniform image of any brightness gives the same picture (seed §4.7.4,
+  // The 2013 report's meter: a uniform image of any brightness gives the same picture (§4.7.4,
   // Fig. 5c vs 5d).
   for (float radiance : {0.001f, 1.0f, 5000.0f}) {
     Image image{2, 2, std::vector<float>(12, radiance)};

@@ -14,9 +14,9 @@
 #include <limits>
 #include <random>
 
-#include "film/exposure.h"
-#include "film/image_io.h"
-#include "test_support.h"
+#include "common/film/exposure.h"
+#include "common/film/image_io.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -7,8 +7,8 @@
 #include <optional>
 #include <string>
 
-#include "scene/gltf_import.h"
-#include "util/error.h"
+#include "common/scene/gltf_import.h"
+#include "common/util/error.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string bytes(reinterpret_cast<const char*>(data), size);

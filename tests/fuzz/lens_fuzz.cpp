@@ -8,10 +8,10 @@
 #include <cstdint>
 #include <string>
 
-#include "camera/lens_analysis.h"
-#include "camera/lens_system.h"
-#include "camera/real_lens_camera.h"
-#include "util/error.h"
+#include "common/camera/lens_analysis.h"
+#include "common/camera/lens_system.h"
+#include "common/camera/real_lens_camera.h"
+#include "common/util/error.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace lensfarm;

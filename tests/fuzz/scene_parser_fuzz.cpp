@@ -7,8 +7,8 @@
 #include <cstdint>
 #include <string>
 
-#include "scene/scene_loader.h"
-#include "util/error.h"
+#include "common/scene/scene_loader.h"
+#include "common/util/error.h"
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   spdlog::set_level(spdlog::level::off);  // refusals are expected by the thousand

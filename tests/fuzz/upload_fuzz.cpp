@@ -18,11 +18,11 @@
 #include <vector>
 #include <memory>
 
-#include "coordinator.h"
-#include "farm/sums_codec.h"
-#include "upload_assembler.h"
-#include "util/error.h"
-#include "util/version.h"
+#include "coordinator/coordinator.h"
+#include "common/farm/sums_codec.h"
+#include "coordinator/upload_assembler.h"
+#include "common/util/error.h"
+#include "common/util/version.h"
 
 namespace {
 struct Fixture {

@@ -7,12 +7,12 @@
 #include <cmath>
 #include <fstream>
 
-#include "film/image_io.h"
-#include "light_test_support.h"
-#include "scene/effects.h"
-#include "test_support.h"
-#include "texture/test_images.h"
-#include "util/error.h"
+#include "common/film/image_io.h"
+#include "tests/light/light_test_support.h"
+#include "common/scene/effects.h"
+#include "tests/test_support.h"
+#include "tests/texture/test_images.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

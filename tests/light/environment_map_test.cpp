@@ -3,7 +3,7 @@
 // solid-angle density (integrates to 1, matches sample()), the estimator of the integral of the
 // radiance, the constant mode, importance sampling against uniform sampling for a small sun,
 // and the refusal of bad pixels naming the pixel and channel.
-#include "light/environment_map.h"
+#include "common/light/environment_map.h"
 
 #include <gtest/gtest.h>
 
@@ -15,10 +15,10 @@
 #include <utility>
 #include <vector>
 
-#include "film/image_io.h"
-#include "support/uniform_rng.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/film/image_io.h"
+#include "tests/support/uniform_rng.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

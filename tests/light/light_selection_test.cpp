@@ -1,4 +1,4 @@
-// Choosing a light for next-event estimation (light/light_sampler.h): every kind of light in
+// Choosing a light for next-event estimation (render/light_sampler.h): every kind of light in
 // proportion to its power (triangle pi A L, point 4 pi I, spot 2 pi I (1 - (cos start + cos
 // total) / 2), directional pi r^2 E, environment pi r^2 times its integral), a scene of emitting
 // triangles alone exactly as before the other lights existed, and the naive estimator's sampler
@@ -9,10 +9,10 @@
 #include <map>
 #include <numbers>
 
-#include "light/light_sampler.h"
-#include "math/triangle.h"
-#include "render/render_scene.h"
-#include "test_support.h"
+#include "common/render/light_sampler.h"
+#include "common/math/triangle.h"
+#include "common/render/render_scene.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

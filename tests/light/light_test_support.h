@@ -5,9 +5,9 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "render/integrator.h"
-#include "render/render_scene.h"
-#include "render/unit_renderer.h"
+#include "common/render/integrator.h"
+#include "common/render/render_scene.h"
+#include "common/render/unit_renderer.h"
 
 namespace lensfarm::test {
 

@@ -7,8 +7,8 @@
 #include <cmath>
 #include <numbers>
 
-#include "light_test_support.h"
-#include "test_support.h"
+#include "tests/light/light_test_support.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -11,12 +11,12 @@
 #include <thread>
 #include <vector>
 
-#include "material/fresnel.h"
-#include "material/ggx_albedo.h"
-#include "material/material.h"
-#include "scene/field_reader.h"
-#include "support/chi2.h"
-#include "support/uniform_rng.h"
+#include "common/material/fresnel.h"
+#include "common/material/ggx_albedo.h"
+#include "common/material/material.h"
+#include "common/util/field_reader.h"
+#include "tests/support/chi2.h"
+#include "tests/support/uniform_rng.h"
 
 namespace lensfarm {
 namespace {

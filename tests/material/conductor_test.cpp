@@ -5,11 +5,11 @@
 #include <cmath>
 #include <complex>
 
-#include "material/conductor.h"
-#include "material/fresnel.h"
-#include "material/material.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/material/conductor.h"
+#include "common/material/fresnel.h"
+#include "common/material/material.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

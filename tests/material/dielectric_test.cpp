@@ -5,11 +5,11 @@
 
 #include <cmath>
 
-#include "material/dielectric.h"
-#include "material/fresnel.h"
-#include "material/material.h"
-#include "scene/effects.h"
-#include "test_support.h"
+#include "common/material/dielectric.h"
+#include "common/material/fresnel.h"
+#include "common/material/material.h"
+#include "common/scene/effects.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -5,9 +5,9 @@
 #include <cmath>
 #include <random>
 
-#include "material/material.h"
-#include "material/mirror.h"
-#include "math/sampling.h"
+#include "common/material/material.h"
+#include "common/material/mirror.h"
+#include "common/math/sampling.h"
 
 namespace lensfarm {
 namespace {

@@ -4,7 +4,7 @@
 // chi-squared harness of tests/support/chi2.h), the directional albedo against brute-force Monte
 // Carlo and the closed form at alpha = 1, energy conservation of the compensated lobe, and finite
 // values at grazing angles and extreme widths.
-#include "material/microfacet.h"
+#include "common/material/microfacet.h"
 
 #include <gtest/gtest.h>
 
@@ -16,8 +16,8 @@
 #include <thread>
 #include <vector>
 
-#include "material/ggx_albedo.h"
-#include "support/chi2.h"
+#include "common/material/ggx_albedo.h"
+#include "tests/support/chi2.h"
 
 namespace lensfarm {
 namespace {

@@ -2,11 +2,11 @@
 // and integrating to 1, samples distributed by them (chi-square on cells and sub-cells,
 // Kolmogorov-Smirnov on the continuous cdf), never in a cell of zero weight and never outside
 // [0,1), the inverse, the uniform fallback, and tables too large for a float cdf.
-#include "math/distribution.h"
+#include "common/math/distribution.h"
 
 #include <gtest/gtest.h>
 
-#include "support/uniform_rng.h"
+#include "tests/support/uniform_rng.h"
 
 #include <algorithm>
 #include <cfloat>

@@ -7,9 +7,9 @@
 #include <cmath>
 #include <random>
 
-#include "medium/grid_medium.h"
-#include "support/uniform_rng.h"
-#include "util/error.h"
+#include "common/medium/grid_medium.h"
+#include "tests/support/uniform_rng.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

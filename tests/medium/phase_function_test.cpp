@@ -4,10 +4,10 @@
 
 #include <cmath>
 
-#include "medium/phase_function.h"
-#include "support/chi2.h"
-#include "support/uniform_rng.h"
-#include "util/error.h"
+#include "common/medium/phase_function.h"
+#include "tests/support/chi2.h"
+#include "tests/support/uniform_rng.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

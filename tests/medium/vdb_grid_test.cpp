@@ -9,10 +9,10 @@
 #include <cstring>
 #include <fstream>
 
-#include "medium/medium.h"
-#include "medium/vdb_grid.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/medium/medium.h"
+#include "common/medium/vdb_grid.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <fstream>
 
-#include "camera/depth_of_field.h"
-#include "test_support.h"
+#include "common/camera/depth_of_field.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -89,7 +89,7 @@ TEST(Lens, FarLimitIsInfiniteForSubjectsAtOrBeyondTheHyperfocalDistance) {
   }
 }
 
-// Multiplies every length of the seed scene by k: camera, lens, box and light.
+// Multiplies every length of cornell-seed by k: camera, lens, box and light.
 json scaled(json scene, double k) {
   auto times = [k](json& v) {
     for (auto& x : v) x = x.get<double>() * k;

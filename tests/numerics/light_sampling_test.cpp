@@ -1,4 +1,4 @@
-// Light sampling at the extremes, judged statistically: NEE+MIS must agree with the seed's naive
+// Light sampling at the extremes, judged statistically: NEE+MIS must agree with the 2013 report's naive
 // estimator (which never samples a light) for tiny, huge, edge-on and hidden lights.
 #include <gtest/gtest.h>
 
@@ -7,9 +7,9 @@
 #include <fstream>
 #include <random>
 
-#include "render/render_scene.h"
+#include "common/render/render_scene.h"
 
-#include "test_support.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

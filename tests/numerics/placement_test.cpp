@@ -11,9 +11,9 @@
 #include <random>
 #include <string>
 
-#include "math/ray_offset.h"
-#include "render/render_scene.h"
-#include "test_support.h"
+#include "common/math/ray_offset.h"
+#include "common/render/render_scene.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

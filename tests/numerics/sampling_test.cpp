@@ -6,7 +6,7 @@
 #include <cstring>
 #include <vector>
 
-#include "math/sampling.h"
+#include "common/math/sampling.h"
 
 namespace lensfarm {
 namespace {

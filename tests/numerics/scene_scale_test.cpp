@@ -12,8 +12,8 @@
 
 #include <string>
 
-#include "scene/scene_loader.h"
-#include "test_support.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -10,11 +10,11 @@
 #include <random>
 #include <sstream>
 
-#include "math/ray_offset.h"
-#include "math/triangle.h"
-#include "render/render_scene.h"
-#include "scene/scene_loader.h"
-#include "test_support.h"
+#include "common/math/ray_offset.h"
+#include "common/math/triangle.h"
+#include "common/render/render_scene.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -7,11 +7,11 @@
 #include <fstream>
 #include <sstream>
 
-#include "coordinator.h"
-#include "render/unit_renderer.h"
-#include "scene/effects.h"
-#include "test_support.h"
-#include "util/hash.h"
+#include "coordinator/coordinator.h"
+#include "common/render/unit_renderer.h"
+#include "common/scene/effects.h"
+#include "tests/test_support.h"
+#include "common/util/hash.h"
 
 namespace lensfarm {
 namespace {
@@ -56,7 +56,7 @@ TEST(Effects, DepthOfFieldFollowsTheAperture) {
   EXPECT_FALSE(effectsOf(scene).depthOfField) << "at 8x8 pixels the same blur is below a cell";
 }
 
-// The seed's f/16 lens blurs at most ~1.1 cells at 800 x 800: at a preview size the blur falls
+// The 2013 report's f/16 lens blurs at most ~1.1 cells at 800 x 800: at a preview size the blur falls
 // below half a cell and the lens is traced as a pinhole. That changes what the scene asks for,
 // so it is a warning (the start of a render logs EffectSet::warnings()), and the job's effects
 // (JobInfo.effects, printed by `lensfarm render` and `status`) say it, with the resolution from
@@ -274,7 +274,7 @@ TEST(Effects, ALightThatEmitsNothingIntoTheSceneIsAWarning) {
 TEST(Effects, SpecialisedAndGeneralPathsGiveTheSameBits) {
   // Where the sampling is the same (no effect approximated), leaving an absent effect out of the
   // compiled path must not change a bit.
-  // Combinations: classic (no lens, no mirror), seed at N = 2 (everything), seed as a pinhole
+  // Combinations: classic (no lens, no mirror), cornell-seed at N = 2 (everything), cornell-seed as a pinhole
   // (mirror, no lens).
   for (const auto& [name, fNumber] : std::vector<std::pair<const char*, json>>{
            {"cornell-classic.json", json()}, {"cornell-seed.json", json(2)}, {"cornell-seed.json", json("infinity")}}) {

@@ -17,12 +17,12 @@
 #include <string>
 #include <vector>
 
-#include "render/memory_estimate.h"
-#include "render/render_scene.h"
-#include "render/shading_point.h"
-#include "support/gltf_builder.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/farm/memory_estimate.h"
+#include "common/render/render_scene.h"
+#include "common/render/shading_point.h"
+#include "tests/support/gltf_builder.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

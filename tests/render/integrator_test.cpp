@@ -1,13 +1,13 @@
 // The integrators against analytic answers: the furnace, the mirror bounce rule, NEE+MIS and the
-// seed's naive estimator agreeing, non-finite samples contained, and bitwise determinism.
+// 2013 report's naive estimator agreeing, non-finite samples contained, and bitwise determinism.
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
 #include <cstring>
 #include <fstream>
 
-#include "render/unit_renderer.h"
-#include "test_support.h"
+#include "common/render/unit_renderer.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -19,7 +19,7 @@ Rendered renderAll(const Scene& scene) { return test::renderScene(scene); }
 
 TEST(Furnace, ClosedEmissiveBoxGivesTheGeometricSeriesForEachBounceLimit) {
   // Every wall emits Le = 1 (towards the inside) and reflects a = 0.5. A path of B bounces sees
-  // Le (1 + a + ... + a^B): the exact answer for the bounce limit B (seed §4.5).
+  // Le (1 + a + ... + a^B): the exact answer for the bounce limit B (2013 report §4.5).
   // Both production estimators, with and without Russian roulette (which must stay unbiased).
   // NEE without MIS is left out on purpose: where two emitting walls meet, a light sample next to
   // the shading point has unbounded weight (cos cos' / d^2), so its variance is infinite here and
@@ -57,7 +57,7 @@ TEST(Furnace, NaiveEstimatorIsExactWhenEveryDirectionSeesTheLight) {
 
 TEST(MirrorBounces, DoNotCountTowardTheBounceLimitUnlessTheSceneSaysSo) {
   // The camera looks at a mirror in a box of emitting walls. With B = 0, the mirror bounce is free
-  // (seed §4.5) and the reflected wall is seen: Le * reflectance. If mirror bounces count, B = 0
+  // (2013 report §4.5) and the reflected wall is seen: Le * reflectance. If mirror bounces count, B = 0
   // allows no reflection at all and the image is black.
   for (bool counts : {false, true}) {
     test::TempDir dir;

@@ -1,6 +1,6 @@
 // Light tracing beside the path tracer (render/light_tracer.h): the combined
 // estimator agrees with the path tracer alone within noise, is the same bits
-// for any thread count, lowers the variance of the seed scene's caustic, and is
+// for any thread count, lowers the variance of cornell-seed's caustic, and is
 // chosen only where a scene calls for it.
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
@@ -10,11 +10,11 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "render/light_tracer.h"
-#include "render/render_scene.h"
-#include "render/unit_renderer.h"
-#include "scene/effects.h"
-#include "test_support.h"
+#include "common/render/light_tracer.h"
+#include "common/render/render_scene.h"
+#include "common/render/unit_renderer.h"
+#include "common/scene/effects.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -158,7 +158,7 @@ TEST(LightTracer, SameBitsForAnyThreadCountAndUnitSplit) {
   EXPECT_THROW(renderUnit(rs, tile, b, stats), std::invalid_argument);
 }
 
-// The seed's caustic: at equal samples, the variance of the pixels the light
+// The 2013 report's caustic: at equal samples, the variance of the pixels the light
 // tracer touches (the floor and walls lit through the rippled mirror; elsewhere
 // both estimators trace the same camera paths with the same numbers) is lower
 // with light tracing: a figure, printed.

@@ -4,8 +4,8 @@
 // nee_mis: both, weighed by the power heuristic), estimate the same image.
 #include <gtest/gtest.h>
 
-#include "film/image_io.h"
-#include "test_support.h"
+#include "common/film/image_io.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

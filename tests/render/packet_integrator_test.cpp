@@ -10,11 +10,11 @@
 #endif
 #include <fstream>
 
-#include "film/image_io.h"
-#include "render/integrator.h"
-#include "render/render_scene.h"
-#include "render/unit_renderer.h"
-#include "test_support.h"
+#include "common/film/image_io.h"
+#include "common/render/integrator.h"
+#include "common/render/render_scene.h"
+#include "common/render/unit_renderer.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

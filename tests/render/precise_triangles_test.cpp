@@ -1,17 +1,17 @@
 // Triangles too large for Embree's float test are tested in double (render/precise_triangles.h):
 // which ones, what a ray spawned from them reaches, and that ordinary scenes have none (so they
 // keep every bit).
-#include "render/precise_triangles.h"
+#include "common/render/precise_triangles.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <string>
 
-#include "math/ray_offset.h"
-#include "render/ray_caster.h"
-#include "scene/scene_loader.h"
-#include "test_support.h"
+#include "common/math/ray_offset.h"
+#include "common/render/ray_caster.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

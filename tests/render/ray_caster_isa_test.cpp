@@ -12,9 +12,9 @@
 #include <optional>
 #include <string>
 
-#include "render/render_scene.h"
-#include "render/unit_renderer.h"
-#include "test_support.h"
+#include "common/render/render_scene.h"
+#include "common/render/unit_renderer.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -7,9 +7,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "render/unit_renderer.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/render/unit_renderer.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {
@@ -17,7 +17,7 @@ namespace {
 using nlohmann::json;
 
 // A closed box whose walls all emit Le = 1 and reflect a: a path of B bounces sees
-// Le (1 + a + ... + a^B) (seed §4.5), whatever the rule, if the rule is unbiased.
+// Le (1 + a + ... + a^B) (2013 report §4.5), whatever the rule, if the rule is unbiased.
 double geometricSeries(double a, int bounces) {
   double sum = 0.0;
   for (int k = 0; k <= bounces; ++k) sum += std::pow(a, k);

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <set>
 
-#include "render/sampler.h"
+#include "common/render/sampler.h"
 
 namespace lensfarm {
 namespace {

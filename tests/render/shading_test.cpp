@@ -7,10 +7,10 @@
 
 #include <cmath>
 
-#include "material/material.h"
-#include "material/principled.h"
-#include "math/sampling.h"
-#include "test_support.h"
+#include "common/material/material.h"
+#include "common/material/principled.h"
+#include "common/math/sampling.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -9,10 +9,10 @@
 #include <cmath>
 #include <string>
 
-#include "material/fresnel.h"
-#include "scene/effects.h"
-#include "scene/scene_loader.h"
-#include "test_support.h"
+#include "common/material/fresnel.h"
+#include "common/scene/effects.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

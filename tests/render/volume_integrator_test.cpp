@@ -12,10 +12,10 @@
 #include <fstream>
 #include <utility>
 
-#include "medium/medium.h"
-#include "render/render_scene.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/medium/medium.h"
+#include "common/render/render_scene.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -13,11 +13,11 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "scene/keyframes.h"
-#include "scene/scene_loader.h"
-#include "scene_error_fixture.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/scene/keyframes.h"
+#include "common/scene/scene_loader.h"
+#include "tests/scene/scene_error_fixture.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -1,54 +1,30 @@
 // Files a scene names stay inside its folder (scene/asset_path.h): a `..` that climbs out, an
 // absolute path, a symlink whose target lies outside and a URL are each refused with one
 // sentence naming the file and field, for every kind of reference (a scene's mesh, a glTF
-// buffer or image, an OBJ's mtllib) and on every path in (loading, `lensfarm render`, `lensfarm
-// submit`, the coordinator's asset names); a folder the user allows is read.
+// buffer or image, an OBJ's mtllib) and on every path in (loading, the coordinator's asset
+// names); a folder the user allows is read.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <string>
 
-#include "coordinator.h"
-#include "scene/asset_path.h"
-#include "scene/scene_loader.h"
-#include "support/gltf_builder.h"
-#include "test_support.h"
-#include "util/error.h"
-#include "util/hash.h"
+#include "coordinator/coordinator.h"
+#include "common/scene/asset_path.h"
+#include "common/scene/scene_loader.h"
+#include "tests/scene/asset_confinement_support.h"
+#include "tests/support/gltf_builder.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
+#include "common/util/hash.h"
 
 namespace lensfarm {
 namespace {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
-
-const std::string kTriangleObj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
-
-// A scene folder `root` inside a temporary directory, with a secret file beside it (outside).
-struct Layout {
-  test::TempDir dir;
-  fs::path root = dir / "project";
-  fs::path secret = dir / "secret.obj";
-  Layout() {
-    fs::create_directories(root / "models");
-    dir.write("secret.obj", kTriangleObj);
-    dir.write("secret.bin", std::string(36, '\0'));
-  }
-  fs::path write(const std::string& name, const std::string& text) const {
-    const fs::path p = root / name;
-    fs::create_directories(p.parent_path());
-    std::ofstream(p, std::ios::binary) << text;
-    return p;
-  }
-  // A scene whose one shape is an OBJ at `file`.
-  fs::path sceneWithMesh(const std::string& file) const {
-    json j = test::minimalSceneJson();
-    j["shapes"] = {{{"type", "obj"}, {"file", file}, {"material", "white"}}};
-    return write("scene.json", j.dump());
-  }
-};
+using test::kTriangleObj;
+using test::Layout;
 
 std::string loadError(const fs::path& scene, const std::vector<fs::path>& allowed = {}) {
   try {
@@ -149,28 +125,6 @@ TEST(AssetConfinement, AnObjsMaterialLibraryStaysInside) {
   j["shapes"] = {{{"type", "obj"}, {"file", "models/m.obj"}, {"material", "white"}}};
   const std::string e = loadError(l.write("scene.json", j.dump()));
   EXPECT_TRUE(test::contains(e, "\"../../secret.mtl\" lies outside")) << e;
-}
-
-TEST(AssetConfinement, RenderAndSubmitRefuseWithExitCode2) {
-  const Layout l;
-  const fs::path scene = l.sceneWithMesh("../secret.obj");
-  const auto render = test::runProcess({test::cliPath().string(), "render", scene.string(), "-o",
-                                        (l.dir / "out.png").string(), "--spp", "1"});
-  EXPECT_EQ(render.exitCode, test::kBadInput) << render.err;
-  EXPECT_TRUE(test::contains(render.err, "lies outside"));
-  EXPECT_FALSE(fs::exists(l.dir / "out.png"));
-  const std::string coordinator = "127.0.0.1:" + std::to_string(test::freePort());
-  const auto submit = test::runProcess({test::cliPath().string(), "submit", scene.string(), "--coordinator", coordinator});
-  EXPECT_EQ(submit.exitCode, test::kBadInput) << submit.err;
-  EXPECT_TRUE(test::contains(submit.err, "lies outside"));
-  // Allowed, the scene is read and the submit goes on to the (absent) coordinator: exit 3.
-  const auto allowed = test::runProcess(
-      {test::cliPath().string(), "submit", scene.string(), "--coordinator", coordinator, "--allow-path", l.dir.path().string()});
-  EXPECT_EQ(allowed.exitCode, 3) << allowed.err;
-  const auto rendered = test::runProcess({test::cliPath().string(), "render", scene.string(), "-o",
-                                          (l.dir / "out.png").string(), "--spp", "1", "--resolution", "8x8",
-                                          "--allow-path", l.dir.path().string()});
-  EXPECT_EQ(rendered.exitCode, 0) << rendered.err;
 }
 
 TEST(AssetConfinement, TheCoordinatorRefusesAssetNamesThatAreURLs) {

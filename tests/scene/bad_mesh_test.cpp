@@ -9,13 +9,13 @@
 #include <string>
 #include <vector>
 
-#include "coordinator.h"
-#include "scene/obj_check.h"
-#include "scene/scene_loader.h"
-#include "scene_error_fixture.h"
-#include "test_support.h"
-#include "util/error.h"
-#include "util/hash.h"
+#include "coordinator/coordinator.h"
+#include "common/scene/obj_check.h"
+#include "common/scene/scene_loader.h"
+#include "tests/scene/scene_error_fixture.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
+#include "common/util/hash.h"
 
 namespace lensfarm {
 namespace {

@@ -4,8 +4,8 @@
 
 #include <filesystem>
 
-#include "scene/scene_loader.h"
-#include "test_support.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

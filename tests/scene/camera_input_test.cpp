@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
-#include "scene/scene_loader.h"
-#include "scene_error_fixture.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/scene/scene_loader.h"
+#include "tests/scene/scene_error_fixture.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -5,11 +5,12 @@
 
 #include <string>
 
-#include "film/diffraction_psf.h"
-#include "scene/effects.h"
-#include "scene/scene_loader.h"
-#include "scene_error_fixture.h"
-#include "test_support.h"
+#include "common/film/diffraction_psf.h"
+#include "common/scene/scene_diffraction.h"
+#include "common/scene/effects.h"
+#include "common/scene/scene_loader.h"
+#include "tests/scene/scene_error_fixture.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

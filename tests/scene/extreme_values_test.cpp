@@ -1,86 +1,35 @@
 // Extreme values (docs/numerics.md): every lens field, the resolution, samples per pixel, the
 // bounce limit and every colour (albedo, reflectance, emission, radiance) at 0, a denormal,
 // 1e-30, 1e30, the largest float, beyond it, an overflowing literal and NaN / Inf written as
-// strings. Each is either refused with an error naming its field (and, on the command line, the
-// flag, with exit code 2), or renders a finite, non-negative image that is also correct where it
-// can be checked (a radiance of 1e30 gives 1e30 times the image of radiance 1). Never a crash: an
-// f-number of 1e-20 used to abort the whole process inside Embree (exit 134).
+// strings. Each is either refused with an error naming its field, or renders a finite,
+// non-negative image that is also correct where it can be checked (a radiance of 1e30 gives 1e30
+// times the image of radiance 1). Never a crash: an f-number of 1e-20 used to abort the whole
+// process inside Embree (exit 134). The command line's side is in extreme_values_cli_test.cpp.
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
-#include "film/exposure.h"
-#include "film/image_io.h"
-#include "render/integrator.h"
-#include "scene/scene_loader.h"
-#include "scene_error_fixture.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/film/exposure.h"
+#include "common/render/integrator.h"
+#include "common/scene/scene_loader.h"
+#include "tests/scene/extreme_values_cases.h"
+#include "tests/scene/scene_error_fixture.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {
 
-namespace fs = std::filesystem;
 using json = nlohmann::json;
+using test::Case;
+using test::kFloatMax;
 using test::kNoError;
-
-// What a case must give.
-enum class Outcome {
-  kRefused,  // an InputError whose field is the case's (or `namedAs`)
-  kRenders,  // a finite, non-negative image that is not black
-  kBlack,    // a finite image that is exactly black (a zero albedo or radiance)
-  kFinite,   // a finite, non-negative image, which may be black (a 180 degree view past the quad)
-  kLoads,    // loads (too costly to render in a test: 2^40 samples per pixel)
-};
-
-struct Case {
-  std::string field;  // "camera.f_number", "lights[0].radiance", ...: the JSON path as errors spell it
-  std::string value;  // JSON text
-  Outcome outcome;
-  // kRenders: the image mean must be `ratio` times the mean of the same scene with the field at
-  // 1 (colours are linear; same random numbers), within float rounding. 0: not checked.
-  double ratio = 0.0;
-  std::string namedAs = "";  // kRefused: the field the error names, when another field carries the fault
-  json patch = json::object();  // merged into the base scene first (null removes a field)
-};
-
-// The minimal scene (a 2 x 2 lit quad 3 units in front of the camera) on a thin lens, at 8 x 8
-// pixels and 2 samples per pixel.
-json baseScene() {
-  json j = test::minimalSceneJson();
-  j["camera"]["type"] = "thin_lens";
-  j["camera"]["f_number"] = 2;
-  j["render"]["resolution"] = {8, 8};
-  j["render"]["samples_per_pixel"] = 2;
-  return j;
-}
-
-// "camera.f_number" -> "/camera/f_number"; "lights[0].radiance" -> "/lights/0/radiance".
-json::json_pointer pointerOf(const std::string& field) {
-  std::string p = "/";
-  for (char c : field) {
-    if (c == '.' || c == '[') p += '/';
-    else if (c != ']') p += c;
-  }
-  return json::json_pointer(p);
-}
-
-// The scene text with `field` set to the JSON text `value` (which may be a literal JSON itself
-// cannot hold, such as 1e999).
-std::string sceneText(const Case& c, const std::string& value) {
-  json j = baseScene();
-  j.merge_patch(c.patch);
-  j[pointerOf(c.field)] = "@VALUE@";
-  std::string text = j.dump(2);
-  const std::string placeholder = "\"@VALUE@\"";
-  text.replace(text.find(placeholder), placeholder.size(), value);
-  return text;
-}
+using test::Outcome;
+using test::sceneText;
 
 std::string describe(const Case& c) { return c.field + " = " + c.value; }
 
@@ -143,9 +92,9 @@ class ExtremeValues : public test::SceneErrorTest {
   }
 };
 
-// The values every field is tried with, as JSON text.
-const std::string kDenormal = "5e-324", kFloatDenormal = "1e-40", kFloatMax = "3.4028234663852886e38",
-                  kAboveFloat = "3.5e38", kOverflow = "1e999", kNaN = "\"NaN\"", kInf = "\"inf\"";
+// The values every field is tried with, as JSON text (with kFloatMax, from extreme_values_cases.h).
+const std::string kDenormal = "5e-324", kFloatDenormal = "1e-40", kAboveFloat = "3.5e38", kOverflow = "1e999",
+                  kNaN = "\"NaN\"", kInf = "\"inf\"";
 
 TEST_F(ExtremeValues, EveryLensFieldAtEveryExtremeIsRefusedNamingItOrRendersSanely) {
   const json angle = {{"camera", {{"focal_length", nullptr}, {"angle_of_view", 50}}}};
@@ -311,7 +260,7 @@ TEST_F(ExtremeValues, ColoursAreZeroOrWithinWhatTheFloatKernelCarries) {
 }
 
 TEST(ExtremeValuesExposure, TinyAndHugeImagesExposeLikeAnyOther) {
-  // A uniform image of any brightness maps its mean to 1 (the seed's meter, §4.7.4) or its
+  // A uniform image of any brightness maps its mean to 1 (the 2013 report's meter, §4.7.4) or its
   // lit pixels' mean to 1 (the lit meter), also where the factor is beyond float (a denormal
   // image) or the value is near the top of float: Reinhard gives 0.5.
   for (const ExposureMeter meter : {ExposureMeter::kMean, ExposureMeter::kLit}) {
@@ -336,8 +285,6 @@ TEST(ExtremeValuesExposure, TinyAndHugeImagesExposeLikeAnyOther) {
   EXPECT_GT(rgb[0], 200);
   EXPECT_EQ(rgb[3], 0);
 }
-
-std::string cli() { return test::cliPath().string(); }
 
 TEST(ExtremeValuesBounces, ABounceLimitAbove255IsHonoured) {
   // A closed box whose walls emit 1 and reflect a = 0.99: every path of the naive estimator sees
@@ -366,107 +313,6 @@ TEST(ExtremeValuesBounces, ABounceLimitAbove255IsHonoured) {
   const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(r.mean[c] / series(300), 1.0, 0.01);
   EXPECT_EQ(pathSegmentLimit(2), 256) << "small bounce limits keep the limit they always had";
-}
-
-TEST(ExtremeValuesBounces, ALongPathWithLightSamplingPassesTheFarmsCountersCheck) {
-  // Through the real program (its in-process coordinator checks each unit's counters): B = 1024
-  // with light sampling casts about two rays per bounce, ~1,900 per path in this box, where a
-  // fixed 1024-rays-per-path bound refused every unit and the render never ended.
-  test::TempDir dir;
-  json scene = test::closedBoxSceneJson({{"type", "lambertian"}, {"albedo", 0.99}, {"emission", 1.0}}, 4, 2, 1024);
-  scene["render"]["russian_roulette"] = "off";
-  const auto file = dir.path() / "long.json";
-  std::ofstream(file) << scene.dump();
-  const auto out = dir.path() / "long.exr";
-  const test::ProcessResult r = test::runProcess({cli(), "render", file.string(), "-o", out.string()}, 300.0);
-  ASSERT_EQ(r.exitCode, 0) << r.err;
-  EXPECT_EQ(r.err.find("refused"), std::string::npos) << r.err;
-  const Image image = readExr(out);
-  double sum = 0.0;
-  for (float v : image.rgb) sum += v;
-  const double mean = sum / double(image.rgb.size());
-  // 1 + a + ... + a^1024 = (1 - a^1025) / (1 - a), within the noise of 32 light-sampled paths.
-  EXPECT_NEAR(mean / ((1.0 - std::pow(0.99, 1025)) / 0.01), 1.0, 0.05);
-}
-
-// ---- the real process: refusals exit 2 naming the field or flag; nothing aborts ---------------
-
-std::string withValue(const std::string& field, const std::string& value, const json& patch = json::object()) {
-  return sceneText(Case{field, value, Outcome::kRefused, 0.0, "", patch}, value);
-}
-
-TEST(ExtremeValuesCli, ExtremeScenesAndFlagsExitTwoNamingTheFieldAndNeverAbort) {
-  struct CliCase {
-    std::string name;
-    std::string sceneText;
-    std::vector<std::string> flags;
-    std::string mustName;
-  };
-  const std::string good = withValue("camera.f_number", "2");
-  const std::vector<CliCase> cases = {
-      {"f-number 1e-20 (aborted in Embree)", withValue("camera.f_number", "1e-20"), {}, "camera.f_number"},
-      {"an aperture of 5e24", withValue("camera.focal_length", "1e25", {{"camera", {{"sensor_width", 1e24}, {"focus_distance", 1e30}, {"f_number", 1}}}}),
-       {}, "camera.f_number"},
-      {"a denormal radiance", withValue("lights[0].radiance", "1e-40"), {}, "lights[0].radiance"},
-      {"the largest float as radiance", withValue("lights[0].radiance", kFloatMax), {}, "lights[0].radiance"},
-      {"a 1e-30 sensor", withValue("camera.sensor_width", "1e-30"), {}, "camera.sensor_width"},
-      {"--max-bounces 1e30", good, {"--max-bounces", "1e30"}, "--max-bounces"},
-      {"--spp 0", good, {"--spp", "0"}, "--spp"},
-      {"--spp 1e30", good, {"--spp", "1e30"}, "--spp"},
-      {"--resolution 0x8", good, {"--resolution", "0x8"}, "--resolution"},
-      {"--resolution 99999x8", good, {"--resolution", "99999x8"}, "--resolution"},
-      {"--resolution nanxnan", good, {"--resolution", "nanxnan"}, "--resolution"},
-      {"--time 1e30", good, {"--time", "1e30"}, "--time"},
-      {"--ev inf", good, {"--ev", "inf"}, "--ev"},
-  };
-  for (const CliCase& c : cases) {
-    SCOPED_TRACE(c.name);
-    test::TempDir scenes, out;
-    const fs::path scene = scenes.write("extreme.json", c.sceneText);
-    std::vector<std::string> argv = {cli(), "render", scene.string(), "-o", (out / "out.exr").string()};
-    argv.insert(argv.end(), c.flags.begin(), c.flags.end());
-    const auto r = test::runProcess(argv, 60.0);
-    EXPECT_FALSE(r.timedOut);
-    EXPECT_EQ(r.exitCode, test::kBadInput) << "-1 is a signal (an abort): " << r.err;
-    EXPECT_TRUE(test::contains(r.err, c.mustName));
-    EXPECT_FALSE(fs::exists(out / "out.exr"));
-  }
-}
-
-TEST(ExtremeValuesCli, ExtremeButValidScenesRenderFiniteImages) {
-  // Through the whole program (embedded coordinator, worker, EXR): radiance 1e30 gives 1e30 times
-  // the image of radiance 1; f/0.5, B = 1024 and a focus at 1e308 render finite images.
-  struct Good {
-    std::string name, sceneText;
-    std::vector<std::string> flags;
-  };
-  const std::vector<Good> cases = {
-      {"radiance 1", withValue("lights[0].radiance", "1"), {}},
-      {"radiance 1e30", withValue("lights[0].radiance", "1e30"), {}},
-      {"f/0.5", withValue("camera.f_number", "0.5"), {}},
-      {"focus at 1e308", withValue("camera.focus_distance", "1e308"), {}},
-      {"B = 1024", withValue("camera.f_number", "2"), {"--max-bounces", "1024"}},
-  };
-  std::vector<double> means;
-  for (const Good& c : cases) {
-    SCOPED_TRACE(c.name);
-    test::TempDir scenes, out;
-    const fs::path scene = scenes.write("extreme.json", c.sceneText);
-    std::vector<std::string> argv = {cli(), "render", scene.string(), "-o", (out / "out.exr").string(), "-q"};
-    argv.insert(argv.end(), c.flags.begin(), c.flags.end());
-    const auto r = test::runProcess(argv, 120.0);
-    ASSERT_EQ(r.exitCode, 0) << r.err;
-    const Image image = readExr(out / "out.exr");
-    double mean = 0.0;
-    for (float v : image.rgb) {
-      ASSERT_TRUE(std::isfinite(v));
-      ASSERT_GE(v, 0.0f);
-      mean += v / double(image.rgb.size());
-    }
-    EXPECT_GT(mean, 0.0);
-    means.push_back(mean);
-  }
-  EXPECT_NEAR(means[1] / means[0] / 1e30, 1.0, 1e-5);
 }
 
 }  // namespace

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "scene/frame_range.h"
-#include "util/error.h"
+#include "common/scene/frame_range.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -1,8 +1,8 @@
 // The glTF 2.0 importer (scene/gltf_import.h): small models written here as JSON with their
 // buffers as a separate .bin (read through a ModelFileReader over a map), as data URIs, or as a
 // .glb assembled byte by byte (glTF 2.0 §4.4), checked against values computed independently.
-#include "medium/medium.h"
-#include "scene/gltf_import.h"
+#include "common/medium/medium.h"
+#include "common/scene/gltf_import.h"
 
 #include <gtest/gtest.h>
 
@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "support/gltf_builder.h"
-#include "util/error.h"
+#include "tests/support/gltf_builder.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

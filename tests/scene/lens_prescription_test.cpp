@@ -2,13 +2,13 @@
 // same lens as its pbrt-v4 file (the same first-order figures and the same traced rays, bit for
 // bit), inline in a scene or as a .json lens file; aspheric fields reach the surface; and every
 // bad field is refused naming its path.
-#include "scene/lens_prescription.h"
+#include "common/scene/lens_prescription.h"
 
 #include <gtest/gtest.h>
 
-#include "scene/scene_loader.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

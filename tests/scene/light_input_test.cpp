@@ -6,9 +6,9 @@
 #include <cmath>
 #include <limits>
 
-#include "film/image_io.h"
-#include "scene_error_fixture.h"
-#include "test_support.h"
+#include "common/film/image_io.h"
+#include "tests/scene/scene_error_fixture.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -1,7 +1,7 @@
 // scene/obj_import.h: OBJ geometry (positions, normals, texture coordinates, groups, usemtl) and
 // MTL materials with their textures, read through a ModelFileReader, and bad files refused with
 // one InputError naming the file.
-#include "scene/obj_import.h"
+#include "common/scene/obj_import.h"
 
 #include <gtest/gtest.h>
 // The double build, as lensfarm_common links it (the test binary does not get its definition).
@@ -15,11 +15,11 @@
 #include <map>
 #include <sstream>
 
-#include "scene/obj_check.h"
-#include "test_support.h"
-#include "texture/image_decode.h"
-#include "texture/test_images.h"
-#include "util/error.h"
+#include "common/scene/obj_check.h"
+#include "tests/test_support.h"
+#include "common/texture/image_decode.h"
+#include "tests/texture/test_images.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

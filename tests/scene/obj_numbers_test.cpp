@@ -8,10 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "scene/obj_check.h"
-#include "scene/scene_loader.h"
-#include "scene_error_fixture.h"
-#include "test_support.h"
+#include "common/scene/obj_check.h"
+#include "common/scene/scene_loader.h"
+#include "tests/scene/scene_error_fixture.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
-#include "light/light_source.h"
-#include "scene/scene_loader.h"
-#include "support/gltf_builder.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/light/light_source.h"
+#include "common/scene/scene_loader.h"
+#include "tests/support/gltf_builder.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -8,9 +8,9 @@
 #include <initializer_list>
 #include <string>
 
-#include "scene/scene_loader.h"
-#include "test_support.h"
-#include "util/error.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
+#include "common/util/error.h"
 
 namespace lensfarm::test {
 

@@ -1,8 +1,8 @@
-// Scene loading: the shipped scenes load as the seed describes them.
+// Scene loading: the shipped scenes load as the 2013 report describes them.
 #include <gtest/gtest.h>
 
-#include "scene/scene_loader.h"
-#include "test_support.h"
+#include "common/scene/scene_loader.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -16,8 +16,8 @@ TEST(SceneLoader, SeedSceneMatchesTheReport) {
   EXPECT_DOUBLE_EQ(camera.params().focusDistance, 2.9);
   EXPECT_DOUBLE_EQ(camera.params().focalLength, 0.095);
   EXPECT_DOUBLE_EQ(camera.params().sensorWidth, 0.1);
-  EXPECT_NEAR(camera.lensRadius(), 0.095 / (2 * 16), 1e-12);  // seed eq. 7
-  EXPECT_NEAR(camera.imageDistance(), 0.0982, 5e-5);          // seed §4.6: S2 ~ 0.0982
+  EXPECT_NEAR(camera.lensRadius(), 0.095 / (2 * 16), 1e-12);  // 2013 report eq. 7
+  EXPECT_NEAR(camera.imageDistance(), 0.0982, 5e-5);          // 2013 report §4.6: S2 ~ 0.0982
   EXPECT_EQ(scene.render.maxBounces, 2);
   EXPECT_FALSE(scene.render.mirrorBouncesCount);
 }

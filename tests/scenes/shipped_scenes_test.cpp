@@ -11,8 +11,8 @@
 #include <map>
 #include <set>
 
-#include "film/image_io.h"
-#include "test_support.h"
+#include "common/film/image_io.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -92,7 +92,7 @@ TEST(ShippedScenes, EverySceneRendersThroughTheCli) {
 // for changes of shape (layout, interfaces, refactors) that must not change a single pixel. The
 // traversal kernel is pinned to SSE2 so that the hashes do not depend on this machine's instruction
 // sets (Embree's kernels differ in the last bits of a hit). A change meant to alter images rewrites
-// the file: LENSFARM_UPDATE_GOLDEN=1 ./lensfarm_tests --gtest_filter='ShippedScenes.EverySceneKeepsItsBits'.
+// the file: LENSFARM_UPDATE_GOLDEN=1 build/tests/lensfarm_e2e_tests --gtest_filter='ShippedScenes.EverySceneKeepsItsBits'.
 uint64_t fnv1a(const std::vector<float>& values) {
   uint64_t h = 1469598103934665603ull;
   for (const float v : values) {

@@ -1,13 +1,13 @@
 // `lensfarm-accuracy-goals --quick` (bench/accuracy_goals.cpp) end to end, in a second or two: it
-// caches its two references, prints a row for each goal, goal 1 reaches its target, the seed's
-// job renders exactly the paths asked for, and NEE + MIS reaches the naive job's error with fewer
+// caches its two references, prints a row for each goal, goal 1 reaches its target, the 2013
+// report's job renders exactly the paths asked for, and NEE + MIS reaches the naive job's error with fewer
 // samples per pixel. Sample counts, not times: the renders are deterministic for given seeds
 // (render/unit_renderer.h), the clock on a shared machine is not.
 #include <gtest/gtest.h>
 
 #include <sstream>
 
-#include "test_support.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

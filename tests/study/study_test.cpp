@@ -8,7 +8,7 @@
 #include <map>
 #include <sstream>
 
-#include "test_support.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -90,7 +90,7 @@ void checkConvergence(const StudyRun& run) {
     ASSERT_GE(points.size(), 3u) << config;
     EXPECT_LT(points.back().second, 0.7 * points.front().second) << config << ": more samples, less error";
   }
-  // At equal samples, NEE + MIS is far less noisy than the seed's estimator. (Each runs for the
+  // At equal samples, NEE + MIS is far less noisy than the 2013 report's estimator. (Each runs for the
   // same time, so on a loaded machine they end at different counts: compare at the largest count
   // both reached.)
   std::map<double, double> mis, naive;
@@ -179,7 +179,7 @@ void checkMedia(const StudyRun& run) {
 }
 
 // Every camera model renders; the real lenses say they trace every camera ray; the thin lens
-// keeps the seed's convention that the aperture does not change the brightness.
+// keeps the 2013 report's convention that the aperture does not change the brightness.
 void checkOptics(const StudyRun& run) {
   std::map<std::string, std::map<std::string, std::string>> rows;
   for (const auto& row : readCsv(run.out("optics.csv"))) rows[row.at("variant")] = row;
@@ -202,7 +202,7 @@ void checkOptics(const StudyRun& run) {
 }
 
 // Uniform sampling against uniform + denoise: both series at the same checkpoints; at 2 spp the
-// denoiser wins on the seed scene (its noise dwarfs the bias); the raw error falls with samples; the
+// denoiser wins on cornell-seed (its noise dwarfs the bias); the raw error falls with samples; the
 // denoiser's bias at convergence is reported, finite, and below the raw error at 2 spp.
 void checkDenoise(const StudyRun& run) {
   std::map<std::string, std::vector<std::map<std::string, std::string>>> series;

@@ -21,7 +21,7 @@
 #include <optional>
 #include <string>
 
-#include "math/vec.h"
+#include "common/math/vec.h"
 
 namespace lensfarm::test {
 

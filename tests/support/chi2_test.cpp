@@ -1,7 +1,7 @@
 // The chi-squared harness (tests/support/chi2.h) checked on itself: its p-values against closed
 // forms of the incomplete gamma function, and its power: it accepts correct samplers and rejects
 // a sampler whose pdf is wrong, including a wrong account of absorbed samples.
-#include "support/chi2.h"
+#include "tests/support/chi2.h"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 #include <limits>
 #include <vector>
 
-#include "math/sampling.h"
+#include "common/math/sampling.h"
 
 namespace lensfarm::test {
 namespace {

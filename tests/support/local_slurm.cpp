@@ -1,4 +1,4 @@
-#include "local_slurm.h"
+#include "tests/support/local_slurm.h"
 
 #include <netinet/in.h>
 #include <pwd.h>

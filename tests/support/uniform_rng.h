@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <random>
 
-#include "math/vec.h"
+#include "common/math/vec.h"
 
 namespace lensfarm::test {
 

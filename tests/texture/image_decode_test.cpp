@@ -1,6 +1,6 @@
 // texture/image_decode.h: PNG (8- and 16-bit, grey, grey + alpha, RGB, RGBA), JPEG, Radiance HDR
 // and EXR decoded to linear RGBA, and every kind of bad file refused with one InputError naming it.
-#include "texture/image_decode.h"
+#include "common/texture/image_decode.h"
 
 #include <gtest/gtest.h>
 
@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "film/image_io.h"
-#include "texture/test_images.h"
-#include "util/error.h"
+#include "common/film/image_io.h"
+#include "tests/texture/test_images.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -1,6 +1,6 @@
 // texture/texture.h: bilinear lookups, glTF's wrap modes, the mip-map pyramid and the footprint's
 // choice of level, KHR_texture_transform, and coordinates far outside [0, 1].
-#include "texture/texture.h"
+#include "common/texture/texture.h"
 
 #include <gtest/gtest.h>
 

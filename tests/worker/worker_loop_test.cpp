@@ -9,10 +9,10 @@
 #include <mutex>
 #include <thread>
 
-#include "coordinator.h"
-#include "support/forwarding_link.h"
-#include "test_support.h"
-#include "worker_loop.h"
+#include "coordinator/coordinator.h"
+#include "tests/support/forwarding_link.h"
+#include "tests/test_support.h"
+#include "worker/worker_loop.h"
 
 namespace lensfarm {
 namespace {

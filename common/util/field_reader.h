@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "math/vec.h"
-#include "util/error.h"
-#include "util/spelling.h"
+#include "common/math/vec.h"
+#include "common/util/error.h"
+#include "common/util/spelling.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "light/light_sampler.h"
+#include "common/render/light_sampler.h"
 
 #include <algorithm>
 #include <bit>
@@ -8,10 +8,10 @@
 #include <stdexcept>
 #include <string>
 
-#include "math/lanes.h"
-#include "math/ray_offset.h"
-#include "math/sampling.h"
-#include "math/triangle.h"
+#include "common/math/lanes.h"
+#include "common/math/ray_offset.h"
+#include "common/math/sampling.h"
+#include "common/math/triangle.h"
 
 namespace lensfarm {
 

@@ -1,4 +1,4 @@
-#include "render/sample_map.h"
+#include "common/film/sample_map.h"
 
 #include <algorithm>
 

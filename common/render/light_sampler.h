@@ -18,10 +18,10 @@
 #include <optional>
 #include <vector>
 
-#include "light/light_source.h"
-#include "math/vec.h"
-#include "render/ray_caster.h"
-#include "scene/scene.h"
+#include "common/light/light_source.h"
+#include "common/math/vec.h"
+#include "common/render/ray_caster.h"
+#include "common/scene/scene.h"
 
 namespace lensfarm {
 
