@@ -41,9 +41,9 @@
 #include <thread>
 #include <vector>
 
+#include "client/study/progressive.h"
 #include "common/film/error_metrics.h"
 #include "common/scene/scene_loader.h"
-#include "client/study/progressive.h"
 
 namespace lensfarm {
 namespace {
@@ -112,11 +112,21 @@ struct Goal {
     for (const Run& r : runs) v.push_back(field(r));
     return spread(v);
   }
-  Spread seconds() const { return of([](const Run& r) { return r.seconds; }); }
-  Spread error() const { return of([](const Run& r) { return r.error; }); }
-  Spread spp() const { return of([](const Run& r) { return double(r.spp); }); }
-  Spread pathRate() const { return of([](const Run& r) { return double(r.stats.paths) / r.seconds; }); }
-  Spread rayRate() const { return of([](const Run& r) { return double(r.stats.rays) / r.seconds; }); }
+  Spread seconds() const {
+    return of([](const Run& r) { return r.seconds; });
+  }
+  Spread error() const {
+    return of([](const Run& r) { return r.error; });
+  }
+  Spread spp() const {
+    return of([](const Run& r) { return double(r.spp); });
+  }
+  Spread pathRate() const {
+    return of([](const Run& r) { return double(r.stats.paths) / r.seconds; });
+  }
+  Spread rayRate() const {
+    return of([](const Run& r) { return double(r.stats.rays) / r.seconds; });
+  }
   size_t missed() const {
     return size_t(std::count_if(runs.begin(), runs.end(), [](const Run& r) { return !r.reached; }));
   }

@@ -11,8 +11,8 @@
 #include <benchmark/benchmark.h>
 #include <grpcpp/grpcpp.h>
 
-#include <nlohmann/json.hpp>
 #include <unistd.h>
+#include <nlohmann/json.hpp>
 
 #include <chrono>
 #include <filesystem>
@@ -20,11 +20,11 @@
 #include <mutex>
 #include <sstream>
 
-#include "coordinator/coordinator.h"
-#include "worker/grpc_link.h"
 #include "common/scene/scene_loader.h"
-#include "coordinator/service.h"
 #include "common/util/version.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/service.h"
+#include "worker/grpc_link.h"
 
 namespace lensfarm {
 namespace {
@@ -78,7 +78,8 @@ BENCHMARK(BM_AcceptResultDirect)->Unit(benchmark::kMillisecond)->UseRealTime();
 // acceptResult returns. The gap to BM_AcceptResultDirect is the price of "no acknowledged unit
 // is ever lost".
 void BM_AcceptResultDurable(benchmark::State& state) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("lensfarm-bench-" + std::to_string(::getpid()));
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("lensfarm-bench-" + std::to_string(::getpid()));
   {
     Coordinator::Options options;
     options.stateDir = dir;

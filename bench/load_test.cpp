@@ -10,8 +10,8 @@
 #include <grpcpp/grpcpp.h>
 #include <spdlog/spdlog.h>
 
-#include <CLI/CLI.hpp>
 #include <malloc.h>
+#include <CLI/CLI.hpp>
 
 #include <atomic>
 #include <chrono>
@@ -21,11 +21,11 @@
 #include <random>
 #include <thread>
 
-#include "proto/channel_security.h"
-#include "coordinator/coordinator.h"
-#include "worker/grpc_link.h"
-#include "coordinator/service.h"
 #include "common/util/version.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/service.h"
+#include "proto/channel_security.h"
+#include "worker/grpc_link.h"
 
 namespace lensfarm {
 namespace {
@@ -56,8 +56,8 @@ struct Totals {
 };
 
 // One simulated worker: a fresh registration per life; dies now and then mid-unit.
-void simulatedWorker(const std::string& address, int index, double killProbability,
-                     const std::atomic<bool>& stop, Totals& totals) {
+void simulatedWorker(const std::string& address, int index, double killProbability, const std::atomic<bool>& stop,
+                     Totals& totals) {
   std::mt19937 rng(uint32_t(index) * 7919u + 1u);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   UnitResult result;
@@ -68,7 +68,8 @@ void simulatedWorker(const std::string& address, int index, double killProbabili
     GrpcCoordinatorLink link(makeChannel(address, ChannelSecurity{}), ChannelSecurity{}, 30.0);
     std::string id;
     try {
-      id = link.registerWorker(WorkerInfo{"load-" + std::to_string(index), 1, kProtocolVersion, kRendererVersion}).workerId;
+      id = link.registerWorker(WorkerInfo{"load-" + std::to_string(index), 1, kProtocolVersion, kRendererVersion})
+               .workerId;
     } catch (const std::exception&) {
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
       continue;
@@ -120,7 +121,9 @@ int main(int argc, char** argv) {
   double seconds = 60.0, kill = 0.02, leaseTimeout = 1.0;
   app.add_option("--workers", workers, "Simulated workers")->check(CLI::Range(1, 1024))->capture_default_str();
   app.add_option("--seconds", seconds, "How long to drive them")->check(CLI::Range(0.5, 3600.0))->capture_default_str();
-  app.add_option("--kill", kill, "Chance that a worker dies in the middle of a unit")->check(CLI::Range(0.0, 1.0))->capture_default_str();
+  app.add_option("--kill", kill, "Chance that a worker dies in the middle of a unit")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   app.add_option("--lease-timeout", leaseTimeout, "Lease timeout of the coordinator, s")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(spdlog::level::err);
@@ -143,8 +146,7 @@ int main(int argc, char** argv) {
   Totals totals;
   std::atomic<bool> stop{false};
   std::vector<std::thread> threads;
-  for (int i = 0; i < workers; ++i)
-    threads.emplace_back([&, i] { simulatedWorker(address, i, kill, stop, totals); });
+  for (int i = 0; i < workers; ++i) threads.emplace_back([&, i] { simulatedWorker(address, i, kill, stop, totals); });
   long peakKb = residentKilobytes();
   std::vector<long> quarterPeaks(4, 0);  // bounded memory: the later quarters do not grow
   const auto start = std::chrono::steady_clock::now();
@@ -176,21 +178,24 @@ int main(int argc, char** argv) {
   check(info.stats.paths <= acknowledged, "the job counts more units than were acknowledged (a double count)");
   // Units below the prefix are all in the image; acknowledged ones above it wait for a lapsed unit.
   check(info.unitsDone <= acknowledged, "more units summed than acknowledged");
-  check(image.metadata.totalSamples == info.unitsDone * uint64_t(kSize) * kSize, "the image's samples do not match its units");
+  check(image.metadata.totalSamples == info.unitsDone * uint64_t(kSize) * kSize,
+        "the image's samples do not match its units");
   bool exact = true;
   for (float v : image.image.rgb) exact &= (info.unitsDone == 0 || v == 0.5f);
   check(exact, "the image is not exactly the mean of the uploads");
   std::printf("workers %d, %.1f s, lease timeout %.1f s, kill chance %.2f\n", workers, elapsed, leaseTimeout, kill);
-  std::printf("acknowledged units %llu (%.1f units/s, %.1f MB/s of 512x512 buffers)\n", (unsigned long long)acknowledged,
-              double(acknowledged) / elapsed, double(totals.bytes.load()) / elapsed / 1e6);
-  std::printf("summed in order %llu, waiting for an earlier unit %llu, duplicates ignored %llu, stale uploads refused %llu, "
-              "workers killed %llu\n",
-              (unsigned long long)info.unitsDone, (unsigned long long)(acknowledged - info.unitsDone),
-              (unsigned long long)totals.duplicates.load(), (unsigned long long)totals.refused.load(),
-              (unsigned long long)totals.killed.load());
-  std::printf("peak resident memory %.1f MB; per quarter of the run: %.0f, %.0f, %.0f, %.0f MB\n", double(peakKb) / 1024.0,
-              double(quarterPeaks[0]) / 1024.0, double(quarterPeaks[1]) / 1024.0, double(quarterPeaks[2]) / 1024.0,
-              double(quarterPeaks[3]) / 1024.0);
+  std::printf("acknowledged units %llu (%.1f units/s, %.1f MB/s of 512x512 buffers)\n",
+              (unsigned long long)acknowledged, double(acknowledged) / elapsed,
+              double(totals.bytes.load()) / elapsed / 1e6);
+  std::printf(
+      "summed in order %llu, waiting for an earlier unit %llu, duplicates ignored %llu, stale uploads refused %llu, "
+      "workers killed %llu\n",
+      (unsigned long long)info.unitsDone, (unsigned long long)(acknowledged - info.unitsDone),
+      (unsigned long long)totals.duplicates.load(), (unsigned long long)totals.refused.load(),
+      (unsigned long long)totals.killed.load());
+  std::printf("peak resident memory %.1f MB; per quarter of the run: %.0f, %.0f, %.0f, %.0f MB\n",
+              double(peakKb) / 1024.0, double(quarterPeaks[0]) / 1024.0, double(quarterPeaks[1]) / 1024.0,
+              double(quarterPeaks[2]) / 1024.0, double(quarterPeaks[3]) / 1024.0);
   std::printf("%s\n", ok ? "invariants held" : "INVARIANTS BROKEN");
   return ok ? 0 : 1;
 }

@@ -14,10 +14,10 @@
 //
 //   build/bench/lensfarm-ray-limit [--scene cornell-classic.json] [--resolution 512] [--bounces 3]
 //                                  [--integrator nee_mis] [--repeat 5] [--threads N]
-#include <CLI/CLI.hpp>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for_each.h>
 #include <tbb/task_arena.h>
+#include <CLI/CLI.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -189,20 +189,24 @@ int run(int argc, char** argv) {
   app.add_option("--resolution", resolution)->capture_default_str();
   app.add_option("--bounces", bounces)->capture_default_str();
   app.add_option("--integrator", integrator)->check(CLI::IsMember({"nee_mis", "nee", "naive"}))->capture_default_str();
-  app.add_option("--sampler", sampler)->check(CLI::IsMember({"sobol", "stratified", "independent"}))->capture_default_str();
+  app.add_option("--sampler", sampler)
+      ->check(CLI::IsMember({"sobol", "stratified", "independent"}))
+      ->capture_default_str();
   app.add_option("--roulette", roulette, "Russian roulette: the scene's, off, max or throughput")
       ->check(CLI::IsMember({"scene", "off", "max", "throughput"}))
       ->capture_default_str();
   app.add_option("--repeat", repeat, "Runs; medians are reported")->capture_default_str();
   app.add_option("--threads", threads)->capture_default_str();
-  app.add_option("--unit-spp", unitSamples, "Samples per pixel in each timed unit")->capture_default_str()->check(CLI::Range(1, 4096));
+  app.add_option("--unit-spp", unitSamples, "Samples per pixel in each timed unit")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 4096));
   app.add_flag("--single-rays", singleRays, "Cast one ray at a time (the reference tracer) instead of 16-wide packets");
   app.add_flag("--render-only", renderOnly, "Only (a), once per run: for profilers (perf, callgrind)");
   app.add_option("--triangles", generated, "Add a generated mesh of about this many triangles (scaling)");
   CLI11_PARSE(app, argc, argv);
 
-  const std::string path = sceneName.find('/') == std::string::npos ? std::string(LENSFARM_SOURCE_DIR "/scenes/") + sceneName
-                                                                    : sceneName;
+  const std::string path =
+      sceneName.find('/') == std::string::npos ? std::string(LENSFARM_SOURCE_DIR "/scenes/") + sceneName : sceneName;
   Scene scene = loadScene(path);
   scene.render.width = scene.render.height = resolution;
   scene.render.maxBounces = bounces;

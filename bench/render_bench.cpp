@@ -31,7 +31,9 @@ void traceUnits(benchmark::State& state, const RenderScene& rs, RayGrouping grou
   SensorBuffer buffer;
   uint64_t unit = 0;
   for (auto _ : state) {
-    arena.execute([&] { renderUnit(rs, WorkUnit{unit, unit * kUnitSamples, kUnitSamples}, buffer, stats, nullptr, grouping); });
+    arena.execute([&] {
+      renderUnit(rs, WorkUnit{unit, unit * kUnitSamples, kUnitSamples}, buffer, stats, nullptr, grouping);
+    });
     ++unit;
     benchmark::DoNotOptimize(buffer.sums.data());
   }
@@ -51,7 +53,9 @@ void renderUnits(benchmark::State& state, const char* sceneName, int maxBounces,
 }
 
 // The performance goals' reference point: cornell-classic, 512x512, B = 3, NEE+MIS, all cores.
-void BM_ClassicNeeMisB3(benchmark::State& s) { renderUnits(s, "cornell-classic.json", 3, IntegratorKind::kNeeMis, 512); }
+void BM_ClassicNeeMisB3(benchmark::State& s) {
+  renderUnits(s, "cornell-classic.json", 3, IntegratorKind::kNeeMis, 512);
+}
 // The same with one ray per Embree call (the reference tracer): what packets gain.
 void BM_ClassicNeeMisB3SingleRays(benchmark::State& s) {
   renderUnits(s, "cornell-classic.json", 3, IntegratorKind::kNeeMis, 512, RayGrouping::kSingleRays);
@@ -71,13 +75,13 @@ enum Config { kPinholeDiffuse, kThinLensDiffuse, kRippledMirror, kSeedB1, kSeedB
 
 Scene configScene(Config config) {
   const std::string dir = LENSFARM_SOURCE_DIR "/scenes/";
-  nlohmann::json j = nlohmann::json::parse(
-      std::ifstream(dir + (config == kPinholeDiffuse || config == kThinLensDiffuse ? "cornell-classic.json" : "cornell-seed.json")));
+  nlohmann::json j = nlohmann::json::parse(std::ifstream(
+      dir + (config == kPinholeDiffuse || config == kThinLensDiffuse ? "cornell-classic.json" : "cornell-seed.json")));
   j["shapes"][0]["file"] = dir + "meshes/cornell-box.obj";
   j["render"]["resolution"] = {256, 256};
   if (config == kThinLensDiffuse) {
     j["camera"] = {{"type", "thin_lens"}, {"position", {0, 0, -2.9}}, {"look_at", {0, 0, 0}}, {"up", {0, -1, 0}},
-                   {"sensor_width", 0.1}, {"focal_length", 0.095}, {"f_number", 2}};
+                   {"sensor_width", 0.1}, {"focal_length", 0.095},    {"f_number", 2}};
   }
   if (config == kRippledMirror) j["camera"]["f_number"] = "infinity";  // the mirror alone
   const int bounces[] = {3, 3, 2, 1, 2, 3, 8};
@@ -91,7 +95,8 @@ void BM_Paths(benchmark::State& state) {
   const Scene scene = configScene(config);
   const RenderScene rs(scene, general);
   traceUnits(state, rs);
-  const char* names[] = {"pinhole diffuse", "thin lens diffuse", "rippled mirror", "seed B=1", "seed B=2", "seed B=3", "seed B=8"};
+  const char* names[] = {"pinhole diffuse", "thin lens diffuse", "rippled mirror", "seed B=1",
+                         "seed B=2",        "seed B=3",          "seed B=8"};
   state.SetLabel(std::string(names[config]) + (general ? " general" : " specialised") + " | " + rs.effects().summary());
 }
 
@@ -108,13 +113,14 @@ BENCHMARK(BM_Paths)
 // its longer side, and cornell-classic with its quad light swapped for each light kind that no
 // shipped scene has (point, spot, directional). Rows, not goals: a change that slows one kind
 // shows here.
-const char* const kShippedScenes[] = {"bokeh-lights.json", "cornell-animated.json", "cornell-classic.json",
-                                      "cornell-glass-metal.json", "cornell-glass.json", "cornell-real-lens.json",
-                                      "cornell-seed-fast-lens.json", "cornell-seed.json", "glass-metal-sky.json",
+const char* const kShippedScenes[] = {"bokeh-lights.json",           "cornell-animated.json", "cornell-classic.json",
+                                      "cornell-glass-metal.json",    "cornell-glass.json",    "cornell-real-lens.json",
+                                      "cornell-seed-fast-lens.json", "cornell-seed.json",     "glass-metal-sky.json",
                                       "night-lights-starburst.json", "textured-spheres.json"};
 
 Scene smallScene(nlohmann::json j, const std::string& path) {
-  const double scale = 128.0 / double(std::max(j["render"]["resolution"][0].get<int>(), j["render"]["resolution"][1].get<int>()));
+  const double scale =
+      128.0 / double(std::max(j["render"]["resolution"][0].get<int>(), j["render"]["resolution"][1].get<int>()));
   j["render"]["resolution"] = {std::max(1, int(std::lround(j["render"]["resolution"][0].get<int>() * scale))),
                                std::max(1, int(std::lround(j["render"]["resolution"][1].get<int>() * scale)))};
   return parseScene(j.dump(), path);

@@ -23,9 +23,9 @@
 #include <string>
 #include <vector>
 
+#include "client/study/progressive.h"
 #include "common/film/error_metrics.h"
 #include "common/scene/scene_loader.h"
-#include "client/study/progressive.h"
 
 namespace lensfarm {
 namespace {

@@ -32,16 +32,16 @@
 #include <optional>
 #include <thread>
 
-#include "coordinator/audit.h"
-#include "proto/channel_security.h"
-#include "proto/convert.h"
-#include "common/film/image_io.h"
-#include "lensfarm/v1/client_service.grpc.pb.h"
-#include "common/farm/memory_estimate.h"
 #include "bench/scale/coordinator_process.h"
 #include "bench/scale/simulated_farm.h"
 #include "bench/scale/synthetic_image.h"
+#include "common/farm/memory_estimate.h"
+#include "common/film/image_io.h"
 #include "common/scene/render_overrides.h"
+#include "coordinator/audit.h"
+#include "lensfarm/v1/client_service.grpc.pb.h"
+#include "proto/channel_security.h"
+#include "proto/convert.h"
 
 namespace lensfarm::scale {
 namespace {

@@ -9,9 +9,9 @@
 
 #include "client/commands.h"
 #include "client/exit_codes.h"
+#include "client/override_flags.h"
 #include "common/film/error_metrics.h"
 #include "common/film/image_io.h"
-#include "client/override_flags.h"
 #include "common/util/error.h"
 
 namespace lensfarm::cli {

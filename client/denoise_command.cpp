@@ -15,9 +15,9 @@
 #include "client/commands.h"
 #include "client/denoise_output.h"
 #include "client/exit_codes.h"
+#include "client/override_flags.h"
 #include "common/film/denoiser.h"
 #include "common/film/image_io.h"
-#include "client/override_flags.h"
 #include "common/util/error.h"
 
 namespace lensfarm::cli {

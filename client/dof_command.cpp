@@ -6,13 +6,13 @@
 #include <string>
 #include <vector>
 
-#include "common/camera/depth_of_field.h"
-#include "common/camera/focus_spots.h"
 #include "client/commands.h"
 #include "client/exit_codes.h"
 #include "client/override_flags.h"
-#include "common/scene/scene_loader.h"
+#include "common/camera/depth_of_field.h"
+#include "common/camera/focus_spots.h"
 #include "common/film/image_io.h"
+#include "common/scene/scene_loader.h"
 #include "common/util/error.h"
 
 namespace lensfarm::cli {
@@ -40,14 +40,17 @@ struct SpotFlags {
 // The spot table (and plot) for the scene's thin lens at f/N, with the 2013 report's eq. 1 as written
 // and the ideal thin lens, and a real-lens scene's spots beside them.
 void printSpots(const Scene& s, const SpotFlags& flags, double c) {
-  if (s.realLens) throw InputError("--spots", "the scene's camera is a real lens: give it with --compare beside a "
-                                              "thin-lens scene (its own f_number is used)");
+  if (s.realLens)
+    throw InputError("--spots",
+                     "the scene's camera is a real lens: give it with --compare beside a "
+                     "thin-lens scene (its own f_number is used)");
   ThinLensParams p = s.camera().params();  // the sensor's height resolved at the scene's resolution
   p.fNumber = *flags.fNumber;
   p.apertureBlades = 0;
-  std::vector<SpotSeries> series{
-      {"2013 report eq. 1 as written (unit n1)", "#d62728", thinLensFocusSpots(p, ThinLensRule::kSeedEquationAsWritten, flags.steps)},
-      {"ideal thin lens (lensfarm): 0, drawn on the floor", "#1f77b4", thinLensFocusSpots(p, ThinLensRule::kIdealThinLens, flags.steps)}};
+  std::vector<SpotSeries> series{{"2013 report eq. 1 as written (unit n1)", "#d62728",
+                                  thinLensFocusSpots(p, ThinLensRule::kSeedEquationAsWritten, flags.steps)},
+                                 {"ideal thin lens (lensfarm): 0, drawn on the floor", "#1f77b4",
+                                  thinLensFocusSpots(p, ThinLensRule::kIdealThinLens, flags.steps)}};
   std::string lensName;
   if (!flags.compare.empty()) {
     const Scene other = loadScene(flags.compare);
@@ -57,8 +60,9 @@ void printSpots(const Scene& s, const SpotFlags& flags, double c) {
     std::snprintf(label, sizeof label, "%s at f/%.3g", lensName.c_str(), other.cameraParams.fNumber);
     series.push_back({label, "#2ca02c", realLensFocusSpots(other.camera().params(), *other.realLens, flags.steps)});
   }
-  std::printf("\nspots of points on the plane of focus (S1 = %g): RMS diameter on the sensor, in c; thin lens at f/%g\n",
-              p.focusDistance, p.fNumber);
+  std::printf(
+      "\nspots of points on the plane of focus (S1 = %g): RMS diameter on the sensor, in c; thin lens at f/%g\n",
+      p.focusDistance, p.fNumber);
   std::printf("%6s %10s %14s %12s", "field", "height", "report eq. 1", "ideal");
   if (series.size() > 2) std::printf(" %14s %8s", "real lens", "passing");
   std::printf("\n");
@@ -89,9 +93,7 @@ Runner addDofCommand(CLI::App& app) {
   auto scene = std::make_shared<std::string>();
   auto fNumbers = std::make_shared<std::vector<double>>(std::vector<double>{2, 4, 8, 16, 32});
   cmd->add_option("scene", *scene, "Scene file (JSON), or a model to render as it is (.gltf, .glb, .obj)")->required();
-  cmd->add_option("--f-numbers", *fNumbers, "f-numbers to tabulate")
-      ->delimiter(',')
-      ->check(positiveNumber(""));
+  cmd->add_option("--f-numbers", *fNumbers, "f-numbers to tabulate")->delimiter(',')->check(positiveNumber(""));
   auto spots = std::make_shared<SpotFlags>();
   cmd->add_option("--spots", spots->fNumber,
                   "Also measure the blur of points on the plane of focus across the image at this f-number: the "

@@ -6,8 +6,8 @@
 #include <chrono>
 #include <optional>
 
-#include "proto/convert.h"
 #include "coordinator/coordinator.h"
+#include "proto/convert.h"
 
 namespace lensfarm::cli {
 
@@ -18,14 +18,17 @@ bool mentions(const std::string& text, const char* part) { return text.find(part
 // dashboard, another gRPC service), as a sentence; nothing for a coordinator's own answer.
 std::optional<std::string> wrongServer(const grpc::Status& s, const std::string& address) {
   const std::string& m = s.error_message();
-  const std::string hint = " (the coordinator's gRPC port is its --listen, 7878 by default; its dashboard and metrics "
-                           "ports serve HTTP to browsers)";
+  const std::string hint =
+      " (the coordinator's gRPC port is its --listen, 7878 by default; its dashboard and metrics "
+      "ports serve HTTP to browsers)";
   if (mentions(m, "http1.x") || mentions(m, "HTTP/1") || mentions(m, "Received http2 header with status") ||
       mentions(m, "Bad Request") || mentions(m, "received initial metadata size exceeds limit"))
     return "coordinator " + address + ": an HTTP server answered, not a lensfarm coordinator" + hint;
   if (s.error_code() == grpc::StatusCode::UNIMPLEMENTED && !mentions(m, "lensfarm"))
-    return "coordinator " + address + ": a gRPC server answered that is not a lensfarm coordinator (it does not know "
-           "the lensfarm.v1.ClientService)" + hint;
+    return "coordinator " + address +
+           ": a gRPC server answered that is not a lensfarm coordinator (it does not know "
+           "the lensfarm.v1.ClientService)" +
+           hint;
   return std::nullopt;
 }
 
@@ -37,13 +40,15 @@ void check(const grpc::Status& s, const std::string& address) {
   if (s.error_code() == grpc::StatusCode::UNAVAILABLE || s.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) {
     const std::string& m = s.error_message();
     if (mentions(m, "Connection refused") || mentions(m, "connection refused"))
-      throw ClientError(s.error_code(), "coordinator " + address + " unreachable: nothing listens on that port (is the "
-                                        "coordinator running, and is this its --listen address?)");
+      throw ClientError(s.error_code(), "coordinator " + address +
+                                            " unreachable: nothing listens on that port (is the "
+                                            "coordinator running, and is this its --listen address?)");
     if (mentions(m, "DNS resolution failed") || mentions(m, "Name or service not known"))
       throw ClientError(s.error_code(), "coordinator " + address + " unreachable: the host name does not resolve");
     if (s.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED)
-      throw ClientError(s.error_code(), "coordinator " + address + " did not answer in time (a firewall, a wrong host, "
-                                        "or a TLS coordinator without --tls-ca?)");
+      throw ClientError(s.error_code(), "coordinator " + address +
+                                            " did not answer in time (a firewall, a wrong host, "
+                                            "or a TLS coordinator without --tls-ca?)");
     throw ClientError(s.error_code(), "coordinator " + address + " unreachable: " + m);
   }
   throw ClientError(s.error_code(), s.error_message());

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "proto/channel_security.h"
 #include "client/job_spec.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
+#include "proto/channel_security.h"
 
 namespace lensfarm::cli {
 

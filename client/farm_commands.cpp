@@ -17,14 +17,14 @@
 #include "client/exit_codes.h"
 #include "client/farm_client.h"
 #include "client/farm_connection.h"
-#include "common/scene/frame_range.h"
-#include "common/film/image_io.h"
 #include "client/output_paths.h"
 #include "client/override_flags.h"
 #include "client/progress_display.h"
+#include "common/film/image_io.h"
+#include "common/scene/frame_range.h"
 #include "common/scene/scene_loader.h"
-#include "common/util/secret.h"
 #include "common/util/error.h"
+#include "common/util/secret.h"
 
 namespace lensfarm::cli {
 
@@ -51,12 +51,12 @@ void printStatus(const v1::JobStatus& s) {
   if (s.ended_unix_seconds() > 0.0) std::printf("ended:      %s\n", localTimeText(s.ended_unix_seconds()).c_str());
   if (s.archived()) std::printf("archived:   yes (final image kept; sensor and ledger freed)\n");
   if (hasSampleCap(p))
-    std::printf("samples:    %llu / %llu per pixel (%llu / %llu units)\n", (unsigned long long)p.samples_per_pixel_done(),
-                (unsigned long long)p.samples_per_pixel_total(), (unsigned long long)p.units_done(),
-                (unsigned long long)p.units_total());
+    std::printf("samples:    %llu / %llu per pixel (%llu / %llu units)\n",
+                (unsigned long long)p.samples_per_pixel_done(), (unsigned long long)p.samples_per_pixel_total(),
+                (unsigned long long)p.units_done(), (unsigned long long)p.units_total());
   else  // running to a target error or a deadline: the internal cap is no total
-    std::printf("samples:    %llu per pixel (%llu units; no sample cap)\n", (unsigned long long)p.samples_per_pixel_done(),
-                (unsigned long long)p.units_done());
+    std::printf("samples:    %llu per pixel (%llu units; no sample cap)\n",
+                (unsigned long long)p.samples_per_pixel_done(), (unsigned long long)p.units_done());
   if (s.tile_size() > 0)
     std::printf("tiles:      %u px, %llu a frame (docs/farm.md \"Tiles and passes\")\n", s.tile_size(),
                 (unsigned long long)s.tiles_per_frame());
@@ -84,7 +84,8 @@ void printStatus(const v1::JobStatus& s) {
   std::printf("light hits: %.2f %%\n", 100.0 * p.light_hit_fraction());
   std::printf("dropped:    %llu samples\n", (unsigned long long)p.dropped_samples());
   std::printf("error:      %s\n", convergenceText(p).c_str());
-  if (p.time_limit_seconds() > 0.0) std::printf("deadline:   %s after submission\n", formatDuration(p.time_limit_seconds()).c_str());
+  if (p.time_limit_seconds() > 0.0)
+    std::printf("deadline:   %s after submission\n", formatDuration(p.time_limit_seconds()).c_str());
   if (!p.stop_reason().empty()) std::printf("stopped:    %s\n", p.stop_reason().c_str());
   if (s.audits_passed() + s.audits_failed() + s.audits_pending() + s.units_rerendered() > 0)
     std::printf("audit:      %llu passed, %llu failed, %llu pending; %llu units rendered again\n",
@@ -111,12 +112,14 @@ Runner addSubmitCommand(CLI::App& app) {
   addCoordinatorOption(cmd, f->c);
   if (const char* user = std::getenv("USER")) f->owner = user;
   cmd->add_option("--owner", f->owner, "Who submits the job, shown in status and `jobs --owner` (default: $USER)");
-  cmd->add_option("scene", f->scene, "Scene file (JSON), or a model to render as it is (.gltf, .glb, .obj)")->required();
+  cmd->add_option("scene", f->scene, "Scene file (JSON), or a model to render as it is (.gltf, .glb, .obj)")
+      ->required();
   f->overrides.addTo(cmd);
   cmd->add_option("--priority", f->priority, "Higher runs first")->capture_default_str();
   return [f] {
     const RenderOverrides o = f->overrides.toOverrides();
-    const LocalJob job = makeLocalJob(f->scene, o, f->overrides.camera, f->overrides.frameRange(), f->overrides.allowedFolders());
+    const LocalJob job =
+        makeLocalJob(f->scene, o, f->overrides.camera, f->overrides.frameRange(), f->overrides.allowedFolders());
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());
       std::printf("%s\n", client.submit(job, f->priority, f->owner).job_id().c_str());
@@ -197,7 +200,8 @@ Runner addWatchCommand(CLI::App& app) {
         for (const v1::JobEvent& e : s.events()) {
           if (!told.emplace(e.unix_seconds(), e.text()).second) continue;
           display.finish();
-          std::fprintf(stderr, "%s: %s  %s\n", s.job_id().c_str(), localTimeText(e.unix_seconds()).c_str(), e.text().c_str());
+          std::fprintf(stderr, "%s: %s  %s\n", s.job_id().c_str(), localTimeText(e.unix_seconds()).c_str(),
+                       e.text().c_str());
         }
         const std::string& reason = s.progress().stalled_reason();
         if (withoutDigits(reason) != withoutDigits(stall)) {
@@ -253,7 +257,8 @@ Runner addDownloadCommand(CLI::App& app) {
       const v1::JobStatus status = client.get(f->job);
       // One frame's files: as the coordinator serves them, or with --denoise from its EXR,
       // denoised here (the guide check comes before any file is written).
-      const auto writeFrame = [&](std::optional<int64_t> frame, const std::function<std::string(const std::string&)>& name) {
+      const auto writeFrame = [&](std::optional<int64_t> frame,
+                                  const std::function<std::string(const std::string&)>& name) {
         if (!f->denoise) {
           for (const auto& [path, format] : targets) {
             const std::string file = name(path);
@@ -338,8 +343,9 @@ Runner addCancelCommand(CLI::App& app) {
 }
 
 Runner addDeleteCommand(CLI::App& app) {
-  auto* cmd = app.add_subcommand("delete", "Delete jobs for good: their images, ledger and files (refuses a running "
-                                           "job unless --force)");
+  auto* cmd = app.add_subcommand("delete",
+                                 "Delete jobs for good: their images, ledger and files (refuses a running "
+                                 "job unless --force)");
   struct Flags {
     Connection c;
     std::vector<std::string> jobs;
@@ -405,7 +411,8 @@ Runner addWorkersCommand(CLI::App& app) {
         if (w.quarantined())
           state = "quarantined" + (w.quarantine_reason().empty() ? "" : ": " + w.quarantine_reason()) + "; " + state;
         if (w.failures() > 0) state += "; " + std::to_string(w.failures()) + " failed unit(s)";
-        if (w.audits_passed() > 0) state += "; " + std::to_string(w.audits_passed()) + " of its units confirmed by audit";
+        if (w.audits_passed() > 0)
+          state += "; " + std::to_string(w.audits_passed()) + " of its units confirmed by audit";
         if (w.audits_rendered() > 0) state += "; audited " + std::to_string(w.audits_rendered()) + " of other workers'";
         for (const std::string& job : w.blocklisted_jobs()) state += "; blocklisted for " + job;
         std::printf("%-18s %-28s %7u %-10s %8llu %9.1fs  %s\n", w.worker_id().c_str(), w.name().c_str(), w.threads(),

@@ -6,8 +6,8 @@
 #include <functional>
 #include <string>
 
-#include "proto/channel_security.h"
 #include "common/util/secret.h"
+#include "proto/channel_security.h"
 
 namespace lensfarm::cli {
 

@@ -2,8 +2,8 @@
 // Building a job from a scene file on the client's disk: the scene is loaded (and so validated)
 // here first, and its assets are listed by content hash for upload. Every file is read once.
 #include <filesystem>
-#include <optional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 

@@ -6,31 +6,35 @@
 #include <filesystem>
 #include <string>
 
-#include "common/camera/lens_analysis.h"
-#include "common/camera/lens_plots.h"
-#include "common/camera/lens_system.h"
-#include "common/scene/lens_prescription.h"
 #include "client/commands.h"
 #include "client/exit_codes.h"
 #include "client/override_flags.h"
+#include "common/camera/lens_analysis.h"
+#include "common/camera/lens_plots.h"
+#include "common/camera/lens_system.h"
 #include "common/film/image_io.h"
+#include "common/scene/lens_prescription.h"
 #include "common/util/error.h"
 #include "common/util/file_contents.h"
 
 namespace lensfarm::cli {
 
 Runner addLensCommand(CLI::App& app) {
-  auto* cmd = app.add_subcommand("lens", "Report a real lens's optics from its prescription (pbrt-v4 lens file or JSON)");
+  auto* cmd =
+      app.add_subcommand("lens", "Report a real lens's optics from its prescription (pbrt-v4 lens file or JSON)");
   struct Flags {
     std::string file, svg, plots;
     double sensorWidth = 36.0, sensorHeight = 24.0, focus = INFINITY;
     int steps = 6;
   };
   auto f = std::make_shared<Flags>();
-  cmd->add_option("file", f->file, "Lens file: pbrt-v4 tabular (one surface a line, radius thickness index aperture [abbe], in mm) or a JSON "
-                  "prescription (docs/scene-format.md)")
+  cmd->add_option(
+         "file", f->file,
+         "Lens file: pbrt-v4 tabular (one surface a line, radius thickness index aperture [abbe], in mm) or a JSON "
+         "prescription (docs/scene-format.md)")
       ->required();
-  cmd->add_option("--sensor-width", f->sensorWidth, "Sensor width for the field of view, mm")->check(positiveNumber("mm"));
+  cmd->add_option("--sensor-width", f->sensorWidth, "Sensor width for the field of view, mm")
+      ->check(positiveNumber("mm"));
   cmd->add_option("--sensor-height", f->sensorHeight, "Sensor height, mm")->check(positiveNumber("mm"));
   cmd->add_option("--focus", f->focus, "Object distance from the front vertex to focus at, mm (default: infinity)")
       ->check(positiveNumber("mm"));
@@ -55,7 +59,8 @@ Runner addLensCommand(CLI::App& app) {
     std::printf("  front focal length      %10.4f   (front focus to front vertex)\n", p.ffl);
     std::printf("  principal planes        %10.4f   (front), %.4f (rear)\n", p.frontPrincipalZ, p.rearPrincipalZ);
     std::printf("  f-number                %10.4f\n", p.fNumber);
-    std::printf("  entrance pupil          %10.4f   diameter, at z = %.4f\n", p.entrancePupilDiameter, p.entrancePupilZ);
+    std::printf("  entrance pupil          %10.4f   diameter, at z = %.4f\n", p.entrancePupilDiameter,
+                p.entrancePupilZ);
     std::printf("  exit pupil              %10.4f   diameter, at z = %.4f\n", p.exitPupilDiameter, p.exitPupilZ);
     std::printf("  Petzval sum             %10.6f   1/mm (Petzval radius %.1f)\n", p.petzvalSum,
                 p.petzvalSum != 0.0 ? -1.0 / p.petzvalSum : INFINITY);
@@ -67,9 +72,10 @@ Runner addLensCommand(CLI::App& app) {
       if (focus) {
         std::printf("  focused at %.1f: film %.4f behind the last vertex paraxially (%.4f farther than at infinity),\n",
                     f->focus, focus->paraxial, focus->paraxial - p.bfl);
-        std::printf("    exactly (least RMS spot of the axial point, %d rays) %.4f: RMS spot %.5f there, %.5f at the "
-                    "paraxial film\n",
-                    focus->rays, focus->exact, focus->exactRms, focus->paraxialRms);
+        std::printf(
+            "    exactly (least RMS spot of the axial point, %d rays) %.4f: RMS spot %.5f there, %.5f at the "
+            "paraxial film\n",
+            focus->rays, focus->exact, focus->exactRms, focus->paraxialRms);
       } else {
         std::printf("  focused at %.1f: no real image (inside the front focal length)\n", f->focus);
       }
@@ -79,7 +85,8 @@ Runner addLensCommand(CLI::App& app) {
     std::printf("field of view on a %g x %g sensor: %.2f x %.2f degrees, %.2f diagonal (paraxial)\n", f->sensorWidth,
                 f->sensorHeight, fov(f->sensorWidth), fov(f->sensorHeight), fov(diagonal));
     if (lens.disperses()) {
-      const double eflF = lens.paraxial(LensSystem::kWavelengthF).efl, eflC = lens.paraxial(LensSystem::kWavelengthC).efl;
+      const double eflF = lens.paraxial(LensSystem::kWavelengthF).efl,
+                   eflC = lens.paraxial(LensSystem::kWavelengthC).efl;
       std::printf("colour: efl %.4f at F (486 nm), %.4f at C (656 nm): %.4f\n", eflF, eflC, eflF - eflC);
       // Lateral colour: the sensor's red and blue channel image heights (camera/spectral_response.h).
       for (const double share : {0.7, 1.0}) {

@@ -64,9 +64,8 @@ int main(int argc, char** argv) {
   std::map<CLI::App*, cli::Runner> runners;
   for (auto add : {cli::addRenderCommand, cli::addDofCommand, cli::addSubmitCommand, cli::addStatusCommand,
                    cli::addWatchCommand, cli::addDownloadCommand, cli::addSnapshotCommand, cli::addCancelCommand,
-                   cli::addDeleteCommand, cli::addArchiveCommand,
-                   cli::addWorkersCommand, cli::addSlurmCommand, cli::addStudyCommand, cli::addCompareCommand, cli::addLensCommand,
-                   cli::addDenoiseCommand}) {
+                   cli::addDeleteCommand, cli::addArchiveCommand, cli::addWorkersCommand, cli::addSlurmCommand,
+                   cli::addStudyCommand, cli::addCompareCommand, cli::addLensCommand, cli::addDenoiseCommand}) {
     cli::Runner run = add(app);
     runners[app.get_subcommands({}).back()] = std::move(run);
   }
@@ -75,8 +74,9 @@ int main(int argc, char** argv) {
   helpCommand->add_option("command", helpTopic, "The command to explain");
   runners[helpCommand] = [&] { return help(app, helpTopic); };
   // Set after the subcommands, which would otherwise inherit it.
-  app.footer("Run 'lensfarm help COMMAND' or 'lensfarm COMMAND --help' for a command's flags; "
-             "docs/cli.md has them all.");
+  app.footer(
+      "Run 'lensfarm help COMMAND' or 'lensfarm COMMAND --help' for a command's flags; "
+      "docs/cli.md has them all.");
 
   try {
     app.parse(argc, argv);

@@ -39,9 +39,10 @@ void OverrideFlags::addTo(CLI::App* cmd) {
   }
   cmd->add_option("--frames", frames,
                   "Render an animation's frames: 7, 1-240 or 1-240x2 (every 2nd); outputs need #### for the number");
-  cmd->add_option("--allow-path", allowPaths,
-                  "A folder outside the scene's that the scene and its models may read files from (repeatable); "
-                  "by default every file must lie inside the scene's folder (LENSFARM_ALLOW_PATH: more, colon-separated)")
+  cmd->add_option(
+         "--allow-path", allowPaths,
+         "A folder outside the scene's that the scene and its models may read files from (repeatable); "
+         "by default every file must lie inside the scene's folder (LENSFARM_ALLOW_PATH: more, colon-separated)")
       ->check(CLI::ExistingDirectory);
 }
 

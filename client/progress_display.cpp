@@ -15,9 +15,7 @@ namespace {
 
 double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
-double nowUnix() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
+double nowUnix() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
 
 bool isFinished(v1::JobState state) {
   return state == v1::JOB_STATE_DONE || state == v1::JOB_STATE_CANCELLED || state == v1::JOB_STATE_FAILED;
@@ -83,8 +81,8 @@ std::string convergenceText(const v1::JobProgress& p, double watchTarget) {
     return target > 0.0 ? fmt::format("err unknown (target {:.2f} %)", 100.0 * target) : "err unknown";
   std::string text = fmt::format("err {:.2f} %", 100.0 * estimate);
   if (target > 0.0) {
-    const double eta = p.target_error() > 0.0 ? p.seconds_to_target()
-                                              : secondsToTarget(estimate, target, p.elapsed_seconds());
+    const double eta =
+        p.target_error() > 0.0 ? p.seconds_to_target() : secondsToTarget(estimate, target, p.elapsed_seconds());
     if (estimate <= target)
       text += fmt::format(" (target {:.2f} % reached)", 100.0 * target);
     else if (!p.stop_reason().empty())  // finished short of it: nothing to project
@@ -97,7 +95,8 @@ std::string convergenceText(const v1::JobProgress& p, double watchTarget) {
 
 std::string progressLine(const v1::JobStatus& s, double watchTarget, double nowUnixSeconds) {
   const auto& p = s.progress();
-  std::string line = fmt::format("{} {} spp  {}", stateName(s.state()), samplesText(p), convergenceText(p, watchTarget));
+  std::string line =
+      fmt::format("{} {} spp  {}", stateName(s.state()), samplesText(p), convergenceText(p, watchTarget));
   if (p.time_limit_seconds() > 0.0) line += "  " + deadlineText(s, nowUnixSeconds);
   if (s.frames_size() > 0) {  // an animation: frames complete of the range
     int complete = 0;
@@ -106,8 +105,10 @@ std::string progressLine(const v1::JobStatus& s, double watchTarget, double nowU
   }
   // Until a unit is in, there is no rate and no time left to show, only that they are coming.
   const bool noData = !isFinished(s.state()) && p.units_done() == 0;
-  if (noData) line += "  estimating";
-  else line += fmt::format("  {:.2f} Mrays/s", p.rays_per_second() / 1e6);
+  if (noData)
+    line += "  estimating";
+  else
+    line += fmt::format("  {:.2f} Mrays/s", p.rays_per_second() / 1e6);
   line += fmt::format("  {} busy  {} elapsed", p.workers_busy(), formatDuration(p.elapsed_seconds()));
   if (!noData) {
     const std::string left = timeLeftText(s);

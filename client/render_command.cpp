@@ -22,25 +22,25 @@
 
 #include "client/commands.h"
 #include "client/denoise_output.h"
-#include "coordinator/coordinator.h"
-#include "common/farm/job_layout.h"
 #include "client/exit_codes.h"
-#include "common/film/image_io.h"
 #include "client/in_process_link.h"
 #include "client/job_spec.h"
 #include "client/output_paths.h"
-#include "common/farm/memory_estimate.h"
-#include "common/render/ray_caster.h"
 #include "client/override_flags.h"
 #include "client/progress_display.h"
-#include "coordinator/service.h"
-#include "worker/worker_loop.h"
+#include "common/farm/job_layout.h"
+#include "common/farm/memory_estimate.h"
+#include "common/film/image_io.h"
+#include "common/render/ray_caster.h"
 #include "common/scene/effects.h"
 #include "common/scene/frame_range.h"
 #include "common/scene/render_overrides.h"
 #include "common/scene/scene_loader.h"
 #include "common/util/error.h"
 #include "common/util/version.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/service.h"
+#include "worker/worker_loop.h"
 
 namespace lensfarm::cli {
 
@@ -154,7 +154,8 @@ void writeCompleteFrames(const Coordinator& coordinator, const JobInfo& info, co
 
 int runRender(const RenderFlags& flags, PhaseTimer& timer) {
   const std::optional<FrameRange> frames = flags.overrides.frameRange();
-  LocalJob local = makeLocalJob(flags.scene, toOverrides(flags), flags.overrides.camera, frames, flags.overrides.allowedFolders());
+  LocalJob local =
+      makeLocalJob(flags.scene, toOverrides(flags), flags.overrides.camera, frames, flags.overrides.allowedFolders());
   if (flags.denoise) {  // the guides' AOVs join the scene's (and --aov's), for every process of the job
     local.scene.render.aovs.bits |= denoiseGuideAovs().bits;
     local.spec.overrides.aovs = local.scene.render.aovs;
@@ -184,7 +185,7 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
   // (docs/architecture.md, "The farm in one process"): the same scheduling, upload and accumulation as over gRPC.
   Coordinator::Options options;
   options.maxJobMemoryBytes = std::numeric_limits<uint64_t>::max();  // the whole process was checked above
-  options.leaseTimeoutSeconds = 3600.0;  // the worker cannot vanish: it is this process
+  options.leaseTimeoutSeconds = 3600.0;                              // the worker cannot vanish: it is this process
   options.heartbeatIntervalSeconds = 0.25;
   options.auditFraction = 0.0;  // one worker: nobody to compare with (docs/farm.md "Audit")
   // Owned through pointers so that they can be freed beside the writing of the outputs (below).
@@ -200,24 +201,24 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
   std::signal(SIGINT, onSigint);
   const unsigned threads = flags.threads.value_or(std::max(1u, std::thread::hardware_concurrency()));
   std::string triangles = std::to_string(storedTriangles(scene)) + " triangles";
-  if (!scene.instances.empty())
-    triangles += fmt::format(" (shared meshes drawn {} times)", scene.instances.size());
+  if (!scene.instances.empty()) triangles += fmt::format(" (shared meshes drawn {} times)", scene.instances.size());
   std::string budget = settings.samplesPerPixel >= kMaxSamplesPerPixel
                            ? std::string("no sample cap")
                            : std::to_string(settings.samplesPerPixel) + " spp";
   if (settings.targetError > 0.0) budget += fmt::format(", to {:.3g} % relative error", 100.0 * settings.targetError);
   if (settings.timeLimitSeconds > 0.0) budget += fmt::format(", for at most {} s", settings.timeLimitSeconds);
-  spdlog::info("{}: {}, {}x{} px, {} in units of {} spp, B = {}, {}, {} sampler on {} threads", flags.scene,
-               triangles, settings.width, settings.height, budget, unitSize(settings), settings.maxBounces,
+  spdlog::info("{}: {}, {}x{} px, {} in units of {} spp, B = {}, {}, {} sampler on {} threads", flags.scene, triangles,
+               settings.width, settings.height, budget, unitSize(settings), settings.maxBounces,
                integratorName(settings.integrator), samplerName(settings.sampler), threads);
   if (const std::string a = JobLayout::of(settings, std::nullopt).adaptiveSummary(); !a.empty() && !frames)
     spdlog::info("{}: {}", flags.scene, a);
   for (const std::string& note : scene.notes) spdlog::info("{}: {}", flags.scene, note);
   if (const double framed = scene.cameraFramedAspect, image = double(settings.width) / settings.height;
       framed > 0.0 && std::abs(framed / image - 1.0) > 0.01)
-    spdlog::info("{}: the camera was framed for aspect ratio {:.4g}, rendered at {:.4g} ({}x{}): its vertical angle of "
-                 "view is kept, so the sides show {}",
-                 flags.scene, framed, image, settings.width, settings.height, image > framed ? "more" : "less");
+    spdlog::info(
+        "{}: the camera was framed for aspect ratio {:.4g}, rendered at {:.4g} ({}x{}): its vertical angle of "
+        "view is kept, so the sides show {}",
+        flags.scene, framed, image, settings.width, settings.height, image > framed ? "more" : "less");
   if (scene.skippedDegenerateTriangles)
     spdlog::warn("{}: skipped {} zero-area triangles", flags.scene, scene.skippedDegenerateTriangles);
   // What the render leaves out of what the scene asks for is said before the first ray, not only
@@ -355,7 +356,8 @@ Runner addRenderCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("render", "Render a scene on this machine's cores");
   cmd->footer(kEmbreeConfigHelp);
   auto f = std::make_shared<RenderFlags>();
-  cmd->add_option("scene", f->scene, "Scene file (JSON), or a model to render as it is (.gltf, .glb, .obj)")->required();
+  cmd->add_option("scene", f->scene, "Scene file (JSON), or a model to render as it is (.gltf, .glb, .obj)")
+      ->required();
   cmd->add_option("-o,--output", f->outputs,
                   "Output image (.exr: linear radiance; .png: exposed preview); repeatable "
                   "(default: SCENE.exr and SCENE.png here, named after the scene file)");

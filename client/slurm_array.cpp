@@ -25,7 +25,8 @@ std::vector<std::string> sbatchArguments(const SlurmArray& a) {
 std::map<std::string, std::string> workerEnvironment(const SlurmArray& a) {
   std::ostringstream idle;
   idle << a.idleExitSeconds;
-  std::map<std::string, std::string> env = {{"LENSFARM_COORDINATOR", a.coordinator}, {"LENSFARM_IDLE_EXIT", idle.str()}};
+  std::map<std::string, std::string> env = {{"LENSFARM_COORDINATOR", a.coordinator},
+                                            {"LENSFARM_IDLE_EXIT", idle.str()}};
   if (!a.workerTokenFile.empty()) env["LENSFARM_TOKEN_FILE"] = a.workerTokenFile.string();
   if (!a.workerBinary.empty()) env["LENSFARM_WORKER"] = a.workerBinary;
   return env;

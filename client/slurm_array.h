@@ -14,21 +14,21 @@
 namespace lensfarm::cli {
 
 struct SlurmArray {
-  uint32_t workers = 1;           // array tasks: --array=0-(workers-1)
-  uint32_t maxRunning = 0;        // at most this many at once (--array=...%K); 0: no limit
-  uint32_t cpusPerTask = 4;       // each worker's --threads
+  uint32_t workers = 1;      // array tasks: --array=0-(workers-1)
+  uint32_t maxRunning = 0;   // at most this many at once (--array=...%K); 0: no limit
+  uint32_t cpusPerTask = 4;  // each worker's --threads
   std::string jobName = "lensfarm-worker";
-  std::string timeLimit;          // --time, in Slurm's forms (MM, HH:MM:SS, D-HH, ...); empty: the partition's
+  std::string timeLimit;  // --time, in Slurm's forms (MM, HH:MM:SS, D-HH, ...); empty: the partition's
   std::string partition, account, qos;
-  std::filesystem::path logDir;   // worker logs: <logDir>/lensfarm-worker-<array>_<task>.log
-  std::filesystem::path script;   // lensfarm-worker.sbatch
+  std::filesystem::path logDir;              // worker logs: <logDir>/lensfarm-worker-<array>_<task>.log
+  std::filesystem::path script;              // lensfarm-worker.sbatch
   std::vector<std::string> extraSbatchArgs;  // passed to sbatch as they are, before the script
 
   // What the script reads (its header lists them).
-  std::string coordinator;             // LENSFARM_COORDINATOR
+  std::string coordinator;                // LENSFARM_COORDINATOR
   std::filesystem::path workerTokenFile;  // LENSFARM_TOKEN_FILE; empty: none (or LENSFARM_TOKEN)
-  std::string workerBinary;            // LENSFARM_WORKER; empty: lensfarm-worker on the nodes' PATH
-  double idleExitSeconds = 300.0;      // LENSFARM_IDLE_EXIT
+  std::string workerBinary;               // LENSFARM_WORKER; empty: lensfarm-worker on the nodes' PATH
+  double idleExitSeconds = 300.0;         // LENSFARM_IDLE_EXIT
 };
 
 // The sbatch command line: `sbatch --parsable --array=... ... SCRIPT`.

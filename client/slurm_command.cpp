@@ -20,8 +20,8 @@
 #include "client/slurm_array.h"
 #include "client/subprocess.h"
 #include "common/util/error.h"
-#include "common/util/secret.h"
 #include "common/util/flag_checks.h"
+#include "common/util/secret.h"
 
 namespace lensfarm::cli {
 
@@ -90,8 +90,9 @@ Runner addSlurmCommand(CLI::App& app) {
   };
   auto f = std::make_shared<Flags>();
   addCoordinatorOption(cmd, f->c);
-  cmd->add_option("jobs", f->jobs, "Jobs to work for: wait until they end, then scancel the workers (default: start "
-                                   "the workers and return; they leave after --idle-exit without work)");
+  cmd->add_option("jobs", f->jobs,
+                  "Jobs to work for: wait until they end, then scancel the workers (default: start "
+                  "the workers and return; they leave after --idle-exit without work)");
   cmd->add_option("-n,--workers", f->array.workers, "Workers: one Slurm array task each")
       ->required()
       ->check(CLI::Range(1u, 1000000u));
@@ -116,7 +117,8 @@ Runner addSlurmCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--script", f->array.script, "The sbatch script (default: the installed lensfarm-worker.sbatch)")
       ->envname("LENSFARM_SLURM_SCRIPT");
-  cmd->add_option("--sbatch-arg", f->array.extraSbatchArgs, "One more sbatch argument (repeatable), e.g. --sbatch-arg=--mem=8G");
+  cmd->add_option("--sbatch-arg", f->array.extraSbatchArgs,
+                  "One more sbatch argument (repeatable), e.g. --sbatch-arg=--mem=8G");
   return [f] {
     SlurmArray& array = f->array;
     array.coordinator = f->c.coordinator;

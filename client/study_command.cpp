@@ -17,18 +17,21 @@ namespace fs = std::filesystem;
 // (<prefix>/share/lensfarm/scenes beside <prefix>/bin/lensfarm), else ./scenes.
 std::string defaultScenesDir() {
 #ifdef LENSFARM_SOURCE_DIR
-  if (fs::is_directory(std::string(LENSFARM_SOURCE_DIR) + "/scenes")) return std::string(LENSFARM_SOURCE_DIR) + "/scenes";
+  if (fs::is_directory(std::string(LENSFARM_SOURCE_DIR) + "/scenes"))
+    return std::string(LENSFARM_SOURCE_DIR) + "/scenes";
 #endif
   std::error_code ec;
-  const fs::path installed = fs::read_symlink("/proc/self/exe", ec).parent_path().parent_path() / "share/lensfarm/scenes";
+  const fs::path installed =
+      fs::read_symlink("/proc/self/exe", ec).parent_path().parent_path() / "share/lensfarm/scenes";
   if (!ec && fs::is_directory(installed)) return installed.string();
   return "scenes";
 }
 }  // namespace
 
 Runner addStudyCommand(CLI::App& app) {
-  auto* cmd = app.add_subcommand("study", "Measure error against time for estimators, samplers, resolution, "
-                                          "depth of field and bounces (writes docs/accuracy.md's content)");
+  auto* cmd = app.add_subcommand("study",
+                                 "Measure error against time for estimators, samplers, resolution, "
+                                 "depth of field and bounces (writes docs/accuracy.md's content)");
   auto o = std::make_shared<study::StudyOptions>();
   auto experiments = std::make_shared<std::vector<std::string>>();
   o->scenes = defaultScenesDir();
@@ -36,7 +39,8 @@ Runner addStudyCommand(CLI::App& app) {
   cmd->add_option("--report", o->report, "The Markdown report (default: OUT/accuracy.md)");
   cmd->add_option("--scenes", o->scenes, "Folder holding cornell-seed.json")->capture_default_str();
   cmd->add_option("--experiments", *experiments,
-                  "Some of: convergence, estimate, resolution, dof, bounces, materials, models, optics, denoise, adaptive, media")
+                  "Some of: convergence, estimate, resolution, dof, bounces, materials, models, optics, denoise, "
+                  "adaptive, media")
       ->delimiter(',');
   cmd->add_flag("--quick", o->quick, "Tiny images and budgets: the whole study in seconds (for tests)");
   cmd->add_option("--threads", o->threads, "Threads (default: all cores)")->check(CLI::Range(1u, 4096u));
@@ -50,9 +54,11 @@ Runner addStudyCommand(CLI::App& app) {
           for (const auto& r : opt->results()) o->command += " " + r;
       }
     // The full study is long: say so, and where it writes, before the first render.
-    spdlog::info("study: {} into {} (report {}); {}", o->experiments.empty() ? "every experiment" : "the chosen experiments",
-                 o->out.string(), (o->report.empty() ? o->out / "accuracy.md" : o->report).string(),
-                 o->quick ? "--quick: about a minute" : "about 10 minutes on 2 cores for all experiments (--quick: about a minute)");
+    spdlog::info("study: {} into {} (report {}); {}",
+                 o->experiments.empty() ? "every experiment" : "the chosen experiments", o->out.string(),
+                 (o->report.empty() ? o->out / "accuracy.md" : o->report).string(),
+                 o->quick ? "--quick: about a minute"
+                          : "about 10 minutes on 2 cores for all experiments (--quick: about a minute)");
     study::runStudy(*o);
     return kOk;
   };

@@ -13,7 +13,8 @@ extern char** environ;
 
 namespace lensfarm::cli {
 
-CommandResult runCommand(const std::vector<std::string>& argv, const std::map<std::string, std::string>& extraEnvironment) {
+CommandResult runCommand(const std::vector<std::string>& argv,
+                         const std::map<std::string, std::string>& extraEnvironment) {
   CommandResult result;
   if (argv.empty()) {
     result.error = "no command";
@@ -52,8 +53,10 @@ CommandResult runCommand(const std::vector<std::string>& argv, const std::map<st
   char buffer[4096];
   for (;;) {
     const ssize_t n = ::read(pipeFds[0], buffer, sizeof buffer);
-    if (n > 0) result.out.append(buffer, size_t(n));
-    else if (n == 0 || errno != EINTR) break;
+    if (n > 0)
+      result.out.append(buffer, size_t(n));
+    else if (n == 0 || errno != EINTR)
+      break;
   }
   ::close(pipeFds[0]);
   int status = 0;

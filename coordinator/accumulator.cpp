@@ -70,7 +70,8 @@ Accumulator::Accumulator(const RenderSettings& settings, const JobLayout& layout
     auto round = std::make_shared<const RoundAllocation>(RoundAllocation::deserialize(filmState.substr(at, size)));
     at += size;
     const int r = layout_.roundOf(round->start);
-    if (r < 0 || layout_.roundStarts[size_t(r)] != round->start || round->units != layout_.roundEnd(size_t(r)) - round->start)
+    if (r < 0 || layout_.roundStarts[size_t(r)] != round->start ||
+        round->units != layout_.roundEnd(size_t(r)) - round->start)
       throw std::runtime_error("film state: a round allocation that is not this job's");
     rounds_[size_t(r)] = std::move(round);
   }
@@ -241,8 +242,10 @@ Accumulator::Progress Accumulator::progress() const {
   if (tiles_) {
     // Every tile holds every sample: the frame's samples per pixel in the share of its tiles in.
     const uint64_t done = tiles_->unitsDone();
-    return Progress{done, unitsTotal_ ? uint64_t(double(samplesPerPixel_) * double(done) / double(unitsTotal_)) : 0,
-                    statsAdded_, estimate_, stopReason_, foldLimit_};
+    return Progress{
+        done,        unitsTotal_ ? uint64_t(double(samplesPerPixel_) * double(done) / double(unitsTotal_)) : 0,
+        statsAdded_, estimate_,
+        stopReason_, foldLimit_};
   }
   return Progress{nextToAdd_, sppAdded_, statsAdded_, estimate_, stopReason_, foldLimit_};
 }
@@ -360,7 +363,8 @@ Accumulator::Developed Accumulator::develop() const {
   std::lock_guard lock(mutex_);
   Developed out;
   if (tiles_) {
-    out.image = tiles_->image(0).value_or(Image{width_, height_, std::vector<float>(size_t(width_) * height_ * 3, 0.0f)});
+    out.image =
+        tiles_->image(0).value_or(Image{width_, height_, std::vector<float>(size_t(width_) * height_ * 3, 0.0f)});
     if (out.image.layers.empty() && aovs_.any()) out.image.layers = aovLayers(aovs_, width_, height_);
     const Progress p = progress();
     out.samplesPerPixel = p.samplesPerPixel;
@@ -403,7 +407,8 @@ std::optional<Accumulator::Developed> Accumulator::developFrame(uint64_t frameIn
   out.image = std::move(*image);
   const uint64_t perFrame = tiles_->layout().unitsPerFrame();
   out.samplesPerPixel = tiles_->tilesDone(frameIndex) == perFrame ? samplesPerPixel_ : 0;
-  for (auto it = tileStats_.lower_bound(frameIndex * perFrame); it != tileStats_.end() && it->first < (frameIndex + 1) * perFrame; ++it)
+  for (auto it = tileStats_.lower_bound(frameIndex * perFrame);
+       it != tileStats_.end() && it->first < (frameIndex + 1) * perFrame; ++it)
     out.stats += it->second;
   out.totalSamples = out.stats.paths;
   return out;

@@ -33,11 +33,11 @@
 #include <string>
 
 #include "common/farm/farm_types.h"
+#include "common/farm/job_layout.h"
 #include "common/film/adaptive_allocation.h"
 #include "common/film/convergence.h"
 #include "common/film/image.h"
 #include "common/film/sensor.h"
-#include "common/farm/job_layout.h"
 #include "common/scene/scene.h"
 #include "coordinator/tile_film.h"
 
@@ -191,7 +191,7 @@ class Accumulator {
   const int width_, height_;
   const AovLayout aovs_;  // the AOVs' sums in a cell (film/aov_layout.h)
   std::deque<RewindPoint> points_;
-  std::unique_ptr<TileFilm> tiles_;  // a tiled job's film (then no sensor_ or tracker_)
+  std::unique_ptr<TileFilm> tiles_;          // a tiled job's film (then no sensor_ or tracker_)
   std::map<uint64_t, PathStats> tileStats_;  // a tiled job: per unit written, to undo with it
   uint64_t pointSpacing_ = 0, lastPointAt_ = 0;
   size_t mostPoints_ = 0;

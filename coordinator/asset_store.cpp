@@ -6,8 +6,8 @@
 #include <set>
 
 #include "common/farm/farm_types.h"
-#include "coordinator/state_store.h"
 #include "common/util/hash.h"
+#include "coordinator/state_store.h"
 
 namespace lensfarm {
 

@@ -9,7 +9,8 @@ namespace lensfarm {
 
 std::optional<std::string> sumsDiffer(const std::vector<double>& a, const std::vector<double>& b, double tolerance,
                                       int channels) {
-  if (a.size() != b.size()) return "differ in size (" + std::to_string(a.size()) + " and " + std::to_string(b.size()) + " sums)";
+  if (a.size() != b.size())
+    return "differ in size (" + std::to_string(a.size()) + " and " + std::to_string(b.size()) + " sums)";
   // The largest relative difference beyond the tolerance, and its cell. Sums are finite
   // (Coordinator::checkPlausible), so max(|a|, |b|) is 0 only where both are.
   double worst = 0.0;

@@ -65,10 +65,10 @@ class AuditBook {
     };
     Kind kind = Kind::kAgreed;
     uint64_t unit = 0;
-    uint64_t acceptedSeq = 0;         // the counted result's
-    std::vector<std::string> right;   // the workers whose results agreed
-    std::string wrong;                // kSettled: the worker out-voted
-    std::string detail;               // the difference found ("differ by up to ...")
+    uint64_t acceptedSeq = 0;        // the counted result's
+    std::vector<std::string> right;  // the workers whose results agreed
+    std::string wrong;               // kSettled: the worker out-voted
+    std::string detail;              // the difference found ("differ by up to ...")
   };
 
   bool empty() const { return audits_.empty(); }

@@ -11,12 +11,12 @@
 
 #include <algorithm>
 
+#include "common/render/unit_renderer.h"
+#include "common/util/error.h"
 #include "coordinator/coordinator.h"
 #include "coordinator/coordinator_records.h"
 #include "coordinator/result_checks.h"
-#include "common/render/unit_renderer.h"
 #include "coordinator/state_store.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 
@@ -94,9 +94,11 @@ bool Coordinator::acceptAudit(const UnitResult& result) {
   // Each comparison reads a whole frame: outside the lock. A dissent withdrawn meanwhile (its
   // worker quarantined) is compared again with what the audit holds now.
   for (;;) {
-    const std::optional<std::string> fromCounted = sumsDiffer(*counted, result.buffer.sums, options_.auditTolerance, result.buffer.channels);
+    const std::optional<std::string> fromCounted =
+        sumsDiffer(*counted, result.buffer.sums, options_.auditTolerance, result.buffer.channels);
     const std::optional<std::string> fromDissent =
-        dissent ? sumsDiffer(*dissent, result.buffer.sums, options_.auditTolerance, result.buffer.channels) : std::nullopt;
+        dissent ? sumsDiffer(*dissent, result.buffer.sums, options_.auditTolerance, result.buffer.channels)
+                : std::nullopt;
     AuditBook::Sums mine;  // kept only if it disputes the counted result
     if (fromCounted && !dissent) mine = std::make_shared<const std::vector<double>>(result.buffer.sums);
 
@@ -134,7 +136,7 @@ void Coordinator::applyVerdict(Job& job, const AuditBook::Verdict& v) {
   const std::string unit = "unit " + std::to_string(v.unit);
   switch (v.kind) {
     case AuditBook::Verdict::Kind::kAgreed:
-      vouchFor(v.right[0], v.acceptedSeq, true);           // the counted result's worker, up to that result
+      vouchFor(v.right[0], v.acceptedSeq, true);         // the counted result's worker, up to that result
       vouchFor(v.right[1], nextAcceptance_ - 1, false);  // the auditor, up to now
       ++job.auditsPassed;
       ++counters_.auditsPassed;
@@ -209,8 +211,8 @@ void Coordinator::rewindFor(Job& job, const std::string& workerId) {
     }
   if (!first) return;
   std::lock_guard checkpointLock(checkpointMutex_);  // no checkpoint of the film as it is now
-  const Accumulator::Rewound r =
-      job.film->rewind(*first, [&](const UnitResult& result) { return result.workerId == workerId; }, workerId);
+  const Accumulator::Rewound r = job.film->rewind(
+      *first, [&](const UnitResult& result) { return result.workerId == workerId; }, workerId);
   job.generation = job.film->generation();
   // An adaptive job's rounds after the film's new end are allocated again: a unit leased under
   // the old allocation traces other samples, so its lease ends here (its unit is leased again).

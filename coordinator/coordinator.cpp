@@ -11,18 +11,18 @@
 #include <algorithm>
 #include <random>
 
-#include "coordinator/coordinator_records.h"
-#include "coordinator/frame_store.h"
-#include "coordinator/job_archive.h"
+#include "common/farm/job_scene.h"
 #include "common/farm/memory_estimate.h"
 #include "common/film/psf_convolution.h"
 #include "common/scene/asset_path.h"
 #include "common/scene/effects.h"
-#include "common/farm/job_scene.h"
 #include "common/scene/scene_loader.h"
-#include "coordinator/state_store.h"
 #include "common/util/error.h"
 #include "common/util/version.h"
+#include "coordinator/coordinator_records.h"
+#include "coordinator/frame_store.h"
+#include "coordinator/job_archive.h"
+#include "coordinator/state_store.h"
 
 namespace lensfarm {
 
@@ -126,8 +126,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
     std::string missing;
     for (const auto& [path, sha] : spec.assets)
       if (!assets_.has(sha)) missing += (missing.empty() ? "" : ", ") + path + " (" + sha.substr(0, 12) + ")";
-    if (!missing.empty())
-      throw FarmError(FarmError::Kind::kFailedPrecondition, "assets not uploaded: " + missing);
+    if (!missing.empty()) throw FarmError(FarmError::Kind::kFailedPrecondition, "assets not uploaded: " + missing);
   }
   // Load the scene exactly as a worker will, to validate it and fix its settings and hash.
   const AssetReader reader = [&](const std::string& path) -> std::optional<std::string> {
@@ -139,13 +138,14 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
   if (spec.frames) {
     const FrameRange& f = *spec.frames;
     if (f.step < 1)
-      throw FarmError(FarmError::Kind::kInvalidArgument, "frames.step: must be at least 1, got " + std::to_string(f.step));
+      throw FarmError(FarmError::Kind::kInvalidArgument,
+                      "frames.step: must be at least 1, got " + std::to_string(f.step));
     if (f.last < f.first)
       throw FarmError(FarmError::Kind::kInvalidArgument, "frames: the last frame " + std::to_string(f.last) +
                                                              " is before the first " + std::to_string(f.first));
     if (f.count() > kMaxFramesInRange)
-      throw FarmError(FarmError::Kind::kInvalidArgument, "frames: " + std::to_string(f.count()) +
-                                                             " frames; at most " + std::to_string(kMaxFramesInRange) + " a job");
+      throw FarmError(FarmError::Kind::kInvalidArgument, "frames: " + std::to_string(f.count()) + " frames; at most " +
+                                                             std::to_string(kMaxFramesInRange) + " a job");
   }
   Scene scene = jobScene(spec, reader);
   {
@@ -198,9 +198,9 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
     store_->insertJob(StateStore::StoredJob{job->id, job->sequence, job->priority, job->spec, jobStateName(job->state),
                                             "", job->submittedUnixSeconds, 0, std::nullopt, "", job->owner, 0.0, false,
                                             ""});
-  spdlog::info("job {}: {} {}x{}, {} spp in {} units of {}, priority {}{}", job->id, spec.sceneName, job->settings.width,
-               job->settings.height, job->layout.samplesPerPixel, job->units.total(), job->unitSize, priority,
-               job->layout.adaptive() ? "; " + job->layout.adaptiveSummary() : "");
+  spdlog::info("job {}: {} {}x{}, {} spp in {} units of {}, priority {}{}", job->id, spec.sceneName,
+               job->settings.width, job->settings.height, job->layout.samplesPerPixel, job->units.total(),
+               job->unitSize, priority, job->layout.adaptive() ? "; " + job->layout.adaptiveSummary() : "");
   Job& ref = *job;
   jobs_[job->id] = std::move(job);
   changed_.notify_all();
@@ -265,12 +265,15 @@ JobInfo Coordinator::infoOf(const Job& job) const {
     info.frames.resize(job.layout.frameCount());
     for (uint64_t f = 0; f < info.frames.size(); ++f)
       info.frames[f] = JobInfo::Frame{job.layout.frameNumber(f),
-                                      f < done.size() ? done[f] : stored.count(f) ? info.tilesPerFrame : 0,
+                                      f < done.size()   ? done[f]
+                                      : stored.count(f) ? info.tilesPerFrame
+                                                        : 0,
                                       info.tilesPerFrame};
   }
   info.elapsedSeconds = elapsedSecondsOf(job);
   const double fraction = job.units.total() ? double(job.unitsAdded) / double(job.units.total()) : 0.0;
-  if (!isTerminal(job.state) && fraction > 0.0) info.remainingSeconds = info.elapsedSeconds * (1.0 - fraction) / fraction;
+  if (!isTerminal(job.state) && fraction > 0.0)
+    info.remainingSeconds = info.elapsedSeconds * (1.0 - fraction) / fraction;
   info.estimatedRelativeError = job.estimate.valid ? job.estimate.relativeRmse : -1.0;
   info.targetError = job.settings.targetError;
   info.timeLimitSeconds = job.settings.timeLimitSeconds;
@@ -298,8 +301,8 @@ JobInfo Coordinator::infoOf(const Job& job) const {
   info.endedUnixSeconds = job.endedUnixSeconds;
   info.archived = job.archived;
   info.stalledReason = stalledReason(job, Clock::now());
-  info.progressFraction = progressFraction(info, std::chrono::duration<double>(
-                                                     std::chrono::system_clock::now().time_since_epoch()).count());
+  info.progressFraction = progressFraction(
+      info, std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count());
   return info;
 }
 
@@ -450,7 +453,8 @@ JobImage Coordinator::developedImage(const Job& jobRef, std::optional<int64_t> f
         developed.samplesPerPixel = stored.samplesPerPixel;
         developed.totalSamples = stored.totalSamples;
         developed.stats.rays = stored.extra.count("rays") ? std::stoull(stored.extra["rays"]) : 0;
-        developed.stats.dropped = stored.extra.count("droppedSamples") ? std::stoull(stored.extra["droppedSamples"]) : 0;
+        developed.stats.dropped =
+            stored.extra.count("droppedSamples") ? std::stoull(stored.extra["droppedSamples"]) : 0;
       }
     } else {
       developed = job->film->develop();

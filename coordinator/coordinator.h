@@ -43,19 +43,21 @@
 #include <thread>
 #include <vector>
 
-#include "coordinator/asset_store.h"
-#include "coordinator/audit.h"
 #include "common/farm/farm_types.h"
 #include "common/film/convergence.h"
 #include "common/film/image_io.h"
 #include "common/film/sensor.h"
+#include "coordinator/asset_store.h"
+#include "coordinator/audit.h"
 #include "coordinator/lease_table.h"
 
 namespace lensfarm {
 
 enum class JobState { kQueued, kRunning, kDone, kCancelled, kFailed };
 const char* jobStateName(JobState state);
-inline bool isTerminal(JobState s) { return s == JobState::kDone || s == JobState::kCancelled || s == JobState::kFailed; }
+inline bool isTerminal(JobState s) {
+  return s == JobState::kDone || s == JobState::kCancelled || s == JobState::kFailed;
+}
 
 // A job's status as of one moment.
 struct JobInfo {
@@ -73,7 +75,7 @@ struct JobInfo {
   uint32_t workersBusy = 0;
   std::string error;
   double submittedUnixSeconds = 0.0;
-  uint64_t version = 0;  // grows with every change of the job
+  uint64_t version = 0;              // grows with every change of the job
   std::vector<std::string> effects;  // "depth of field: off (aperture closed ...)", scene/effects.h
   // Convergence (film/convergence.h, docs/accuracy.md).
   double estimatedRelativeError = -1.0;  // estimated relative RMSE of the image; < 0 until known
@@ -106,8 +108,8 @@ struct JobInfo {
   int tileSize = 0;
   uint64_t tilesPerFrame = 0;  // 0 for passes
   struct Frame {
-    int64_t number = 0;       // the scene frame
-    uint64_t tilesDone = 0;   // of tilesPerFrame
+    int64_t number = 0;      // the scene frame
+    uint64_t tilesDone = 0;  // of tilesPerFrame
     bool complete() const { return tilesDone > 0 && tilesDone == tilesTotal; }
     uint64_t tilesTotal = 0;
   };
@@ -148,10 +150,10 @@ struct WorkerView {
   std::optional<uint64_t> currentUnit;
   double samplesPerSecond = 0.0;  // camera paths of its last accepted unit / its render seconds
   WorkerState state = WorkerState::kIdle;
-  double secondsInState = 0.0;  // lost or left: since then; stale: since last heard from
-  std::string stateReason;      // lost: why, and what was queued again
-  bool attached = false;        // holds an Attach stream, so a broken connection is seen at once
-  uint64_t failures = 0;                  // units it reported failed (ReportFailure)
+  double secondsInState = 0.0;               // lost or left: since then; stale: since last heard from
+  std::string stateReason;                   // lost: why, and what was queued again
+  bool attached = false;                     // holds an Attach stream, so a broken connection is seen at once
+  uint64_t failures = 0;                     // units it reported failed (ReportFailure)
   std::vector<std::string> blocklistedJobs;  // jobs it is no longer leased (docs/farm.md "Failures")
   // The cross-worker audit (docs/farm.md "Audit"): a quarantined worker returned a result that
   // another two workers disagreed with; it is leased nothing more until the coordinator restarts.
@@ -178,20 +180,20 @@ struct JobImage {
 // What the metrics endpoint shows (metrics.h renders it): counters since this process started,
 // and jobs, workers and leases as they are at one moment.
 struct MetricsSnapshot {
-  uint64_t unitsLeased = 0;         // leases granted (a unit leased again after a lapse counts again)
-  uint64_t unitsDone = 0;           // results accepted and counted, each unit once
-  uint64_t unitsExpired = 0;        // leases that lapsed without a result
-  uint64_t workersLost = 0;         // workers marked lost when their Attach stream broke
-  uint64_t auditsPassed = 0;        // audits whose two results agreed
-  uint64_t auditsFailed = 0;        // audits that found a wrong worker
-  uint64_t unitsRerendered = 0;     // counted units queued again after a wrong worker was found
-  uint64_t samples = 0;             // camera paths in the accepted results
-  uint64_t unitBytesReceived = 0;   // result buffers (sums) received from workers, as doubles (decoded)
+  uint64_t unitsLeased = 0;            // leases granted (a unit leased again after a lapse counts again)
+  uint64_t unitsDone = 0;              // results accepted and counted, each unit once
+  uint64_t unitsExpired = 0;           // leases that lapsed without a result
+  uint64_t workersLost = 0;            // workers marked lost when their Attach stream broke
+  uint64_t auditsPassed = 0;           // audits whose two results agreed
+  uint64_t auditsFailed = 0;           // audits that found a wrong worker
+  uint64_t unitsRerendered = 0;        // counted units queued again after a wrong worker was found
+  uint64_t samples = 0;                // camera paths in the accepted results
+  uint64_t unitBytesReceived = 0;      // result buffers (sums) received from workers, as doubles (decoded)
   uint64_t unitWireBytesReceived = 0;  // the same uploads' sums as sent over gRPC (compressed or not)
-  uint64_t assetBytesReceived = 0;  // asset bytes uploaded by clients (read in full)
-  uint64_t assetUploadsStored = 0;  // uploads of assets new to the coordinator
-  uint64_t assetUploadsPresent = 0;  // uploads of assets it held already (a client that asks first makes none)
-  uint64_t assetsSent = 0;           // assets sent to workers (each worker fetches one once)
+  uint64_t assetBytesReceived = 0;     // asset bytes uploaded by clients (read in full)
+  uint64_t assetUploadsStored = 0;     // uploads of assets new to the coordinator
+  uint64_t assetUploadsPresent = 0;    // uploads of assets it held already (a client that asks first makes none)
+  uint64_t assetsSent = 0;             // assets sent to workers (each worker fetches one once)
   uint64_t leasesActive = 0;
   double leaseTimeoutSeconds = 0.0;
   std::vector<JobInfo> jobs;
@@ -378,8 +380,8 @@ class Coordinator {
   struct Worker;
 
   // ---- the job table (coordinator.cpp) ----
-  Job& findJob(const std::string& jobId) const;  // requires mutex_
-  JobInfo infoOf(const Job& job) const;  // requires mutex_; walks the leases and workers (stalledReason)
+  Job& findJob(const std::string& jobId) const;    // requires mutex_
+  JobInfo infoOf(const Job& job) const;            // requires mutex_; walks the leases and workers (stalledReason)
   static double elapsedSecondsOf(const Job& job);  // since its first lease, to its end or now
   void touch(Job& job);
   void finish(Job& job, const std::string& reason);  // requires mutex_
@@ -486,7 +488,7 @@ class Coordinator {
   Options options_;
   std::unique_ptr<class StateStore> store_;
   std::unique_ptr<class FrameStore> frames_;  // animations' completed frames (frame_store.h)
-  uint64_t epoch_ = 0;  // distinguishes ids issued by this run from those of earlier runs
+  uint64_t epoch_ = 0;                        // distinguishes ids issued by this run from those of earlier runs
   std::thread checkpointer_;
   std::condition_variable checkpointWake_;
   bool stopping_ = false;  // guarded by mutex_

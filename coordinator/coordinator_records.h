@@ -9,13 +9,13 @@
 #include <string>
 #include <vector>
 
+#include "common/farm/job_layout.h"
+#include "common/film/diffraction_psf.h"
+#include "common/scene/scene.h"
 #include "coordinator/accumulator.h"
 #include "coordinator/audit.h"
 #include "coordinator/coordinator.h"
-#include "common/farm/job_layout.h"
 #include "coordinator/job_units.h"
-#include "common/film/diffraction_psf.h"
-#include "common/scene/scene.h"
 
 namespace lensfarm {
 
@@ -28,7 +28,7 @@ struct Coordinator::Job {
   RenderSettings settings;
   std::string sceneHash;
   uint32_t unitSize = 1;
-  JobLayout layout;  // how the job is cut into units (farm/job_layout.h), fixed at submission
+  JobLayout layout;              // how the job is cut into units (farm/job_layout.h), fixed at submission
   uint64_t unitMemoryBytes = 0;  // what one unit takes on a worker (workerJobMemory); leases skip smaller workers
   // Whether `worker` can hold one unit (WorkerInfo::maxUnitMemoryBytes; 0: it did not say).
   bool fitsOn(const WorkerInfo& worker) const {
@@ -60,8 +60,8 @@ struct Coordinator::Job {
     stats = progress.stats;
     estimate = progress.estimate;
   }
-  std::string stopReason;                // why a finished job stopped
-  std::optional<uint64_t> stopUnits;     // a job stopped early keeps units [0, stopUnits)
+  std::string stopReason;             // why a finished job stopped
+  std::optional<uint64_t> stopUnits;  // a job stopped early keeps units [0, stopUnits)
   bool deadlinePassed = false;
   std::vector<ErrorPoint> history;  // guarded by Coordinator::mutex_; see recordEstimate()
   // The last worker lost (or gone) while holding units of this job, for stalledReason().
@@ -134,7 +134,7 @@ struct Coordinator::Worker {
   bool firstUnitAudited = false;
   uint64_t auditsPassed = 0;    // its own counted units an audit confirmed
   uint64_t auditsRendered = 0;  // units it rendered again for another worker's audit, which agreed
-  bool quarantined = false;  // leased nothing more
+  bool quarantined = false;     // leased nothing more
   std::string quarantineReason;
   std::string label() const { return info.name.empty() ? id : info.name + " (" + id + ")"; }
 };

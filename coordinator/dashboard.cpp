@@ -135,8 +135,8 @@ Dashboard::Png Dashboard::snapshot(const std::string& jobId, std::optional<doubl
   if (ev) image.exposure.ev = *ev;
   // A box filter keeps the mean luminance, so the automatic exposure matches the download's.
   const Image preview = downscaleToFit(image.image, std::clamp(maxSide, 16, 1024));
-  return Png{encodePng(preview, image.exposure), preview.width, preview.height, image.metadata.samplesPerPixel, version,
-             image.exposure.ev};
+  return Png{encodePng(preview, image.exposure), preview.width, preview.height,
+             image.metadata.samplesPerPixel,     version,       image.exposure.ev};
 }
 
 std::string Dashboard::exr(const std::string& jobId) const {
@@ -149,7 +149,7 @@ Dashboard::Png Dashboard::png(const std::string& jobId, std::optional<double> ev
   JobImage image = coordinator_.image(jobId);
   if (ev) image.exposure.ev = *ev;
   return Png{encodePng(image.image, image.exposure), image.image.width, image.image.height,
-             image.metadata.samplesPerPixel, version, image.exposure.ev};
+             image.metadata.samplesPerPixel,         version,           image.exposure.ev};
 }
 
 std::string Dashboard::cancel(const std::string& jobId) { return summaryOf(coordinator_.cancel(jobId)).dump(); }

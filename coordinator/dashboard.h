@@ -34,9 +34,9 @@ class Dashboard {
   bool viewerToken() const { return token_.has_value() && viewerToken_.has_value(); }
 
   // JSON texts. FarmError kNotFound for an unknown job.
-  std::string jobsJson() const;                          // {"jobs": [job summary...]} in serving order
-  std::string jobJson(const std::string& jobId) const;   // jobDetailJson of the job
-  std::string workersJson() const;                       // {"workers": [...]}
+  std::string jobsJson() const;                         // {"jobs": [job summary...]} in serving order
+  std::string jobJson(const std::string& jobId) const;  // jobDetailJson of the job
+  std::string workersJson() const;                      // {"workers": [...]}
 
   struct Png {
     std::string bytes;

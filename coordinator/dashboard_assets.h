@@ -7,7 +7,7 @@
 namespace lensfarm {
 
 struct DashboardAsset {
-  std::string_view path;         // "/index.html", "/app.js", "/style.css"
+  std::string_view path;  // "/index.html", "/app.js", "/style.css"
   std::string_view contentType;
   std::string_view bytes;
 };

@@ -5,8 +5,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "coordinator/dashboard_assets.h"
 #include "common/util/error.h"
+#include "coordinator/dashboard_assets.h"
 
 namespace lensfarm {
 
@@ -93,56 +93,66 @@ httplib::Server::Handler api(Dashboard& dashboard, Body body) {
 }  // namespace
 
 DashboardServer::DashboardServer(const std::string& listen, Dashboard& dashboard, const std::optional<HttpTls>& tls)
-    : server_(listen, "--dashboard-listen", "the dashboard", 4, [&dashboard](httplib::Server& server) {
-        // The page: public, compiled into the binary.
-        for (const DashboardAsset& asset : dashboardAssets()) {
-          const auto serve = [asset](const httplib::Request&, httplib::Response& response) {
-            response.set_content(std::string(asset.bytes), std::string(asset.contentType).c_str());
-            response.set_header("Cache-Control", "no-cache");
-          };
-          server.Get(std::string(asset.path), serve);
-          if (asset.path == "/index.html") server.Get("/", serve);
-        }
-        const std::string job = R"(/api/jobs/([A-Za-z0-9._-]+))";
-        server.Get("/api/jobs", api(dashboard, [&dashboard](const httplib::Request&, httplib::Response& response) {
-                     response.set_content(dashboard.jobsJson(), kJson);
-                   }));
-        server.Get("/api/workers", api(dashboard, [&dashboard](const httplib::Request&, httplib::Response& response) {
-                     response.set_content(dashboard.workersJson(), kJson);
-                   }));
-        server.Get(job, api(dashboard, [&dashboard](const httplib::Request& request, httplib::Response& response) {
-                     response.set_content(dashboard.jobJson(request.matches[1]), kJson);
-                   }));
-        server.Get(job + "/snapshot.png",
-                   api(dashboard, [&dashboard](const httplib::Request& request, httplib::Response& response) {
-                     int maxSide = 512;
-                     if (request.has_param("max")) maxSide = std::atoi(request.get_param_value("max").c_str());
-                     const Dashboard::Png png = dashboard.snapshot(request.matches[1], evOf(request), maxSide);
-                     setImageHeaders(response, png);
-                     response.set_content(png.bytes, "image/png");
-                   }));
-        server.Get(job + "/image.png", api(dashboard, [&dashboard](const httplib::Request& request, httplib::Response& response) {
-                     const Dashboard::Png png = dashboard.png(request.matches[1], evOf(request));
-                     setImageHeaders(response, png);
-                     response.set_header("Content-Disposition", "attachment; filename=\"" + std::string(request.matches[1]) + ".png\"");
-                     response.set_content(png.bytes, "image/png");
-                   }));
-        server.Get(job + "/image.exr", api(dashboard, [&dashboard](const httplib::Request& request, httplib::Response& response) {
-                     response.set_header("Content-Disposition", "attachment; filename=\"" + std::string(request.matches[1]) + ".exr\"");
-                     response.set_content(dashboard.exr(request.matches[1]), "image/x-exr");
-                   }));
-        server.Post(job + "/cancel", api(dashboard, [&dashboard](const httplib::Request& request, httplib::Response& response) {
-                      response.set_content(dashboard.cancel(request.matches[1]), kJson);
-                    }));
-        server.Post(job + "/priority", api(dashboard, [&dashboard](const httplib::Request& request, httplib::Response& response) {
-                      const auto body = nlohmann::json::parse(request.body, nullptr, false);
-                      if (body.is_discarded() || !body.is_object() || !body.contains("priority") ||
-                          !body["priority"].is_number_integer())
-                        throw InputError("priority", "expected a JSON body {\"priority\": INTEGER}");
-                      const auto priority = body["priority"].get<int64_t>();
-                      if (priority < -1000000 || priority > 1000000) throw InputError("priority", "out of range");
-                      response.set_content(dashboard.setPriority(request.matches[1], int(priority)), kJson);
-                    }));
-      }, tls) {}
+    : server_(
+          listen, "--dashboard-listen", "the dashboard", 4,
+          [&dashboard](httplib::Server& server) {
+            // The page: public, compiled into the binary.
+            for (const DashboardAsset& asset : dashboardAssets()) {
+              const auto serve = [asset](const httplib::Request&, httplib::Response& response) {
+                response.set_content(std::string(asset.bytes), std::string(asset.contentType).c_str());
+                response.set_header("Cache-Control", "no-cache");
+              };
+              server.Get(std::string(asset.path), serve);
+              if (asset.path == "/index.html") server.Get("/", serve);
+            }
+            const std::string job = R"(/api/jobs/([A-Za-z0-9._-]+))";
+            server.Get("/api/jobs", api(dashboard, [&dashboard](const httplib::Request&, httplib::Response& response) {
+                         response.set_content(dashboard.jobsJson(), kJson);
+                       }));
+            server.Get("/api/workers",
+                       api(dashboard, [&dashboard](const httplib::Request&, httplib::Response& response) {
+                         response.set_content(dashboard.workersJson(), kJson);
+                       }));
+            server.Get(job, api(dashboard, [&dashboard](const httplib::Request& request, httplib::Response& response) {
+                         response.set_content(dashboard.jobJson(request.matches[1]), kJson);
+                       }));
+            server.Get(job + "/snapshot.png",
+                       api(dashboard, [&dashboard](const httplib::Request& request, httplib::Response& response) {
+                         int maxSide = 512;
+                         if (request.has_param("max")) maxSide = std::atoi(request.get_param_value("max").c_str());
+                         const Dashboard::Png png = dashboard.snapshot(request.matches[1], evOf(request), maxSide);
+                         setImageHeaders(response, png);
+                         response.set_content(png.bytes, "image/png");
+                       }));
+            server.Get(job + "/image.png",
+                       api(dashboard, [&dashboard](const httplib::Request& request, httplib::Response& response) {
+                         const Dashboard::Png png = dashboard.png(request.matches[1], evOf(request));
+                         setImageHeaders(response, png);
+                         response.set_header("Content-Disposition",
+                                             "attachment; filename=\"" + std::string(request.matches[1]) + ".png\"");
+                         response.set_content(png.bytes, "image/png");
+                       }));
+            server.Get(job + "/image.exr",
+                       api(dashboard, [&dashboard](const httplib::Request& request, httplib::Response& response) {
+                         response.set_header("Content-Disposition",
+                                             "attachment; filename=\"" + std::string(request.matches[1]) + ".exr\"");
+                         response.set_content(dashboard.exr(request.matches[1]), "image/x-exr");
+                       }));
+            server.Post(job + "/cancel",
+                        api(dashboard, [&dashboard](const httplib::Request& request, httplib::Response& response) {
+                          response.set_content(dashboard.cancel(request.matches[1]), kJson);
+                        }));
+            server.Post(job + "/priority",
+                        api(dashboard, [&dashboard](const httplib::Request& request, httplib::Response& response) {
+                          const auto body = nlohmann::json::parse(request.body, nullptr, false);
+                          if (body.is_discarded() || !body.is_object() || !body.contains("priority") ||
+                              !body["priority"].is_number_integer())
+                            throw InputError("priority", "expected a JSON body {\"priority\": INTEGER}");
+                          const auto priority = body["priority"].get<int64_t>();
+                          if (priority < -1000000 || priority > 1000000) throw InputError("priority", "out of range");
+                          response.set_content(dashboard.setPriority(request.matches[1], int(priority)), kJson);
+                        }));
+          },
+          tls) {}
 
 }  // namespace lensfarm

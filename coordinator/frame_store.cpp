@@ -20,7 +20,8 @@ fs::path FrameStore::pathOf(const std::string& jobId, uint64_t frameIndex) const
   return root_ / "jobs" / jobId / ("frame-" + std::to_string(frameIndex) + ".exr");
 }
 
-void FrameStore::write(const std::string& jobId, uint64_t frameIndex, const Image& image, const ImageMetadata& metadata) {
+void FrameStore::write(const std::string& jobId, uint64_t frameIndex, const Image& image,
+                       const ImageMetadata& metadata) {
   if (root_.empty()) {
     std::string pattern = (fs::temp_directory_path() / "lensfarm-frames-XXXXXX").string();
     if (!::mkdtemp(pattern.data())) throw std::runtime_error("cannot make a temporary directory for frames");

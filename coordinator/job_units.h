@@ -7,8 +7,8 @@
 //  - Units are leased lowest index first, those whose lease lapsed or was revoked before any
 //    fresh one.
 //  - A unit is counted at most once: acceptance refuses one that is counted or being recorded.
-#include <cstdint>
 #include <algorithm>
+#include <cstdint>
 #include <optional>
 #include <set>
 

@@ -30,7 +30,7 @@ class LeaseTable {
     uint64_t unit;
     Clock::time_point deadline;
     Clock::time_point longestEnd;  // the deadline never moves past this
-    bool audit = false;  // renders a counted unit again (docs/farm.md "Audit"); the worker is not told
+    bool audit = false;            // renders a counted unit again (docs/farm.md "Audit"); the worker is not told
   };
 
   // A new lease; returns its id.

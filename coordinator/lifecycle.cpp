@@ -18,12 +18,12 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 
+#include "common/util/error.h"
 #include "coordinator/coordinator.h"
 #include "coordinator/coordinator_records.h"
 #include "coordinator/frame_store.h"
 #include "coordinator/job_archive.h"
 #include "coordinator/state_store.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 

@@ -9,11 +9,11 @@
 #include <grpcpp/health_check_service_interface.h>
 #include <spdlog/spdlog.h>
 
-#include <CLI/CLI.hpp>
-#include <cstdio>
 #include <arpa/inet.h>
 #include <malloc.h>
 #include <netinet/in.h>
+#include <CLI/CLI.hpp>
+#include <cstdio>
 
 #include <cmath>
 #include <csignal>
@@ -23,22 +23,22 @@
 #include <sstream>
 #include <thread>
 
+#include "common/farm/memory_estimate.h"
+#include "common/film/image_io.h"
+#include "common/util/error.h"
 #include "common/util/file_contents.h"
+#include "common/util/flag_checks.h"
+#include "common/util/listen_check.h"
+#include "common/util/logging.h"
+#include "common/util/secret.h"
+#include "common/util/service_flags.h"
+#include "common/util/version.h"
 #include "coordinator/coordinator.h"
 #include "coordinator/dashboard.h"
 #include "coordinator/dashboard_server.h"
-#include "common/film/image_io.h"
 #include "coordinator/metrics.h"
 #include "coordinator/metrics_server.h"
-#include "common/farm/memory_estimate.h"
 #include "coordinator/service.h"
-#include "common/util/error.h"
-#include "common/util/listen_check.h"
-#include "common/util/logging.h"
-#include "common/util/flag_checks.h"
-#include "common/util/service_flags.h"
-#include "common/util/secret.h"
-#include "common/util/version.h"
 
 namespace {
 std::atomic<bool> gStop{false};
@@ -148,8 +148,9 @@ int main(int argc, char** argv) {
                  "Write the dashboard address actually listened on to this file")
       ->envname("LENSFARM_DASHBOARD_PORT_FILE");
   std::string stateDir;
-  app.add_option("--state-dir", stateDir, "Keep jobs, assets, the unit ledger and sensors here (SQLite + files) "
-                                          "and resume them after a restart; empty: in memory only")
+  app.add_option("--state-dir", stateDir,
+                 "Keep jobs, assets, the unit ledger and sensors here (SQLite + files) "
+                 "and resume them after a restart; empty: in memory only")
       ->envname("LENSFARM_STATE_DIR");
   app.add_option("--checkpoint-every", options.checkpointEverySeconds,
                  "Seconds between saves of the accumulated sensors (units are durable before they are acknowledged)")
@@ -218,8 +219,10 @@ int main(int argc, char** argv) {
   try {
     clientToken = readToken(clientTokenFile, "LENSFARM_CLIENT_TOKEN");
     workerToken = readToken(workerTokenFile, "LENSFARM_WORKER_TOKEN");
-    if (clientToken) checkTokenStrength(*clientToken, clientTokenFile.empty() ? "LENSFARM_CLIENT_TOKEN" : clientTokenFile);
-    if (workerToken) checkTokenStrength(*workerToken, workerTokenFile.empty() ? "LENSFARM_WORKER_TOKEN" : workerTokenFile);
+    if (clientToken)
+      checkTokenStrength(*clientToken, clientTokenFile.empty() ? "LENSFARM_CLIENT_TOKEN" : clientTokenFile);
+    if (workerToken)
+      checkTokenStrength(*workerToken, workerTokenFile.empty() ? "LENSFARM_WORKER_TOKEN" : workerTokenFile);
     if (clientToken && workerToken && equalSecrets(*clientToken, *workerToken))
       throw InputError("--worker-token-file", "workers and clients need different tokens");
     viewerToken = readToken(viewerTokenFile, "LENSFARM_VIEWER_TOKEN");
@@ -238,8 +241,9 @@ int main(int argc, char** argv) {
     if (tlsCert.empty() != tlsKey.empty())
       throw InputError(tlsCert.empty() ? "--tls-key" : "--tls-cert", "give both --tls-cert and --tls-key");
     if (!tlsCert.empty()) {
-      grpc::SslServerCredentialsOptions tls(tlsClientCa.empty() ? GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE
-                                                                : GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY);
+      grpc::SslServerCredentialsOptions tls(tlsClientCa.empty()
+                                                ? GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE
+                                                : GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY);
       tls.pem_key_cert_pairs.push_back({readFileOrThrow(tlsKey, "--tls-key"), readFileOrThrow(tlsCert, "--tls-cert")});
       if (!tlsClientCa.empty()) tls.pem_root_certs = readFileOrThrow(tlsClientCa, "--tls-client-ca");
       credentials = grpc::SslServerCredentials(tls);
@@ -251,15 +255,19 @@ int main(int argc, char** argv) {
   const std::string host = listen.substr(0, listen.rfind(':'));
   const bool loopback = isLoopback(host);
   if (!loopback && !(clientToken && workerToken)) {
-    spdlog::error("refusing to listen on {} without --client-token-file and --worker-token-file: anyone who can "
-                  "reach it could submit jobs or lease work. Give both tokens, or listen on 127.0.0.1.", listen);
+    spdlog::error(
+        "refusing to listen on {} without --client-token-file and --worker-token-file: anyone who can "
+        "reach it could submit jobs or lease work. Give both tokens, or listen on 127.0.0.1.",
+        listen);
     return 2;
   }
   // (A malformed address is refused with its own message when the dashboard starts.)
   if (const size_t colon = dashboardListen.rfind(':');
       colon != std::string::npos && colon > 0 && !isLoopback(dashboardListen.substr(0, colon)) && !clientToken) {
-    spdlog::error("refusing to serve the dashboard on {} without --client-token-file: anyone who can reach it could "
-                  "cancel jobs. Give a client token, or listen on 127.0.0.1.", dashboardListen);
+    spdlog::error(
+        "refusing to serve the dashboard on {} without --client-token-file: anyone who can reach it could "
+        "cancel jobs. Give a client token, or listen on 127.0.0.1.",
+        dashboardListen);
     return 2;
   }
   if (!loopback && tlsCert.empty())
@@ -322,7 +330,8 @@ int main(int argc, char** argv) {
   std::unique_ptr<DashboardServer> dashboardServer;
   try {
     if (!metricsListen.empty()) {
-      metrics = std::make_unique<MetricsServer>(metricsListen, [&] { return renderMetrics(coordinator.metricsSnapshot()); });
+      metrics =
+          std::make_unique<MetricsServer>(metricsListen, [&] { return renderMetrics(coordinator.metricsSnapshot()); });
       spdlog::info("metrics on http://{}/metrics", metrics->address());
     }
     if (!dashboardListen.empty()) {
@@ -335,7 +344,8 @@ int main(int argc, char** argv) {
                    clientToken ? "required" : "none", viewerToken ? "accepted (read-only)" : "none");
     }
     if (!portFile.empty()) writeAddressFile(portFile, address, "--port-file");
-    if (metrics && !metricsPortFile.empty()) writeAddressFile(metricsPortFile, metrics->address(), "--metrics-port-file");
+    if (metrics && !metricsPortFile.empty())
+      writeAddressFile(metricsPortFile, metrics->address(), "--metrics-port-file");
     if (dashboardServer && !dashboardPortFile.empty())
       writeAddressFile(dashboardPortFile, dashboardServer->address(), "--dashboard-port-file");
   } catch (const InputError& e) {

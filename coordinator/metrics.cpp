@@ -38,7 +38,8 @@ std::string renderMetrics(const MetricsSnapshot& s) {
   e.sample(uint64_t(1), std::string("version=\"") + kRendererVersion + "\"");
 
   std::map<JobState, uint64_t> byState;
-  for (JobState state : {JobState::kQueued, JobState::kRunning, JobState::kDone, JobState::kCancelled, JobState::kFailed})
+  for (JobState state :
+       {JobState::kQueued, JobState::kRunning, JobState::kDone, JobState::kCancelled, JobState::kFailed})
     byState[state] = 0;
   double samplesPerSecond = 0.0;
   for (const JobInfo& job : s.jobs) {
@@ -54,8 +55,9 @@ std::string renderMetrics(const MetricsSnapshot& s) {
   e.sample(s.unitsLeased);
   e.family("lensfarm_units_done_total", "counter", "Unit results accepted and counted (each unit once).");
   e.sample(s.unitsDone);
-  e.family("lensfarm_units_expired_total", "counter",
-           "Leases that lapsed without a result (the worker died, hung or lost the network); the unit was queued again.");
+  e.family(
+      "lensfarm_units_expired_total", "counter",
+      "Leases that lapsed without a result (the worker died, hung or lost the network); the unit was queued again.");
   e.sample(s.unitsExpired);
   e.family("lensfarm_leases_active", "gauge", "Units leased to workers now.");
   e.sample(s.leasesActive);
@@ -95,12 +97,13 @@ std::string renderMetrics(const MetricsSnapshot& s) {
 
   uint64_t alive = 0, quarantined = 0;
   std::map<WorkerState, uint64_t> workersByState;
-  for (WorkerState state : {WorkerState::kRendering, WorkerState::kIdle, WorkerState::kStale, WorkerState::kLost,
-                            WorkerState::kLeft})
+  for (WorkerState state :
+       {WorkerState::kRendering, WorkerState::kIdle, WorkerState::kStale, WorkerState::kLost, WorkerState::kLeft})
     workersByState[state] = 0;
   for (const WorkerView& w : s.workers) {
     ++workersByState[w.state];
-    if (w.secondsSinceHeartbeat <= s.leaseTimeoutSeconds && w.state != WorkerState::kLost && w.state != WorkerState::kLeft)
+    if (w.secondsSinceHeartbeat <= s.leaseTimeoutSeconds && w.state != WorkerState::kLost &&
+        w.state != WorkerState::kLeft)
       ++alive;
     if (w.quarantined) ++quarantined;
   }
@@ -109,10 +112,12 @@ std::string renderMetrics(const MetricsSnapshot& s) {
   e.sample(alive);
   e.family("lensfarm_workers_known", "gauge", "Workers registered and not yet forgotten, alive or silent.");
   e.sample(uint64_t(s.workers.size()));
-  e.family("lensfarm_workers", "gauge",
-           "Known workers by state: rendering, idle, stale (heartbeats late), lost (connection broke or silent past the "
-           "lease timeout), left (stopped cleanly).");
-  for (const auto& [state, count] : workersByState) e.sample(count, std::string("state=\"") + workerStateName(state) + "\"");
+  e.family(
+      "lensfarm_workers", "gauge",
+      "Known workers by state: rendering, idle, stale (heartbeats late), lost (connection broke or silent past the "
+      "lease timeout), left (stopped cleanly).");
+  for (const auto& [state, count] : workersByState)
+    e.sample(count, std::string("state=\"") + workerStateName(state) + "\"");
   e.family("lensfarm_workers_lost_total", "counter",
            "Workers marked lost at once because their Attach stream broke (their units were queued again).");
   e.sample(s.workersLost);

@@ -6,10 +6,10 @@
 
 #include <algorithm>
 
-#include "coordinator/coordinator.h"
-#include "coordinator/coordinator_records.h"
 #include "common/farm/job_scene.h"
 #include "common/scene/scene_loader.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/coordinator_records.h"
 #include "coordinator/frame_store.h"
 #include "coordinator/state_store.h"
 

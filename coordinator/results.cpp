@@ -9,13 +9,13 @@
 #include <limits>
 #include <set>
 
+#include "common/farm/memory_estimate.h"
+#include "common/render/unit_renderer.h"
+#include "common/util/error.h"
 #include "coordinator/coordinator.h"
 #include "coordinator/coordinator_records.h"
 #include "coordinator/result_checks.h"
-#include "common/farm/memory_estimate.h"
-#include "common/render/unit_renderer.h"
 #include "coordinator/state_store.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 
@@ -100,8 +100,8 @@ void Coordinator::checkPlausible(const UnitResult& result, uint64_t cells, uint3
   const uint64_t paths = map ? map->totalSamples(result.buffer.width, result.buffer.height) : cells * sampleCount;
   const PathStats& s = result.stats;
   if (s.paths != paths)
-    throw FarmError(FarmError::Kind::kInvalidArgument, what + " counts " + std::to_string(s.paths) +
-                                                            " paths; the unit traces " + std::to_string(paths));
+    throw FarmError(FarmError::Kind::kInvalidArgument,
+                    what + " counts " + std::to_string(s.paths) + " paths; the unit traces " + std::to_string(paths));
   if (s.lightHits > paths || s.dropped > paths || s.rays / maxRaysPerPath > paths)
     throw FarmError(FarmError::Kind::kInvalidArgument,
                     what + " has counters the unit cannot produce (rays " + std::to_string(s.rays) + ", light hits " +
@@ -120,10 +120,11 @@ void Coordinator::admitUpload(const std::string& workerId, uint64_t leaseId, con
   checkLeaseHeld(leases_, leaseId, workerId, jobId, unit);
   checkRegion(job, unit, width, height);
   if (channels != job.layout.channels)
-    throw FarmError(FarmError::Kind::kInvalidArgument,
-                    "result for unit " + std::to_string(unit) + " of " + job.id + " carries " + std::to_string(channels) +
-                        " sums a cell; the job's AOVs (" + aovListText(AovLayout(job.settings.aovs).set) + ") make " +
-                        std::to_string(job.layout.channels));
+    throw FarmError(FarmError::Kind::kInvalidArgument, "result for unit " + std::to_string(unit) + " of " + job.id +
+                                                           " carries " + std::to_string(channels) +
+                                                           " sums a cell; the job's AOVs (" +
+                                                           aovListText(AovLayout(job.settings.aovs).set) + ") make " +
+                                                           std::to_string(job.layout.channels));
 }
 
 bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
@@ -218,7 +219,8 @@ bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
     }
     job->units.markReceived(result.unitIndex);
     const uint64_t seq = nextAcceptance_++;
-    if (result.unitIndex >= job->trustedUnits) job->provenance[result.unitIndex] = Job::Provenance{result.workerId, seq};
+    if (result.unitIndex >= job->trustedUnits)
+      job->provenance[result.unitIndex] = Job::Provenance{result.workerId, seq};
     if (kept) {
       // Film copies to rewind to from the job's first audit on: a job no one audits keeps none.
       job->film->keepRewindPoints(rewindPointSpacing(options_.auditFraction), kRewindPoints);
@@ -308,10 +310,10 @@ void Coordinator::reportFailure(const std::string& workerId, uint64_t leaseId, c
   if (failedOn.size() >= options_.maxUnitFailures || !anyoneLeft) {
     std::string reasons;
     for (const std::string& r : job.failureReasons) reasons += (reasons.empty() ? "" : "; ") + r;
-    job.error = failedOn.size() >= options_.maxUnitFailures
-                    ? "unit " + std::to_string(unit) + " failed on " + std::to_string(failedOn.size()) +
-                          " workers: " + reasons
-                    : "no worker left that has not failed it: " + reasons;
+    job.error =
+        failedOn.size() >= options_.maxUnitFailures
+            ? "unit " + std::to_string(unit) + " failed on " + std::to_string(failedOn.size()) + " workers: " + reasons
+            : "no worker left that has not failed it: " + reasons;
     end(job, JobState::kFailed);
     spdlog::error("job {}: failed: {}", job.id, job.error);
   } else if (!job.units.isReceived(unit) && !job.units.isRecording(unit)) {

@@ -9,9 +9,9 @@
 #include <chrono>
 #include <stdexcept>
 
+#include "common/farm/memory_estimate.h"
 #include "coordinator/coordinator.h"
 #include "coordinator/coordinator_records.h"
-#include "common/farm/memory_estimate.h"
 
 namespace lensfarm {
 
@@ -43,9 +43,10 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   Job* best = nullptr;
   for (auto& [id, job] : jobs_) {
     if (isTerminal(job->state) || !job->units.hasPending()) continue;
-    if (!job->fitsOn(worker.info)) continue;  // its units are for a worker with more memory
+    if (!job->fitsOn(worker.info)) continue;        // its units are for a worker with more memory
     if (job->blocklist.count(worker.id)) continue;  // it failed this job too often (reportFailure)
-    if (!job->units.hasReturned() && !job->layout.tiled()) {  // a fresh pass: only within the window ahead of the summed prefix
+    if (!job->units.hasReturned() &&
+        !job->layout.tiled()) {  // a fresh pass: only within the window ahead of the summed prefix
       const uint64_t window = unitsAheadWindow(job->settings.width, job->settings.height, options_.maxBytesAhead);
       if (job->units.nextFresh() >= job->unitsAdded + window) continue;
     }

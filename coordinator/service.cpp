@@ -5,10 +5,10 @@
 #include <cmath>
 #include <cstring>
 
-#include "proto/convert.h"
 #include "common/scene/scene_loader.h"
-#include "coordinator/upload_assembler.h"
 #include "common/util/error.h"
+#include "coordinator/upload_assembler.h"
+#include "proto/convert.h"
 
 namespace lensfarm {
 
@@ -18,9 +18,9 @@ namespace {
 // INVALID_ARGUMENT naming the field (a NaN would otherwise give a black image).
 double checkedEv(double ev) {
   if (!(std::abs(ev) <= kMaxExposureEv))
-    throw FarmError(FarmError::Kind::kInvalidArgument,
-                    "ev: must be a finite number of stops in [-" + std::to_string(int(kMaxExposureEv)) + ", " +
-                        std::to_string(int(kMaxExposureEv)) + "]");
+    throw FarmError(FarmError::Kind::kInvalidArgument, "ev: must be a finite number of stops in [-" +
+                                                           std::to_string(int(kMaxExposureEv)) + ", " +
+                                                           std::to_string(int(kMaxExposureEv)) + "]");
   return ev;
 }
 
@@ -175,7 +175,8 @@ grpc::Status ClientServiceImpl::FindMissingAssets(grpc::ServerContext* context,
   });
 }
 
-grpc::Status ClientServiceImpl::UploadAsset(grpc::ServerContext* context, grpc::ServerReader<v1::UploadAssetRequest>* reader,
+grpc::Status ClientServiceImpl::UploadAsset(grpc::ServerContext* context,
+                                            grpc::ServerReader<v1::UploadAssetRequest>* reader,
                                             v1::UploadAssetResponse* response) {
   return guarded(gate_, context, "UploadAsset", [&] {
     v1::UploadAssetRequest message;
@@ -205,7 +206,8 @@ grpc::Status ClientServiceImpl::SubmitJob(grpc::ServerContext* context, const v1
   });
 }
 
-grpc::Status ClientServiceImpl::GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request, v1::JobStatus* response) {
+grpc::Status ClientServiceImpl::GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request,
+                                       v1::JobStatus* response) {
   return guarded(gate_, context, "GetJob", [&] { *response = toProto(coordinator_.job(request->job_id())); });
 }
 
@@ -269,8 +271,8 @@ grpc::Status ClientServiceImpl::WatchJob(grpc::ServerContext* context, const v1:
 grpc::Status ClientServiceImpl::Download(grpc::ServerContext* context, const v1::DownloadRequest* request,
                                          grpc::ServerWriter<v1::FileChunk>* writer) {
   return guarded(gate_, context, "Download", [&] {
-    JobImage image = coordinator_.image(
-        request->job_id(), request->has_frame() ? std::optional<int64_t>(request->frame()) : std::nullopt);
+    JobImage image = coordinator_.image(request->job_id(),
+                                        request->has_frame() ? std::optional<int64_t>(request->frame()) : std::nullopt);
     std::string bytes;
     if (request->format() == v1::IMAGE_FORMAT_PNG) {
       if (request->has_ev()) image.exposure.ev = checkedEv(request->ev());
@@ -290,8 +292,8 @@ grpc::Status ClientServiceImpl::GetSnapshot(grpc::ServerContext* context, const 
     constexpr uint32_t kDefaultSize = 512, kLargest = 1024;  // a 1024^2 PNG stays far below 4 MiB
     const uint32_t maxSize = std::min(request->max_size() ? request->max_size() : kDefaultSize, kLargest);
     *response->mutable_status() = toProto(coordinator_.job(request->job_id()));
-    JobImage image = coordinator_.image(
-        request->job_id(), request->has_frame() ? std::optional<int64_t>(request->frame()) : std::nullopt);
+    JobImage image = coordinator_.image(request->job_id(),
+                                        request->has_frame() ? std::optional<int64_t>(request->frame()) : std::nullopt);
     if (request->has_ev()) image.exposure.ev = checkedEv(request->ev());
     // A box filter keeps the mean luminance, so the automatic exposure matches the download's.
     const Image preview = downscaleToFit(image.image, int(maxSize));
@@ -303,7 +305,8 @@ grpc::Status ClientServiceImpl::GetSnapshot(grpc::ServerContext* context, const 
 
 grpc::Status ClientServiceImpl::CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request,
                                           v1::CancelJobResponse* response) {
-  return guarded(gate_, context, "CancelJob", [&] { *response->mutable_status() = toProto(coordinator_.cancel(request->job_id())); });
+  return guarded(gate_, context, "CancelJob",
+                 [&] { *response->mutable_status() = toProto(coordinator_.cancel(request->job_id())); });
 }
 
 grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext* context, const v1::ListWorkersRequest*,
@@ -364,7 +367,8 @@ grpc::Status WorkerServiceImpl::FetchAsset(grpc::ServerContext* context, const v
   });
 }
 
-grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext* context, grpc::ServerReader<v1::UploadResultRequest>* reader,
+grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext* context,
+                                             grpc::ServerReader<v1::UploadResultRequest>* reader,
                                              v1::UploadResultResponse* response) {
   return guarded(gate_, context, "UploadResult", [&] {
     v1::UploadResultRequest message;
@@ -375,7 +379,8 @@ grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext* context, grpc:
         const v1::ResultHeader& h = message.header();
         coordinator_.authenticateWorker(h.worker_id(), h.session());
         coordinator_.admitUpload(h.worker_id(), h.lease_id(), h.job_id(), h.unit_index(), int(h.width()),
-                                 int(h.height()), h.channels() == 0 ? 3 : int(std::min<uint32_t>(h.channels(), 1u << 20)));
+                                 int(h.height()),
+                                 h.channels() == 0 ? 3 : int(std::min<uint32_t>(h.channels(), 1u << 20)));
       }
       first = false;
       assembler.add(message);
@@ -460,7 +465,8 @@ class AttachReactor final : public grpc::ServerBidiReactor<v1::AttachRequest, v1
  private:
   void ended() {
     const uint64_t attachment = attachment_.load();
-    if (attachment != 0 && !leaving_ && !closing_) service_.coordinator_.workerLost(workerId_, "connection broke", attachment);
+    if (attachment != 0 && !leaving_ && !closing_)
+      service_.coordinator_.workerLost(workerId_, "connection broke", attachment);
     finish(grpc::Status(grpc::StatusCode::CANCELLED, "Attach: stream ended"));
   }
   // No operation may start after Finish (close() may finish from another thread).
@@ -482,7 +488,8 @@ class AttachReactor final : public grpc::ServerBidiReactor<v1::AttachRequest, v1
   std::mutex ops_;
 };
 
-grpc::ServerBidiReactor<v1::AttachRequest, v1::AttachEvent>* WorkerServiceImpl::Attach(grpc::CallbackServerContext* context) {
+grpc::ServerBidiReactor<v1::AttachRequest, v1::AttachEvent>* WorkerServiceImpl::Attach(
+    grpc::CallbackServerContext* context) {
   return new AttachReactor(*this, context);
 }
 

@@ -22,17 +22,23 @@ class ClientServiceImpl final : public v1::ClientService::Service {
                                  v1::FindMissingAssetsResponse* response) override;
   grpc::Status UploadAsset(grpc::ServerContext* context, grpc::ServerReader<v1::UploadAssetRequest>* reader,
                            v1::UploadAssetResponse* response) override;
-  grpc::Status SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request, v1::SubmitJobResponse* response) override;
+  grpc::Status SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request,
+                         v1::SubmitJobResponse* response) override;
   grpc::Status GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request, v1::JobStatus* response) override;
-  grpc::Status ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest*, v1::ListJobsResponse* response) override;
+  grpc::Status ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest*,
+                        v1::ListJobsResponse* response) override;
   grpc::Status WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
                         grpc::ServerWriter<v1::JobStatus>* writer) override;
   grpc::Status Download(grpc::ServerContext* context, const v1::DownloadRequest* request,
                         grpc::ServerWriter<v1::FileChunk>* writer) override;
-  grpc::Status GetSnapshot(grpc::ServerContext* context, const v1::SnapshotRequest* request, v1::Snapshot* response) override;
-  grpc::Status CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request, v1::CancelJobResponse* response) override;
-  grpc::Status ListWorkers(grpc::ServerContext* context, const v1::ListWorkersRequest*, v1::ListWorkersResponse* response) override;
-  grpc::Status DeleteJob(grpc::ServerContext* context, const v1::DeleteJobRequest* request, v1::DeleteJobResponse*) override;
+  grpc::Status GetSnapshot(grpc::ServerContext* context, const v1::SnapshotRequest* request,
+                           v1::Snapshot* response) override;
+  grpc::Status CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request,
+                         v1::CancelJobResponse* response) override;
+  grpc::Status ListWorkers(grpc::ServerContext* context, const v1::ListWorkersRequest*,
+                           v1::ListWorkersResponse* response) override;
+  grpc::Status DeleteJob(grpc::ServerContext* context, const v1::DeleteJobRequest* request,
+                         v1::DeleteJobResponse*) override;
   grpc::Status ArchiveJob(grpc::ServerContext* context, const v1::ArchiveJobRequest* request,
                           v1::ArchiveJobResponse* response) override;
 
@@ -64,10 +70,14 @@ class WorkerServiceImpl final : public v1::WorkerService::WithCallbackMethod_Att
   // wait out its deadline for these never-ending calls.
   void endAttachments();
 
-  grpc::Status Register(grpc::ServerContext* context, const v1::RegisterRequest* request, v1::RegisterResponse* response) override;
-  grpc::Status Heartbeat(grpc::ServerContext* context, const v1::HeartbeatRequest* request, v1::HeartbeatResponse* response) override;
-  grpc::Status LeaseWork(grpc::ServerContext* context, const v1::LeaseWorkRequest* request, v1::LeaseWorkResponse* response) override;
-  grpc::Status GetJobSpec(grpc::ServerContext* context, const v1::GetJobSpecRequest* request, v1::JobSpec* response) override;
+  grpc::Status Register(grpc::ServerContext* context, const v1::RegisterRequest* request,
+                        v1::RegisterResponse* response) override;
+  grpc::Status Heartbeat(grpc::ServerContext* context, const v1::HeartbeatRequest* request,
+                         v1::HeartbeatResponse* response) override;
+  grpc::Status LeaseWork(grpc::ServerContext* context, const v1::LeaseWorkRequest* request,
+                         v1::LeaseWorkResponse* response) override;
+  grpc::Status GetJobSpec(grpc::ServerContext* context, const v1::GetJobSpecRequest* request,
+                          v1::JobSpec* response) override;
   grpc::Status FetchAsset(grpc::ServerContext* context, const v1::FetchAssetRequest* request,
                           grpc::ServerWriter<v1::FileChunk>* writer) override;
   grpc::Status UploadResult(grpc::ServerContext* context, grpc::ServerReader<v1::UploadResultRequest>* reader,

@@ -1,5 +1,5 @@
-#include "common/util/file_contents.h"
 #include "coordinator/state_store.h"
+#include "common/util/file_contents.h"
 
 #include <fcntl.h>
 #include <sqlite3.h>
@@ -13,8 +13,8 @@
 #include <stdexcept>
 
 #include "common/film/image_io.h"
-#include "common/util/atomic_file.h"
 #include "common/scene/scene.h"
+#include "common/util/atomic_file.h"
 #include "common/util/version.h"
 
 namespace lensfarm {
@@ -76,7 +76,10 @@ void writePiecesAtomically(const fs::path& path, std::initializer_list<std::pair
 }
 
 json specToJson(const JobSpec& spec) {
-  json out{{"scene_name", spec.sceneName}, {"scene_json", spec.sceneJson}, {"assets", spec.assets}, {"overrides", overridesToJson(spec.overrides)}};
+  json out{{"scene_name", spec.sceneName},
+           {"scene_json", spec.sceneJson},
+           {"assets", spec.assets},
+           {"overrides", overridesToJson(spec.overrides)}};
   if (spec.frames) out["frames"] = {spec.frames->first, spec.frames->last, spec.frames->step};
   return out;
 }
@@ -108,15 +111,17 @@ StateStore::StateStore(fs::path dir) : dir_(std::move(dir)) {
   exec("PRAGMA journal_mode=WAL");
   exec("PRAGMA synchronous=FULL");
   exec("CREATE TABLE IF NOT EXISTS meta(key TEXT PRIMARY KEY, value INTEGER)");
-  exec("CREATE TABLE IF NOT EXISTS jobs(id TEXT PRIMARY KEY, sequence INTEGER, priority INTEGER, spec TEXT, "
-       "state TEXT, error TEXT, submitted REAL, folded_units INTEGER, stop_units INTEGER, stop_reason TEXT)");
+  exec(
+      "CREATE TABLE IF NOT EXISTS jobs(id TEXT PRIMARY KEY, sequence INTEGER, priority INTEGER, spec TEXT, "
+      "state TEXT, error TEXT, submitted REAL, folded_units INTEGER, stop_units INTEGER, stop_reason TEXT)");
   // Added by the job life cycle; a state dir written before it gains them empty.
   addColumnIfMissing("jobs", "owner", "TEXT");
   addColumnIfMissing("jobs", "ended", "REAL");
   addColumnIfMissing("jobs", "archived", "INTEGER");
   addColumnIfMissing("jobs", "summary", "TEXT");
-  exec("CREATE TABLE IF NOT EXISTS ledger(job_id TEXT, unit INTEGER, worker TEXT, paths INTEGER, rays INTEGER, "
-       "light_hits INTEGER, dropped INTEGER, PRIMARY KEY(job_id, unit))");
+  exec(
+      "CREATE TABLE IF NOT EXISTS ledger(job_id TEXT, unit INTEGER, worker TEXT, paths INTEGER, rays INTEGER, "
+      "light_hits INTEGER, dropped INTEGER, PRIMARY KEY(job_id, unit))");
   exec("CREATE TABLE IF NOT EXISTS stamp(key TEXT PRIMARY KEY, value TEXT)");
   {
     // Units rendered by another renderer version would mix two images in one sensor.
@@ -127,7 +132,9 @@ StateStore::StateStore(fs::path dir) : dir_(std::move(dir)) {
         throw std::runtime_error(dir_.string() + " was written by " + written + ", this coordinator is " +
                                  kRendererVersion + "; finish its jobs with that version or use another state dir");
     } else {
-      Statement(db_, "INSERT INTO stamp(key, value) VALUES('renderer_version', ?)").bind(1, std::string(kRendererVersion)).step();
+      Statement(db_, "INSERT INTO stamp(key, value) VALUES('renderer_version', ?)")
+          .bind(1, std::string(kRendererVersion))
+          .step();
     }
   }
   exec("INSERT INTO meta(key, value) VALUES('boots', 1) ON CONFLICT(key) DO UPDATE SET value = value + 1");
@@ -171,8 +178,9 @@ std::map<std::string, std::shared_ptr<const std::string>> StateStore::loadAssets
 void StateStore::insertJob(const StoredJob& job) {
   std::lock_guard lock(mutex_);
   fs::create_directories(jobDir(job.id));
-  Statement(db_, "INSERT INTO jobs(id, sequence, priority, spec, state, error, submitted, folded_units, owner, "
-                 "ended, archived) VALUES(?, ?, ?, ?, ?, ?, ?, 0, ?, 0, 0)")
+  Statement(db_,
+            "INSERT INTO jobs(id, sequence, priority, spec, state, error, submitted, folded_units, owner, "
+            "ended, archived) VALUES(?, ?, ?, ?, ?, ?, ?, 0, ?, 0, 0)")
       .bind(1, job.id)
       .bind(2, int64_t(job.sequence))
       .bind(3, int64_t(job.priority))
@@ -183,8 +191,9 @@ void StateStore::insertJob(const StoredJob& job) {
       .bind(8, job.owner)
       .step();
   if (job.id.rfind("job-", 0) == 0)
-    Statement(db_, "INSERT INTO meta(key, value) VALUES('last_job', ?) "
-                   "ON CONFLICT(key) DO UPDATE SET value = max(value, excluded.value)")
+    Statement(db_,
+              "INSERT INTO meta(key, value) VALUES('last_job', ?) "
+              "ON CONFLICT(key) DO UPDATE SET value = max(value, excluded.value)")
         .bind(1, int64_t(std::stoull(job.id.substr(4))))
         .step();
 }
@@ -270,9 +279,10 @@ void StateStore::updateJobPriority(const std::string& jobId, int priority) {
 std::vector<StateStore::StoredJob> StateStore::loadJobs() {
   std::lock_guard lock(mutex_);
   std::vector<StoredJob> out;
-  Statement s(db_, "SELECT id, sequence, priority, spec, state, error, submitted, folded_units, "
-                 "coalesce(stop_units, -1), coalesce(stop_reason, ''), coalesce(owner, ''), coalesce(ended, 0), "
-                 "coalesce(archived, 0), coalesce(summary, '') FROM jobs ORDER BY sequence");
+  Statement s(db_,
+              "SELECT id, sequence, priority, spec, state, error, submitted, folded_units, "
+              "coalesce(stop_units, -1), coalesce(stop_reason, ''), coalesce(owner, ''), coalesce(ended, 0), "
+              "coalesce(archived, 0), coalesce(summary, '') FROM jobs ORDER BY sequence");
   while (s.step()) {
     StoredJob j;
     j.id = s.text(0);
@@ -298,8 +308,9 @@ void StateStore::recordUnit(const std::string& jobId, const LedgerEntry& e, cons
   const fs::path file = jobDir(jobId) / ("unit-" + std::to_string(e.unit) + ".bin");
   writePiecesAtomically(file, {{reinterpret_cast<const char*>(sums.data()), sums.size() * sizeof(double)}});
   std::lock_guard lock(mutex_);
-  Statement(db_, "INSERT OR IGNORE INTO ledger(job_id, unit, worker, paths, rays, light_hits, dropped) "
-                 "VALUES(?, ?, ?, ?, ?, ?, ?)")
+  Statement(db_,
+            "INSERT OR IGNORE INTO ledger(job_id, unit, worker, paths, rays, light_hits, dropped) "
+            "VALUES(?, ?, ?, ?, ?, ?, ?)")
       .bind(1, jobId)
       .bind(2, int64_t(e.unit))
       .bind(3, e.worker)
@@ -365,10 +376,11 @@ void StateStore::writeCheckpoint(const std::string& jobId, const std::string& se
   // The count of folded units travels inside the file with the sensor and the convergence
   // tracker, so the three can never disagree, whatever moment a crash picks.
   const uint64_t sensorSize = sensorBytes.size();
-  writePiecesAtomically(jobDir(jobId) / "sensor.bin", {{reinterpret_cast<const char*>(&foldedUnits), sizeof foldedUnits},
-                                                       {reinterpret_cast<const char*>(&sensorSize), sizeof sensorSize},
-                                                       {sensorBytes.data(), sensorBytes.size()},
-                                                       {trackerBytes.data(), trackerBytes.size()}});
+  writePiecesAtomically(jobDir(jobId) / "sensor.bin",
+                        {{reinterpret_cast<const char*>(&foldedUnits), sizeof foldedUnits},
+                         {reinterpret_cast<const char*>(&sensorSize), sizeof sensorSize},
+                         {sensorBytes.data(), sensorBytes.size()},
+                         {trackerBytes.data(), trackerBytes.size()}});
   {
     std::lock_guard lock(mutex_);
     Statement(db_, "UPDATE jobs SET folded_units = ? WHERE id = ?").bind(1, int64_t(foldedUnits)).bind(2, jobId).step();
@@ -388,7 +400,8 @@ std::optional<StateStore::Checkpoint> StateStore::loadCheckpoint(const std::stri
   std::string bytes = readAll(file);
   Checkpoint c;
   uint64_t sensorSize = 0;
-  if (bytes.size() >= 2 * sizeof(uint64_t)) std::memcpy(&sensorSize, bytes.data() + sizeof(uint64_t), sizeof sensorSize);
+  if (bytes.size() >= 2 * sizeof(uint64_t))
+    std::memcpy(&sensorSize, bytes.data() + sizeof(uint64_t), sizeof sensorSize);
   if (bytes.size() < 2 * sizeof(uint64_t) || sensorSize > bytes.size() - 2 * sizeof(uint64_t))
     throw std::runtime_error(file.string() + " is truncated");
   std::memcpy(&c.foldedUnits, bytes.data(), sizeof(uint64_t));

@@ -55,7 +55,7 @@ class StateStore {
     std::string state;  // jobStateName()
     std::string error;
     double submittedUnixSeconds = 0.0;
-    uint64_t foldedUnits = 0;  // units in sensor.bin
+    uint64_t foldedUnits = 0;           // units in sensor.bin
     std::optional<uint64_t> stopUnits;  // a job stopped early keeps units [0, stopUnits)
     std::string stopReason;
     std::string owner;

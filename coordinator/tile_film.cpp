@@ -110,5 +110,4 @@ std::set<uint64_t> TileFilm::forgetWorker(uint64_t from, const std::string& work
   return kept;
 }
 
-
 }  // namespace lensfarm

@@ -65,7 +65,6 @@ class TileFilm {
   // tile of it is written. Returns the units from `from` on that still count.
   std::set<uint64_t> forgetWorker(uint64_t from, const std::string& worker);
 
-
  private:
   struct Frame {
     Image image;
@@ -75,11 +74,11 @@ class TileFilm {
 
   JobLayout layout_;
   AovLayout aovs_;
-  std::map<uint64_t, Frame> held_;       // frames with tiles in, not yet handed over
-  std::vector<uint32_t> tilesDone_;      // per frame
-  std::set<uint64_t> completeFrames_;    // handed over (or restored): every tile counts
-  std::vector<uint64_t> justCompleted_;  // for takeCompleted
-  std::set<std::string> distrusted_;     // workers forgotten by the audit
+  std::map<uint64_t, Frame> held_;                            // frames with tiles in, not yet handed over
+  std::vector<uint32_t> tilesDone_;                           // per frame
+  std::set<uint64_t> completeFrames_;                         // handed over (or restored): every tile counts
+  std::vector<uint64_t> justCompleted_;                       // for takeCompleted
+  std::set<std::string> distrusted_;                          // workers forgotten by the audit
   std::map<uint64_t, std::shared_ptr<const Image>> storing_;  // handed over, not yet stored
   uint64_t unitsDone_ = 0;
 };

@@ -10,7 +10,9 @@ namespace lensfarm {
 namespace {
 constexpr uint64_t kMaxCells = uint64_t(1) << 28;  // 16384 x 16384, the scene format's limit
 
-[[noreturn]] void refuse(const std::string& what) { throw FarmError(FarmError::Kind::kInvalidArgument, "UploadResult: " + what); }
+[[noreturn]] void refuse(const std::string& what) {
+  throw FarmError(FarmError::Kind::kInvalidArgument, "UploadResult: " + what);
+}
 [[noreturn]] void refuseAsset(const std::string& what) {
   throw FarmError(FarmError::Kind::kInvalidArgument, "UploadAsset: " + what);
 }
@@ -77,18 +79,18 @@ void AssetUploadAssembler::add(const v1::UploadAssetRequest& message) {
     declared_ = message.chunk().total_size();
     if (declared_ > kMaxAssetBytes)
       refuseAsset("total_size " + std::to_string(declared_) + " bytes: an asset is at most 2 GiB (" +
-             std::to_string(kMaxAssetBytes) + " bytes)");
+                  std::to_string(kMaxAssetBytes) + " bytes)");
     sha256_ = message.sha256();
   } else if (message.chunk().total_size() != 0 && message.chunk().total_size() != declared_) {
     refuseAsset(chunk + " declares total_size " + std::to_string(message.chunk().total_size()) + ", the first " +
-           std::to_string(declared_));
+                std::to_string(declared_));
   }
   if (size > kMaxChunkBytes)
     refuseAsset(chunk + " is " + std::to_string(size) + " bytes; a chunk is at most 1 MiB (" +
-           std::to_string(kMaxChunkBytes) + " bytes)");
+                std::to_string(kMaxChunkBytes) + " bytes)");
   if (size > declared_ - bytes_.size())
     refuseAsset(chunk + " goes past the declared total_size: " + std::to_string(bytes_.size() + size) + " bytes of " +
-           std::to_string(declared_));
+                std::to_string(declared_));
   bytes_ += message.chunk().data();
   ++chunks_;
 }

@@ -4,8 +4,8 @@
 //  - UploadAssembler: a unit's result from an UploadResult stream: a missing or repeated header,
 //    a bad frame size, an unknown encoding, pieces out of order, overlapping, too long or
 //    misaligned, a compressed block that is corrupt, truncated or bigger than it may be
-//    (farm/sums_codec.h), a truncated stream. Nothing it refuses ever reaches a job's sensor (Coordinator::acceptResult checks the
-//    rest).
+//    (farm/sums_codec.h), a truncated stream. Nothing it refuses ever reaches a job's sensor (Coordinator::acceptResult
+//    checks the rest).
 //  - AssetUploadAssembler: an asset's bytes from an UploadAsset stream: a hash that is not one, a
 //    chunk over 1 MiB, bytes past or short of the declared total_size. AssetStore::put then checks
 //    that the bytes hash to the name.
@@ -56,8 +56,8 @@ class UploadAssembler {
   UnitResult result_;
   bool haveHeader_ = false;
   SumsEncoding encoding_ = SumsEncoding::kRaw;  // the header's
-  uint64_t filled_ = 0;     // doubles received so far
-  uint64_t wireBytes_ = 0;  // bytes of `sums` received so far
+  uint64_t filled_ = 0;                         // doubles received so far
+  uint64_t wireBytes_ = 0;                      // bytes of `sums` received so far
 };
 
 }  // namespace lensfarm

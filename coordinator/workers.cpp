@@ -8,11 +8,11 @@
 #include <chrono>
 #include <random>
 
-#include "coordinator/coordinator.h"
-#include "coordinator/coordinator_records.h"
 #include "common/farm/memory_estimate.h"
 #include "common/util/error.h"
 #include "common/util/version.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/coordinator_records.h"
 
 namespace lensfarm {
 
@@ -55,9 +55,10 @@ bool sameSecret(const std::string& a, const std::string& b) {
 
 std::string Coordinator::registerWorker(const WorkerInfo& info, std::string* session) {
   if (info.protocolVersion != kProtocolVersion || info.rendererVersion != kRendererVersion)
-    throw FarmError(FarmError::Kind::kFailedPrecondition,
-                    "version mismatch: worker speaks " + info.protocolVersion + " with renderer " + info.rendererVersion +
-                        ", coordinator speaks " + kProtocolVersion + " with renderer " + kRendererVersion);
+    throw FarmError(FarmError::Kind::kFailedPrecondition, "version mismatch: worker speaks " + info.protocolVersion +
+                                                              " with renderer " + info.rendererVersion +
+                                                              ", coordinator speaks " + kProtocolVersion +
+                                                              " with renderer " + kRendererVersion);
   std::lock_guard lock(mutex_);
   auto worker = std::make_unique<Worker>();
   worker->id = "worker-" + std::to_string(epoch_) + "." + std::to_string(nextWorker_++);
@@ -97,7 +98,8 @@ void Coordinator::authenticateWorker(const std::string& workerId, const std::str
 
 Coordinator::Worker& Coordinator::findWorker(const std::string& workerId) {
   auto it = workers_.find(workerId);
-  if (it == workers_.end()) throw FarmError(FarmError::Kind::kUnknownWorker, "unknown worker " + workerId + "; register again");
+  if (it == workers_.end())
+    throw FarmError(FarmError::Kind::kUnknownWorker, "unknown worker " + workerId + "; register again");
   if (it->second->gone)  // its leases were revoked: a live process must start afresh
     throw FarmError(FarmError::Kind::kUnknownWorker, "unknown worker " + workerId + " (" +
                                                          workerStateName(*it->second->gone) + ": " +
@@ -233,17 +235,18 @@ std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) co
   }
   if (tooSmall && !busyElsewhere)
     why += "no connected worker can hold a unit of this job: it needs " + formatBytes(job.unitMemoryBytes) +
-           " of worker memory, the largest of the " + std::to_string(tooSmall) + " connected allows " + formatBytes(largest) +
-           " (LENSFARM_MAX_JOB_MEMORY on a worker); lower the resolution or add a bigger worker";
+           " of worker memory, the largest of the " + std::to_string(tooSmall) + " connected allows " +
+           formatBytes(largest) + " (LENSFARM_MAX_JOB_MEMORY on a worker); lower the resolution or add a bigger worker";
   else if (busyElsewhere)
-    why += "waiting for a worker: " + (busyElsewhere == 1 ? std::string("the only one is") : "all " + std::to_string(busyElsewhere) + " are") +
+    why += "waiting for a worker: " +
+           (busyElsewhere == 1 ? std::string("the only one is") : "all " + std::to_string(busyElsewhere) + " are") +
            " rendering other jobs";
   else
     why += "no workers connected";
   if (!recentLoss && !busyElsewhere && recentlyGone && now - recentlyGone->goneAt < std::chrono::seconds(120))
     why += " (" + recentlyGone->label() + " " + workerStateName(*recentlyGone->gone) + " " +
-           secondsText(std::chrono::duration<double>(now - recentlyGone->goneAt).count()) + " ago: " +
-           recentlyGone->goneReason + ")";
+           secondsText(std::chrono::duration<double>(now - recentlyGone->goneAt).count()) +
+           " ago: " + recentlyGone->goneReason + ")";
   return why;
 }
 

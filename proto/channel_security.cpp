@@ -1,5 +1,5 @@
-#include "common/util/file_contents.h"
 #include "proto/channel_security.h"
+#include "common/util/file_contents.h"
 
 #include <fstream>
 #include <sstream>

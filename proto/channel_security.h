@@ -11,9 +11,9 @@
 namespace lensfarm {
 
 struct ChannelSecurity {
-  std::string caFile;    // PEM roots to verify the coordinator; empty: plain (insecure) gRPC
-  std::string certFile;  // optional client certificate (PEM) for mutual TLS
-  std::string keyFile;   // its private key
+  std::string caFile;                // PEM roots to verify the coordinator; empty: plain (insecure) gRPC
+  std::string certFile;              // optional client certificate (PEM) for mutual TLS
+  std::string keyFile;               // its private key
   std::optional<std::string> token;  // sent as "authorization: Bearer <token>"
 };
 

@@ -132,9 +132,9 @@ LeaseGrant fromProto(const v1::Lease& p) {
   g.jobId = p.job_id();
   g.unit = WorkUnit{p.unit_index(), p.first_sample(), p.sample_count()};
   g.unit.frame = p.frame();
-  g.unit.region = PixelRegion{int(std::min<uint32_t>(p.region_x(), 1u << 30)), int(std::min<uint32_t>(p.region_y(), 1u << 30)),
-                              int(std::min<uint32_t>(p.region_width(), 1u << 30)),
-                              int(std::min<uint32_t>(p.region_height(), 1u << 30))};
+  g.unit.region = PixelRegion{
+      int(std::min<uint32_t>(p.region_x(), 1u << 30)), int(std::min<uint32_t>(p.region_y(), 1u << 30)),
+      int(std::min<uint32_t>(p.region_width(), 1u << 30)), int(std::min<uint32_t>(p.region_height(), 1u << 30))};
   g.unit.passSamples = p.pass_samples();
   if (p.has_adaptive()) {
     // Checked against the frame where it is rendered (renderUnit: SampleMap::whyNotFor).
@@ -152,7 +152,8 @@ LeaseGrant fromProto(const v1::Lease& p) {
   g.sceneHash = p.scene_hash();
   g.deadlineSeconds = p.deadline_seconds();
   // A value this worker does not know: raw, which every coordinator accepts.
-  g.uploadEncoding = p.sums_encoding() == v1::SUMS_ENCODING_SHUFFLE_ZSTD ? SumsEncoding::kShuffleZstd : SumsEncoding::kRaw;
+  g.uploadEncoding =
+      p.sums_encoding() == v1::SUMS_ENCODING_SHUFFLE_ZSTD ? SumsEncoding::kShuffleZstd : SumsEncoding::kRaw;
   return g;
 }
 

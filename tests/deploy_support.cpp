@@ -121,7 +121,8 @@ std::string FarmProcesses::startCoordinator(std::vector<std::string> args, const
   coordinator_ = std::make_unique<ChildProcess>(wrapped(wrapper, coordinatorPath(), args), dir_ / ("coordinator-" + n));
   const bool up = waitFor(
       [&] {
-        return (fs::exists(portFile) && (!metrics || fs::exists(metricsFile)) && (!dashboard || fs::exists(dashboardFile))) ||
+        return (fs::exists(portFile) && (!metrics || fs::exists(metricsFile)) &&
+                (!dashboard || fs::exists(dashboardFile))) ||
                !coordinator_->running();
       },
       30);
@@ -157,7 +158,8 @@ std::map<std::string, double> parseMetrics(const std::string& text) {
   std::map<std::string, std::string> types;
   const std::regex help(R"(^# HELP ([a-zA-Z_:][a-zA-Z0-9_:]*) \S.*$)");
   const std::regex type(R"(^# TYPE ([a-zA-Z_:][a-zA-Z0-9_:]*) (counter|gauge|histogram|summary|untyped)$)");
-  const std::regex sample(R"(^([a-zA-Z_:][a-zA-Z0-9_:]*)(\{[a-zA-Z_][a-zA-Z0-9_]*="[^"\\]*"(?:,[a-zA-Z_][a-zA-Z0-9_]*="[^"\\]*")*\})? (\S+)$)");
+  const std::regex sample(
+      R"(^([a-zA-Z_:][a-zA-Z0-9_:]*)(\{[a-zA-Z_][a-zA-Z0-9_]*="[^"\\]*"(?:,[a-zA-Z_][a-zA-Z0-9_]*="[^"\\]*")*\})? (\S+)$)");
   std::istringstream in(text);
   for (std::string line; std::getline(in, line);) {
     std::smatch m;
@@ -251,8 +253,8 @@ void makeCertificates(const TempDir& dir, const std::string& serverAltNames) {
     dir.write(who + ".ext", "subjectAltName=" + (who == "server" ? serverAltNames : "DNS:client") + "\n");
     openssl({"req", "-newkey", "rsa:2048", "-nodes", "-keyout", p(who + ".key"), "-out", p(who + ".csr"), "-subj",
              "/CN=" + who});
-    openssl({"x509", "-req", "-in", p(who + ".csr"), "-CA", p("ca.pem"), "-CAkey", p("ca.key"), "-CAcreateserial", "-out",
-             p(who + ".pem"), "-days", "1", "-extfile", p(who + ".ext")});
+    openssl({"x509", "-req", "-in", p(who + ".csr"), "-CA", p("ca.pem"), "-CAkey", p("ca.key"), "-CAcreateserial",
+             "-out", p(who + ".pem"), "-days", "1", "-extfile", p(who + ".ext")});
   }
 }
 

@@ -106,7 +106,8 @@ void makeCertificates(const TempDir& dir, const std::string& serverAltNames);
 // One dpkg -S for all files.
 std::map<std::filesystem::path, std::set<std::string>> debianOwnersOf(const std::vector<std::filesystem::path>& files);
 // The first of those packages, by name; nullopt if none.
-std::map<std::filesystem::path, std::optional<std::string>> debianPackagesOf(const std::vector<std::filesystem::path>& files);
+std::map<std::filesystem::path, std::optional<std::string>> debianPackagesOf(
+    const std::vector<std::filesystem::path>& files);
 std::optional<std::string> debianPackageOf(const std::filesystem::path& file);
 // The packages named in an installed package's Depends field (versions and alternatives after
 // the first dropped).

@@ -1,9 +1,9 @@
-#include "common/util/file_contents.h"
 #include "tests/test_support.h"
+#include "common/util/file_contents.h"
 
 #include <fcntl.h>
-#include <signal.h>
 #include <netinet/in.h>
+#include <signal.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -72,7 +72,8 @@ json bundledSceneJson(const std::string& name) {
   json scene = json::parse(std::ifstream(scenesDir() / name));
   for (json& shape : scene["shapes"])
     if (shape.contains("file")) shape["file"] = (scenesDir() / shape["file"].get<std::string>()).string();
-  if (scene["camera"].contains("lens")) scene["camera"]["lens"] = (scenesDir() / scene["camera"]["lens"].get<std::string>()).string();
+  if (scene["camera"].contains("lens"))
+    scene["camera"]["lens"] = (scenesDir() / scene["camera"]["lens"].get<std::string>()).string();
   return scene;
 }
 
@@ -107,7 +108,8 @@ std::string sphereObj(int rings, int segments) {
   for (int r = 1; r < rings; ++r)
     for (int s = 0; s < segments; ++s) {
       const double theta = M_PI * r / rings, phi = 2 * M_PI * s / segments;
-      obj << "v " << std::sin(theta) * std::cos(phi) << " " << std::cos(theta) << " " << std::sin(theta) * std::sin(phi) << "\n";
+      obj << "v " << std::sin(theta) * std::cos(phi) << " " << std::cos(theta) << " " << std::sin(theta) * std::sin(phi)
+          << "\n";
     }
   obj << "v 0 -1 0\n";
   const auto idx = [&](int r, int s) { return 2 + (r - 1) * segments + (s % segments); };  // 1-based
@@ -116,7 +118,8 @@ std::string sphereObj(int rings, int segments) {
   for (int r = 1; r < rings - 1; ++r)
     for (int s = 0; s < segments; ++s)
       obj << "f " << idx(r, s) << " " << idx(r, s + 1) << " " << idx(r + 1, s + 1) << " " << idx(r + 1, s) << "\n";
-  for (int s = 0; s < segments; ++s) obj << "f " << south << " " << idx(rings - 1, s) << " " << idx(rings - 1, s + 1) << "\n";
+  for (int s = 0; s < segments; ++s)
+    obj << "f " << south << " " << idx(rings - 1, s) << " " << idx(rings - 1, s + 1) << "\n";
   return obj.str();
 }
 
@@ -124,19 +127,27 @@ json closedBoxSceneJson(const json& wallMaterial, int resolution, uint64_t spp, 
   json scene = {
       {"format", "lensfarm-scene/1"},
       {"camera",
-       {{"type", "pinhole"}, {"position", {0, 0, 0}}, {"look_at", {0, 0, 1}}, {"up", {0, 1, 0}},
-        {"sensor_width", 0.1}, {"angle_of_view", 87.06}}},  // 2 atan(0.95): the walls' edges out of view
+       {{"type", "pinhole"},
+        {"position", {0, 0, 0}},
+        {"look_at", {0, 0, 1}},
+        {"up", {0, 1, 0}},
+        {"sensor_width", 0.1},
+        {"angle_of_view", 87.06}}},  // 2 atan(0.95): the walls' edges out of view
       {"materials", {{"wall", wallMaterial}}},
-      {"render", {{"resolution", {resolution, resolution}}, {"samples_per_pixel", spp}, {"max_bounces", maxBounces}, {"seed", 3}}},
+      {"render",
+       {{"resolution", {resolution, resolution}},
+        {"samples_per_pixel", spp},
+        {"max_bounces", maxBounces},
+        {"seed", 3}}},
   };
   // Six inward-facing quads: the normal cross(edge1, edge2) points into the box.
   const json walls = json::array({
-      json{{"corner", {-1, -1, 1}}, {"edge1", {0, 2, 0}}, {"edge2", {2, 0, 0}}},    // z = +1, n = -z
-      json{{"corner", {-1, -1, -1}}, {"edge1", {2, 0, 0}}, {"edge2", {0, 2, 0}}},   // z = -1, n = +z
-      json{{"corner", {1, -1, -1}}, {"edge1", {0, 0, 2}}, {"edge2", {0, 2, 0}}},    // x = +1, n = -x
-      json{{"corner", {-1, -1, -1}}, {"edge1", {0, 2, 0}}, {"edge2", {0, 0, 2}}},   // x = -1, n = +x
-      json{{"corner", {-1, 1, -1}}, {"edge1", {2, 0, 0}}, {"edge2", {0, 0, 2}}},    // y = +1, n = -y
-      json{{"corner", {-1, -1, -1}}, {"edge1", {0, 0, 2}}, {"edge2", {2, 0, 0}}},   // y = -1, n = +y
+      json{{"corner", {-1, -1, 1}}, {"edge1", {0, 2, 0}}, {"edge2", {2, 0, 0}}},   // z = +1, n = -z
+      json{{"corner", {-1, -1, -1}}, {"edge1", {2, 0, 0}}, {"edge2", {0, 2, 0}}},  // z = -1, n = +z
+      json{{"corner", {1, -1, -1}}, {"edge1", {0, 0, 2}}, {"edge2", {0, 2, 0}}},   // x = +1, n = -x
+      json{{"corner", {-1, -1, -1}}, {"edge1", {0, 2, 0}}, {"edge2", {0, 0, 2}}},  // x = -1, n = +x
+      json{{"corner", {-1, 1, -1}}, {"edge1", {2, 0, 0}}, {"edge2", {0, 0, 2}}},   // y = +1, n = -y
+      json{{"corner", {-1, -1, -1}}, {"edge1", {0, 0, 2}}, {"edge2", {2, 0, 0}}},  // y = -1, n = +y
   });
   json shapes = json::array();
   for (json w : walls) {

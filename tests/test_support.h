@@ -30,9 +30,9 @@ class TempDir {
   std::filesystem::path path_;
 };
 
-std::filesystem::path sourceDir();   // the repository root
-std::filesystem::path scenesDir();   // <root>/scenes
-std::filesystem::path cliPath();     // the built `lensfarm` binary
+std::filesystem::path sourceDir();  // the repository root
+std::filesystem::path scenesDir();  // <root>/scenes
+std::filesystem::path cliPath();    // the built `lensfarm` binary
 
 // A minimal valid scene: a pinhole camera looking along +z at a white quad lit by a quad light.
 nlohmann::json minimalSceneJson();

@@ -1,5 +1,5 @@
-#include "common/util/file_contents.h"
 #include "worker/asset_cache.h"
+#include "common/util/file_contents.h"
 
 #include <spdlog/spdlog.h>
 

@@ -15,7 +15,8 @@ namespace {
   const std::string what = std::string(rpc) + ": " + status.error_message();
   switch (status.error_code()) {
     case grpc::StatusCode::NOT_FOUND:
-      if (status.error_message().rfind("unknown worker", 0) == 0) throw FarmError(FarmError::Kind::kUnknownWorker, what);
+      if (status.error_message().rfind("unknown worker", 0) == 0)
+        throw FarmError(FarmError::Kind::kUnknownWorker, what);
       throw FarmError(FarmError::Kind::kNotFound, what);
     case grpc::StatusCode::FAILED_PRECONDITION: throw FarmError(FarmError::Kind::kFailedPrecondition, what);
     case grpc::StatusCode::INVALID_ARGUMENT: throw FarmError(FarmError::Kind::kInvalidArgument, what);
@@ -28,7 +29,9 @@ namespace {
 
 GrpcCoordinatorLink::GrpcCoordinatorLink(std::shared_ptr<grpc::Channel> channel, ChannelSecurity security,
                                          double callTimeoutSeconds)
-    : stub_(v1::WorkerService::NewStub(channel)), security_(std::move(security)), callTimeoutSeconds_(callTimeoutSeconds) {}
+    : stub_(v1::WorkerService::NewStub(channel)),
+      security_(std::move(security)),
+      callTimeoutSeconds_(callTimeoutSeconds) {}
 
 std::unique_ptr<grpc::ClientContext> GrpcCoordinatorLink::context(double extraSeconds) const {
   auto c = std::make_unique<grpc::ClientContext>();
@@ -162,7 +165,8 @@ void GrpcCoordinatorLink::leave() {
   stopAttaching();
 }
 
-std::vector<uint64_t> GrpcCoordinatorLink::heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds) {
+std::vector<uint64_t> GrpcCoordinatorLink::heartbeat(const std::string& workerId,
+                                                     const std::vector<uint64_t>& leaseIds) {
   v1::HeartbeatRequest request;
   request.set_worker_id(workerId);
   request.set_session(session());

@@ -8,9 +8,9 @@
 #include <string>
 #include <thread>
 
+#include "lensfarm/v1/worker_service.grpc.pb.h"
 #include "proto/channel_security.h"
 #include "worker/coordinator_link.h"
-#include "lensfarm/v1/worker_service.grpc.pb.h"
 
 namespace lensfarm {
 
@@ -21,7 +21,8 @@ namespace lensfarm {
 // drops the stream: the coordinator then sees the worker as lost.
 class GrpcCoordinatorLink final : public CoordinatorLink {
  public:
-  GrpcCoordinatorLink(std::shared_ptr<grpc::Channel> channel, ChannelSecurity security, double callTimeoutSeconds = 30.0);
+  GrpcCoordinatorLink(std::shared_ptr<grpc::Channel> channel, ChannelSecurity security,
+                      double callTimeoutSeconds = 30.0);
   ~GrpcCoordinatorLink() override;
 
   Registration registerWorker(const WorkerInfo& info) override;
@@ -55,7 +56,7 @@ class GrpcCoordinatorLink final : public CoordinatorLink {
   std::thread attacher_;
   std::string attachId_;   // the worker id to attach as; empty: not registered yet
   std::string refusedId_;  // an id the coordinator refused (unknown, or no Attach): wait for another
-  grpc::ClientContext* attachContext_ = nullptr;  // the open call, to cancel it
+  grpc::ClientContext* attachContext_ = nullptr;                                          // the open call, to cancel it
   grpc::ClientReaderWriter<v1::AttachRequest, v1::AttachEvent>* attachStream_ = nullptr;  // once acknowledged
   bool attachStop_ = false;
 };

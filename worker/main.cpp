@@ -11,19 +11,19 @@
 
 #include <CLI/CLI.hpp>
 #include <csignal>
-#include <filesystem>
 #include <cstdlib>
+#include <filesystem>
 #include <thread>
 
-#include "worker/grpc_link.h"
+#include "common/farm/memory_estimate.h"
 #include "common/render/ray_caster.h"
 #include "common/util/error.h"
-#include "common/util/logging.h"
 #include "common/util/flag_checks.h"
-#include "common/util/service_flags.h"
+#include "common/util/logging.h"
 #include "common/util/secret.h"
+#include "common/util/service_flags.h"
 #include "common/util/version.h"
-#include "common/farm/memory_estimate.h"
+#include "worker/grpc_link.h"
 #include "worker/worker_loop.h"
 
 namespace {

@@ -6,8 +6,8 @@
 #include <algorithm>
 #include <chrono>
 
-#include "common/farm/memory_estimate.h"
 #include "common/farm/job_scene.h"
+#include "common/farm/memory_estimate.h"
 #include "common/scene/scene_loader.h"
 #include "common/util/error.h"
 #include "common/util/version.h"
@@ -200,8 +200,9 @@ void WorkerLoop::run() {
       const MemoryEstimate memory =
           workerJobMemory(job->scene.render, storedTriangles(job->scene), sceneDataBytes(job->scene));
       if (options_.maxMemoryBytes > 0 && memory.total() > options_.maxMemoryBytes) {
-        const std::string what = overBudgetMessage(job->scene.render, memory, "worker", options_.maxMemoryBytes,
-                                                   "LENSFARM_MAX_JOB_MEMORY, else 3/4 of " + options_.name + "'s memory");
+        const std::string what =
+            overBudgetMessage(job->scene.render, memory, "worker", options_.maxMemoryBytes,
+                              "LENSFARM_MAX_JOB_MEMORY, else 3/4 of " + options_.name + "'s memory");
         spdlog::error("cannot render {}: {}", grant->jobId, what);
         link_.reportFailure(id, grant->leaseId, grant->jobId, what);
         continue;
@@ -216,11 +217,11 @@ void WorkerLoop::run() {
       const auto start = std::chrono::steady_clock::now();
       bool complete = false;
       try {
-        arena.execute([&] {
-          complete = renderUnit(*job->renderScene, grant->unit, result.buffer, result.stats, &cancelUnit_);
-        });
+        arena.execute(
+            [&] { complete = renderUnit(*job->renderScene, grant->unit, result.buffer, result.stats, &cancelUnit_); });
       } catch (const std::bad_alloc&) {
-        const std::string what = "out of memory for a unit buffer (estimated " + memory.describe() + ") on " + options_.name;
+        const std::string what =
+            "out of memory for a unit buffer (estimated " + memory.describe() + ") on " + options_.name;
         spdlog::error("cannot render {}: {}", grant->jobId, what);
         link_.reportFailure(id, grant->leaseId, grant->jobId, what);
         continue;

@@ -16,15 +16,15 @@
 #include <string>
 #include <thread>
 
+#include "common/render/render_scene.h"
 #include "worker/asset_cache.h"
 #include "worker/coordinator_link.h"
-#include "common/render/render_scene.h"
 
 namespace lensfarm {
 
 struct WorkerOptions {
-  std::string name;            // shown in `lensfarm workers`
-  unsigned threads = 1;        // render threads
+  std::string name;                // shown in `lensfarm workers`
+  unsigned threads = 1;            // render threads
   double leaseWaitSeconds = 2.0;   // long-poll time per lease request
   double maxBackoffSeconds = 5.0;  // cap of the retry delay
   std::filesystem::path cacheDir;  // empty: assets cached in memory only

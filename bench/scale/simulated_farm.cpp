@@ -4,11 +4,11 @@
 #include <cmath>
 #include <random>
 
-#include "proto/channel_security.h"
-#include "common/farm/farm_types.h"
-#include "worker/grpc_link.h"
 #include "bench/scale/synthetic_image.h"
+#include "common/farm/farm_types.h"
 #include "common/util/version.h"
+#include "proto/channel_security.h"
+#include "worker/grpc_link.h"
 
 namespace lensfarm::scale {
 namespace {

@@ -86,9 +86,9 @@ Image referenceImage(Scene scene, uint64_t samplesPerPixel, const fs::path& cach
   // Its own random numbers: a reference sharing the measured renders' samples would be
   // correlated with them and hide part of their error.
   s.seed ^= 0x5eed5eed5eed5eedull;
-  const std::string key = sha256Hex(scene.hash + "|" + std::to_string(s.width) + "x" + std::to_string(s.height) +
-                                    "|B" + std::to_string(s.maxBounces) + "|" + std::to_string(samplesPerPixel) +
-                                    "|seed" + std::to_string(s.seed) + "|" + kRendererVersion +
+  const std::string key = sha256Hex(scene.hash + "|" + std::to_string(s.width) + "x" + std::to_string(s.height) + "|B" +
+                                    std::to_string(s.maxBounces) + "|" + std::to_string(samplesPerPixel) + "|seed" +
+                                    std::to_string(s.seed) + "|" + kRendererVersion +
                                     (s.aovs.empty() ? "" : "|aovs " + aovListText(s.aovs)));
   const fs::path file = cacheDir / ("reference-" + key.substr(0, 16) + ".exr");
   if (fs::exists(file)) {

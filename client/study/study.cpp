@@ -15,18 +15,18 @@
 #include <sstream>
 #include <thread>
 
+#include "client/study/progressive.h"
+#include "client/study/report.h"
 #include "common/camera/depth_of_field.h"
 #include "common/farm/job_layout.h"
 #include "common/film/adaptive_allocation.h"
 #include "common/film/denoiser.h"
 #include "common/film/error_metrics.h"
 #include "common/film/image_io.h"
-#include "common/scene/scene_loader.h"
-#include "client/study/progressive.h"
 #include "common/render/render_scene.h"
-#include "client/study/report.h"
-#include "common/util/file_contents.h"
+#include "common/scene/scene_loader.h"
 #include "common/util/error.h"
+#include "common/util/file_contents.h"
 #include "common/util/version.h"
 
 namespace lensfarm::study {
@@ -54,16 +54,34 @@ struct Scale {
   double materialsBudget;  // seconds per variant
   int denoiseSide;
   uint64_t denoiseReferenceSpp;
-  double denoiseBudget;  // seconds of rendering
+  double denoiseBudget;                  // seconds of rendering
   std::vector<uint64_t> adaptiveCounts;  // mean samples per pixel of each render (adaptive experiment)
   double cheapSeconds;                   // renders faster than this are timed three times (median)
 };
 constexpr int kStudyBounces = 3;  // B for the convergence and resolution experiments
 // The edge images of the depth-of-field experiment are wide strips (4 rows) so that a pixel is
 // much smaller than the circle of confusion (0.094 mm on the 100 mm sensor).
-const Scale kFull{256, 8192, 128, 6.0, {64, 128, 256}, 12.0, 0.04, 4096, 256, 128, 64, 128, 4096, 8.0, 128, 8192, 40.0,
-                   {16, 32, 64, 128, 256, 512, 1024, 2048, 4096}, 2.0};
-const Scale kQuick{32, 256, 16, 0.15, {8, 16, 32}, 0.5, 0.10, 1024, 32, 16, 32, 16, 128, 0.3, 24, 256, 0.3, {16, 32, 64}, 1.0};
+const Scale kFull{256,
+                  8192,
+                  128,
+                  6.0,
+                  {64, 128, 256},
+                  12.0,
+                  0.04,
+                  4096,
+                  256,
+                  128,
+                  64,
+                  128,
+                  4096,
+                  8.0,
+                  128,
+                  8192,
+                  40.0,
+                  {16, 32, 64, 128, 256, 512, 1024, 2048, 4096},
+                  2.0};
+const Scale kQuick{32, 256, 16,  0.15, {8, 16, 32}, 0.5, 0.10, 1024,         32, 16,
+                   32, 16,  128, 0.3,  24,          256, 0.3,  {16, 32, 64}, 1.0};
 
 struct Series {
   std::string name, integrator, sampler;
@@ -94,7 +112,8 @@ double timeToError(const Series& s, double target, bool* extrapolated) {
 double errorAtTime(const Series& s, double seconds) {
   for (size_t k = 1; k < s.seconds.size(); ++k)
     if (s.seconds[k] >= seconds) {
-      const double t = (std::log(seconds) - std::log(s.seconds[k - 1])) / (std::log(s.seconds[k]) - std::log(s.seconds[k - 1]));
+      const double t =
+          (std::log(seconds) - std::log(s.seconds[k - 1])) / (std::log(s.seconds[k]) - std::log(s.seconds[k - 1]));
       return std::exp(std::log(s.error[k - 1]) + t * (std::log(s.error[k]) - std::log(s.error[k - 1])));
     }
   return s.error.back() * std::sqrt(s.seconds.back() / seconds);
@@ -133,7 +152,9 @@ class Study {
 
   void run() {
     const auto start = std::chrono::steady_clock::now();
-    const auto wants = [&](const char* name) { return options_.experiments.empty() || options_.experiments.count(name); };
+    const auto wants = [&](const char* name) {
+      return options_.experiments.empty() || options_.experiments.count(name);
+    };
     std::string body;
     if (wants("convergence") || wants("estimate") || wants("resolution")) makeReference();
     if (wants("convergence") || wants("estimate")) body += convergence(wants("convergence"), wants("estimate"));
@@ -202,7 +223,8 @@ class Study {
       script += (k ? ", " : "") + std::string("'-' with linespoints title '") + all[k].name + "'";
     script += "\n";
     for (const Series& s : all) {
-      for (size_t k = 0; k < s.seconds.size(); ++k) script += number(s.seconds[k], 6) + " " + number(s.error[k], 6) + "\n";
+      for (size_t k = 0; k < s.seconds.size(); ++k)
+        script += number(s.seconds[k], 6) + " " + number(s.error[k], 6) + "\n";
       script += "e\n";
     }
     runGnuplot(script);
@@ -224,17 +246,19 @@ class Study {
           run.firstCheckpoint = 16;
           run.budgetSeconds = scale_.convergenceBudget;
           run.threads = options_.threads;
-          all.push_back(measure(scene, reference, run,
-                                std::string(integratorName(integrator)) + "/" + samplerName(sampler) + (roulette ? "+rr" : "")));
+          all.push_back(
+              measure(scene, reference, run,
+                      std::string(integratorName(integrator)) + "/" + samplerName(sampler) + (roulette ? "+rr" : "")));
         }
 
     Table csv({"config", "integrator", "sampler", "russian_roulette", "spp", "seconds", "rmse", "relative_rmse",
                "relative_mse", "display_rmse", "mean_ratio", "estimated_relative_rmse"});
     for (const Series& s : all)
       for (size_t k = 0; k < s.spp.size(); ++k)
-        csv.add({s.name, s.integrator, s.sampler, s.roulette ? "on" : "off", number(s.spp[k], 10), number(s.seconds[k], 4),
-                 number(s.details[k].rmse, 4), number(s.error[k], 4), number(s.details[k].relativeMse, 4),
-                 number(s.details[k].displayRmse, 4), number(s.details[k].meanRatio, 5), number(s.estimate[k], 4)});
+        csv.add({s.name, s.integrator, s.sampler, s.roulette ? "on" : "off", number(s.spp[k], 10),
+                 number(s.seconds[k], 4), number(s.details[k].rmse, 4), number(s.error[k], 4),
+                 number(s.details[k].relativeMse, 4), number(s.details[k].displayRmse, 4),
+                 number(s.details[k].meanRatio, 5), number(s.estimate[k], 4)});
     csv.writeCsv(options_.out / "convergence.csv");
 
     std::string md;
@@ -270,17 +294,18 @@ class Study {
                        number(seedConfig.details[k].relativeMse, 3), number(seedConfig.details[k].displayRmse, 3)});
 
     std::string script = "set terminal pngcairo size 1000,700 noenhanced\nset output " +
-                         gnuplotPath(plotFile("convergence")) +
-                         "\nset logscale xy\nset xlabel 'render time (s, " + std::to_string(std::thread::hardware_concurrency()) +
+                         gnuplotPath(plotFile("convergence")) + "\nset logscale xy\nset xlabel 'render time (s, " +
+                         std::to_string(std::thread::hardware_concurrency()) +
                          " threads)'\nset ylabel 'relative RMSE vs reference'\nset key outside right\nset grid\n"
                          "set datafile separator ','\nplot ";
     for (size_t k = 0; k < all.size(); ++k)
-      script += (k ? ", " : "") + gnuplotPath(options_.out / "convergence.csv") + " using 6:(strcol(1) eq '" + all[k].name +
-                "' ? $8 : 1/0) with linespoints title '" + all[k].name + "'";
+      script += (k ? ", " : "") + gnuplotPath(options_.out / "convergence.csv") + " using 6:(strcol(1) eq '" +
+                all[k].name + "' ? $8 : 1/0) with linespoints title '" + all[k].name + "'";
     runGnuplot(script + "\n");
 
     return "## Convergence: estimators, samplers and Russian roulette\n\n"
-           "cornell-seed, " + std::to_string(side) + "x" + std::to_string(side) + ", B = " + std::to_string(kStudyBounces) +
+           "cornell-seed, " +
+           std::to_string(side) + "x" + std::to_string(side) + ", B = " + std::to_string(kStudyBounces) +
            ", every configuration rendered progressively for about " + number(scale_.convergenceBudget, 2) +
            " s and compared with the reference at every power-of-two sample count. The table gives the time each "
            "needs to reach the same relative RMSE (the largest final error among them, so every configuration "
@@ -288,7 +313,8 @@ class Study {
            table.markdown() + "\n" + link("convergence") +
            "### Progressive rendering (2013 report Fig. 5) as numbers\n\nThe report's configuration (naive estimator, "
            "independent random numbers): the error falls as 1/sqrt(samples), so each halving of the noise costs four "
-           "times the time.\n\n" + progressive.markdown() + "\n" + "Data: `convergence.csv`, `time-to-error.csv`.\n\n";
+           "times the time.\n\n" +
+           progressive.markdown() + "\n" + "Data: `convergence.csv`, `time-to-error.csv`.\n\n";
   }
 
   std::string estimateSection(const std::vector<Series>& all) {
@@ -304,25 +330,28 @@ class Study {
           ratios[s.sampler].push_back(s.estimate[k] / trueError);
         }
     for (const auto& [sampler, r] : ratios)
-      table.add({sampler, std::to_string(r.size()), number(median(r), 3), number(*std::min_element(r.begin(), r.end()), 3),
-                 number(*std::max_element(r.begin(), r.end()), 3)});
+      table.add({sampler, std::to_string(r.size()), number(median(r), 3),
+                 number(*std::min_element(r.begin(), r.end()), 3), number(*std::max_element(r.begin(), r.end()), 3)});
     table.writeCsv(options_.out / "estimate.csv");
 
-    std::string script = "set terminal pngcairo size 800,700 noenhanced\nset output " + gnuplotPath(plotFile("estimate")) +
+    std::string script = "set terminal pngcairo size 800,700 noenhanced\nset output " +
+                         gnuplotPath(plotFile("estimate")) +
                          "\nset logscale xy\nset xlabel 'true relative RMSE (vs reference)'\n"
                          "set ylabel 'live estimate (two half-images)'\nset key top left\nset grid\n"
                          "set datafile separator ','\nplot ";
     bool first = true;
     for (const char* sampler : {"independent", "stratified", "sobol"}) {
       script += std::string(first ? "" : ", ") + gnuplotPath(options_.out / "convergence.csv") +
-                " using 8:((strcol(3) eq '" + sampler + "' && $12 > 0) ? $12 : 1/0) with points title '" + sampler + "'";
+                " using 8:((strcol(3) eq '" + sampler + "' && $12 > 0) ? $12 : 1/0) with points title '" + sampler +
+                "'";
       first = false;
     }
     runGnuplot(script + ", x with lines title 'estimate = true'\n");
     return "## The live error estimate against the true error\n\n"
            "Every checkpoint of the convergence experiment with at least two units: the coordinator's estimate "
            "(film/convergence.h: two half-images of alternating units) against the error measured with the "
-           "reference (the reference's own estimated error, " + number(100 * referenceError_, 2) +
+           "reference (the reference's own estimated error, " +
+           number(100 * referenceError_, 2) +
            " %, removed in quadrature). The two halves are independent for every sampler (Sobol draws even and odd "
            "units from two independently scrambled replicates; stratified patterns are per unit), so the estimate "
            "of the mean squared error is unbiased; a ratio far from 1 would show correlation between the halves. "
@@ -370,13 +399,14 @@ class Study {
 
     plotErrorAgainstTime("resolution", all);
     return "## Resolution and noise (2013 report Fig. 6)\n\n"
-           "cornell-seed, NEE + MIS, Sobol, B = " + std::to_string(kStudyBounces) +
+           "cornell-seed, NEE + MIS, Sobol, B = " +
+           std::to_string(kStudyBounces) +
            ". The references for the smaller images are the large reference box-filtered down (a pixel of the "
            "smaller image covers exactly the cells it replaces); the reference's own noise at each resolution is "
            "removed from the errors in quadrature. At a fixed time a larger image is noisier; the "
-           "time to reach a fixed error grows with the pixel count as pixels^" + number(slope_, 3) +
-           " (least-squares slope on log-log axes; the report claims linear, slope 1).\n\n" + table.markdown() + "\n" +
-           link("resolution");
+           "time to reach a fixed error grows with the pixel count as pixels^" +
+           number(slope_, 3) + " (least-squares slope on log-log axes; the report claims linear, slope 1).\n\n" +
+           table.markdown() + "\n" + link("resolution");
   }
 
   // ---- depth of field (2013 report Fig. 7, Table 1) --------------------------------------------------
@@ -388,11 +418,21 @@ class Study {
     const double z = distance - 2.9;
     json scene = {
         {"format", "lensfarm-scene/1"},
-        {"camera", {{"type", "thin_lens"}, {"position", {0, 0, -2.9}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}},
-                    {"sensor_width", 0.1}, {"focal_length", 0.095}, {"focus_distance", 2.9}}},
+        {"camera",
+         {{"type", "thin_lens"},
+          {"position", {0, 0, -2.9}},
+          {"look_at", {0, 0, 0}},
+          {"up", {0, 1, 0}},
+          {"sensor_width", 0.1},
+          {"focal_length", 0.095},
+          {"focus_distance", 2.9}}},
         {"materials", {{"edge", {{"type", "emissive"}, {"radiance", 1.0}, {"two_sided", true}}}}},
-        {"shapes", json::array({{{"type", "quad"}, {"name", "edge"}, {"material", "edge"}, {"corner", {-20.0, -20.0, z}},
-                                 {"edge1", {20.0, 0.0, 0.0}}, {"edge2", {0.0, 40.0, 0.0}}}})},
+        {"shapes", json::array({{{"type", "quad"},
+                                 {"name", "edge"},
+                                 {"material", "edge"},
+                                 {"corner", {-20.0, -20.0, z}},
+                                 {"edge1", {20.0, 0.0, 0.0}},
+                                 {"edge2", {0.0, 40.0, 0.0}}}})},
         {"render", {{"resolution", {width, height}}, {"samples_per_pixel", scale_.dofSpp}, {"max_bounces", 0}}}};
     if (std::isfinite(fNumber)) scene["camera"]["f_number"] = fNumber;
     Scene s = parseScene(scene.dump(), "dof-edge.json");
@@ -450,7 +490,7 @@ class Study {
   std::string depthOfField() {
     const double f = 0.095, s1 = 2.9, sensor = 0.1;
     const double coc = circleOfConfusion(sensor, sensor);  // Table 1's square 0.1 x 0.1 sensor
-    const double pitch = sensor / scale_.dofWidth;           // metres per pixel on the sensor
+    const double pitch = sensor / scale_.dofWidth;         // metres per pixel on the sensor
     const double s2 = f * s1 / (s1 - f);
     Table table({"N", "plane", "distance", "blur circle (mm)", "blur (px)", "predicted 10-90 width (px)",
                  "measured 10-90 width (px)", "DoF report eq. 9-10", "DoF textbook"});
@@ -468,26 +508,31 @@ class Study {
         const double predicted = predictedEdgeWidth(blur / pitch);
         const double measured = edgeWidth(renderEdge(d, n));
         points.push_back({predicted, measured});
-        table.add({number(n, 3), plane, number(d, 4), number(blur * 1e3, 3), number(blur / pitch, 3), number(predicted, 3),
-                   number(measured, 3), number(seedDof.depth(), 3), number(book.depth(), 3)});
+        table.add({number(n, 3), plane, number(d, 4), number(blur * 1e3, 3), number(blur / pitch, 3),
+                   number(predicted, 3), number(measured, 3), number(seedDof.depth(), 3), number(book.depth(), 3)});
       }
     }
     table.writeCsv(options_.out / "dof.csv");
-    std::string script = "set terminal pngcairo size 700,600 noenhanced\nset output " + gnuplotPath(plotFile("dof")) +
-                         "\nset xlabel 'predicted edge width (px, thin lens + pixel)'\nset ylabel 'measured edge width (px)'"
-                         "\nset grid\nset key top left\nplot '-' with points pt 7 title 'renders', x with lines title "
-                         "'measured = predicted'\n";
+    std::string script =
+        "set terminal pngcairo size 700,600 noenhanced\nset output " + gnuplotPath(plotFile("dof")) +
+        "\nset xlabel 'predicted edge width (px, thin lens + pixel)'\nset ylabel 'measured edge width (px)'"
+        "\nset grid\nset key top left\nplot '-' with points pt 7 title 'renders', x with lines title "
+        "'measured = predicted'\n";
     for (const auto& p : points) script += number(p[0], 6) + " " + number(p[1], 6) + "\n";
     runGnuplot(script + "e\n");
     return "## Depth of field vs f-number (2013 report Fig. 7, Table 1)\n\n"
-           "The 2013 report's camera (f = 0.095, sensor 0.1 wide, focused at S1 = 2.9) looks at a sharp emitting edge; the "
-           "10 %-90 % width of the edge in a " + std::to_string(scale_.dofWidth) + "-pixel-wide image (" +
-           number(pitch * 1e3, 3) + " mm per pixel, " + std::to_string(scale_.dofSpp) +
+           "The 2013 report's camera (f = 0.095, sensor 0.1 wide, focused at S1 = 2.9) looks at a sharp emitting edge; "
+           "the "
+           "10 %-90 % width of the edge in a " +
+           std::to_string(scale_.dofWidth) + "-pixel-wide image (" + number(pitch * 1e3, 3) + " mm per pixel, " +
+           std::to_string(scale_.dofSpp) +
            " spp) is measured and compared with thin-lens optics: a disk of diameter A |S2 - v| / v convolved "
            "with the pixel. At the focus plane only the pixel blurs the edge (0.8 px); at the near limit DN of the "
-           "textbook depth of field the blur circle equals the circle of confusion c = " + number(coc * 1e3, 3) +
+           "textbook depth of field the blur circle equals the circle of confusion c = " +
+           number(coc * 1e3, 3) +
            " mm (d/1500), by definition. The last two columns are Table 1's depth of field DF - DN from the report's "
-           "equations and from the textbook's (`lensfarm dof` prints both).\n\n" + table.markdown() + "\n" + link("dof");
+           "equations and from the textbook's (`lensfarm dof` prints both).\n\n" +
+           table.markdown() + "\n" + link("dof");
   }
 
   // ---- bounces (2013 report Fig. 8) ------------------------------------------------------------------
@@ -520,7 +565,8 @@ class Study {
         const double paths = double(c.stats.paths);
         const double hit = double(c.stats.lightHits) / paths;
         const double energy = meanValue(c.image) / energy8;
-        table.add({integratorName(integrator), std::to_string(b), number(c.seconds / paths * 1e6 * double(std::thread::hardware_concurrency()), 3),
+        table.add({integratorName(integrator), std::to_string(b),
+                   number(c.seconds / paths * 1e6 * double(std::thread::hardware_concurrency()), 3),
                    number(double(c.stats.rays) / paths, 3), number(100 * hit, 3) + " %", number(energy, 4),
                    number(c.estimate.relativeRmse, 3), number(c.estimate.relativeRmse * std::sqrt(c.seconds), 3)});
         data += std::string(integratorName(integrator)) + " " + std::to_string(b) + " " + number(100 * hit, 5) + " " +
@@ -528,7 +574,8 @@ class Study {
       }
     }
     table.writeCsv(options_.out / "bounces.csv");
-    std::string script = "set terminal pngcairo size 800,600 noenhanced\nset output " + gnuplotPath(plotFile("bounces")) +
+    std::string script = "set terminal pngcairo size 800,600 noenhanced\nset output " +
+                         gnuplotPath(plotFile("bounces")) +
                          "\nset xlabel 'bounce limit B'\nset ylabel 'naive light-hit fraction (%)'\nset y2label "
                          "'energy relative to B = 8'\nset ytics nomirror\nset y2tics\nset grid\nset key bottom right\n"
                          "plot '-' using 2:3 with linespoints title 'light-hit fraction (naive)', "
@@ -543,13 +590,14 @@ class Study {
     script += "1 6.1\n2 9.3\n3 12\ne\n";
     runGnuplot(script);
     return "## Bounces (2013 report Fig. 8)\n\n"
-           "cornell-seed, " + std::to_string(side) + "x" + std::to_string(side) + ", " + std::to_string(scale_.bounceSpp) +
+           "cornell-seed, " +
+           std::to_string(side) + "x" + std::to_string(side) + ", " + std::to_string(scale_.bounceSpp) +
            " spp. Time per path is per thread (wall time x threads / paths). The light-hit fraction is the share of "
            "paths whose camera or scattered ray reached a light (the report measured 6.1, 9.3 and 12 % for "
            "B = 1, 2, 3 with its light). Energy is the image mean against B = 8: what the bounce limit cuts off (a "
            "bias no sample count removes). The last column is the noise at equal time (lower is better: "
-           "relative RMSE x sqrt(seconds) is constant for a Monte Carlo estimator).\n\n" + table.markdown() + "\n" +
-           link("bounces");
+           "relative RMSE x sqrt(seconds) is constant for a Monte Carlo estimator).\n\n" +
+           table.markdown() + "\n" + link("bounces");
   }
 
   // The columns of a table of scene variants, and one variant measured into it (materials and
@@ -557,14 +605,14 @@ class Study {
   // image's mean, the error at the budget and the time to 5 %; its effects as the analysis lists
   // them.
   static Table variantTable() {
-    return Table({"variant", "effects", "us per path", "rays per path", "image mean", "rel. RMSE at budget",
-                  "time to 5 % (s)"});
+    return Table(
+        {"variant", "effects", "us per path", "rays per path", "image mean", "rel. RMSE at budget", "time to 5 % (s)"});
   }
   // The effects a variant table lists (the others are the same in every row).
   static inline const std::set<std::string> kMaterialEffects = {"specular reflection", "glossy materials", "thin walls",
                                                                 "environment", "shading normals and textures"};
-  void measureVariant(const fs::path& sceneFile, json j, const std::string& name, Table& table, std::vector<Series>& all,
-                      const std::set<std::string>& listed = kMaterialEffects) {
+  void measureVariant(const fs::path& sceneFile, json j, const std::string& name, Table& table,
+                      std::vector<Series>& all, const std::set<std::string>& listed = kMaterialEffects) {
     const int side = scale_.materialsSide;
     j["render"]["resolution"] = {side, side};
     j["render"]["samples_per_unit"] = 0;
@@ -616,22 +664,24 @@ class Study {
     table.writeCsv(options_.out / "models.csv");
     plotErrorAgainstTime("models", all);
     return "## Models: textures and smooth shading\n\n"
-           "textured-spheres (a glTF model) at " + std::to_string(scale_.materialsSide) + "x" +
-           std::to_string(scale_.materialsSide) + ", NEE + MIS, Sobol, B = " + std::to_string(base["render"].value("max_bounces", 2)) +
+           "textured-spheres (a glTF model) at " +
+           std::to_string(scale_.materialsSide) + "x" + std::to_string(scale_.materialsSide) +
+           ", NEE + MIS, Sobol, B = " + std::to_string(base["render"].value("max_bounces", 2)) +
            ", each variant against its own reference (" + std::to_string(scale_.materialsReferenceSpp) +
            " spp). Time per path is per thread. Every hit on a textured material or a mesh with vertex normals is "
            "shaded one path at a time (interpolated normal, normal map, texture lookups at the pixel's footprint) "
            "instead of in the 16-wide lane loops: the first row against the other two is what textures and "
            "per-point shading cost; a scene without them pays nothing (the Cornell rows above run the lane "
-           "loops).\n\n" + table.markdown() + "\n" + link("models");
+           "loops).\n\n" +
+           table.markdown() + "\n" + link("models");
   }
 
   // ---- optics: what the camera's optics cost --------------------------------------------------
   // cornell-seed through each camera model in turn: a pinhole, the 2013 report's thin lens wide open with a
-  // round, a six-bladed and a rounded seven-bladed aperture, and real lenses traced surface by surface (the double-Gauss
-  // 50 mm at f/2.8; the fast double-Gauss at f/1.4, whose Abbe numbers make it spectral where
-  // lateral colour is simulated). Per variant: the time per path, the energy and the time to the
-  // same error against its own reference.
+  // round, a six-bladed and a rounded seven-bladed aperture, and real lenses traced surface by surface (the
+  // double-Gauss 50 mm at f/2.8; the fast double-Gauss at f/1.4, whose Abbe numbers make it spectral where lateral
+  // colour is simulated). Per variant: the time per path, the energy and the time to the same error against its own
+  // reference.
   std::string optics() {
     const fs::path seedFile = options_.scenes / "cornell-seed.json";
     const json seed = json::parse(readWholeFileOrThrow(seedFile, seedFile.string()));
@@ -648,8 +698,9 @@ class Study {
                    all, listed);
     measureVariant(seedFile, withCamera([](json& c) { c["f_number"] = 2.8, c["aperture_blades"] = 6; }),
                    "thin lens f/2.8, 6 straight blades", table, all, listed);
-    measureVariant(seedFile,
-                   withCamera([](json& c) { c["f_number"] = 2.8, c["aperture_blades"] = 7, c["aperture_curvature"] = 0.15; }),
+    measureVariant(seedFile, withCamera([](json& c) {
+                     c["f_number"] = 2.8, c["aperture_blades"] = 7, c["aperture_curvature"] = 0.15;
+                   }),
                    "thin lens f/2.8, 7 curved blades (curvature 0.15)", table, all, listed);
     for (const char* scene : {"cornell-real-lens.json", "cornell-seed-fast-lens.json"}) {
       const fs::path file = options_.scenes / scene;
@@ -661,12 +712,16 @@ class Study {
     table.writeCsv(options_.out / "optics.csv");
     plotErrorAgainstTime("optics", all);
     return "## Camera optics\n\n"
-           "cornell-seed at " + std::to_string(scale_.materialsSide) + "x" + std::to_string(scale_.materialsSide) +
-           " through each camera model, NEE + MIS, Sobol, B = " + std::to_string(seed["render"].value("max_bounces", 2)) +
-           ", each against its own reference (" + std::to_string(scale_.materialsReferenceSpp) +
+           "cornell-seed at " +
+           std::to_string(scale_.materialsSide) + "x" + std::to_string(scale_.materialsSide) +
+           " through each camera model, NEE + MIS, Sobol, B = " +
+           std::to_string(seed["render"].value("max_bounces", 2)) + ", each against its own reference (" +
+           std::to_string(scale_.materialsReferenceSpp) +
            " spp). Time per path is per thread. A thin lens costs two random numbers and a few multiplies per camera "
-           "ray over the pinhole; a bladed aperture a polygon sample, curved blades a table look-up and an arc; a real lens traces every camera ray through its "
-           "surfaces in double precision (at its own wavelength per sample, spectral, when its glasses carry Abbe numbers, as both lenses here do), and the rays its rims stop are samples of zero (noise: the real lenses' "
+           "ray over the pinhole; a bladed aperture a polygon sample, curved blades a table look-up and an arc; a real "
+           "lens traces every camera ray through its "
+           "surfaces in double precision (at its own wavelength per sample, spectral, when its glasses carry Abbe "
+           "numbers, as both lenses here do), and the rays its rims stop are samples of zero (noise: the real lenses' "
            "time to the same error is longer by more than their time per path). The real-lens rows frame the box "
            "their own way (cornell-real-lens: a 36 mm-equivalent sensor; cornell-seed-fast-lens: the seed's framing, "
            "most of it outside the f/1.4 lens's image circle, docs/figure7.md), so their image means differ.\n\n" +
@@ -720,16 +775,19 @@ class Study {
     table.writeCsv(options_.out / "materials.csv");
     plotErrorAgainstTime("materials", all);
     return "## Glass and metal\n\n"
-           "cornell-glass-metal at " + std::to_string(side) + "x" + std::to_string(side) + ", NEE + MIS, Sobol, B = " +
-           std::to_string(base["render"].value("max_bounces", 2)) + ", each variant against its own reference (" +
-           std::to_string(scale_.materialsReferenceSpp) + " spp). Time per path is per thread. What a material costs "
+           "cornell-glass-metal at " +
+           std::to_string(side) + "x" + std::to_string(side) +
+           ", NEE + MIS, Sobol, B = " + std::to_string(base["render"].value("max_bounces", 2)) +
+           ", each variant against its own reference (" + std::to_string(scale_.materialsReferenceSpp) +
+           " spp). Time per path is per thread. What a material costs "
            "is its time per path (refraction and microfacet sampling, longer paths through glass, whose bounces do "
            "not count towards B when smooth) and its noise (caustics through smooth glass reach the sensor only on "
            "scattered paths). The image mean shows what energy compensation keeps: without it a rough metal "
            "darkens (59 % of the light lost at roughness 1 with F = 1). The thin-walled ball is a thin wall: its "
            "shadow is its tint, not black, and the scene runs the volume path tracer (its cost per path is that "
            "tracer's). The last row is glass-metal-sky: the same "
-           "materials outdoors, lit only by an importance-sampled environment map with a small sun.\n\n" + table.markdown() + "\n" + link("materials");
+           "materials outdoors, lit only by an importance-sampled environment map with a small sun.\n\n" +
+           table.markdown() + "\n" + link("materials");
   }
 
   // ---- media: what participating media cost ---------------------------------------------------
@@ -773,14 +831,17 @@ class Study {
     table.writeCsv(options_.out / "media.csv");
     plotErrorAgainstTime("media", all);
     return "## Participating media and subsurface scattering\n\n"
-           "cornell-media at " + std::to_string(scale_.materialsSide) + "x" + std::to_string(scale_.materialsSide) +
+           "cornell-media at " +
+           std::to_string(scale_.materialsSide) + "x" + std::to_string(scale_.materialsSide) +
            ", NEE + MIS, Sobol, B = " + std::to_string(base["render"].value("max_bounces", 2)) +
            ", each variant against its own reference (" + std::to_string(scale_.materialsReferenceSpp) +
-           " spp). Time per path is per thread. A scene with a medium is traced by the volume path tracer one path at a "
+           " spp). Time per path is per thread. A scene with a medium is traced by the volume path tracer one path at "
+           "a "
            "time (no 16-wide lane loops): the first row runs the surface tracers and is the baseline. Every scattering "
            "event costs a ray (and a shadow ray where light can reach it); a random walk in marble or milk takes many. "
            "The last row cuts walks at 16 events: cheaper, and the image mean shows the light it loses (a bias no "
-           "sample count removes).\n\n" + table.markdown() + "\n" + link("media");
+           "sample count removes).\n\n" +
+           table.markdown() + "\n" + link("media");
   }
 
   // ---- denoise: uniform sampling against uniform sampling + denoise ---------------------------
@@ -903,15 +964,23 @@ class Study {
     plotErrorAgainstTime("denoise", {raw, denoised, variance, biasLine});
 
     return "## Uniform sampling against uniform sampling + denoise\n\n"
-           "cornell-seed at " + std::to_string(side) + "x" + std::to_string(side) + ", NEE + MIS, Sobol, B = " +
-           std::to_string(kStudyBounces) + ", rendered with the denoiser's guide AOVs (albedo, normal, variance) and "
+           "cornell-seed at " +
+           std::to_string(side) + "x" + std::to_string(side) +
+           ", NEE + MIS, Sobol, B = " + std::to_string(kStudyBounces) +
+           ", rendered with the denoiser's guide AOVs (albedo, normal, variance) and "
            "compared at every power-of-two sample count with a reference of " +
-           std::to_string(scale_.denoiseReferenceSpp) + " spp rendered the same way (its own estimated relative "
-           "error " + number(100 * referenceError, 3) + " %, a floor under both curves). The denoised image "
+           std::to_string(scale_.denoiseReferenceSpp) +
+           " spp rendered the same way (its own estimated relative "
+           "error " +
+           number(100 * referenceError, 3) +
+           " %, a floor under both curves). The denoised image "
            "(film/denoiser.h, default settings) is charged its render time plus the denoiser's, the median of "
-           "its measured times, " + number(denoiseSeconds, 3) + " s (the table gives each). Its error "
+           "its measured times, " +
+           number(denoiseSeconds, 3) +
+           " s (the table gives each). Its error "
            "against the reference (total) has two parts: the **denoiser's bias at convergence**, the relative RMSE "
-           "of the denoised reference against the reference itself, " + number(bias.relativeRmse, 3) +
+           "of the denoised reference against the reference itself, " +
+           number(bias.relativeRmse, 3) +
            (biasNet > 0.0 ? " (" + number(biasNet, 3) +
                                 " with the reference's own noise, which the denoiser removes, taken out in quadrature)"
                           : " (no more than the reference's own noise, which the denoiser removes: an upper bound, "
@@ -1080,38 +1149,52 @@ class Study {
     const JobLayout layout = JobLayout::of(adaptive.render, std::nullopt);
     const int side = scale_.denoiseSide;
     return "## Adaptive sampling against uniform sampling\n\n"
-           "cornell-seed at " + std::to_string(side) + "x" + std::to_string(side) + ", NEE + MIS, Sobol, B = " +
-           std::to_string(kStudyBounces) + ", the denoise experiment's reference (" +
+           "cornell-seed at " +
+           std::to_string(side) + "x" + std::to_string(side) +
+           ", NEE + MIS, Sobol, B = " + std::to_string(kStudyBounces) + ", the denoise experiment's reference (" +
            std::to_string(scale_.denoiseReferenceSpp) + " spp, its own estimated relative error " +
-           number(100 * floor, 3) + " %, a floor under every curve). Three ways to spend the same mean samples per "
+           number(100 * floor, 3) +
+           " %, a floor under every curve). Three ways to spend the same mean samples per "
            "pixel, each rendered on its own at each count (an adaptive render of N spp is not a prefix of one of 2N "
            "spp) in the passes the farm gives an adaptive job of N spp, so that only where the samples go differs: "
            "**uniform** sampling; **adaptive** sampling (`\"render\": {\"adaptive\": true}`, the defaults); and "
            "**uniform + denoise** (rendered with the guide AOVs, charged its render time plus the denoiser's median "
-           "time, " + number(denoiseSeconds, 3) + " s). Times are wall-clock on this machine, the median of three "
-           "renders for those under " + number(scale_.cheapSeconds, 2) + " s, and include the adaptive rounds' "
+           "time, " +
+           number(denoiseSeconds, 3) +
+           " s). Times are wall-clock on this machine, the median of three "
+           "renders for those under " +
+           number(scale_.cheapSeconds, 2) +
+           " s, and include the adaptive rounds' "
            "allocation. *Its estimate* is the live error estimate the job reports (`lensfarm render`'s \"estimated "
            "error\", film/convergence.h); the mean ratio is mean(image) / mean(reference), the bias check. The worst "
            "1 % is the 99th percentile of the per-pixel relative error (film/error_metrics.h).\n\n" +
            table.markdown() + "\n" + link("adaptive") +
            "Time to a target relative RMSE, interpolated on log-log axes between counts (extrapolated as "
            "1/sqrt(time) past the ends); *in samples* is the adaptive speed-up in mean samples per pixel, free of "
-           "timing noise:\n\n" + targets.markdown() +
-           "\nAdaptive against uniform (the goal is 1.3x): " + acceptance +
+           "timing noise:\n\n" +
+           targets.markdown() + "\nAdaptive against uniform (the goal is 1.3x): " + acceptance +
            ".\n\nCrossovers, on log-log axes between counts (the curves' last segments extended past the end):\n\n" +
-           crossovers.markdown() + "\nThe live estimate against the true error net of the reference's noise (median ratio, counts whose "
-           "error is at least twice the reference's): uniform " + estimateRatio(uniform) + ", adaptive " +
-           estimateRatio(adapted) + ". Adaptive's mean ratio is within " + number(100 * worstBias, 2) +
+           crossovers.markdown() +
+           "\nThe live estimate against the true error net of the reference's noise (median ratio, counts whose "
+           "error is at least twice the reference's): uniform " +
+           estimateRatio(uniform) + ", adaptive " + estimateRatio(adapted) + ". Adaptive's mean ratio is within " +
+           number(100 * worstBias, 2) +
            " % of 1 at every count.\n\n"
            "**How it works** (film/adaptive_allocation.h, farm/job_layout.h). An adaptive job renders " +
-           number(100 * defaults.uniform, 3) + " % of its passes uniformly, then rounds of passes, each round about "
+           number(100 * defaults.uniform, 3) +
+           " % of its passes uniformly, then rounds of passes, each round about "
            "half the passes before it. Before each round the coordinator, holding every pass before it, estimates "
-           "each block's per-sample standard deviation s_b (blocks of " + std::to_string(layout.blockEdge) + "x" +
-           std::to_string(layout.blockEdge) + " cells here; the mean over the block's cells of the two half-images' "
+           "each block's per-sample standard deviation s_b (blocks of " +
+           std::to_string(layout.blockEdge) + "x" + std::to_string(layout.blockEdge) +
+           " cells here; the mean over the block's cells of the two half-images' "
            "squared difference, ConvergenceTracker::cellVariance: no reference) and tops each block up towards "
            "lambda * s_b final samples (Neyman's allocation: with a fixed total, sum s_b^2 / N_b is least for N_b "
-           "proportional to s_b), with a floor of " + number(defaults.floor, 3) + " of the mean per block (no region "
-           "starves on an early estimate of zero) and a cap of " + number(kAllocationCap, 3) + "x the mean. Each of "
+           "proportional to s_b), with a floor of " +
+           number(defaults.floor, 3) +
+           " of the mean per block (no region "
+           "starves on an early estimate of zero) and a cap of " +
+           number(kAllocationCap, 3) +
+           "x the mean. Each of "
            "a round's passes gives every cell of a block the same samples, half of the passes in each half-image, "
            "so the halves stay balanced cell by cell and the live estimate stays valid. The samples that chose the "
            "allocation are kept, a selection bias in principle; but a block pools hundreds of cells, so one pixel's "
@@ -1126,7 +1209,8 @@ class Study {
     if (!extrapolated) return number(crossover, 3) + " s";
     return "not within the measured range (up to " + number(measuredUpTo, 3) + " s)" +
            (std::isfinite(crossover) ? "; the two curves, extended along their last segments on log-log axes, would "
-                                       "cross near " + number(crossover, 3) + " s (extrapolated)"
+                                       "cross near " +
+                                           number(crossover, 3) + " s (extrapolated)"
                                      : "; along their last segments on log-log axes the curves do not converge");
   }
 
@@ -1166,16 +1250,22 @@ class Study {
     std::strftime(date, sizeof date, "%Y-%m-%d", std::gmtime(&now));
     return "# Accuracy and its cost in time\n\n"
            "This page is written by `lensfarm study`; every number and plot below comes from one run of\n\n"
-           "    " + options_.command + "\n\n"
-           "on " + machineDescription() + ", " + date + ", renderer " + kRendererVersion + ", in " + number(minutes, 3) +
+           "    " +
+           options_.command +
+           "\n\n"
+           "on " +
+           machineDescription() + ", " + date + ", renderer " + kRendererVersion + ", in " + number(minutes, 3) +
            " minutes. Times are wall-clock on a shared machine: compare rows of one run, not runs.\n\n"
            "**Measures** (film/error_metrics.h): the headline is the *relative RMSE* of the linear image, the RMSE "
            "over pixels and channels divided by the mean of the converged image. Beside it the CSV files hold the "
            "RMSE, relMSE (mean of (I - R)^2 / (R^2 + 0.01)), the mean ratio (bias) and the RMSE of the displayed "
            "8-bit picture with the seed's automatic exposure (what a viewer sees). The reference is cornell-seed at " +
            std::to_string(scale_.referenceSide) + "x" + std::to_string(scale_.referenceSide) + ", " +
-           std::to_string(scale_.referenceSpp) + " spp, NEE + MIS with Sobol samples; its own estimated relative "
-           "error is " + number(100 * referenceError_, 3) + " %.\n\n"
+           std::to_string(scale_.referenceSpp) +
+           " spp, NEE + MIS with Sobol samples; its own estimated relative "
+           "error is " +
+           number(100 * referenceError_, 3) +
+           " %.\n\n"
            "**Live error and stopping rules.** A running job reports the estimated relative RMSE of its image "
            "(`lensfarm watch`, `lensfarm status`), from two half-images of alternating units (film/convergence.h). "
            "`--target-error E` stops a job (render or submit) at the first prefix of units whose estimate is at "

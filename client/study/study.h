@@ -32,18 +32,18 @@
 namespace lensfarm::study {
 
 struct StudyOptions {
-  std::filesystem::path out = "study";      // CSV files, plots, and the reference cache
-  std::filesystem::path report;             // the Markdown report; default out/accuracy.md
-  std::filesystem::path scenes;             // the folder holding cornell-seed.json and cornell-glass-metal.json
-  std::set<std::string> experiments;        // empty: all
-  bool quick = false;                       // tiny images and budgets (seconds, for tests)
-  unsigned threads = 0;                     // 0: every core
-  std::string command;                      // how it was invoked, quoted in the report
+  std::filesystem::path out = "study";  // CSV files, plots, and the reference cache
+  std::filesystem::path report;         // the Markdown report; default out/accuracy.md
+  std::filesystem::path scenes;         // the folder holding cornell-seed.json and cornell-glass-metal.json
+  std::set<std::string> experiments;    // empty: all
+  bool quick = false;                   // tiny images and budgets (seconds, for tests)
+  unsigned threads = 0;                 // 0: every core
+  std::string command;                  // how it was invoked, quoted in the report
 };
 
-inline const std::set<std::string> kExperiments = {"convergence", "estimate", "resolution", "dof",     "bounces",
-                                                   "materials",   "models",   "optics",     "denoise", "adaptive",
-                                                   "media"};
+inline const std::set<std::string> kExperiments = {"convergence", "estimate",  "resolution", "dof",
+                                                   "bounces",     "materials", "models",     "optics",
+                                                   "denoise",     "adaptive",  "media"};
 
 // Runs the experiments and writes the outputs; throws InputError for bad options and
 // std::runtime_error when a tool (gnuplot) fails.

@@ -156,14 +156,10 @@ inline Vec2 Aperture::samplePolygon(Vec2 u) const {
 
 inline Vec2 Aperture::sample(Vec2 u) const {
   switch (kind_) {
-    case Kind::kRound:
-      return sampleConcentricDisk(u);
-    case Kind::kPolygon:
-      return samplePolygon(u);
-    case Kind::kCurvedPolygon:
-      return sampleCurved(u);
-    case Kind::kImage:
-      return sampleImage(u);
+    case Kind::kRound: return sampleConcentricDisk(u);
+    case Kind::kPolygon: return samplePolygon(u);
+    case Kind::kCurvedPolygon: return sampleCurved(u);
+    case Kind::kImage: return sampleImage(u);
   }
   return Vec2(0.0f);
 }

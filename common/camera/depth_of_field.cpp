@@ -27,8 +27,7 @@ DepthOfField seedDepthOfField(double f, double s1, double n, double c) {
 
 DepthOfField textbookDepthOfField(double f, double s1, double n, double c) {
   const double h = hyperfocalDistance(f, n, c);
-  return DepthOfField{n, h, s1 * (h - f) / (h + s1 - 2.0 * f),
-                      farLimitOrInfinity(s1 * (h - f), h - s1)};
+  return DepthOfField{n, h, s1 * (h - f) / (h + s1 - 2.0 * f), farLimitOrInfinity(s1 * (h - f), h - s1)};
 }
 
 }  // namespace lensfarm

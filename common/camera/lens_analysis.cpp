@@ -22,7 +22,9 @@ LensRay beamRay(const LensSystem::Paraxial& p, double angle, double x, double y)
 }
 
 // Where a ray leaving the last surface meets the plane z = `planeZ`.
-DVec3 onPlane(const LensRay& r, double planeZ) { return r.origin + (planeZ - r.origin.z) / r.direction.z * r.direction; }
+DVec3 onPlane(const LensRay& r, double planeZ) {
+  return r.origin + (planeZ - r.origin.z) / r.direction.z * r.direction;
+}
 
 // One parallel beam at `angle` through the lens to the plane z = filmZ: its rays on a square
 // grid perpendicular to it, first coarse over the front surface's projection, then
@@ -30,7 +32,7 @@ DVec3 onPlane(const LensRay& r, double planeZ) { return r.origin + (planeZ - r.o
 struct Beam {
   double area = 0.0;  // mm^2 of the cross-section that passes
   DVec3 centroid{0.0};
-  double rms = 0.0;   // RMS distance of the hits from their centroid
+  double rms = 0.0;  // RMS distance of the hits from their centroid
   int rays = 0;
 };
 
@@ -101,7 +103,6 @@ std::vector<FieldPoint> analyzeField(const LensSystem& lens, double maxAngleDegr
   }
   return out;
 }
-
 
 std::vector<IlluminationPoint> relativeIllumination(const LensSystem& lens, double maxAngleDegrees, int steps,
                                                     double filmZ, int raysAcross, double wavelengthNm) {
@@ -231,13 +232,14 @@ std::string crossSectionSvg(const LensSystem& lens, double fieldDegrees) {
         std::snprintf(buf, sizeof buf, "%s%.4f,%.4f", points.empty() ? "" : " ", h.z, -h.y);
         points += buf;
       }
-      std::snprintf(buf, sizeof buf, "\" fill=\"none\" stroke=\"%s\" stroke-width=\"%.4f\" opacity=\"0.8\"/>\n",
-                    colour, 0.7 * stroke);
+      std::snprintf(buf, sizeof buf, "\" fill=\"none\" stroke=\"%s\" stroke-width=\"%.4f\" opacity=\"0.8\"/>\n", colour,
+                    0.7 * stroke);
       svg += "<polyline points=\"" + points;
       svg += buf;
     }
   }
-  std::snprintf(buf, sizeof buf, "<line x1=\"%.3f\" y1=\"%.3f\" x2=\"%.3f\" y2=\"%.3f\" stroke=\"#000\" stroke-width=\"%.4f\"/>\n",
+  std::snprintf(buf, sizeof buf,
+                "<line x1=\"%.3f\" y1=\"%.3f\" x2=\"%.3f\" y2=\"%.3f\" stroke=\"#000\" stroke-width=\"%.4f\"/>\n",
                 focusZ, top, focusZ, top + height, stroke);
   svg += buf;
   return svg + "</svg>\n";

@@ -26,7 +26,7 @@ struct ParaxialRay {
 
 ParaxialRay run(const std::vector<Step>& steps, ParaxialRay r) {
   for (size_t i = 0; i < steps.size(); ++i) {
-    r.nu -= r.y * (steps[i].n2 - steps[i].n1) * steps[i].c;  // refraction
+    r.nu -= r.y * (steps[i].n2 - steps[i].n1) * steps[i].c;              // refraction
     if (i + 1 < steps.size()) r.y += steps[i].gap * r.nu / steps[i].n2;  // transfer
   }
   return r;
@@ -132,18 +132,20 @@ std::optional<LensSystem::SurfaceProblem> LensSystem::problemWith(const LensSurf
   if (!std::isfinite(s.conic)) return SurfaceProblem{"conic", "conic constant must be a finite number"};
   if (s.aspheric.size() > LensSurface::kMaxAspheric)
     return SurfaceProblem{"aspheric", "at most " + std::to_string(LensSurface::kMaxAspheric) +
-                                          " aspheric coefficients (A4 .. A16), found " + std::to_string(s.aspheric.size())};
+                                          " aspheric coefficients (A4 .. A16), found " +
+                                          std::to_string(s.aspheric.size())};
   for (double a : s.aspheric)
     if (!std::isfinite(a)) return SurfaceProblem{"aspheric", "aspheric coefficients must be finite numbers"};
   if (s.stop && s.radius != 0.0) return SurfaceProblem{"radius", "the aperture stop is flat (radius 0)"};
   if (!s.spherical()) {
     if (s.stop) return SurfaceProblem{"conic", "the aperture stop is flat: no conic constant or aspheric coefficients"};
     if (!std::isfinite(s.sag(s.aperture / 2)) || !std::isfinite(s.sagSlope(s.aperture / 2)))
-      return SurfaceProblem{"aperture", "aperture " + mm(s.aperture) + " mm reaches beyond the rim of the conic (radius " +
-                                            mm(s.radius) + " mm, conic " + mm(s.conic) + ")"};
+      return SurfaceProblem{"aperture", "aperture " + mm(s.aperture) +
+                                            " mm reaches beyond the rim of the conic (radius " + mm(s.radius) +
+                                            " mm, conic " + mm(s.conic) + ")"};
   } else if (s.radius != 0.0 && std::abs(s.radius) < s.aperture / 2) {
-    return SurfaceProblem{"aperture", "aperture " + mm(s.aperture) + " mm is wider than the sphere of radius " +
-                                          mm(s.radius) + " mm"};
+    return SurfaceProblem{
+        "aperture", "aperture " + mm(s.aperture) + " mm is wider than the sphere of radius " + mm(s.radius) + " mm"};
   }
   return std::nullopt;
 }
@@ -195,7 +197,8 @@ LensSystem LensSystem::parsePbrt(const std::string& text, const std::string& fil
     if (v.size() != 4 && v.size() != 5)
       throw InputError(file + ":" + std::to_string(number),
                        "a surface is 4 numbers (radius, thickness, index, aperture diameter, in mm) and an optional "
-                       "Abbe number; found " + std::to_string(v.size()));
+                       "Abbe number; found " +
+                           std::to_string(v.size()));
     LensSurface s;
     s.radius = v[0];
     s.thickness = v[1];
@@ -232,7 +235,8 @@ LensSystem::Paraxial LensSystem::paraxial(double wavelengthNm) const {
     for (int k = from; forward ? k <= to : k >= to; k += forward ? 1 : -1) {
       const double c = curvatureOf(surfaces_[size_t(k)]);
       if (forward)
-        out.push_back({c, indexAfter(k - 1, wavelengthNm), indexAfter(k, wavelengthNm), surfaces_[size_t(k)].thickness});
+        out.push_back(
+            {c, indexAfter(k - 1, wavelengthNm), indexAfter(k, wavelengthNm), surfaces_[size_t(k)].thickness});
       else
         out.push_back({-c, indexAfter(k, wavelengthNm), indexAfter(k - 1, wavelengthNm),
                        k > 0 ? surfaces_[size_t(k - 1)].thickness : 0.0});
@@ -285,8 +289,8 @@ std::optional<double> LensSystem::focusDistanceFromRear(double objectDistance, d
   if (std::isinf(objectDistance)) return paraxial(wavelengthNm).bfl;
   std::vector<Step> forward;
   for (size_t k = 0; k < surfaces_.size(); ++k)
-    forward.push_back({curvatureOf(surfaces_[k]), indexAfter(int(k) - 1, wavelengthNm), indexAfter(int(k), wavelengthNm),
-                       surfaces_[k].thickness});
+    forward.push_back({curvatureOf(surfaces_[k]), indexAfter(int(k) - 1, wavelengthNm),
+                       indexAfter(int(k), wavelengthNm), surfaces_[k].thickness});
   // From the axial object point: height objectDistance * u at the front vertex.
   const double nu = 0.01;
   const ParaxialRay out = run(forward, {objectDistance * nu, nu});

@@ -41,10 +41,10 @@ struct LensSurface {
   double abbe = 0.0;       // of that medium; 0: no dispersion
   double aperture = 0.0;   // mm, clear diameter
   bool stop = false;       // the aperture stop (flat, in air)
-  double conic = 0.0;              // k of the even asphere (see above); 0: a sphere
+  double conic = 0.0;      // k of the even asphere (see above); 0: a sphere
   std::vector<double> aspheric{};  // A4, A6, ... A16 (mm^-3, mm^-5, ...); empty: none
 
-  bool spherical() const;          // k = 0 and every A = 0: the sphere's closed-form path
+  bool spherical() const;  // k = 0 and every A = 0: the sphere's closed-form path
   // The sag z(r) from the vertex at height r (mm); NaN where the conic is not defined (beyond
   // its rim, 1 - (1 + k) c^2 r^2 < 0). Flat surfaces: 0.
   double sag(double r) const;
@@ -64,7 +64,8 @@ class LensSystem {
   // Validates the prescription: InputError whose `where` is `where` + " surface K" (1-based) for
   // a surface without a positive finite aperture, a non-finite radius or thickness, a negative
   // thickness, an index below 1 (or above 4), a negative Abbe number, an aperture wider than
-  // its sphere (|R| < aperture / 2) or, for an asphere, than its conic's rim; `where` alone without exactly one stop or with no surface.
+  // its sphere (|R| < aperture / 2) or, for an asphere, than its conic's rim; `where` alone without exactly one stop or
+  // with no surface.
   LensSystem(std::vector<LensSurface> surfaces, const std::string& where);
 
   // pbrt-v4's tabular lens files (RealisticCamera): '#' comments, then one surface a line,
@@ -93,14 +94,14 @@ class LensSystem {
 
   // First-order properties at the d line (or `wavelengthNm`), for an object at infinity.
   struct Paraxial {
-    double efl = 0.0;  // effective focal length: 1 / power
-    double bfl = 0.0;  // back focal length: last vertex to the rear focal point
-    double ffl = 0.0;  // front focal length: front focal point to the front vertex
-    double rearPrincipalZ = 0.0, frontPrincipalZ = 0.0;    // principal planes
+    double efl = 0.0;                                    // effective focal length: 1 / power
+    double bfl = 0.0;                                    // back focal length: last vertex to the rear focal point
+    double ffl = 0.0;                                    // front focal length: front focal point to the front vertex
+    double rearPrincipalZ = 0.0, frontPrincipalZ = 0.0;  // principal planes
     double entrancePupilZ = 0.0, entrancePupilDiameter = 0.0;  // the stop seen from the object side
     double exitPupilZ = 0.0, exitPupilDiameter = 0.0;          // the stop seen from the image side
-    double fNumber = 0.0;      // efl / entrance pupil diameter
-    double petzvalSum = 0.0;   // sum over surfaces of (n' - n) / (n n' R), 1/mm
+    double fNumber = 0.0;                                      // efl / entrance pupil diameter
+    double petzvalSum = 0.0;                                   // sum over surfaces of (n' - n) / (n n' R), 1/mm
   };
   Paraxial paraxial(double wavelengthNm = kWavelengthD) const;
 
@@ -121,7 +122,7 @@ class LensSystem {
     double exact = 0.0;        // the least-RMS film distance
     double paraxialRms = 0.0;  // the on-axis spot's RMS radius there, mm
     double exactRms = 0.0;
-    int rays = 0;              // rays traced through
+    int rays = 0;  // rays traced through
   };
   std::optional<ExactFocus> exactFocus(double objectDistance, double wavelengthNm = kWavelengthD) const;
 

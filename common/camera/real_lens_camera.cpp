@@ -22,7 +22,8 @@ RealLensCamera::RealLensCamera(const ThinLensParams& frame, const RealLensParams
   const std::optional<double> back = focus ? std::optional<double>(focus->exact) : std::nullopt;
   if (!back || !(*back > 0.0))
     throw InputError("focus_distance", std::to_string(frame.focusDistance) + " (" +
-                                           std::to_string(frame.focusDistance / scale) + " mm from the front vertex) "
+                                           std::to_string(frame.focusDistance / scale) +
+                                           " mm from the front vertex) "
                                            "is inside the lens's front focal length: it forms no real image there");
   rearZ_ = l.totalTrack();
   filmZ_ = rearZ_ + *back;
@@ -107,9 +108,9 @@ RealLensCamera::Bounds RealLensCamera::boundsAt(double radius) const {
     for (int a = 0; a < kBoundsGrid; ++a)
       for (int c = 0; c < kBoundsGrid; ++c) {
         const double x = -rearRadius_ + cell * (a + 0.5), y = -rearRadius_ + cell * (c + 0.5);
-        if (aroundTheBox && ((x >= before.x0 && x <= before.x1 && y >= before.y0 && y <= before.y1) ||
-                             x < before.x0 - cell || x > before.x1 + cell || y < before.y0 - cell ||
-                             y > before.y1 + cell))
+        if (aroundTheBox &&
+            ((x >= before.x0 && x <= before.x1 && y >= before.y0 && y <= before.y1) || x < before.x0 - cell ||
+             x > before.x1 + cell || y < before.y0 - cell || y > before.y1 + cell))
           continue;
         if (!traceOut(film, DVec3(x, y, rearZ_), wavelengthNm)) continue;
         b.x0 = std::min(b.x0, x - cell), b.x1 = std::max(b.x1, x + cell);

@@ -52,15 +52,18 @@ ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
   if (!finite(p.up)) throw InputError("up", "must be three finite numbers");
   const DVec3 axisD = DVec3(p.lookAt) - DVec3(p.position);
   if (axisD == DVec3(0.0))
-    throw InputError("look_at", "equals camera.position " + show(DVec3(p.position)) + ": the view direction is undefined");
+    throw InputError("look_at",
+                     "equals camera.position " + show(DVec3(p.position)) + ": the view direction is undefined");
   const Vec3 axis = p.lookAt - p.position;
   if (!finite(axis) || !(glm::length(axis) > 0.0f))
-    throw InputError("look_at", "is too far from (or too close to) camera.position for single precision: look_at - position = " +
-                                    show(axisD));
+    throw InputError(
+        "look_at",
+        "is too far from (or too close to) camera.position for single precision: look_at - position = " + show(axisD));
   if (DVec3(p.up) == DVec3(0.0)) throw InputError("up", "must not be [0, 0, 0]: it says which way is up in the image");
   const DVec3 sideD = glm::cross(glm::normalize(axisD), glm::normalize(DVec3(p.up)));
   if (!(glm::length(sideD) > 1e-6))
-    throw InputError("up", show(DVec3(p.up)) + " is parallel to the view direction look_at - position = " + show(axisD) +
+    throw InputError("up", show(DVec3(p.up)) +
+                               " is parallel to the view direction look_at - position = " + show(axisD) +
                                ": the image's up is undefined; give an up that is not along the view direction");
 
   if (p.angleOfView == 0.0 && (!(p.focalLength > 0.0) || !std::isfinite(p.focalLength)))
@@ -73,15 +76,16 @@ ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
   if (params_.sensorHeight == 0.0) {
     params_.sensorHeight = p.sensorWidth * height / width;
     if (!(params_.sensorHeight > 0.0))
-      throw InputError("sensor_width", show(p.sensorWidth) + " is too small: the derived sensor_height (sensor_width * H / W) "
-                                                             "underflows to 0");
+      throw InputError("sensor_width", show(p.sensorWidth) +
+                                           " is too small: the derived sensor_height (sensor_width * H / W) "
+                                           "underflows to 0");
   }
   if (!(params_.sensorHeight > 0.0) || !(params_.sensorHeight <= std::numeric_limits<float>::max()))
     throw InputError("sensor_height", "must be a finite number > 0");
   if (p.angleOfView != 0.0) {
     if (!(p.angleOfView >= kMinFieldOfViewDegrees && p.angleOfView <= kMaxFieldOfViewDegrees))
-      throw InputError("angle_of_view", "must be in [" + show(kMinFieldOfViewDegrees) + ", " + show(kMaxFieldOfViewDegrees) +
-                                            "] degrees, got " + show(p.angleOfView));
+      throw InputError("angle_of_view", "must be in [" + show(kMinFieldOfViewDegrees) + ", " +
+                                            show(kMaxFieldOfViewDegrees) + "] degrees, got " + show(p.angleOfView));
     params_.focalLength =
         focalLengthFromAngleOfView(sensorExtent(params_.sensorWidth, params_.sensorHeight, p.fovAxis), p.angleOfView);
     if (!(params_.focalLength > 0.0) || !std::isfinite(params_.focalLength))
@@ -91,12 +95,13 @@ ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
   if (!(p.focusDistance > 0.0) || std::isnan(p.focusDistance))
     throw InputError("focus_distance", "must be a number > 0 (a distance in front of the lens), or infinity");
   if (p.focusDistance <= f)
-    throw InputError("focus_distance", "S1 = " + show(p.focusDistance) + " must exceed the focal length f = " + show(f) +
-                                           ": a lens cannot focus a subject at or inside f");
+    throw InputError("focus_distance", "S1 = " + show(p.focusDistance) + " must exceed the focal length f = " +
+                                           show(f) + ": a lens cannot focus a subject at or inside f");
   imageDistance_ = std::isinf(p.focusDistance) ? f : f * p.focusDistance / (p.focusDistance - f);
   if (!std::isfinite(imageDistance_) || imageDistance_ > kMaxImageDistanceOverFocalLength * f)
-    throw InputError("focus_distance", "S1 is so close to f that the sensor distance S2 = f S1 / (S1 - f) "
-                                       "is unbounded; move the subject further away");
+    throw InputError("focus_distance",
+                     "S1 is so close to f that the sensor distance S2 = f S1 / (S1 - f) "
+                     "is unbounded; move the subject further away");
   // N = 1 / (2 NA) for a lens in air, whose numerical aperture NA = sin(half-angle) is at most
   // 1: no lens is faster than f/0.5 (R = f / (2N) <= f). Smaller N would also let the aperture
   // grow without bound (N = 1e-20 put ray origins beyond what Embree accepts: an abort).
@@ -115,8 +120,8 @@ ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
     throw InputError("focal_length", "f = " + show(f) + " (S2 = " + show(imageDistance_) +
                                          ") has no finite reciprocal in double precision");
   if (!(lensRadius_ <= kMaxRayOriginDistance))
-    throw InputError("f_number", "N = " + show(p.fNumber) + " makes the lens radius R = f / (2N) = " + show(lensRadius_) +
-                                     ", beyond " + show(kMaxRayOriginDistance) +
+    throw InputError("f_number", "N = " + show(p.fNumber) + " makes the lens radius R = f / (2N) = " +
+                                     show(lensRadius_) + ", beyond " + show(kMaxRayOriginDistance) +
                                      ": camera rays would start farther from the camera than the ray tracer accepts; "
                                      "give a larger N or a shorter focal_length");
 
@@ -124,14 +129,15 @@ ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
   const double maxHalfTan = std::tan(kMaxFieldOfViewDegrees / 2.0 * std::numbers::pi / 180.0);
   const double minHalfTan = std::tan(kMinFieldOfViewDegrees / 2.0 * std::numbers::pi / 180.0);
   for (const auto& [field, size] : {std::pair<const char*, double>{"sensor_width", params_.sensorWidth},
-                                    std::pair<const char*, double>{"sensor_height", params_.sensorHeight}})
-  {
+                                    std::pair<const char*, double>{"sensor_height", params_.sensorHeight}}) {
     if (!(size / (2.0 * imageDistance_) <= maxHalfTan))
       throw InputError(field, show(size) + " at S2 = " + show(imageDistance_) +
                                   " behind the lens gives a field of view of 180 degrees or more (at most " +
-                                  show(kMaxFieldOfViewDegrees) + "): the sensor size and focal_length must be in the same unit");
+                                  show(kMaxFieldOfViewDegrees) +
+                                  "): the sensor size and focal_length must be in the same unit");
     if (!(size / (2.0 * imageDistance_) >= minHalfTan))
-      throw InputError(field, show(size) + " at S2 = " + show(imageDistance_) + " behind the lens gives a field of view of " +
+      throw InputError(field, show(size) + " at S2 = " + show(imageDistance_) +
+                                  " behind the lens gives a field of view of " +
                                   show(2.0 * std::atan(size / (2.0 * imageDistance_)) * 180.0 / std::numbers::pi) +
                                   " degrees, below " + show(kMinFieldOfViewDegrees) +
                                   " (the smallest angle_of_view): every pixel would see the same direction in single "

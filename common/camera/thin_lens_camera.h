@@ -39,7 +39,9 @@ struct CameraRayLanes {
   alignas(64) float ox[kPacketWidth], oy[kPacketWidth], oz[kPacketWidth];
   alignas(64) float dx[kPacketWidth], dy[kPacketWidth], dz[kPacketWidth];
 
-  CameraRay ray(int lane) const { return CameraRay{Vec3(ox[lane], oy[lane], oz[lane]), Vec3(dx[lane], dy[lane], dz[lane])}; }
+  CameraRay ray(int lane) const {
+    return CameraRay{Vec3(ox[lane], oy[lane], oz[lane]), Vec3(dx[lane], dy[lane], dz[lane])};
+  }
   void set(int lane, const CameraRay& ray) {
     ox[lane] = ray.origin.x, oy[lane] = ray.origin.y, oz[lane] = ray.origin.z;
     dx[lane] = ray.direction.x, dy[lane] = ray.direction.y, dz[lane] = ray.direction.z;
@@ -58,10 +60,10 @@ inline constexpr double kMaxRayOriginDistance = 1e18;
 enum class FovAxis { kHorizontal, kVertical, kDiagonal, kSmaller, kLarger };
 
 struct ThinLensParams {
-  Vec3 position{0.0f};               // lens centre
-  Vec3 lookAt{0.0f, 0.0f, 1.0f};     // defines the optical axis
-  Vec3 up{0.0f, 1.0f, 0.0f};         // the sensor's `up` is this, made orthogonal to the axis
-  double focalLength = 0.0;          // f
+  Vec3 position{0.0f};            // lens centre
+  Vec3 lookAt{0.0f, 0.0f, 1.0f};  // defines the optical axis
+  Vec3 up{0.0f, 1.0f, 0.0f};      // the sensor's `up` is this, made orthogonal to the axis
+  double focalLength = 0.0;       // f
   // An angle of view in degrees along fovAxis, or 0. When set, f is derived from it at the
   // camera's resolution, f = L / (2 tan(a/2)) with L the sensor's extent along the axis (2013
   // report eq. 4), because the sensor's height, and so every axis but the width, follows the image's
@@ -71,8 +73,8 @@ struct ThinLensParams {
   // S1, along the axis; infinity focuses at infinity (S2 = f), as a pinhole is: its angle of view
   // is then exactly 2 atan(L / 2f) whatever the distance to look_at.
   double focusDistance = 0.0;
-  double sensorWidth = 0.0;          // LW
-  double sensorHeight = 0.0;         // LH; 0 = derived, LW * H / W (square cells)
+  double sensorWidth = 0.0;                                  // LW
+  double sensorHeight = 0.0;                                 // LH; 0 = derived, LW * H / W (square cells)
   double fNumber = std::numeric_limits<double>::infinity();  // N; inf = pinhole
   // The aperture's shape (camera/aperture.h owns the convention): 0 = round; n >= 3 =
   // a regular n-gon of blades inscribed in the radius R = f / (2N), turned `apertureRotation`
@@ -110,8 +112,9 @@ class ThinLensCamera {
   // generateRay for the lanes of a packet at once (render/unit_renderer.cpp): lane k gets the ray
   // through cell (i[k], j) at offset (u0[k], u1[k]) and lens sample (lens0[k], lens1[k]), bit for
   // bit, in a vectorised loop.
-  void generateRays(const int (&i)[kPacketWidth], int j, const float (&u0)[kPacketWidth], const float (&u1)[kPacketWidth],
-                    const float (&lens0)[kPacketWidth], const float (&lens1)[kPacketWidth], CameraRayLanes& rays) const;
+  void generateRays(const int (&i)[kPacketWidth], int j, const float (&u0)[kPacketWidth],
+                    const float (&u1)[kPacketWidth], const float (&lens0)[kPacketWidth],
+                    const float (&lens1)[kPacketWidth], CameraRayLanes& rays) const;
 
   // generatePinholeRay for the lanes of a packet at once (render/unit_renderer.cpp): lane k gets
   // the ray through cell (i[k], j) at offset (u0[k], u1[k]), bit for bit, in a vectorised loop.
@@ -156,8 +159,7 @@ inline Vec2 ThinLensCamera::sensorPoint(int i, int j, Vec2 uSensor) const {
 }
 
 inline CameraRay ThinLensCamera::generateRay(int i, int j, Vec2 uSensor, Vec2 uLens) const {
-  return rayThrough(sensorPoint(i, j, uSensor),
-                    aperture_.sample(uLens) * float(lensRadius_));
+  return rayThrough(sensorPoint(i, j, uSensor), aperture_.sample(uLens) * float(lensRadius_));
 }
 
 inline CameraRay ThinLensCamera::generatePinholeRay(int i, int j, Vec2 uSensor) const {

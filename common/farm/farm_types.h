@@ -8,11 +8,11 @@
 #include <stdexcept>
 #include <string>
 
+#include <optional>
 #include "common/farm/sums_codec.h"
 #include "common/film/sensor.h"
 #include "common/render/integrator.h"
 #include "common/render/unit_renderer.h"
-#include <optional>
 
 #include "common/scene/frame_range.h"
 #include "common/scene/render_overrides.h"

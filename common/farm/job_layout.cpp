@@ -95,14 +95,18 @@ uint64_t JobLayout::sumsOf(uint64_t u) const {
 }
 
 int resolveTileSize(const RenderSettings& s, const std::optional<FrameRange>& frames, uint32_t workers) {
-  if (s.tileSize != RenderSettings::kTilesAuto) return s.tileSize > 0 ? std::min(s.tileSize, std::max(s.width, s.height)) : s.tileSize;
+  if (s.tileSize != RenderSettings::kTilesAuto)
+    return s.tileSize > 0 ? std::min(s.tileSize, std::max(s.width, s.height)) : s.tileSize;
   const uint64_t cells = uint64_t(s.width) * uint64_t(s.height);
-  if (s.convergenceDriven() || s.adaptive.enabled || (!frames && cells <= kPassMaxCells)) return RenderSettings::kTilesOff;
+  if (s.convergenceDriven() || s.adaptive.enabled || (!frames && cells <= kPassMaxCells))
+    return RenderSettings::kTilesOff;
   workers = std::max(1u, workers);
   const uint64_t frameCount = frames ? frames->count() : 1;
   if (frames && frameCount >= 2 * uint64_t(workers) && cells <= kPassMaxCells) return std::max(s.width, s.height);
   int edge = kTileEdge;
-  const auto tiles = [&](int e) { return uint64_t((s.width + e - 1) / e) * uint64_t((s.height + e - 1) / e) * frameCount; };
+  const auto tiles = [&](int e) {
+    return uint64_t((s.width + e - 1) / e) * uint64_t((s.height + e - 1) / e) * frameCount;
+  };
   while (edge > kMinTileEdge && tiles(edge) < 4 * uint64_t(workers)) edge /= 2;
   return std::min(edge, std::max(s.width, s.height));
 }

@@ -40,10 +40,10 @@ namespace lensfarm {
 struct JobLayout {
   int width = 0, height = 0;
   uint64_t samplesPerPixel = 0;
-  uint32_t passSamples = 1;  // unitSize(settings): the samples of one pass
-  int tileSize = 0;          // 0: units are passes; N: units are tiles of N x N (edge tiles smaller)
+  uint32_t passSamples = 1;          // unitSize(settings): the samples of one pass
+  int tileSize = 0;                  // 0: units are passes; N: units are tiles of N x N (edge tiles smaller)
   std::optional<FrameRange> frames;  // unset: a still
-  int channels = 3;          // sums per cell: the beauty's RGB and the AOVs' (film/aov_layout.h)
+  int channels = 3;                  // sums per cell: the beauty's RGB and the AOVs' (film/aov_layout.h)
   // Adaptive sampling (above): 0 for a job without it.
   uint64_t adaptiveStart = 0;         // the uniform passes; rounds start here
   std::vector<uint64_t> roundStarts;  // each round's first unit (the first is adaptiveStart)

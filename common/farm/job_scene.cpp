@@ -28,11 +28,13 @@ void finishJobScene(Scene& scene, const JobSpec& spec, const JobSceneOptions& op
   }
   if (!spec.frames) return;
   if (scene.render.convergenceDriven())
-    throw InputError(name, "target_error / time_limit (--target-error, --deadline): an animation renders every frame "
-                           "to its samples; give samples_per_pixel alone");
+    throw InputError(name,
+                     "target_error / time_limit (--target-error, --deadline): an animation renders every frame "
+                     "to its samples; give samples_per_pixel alone");
   if (scene.render.adaptive.enabled)
-    throw InputError(name, "adaptive: an animation renders every frame uniformly; adaptive sampling is for stills "
-                           "(give adaptive false, or render the frames one job each)");
+    throw InputError(name,
+                     "adaptive: an animation renders every frame uniformly; adaptive sampling is for stills "
+                     "(give adaptive false, or render the frames one job each)");
 }
 
 }  // namespace lensfarm

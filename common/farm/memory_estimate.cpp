@@ -33,10 +33,10 @@ void addAovItems(MemoryEstimate& e, const RenderSettings& s, uint64_t cells, uin
     e.items.push_back({"AOV sums in the unit buffer", workerCells * sums * sizeof(double)});
     return;
   }
-  e.items.push_back({"AOVs (" + aovListText(layout.set) + ")",
-                     cells * (sums * (sizeof(CompensatedSum) + held * sizeof(double) +
-                                      (stateDir ? 2 * sizeof(double) : 0)) +
-                              floats * (kImageBytesPerCell + 2 * kExrBytesPerCell) / 3)});
+  e.items.push_back(
+      {"AOVs (" + aovListText(layout.set) + ")",
+       cells * (sums * (sizeof(CompensatedSum) + held * sizeof(double) + (stateDir ? 2 * sizeof(double) : 0)) +
+                floats * (kImageBytesPerCell + 2 * kExrBytesPerCell) / 3)});
 }
 }  // namespace
 
@@ -118,7 +118,8 @@ uint64_t sceneDataBytes(const Scene& scene) {
       bytes += mesh.normals.size() * sizeof(Vec3) + (mesh.uv[0].size() + mesh.uv[1].size()) * sizeof(Vec2) +
                mesh.tangents.size() * sizeof(glm::vec4);
   for (const auto& light : scene.lights)
-    if (const auto* environment = dynamic_cast<const EnvironmentLight*>(light.get())) bytes += environment->map().bytes();
+    if (const auto* environment = dynamic_cast<const EnvironmentLight*>(light.get()))
+      bytes += environment->map().bytes();
   // Density grids (medium/grid_medium.h): their voxels and majorant cells, each grid once.
   for (const auto& [name, medium] : scene.media)
     if (const GridMedium* g = medium->asGrid()) {
@@ -162,8 +163,7 @@ std::string overBudgetMessage(const RenderSettings& s, const MemoryEstimate& est
                               uint64_t budget, const std::string& budgetSource) {
   return "a " + std::to_string(s.width) + "x" + std::to_string(s.height) + " render needs an estimated " +
          formatBytes(estimate.total()) + " of " + (whose.empty() ? "" : whose + " ") + "memory (" +
-         estimate.describe() + "), more than the " +
-         formatBytes(budget) + " allowed per job (" + budgetSource + ")";
+         estimate.describe() + "), more than the " + formatBytes(budget) + " allowed per job (" + budgetSource + ")";
 }
 
 void refuseLocalRenderOverBudget(const RenderSettings& settings, uint64_t triangles, const std::string& where,

@@ -37,8 +37,8 @@
 #include <vector>
 
 #include "common/math/compensated_sum.h"
-#include "common/util/byte_size.h"
 #include "common/scene/scene.h"
+#include "common/util/byte_size.h"
 
 namespace lensfarm {
 

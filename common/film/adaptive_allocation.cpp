@@ -24,7 +24,8 @@ std::shared_ptr<const SampleMap> RoundAllocation::mapOf(uint64_t u) const {
 RoundAllocation allocateRound(const Sensor& film, const ConvergenceTracker& halves, const AllocationRequest& request) {
   const int width = film.width(), height = film.height();
   if (request.units == 0 || request.units % 2 != 0 || request.passSamples == 0 || request.blockEdge < 1)
-    throw std::invalid_argument("allocateRound: a round is an even number of units of at least 1 sample, blocks of at least 1 cell");
+    throw std::invalid_argument(
+        "allocateRound: a round is an even number of units of at least 1 sample, blocks of at least 1 cell");
   RoundAllocation round;
   round.start = request.start;
   round.units = request.units;
@@ -49,7 +50,8 @@ RoundAllocation allocateRound(const Sensor& film, const ConvergenceTracker& halv
       double variance = 0.0;
       for (int j = y0; j < y1; ++j)
         for (int i = x0; i < x1; ++i) {
-          if (film.samples(i, j) != n) throw std::invalid_argument("allocateRound: a block's cells hold different counts");
+          if (film.samples(i, j) != n)
+            throw std::invalid_argument("allocateRound: a block's cells hold different counts");
           variance += std::max(0.0, halves.cellVariance(film, i, j));
         }
       cells[b] = double(x1 - x0) * double(y1 - y0);
@@ -64,7 +66,9 @@ RoundAllocation allocateRound(const Sensor& film, const ConvergenceTracker& halv
   const double lo = std::max(1.0, std::floor(request.floor * request.passSamples));
   const double hi = std::max(lo, kAllocationCap * request.passSamples);
   const double rounds = double(request.units);
-  const auto perUnit = [&](size_t b, double lambda) { return std::clamp((lambda * sigma[b] - held[b]) / rounds, lo, hi); };
+  const auto perUnit = [&](size_t b, double lambda) {
+    return std::clamp((lambda * sigma[b] - held[b]) / rounds, lo, hi);
+  };
   const auto spent = [&](double lambda) {
     double s = 0.0;
     for (size_t b = 0; b < blocks; ++b) s += cells[b] * perUnit(b, lambda);
@@ -105,8 +109,9 @@ RoundAllocation allocateRound(const Sensor& film, const ConvergenceTracker& halv
 
 std::string RoundAllocation::serialize() const {
   const size_t blocks = base.count.size();
-  const uint64_t header[8] = {kMagic, start, units, base.passSamples, uint64_t(base.blockEdge), uint64_t(base.blocksX),
-                              uint64_t(base.blocksY), blocks};
+  const uint64_t header[8] = {
+      kMagic, start, units, base.passSamples, uint64_t(base.blockEdge), uint64_t(base.blocksX), uint64_t(base.blocksY),
+      blocks};
   std::string out(sizeof header + blocks * (sizeof(uint64_t) + sizeof(uint32_t)), '\0');
   std::memcpy(out.data(), header, sizeof header);
   std::memcpy(out.data() + sizeof header, base.first.data(), blocks * sizeof(uint64_t));

@@ -25,8 +25,8 @@
 #include <vector>
 
 #include "common/film/convergence.h"
-#include "common/film/sensor.h"
 #include "common/film/sample_map.h"
+#include "common/film/sensor.h"
 
 namespace lensfarm {
 
@@ -53,7 +53,7 @@ struct AllocationRequest {
   uint32_t units = 0;        // the round's units (even)
   uint32_t passSamples = 1;  // P: a unit's mean samples per cell
   int blockEdge = 16;
-  double floor = 0.125;      // a block's least samples per unit, as a fraction of P (at least 1 sample)
+  double floor = 0.125;  // a block's least samples per unit, as a fraction of P (at least 1 sample)
 };
 inline constexpr double kAllocationCap = 16.0;  // a block's most samples per unit, in units of P
 

@@ -6,7 +6,8 @@
 namespace lensfarm {
 
 namespace {
-constexpr const char* kNames[kAovCount] = {"albedo", "normal", "depth", "variance", "samples", "object_id", "material_id"};
+constexpr const char* kNames[kAovCount] = {"albedo",  "normal",    "depth",      "variance",
+                                           "samples", "object_id", "material_id"};
 
 std::string trimmed(const std::string& s) {
   const size_t a = s.find_first_not_of(" \t");

@@ -9,7 +9,7 @@ namespace lensfarm {
 namespace {
 constexpr uint64_t kMagic = 0x31764e4f43464c4cull;    // "LLFCONv1": every cell's even count the same
 constexpr uint64_t kMagicV2 = 0x32764e4f43464c4cull;  // "LLFCONv2": per-cell even counts follow the sums
-}
+}  // namespace
 
 ConvergenceTracker::ConvergenceTracker(int width, int height)
     : width_(width), height_(height), evenSums_(size_t(width) * height * 3, 0.0) {}
@@ -89,7 +89,8 @@ ErrorEstimate ConvergenceTracker::estimate(const Sensor& total) const {
 }
 
 std::string ConvergenceTracker::serialize() const {
-  const uint64_t header[4] = {evenCounts_.empty() ? kMagic : kMagicV2, uint64_t(width_), uint64_t(height_), evenSamples_};
+  const uint64_t header[4] = {evenCounts_.empty() ? kMagic : kMagicV2, uint64_t(width_), uint64_t(height_),
+                              evenSamples_};
   std::string out(sizeof header + evenSums_.size() * sizeof(double) + evenCounts_.size() * sizeof(uint64_t), '\0');
   std::memcpy(out.data(), header, sizeof header);
   std::memcpy(out.data() + sizeof header, evenSums_.data(), evenSums_.size() * sizeof(double));

@@ -26,8 +26,8 @@
 #include <string>
 #include <vector>
 
-#include "common/film/sensor.h"
 #include "common/film/sample_map.h"
+#include "common/film/sensor.h"
 
 namespace lensfarm {
 
@@ -70,13 +70,15 @@ class ConvergenceTracker {
   static ConvergenceTracker deserializePrefix(const std::string& bytes, size_t& used);
 
   // Bytes of frame-sized memory held (farm/memory_estimate.h: kTrackerBytesPerCell a cell).
-  uint64_t memoryBytes() const { return evenSums_.capacity() * sizeof(double) + evenCounts_.capacity() * sizeof(uint64_t); }
+  uint64_t memoryBytes() const {
+    return evenSums_.capacity() * sizeof(double) + evenCounts_.capacity() * sizeof(uint64_t);
+  }
 
  private:
   int width_, height_;
   size_t checkedStride(const SensorBuffer& unit) const;
-  std::vector<double> evenSums_;  // 3 per cell
-  uint64_t evenSamples_ = 0;      // per cell, while every cell has the same even count
+  std::vector<double> evenSums_;      // 3 per cell
+  uint64_t evenSamples_ = 0;          // per cell, while every cell has the same even count
   std::vector<uint64_t> evenCounts_;  // per cell once adaptive units gave cells different counts
 };
 

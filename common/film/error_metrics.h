@@ -14,8 +14,8 @@
 //  - the RMSE of the displayed picture: both images exposed automatically (2013 report §4.7.4), tone
 //    mapped and encoded as 8-bit sRGB as a PNG preview is, compared in [0, 1] units. This is
 //    the error a viewer sees.
-#include "common/film/image.h"
 #include "common/film/exposure.h"
+#include "common/film/image.h"
 
 namespace lensfarm {
 

@@ -24,7 +24,9 @@ double pixelLuminance(const Image& image, size_t k) {
 // The factor that maps `mean` to 1, or 1 where it has none. In double, the mean of a float image
 // and its reciprocal are finite and non-zero for any finite image that is not black, from
 // denormal pixels (1e-45) to the largest float.
-double scaleToOne(double mean) { return mean > 0.0 && std::isfinite(mean) && std::isfinite(1.0 / mean) ? 1.0 / mean : 1.0; }
+double scaleToOne(double mean) {
+  return mean > 0.0 && std::isfinite(mean) && std::isfinite(1.0 / mean) ? 1.0 / mean : 1.0;
+}
 }  // namespace
 
 double autoExposureScale(const Image& image) {

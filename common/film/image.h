@@ -28,7 +28,7 @@ struct Image {
   Image(int w, int h, std::vector<float> pixels) : width(w), height(h), rgb(std::move(pixels)) {}
 
   int width = 0, height = 0;
-  std::vector<float> rgb;  // 3 per pixel
+  std::vector<float> rgb;          // 3 per pixel
   std::vector<ImageLayer> layers;  // AOVs, in file order; empty for a beauty-only image
 
   Spectrum at(int x, int y) const {

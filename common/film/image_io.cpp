@@ -13,8 +13,8 @@
 
 #include <algorithm>
 #include <cstring>
-#include <iterator>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <stdexcept>
 
@@ -147,11 +147,16 @@ Image readExrStream(Imf::IStream& stream, ImageMetadata* metadata) {
       }
       const auto* s = dynamic_cast<const Imf::StringAttribute*>(&it.attribute());
       if (!s) continue;
-      if (key == "samplesPerPixel") metadata->samplesPerPixel = std::stoull(s->value());
-      else if (key == "totalSamples") metadata->totalSamples = std::stoull(s->value());
-      else if (key == "sceneHash") metadata->sceneHash = s->value();
-      else if (key == "rendererVersion") metadata->rendererVersion = s->value();
-      else metadata->extra[key] = s->value();
+      if (key == "samplesPerPixel")
+        metadata->samplesPerPixel = std::stoull(s->value());
+      else if (key == "totalSamples")
+        metadata->totalSamples = std::stoull(s->value());
+      else if (key == "sceneHash")
+        metadata->sceneHash = s->value();
+      else if (key == "rendererVersion")
+        metadata->rendererVersion = s->value();
+      else
+        metadata->extra[key] = s->value();
     }
   }
   return image;

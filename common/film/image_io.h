@@ -13,8 +13,8 @@
 #include <map>
 #include <string>
 
-#include "common/film/sensor.h"
 #include "common/film/exposure.h"
+#include "common/film/sensor.h"
 
 namespace lensfarm {
 

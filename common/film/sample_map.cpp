@@ -19,7 +19,8 @@ uint32_t SampleMap::maxCount() const { return count.empty() ? 0 : *std::max_elem
 
 std::string SampleMap::whyNotFor(int width, int height) const {
   if (passSamples < 1 || half > 1)
-    return "pass of " + std::to_string(passSamples) + " samples, half " + std::to_string(half) + " (a pass of at least 1, half 0 or 1)";
+    return "pass of " + std::to_string(passSamples) + " samples, half " + std::to_string(half) +
+           " (a pass of at least 1, half 0 or 1)";
   if (blockEdge < 1) return "block edge " + std::to_string(blockEdge) + " is not at least 1";
   if (blocksX != blocksAlong(width, blockEdge) || blocksY != blocksAlong(height, blockEdge))
     return std::to_string(blocksX) + " x " + std::to_string(blocksY) + " blocks of " + std::to_string(blockEdge) +

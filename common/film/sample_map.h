@@ -33,7 +33,9 @@ struct SampleMap {
   uint32_t countAt(int i, int j) const { return count[blockOf(i, j)]; }
   uint64_t firstAt(int i, int j) const { return first[blockOf(i, j)]; }
   // The sample index of position t of the unit's half.
-  uint64_t sampleIndex(uint64_t t) const { return (t / passSamples) * 2 * passSamples + half * passSamples + t % passSamples; }
+  uint64_t sampleIndex(uint64_t t) const {
+    return (t / passSamples) * 2 * passSamples + half * passSamples + t % passSamples;
+  }
   // Samples of every cell of a width x height frame (the unit's paths).
   uint64_t totalSamples(int width, int height) const;
   uint32_t maxCount() const;

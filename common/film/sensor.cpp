@@ -45,8 +45,8 @@ void Sensor::add(const SensorBuffer& unit, const SampleMap& counts) {
 
 void Sensor::addCounts(const SensorBuffer& unit) {
   const size_t cells = unit.cells();
-  const bool uniform = samples_.empty() &&
-                       std::all_of(unit.samples.begin(), unit.samples.end(), [&](uint32_t n) { return n == unit.samples[0]; });
+  const bool uniform = samples_.empty() && std::all_of(unit.samples.begin(), unit.samples.end(),
+                                                       [&](uint32_t n) { return n == unit.samples[0]; });
   if (uniform) {
     const uint64_t n = cells ? unit.samples[0] : 0;
     uniformSamples_ += n;
@@ -69,7 +69,8 @@ DVec3 Sensor::mean(int i, int j) const {
 }
 
 Image Sensor::developImage(const AovLayout& layout) const {
-  if (layout.channels != channels_) throw std::invalid_argument("Sensor::developImage: the AOV layout is not the sensor's");
+  if (layout.channels != channels_)
+    throw std::invalid_argument("Sensor::developImage: the AOV layout is not the sensor's");
   Image image{width_, height_, std::vector<float>(size_t(width_) * height_ * 3)};
   if (layout.any()) image.layers = aovLayers(layout, width_, height_);
   std::vector<double> cell(static_cast<size_t>(channels_));
@@ -138,7 +139,8 @@ Sensor Sensor::deserialize(const std::string& bytes) {
   size_t offset = sizeof kMagic;
   const int32_t w = take<int32_t>(bytes, offset), h = take<int32_t>(bytes, offset);
   const int32_t channels = v2 ? take<int32_t>(bytes, offset) : 3;
-  if (w <= 0 || h <= 0 || int64_t(w) * h > (int64_t(1) << 28)) throw std::runtime_error("sensor checkpoint has a bad size");
+  if (w <= 0 || h <= 0 || int64_t(w) * h > (int64_t(1) << 28))
+    throw std::runtime_error("sensor checkpoint has a bad size");
   if (channels < 3 || channels > 64) throw std::runtime_error("sensor checkpoint has a bad channel count");
   Sensor sensor(w, h, channels);
   sensor.totalSamples_ = take<uint64_t>(bytes, offset);

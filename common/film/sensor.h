@@ -71,7 +71,9 @@ class Sensor {
   static Sensor deserialize(const std::string& bytes);
 
   // Bytes of frame-sized memory held (farm/memory_estimate.h: kSensorBytesPerCell a cell).
-  uint64_t memoryBytes() const { return sums_.capacity() * sizeof(CompensatedSum) + samples_.capacity() * sizeof(uint64_t); }
+  uint64_t memoryBytes() const {
+    return sums_.capacity() * sizeof(CompensatedSum) + samples_.capacity() * sizeof(uint64_t);
+  }
 
  private:
   void addCounts(const SensorBuffer& unit);

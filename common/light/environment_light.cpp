@@ -4,9 +4,9 @@
 
 #include "common/film/image_io.h"
 #include "common/light/point_light.h"
-#include "common/util/field_reader.h"
 #include "common/texture/image_decode.h"
 #include "common/util/error.h"
+#include "common/util/field_reader.h"
 
 namespace lensfarm {
 
@@ -35,8 +35,9 @@ std::optional<LightSample> EnvironmentLight::sample(const Vec3& ref, Vec2 u, con
 std::shared_ptr<const LightSource> parseEnvironment(FieldReader& r, const AssetLoader& load) {
   const bool hasRadiance = r.has("radiance"), hasFile = r.has("file");
   if (hasRadiance == hasFile)
-    r.fail(r.field("radiance"),
-           "give exactly one of radiance (a constant colour) and file (an equirectangular OpenEXR or Radiance HDR image)");
+    r.fail(
+        r.field("radiance"),
+        "give exactly one of radiance (a constant colour) and file (an equirectangular OpenEXR or Radiance HDR image)");
   if (hasRadiance) {
     const Spectrum radiance = r.color("radiance", kRadianceRange);
     return std::make_shared<EnvironmentLight>("", std::make_shared<EnvironmentMap>(EnvironmentMap::constant(radiance)));
@@ -61,7 +62,8 @@ std::shared_ptr<const LightSource> parseEnvironment(FieldReader& r, const AssetL
     try {
       image = decodeExr(file.bytes);
     } catch (const std::exception& e) {
-      r.fail(r.field("file"), "\"" + file.shown + "\" is not a readable OpenEXR image (nor a Radiance HDR): " + e.what());
+      r.fail(r.field("file"),
+             "\"" + file.shown + "\" is not a readable OpenEXR image (nor a Radiance HDR): " + e.what());
     }
   }
   if (auto problem = EnvironmentMap::validate(image)) r.fail(r.field("file"), *problem);

@@ -71,7 +71,8 @@ class EnvironmentMap {
   bool isConstant() const { return !distribution_.has_value(); }
   // The memory it holds: its pixels and its sampling distribution (8 bytes a pixel).
   uint64_t bytes() const {
-    return pixels_.size() * sizeof(Spectrum) + (distribution_ ? uint64_t(width_) * uint64_t(height_) * sizeof(double) : 0);
+    return pixels_.size() * sizeof(Spectrum) +
+           (distribution_ ? uint64_t(width_) * uint64_t(height_) * sizeof(double) : 0);
   }
   int width() const { return width_; }    // 0 for a constant environment
   int height() const { return height_; }  // 0 for a constant environment

@@ -55,7 +55,7 @@ struct BsdfTraits {
   // sample marked `straight`, and Bsdf::straightTransmittance gives it to shadow rays, which
   // cross the wall attenuated instead of stopping (render/volume_integrator.h).
   bool thinWall = false;
-  Spectrum albedo{0.0f};    // lambertian: its albedo
+  Spectrum albedo{0.0f};  // lambertian: its albedo
   // The effect the scene analysis reports for it (scene/effects.h): "mirror", "rippled mirror",
   // "glass", ...; empty for Lambertian.
   const char* effect = "";

@@ -155,12 +155,14 @@ std::shared_ptr<const Bsdf> parseConductor(FieldReader& r) {
   const Spectrum tint = r.color("tint", Spectrum(1.0f), kReflectanceRange);
   const int given = int(r.has("metal")) + int(r.has("eta") || r.has("k")) + int(r.has("reflectance"));
   if (given != 1)
-    r.fail(r.field("metal"), "give exactly one of metal (Au, Ag, Cu or Al), eta and k, or reflectance (F0, glTF style)");
+    r.fail(r.field("metal"),
+           "give exactly one of metal (Au, Ag, Cu or Al), eta and k, or reflectance (F0, glTF style)");
   ConductorFresnel fresnel;
   if (r.has("metal")) {
     const std::string metal = r.string("metal");
     Spectrum eta, k;
-    if (!namedMetal(metal, eta, k)) r.fail(r.field("metal"), "unknown metal \"" + metal + "\" (expected Au, Ag, Cu or Al)");
+    if (!namedMetal(metal, eta, k))
+      r.fail(r.field("metal"), "unknown metal \"" + metal + "\" (expected Au, Ag, Cu or Al)");
     fresnel = ConductorFresnel::complex(eta, k);
   } else if (r.has("reflectance")) {
     fresnel = ConductorFresnel::fromF0(r.color("reflectance", kReflectanceRange));

@@ -112,7 +112,8 @@ std::optional<MaterialSample> DielectricBsdf::sample(const Vec3& n, const Vec3& 
     // A pane: the two faces' reflections summed over its inter-reflections, R' = 2R/(1+R) without
     // absorption; light that passes leaves parallel to where it came from.
     // Straight through first (Bsdf::straightProbability's convention), else reflected.
-    if (uLobe < 1.0f - paneReflectance(cosO, ior_)) return MaterialSample{-wo, tint_, 0.0f, true, 1.0f, /*straight=*/true};
+    if (uLobe < 1.0f - paneReflectance(cosO, ior_))
+      return MaterialSample{-wo, tint_, 0.0f, true, 1.0f, /*straight=*/true};
     return MaterialSample{reflect(wo, n), tint_, 0.0f, true};
   }
   const float relative = front ? ior_ : 1.0f / ior_;  // n_transmitted / n_incident

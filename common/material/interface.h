@@ -15,7 +15,9 @@ class FieldReader;
 class InterfaceBsdf final : public Bsdf {
  public:
   BsdfTraits traits() const override;
-  std::optional<MaterialSample> sample(const Vec3&, const Vec3&, float, Vec2, bool) const override { return std::nullopt; }
+  std::optional<MaterialSample> sample(const Vec3&, const Vec3&, float, Vec2, bool) const override {
+    return std::nullopt;
+  }
 };
 
 std::shared_ptr<const Bsdf> parseInterface(FieldReader& r);

@@ -23,20 +23,15 @@ struct MaterialType {
 
 // The one registration point of material types.
 constexpr MaterialType kMaterialTypes[] = {
-    {"lambertian", parseLambertian, "emission"},
-    {"mirror", parseMirror, ""},
-    {"rippled_mirror", parseRippledMirror, ""},
-    {"dielectric", parseDielectric, ""},
-    {"conductor", parseConductor, ""},
-    {"principled", parsePrincipled, "emission"},
-    {"subsurface", parseSubsurface, ""},
-    {"interface", parseInterface, ""},
+    {"lambertian", parseLambertian, "emission"}, {"mirror", parseMirror, ""},
+    {"rippled_mirror", parseRippledMirror, ""},  {"dielectric", parseDielectric, ""},
+    {"conductor", parseConductor, ""},           {"principled", parsePrincipled, "emission"},
+    {"subsurface", parseSubsurface, ""},         {"interface", parseInterface, ""},
     {"emissive", nullptr, "radiance"},
 };
 }  // namespace
 
-Material::Material(std::string materialName, std::shared_ptr<const Bsdf> bsdf, const Spectrum& emitted,
-                   bool twoSided)
+Material::Material(std::string materialName, std::shared_ptr<const Bsdf> bsdf, const Spectrum& emitted, bool twoSided)
     : name(std::move(materialName)), emission(emitted), twoSidedEmission(twoSided), bsdf_(std::move(bsdf)) {
   if (bsdf_) {
     traits_ = bsdf_->traits();
@@ -44,8 +39,8 @@ Material::Material(std::string materialName, std::shared_ptr<const Bsdf> bsdf, c
   }
 }
 
-Material Material::textured(std::string name, std::shared_ptr<const MaterialTextures> textures, const Spectrum& emission,
-                            bool twoSidedEmission) {
+Material Material::textured(std::string name, std::shared_ptr<const MaterialTextures> textures,
+                            const Spectrum& emission, bool twoSidedEmission) {
   Material m(std::move(name), std::make_shared<PrincipledBsdf>(textures->factors), emission, twoSidedEmission);
   m.textures_ = std::move(textures);
   return m;
@@ -105,8 +100,8 @@ Material parseMaterial(const std::string& name, FieldReader& r, const MediumTabl
     for (int c = 0; c < 3; ++c) {
       const double e = double(emission[c]) * strength;
       if (e != 0.0 && (e < kRadianceRange.lo || e > kRadianceRange.hi))
-        r.fail(r.field("emission_strength"), "makes the emitted radiance " + std::to_string(e) +
-                                                 ", outside [1e-30, 1e30] (see the colour ranges)");
+        r.fail(r.field("emission_strength"),
+               "makes the emitted radiance " + std::to_string(e) + ", outside [1e-30, 1e30] (see the colour ranges)");
       emission[c] = float(e);
     }
   }

@@ -32,13 +32,13 @@ enum class AlphaMode { kOpaque, kMask, kBlend };
 // texture multiplies its factor. MTL maps (map_Kd, map_bump, ...) land in the same slots.
 // Occlusion textures are not read: a path tracer computes occlusion (docs/scene-format.md).
 struct MaterialTextures {
-  PrincipledParams factors;        // baseColorFactor (RGB), metallicFactor, roughnessFactor, ...
-  float alphaFactor = 1.0f;        // baseColorFactor's alpha
-  TextureRef baseColor;            // RGB: base colour (decoded from sRGB), A: alpha
-  TextureRef metallicRoughness;    // B: metallic, G: roughness (linear)
-  TextureRef normal;               // tangent-space normal map: RGB = (n + 1) / 2, +y along the v tangent
-  float normalScale = 1.0f;        // scales the map's x and y (glTF normalTexture.scale)
-  TextureRef emissive;             // RGB multiplies the material's emission (decoded from sRGB)
+  PrincipledParams factors;      // baseColorFactor (RGB), metallicFactor, roughnessFactor, ...
+  float alphaFactor = 1.0f;      // baseColorFactor's alpha
+  TextureRef baseColor;          // RGB: base colour (decoded from sRGB), A: alpha
+  TextureRef metallicRoughness;  // B: metallic, G: roughness (linear)
+  TextureRef normal;             // tangent-space normal map: RGB = (n + 1) / 2, +y along the v tangent
+  float normalScale = 1.0f;      // scales the map's x and y (glTF normalTexture.scale)
+  TextureRef emissive;           // RGB multiplies the material's emission (decoded from sRGB)
   AlphaMode alphaMode = AlphaMode::kOpaque;
   float alphaCutoff = 0.5f;
 

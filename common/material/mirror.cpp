@@ -34,7 +34,8 @@ std::shared_ptr<const Bsdf> parseMirror(FieldReader& r) {
 }
 
 std::shared_ptr<const Bsdf> parseRippledMirror(FieldReader& r) {
-  const Spectrum reflectance = r.color("reflectance", Spectrum(0.5f), kReflectanceRange);  // 2013 report §4.2: halves it
+  const Spectrum reflectance =
+      r.color("reflectance", Spectrum(0.5f), kReflectanceRange);  // 2013 report §4.2: halves it
   return std::make_shared<RippledMirrorBsdf>(reflectance, float(r.number("ripple", 0.02, 0.0, 1.0)));
 }
 

@@ -22,7 +22,8 @@ PrincipledBsdf::PrincipledBsdf(const PrincipledParams& params)
   const float r = (p_.ior - 1.0f) / (p_.ior + 1.0f);
   f0_ = std::min(1.0f, r * r * std::max(p_.specularColor, 0.0f));
   const float w = p_.transmission * (1.0f - p_.metallic);
-  straight_ = p_.thinWalled && w > 0.0f && GgxDistribution::alphaFromRoughness(p_.roughness) < GgxDistribution::kSmoothAlpha;
+  straight_ =
+      p_.thinWalled && w > 0.0f && GgxDistribution::alphaFromRoughness(p_.roughness) < GgxDistribution::kSmoothAlpha;
   if (!p_.thinWalled && w > 0.0f) {
     // The header's mixture: the glass share apart, the rest opaque with its metal share kept.
     glassWeight_ = w;
@@ -76,9 +77,11 @@ Spectrum PrincipledBsdf::evalLocal(const Vec3& wo, const Vec3& wi) const {
   // KHR_materials_specular: the dielectric's Fresnel term times specularFactor, in the layer and
   // in the base's weight alike.
   const float fd = p_.specular * (f0_ + (1.0f - f0_) * schlickWeight(vh));
-  const float baseWeight = 1.0f - p_.specular * (f0_ + (1.0f - f0_) * schlickWeight(wo.z));  // see the header: 1 - F_d(N.V)
+  const float baseWeight =
+      1.0f - p_.specular * (f0_ + (1.0f - f0_) * schlickWeight(wo.z));  // see the header: 1 - F_d(N.V)
   const float dielectric = 1.0f - p_.metallic;
-  if (!reflection) return straight_ ? Spectrum(0.0f) : p_.baseColor * (dielectric * p_.transmission * baseWeight * lobe);
+  if (!reflection)
+    return straight_ ? Spectrum(0.0f) : p_.baseColor * (dielectric * p_.transmission * baseWeight * lobe);
   const Spectrum metalFresnel = p_.baseColor + (Spectrum(1.0f) - p_.baseColor) * schlickWeight(vh);
   const Spectrum metal = metalFresnel * (p_.metallic * lobe);
   const Spectrum diffuse = p_.baseColor * (baseWeight * (1.0f - p_.transmission) * kInvPi * wi.z);

@@ -20,7 +20,8 @@ inline constexpr float kInvPi = std::numbers::inv_pi_v<float>;
 inline void sinCosQuarterPi(float x, float& s, float& c) {
   const float x2 = x * x;
   s = x * (1.0f + x2 * (-1.0f / 6.0f + x2 * (1.0f / 120.0f + x2 * (-1.0f / 5040.0f + x2 * (1.0f / 362880.0f)))));
-  c = 1.0f + x2 * (-0.5f + x2 * (1.0f / 24.0f + x2 * (-1.0f / 720.0f + x2 * (1.0f / 40320.0f + x2 * (-1.0f / 3628800.0f)))));
+  c = 1.0f +
+      x2 * (-0.5f + x2 * (1.0f / 24.0f + x2 * (-1.0f / 720.0f + x2 * (1.0f / 40320.0f + x2 * (-1.0f / 3628800.0f)))));
 }
 
 // Shirley-Chiu concentric map from [0,1)^2 to the unit disk; area-preserving, low distortion.

@@ -33,8 +33,7 @@ struct Frame {
     const float sign = std::copysign(1.0f, n.z);
     const float a = -1.0f / (sign + n.z);
     const float b = n.x * n.y * a;
-    return Frame{Vec3(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x),
-                 Vec3(b, sign + n.y * n.y * a, -n.y), n};
+    return Frame{Vec3(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3(b, sign + n.y * n.y * a, -n.y), n};
   }
   Vec3 toWorld(const Vec3& v) const { return t * v.x + b * v.y + n * v.z; }
   Vec3 toLocal(const Vec3& v) const { return Vec3(glm::dot(v, t), glm::dot(v, b), glm::dot(v, n)); }
@@ -73,9 +72,7 @@ inline float luminance(const Spectrum& s) {
   return 0.2126f * s.r + 0.7152f * s.g + 0.0722f * s.b;
 }
 
-inline bool isFinite(const Spectrum& s) {
-  return std::isfinite(s.r) && std::isfinite(s.g) && std::isfinite(s.b);
-}
+inline bool isFinite(const Spectrum& s) { return std::isfinite(s.r) && std::isfinite(s.g) && std::isfinite(s.b); }
 
 inline bool isBlack(const Spectrum& s) { return s.r == 0.0f && s.g == 0.0f && s.b == 0.0f; }
 

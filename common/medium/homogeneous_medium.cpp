@@ -112,8 +112,9 @@ void validateAttenuation(const Spectrum& attenuationColor, float attenuationDist
       "must lie in (0, 1] (1: no attenuation)");
   for (int c = 0; c < 3; ++c)
     if (attenuationColor[c] < 1.0f && -std::log(attenuationColor[c]) / attenuationDistance > kMaxCoefficient)
-      throw InputError(where, field + ".attenuation_distance: makes sigma_t above 1e30 / scene unit (a free flight "
-                                      "shorter than 1e-30); use a longer distance");
+      throw InputError(where, field +
+                                  ".attenuation_distance: makes sigma_t above 1e30 / scene unit (a free flight "
+                                  "shorter than 1e-30); use a longer distance");
   if (std::isnan(attenuationDistance) || !(attenuationDistance > 0.0f))
     throw InputError(where, field + ".attenuation_distance: must be > 0 (infinity: no attenuation), got " +
                                 std::to_string(attenuationDistance));
@@ -127,7 +128,8 @@ void validateSss(const Spectrum& albedo, const Spectrum& distance, const std::st
   requireChannels(
       albedo, [](float v) { return v >= 0.0f && v <= 1.0f; }, where, field + ".albedo", "must lie in [0, 1]");
   requireChannels(
-      distance, [](float v) { return v > 0.0f; }, where, field + ".mean_free_path", "must be finite and > 0 (scene units)");
+      distance, [](float v) { return v > 0.0f; }, where, field + ".mean_free_path",
+      "must be finite and > 0 (scene units)");
 }
 
 }  // namespace lensfarm

@@ -4,14 +4,16 @@
 #include <limits>
 
 #include "common/medium/vdb_grid.h"
-#include "common/util/field_reader.h"
 #include "common/util/error.h"
+#include "common/util/field_reader.h"
 
 namespace lensfarm {
 
 void Medium::classify() {
-  if (const HomogeneousMedium* h = asHomogeneous()) scatters_ = !isBlack(h->sigmaS());
-  else scatters_ = !isBlack(asGrid()->sigmaSScale());
+  if (const HomogeneousMedium* h = asHomogeneous())
+    scatters_ = !isBlack(h->sigmaS());
+  else
+    scatters_ = !isBlack(asGrid()->sigmaSScale());
 }
 
 void Medium::place(const DVec3& origin) {
@@ -59,7 +61,8 @@ Spectrum readCoefficients(FieldReader& r, const std::string& key, const Spectrum
   if (v.is_number()) return Spectrum(float(r.checkNumber(v, r.field(key), -big, big)));
   if (!v.is_array() || v.size() != 3) r.fail(r.field(key), "must be an array of 3 numbers, or one number for grey");
   Spectrum s;
-  for (int c = 0; c < 3; ++c) s[c] = float(r.checkNumber(v[c], r.field(key) + "[" + std::to_string(c) + "]", -big, big));
+  for (int c = 0; c < 3; ++c)
+    s[c] = float(r.checkNumber(v[c], r.field(key) + "[" + std::to_string(c) + "]", -big, big));
   return s;
 }
 
@@ -71,8 +74,9 @@ std::shared_ptr<Medium> parseHomogeneous(const std::string& name, FieldReader& r
   const std::string where = r.path();
   if (r.has("attenuation_color") || r.has("attenuation_distance")) {
     if (r.has("sigma_a") || r.has("sigma_s"))
-      r.fail(r.field("attenuation_color"), "give either sigma_a and sigma_s or attenuation_color and "
-                                           "attenuation_distance, not both");
+      r.fail(r.field("attenuation_color"),
+             "give either sigma_a and sigma_s or attenuation_color and "
+             "attenuation_distance, not both");
     const Spectrum color = readCoefficients(r, "attenuation_color", Spectrum(1.0f));
     const float distance = float(r.number("attenuation_distance", std::numeric_limits<double>::infinity(),
                                           -std::numeric_limits<double>::max(), std::numeric_limits<double>::max()));
@@ -81,8 +85,9 @@ std::shared_ptr<Medium> parseHomogeneous(const std::string& name, FieldReader& r
     return std::make_shared<Medium>(name, HomogeneousMedium::fromAttenuation(color, distance, albedo, g));
   }
   if (r.has("scattering_albedo"))
-    r.fail(r.field("scattering_albedo"), "goes with attenuation_color and attenuation_distance; with sigma_a and "
-                                         "sigma_s the albedo is sigma_s / (sigma_a + sigma_s)");
+    r.fail(r.field("scattering_albedo"),
+           "goes with attenuation_color and attenuation_distance; with sigma_a and "
+           "sigma_s the albedo is sigma_s / (sigma_a + sigma_s)");
   const Spectrum sigmaA = readCoefficients(r, "sigma_a", Spectrum(0.0f));
   const Spectrum sigmaS = readCoefficients(r, "sigma_s", Spectrum(0.0f));
   validateHomogeneousMedium(sigmaA, sigmaS, g, file, where);
@@ -97,7 +102,8 @@ std::shared_ptr<Medium> parseGrid(const std::string& name, FieldReader& r, const
   if (r.has("file")) {
     // An OpenVDB file: its grid's box and voxels (medium/vdb_grid.h).
     for (const char* inline_ : {"bounds", "resolution", "density"})
-      if (r.has(inline_)) r.fail(r.field(inline_), "comes from the file: give either file or bounds, resolution and density");
+      if (r.has(inline_))
+        r.fail(r.field(inline_), "comes from the file: give either file or bounds, resolution and density");
     const LoadedAsset vdb = load(r, "file", "OpenVDB file");
     grid = readVdbGrid(vdb.bytes, r.string("grid", "density"), vdb.shown, r.file(), r.field("file"));
   } else {
@@ -142,9 +148,12 @@ std::shared_ptr<Medium> parseGrid(const std::string& name, FieldReader& r, const
 std::shared_ptr<Medium> parseMedium(const std::string& name, FieldReader& r, const AssetLoader& load) {
   const std::string type = r.string("type", "homogeneous");
   std::shared_ptr<Medium> m;
-  if (type == "homogeneous") m = parseHomogeneous(name, r);
-  else if (type == "grid") m = parseGrid(name, r, load);
-  else r.fail(r.field("type"), "unknown medium type \"" + type + "\" (expected homogeneous or grid)");
+  if (type == "homogeneous")
+    m = parseHomogeneous(name, r);
+  else if (type == "grid")
+    m = parseGrid(name, r, load);
+  else
+    r.fail(r.field("type"), "unknown medium type \"" + type + "\" (expected homogeneous or grid)");
   r.finish();
   return m;
 }

@@ -89,8 +89,8 @@ class Medium {
   //    which keeps every channel unbiased whatever the probabilities (they only need to be
   //    positive where sigma_x w is). Absorption ends the path (weight 0).
   // `throughput` is the path's before the segment (it steers the grid's probabilities).
-  FreeFlight sampleFreeFlight(const Vec3& o, const Vec3& dir, float tMax, const Spectrum& throughput,
-                              MediumRng& rng, SpectralMis& mis) const;
+  FreeFlight sampleFreeFlight(const Vec3& o, const Vec3& dir, float tMax, const Spectrum& throughput, MediumRng& rng,
+                              SpectralMis& mis) const;
   // exp(-int_0^tMax sigma_t) along o + t dir: exact for a homogeneous medium, ratio tracking (an
   // unbiased estimate, Novák et al. 2014) for a grid.
   Spectrum transmittance(const Vec3& o, const Vec3& dir, float tMax, MediumRng& rng) const;

@@ -52,15 +52,18 @@ DenseGrid readVdbGrid(const std::string& content, const std::string& gridName, c
     const TemporaryCopy copy(content);
     openvdb::io::File vdb(copy.path().string());
     vdb.open(false);  // read everything now: the copy is removed on return
-    for (auto it = vdb.beginName(); it != vdb.endName(); ++it) names += (names.empty() ? "\"" : ", \"") + it.gridName() + "\"";
+    for (auto it = vdb.beginName(); it != vdb.endName(); ++it)
+      names += (names.empty() ? "\"" : ", \"") + it.gridName() + "\"";
     if (vdb.hasGrid(gridName)) base = vdb.readGrid(gridName);
     vdb.close();
   } catch (const std::exception& e) {
     fail("cannot read \"" + shown + "\" as an OpenVDB file (" + e.what() + ")");
   }
-  if (!base) fail("\"" + shown + "\" has no grid \"" + gridName + "\" (it has " + (names.empty() ? "none" : names) + ")");
+  if (!base)
+    fail("\"" + shown + "\" has no grid \"" + gridName + "\" (it has " + (names.empty() ? "none" : names) + ")");
   const openvdb::FloatGrid::Ptr grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
-  if (!grid) fail("grid \"" + gridName + "\" of \"" + shown + "\" holds " + base->valueType() + ", not float densities");
+  if (!grid)
+    fail("grid \"" + gridName + "\" of \"" + shown + "\" holds " + base->valueType() + ", not float densities");
 
   const openvdb::math::Transform& xf = grid->transform();
   if (!xf.isLinear() || !xf.baseMap()->getAffineMap()->isScaleTranslate())  // scale and translation only

@@ -108,8 +108,8 @@ void addGeometricAovs(const RenderScene& rs, const AovLayout& layout, const Came
   RayCaster::PacketHits hits;
   rs.caster().intersect(packet, RayKind::kCamera, hits);
   for (int k = 0; k < count; ++k)
-    addAovsFrom(rs, layout, rays.ray(k).direction, hits.found[k] ? std::optional<SurfaceHit>(hits.hit(k)) : std::nullopt,
-                firstSample[k], cells[k]);
+    addAovsFrom(rs, layout, rays.ray(k).direction,
+                hits.found[k] ? std::optional<SurfaceHit>(hits.hit(k)) : std::nullopt, firstSample[k], cells[k]);
 }
 
 }  // namespace lensfarm

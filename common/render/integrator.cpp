@@ -21,7 +21,8 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
   const int segments = pathSegmentLimit(rs.settings().maxBounces);
   for (int segment = 0; segment < segments; ++segment) {
     ++stats.rays;
-    const auto hit = rs.caster().intersect(path.origin, path.direction, segment == 0 ? RayKind::kCamera : RayKind::kScattered);
+    const auto hit =
+        rs.caster().intersect(path.origin, path.direction, segment == 0 ? RayKind::kCamera : RayKind::kScattered);
     if (!hit) {
       if (rs.hasEscapeLights()) addEscapedLight<kNee>(rs, path);
       break;
@@ -31,8 +32,7 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
       path.lightTraced = stillLightTraced(rs, segment, hit->material, path.lightTraced, path.lastSpecular);
     if (outcome.castShadow) {
       ++stats.rays;
-      if (!rs.caster().occluded(shadow.from, shadow.direction, shadow.tFar))
-        path.radiance += shadow.contribution;
+      if (!rs.caster().occluded(shadow.from, shadow.direction, shadow.tFar)) path.radiance += shadow.contribution;
     }
     if (!outcome.continues) break;
     if (segment + 1 == segments) ++stats.truncated;
@@ -138,7 +138,8 @@ LENSFARM_LANE_LOOPS void prepareShadowRays(const RayCaster::PacketHits& __restri
     const Spectrum radiance(ls.rr[k], ls.rg[k], ls.rb[k]);
     const Vec3 wi = glm::normalize(lightPoint - p);
     const Spectrum f = lambertianEvalCos(Spectrum(v.ar[k], v.ag[k], v.ab[k]), n, wi);
-    const Vec3 from = spawnOrigin(p, Vec3(h.v0x[k], h.v0y[k], h.v0z[k]), Vec3(h.nx[k], h.ny[k], h.nz[k]), h.margin[k], wi);
+    const Vec3 from =
+        spawnOrigin(p, Vec3(h.v0x[k], h.v0y[k], h.v0z[k]), Vec3(h.nx[k], h.ny[k], h.nz[k]), h.margin[k], wi);
     const Vec3 to = spawnOrigin(lightPoint, Vec3(ls.v0x[k], ls.v0y[k], ls.v0z[k]), Vec3(ls.nx[k], ls.ny[k], ls.nz[k]),
                                 ls.margin[k], -wi);
     const float weight = v.misOn[k] != 0.0f ? powerHeuristic(ls.pdf[k], lambertianPdf(n, wi)) : 1.0f;
@@ -175,10 +176,10 @@ struct VertexLanes {
 };
 struct ClassifyRules {
   int maxBounces;
-  uint32_t generalMaterials;   // ~0u where materials beyond Lambertian are compiled in (kGeneral)
-  uint32_t nee;                // ~0u with next-event estimation
-  uint32_t mis;                // ~0u with NEE + MIS
-  uint32_t lastBounceEnds;     // ~0u with NEE where lastBounceCanEndPaths (isLastBounce)
+  uint32_t generalMaterials;  // ~0u where materials beyond Lambertian are compiled in (kGeneral)
+  uint32_t nee;               // ~0u with next-event estimation
+  uint32_t mis;               // ~0u with NEE + MIS
+  uint32_t lastBounceEnds;    // ~0u with NEE where lastBounceCanEndPaths (isLastBounce)
 };
 
 LENSFARM_LANE_LOOPS void classifyVertices(const RayCaster::PacketHits& __restrict h, const PathLanes& __restrict path,
@@ -226,8 +227,10 @@ LENSFARM_LANE_LOOPS void takeScatteredRays(const DiffuseLanes& __restrict v, con
                                            RayPacket& __restrict rays) {
   for (int k = 0; k < kPacketWidth; ++k) {
     const bool on = goes[k] != 0;
-    rays.ox[k] = on ? v.ox[k] : rays.ox[k], rays.oy[k] = on ? v.oy[k] : rays.oy[k], rays.oz[k] = on ? v.oz[k] : rays.oz[k];
-    rays.dx[k] = on ? v.dx[k] : rays.dx[k], rays.dy[k] = on ? v.dy[k] : rays.dy[k], rays.dz[k] = on ? v.dz[k] : rays.dz[k];
+    rays.ox[k] = on ? v.ox[k] : rays.ox[k], rays.oy[k] = on ? v.oy[k] : rays.oy[k],
+    rays.oz[k] = on ? v.oz[k] : rays.oz[k];
+    rays.dx[k] = on ? v.dx[k] : rays.dx[k], rays.dy[k] = on ? v.dy[k] : rays.dy[k],
+    rays.dz[k] = on ? v.dz[k] : rays.dz[k];
   }
 }
 
@@ -244,7 +247,8 @@ LENSFARM_LANE_LOOPS void addUnblocked(const DiffuseLanes& __restrict v, const in
 }  // namespace
 
 template <bool kNee, bool kGeneral>
-void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&radiance)[kPacketWidth], PathStats& stats) {
+void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&radiance)[kPacketWidth],
+                 PathStats& stats) {
   const RenderSettings& settings = rs.settings();
   const bool mis = settings.integrator == IntegratorKind::kNeeMis;
   PathLanes paths;
@@ -306,7 +310,8 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
       PathState path = paths.get(k, rays);
       const SurfaceHit hit = hits.hit(k);
       if (kGeneral && material.reflects() && (!material.isLambertian() || rs.shaded(hits.material[k]))) {
-        const VertexOutcome outcome = shadeVertex<kNee, kGeneral>(rs, packet.rng[k], segment, hit, path, generalShadows[k]);
+        const VertexOutcome outcome =
+            shadeVertex<kNee, kGeneral>(rs, packet.rng[k], segment, hit, path, generalShadows[k]);
         generalShadow[k] = outcome.castShadow;
         if (outcome.continues) {
           rays.set(k, path.origin, path.direction);
@@ -350,7 +355,8 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
         for (int k = 0; k < kPacketWidth; ++k) {
           if (!goes[k]) continue;
           Spectrum throughput(paths.tr[k], paths.tg[k], paths.tb[k]);
-          if (!survivesRoulette(settings, packet.rng[k], segmentBase, paths.bounces[k], paths.etaScale[k], throughput)) {
+          if (!survivesRoulette(settings, packet.rng[k], segmentBase, paths.bounces[k], paths.etaScale[k],
+                                throughput)) {
             goes[k] = 0;
             continue;
           }
@@ -395,9 +401,10 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
   }
 }
 
-#define LENSFARM_INSTANTIATE(NEE, SPECULAR)                                                                        \
+#define LENSFARM_INSTANTIATE(NEE, SPECULAR)                                                                          \
   template Spectrum tracePath<NEE, SPECULAR>(const RenderScene&, const CameraRay&, const SampleStream&, PathStats&); \
-  template void tracePacket<NEE, SPECULAR>(const RenderScene&, const PathPacket&, Spectrum(&)[kPacketWidth], PathStats&);
+  template void tracePacket<NEE, SPECULAR>(const RenderScene&, const PathPacket&, Spectrum(&)[kPacketWidth],         \
+                                           PathStats&);
 LENSFARM_INSTANTIATE(false, false)
 LENSFARM_INSTANTIATE(false, true)
 LENSFARM_INSTANTIATE(true, false)

@@ -22,8 +22,7 @@ SceneSphere sceneSphereOf(const RayCaster& caster) {
   return SceneSphere{Vec3(0.5 * (lo + hi)), float(0.5 * glm::length(hi - lo) * (1.0 + 1e-6))};
 }
 
-LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const std::vector<bool>& useful,
-                           bool deltaOnly)
+LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const std::vector<bool>& useful, bool deltaOnly)
     : scene_(scene), caster_(caster), sphere_(sceneSphereOf(caster)) {
   const auto& triangles = caster.triangles();
   lightOfTriangle_.assign(triangles.size(), -1);
@@ -138,19 +137,23 @@ class SelectView {
   }
 
  private:
-  float at(uint32_t j, size_t offset) const { return reinterpret_cast<const float*>(&lights_[j])[offset / sizeof(float)]; }
+  float at(uint32_t j, size_t offset) const {
+    return reinterpret_cast<const float*>(&lights_[j])[offset / sizeof(float)];
+  }
   Light lights_[kLights];
 };
 
 // The packet form's lane loops: lane k samples a point on light i, read from `lights` (a
 // GatherView or a SelectView).
 template <typename Lights>
-[[gnu::always_inline]] inline void sampleLane(Lights lights, uint32_t i, int k, LightSampleLanes& l, float* dist2, float* cosLight) {
+[[gnu::always_inline]] inline void sampleLane(Lights lights, uint32_t i, int k, LightSampleLanes& l, float* dist2,
+                                              float* cosLight) {
   const Vec3 n = lights.vec3(i, offsetof(Light, n)), v0 = lights.vec3(i, offsetof(Light, v0));
-  const TrianglePoint s = sampleTrianglePoint(
-      lights.vec3(i, offsetof(Light, v0)), lights.vec3(i, offsetof(Light, v1)), lights.vec3(i, offsetof(Light, v2)), n,
-      Vec3(l.refx[k], l.refy[k], l.refz[k]), Vec2(l.u0[k], l.u1[k]), lights.f(i, offsetof(Light, pmf)),
-      lights.f(i, offsetof(Light, area)), lights.vec3(i, offsetof(Light, emission)), lights.f(i, offsetof(Light, twoSided)));
+  const TrianglePoint s =
+      sampleTrianglePoint(lights.vec3(i, offsetof(Light, v0)), lights.vec3(i, offsetof(Light, v1)),
+                          lights.vec3(i, offsetof(Light, v2)), n, Vec3(l.refx[k], l.refy[k], l.refz[k]),
+                          Vec2(l.u0[k], l.u1[k]), lights.f(i, offsetof(Light, pmf)), lights.f(i, offsetof(Light, area)),
+                          lights.vec3(i, offsetof(Light, emission)), lights.f(i, offsetof(Light, twoSided)));
   l.px[k] = s.p.x, l.py[k] = s.p.y, l.pz[k] = s.p.z;
   l.nx[k] = n.x, l.ny[k] = n.y, l.nz[k] = n.z;
   const Vec3 anchor = lights.f(i, offsetof(Light, anchored)) > 0.0f ? s.p : v0;  // Light::planeAt
@@ -164,8 +167,9 @@ template <typename Lights>
 // Up to SelectView::kLights lights: each lane chooses its light and reads it with selects.
 // Without branches, so the loops vectorise; lanes not asked for take light 0.
 LENSFARM_LANE_LOOPS void sampleSelectedLanes(SelectView lights, uint32_t lastLight,
-                                             const float (&cdf)[LightSampler::kFewLights], LightSampleLanes& __restrict l,
-                                             float* __restrict dist2, float* __restrict cosLight) {
+                                             const float (&cdf)[LightSampler::kFewLights],
+                                             LightSampleLanes& __restrict l, float* __restrict dist2,
+                                             float* __restrict cosLight) {
   float fewCdf[LightSampler::kFewLights];  // a copy nothing else can write (else GCC checks aliasing)
   std::copy(std::begin(cdf), std::end(cdf), fewCdf);
   for (int k = 0; k < kPacketWidth; ++k) {
@@ -261,8 +265,8 @@ void LightSampler::sampleMixedLanes(LightSampleLanes& lanes) const {
   }
   for (int k = 0; k < kPacketWidth; ++k) {
     if (other[k] == SIZE_MAX) continue;
-    const std::optional<LightSample> s = sampleOther(other[k], Vec3(lanes.refx[k], lanes.refy[k], lanes.refz[k]),
-                                                     Vec2(lanes.u0[k], lanes.u1[k]));
+    const std::optional<LightSample> s =
+        sampleOther(other[k], Vec3(lanes.refx[k], lanes.refy[k], lanes.refz[k]), Vec2(lanes.u0[k], lanes.u1[k]));
     if (!s) {
       lanes.found[k] = 0;
       continue;

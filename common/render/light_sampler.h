@@ -98,7 +98,7 @@ class LightSampler {
     Vec3 v0, v1, v2, n;  // the triangle (RayCaster::Triangle) and its geometric normal
     float margin;        // with v0 and n, the triangle's SpawnPlane (math/ray_offset.h)
     Spectrum emission;
-    float twoSided;      // 1: emits from both faces; 0: from the front face only
+    float twoSided;  // 1: emits from both faces; 0: from the front face only
     // 1: a precise triangle (render/precise_triangles.h), whose spawn plane is anchored at the
     // point sampled on it, as the caster anchors its hits; 0: at v0.
     float anchored;
@@ -122,9 +122,9 @@ class LightSampler {
     const LightSource* light;
     float pmf;
   };
-  std::vector<Other> others_;  // the other lights; in the cdf after the triangles
-  std::vector<float> cdf_;            // cumulative pmf, cdf_.back() == 1
-  float fewCdf_[kFewLights];  // cdf_ padded with 2 (above any uChoice), up to kFewLights lights
+  std::vector<Other> others_;             // the other lights; in the cdf after the triangles
+  std::vector<float> cdf_;                // cumulative pmf, cdf_.back() == 1
+  float fewCdf_[kFewLights];              // cdf_ padded with 2 (above any uChoice), up to kFewLights lights
   std::vector<int32_t> lightOfTriangle_;  // per RayCaster triangle, -1 if not emitting
   SceneSphere sphere_;
   std::vector<EscapeLight> escapeLights_;

@@ -73,13 +73,12 @@ inline constexpr uint64_t kChunkParticles = 4096;
 
 // The number of light paths a unit of `samples` samples per pixel traces
 // (RenderSettings:: lightTracingRatio per camera path).
-uint64_t lightPathsOf(const RenderScene &rs, uint32_t samples);
+uint64_t lightPathsOf(const RenderScene& rs, uint32_t samples);
 
 // Traces the unit's light paths and adds their contributions to `out` (a
 // whole-frame buffer holding the unit's camera paths). Adds the rays cast to
 // `stats`. False if `cancel` was raised.
-bool traceLightPaths(const RenderScene &rs, const WorkUnit &unit,
-                     SensorBuffer &out, PathStats &stats,
-                     const std::atomic<bool> *cancel);
+bool traceLightPaths(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
+                     const std::atomic<bool>* cancel);
 
-} // namespace lensfarm
+}  // namespace lensfarm

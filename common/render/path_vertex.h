@@ -22,10 +22,10 @@ struct PathState {
   Spectrum radiance{0.0f};
   Spectrum throughput{1.0f};
   Vec3 origin{0.0f}, direction{0.0f};  // the next ray to cast
-  int bounces = 0;           // counted bounces so far (toward B)
-  bool lastSpecular = true;  // the camera ray behaves like a specular one: no MIS for it
-  float lastPdf = 0.0f;      // solid-angle pdf of the last scattered direction
-  float etaScale = 1.0f;     // product of eta^2 over the refractions so far (Russian roulette)
+  int bounces = 0;                     // counted bounces so far (toward B)
+  bool lastSpecular = true;            // the camera ray behaves like a specular one: no MIS for it
+  float lastPdf = 0.0f;                // solid-angle pdf of the last scattered direction
+  float etaScale = 1.0f;               // product of eta^2 over the refractions so far (Russian roulette)
   bool hitLight = false;
   // The path so far is one the light tracer also samples, once it reaches a light through a delta
   // vertex (render/light_tracer.h): its first vertex scattered by a non-delta lobe and every vertex
@@ -154,8 +154,8 @@ inline bool survivesRoulette(const RenderSettings& settings, const SampleStream&
   if (settings.roulette == RouletteRule::kOff || bounces <= settings.rouletteMinBounces) return true;
   if (settings.roulette == RouletteRule::kThroughput && bounces >= settings.maxBounces) return true;
   const float largest = std::max({throughput.r, throughput.g, throughput.b});
-  const float q = settings.roulette == RouletteRule::kMax ? std::min(1.0f, largest)
-                                                          : std::min(1.0f, std::sqrt(largest * etaScale));
+  const float q =
+      settings.roulette == RouletteRule::kMax ? std::min(1.0f, largest) : std::min(1.0f, std::sqrt(largest * etaScale));
   if (q >= 1.0f) return true;
   if (rng.get1D(base + dims::kRoulette) >= q) return false;
   throughput /= q;
@@ -223,7 +223,9 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
     if (shaded && !scattersTo(wi, ng, n)) return Spectrum(0.0f);
     return local ? local->evalCos(n, wo, wi, front) : material.evalCos(n, wo, wi, front);
   };
-  const auto pdf = [&](const Vec3& wi) { return local ? local->pdf(n, wo, wi, front) : material.pdf(n, wo, wi, front); };
+  const auto pdf = [&](const Vec3& wi) {
+    return local ? local->pdf(n, wo, wi, front) : material.pdf(n, wo, wi, front);
+  };
 
   // A thin wall: first whether the path crosses it straight, with the model's probability q
   // (Bsdf::straightProbability), as a null event before any bounce is counted; otherwise it is a
@@ -253,7 +255,8 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
 
   // Next-event estimation: one shadow ray to a point on a light.
   if (nee && !specular) {
-    const auto ls = rs.lights().sample(hit.p, rng.get1D(base + dims::kLightChoice), rng.get2D(base + dims::kLightPoint));
+    const auto ls =
+        rs.lights().sample(hit.p, rng.get1D(base + dims::kLightChoice), rng.get2D(base + dims::kLightPoint));
     if (ls && !isBlack(ls->radiance)) {
       const Vec3 toLight = ls->p - hit.p;
       const Vec3 wi = glm::normalize(toLight);
@@ -275,7 +278,7 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
   // The lobe choice is drawn only where a model has lobes to choose (not Lambertian, not mirrors).
   const float uLobe = material.choosesLobe() || local ? rng.get1D(base + dims::kMaterialLobe) : 0.0f;
   const Vec2 uDirection = rng.get2D(base + dims::kMaterial);
-  const auto s = local                                 ? local->sample(n, wo, uLobe, uDirection, front)
+  const auto s = local                                  ? local->sample(n, wo, uLobe, uDirection, front)
                  : kGeneral && !material.isLambertian() ? material.sample(n, wo, uLobe, uDirection, front)
                                                         : material.sampleLambertian(n, uDirection);
   if (!s || (shaded && !scattersTo(s->wi, ng, n))) return outcome;

@@ -89,9 +89,9 @@ inline void loadPacket(const int (&valid)[kPacketWidth], const RayPacket& __rest
 }
 
 // The far end of an intersection ray: none.
-alignas(64) constexpr float kNoFarEnd[kPacketWidth] = {
-    kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity,
-    kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity};
+alignas(64) constexpr float kNoFarEnd[kPacketWidth] = {kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity,
+                                                       kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity,
+                                                       kInfinity, kInfinity, kInfinity, kInfinity};
 
 // surfaceHit for every lane of a packet, in one loop the compiler vectorises with gathers
 // (math/lanes.h); the same operations as surfaceHit, so the same bits. Lanes without a hit
@@ -107,8 +107,8 @@ LENSFARM_LANE_LOOPS void decodeHits(const uint32_t* __restrict geomOffset, Gathe
   const uint32_t* __restrict geomID = rh.hit.geomID;
   const uint32_t* __restrict primID = rh.hit.primID;
   const uint32_t* __restrict instID = rh.hit.instID[0];
-  const float *__restrict us = rh.hit.u, *__restrict vs = rh.hit.v, *__restrict tfar = rh.ray.tfar;
-  const float *__restrict dx = rh.ray.dir_x, *__restrict dy = rh.ray.dir_y, *__restrict dz = rh.ray.dir_z;
+  const float* __restrict us = rh.hit.u, * __restrict vs = rh.hit.v, * __restrict tfar = rh.ray.tfar;
+  const float* __restrict dx = rh.ray.dir_x, * __restrict dy = rh.ray.dir_y, * __restrict dz = rh.ray.dir_z;
   // Without branches, so the loop vectorises: a lane without a hit keeps no bit of Embree's output.
   auto keep = [](uint32_t mask, float x) { return std::bit_cast<float>(std::bit_cast<uint32_t>(x) & mask); };
   for (int k = 0; k < kPacketWidth; ++k) {
@@ -344,7 +344,8 @@ void RayCaster::addTriangles(const TriangleMesh& mesh, std::vector<Triangle>& in
     if (triangleNormal(t.v0, t.v1, t.v2)) {
       const SpawnPlane plane = spawnPlaneOf(t.v0, t.v1, t.v2);
       t.n = plane.n, t.margin = plane.margin;
-      if (nextPrecise != precise.end() && *nextPrecise == tri) t.margin = preciseMargin(t.v0, t.v1, t.v2), ++nextPrecise;
+      if (nextPrecise != precise.end() && *nextPrecise == tri)
+        t.margin = preciseMargin(t.v0, t.v1, t.v2), ++nextPrecise;
     } else {
       // The loader drops zero-area triangles; one built in code keeps finite values (Embree never hits it).
       t.n = Vec3(0.0f, 0.0f, 1.0f), t.margin = 0.0f;
@@ -409,16 +410,18 @@ std::optional<SurfaceHit> RayCaster::intersect(const Vec3& o, const Vec3& d, Ray
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
   }
 
-  SurfaceHit hit = rh.hit.instID[0] == RTC_INVALID_GEOMETRY_ID
-                       ? surfaceHit(rh.hit.geomID, rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar,
-                                    Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z))
-                       : instanceHit(instanceOfGeometry_[rh.hit.instID[0]], rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar);
+  SurfaceHit hit =
+      rh.hit.instID[0] == RTC_INVALID_GEOMETRY_ID
+          ? surfaceHit(rh.hit.geomID, rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar,
+                       Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z))
+          : instanceHit(instanceOfGeometry_[rh.hit.instID[0]], rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar);
   if (nearPlane(d, hit.t, hit.n, hit.margin) && startsInPlane(o, d, kind, hit.v0, hit.n, hit.margin))
     return leavePlane(o, d, kind, hit);
   return hit;
 }
 
-std::optional<SurfaceHit> RayCaster::leavePlane(const Vec3& o, const Vec3& d, RayKind kind, const SurfaceHit& hit) const {
+std::optional<SurfaceHit> RayCaster::leavePlane(const Vec3& o, const Vec3& d, RayKind kind,
+                                                const SurfaceHit& hit) const {
   // From just off the plane on the side d points to (math/ray_offset.h); the distance keeps
   // counting from o. A ray can start in several coplanar surfaces: each is left in turn.
   const Vec3 from = spawnOrigin(o, hit.plane(), d);
@@ -491,7 +494,6 @@ RayCaster::HitMesh RayCaster::hitMesh(const SurfaceHit& hit) const {
   return {&source_.meshes[mesh], hit.triangle - meshFirst_[mesh], nullptr};
 }
 
-
 bool RayCaster::occluded(const Vec3& o, const Vec3& d, float tFar, RayKind kind) const {
   if (recorder_) recorder_->record({o, d, tFar, 0u});
   RTCIntersectContext context;
@@ -511,7 +513,6 @@ bool RayCaster::occluded(const Vec3& o, const Vec3& d, float tFar, RayKind kind)
   rtcOccluded1(scene_, &context, &ray);
   return ray.tfar < 0.0f;  // Embree sets tfar = -inf on a hit
 }
-
 
 void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) const {
   if (recorder_) recorder_->recordPacket(rays, unsigned(kind));

@@ -40,7 +40,6 @@ enum class RayKind : unsigned { kCamera = 1u, kScattered = 2u };
 
 inline constexpr uint32_t kNoInstance = UINT32_MAX;
 
-
 // Up to kPacketWidth rays, structure of arrays (Embree's own packet layout). A lane is in use when
 // valid[lane] is -1 and unused when it is 0 (Embree's convention). Every array is 64 bytes, so
 // each starts on a 64-byte boundary, as Embree's packet calls require.
@@ -82,15 +81,15 @@ class RayRecorder {
 };
 
 struct SurfaceHit {
-  float t;           // distance along the (unit) ray direction
-  Vec3 p;            // hit point, interpolated from the vertices
-  Vec3 n;            // geometric unit normal, front side: cross(v1 - v0, v2 - v0)
-  Vec3 v0;           // the rest of the triangle's SpawnPlane (math/ray_offset.h)
+  float t;  // distance along the (unit) ray direction
+  Vec3 p;   // hit point, interpolated from the vertices
+  Vec3 n;   // geometric unit normal, front side: cross(v1 - v0, v2 - v0)
+  Vec3 v0;  // the rest of the triangle's SpawnPlane (math/ray_offset.h)
   float margin;
   uint32_t material;
-  uint32_t triangle; // index into RayCaster::triangles(), or for an instance its prototype's triangle
-  float b1, b2;      // barycentrics of p: p = (1 - b1 - b2) v0 + b1 v1 + b2 v2 (Embree's u, v)
-  uint32_t instance; // index into Scene::instances, or kNoInstance
+  uint32_t triangle;  // index into RayCaster::triangles(), or for an instance its prototype's triangle
+  float b1, b2;       // barycentrics of p: p = (1 - b1 - b2) v0 + b1 v1 + b2 v2 (Embree's u, v)
+  uint32_t instance;  // index into Scene::instances, or kNoInstance
 
   SpawnPlane plane() const { return SpawnPlane{v0, n, margin}; }
 };
@@ -194,8 +193,8 @@ class RayCaster {
   const Scene& source_;
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
-  std::vector<Triangle> triangles_;       // all meshes, concatenated
-  std::vector<uint32_t> meshFirst_;       // first triangle of each mesh, in triangles_
+  std::vector<Triangle> triangles_;  // all meshes, concatenated
+  std::vector<uint32_t> meshFirst_;  // first triangle of each mesh, in triangles_
   // Per top-level Embree geometry: its mesh's first triangle (0 for an instance), and whether it
   // is a mesh's precise triangles (render/precise_triangles.h), whose hits carry their point.
   std::vector<uint32_t> geomOffset_;
@@ -245,7 +244,8 @@ class RayCaster {
   // `precise`: the triangles Embree must not test (the precise geometry does), ascending.
   RTCGeometry meshGeometry(const Scene& scene, const TriangleMesh& mesh, float scale,
                            const std::vector<uint32_t>& precise = {});
-  void addTriangles(const TriangleMesh& mesh, std::vector<Triangle>& into, const std::vector<uint32_t>& precise = {}) const;
+  void addTriangles(const TriangleMesh& mesh, std::vector<Triangle>& into,
+                    const std::vector<uint32_t>& precise = {}) const;
   // The hit after `hit`, for a ray that starts in hit's plane (the coplanar rule).
   std::optional<SurfaceHit> leavePlane(const Vec3& o, const Vec3& d, RayKind kind, const SurfaceHit& hit) const;
 };

@@ -23,7 +23,8 @@ class RenderScene {
       : scene_(scene),
         camera_(scene.camera()),
         realCamera_(scene.realLensCamera()),
-        effects_(general ? EffectSet::all(scene) : analyzeEffects(scene, camera_, realCamera_ ? &*realCamera_ : nullptr)),
+        effects_(general ? EffectSet::all(scene)
+                         : analyzeEffects(scene, camera_, realCamera_ ? &*realCamera_ : nullptr)),
         mirrorsReachable_(general ? analyzeEffects(scene, camera_).specular : effects_.specular),
         lightTracing_(general ? analyzeEffects(scene, camera_, realCamera_ ? &*realCamera_ : nullptr).lightTracing
                               : effects_.lightTracing),

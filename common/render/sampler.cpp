@@ -3,7 +3,8 @@
 namespace lensfarm {
 
 namespace {
-LENSFARM_LANE_LOOPS void independentValues(const uint64_t* __restrict keys, uint32_t dimension, float* __restrict values) {
+LENSFARM_LANE_LOOPS void independentValues(const uint64_t* __restrict keys, uint32_t dimension,
+                                           float* __restrict values) {
   for (int k = 0; k < kPacketWidth; ++k) values[k] = SampleStream::independentValue(keys[k], dimension);
 }
 
@@ -28,7 +29,8 @@ void SampleStream::lanes1D(const LaneKeys& keys, uint32_t dimension, float (&val
     sobolFirstValues(keys.pixelKey, keys.index, dimension, values);
 }
 
-void SampleStream::lanes2D(const LaneKeys& keys, uint32_t dimension, float (&x)[kPacketWidth], float (&y)[kPacketWidth]) {
+void SampleStream::lanes2D(const LaneKeys& keys, uint32_t dimension, float (&x)[kPacketWidth],
+                           float (&y)[kPacketWidth]) {
   if (dimension >= kStratifiedDimensions) {
     independentValues(keys.key, dimension, x);
     independentValues(keys.key, dimension + 1, y);

@@ -38,11 +38,11 @@ inline constexpr uint32_t kSensor = 0;  // 2D: point in the sensor cell
 inline constexpr uint32_t kLens = 2;    // 2D: point on the lens disk
 inline constexpr uint32_t kFirstSegment = 4;
 inline constexpr uint32_t kPerSegment = 8;
-inline constexpr uint32_t kLightPoint = 0;     // 2D, within a segment block
-inline constexpr uint32_t kMaterial = 2;       // 2D
-inline constexpr uint32_t kLightChoice = 4;    // 1D
-inline constexpr uint32_t kRoulette = 5;       // 1D: Russian roulette
-inline constexpr uint32_t kMaterialLobe = 6;   // 1D: a material's choice of lobe (material/bsdf.h)
+inline constexpr uint32_t kLightPoint = 0;    // 2D, within a segment block
+inline constexpr uint32_t kMaterial = 2;      // 2D
+inline constexpr uint32_t kLightChoice = 4;   // 1D
+inline constexpr uint32_t kRoulette = 5;      // 1D: Russian roulette
+inline constexpr uint32_t kMaterialLobe = 6;  // 1D: a material's choice of lobe (material/bsdf.h)
 inline constexpr uint32_t segment(uint32_t s) { return kFirstSegment + s * kPerSegment; }
 // A light path's (render/light_tracer.h; its own streams, keyed by unit and particle): vertex v
 // (0 on the light) owns segment(v). On the light: kLightChoice picks the light, kLightPoint the
@@ -112,8 +112,9 @@ class SampleStream {
       const uint64_t first = block * setup.samplesPerUnit;
       local_ = uint32_t(sampleIndex - first);
       // (Adaptive units trace past the job's samples per pixel, in whole patterns.)
-      blockSize_ = uint32_t(first >= setup.samplesPerPixel ? setup.samplesPerUnit
-                                                           : std::min<uint64_t>(setup.samplesPerUnit, setup.samplesPerPixel - first));
+      blockSize_ = uint32_t(first >= setup.samplesPerPixel
+                                ? setup.samplesPerUnit
+                                : std::min<uint64_t>(setup.samplesPerUnit, setup.samplesPerPixel - first));
       pixelKey_ = mix(pixelKey_ ^ (block * 0xd6e8feb86659fd93ull));
     }
   }
@@ -214,11 +215,14 @@ class SampleStream {
   static Vec2 sobolPair(uint64_t pixelKey, uint32_t index, uint32_t dimension) {
     const uint32_t seed = dimensionSeedOf(pixelKey, dimension);
     const uint32_t i = owenScramble(index, seed);
-    return Vec2(sobolDimension0(i, seed), toFloat(reverseBits(laineKarras(reversedSobolDimension1(i), seed * 0x02e5be93u + 3u))));
+    return Vec2(sobolDimension0(i, seed),
+                toFloat(reverseBits(laineKarras(reversedSobolDimension1(i), seed * 0x02e5be93u + 3u))));
   }
   // The first coordinate of a pair for the scrambled index i: Sobol's first dimension is the
   // index bit-reversed, so its own scrambling works on i itself.
-  static float sobolDimension0(uint32_t i, uint32_t seed) { return toFloat(reverseBits(laineKarras(i, seed * 0x68bc21ebu + 1u))); }
+  static float sobolDimension0(uint32_t i, uint32_t seed) {
+    return toFloat(reverseBits(laineKarras(i, seed * 0x68bc21ebu + 1u)));
+  }
 
   static uint32_t reverseBits(uint32_t x) {
     x = (x << 16) | (x >> 16);
@@ -261,7 +265,8 @@ class SampleStream {
   static float independentValue(uint64_t key, uint32_t dimension) {
     // The top 24 bits, converted from a 32-bit integer (exact either way; vector units convert
     // 32-bit integers, not 64-bit ones).
-    return float(int32_t(mix(key ^ (uint64_t(dimension) * 0xd1b54a32d192ed03ull + 0x8cb92ba72f3d8dd7ull)) >> 40)) * 0x1.0p-24f;
+    return float(int32_t(mix(key ^ (uint64_t(dimension) * 0xd1b54a32d192ed03ull + 0x8cb92ba72f3d8dd7ull)) >> 40)) *
+           0x1.0p-24f;
   }
 
  private:

@@ -19,8 +19,8 @@ Vec3 interpolatedDirection(const RayCaster::HitMesh& at, const std::vector<Attri
   const TriangleMesh& mesh = *at.mesh;
   if (!at.instance) return Vec3(mesh.interpolate(attribute, at.index, b1, b2));
   const uint32_t* idx = &mesh.indices[3 * size_t(at.index)];
-  return (1.0f - b1 - b2) * unitOrZero(place(Vec3(attribute[idx[0]]))) + b1 * unitOrZero(place(Vec3(attribute[idx[1]]))) +
-         b2 * unitOrZero(place(Vec3(attribute[idx[2]])));
+  return (1.0f - b1 - b2) * unitOrZero(place(Vec3(attribute[idx[0]]))) +
+         b1 * unitOrZero(place(Vec3(attribute[idx[1]]))) + b2 * unitOrZero(place(Vec3(attribute[idx[2]])));
 }
 
 // |a x b| of two 2D vectors (twice a texture-space triangle's area).
@@ -34,7 +34,8 @@ Vec3 applyNormalMap(const MaterialTextures& t, const Vec4& texel, const RayCaste
   Vec3 tangent, bitangent;
   if (!mesh.tangents.empty()) {
     tangent = interpolatedDirection(at, mesh.tangents, b1, b2, [&](const Vec3& v) { return at.instance->vector(v); });
-    const bool flipped = (mesh.tangents[mesh.indices[3 * size_t(at.index)]].w < 0.0f) != (at.instance && at.instance->mirrors);
+    const bool flipped =
+        (mesh.tangents[mesh.indices[3 * size_t(at.index)]].w < 0.0f) != (at.instance && at.instance->mirrors);
     bitangent = (flipped ? -1.0f : 1.0f) * glm::cross(n, tangent);
   } else {
     // dp/du and dp/dv of the triangle (pbrt-v4 §6.5.3), solved from its edges.

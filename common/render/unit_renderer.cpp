@@ -84,173 +84,178 @@ bool renderUnitWith(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& o
   const unsigned callerMode = _mm_getcsr();  // the calling thread runs chunks too (below)
 #endif
 
-  tbb::parallel_for(tbb::blocked_range<int>(region.y, region.y + region.height, 1), [&](const tbb::blocked_range<int>& rows) {
+  tbb::parallel_for(
+      tbb::blocked_range<int>(region.y, region.y + region.height, 1), [&](const tbb::blocked_range<int>& rows) {
 #if defined(__SSE__)
-    // Embree's recommendation: denormals only slow traversal down. Every worker sets the same
-    // mode, so results stay identical across threads.
-    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
-    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+        // Embree's recommendation: denormals only slow traversal down. Every worker sets the same
+        // mode, so results stay identical across threads.
+        _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+        _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
 #endif
-    PathStats& local = threadStats.local();
-    PathPacket packet;
-    PathPacket liveLanes;  // a real lens's lanes whose rays got out of the lens
-    Spectrum radiance[kPacketWidth];
-    uint64_t pixelOf[kPacketWidth];  // the frame's pixel index (keys the random numbers)
-    uint64_t cellOf[kPacketWidth];   // the cell of `out`
-    int column[kPacketWidth];
-    alignas(64) float u0[kPacketWidth], u1[kPacketWidth], lens0[kPacketWidth], lens1[kPacketWidth];
-    uint64_t sampleOf[kPacketWidth];  // each lane's sample index
-    for (int j = rows.begin(); j != rows.end(); ++j) {
-      if (cancel && cancel->load(std::memory_order_relaxed)) {
-        cancelled = true;
-        return;
-      }
-      // The row's samples in pixel-major, sample-minor order, cut into packets of kPacketWidth:
-      // with units of 16 samples a packet is one pixel's samples; smaller units put neighbouring
-      // pixels together. Packets never span rows, so they are the same for any thread count.
-      // An adaptive unit gives each block its own range (film/sample_map.h); the others, every
-      // cell the unit's.
-      uint64_t rowSamples = uint64_t(region.width) * unit.sampleCount;
-      if (unit.samples) {
-        rowSamples = 0;
-        for (int i = region.x; i < region.x + region.width; ++i) rowSamples += unit.countAt(i, j);
-      }
-      int i = region.x;            // the next lane's pixel ...
-      uint32_t sampleInPixel = 0;  // ... and its sample within the unit
-      uint32_t pixelCount = unit.countAt(i, j);
-      uint64_t pixelFirst = unit.firstAt(i, j);
-      const uint64_t rowCell = uint64_t(j - region.y) * uint64_t(region.width) - uint64_t(region.x);  // + i: out's cell
-      for (uint64_t first = 0; first < rowSamples; first += kPacketWidth) {
-        packet.count = int(std::min<uint64_t>(kPacketWidth, rowSamples - first));
-        for (int k = 0; k < packet.count; ++k) {
-          while (pixelCount == 0) {  // (adaptive units only: a block with no samples this unit)
-            ++i;
-            pixelCount = unit.countAt(i, j);
-            pixelFirst = unit.firstAt(i, j);
+        PathStats& local = threadStats.local();
+        PathPacket packet;
+        PathPacket liveLanes;  // a real lens's lanes whose rays got out of the lens
+        Spectrum radiance[kPacketWidth];
+        uint64_t pixelOf[kPacketWidth];  // the frame's pixel index (keys the random numbers)
+        uint64_t cellOf[kPacketWidth];   // the cell of `out`
+        int column[kPacketWidth];
+        alignas(64) float u0[kPacketWidth], u1[kPacketWidth], lens0[kPacketWidth], lens1[kPacketWidth];
+        uint64_t sampleOf[kPacketWidth];  // each lane's sample index
+        for (int j = rows.begin(); j != rows.end(); ++j) {
+          if (cancel && cancel->load(std::memory_order_relaxed)) {
+            cancelled = true;
+            return;
           }
-          const uint64_t s = unit.samples ? unit.samples->sampleIndex(pixelFirst + sampleInPixel) : pixelFirst + sampleInPixel;
-          pixelOf[k] = uint64_t(j) * width + uint64_t(i);
-          cellOf[k] = rowCell + uint64_t(i);
-          packet.rng[k] = SampleStream(sampler, pixelOf[k], s);
-          column[k] = i;
-          sampleOf[k] = s;
-          if (++sampleInPixel == pixelCount) {
-            sampleInPixel = 0;
-            if (++i < region.x + region.width) {
-              pixelCount = unit.countAt(i, j);
-              pixelFirst = unit.firstAt(i, j);
-            }
+          // The row's samples in pixel-major, sample-minor order, cut into packets of kPacketWidth:
+          // with units of 16 samples a packet is one pixel's samples; smaller units put neighbouring
+          // pixels together. Packets never span rows, so they are the same for any thread count.
+          // An adaptive unit gives each block its own range (film/sample_map.h); the others, every
+          // cell the unit's.
+          uint64_t rowSamples = uint64_t(region.width) * unit.sampleCount;
+          if (unit.samples) {
+            rowSamples = 0;
+            for (int i = region.x; i < region.x + region.width; ++i) rowSamples += unit.countAt(i, j);
           }
-        }
-        // The points in the sensor cells: one vector loop where the sampler has a lane form.
-        const SampleStream::LaneKeys keys = SampleStream::keysOf(packet.rng);
-        SampleStream::values2D(packet.rng, keys, packet.count, dims::kSensor, u0, u1);
-        // All lanes' camera rays in one vector loop (lanes past the count trace a harmless ray of
-        // cell 0). Without depth of field the lens is a pinhole: no lens sample, the same rays.
-        for (int k = packet.count; k < kPacketWidth; ++k) column[k] = 0, u0[k] = u1[k] = 0.0f;
-        if constexpr (kCamera == kRealLens || kCamera == kRealLensSpectral) {
-          // Through every surface of a real lens, lane by lane: a ray the lens stops is a sample
-          // of zero (a path, not traced); the others are traced as one packet of the live lanes
-          // (each lane's radiance is tracePath's bits whatever the packet) and carry the lens's
-          // irradiance weight (real_lens_camera.h). Through a lens that disperses, each lane is
-          // traced at its own wavelength and counts in its band's channel alone
-          // (camera/spectral_response.h); otherwise at the d line, with no wavelength work.
-          SampleStream::values2D(packet.rng, keys, packet.count, dims::kLens, lens0, lens1);
-          const RealLensCamera& real = *rs.realCamera();
-          PathPacket& live = liveLanes;
-          int laneOf[kPacketWidth];
-          float weight[kPacketWidth];
-          [[maybe_unused]] int channelOf[kPacketWidth];
-          [[maybe_unused]] alignas(64) float uWavelength[kPacketWidth];
-          if constexpr (kCamera == kRealLensSpectral)
-            SampleStream::values1D(packet.rng, keys, packet.count, dims::kWavelength, uWavelength);
-          live.count = 0;
-          for (int k = 0; k < packet.count; ++k) {
-            radiance[k] = Spectrum(0.0f);
-            float w = 0.0f;
-            double nm = LensSystem::kWavelengthD;
-            if constexpr (kCamera == kRealLensSpectral) {
-              const float uPixel = SampleStream(sampler, pixelOf[k], 0).get1D(dims::kWavelength);
-              const spectral::WavelengthSample ws = spectral::sampleWavelength(sampleOf[k], uPixel, uWavelength[k]);
-              nm = ws.nm;
-              channelOf[live.count] = ws.channel;
+          int i = region.x;            // the next lane's pixel ...
+          uint32_t sampleInPixel = 0;  // ... and its sample within the unit
+          uint32_t pixelCount = unit.countAt(i, j);
+          uint64_t pixelFirst = unit.firstAt(i, j);
+          const uint64_t rowCell =
+              uint64_t(j - region.y) * uint64_t(region.width) - uint64_t(region.x);  // + i: out's cell
+          for (uint64_t first = 0; first < rowSamples; first += kPacketWidth) {
+            packet.count = int(std::min<uint64_t>(kPacketWidth, rowSamples - first));
+            for (int k = 0; k < packet.count; ++k) {
+              while (pixelCount == 0) {  // (adaptive units only: a block with no samples this unit)
+                ++i;
+                pixelCount = unit.countAt(i, j);
+                pixelFirst = unit.firstAt(i, j);
+              }
+              const uint64_t s =
+                  unit.samples ? unit.samples->sampleIndex(pixelFirst + sampleInPixel) : pixelFirst + sampleInPixel;
+              pixelOf[k] = uint64_t(j) * width + uint64_t(i);
+              cellOf[k] = rowCell + uint64_t(i);
+              packet.rng[k] = SampleStream(sampler, pixelOf[k], s);
+              column[k] = i;
+              sampleOf[k] = s;
+              if (++sampleInPixel == pixelCount) {
+                sampleInPixel = 0;
+                if (++i < region.x + region.width) {
+                  pixelCount = unit.countAt(i, j);
+                  pixelFirst = unit.firstAt(i, j);
+                }
+              }
             }
-            const std::optional<CameraRay> ray =
-                real.generateRay(column[k], j, Vec2(u0[k], u1[k]), Vec2(lens0[k], lens1[k]), &w, nm);
-            if (!ray) {
-              ++local.paths;
-              continue;
-            }
-            if (aovs.geometric()) addGeometricAovs(rs, aovs, *ray, sampleOf[k] == 0, &out.sums[stride * cellOf[k]]);
-            laneOf[live.count] = k;
-            weight[live.count] = w;
-            live.cameraRays.set(live.count, *ray);
-            live.rng[live.count] = packet.rng[k];
-            ++live.count;
-          }
-          Spectrum traced[kPacketWidth];
-          for (int k = live.count; k < kPacketWidth; ++k) live.cameraRays.set(k, live.cameraRays.ray(0));
-          if (live.count > 0) traceLanes<kNee, kGeneral>(rs, live, traced, local, grouping);
-          for (int k = 0; k < live.count; ++k) {
-            if constexpr (kCamera == kRealLensSpectral) {
-              // The path's spectral radiance at its wavelength is its band's channel; the sensor
-              // reads it in that channel alone. A value not finite or negative is dropped below.
-              const float v = traced[k][channelOf[k]];
-              Spectrum l(0.0f);
-              l[channelOf[k]] = spectral::kBandWeight * v * weight[k];
-              radiance[laneOf[k]] = v >= 0.0f ? l : Spectrum(std::numeric_limits<float>::quiet_NaN());
+            // The points in the sensor cells: one vector loop where the sampler has a lane form.
+            const SampleStream::LaneKeys keys = SampleStream::keysOf(packet.rng);
+            SampleStream::values2D(packet.rng, keys, packet.count, dims::kSensor, u0, u1);
+            // All lanes' camera rays in one vector loop (lanes past the count trace a harmless ray of
+            // cell 0). Without depth of field the lens is a pinhole: no lens sample, the same rays.
+            for (int k = packet.count; k < kPacketWidth; ++k) column[k] = 0, u0[k] = u1[k] = 0.0f;
+            if constexpr (kCamera == kRealLens || kCamera == kRealLensSpectral) {
+              // Through every surface of a real lens, lane by lane: a ray the lens stops is a sample
+              // of zero (a path, not traced); the others are traced as one packet of the live lanes
+              // (each lane's radiance is tracePath's bits whatever the packet) and carry the lens's
+              // irradiance weight (real_lens_camera.h). Through a lens that disperses, each lane is
+              // traced at its own wavelength and counts in its band's channel alone
+              // (camera/spectral_response.h); otherwise at the d line, with no wavelength work.
+              SampleStream::values2D(packet.rng, keys, packet.count, dims::kLens, lens0, lens1);
+              const RealLensCamera& real = *rs.realCamera();
+              PathPacket& live = liveLanes;
+              int laneOf[kPacketWidth];
+              float weight[kPacketWidth];
+              [[maybe_unused]] int channelOf[kPacketWidth];
+              [[maybe_unused]] alignas(64) float uWavelength[kPacketWidth];
+              if constexpr (kCamera == kRealLensSpectral)
+                SampleStream::values1D(packet.rng, keys, packet.count, dims::kWavelength, uWavelength);
+              live.count = 0;
+              for (int k = 0; k < packet.count; ++k) {
+                radiance[k] = Spectrum(0.0f);
+                float w = 0.0f;
+                double nm = LensSystem::kWavelengthD;
+                if constexpr (kCamera == kRealLensSpectral) {
+                  const float uPixel = SampleStream(sampler, pixelOf[k], 0).get1D(dims::kWavelength);
+                  const spectral::WavelengthSample ws = spectral::sampleWavelength(sampleOf[k], uPixel, uWavelength[k]);
+                  nm = ws.nm;
+                  channelOf[live.count] = ws.channel;
+                }
+                const std::optional<CameraRay> ray =
+                    real.generateRay(column[k], j, Vec2(u0[k], u1[k]), Vec2(lens0[k], lens1[k]), &w, nm);
+                if (!ray) {
+                  ++local.paths;
+                  continue;
+                }
+                if (aovs.geometric()) addGeometricAovs(rs, aovs, *ray, sampleOf[k] == 0, &out.sums[stride * cellOf[k]]);
+                laneOf[live.count] = k;
+                weight[live.count] = w;
+                live.cameraRays.set(live.count, *ray);
+                live.rng[live.count] = packet.rng[k];
+                ++live.count;
+              }
+              Spectrum traced[kPacketWidth];
+              for (int k = live.count; k < kPacketWidth; ++k) live.cameraRays.set(k, live.cameraRays.ray(0));
+              if (live.count > 0) traceLanes<kNee, kGeneral>(rs, live, traced, local, grouping);
+              for (int k = 0; k < live.count; ++k) {
+                if constexpr (kCamera == kRealLensSpectral) {
+                  // The path's spectral radiance at its wavelength is its band's channel; the sensor
+                  // reads it in that channel alone. A value not finite or negative is dropped below.
+                  const float v = traced[k][channelOf[k]];
+                  Spectrum l(0.0f);
+                  l[channelOf[k]] = spectral::kBandWeight * v * weight[k];
+                  radiance[laneOf[k]] = v >= 0.0f ? l : Spectrum(std::numeric_limits<float>::quiet_NaN());
+                } else {
+                  radiance[laneOf[k]] = traced[k] * weight[k];
+                }
+              }
             } else {
-              radiance[laneOf[k]] = traced[k] * weight[k];
+              if constexpr (kCamera == kThinLens) {
+                SampleStream::values2D(packet.rng, keys, packet.count, dims::kLens, lens0, lens1);
+                for (int k = packet.count; k < kPacketWidth; ++k) lens0[k] = lens1[k] = 0.0f;
+                camera.generateRays(column, j, u0, u1, lens0, lens1, packet.cameraRays);
+              } else {
+                camera.generatePinholeRays(column, j, u0, u1, packet.cameraRays);
+              }
+              if (aovs.geometric()) {
+                if (grouping == RayGrouping::kPackets) {
+                  bool isFirst[kPacketWidth];
+                  double* cells[kPacketWidth];
+                  for (int k = 0; k < packet.count; ++k)
+                    isFirst[k] = sampleOf[k] == 0, cells[k] = &out.sums[stride * cellOf[k]];
+                  addGeometricAovs(rs, aovs, packet.cameraRays, packet.count, isFirst, cells);
+                } else {
+                  for (int k = 0; k < packet.count; ++k)
+                    addGeometricAovs(rs, aovs, packet.cameraRays.ray(k), sampleOf[k] == 0,
+                                     &out.sums[stride * cellOf[k]]);
+                }
+              }
+              traceLanes<kNee, kGeneral>(rs, packet, radiance, local, grouping);
+              // An aperture image passes its mean transmission (camera/aperture.h, "Exposure"); every
+              // other aperture weighs 1 and skips this.
+              if (apertureWeight != 1.0f)
+                for (int k = 0; k < packet.count; ++k) radiance[k] *= apertureWeight;
+            }
+            // Each cell's sums start at zero and take its samples in sample order: the same double
+            // sums whatever the packets.
+            for (int k = 0; k < packet.count; ++k) {
+              const Spectrum& l = radiance[k];
+              if (!isFinite(l)) {
+                ++local.dropped;  // counted as a sample of zero, never written (docs/architecture.md, "Invariants")
+                continue;
+              }
+              double* cell = &out.sums[stride * cellOf[k]];
+              cell[0] += l.r;
+              cell[1] += l.g;
+              cell[2] += l.b;
+              if (aovs.variance >= 0) {  // sums of squares, for the variance AOV
+                cell[aovs.variance] += double(l.r) * double(l.r);
+                cell[aovs.variance + 1] += double(l.g) * double(l.g);
+                cell[aovs.variance + 2] += double(l.b) * double(l.b);
+              }
             }
           }
-        } else {
-          if constexpr (kCamera == kThinLens) {
-            SampleStream::values2D(packet.rng, keys, packet.count, dims::kLens, lens0, lens1);
-            for (int k = packet.count; k < kPacketWidth; ++k) lens0[k] = lens1[k] = 0.0f;
-            camera.generateRays(column, j, u0, u1, lens0, lens1, packet.cameraRays);
-          } else {
-            camera.generatePinholeRays(column, j, u0, u1, packet.cameraRays);
-          }
-          if (aovs.geometric()) {
-            if (grouping == RayGrouping::kPackets) {
-              bool isFirst[kPacketWidth];
-              double* cells[kPacketWidth];
-              for (int k = 0; k < packet.count; ++k) isFirst[k] = sampleOf[k] == 0, cells[k] = &out.sums[stride * cellOf[k]];
-              addGeometricAovs(rs, aovs, packet.cameraRays, packet.count, isFirst, cells);
-            } else {
-              for (int k = 0; k < packet.count; ++k)
-                addGeometricAovs(rs, aovs, packet.cameraRays.ray(k), sampleOf[k] == 0, &out.sums[stride * cellOf[k]]);
-            }
-          }
-          traceLanes<kNee, kGeneral>(rs, packet, radiance, local, grouping);
-          // An aperture image passes its mean transmission (camera/aperture.h, "Exposure"); every
-          // other aperture weighs 1 and skips this.
-          if (apertureWeight != 1.0f)
-            for (int k = 0; k < packet.count; ++k) radiance[k] *= apertureWeight;
+          for (int x = 0; x < region.width; ++x)
+            out.samples[uint64_t(j - region.y) * uint64_t(region.width) + uint64_t(x)] = unit.countAt(region.x + x, j);
         }
-        // Each cell's sums start at zero and take its samples in sample order: the same double
-        // sums whatever the packets.
-        for (int k = 0; k < packet.count; ++k) {
-          const Spectrum& l = radiance[k];
-          if (!isFinite(l)) {
-            ++local.dropped;  // counted as a sample of zero, never written (docs/architecture.md, "Invariants")
-            continue;
-          }
-          double* cell = &out.sums[stride * cellOf[k]];
-          cell[0] += l.r;
-          cell[1] += l.g;
-          cell[2] += l.b;
-          if (aovs.variance >= 0) {  // sums of squares, for the variance AOV
-            cell[aovs.variance] += double(l.r) * double(l.r);
-            cell[aovs.variance + 1] += double(l.g) * double(l.g);
-            cell[aovs.variance + 2] += double(l.b) * double(l.b);
-          }
-        }
-      }
-      for (int x = 0; x < region.width; ++x)
-        out.samples[uint64_t(j - region.y) * uint64_t(region.width) + uint64_t(x)] = unit.countAt(region.x + x, j);
-    }
-  });
+      });
 #if defined(__SSE__)
   _mm_setcsr(callerMode);  // flush-to-zero stays on the render threads, not on the caller's
 #endif
@@ -272,7 +277,8 @@ bool renderPass(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
   // (With the naive estimator the light sampler holds the delta lights alone, if any.)
   const bool nee = e.lightSampling && !rs.lights().empty();
   const bool general = e.generalMaterials;
-  using Fn = bool (*)(const RenderScene&, const WorkUnit&, SensorBuffer&, PathStats&, const std::atomic<bool>*, RayGrouping);
+  using Fn =
+      bool (*)(const RenderScene&, const WorkUnit&, SensorBuffer&, PathStats&, const std::atomic<bool>*, RayGrouping);
   static constexpr Fn kTable[4][2][2] = {
       {{renderUnitWith<kPinhole, false, false>, renderUnitWith<kPinhole, false, true>},
        {renderUnitWith<kPinhole, true, false>, renderUnitWith<kPinhole, true, true>}},
@@ -294,8 +300,9 @@ bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, 
   // A light path splats anywhere in the frame: light tracing needs whole-frame units (the effect
   // analysis turns it off for tiled layouts, scene/effects.h).
   if (rs.lightTracing() && (!unit.region.empty() || unit.samples))
-    throw std::invalid_argument("light tracing renders whole-frame units of one sample range only "
-                                "(render.light_tracing off for tiles and adaptive sampling)");
+    throw std::invalid_argument(
+        "light tracing renders whole-frame units of one sample range only "
+        "(render.light_tracing off for tiles and adaptive sampling)");
   if (unit.samples) {
     if (!unit.region.empty() || unit.passSamples != 0)
       throw std::invalid_argument("an adaptive unit covers the whole frame in one pass");

@@ -11,10 +11,10 @@
 #include <cstdint>
 #include <memory>
 
+#include "common/film/sample_map.h"
 #include "common/film/sensor.h"
 #include "common/render/integrator.h"
 #include "common/render/render_scene.h"
-#include "common/film/sample_map.h"
 
 namespace lensfarm {
 
@@ -63,8 +63,8 @@ uint64_t maxRaysPerPath(const RenderSettings& settings);
 // reference tracer (benchmarks measure what packets gain; tests check both give the same bits).
 enum class RayGrouping { kPackets, kSingleRays };
 
-// Fills `out` (resized to the unit's region: the frame, or its tile) with the unit's sums and per-cell sample counts and adds to
-// `stats`. Returns false, with `out` incomplete, if `cancel` was raised before it finished.
+// Fills `out` (resized to the unit's region: the frame, or its tile) with the unit's sums and per-cell sample counts
+// and adds to `stats`. Returns false, with `out` incomplete, if `cancel` was raised before it finished.
 bool renderUnit(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
                 const std::atomic<bool>* cancel = nullptr, RayGrouping grouping = RayGrouping::kPackets);
 

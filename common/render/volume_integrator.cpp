@@ -38,7 +38,8 @@ Spectrum thinWallTransmittance(const RenderScene& rs, const SurfaceHit& hit, con
 // The fraction of light that arrives along the shadow ray from + t direction, t in (0, tFar)
 // (direction need not be unit: tFar is in its units), starting in `medium`: the media's
 // transmittance across every index-matched boundary it crosses and every thin wall's straight
-// transmittance, 0 where another surface blocks it. A segment's tracking numbers come from a MediumRng keyed by (key, crossing).
+// transmittance, 0 where another surface blocks it. A segment's tracking numbers come from a MediumRng keyed by (key,
+// crossing).
 Spectrum shadowTransmittance(const RenderScene& rs, Vec3 from, const Vec3& direction, float tFar, const Medium* medium,
                              uint64_t key, PathStats& stats) {
   const float length = glm::length(direction);
@@ -56,8 +57,10 @@ Spectrum shadowTransmittance(const RenderScene& rs, Vec3 from, const Vec3& direc
     }
     if (!blocks) return tr;
     const Material& m = rs.material(hit->material);
-    if (m.isThinWall()) tr *= thinWallTransmittance(rs, *hit, m, dir);
-    else if (!m.passesThrough()) return Spectrum(0.0f);
+    if (m.isThinWall())
+      tr *= thinWallTransmittance(rs, *hit, m, dir);
+    else if (!m.passesThrough())
+      return Spectrum(0.0f);
     if (isBlack(tr)) return Spectrum(0.0f);
     medium = afterCrossing(rs, m, hit->n, dir, medium);
     from = spawnOrigin(hit->p, hit->plane(), dir);
@@ -84,8 +87,7 @@ bool scatterInMedium(const RenderScene& rs, const SampleStream& rng, int segment
   // halves the rays of a random walk.
   const bool sampleLights = kNee && rs.shadowRaysLeave(&medium);
   // The last event the limit allows: its light sample alone carries the direct light (weight 1).
-  const bool lastBounce =
-      sampleLights && mediumBounces + 1 >= settings.maxMediumBounces && lastBounceCanEndPaths(rs);
+  const bool lastBounce = sampleLights && mediumBounces + 1 >= settings.maxMediumBounces && lastBounceCanEndPaths(rs);
   if (sampleLights) {
     const auto ls = rs.lights().sample(p, rng.get1D(base + dims::kLightChoice), rng.get2D(base + dims::kLightPoint));
     if (ls && !isBlack(ls->radiance)) {
@@ -136,7 +138,8 @@ Spectrum traceVolumePath(const RenderScene& rs, const CameraRay& cameraRay, cons
   int segment = 0;
   for (; segment < segments; ++segment) {
     ++stats.rays;
-    const auto hit = rs.caster().intersect(path.origin, path.direction, fromCamera ? RayKind::kCamera : RayKind::kScattered);
+    const auto hit =
+        rs.caster().intersect(path.origin, path.direction, fromCamera ? RayKind::kCamera : RayKind::kScattered);
     if (medium) {
       MediumRng mr(rng.streamKey(dims::segment(uint32_t(segment)) + dims::kRoulette));
       const float tMax = hit ? hit->t : std::numeric_limits<float>::infinity();
@@ -172,8 +175,9 @@ Spectrum traceVolumePath(const RenderScene& rs, const CameraRay& cameraRay, cons
       // the material's interior where it is transmitted.
       const bool through = glm::dot(shadow.direction, hit->n) * glm::dot(incoming, hit->n) > 0.0f;
       const Medium* shadowMedium = through ? afterCrossing(rs, material, hit->n, shadow.direction, medium) : medium;
-      const Spectrum tr = shadowTransmittance(rs, shadow.from, shadow.direction, shadow.tFar, shadowMedium,
-                                              rng.streamKey(dims::segment(uint32_t(segment)) + dims::kLightPoint), stats);
+      const Spectrum tr =
+          shadowTransmittance(rs, shadow.from, shadow.direction, shadow.tFar, shadowMedium,
+                              rng.streamKey(dims::segment(uint32_t(segment)) + dims::kLightPoint), stats);
       path.radiance += shadow.contribution * tr;
     }
     if (!outcome.continues) break;

@@ -15,7 +15,8 @@ namespace {
 // letter before the colon is a Windows drive ("C:"), which is an absolute path instead.
 std::optional<std::string> schemeOf(const std::string& path) {
   const size_t colon = path.find(':');
-  if (colon == std::string::npos || colon < 2 || !std::isalpha(static_cast<unsigned char>(path[0]))) return std::nullopt;
+  if (colon == std::string::npos || colon < 2 || !std::isalpha(static_cast<unsigned char>(path[0])))
+    return std::nullopt;
   for (size_t k = 1; k < colon; ++k) {
     const unsigned char c = static_cast<unsigned char>(path[k]);
     if (!std::isalnum(c) && c != '+' && c != '-' && c != '.') return std::nullopt;
@@ -54,7 +55,8 @@ std::optional<std::string> unreadablePathProblem(const std::string& path) {
   if (const std::optional<std::string> scheme = schemeOf(path)) {
     std::string lower = *scheme;
     std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-    return "is a URL (" + lower + ":): lensfarm reads only files beside the scene and downloads nothing; download it and "
+    return "is a URL (" + lower +
+           ":): lensfarm reads only files beside the scene and downloads nothing; download it and "
            "name the file by a relative path";
   }
   return std::nullopt;
@@ -70,12 +72,14 @@ fs::path confinedFile(const fs::path& root, const std::string& path, const std::
   for (const fs::path& a : allowed) roots.push_back(absoluteNormal(a));
   for (const fs::path& a : allowedFoldersFromEnvironment()) roots.push_back(absoluteNormal(a));
   const auto insideAny = [&](const fs::path& p, bool resolveRoots) {
-    return std::any_of(roots.begin(), roots.end(), [&](const fs::path& r) { return isInside(p, resolveRoots ? resolved(r) : r); });
+    return std::any_of(roots.begin(), roots.end(),
+                       [&](const fs::path& r) { return isInside(p, resolveRoots ? resolved(r) : r); });
   };
   if ((absolute && windowsDrive) || !insideAny(file, false))
-    throw AssetRefused(std::string(absolute ? "is an absolute path outside " : "lies outside ") + rootAbs.string() +
-                       ", the folder of the scene: a scene's files are named relative to it and lie inside it (to allow "
-                       "another folder, give --allow-path FOLDER or set LENSFARM_ALLOW_PATH)");
+    throw AssetRefused(
+        std::string(absolute ? "is an absolute path outside " : "lies outside ") + rootAbs.string() +
+        ", the folder of the scene: a scene's files are named relative to it and lie inside it (to allow "
+        "another folder, give --allow-path FOLDER or set LENSFARM_ALLOW_PATH)");
   if (!insideAny(resolved(file), true))
     throw AssetRefused("is a symlink to " + resolved(file).string() + ", outside " + rootAbs.string() +
                        ", the folder of the scene (to allow that folder, give --allow-path FOLDER)");

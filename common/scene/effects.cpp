@@ -10,10 +10,10 @@
 #include <sstream>
 
 #include "common/film/diffraction_psf.h"
-#include "common/scene/scene_diffraction.h"
 #include "common/material/mirror.h"
-#include "common/medium/medium.h"
 #include "common/math/triangle.h"
+#include "common/medium/medium.h"
+#include "common/scene/scene_diffraction.h"
 #include "common/scene/scene_loader.h"
 
 namespace lensfarm {
@@ -223,8 +223,7 @@ UselessLights findUselessLights(const Scene& scene, const std::vector<Shell>& sh
     // An instance's box has a corner in front if any point of the instance is.
     for (const auto& [lo, hi] : boxes)
       for (int c = 0; c < 8; ++c)
-        if (glm::dot(boxCorner(lo, hi, c) - DVec3(a), n) > 0.0)
-          return true;
+        if (glm::dot(boxCorner(lo, hi, c) - DVec3(a), n) > 0.0) return true;
     return false;
   };
   for (const auto& mesh : scene.meshes) {
@@ -243,7 +242,8 @@ UselessLights findUselessLights(const Scene& scene, const std::vector<Shell>& sh
         continue;
       }
       const Vec3& a = mesh.positions[mesh.indices[3 * t]];
-      const DVec3 n = triangleCross(a, mesh.positions[mesh.indices[3 * t + 1]], mesh.positions[mesh.indices[3 * t + 2]]);
+      const DVec3 n =
+          triangleCross(a, mesh.positions[mesh.indices[3 * t + 1]], mesh.positions[mesh.indices[3 * t + 2]]);
       if (anyInFront(a, n)) useful[id] = 1;
     }
   }
@@ -332,10 +332,12 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
     why.str("");
     // Spectral camera samples (camera/spectral_response.h; the renderer asks the lens the same).
     if (lens.disperses())
-      e.decisions.push_back({"spectral", true, scene.realLens->name + " disperses (Abbe numbers): each camera sample "
-                                               "traced at its own wavelength, 400-700 nm in three bands"});
+      e.decisions.push_back({"spectral", true,
+                             scene.realLens->name + " disperses (Abbe numbers): each camera sample "
+                                                    "traced at its own wavelength, 400-700 nm in three bands"});
     else
-      e.decisions.push_back({"spectral", false, scene.realLens->name + " has no Abbe numbers: RGB, traced at the d line"});
+      e.decisions.push_back(
+          {"spectral", false, scene.realLens->name + " has no Abbe numbers: RGB, traced at the d line"});
   } else if (camera.isPinhole()) {
     e.depthOfField = false;
     e.decisions.push_back({"depth of field", false, "aperture closed (N = infinity)"});
@@ -357,7 +359,8 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
       if (needW <= kMaxResolution && needH <= kMaxResolution)
         why << "; from " << int64_t(needW) << "x" << int64_t(needH) << " px on it is simulated";
       else
-        why << " at every resolution up to " << kMaxResolution << "; open the aperture (a smaller f_number) for depth of field";
+        why << " at every resolution up to " << kMaxResolution
+            << "; open the aperture (a smaller f_number) for depth of field";
     }
     e.decisions.push_back({"depth of field", e.depthOfField, why.str(), !e.depthOfField});
   }
@@ -371,7 +374,9 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
     const double pixels = airy / std::max(optics.pixelWidthMm, optics.pixelHeightMm);
     std::ostringstream text;
     text << std::setprecision(3) << "f/" << optics.workingFNumber << " working aperture, "
-         << (scene.realLens ? "round exit pupil" : optics.blades ? std::to_string(optics.blades) + " blades" : "round aperture")
+         << (scene.realLens  ? "round exit pupil"
+             : optics.blades ? std::to_string(optics.blades) + " blades"
+                             : "round aperture")
          << ", Airy radius " << airy * 1000.0 << " µm = " << pixels << " px at 550 nm";
     e.decisions.push_back({"diffraction", true, text.str()});
     if (pixels < 1.0) {
@@ -428,8 +433,7 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
                          e.specular      ? list(deltaEffects) + " in the scene"
                          : sealedMirrors ? "every mirror is sealed inside a closed mesh the camera is outside of"
                                          : "no mirror in the scene"});
-  if (!glossyEffects.empty())
-    e.decisions.push_back({"glossy materials", true, list(glossyEffects) + " in the scene"});
+  if (!glossyEffects.empty()) e.decisions.push_back({"glossy materials", true, list(glossyEffects) + " in the scene"});
   if (smoothMeshes > 0 || texturedMaterials > 0)
     e.decisions.push_back({"shading normals and textures", true,
                            std::to_string(smoothMeshes) + " mesh(es) with vertex normals, " +
@@ -458,8 +462,8 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
       if (used[m] && scene.materials[m].isThinWall()) walls.insert("\"" + scene.materials[m].name + "\"");
     e.thinWalls = !walls.empty();
     if (e.thinWalls)
-      e.decisions.push_back({"thin walls", true,
-                             list(walls) + " let light straight through: shadow rays cross them with their tint"});
+      e.decisions.push_back(
+          {"thin walls", true, list(walls) + " let light straight through: shadow rays cross them with their tint"});
   }
 
   // Lights that can light something: an emitter is useful if the front of some triangle of its
@@ -478,9 +482,9 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
                               ": it emits nothing into the scene (flip its winding or set two_sided)");
   }
   if (uselessLights > 0)
-    e.decisions.push_back({"lights facing away", false,
-                           std::to_string(uselessLights) +
-                               " light(s) face away from every surface and the camera: not sampled"});
+    e.decisions.push_back(
+        {"lights facing away", false,
+         std::to_string(uselessLights) + " light(s) face away from every surface and the camera: not sampled"});
   // The lights that are not triangles (light/light_source.h), by type.
   int deltaLights = 0;
   bool seenLight = false;
@@ -547,8 +551,9 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
   else if (e.thinWalls)
     ltWhy = "thin walls: light paths are not connected through them (the volume path tracer samples the image)";
   else if (real)
-    ltWhy = "a real lens cannot be connected to: a path from a surface point to the sensor through its "
-            "surfaces has no closed form (the path tracer alone samples the image)";
+    ltWhy =
+        "a real lens cannot be connected to: a path from a surface point to the sensor through its "
+        "surfaces has no closed form (the path tracer alone samples the image)";
   else if (rs.integrator == IntegratorKind::kNaive)
     ltWhy = "the naive estimator was asked for";
   else if (rs.tileSize > 0)
@@ -562,8 +567,9 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
   else if (rs.lightTracing == LightTracingMode::kAuto)
     // Measured on cornell-seed (docs/performance.md, "Light tracing for the 2013 report's caustic"): with binary
     // weights the light paths cost more time than the variance they remove, so auto leaves it off.
-    ltWhy = "mirror caustics, but light tracing with binary weights does not pay at equal time "
-            "(docs/performance.md); render.light_tracing \"on\" forces it";
+    ltWhy =
+        "mirror caustics, but light tracing with binary weights does not pay at equal time "
+        "(docs/performance.md); render.light_tracing \"on\" forces it";
   e.lightTracing = ltWhy.empty();
   if (e.lightTracing) {
     std::ostringstream ratio;

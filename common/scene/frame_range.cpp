@@ -55,8 +55,8 @@ FrameRange parseFrameRange(const std::string& text, const std::string& what) {
   }
   if (range.last < range.first) refuse(what, text, "the last frame is before the first");
   if (range.count() > kMaxFramesInRange)
-    refuse(what, text, std::to_string(range.count()) + " frames; at most " + std::to_string(kMaxFramesInRange) +
-                           " in one range");
+    refuse(what, text,
+           std::to_string(range.count()) + " frames; at most " + std::to_string(kMaxFramesInRange) + " in one range");
   return range;
 }
 
@@ -88,8 +88,9 @@ std::string framePath(const std::string& pattern, int64_t frame) {
 void checkFramePattern(const std::string& pattern, const std::string& what) {
   if (hasFramePattern(pattern)) return;
   const bool inDirectory = pattern.find('#') != std::string::npos;
-  throw InputError(what + " " + pattern, std::string("a frame pattern needs #### for the frame number when rendering several frames") +
-                                             (inDirectory ? " (in the file name: a # in a directory name does not count)" : ""));
+  throw InputError(what + " " + pattern,
+                   std::string("a frame pattern needs #### for the frame number when rendering several frames") +
+                       (inDirectory ? " (in the file name: a # in a directory name does not count)" : ""));
 }
 
 }  // namespace lensfarm

@@ -20,8 +20,8 @@
 #include <utility>
 
 #include "common/light/light_source.h"
-#include "common/scene/asset_path.h"
 #include "common/medium/medium.h"
+#include "common/scene/asset_path.h"
 #include "common/texture/image_decode.h"
 #include "common/util/error.h"
 
@@ -43,11 +43,10 @@ namespace {
 using json = nlohmann::json;
 
 // Extensions the importer maps (docs/scene-format.md, "glTF 2.0"); a model requiring another is refused.
-constexpr const char* kSupportedExtensions[] = {"KHR_lights_punctual",        "KHR_materials_emissive_strength",
-                                                "KHR_materials_ior",          "KHR_materials_specular",
-                                                "KHR_materials_transmission", "KHR_materials_unlit",
-                                                "KHR_materials_volume",       "KHR_mesh_quantization",
-                                                "KHR_texture_transform"};
+constexpr const char* kSupportedExtensions[] = {
+    "KHR_lights_punctual",    "KHR_materials_emissive_strength", "KHR_materials_ior",
+    "KHR_materials_specular", "KHR_materials_transmission",      "KHR_materials_unlit",
+    "KHR_materials_volume",   "KHR_mesh_quantization",           "KHR_texture_transform"};
 
 constexpr int kMaxNesting = 64;  // as the scene loader allows
 constexpr uint32_t kJsonChunk = 0x4E4F534A, kBinChunk = 0x004E4942;
@@ -133,81 +132,52 @@ json parseJson(const std::string& text, const std::string& where) {
 
 const char* typeName(int type) {
   switch (type) {
-    case TINYGLTF_TYPE_SCALAR:
-      return "SCALAR";
-    case TINYGLTF_TYPE_VEC2:
-      return "VEC2";
-    case TINYGLTF_TYPE_VEC3:
-      return "VEC3";
-    case TINYGLTF_TYPE_VEC4:
-      return "VEC4";
-    case TINYGLTF_TYPE_MAT2:
-      return "MAT2";
-    case TINYGLTF_TYPE_MAT3:
-      return "MAT3";
-    case TINYGLTF_TYPE_MAT4:
-      return "MAT4";
-    default:
-      return "an unknown type";
+    case TINYGLTF_TYPE_SCALAR: return "SCALAR";
+    case TINYGLTF_TYPE_VEC2: return "VEC2";
+    case TINYGLTF_TYPE_VEC3: return "VEC3";
+    case TINYGLTF_TYPE_VEC4: return "VEC4";
+    case TINYGLTF_TYPE_MAT2: return "MAT2";
+    case TINYGLTF_TYPE_MAT3: return "MAT3";
+    case TINYGLTF_TYPE_MAT4: return "MAT4";
+    default: return "an unknown type";
   }
 }
 const char* componentName(int componentType) {
   switch (componentType) {
-    case TINYGLTF_COMPONENT_TYPE_BYTE:
-      return "BYTE";
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
-      return "UNSIGNED_BYTE";
-    case TINYGLTF_COMPONENT_TYPE_SHORT:
-      return "SHORT";
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
-      return "UNSIGNED_SHORT";
-    case TINYGLTF_COMPONENT_TYPE_INT:
-      return "INT";
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-      return "UNSIGNED_INT";
-    case TINYGLTF_COMPONENT_TYPE_FLOAT:
-      return "FLOAT";
-    case TINYGLTF_COMPONENT_TYPE_DOUBLE:
-      return "DOUBLE";
-    default:
-      return "an unknown component type";
+    case TINYGLTF_COMPONENT_TYPE_BYTE: return "BYTE";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return "UNSIGNED_BYTE";
+    case TINYGLTF_COMPONENT_TYPE_SHORT: return "SHORT";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return "UNSIGNED_SHORT";
+    case TINYGLTF_COMPONENT_TYPE_INT: return "INT";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: return "UNSIGNED_INT";
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return "FLOAT";
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE: return "DOUBLE";
+    default: return "an unknown component type";
   }
 }
 size_t componentSize(int componentType) {
   switch (componentType) {
     case TINYGLTF_COMPONENT_TYPE_BYTE:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
-      return 1;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
     case TINYGLTF_COMPONENT_TYPE_SHORT:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
-      return 2;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
     case TINYGLTF_COMPONENT_TYPE_INT:
     case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-    case TINYGLTF_COMPONENT_TYPE_FLOAT:
-      return 4;
-    case TINYGLTF_COMPONENT_TYPE_DOUBLE:
-      return 8;
-    default:
-      return 0;
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE: return 8;
+    default: return 0;
   }
 }
 int componentCount(int type) {
   switch (type) {
-    case TINYGLTF_TYPE_SCALAR:
-      return 1;
-    case TINYGLTF_TYPE_VEC2:
-      return 2;
-    case TINYGLTF_TYPE_VEC3:
-      return 3;
+    case TINYGLTF_TYPE_SCALAR: return 1;
+    case TINYGLTF_TYPE_VEC2: return 2;
+    case TINYGLTF_TYPE_VEC3: return 3;
     case TINYGLTF_TYPE_VEC4:
-    case TINYGLTF_TYPE_MAT2:
-      return 4;
-    case TINYGLTF_TYPE_MAT3:
-      return 9;
-    case TINYGLTF_TYPE_MAT4:
-      return 16;
-    default:
-      return 0;
+    case TINYGLTF_TYPE_MAT2: return 4;
+    case TINYGLTF_TYPE_MAT3: return 9;
+    case TINYGLTF_TYPE_MAT4: return 16;
+    default: return 0;
   }
 }
 
@@ -222,29 +192,21 @@ bool storable(Semantic s, int componentType, bool normalized, bool quantized) {
   const bool i16 = componentType == TINYGLTF_COMPONENT_TYPE_SHORT,
              u16 = componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
   switch (s) {
-    case Semantic::kPosition:
-      return f || (quantized && (i8 || u8 || i16 || u16));
+    case Semantic::kPosition: return f || (quantized && (i8 || u8 || i16 || u16));
     case Semantic::kNormal:
-    case Semantic::kTangent:
-      return f || (quantized && normalized && (i8 || i16));
-    case Semantic::kTexcoord:
-      return f || (normalized && (u8 || u16)) || (quantized && (i8 || u8 || i16 || u16));
-    case Semantic::kIndices:
-      return !normalized && (u8 || u16 || componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT);
+    case Semantic::kTangent: return f || (quantized && normalized && (i8 || i16));
+    case Semantic::kTexcoord: return f || (normalized && (u8 || u16)) || (quantized && (i8 || u8 || i16 || u16));
+    case Semantic::kIndices: return !normalized && (u8 || u16 || componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT);
   }
   return false;
 }
 int semanticType(Semantic s) {
   switch (s) {
     case Semantic::kPosition:
-    case Semantic::kNormal:
-      return TINYGLTF_TYPE_VEC3;
-    case Semantic::kTangent:
-      return TINYGLTF_TYPE_VEC4;
-    case Semantic::kTexcoord:
-      return TINYGLTF_TYPE_VEC2;
-    case Semantic::kIndices:
-      return TINYGLTF_TYPE_SCALAR;
+    case Semantic::kNormal: return TINYGLTF_TYPE_VEC3;
+    case Semantic::kTangent: return TINYGLTF_TYPE_VEC4;
+    case Semantic::kTexcoord: return TINYGLTF_TYPE_VEC2;
+    case Semantic::kIndices: return TINYGLTF_TYPE_SCALAR;
   }
   return 0;
 }
@@ -252,16 +214,11 @@ std::string expected(Semantic s, bool quantized) {
   const std::string integers = quantized ? " or of (normalized) BYTE, UNSIGNED_BYTE, SHORT or UNSIGNED_SHORT" : "";
   const std::string normalized = quantized ? " or of normalized BYTE or SHORT" : "";
   switch (s) {
-    case Semantic::kPosition:
-      return "VEC3 of FLOAT" + integers;
-    case Semantic::kNormal:
-      return "VEC3 of FLOAT" + normalized;
-    case Semantic::kTangent:
-      return "VEC4 of FLOAT" + normalized;
-    case Semantic::kTexcoord:
-      return "VEC2 of FLOAT, normalized UNSIGNED_BYTE or normalized UNSIGNED_SHORT" + integers;
-    case Semantic::kIndices:
-      return "SCALAR of UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT";
+    case Semantic::kPosition: return "VEC3 of FLOAT" + integers;
+    case Semantic::kNormal: return "VEC3 of FLOAT" + normalized;
+    case Semantic::kTangent: return "VEC4 of FLOAT" + normalized;
+    case Semantic::kTexcoord: return "VEC2 of FLOAT, normalized UNSIGNED_BYTE or normalized UNSIGNED_SHORT" + integers;
+    case Semantic::kIndices: return "SCALAR of UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT";
   }
   return "";
 }
@@ -277,20 +234,13 @@ struct AccessorData {
   double get(size_t i, int c) const {
     const unsigned char* p = base + i * stride + size_t(c) * size;
     switch (componentType) {
-      case TINYGLTF_COMPONENT_TYPE_BYTE:
-        return scaled(load<int8_t>(p), 127.0);
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
-        return scaled(load<uint8_t>(p), 255.0);
-      case TINYGLTF_COMPONENT_TYPE_SHORT:
-        return scaled(load<int16_t>(p), 32767.0);
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
-        return scaled(load<uint16_t>(p), 65535.0);
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-        return load<uint32_t>(p);
-      case TINYGLTF_COMPONENT_TYPE_FLOAT:
-        return load<float>(p);
-      default:
-        return 0.0;
+      case TINYGLTF_COMPONENT_TYPE_BYTE: return scaled(load<int8_t>(p), 127.0);
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return scaled(load<uint8_t>(p), 255.0);
+      case TINYGLTF_COMPONENT_TYPE_SHORT: return scaled(load<int16_t>(p), 32767.0);
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return scaled(load<uint16_t>(p), 65535.0);
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: return load<uint32_t>(p);
+      case TINYGLTF_COMPONENT_TYPE_FLOAT: return load<float>(p);
+      default: return 0.0;
     }
   }
   template <class T>
@@ -534,7 +484,8 @@ class GltfImporter {
   void addUri(const std::string& uri, const std::string& where) {
     if (isDataUri(uri)) return;
     const std::string path = decodeUri(uri, false);
-    if (const std::optional<std::string> problem = unreadablePathProblem(path)) fail(where, "\"" + uri + "\" " + *problem);
+    if (const std::optional<std::string> problem = unreadablePathProblem(path))
+      fail(where, "\"" + uri + "\" " + *problem);
     uriPaths_[decodeUri(uri, true)] = path;
   }
 
@@ -789,7 +740,8 @@ class GltfImporter {
     if (const tinygltf::Value* e = extension(m.extensions, "KHR_materials_volume")) {
       // thicknessFactor > 0 makes the surface a volume's boundary: a solid that refracts
       // (KHR_materials_volume: "the material is thin-walled" only where it is 0).
-      f.thinWalled = !(f.transmission > 0.0f && extensionNumber(*e, "thicknessFactor", 0.0, 0.0, 1e30, ext + "KHR_materials_volume") > 0.0);
+      f.thinWalled = !(f.transmission > 0.0f &&
+                       extensionNumber(*e, "thicknessFactor", 0.0, 0.0, 1e30, ext + "KHR_materials_volume") > 0.0);
       interior = volumeOf(*e, f.transmission, label, ext + "KHR_materials_volume");
     }
     // doubleSided: lit (and emitting) on both faces, as rasterisers and Cycles show it; one-sided
@@ -829,7 +781,8 @@ class GltfImporter {
       return nullptr;
     }
     if (color == Spectrum(1.0f) || std::isinf(distance)) return nullptr;  // a clear volume: nothing to simulate
-    return std::make_shared<const Medium>(label, HomogeneousMedium::fromAttenuation(color, float(distance), Spectrum(0.0f), 0.0f));
+    return std::make_shared<const Medium>(
+        label, HomogeneousMedium::fromAttenuation(color, float(distance), Spectrum(0.0f), 0.0f));
   }
 
   TextureRef textureRef(const tinygltf::TextureInfo& info, ColorEncoding encoding, const std::string& where) {
@@ -883,12 +836,9 @@ class GltfImporter {
 
   Wrap wrap(int mode, const std::string& field) const {
     switch (mode) {
-      case TINYGLTF_TEXTURE_WRAP_REPEAT:
-        return Wrap::kRepeat;
-      case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT:
-        return Wrap::kMirroredRepeat;
-      case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE:
-        return Wrap::kClampToEdge;
+      case TINYGLTF_TEXTURE_WRAP_REPEAT: return Wrap::kRepeat;
+      case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT: return Wrap::kMirroredRepeat;
+      case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE: return Wrap::kClampToEdge;
       default:
         fail(field, std::to_string(mode) + " is not REPEAT (10497), MIRRORED_REPEAT (33648) or CLAMP_TO_EDGE (33071)");
     }
@@ -1221,8 +1171,9 @@ class GltfImporter {
     const double det = glm::determinant(glm::dmat3(world));
     if (!std::isfinite(det)) fail(indexed("nodes", n), "its world transform is not finite");
     if (det == 0.0) {
-      noteOnce("collapsed" + std::to_string(n), labelled("nodes", n, node.name) +
-                                                    ": its world transform has a zero scale: the mesh it places is not drawn");
+      noteOnce(
+          "collapsed" + std::to_string(n),
+          labelled("nodes", n, node.name) + ": its world transform has a zero scale: the mesh it places is not drawn");
       return;
     }
     if (prototypeOf_[m] == UINT32_MAX) {
@@ -1247,11 +1198,13 @@ class GltfImporter {
     for (int c = 0; c < 8; ++c) {
       const DVec3 q = DVec3(world * glm::dvec4(boxCorner(lo, hi, c), 1.0));
       if (!isFinite(q))
-        fail(indexed("nodes", n), "its world transform takes a vertex of " + indexed("meshes", m) + " to a non-finite position");
+        fail(indexed("nodes", n),
+             "its world transform takes a vertex of " + indexed("meshes", m) + " to a non-finite position");
       model_.lo = glm::min(model_.lo, q);
       model_.hi = glm::max(model_.hi, q);
     }
-    model_.instances.push_back(ModelInstance{prototype, world, node.name.empty() ? model_.prototypes[prototype].mesh.name : node.name});
+    model_.instances.push_back(
+        ModelInstance{prototype, world, node.name.empty() ? model_.prototypes[prototype].mesh.name : node.name});
   }
 
   // ---------------------------------------------------------------------------------------------
@@ -1498,11 +1451,11 @@ class GltfImporter {
   std::map<std::tuple<size_t, int, int, int, int>, std::shared_ptr<const Texture>> textures_;
   std::vector<std::unique_ptr<LocalMesh>> meshes_;
   std::vector<size_t> meshUses_;
-  std::vector<size_t> usesLeft_;  // per mesh: the nodes still to place it
-  std::vector<size_t> totalUses_;  // per mesh: the nodes that place it (more than one: instanced)
-  std::vector<uint32_t> prototypeOf_;  // per mesh: its index in model_.prototypes, if instanced
+  std::vector<size_t> usesLeft_;                         // per mesh: the nodes still to place it
+  std::vector<size_t> totalUses_;                        // per mesh: the nodes that place it (more than one: instanced)
+  std::vector<uint32_t> prototypeOf_;                    // per mesh: its index in model_.prototypes, if instanced
   std::vector<std::pair<DVec3, DVec3>> prototypeBoxes_;  // per prototype: its box in its own space
-  size_t meshesToRead_ = 0;       // meshes used and not read yet
+  size_t meshesToRead_ = 0;                              // meshes used and not read yet
   std::optional<uint32_t> defaultMaterial_;
   std::vector<Placed> cameras_, lights_;
   std::vector<std::string> occluded_;

@@ -24,12 +24,16 @@ struct Property {
 };
 
 // What may be keyframed, by the kind of object (the names the object itself uses).
-const std::vector<Property> kCameraProperties = {
-    {"position", Kind::kVec3},          {"look_at", Kind::kVec3},      {"up", Kind::kVec3},
-    {"focus_distance", Kind::kPositive}, {"f_number", Kind::kPositive}, {"focal_length", Kind::kPositive},
-    {"angle_of_view", Kind::kAngleOfView}};
+const std::vector<Property> kCameraProperties = {{"position", Kind::kVec3},
+                                                 {"look_at", Kind::kVec3},
+                                                 {"up", Kind::kVec3},
+                                                 {"focus_distance", Kind::kPositive},
+                                                 {"f_number", Kind::kPositive},
+                                                 {"focal_length", Kind::kPositive},
+                                                 {"angle_of_view", Kind::kAngleOfView}};
 const std::vector<Property> kShapeProperties = {{"transform", Kind::kTransform}};
-const std::vector<Property> kQuadLightProperties = {{"corner", Kind::kVec3}, {"edge1", Kind::kVec3}, {"edge2", Kind::kVec3}};
+const std::vector<Property> kQuadLightProperties = {
+    {"corner", Kind::kVec3}, {"edge1", Kind::kVec3}, {"edge2", Kind::kVec3}};
 const std::vector<Property> kPointLightProperties = {{"position", Kind::kVec3}};
 const std::vector<Property> kSpotLightProperties = {{"position", Kind::kVec3}, {"look_at", Kind::kVec3}};
 
@@ -92,8 +96,8 @@ Animated readAnimated(json& object, const std::string& path, const std::vector<P
     FieldReader k(list[i], listField + "[" + std::to_string(i) + "]", file);
     const double frame = k.number("frame");
     if (i > 0 && !(frame > previous))
-      k.fail(k.field("frame"), shortNumber(frame) + " is not after the previous keyframe's frame " + shortNumber(previous) +
-                                   " (keyframes are in strictly increasing frame order)");
+      k.fail(k.field("frame"), shortNumber(frame) + " is not after the previous keyframe's frame " +
+                                   shortNumber(previous) + " (keyframes are in strictly increasing frame order)");
     previous = frame;
     bool any = false;
     for (Track& track : a.tracks) {
@@ -117,8 +121,9 @@ Animated readAnimated(json& object, const std::string& path, const std::vector<P
       const DVec3 &s0 = track.keys[j - 1].parts.scale, &s1 = track.keys[j].parts.scale;
       for (int c = 0; c < 3; ++c)
         if ((s0[c] < 0.0) != (s1[c] < 0.0))
-          throw InputError(file, listField + "[" + std::to_string(track.keys[j].index) + "].transform.scale: changes sign from " +
-                                     listField + "[" + std::to_string(track.keys[j - 1].index) +
+          throw InputError(file, listField + "[" + std::to_string(track.keys[j].index) +
+                                     "].transform.scale: changes sign from " + listField + "[" +
+                                     std::to_string(track.keys[j - 1].index) +
                                      "]'s: the scale would pass through zero between them");
     }
   }
@@ -130,9 +135,10 @@ json valueAt(const Track& track, double frame) {
   if (frame <= keys.front().frame) return keys.front().written;  // hold before the first
   if (frame >= keys.back().frame) return keys.back().written;    // and after the last
   // keys[k].frame <= frame < keys[k + 1].frame
-  const size_t k = size_t(std::upper_bound(keys.begin(), keys.end(), frame,
-                                           [](double f, const Key& key) { return f < key.frame; }) -
-                          keys.begin()) - 1;
+  const size_t k =
+      size_t(std::upper_bound(keys.begin(), keys.end(), frame, [](double f, const Key& key) { return f < key.frame; }) -
+             keys.begin()) -
+      1;
   const Key &a = keys[k], &b = keys[k + 1];
   if (a.frame == frame) return a.written;
   const double t = (frame - a.frame) / (b.frame - a.frame);
@@ -172,8 +178,9 @@ std::vector<Animated> findAnimated(json& root, const std::string& file) {
                                                 : type == "spot"  ? &kSpotLightProperties
                                                                   : nullptr;
       if (!properties)
-        throw InputError(file, path + ".keyframes: a " + type +
-                                   " light cannot be keyframed (the camera, shapes, and quad, point and spot lights can)");
+        throw InputError(file,
+                         path + ".keyframes: a " + type +
+                             " light cannot be keyframed (the camera, shapes, and quad, point and spot lights can)");
       out.push_back(readAnimated(light, path, *properties, file));
     }
   }
@@ -209,7 +216,8 @@ TransformParts interpolateTransform(const TransformParts& a, const TransformPart
 }
 
 std::optional<Animation> applyKeyframes(json& root, std::optional<double> frame, const std::string& file) {
-  if (frame && !std::isfinite(*frame)) throw InputError(file, "frame: must be a finite number, got " + shortNumber(*frame));
+  if (frame && !std::isfinite(*frame))
+    throw InputError(file, "frame: must be a finite number, got " + shortNumber(*frame));
   if (!root.is_object()) return std::nullopt;
   std::vector<Animated> animated = findAnimated(root, file);
   if (animated.empty()) return std::nullopt;

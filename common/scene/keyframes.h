@@ -16,9 +16,9 @@
 #include <optional>
 #include <string>
 
-#include "common/util/field_reader.h"
 #include "common/scene/scene.h"
 #include "common/scene/transform.h"
+#include "common/util/field_reader.h"
 
 namespace lensfarm {
 

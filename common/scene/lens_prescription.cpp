@@ -16,9 +16,9 @@ LensPrescription lensFromJson(const nlohmann::json& object, const std::string& p
     FieldReader s(list[k], at, file);
     LensSurface surface;
     surface.stop = s.boolean("stop", false);
-    surface.radius = surface.stop ? s.number("radius", 0.0, -std::numeric_limits<double>::max(),
-                                             std::numeric_limits<double>::max())
-                                  : s.number("radius");
+    surface.radius =
+        surface.stop ? s.number("radius", 0.0, -std::numeric_limits<double>::max(), std::numeric_limits<double>::max())
+                     : s.number("radius");
     surface.thickness = s.number("thickness");
     surface.aperture = s.number("aperture");
     if (surface.stop && s.has("index"))

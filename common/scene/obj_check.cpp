@@ -14,8 +14,7 @@ namespace lensfarm {
 namespace {
 
 constexpr std::string_view kBom = "\xEF\xBB\xBF";
-constexpr std::string_view kGlTFAdvice =
-    "give it as a glTF shape (\"type\": \"gltf\")";
+constexpr std::string_view kGlTFAdvice = "give it as a glTF shape (\"type\": \"gltf\")";
 
 bool startsWith(std::string_view s, std::string_view prefix) { return s.substr(0, prefix.size()) == prefix; }
 
@@ -41,14 +40,16 @@ std::string quoted(std::string_view token) {
 
 // Formats whose first bytes say what they are; none of them can begin an OBJ file.
 std::string otherFormat(std::string_view bytes) {
-  if (startsWith(bytes, "glTF")) return "this is a binary glTF file (magic 'glTF', .glb), not OBJ: " + std::string(kGlTFAdvice);
+  if (startsWith(bytes, "glTF"))
+    return "this is a binary glTF file (magic 'glTF', .glb), not OBJ: " + std::string(kGlTFAdvice);
   if (startsWith(bytes, "\x89PNG\r\n\x1A\n")) return "this is a PNG image, not an OBJ mesh";
   if (startsWith(bytes, "\xFF\xD8\xFF")) return "this is a JPEG image, not an OBJ mesh";
   if (startsWith(bytes, std::string_view("PK\x03\x04", 4)))
     return "this is a ZIP archive (.zip, .usdz, .3mf, ...), not OBJ: unpack the .obj file from it";
   if (startsWith(bytes, "\x1F\x8B")) return "this file is gzip-compressed: decompress it (gunzip) first";
   if (startsWith(bytes, "Kaydara FBX Binary")) return "this is an FBX file, not OBJ: FBX is not supported";
-  if (startsWith(bytes, "ply\n") || startsWith(bytes, "ply\r")) return "this is a PLY file, not OBJ: PLY is not supported";
+  if (startsWith(bytes, "ply\n") || startsWith(bytes, "ply\r"))
+    return "this is a PLY file, not OBJ: PLY is not supported";
   return "";
 }
 
@@ -127,15 +128,15 @@ Statement classify(std::string_view keyword) {
   if (keyword == "v") return Statement::kVertex;
   if (keyword == "f" || keyword == "fo") return Statement::kFace;
   if (keyword == "l" || keyword == "p") return Statement::kLineOrPoint;
-  static constexpr std::array<std::string_view, 18> kFreeForm = {
-      "vp", "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm",
-      "trim", "hole", "scrv", "sp", "end", "con", "ctech", "stech", "res"};
+  static constexpr std::array<std::string_view, 18> kFreeForm = {"vp",    "cstype", "deg",  "bmat",  "step",  "curv",
+                                                                 "curv2", "surf",   "parm", "trim",  "hole",  "scrv",
+                                                                 "sp",    "end",    "con",  "ctech", "stech", "res"};
   for (std::string_view k : kFreeForm)
     if (keyword == k) return Statement::kFreeForm;
   // Texture coordinates, normals, grouping, display and rendering attributes (OBJ spec, B1).
   static constexpr std::array<std::string_view, 19> kOther = {
-      "vt", "vn", "g", "s", "mg", "o", "bevel", "c_interp", "d_interp", "lod", "usemtl",
-      "mtllib", "shadow_obj", "trace_obj", "maplib", "usemap", "call", "csh", "vw"};
+      "vt",     "vn",     "g",          "s",         "mg",     "o",      "bevel", "c_interp", "d_interp", "lod",
+      "usemtl", "mtllib", "shadow_obj", "trace_obj", "maplib", "usemap", "call",  "csh",      "vw"};
   for (std::string_view k : kOther)
     if (keyword == k) return Statement::kOther;
   return Statement::kUnknown;
@@ -340,7 +341,7 @@ class Checker {
   std::string text_;
   std::string owned_;  // in place: the bytes, then the text over them
   bool inPlace_ = false, pendingLineBreak_ = false;
-  size_t written_ = 0;  // in place: the text's length so far
+  size_t written_ = 0;                  // in place: the text's length so far
   std::vector<std::string_view> args_;  // the current statement's tokens (reused: no allocation per line)
   size_t vertices_ = 0, faces_ = 0;
   bool sawStatement_ = false, sawLines_ = false, sawFreeForm_ = false;

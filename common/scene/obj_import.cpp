@@ -368,14 +368,10 @@ class MaterialBuilder {
   // (luminance) or m (matte: alpha when the image has any, else luminance, the default).
   static int channelOf(const tinyobj::texture_option_t& opt, const TextureRef& ref) {
     switch (opt.imfchan) {
-      case 'r':
-        return 0;
-      case 'g':
-        return 1;
-      case 'b':
-        return 2;
-      case 'l':
-        return -1;
+      case 'r': return 0;
+      case 'g': return 1;
+      case 'b': return 2;
+      case 'l': return -1;
       default: {
         if (!ref) return -1;
         const std::vector<float>& texels = ref.texture->level(0).texels;

@@ -76,8 +76,9 @@ struct NamedCodec {
   static Kind in(const json& j, const std::string& name, const char* what, const char* expected) {
     Kind kind;
     if (!j.is_string() || !Parse(j.get<std::string>(), kind))
-      refuse(name, std::string("unknown ") + what + " " + (j.is_string() ? "\"" + j.get<std::string>() + "\"" : j.dump()) +
-                       " (expected " + expected + ")");
+      refuse(name, std::string("unknown ") + what + " " +
+                       (j.is_string() ? "\"" + j.get<std::string>() + "\"" : j.dump()) + " (expected " + expected +
+                       ")");
     return kind;
   }
   static Kind fromText(const std::string& text, const std::string& flag) { return in(text, flag, "", ""); }
@@ -159,8 +160,8 @@ std::vector<OverrideRow> makeTable() {
   using O = RenderOverrides;
   using S = RenderSettings;
   std::vector<OverrideRow> t;
-  t.push_back(whole(row("samples_per_pixel", "--spp", K::kWhole, "Samples per pixel (overrides the scene)", &O::samplesPerPixel,
-                        [](uint64_t v, S& s) { s.samplesPerPixel = v; }),
+  t.push_back(whole(row("samples_per_pixel", "--spp", K::kWhole, "Samples per pixel (overrides the scene)",
+                        &O::samplesPerPixel, [](uint64_t v, S& s) { s.samplesPerPixel = v; }),
                     1, kMaxSamplesPerPixel));
   OverrideRow width = row("width", "--resolution", K::kText, "Image size WIDTHxHEIGHT (overrides the scene)", &O::width,
                           [](int v, S& s) { s.width = v; });
@@ -168,34 +169,38 @@ std::vector<OverrideRow> makeTable() {
   width.setText = [](O& o, const std::string& text, const std::string& flag) { parseResolution(text, o, flag); };
   t.push_back(std::move(width));
   t.push_back(row("height", "", K::kText, "", &O::height, [](int v, S& s) { s.height = v; }));
-  t.push_back(whole(row("max_bounces", "--max-bounces", K::kWhole, "Bounce limit B (overrides the scene)", &O::maxBounces,
-                        [](int v, S& s) { s.maxBounces = v; }),
+  t.push_back(whole(row("max_bounces", "--max-bounces", K::kWhole, "Bounce limit B (overrides the scene)",
+                        &O::maxBounces, [](int v, S& s) { s.maxBounces = v; }),
                     0, kMaxBounces));
   t.push_back(whole(row("seed", "--seed", K::kWhole, "Random seed (overrides the scene)", &O::seed,
                         [](uint64_t v, S& s) { s.seed = v; }),
                     0, UINT64_MAX));
-  t.push_back(named(row("integrator", "--integrator", K::kName, "nee_mis, nee or naive (overrides the scene)", &O::integrator,
-                        [](IntegratorKind v, S& s) { s.integrator = v; }),
+  t.push_back(named(row("integrator", "--integrator", K::kName, "nee_mis, nee or naive (overrides the scene)",
+                        &O::integrator, [](IntegratorKind v, S& s) { s.integrator = v; }),
                     {"nee_mis", "nee", "naive"}));
   t.push_back(named(row("sampler", "--sampler", K::kName, "sobol, stratified or independent (overrides the scene)",
                         &O::sampler, [](SamplerKind v, S& s) { s.sampler = v; }),
                     {"sobol", "stratified", "independent"}));
   // on keeps the scene's rule where it has one (else kRouletteOn); off turns roulette off.
   t.push_back(row("russian_roulette", "--russian-roulette", K::kOnOff,
-                  "on (the scene's rule, or throughput where it has none) or off (overrides the scene)", &O::russianRoulette,
-                  [](bool on, S& s) { s.roulette = !on ? RouletteRule::kOff : s.roulette == RouletteRule::kOff ? kRouletteOn : s.roulette; }));
-  t.push_back(ranged(row("target_error", "--target-error", K::kNumber,
-                         "Stop when the estimated relative RMSE of the image falls to this (e.g. 0.01); --spp becomes a cap",
-                         &O::targetError, [](double v, S& s) { s.targetError = v; }),
-                     1e-6, 0.999));
+                  "on (the scene's rule, or throughput where it has none) or off (overrides the scene)",
+                  &O::russianRoulette, [](bool on, S& s) {
+                    s.roulette = !on ? RouletteRule::kOff : s.roulette == RouletteRule::kOff ? kRouletteOn : s.roulette;
+                  }));
+  t.push_back(
+      ranged(row("target_error", "--target-error", K::kNumber,
+                 "Stop when the estimated relative RMSE of the image falls to this (e.g. 0.01); --spp becomes a cap",
+                 &O::targetError, [](double v, S& s) { s.targetError = v; }),
+             1e-6, 0.999));
   t.push_back(ranged(row("time_limit_seconds", "--deadline", K::kDuration,
                          "Stop this long after submission (e.g. 90s, 10m, 2h), with a whole number of units",
                          &O::timeLimitSeconds, [](double v, S& s) { s.timeLimitSeconds = v; }),
                      1e-3, 1e9));
-  OverrideRow tiles = row("tile_size", "--tile-size", K::kText,
-                          "How the frame is cut into units: auto (default), off (every unit covers the whole frame) or a "
-                          "tile edge in pixels; never changes the image",
-                          &O::tileSize, [](int v, S& s) { s.tileSize = v; });
+  OverrideRow tiles =
+      row("tile_size", "--tile-size", K::kText,
+          "How the frame is cut into units: auto (default), off (every unit covers the whole frame) or a "
+          "tile edge in pixels; never changes the image",
+          &O::tileSize, [](int v, S& s) { s.tileSize = v; });
   tiles.valueName = "auto|off|N";
   tiles.setText = [](O& o, const std::string& text, const std::string& flag) { parseTileSize(text, o, flag); };
   t.push_back(std::move(tiles));
@@ -206,13 +211,15 @@ std::vector<OverrideRow> makeTable() {
   aovs.repeatable = true;
   aovs.valueName = "LIST";
   t.push_back(std::move(aovs));
-  t.push_back(row("adaptive", "--adaptive", K::kOnOff,
-                  "on: spend a quarter of the samples uniformly, then the rest where the estimated error is "
-                  "(docs/accuracy.md \"Adaptive sampling\"; --spp becomes the mean); off: uniform (overrides the scene)",
-                  &O::adaptive, [](bool on, S& s) { s.adaptive.enabled = on; }));
-  t.push_back(ranged(row("ev", "--ev", K::kNumber, "Exposure compensation in stops for PNG images (overrides the scene)",
-                         &O::ev, [](double v, S& s) { s.exposure.ev = v; }),
-                     -kMaxExposureEv, kMaxExposureEv, "stops"));
+  t.push_back(
+      row("adaptive", "--adaptive", K::kOnOff,
+          "on: spend a quarter of the samples uniformly, then the rest where the estimated error is "
+          "(docs/accuracy.md \"Adaptive sampling\"; --spp becomes the mean); off: uniform (overrides the scene)",
+          &O::adaptive, [](bool on, S& s) { s.adaptive.enabled = on; }));
+  t.push_back(
+      ranged(row("ev", "--ev", K::kNumber, "Exposure compensation in stops for PNG images (overrides the scene)",
+                 &O::ev, [](double v, S& s) { s.exposure.ev = v; }),
+             -kMaxExposureEv, kMaxExposureEv, "stops"));
   return t;
 }
 
@@ -273,8 +280,8 @@ void applyOverrides(const RenderOverrides& o, RenderSettings& s, const std::stri
                                     : "overrides.height: given without overrides.width; give both or neither");
   if (o.ev && !(std::isfinite(*o.ev) && std::abs(*o.ev) <= kMaxExposureEv)) {
     char text[160];
-    std::snprintf(text, sizeof text, "overrides.ev: must be a finite number of stops in [%g, %g], got %g", -kMaxExposureEv,
-                  kMaxExposureEv, *o.ev);
+    std::snprintf(text, sizeof text, "overrides.ev: must be a finite number of stops in [%g, %g], got %g",
+                  -kMaxExposureEv, kMaxExposureEv, *o.ev);
     throw InputError(where, text);
   }
   for (const OverrideRow& r : overrideTable()) r.apply(o, s);

@@ -46,7 +46,7 @@ struct TriangleMesh {
   std::vector<Vec3> normals;
   std::vector<Vec2> uv[2];
   std::vector<glm::vec4> tangents;
-  bool visibleToCamera = true;        // false: camera rays pass through (the 2013 report's light, §4.4)
+  bool visibleToCamera = true;  // false: camera rays pass through (the 2013 report's light, §4.4)
   size_t triangleCount() const { return materialIds.size(); }
   // A vertex attribute (normals, uv[k], tangents) at barycentrics (b1, b2) of triangle `tri`:
   // (1 - b1 - b2) a0 + b1 a1 + b2 a2, the weights of the hit point (render/ray_caster.h).
@@ -96,8 +96,8 @@ enum class LightTracingMode { kAuto, kOn, kOff };
 // Diffraction by the aperture (docs/scene-format.md, camera.diffraction; film/diffraction_psf.h): a
 // point-spread function applied to the developed image, never to the sensor's sums.
 struct DiffractionSettings {
-  int wavelengthsPerChannel = 4;  // wavelengths averaged in each RGB channel's band
-  double sceneUnitsPerMm = 0.001; // a thin lens's scene unit in mm, for the wavelength (a real lens has its own)
+  int wavelengthsPerChannel = 4;   // wavelengths averaged in each RGB channel's band
+  double sceneUnitsPerMm = 0.001;  // a thin lens's scene unit in mm, for the wavelength (a real lens has its own)
 };
 
 // Russian roulette's rule (docs/scene-format.md, render.russian_roulette). A path that has made
@@ -128,25 +128,25 @@ struct AdaptiveSettings {
 struct RenderSettings {
   int width = 0, height = 0;
   uint64_t samplesPerPixel = 0;
-  int maxBounces = 2;                 // B (2013 report §4.5)
+  int maxBounces = 2;  // B (2013 report §4.5)
   // Scattering events in participating media a path may make besides its B surface bounces
   // (render/volume_integrator.h): a random walk through milk or marble takes many.
   int maxMediumBounces = 256;
   uint64_t seed = 0;
   IntegratorKind integrator = IntegratorKind::kNeeMis;
-  bool mirrorBouncesCount = false;    // 2013 report §4.5: mirror reflections do not count toward B
-  uint32_t samplesPerUnit = 0;        // samples per pixel in one unit of work; 0 = automatic
+  bool mirrorBouncesCount = false;  // 2013 report §4.5: mirror reflections do not count toward B
+  uint32_t samplesPerUnit = 0;      // samples per pixel in one unit of work; 0 = automatic
   SamplerKind sampler = SamplerKind::kSobol;
   // Russian roulette (render/integrator.cpp, survivesRoulette): unbiased early termination of dim
   // paths, by `roulette`, from the counted bounce after the first `rouletteMinBounces` on.
   RouletteRule roulette = kDefaultRoulette;
   int rouletteMinBounces = 1;
   LightTracingMode lightTracing = LightTracingMode::kAuto;  // render/light_tracer.h
-  AovSet aovs;                        // outputs beside the beauty (film/aov_layout.h, docs/aovs.md)
-  double lightTracingRatio = 0.25;    // light paths per camera path (pixel-sample) of a unit
+  AovSet aovs;                      // outputs beside the beauty (film/aov_layout.h, docs/aovs.md)
+  double lightTracingRatio = 0.25;  // light paths per camera path (pixel-sample) of a unit
   // Stopping rules besides samplesPerPixel (which is then a cap); 0 = not set. See docs/accuracy.md.
-  double targetError = 0.0;           // stop when the estimated relative RMSE falls to this
-  double timeLimitSeconds = 0.0;      // stop this long after submission, in whole units
+  double targetError = 0.0;       // stop when the estimated relative RMSE falls to this
+  double timeLimitSeconds = 0.0;  // stop this long after submission, in whole units
   // How the frame is cut into units (farm/job_layout.h): kTilesAuto, kTilesOff (passes over the
   // whole frame) or N for N x N tiles, each a unit with all its samples. Never changes a bit of
   // the image, only how it is scheduled, uploaded and held.
@@ -180,8 +180,8 @@ struct Scene {
   // frame) and every asset it references. A frame of an animation is (hash, frame).
   std::string hash;
   std::map<std::string, std::string> assets;  // relative path -> SHA-256 of every asset read
-  DVec3 origin{0.0};  // render space's origin in world space: the camera's position in the file
-  ThinLensParams cameraParams;  // in render space: position is the origin
+  DVec3 origin{0.0};                          // render space's origin in world space: the camera's position in the file
+  ThinLensParams cameraParams;                // in render space: position is the origin
   // A real lens (camera type "real_lens", camera/real_lens_camera.h); cameraParams are then its
   // frame and thin-lens equivalent (focal length and f-number), for the effect analysis.
   std::optional<RealLensParams> realLens;

@@ -1,5 +1,5 @@
-#include "common/util/file_contents.h"
 #include "common/scene/scene_loader.h"
+#include "common/util/file_contents.h"
 
 #include <tbb/parallel_invoke.h>
 #include <tiny_obj_loader.h>
@@ -22,11 +22,10 @@
 #include "common/light/light_types.h"
 #include "common/math/triangle.h"
 #include "common/medium/medium.h"
+#include "common/scene/asset_path.h"
 #include "common/scene/coplanar.h"
-#include "common/util/field_reader.h"
 #include "common/scene/gltf_import.h"
 #include "common/scene/imported_model.h"
-#include "common/scene/asset_path.h"
 #include "common/scene/keyframes.h"
 #include "common/scene/lens_prescription.h"
 #include "common/scene/obj_check.h"
@@ -34,6 +33,7 @@
 #include "common/scene/tile_size.h"
 #include "common/scene/transform.h"
 #include "common/util/error.h"
+#include "common/util/field_reader.h"
 #include "common/util/hash.h"
 
 namespace lensfarm {
@@ -132,7 +132,7 @@ class SceneParser {
     s.rouletteMinBounces = int(r.integer("roulette_min_bounces", 1, 0, kMaxBounces));
     const std::string lightTracing = r.string("light_tracing", "auto");
     if (lightTracing == "auto" || lightTracing == "on" || lightTracing == "off")
-      s.lightTracing = lightTracing == "on" ? LightTracingMode::kOn
+      s.lightTracing = lightTracing == "on"    ? LightTracingMode::kOn
                        : lightTracing == "off" ? LightTracingMode::kOff
                                                : LightTracingMode::kAuto;
     else
@@ -288,12 +288,15 @@ class SceneParser {
           if (name == *wanted) return useModelCamera(m.field, m.shown, c, name);
           names += (names.empty() ? "\"" : ", \"") + name + "\"";
         }
-      throw InputError(fileName_, "camera: no model camera named \"" + *wanted + "\" (" +
-                                      (names.empty() ? std::string("the models have no cameras") : "the models have " + names) + ")");
+      throw InputError(fileName_,
+                       "camera: no model camera named \"" + *wanted + "\" (" +
+                           (names.empty() ? std::string("the models have no cameras") : "the models have " + names) +
+                           ")");
     }
     for (const ModelImport& m : imports_) {
       if (!m.model.cameras.empty())
-        return useModelCamera(m.field, m.shown, m.model.cameras.front(), m.model.cameras.front().value("name", std::string("cameras[0]")));
+        return useModelCamera(m.field, m.shown, m.model.cameras.front(),
+                              m.model.cameras.front().value("name", std::string("cameras[0]")));
     }
     DVec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
     for (const ModelImport& m : imports_) lo = glm::min(lo, m.worldLo), hi = glm::max(hi, m.worldHi);
@@ -316,8 +319,8 @@ class SceneParser {
     distance = std::max(distance, 0.05 * radius);
     const DVec3 from = centre + distance * back;
     cameraOrigin_ = "camera (framing every model)";
-    notes_.push_back("camera: none in the scene or its models; framing them from the front: position " + showVec3(from) +
-                     ", look_at " + showVec3(centre) + ", angle_of_view 40, fov_axis smaller");
+    notes_.push_back("camera: none in the scene or its models; framing them from the front: position " +
+                     showVec3(from) + ", look_at " + showVec3(centre) + ", angle_of_view 40, fov_axis smaller");
     return json{{"type", "pinhole"},
                 {"position", {from.x, from.y, from.z}},
                 {"look_at", {centre.x, centre.y, centre.z}},
@@ -327,7 +330,8 @@ class SceneParser {
 
   // A model's camera as the scene's, with a note naming it, and the aspect ratio it was framed for
   // (Scene::cameraFramedAspect).
-  json useModelCamera(const std::string& field, const std::string& shown, const json& modelCamera, const std::string& name) {
+  json useModelCamera(const std::string& field, const std::string& shown, const json& modelCamera,
+                      const std::string& name) {
     json camera = modelCamera;
     camera.erase("name");
     cameraOrigin_ = field + " camera \"" + name + "\"";
@@ -355,7 +359,8 @@ class SceneParser {
     settings.wavelengthsPerChannel = int(d.integer("wavelengths", 4, 1, 16));
     if (d.has("scene_units_per_mm")) {
       if (type == "real_lens")
-        d.fail(d.field("scene_units_per_mm"), "a real lens's scene unit is camera.scene_units_per_mm; leave it out here");
+        d.fail(d.field("scene_units_per_mm"),
+               "a real lens's scene unit is camera.scene_units_per_mm; leave it out here");
       settings.sceneUnitsPerMm = positive(d, "scene_units_per_mm");
     }
     d.finish();
@@ -388,7 +393,8 @@ class SceneParser {
     if (r.has("sensor_height")) p.sensorHeight = positive(r, "sensor_height");
     p.focusDistance = r.has("focus_distance") ? positive(r, "focus_distance") : lookAtDistance;
     const LensSystem::Paraxial design = system.paraxial();
-    if (!(design.efl > 0.0)) r.fail(r.field("lens"), shown + " is not a converging lens (EFL " + shortNumber(design.efl) + " mm)");
+    if (!(design.efl > 0.0))
+      r.fail(r.field("lens"), shown + " is not a converging lens (EFL " + shortNumber(design.efl) + " mm)");
     double n = design.fNumber;
     if (r.has("f_number")) {
       n = positive(r, "f_number");
@@ -443,28 +449,31 @@ class SceneParser {
     // that is not the problem to report.
     if (p.lookAt == p.position)
       r.fail(r.field("look_at"), "equals camera.position (" + showVec3(position) +
-                                   (lookAt == position ? "" : " in single precision") + "): the view direction is undefined");
-    if (p.up == Vec3(0.0f))
-      r.fail(r.field("up"), "must not be [0, 0, 0]: it says which way is up in the image");
+                                     (lookAt == position ? "" : " in single precision") +
+                                     "): the view direction is undefined");
+    if (p.up == Vec3(0.0f)) r.fail(r.field("up"), "must not be [0, 0, 0]: it says which way is up in the image");
     const DVec3 view = glm::normalize(DVec3(p.lookAt) - DVec3(p.position));
     if (!(glm::length(glm::cross(view, glm::normalize(DVec3(p.up)))) > 1e-6))
       r.fail(r.field("up"), showVec3(p.up) + " is parallel to the view direction (look_at - position = " +
-                              showVec3(p.lookAt - p.position) + "): the image's up is undefined; give an up that is "
-                              "not along the view direction, e.g. " +
-                              (std::abs(view.y) < 0.9 ? "[0, 1, 0]" : "[0, 0, 1]"));
+                                showVec3(p.lookAt - p.position) +
+                                "): the image's up is undefined; give an up that is "
+                                "not along the view direction, e.g. " +
+                                (std::abs(view.y) < 0.9 ? "[0, 1, 0]" : "[0, 0, 1]"));
 
     if (type == "real_lens") return parseRealLens(r, glm::length(lookAt - position));
     const bool hasF = r.has("focal_length"), hasAngle = r.has("angle_of_view");
     if (hasF == hasAngle) r.fail(r.field("focal_length"), "give exactly one of focal_length and angle_of_view");
     const bool hasWidth = r.has("sensor_width");
     if (!hasWidth && hasF)
-      r.fail(r.field("sensor_width"), "is required with focal_length (it may be left out with angle_of_view, where it is " +
-                                        shortNumber(kDefaultSensorWidth) + ", a 36 mm sensor in a scene in metres)");
+      r.fail(r.field("sensor_width"),
+             "is required with focal_length (it may be left out with angle_of_view, where it is " +
+                 shortNumber(kDefaultSensorWidth) + ", a 36 mm sensor in a scene in metres)");
     p.sensorWidth = hasWidth ? positive(r, "sensor_width") : kDefaultSensorWidth;
     if (r.has("sensor_height")) {
       p.sensorHeight = r.number("sensor_height");
       if (!(p.sensorHeight >= 0.0))
-        r.fail(r.field("sensor_height"), "must be >= 0 (0: sensor_width * H / W, square cells), got " + shortNumber(p.sensorHeight));
+        r.fail(r.field("sensor_height"),
+               "must be >= 0 (0: sensor_width * H / W, square cells), got " + shortNumber(p.sensorHeight));
     }
     const double angle = hasAngle ? r.number("angle_of_view", 1e-6, 179.999) : 0.0;
     if (r.has("fov_axis")) {
@@ -472,9 +481,9 @@ class SceneParser {
       p.fovAxis = fovAxisNamed(r, r.string("fov_axis"));
     }
     p.angleOfView = angle;
-    p.focalLength = hasF ? positive(r, "focal_length")
-                         : focalLengthFromAngleOfView(
-                               sensorExtent(p.sensorWidth, sceneSensorHeight(p), p.fovAxis), angle);
+    p.focalLength =
+        hasF ? positive(r, "focal_length")
+             : focalLengthFromAngleOfView(sensorExtent(p.sensorWidth, sceneSensorHeight(p), p.fovAxis), angle);
     const double lookAtDistance = glm::length(lookAt - position);
     // A pinhole has no focus: its sensor sits at f, so the angle of view is the one given.
     if (type == "pinhole") {
@@ -523,7 +532,8 @@ class SceneParser {
     // it than the subject stands in front: the same slip, said the same way.)
     // (A pinhole given only an angle has no length of the user's to blame.)
     const bool pinholeLength = type == "pinhole" && (hasF || hasWidth);
-    if (!(lookAtDistance > p.focalLength) && (pinholeLength || (type != "pinhole" && !(p.focusDistance > p.focalLength)))) {
+    if (!(lookAtDistance > p.focalLength) &&
+        (pinholeLength || (type != "pinhole" && !(p.focusDistance > p.focalLength)))) {
       const std::string distance = "the distance to look_at (" + shortNumber(lookAtDistance) + ")" +
                                    (type == "pinhole" ? std::string() : ", on which the lens focuses");
       const std::string units = "camera lengths are in the scene's unit (that of positions), not millimetres";
@@ -531,21 +541,22 @@ class SceneParser {
       const bool sameUnit = p.sensorWidth / p.focalLength > 0.05 && p.sensorWidth / p.focalLength < 20.0;
       if (hasF)
         r.fail(r.field("focal_length"),
-               "f = " + shortNumber(p.focalLength) + " is not shorter than " + distance + ": " + units +
-                   "; if " + shortNumber(p.focalLength) + " means mm and the scene is in metres, write focal_length " +
+               "f = " + shortNumber(p.focalLength) + " is not shorter than " + distance + ": " + units + "; if " +
+                   shortNumber(p.focalLength) + " means mm and the scene is in metres, write focal_length " +
                    shortNumber(p.focalLength / 1000) +
                    (sameUnit ? " and sensor_width " + shortNumber(p.sensorWidth / 1000) : std::string()) +
                    " (or give angle_of_view)");
       if (hasWidth)
         r.fail(r.field("sensor_width"),
-               shortNumber(p.sensorWidth) + " with angle_of_view " + shortNumber(angle) + " gives f = LW / (2 tan(a/2)) = " +
-                   shortNumber(p.focalLength) + ", not shorter than " + distance + ": " + units + "; if " +
-                   shortNumber(p.sensorWidth) + " means mm and the scene is in metres, write sensor_width " +
-                   shortNumber(p.sensorWidth / 1000) + " (or leave it out: " + shortNumber(kDefaultSensorWidth) + ")");
-      r.fail(r.field("angle_of_view"),
-             shortNumber(angle) + " degrees on the default sensor_width " + shortNumber(kDefaultSensorWidth) +
-                 " gives f = " + shortNumber(p.focalLength) + ", not shorter than " + distance +
-                 ": give sensor_width in the scene's unit, or a wider angle");
+               shortNumber(p.sensorWidth) + " with angle_of_view " + shortNumber(angle) +
+                   " gives f = LW / (2 tan(a/2)) = " + shortNumber(p.focalLength) + ", not shorter than " + distance +
+                   ": " + units + "; if " + shortNumber(p.sensorWidth) +
+                   " means mm and the scene is in metres, write sensor_width " + shortNumber(p.sensorWidth / 1000) +
+                   " (or leave it out: " + shortNumber(kDefaultSensorWidth) + ")");
+      r.fail(r.field("angle_of_view"), shortNumber(angle) + " degrees on the default sensor_width " +
+                                           shortNumber(kDefaultSensorWidth) +
+                                           " gives f = " + shortNumber(p.focalLength) + ", not shorter than " +
+                                           distance + ": give sensor_width in the scene's unit, or a wider angle");
     }
     try {
       const ThinLensCamera camera(p, scene_.render.width, scene_.render.height);
@@ -565,10 +576,11 @@ class SceneParser {
     const double atInfinity = angleOfViewDegrees(extent, p.focalLength),
                  focused = angleOfViewDegrees(extent, camera.imageDistance());
     if (!(focused < atInfinity * (1.0 - 0.005))) return;
-    notes_.push_back("camera: focused at " + shortNumber(p.focusDistance) + ", the thin lens sees " +
-                     shortNumber(focused) + " degrees " + fovAxisName(p.fovAxis) + ", not the " + shortNumber(atInfinity) +
-                     (hasAngle ? " of its angle_of_view (which holds at infinity focus)" : " it sees at infinity focus") +
-                     "; a pinhole sees its angle_of_view exactly");
+    notes_.push_back(
+        "camera: focused at " + shortNumber(p.focusDistance) + ", the thin lens sees " + shortNumber(focused) +
+        " degrees " + fovAxisName(p.fovAxis) + ", not the " + shortNumber(atInfinity) +
+        (hasAngle ? " of its angle_of_view (which holds at infinity focus)" : " it sees at infinity focus") +
+        "; a pinhole sees its angle_of_view exactly");
   }
 
   // The sensor height the camera will have at the scene's resolution (0 in the scene: square cells).
@@ -577,9 +589,11 @@ class SceneParser {
   }
 
   static FovAxis fovAxisNamed(FieldReader& r, const std::string& name) {
-    for (const FovAxis axis : {FovAxis::kHorizontal, FovAxis::kVertical, FovAxis::kDiagonal, FovAxis::kSmaller, FovAxis::kLarger})
+    for (const FovAxis axis :
+         {FovAxis::kHorizontal, FovAxis::kVertical, FovAxis::kDiagonal, FovAxis::kSmaller, FovAxis::kLarger})
       if (name == fovAxisName(axis)) return axis;
-    r.fail(r.field("fov_axis"), "unknown axis \"" + name + "\" (expected horizontal, vertical, diagonal, smaller or larger)");
+    r.fail(r.field("fov_axis"),
+           "unknown axis \"" + name + "\" (expected horizontal, vertical, diagonal, smaller or larger)");
   }
 
   void parseShapes(FieldReader& top) {
@@ -620,7 +634,8 @@ class SceneParser {
   void addModelLights() {
     for (const ModelImport& m : imports_)
       for (size_t k = 0; k < m.model.lights.size(); ++k)
-        parseLightEntry(m.model.lights[k], m.field + " light \"" + m.model.lights[k].value("name", std::to_string(k)) + "\"");
+        parseLightEntry(m.model.lights[k],
+                        m.field + " light \"" + m.model.lights[k].value("name", std::to_string(k)) + "\"");
   }
 
   void parseLightEntry(const json& entry, const std::string& path) {
@@ -632,8 +647,7 @@ class SceneParser {
         if (!parseLight) {
           std::string expected = "quad";
           const std::vector<std::string> names = lightTypeNames();
-          for (size_t k = 0; k < names.size(); ++k)
-            expected += (k + 1 == names.size() ? " or " : ", ") + names[k];
+          for (size_t k = 0; k < names.size(); ++k) expected += (k + 1 == names.size() ? " or " : ", ") + names[k];
           r.fail(r.field("type"), "unknown light type \"" + type + "\" (expected " + expected + ")");
         }
         const LightParseContext context{r.string("name", path), [this](const DVec3& world, const std::string& field) {
@@ -651,14 +665,14 @@ class SceneParser {
       const DVec3 corner = r.dvec3("corner"), e1 = r.dvec3("edge1"), e2 = r.dvec3("edge2");
       r.finish();
       // Divided by their largest components first, so that no product overflows.
-      const DVec3 n = glm::cross(e1 / std::max(largestAbs(e1), 1e-300),
-                                 e2 / std::max(largestAbs(e2), 1e-300));
+      const DVec3 n = glm::cross(e1 / std::max(largestAbs(e1), 1e-300), e2 / std::max(largestAbs(e2), 1e-300));
       if (!(glm::length(n) > 0.0)) r.fail(path + ".edge2", "the quad has zero area");
       scene_.materials.push_back(m);
       addQuad(mesh, corner, e1, e2, uint32_t(scene_.materials.size() - 1));
       if (addMesh(std::move(mesh), path) != 2)
         r.fail(path + ".edge2", "the quad has zero area in single precision, " +
-                                    shortNumber(glm::length(toRenderSpace(corner, path + ".corner"))) + " from the camera");
+                                    shortNumber(glm::length(toRenderSpace(corner, path + ".corner"))) +
+                                    " from the camera");
       holdQuadPower(scene_.meshes.back(), glm::length(glm::cross(e1, e2)), scene_.materials.back());
     }
   }
@@ -671,8 +685,9 @@ class SceneParser {
   static void holdQuadPower(const TriangleMesh& placed, double writtenArea, Material& material) {
     double floatArea = 0.0;
     for (size_t tri = 0; tri < placed.triangleCount(); ++tri)
-      floatArea += triangleArea(placed.positions[placed.indices[3 * tri]], placed.positions[placed.indices[3 * tri + 1]],
-                                placed.positions[placed.indices[3 * tri + 2]]);
+      floatArea +=
+          triangleArea(placed.positions[placed.indices[3 * tri]], placed.positions[placed.indices[3 * tri + 1]],
+                       placed.positions[placed.indices[3 * tri + 2]]);
     const double ratio = writtenArea / floatArea;
     if (std::isfinite(ratio) && std::abs(ratio - 1.0) > 1e-4) material.emission *= float(ratio);
   }
@@ -681,8 +696,8 @@ class SceneParser {
   void parseEnvironment(FieldReader& top) {
     if (!top.has("environment")) return;
     FieldReader r(top.raw("environment"), "environment", fileName_);
-    scene_.lights.push_back(lensfarm::parseEnvironment(
-        r, [this](FieldReader& reader, const std::string& key, const std::string& kind) {
+    scene_.lights.push_back(
+        lensfarm::parseEnvironment(r, [this](FieldReader& reader, const std::string& key, const std::string& kind) {
           return readAssetFile(reader, key, kind);
         }));
     r.finish();
@@ -879,10 +894,12 @@ class SceneParser {
       scene_.prototypes.push_back(std::move(mesh));
     }
     // Each kept prototype's box, once.
-    const uint32_t firstPrototype = uint32_t(scene_.prototypes.size()) - uint32_t(std::count_if(
-        sceneIndex.begin(), sceneIndex.end(), [](uint32_t index) { return index != UINT32_MAX; }));
+    const uint32_t firstPrototype = uint32_t(scene_.prototypes.size()) -
+                                    uint32_t(std::count_if(sceneIndex.begin(), sceneIndex.end(),
+                                                           [](uint32_t index) { return index != UINT32_MAX; }));
     std::vector<std::pair<Vec3, Vec3>> boxes;
-    for (size_t k = firstPrototype; k < scene_.prototypes.size(); ++k) boxes.push_back(boundsOf(scene_.prototypes[k].positions));
+    for (size_t k = firstPrototype; k < scene_.prototypes.size(); ++k)
+      boxes.push_back(boundsOf(scene_.prototypes[k].positions));
     for (const ModelInstance& instance : m.model.instances) {
       const uint32_t k = instance.prototype;
       const bool last = --usesLeft[k] == 0;
@@ -982,18 +999,22 @@ class SceneParser {
     {
       const bool instancing = r.boolean("instancing", true);
       std::vector<MeshInput> copies;
-      addPrototypes(r, m, instancing, out.mesh.visibleToCamera,
-                    [&](uint32_t id) { return all != UINT32_MAX ? all : modelToScene[id]; }, copies);
+      addPrototypes(
+          r, m, instancing, out.mesh.visibleToCamera,
+          [&](uint32_t id) { return all != UINT32_MAX ? all : modelToScene[id]; }, copies);
       firstCopy = m.model.meshes.size();
       for (MeshInput& copy : copies) m.model.meshes.push_back(std::move(copy));
     }
     // One mesh (one Embree geometry) for the whole shape, as an OBJ always was.
     TriangleMesh& mesh = out.mesh;
-    const bool anyNormals = std::any_of(m.model.meshes.begin(), m.model.meshes.end(), [](const MeshInput& in) { return !in.mesh.normals.empty(); });
+    const bool anyNormals = std::any_of(m.model.meshes.begin(), m.model.meshes.end(),
+                                        [](const MeshInput& in) { return !in.mesh.normals.empty(); });
     bool anyUv[2];
     for (int set = 0; set < 2; ++set)
-      anyUv[set] = std::any_of(m.model.meshes.begin(), m.model.meshes.end(), [set](const MeshInput& in) { return !in.mesh.uv[set].empty(); });
-    const bool anyTangents = std::any_of(m.model.meshes.begin(), m.model.meshes.end(), [](const MeshInput& in) { return !in.mesh.tangents.empty(); });
+      anyUv[set] = std::any_of(m.model.meshes.begin(), m.model.meshes.end(),
+                               [set](const MeshInput& in) { return !in.mesh.uv[set].empty(); });
+    const bool anyTangents = std::any_of(m.model.meshes.begin(), m.model.meshes.end(),
+                                         [](const MeshInput& in) { return !in.mesh.tangents.empty(); });
     size_t triangle = 0;
     for (size_t part = 0; part < m.model.meshes.size(); ++part) {
       MeshInput& in = m.model.meshes[part];
@@ -1030,7 +1051,8 @@ class SceneParser {
           }
           if (material == UINT32_MAX && fallback != UINT32_MAX) material = fallback, ++fellBack;
           if (material == UINT32_MAX)
-            r.fail(r.field("material"), "OBJ group \"" + group + "\" has no material: give material or group_materials." + group +
+            r.fail(r.field("material"), "OBJ group \"" + group +
+                                            "\" has no material: give material or group_materials." + group +
                                             " (or a usemtl with an mtllib)");
         } else if (material == UINT32_MAX) {
           material = modelToScene[id];
@@ -1096,9 +1118,10 @@ class SceneParser {
   Vec3 toRenderSpace(const DVec3& world, const std::string& field) const {
     const DVec3 d = world - scene_.origin;
     if (!(largestAbs(d) <= kMaxRenderDistance))
-      throw InputError(fileName_, field + ": lies " + shortNumber(glm::length(d)) + " from the camera; at most " +
-                                      shortNumber(kMaxRenderDistance) +
-                                      " (per axis) is supported (squared distances must stay finite in single precision)");
+      throw InputError(fileName_,
+                       field + ": lies " + shortNumber(glm::length(d)) + " from the camera; at most " +
+                           shortNumber(kMaxRenderDistance) +
+                           " (per axis) is supported (squared distances must stay finite in single precision)");
     return Vec3(d);
   }
 
@@ -1177,10 +1200,10 @@ class SceneParser {
   size_t shapeTriangles_ = 0;
   size_t instancedTriangles_ = 0;  // drawn through instances (each use counted)
   std::vector<ModelImport> imports_;
-  std::string cameraOrigin_ = "camera";  // where the camera's fields come from, for messages
-  std::vector<std::string> notes_;        // Scene::notes
+  std::string cameraOrigin_ = "camera";                 // where the camera's fields come from, for messages
+  std::vector<std::string> notes_;                      // Scene::notes
   std::vector<std::shared_ptr<Medium>> unplacedMedia_;  // grids still in world space (placeMedia)
-  std::optional<double> frame_;           // the frame to evaluate keyframes at (none: the first)
+  std::optional<double> frame_;                         // the frame to evaluate keyframes at (none: the first)
 };
 
 }  // namespace
@@ -1263,11 +1286,12 @@ uint32_t unitSize(const RenderSettings& s) {
   if (s.adaptive.enabled) {
     // Sixteen passes or more (farm/job_layout.h: a quarter uniform, then rounds), each a power
     // of two of at most kMaxConvergenceUnitSamples.
-    const uint64_t fit = std::clamp<uint64_t>(std::min<uint64_t>(kAutoUnitPaths / 4 / pixels, s.samplesPerPixel / 16), 1,
-                                              kMaxConvergenceUnitSamples);
+    const uint64_t fit = std::clamp<uint64_t>(std::min<uint64_t>(kAutoUnitPaths / 4 / pixels, s.samplesPerPixel / 16),
+                                              1, kMaxConvergenceUnitSamples);
     return uint32_t(std::bit_floor(fit));
   }
-  const uint64_t perUnit = std::clamp<uint64_t>((kAutoUnitPaths + pixels - 1) / pixels, 1, std::max<uint64_t>(1, s.samplesPerPixel));
+  const uint64_t perUnit =
+      std::clamp<uint64_t>((kAutoUnitPaths + pixels - 1) / pixels, 1, std::max<uint64_t>(1, s.samplesPerPixel));
   return uint32_t(std::min<uint64_t>(perUnit, 1u << 20));
 }
 
@@ -1282,9 +1306,12 @@ void checkNesting(const std::string& text, const fs::path& file) {
   for (char c : text) {
     if (c == '\n') ++line;
     if (inString) {
-      if (escaped) escaped = false;
-      else if (c == '\\') escaped = true;
-      else if (c == '"') inString = false;
+      if (escaped)
+        escaped = false;
+      else if (c == '\\')
+        escaped = true;
+      else if (c == '"')
+        inString = false;
     } else if (c == '"') {
       inString = true;
     } else if (c == '[' || c == '{') {
@@ -1302,11 +1329,18 @@ namespace {
 // What a binary file given as a scene is, by its magic bytes; nothing for text.
 std::optional<std::string> binaryKind(const std::string& text) {
   static const std::pair<std::string, const char*> kMagic[] = {
-      {"\x89PNG\r\n\x1a\n", "a PNG image"},   {"\xff\xd8\xff", "a JPEG image"},
-      {"\x76\x2f\x31\x01", "an OpenEXR image"}, {"glTF", "a binary glTF model (.glb): give it a .glb name"},
-      {"%PDF", "a PDF document"},                {"PK\x03\x04", "a zip archive"},
-      {"\x1f\x8b", "a gzip archive"},             {"\x7f" "ELF", "a program"},
-      {"BM", "a BMP image"},                     {"GIF8", "a GIF image"}};
+      {"\x89PNG\r\n\x1a\n", "a PNG image"},
+      {"\xff\xd8\xff", "a JPEG image"},
+      {"\x76\x2f\x31\x01", "an OpenEXR image"},
+      {"glTF", "a binary glTF model (.glb): give it a .glb name"},
+      {"%PDF", "a PDF document"},
+      {"PK\x03\x04", "a zip archive"},
+      {"\x1f\x8b", "a gzip archive"},
+      {"\x7f"
+       "ELF",
+       "a program"},
+      {"BM", "a BMP image"},
+      {"GIF8", "a GIF image"}};
   for (const auto& [magic, kind] : kMagic)
     if (text.compare(0, magic.size(), magic) == 0) return std::string(kind);
   const size_t head = std::min<size_t>(text.size(), 4096);
@@ -1318,8 +1352,9 @@ std::optional<std::string> binaryKind(const std::string& text) {
 Scene parseScene(const std::string& text, const fs::path& file, const AssetReader& readAsset,
                  std::optional<double> frame) {
   if (const std::optional<std::string> kind = binaryKind(text))
-    throw InputError(file.string(), "is " + *kind + ", not a scene: a scene is a JSON file (docs/scene-format.md), a "
-                                    "model a .gltf, .glb or .obj file");
+    throw InputError(file.string(), "is " + *kind +
+                                        ", not a scene: a scene is a JSON file (docs/scene-format.md), a "
+                                        "model a .gltf, .glb or .obj file");
   checkNesting(text, file);
   json root;
   try {
@@ -1410,8 +1445,9 @@ Scene modelScene(const fs::path& modelFile, std::string& text, const AssetReader
                       {"irradiance", {3.0, 3.0, 3.0}}}};
   text = scene.dump(2);
   s = parse();
-  s.notes.push_back("lights: the model has none; lit as in a studio: a directional key light from 45 degrees above "
-                    "the camera's left (irradiance 3) and a uniform grey environment (radiance 0.15) as fill and background");
+  s.notes.push_back(
+      "lights: the model has none; lit as in a studio: a directional key light from 45 degrees above "
+      "the camera's left (irradiance 3) and a uniform grey environment (radiance 0.15) as fill and background");
   return s;
 }
 
@@ -1427,26 +1463,32 @@ void validateRenderSettings(const RenderSettings& s, const std::string& where) {
   if (!(s.timeLimitSeconds >= 0.0 && s.timeLimitSeconds <= 1e9))
     throw InputError(where, "time_limit: must be in [0, 1e9] seconds");
   if (s.tileSize < RenderSettings::kTilesOff) {
-    throw InputError(where, "tile_size: must be \"auto\", \"off\" or at least 1 pixel, got " + std::to_string(s.tileSize));
+    throw InputError(where,
+                     "tile_size: must be \"auto\", \"off\" or at least 1 pixel, got " + std::to_string(s.tileSize));
   } else if (s.tileSize > std::max(s.width, s.height)) {
-    throw InputError(where, "tile_size: " + std::to_string(s.tileSize) + " is larger than the " + std::to_string(s.width) +
-                                "x" + std::to_string(s.height) + " frame");
+    throw InputError(where, "tile_size: " + std::to_string(s.tileSize) + " is larger than the " +
+                                std::to_string(s.width) + "x" + std::to_string(s.height) + " frame");
   }
   if (s.adaptive.enabled) {
     if (s.tileSize > 0)
-      throw InputError(where, "adaptive: adaptive sampling follows the error over the whole frame in passes; give "
-                              "tile_size \"off\" or \"auto\"");
+      throw InputError(where,
+                       "adaptive: adaptive sampling follows the error over the whole frame in passes; give "
+                       "tile_size \"off\" or \"auto\"");
     if (s.lightTracing == LightTracingMode::kOn)
-      throw InputError(where, "adaptive: light paths splat over the whole frame at one sample count; adaptive "
-                              "sampling gives blocks their own counts: give light_tracing \"auto\" or \"off\"");
-    if (!(s.adaptive.uniform > 0.0 && s.adaptive.uniform <= 1.0) || !(s.adaptive.floor > 0.0 && s.adaptive.floor <= 1.0))
+      throw InputError(where,
+                       "adaptive: light paths splat over the whole frame at one sample count; adaptive "
+                       "sampling gives blocks their own counts: give light_tracing \"auto\" or \"off\"");
+    if (!(s.adaptive.uniform > 0.0 && s.adaptive.uniform <= 1.0) ||
+        !(s.adaptive.floor > 0.0 && s.adaptive.floor <= 1.0))
       throw InputError(where, "adaptive: uniform and floor must be fractions in (0, 1]");
     if (s.adaptive.blockEdge < 0 || s.adaptive.blockEdge > std::max(s.width, s.height))
-      throw InputError(where, "adaptive.block: must be a block edge in [1, " + std::to_string(std::max(s.width, s.height)) + "] cells");
+      throw InputError(where, "adaptive.block: must be a block edge in [1, " +
+                                  std::to_string(std::max(s.width, s.height)) + "] cells");
   }
   if (s.tileSize > 0 && s.convergenceDriven())
-    throw InputError(where, "tile_size: a job with target_error or time_limit stops after whole passes over the "
-                            "frame; give tile_size \"off\" or \"auto\"");
+    throw InputError(where,
+                     "tile_size: a job with target_error or time_limit stops after whole passes over the "
+                     "frame; give tile_size \"off\" or \"auto\"");
 }
 
 namespace {
@@ -1472,7 +1514,8 @@ const char* integratorName(IntegratorKind kind) {
 }
 
 bool parseIntegratorName(const std::string& name, IntegratorKind& kind) {
-  return parseByName(name, {IntegratorKind::kNaive, IntegratorKind::kNee, IntegratorKind::kNeeMis}, integratorName, kind);
+  return parseByName(name, {IntegratorKind::kNaive, IntegratorKind::kNee, IntegratorKind::kNeeMis}, integratorName,
+                     kind);
 }
 
 const char* samplerName(SamplerKind kind) {
@@ -1498,7 +1541,8 @@ bool parseRouletteName(const std::string& name, RouletteRule& rule) {
 }
 
 bool parseSamplerName(const std::string& name, SamplerKind& kind) {
-  return parseByName(name, {SamplerKind::kIndependent, SamplerKind::kStratified, SamplerKind::kSobol}, samplerName, kind);
+  return parseByName(name, {SamplerKind::kIndependent, SamplerKind::kStratified, SamplerKind::kSobol}, samplerName,
+                     kind);
 }
 
 }  // namespace lensfarm

@@ -44,7 +44,8 @@ using AssetReader = std::function<std::optional<std::string>(const std::string& 
 // Reads assets from the file system, relative to `sceneFile`'s directory, inside it or inside one
 // of the `allowed` folders (scene/asset_path.h); a path outside them throws AssetRefused, which
 // the scene loader reports naming the field or the model file.
-AssetReader fileAssetReader(const std::filesystem::path& sceneFile, const std::vector<std::filesystem::path>& allowed = {});
+AssetReader fileAssetReader(const std::filesystem::path& sceneFile,
+                            const std::vector<std::filesystem::path>& allowed = {});
 
 // A scene file, or a model file (.gltf, .glb, .obj) rendered with modelScene's defaults.
 // `frame`: the frame of an animated scene to evaluate its keyframes at (docs/scene-format.md,

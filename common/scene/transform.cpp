@@ -6,7 +6,8 @@ namespace lensfarm {
 
 glm::dmat4 TransformParts::matrix() const {
   const DVec3& k = scale;
-  const glm::dmat4 s(glm::dvec4(k.x, 0, 0, 0), glm::dvec4(0, k.y, 0, 0), glm::dvec4(0, 0, k.z, 0), glm::dvec4(0, 0, 0, 1));
+  const glm::dmat4 s(glm::dvec4(k.x, 0, 0, 0), glm::dvec4(0, k.y, 0, 0), glm::dvec4(0, 0, k.z, 0),
+                     glm::dvec4(0, 0, 0, 1));
   const glm::dmat4 r = rotates ? glm::rotate(glm::dmat4(1.0), radians, axis) : glm::dmat4(1.0);
   glm::dmat4 t(1.0);
   t[3] = glm::dvec4(translate, 1.0);

@@ -15,10 +15,10 @@ namespace lensfarm {
 // built (glm::rotate), so that a transform read from the file gives the same bits however it
 // is reached; `quaternion()` is the same rotation for interpolation.
 struct TransformParts {
-  DVec3 scale{1.0};       // no component zero
+  DVec3 scale{1.0};           // no component zero
   DVec3 axis{0.0, 0.0, 1.0};  // unit (meaningful when `rotates`)
-  double radians = 0.0;   // right-handed about `axis`
-  bool rotates = false;   // false: no rotation (R = I)
+  double radians = 0.0;       // right-handed about `axis`
+  bool rotates = false;       // false: no rotation (R = I)
   DVec3 translate{0.0};
 
   glm::dmat4 matrix() const;

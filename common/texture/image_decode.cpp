@@ -42,16 +42,11 @@ Format formatOf(const std::string& bytes) {
 
 const char* formatName(Format f) {
   switch (f) {
-    case Format::kPng:
-      return "PNG";
-    case Format::kJpeg:
-      return "JPEG";
-    case Format::kHdr:
-      return "Radiance HDR";
-    case Format::kExr:
-      return "EXR";
-    default:
-      return "image";
+    case Format::kPng: return "PNG";
+    case Format::kJpeg: return "JPEG";
+    case Format::kHdr: return "Radiance HDR";
+    case Format::kExr: return "EXR";
+    default: return "image";
   }
 }
 

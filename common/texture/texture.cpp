@@ -57,8 +57,7 @@ RgbaImage halve(const RgbaImage& in) {
 // A texel index wrapped into [0, size) by glTF's rule.
 int wrapIndex(int i, int size, Wrap wrap) {
   switch (wrap) {
-    case Wrap::kClampToEdge:
-      return std::clamp(i, 0, size - 1);
+    case Wrap::kClampToEdge: return std::clamp(i, 0, size - 1);
     case Wrap::kMirroredRepeat: {
       const int period = 2 * size;
       int m = i % period;

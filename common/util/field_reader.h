@@ -115,9 +115,7 @@ class FieldReader {
     if (!v.is_string()) fail(field(key), "must be a string");
     return v.get<std::string>();
   }
-  std::string string(const std::string& key, const std::string& fallback) {
-    return has(key) ? string(key) : fallback;
-  }
+  std::string string(const std::string& key, const std::string& fallback) { return has(key) ? string(key) : fallback; }
 
   Vec3 vec3(const std::string& key) { return toVec3(raw(key), field(key)); }
   Vec3 vec3(const std::string& key, Vec3 fallback) { return has(key) ? vec3(key) : fallback; }
@@ -165,11 +163,14 @@ class FieldReader {
     const double x = checkNumber(v, name, -std::numeric_limits<double>::max(), std::numeric_limits<double>::max());
     if (x == 0.0) return 0.0;  // also -0
     if (x < 0.0)
-      fail(name, "must be 0 or in [" + fmt(range.lo) + ", " + fmt(range.hi) + "], got " + fmt(x) + ": a colour is never negative");
+      fail(name, "must be 0 or in [" + fmt(range.lo) + ", " + fmt(range.hi) + "], got " + fmt(x) +
+                     ": a colour is never negative");
     if (x > range.hi)
-      fail(name, "must be 0 or in [" + fmt(range.lo) + ", " + fmt(range.hi) + "], got " + fmt(x) + ": " + range.aboveWhy);
+      fail(name,
+           "must be 0 or in [" + fmt(range.lo) + ", " + fmt(range.hi) + "], got " + fmt(x) + ": " + range.aboveWhy);
     if (x < range.lo)
-      fail(name, "must be 0 or in [" + fmt(range.lo) + ", " + fmt(range.hi) + "], got " + fmt(x) + ": " + range.belowWhy);
+      fail(name,
+           "must be 0 or in [" + fmt(range.lo) + ", " + fmt(range.hi) + "], got " + fmt(x) + ": " + range.belowWhy);
     return x;
   }
 
@@ -179,9 +180,11 @@ class FieldReader {
       if (!seen_.count(it.key())) {
         std::string allowed;
         for (const auto& k : seen_) allowed += (allowed.empty() ? "" : ", ") + k;
-        const std::optional<std::string> meant = nearestName(it.key(), std::vector<std::string>(seen_.begin(), seen_.end()));
-        fail(field(it.key()), meant ? "unknown field; did you mean \"" + *meant + "\"? (expected one of: " + allowed + ")"
-                                    : "unknown field (expected one of: " + allowed + ")");
+        const std::optional<std::string> meant =
+            nearestName(it.key(), std::vector<std::string>(seen_.begin(), seen_.end()));
+        fail(field(it.key()), meant
+                                  ? "unknown field; did you mean \"" + *meant + "\"? (expected one of: " + allowed + ")"
+                                  : "unknown field (expected one of: " + allowed + ")");
       }
     }
   }

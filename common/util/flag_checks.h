@@ -16,7 +16,7 @@ namespace lensfarm {
 CLI::Validator positiveNumber(const std::string& unit);     // a finite number > 0
 CLI::Validator nonNegativeNumber(const std::string& unit);  // a finite number >= 0
 CLI::Validator numberIn(double lo, double hi, const std::string& unit = "");
-CLI::Validator wholeNumberIn(uint64_t lo, uint64_t hi);     // digits only: no sign, no fraction
+CLI::Validator wholeNumberIn(uint64_t lo, uint64_t hi);  // digits only: no sign, no fraction
 // A transform: "45", "90s", "1.5m", "2h" or "250ms" becomes seconds in [lo, hi].
 CLI::Validator durationIn(double lo, double hi);
 

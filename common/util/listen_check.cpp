@@ -16,7 +16,8 @@ std::optional<std::string> listenProblem(const std::string& address) {
   std::string host = address.substr(0, colon);
   const std::string port = address.substr(colon + 1);
   if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
-  if (port.empty() || port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos || std::stoi(port) > 65535)
+  if (port.empty() || port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos ||
+      std::stoi(port) > 65535)
     return std::nullopt;
   if (port == "0" || port == "00" || std::stoi(port) == 0) return std::nullopt;
   addrinfo hints{};
@@ -40,12 +41,15 @@ std::optional<std::string> listenProblem(const std::string& address) {
       break;
     }
     if (error == EADDRINUSE)
-      problem = "the port " + port + " is in use: another process (another coordinator?) listens there; stop it, or "
+      problem = "the port " + port +
+                " is in use: another process (another coordinator?) listens there; stop it, or "
                 "give another port (port 0 picks a free one)";
     else if (error == EACCES)
-      problem = "listening on port " + port + " is not permitted (ports below 1024 need privileges); give a port above 1023";
+      problem =
+          "listening on port " + port + " is not permitted (ports below 1024 need privileges); give a port above 1023";
     else if (error == EADDRNOTAVAIL)
-      problem = "\"" + host + "\" is not an address of this machine (give 0.0.0.0 for every interface, 127.0.0.1 for this "
+      problem = "\"" + host +
+                "\" is not an address of this machine (give 0.0.0.0 for every interface, 127.0.0.1 for this "
                 "machine only)";
     else
       problem = std::string("cannot listen there: ") + std::strerror(error);

@@ -1,5 +1,5 @@
-#include "common/util/file_contents.h"
 #include "common/util/secret.h"
+#include "common/util/file_contents.h"
 
 #include <algorithm>
 #include <cctype>
@@ -36,8 +36,8 @@ void checkTokenStrength(const std::string& token, const std::string& source) {
   std::string lower = token;
   std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   std::erase_if(lower, [](char c) { return c == '-' || c == '_' || c == ' ' || c == '.'; });
-  for (const char* placeholder : {"replaceme", "changeme", "placeholder", "example", "yourtoken", "yoursecret", "insert",
-                                  "fixme", "xxxxxx", "secrettoken", "password"})
+  for (const char* placeholder : {"replaceme", "changeme", "placeholder", "example", "yourtoken", "yoursecret",
+                                  "insert", "fixme", "xxxxxx", "secrettoken", "password"})
     if (lower.find(placeholder) != std::string::npos)
       throw InputError(source, std::string("the token is a placeholder (it contains \"") + placeholder +
                                    "\"), not a secret: replace it" + kHowTo);

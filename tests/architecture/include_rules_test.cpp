@@ -34,7 +34,8 @@ std::vector<std::pair<std::string, std::string>> includesIn(const std::string& f
 // The layers of common/, lowest first (common/CMakeLists.txt builds each into its own library):
 // a folder includes only folders before it. Folders on one rung may not include each other.
 const std::vector<std::vector<std::string>> kLayers = {
-    {"math"}, {"util"}, {"texture"}, {"camera", "medium"}, {"film", "material"}, {"light"}, {"scene"}, {"render"}, {"farm"}};
+    {"math"},  {"util"},   {"texture"}, {"camera", "medium"}, {"film", "material"}, {"light"},
+    {"scene"}, {"render"}, {"farm"}};
 
 int rungOf(const std::string& folder) {
   for (size_t i = 0; i < kLayers.size(); ++i)

@@ -12,9 +12,9 @@
 
 #include "common/film/image_io.h"
 #include "common/scene/scene_loader.h"
+#include "common/util/error.h"
 #include "tests/support/chi2.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

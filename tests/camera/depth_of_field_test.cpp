@@ -13,7 +13,9 @@ constexpr double kF = 0.095, kS1 = 2.9, kL = 0.1;
 double round3(double x) { return std::round(x * 1000.0) / 1000.0; }
 
 TEST(DepthOfField, ReproducesSeedTable1ToThreeDecimals) {
-  struct Row { double n, h, dn, df, depth; };
+  struct Row {
+    double n, h, dn, df, depth;
+  };
   // 2013 report, Table 1 (S1 = 2.9, f = 0.095, L = 0.1, c = sqrt(2) L / 1500).
   const Row table[] = {{2, 47.957, 2.740, 3.093, 0.353},
                        {4, 24.026, 2.597, 3.313, 0.716},

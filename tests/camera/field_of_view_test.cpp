@@ -13,8 +13,8 @@
 #include "common/camera/thin_lens_camera.h"
 #include "common/scene/render_overrides.h"
 #include "common/scene/scene_loader.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -30,7 +30,8 @@ double measuredAngle(const ThinLensCamera& camera, bool horizontal) {
   const int w = camera.width(), h = camera.height();
   const Vec3 side = horizontal ? camera.right() : camera.up();
   const auto angleTo = [&](const CameraRay& ray) {
-    return std::atan2(std::abs(double(glm::dot(ray.direction, side))), double(glm::dot(ray.direction, camera.forward())));
+    return std::atan2(std::abs(double(glm::dot(ray.direction, side))),
+                      double(glm::dot(ray.direction, camera.forward())));
   };
   // Cell edges: cell 0 at offset 0 and the last cell at offset just below 1.
   const float uMax = 0x1.fffffep-1f;
@@ -45,7 +46,9 @@ double measuredAngle(const ThinLensCamera& camera, bool horizontal) {
 
 double measuredDiagonal(const ThinLensCamera& camera) {
   const float uMax = 0x1.fffffep-1f;
-  const auto angleTo = [&](const CameraRay& ray) { return std::acos(std::clamp(double(glm::dot(ray.direction, camera.forward())), -1.0, 1.0)); };
+  const auto angleTo = [&](const CameraRay& ray) {
+    return std::acos(std::clamp(double(glm::dot(ray.direction, camera.forward())), -1.0, 1.0));
+  };
   return (angleTo(camera.generatePinholeRay(0, 0, Vec2(0.0f))) +
           angleTo(camera.generatePinholeRay(camera.width() - 1, camera.height() - 1, Vec2(uMax)))) /
          kDegree;
@@ -72,11 +75,14 @@ TEST(FieldOfView, APinholeSeesItsAngleWhateverTheDistanceToLookAt) {
     for (const json& lens : {json{{"angle_of_view", 39.3077}}, json{{"focal_length", 0.05}, {"sensor_width", 0.036}}}) {
       // (Lengths longer than the distance to look_at are refused as a unit slip: not this case.)
       if (lens.contains("focal_length") && distance < 0.05) continue;
-      json camera = {{"type", "pinhole"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, -3 + distance}}, {"up", {0, 1, 0}}};
+      json camera = {
+          {"type", "pinhole"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, -3 + distance}}, {"up", {0, 1, 0}}};
       camera.update(lens);
       const Scene s = sceneWith(dir, camera, 256, 256);
-      const double expected = lens.contains("angle_of_view") ? 39.3077 : 2.0 * std::atan(0.036 / (2.0 * 0.05)) / kDegree;
-      EXPECT_NEAR(measuredAngle(s.camera(), true), expected, 1e-4) << "look_at " << distance << " ahead, " << lens.dump();
+      const double expected =
+          lens.contains("angle_of_view") ? 39.3077 : 2.0 * std::atan(0.036 / (2.0 * 0.05)) / kDegree;
+      EXPECT_NEAR(measuredAngle(s.camera(), true), expected, 1e-4)
+          << "look_at " << distance << " ahead, " << lens.dump();
       EXPECT_NEAR(measuredAngle(s.camera(), false), expected, 1e-4) << "look_at " << distance << " ahead";
     }
 }
@@ -120,14 +126,18 @@ TEST(FieldOfView, AResolutionGivenLaterKeepsTheVerticalAngle) {
   // is built at the final size, so a vertical angle stays vertical.
   const test::TempDir dir;
   Scene s = sceneWith(dir,
-                      {{"type", "pinhole"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}, {"angle_of_view", 30},
+                      {{"type", "pinhole"},
+                       {"position", {0, 0, -3}},
+                       {"look_at", {0, 0, 0}},
+                       {"angle_of_view", 30},
                        {"fov_axis", "vertical"}},
                       64, 64);
   RenderOverrides o;
   parseResolution("320x90", o);
   applyOverrides(o, s.render, "test");
   EXPECT_NEAR(measuredAngle(s.camera(), false), 30.0, 1e-4);
-  EXPECT_NEAR(measuredAngle(s.camera(), true), 2.0 * std::atan(std::tan(15.0 * kDegree) * 320.0 / 90.0) / kDegree, 1e-4);
+  EXPECT_NEAR(measuredAngle(s.camera(), true), 2.0 * std::atan(std::tan(15.0 * kDegree) * 320.0 / 90.0) / kDegree,
+              1e-4);
 }
 
 TEST(FieldOfView, AThinLensFocusedNearSaysHowMuchItBreathes) {
@@ -135,16 +145,20 @@ TEST(FieldOfView, AThinLensFocusedNearSaysHowMuchItBreathes) {
   // f = 0.095 focused at 0.5: S2 = f S1 / (S1 - f) = 0.11728, so the view narrows from
   // 2 atan(0.05 / 0.095) = 55.52 degrees to 2 atan(0.05 / 0.11728) = 46.18.
   const json lens = {{"type", "thin_lens"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}, {"focal_length", 0.095},
-                     {"sensor_width", 0.1}, {"f_number", 8}, {"focus_distance", 0.5}};
+                     {"sensor_width", 0.1}, {"f_number", 8},          {"focus_distance", 0.5}};
   const Scene near = sceneWith(dir, lens, 64, 64);
-  EXPECT_NEAR(measuredAngle(near.camera(), true), 2.0 * std::atan(0.05 / (0.095 * 0.5 / (0.5 - 0.095))) / kDegree, 1e-3);
+  EXPECT_NEAR(measuredAngle(near.camera(), true), 2.0 * std::atan(0.05 / (0.095 * 0.5 / (0.5 - 0.095))) / kDegree,
+              1e-3);
   EXPECT_TRUE(hasNote(near, "the thin lens sees 46.178")) << (near.notes.empty() ? "" : near.notes.back());
   // Focused far away the difference is below half a percent: no note.
   json far = lens;
   far["focus_distance"] = 100.0;
   EXPECT_FALSE(hasNote(sceneWith(dir, far, 64, 64), "the thin lens sees"));
   // A pinhole has no focus: a focus_distance is ignored, and said to be.
-  json pinhole = {{"type", "pinhole"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}, {"angle_of_view", 40},
+  json pinhole = {{"type", "pinhole"},
+                  {"position", {0, 0, -3}},
+                  {"look_at", {0, 0, 0}},
+                  {"angle_of_view", 40},
                   {"focus_distance", 0.5}};
   const Scene p = sceneWith(dir, pinhole, 64, 64);
   EXPECT_NEAR(measuredAngle(p.camera(), true), 40.0, 1e-4);
@@ -154,13 +168,14 @@ TEST(FieldOfView, AThinLensFocusedNearSaysHowMuchItBreathes) {
 TEST(FieldOfView, ABadAxisIsNamed) {
   const test::TempDir dir;
   json j = test::minimalSceneJson();
-  j["camera"] = {{"type", "pinhole"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}, {"angle_of_view", 40},
-                 {"fov_axis", "y"}};
+  j["camera"] = {
+      {"type", "pinhole"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}, {"angle_of_view", 40}, {"fov_axis", "y"}};
   try {
     (void)test::loadSceneJson(dir, j);
     FAIL() << "fov_axis \"y\" accepted";
   } catch (const InputError& e) {
-    EXPECT_TRUE(test::contains(e.what(), "camera.fov_axis: unknown axis \"y\" (expected horizontal, vertical, diagonal"));
+    EXPECT_TRUE(
+        test::contains(e.what(), "camera.fov_axis: unknown axis \"y\" (expected horizontal, vertical, diagonal"));
   }
   j["camera"].erase("angle_of_view");
   j["camera"]["focal_length"] = 0.05;

@@ -38,10 +38,10 @@ TEST(FocusSpots, TheDofCommandPrintsAndPlotsThem) {
   EXPECT_NE(plot.find("</svg>"), std::string::npos);
   EXPECT_EQ(std::count(plot.begin(), plot.end(), '\n') > 10, true);
   // --compare needs a real lens; --svg needs --spots.
-  const auto thin = test::runProcess({test::cliPath().string(), "dof", (test::scenesDir() / "cornell-seed.json").string(),
-                                      "--spots", "1.4", "--compare",
-                                      (test::scenesDir() / "cornell-seed.json").string()},
-                                     60);
+  const auto thin =
+      test::runProcess({test::cliPath().string(), "dof", (test::scenesDir() / "cornell-seed.json").string(), "--spots",
+                        "1.4", "--compare", (test::scenesDir() / "cornell-seed.json").string()},
+                       60);
   EXPECT_EQ(thin.exitCode, cli::kBadInput);
   EXPECT_NE(thin.err.find("--compare"), std::string::npos) << thin.err;
   const auto noSpots = test::runProcess(

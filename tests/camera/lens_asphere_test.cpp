@@ -70,8 +70,7 @@ TEST(Asphere, NewtonsCrossingLiesOnTheSagAndTheNormalIsItsGradient) {
   for (double r : {0.0, 3.0, 8.0, 14.0})
     EXPECT_NEAR(s.sag(r), c * r * r / 2.0 + a[0] * std::pow(r, 4) + a[1] * std::pow(r, 6), 1e-12) << r;
   // The slope is the sag's derivative (a central difference).
-  for (double r : {1.0, 7.0, 13.0})
-    EXPECT_NEAR(s.sagSlope(r), (s.sag(r + 1e-5) - s.sag(r - 1e-5)) / 2e-5, 1e-8) << r;
+  for (double r : {1.0, 7.0, 13.0}) EXPECT_NEAR(s.sagSlope(r), (s.sag(r + 1e-5) - s.sag(r - 1e-5)) / 2e-5, 1e-8) << r;
   for (double y : {0.5, 5.0, 11.0}) {
     std::vector<DVec3> hits;
     // An oblique ray, so the crossing is not at the height it started at.
@@ -124,9 +123,8 @@ TEST(Asphere, BadAsphericSurfacesAreRefusedNamingTheField) {
   // A ray that misses the closed conic is a miss, not a crash.
   LensSurface oblate{-kRadius, 0.0, 1.0, 0.0, 20.0, false};
   oblate.conic = 3.0;
-  const LensSystem lens({LensSurface{0.0, 1.0, 1.0, 0.0, 24.0, true}, LensSurface{0.0, 6.0, kIndex, 0.0, 30.0, false},
-                         oblate},
-                        "oblate");
+  const LensSystem lens(
+      {LensSurface{0.0, 1.0, 1.0, 0.0, 24.0, true}, LensSurface{0.0, 6.0, kIndex, 0.0, 30.0, false}, oblate}, "oblate");
   EXPECT_FALSE(lens.traceFromObjectSide({DVec3(0.0, 11.9, -5.0), DVec3(0.0, 0.0, 1.0)}));
 }
 

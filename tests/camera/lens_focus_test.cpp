@@ -17,9 +17,9 @@ namespace {
 
 // A biconvex N-BK7 singlet (R 50 / -50, 5 mm) with the stop `stop` mm wide 2 mm in front.
 LensSystem singlet(double stop) {
-  return LensSystem({{0.0, 2.0, 1.0, 0.0, stop, true}, {50.0, 5.0, 1.5168, 0.0, 40.0, false},
-                     {-50.0, 0.0, 1.0, 0.0, 40.0, false}},
-                    "singlet");
+  return LensSystem(
+      {{0.0, 2.0, 1.0, 0.0, stop, true}, {50.0, 5.0, 1.5168, 0.0, 40.0, false}, {-50.0, 0.0, 1.0, 0.0, 40.0, false}},
+      "singlet");
 }
 
 // Where a ray entering parallel at height h (or from the axial point at `distance`) crosses

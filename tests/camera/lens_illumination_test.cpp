@@ -54,7 +54,8 @@ void expectRenderFollowsRelativeIllumination(const std::string& lensFile, double
       {"render", {{"resolution", {width, height}}, {"samples_per_pixel", 256}}},
       // One small quad behind the camera (a scene needs a triangle); the camera sees only sky.
       {"materials", {{"w", {{"type", "lambertian"}, {"albedo", 0.5}}}}},
-      {"shapes", {{{"type", "quad"}, {"corner", {0, 0, -50}}, {"edge1", {1, 0, 0}}, {"edge2", {0, 1, 0}}, {"material", "w"}}}},
+      {"shapes",
+       {{{"type", "quad"}, {"corner", {0, 0, -50}}, {"edge1", {1, 0, 0}}, {"edge2", {0, 1, 0}}, {"material", "w"}}}},
       {"environment", {{"radiance", {1, 1, 1}}}}};
   const Scene s = test::loadSceneJson(dir, scene);
   const RealLensCamera camera = *s.realLensCamera();

@@ -40,7 +40,8 @@ TEST(LensProjection, TheFisheyeMatchesItsStatedProjectionWithinTwoPercent) {
       EXPECT_NEAR(p.imageHeight / projectedHeight(*stated, f, theta), 1.0, 0.02)
           << e.path() << " at " << p.angleDegrees << " degrees: " << p.imageHeight << " mm";
       for (int k = 0; k < 5; ++k)
-        worstOther[k] = std::max(worstOther[k], std::abs(p.imageHeight / projectedHeight(Projection(k), f, theta) - 1.0));
+        worstOther[k] =
+            std::max(worstOther[k], std::abs(p.imageHeight / projectedHeight(Projection(k), f, theta) - 1.0));
     }
     for (int k = 0; k < 5; ++k)
       if (Projection(k) != *stated) {

@@ -7,18 +7,18 @@
 
 #include <cmath>
 
+#include "common/util/error.h"
 #include "tests/camera/paraxial_reference.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {
 
 // A biconvex singlet (R1 = 50, R2 = -50, 5 mm of n = 1.5) with the stop 2 mm behind it.
 LensSystem singlet(double index = 1.5, double abbe = 0.0) {
-  return LensSystem({{50.0, 5.0, index, abbe, 20.0, false}, {-50.0, 2.0, 1.0, 0.0, 20.0, false},
-                     {0.0, 0.0, 1.0, 0.0, 10.0, true}},
-                    "singlet");
+  return LensSystem(
+      {{50.0, 5.0, index, abbe, 20.0, false}, {-50.0, 2.0, 1.0, 0.0, 20.0, false}, {0.0, 0.0, 1.0, 0.0, 10.0, true}},
+      "singlet");
 }
 
 LensSystem doubleGauss() {
@@ -126,12 +126,17 @@ TEST(LensSystem, BadPrescriptionsAreRefusedNamingTheLineOrSurface) {
   EXPECT_NE(message([] { LensSystem::parsePbrt("# a lens\n50 5 1.5 20\n-50 x 1 20\n", "bad.dat"); }).find("bad.dat:3"),
             std::string::npos);
   EXPECT_NE(message([] { LensSystem::parsePbrt("50 5 1.5\n", "short.dat"); }).find("short.dat:1"), std::string::npos);
-  EXPECT_NE(message([] { LensSystem::parsePbrt("50 5 1.5 20\n-50 2 1 20\n", "nostop.dat"); }).find("exactly one aperture stop"),
+  EXPECT_NE(message([] {
+              LensSystem::parsePbrt("50 5 1.5 20\n-50 2 1 20\n", "nostop.dat");
+            }).find("exactly one aperture stop"),
             std::string::npos);
-  EXPECT_NE(message([] { LensSystem::parsePbrt("5 1 1.5 20\n0 1 0 5\n", "tight.dat"); }).find("surface 1"), std::string::npos)
+  EXPECT_NE(message([] { LensSystem::parsePbrt("5 1 1.5 20\n0 1 0 5\n", "tight.dat"); }).find("surface 1"),
+            std::string::npos)
       << "an aperture wider than its sphere";
-  EXPECT_NE(message([] { LensSystem::parsePbrt("50 -1 1.5 20\n0 1 0 5\n", "neg.dat"); }).find("thickness"), std::string::npos);
-  EXPECT_NE(message([] { LensSystem::parsePbrt("50 1 1.5 20\n0 1 0 5\n", "glass.dat"); }).find("end in air"), std::string::npos);
+  EXPECT_NE(message([] { LensSystem::parsePbrt("50 -1 1.5 20\n0 1 0 5\n", "neg.dat"); }).find("thickness"),
+            std::string::npos);
+  EXPECT_NE(message([] { LensSystem::parsePbrt("50 1 1.5 20\n0 1 0 5\n", "glass.dat"); }).find("end in air"),
+            std::string::npos);
   EXPECT_NE(message([] { LensSystem::parsePbrt("", "empty.dat"); }).find("at least one surface"), std::string::npos);
 }
 

@@ -11,8 +11,8 @@
 #include "common/render/render_scene.h"
 #include "common/render/unit_renderer.h"
 #include "common/scene/scene_loader.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

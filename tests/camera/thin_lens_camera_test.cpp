@@ -3,11 +3,11 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
+#include <random>
 #include <string>
 #include <utility>
 #include <vector>
-#include <limits>
-#include <random>
 
 #include "common/camera/thin_lens_camera.h"
 #include "common/util/error.h"
@@ -30,7 +30,7 @@ ThinLensParams seedParams() {
 TEST(ThinLensCamera, ImageDistanceFollowsTheThinLensEquation) {
   const ThinLensCamera camera(seedParams(), 100, 100);
   EXPECT_NEAR(1.0 / 2.9 + 1.0 / camera.imageDistance(), 1.0 / 0.095, 1e-9);  // 2013 report eq. 6
-  EXPECT_NEAR(camera.lensRadius(), 0.095 / 4.0, 1e-12);                    // 2013 report eq. 7: 2R = f/N
+  EXPECT_NEAR(camera.lensRadius(), 0.095 / 4.0, 1e-12);                      // 2013 report eq. 7: 2R = f/N
 }
 
 TEST(ThinLensCamera, RaysFromOneSensorPointMeetAtOnePointOfTheFocalPlane) {
@@ -52,8 +52,7 @@ TEST(ThinLensCamera, RaysFromOneSensorPointMeetAtOnePointOfTheFocalPlane) {
     for (int k = 0; k < 200; ++k) {
       const CameraRay r = camera.generateRay(i, j, uSensor, Vec2(u(rng), u(rng)));
       const DVec3 q = onFocalPlane(r);
-      EXPECT_LT(glm::length(q - target) / glm::length(target - DVec3(p.position)), 1e-5)
-          << "cell " << i << "," << j;
+      EXPECT_LT(glm::length(q - target) / glm::length(target - DVec3(p.position)), 1e-5) << "cell " << i << "," << j;
     }
   }
 }
@@ -62,7 +61,8 @@ TEST(ThinLensCamera, LensPointsCoverTheAperture) {
   const ThinLensCamera camera(seedParams(), 10, 10);
   double maxR = 0.0;
   for (int k = 0; k < 64; ++k) {
-    const CameraRay r = camera.generateRay(5, 5, Vec2(0.5f), Vec2((float(k % 8) + 0.5f) / 8, (float(k / 8) + 0.5f) / 8));
+    const CameraRay r =
+        camera.generateRay(5, 5, Vec2(0.5f), Vec2((float(k % 8) + 0.5f) / 8, (float(k / 8) + 0.5f) / 8));
     maxR = std::max(maxR, double(glm::length(r.origin - seedParams().position)));
   }
   EXPECT_LE(maxR, camera.lensRadius() * (1 + 1e-5));
@@ -109,7 +109,8 @@ TEST(ThinLensCamera, PacketFormsGiveTheOneRayBits) {
     for (int round = 0; round < 200; ++round) {
       int i[kPacketWidth];
       float u0[kPacketWidth], u1[kPacketWidth], l0[kPacketWidth], l1[kPacketWidth];
-      for (int k = 0; k < kPacketWidth; ++k) i[k] = cell(rng), u0[k] = u(rng), u1[k] = u(rng), l0[k] = u(rng), l1[k] = u(rng);
+      for (int k = 0; k < kPacketWidth; ++k)
+        i[k] = cell(rng), u0[k] = u(rng), u1[k] = u(rng), l0[k] = u(rng), l1[k] = u(rng);
       const int j = round % 600;
       CameraRayLanes lens, pinhole;
       camera.generateRays(i, j, u0, u1, l0, l1, lens);
@@ -173,11 +174,13 @@ TEST(ThinLensCamera, EveryDegenerateFieldIsNamed) {
     const char* field;
     double ThinLensParams::*member;
   };
-  for (const Length& l : {Length{"focal_length", &ThinLensParams::focalLength}, Length{"sensor_width", &ThinLensParams::sensorWidth},
-                          Length{"sensor_height", &ThinLensParams::sensorHeight},
-                          Length{"focus_distance", &ThinLensParams::focusDistance}, Length{"f_number", &ThinLensParams::fNumber}})
+  for (const Length& l :
+       {Length{"focal_length", &ThinLensParams::focalLength}, Length{"sensor_width", &ThinLensParams::sensorWidth},
+        Length{"sensor_height", &ThinLensParams::sensorHeight},
+        Length{"focus_distance", &ThinLensParams::focusDistance}, Length{"f_number", &ThinLensParams::fNumber}})
     for (const double v : {0.0, -0.0, -1.0, nan, inf, -inf, 1e300}) {
-      if ((std::string(l.field) == "sensor_height" && v == 0.0) || (std::string(l.field) == "f_number" && (v == inf || v == 1e300)))
+      if ((std::string(l.field) == "sensor_height" && v == 0.0) ||
+          (std::string(l.field) == "f_number" && (v == inf || v == 1e300)))
         continue;
       if (std::string(l.field) == "focus_distance" && v == inf) continue;  // focused at infinity: S2 = f
       // 1e300: beyond single precision for a sensor; a focus at infinity (fine); for f, the

@@ -221,8 +221,10 @@ TEST(CliDof, SeedSceneReproducesTable1AndTextbookFarLimitIsSane) {
   std::map<std::string, std::map<std::string, std::vector<std::string>>> rows;
   std::string section;
   for (const auto& line : lines(r.out)) {
-    if (line.rfind("2013 report", 0) == 0) section = "seed";
-    else if (line.rfind("textbook", 0) == 0) section = "textbook";
+    if (line.rfind("2013 report", 0) == 0)
+      section = "seed";
+    else if (line.rfind("textbook", 0) == 0)
+      section = "textbook";
     const auto t = tokens(line);
     if (section.empty() || t.size() != 5 || t[0] == "N") continue;
     rows[section][t[0]] = t;
@@ -258,9 +260,9 @@ TEST(CliInterrupt, CtrlCWritesWholeUnitsAndExits130) {
   test::TempDir scenes, out, io;
   const fs::path scene = scenes.write("minimal.json", test::minimalSceneJson().dump(2));
   const fs::path snap = out / "snap.exr";
-  const pid_t pid = test::startProcess({cli(), "render", scene.string(), "-o", snap.string(), "--spp", "1000000", "--resolution",
-                           "64x64", "--snapshot-every", "0.05", "-q"},
-                          io / "stdout", io / "stderr");
+  const pid_t pid = test::startProcess({cli(), "render", scene.string(), "-o", snap.string(), "--spp", "1000000",
+                                        "--resolution", "64x64", "--snapshot-every", "0.05", "-q"},
+                                       io / "stdout", io / "stderr");
   ASSERT_GT(pid, 0);
   int status = 0;
   bool reaped = false;
@@ -277,10 +279,11 @@ TEST(CliInterrupt, CtrlCWritesWholeUnitsAndExits130) {
   if (!reaped) {
     ::kill(pid, SIGKILL);
     ::waitpid(pid, &status, 0);
-    FAIL() << "the render did not " << (snapshotWritten ? "stop after Ctrl-C" : "write a snapshot") << "; stderr: "
-           << test::readFile(io / "stderr");
+    FAIL() << "the render did not " << (snapshotWritten ? "stop after Ctrl-C" : "write a snapshot")
+           << "; stderr: " << test::readFile(io / "stderr");
   }
-  ASSERT_TRUE(snapshotWritten) << "the render ended before writing a snapshot; stderr: " << test::readFile(io / "stderr");
+  ASSERT_TRUE(snapshotWritten) << "the render ended before writing a snapshot; stderr: "
+                               << test::readFile(io / "stderr");
   ASSERT_TRUE(WIFEXITED(status)) << "killed by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
   EXPECT_EQ(WEXITSTATUS(status), kInterrupted) << test::readFile(io / "stderr");
 
@@ -307,7 +310,8 @@ TEST(CliDof, BeyondTheHyperfocalDistanceTheFarLimitIsInfinity) {
   // N = 64 puts H = 1.57 < S1 = 2.9, N = 1e6 nearly a pinhole: DF must print "inf" in both
   // tables, never a negative or huge number.
   const auto r = test::runProcess({test::cliPath().string(), "dof", (test::scenesDir() / "cornell-seed.json").string(),
-                                   "--f-numbers", "64,1000000"}, 30.0);
+                                   "--f-numbers", "64,1000000"},
+                                  30.0);
   ASSERT_EQ(r.exitCode, 0) << r.err;
   std::istringstream lines(r.out);
   int infRows = 0;

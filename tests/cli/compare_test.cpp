@@ -40,7 +40,7 @@ TEST(CliCompare, ExitsZeroWithinTheToleranceAndOneBeyondIt) {
   test::TempDir dir;
   const std::string ref = writeImage(dir, "ref.exr", alternating(2.0f, 0.0f)).string();
   const std::string close = writeImage(dir, "close.exr", alternating(2.0f, 0.0625f)).string();  // 3.125 %
-  const std::string far = writeImage(dir, "far.exr", alternating(2.0f, 0.1875f)).string();    // 9.375 %
+  const std::string far = writeImage(dir, "far.exr", alternating(2.0f, 0.1875f)).string();      // 9.375 %
 
   const auto same = compare({ref, ref, "--tolerance", "0"});
   EXPECT_EQ(same.exitCode, 0) << same.out << same.err;
@@ -49,16 +49,19 @@ TEST(CliCompare, ExitsZeroWithinTheToleranceAndOneBeyondIt) {
   const auto within = compare({close, ref});  // the default tolerance, 0.05
   EXPECT_EQ(within.exitCode, 0) << within.out << within.err;
   EXPECT_TRUE(contains(within.out, "relative RMSE:     0.03125  (RMSE / mean of the reference)\n")) << within.out;
-  EXPECT_TRUE(contains(within.out, "verdict:           agree (relative RMSE 0.03125 <= tolerance 0.05)\n")) << within.out;
+  EXPECT_TRUE(contains(within.out, "verdict:           agree (relative RMSE 0.03125 <= tolerance 0.05)\n"))
+      << within.out;
   EXPECT_EQ(within.err, "");
 
   const auto tighter = compare({close, ref, "--tolerance", "0.02"});
   EXPECT_EQ(tighter.exitCode, 1) << tighter.out << tighter.err;
-  EXPECT_TRUE(contains(tighter.out, "verdict:           differ (relative RMSE 0.03125 > tolerance 0.02)\n")) << tighter.out;
+  EXPECT_TRUE(contains(tighter.out, "verdict:           differ (relative RMSE 0.03125 > tolerance 0.02)\n"))
+      << tighter.out;
 
   const auto beyond = compare({far, ref});
   EXPECT_EQ(beyond.exitCode, 1) << beyond.out << beyond.err;
-  EXPECT_TRUE(contains(beyond.out, "verdict:           differ (relative RMSE 0.09375 > tolerance 0.05)\n")) << beyond.out;
+  EXPECT_TRUE(contains(beyond.out, "verdict:           differ (relative RMSE 0.09375 > tolerance 0.05)\n"))
+      << beyond.out;
   EXPECT_EQ(beyond.err, "") << "a verdict, not an error";
 
   const auto looser = compare({far, ref, "--tolerance", "0.1"});

@@ -112,7 +112,8 @@ TEST(DocsClaims, EveryFlagOfACommandIsInItsSectionAndEveryTabledFlagExists) {
     }
     for (const std::string& f : tableFlags(text)) {
       // render's table lists the overrides it shares with submit; both take them.
-      EXPECT_TRUE(taken.count(f)) << "cli.md's table for `lensfarm " << c << "` lists " << f << ", which it does not take";
+      EXPECT_TRUE(taken.count(f)) << "cli.md's table for `lensfarm " << c << "` lists " << f
+                                  << ", which it does not take";
     }
   }
 }

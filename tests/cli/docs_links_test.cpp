@@ -29,9 +29,12 @@ std::string read(const fs::path& p) {
 std::string slug(const std::string& heading) {
   std::string out;
   for (unsigned char c : heading) {
-    if (std::isalnum(c) || c == '-' || c == '_') out += char(std::tolower(c));
-    else if (c == ' ') out += '-';
-    else if (c >= 0x80) out += char(c);  // (letters beyond ASCII are kept)
+    if (std::isalnum(c) || c == '-' || c == '_')
+      out += char(std::tolower(c));
+    else if (c == ' ')
+      out += '-';
+    else if (c >= 0x80)
+      out += char(c);  // (letters beyond ASCII are kept)
   }
   return out;
 }
@@ -79,12 +82,14 @@ TEST(DocsLinks, EveryRelativeLinkNamesAFileAndHeadingThatExist) {
       const std::string target = (*it)[1];
       if (target.find("://") != std::string::npos || target.rfind("mailto:", 0) == 0) continue;
       const size_t hash = target.find('#');
-      const std::string file = target.substr(0, hash), anchor = hash == std::string::npos ? "" : target.substr(hash + 1);
+      const std::string file = target.substr(0, hash),
+                        anchor = hash == std::string::npos ? "" : target.substr(hash + 1);
       const fs::path resolved = file.empty() ? page : page.parent_path() / file;
       ++checked;
       ASSERT_TRUE(fs::exists(resolved)) << page.filename() << " links to " << target << ": no such file";
       if (!anchor.empty() && resolved.extension() == ".md") {
-        EXPECT_TRUE(anchorsOf(resolved).count(anchor)) << page.filename() << " links to " << target << ": no such heading";
+        EXPECT_TRUE(anchorsOf(resolved).count(anchor))
+            << page.filename() << " links to " << target << ": no such heading";
       }
     }
   }
@@ -99,8 +104,8 @@ TEST(DocsLinks, NoDocOrSourceSpeaksOfTheProjectsTicketNumbers) {
   for (const char* folder : {"docs", "common", "coordinator", "worker", "client", "proto", "tests", "bench", "scenes",
                              "deploy", "scripts"}) {
     if (!fs::exists(test::sourceDir() / folder)) continue;
-    for (auto it = fs::recursive_directory_iterator(test::sourceDir() / folder); it != fs::recursive_directory_iterator();
-         ++it) {
+    for (auto it = fs::recursive_directory_iterator(test::sourceDir() / folder);
+         it != fs::recursive_directory_iterator(); ++it) {
       if (it->is_directory() && it->path().filename() == "node_modules") {
         it.disable_recursion_pending();
         continue;

@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "tests/coordinator/audit_views.h"
-#include "lensfarm/v1/client_service.grpc.pb.h"
 #include "coordinator/service.h"
+#include "lensfarm/v1/client_service.grpc.pb.h"
+#include "tests/coordinator/audit_views.h"
 #include "tests/test_support.h"
 
 namespace lensfarm {
@@ -107,7 +107,8 @@ TEST_F(CliAuditOutput, WorkersShowQuarantineFirstAndAuditsPassedBesideFailures) 
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const std::string w1 = lineStarting(r.out, "w1 "), w3 = lineStarting(r.out, "w3 ");
   ASSERT_FALSE(w1.empty() || w3.empty()) << r.out;
-  EXPECT_TRUE(contains(w3, std::string("  quarantined: ") + test::kQuarantineReason + "; idle; 3 of its units confirmed by audit"));
+  EXPECT_TRUE(contains(
+      w3, std::string("  quarantined: ") + test::kQuarantineReason + "; idle; 3 of its units confirmed by audit"));
   EXPECT_TRUE(contains(w1, "  rendering; 2 failed unit(s); 5 of its units confirmed by audit; blocklisted for job-2"));
   EXPECT_FALSE(contains(w1, "quarantined")) << w1;
 }
@@ -153,7 +154,8 @@ TEST(CoordinatorFlags, RefuseWhatIsNotAFiniteNumberInRange) {
 
 TEST(WorkerFlags, RefuseABackoffThatIsNotAFiniteNumber) {
   for (const char* bad : {"nan", "inf", "0.01"}) {
-    const auto r = test::runProcess({test::workerPath().string(), "--coordinator", "127.0.0.1:1", "--max-backoff", bad}, 30);
+    const auto r =
+        test::runProcess({test::workerPath().string(), "--coordinator", "127.0.0.1:1", "--max-backoff", bad}, 30);
     EXPECT_EQ(r.exitCode, test::kBadInput) << bad << ": " << r.err;
     EXPECT_TRUE(contains(r.err, "--max-backoff")) << r.err;
   }

@@ -80,11 +80,12 @@ TEST(CliEntry, ATypoNamesTheNearestCommand) {
     std::vector<std::string> args;
     std::string message;
   };
-  for (const auto& c : std::vector<Case>{
-           {{"rendr", "scene.json", "-o", "x.exr"}, "lensfarm: error: unknown command 'rendr'; did you mean 'render'?\n"},
-           {{"stauts"}, "lensfarm: error: unknown command 'stauts'; did you mean 'status'?\n"},
-           {{"help", "sumbit"}, "lensfarm: error: unknown command 'sumbit'; did you mean 'submit'?\n"},
-           {{"xyzzy"}, "lensfarm: error: unknown command 'xyzzy'; run 'lensfarm help' for the list\n"}}) {
+  for (const auto& c :
+       std::vector<Case>{{{"rendr", "scene.json", "-o", "x.exr"},
+                          "lensfarm: error: unknown command 'rendr'; did you mean 'render'?\n"},
+                         {{"stauts"}, "lensfarm: error: unknown command 'stauts'; did you mean 'status'?\n"},
+                         {{"help", "sumbit"}, "lensfarm: error: unknown command 'sumbit'; did you mean 'submit'?\n"},
+                         {{"xyzzy"}, "lensfarm: error: unknown command 'xyzzy'; run 'lensfarm help' for the list\n"}}) {
     SCOPED_TRACE(c.args[0] + " " + (c.args.size() > 1 ? c.args[1] : ""));
     const auto r = lensfarm(c.args);
     EXPECT_EQ(r.exitCode, kBadInput);
@@ -149,9 +150,8 @@ TEST(CliFlags, ExposureOfADownloadOrSnapshotIsAFiniteNumberOfStops) {
   for (const char* command : {"download", "snapshot"})
     for (const char* ev : {"nan", "inf", "-100"}) {
       SCOPED_TRACE(std::string(command) + " --ev " + ev);
-      const auto r = lensfarm({command, "job-1", "-o", (dir / "x.png").string(), "--ev", ev, "--coordinator",
-                               "127.0.0.1:1"},
-                              30);
+      const auto r =
+          lensfarm({command, "job-1", "-o", (dir / "x.png").string(), "--ev", ev, "--coordinator", "127.0.0.1:1"}, 30);
       EXPECT_EQ(r.exitCode, kBadInput);
       EXPECT_TRUE(r.err.rfind("lensfarm: error: --ev: ", 0) == 0) << r.err;
       EXPECT_TRUE(contains(r.err, "from -64 to 64 stops")) << r.err;
@@ -205,7 +205,8 @@ TEST(CliProgress, PlainLinesWhenStderrIsNotATerminalEstimatingUntilTheFirstUnit)
   }
   EXPECT_TRUE(std::regex_search(progress.back(), std::regex("done 1536/1536 spp .* Mrays/s"))) << progress.back();
 
-  const auto quiet = lensfarm({"render", scene.string(), "-q", "--progress-every", "0.1", "-o", (dir / "x.exr").string()}, 120);
+  const auto quiet =
+      lensfarm({"render", scene.string(), "-q", "--progress-every", "0.1", "-o", (dir / "x.exr").string()}, 120);
   ASSERT_EQ(quiet.exitCode, 0) << quiet.err;
   EXPECT_TRUE(progressLines(quiet.err).empty()) << quiet.err;
 }
@@ -220,10 +221,11 @@ TEST(CliProgress, ATargetOrDeadlineWithoutSppShowsItsRuleNeverTheInternalCap) {
     std::string rule;  // what the progress lines show instead of a total
   };
   for (const auto& c : std::vector<Case>{{{"--target-error", "0.03"}, "(target 3.00 %"},
-                                          {{"--time", "1"}, "deadline 0:0"},
-                                          {{"--deadline", "1s"}, "deadline 0:0"}}) {
+                                         {{"--time", "1"}, "deadline 0:0"},
+                                         {{"--deadline", "1s"}, "deadline 0:0"}}) {
     SCOPED_TRACE(c.args[0]);
-    std::vector<std::string> args = {"render", scene.string(), "--progress-every", "0.1", "-o", (dir / "x.exr").string()};
+    std::vector<std::string> args = {"render", scene.string(), "--progress-every",
+                                     "0.1",    "-o",           (dir / "x.exr").string()};
     args.insert(args.end(), c.args.begin(), c.args.end());
     const auto r = lensfarm(args, 120);
     ASSERT_EQ(r.exitCode, 0) << r.err;
@@ -243,16 +245,17 @@ TEST(CliProgress, StatusOfAJobWithoutSppNeverShowsTheInternalCap) {
   test::TempDir dir;
   const fs::path scene = dir.write("small.json", test::minimalSceneJson().dump(2));
   const fs::path portFile = dir / "port";
-  test::ChildProcess coordinator({test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--port-file",
-                                  portFile.string()},
-                                 dir / "coordinator");
+  test::ChildProcess coordinator(
+      {test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--port-file", portFile.string()},
+      dir / "coordinator");
   ASSERT_TRUE(test::waitFor([&] { return !test::readFile(portFile).empty() || !coordinator.running(); }, 30))
       << coordinator.log();
   std::string address = test::readFile(portFile);
   address.erase(address.find_last_not_of('\n') + 1);
   ASSERT_FALSE(address.empty()) << coordinator.log();
 
-  for (const std::vector<std::string>& rule : {std::vector<std::string>{"--target-error", "0.01"}, {"--deadline", "10m"}}) {
+  for (const std::vector<std::string>& rule :
+       {std::vector<std::string>{"--target-error", "0.01"}, {"--deadline", "10m"}}) {
     SCOPED_TRACE(rule[0]);
     std::vector<std::string> args = {"submit", scene.string(), "--coordinator", address};
     args.insert(args.end(), rule.begin(), rule.end());
@@ -278,7 +281,8 @@ TEST(CliProgress, StatusOfAJobWithoutSppNeverShowsTheInternalCap) {
 TEST(CliEffects, DepthOfFieldLeftOutAtAPreviewSizeIsAWarningBeforeTheRender) {
   test::TempDir dir;
   const std::string scene = (test::scenesDir() / "cornell-seed.json").string();
-  const auto preview = lensfarm({"render", scene, "--resolution", "64x64", "--spp", "1", "-q", "-o", (dir / "p.exr").string()});
+  const auto preview =
+      lensfarm({"render", scene, "--resolution", "64x64", "--spp", "1", "-q", "-o", (dir / "p.exr").string()});
   ASSERT_EQ(preview.exitCode, 0) << preview.err;
   const size_t warning = preview.err.find("depth of field is not simulated");
   ASSERT_NE(warning, std::string::npos) << preview.err;
@@ -303,7 +307,8 @@ TEST(CliInterrupt, CtrlCBeforeTheFirstUnitOverwritesNothingAndSaysSo) {
     if (snapshots) argv.insert(argv.end(), {"--snapshot-every", "0.01"});
     test::ChildProcess render(argv, dir / "render");
     // The log line that starts the render comes once Ctrl-C is handled.
-    ASSERT_TRUE(test::waitFor([&] { return render.log().find("triangles") != std::string::npos || !render.running(); }, 60))
+    ASSERT_TRUE(
+        test::waitFor([&] { return render.log().find("triangles") != std::string::npos || !render.running(); }, 60))
         << render.log();
     render.signal(SIGINT);
     const int code = render.wait(60);

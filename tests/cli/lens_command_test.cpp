@@ -5,8 +5,8 @@
 
 #include <regex>
 
-#include "tests/camera/paraxial_reference.h"
 #include "client/exit_codes.h"
+#include "tests/camera/paraxial_reference.h"
 #include "tests/test_support.h"
 
 namespace lensfarm {
@@ -21,7 +21,8 @@ double figure(const std::string& out, const std::string& label) {
 TEST(LensCommand, ReportsTheDoubleGaussAsAnIndependentMatrixComputationDoes) {
   const auto lensFile = test::scenesDir() / "lenses/dgauss.50mm.dat";
   test::TempDir dir;
-  const auto r = test::runProcess({test::cliPath().string(), "lens", lensFile.string(), "--svg", (dir / "x.svg").string()}, 60);
+  const auto r =
+      test::runProcess({test::cliPath().string(), "lens", lensFile.string(), "--svg", (dir / "x.svg").string()}, 60);
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const test::Abcd m =
       test::systemMatrix(LensSystem::parsePbrt(test::readFile(lensFile), lensFile.string()).surfaces());
@@ -60,9 +61,9 @@ TEST(LensCommand, RefusesABadLensFileNamingTheLine) {
 TEST(LensCommand, PrintsBothFocusesAndWritesThePlots) {
   const auto lensFile = test::scenesDir() / "lenses/dgauss.50mm.dat";
   test::TempDir dir;
-  const auto r = test::runProcess({test::cliPath().string(), "lens", lensFile.string(), "--focus", "2900", "--plots",
-                                   (dir / "plots").string()},
-                                  120);
+  const auto r = test::runProcess(
+      {test::cliPath().string(), "lens", lensFile.string(), "--focus", "2900", "--plots", (dir / "plots").string()},
+      120);
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const LensSystem lens = LensSystem::parsePbrt(test::readFile(lensFile), lensFile.string());
   const auto focus = lens.exactFocus(2900.0);
@@ -82,7 +83,8 @@ TEST(LensCommand, PrintsBothFocusesAndWritesThePlots) {
   // Four spot panels, each with its Airy circle.
   const std::string spots = test::readFile(dir / "plots/spots.svg");
   size_t airy = 0;
-  for (size_t at = spots.find("stroke=\"#c00\""); at != std::string::npos; at = spots.find("stroke=\"#c00\"", at + 1)) ++airy;
+  for (size_t at = spots.find("stroke=\"#c00\""); at != std::string::npos; at = spots.find("stroke=\"#c00\"", at + 1))
+    ++airy;
   EXPECT_EQ(airy, 4u);
 }
 

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "common/util/error.h"
 #include "tests/support/gltf_builder.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {
@@ -44,7 +44,8 @@ TEST(Messages, AMisspeltFieldShowsTheMisspellingAndTheNameMeant) {
                        "\"focal_lenght\": a misspelling of \"focal_length\"?"));
   json spp = test::minimalSceneJson();
   spp["render"]["samples_per_pixle"] = 4;
-  EXPECT_TRUE(contains(loadError(dir, spp), "render.samples_per_pixle: unknown field; did you mean \"samples_per_pixel\"?"));
+  EXPECT_TRUE(
+      contains(loadError(dir, spp), "render.samples_per_pixle: unknown field; did you mean \"samples_per_pixel\"?"));
   json albedo = test::minimalSceneJson();
   albedo["materials"]["white"] = {{"type", "lambertian"}, {"Albedo", 0.5}};
   EXPECT_TRUE(contains(loadError(dir, albedo), "\"Albedo\""));
@@ -72,7 +73,8 @@ TEST(Messages, ErrorsInAModelNameTheModel) {
   // An orthographic camera chosen from a model: refused, naming the model file as given.
   const test::TempDir dir;
   test::Builder b;
-  b.doc["cameras"] = {{{"type", "orthographic"}, {"name", "flat"},
+  b.doc["cameras"] = {{{"type", "orthographic"},
+                       {"name", "flat"},
                        {"orthographic", {{"xmag", 1}, {"ymag", 1}, {"znear", 0.1}, {"zfar", 10}}}}};
   b.doc["nodes"] = {{{"camera", 0}}};
   const fs::path model = dir.write("Cameras.gltf", b.embedded());
@@ -101,7 +103,8 @@ struct Farm {
                                  (dir / "port").string(), "--dashboard-listen", "127.0.0.1:0", "--dashboard-port-file",
                                  (dir / "dashboard").string()},
         dir / "coordinator");
-    EXPECT_TRUE(test::waitFor([&] { return !test::readFile(dir / "dashboard").empty() || !coordinator->running(); }, 30));
+    EXPECT_TRUE(
+        test::waitFor([&] { return !test::readFile(dir / "dashboard").empty() || !coordinator->running(); }, 30));
     address = firstLine(test::readFile(dir / "port"));
     dashboard = firstLine(test::readFile(dir / "dashboard"));
   }

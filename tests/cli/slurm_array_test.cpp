@@ -5,8 +5,8 @@
 #include <algorithm>
 
 #include "client/slurm_array.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
+#include "tests/test_support.h"
 
 namespace lensfarm::cli {
 namespace {
@@ -87,7 +87,8 @@ TEST(SlurmCommand, ABadSetUpIsOneClearErrorBeforeAnythingIsSubmitted) {
   const auto r = test::runProcess({"/usr/bin/env", "PATH=/nonexistent", test::cliPath().string(), "slurm", "--workers",
                                    "2", "--coordinator", "farm-host:7878", "--log-dir", logs.path().string()});
   EXPECT_EQ(r.exitCode, test::kBadInput) << r.err;
-  EXPECT_TRUE(test::contains(r.err, "lensfarm: error: sbatch: No such file or directory (run this on a Slurm login node)"));
+  EXPECT_TRUE(
+      test::contains(r.err, "lensfarm: error: sbatch: No such file or directory (run this on a Slurm login node)"));
   const auto noToken = test::runProcess({test::cliPath().string(), "slurm", "--workers", "2", "--worker-token-file",
                                          (logs / "missing.token").string(), "--log-dir", logs.path().string()});
   EXPECT_EQ(noToken.exitCode, test::kBadInput) << noToken.err;

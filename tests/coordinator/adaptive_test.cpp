@@ -4,20 +4,20 @@
 // across a restart in the middle of a round. Real renders (renderUnit), no network.
 #include <gtest/gtest.h>
 
+#include <tbb/task_arena.h>
 #include <algorithm>
 #include <cstring>
 #include <filesystem>
-#include <tbb/task_arena.h>
 
-#include "coordinator/coordinator.h"
-#include "tests/coordinator/coordinator_fixtures.h"
 #include "common/farm/job_layout.h"
 #include "common/render/render_scene.h"
 #include "common/render/unit_renderer.h"
 #include "common/scene/render_overrides.h"
 #include "common/scene/scene_loader.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
+#include "coordinator/coordinator.h"
+#include "tests/coordinator/coordinator_fixtures.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

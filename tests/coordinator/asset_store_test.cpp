@@ -3,12 +3,12 @@
 // malformed queries by index, and the count of assets sent to workers.
 #include <gtest/gtest.h>
 
-#include "coordinator/coordinator.h"
-#include "tests/deploy_support.h"
-#include "coordinator/metrics.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
 #include "common/util/hash.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/metrics.h"
+#include "tests/deploy_support.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -11,8 +11,8 @@
 #include "coordinator/accumulator.h"
 #include "coordinator/audit.h"
 #include "coordinator/coordinator.h"
-#include "tests/coordinator/coordinator_fixtures.h"
 #include "coordinator/job_units.h"
+#include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"
 
 namespace lensfarm {

@@ -5,8 +5,8 @@
 // copied into the wrong one shows.
 #include <vector>
 
-#include "coordinator/coordinator.h"
 #include "common/util/version.h"
+#include "coordinator/coordinator.h"
 
 namespace lensfarm::test {
 

@@ -7,9 +7,9 @@
 #include <functional>
 #include <string>
 
-#include "coordinator/coordinator.h"
 #include "common/util/error.h"
 #include "common/util/version.h"
+#include "coordinator/coordinator.h"
 
 namespace lensfarm::test {
 

@@ -8,17 +8,17 @@
 #include <limits>
 #include <thread>
 
+#include "common/util/error.h"
+#include "common/util/version.h"
 #include "coordinator/coordinator.h"
 #include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
-#include "common/util/version.h"
 
 namespace lensfarm {
 namespace {
 
-using test::workerInfo;
 using test::resultFor;
+using test::workerInfo;
 
 using nlohmann::json;
 
@@ -31,8 +31,6 @@ JobSpec specFor(json scene, uint64_t spp, uint32_t perUnit) {
   spec.sceneJson = scene.dump();
   return spec;
 }
-
-
 
 TEST(Coordinator, RefusesBadScenesAndMissingAssets) {
   Coordinator c;
@@ -68,7 +66,8 @@ TEST(Coordinator, UnitsAreLeasedInOrderAndJobsByPriorityThenSubmission) {
   const std::string w = c.registerWorker(workerInfo("w"));
   std::vector<std::pair<std::string, uint64_t>> order;
   while (auto g = c.lease(w, 0.0)) order.emplace_back(g->jobId, g->unit.index);
-  const std::vector<std::pair<std::string, uint64_t>> expected = {{high, 0}, {high, 1}, {low, 0}, {low, 1}, {low2, 0}, {low2, 1}};
+  const std::vector<std::pair<std::string, uint64_t>> expected = {{high, 0}, {high, 1}, {low, 0},
+                                                                  {low, 1},  {low2, 0}, {low2, 1}};
   EXPECT_EQ(order, expected);
   const auto listed = c.jobs();
   ASSERT_EQ(listed.size(), 3u);

@@ -2,13 +2,13 @@
 // changes, the error history, workers' current unit and speed), driven directly: no network.
 #include <gtest/gtest.h>
 
-#include "tests/coordinator/audit_views.h"
-#include "coordinator/coordinator.h"
-#include "tests/coordinator/coordinator_fixtures.h"
-#include "coordinator/dashboard.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
 #include "common/util/version.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/dashboard.h"
+#include "tests/coordinator/audit_views.h"
+#include "tests/coordinator/coordinator_fixtures.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -3,11 +3,11 @@
 // the scene's kernel; the sensor's sums, which workers send and checkpoints keep, are not touched.
 #include <gtest/gtest.h>
 
-#include "coordinator/coordinator.h"
-#include "common/scene/scene_diffraction.h"
-#include "tests/coordinator/coordinator_fixtures.h"
 #include "common/film/psf_convolution.h"
 #include "common/film/sensor.h"
+#include "common/scene/scene_diffraction.h"
+#include "coordinator/coordinator.h"
+#include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"
 
 namespace lensfarm {

@@ -7,10 +7,10 @@
 #include <filesystem>
 #include <thread>
 
+#include "common/util/error.h"
 #include "coordinator/coordinator.h"
 #include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -5,14 +5,14 @@
 // dashboard's progress toward a target error or a deadline when the job has no sample cap.
 #include <gtest/gtest.h>
 
-#include "coordinator/coordinator.h"
-#include "tests/coordinator/coordinator_fixtures.h"
-#include "coordinator/dashboard.h"
-#include "coordinator/metrics.h"
 #include "common/scene/scene_loader.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
 #include "common/util/version.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/dashboard.h"
+#include "coordinator/metrics.h"
+#include "tests/coordinator/coordinator_fixtures.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -33,7 +33,6 @@ JobSpec specFor(uint64_t spp, double targetError = 0.0, double timeLimit = 0.0) 
   spec.sceneJson = scene.dump();
   return spec;
 }
-
 
 UnitResult resultFor(const std::string& worker, const LeaseGrant& g, double value) {
   return test::resultFor(worker, g, value, 0.1);
@@ -166,7 +165,8 @@ TEST(Liveness, AStalledJobSaysWhyAndARenderedOneDoesNot) {
   const auto g = c.lease(busy, 0);
   ASSERT_TRUE(g);
   EXPECT_EQ(g->jobId, urgent);
-  EXPECT_NE(c.job(job).stalledReason.find("waiting for a worker: the only one is rendering other jobs"), std::string::npos)
+  EXPECT_NE(c.job(job).stalledReason.find("waiting for a worker: the only one is rendering other jobs"),
+            std::string::npos)
       << c.job(job).stalledReason;
   EXPECT_EQ(c.job(urgent).stalledReason, "");
 

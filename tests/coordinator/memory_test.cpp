@@ -6,14 +6,14 @@
 #include <new>
 #include <thread>
 
+#include "common/farm/job_layout.h"
+#include "common/farm/memory_estimate.h"
+#include "common/util/version.h"
 #include "coordinator/audit.h"
 #include "coordinator/coordinator.h"
-#include "common/farm/job_layout.h"
 #include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/support/forwarding_link.h"
-#include "common/farm/memory_estimate.h"
 #include "tests/test_support.h"
-#include "common/util/version.h"
 #include "worker/worker_loop.h"
 
 namespace lensfarm {
@@ -33,7 +33,6 @@ JobSpec specAt(int w, int h, uint64_t spp = 2) {
   spec.sceneJson = scene.dump();
   return spec;
 }
-
 
 // Renders every unit of `job` as worker `w` with constant sums; the job must end done.
 void finishJob(Coordinator& c, const std::string& job, const std::string& w) {

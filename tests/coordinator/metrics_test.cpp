@@ -3,11 +3,11 @@
 #include <gtest/gtest-spi.h>
 #include <gtest/gtest.h>
 
-#include "tests/coordinator/audit_views.h"
-#include "coordinator/coordinator.h"
-#include "tests/deploy_support.h"
-#include "coordinator/metrics.h"
 #include "common/util/version.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/metrics.h"
+#include "tests/coordinator/audit_views.h"
+#include "tests/deploy_support.h"
 
 namespace lensfarm {
 namespace {
@@ -27,7 +27,9 @@ UnitResult rendered(const std::string& workerId, const LeaseGrant& grant) {
   return r;
 }
 
-std::map<std::string, double> scrape(const Coordinator& c) { return test::parseMetrics(renderMetrics(c.metricsSnapshot())); }
+std::map<std::string, double> scrape(const Coordinator& c) {
+  return test::parseMetrics(renderMetrics(c.metricsSnapshot()));
+}
 
 TEST(Metrics, FollowWhatTheCoordinatorDoes) {
   Coordinator::Options options;
@@ -75,14 +77,18 @@ TEST(Metrics, FollowWhatTheCoordinatorDoes) {
   EXPECT_EQ(m.at("lensfarm_leases_active"), 1.0);
 
   // `doomed` goes silent: its lease lapses, and it is no longer alive; `steady` keeps calling in.
-  ASSERT_TRUE(test::waitFor([&] {
-    c.heartbeat(steady, {});
-    return scrape(c).at("lensfarm_units_expired_total") == 1.0;
-  }, 10));
-  ASSERT_TRUE(test::waitFor([&] {
-    c.heartbeat(steady, {});
-    return scrape(c).at("lensfarm_workers_alive") == 1.0;
-  }, 10));
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        c.heartbeat(steady, {});
+        return scrape(c).at("lensfarm_units_expired_total") == 1.0;
+      },
+      10));
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        c.heartbeat(steady, {});
+        return scrape(c).at("lensfarm_workers_alive") == 1.0;
+      },
+      10));
   m = scrape(c);
   EXPECT_EQ(m.at("lensfarm_workers_known"), 2.0) << "silent, not yet forgotten";
   EXPECT_EQ(m.at("lensfarm_leases_active"), 0.0);
@@ -131,7 +137,8 @@ TEST(Metrics, EveryFamilyHasHelpAndTypeAndCountersEndInTotal) {
     EXPECT_NE(text.find(std::string("# TYPE ") + family + " "), std::string::npos) << family;
   // A broken line is caught: the parser is not a rubber stamp.
   EXPECT_NONFATAL_FAILURE(test::parseMetrics("lensfarm_orphan 1\n"), "without HELP and TYPE");
-  EXPECT_NONFATAL_FAILURE(test::parseMetrics("# HELP lensfarm_x x\n# TYPE lensfarm_x counter\nlensfarm_x 1\n"), "_total");
+  EXPECT_NONFATAL_FAILURE(test::parseMetrics("# HELP lensfarm_x x\n# TYPE lensfarm_x counter\nlensfarm_x 1\n"),
+                          "_total");
 }
 
 }  // namespace

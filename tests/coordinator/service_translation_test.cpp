@@ -3,8 +3,8 @@
 // field of the cross-worker audit (docs/farm.md "Audit") is seen to arrive.
 #include <gtest/gtest.h>
 
-#include "tests/coordinator/audit_views.h"
 #include "coordinator/service.h"
+#include "tests/coordinator/audit_views.h"
 
 namespace lensfarm {
 namespace {

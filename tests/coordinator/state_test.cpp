@@ -4,10 +4,10 @@
 
 #include <filesystem>
 
+#include "common/util/version.h"
 #include "coordinator/coordinator.h"
 #include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"
-#include "common/util/version.h"
 
 namespace lensfarm {
 namespace {
@@ -26,7 +26,6 @@ JobSpec sixUnits() {
   scene["render"]["resolution"] = {4, 3};
   return JobSpec{"six.json", scene.dump(), {}, {}, std::nullopt};
 }
-
 
 UnitResult resultFor(const std::string& worker, const LeaseGrant& g) {
   UnitResult r = resultForLease(worker, g);
@@ -87,7 +86,8 @@ TEST(DurableCoordinator, ResumesFromCheckpointAndLedgerBitForBit) {
   const JobImage image = second.image(job);
   EXPECT_EQ(image.image.rgb, uninterrupted().rgb) << "a restart must not change a single bit";
   EXPECT_EQ(image.metadata.totalSamples, 6u * 12u) << "every unit counted exactly once";
-  EXPECT_NE(image.metadata.extra.at("workers").find("a: 3 units"), std::string::npos) << image.metadata.extra.at("workers");
+  EXPECT_NE(image.metadata.extra.at("workers").find("a: 3 units"), std::string::npos)
+      << image.metadata.extra.at("workers");
   EXPECT_NE(image.metadata.extra.at("workers").find("b: 3 units"), std::string::npos);
   first.reset();
 }
@@ -106,7 +106,7 @@ TEST(DurableCoordinator, AJobWithAovsResumesItsLayersBitForBit) {
     for (size_t c = 0; c < r.buffer.cells(); ++c) {
       double* v = &r.buffer.sums[8 * c];
       v[0] = v[1] = v[2] = kValues[g.unit.index];
-      v[3] = 0.25, v[4] = -0.5, v[5] = -0.75;        // one sample's normal
+      v[3] = 0.25, v[4] = -0.5, v[5] = -0.75;         // one sample's normal
       v[6] = 2.0 + double(g.unit.index), v[7] = 1.0;  // its depth, one hit
     }
     r.stats.paths = 12;

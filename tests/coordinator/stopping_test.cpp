@@ -5,9 +5,9 @@
 
 #include <random>
 
+#include "common/util/version.h"
 #include "coordinator/coordinator.h"
 #include "tests/test_support.h"
-#include "common/util/version.h"
 
 namespace lensfarm {
 namespace {
@@ -184,10 +184,12 @@ TEST(Stopping, ADeadlineKeepsTheWholeUnitsDoneByThenAndRevokesTheRest) {
   c.acceptResult(resultOf(a, *g0));
   c.acceptResult(resultOf(a, *g2));  // waits for unit 1, which never comes in time
   // Heartbeats are when the coordinator looks at the clock.
-  ASSERT_TRUE(test::waitFor([&] {
-    c.heartbeat(a, {g1->leaseId});
-    return c.job(job.id).state == JobState::kDone;
-  }, 10));
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        c.heartbeat(a, {g1->leaseId});
+        return c.job(job.id).state == JobState::kDone;
+      },
+      10));
   const JobInfo done = c.job(job.id);
   EXPECT_EQ(done.stopReason, "deadline reached");
   EXPECT_EQ(done.unitsDone, 1u) << "unit 2 arrived, but without unit 1 the frame would not be whole passes";
@@ -204,10 +206,12 @@ TEST(Stopping, ADeadlineBeforeAnyUnitKeepsTheFirstWholeUnit) {
   const std::string a = c.registerWorker(WorkerInfo{"a", 1, kProtocolVersion, kRendererVersion});
   const auto g0 = c.lease(a, 0), g1 = c.lease(a, 0);
   ASSERT_TRUE(g0 && g1) << "both leases are granted before the deadline";
-  ASSERT_TRUE(test::waitFor([&] {
-    c.heartbeat(a, {g0->leaseId, g1->leaseId});
-    return c.job(job.id).remainingSeconds == 0.0;
-  }, 10));
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        c.heartbeat(a, {g0->leaseId, g1->leaseId});
+        return c.job(job.id).remainingSeconds == 0.0;
+      },
+      10));
   EXPECT_EQ(c.job(job.id).state, JobState::kRunning) << "no image yet: it waits for one pass";
   c.acceptResult(resultOf(a, *g1));
   EXPECT_EQ(c.job(job.id).state, JobState::kRunning) << "unit 1 alone is not a prefix";

@@ -6,10 +6,10 @@
 #include <cmath>
 #include <limits>
 
+#include "common/util/error.h"
 #include "coordinator/coordinator.h"
 #include "coordinator/service.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -3,22 +3,22 @@
 // an animation's frames survive a restart; bad layouts are refused with one clear error.
 #include <gtest/gtest.h>
 
+#include <tbb/task_arena.h>
 #include <algorithm>
 #include <cstring>
 #include <filesystem>
-#include <tbb/task_arena.h>
 
-#include "coordinator/coordinator.h"
-#include "tests/coordinator/coordinator_fixtures.h"
 #include "common/farm/job_layout.h"
-#include "common/film/sensor.h"
 #include "common/farm/memory_estimate.h"
+#include "common/film/sensor.h"
 #include "common/render/render_scene.h"
 #include "common/render/unit_renderer.h"
 #include "common/scene/render_overrides.h"
 #include "common/scene/scene_loader.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
+#include "coordinator/coordinator.h"
+#include "tests/coordinator/coordinator_fixtures.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -84,9 +84,9 @@ TEST(TiledJob, SameBitsAsPassesWhateverTheTilesAndTheirOrder) {
   EXPECT_EQ(tiles8.stats.paths, passes.stats.paths);
   EXPECT_EQ(tiles8.stats.rays, passes.stats.rays);
   EXPECT_TRUE(sameBits(reference, tiled));
-  EXPECT_TRUE(sameBits(reference, renderThrough(cornell(1))));  // every cell its own tile
+  EXPECT_TRUE(sameBits(reference, renderThrough(cornell(1))));   // every cell its own tile
   EXPECT_TRUE(sameBits(reference, renderThrough(cornell(23))));  // taller than wide tiles cut at the edge
-  const Image one = renderThrough(cornell(37), &whole);  // one tile: the whole frame at once
+  const Image one = renderThrough(cornell(37), &whole);          // one tile: the whole frame at once
   EXPECT_EQ(whole.unitsTotal, 1u);
   EXPECT_TRUE(sameBits(reference, one));
   // And the image is not trivially equal: it has light in it.
@@ -153,7 +153,7 @@ TEST(TiledJob, LayoutCutsTheFrameIntoTilesWithEveryCellOnce) {
       for (int x = w.region.x; x < w.region.x + w.region.width; ++x) ++covered[size_t(y) * s.width + x];
   }
   EXPECT_TRUE(std::all_of(covered.begin(), covered.end(), [](int n) { return n == 1; }));
-  EXPECT_EQ(l.unit(8).frame, 15);   // frame index 1 of 10, 15, 20
+  EXPECT_EQ(l.unit(8).frame, 15);  // frame index 1 of 10, 15, 20
   EXPECT_EQ(l.unit(23).frame, 20);
   EXPECT_EQ(l.regionOf(7).width, 1000 - 3 * 256);
   EXPECT_EQ(l.regionOf(7).height, 300 - 256);
@@ -167,14 +167,14 @@ TEST(TiledJob, AutomaticLayoutFollowsFrameSizeAnimationAndWorkers) {
   EXPECT_EQ(resolveTileSize(s, std::nullopt, 8), RenderSettings::kTilesOff);  // a small still: passes
   s.width = 3840;
   s.height = 2160;
-  EXPECT_EQ(resolveTileSize(s, std::nullopt, 8), kTileEdge);  // 4K: tiles
+  EXPECT_EQ(resolveTileSize(s, std::nullopt, 8), kTileEdge);        // 4K: tiles
   EXPECT_EQ(resolveTileSize(s, std::nullopt, 1000), kMinTileEdge);  // many workers: smaller tiles
   s.targetError = 0.01;
   EXPECT_EQ(resolveTileSize(s, std::nullopt, 8), RenderSettings::kTilesOff);  // stops need passes
   s.targetError = 0;
   s.width = 1920;
   s.height = 1080;
-  EXPECT_EQ(resolveTileSize(s, FrameRange{1, 240, 1}, 100), 1920);  // a big farm: whole frames
+  EXPECT_EQ(resolveTileSize(s, FrameRange{1, 240, 1}, 100), 1920);   // a big farm: whole frames
   const int small = resolveTileSize(s, FrameRange{1, 24, 1}, 1000);  // a small farm for its frames: tiles
   EXPECT_LT(small, kTileEdge);
   EXPECT_GE(small, kMinTileEdge);
@@ -242,7 +242,7 @@ TEST(TiledJob, AnimationFramesSurviveARestartBitForBit) {
             << "frame " << frame << " pixel " << x << "," << y;
       }
   }
-  EXPECT_THROW(second.image(job, 8), FarmError);   // not a frame of 7-11x2
+  EXPECT_THROW(second.image(job, 8), FarmError);  // not a frame of 7-11x2
   EXPECT_THROW(second.image(job, 13), FarmError);
 }
 
@@ -275,7 +275,8 @@ TEST(TiledJob, BadLayoutsGetOneClearError) {
   Coordinator c;
   JobSpec spec = animation();
   spec.frames = FrameRange{10, 1, 1};
-  EXPECT_NE(message([&] { c.submit(spec, 0); }).find("frames: the last frame 1 is before the first 10"), std::string::npos);
+  EXPECT_NE(message([&] { c.submit(spec, 0); }).find("frames: the last frame 1 is before the first 10"),
+            std::string::npos);
   spec.frames = FrameRange{1, 10, 0};
   EXPECT_NE(message([&] { c.submit(spec, 0); }).find("frames.step: must be at least 1"), std::string::npos);
   spec = animation();

@@ -144,8 +144,9 @@ TEST(UploadAssembler, RefusesBadCompressedPiecesNamingTheirOffset) {
     return "accepted";
   };
   EXPECT_EQ(refusal([](auto&) {}), "accepted");
-  EXPECT_NE(refusal([](auto& p) { p[1].set_sums(p[1].sums().substr(0, p[1].sums().size() - 5)); })
-                .find("UploadResult: the block at offset 1000: "),
+  EXPECT_NE(refusal([](auto& p) {
+              p[1].set_sums(p[1].sums().substr(0, p[1].sums().size() - 5));
+            }).find("UploadResult: the block at offset 1000: "),
             std::string::npos)
       << "truncated";
   EXPECT_NE(refusal([](auto& p) {
@@ -166,8 +167,9 @@ TEST(UploadAssembler, RefusesBadCompressedPiecesNamingTheirOffset) {
               p[1].set_sums(reinterpret_cast<const char*>(raw.data()), raw.size() * sizeof(double));
             }).find("not a whole zstd frame"),
             std::string::npos);
-  EXPECT_NE(refusal([](auto& p) { p[0].mutable_header()->set_encoding(v1::SumsEncoding(7)); })
-                .find("unknown sums encoding 7"),
+  EXPECT_NE(refusal([](auto& p) {
+              p[0].mutable_header()->set_encoding(v1::SumsEncoding(7));
+            }).find("unknown sums encoding 7"),
             std::string::npos);
 }
 

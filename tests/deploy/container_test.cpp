@@ -80,7 +80,8 @@ std::map<std::string, bool> cmakeDependencies() {
   const fs::path root = test::sourceDir();
   for (auto walk = fs::recursive_directory_iterator(root); walk != fs::recursive_directory_iterator(); ++walk) {
     const std::string name = walk->path().filename().string();
-    if (walk->is_directory() && (name[0] == '.' || name.rfind("build", 0) == 0 || name == "out")) walk.disable_recursion_pending();
+    if (walk->is_directory() && (name[0] == '.' || name.rfind("build", 0) == 0 || name == "out"))
+      walk.disable_recursion_pending();
     const fs::directory_entry& entry = *walk;
     if (name != "CMakeLists.txt") continue;
     const std::string top = fs::relative(entry.path(), root).begin()->string();
@@ -146,7 +147,8 @@ const std::map<std::string, Dependency>& debianNames() {
       {"benchmark", {{"libbenchmark-dev"}, config("benchmark")}},
       {"yaml-cpp", {{"libyaml-cpp-dev"}, config("yaml-cpp")}},
       {"PkgConfig", {{"pkg-config"}, cached("PKG_CONFIG_EXECUTABLE")}},
-      {"cpp-httplib", {{"libcpp-httplib-dev"}, [] { return fs::path(cacheValue("HTTPLIB_LIBDIR")) / "pkgconfig/cpp-httplib.pc"; }}},
+      {"cpp-httplib",
+       {{"libcpp-httplib-dev"}, [] { return fs::path(cacheValue("HTTPLIB_LIBDIR")) / "pkgconfig/cpp-httplib.pc"; }}},
       {"fftw3", {{"libfftw3-dev"}, [] { return fs::path(cacheValue("FFTW_LIBDIR")) / "pkgconfig/fftw3.pc"; }}},
       // (libzstd.pc says libdir=/usr/lib; the library pkg-config found is the evidence.)
       {"libzstd", {{"libzstd-dev"}, cached("pkgcfg_lib_ZSTD_zstd")}},
@@ -180,12 +182,14 @@ TEST(Container, TheBuildStageInstallsEveryDependencyCMakeLooksFor) {
     const auto it = debianNames().find(name);
     if (it == debianNames().end()) {
       ADD_FAILURE() << "CMake looks for " << name << ": add its Debian package to this test's table, "
-                    << (testOnly ? "and to TEST_PACKAGES of scripts/setup.sh" : "the Dockerfile and BUILD_PACKAGES of scripts/setup.sh");
+                    << (testOnly ? "and to TEST_PACKAGES of scripts/setup.sh"
+                                 : "the Dockerfile and BUILD_PACKAGES of scripts/setup.sh");
       continue;
     }
     for (const std::string& package : it->second.packages) {
       if (testOnly) {
-        EXPECT_TRUE(tests.count(package) || build.count(package)) << package << " missing from TEST_PACKAGES of scripts/setup.sh";
+        EXPECT_TRUE(tests.count(package) || build.count(package))
+            << package << " missing from TEST_PACKAGES of scripts/setup.sh";
       } else {
         EXPECT_TRUE(image.count(package)) << package << " missing from the Dockerfile's build stage";
         EXPECT_TRUE(build.count(package)) << package << " missing from BUILD_PACKAGES of scripts/setup.sh";
@@ -199,10 +203,11 @@ TEST(Container, TheBuildStageInstallsEveryDependencyCMakeLooksFor) {
     const std::set<std::string> depends = test::debianDependsOf(package);
     bool belongs = false;
     for (const std::string& owner : listed) belongs |= owner == package || depends.count(owner) > 0;
-    EXPECT_TRUE(belongs) << "CMake found " << name << " in " << found << ", installed by " << *listed.begin() << ", not by "
-                         << package;
+    EXPECT_TRUE(belongs) << "CMake found " << name << " in " << found << ", installed by " << *listed.begin()
+                         << ", not by " << package;
   }
-  for (const std::string& package : image) EXPECT_TRUE(build.count(package)) << package << ": the image and setup.sh agree";
+  for (const std::string& package : image)
+    EXPECT_TRUE(build.count(package)) << package << ": the image and setup.sh agree";
 
   bool builds = false, installs = false, withoutTests = false;
   for (const std::string& i : stages[0].instructions) {
@@ -231,7 +236,8 @@ TEST(Container, TheRuntimeStageInstallsExactlyThePackagesOfTheLibrariesTheBinari
       if (const std::vector<std::string> w = test::words(line); w.size() >= 3 && w[1] == "=>") resolved[w[0]] = w[2];
     const std::regex needs(R"(\(NEEDED\)\s+Shared library: \[([^\]]+)\])");
     size_t count = 0;
-    for (auto it = std::sregex_iterator(dynamic.out.begin(), dynamic.out.end(), needs); it != std::sregex_iterator(); ++it) {
+    for (auto it = std::sregex_iterator(dynamic.out.begin(), dynamic.out.end(), needs); it != std::sregex_iterator();
+         ++it) {
       const std::string soname = (*it)[1];
       ASSERT_TRUE(resolved.count(soname)) << soname << " of " << binary << " not found by ldd";
       libraries[resolved[soname]] = soname;
@@ -319,7 +325,8 @@ TEST(Container, ComposeRunsTheBinariesWithTheirFlagsOnThePortsItPublishes) {
   EXPECT_TRUE(onVolume) << stateDir;
 
   // Tokens come from Docker secrets, one per service; the coordinator serves the network with both.
-  const auto secretFile = [&](const YAML::Node& service, const std::vector<std::string>& argv, const std::string& flag) {
+  const auto secretFile = [&](const YAML::Node& service, const std::vector<std::string>& argv,
+                              const std::string& flag) {
     const std::string path = test::optionOf(argv, flag);
     const std::string name = fs::path(path).filename().string();
     EXPECT_EQ(path, "/run/secrets/" + name) << flag;

@@ -8,8 +8,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
-#include <nlohmann/json.hpp>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -124,7 +124,8 @@ TEST(KubernetesSchema, TheKustomizationCoversTheBaseAndItsTransformedObjectsAreV
   EXPECT_EQ(listed, present) << "every manifest of the base is listed, and only those that exist";
 
   std::map<std::string, std::string> labels, tags;
-  const std::regex labelKey(R"(^([a-z0-9]([-a-z0-9]*[a-z0-9])?(\.[a-z0-9]([-a-z0-9]*[a-z0-9])?)*/)?[A-Za-z0-9]([-A-Za-z0-9_.]{0,61}[A-Za-z0-9])?$)");
+  const std::regex labelKey(
+      R"(^([a-z0-9]([-a-z0-9]*[a-z0-9])?(\.[a-z0-9]([-a-z0-9]*[a-z0-9])?)*/)?[A-Za-z0-9]([-A-Za-z0-9_.]{0,61}[A-Za-z0-9])?$)");
   const std::regex labelValue(R"(^([A-Za-z0-9]([-A-Za-z0-9_.]{0,61}[A-Za-z0-9])?)?$)");
   for (const auto& group : k["labels"])
     for (const auto& pair : group["pairs"]) {
@@ -165,7 +166,8 @@ TEST(KubernetesSchema, TheKustomizationCoversTheBaseAndItsTransformedObjectsAreV
   EXPECT_NE(r.out.find("\n" + std::to_string(objects) + " objects, 0 invalid\n"), std::string::npos) << r.out;
   const std::string text = test::readFile(rendered);
   EXPECT_NE(text.find("\"image\":\"lensfarm:" + tags.begin()->second + "\""), std::string::npos) << text;
-  EXPECT_NE(text.find("\"" + labels.begin()->first + "\":\"" + labels.begin()->second + "\""), std::string::npos) << text;
+  EXPECT_NE(text.find("\"" + labels.begin()->first + "\":\"" + labels.begin()->second + "\""), std::string::npos)
+      << text;
 }
 
 TEST(KubernetesSchema, ABrokenManifestIsRefusedNamingTheFileTheObjectAndTheField) {

@@ -38,7 +38,8 @@ class Kubernetes : public ::testing::Test {
     std::vector<std::string> args;
     for (const auto& a : containers[0]["args"]) args.push_back(a.as<std::string>());
     EXPECT_TRUE(test::runsWithItsFlags(args, binary));
-    EXPECT_TRUE(labelsMatch(workload["spec"]["selector"]["matchLabels"], workload["spec"]["template"]["metadata"]["labels"]));
+    EXPECT_TRUE(
+        labelsMatch(workload["spec"]["selector"]["matchLabels"], workload["spec"]["template"]["metadata"]["labels"]));
     return {containers[0], args};
   }
   static int containerPort(const YAML::Node& container, const std::string& name) {
@@ -67,7 +68,8 @@ class Kubernetes : public ::testing::Test {
   }
   static bool labelsMatch(const YAML::Node& selector, const YAML::Node& labels) {
     for (const auto& kv : selector)
-      if (!labels[kv.first.as<std::string>()] || labels[kv.first.as<std::string>()].as<std::string>() != kv.second.as<std::string>())
+      if (!labels[kv.first.as<std::string>()] ||
+          labels[kv.first.as<std::string>()].as<std::string>() != kv.second.as<std::string>())
         return false;
     return selector.size() > 0;
   }
@@ -80,18 +82,21 @@ TEST_F(Kubernetes, EveryManifestIsListedAndTheTokensAreASecret) {
   std::set<std::string> listed, present;
   for (const auto& r : kustomization_["resources"]) listed.insert(r.as<std::string>());
   for (const auto& e : fs::directory_iterator(base()))
-    if (e.path().extension() == ".yaml" && e.path().filename() != "kustomization.yaml") present.insert(e.path().filename().string());
+    if (e.path().extension() == ".yaml" && e.path().filename() != "kustomization.yaml")
+      present.insert(e.path().filename().string());
   EXPECT_EQ(listed, present);
   EXPECT_EQ(objects_.size(), 5u) << "a Secret, two Services, a StatefulSet and a Deployment";
 
   const YAML::Node secret = object("Secret/lensfarm-tokens");
   ASSERT_TRUE(secret["stringData"]["client.token"] && secret["stringData"]["worker.token"]);
-  EXPECT_NE(secret["stringData"]["client.token"].as<std::string>(), secret["stringData"]["worker.token"].as<std::string>())
+  EXPECT_NE(secret["stringData"]["client.token"].as<std::string>(),
+            secret["stringData"]["worker.token"].as<std::string>())
       << "the coordinator refuses equal tokens";
   // The image every container runs is the one kustomize sets.
   const std::string image = kustomization_["images"][0]["name"].as<std::string>();
   for (const char* workload : {"StatefulSet/lensfarm-coordinator", "Deployment/lensfarm-worker"})
-    for (const auto& c : object(workload)["spec"]["template"]["spec"]["containers"]) EXPECT_EQ(c["image"].as<std::string>(), image);
+    for (const auto& c : object(workload)["spec"]["template"]["spec"]["containers"])
+      EXPECT_EQ(c["image"].as<std::string>(), image);
 }
 
 TEST_F(Kubernetes, TheCoordinatorServesItsFlagsPortsWithProbesStateAndMetrics) {
@@ -119,10 +124,12 @@ TEST_F(Kubernetes, TheCoordinatorServesItsFlagsPortsWithProbesStateAndMetrics) {
   // --state-dir is the mount of a persistent volume claim template.
   std::string stateVolume;
   for (const auto& m : container["volumeMounts"])
-    if (m["mountPath"].as<std::string>() == test::optionOf(args, "--state-dir")) stateVolume = m["name"].as<std::string>();
+    if (m["mountPath"].as<std::string>() == test::optionOf(args, "--state-dir"))
+      stateVolume = m["name"].as<std::string>();
   ASSERT_FALSE(stateVolume.empty()) << "--state-dir is not a mount";
   bool claimed = false;
-  for (const auto& t : set["spec"]["volumeClaimTemplates"]) claimed |= t["metadata"]["name"].as<std::string>() == stateVolume;
+  for (const auto& t : set["spec"]["volumeClaimTemplates"])
+    claimed |= t["metadata"]["name"].as<std::string>() == stateVolume;
   EXPECT_TRUE(claimed) << stateVolume << " is not a persistent volume claim";
 
   // Both tokens are files of the Secret.
@@ -133,7 +140,9 @@ TEST_F(Kubernetes, TheCoordinatorServesItsFlagsPortsWithProbesStateAndMetrics) {
   // Non-root, as the image's own user.
   EXPECT_TRUE(pod["securityContext"]["runAsNonRoot"].as<bool>());
   const std::string uid = std::to_string(pod["securityContext"]["runAsUser"].as<int>());
-  EXPECT_NE(test::readFile(test::sourceDir() / "deploy/docker/Dockerfile").find("--uid " + uid + " "), std::string::npos) << uid;
+  EXPECT_NE(test::readFile(test::sourceDir() / "deploy/docker/Dockerfile").find("--uid " + uid + " "),
+            std::string::npos)
+      << uid;
 
   // The Service workers and clients dial, and the headless one that names the pod.
   const YAML::Node service = object("Service/lensfarm-coordinator");
@@ -171,7 +180,8 @@ TEST_F(Kubernetes, WorkersRenderWithAsManyThreadsAsTheyRequestCoresAndDialTheSer
   const YAML::Node pod = deployment["spec"]["template"]["spec"];
   const auto [container, args] = containerOf(deployment, test::workerPath());
   const std::string help = test::helpOf(test::workerPath()).text;
-  for (const auto& e : container["env"]) EXPECT_NE(help.find(e["name"].as<std::string>()), std::string::npos) << e["name"];
+  for (const auto& e : container["env"])
+    EXPECT_NE(help.find(e["name"].as<std::string>()), std::string::npos) << e["name"];
   EXPECT_GE(deployment["spec"]["replicas"].as<int>(), 1);
 
   const std::string threads = test::optionOf(args, "--threads");
@@ -191,8 +201,9 @@ TEST_F(Kubernetes, WorkersRenderWithAsManyThreadsAsTheyRequestCoresAndDialTheSer
 
   // docs/deploy.md scales the farm with one command naming this Deployment.
   const std::string docs = test::readFile(test::sourceDir() / "docs/deploy.md");
-  EXPECT_TRUE(std::regex_search(docs, std::regex("kubectl scale deployment/" + deployment["metadata"]["name"].as<std::string>() +
-                                                 " --replicas=[0-9]+")));
+  EXPECT_TRUE(
+      std::regex_search(docs, std::regex("kubectl scale deployment/" +
+                                         deployment["metadata"]["name"].as<std::string>() + " --replicas=[0-9]+")));
 }
 
 }  // namespace

@@ -13,8 +13,8 @@
 #include <regex>
 #include <sstream>
 
-#include "tests/deploy_support.h"
 #include "common/film/image_io.h"
+#include "tests/deploy_support.h"
 
 namespace lensfarm {
 namespace {
@@ -120,7 +120,8 @@ class Lab {
 // Units done by the worker named `name`, as `lensfarm workers` shows them.
 int unitsOf(const std::string& workersTable, const std::string& name) {
   std::smatch m;
-  if (!std::regex_search(workersTable, m, std::regex("\\n\\S+\\s+" + name + R"(\s+[0-9]+\s+\S+\s+([0-9]+)\s)"))) return -1;
+  if (!std::regex_search(workersTable, m, std::regex("\\n\\S+\\s+" + name + R"(\s+[0-9]+\s+\S+\s+([0-9]+)\s)")))
+    return -1;
   return std::stoi(m[1]);
 }
 
@@ -146,8 +147,8 @@ TEST(MultiHost, AFarmAcrossHostsSurvivesACutLinkAndRendersTheSameBits) {
 
   test::FarmProcesses farm(dir);
   const std::string address = farm.startCoordinator(
-      {"--listen", coordinatorIp + ":7878", "--metrics-listen", coordinatorIp + ":9464", "--client-token-file", clientToken,
-       "--worker-token-file", workerToken, "--tls-cert", (dir / "server.pem").string(), "--tls-key",
+      {"--listen", coordinatorIp + ":7878", "--metrics-listen", coordinatorIp + ":9464", "--client-token-file",
+       clientToken, "--worker-token-file", workerToken, "--tls-cert", (dir / "server.pem").string(), "--tls-key",
        (dir / "server.key").string(), "--lease-timeout", "2", "--heartbeat-interval", "0.2"},
       lab.on("coord"));
   ASSERT_EQ(address, coordinatorIp + ":7878");
@@ -194,19 +195,23 @@ TEST(MultiHost, AFarmAcrossHostsSurvivesACutLinkAndRendersTheSameBits) {
   EXPECT_GE(metrics.at("lensfarm_units_expired_total"), 1.0) << "the cut worker's lease lapsed";
   // Audits (docs/farm.md "Audit") are leases too: each worker's first unit at least.
   EXPECT_EQ(metrics.at("lensfarm_audits_total{result=\"failed\"}"), 0.0);
-  EXPECT_EQ(metrics.at("lensfarm_units_leased_total"), 12.0 + metrics.at("lensfarm_units_expired_total") +
-                                                           metrics.at("lensfarm_audits_total{result=\"passed\"}"));
-  EXPECT_TRUE(test::waitFor([&] {
-    const auto m = test::parseMetrics(test::httpGet(coordinatorIp + ":9464", "/metrics", lab.ns("client")));
-    return m.count("lensfarm_workers_alive") && m.at("lensfarm_workers_alive") == 1.0;
-  }, 30)) << "only w2 is still heard from";
+  EXPECT_EQ(metrics.at("lensfarm_units_leased_total"),
+            12.0 + metrics.at("lensfarm_units_expired_total") + metrics.at("lensfarm_audits_total{result=\"passed\"}"));
+  EXPECT_TRUE(test::waitFor(
+      [&] {
+        const auto m = test::parseMetrics(test::httpGet(coordinatorIp + ":9464", "/metrics", lab.ns("client")));
+        return m.count("lensfarm_workers_alive") && m.at("lensfarm_workers_alive") == 1.0;
+      },
+      30))
+      << "only w2 is still heard from";
   EXPECT_TRUE(w1.running()) << "cut off, w1 waits for its network, it does not crash: " << w1.log();
 
   // The same bits as one process rendering the same scene.
   ImageMetadata farmMeta, localMeta;
   const Image farmImage = readExr(farmExr, &farmMeta);
   const fs::path localExr = dir / "local.exr";
-  const auto rendered = test::runProcess({test::cliPath().string(), "render", scene.string(), "-o", localExr.string(), "--threads", "2", "-q"}, 120);
+  const auto rendered = test::runProcess(
+      {test::cliPath().string(), "render", scene.string(), "-o", localExr.string(), "--threads", "2", "-q"}, 120);
   ASSERT_EQ(rendered.exitCode, 0) << rendered.err;
   const Image localImage = readExr(localExr, &localMeta);
   EXPECT_EQ(farmMeta.totalSamples, 64u * 64u * 3072u) << "every unit counted once";

@@ -14,8 +14,8 @@
 #include <map>
 #include <sstream>
 
-#include "tests/deploy_support.h"
 #include "common/film/image_io.h"
+#include "tests/deploy_support.h"
 #include "tests/support/local_slurm.h"
 
 namespace lensfarm {
@@ -84,15 +84,18 @@ TEST_F(Slurm, AWorkerArrayRendersTheLocalImageAndAScancelledTaskLosesNothing) {
   const std::string job = farm_->submit({scene.string(), "--coordinator", address});
 
   const fs::path logs = dir_ / "worker-logs";
-  test::ChildProcess helper({test::cliPath().string(), "slurm", job, "--coordinator", address, "--workers", "3",
-                             "--cpus-per-task", "1", "--log-dir", logs.string(), "--worker-binary",
-                             test::workerPath().string(), "--idle-exit", "120"},
-                            dir_ / "slurm-helper");
+  test::ChildProcess helper(
+      {test::cliPath().string(), "slurm", job, "--coordinator", address, "--workers", "3", "--cpus-per-task", "1",
+       "--log-dir", logs.string(), "--worker-binary", test::workerPath().string(), "--idle-exit", "120"},
+      dir_ / "slurm-helper");
   std::string array;
-  ASSERT_TRUE(test::waitFor([&] {
-    array = test::readFile(dir_ / "slurm-helper.stdout");
-    return array.find('\n') != std::string::npos;
-  }, 60)) << helper.log() << slurm_->logs();
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        array = test::readFile(dir_ / "slurm-helper.stdout");
+        return array.find('\n') != std::string::npos;
+      },
+      60))
+      << helper.log() << slurm_->logs();
   array = array.substr(0, array.find('\n'));
   std::printf("sbatch job id: %s\n", array.c_str());
   ASSERT_FALSE(array.empty());
@@ -102,7 +105,8 @@ TEST_F(Slurm, AWorkerArrayRendersTheLocalImageAndAScancelledTaskLosesNothing) {
   const std::vector<std::string> running = {array + "_0 RUNNING", array + "_1 RUNNING", array + "_2 RUNNING"};
   ASSERT_TRUE(test::waitFor([&] { return tasks(array) == running; }, 60)) << slurm_->logs();
   const std::string victim = "slurm-" + array + "_1";
-  ASSERT_TRUE(test::waitFor([&] { return test::lineOf(workers(address), victim).find(" rendering") != std::string::npos; }, 60))
+  ASSERT_TRUE(
+      test::waitFor([&] { return test::lineOf(workers(address), victim).find(" rendering") != std::string::npos; }, 60))
       << workers(address) << test::readFile(logs / ("lensfarm-worker-" + array + "_1.log"));
 
   // scancel of one task while it renders a unit: Slurm sends SIGTERM; the worker gives the lease
@@ -150,12 +154,15 @@ TEST_F(Slurm, TheCoordinatorAsASlurmJobIsFoundByWorkersThatLeaveWhenIdle) {
   EXPECT_EQ(address.rfind("127.0.0.1:", 0), 0u) << address;
 
   // The coordinator job made the farm's tokens beside its address file.
-  const std::vector<std::string> client = {"--coordinator", address, "--token-file", (dir_ / "shared/client.token").string()};
-  EXPECT_EQ(fs::status(dir_ / "shared/worker.token").permissions() & fs::perms::all, fs::perms::owner_read | fs::perms::owner_write);
+  const std::vector<std::string> client = {"--coordinator", address, "--token-file",
+                                           (dir_ / "shared/client.token").string()};
+  EXPECT_EQ(fs::status(dir_ / "shared/worker.token").permissions() & fs::perms::all,
+            fs::perms::owner_read | fs::perms::owner_write);
   const auto without = farm_->cli({"status", "--coordinator", address});
   EXPECT_EQ(without.exitCode, 6) << "no token, no answer: " << without.err;
   // A request Slurm refuses: sbatch's own message, exit 1, and nothing queued.
-  const auto refused = cli({"slurm", "--workers", "2", "--partition", "nosuch", "--log-dir", (dir_ / "l").string()}, client);
+  const auto refused =
+      cli({"slurm", "--workers", "2", "--partition", "nosuch", "--log-dir", (dir_ / "l").string()}, client);
   EXPECT_EQ(refused.exitCode, 1) << refused.err;
   EXPECT_TRUE(test::contains(refused.err, "invalid partition"));
   EXPECT_TRUE(test::contains(refused.err, "lensfarm: error: sbatch refused the worker array (exit 1)"));
@@ -170,9 +177,19 @@ TEST_F(Slurm, TheCoordinatorAsASlurmJobIsFoundByWorkersThatLeaveWhenIdle) {
   }());
   test::ChildProcess orphaned(
       [&] {
-        std::vector<std::string> a = {test::cliPath().string(), "slurm", big, "--workers", "1", "--cpus-per-task", "1",
-                                      "--log-dir", (dir_ / "l").string(), "--worker-binary", test::workerPath().string(),
-                                      "--worker-token-file", (dir_ / "shared/worker.token").string()};
+        std::vector<std::string> a = {test::cliPath().string(),
+                                      "slurm",
+                                      big,
+                                      "--workers",
+                                      "1",
+                                      "--cpus-per-task",
+                                      "1",
+                                      "--log-dir",
+                                      (dir_ / "l").string(),
+                                      "--worker-binary",
+                                      test::workerPath().string(),
+                                      "--worker-token-file",
+                                      (dir_ / "shared/worker.token").string()};
         a.insert(a.end(), client.begin(), client.end());
         return a;
       }(),
@@ -191,11 +208,11 @@ TEST_F(Slurm, TheCoordinatorAsASlurmJobIsFoundByWorkersThatLeaveWhenIdle) {
   const std::string job = farm_->submit(submit);
 
   // Workers find the coordinator through the file, render the job, and leave 3 s after it ends.
-  const std::string array = sbatch(
-      {"LENSFARM_COORDINATOR_FILE=" + addressFile.string(), "LENSFARM_IDLE_EXIT=3",
-       "LENSFARM_WORKER=" + test::workerPath().string(), "LENSFARM_CACHE_DIR=" + (dir_ / "cache").string()},
-      {"--array=0-1", "--cpus-per-task=1", "--output=" + (dir_ / "worker-%A_%a.log").string(),
-       (slurmDir / "lensfarm-worker.sbatch").string()});
+  const std::string array =
+      sbatch({"LENSFARM_COORDINATOR_FILE=" + addressFile.string(), "LENSFARM_IDLE_EXIT=3",
+              "LENSFARM_WORKER=" + test::workerPath().string(), "LENSFARM_CACHE_DIR=" + (dir_ / "cache").string()},
+             {"--array=0-1", "--cpus-per-task=1", "--output=" + (dir_ / "worker-%A_%a.log").string(),
+              (slurmDir / "lensfarm-worker.sbatch").string()});
   const auto watched = cli({"watch", job}, client);
   ASSERT_EQ(watched.exitCode, 0) << watched.err;
   ASSERT_TRUE(test::waitFor([&] { return tasks(array).empty(); }, 60)) << "idle workers leave by themselves";

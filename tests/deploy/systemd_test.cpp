@@ -8,9 +8,9 @@
 #include <fstream>
 #include <regex>
 
+#include "common/util/version.h"
 #include "tests/deploy_support.h"
 #include "tests/test_support.h"
-#include "common/util/version.h"
 
 namespace lensfarm {
 namespace {
@@ -50,7 +50,8 @@ std::set<std::string> variablesOf(const fs::path& file) {
 class Install : public ::testing::Test {
  protected:
   void SetUp() override {
-    const auto r = test::runProcess({LENSFARM_CMAKE_COMMAND, "--install", LENSFARM_BINARY_DIR, "--prefix", prefix_.path().string()}, 120);
+    const auto r = test::runProcess(
+        {LENSFARM_CMAKE_COMMAND, "--install", LENSFARM_BINARY_DIR, "--prefix", prefix_.path().string()}, 120);
     ASSERT_EQ(r.exitCode, 0) << r.out << r.err;
   }
   fs::path unitDir() const { return prefix_ / "lib/systemd/system"; }
@@ -67,11 +68,12 @@ TEST_F(Install, PutsBinariesUnitsAndSettingsInTheirPlaces) {
     EXPECT_EQ(version.exitCode, 0) << path;
     EXPECT_NE(version.out.find(kRendererVersion), std::string::npos) << path << ": " << version.out;
   }
-  for (const char* file : {"lib/systemd/system/lensfarm-coordinator.service", "lib/systemd/system/lensfarm-worker@.service",
-                           "etc/lensfarm/coordinator.env", "etc/lensfarm/worker.env", "share/doc/lensfarm/deploy.md",
-                           "share/doc/lensfarm/farm.md", "share/doc/lensfarm/examples/coordinator.env",
-                           "share/doc/lensfarm/scene-format.md", "share/doc/lensfarm/cli.md", "share/doc/lensfarm/README.md",
-                           "share/lensfarm/scenes/README.md", "share/lensfarm/scenes/meshes/cornell-box.obj"})
+  for (const char* file :
+       {"lib/systemd/system/lensfarm-coordinator.service", "lib/systemd/system/lensfarm-worker@.service",
+        "etc/lensfarm/coordinator.env", "etc/lensfarm/worker.env", "share/doc/lensfarm/deploy.md",
+        "share/doc/lensfarm/farm.md", "share/doc/lensfarm/examples/coordinator.env",
+        "share/doc/lensfarm/scene-format.md", "share/doc/lensfarm/cli.md", "share/doc/lensfarm/README.md",
+        "share/lensfarm/scenes/README.md", "share/lensfarm/scenes/meshes/cornell-box.obj"})
     EXPECT_TRUE(fs::is_regular_file(prefix_ / file)) << file;
   // Every shipped scene is installed, and renders from there with the installed binary.
   size_t scenes = 0;
@@ -80,16 +82,18 @@ TEST_F(Install, PutsBinariesUnitsAndSettingsInTheirPlaces) {
       ++scenes;
       const fs::path installed = prefix_ / "share/lensfarm/scenes" / e.path().filename();
       ASSERT_TRUE(fs::is_regular_file(installed)) << installed;
-      const auto r = test::runProcess({(prefix_ / "bin/lensfarm").string(), "render", installed.string(), "--resolution", "8x8",
-                                       "--spp", "1", "-q", "-o", (prefix_ / "check.exr").string()},
-                                      120);
+      const auto r =
+          test::runProcess({(prefix_ / "bin/lensfarm").string(), "render", installed.string(), "--resolution", "8x8",
+                            "--spp", "1", "-q", "-o", (prefix_ / "check.exr").string()},
+                           120);
       EXPECT_EQ(r.exitCode, 0) << installed << ": " << r.err;
     }
   EXPECT_GE(scenes, 2u);
 
   // An edited setting survives a second install.
   prefix_.write("etc/lensfarm/coordinator.env", "LENSFARM_LISTEN=10.0.0.1:7878\n");
-  const auto again = test::runProcess({LENSFARM_CMAKE_COMMAND, "--install", LENSFARM_BINARY_DIR, "--prefix", prefix_.path().string()}, 120);
+  const auto again = test::runProcess(
+      {LENSFARM_CMAKE_COMMAND, "--install", LENSFARM_BINARY_DIR, "--prefix", prefix_.path().string()}, 120);
   ASSERT_EQ(again.exitCode, 0) << again.err;
   EXPECT_EQ(test::readFile(prefix_ / "etc/lensfarm/coordinator.env"), "LENSFARM_LISTEN=10.0.0.1:7878\n");
 }
@@ -104,19 +108,22 @@ TEST_F(Install, TheSlurmScriptsAreInstalledWhereLensfarmSlurmFindsThem) {
   }
   EXPECT_TRUE(fs::is_regular_file(prefix_ / "share/lensfarm/slurm/README.md"));
   const fs::path bin = prefix_ / "fake-bin", record = prefix_ / "sbatch.txt";
-  prefix_.write("fake-bin/sbatch", "#!/bin/sh\n{ printf '%s\\n' \"$@\"; echo \"LENSFARM_WORKER=$LENSFARM_WORKER\"; } > " +
-                                       record.string() + "\necho 4242\n");
+  prefix_.write("fake-bin/sbatch",
+                "#!/bin/sh\n{ printf '%s\\n' \"$@\"; echo \"LENSFARM_WORKER=$LENSFARM_WORKER\"; } > " +
+                    record.string() + "\necho 4242\n");
   fs::permissions(bin / "sbatch", fs::perms::owner_all);
-  const auto r = test::runProcess({"/usr/bin/env", "PATH=" + bin.string() + ":/usr/bin:/bin", (prefix_ / "bin/lensfarm").string(),
-                                   "slurm", "--workers", "3", "--coordinator", "farm-host:7878", "--log-dir",
-                                   (prefix_ / "logs").string()},
-                                  30);
+  const auto r = test::runProcess(
+      {"/usr/bin/env", "PATH=" + bin.string() + ":/usr/bin:/bin", (prefix_ / "bin/lensfarm").string(), "slurm",
+       "--workers", "3", "--coordinator", "farm-host:7878", "--log-dir", (prefix_ / "logs").string()},
+      30);
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_EQ(r.out, "4242\n");
   const std::string args = test::readFile(record);
   EXPECT_TRUE(test::contains(args, "--array=0-2\n"));
-  EXPECT_TRUE(test::contains(args, (fs::canonical(prefix_.path()) / "share/lensfarm/slurm/lensfarm-worker.sbatch").string() + "\n"));
-  EXPECT_TRUE(test::contains(args, "LENSFARM_WORKER=" + (fs::canonical(prefix_.path()) / "bin/lensfarm-worker").string()));
+  EXPECT_TRUE(test::contains(
+      args, (fs::canonical(prefix_.path()) / "share/lensfarm/slurm/lensfarm-worker.sbatch").string() + "\n"));
+  EXPECT_TRUE(
+      test::contains(args, "LENSFARM_WORKER=" + (fs::canonical(prefix_.path()) / "bin/lensfarm-worker").string()));
 }
 
 TEST_F(Install, UnitsRunTheInstalledBinariesWithFlagsTheyAccept) {
@@ -126,13 +133,17 @@ TEST_F(Install, UnitsRunTheInstalledBinariesWithFlagsTheyAccept) {
     const char* envFile;
     std::vector<std::string> tokens;  // credentials the unit loads and passes as files
   };
-  for (const Case& c : {Case{"lensfarm-coordinator.service", "lensfarm-coordinator", "coordinator.env", {"client.token", "worker.token"}},
+  for (const Case& c : {Case{"lensfarm-coordinator.service",
+                             "lensfarm-coordinator",
+                             "coordinator.env",
+                             {"client.token", "worker.token"}},
                         Case{"lensfarm-worker@.service", "lensfarm-worker", "worker.env", {"worker.token"}}}) {
     SCOPED_TRACE(c.unit);
     const auto settings = settingsOf(unitDir() / c.unit);
     const std::vector<std::string> exec = test::words(only(settings, "ExecStart"));
     ASSERT_FALSE(exec.empty());
-    EXPECT_TRUE(test::runsWithItsFlags(exec, prefix_ / "bin" / c.binary)) << "the installed binary, by its installed path";
+    EXPECT_TRUE(test::runsWithItsFlags(exec, prefix_ / "bin" / c.binary))
+        << "the installed binary, by its installed path";
     const test::Help help = test::helpOf(exec[0]);
 
     // Tokens: loaded as credentials from the settings directory, passed as %d/NAME.
@@ -158,14 +169,18 @@ TEST_F(Install, UnitsRunTheInstalledBinariesWithFlagsTheyAccept) {
     const std::set<std::string> variables = variablesOf(prefix_ / "etc/lensfarm" / c.envFile);
     EXPECT_GE(variables.size(), 3u);
     for (const std::string& v : variables)
-      EXPECT_TRUE(help.text.find(v) != std::string::npos || only(settings, "ExecStart").find("${" + v + "}") != std::string::npos)
+      EXPECT_TRUE(help.text.find(v) != std::string::npos ||
+                  only(settings, "ExecStart").find("${" + v + "}") != std::string::npos)
           << v << " is read by neither " << c.binary << " nor its unit";
   }
   // The coordinator's state and the worker's cache live in directories systemd makes for them.
   const auto coordinator = settingsOf(unitDir() / "lensfarm-coordinator.service");
-  EXPECT_EQ(test::optionOf(test::words(only(coordinator, "ExecStart")), "--state-dir"), "%S/" + only(coordinator, "StateDirectory"));
+  EXPECT_EQ(test::optionOf(test::words(only(coordinator, "ExecStart")), "--state-dir"),
+            "%S/" + only(coordinator, "StateDirectory"));
   const auto worker = settingsOf(unitDir() / "lensfarm-worker@.service");
-  EXPECT_EQ(test::optionOf(test::words(only(worker, "ExecStart")), "--cache-dir").rfind("%C/" + only(worker, "CacheDirectory") + "/", 0), 0u);
+  EXPECT_EQ(test::optionOf(test::words(only(worker, "ExecStart")), "--cache-dir")
+                .rfind("%C/" + only(worker, "CacheDirectory") + "/", 0),
+            0u);
   EXPECT_EQ(test::optionOf(test::words(only(worker, "ExecStart")), "--coordinator"), "%I:${LENSFARM_COORDINATOR_PORT}");
   EXPECT_EQ(only(worker, "RestartPreventExitStatus"), "2 3") << "a refused token or version is not retried";
 
@@ -198,7 +213,8 @@ TEST_F(Install, SystemdAnalyzeVerifiesTheUnits) {
   }
   // ... and it does object to a broken unit, so silence above means something.
   const fs::path broken = prefix_ / "broken.service";
-  prefix_.write("broken.service", test::readFile(unitDir() / "lensfarm-coordinator.service") + "[Service]\nRestartt=always\n");
+  prefix_.write("broken.service",
+                test::readFile(unitDir() / "lensfarm-coordinator.service") + "[Service]\nRestartt=always\n");
   const auto r = test::runProcess({analyze.string(), "verify", broken.string()}, 60);
   EXPECT_NE(r.out + r.err, "");
 }

@@ -20,7 +20,8 @@ TEST_F(AdaptiveFarm, TwoWorkersGiveTheLocalRendersBitsAndSamplesFollowTheNoise) 
   scene["render"]["aovs"] = {"samples"};
   const auto file = dir_.write("adaptive.json", scene.dump(2));
   const auto [address, job] = renderOnTwoWorkers(file);
-  const Image farm = expectFarmImageIsTheLocalRender(address, job, file, "the adaptive farm image differs from the local render");
+  const Image farm =
+      expectFarmImageIsTheLocalRender(address, job, file, "the adaptive farm image differs from the local render");
   const ImageLayer* samples = farm.layer("samples");
   ASSERT_NE(samples, nullptr);
   const auto [lo, hi] = std::minmax_element(samples->values.begin(), samples->values.end());

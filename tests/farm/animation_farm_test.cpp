@@ -14,10 +14,10 @@
 #include <string>
 #include <vector>
 
-#include "tests/deploy_support.h"
 #include "common/film/image_io.h"
-#include "lensfarm/v1/client_service.grpc.pb.h"
 #include "common/scene/frame_range.h"
+#include "lensfarm/v1/client_service.grpc.pb.h"
+#include "tests/deploy_support.h"
 #include "tests/test_support.h"
 
 namespace lensfarm {
@@ -60,22 +60,22 @@ class AnimationFarm : public ::testing::Test {
   // The animated Cornell box, small; `extra` chooses the layout (e.g. --tile-size 16).
   void renderThroughFailures(const std::vector<std::string>& layout) {
     const fs::path scene = dir_.write("scene.json", test::bundledSceneJson("cornell-animated.json").dump(2));
-    std::vector<std::string> overrides = {"--resolution", std::to_string(kSize) + "x" + std::to_string(kSize), "--spp",
-                                          std::to_string(kSpp), "--frames",
-                                          std::to_string(kFirstFrame) + "-" + std::to_string(kLastFrame)};
+    std::vector<std::string> overrides = {
+        "--resolution", std::to_string(kSize) + "x" + std::to_string(kSize),           "--spp", std::to_string(kSpp),
+        "--frames",     std::to_string(kFirstFrame) + "-" + std::to_string(kLastFrame)};
     overrides.insert(overrides.end(), layout.begin(), layout.end());
 
     // The clean run: one process.
-    std::vector<std::string> render = {"render", scene.string(), "-o", (dir_ / "ref_####.exr").string(), "--threads",
-                                       "2", "-q"};
+    std::vector<std::string> render = {
+        "render", scene.string(), "-o", (dir_ / "ref_####.exr").string(), "--threads", "2", "-q"};
     render.insert(render.end(), overrides.begin(), overrides.end());
     const auto reference = farm_.cli(render);
     ASSERT_EQ(reference.exitCode, 0) << reference.err;
 
     // The farm: a state dir, two workers.
     const fs::path state = dir_ / "state";
-    const std::vector<std::string> coordinatorArgs = {"--heartbeat-interval", "0.2", "--lease-timeout", "30",
-                                                      "--state-dir", state.string()};
+    const std::vector<std::string> coordinatorArgs = {"--heartbeat-interval", "0.2",         "--lease-timeout", "30",
+                                                      "--state-dir",          state.string()};
     std::vector<std::string> first = {"--listen", "127.0.0.1:0"};
     first.insert(first.end(), coordinatorArgs.begin(), coordinatorArgs.end());
     const std::string address = farm_.startCoordinator(first);
@@ -107,8 +107,10 @@ class AnimationFarm : public ::testing::Test {
     test::ChildProcess& w3 = farm_.startWorker("w3", {"--coordinator", address, "--threads", "1"});
     test::ChildProcess& w4 = farm_.startWorker("w4", {"--coordinator", address, "--threads", "1"});
     const auto watched = farm_.cli({"watch", job, "--coordinator", address});
-    ASSERT_EQ(watched.exitCode, 0) << watched.err << farm_.coordinator().log() << "\nw2:\n" << survivor.log()
-                                   << "\nw3:\n" << w3.log() << "\nw4:\n" << w4.log();
+    ASSERT_EQ(watched.exitCode, 0) << watched.err << farm_.coordinator().log() << "\nw2:\n"
+                                   << survivor.log() << "\nw3:\n"
+                                   << w3.log() << "\nw4:\n"
+                                   << w4.log();
 
     // The ledger: every unit once.
     const auto done = getJob(address, job);
@@ -152,9 +154,7 @@ class AnimationFarm : public ::testing::Test {
   test::FarmProcesses farm_{dir_};
 };
 
-TEST_F(AnimationFarm, WholeFramesSurviveAWorkerKillAndACoordinatorKillAndRestart) {
-  renderThroughFailures({});
-}
+TEST_F(AnimationFarm, WholeFramesSurviveAWorkerKillAndACoordinatorKillAndRestart) { renderThroughFailures({}); }
 
 TEST_F(AnimationFarm, TiledFramesSurviveAWorkerKillAndACoordinatorKillAndRestart) {
   renderThroughFailures({"--tile-size", "16"});

@@ -55,8 +55,8 @@ TEST_F(AovFarm, DownloadDenoiseIsRenderDenoiseAndNeedsTheGuides) {
   const auto file = aovScene("off");
   const auto [address, job] = renderOnTwoWorkers(file);
   const auto farmOut = dir_ / "farm-denoised.exr", localOut = dir_ / "local-denoised.exr";
-  const auto d = cli({"download", job, "-o", farmOut.string(), "-o", (dir_ / "farm-denoised.png").string(),
-                      "--denoise", "--coordinator", address});
+  const auto d = cli({"download", job, "-o", farmOut.string(), "-o", (dir_ / "farm-denoised.png").string(), "--denoise",
+                      "--coordinator", address});
   ASSERT_EQ(d.exitCode, 0) << d.err;
   EXPECT_TRUE(std::filesystem::exists(dir_ / "farm-denoised.png"));
   const auto r = cli({"render", file.string(), "-o", localOut.string(), "--denoise", "-q", "--threads", "2"});
@@ -77,7 +77,8 @@ TEST_F(AovFarm, DownloadDenoiseIsRenderDenoiseAndNeedsTheGuides) {
   plain["render"].erase("aovs");
   const std::string second = submit(address, dir_.write("plain.json", plain.dump(2)));
   ASSERT_EQ(cli({"watch", second, "--coordinator", address}).exitCode, 0);
-  const auto refused = cli({"download", second, "-o", (dir_ / "refused.exr").string(), "--denoise", "--coordinator", address});
+  const auto refused =
+      cli({"download", second, "-o", (dir_ / "refused.exr").string(), "--denoise", "--coordinator", address});
   EXPECT_EQ(refused.exitCode, 2) << refused.err;
   EXPECT_NE(refused.err.find("albedo, normal, variance"), std::string::npos) << refused.err;
   EXPECT_FALSE(std::filesystem::exists(dir_ / "refused.exr"));

@@ -9,9 +9,9 @@
 #include <fstream>
 #include <regex>
 
-#include "tests/deploy_support.h"
-#include "lensfarm/v1/client_service.grpc.pb.h"
 #include "common/util/hash.h"
+#include "lensfarm/v1/client_service.grpc.pb.h"
+#include "tests/deploy_support.h"
 
 namespace lensfarm {
 namespace {

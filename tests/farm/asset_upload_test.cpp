@@ -10,12 +10,12 @@
 #include <fstream>
 #include <optional>
 
-#include "coordinator/coordinator.h"
-#include "tests/deploy_support.h"
-#include "lensfarm/v1/client_service.grpc.pb.h"
-#include "coordinator/service.h"
-#include "tests/test_support.h"
 #include "common/util/hash.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/service.h"
+#include "lensfarm/v1/client_service.grpc.pb.h"
+#include "tests/deploy_support.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -196,7 +196,8 @@ TEST(AssetUpload, AMalformedUploadIsInvalidArgumentNamingTheFaultAndStoresNothin
             "UploadAsset: chunk[3] goes past the declared total_size: 3145733 bytes of 3145732"},
            {"declared long", sha, kMiB, bytes.size() + 1,
             "UploadAsset: the stream ended after 3145733 bytes of the declared total_size 3145734"},
-           {"nothing declared", sha, kMiB, 0, "UploadAsset: chunk[0] goes past the declared total_size: 1048576 bytes of 0"},
+           {"nothing declared", sha, kMiB, 0,
+            "UploadAsset: chunk[0] goes past the declared total_size: 1048576 bytes of 0"},
            {"uppercase hash", upper, kMiB, std::nullopt,
             "UploadAsset: sha256: \"" + upper + "\" is not a SHA-256 (64 lowercase hex digits)"},
        }) {
@@ -218,7 +219,8 @@ TEST(AssetUpload, AMalformedUploadIsInvalidArgumentNamingTheFaultAndStoresNothin
     ADD_FAILURE() << "an uppercase hash must be refused";
   } catch (const FarmError& e) {
     EXPECT_EQ(e.kind(), FarmError::Kind::kInvalidArgument);
-    EXPECT_EQ(std::string(e.what()), "assets[mesh.obj].sha256: \"" + upper + "\" is not a SHA-256 (64 lowercase hex digits)");
+    EXPECT_EQ(std::string(e.what()),
+              "assets[mesh.obj].sha256: \"" + upper + "\" is not a SHA-256 (64 lowercase hex digits)");
   }
 
   // The same bytes, well formed: stored.

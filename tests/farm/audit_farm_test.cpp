@@ -46,7 +46,7 @@ class AuditFarm : public test::FarmFixture {};
 
 TEST_F(AuditFarm, AWrongWorkerAmongSixIsQuarantinedAndTheImageKeepsItsBits) {
   const std::filesystem::path scene = writeScene(24, 36, 1);  // 36 units of one sample
-  const std::string address = startCoordinator();            // the default audit fraction, 2 %
+  const std::string address = startCoordinator();             // the default audit fraction, 2 %
   GrpcCoordinatorLink grpc(makeChannel(address, ChannelSecurity{}, 0.3, true), ChannelSecurity{});
   ScalingLink wrongLink(grpc, 1.001);
   WorkerOptions options;
@@ -57,12 +57,15 @@ TEST_F(AuditFarm, AWrongWorkerAmongSixIsQuarantinedAndTheImageKeepsItsBits) {
   std::thread wrongThread([&] { wrong.run(); });
   for (int i = 1; i <= 5; ++i) startWorker(address, "honest-" + std::to_string(i));
   // All six registered before the job, so that every worker's first unit has others to audit it.
-  ASSERT_TRUE(test::waitFor([&] {
-    const auto listed = cli({"workers", "--coordinator", address});
-    size_t n = 0;
-    for (size_t at = listed.out.find("honest-"); at != std::string::npos; at = listed.out.find("honest-", at + 1)) ++n;
-    return n == 5 && listed.out.find("wrong") != std::string::npos;
-  }, 60));
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        const auto listed = cli({"workers", "--coordinator", address});
+        size_t n = 0;
+        for (size_t at = listed.out.find("honest-"); at != std::string::npos; at = listed.out.find("honest-", at + 1))
+          ++n;
+        return n == 5 && listed.out.find("wrong") != std::string::npos;
+      },
+      60));
 
   const std::string job = submit(address, scene);
   const auto watched = cli({"watch", job, "--coordinator", address});

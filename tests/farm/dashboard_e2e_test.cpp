@@ -19,11 +19,11 @@
 #include <thread>
 #include <tuple>
 
-#include "tests/coordinator/audit_views.h"
-#include "coordinator/dashboard.h"
-#include "tests/deploy_support.h"
 #include "common/film/image.h"
 #include "common/film/image_io.h"
+#include "coordinator/dashboard.h"
+#include "tests/coordinator/audit_views.h"
+#include "tests/deploy_support.h"
 
 namespace lensfarm {
 namespace {
@@ -83,12 +83,18 @@ std::string decodeBase64(const std::string& text) {
   int count = 0;
   for (char c : text) {
     int v;
-    if (c >= 'A' && c <= 'Z') v = c - 'A';
-    else if (c >= 'a' && c <= 'z') v = c - 'a' + 26;
-    else if (c >= '0' && c <= '9') v = c - '0' + 52;
-    else if (c == '+') v = 62;
-    else if (c == '/') v = 63;
-    else continue;  // padding, line breaks
+    if (c >= 'A' && c <= 'Z')
+      v = c - 'A';
+    else if (c >= 'a' && c <= 'z')
+      v = c - 'a' + 26;
+    else if (c >= '0' && c <= '9')
+      v = c - '0' + 52;
+    else if (c == '+')
+      v = 62;
+    else if (c == '/')
+      v = 63;
+    else
+      continue;  // padding, line breaks
     bits = (bits << 6) | uint32_t(v);
     if ((count += 6) >= 8) {
       count -= 8;
@@ -111,14 +117,14 @@ class Browser {
     client_.set_read_timeout(60);
     if (!test::waitFor([&] { return call("GET", "/status").value("value", json::object()).value("ready", false); }, 30))
       throw std::runtime_error("chromedriver did not start: " + driver_->log());
-    const json capabilities = {
-        {"capabilities",
-         {{"alwaysMatch",
-           {{"acceptInsecureCerts", acceptInsecureCerts},
-            {"goog:chromeOptions",
-             {{"binary", kChromium},
-              {"args", {"--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                        "--disable-dev-shm-usage", "--window-size=1360,1100"}}}}}}}}};
+    const json capabilities = {{"capabilities",
+                                {{"alwaysMatch",
+                                  {{"acceptInsecureCerts", acceptInsecureCerts},
+                                   {"goog:chromeOptions",
+                                    {{"binary", kChromium},
+                                     {"args",
+                                      {"--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                                       "--disable-dev-shm-usage", "--window-size=1360,1100"}}}}}}}}};
     const json session = call("POST", "/session", capabilities);
     session_ = session["value"].value("sessionId", "");
     if (session_.empty()) throw std::runtime_error("no browser session: " + session.dump() + driver_->log());
@@ -128,7 +134,8 @@ class Browser {
   }
 
   json call(const std::string& method, const std::string& path, const json& body = nullptr) {
-    httplib::Result r = method == "POST"   ? client_.Post(path.c_str(), body.is_null() ? "{}" : body.dump(), "application/json")
+    httplib::Result r = method == "POST"
+                            ? client_.Post(path.c_str(), body.is_null() ? "{}" : body.dump(), "application/json")
                         : method == "GET" ? client_.Get(path.c_str())
                                           : client_.Delete(path.c_str());
     if (!r) return json::object();
@@ -139,13 +146,16 @@ class Browser {
   }
   void go(const std::string& url) { session("POST", "/url", {{"url", url}}); }
   // Runs `script` (a function body) in the page; its return value.
-  json run(const std::string& script) { return session("POST", "/execute/sync", {{"script", script}, {"args", json::array()}})["value"]; }
+  json run(const std::string& script) {
+    return session("POST", "/execute/sync", {{"script", script}, {"args", json::array()}})["value"];
+  }
   std::string text(const std::string& css) {
     const json v = run("const e = document.querySelector(" + json(css).dump() + "); return e ? e.textContent : null;");
     return v.is_string() ? v.get<std::string>() : "";
   }
   bool visible(const std::string& css) {
-    return run("const e = document.querySelector(" + json(css).dump() + "); return !!e && e.offsetParent !== null;") == true;
+    return run("const e = document.querySelector(" + json(css).dump() + "); return !!e && e.offsetParent !== null;") ==
+           true;
   }
   std::string element(const std::string& css) {
     const json v = session("POST", "/element", {{"using", "css selector"}, {"value", css}})["value"];
@@ -180,7 +190,8 @@ class DashboardFarm : public ::testing::Test {
     ASSERT_FALSE(dashboard_.empty());
   }
   std::string submit(const fs::path& scene, const std::vector<std::string>& extra = {}) {
-    std::vector<std::string> args = {scene.string(), "--coordinator", address_, "--token-file", (dir_ / "client.token").string()};
+    std::vector<std::string> args = {scene.string(), "--coordinator", address_, "--token-file",
+                                     (dir_ / "client.token").string()};
     args.insert(args.end(), extra.begin(), extra.end());
     return farm_.submit(args);
   }
@@ -209,13 +220,17 @@ TEST_F(DashboardFarm, ApiNeedsTheClientTokenAndThePageIsPublic) {
   EXPECT_EQ(json::parse(jobs.body), json({{"jobs", json::array()}}));
   EXPECT_EQ(request(dashboard_, "GET", "/api/jobs/job-9", token_).status, 404);
 
-  for (const auto& [path, type] : std::vector<std::pair<std::string, std::string>>{
-           {"/", "text/html"}, {"/index.html", "text/html"}, {"/app.js", "text/javascript"}, {"/style.css", "text/css"}}) {
+  for (const auto& [path, type] : std::vector<std::pair<std::string, std::string>>{{"/", "text/html"},
+                                                                                   {"/index.html", "text/html"},
+                                                                                   {"/app.js", "text/javascript"},
+                                                                                   {"/style.css", "text/css"}}) {
     const Reply page = request(dashboard_, "GET", path);
     EXPECT_EQ(page.status, 200) << path;
     EXPECT_EQ(page.contentType.rfind(type, 0), 0u) << path << ": " << page.contentType;
   }
-  EXPECT_EQ(test::readFile(test::sourceDir() / "coordinator/dashboard/index.html"), request(dashboard_, "GET", "/").body) << "the page is compiled in as it is";
+  EXPECT_EQ(test::readFile(test::sourceDir() / "coordinator/dashboard/index.html"),
+            request(dashboard_, "GET", "/").body)
+      << "the page is compiled in as it is";
 }
 
 TEST_F(DashboardFarm, ApiServesJobsImagesAndActions) {
@@ -231,14 +246,15 @@ TEST_F(DashboardFarm, ApiServesJobsImagesAndActions) {
   EXPECT_EQ(raised.status, 200) << raised.body;
   EXPECT_EQ(json::parse(raised.body)["priority"], 4);
   EXPECT_EQ(json::parse(request(dashboard_, "GET", "/api/jobs", token_).body)["jobs"][0]["id"], second);
-  EXPECT_EQ(request(dashboard_, "POST", "/api/jobs/" + second + "/priority", token_, R"({"priority": "high"})").status, 400);
+  EXPECT_EQ(request(dashboard_, "POST", "/api/jobs/" + second + "/priority", token_, R"({"priority": "high"})").status,
+            400);
   EXPECT_NE(status(second).find("priority:   4"), std::string::npos) << status(second);
 
   // A worker renders the raised job to its end; the workers list shows it.
   farm_.startWorker("w1", {"--coordinator", address_, "--threads", "1"});
-  ASSERT_TRUE(test::waitFor([&] {
-    return json::parse(request(dashboard_, "GET", "/api/jobs/" + second, token_).body)["state"] == "done";
-  }, 120));
+  ASSERT_TRUE(test::waitFor(
+      [&] { return json::parse(request(dashboard_, "GET", "/api/jobs/" + second, token_).body)["state"] == "done"; },
+      120));
   const json detail = json::parse(request(dashboard_, "GET", "/api/jobs/" + second, token_).body);
   EXPECT_EQ(detail["spp_done"], 64);
   EXPECT_GE(detail["error_history"].size(), 1u);
@@ -275,9 +291,9 @@ TEST_F(DashboardFarm, ApiServesJobsImagesAndActions) {
   // Another site's form cannot post: actions take JSON only.
   {
     httplib::Client client("127.0.0.1", test::portOf(dashboard_));
-    const auto form = client.Post(("/api/jobs/" + first + "/cancel").c_str(),
-                                  httplib::Headers{{"Authorization", "Bearer " + token_}}, "x=1",
-                                  "application/x-www-form-urlencoded");
+    const auto form =
+        client.Post(("/api/jobs/" + first + "/cancel").c_str(), httplib::Headers{{"Authorization", "Bearer " + token_}},
+                    "x=1", "application/x-www-form-urlencoded");
     ASSERT_TRUE(form);
     EXPECT_EQ(form->status, 415);
   }
@@ -295,7 +311,8 @@ TEST(DashboardFlags, RefusesAnAddressOpenToTheNetworkWithoutATokenOrMalformed) {
   const auto open = test::runProcess(
       {test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--dashboard-listen", "0.0.0.0:0"}, 30);
   EXPECT_EQ(open.exitCode, 2);
-  EXPECT_NE(open.err.find("refusing to serve the dashboard on 0.0.0.0:0 without --client-token-file"), std::string::npos)
+  EXPECT_NE(open.err.find("refusing to serve the dashboard on 0.0.0.0:0 without --client-token-file"),
+            std::string::npos)
       << open.err;
   const auto malformed =
       test::runProcess({test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--dashboard-listen", "8080"}, 30);
@@ -340,7 +357,8 @@ TEST_F(DashboardFarm, ARealBrowserWatchesTheImageChangeAndCancels) {
 
   // The job list and the worker list.
   const std::string row = "#jobs tbody tr[data-job=\"" + job + "\"]";
-  ASSERT_TRUE(test::waitFor([&] { return browser.visible(row) && browser.text(row).find("running") != std::string::npos; }, 60))
+  ASSERT_TRUE(
+      test::waitFor([&] { return browser.visible(row) && browser.text(row).find("running") != std::string::npos; }, 60))
       << browser.text("#jobs");
   ASSERT_TRUE(test::waitFor([&] { return browser.text("#workers tbody").find("unit") != std::string::npos; }, 30))
       << browser.text("#workers");
@@ -350,45 +368,58 @@ TEST_F(DashboardFarm, ARealBrowserWatchesTheImageChangeAndCancels) {
   // The job page: the image on it changes as samples arrive.
   browser.click(row + " a");
   const auto shown = [&] {
-    const json v = browser.run("const i = document.querySelector('#snapshot'); return [i.dataset.hash || '', i.dataset.spp || '', i.naturalWidth];");
+    const json v = browser.run(
+        "const i = document.querySelector('#snapshot'); return [i.dataset.hash || '', i.dataset.spp || '', "
+        "i.naturalWidth];");
     return v.is_array() && v.size() == 3 ? v : json::array({"", "", 0});
   };
   ASSERT_TRUE(test::waitFor([&] { return !shown()[0].get<std::string>().empty(); }, 30)) << "no image on the job page";
   const json before = shown();
   EXPECT_EQ(before[2], 128);
-  ASSERT_TRUE(test::waitFor([&] {
-    const json now = shown();
-    return now[0] != before[0] && std::stoul(now[1].get<std::string>()) > std::stoul(before[1].get<std::string>());
-  }, 60)) << "the image did not change: " << before.dump();
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        const json now = shown();
+        return now[0] != before[0] && std::stoul(now[1].get<std::string>()) > std::stoul(before[1].get<std::string>());
+      },
+      60))
+      << "the image did not change: " << before.dump();
   // Wait for a few points of the error curve, so the screenshot shows one.
-  ASSERT_TRUE(test::waitFor([&] { return browser.run("return Number(document.querySelector('#error-chart').dataset.points || 0);") >= 3; }, 60));
+  ASSERT_TRUE(test::waitFor(
+      [&] { return browser.run("return Number(document.querySelector('#error-chart').dataset.points || 0);") >= 3; },
+      60));
   EXPECT_NE(browser.text("#effects").find("depth of field"), std::string::npos) << browser.text("#effects");
   EXPECT_EQ(browser.text("#job-state"), "running");
   browser.screenshot(fs::path(LENSFARM_BINARY_DIR) / "dashboard.png");
 
   // Cancel: the page and the coordinator agree.
   browser.click("#cancel");
-  ASSERT_TRUE(test::waitFor([&] { return browser.text("#job-state") == "cancelled"; }, 30)) << browser.text("#job-state");
-  EXPECT_TRUE(test::waitFor([&] { return browser.run("return document.querySelector('#cancel').disabled;") == true; }, 10));
+  ASSERT_TRUE(test::waitFor([&] { return browser.text("#job-state") == "cancelled"; }, 30))
+      << browser.text("#job-state");
+  EXPECT_TRUE(
+      test::waitFor([&] { return browser.run("return document.querySelector('#cancel').disabled;") == true; }, 10));
   EXPECT_NE(status(job).find("cancelled"), std::string::npos) << status(job);
   EXPECT_TRUE(browser.run("return document.querySelector('#priority-up').disabled;") == true);
 
   // The EV slider re-exposes the (now fixed) image.
   const json settled = shown();
-  browser.run("const e = document.querySelector('#ev'); e.value = '2'; e.dispatchEvent(new Event('input'));"
-              "e.dispatchEvent(new Event('change'));");
-  EXPECT_TRUE(test::waitFor([&] { return browser.text("#snapshot-caption").find("+2.00 EV") != std::string::npos; }, 30))
+  browser.run(
+      "const e = document.querySelector('#ev'); e.value = '2'; e.dispatchEvent(new Event('input'));"
+      "e.dispatchEvent(new Event('change'));");
+  EXPECT_TRUE(
+      test::waitFor([&] { return browser.text("#snapshot-caption").find("+2.00 EV") != std::string::npos; }, 30))
       << browser.text("#snapshot-caption");
   EXPECT_NE(shown()[0], settled[0]) << "a brighter exposure is another PNG";
   EXPECT_EQ(shown()[1], settled[1]) << "of the same samples";
   browser.screenshot(fs::path(LENSFARM_BINARY_DIR) / "dashboard-cancelled.png");
 
   // Downloads are fetched with the token and saved through a blob link (the token is in no URL).
-  browser.run("window.savedLinks = []; HTMLAnchorElement.prototype.click = function() {"
-              " window.savedLinks.push([this.download, this.href]); };");
+  browser.run(
+      "window.savedLinks = []; HTMLAnchorElement.prototype.click = function() {"
+      " window.savedLinks.push([this.download, this.href]); };");
   for (const std::string kind : {"exr", "png"}) {
     browser.click("#download-" + kind);
-    ASSERT_TRUE(test::waitFor([&] { return browser.run("return window.savedLinks.length;").get<int>() > 0; }, 30)) << kind;
+    ASSERT_TRUE(test::waitFor([&] { return browser.run("return window.savedLinks.length;").get<int>() > 0; }, 30))
+        << kind;
     const json link = browser.run("return window.savedLinks.shift();");
     EXPECT_EQ(link[0], job + "." + kind);
     EXPECT_EQ(link[1].get<std::string>().rfind("blob:", 0), 0u) << link.dump();
@@ -404,7 +435,8 @@ TEST_F(DashboardFarm, ARealBrowserShowsProgressWithoutASampleCapAndALostWorker) 
       << "needs Debian's chromium and chromium-driver (scripts/setup.sh installs them)";
   // No --spp: the job runs to a target error it will not reach, or its deadline; the bar shows
   // the nearer (the deadline), never units out of the internal cap of 2^40 samples per pixel.
-  const std::string job = submit(test::writeSeedScene(dir_, 64, 8, 8), {"--target-error", "0.0001", "--deadline", "2m"});
+  const std::string job =
+      submit(test::writeSeedScene(dir_, 64, 8, 8), {"--target-error", "0.0001", "--deadline", "2m"});
   test::ChildProcess& worker = farm_.startWorker("w1", {"--coordinator", address_, "--threads", "1"});
   Browser browser(dir_);
   browser.go("http://" + dashboard_ + "/");
@@ -414,14 +446,16 @@ TEST_F(DashboardFarm, ARealBrowserShowsProgressWithoutASampleCapAndALostWorker) 
 
   const std::string row = "#jobs tbody tr[data-job=\"" + job + "\"]";
   const auto barWidth = [&](const std::string& css) {
-    const json v = browser.run("const e = document.querySelector(" + json(css).dump() + "); return e ? parseFloat(e.style.width) : -1;");
+    const json v = browser.run("const e = document.querySelector(" + json(css).dump() +
+                               "); return e ? parseFloat(e.style.width) : -1;");
     return v.is_number() ? v.get<double>() : -1.0;
   };
   ASSERT_TRUE(test::waitFor([&] { return browser.visible(row) && barWidth(row + " .progress div") > 0.0; }, 60))
       << browser.text("#jobs") << " bar " << barWidth(row + " .progress div");
   EXPECT_EQ(browser.text(row).find("1099511627776"), std::string::npos) << browser.text(row);
   const std::string workerRow = "#workers tbody tr[data-worker]";
-  ASSERT_TRUE(test::waitFor([&] { return browser.text(workerRow).find("w1") != std::string::npos; }, 30)) << browser.text("#workers");
+  ASSERT_TRUE(test::waitFor([&] { return browser.text(workerRow).find("w1") != std::string::npos; }, 30))
+      << browser.text("#workers");
 
   // The worker dies: the list says lost (and why) at once, and the job why it is stalled.
   worker.signal(SIGKILL);
@@ -433,7 +467,8 @@ TEST_F(DashboardFarm, ARealBrowserShowsProgressWithoutASampleCapAndALostWorker) 
   browser.screenshot(fs::path(LENSFARM_BINARY_DIR) / "dashboard-lost-worker.png");
 
   browser.click(row + " a");
-  ASSERT_TRUE(test::waitFor([&] { return browser.text("#job-stalled").find("no workers connected") != std::string::npos; }, 30))
+  ASSERT_TRUE(
+      test::waitFor([&] { return browser.text("#job-stalled").find("no workers connected") != std::string::npos; }, 30))
       << browser.text("#job-stats");
   // Which worker was lost, whether it held one of this job's units at that moment ("worker w1 (...)
   // lost 1 s ago (...); unit 3 queued again; ...") or was between units ("... (w1 (...) lost ...)").
@@ -472,9 +507,8 @@ TEST(DashboardPage, ARealBrowserShowsAQuarantinedWorkerAndAJobsAuditAndEvents) {
        {std::tuple{"/", "index.html", "text/html"}, std::tuple{"/app.js", "app.js", "text/javascript"},
         std::tuple{"/style.css", "style.css", "text/css"}}) {
     const std::string body = test::readFile(page / file), contentType = type;
-    server.Get(path, [body, contentType](const httplib::Request&, httplib::Response& r) {
-      r.set_content(body, contentType);
-    });
+    server.Get(
+        path, [body, contentType](const httplib::Request&, httplib::Response& r) { r.set_content(body, contentType); });
   }
   server.Get("/api/jobs", [&](const httplib::Request&, httplib::Response& r) {
     json jobs = json::array();

@@ -8,10 +8,10 @@
 #include <fstream>
 #include <regex>
 
-#include "tests/farm/farm_fixture.h"
 #include "common/film/image_io.h"
-#include "tests/test_support.h"
 #include "common/util/hash.h"
+#include "tests/farm/farm_fixture.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -113,7 +113,11 @@ TEST_F(Farm, WorkersComeBackAfterTheCoordinatorRestarts) {
   const fs::path scene = writeScene(32, 8, 2);
   const std::string address = startCoordinator();
   test::ChildProcess& worker = startWorker(address, "w");
-  ASSERT_TRUE(test::waitFor([&] { return cli({"workers", "--coordinator", address}).out.find(" w ") != std::string::npos; }, 30));
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        return cli({"workers", "--coordinator", address}).out.find(" w ") != std::string::npos;
+      },
+      30));
   coordinator_->signal(SIGTERM);
   EXPECT_EQ(coordinator_->wait(30), 0) << "the coordinator shuts down cleanly on SIGTERM";
   EXPECT_EQ(cli({"status", "--coordinator", address}).exitCode, 3) << "unreachable coordinator: exit 3";

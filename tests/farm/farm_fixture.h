@@ -32,9 +32,10 @@ class FarmFixture : public ::testing::Test {
 
   std::string startCoordinator(const std::string& listen = "127.0.0.1:0", std::vector<std::string> extra = {}) {
     const std::filesystem::path portFile = dir_ / ("port-" + std::to_string(++started_));
-    std::vector<std::string> argv = {coordinatorPath(), "--listen", listen, "--port-file", portFile.string(),
+    std::vector<std::string> argv = {coordinatorPath(),      "--listen", listen, "--port-file", portFile.string(),
                                      "--heartbeat-interval", "0.2"};
-    if (std::find(extra.begin(), extra.end(), "--lease-timeout") == extra.end()) extra.insert(extra.end(), {"--lease-timeout", "5"});
+    if (std::find(extra.begin(), extra.end(), "--lease-timeout") == extra.end())
+      extra.insert(extra.end(), {"--lease-timeout", "5"});
     argv.insert(argv.end(), extra.begin(), extra.end());
     coordinator_ = std::make_unique<ChildProcess>(argv, dir_ / ("coordinator-" + std::to_string(started_)));
     EXPECT_TRUE(waitFor([&] { return std::filesystem::exists(portFile) || !coordinator_->running(); }, 30))
@@ -58,7 +59,8 @@ class FarmFixture : public ::testing::Test {
     return runProcess(args, 120);
   }
 
-  std::string submit(const std::string& address, const std::filesystem::path& scene, std::vector<std::string> extra = {}) {
+  std::string submit(const std::string& address, const std::filesystem::path& scene,
+                     std::vector<std::string> extra = {}) {
     std::vector<std::string> args = {"submit", scene.string(), "--coordinator", address};
     args.insert(args.end(), extra.begin(), extra.end());
     const auto r = cli(args);

@@ -8,9 +8,9 @@
 #include <fstream>
 #include <string>
 
+#include "common/util/error.h"
 #include "coordinator/coordinator.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {
@@ -67,9 +67,9 @@ TEST(JobScene, AnAnimationWithAnErrorTargetIsRefusedInOneWordingByClientAndCoord
   const test::TempDir dir;
   const auto file = dir.path() / "shot.json";
   std::ofstream(file) << scene.dump();
-  const test::ProcessResult r = test::runProcess(
-      {test::cliPath().string(), "render", file.string(), "--frames", "1-2", "--target-error", "0.05", "-o",
-       (dir.path() / "shot_#.exr").string()});
+  const test::ProcessResult r =
+      test::runProcess({test::cliPath().string(), "render", file.string(), "--frames", "1-2", "--target-error", "0.05",
+                        "-o", (dir.path() / "shot_#.exr").string()});
   EXPECT_EQ(r.exitCode, 2) << r.err;
   EXPECT_NE(r.err.find(sentence), std::string::npos) << r.err;
   // Adaptive sampling, the same way.

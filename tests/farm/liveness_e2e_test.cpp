@@ -10,8 +10,8 @@
 #include <regex>
 #include <sstream>
 
-#include "tests/deploy_support.h"
 #include "common/film/image_io.h"
+#include "tests/deploy_support.h"
 
 namespace lensfarm {
 namespace {
@@ -23,8 +23,8 @@ class FarmLiveness : public ::testing::Test {
   void SetUp() override {
     // A lease timeout far longer than anything below may take: only the Attach stream can explain
     // a fast recovery.
-    address_ = farm_.startCoordinator(
-        {"--listen", "127.0.0.1:0", "--heartbeat-interval", "0.2", "--lease-timeout", "60"});
+    address_ =
+        farm_.startCoordinator({"--listen", "127.0.0.1:0", "--heartbeat-interval", "0.2", "--lease-timeout", "60"});
   }
   test::ProcessResult cli(std::vector<std::string> args) {
     args.insert(args.end(), {"--coordinator", address_});
@@ -52,15 +52,19 @@ TEST_F(FarmLiveness, AWorkerKilledMidUnitIsLostAtOnceAndItsUnitGoesToAnotherWork
 
   // Past its first unit (the scene is loaded) and rendering the next one.
   ASSERT_TRUE(test::waitFor([&] { return unitsDone(job) >= 1; }, 120)) << doomed.log();
-  ASSERT_TRUE(test::waitFor([&] { return test::lineOf(workers(), "doomed").find("s  rendering") != std::string::npos; }, 30))
+  ASSERT_TRUE(
+      test::waitFor([&] { return test::lineOf(workers(), "doomed").find("s  rendering") != std::string::npos; }, 30))
       << workers();
   doomed.signal(SIGKILL);
   const auto killed = std::chrono::steady_clock::now();
   std::string lost;
-  ASSERT_TRUE(test::waitFor([&] {
-    lost = test::lineOf(workers(), "doomed");
-    return lost.find("s  lost ") != std::string::npos;
-  }, 10)) << "still " << lost << " 10 s after SIGKILL (the lease timeout is 60 s)";
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        lost = test::lineOf(workers(), "doomed");
+        return lost.find("s  lost ") != std::string::npos;
+      },
+      10))
+      << "still " << lost << " 10 s after SIGKILL (the lease timeout is 60 s)";
   const double toLost = std::chrono::duration<double>(std::chrono::steady_clock::now() - killed).count();
   std::printf("kill -9 to \"lost\" in `lensfarm workers`: %.3f s\n", toLost);
   RecordProperty("seconds_from_kill_to_lost", std::to_string(toLost));
@@ -84,8 +88,10 @@ TEST_F(FarmLiveness, AWorkerKilledMidUnitIsLostAtOnceAndItsUnitGoesToAnotherWork
   EXPECT_NE(watched.find(job + ": stalled: worker doomed (worker-"), std::string::npos) << watched;
   EXPECT_NE(watched.find(job + ": rendering again"), std::string::npos) << watched;
   // The watcher was told who went, why, and what is rendered again, as it happened; so is status.
-  EXPECT_TRUE(std::regex_search(watched, std::regex(job + ": [0-9:-]+ [0-9:]+  worker doomed \\(worker-[0-9.]+\\) lost "
-                                                          "\\(connection broke[^)]*\\): units? [0-9, ]+ of " + job + " queued again")))
+  EXPECT_TRUE(std::regex_search(watched, std::regex(job +
+                                                    ": [0-9:-]+ [0-9:]+  worker doomed \\(worker-[0-9.]+\\) lost "
+                                                    "\\(connection broke[^)]*\\): units? [0-9, ]+ of " +
+                                                    job + " queued again")))
       << watched;
   EXPECT_NE(cli({"status", job}).out.find("worker doomed (worker-"), std::string::npos);
 
@@ -106,10 +112,12 @@ TEST_F(FarmLiveness, TheWatcherIsToldWhenAWorkerOfTheJobIsLostAndWhenItRejoins) 
   test::ChildProcess& first = farm_.startWorker("w1", {"--coordinator", address_, "--threads", "1"});
   const std::string job = farm_.submit({scene.string(), "--coordinator", address_});
   test::ChildProcess watch({test::cliPath().string(), "watch", job, "--coordinator", address_}, dir_ / "watch");
-  ASSERT_TRUE(test::waitFor([&] { return test::lineOf(workers(), "w1").find("s  rendering") != std::string::npos; }, 60))
+  ASSERT_TRUE(
+      test::waitFor([&] { return test::lineOf(workers(), "w1").find("s  rendering") != std::string::npos; }, 60))
       << workers();
   first.signal(SIGKILL);
-  ASSERT_TRUE(test::waitFor([&] { return watch.log().find("worker w1 (worker-") != std::string::npos; }, 20)) << watch.log();
+  ASSERT_TRUE(test::waitFor([&] { return watch.log().find("worker w1 (worker-") != std::string::npos; }, 20))
+      << watch.log();
   EXPECT_NE(watch.log().find(") lost (connection broke"), std::string::npos) << watch.log();
   // The same machine comes back under its name: the job's watchers hear of it.
   farm_.startWorker("w1", {"--coordinator", address_, "--threads", "1"});
@@ -122,15 +130,19 @@ TEST_F(FarmLiveness, TheWatcherIsToldWhenAWorkerOfTheJobIsLostAndWhenItRejoins) 
 TEST_F(FarmLiveness, AJobWithoutWorkersSaysSoAndAWorkerStoppedCleanlyIsLeftNotLost) {
   const std::string job = farm_.submit({test::writeSeedScene(dir_, 32, 8, 4).string(), "--coordinator", address_});
   std::string status;
-  ASSERT_TRUE(test::waitFor([&] {
-    status = cli({"status", job}).out;
-    return status.find("stalled:    no workers connected") != std::string::npos;
-  }, 20)) << status;
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        status = cli({"status", job}).out;
+        return status.find("stalled:    no workers connected") != std::string::npos;
+      },
+      20))
+      << status;
 
   test::ChildProcess& worker = farm_.startWorker("w", {"--coordinator", address_, "--threads", "1"});
   ASSERT_EQ(cli({"watch", job}).exitCode, 0);
   EXPECT_EQ(cli({"status", job}).out.find("stalled:"), std::string::npos) << "done: nothing to explain";
-  ASSERT_TRUE(test::waitFor([&] { return test::lineOf(workers(), "w").find("s  idle") != std::string::npos; }, 30)) << workers();
+  ASSERT_TRUE(test::waitFor([&] { return test::lineOf(workers(), "w").find("s  idle") != std::string::npos; }, 30))
+      << workers();
   worker.signal(SIGTERM);
   EXPECT_EQ(worker.wait(30), 0) << worker.log();
   const std::string left = test::lineOf(workers(), "w");

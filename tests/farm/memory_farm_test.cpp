@@ -68,7 +68,8 @@ TEST(FarmMemory, ASubmitOverTheBudgetIsRefusedWithItsEstimateAndTheCoordinatorGo
 }
 
 TEST(FarmMemory, AMalformedBudgetIsABadFlag) {
-  const auto r = test::runProcess({test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--max-job-memory", "lots"}, 30);
+  const auto r =
+      test::runProcess({test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--max-job-memory", "lots"}, 30);
   EXPECT_EQ(r.exitCode, kBadInput) << r.err;
   EXPECT_TRUE(contains(r.err, "--max-job-memory"));
 }
@@ -102,8 +103,8 @@ TEST(CliMemory, ARenderOverTheBudgetIsRefusedBeforeTracingAndWritesNothing) {
   }
   {
     SCOPED_TRACE("a malformed budget");
-    const auto r = cli({"render", scene, "-o", exr.string(), "--resolution", "16x16", "-q"},
-                       "LENSFARM_MAX_JOB_MEMORY=plenty");
+    const auto r =
+        cli({"render", scene, "-o", exr.string(), "--resolution", "16x16", "-q"}, "LENSFARM_MAX_JOB_MEMORY=plenty");
     EXPECT_EQ(r.exitCode, kBadInput) << r.err;
     EXPECT_TRUE(contains(r.err, "LENSFARM_MAX_JOB_MEMORY"));
     EXPECT_TRUE(entries(out.path()).empty());

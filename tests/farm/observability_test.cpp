@@ -14,7 +14,9 @@ namespace fs = std::filesystem;
 
 class Observability : public ::testing::Test {
  protected:
-  std::map<std::string, double> metrics() { return test::parseMetrics(test::httpGet(farm_.metricsAddress(), "/metrics")); }
+  std::map<std::string, double> metrics() {
+    return test::parseMetrics(test::httpGet(farm_.metricsAddress(), "/metrics"));
+  }
   double metric(const std::string& name) {
     const auto m = metrics();
     const auto it = m.find(name);
@@ -31,8 +33,8 @@ class Observability : public ::testing::Test {
 
 TEST_F(Observability, MetricsFollowARealJob) {
   const fs::path scene = test::writeSeedScene(dir_, 96, 768, 64);  // 12 units of 590k paths
-  const std::string address = farm_.startCoordinator(
-      {"--listen", "127.0.0.1:0", "--metrics-listen", "127.0.0.1:0", "--heartbeat-interval", "0.2", "--lease-timeout", "3"});
+  const std::string address = farm_.startCoordinator({"--listen", "127.0.0.1:0", "--metrics-listen", "127.0.0.1:0",
+                                                      "--heartbeat-interval", "0.2", "--lease-timeout", "3"});
   EXPECT_EQ(test::grpcHealth(address), "SERVING") << "grpc.health.v1 answers without a token";
   EXPECT_EQ(metric("lensfarm_units_done_total"), 0.0);
 
@@ -72,7 +74,8 @@ TEST_F(Observability, MetricsFollowARealJob) {
   EXPECT_EQ(done.at("lensfarm_workers_alive"), 2.0);
 
   // Each worker logs one line per unit, and the lines add up to the job.
-  const std::string unitLine = R"(\] info unit [0-9]+ of job-1: [0-9]+ samples in [0-9.]+ s, [0-9.]+ MB uploaded, accepted)";
+  const std::string unitLine =
+      R"(\] info unit [0-9]+ of job-1: [0-9]+ samples in [0-9.]+ s, [0-9.]+ MB uploaded, accepted)";
   EXPECT_EQ(double(count(w1.log(), unitLine) + count(w2.log(), unitLine)), 12 + audits) << w1.log() << w2.log();
   EXPECT_EQ(count(w1.log(), R"(info registered as worker-)"), 1u) << w1.log();
 
@@ -90,8 +93,10 @@ TEST_F(Observability, AWorkerLogsAnOutageOnceNotEveryRetry) {
   ASSERT_EQ(farm_.coordinator().wait(30), 0);
 
   // Retries every 0.1 s at most: each at debug, the outage once at warn.
-  test::ChildProcess& w = farm_.startWorker("w", {"--coordinator", address, "--max-backoff", "0.1", "--log-level", "debug"});
-  ASSERT_TRUE(test::waitFor([&] { return count(w.log(), R"(\] debug coordinator unavailable: )") >= 5; }, 30)) << w.log();
+  test::ChildProcess& w =
+      farm_.startWorker("w", {"--coordinator", address, "--max-backoff", "0.1", "--log-level", "debug"});
+  ASSERT_TRUE(test::waitFor([&] { return count(w.log(), R"(\] debug coordinator unavailable: )") >= 5; }, 30))
+      << w.log();
   EXPECT_EQ(count(w.log(), R"(\] warning coordinator unavailable: .*attempt 1,)"), 1u) << w.log();
   EXPECT_EQ(count(w.log(), R"(\] warning )"), 1u) << w.log();
 
@@ -103,7 +108,8 @@ TEST_F(Observability, AWorkerLogsAnOutageOnceNotEveryRetry) {
 }
 
 TEST_F(Observability, AnAddressItCannotUseStopsTheCoordinator) {
-  const auto malformed = test::runProcess({test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--metrics-listen", "9464"}, 30);
+  const auto malformed =
+      test::runProcess({test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--metrics-listen", "9464"}, 30);
   EXPECT_EQ(malformed.exitCode, 2);
   EXPECT_NE(malformed.err.find("--metrics-listen: expected HOST:PORT"), std::string::npos) << malformed.err;
   // Ports another coordinator holds: the second one does not start (no silent port sharing), and
@@ -116,7 +122,8 @@ TEST_F(Observability, AnAddressItCannotUseStopsTheCoordinator) {
   const auto taken = test::runProcess(
       {test::coordinatorPath().string(), "--listen", "127.0.0.1:0", "--metrics-listen", farm_.metricsAddress()}, 30);
   EXPECT_EQ(taken.exitCode, 2);
-  EXPECT_NE(taken.err.find("--metrics-listen " + farm_.metricsAddress() + ": the port"), std::string::npos) << taken.err;
+  EXPECT_NE(taken.err.find("--metrics-listen " + farm_.metricsAddress() + ": the port"), std::string::npos)
+      << taken.err;
 }
 
 }  // namespace

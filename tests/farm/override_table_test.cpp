@@ -5,14 +5,14 @@
 
 #include <gtest/gtest.h>
 
-#include <nlohmann/json.hpp>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <set>
 
-#include "proto/convert.h"
 #include "common/film/image_io.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
+#include "proto/convert.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -81,7 +81,8 @@ TEST(OverrideTable, AnUnknownNameInARequestIsInvalidArgument) {
     ADD_FAILURE() << "accepted";
   } catch (const FarmError& e) {
     EXPECT_EQ(e.kind(), FarmError::Kind::kInvalidArgument);
-    EXPECT_NE(std::string(e.what()).find("overrides.integrator: unknown integrator \"bidirectional\""), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("overrides.integrator: unknown integrator \"bidirectional\""),
+              std::string::npos)
         << e.what();
   }
 }
@@ -105,11 +106,40 @@ TEST(OverrideTable, TheCliTakesEveryFlagAndSetsWhatItSays) {
   std::ofstream(scene) << test::minimalSceneJson().dump();
   const auto render = [&](const std::string& seed, const std::string& name) {
     const auto exr = dir / name;
-    const auto r = test::runProcess({test::cliPath().string(), "render", scene.string(), "--spp", "3", "--resolution",
-                                     "20x10", "--max-bounces", "2", "--seed", seed, "--integrator", "nee", "--sampler",
-                                     "independent", "--russian-roulette", "off", "--tile-size", "off", "--aov", "albedo",
-                                     "--aov", "depth", "--adaptive", "off", "--ev", "1", "--target-error", "0.5",
-                                     "--deadline", "10m", "-q", "-o", exr.string()});
+    const auto r = test::runProcess({test::cliPath().string(),
+                                     "render",
+                                     scene.string(),
+                                     "--spp",
+                                     "3",
+                                     "--resolution",
+                                     "20x10",
+                                     "--max-bounces",
+                                     "2",
+                                     "--seed",
+                                     seed,
+                                     "--integrator",
+                                     "nee",
+                                     "--sampler",
+                                     "independent",
+                                     "--russian-roulette",
+                                     "off",
+                                     "--tile-size",
+                                     "off",
+                                     "--aov",
+                                     "albedo",
+                                     "--aov",
+                                     "depth",
+                                     "--adaptive",
+                                     "off",
+                                     "--ev",
+                                     "1",
+                                     "--target-error",
+                                     "0.5",
+                                     "--deadline",
+                                     "10m",
+                                     "-q",
+                                     "-o",
+                                     exr.string()});
     EXPECT_EQ(r.exitCode, 0) << r.out << r.err;
     ImageMetadata metadata;
     const Image image = readExr(exr, &metadata);

@@ -20,7 +20,8 @@ TEST_F(RealLensFarm, AJobThroughTheDoubleGaussIsBitIdenticalToTheLocalRender) {
   const std::filesystem::path file = dir_.write("real-lens.json", scene.dump(2));
 
   const auto [address, job] = renderOnTwoWorkers(file);
-  const Image farm = expectFarmImageIsTheLocalRender(address, job, file, "the farm's image differs from the local render");
+  const Image farm =
+      expectFarmImageIsTheLocalRender(address, job, file, "the farm's image differs from the local render");
   double sum = 0.0;
   for (float v : farm.rgb) sum += v;
   EXPECT_GT(sum, 0.0);

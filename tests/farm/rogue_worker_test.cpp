@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
-#include "tests/farm/farm_fixture.h"
-#include "lensfarm/v1/worker_service.grpc.pb.h"
 #include "common/farm/farm_types.h"
 #include "common/util/hash.h"
 #include "common/util/version.h"
+#include "lensfarm/v1/worker_service.grpc.pb.h"
+#include "tests/farm/farm_fixture.h"
 
 namespace lensfarm {
 namespace {
@@ -124,10 +124,10 @@ class RogueWorker : public test::FarmFixture {
   std::unique_ptr<v1::WorkerService::Stub> stub_;
 };
 
-#define EXPECT_STATUS(call, code, part)                                                    \
-  do {                                                                                     \
-    const grpc::Status status_ = (call);                                                   \
-    EXPECT_EQ(status_.error_code(), grpc::StatusCode::code) << status_.error_message();    \
+#define EXPECT_STATUS(call, code, part)                                                          \
+  do {                                                                                           \
+    const grpc::Status status_ = (call);                                                         \
+    EXPECT_EQ(status_.error_code(), grpc::StatusCode::code) << status_.error_message();          \
     EXPECT_NE(status_.error_message().find(part), std::string::npos) << status_.error_message(); \
   } while (0)
 

@@ -1,8 +1,8 @@
 // Authentication and TLS between real processes: per-service tokens, refusals that name the
 // problem and never the secret, TLS with a throwaway CA made by openssl at test time.
 #include <gtest/gtest.h>
-#include <yaml-cpp/yaml.h>
 #include <signal.h>
+#include <yaml-cpp/yaml.h>
 
 #include <fstream>
 #include <regex>
@@ -30,8 +30,15 @@ class Security : public ::testing::Test {
     return test::runProcess(args, 60);
   }
   std::unique_ptr<test::ChildProcess> worker(const std::string& address, std::vector<std::string> extra) {
-    std::vector<std::string> argv = {test::workerPath(), "--coordinator", address, "--threads", "1", "--cache-dir",
-                                     (dir_ / ("cache" + std::to_string(++n_))).string(), "--max-backoff", "0.3"};
+    std::vector<std::string> argv = {test::workerPath(),
+                                     "--coordinator",
+                                     address,
+                                     "--threads",
+                                     "1",
+                                     "--cache-dir",
+                                     (dir_ / ("cache" + std::to_string(++n_))).string(),
+                                     "--max-backoff",
+                                     "0.3"};
     argv.insert(argv.end(), extra.begin(), extra.end());
     return std::make_unique<test::ChildProcess>(argv, dir_ / ("worker" + std::to_string(n_)));
   }
@@ -56,7 +63,8 @@ class Security : public ::testing::Test {
       const std::string key = p(who) + std::string(".key"), csr = p(who) + std::string(".csr"),
                         pem = p(who) + std::string(".pem"), ext = p(who) + std::string(".ext");
       std::ofstream(ext) << "subjectAltName=IP:127.0.0.1,DNS:localhost\n";
-      openssl({"req", "-newkey", "rsa:2048", "-nodes", "-keyout", key, "-out", csr, "-subj", std::string("/CN=") + who});
+      openssl(
+          {"req", "-newkey", "rsa:2048", "-nodes", "-keyout", key, "-out", csr, "-subj", std::string("/CN=") + who});
       openssl({"x509", "-req", "-in", csr, "-CA", p("ca.pem"), "-CAkey", p("ca.key"), "-CAcreateserial", "-out", pem,
                "-days", "1", "-extfile", ext});
     }
@@ -120,12 +128,13 @@ TEST_F(Security, GuessableTokensAreRefused) {
   cases.emplace_back(secret["stringData"]["client.token"].as<std::string>(),
                      secret["stringData"]["worker.token"].as<std::string>());
   const std::string good = "Zm9vYmFyLWEtcmVhbC1yYW5kb20tdG9rZW4tMTIz";
-  for (const std::string bad : {"short-token", "aaaaaaaaaaaaaaaaaaaaaaaa", "ababababcdcdcdcdababab", "CHANGEME-please-0123456789",
-                                "your_token_here_0123456789", "<placeholder>-0123456789"})
+  for (const std::string bad : {"short-token", "aaaaaaaaaaaaaaaaaaaaaaaa", "ababababcdcdcdcdababab",
+                                "CHANGEME-please-0123456789", "your_token_here_0123456789", "<placeholder>-0123456789"})
     cases.emplace_back(bad, good);
   for (const auto& [client, worker] : cases) {
     SCOPED_TRACE(client);
-    const fs::path clientFile = dir_.write("client.token", client + "\n"), workerFile = dir_.write("worker.token", worker + "\n");
+    const fs::path clientFile = dir_.write("client.token", client + "\n"),
+                   workerFile = dir_.write("worker.token", worker + "\n");
     EXPECT_TRUE(start({"--client-token-file", clientFile, "--worker-token-file", workerFile}).empty());
     EXPECT_EQ(coordinator_->wait(30), 2);
     EXPECT_NE(coordinator_->log().find(clientFile.string()), std::string::npos) << coordinator_->log();
@@ -134,14 +143,16 @@ TEST_F(Security, GuessableTokensAreRefused) {
   }
   // The same tokens from the environment are refused naming the variable.
   const fs::path workerFile = dir_.write("worker.token", good + "\n");
-  const auto r = test::runProcess({"/usr/bin/env", "LENSFARM_CLIENT_TOKEN=REPLACE-ME-client-token", test::coordinatorPath(),
-                                   "--listen", "127.0.0.1:0", "--worker-token-file", workerFile.string()},
-                                  30);
+  const auto r =
+      test::runProcess({"/usr/bin/env", "LENSFARM_CLIENT_TOKEN=REPLACE-ME-client-token", test::coordinatorPath(),
+                        "--listen", "127.0.0.1:0", "--worker-token-file", workerFile.string()},
+                       30);
   EXPECT_EQ(r.exitCode, 2);
   EXPECT_NE(r.err.find("LENSFARM_CLIENT_TOKEN"), std::string::npos) << r.err;
   // A good pair still starts.
   const fs::path clientFile = dir_.write("client.token", "Y2xpZW50LXNpZGUtcmFuZG9tLXRva2VuLTQ1Ng==\n");
-  EXPECT_FALSE(start({"--client-token-file", clientFile, "--worker-token-file", workerFile}).empty()) << coordinator_->log();
+  EXPECT_FALSE(start({"--client-token-file", clientFile, "--worker-token-file", workerFile}).empty())
+      << coordinator_->log();
 }
 
 TEST_F(Security, TlsAndMutualTls) {
@@ -158,8 +169,8 @@ TEST_F(Security, TlsAndMutualTls) {
     EXPECT_EQ(cli({"watch", job, "--coordinator", address, "--tls-ca", p("ca.pem")}).exitCode, 0);
   }
   {
-    const std::string address = start({"--tls-cert", p("server.pem"), "--tls-key", p("server.key"), "--tls-client-ca",
-                                       p("ca.pem")});
+    const std::string address =
+        start({"--tls-cert", p("server.pem"), "--tls-key", p("server.key"), "--tls-client-ca", p("ca.pem")});
     ASSERT_FALSE(address.empty()) << coordinator_->log();
     EXPECT_EQ(cli({"status", "--coordinator", address, "--tls-ca", p("ca.pem")}).exitCode, 3)
         << "mutual TLS: no client certificate, no connection";

@@ -15,8 +15,8 @@
 #include <regex>
 #include <sstream>
 
-#include "tests/deploy_support.h"
 #include "common/film/image_io.h"
+#include "tests/deploy_support.h"
 #include "tests/test_support.h"
 
 namespace lensfarm {
@@ -53,9 +53,9 @@ TEST(TilesFarm, A4kJobOnEightWorkersIsTheLocalRenderWithBoundedUploadsAndMemory)
   scene["render"]["max_bounces"] = 1;
   const fs::path file = dir.write("scene.json", scene.dump(2));
 
-  const std::string address = farm.startCoordinator({"--listen", "127.0.0.1:0", "--metrics-listen", "127.0.0.1:0",
-                                                     "--heartbeat-interval", "0.2", "--lease-timeout", "30",
-                                                     "--state-dir", (dir / "state").string()});
+  const std::string address =
+      farm.startCoordinator({"--listen", "127.0.0.1:0", "--metrics-listen", "127.0.0.1:0", "--heartbeat-interval",
+                             "0.2", "--lease-timeout", "30", "--state-dir", (dir / "state").string()});
   const auto metrics = [&] { return test::parseMetrics(test::httpGet(farm.metricsAddress(), "/metrics")); };
   for (int i = 0; i < kWorkers; ++i)
     farm.startWorker("w" + std::to_string(i), {"--coordinator", address, "--threads", "1"});

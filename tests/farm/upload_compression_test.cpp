@@ -3,8 +3,8 @@
 // `lensfarm render`'s; the compressed farm moves fewer bytes over the wire than it decodes.
 #include <gtest/gtest.h>
 
-#include "tests/deploy_support.h"
 #include "common/film/image_io.h"
+#include "tests/deploy_support.h"
 
 namespace lensfarm {
 namespace {

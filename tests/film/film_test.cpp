@@ -6,8 +6,8 @@
 #include "common/film/exposure.h"
 #include "common/film/image_io.h"
 #include "common/film/sensor.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -39,11 +39,14 @@ TEST(MemoryEstimate, ARealRenderPeaksAtTheEstimate) {
   int code = 0;
   // The process without a frame: libraries, the scene, its BVH, threads.
   const uint64_t base = peakRssOfRender({scene.string(), "-o", (out / "tiny.exr").string(), "--resolution", "16x16",
-                                         "--spp", "1", "--threads", "2", "-q"}, &code);
+                                         "--spp", "1", "--threads", "2", "-q"},
+                                        &code);
   ASSERT_EQ(code, 0);
   const int w = 1920, h = 1080;
-  const uint64_t peak = peakRssOfRender({scene.string(), "-o", (out / "hd.exr").string(), "-o", (out / "hd.png").string(),
-                                         "--resolution", "1920x1080", "--spp", "1", "--threads", "2", "-q"}, &code);
+  const uint64_t peak =
+      peakRssOfRender({scene.string(), "-o", (out / "hd.exr").string(), "-o", (out / "hd.png").string(), "--resolution",
+                       "1920x1080", "--spp", "1", "--threads", "2", "-q"},
+                      &code);
   ASSERT_EQ(code, 0);
   const uint64_t cells = uint64_t(w) * h;
   const uint64_t frame = peak - std::min(peak, base);

@@ -6,12 +6,12 @@
 #include <filesystem>
 #include <fstream>
 
+#include "common/farm/memory_estimate.h"
 #include "common/film/convergence.h"
 #include "common/film/image.h"
 #include "common/film/sensor.h"
 #include "common/light/environment_light.h"
 #include "common/medium/medium.h"
-#include "common/farm/memory_estimate.h"
 #include "tests/film/memory_estimate_support.h"
 
 namespace lensfarm {
@@ -57,7 +57,8 @@ TEST(MemoryEstimate, TheFormulaIsWhatTheBufferTypesAllocate) {
   EXPECT_EQ(itemBytes(coordinator, "sensor"), sensor.memoryBytes());
   EXPECT_EQ(itemBytes(coordinator, "error-estimate"), tracker.memoryBytes());
   EXPECT_EQ(itemBytes(coordinator, "1 unit buffer"), unit.memoryBytes()) << "a 1-spp job has one unit";
-  EXPECT_EQ(itemBytes(coordinator, "a checkpoint"), sensor.serialize().size() + tracker.serialize().size() - 8 - 16 - 32);
+  EXPECT_EQ(itemBytes(coordinator, "a checkpoint"),
+            sensor.serialize().size() + tracker.serialize().size() - 8 - 16 - 32);
   const MemoryEstimate local = localRenderMemory(s, 0);
   EXPECT_EQ(local.total(), sensor.memoryBytes() + tracker.memoryBytes() + unit.memoryBytes() +
                                cells * (kImageBytesPerCell + kPngBytesPerCell));
@@ -190,7 +191,8 @@ TEST(MemoryEstimate, TexturesAndVertexAttributesCountInTheScene) {
   RenderSettings s;
   s.width = s.height = 8;
   EXPECT_EQ(workerJobMemory(s, 1, expected).total(), workerJobMemory(s, 1).total() + expected);
-  EXPECT_NE(workerJobMemory(s, 1, expected).describe().find("textures, vertex attributes and instances"), std::string::npos);
+  EXPECT_NE(workerJobMemory(s, 1, expected).describe().find("textures, vertex attributes and instances"),
+            std::string::npos);
 
   // An environment map: 12 bytes of radiance and 8 of sampling distribution a pixel.
   Image sky;
@@ -202,8 +204,9 @@ TEST(MemoryEstimate, TexturesAndVertexAttributesCountInTheScene) {
 
   // A density grid: 4 bytes a voxel and a majorant cell (16^3), each grid once however many
   // materials use it; a homogeneous medium holds no array.
-  auto grid = std::make_shared<Medium>("smoke", GridMedium(Vec3(0.0f), Vec3(1.0f), glm::ivec3(10, 20, 30),
-                                                           std::vector<float>(6000, 1.0f), Spectrum(1.0f), Spectrum(0.0f), 0.0f),
+  auto grid = std::make_shared<Medium>("smoke",
+                                       GridMedium(Vec3(0.0f), Vec3(1.0f), glm::ivec3(10, 20, 30),
+                                                  std::vector<float>(6000, 1.0f), Spectrum(1.0f), Spectrum(0.0f), 0.0f),
                                        DVec3(0.0), DVec3(1.0));
   scene.media["smoke"] = grid;
   scene.media["haze"] = std::make_shared<Medium>("haze", HomogeneousMedium(Spectrum(0.1f), Spectrum(0.1f), 0.0f));

@@ -7,22 +7,22 @@
 // random bytes are almost never a zstd frame, so the input describes pieces that are real encoded
 // blocks (farm/sums_codec.h) of doubles taken from the input, then spoiled as the input says (a
 // byte changed, cut short, a byte appended, a wrong offset), so the decoder meets near-valid frames.
-#include <cmath>
 #include <google/protobuf/stubs/logging.h>
 #include <spdlog/spdlog.h>
+#include <cmath>
 
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
-#include <vector>
 #include <memory>
+#include <vector>
 
-#include "coordinator/coordinator.h"
 #include "common/farm/sums_codec.h"
-#include "coordinator/upload_assembler.h"
 #include "common/util/error.h"
 #include "common/util/version.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/upload_assembler.h"
 
 namespace {
 struct Fixture {

@@ -8,11 +8,11 @@
 #include <fstream>
 
 #include "common/film/image_io.h"
-#include "tests/light/light_test_support.h"
 #include "common/scene/effects.h"
+#include "common/util/error.h"
+#include "tests/light/light_test_support.h"
 #include "tests/test_support.h"
 #include "tests/texture/test_images.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -16,9 +16,9 @@
 #include <vector>
 
 #include "common/film/image_io.h"
+#include "common/util/error.h"
 #include "tests/support/uniform_rng.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -9,8 +9,8 @@
 #include <map>
 #include <numbers>
 
-#include "common/render/light_sampler.h"
 #include "common/math/triangle.h"
+#include "common/render/light_sampler.h"
 #include "common/render/render_scene.h"
 #include "tests/test_support.h"
 

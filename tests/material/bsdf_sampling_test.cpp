@@ -56,8 +56,11 @@ std::vector<Case> roughCases() {
                        degrees,
                        true});
       for (double metallic : {0.0, 0.5, 1.0})
-        cases.push_back({{{"type", "principled"}, {"base_color", {0.8, 0.5, 0.2}}, {"metallic", metallic},
-                          {"roughness", roughness}, {"transmission", metallic < 1.0 ? 0.6 : 0.0}},
+        cases.push_back({{{"type", "principled"},
+                          {"base_color", {0.8, 0.5, 0.2}},
+                          {"metallic", metallic},
+                          {"roughness", roughness},
+                          {"transmission", metallic < 1.0 ? 0.6 : 0.0}},
                          degrees,
                          true});
       for (double ior : {1.1, 1.5, 2.5})
@@ -66,8 +69,13 @@ std::vector<Case> roughCases() {
       // A solid (not thin-walled) principled surface: its transmitting share refracts, from
       // outside and from inside (glTF with KHR_materials_volume).
       for (bool front : {true, false})
-        cases.push_back({{{"type", "principled"}, {"base_color", {0.8, 0.5, 0.2}}, {"metallic", 0.0},
-                          {"roughness", roughness}, {"transmission", 0.6}, {"ior", 1.5}, {"thin_walled", false}},
+        cases.push_back({{{"type", "principled"},
+                          {"base_color", {0.8, 0.5, 0.2}},
+                          {"metallic", 0.0},
+                          {"roughness", roughness},
+                          {"transmission", 0.6},
+                          {"ior", 1.5},
+                          {"thin_walled", false}},
                          degrees,
                          front});
     }
@@ -310,8 +318,8 @@ TEST(Principled, IsTheGltfBrdfOfTheSpecification) {
   for (double metallic : {0.0, 0.3, 1.0})
     for (double roughness : {0.2, 0.5, 1.0})
       for (double transmission : {0.0, 0.5}) {
-        const json fields = {{"type", "principled"}, {"base_color", {0.9, 0.4, 0.1}}, {"metallic", metallic},
-                             {"roughness", roughness}, {"transmission", transmission}, {"ior", 1.45}};
+        const json fields = {{"type", "principled"},   {"base_color", {0.9, 0.4, 0.1}}, {"metallic", metallic},
+                             {"roughness", roughness}, {"transmission", transmission},  {"ior", 1.45}};
         const Material m = materialFrom(fields);
         for (int k = 0; k < 50; ++k) {
           const Vec3 v = sampleCosineHemisphere(rng.next2());
@@ -333,8 +341,11 @@ TEST(Principled, NeverReflectsMoreThanItReceives) {
     for (double roughness : {0.05, 0.4, 1.0})
       for (double transmission : {0.0, 1.0})
         for (double degrees : {0.0, 60.0, 85.0}) {
-          const Material m = materialFrom({{"type", "principled"}, {"base_color", 1}, {"metallic", metallic},
-                                           {"roughness", roughness}, {"transmission", transmission}});
+          const Material m = materialFrom({{"type", "principled"},
+                                           {"base_color", 1},
+                                           {"metallic", metallic},
+                                           {"roughness", roughness},
+                                           {"transmission", transmission}});
           EXPECT_LE(albedo(m, incident(degrees), true, 20000), 1.01) << metallic << " " << roughness << " " << degrees;
         }
 }
@@ -358,10 +369,15 @@ TEST(Principled, AFullMetalIsTheUncompensatedRoughConductorWithItsBaseColourAsF0
 // internal reflection included); rough, the same evalCos and pdf.
 TEST(Principled, ASolidThatTransmitsEverythingIsTheDielectric) {
   for (double roughness : {0.0, 0.4}) {
-    const Material solid = materialFrom({{"type", "principled"}, {"base_color", {0.9, 0.8, 0.7}}, {"metallic", 0},
-                                         {"roughness", roughness}, {"transmission", 1}, {"ior", 1.5}, {"thin_walled", false}});
-    const Material glass =
-        materialFrom({{"type", "dielectric"}, {"transmittance", {0.9, 0.8, 0.7}}, {"ior", 1.5}, {"roughness", roughness}});
+    const Material solid = materialFrom({{"type", "principled"},
+                                         {"base_color", {0.9, 0.8, 0.7}},
+                                         {"metallic", 0},
+                                         {"roughness", roughness},
+                                         {"transmission", 1},
+                                         {"ior", 1.5},
+                                         {"thin_walled", false}});
+    const Material glass = materialFrom(
+        {{"type", "dielectric"}, {"transmittance", {0.9, 0.8, 0.7}}, {"ior", 1.5}, {"roughness", roughness}});
     EXPECT_EQ(solid.isSpecular(), roughness == 0.0);
     EXPECT_TRUE(solid.traits().transmits);
     test::UniformRng rng(21);
@@ -392,12 +408,20 @@ TEST(Principled, ASolidThatTransmitsEverythingIsTheDielectric) {
 // dielectric and the rest the opaque principled model with metallic m / (1 - w).
 TEST(Principled, ASolidThatTransmitsSomeIsTheDocumentedMixture) {
   const double t = 0.6, metallic = 0.2, w = t * (1 - metallic);
-  const Material solid = materialFrom({{"type", "principled"}, {"base_color", {0.9, 0.5, 0.3}}, {"metallic", metallic},
-                                       {"roughness", 0.5}, {"transmission", t}, {"ior", 1.4}, {"thin_walled", false}});
+  const Material solid = materialFrom({{"type", "principled"},
+                                       {"base_color", {0.9, 0.5, 0.3}},
+                                       {"metallic", metallic},
+                                       {"roughness", 0.5},
+                                       {"transmission", t},
+                                       {"ior", 1.4},
+                                       {"thin_walled", false}});
   const Material glass =
       materialFrom({{"type", "dielectric"}, {"transmittance", {0.9, 0.5, 0.3}}, {"ior", 1.4}, {"roughness", 0.5}});
-  const Material opaque = materialFrom({{"type", "principled"}, {"base_color", {0.9, 0.5, 0.3}},
-                                        {"metallic", metallic / (1 - w)}, {"roughness", 0.5}, {"ior", 1.4}});
+  const Material opaque = materialFrom({{"type", "principled"},
+                                        {"base_color", {0.9, 0.5, 0.3}},
+                                        {"metallic", metallic / (1 - w)},
+                                        {"roughness", 0.5},
+                                        {"ior", 1.4}});
   test::UniformRng rng(22);
   for (int k = 0; k < 300; ++k) {
     const Vec3 v = sampleCosineHemisphere(rng.next2());
@@ -416,14 +440,14 @@ TEST(Principled, ASolidThatTransmitsSomeIsTheDocumentedMixture) {
 // its Specular 0, leaves no reflection at normal incidence, so the base is Lambertian there; 1 is
 // the plain model.
 TEST(Principled, ASpecularColourOfZeroLeavesOnlyGrazingReflection) {
-  const Material none = materialFrom({{"type", "principled"}, {"base_color", 0.8}, {"metallic", 0}, {"roughness", 1},
-                                      {"specular_color", 0}});
+  const Material none = materialFrom(
+      {{"type", "principled"}, {"base_color", 0.8}, {"metallic", 0}, {"roughness", 1}, {"specular_color", 0}});
   const Vec3 n(0, 0, 1);
   const Spectrum f = none.evalCos(n, n, n);
   EXPECT_NEAR(f.g, 0.8f / float(M_PI), 1e-6f);
   const Material plain = materialFrom({{"type", "principled"}, {"base_color", 0.8}, {"metallic", 0}, {"roughness", 1}});
-  const Material unit = materialFrom({{"type", "principled"}, {"base_color", 0.8}, {"metallic", 0}, {"roughness", 1},
-                                      {"specular_color", 1}});
+  const Material unit = materialFrom(
+      {{"type", "principled"}, {"base_color", 0.8}, {"metallic", 0}, {"roughness", 1}, {"specular_color", 1}});
   EXPECT_EQ(plain.evalCos(n, incident(40), incident(-20)), unit.evalCos(n, incident(40), incident(-20)));
   EXPECT_LT(plain.evalCos(n, n, n).g, f.g);  // F0 = 0.04 takes its share from the base
 }

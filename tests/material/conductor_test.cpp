@@ -8,8 +8,8 @@
 #include "common/material/conductor.h"
 #include "common/material/fresnel.h"
 #include "common/material/material.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -61,8 +61,10 @@ TEST(Conductor, ACameraFacingAMetalSphereInAUniformFieldSeesF0) {
   dir.write("sphere.obj", test::sphereObj(48, 96));
   json scene = test::closedBoxSceneJson({{"type", "emissive"}, {"radiance", 1.0}}, 33, 4, 1);
   scene["materials"]["metal"] = {{"type", "conductor"}, {"metal", "Cu"}};
-  scene["shapes"].push_back(
-      {{"type", "obj"}, {"file", "sphere.obj"}, {"material", "metal"}, {"transform", {{"scale", 0.4}, {"translate", {0, 0, 0.6}}}}});
+  scene["shapes"].push_back({{"type", "obj"},
+                             {"file", "sphere.obj"},
+                             {"material", "metal"},
+                             {"transform", {{"scale", 0.4}, {"translate", {0, 0, 0.6}}}}});
   scene["camera"]["angle_of_view"] = 2;
   scene["camera"]["sensor_width"] = 0.01;
   const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
@@ -77,11 +79,10 @@ TEST(Conductor, ACameraFacingAMetalSphereInAUniformFieldSeesF0) {
 TEST(Conductor, MetalIsNamedOrGivenByEtaAndKAndMistakesAreNamed) {
   test::TempDir dir;
   json scene = test::minimalSceneJson();
-  for (const json& bad : {json{{"type", "conductor"}},
-                          json{{"type", "conductor"}, {"metal", "Pt"}},
-                          json{{"type", "conductor"}, {"metal", "Au"}, {"eta", 1.0}, {"k", 2.0}},
-                          json{{"type", "conductor"}, {"eta", 0.0}, {"k", 2.0}},
-                          json{{"type", "conductor"}, {"eta", 1.0}, {"k", 1e3}}}) {
+  for (const json& bad :
+       {json{{"type", "conductor"}}, json{{"type", "conductor"}, {"metal", "Pt"}},
+        json{{"type", "conductor"}, {"metal", "Au"}, {"eta", 1.0}, {"k", 2.0}},
+        json{{"type", "conductor"}, {"eta", 0.0}, {"k", 2.0}}, json{{"type", "conductor"}, {"eta", 1.0}, {"k", 1e3}}}) {
     scene["materials"]["white"] = bad;
     try {
       test::loadSceneJson(dir, scene);
@@ -90,7 +91,8 @@ TEST(Conductor, MetalIsNamedOrGivenByEtaAndKAndMistakesAreNamed) {
       EXPECT_TRUE(test::contains(e.what(), "materials.white.")) << e.what();
     }
   }
-  scene["materials"]["white"] = {{"type", "conductor"}, {"eta", {0.2, 0.9, 1.1}}, {"k", {3.9, 2.5, 2.1}}, {"tint", 0.9}};
+  scene["materials"]["white"] = {
+      {"type", "conductor"}, {"eta", {0.2, 0.9, 1.1}}, {"k", {3.9, 2.5, 2.1}}, {"tint", 0.9}};
   const Scene s = test::loadSceneJson(dir, scene);
   EXPECT_STREQ(s.materials[0].traits().effect, "metal");
   EXPECT_TRUE(s.materials[0].isSpecular());

@@ -41,7 +41,7 @@ TEST(Dielectric, FresnelMatchesTheSineAndTangentLawsAndReflectsTotallyBeyondTheC
     }
   float cosT;
   EXPECT_NEAR(fresnelDielectric(1.0f, 1.5f, cosT), 0.04f, 1e-7f);  // ((1.5 - 1) / (1.5 + 1))^2
-  EXPECT_NEAR(fresnelDielectric(0.3f, 1.0f, cosT), 0.0f, 1e-12f);   // index-matched: invisible
+  EXPECT_NEAR(fresnelDielectric(0.3f, 1.0f, cosT), 0.0f, 1e-12f);  // index-matched: invisible
 }
 
 TEST(Dielectric, RefractsBySnellsLawAndReflectsWithProbabilityF) {
@@ -128,12 +128,14 @@ TEST(Dielectric, ACameraInsideGlassSeesTheFieldTimesEtaSquared) {
   // path that enters and leaves the glass cancels; a thin-walled pane leaves the field at 1.
   test::TempDir dir;
   dir.write("sphere.obj", test::sphereObj(24, 48));
-  for (const auto& [glass, expected] : {std::pair{json{{"type", "dielectric"}, {"ior", 1.5}}, 2.25f},
-                                        std::pair{json{{"type", "dielectric"}, {"ior", 1.5}, {"thin_walled", true}}, 1.0f}}) {
+  for (const auto& [glass, expected] :
+       {std::pair{json{{"type", "dielectric"}, {"ior", 1.5}}, 2.25f},
+        std::pair{json{{"type", "dielectric"}, {"ior", 1.5}, {"thin_walled", true}}, 1.0f}}) {
     json scene = glassInAUniformField(glass, "nee_mis");
     scene["shapes"].back()["transform"] = {{"scale", 0.9}};
     const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
-    for (size_t p = 0; p < r.image.rgb.size(); ++p) ASSERT_NEAR(r.image.rgb[p], expected, 1e-4f) << glass.dump() << " value " << p;
+    for (size_t p = 0; p < r.image.rgb.size(); ++p)
+      ASSERT_NEAR(r.image.rgb[p], expected, 1e-4f) << glass.dump() << " value " << p;
   }
 }
 
@@ -166,7 +168,8 @@ TEST(Dielectric, ASceneWithoutGlassDecidesAsBefore) {
   EXPECT_FALSE(analyzeEffects(plain, plain.camera()).specular);
   dir.write("sphere.obj", test::sphereObj(8, 16));
   scene["materials"]["glass"] = {{"type", "dielectric"}};
-  scene["shapes"].push_back({{"type", "obj"}, {"file", "sphere.obj"}, {"material", "glass"}, {"transform", {{"scale", 0.3}}}});
+  scene["shapes"].push_back(
+      {{"type", "obj"}, {"file", "sphere.obj"}, {"material", "glass"}, {"transform", {{"scale", 0.3}}}});
   const Scene withGlass = test::loadSceneJson(dir, scene);
   EXPECT_TRUE(analyzeEffects(withGlass, withGlass.camera()).specular);
 }

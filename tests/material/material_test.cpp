@@ -148,7 +148,8 @@ TEST(RippledMirror, TiltsItsNormalUniformlyOverTheDiskOfSlopes) {
     const double r2 = (sx * sx + sy * sy) / (0.3 * 0.3);
     ASSERT_LE(r2, 1.0 + 1e-4);
     const double phi = std::atan2(sy, sx) + M_PI;
-    const int a = std::min(kRadial - 1, int(r2 * kRadial)), b = std::min(kAngular - 1, int(phi / (2 * M_PI) * kAngular));
+    const int a = std::min(kRadial - 1, int(r2 * kRadial)),
+              b = std::min(kAngular - 1, int(phi / (2 * M_PI) * kAngular));
     counts[a * kAngular + b] += 1.0;
   }
   const double expected = double(kN) / (kRadial * kAngular);

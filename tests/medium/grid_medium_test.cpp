@@ -8,8 +8,8 @@
 #include <random>
 
 #include "common/medium/grid_medium.h"
-#include "tests/support/uniform_rng.h"
 #include "common/util/error.h"
+#include "tests/support/uniform_rng.h"
 
 namespace lensfarm {
 namespace {

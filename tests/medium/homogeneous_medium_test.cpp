@@ -6,8 +6,8 @@
 #include <random>
 
 #include "common/medium/homogeneous_medium.h"
-#include "tests/support/uniform_rng.h"
 #include "common/util/error.h"
+#include "tests/support/uniform_rng.h"
 
 namespace lensfarm {
 namespace {

@@ -5,9 +5,9 @@
 #include <cmath>
 
 #include "common/medium/phase_function.h"
+#include "common/util/error.h"
 #include "tests/support/chi2.h"
 #include "tests/support/uniform_rng.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -11,8 +11,8 @@
 
 #include "common/medium/medium.h"
 #include "common/medium/vdb_grid.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -38,7 +38,8 @@ void writeVdb(const std::filesystem::path& path, const std::string& gridName = "
     g->setTransform(xf);
     for (int k = 2; k <= 3; ++k)
       for (int j = -1; j <= 0; ++j)
-        for (int i = 4; i <= 6; ++i) g->tree().setValue(openvdb::Coord(i, j, k), float(1 + (i - 4) + 10 * (j + 1) + 100 * (k - 2)));
+        for (int i = 4; i <= 6; ++i)
+          g->tree().setValue(openvdb::Coord(i, j, k), float(1 + (i - 4) + 10 * (j + 1) + 100 * (k - 2)));
     grids.push_back(g);
   }
   openvdb::io::File file(path.string());
@@ -66,12 +67,13 @@ TEST(VdbGrid, RendersTheSameBitsAsTheSameGridInline) {
   writeVdb(dir.path() / "smoke.vdb");
   const DenseGrid g = readVdbGrid(test::readFile(dir.path() / "smoke.vdb"), "density", "smoke.vdb", "s", "f");
   json scene = test::minimalSceneJson();
-  scene["camera"] = {{"type", "pinhole"}, {"position", {3.5, 1.75, -3}}, {"look_at", {3.5, 1.75, 4}}, {"up", {0, 1, 0}},
-                     {"sensor_width", 0.1}, {"focal_length", 0.1}};
+  scene["camera"] = {{"type", "pinhole"}, {"position", {3.5, 1.75, -3}}, {"look_at", {3.5, 1.75, 4}},
+                     {"up", {0, 1, 0}},   {"sensor_width", 0.1},         {"focal_length", 0.1}};
   scene["environment"] = {{"radiance", 1.0}};
   scene["medium"] = "smoke";
-  json inlineGrid = {{"type", "grid"}, {"bounds", {{g.lo.x, g.lo.y, g.lo.z}, {g.hi.x, g.hi.y, g.hi.z}}},
-                     {"resolution", {3, 2, 2}}, {"density", g.density}, {"sigma_s", 0.02}, {"sigma_a", 0.01}};
+  json inlineGrid = {{"type", "grid"},          {"bounds", {{g.lo.x, g.lo.y, g.lo.z}, {g.hi.x, g.hi.y, g.hi.z}}},
+                     {"resolution", {3, 2, 2}}, {"density", g.density},
+                     {"sigma_s", 0.02},         {"sigma_a", 0.01}};
   scene["media"] = {{"smoke", inlineGrid}};
   const test::Rendered a = test::renderScene(test::loadSceneJson(dir, scene));
   scene["media"]["smoke"] = {{"type", "grid"}, {"file", "smoke.vdb"}, {"sigma_s", 0.02}, {"sigma_a", 0.01}};

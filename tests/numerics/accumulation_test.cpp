@@ -5,11 +5,11 @@
 #include <cmath>
 #include <limits>
 
-#include "coordinator/coordinator.h"
 #include "common/film/sensor.h"
 #include "common/render/unit_renderer.h"
-#include "tests/test_support.h"
 #include "common/util/version.h"
+#include "coordinator/coordinator.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {

@@ -129,16 +129,16 @@ TEST(Scale, TheSameSceneAt1eMinus4And1And1e4GivesTheSameImage) {
 TEST(DegenerateGeometry, ZeroAreaNeedlesDuplicatesAndZeroNormalsStaySane) {
   test::TempDir dir;
   dir.write("bad.obj",
-            "v -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n"  // a wall (1-4)
-            "v -1 -1 1\nv 1 -1 1\n"                       // duplicate vertices (5, 6)
-            "v 0 0 0.5\nv 0 0 0.5\nv 0 0 0.5\n"           // a point (7-9)
+            "v -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n"          // a wall (1-4)
+            "v -1 -1 1\nv 1 -1 1\n"                             // duplicate vertices (5, 6)
+            "v 0 0 0.5\nv 0 0 0.5\nv 0 0 0.5\n"                 // a point (7-9)
             "v -0.5 0 0.6\nv 0.5 0 0.6\nv 0.5 0.0000001 0.6\n"  // a needle (10-12)
             "vn 0 0 0\n"
             "f 1//1 2//1 3//1\nf 1//1 3//1 4//1\nf 5 6 3\nf 7 8 9\nf 10 11 12\nf 1 1 2\n");
   json scene = test::minimalSceneJson();
   scene["shapes"] = json::array({{{"type", "obj"}, {"file", "bad.obj"}, {"material", "white"}}});
   scene["lights"][0] = {{"type", "quad"}, {"corner", {-0.5, -0.5, -1}}, {"edge1", {1, 0, 0}}, {"edge2", {0, 1, 0}},
-                        {"radiance", 5}, {"visible_to_camera", false}};
+                        {"radiance", 5},  {"visible_to_camera", false}};
   scene["render"]["max_bounces"] = 3;
   const Scene s = test::loadSceneJson(dir, scene);
   EXPECT_EQ(s.skippedDegenerateTriangles, 2u) << "the point and the repeated-vertex triangle";
@@ -154,13 +154,24 @@ TEST(Grazing, ALitPlaneSeenAt89Point99DegreesHasNoBlackSpeckles) {
   json scene = {
       {"format", "lensfarm-scene/1"},
       {"camera",
-       {{"type", "pinhole"}, {"position", {0, 1000 * std::tan(angle), -1000}}, {"look_at", {0, 0, 0}},
-        {"up", {0, 1, 0}}, {"sensor_width", 0.01}, {"focal_length", 0.1}}},
+       {{"type", "pinhole"},
+        {"position", {0, 1000 * std::tan(angle), -1000}},
+        {"look_at", {0, 0, 0}},
+        {"up", {0, 1, 0}},
+        {"sensor_width", 0.01},
+        {"focal_length", 0.1}}},
       {"materials", {{"floor", {{"type", "lambertian"}, {"albedo", 0.5}}}}},
-      {"shapes", json::array({{{"type", "quad"}, {"corner", {-1e4, 0, -1e4}}, {"edge1", {0, 0, 2e4}},
-                               {"edge2", {2e4, 0, 0}}, {"material", "floor"}}})},
-      {"lights", json::array({{{"type", "quad"}, {"corner", {-3e3, 3e3, -3e3}}, {"edge1", {6e3, 0, 0}},
-                               {"edge2", {0, 0, 6e3}}, {"radiance", 1}, {"visible_to_camera", false}}})},
+      {"shapes", json::array({{{"type", "quad"},
+                               {"corner", {-1e4, 0, -1e4}},
+                               {"edge1", {0, 0, 2e4}},
+                               {"edge2", {2e4, 0, 0}},
+                               {"material", "floor"}}})},
+      {"lights", json::array({{{"type", "quad"},
+                               {"corner", {-3e3, 3e3, -3e3}},
+                               {"edge1", {6e3, 0, 0}},
+                               {"edge2", {0, 0, 6e3}},
+                               {"radiance", 1},
+                               {"visible_to_camera", false}}})},
       {"render", {{"resolution", {64, 64}}, {"samples_per_pixel", 4}, {"max_bounces", 1}}},
   };
   const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));

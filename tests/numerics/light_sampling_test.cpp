@@ -21,18 +21,33 @@ using nlohmann::json;
 json floorScene(const json& light, int spp) {
   return {
       {"format", "lensfarm-scene/1"},
-      {"camera", {{"type", "pinhole"}, {"position", {0, 3, -3}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}},
-                  {"sensor_width", 0.1}, {"focal_length", 0.08}}},
-      {"materials", {{"floor", {{"type", "lambertian"}, {"albedo", 0.7}}}, {"wall", {{"type", "lambertian"}, {"albedo", 0.4}}}}},
-      {"shapes", json::array({{{"type", "quad"}, {"corner", {-2, 0, -2}}, {"edge1", {0, 0, 4}}, {"edge2", {4, 0, 0}}, {"material", "floor"}},
-                              {{"type", "quad"}, {"corner", {-2, 0, 2}}, {"edge1", {4, 0, 0}}, {"edge2", {0, 3, 0}}, {"material", "wall"}}})},
+      {"camera",
+       {{"type", "pinhole"},
+        {"position", {0, 3, -3}},
+        {"look_at", {0, 0, 0}},
+        {"up", {0, 1, 0}},
+        {"sensor_width", 0.1},
+        {"focal_length", 0.08}}},
+      {"materials",
+       {{"floor", {{"type", "lambertian"}, {"albedo", 0.7}}}, {"wall", {{"type", "lambertian"}, {"albedo", 0.4}}}}},
+      {"shapes", json::array({{{"type", "quad"},
+                               {"corner", {-2, 0, -2}},
+                               {"edge1", {0, 0, 4}},
+                               {"edge2", {4, 0, 0}},
+                               {"material", "floor"}},
+                              {{"type", "quad"},
+                               {"corner", {-2, 0, 2}},
+                               {"edge1", {4, 0, 0}},
+                               {"edge2", {0, 3, 0}},
+                               {"material", "wall"}}})},
       {"lights", json::array({light})},
       {"render", {{"resolution", {12, 12}}, {"samples_per_pixel", spp}, {"max_bounces", 2}}},
   };
 }
 
 json quad(std::vector<double> corner, std::vector<double> e1, std::vector<double> e2, double radiance) {
-  return {{"type", "quad"}, {"corner", corner}, {"edge1", e1}, {"edge2", e2}, {"radiance", radiance}, {"visible_to_camera", false}};
+  return {{"type", "quad"}, {"corner", corner},     {"edge1", e1},
+          {"edge2", e2},    {"radiance", radiance}, {"visible_to_camera", false}};
 }
 
 struct Case {
@@ -45,7 +60,8 @@ TEST(LightSampling, NeeMisAgreesWithTheNaiveEstimatorAtTheExtremes) {
   const std::vector<Case> cases = {
       {"tiny", quad({-0.005, 1.5, -0.005}, {0.01, 0, 0}, {0, 0, 0.01}, 3e4), 16, 8192},
       {"huge", quad({-500, 50, -500}, {1000, 0, 0}, {0, 0, 1000}, 0.5), 16, 64},
-      {"edge-on", quad({-1, 0.0, 1.0}, {2, 0, 0}, {0, 1.5, 0}, 3.0), 16, 256},  // stands on the floor, faces the camera side
+      {"edge-on", quad({-1, 0.0, 1.0}, {2, 0, 0}, {0, 1.5, 0}, 3.0), 16,
+       256},  // stands on the floor, faces the camera side
   };
   for (const Case& c : cases) {
     test::TempDir dir;
@@ -58,15 +74,15 @@ TEST(LightSampling, NeeMisAgreesWithTheNaiveEstimatorAtTheExtremes) {
     for (double m : a.mean) ASSERT_TRUE(std::isfinite(m)) << c.name;
     EXPECT_GT(a.imageMean, 0.0) << c.name;
     const double se = std::hypot(a.imageMeanError, b.imageMeanError);
-    EXPECT_LE(std::abs(a.imageMean - b.imageMean), 3.0 * se + 1e-12) << c.name << ": NEE " << a.imageMean
-                                                                        << " vs naive " << b.imageMean << " +- " << se;
+    EXPECT_LE(std::abs(a.imageMean - b.imageMean), 3.0 * se + 1e-12)
+        << c.name << ": NEE " << a.imageMean << " vs naive " << b.imageMean << " +- " << se;
     // (No per-pixel test here: the naive estimator's per-pixel values are far too heavy-tailed
     // for 8 renders to estimate their variance; the image means above are the judge.)
   }
 }
 
 TEST(LightSampling, ALightFacingAwayOrBehindTheFloorLightsNothing) {
-  for (const json& light : {quad({-0.5, 3.5, -0.5}, {0, 0, 1}, {1, 0, 0}, 5.0),     // above all, faces up
+  for (const json& light : {quad({-0.5, 3.5, -0.5}, {0, 0, 1}, {1, 0, 0}, 5.0),      // above all, faces up
                             quad({-0.5, -0.5, -0.5}, {0, 0, 1}, {1, 0, 0}, 5.0)}) {  // under the floor, faces it
     for (const char* integrator : {"nee_mis", "naive"}) {
       test::TempDir dir;
@@ -86,7 +102,8 @@ TEST(LightSampling, PacketFormGivesEachLaneTheOneSampleBitsForAnyNumberOfLights)
   for (int quads : {1, 3, 6}) {  // 2, 6 and 12 emitting triangles
     json scene = floorScene(quad({-0.5, 1.5, -0.5}, {1, 0, 0}, {0, 0, 1}, 2.0), 1);
     for (int q = 1; q < quads; ++q)  // more quads of other sizes, heights and radiances
-      scene["lights"].push_back(quad({-1.5 + 0.4 * q, 1.0 + 0.2 * q, -1.0}, {0.3 * q, 0, 0}, {0, 0.1 * q, 0.5}, 1.0 + q));
+      scene["lights"].push_back(
+          quad({-1.5 + 0.4 * q, 1.0 + 0.2 * q, -1.0}, {0.3 * q, 0, 0}, {0, 0.1 * q, 0.5}, 1.0 + q));
     test::TempDir dir;
     const Scene loaded = test::loadSceneJson(dir, scene);
     const RenderScene rs(loaded);
@@ -112,11 +129,11 @@ TEST(LightSampling, PacketFormGivesEachLaneTheOneSampleBitsForAnyNumberOfLights)
                                             Vec2(asked.u0[k], asked.u1[k]));
         ASSERT_EQ(lanes.found[k] != 0, one.has_value()) << quads << " quads, lane " << k;
         if (!one) continue;
-        const float packet[14] = {lanes.px[k],  lanes.py[k],  lanes.pz[k],     lanes.nx[k], lanes.ny[k],
-                                  lanes.nz[k],  lanes.v0x[k], lanes.v0y[k],    lanes.v0z[k], lanes.margin[k],
-                                  lanes.rr[k],  lanes.rg[k],  lanes.rb[k],     lanes.pdf[k]};
-        const float single[14] = {one->p.x,  one->p.y,  one->p.z,  one->n.x,        one->n.y,
-                                  one->n.z,  one->v0.x, one->v0.y, one->v0.z,       one->margin,
+        const float packet[14] = {lanes.px[k], lanes.py[k],  lanes.pz[k],  lanes.nx[k],  lanes.ny[k],
+                                  lanes.nz[k], lanes.v0x[k], lanes.v0y[k], lanes.v0z[k], lanes.margin[k],
+                                  lanes.rr[k], lanes.rg[k],  lanes.rb[k],  lanes.pdf[k]};
+        const float single[14] = {one->p.x,        one->p.y,        one->p.z,        one->n.x,  one->n.y,
+                                  one->n.z,        one->v0.x,       one->v0.y,       one->v0.z, one->margin,
                                   one->radiance.r, one->radiance.g, one->radiance.b, one->pdf};
         EXPECT_EQ(std::memcmp(packet, single, sizeof(packet)), 0) << quads << " quads, lane " << k;
       }

@@ -25,24 +25,24 @@ using nlohmann::json;
 // every length (quad edges, camera lengths, a mesh's scale).
 template <typename Position, typename Length>
 json mapScene(json scene, Position f, Length g) {
-  auto vec = [](const json &v) { return DVec3(v[0].get<double>(), v[1].get<double>(), v[2].get<double>()); };
-  auto put = [](const DVec3 &d) { return json::array({d.x, d.y, d.z}); };
-  json &cam = scene["camera"];
+  auto vec = [](const json& v) { return DVec3(v[0].get<double>(), v[1].get<double>(), v[2].get<double>()); };
+  auto put = [](const DVec3& d) { return json::array({d.x, d.y, d.z}); };
+  json& cam = scene["camera"];
   cam["position"] = put(f(vec(cam["position"])));
   cam["look_at"] = put(f(vec(cam["look_at"])));
-  for (const char *key : {"focal_length", "sensor_width", "sensor_height", "focus_distance", "scene_units_per_mm"})
+  for (const char* key : {"focal_length", "sensor_width", "sensor_height", "focus_distance", "scene_units_per_mm"})
     if (cam.contains(key)) cam[key] = g(cam[key].get<double>());
-  auto quad = [&](json &q) {
+  auto quad = [&](json& q) {
     q["corner"] = put(f(vec(q["corner"])));
-    for (const char *key : {"edge1", "edge2"})
+    for (const char* key : {"edge1", "edge2"})
       q[key] = put(DVec3(g(vec(q[key]).x), g(vec(q[key]).y), g(vec(q[key]).z)));
   };
-  for (json &shape : scene["shapes"]) {
+  for (json& shape : scene["shapes"]) {
     if (shape["type"] == "quad") quad(shape);
     if (shape["type"] == "triangles")
-      for (json &v : shape["vertices"]) v = put(f(vec(v)));
+      for (json& v : shape["vertices"]) v = put(f(vec(v)));
     if (shape["type"] == "obj") {
-      json &t = shape["transform"];
+      json& t = shape["transform"];
       t["translate"] = put(f(t.contains("translate") ? vec(t["translate"]) : DVec3(0.0)));
       DVec3 s = t.contains("scale") ? (t["scale"].is_number() ? DVec3(t["scale"].get<double>()) : vec(t["scale"]))
                                     : DVec3(1.0);
@@ -50,17 +50,17 @@ json mapScene(json scene, Position f, Length g) {
     }
   }
   if (scene.contains("lights"))
-    for (json &light : scene["lights"]) quad(light);
+    for (json& light : scene["lights"]) quad(light);
   return scene;
 }
 
-json translated(const json &scene, const DVec3 &d) {
+json translated(const json& scene, const DVec3& d) {
   return mapScene(
-      scene, [&](const DVec3 &p) { return p + d; }, [](double x) { return x; });
+      scene, [&](const DVec3& p) { return p + d; }, [](double x) { return x; });
 }
-json scaled(const json &scene, double k) {
+json scaled(const json& scene, double k) {
   return mapScene(
-      scene, [&](const DVec3 &p) { return p * k; }, [&](double x) { return x * k; });
+      scene, [&](const DVec3& p) { return p * k; }, [&](double x) { return x * k; });
 }
 
 json small(json scene, int size, uint64_t spp) {
@@ -87,14 +87,21 @@ struct Named {
 // the shelf gets only the light that bounces in (moved by 1e5 it came out ~90x too bright).
 json shelf() {
   json scene = test::minimalSceneJson();
-  scene["camera"] = {{"type", "pinhole"}, {"position", {0, 0.1, -3}}, {"look_at", {0, 0.1, 0}}, {"up", {0, 1, 0}},
-                     {"sensor_width", 0.036}, {"angle_of_view", 30}};
+  scene["camera"] = {{"type", "pinhole"}, {"position", {0, 0.1, -3}}, {"look_at", {0, 0.1, 0}},
+                     {"up", {0, 1, 0}},   {"sensor_width", 0.036},    {"angle_of_view", 30}};
   scene["materials"]["floor"] = {{"type", "lambertian"}, {"albedo", 0.7}};
   scene["shapes"] = json::array(
       {{{"type", "quad"}, {"corner", {-1, 0, -1}}, {"edge1", {0, 0, 2}}, {"edge2", {2, 0, 0}}, {"material", "floor"}},
-       {{"type", "quad"}, {"corner", {-0.5, 0.2, -0.5}}, {"edge1", {0, 0, 1}}, {"edge2", {1, 0, 0}}, {"material", "floor"}}});
-  scene["lights"] = json::array(
-      {{{"type", "quad"}, {"corner", {-0.25, 1, -0.25}}, {"edge1", {0.5, 0, 0}}, {"edge2", {0, 0, 0.5}}, {"radiance", 8}}});
+       {{"type", "quad"},
+        {"corner", {-0.5, 0.2, -0.5}},
+        {"edge1", {0, 0, 1}},
+        {"edge2", {1, 0, 0}},
+        {"material", "floor"}}});
+  scene["lights"] = json::array({{{"type", "quad"},
+                                  {"corner", {-0.25, 1, -0.25}},
+                                  {"edge1", {0.5, 0, 0}},
+                                  {"edge2", {0, 0, 0.5}},
+                                  {"radiance", 8}}});
   return small(scene, 24, 16);
 }
 
@@ -106,11 +113,11 @@ std::vector<Named> placementScenes() {
           {"shelf", shelf()}};
 }
 
-double meanOf(const test::Rendered &r) { return (r.mean[0] + r.mean[1] + r.mean[2]) / 3.0; }
+double meanOf(const test::Rendered& r) { return (r.mean[0] + r.mean[1] + r.mean[2]) / 3.0; }
 
 // The class's promise: mean within 0.5 % of the reference, and no pixel black
 // that is not black in the reference.
-void expectSameImage(const test::Rendered &r, const test::Rendered &reference, const std::string &what) {
+void expectSameImage(const test::Rendered& r, const test::Rendered& reference, const std::string& what) {
   EXPECT_EQ(r.stats.dropped, 0u) << what;
   EXPECT_NEAR(meanOf(r) / meanOf(reference), 1.0, 0.005) << what;
   int newlyBlack = 0;
@@ -125,7 +132,7 @@ void expectSameImage(const test::Rendered &r, const test::Rendered &reference, c
 
 TEST(FarFromTheOrigin, TheImageDoesNotDependOnWhereTheSceneSits) {
   test::TempDir dir;
-  for (const Named &s : placementScenes()) {
+  for (const Named& s : placementScenes()) {
     const test::Rendered reference = test::renderScene(test::loadSceneJson(dir, s.scene));
     if (s.name == "furnace") {
       EXPECT_NEAR(meanOf(reference) / kFurnaceExact, 1.0, 0.002);
@@ -155,14 +162,14 @@ TEST(FarFromTheOrigin, SceneIsRecentredOnTheCameraInDoublePrecision) {
                      scene["camera"]["position"][2].get<double>());
   EXPECT_EQ(s.origin, camera);
   EXPECT_EQ(s.cameraParams.position, Vec3(0.0f));
-  const json &quad = scene["shapes"][0];
+  const json& quad = scene["shapes"][0];
   const DVec3 corner(quad["corner"][0].get<double>(), quad["corner"][1].get<double>(), quad["corner"][2].get<double>());
   EXPECT_EQ(s.meshes[0].positions[0], Vec3(corner - camera));
 }
 
 TEST(Scale, TheSameSceneFrom1eMinus6To1e10GivesTheSameImage) {
   test::TempDir dir;
-  for (const Named &s : placementScenes()) {
+  for (const Named& s : placementScenes()) {
     const test::Rendered reference = test::renderScene(test::loadSceneJson(dir, s.scene));
     for (double k : {1e-6, 1e-3, 1e3, 1e6, 1e10}) {
       const std::string what = s.name + " scaled by " + std::to_string(k);
@@ -188,9 +195,9 @@ TEST(Scale, AHugeQuadIsKeptAndATrulyDegenerateTriangleIsStillCounted) {
                              {"material", "white"}});
   scene["shapes"].push_back(
       {{"type", "triangles"}, {"material", "white"}, {"vertices", {{0, 0, 5}, {1, 1, 5}, {2, 2, 5}}}});  // collinear
-  const auto triangles = [](const Scene &s) {
+  const auto triangles = [](const Scene& s) {
     size_t n = 0;
-    for (const auto &m : s.meshes) n += m.triangleCount();
+    for (const auto& m : s.meshes) n += m.triangleCount();
     return n;
   };
   const size_t before = triangles(test::loadSceneJson(dir, test::minimalSceneJson()));
@@ -207,7 +214,7 @@ TEST(Scale, AHugeQuadIsKeptAndATrulyDegenerateTriangleIsStillCounted) {
 struct Leaks {
   int crossed = 0, unshadowed = 0;
 };
-void thinGapLeaks(double gap, const DVec3 &offset, int rays, Leaks &leaks) {
+void thinGapLeaks(double gap, const DVec3& offset, int rays, Leaks& leaks) {
   json scene = test::minimalSceneJson();
   scene["camera"]["position"] = {0.3, 2, -3};
   scene["camera"]["look_at"] = {0, 0, 0};
@@ -296,9 +303,8 @@ json flushLampGroupRoom(const std::string& integrator) {
   json scene = flushLightRoom(integrator);
   scene["lights"] = json::array();
   scene["materials"]["lamp"] = {{"type", "emissive"}, {"radiance", 4}};
-  scene["shapes"].push_back({{"type", "obj"},
-                             {"file", "ceiling.obj"},
-                             {"group_materials", {{"panel", "wall"}, {"lamp", "lamp"}}}});
+  scene["shapes"].push_back(
+      {{"type", "obj"}, {"file", "ceiling.obj"}, {"group_materials", {{"panel", "wall"}, {"lamp", "lamp"}}}});
   return scene;
 }
 const char* kCeilingObj =
@@ -320,13 +326,13 @@ TEST(Coplanar, ALightFlushWithTheCeilingIsSeenAlikeByEveryEstimator) {
   const test::ImageStatistics naive = test::renderStatistics(test::loadSceneJson(dir, flushLightRoom("naive")), 16);
   ASSERT_GT(naive.imageMean, 0.0);
   for (const char* integrator : {"nee", "nee_mis"}) {
-    const test::ImageStatistics other = test::renderStatistics(test::loadSceneJson(dir, flushLightRoom(integrator)), 16);
+    const test::ImageStatistics other =
+        test::renderStatistics(test::loadSceneJson(dir, flushLightRoom(integrator)), 16);
     const double error = std::hypot(naive.imageMeanError, other.imageMeanError);
     EXPECT_NEAR(other.imageMean, naive.imageMean, 4 * error)
         << integrator << " / naive = " << other.imageMean / naive.imageMean;
   }
 }
-
 
 // A camera exactly in the plane of a black sheet that surrounds it (the sheet x = 0 through the
 // pinhole), in a lit room: every camera ray starts in the sheet. Under the coplanar rule the
@@ -335,10 +341,16 @@ TEST(Coplanar, ALightFlushWithTheCeilingIsSeenAlikeByEveryEstimator) {
 json cameraInASheet(const std::string& integrator) {
   json scene = test::closedBoxSceneJson({{"type", "lambertian"}, {"albedo", 0.5}}, 16, 16, 2);
   scene["materials"]["black"] = {{"type", "lambertian"}, {"albedo", 0.0}};
-  scene["shapes"].push_back(
-      {{"type", "quad"}, {"corner", {0, -0.5, -0.5}}, {"edge1", {0, 1, 0}}, {"edge2", {0, 0, 1}}, {"material", "black"}});
-  scene["lights"] = json::array(
-      {{{"type", "quad"}, {"corner", {-0.3, 0.99, -0.3}}, {"edge1", {0.6, 0, 0}}, {"edge2", {0, 0, 0.6}}, {"radiance", 4}}});
+  scene["shapes"].push_back({{"type", "quad"},
+                             {"corner", {0, -0.5, -0.5}},
+                             {"edge1", {0, 1, 0}},
+                             {"edge2", {0, 0, 1}},
+                             {"material", "black"}});
+  scene["lights"] = json::array({{{"type", "quad"},
+                                  {"corner", {-0.3, 0.99, -0.3}},
+                                  {"edge1", {0.6, 0, 0}},
+                                  {"edge2", {0, 0, 0.6}},
+                                  {"radiance", 4}}});
   scene["camera"]["look_at"] = {0.2, 0.1, 1};
   scene["render"]["integrator"] = integrator;
   return scene;

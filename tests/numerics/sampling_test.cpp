@@ -57,8 +57,9 @@ TEST(Warps, EveryPointOfTheSquareIncludingItsRimGivesADirectionAboveTheHorizon) 
   // integrator dropped without a word. Every u in [0,1)^2 must give z > 0, a unit direction and a
   // positive pdf, so the weight f cos / pdf = albedo holds.
   const float top = 0x1.fffffep-1f;  // the largest float below 1
-  std::vector<Vec2> us = {Vec2(0.0f, 0.0f), Vec2(0.0f, 0.5f), Vec2(0.5f, 0.0f), Vec2(0.0f, 0.999999f),
-                          Vec2(0.999999f, 0.0f), Vec2(0.0f, top), Vec2(top, 0.0f), Vec2(top, top), Vec2(0x1.0p-24f, 0.5f)};
+  std::vector<Vec2> us = {Vec2(0.0f, 0.0f),      Vec2(0.0f, 0.5f),      Vec2(0.5f, 0.0f),
+                          Vec2(0.0f, 0.999999f), Vec2(0.999999f, 0.0f), Vec2(0.0f, top),
+                          Vec2(top, 0.0f),       Vec2(top, top),        Vec2(0x1.0p-24f, 0.5f)};
   for (int k = 0; k <= 4096; ++k) {  // the whole rim, and the samplers' 24-bit values next to it
     const float t = std::min(float(k) / 4096.0f, top);
     for (const Vec2 u : {Vec2(0.0f, t), Vec2(t, 0.0f), Vec2(0x1.0p-24f, t), Vec2(t, 0x1.0p-24f)}) us.push_back(u);

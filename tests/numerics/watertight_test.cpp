@@ -34,10 +34,14 @@ uint64_t escapes(const RenderScene& rs, Vec3 origin) {
     const int mode = int((size_t(k) / tris.size()) % 4);
     Vec3 target;
     const float a = u(rng);
-    if (mode == 0) target = (k % 3 == 0) ? t.v0 : (k % 3 == 1 ? t.v1 : t.v2);  // exactly a vertex
-    else if (mode == 1) target = t.v0 * (1 - a) + t.v1 * a;                     // on an edge
-    else if (mode == 2) target = t.v2 * (1 - a) + t.v0 * a;
-    else target = t.v1 * (1 - a) + t.v2 * a;
+    if (mode == 0)
+      target = (k % 3 == 0) ? t.v0 : (k % 3 == 1 ? t.v1 : t.v2);  // exactly a vertex
+    else if (mode == 1)
+      target = t.v0 * (1 - a) + t.v1 * a;  // on an edge
+    else if (mode == 2)
+      target = t.v2 * (1 - a) + t.v0 * a;
+    else
+      target = t.v1 * (1 - a) + t.v2 * a;
     if (!rs.caster().intersect(origin, glm::normalize(target - origin), RayKind::kScattered)) ++missed;
   }
   return missed;
@@ -56,8 +60,11 @@ uint64_t closedBoxEscapes(const DVec3& offset, bool withCamera) {
   }
   scene["shapes"][0]["transform"]["translate"] = {1 + offset.x, 1 + offset.y, -1 + offset.z};
   // The DH2323 box is open at the front: close it.
-  scene["shapes"].push_back({{"type", "quad"}, {"corner", {-1 + offset.x, -1 + offset.y, -1 + offset.z}},
-                             {"edge1", {2, 0, 0}}, {"edge2", {0, 2, 0}}, {"material", "white"}});
+  scene["shapes"].push_back({{"type", "quad"},
+                             {"corner", {-1 + offset.x, -1 + offset.y, -1 + offset.z}},
+                             {"edge1", {2, 0, 0}},
+                             {"edge2", {0, 2, 0}},
+                             {"material", "white"}});
   scene["lights"] = json::array();
   const Scene s = test::loadSceneJson(dir, scene);
   const RenderScene rs(s);
@@ -80,7 +87,9 @@ TEST_P(Watertight, NoRayEscapesAFinelyTessellatedSphere) {
   test::TempDir dir;
   dir.write("sphere.obj", test::sphereObj(96, 192));  // 36 480 triangles
   json scene = test::minimalSceneJson();
-  scene["shapes"] = json::array({{{"type", "obj"}, {"file", "sphere.obj"}, {"material", "white"},
+  scene["shapes"] = json::array({{{"type", "obj"},
+                                  {"file", "sphere.obj"},
+                                  {"material", "white"},
                                   {"transform", {{"scale", radius}, {"translate", {centre.x, centre.y, centre.z}}}}}});
   scene["lights"] = json::array();
   const Scene s = test::loadSceneJson(dir, scene);
@@ -91,11 +100,9 @@ TEST_P(Watertight, NoRayEscapesAFinelyTessellatedSphere) {
   EXPECT_EQ(escapes(rs, Vec3(centre + DVec3(0.05, -0.1, 0.0) * radius - s.origin)), 0u);
 }
 
-INSTANTIATE_TEST_SUITE_P(NearAndFar, Watertight, ::testing::Values(0.0, 1.0, 4.0),
-                         [](const auto& p) {
-                           return p.param == 0.0 ? std::string("AtTheCamera")
-                                                 : "FarFromTheCamera" + std::to_string(int(p.param));
-                         });
+INSTANTIATE_TEST_SUITE_P(NearAndFar, Watertight, ::testing::Values(0.0, 1.0, 4.0), [](const auto& p) {
+  return p.param == 0.0 ? std::string("AtTheCamera") : "FarFromTheCamera" + std::to_string(int(p.param));
+});
 
 // The failure as a user would meet it: the closed Cornell box and its camera moved together to
 // about 1e6 from the origin.
@@ -141,7 +148,8 @@ TEST(SelfIntersection, SpawnedRaysNeverHitTheirOwnSurfaceAtAnyScaleShapeOrDistan
             if (b0 + b1 > 1) b0 = 1 - b0, b1 = 1 - b1;
             const DVec3 target = b0 * DVec3(t.v0) + b1 * DVec3(t.v1) + (1 - b0 - b1) * DVec3(t.v2);
             const DVec3 from = target + 4.0 * size * DVec3(frame.toWorld(Vec3(float(u(rng)), float(u(rng)), 1.0f)));
-            const auto hit = rs.caster().intersect(Vec3(from), Vec3(glm::normalize(target - from)), RayKind::kScattered);
+            const auto hit =
+                rs.caster().intersect(Vec3(from), Vec3(glm::normalize(target - from)), RayKind::kScattered);
             if (!hit) continue;
             Vec3 local(float(u(rng)), float(u(rng)), float(std::abs(u(rng))) * (k % 4 == 0 ? 1e-4f : 1.0f));
             if (k % 2) local.z = -local.z;
@@ -199,7 +207,8 @@ TEST(Watertight, ARaySpawnedBesideAnEdgeIntoTheNeighbouringWallMeetsIt) {
     const float k = float(scale);
     // The wall x = +1 near its top edge (y = +1), hit from the box's centre.
     for (const float below : {0.25f, 0.5f, 0.9f}) {
-      const auto wall = caster.intersect(Vec3(0.0f), glm::normalize(Vec3(1.0f, 1.0f - 1e-7f, 0.3f)), RayKind::kScattered);
+      const auto wall =
+          caster.intersect(Vec3(0.0f), glm::normalize(Vec3(1.0f, 1.0f - 1e-7f, 0.3f)), RayKind::kScattered);
       ASSERT_TRUE(wall) << scale;
       ASSERT_NEAR(wall->p.x, k, 1e-6f * k) << "the x wall";
       // A point of that wall `below` of the top wall's margin under the edge, and a ray from it

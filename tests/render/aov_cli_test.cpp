@@ -54,7 +54,8 @@ TEST(Aov, RenderDenoiseAddsTheGuidesKeepsTheRawBeautyAndMarksTheFile) {
   ImageMetadata meta;
   const Image denoised = readExr(denoisedOut, &meta), raw = readExr(rawOut);
   EXPECT_NE(meta.extra["denoised"].find("guided by albedo, normal, variance"), std::string::npos);
-  for (const char* guide : {"albedo", "normal", "variance", "noisy"}) EXPECT_NE(denoised.layer(guide), nullptr) << guide;
+  for (const char* guide : {"albedo", "normal", "variance", "noisy"})
+    EXPECT_NE(denoised.layer(guide), nullptr) << guide;
   EXPECT_TRUE(denoised.layer("noisy")->values == raw.rgb) << "the raw beauty, bit for bit";
   // Denoised is closer to a converged render than the raw image is (same samples), by relMSE
   // (Rousselle et al. 2011: (x - r)^2 / (r^2 + 0.01) per value), which the light's few very

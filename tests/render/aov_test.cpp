@@ -9,9 +9,9 @@
 #include "common/farm/memory_estimate.h"
 #include "common/render/render_scene.h"
 #include "common/render/unit_renderer.h"
+#include "common/util/error.h"
 #include "tests/render/aov_support.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {
@@ -27,8 +27,8 @@ float layerAt(const Image& image, const std::string& layer, int x, int y, size_t
 
 TEST(Aov, AWallsAlbedoNormalDepthAndIdsAreTheirAnalyticValues) {
   test::TempDir dir;
-  const test::Rendered r = test::renderScene(test::loadSceneJson(
-      dir, wallScene({"albedo", "normal", "depth", "samples", "object_id", "material_id"})));
+  const test::Rendered r = test::renderScene(
+      test::loadSceneJson(dir, wallScene({"albedo", "normal", "depth", "samples", "object_id", "material_id"})));
   const Image& image = r.image;
   ASSERT_EQ(image.layers.size(), 6u);
   for (int y = 4; y <= 11; ++y)
@@ -93,7 +93,8 @@ TEST(Aov, ATiltedWallsDepthIsPlanarAndItsNormalIsItsOwn) {
   // (-0.5, 0, 1)/|.| turned to the camera; the quad's other side must give the same.
   test::TempDir dir;
   json scene = wallScene({"normal", "depth"});
-  scene["shapes"][0] = {{"type", "quad"}, {"corner", {-4, -4, 0}}, {"edge1", {0, 8, 0}}, {"edge2", {8, 0, 4}}, {"material", "white"}};
+  scene["shapes"][0] = {
+      {"type", "quad"}, {"corner", {-4, -4, 0}}, {"edge1", {0, 8, 0}}, {"edge2", {8, 0, 4}}, {"material", "white"}};
   scene["render"]["samples_per_pixel"] = 64;
   const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
   const float k = 1.0f / std::sqrt(1.25f);
@@ -108,7 +109,8 @@ TEST(Aov, ATiltedWallsDepthIsPlanarAndItsNormalIsItsOwn) {
     // averages d over its width of slopes.
     const double t0 = (double(x) - 8.0) / 8.0 * halfWidth, t1 = (double(x) + 1.0 - 8.0) / 8.0 * halfWidth;
     double expected = 0.0;
-    for (int i = 0; i < 1000; ++i) expected += 5.0 / (1.0 - 0.5 * sign * (t0 + (t1 - t0) * (i + 0.5) / 1000.0)) / 1000.0;
+    for (int i = 0; i < 1000; ++i)
+      expected += 5.0 / (1.0 - 0.5 * sign * (t0 + (t1 - t0) * (i + 0.5) / 1000.0)) / 1000.0;
     EXPECT_NEAR(layerAt(r.image, "", x, 8, 0), expected, 0.002 * expected) << x;
   }
 }
@@ -126,7 +128,8 @@ TEST(Aov, TheVarianceLayerAgreesWithTheSpreadOfIndependentRenders) {
     const test::Rendered r = test::renderScene(s);
     const ImageLayer* v = r.image.layer("variance");
     ASSERT_NE(v, nullptr);
-    if (sum.empty()) sum.assign(r.image.rgb.size(), 0.0), sumSq.assign(r.image.rgb.size(), 0.0), aov.assign(r.image.rgb.size(), 0.0);
+    if (sum.empty())
+      sum.assign(r.image.rgb.size(), 0.0), sumSq.assign(r.image.rgb.size(), 0.0), aov.assign(r.image.rgb.size(), 0.0);
     for (size_t i = 0; i < r.image.rgb.size(); ++i) {
       sum[i] += r.image.rgb[i];
       sumSq[i] += double(r.image.rgb[i]) * r.image.rgb[i];
@@ -167,7 +170,8 @@ TEST(Aov, SameBitsForAnyThreadCount) {
   const Scene s = test::loadSceneJson(dir, scene);
   const test::Rendered one = test::renderScene(s, 1), two = test::renderScene(s, 2);
   ASSERT_EQ(one.image.layers.size(), two.image.layers.size());
-  for (size_t l = 0; l < one.image.layers.size(); ++l) EXPECT_TRUE(one.image.layers[l].values == two.image.layers[l].values);
+  for (size_t l = 0; l < one.image.layers.size(); ++l)
+    EXPECT_TRUE(one.image.layers[l].values == two.image.layers[l].values);
 }
 
 TEST(Aov, PacketsAndSingleRaysGiveTheSameSums) {
@@ -201,7 +205,11 @@ TEST(Aov, AMirrorShowsTheAlbedoAndNormalOfWhatItReflects) {
   scene["materials"]["grey"] = {{"type", "lambertian"}, {"albedo", 0.3}};
   scene["shapes"][0]["material"] = "mirror";
   scene["lights"][0]["corner"] = {-0.5, 3, -1};  // out of the mirror's view of the middle row
-  scene["shapes"].push_back({{"type", "quad"}, {"corner", {-10, -10, -6}}, {"edge1", {20, 0, 0}}, {"edge2", {0, 20, 0}}, {"material", "grey"}});
+  scene["shapes"].push_back({{"type", "quad"},
+                             {"corner", {-10, -10, -6}},
+                             {"edge1", {20, 0, 0}},
+                             {"edge2", {0, 20, 0}},
+                             {"material", "grey"}});
   const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
   for (int x = 5; x <= 10; ++x) {
     EXPECT_NEAR(layerAt(r.image, "albedo", x, 8, 1), 0.3f, 1e-6f) << x;
@@ -226,7 +234,8 @@ TEST(Aov, MemoryEstimatesCountTheAovs) {
   Scene all = plain;
   for (int k = 0; k < kAovCount; ++k) all.render.aovs.add(Aov(k));
   const uint64_t cells = 1000 * 1000;
-  EXPECT_GE(localRenderMemory(all.render, 2, 0).total(), localRenderMemory(plain.render, 2, 0).total() + cells * 13 * 16);
+  EXPECT_GE(localRenderMemory(all.render, 2, 0).total(),
+            localRenderMemory(plain.render, 2, 0).total() + cells * 13 * 16);
   EXPECT_GE(workerJobMemory(all.render, 2, 0).total(), workerJobMemory(plain.render, 2, 0).total() + cells * 13 * 8);
   EXPECT_GE(coordinatorJobMemory(all.render, uint64_t(1) << 30, true, 0).total(),
             coordinatorJobMemory(plain.render, uint64_t(1) << 30, true, 0).total() + cells * 13 * 16);

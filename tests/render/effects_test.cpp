@@ -7,11 +7,11 @@
 #include <fstream>
 #include <sstream>
 
-#include "coordinator/coordinator.h"
 #include "common/render/unit_renderer.h"
 #include "common/scene/effects.h"
-#include "tests/test_support.h"
 #include "common/util/hash.h"
+#include "coordinator/coordinator.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -113,7 +113,8 @@ TEST(Effects, TheJobsEffectsListDepthOfFieldLeftOut) {
   const JobInfo job = coordinator.submit(spec, 0);
   std::string all;
   for (const auto& e : job.effects) all += e + "\n";
-  EXPECT_NE(all.find("depth of field: off (the scene's f/16 lens is traced as a pinhole at 200x200 px"), std::string::npos)
+  EXPECT_NE(all.find("depth of field: off (the scene's f/16 lens is traced as a pinhole at 200x200 px"),
+            std::string::npos)
       << all;
 }
 
@@ -149,17 +150,21 @@ TEST(Effects, SpecularOnlyWhenAMirrorIsThere) {
 
 // A closed cube (shared vertices, every edge on two faces) around a small mirror.
 json sealedMirrorScene(const test::TempDir& dir, bool closed, const std::vector<double>& cameraAt) {
-  std::string obj = "v -0.5 -0.5 -0.5\nv 0.5 -0.5 -0.5\nv 0.5 0.5 -0.5\nv -0.5 0.5 -0.5\n"
-                    "v -0.5 -0.5 0.5\nv 0.5 -0.5 0.5\nv 0.5 0.5 0.5\nv -0.5 0.5 0.5\n"
-                    "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 4 7 3\nf 4 8 7\nf 1 5 8\nf 1 8 4\n";
+  std::string obj =
+      "v -0.5 -0.5 -0.5\nv 0.5 -0.5 -0.5\nv 0.5 0.5 -0.5\nv -0.5 0.5 -0.5\n"
+      "v -0.5 -0.5 0.5\nv 0.5 -0.5 0.5\nv 0.5 0.5 0.5\nv -0.5 0.5 0.5\n"
+      "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 4 7 3\nf 4 8 7\nf 1 5 8\nf 1 8 4\n";
   if (closed) obj += "f 2 3 7\nf 2 7 6\n";  // without these two, the cube is open on one side
   dir.write("cube.obj", obj);
   json scene = test::minimalSceneJson();
   scene["materials"]["mirror"] = {{"type", "mirror"}};
   scene["camera"]["position"] = cameraAt;
   scene["shapes"].push_back({{"type", "obj"}, {"file", "cube.obj"}, {"material", "white"}});
-  scene["shapes"].push_back({{"type", "quad"}, {"corner", {-0.1, -0.1, 0}}, {"edge1", {0.2, 0, 0}},
-                             {"edge2", {0, 0.2, 0}}, {"material", "mirror"}});
+  scene["shapes"].push_back({{"type", "quad"},
+                             {"corner", {-0.1, -0.1, 0}},
+                             {"edge1", {0.2, 0, 0}},
+                             {"edge2", {0, 0.2, 0}},
+                             {"material", "mirror"}});
   return scene;
 }
 
@@ -176,8 +181,9 @@ TEST(Effects, AMirrorNoRayCanReachIsNotSimulated) {
   const Scene inside = test::loadSceneJson(dir, sealedMirrorScene(dir, true, {0.2, 0.2, -0.3}), "inside.json");
   EXPECT_TRUE(analyzeEffects(inside, inside.camera()).specular) << "the camera is in the box with the mirror";
   // A closed box that lets paths through is no wall: glass, a medium's interface, subsurface.
-  for (const json& wall : {json{{"type", "dielectric"}, {"ior", 1.5}}, json{{"type", "interface"}, {"interior_medium", "fog"}},
-                           json{{"type", "subsurface"}, {"mean_free_path", 0.1}}}) {
+  for (const json& wall :
+       {json{{"type", "dielectric"}, {"ior", 1.5}}, json{{"type", "interface"}, {"interior_medium", "fog"}},
+        json{{"type", "subsurface"}, {"mean_free_path", 0.1}}}) {
     json scene = sealedMirrorScene(dir, true, {0, 0, -3});
     scene["media"] = {{"fog", {{"sigma_s", 0.1}}}};
     scene["materials"]["wall"] = wall;
@@ -252,15 +258,20 @@ TEST(Effects, ALightThatEmitsNothingIntoTheSceneIsAWarning) {
     json glow = test::minimalSceneJson();
     glow["lights"] = json::array();
     glow["materials"]["glow"] = {{"type", "emissive"}, {"radiance", 3}};
-    glow["shapes"].push_back({{"type", "obj"}, {"name", "ball"}, {"file", file}, {"material", "glow"},
+    glow["shapes"].push_back({{"type", "obj"},
+                              {"name", "ball"},
+                              {"file", file},
+                              {"material", "glow"},
                               {"transform", {{"scale", 0.5}, {"translate", {0, 2, -1}}}}});
     const Scene s = test::loadSceneJson(dir, glow);
     const EffectSet e = analyzeEffects(s, s.camera());
     const RenderScene rs(s);
     if (std::string(file) == "inward.obj") {
       ASSERT_EQ(e.warnings().size(), 1u);
-      EXPECT_EQ(e.warnings()[0], "emissive material \"glow\" (shape \"ball\") faces only into the closed mesh it lies "
-                                 "on, where neither the camera nor any other surface is" + why);
+      EXPECT_EQ(e.warnings()[0],
+                "emissive material \"glow\" (shape \"ball\") faces only into the closed mesh it lies "
+                "on, where neither the camera nor any other surface is" +
+                    why);
       EXPECT_FALSE(e.lightSampling);
       EXPECT_EQ(rs.lights().size(), 0u);
     } else {

@@ -20,9 +20,9 @@
 #include "common/farm/memory_estimate.h"
 #include "common/render/render_scene.h"
 #include "common/render/shading_point.h"
+#include "common/util/error.h"
 #include "tests/support/gltf_builder.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {
@@ -129,10 +129,14 @@ json sceneAround(const std::string& file, bool instancing, int resolution = 32) 
             {"position", {at.x + 1.0, at.y + 3.0, at.z + 12.0}},
             {"look_at", {at.x, at.y, at.z}},
             {"angle_of_view", 50}}},
-          {"render", {{"resolution", {resolution, resolution}}, {"samples_per_pixel", 16}, {"max_bounces", 4}, {"seed", 1}}},
+          {"render",
+           {{"resolution", {resolution, resolution}}, {"samples_per_pixel", 16}, {"max_bounces", 4}, {"seed", 1}}},
           {"materials", {{"floor", {{"type", "lambertian"}, {"albedo", 0.6}}}}},
           {"shapes",
-           {{{"type", "gltf"}, {"file", file}, {"instancing", instancing}, {"transform", {{"translate", {at.x, at.y, at.z}}}}},
+           {{{"type", "gltf"},
+             {"file", file},
+             {"instancing", instancing},
+             {"transform", {{"translate", {at.x, at.y, at.z}}}}},
             {{"type", "quad"},
              {"material", "floor"},
              {"corner", {at.x - 20, at.y - 3, at.z + 20}},
@@ -178,8 +182,8 @@ TEST(Instancing, ASharedMeshIsStoredOnceAndPlacedByEachNode) {
   EXPECT_TRUE(copied.prototypes.empty() && copied.instances.empty());
   EXPECT_EQ(storedTriangles(copied), 6 * sphere + 4);
   EXPECT_EQ(instanced.instances[3].mirrors, false);
-  EXPECT_EQ(instanced.instances[2].mirrors, true);   // scale -1 in x
-  EXPECT_EQ(instanced.instances[4].mirrors, true);   // scale -0.6 in x
+  EXPECT_EQ(instanced.instances[2].mirrors, true);  // scale -1 in x
+  EXPECT_EQ(instanced.instances[4].mirrors, true);  // scale -0.6 in x
 }
 
 TEST(Instancing, InstancesGiveTheHitsOfCopiesRayByRay) {
@@ -280,7 +284,8 @@ TEST(Instancing, SpawnedRaysNeverHitTheirOwnInstancedTriangle) {
       const auto next = rs.caster().intersect(from, w, RayKind::kScattered);
       ++spawned;
       if (next && next->instance == hit->instance && next->triangle == hit->triangle) {
-        if (selfHits++ == 0) first = "a self-hit at t " + std::to_string(next->t) + ", margin " + std::to_string(hit->margin);
+        if (selfHits++ == 0)
+          first = "a self-hit at t " + std::to_string(next->t) + ", margin " + std::to_string(hit->margin);
       }
       const float along = 1e-3f;  // a shadow ray to just beyond the spawn point must not be blocked
       if (rs.caster().occluded(from, w, along) && !(next && next->t < along)) {
@@ -332,10 +337,11 @@ TEST(Instancing, AThousandInstancesHoldTheMeshOnce) {
   ASSERT_EQ(oneScene.instances.size(), 0u);  // one use: an ordinary mesh
   ASSERT_EQ(thousandScene.instances.size(), 1000u);
   const Figures one = measure(oneScene), thousand = measure(thousandScene), copies = measure(copiesScene);
-  std::cout << "sphere of " << sphere.triangles() << " triangles: placed once: " << one.triangles << " triangles, Embree "
-            << one.embree << " B, job estimate " << one.estimate << " B; 1000 instances: " << thousand.triangles
-            << " triangles, Embree " << thousand.embree << " B, estimate " << thousand.estimate << " B; 1000 copies: "
-            << copies.triangles << " triangles, Embree " << copies.embree << " B, estimate " << copies.estimate << " B\n";
+  std::cout << "sphere of " << sphere.triangles() << " triangles: placed once: " << one.triangles
+            << " triangles, Embree " << one.embree << " B, job estimate " << one.estimate
+            << " B; 1000 instances: " << thousand.triangles << " triangles, Embree " << thousand.embree
+            << " B, estimate " << thousand.estimate << " B; 1000 copies: " << copies.triangles << " triangles, Embree "
+            << copies.embree << " B, estimate " << copies.estimate << " B\n";
   RecordProperty("embree_bytes_one", std::to_string(one.embree));
   RecordProperty("embree_bytes_1000_instances", std::to_string(thousand.embree));
   RecordProperty("embree_bytes_1000_copies", std::to_string(copies.embree));
@@ -405,7 +411,8 @@ TEST(Instancing, AnInstanceBeyondRenderSpaceIsRefusedByName) {
   test::Builder b;
   addMaterials(b);
   Sphere(4, 8).addTo(b, 0);
-  b.doc["nodes"] = json::array({node(0, {{"name", "near"}}), node(0, {{"name", "runaway"}, {"translation", {1e300, 0, 0}}})});
+  b.doc["nodes"] =
+      json::array({node(0, {{"name", "near"}}), node(0, {{"name", "runaway"}, {"translation", {1e300, 0, 0}}})});
   b.doc["scenes"] = {{{"nodes", {0, 1}}}};
   write(dir, "runaway.glb", b.glb());
   try {

@@ -183,8 +183,8 @@ TEST(ImageOrientation, WhatIsUpperLeftInTheSceneIsUpperLeftInTheImage) {
   // Camera looks along +z with up = +y, so its right is -x: the view's upper left is x > 0, y > 0.
   test::TempDir dir;
   json scene = test::minimalSceneJson();
-  scene["lights"][0] = {{"type", "quad"}, {"corner", {0.4, 0.4, -0.5}}, {"edge1", {0.4, 0, 0}},
-                        {"edge2", {0, 0.4, 0}}, {"radiance", 50}, {"two_sided", true}};
+  scene["lights"][0] = {{"type", "quad"}, {"corner", {0.4, 0.4, -0.5}}, {"edge1", {0.4, 0, 0}}, {"edge2", {0, 0.4, 0}},
+                        {"radiance", 50}, {"two_sided", true}};
   scene["render"]["resolution"] = {20, 20};
   scene["render"]["max_bounces"] = 0;  // only what the camera sees directly
   const Rendered r = renderAll(test::loadSceneJson(dir, scene));

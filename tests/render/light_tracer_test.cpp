@@ -24,7 +24,7 @@ using nlohmann::json;
 // A diffuse floor and back wall, a mirror wall at x = -1 and a light 10 cm from
 // it facing the floor: most of the floor's light near the mirror arrives light
 // -> mirror -> floor.
-json causticScene(const std::string &mirrorType, const json &camera) {
+json causticScene(const std::string& mirrorType, const json& camera) {
   json j = json::parse(R"({
     "format": "lensfarm-scene/1",
     "camera": { "type": "pinhole", "position": [0, 0.2, -3], "look_at": [0, -0.3, 0], "up": [0, 1, 0],
@@ -40,13 +40,11 @@ json causticScene(const std::string &mirrorType, const json &camera) {
     "render": { "resolution": [24, 24], "samples_per_pixel": 64, "max_bounces": 2, "seed": 7 }
   })");
   j["materials"]["glass"]["type"] = mirrorType;
-  for (auto it = camera.begin(); it != camera.end(); ++it)
-    j["camera"][it.key()] = it.value();
+  for (auto it = camera.begin(); it != camera.end(); ++it) j["camera"][it.key()] = it.value();
   return j;
 }
 
-Scene withMode(const test::TempDir &dir, json j, const std::string &mode,
-               const std::string &name) {
+Scene withMode(const test::TempDir& dir, json j, const std::string& mode, const std::string& name) {
   j["render"]["light_tracing"] = mode;
   return test::loadSceneJson(dir, j, name + "-" + mode + ".json");
 }
@@ -54,66 +52,51 @@ Scene withMode(const test::TempDir &dir, json j, const std::string &mode,
 // The combined estimator (light tracing on) against the path tracer alone: the
 // project's test that two estimates are of one image (per-pixel z-test and
 // image means).
-void expectAgreement(const test::TempDir &dir, const json &j,
-                     const std::string &name, int renders = 16) {
-  const Scene on = withMode(dir, j, "on", name),
-              off = withMode(dir, j, "off", name);
+void expectAgreement(const test::TempDir& dir, const json& j, const std::string& name, int renders = 16) {
+  const Scene on = withMode(dir, j, "on", name), off = withMode(dir, j, "off", name);
   ASSERT_TRUE(RenderScene(on).lightTracing()) << name;
   ASSERT_FALSE(RenderScene(off).lightTracing()) << name;
   SCOPED_TRACE(name);
-  test::expectSameImage(test::renderStatistics(on, renders),
-                        test::renderStatistics(off, renders));
+  test::expectSameImage(test::renderStatistics(on, renders), test::renderStatistics(off, renders));
 }
 
 TEST(LightTracer, AgreesWithThePathTracerThroughAMirror) {
   test::TempDir dir;
-  expectAgreement(dir, causticScene("mirror", json::object()),
-                  "mirror-pinhole");
+  expectAgreement(dir, causticScene("mirror", json::object()), "mirror-pinhole");
 }
 
-TEST(LightTracer,
-     AgreesThroughARippledMirrorWithALensAndBladesWhenMirrorBouncesCount) {
+TEST(LightTracer, AgreesThroughARippledMirrorWithALensAndBladesWhenMirrorBouncesCount) {
   test::TempDir dir;
-  json j = causticScene("rippled_mirror", json{{"type", "thin_lens"},
-                                               {"f_number", 1.4},
-                                               {"focus_distance", 0.5},
-                                               {"aperture_blades", 6}});
+  json j =
+      causticScene("rippled_mirror",
+                   json{{"type", "thin_lens"}, {"f_number", 1.4}, {"focus_distance", 0.5}, {"aperture_blades", 6}});
   j["materials"]["glass"]["ripple"] = 0.1;
   j["render"]["mirror_bounces_count"] = true;
   j["render"]["max_bounces"] = 3;
-  ASSERT_TRUE(RenderScene(withMode(dir, j, "on", "dof")).effects().depthOfField)
-      << "the lens must be sampled";
+  ASSERT_TRUE(RenderScene(withMode(dir, j, "on", "dof")).effects().depthOfField) << "the lens must be sampled";
   expectAgreement(dir, j, "rippled-lens-counted");
 }
 
 TEST(LightTracer, AgreesOnTheShippedScenesWithMirrorCaustics) {
   test::TempDir dir;
   std::vector<std::string> caustics;
-  for (const auto &entry :
-       std::filesystem::directory_iterator(test::scenesDir())) {
-    if (entry.path().extension() != ".json")
-      continue;
+  for (const auto& entry : std::filesystem::directory_iterator(test::scenesDir())) {
+    if (entry.path().extension() != ".json") continue;
     const std::string name = entry.path().filename().string();
     json j = test::bundledSceneJson(name);
     if (j.contains("environment") && j["environment"].contains("file"))
-      j["environment"]["file"] =
-          (test::scenesDir() / j["environment"]["file"].get<std::string>())
-              .string();
+      j["environment"]["file"] = (test::scenesDir() / j["environment"]["file"].get<std::string>()).string();
     j["render"]["resolution"] = {24, 24};
     j["render"]["samples_per_pixel"] = 64;
     j["render"].erase("samples_per_unit");
     j["render"].erase("tile_size");
     const RenderScene rs(test::loadSceneJson(dir, j, "auto.json"));
-    EXPECT_FALSE(rs.lightTracing())
-        << name
-        << ": auto leaves it off (it does not pay, docs/performance.md)";
-    if (!rs.effects().mirrorCaustics || rs.realCamera())
-      continue;
+    EXPECT_FALSE(rs.lightTracing()) << name << ": auto leaves it off (it does not pay, docs/performance.md)";
+    if (!rs.effects().mirrorCaustics || rs.realCamera()) continue;
     caustics.push_back(name);
     expectAgreement(dir, j, name);
   }
-  EXPECT_EQ(caustics, std::vector<std::string>{"cornell-seed.json"})
-      << "the seed is the one shipped thin-lens scene";
+  EXPECT_EQ(caustics, std::vector<std::string>{"cornell-seed.json"}) << "the seed is the one shipped thin-lens scene";
 }
 
 TEST(LightTracer, ForcedOnADiffuseSceneChangesNothingButAgrees) {
@@ -131,14 +114,13 @@ TEST(LightTracer, SameBitsForAnyThreadCountAndUnitSplit) {
   j["render"]["samples_per_pixel"] = 4;
   j["render"]["samples_per_unit"] = 2;
   j["render"]["light_tracing"] = "on";
-  j["render"]["light_tracing_ratio"] = 4.0; // several chunks per unit
+  j["render"]["light_tracing_ratio"] = 4.0;  // several chunks per unit
   const Scene scene = test::loadSceneJson(dir, j);
   const RenderScene rs(scene);
   ASSERT_TRUE(rs.lightTracing());
   ASSERT_GT(lightPathsOf(rs, 2), 2 * kChunkParticles);
   std::vector<std::vector<float>> images;
-  for (int threads : {1, 2, 3})
-    images.push_back(test::renderScene(scene, threads).image.rgb);
+  for (int threads : {1, 2, 3}) images.push_back(test::renderScene(scene, threads).image.rgb);
   EXPECT_EQ(images[0], images[1]);
   EXPECT_EQ(images[0], images[2]);
   // The units of the job, rendered one by one into a sensor, are the job (what
@@ -167,43 +149,35 @@ TEST(LightTracer, LowersTheVarianceOfTheSeedCaustic) {
   json j = test::bundledSceneJson("cornell-seed.json");
   j["render"]["resolution"] = {32, 32};
   j["render"]["samples_per_pixel"] = 16;
-  j["render"]["light_tracing_ratio"] =
-      1.0; // (0.25, the default: 1.03; 4: 1.29)
+  j["render"]["light_tracing_ratio"] = 1.0;  // (0.25, the default: 1.03; 4: 1.29)
   const auto on = test::renderStatistics(withMode(dir, j, "on", "seed"), 16);
   const auto off = test::renderStatistics(withMode(dir, j, "off", "seed"), 16);
   double vOn = 0, vOff = 0, allOn = 0, allOff = 0;
   size_t touched = 0;
   for (size_t k = 0; k < off.variance.size(); ++k) {
     allOn += on.variance[k], allOff += off.variance[k];
-    if (on.mean[k] == off.mean[k])
-      continue;
+    if (on.mean[k] == off.mean[k]) continue;
     vOn += on.variance[k], vOff += off.variance[k];
     ++touched;
   }
-  std::printf("seed caustic, 32x32, 16 spp, 1 light path per camera path, 16 "
-              "renders: variance off / on %.2f "
-              "over the %zu pixel-channels light tracing "
-              "touches, %.2f over the image\n",
-              vOff / vOn, touched, allOff / allOn);
+  std::printf(
+      "seed caustic, 32x32, 16 spp, 1 light path per camera path, 16 "
+      "renders: variance off / on %.2f "
+      "over the %zu pixel-channels light tracing "
+      "touches, %.2f over the image\n",
+      vOff / vOn, touched, allOff / allOn);
   EXPECT_GT(touched, off.variance.size() / 4);
   EXPECT_GT(vOff / vOn, 1.15);
 }
 
 TEST(LightTracer, TheAnalysisFindsTheCausticAndTheSettingForcesIt) {
   test::TempDir dir;
-  const auto decide = [&](json j) {
-    return RenderScene(test::loadSceneJson(dir, j)).lightTracing();
-  };
+  const auto decide = [&](json j) { return RenderScene(test::loadSceneJson(dir, j)).lightTracing(); };
   json seed = test::bundledSceneJson("cornell-seed.json");
-  EXPECT_FALSE(decide(seed))
-      << "auto: the caustic is found, but binary weights do not pay";
-  EXPECT_TRUE(
-      RenderScene(test::loadSceneJson(dir, seed)).effects().mirrorCaustics);
+  EXPECT_FALSE(decide(seed)) << "auto: the caustic is found, but binary weights do not pay";
+  EXPECT_TRUE(RenderScene(test::loadSceneJson(dir, seed)).effects().mirrorCaustics);
   EXPECT_FALSE(
-      RenderScene(test::loadSceneJson(
-                      dir, test::bundledSceneJson("cornell-classic.json")))
-          .effects()
-          .mirrorCaustics);
+      RenderScene(test::loadSceneJson(dir, test::bundledSceneJson("cornell-classic.json"))).effects().mirrorCaustics);
   seed["render"]["light_tracing"] = "on";
   EXPECT_TRUE(decide(seed));
   json classic = test::bundledSceneJson("cornell-classic.json");
@@ -228,15 +202,13 @@ TEST(LightTracer, TheAnalysisFindsTheCausticAndTheSettingForcesIt) {
       {
         try {
           test::loadSceneJson(dir, bad);
-        } catch (const std::exception &e) {
-          EXPECT_NE(std::string(e.what()).find("render.light_tracing"),
-                    std::string::npos)
-              << e.what();
+        } catch (const std::exception& e) {
+          EXPECT_NE(std::string(e.what()).find("render.light_tracing"), std::string::npos) << e.what();
           throw;
         }
       },
       std::exception);
 }
 
-} // namespace
-} // namespace lensfarm
+}  // namespace
+}  // namespace lensfarm

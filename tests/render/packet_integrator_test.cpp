@@ -45,9 +45,10 @@ void expectPacketsEqualSinglePaths(const RenderScene& rs, const std::vector<Lane
     packet.count = int(std::min<size_t>(size_t(width), lanes.size() - first));
     for (int k = 0; k < packet.count; ++k) {
       const Lane& lane = lanes[first + size_t(k)];
-      packet.rng[k] = SampleStream(sampler, uint64_t(lane.j) * uint64_t(camera.width()) + uint64_t(lane.i), lane.sample);
-      packet.cameraRays.set(k, camera.generateRay(lane.i, lane.j, packet.rng[k].get2D(dims::kSensor),
-                                                  packet.rng[k].get2D(dims::kLens)));
+      packet.rng[k] =
+          SampleStream(sampler, uint64_t(lane.j) * uint64_t(camera.width()) + uint64_t(lane.i), lane.sample);
+      packet.cameraRays.set(
+          k, camera.generateRay(lane.i, lane.j, packet.rng[k].get2D(dims::kSensor), packet.rng[k].get2D(dims::kLens)));
     }
     Spectrum radiance[kPacketWidth];
     tracePacket<kNee, kSpecular>(rs, packet, radiance, packetStats);
@@ -131,8 +132,11 @@ TEST(PacketIntegrator, EveryLaneGivesTheSinglePathBitsWithGlossyMetalGlassAndPri
     scene["render"]["max_bounces"] = 4;
     scene["shapes"][1]["file"] = (test::scenesDir() / "meshes/sphere.obj").string();
     scene["materials"]["yellow"] = {{"type", "conductor"}, {"metal", "Au"}, {"roughness", 0.4}};
-    scene["materials"]["cyan"] = {{"type", "principled"}, {"base_color", {0.2, 0.7, 0.7}}, {"metallic", 0.3},
-                                  {"roughness", 0.5}, {"transmission", 0.4}};
+    scene["materials"]["cyan"] = {{"type", "principled"},
+                                  {"base_color", {0.2, 0.7, 0.7}},
+                                  {"metallic", 0.3},
+                                  {"roughness", 0.5},
+                                  {"transmission", 0.4}};
     scene["materials"]["blue"] = {{"type", "dielectric"}, {"ior", 1.4}, {"roughness", 0.3}};
     test::TempDir dir;
     const Scene loaded = test::loadSceneJson(dir, scene);
@@ -155,14 +159,19 @@ json withEveryKindOfLight(json scene, const test::TempDir& dir) {
   scene["camera"]["position"] = {0, 0, -4.5};
   Image sky;
   sky.width = 8, sky.height = 4;
-  for (int k = 0; k < 32; ++k) sky.rgb.insert(sky.rgb.end(), {0.5f + 0.1f * float(k % 5), 0.7f, 1.0f + 0.2f * float(k % 3)});
+  for (int k = 0; k < 32; ++k)
+    sky.rgb.insert(sky.rgb.end(), {0.5f + 0.1f * float(k % 5), 0.7f, 1.0f + 0.2f * float(k % 3)});
   writeExr(dir / "sky.exr", sky, ImageMetadata{});
-  for (const json& light : json::array({
-           {{"type", "point"}, {"position", {0.3, 0.2, 0}}, {"intensity", {1, 0.8, 0.6}}},
-           {{"type", "spot"}, {"position", {-0.5, -0.8, -0.2}}, {"look_at", {0, 1, 0.3}}, {"intensity", 2},
-            {"cone_angle", 30}, {"falloff_start", 20}},
-           {{"type", "directional"}, {"direction", {0.2, -0.3, -1}}, {"irradiance", 0.5}},
-           {{"type", "directional"}, {"direction", {-0.3, -0.1, -1}}, {"irradiance", 0.7}, {"angular_diameter", 8}}}))
+  for (const json& light : json::array(
+           {{{"type", "point"}, {"position", {0.3, 0.2, 0}}, {"intensity", {1, 0.8, 0.6}}},
+            {{"type", "spot"},
+             {"position", {-0.5, -0.8, -0.2}},
+             {"look_at", {0, 1, 0.3}},
+             {"intensity", 2},
+             {"cone_angle", 30},
+             {"falloff_start", 20}},
+            {{"type", "directional"}, {"direction", {0.2, -0.3, -1}}, {"irradiance", 0.5}},
+            {{"type", "directional"}, {"direction", {-0.3, -0.1, -1}}, {"irradiance", 0.7}, {"angular_diameter", 8}}}))
     scene["lights"].push_back(light);
   scene["environment"] = {{"file", "sky.exr"}, {"strength", 0.5}, {"rotation", 20}};
   return scene;

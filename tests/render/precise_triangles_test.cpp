@@ -26,12 +26,21 @@ json floorScene(double size) {
           {"camera", {{"type", "pinhole"}, {"position", {0, 1, 3}}, {"look_at", {0, 0.5, 0}}, {"angle_of_view", 50}}},
           {"materials", {{"white", {{"type", "lambertian"}, {"albedo", 0.7}}}}},
           {"shapes",
-           {{{"type", "quad"}, {"material", "white"}, {"corner", {-size / 2, 0, -size / 2}}, {"edge1", {0, 0, size}},
+           {{{"type", "quad"},
+             {"material", "white"},
+             {"corner", {-size / 2, 0, -size / 2}},
+             {"edge1", {0, 0, size}},
              {"edge2", {size, 0, 0}}},
-            {{"type", "quad"}, {"material", "white"}, {"corner", {-0.5, 0, 0}}, {"edge1", {1, 0, 0}},
+            {{"type", "quad"},
+             {"material", "white"},
+             {"corner", {-0.5, 0, 0}},
+             {"edge1", {1, 0, 0}},
              {"edge2", {0, 1, 0}}}}},
           {"lights",
-           {{{"type", "quad"}, {"corner", {-0.25, 2, -0.25}}, {"edge1", {0.5, 0, 0}}, {"edge2", {0, 0, 0.5}},
+           {{{"type", "quad"},
+             {"corner", {-0.25, 2, -0.25}},
+             {"edge1", {0.5, 0, 0}},
+             {"edge2", {0, 0, 0.5}},
              {"radiance", 10}}}}};
 }
 
@@ -67,8 +76,7 @@ TEST(PreciseTriangles, ARayFromAHugeFloorReachesTheLampJustAboveIt) {
     const RayCaster caster(scene);
     for (const float x : {-0.2f, 0.0f, 0.13f}) {
       const Vec3 below(x, -0.5f, -3.0f + 0.1f);  // render space: the camera at the origin
-      const auto floor = caster.intersect(below, glm::normalize(Vec3(0.0f, -1.0f, 0.2f)),
-                                          RayKind::kScattered);
+      const auto floor = caster.intersect(below, glm::normalize(Vec3(0.0f, -1.0f, 0.2f)), RayKind::kScattered);
       ASSERT_TRUE(floor) << size;
       EXPECT_NEAR(floor->p.y, -1.0f, 1e-6f) << "the hit point lies on the floor: " << size;
       EXPECT_LT(floor->margin, precise ? 1e-4f : 1e-2f) << size;

@@ -8,8 +8,8 @@
 #include <cmath>
 
 #include "common/render/unit_renderer.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -37,7 +37,8 @@ TEST(Roulette, EveryRuleKeepsTheFurnaceMeanOfAHighAlbedoBox) {
     for (const char* rule : {"off", "max", "throughput"}) {
       SCOPED_TRACE(std::string(integrator) + ", roulette " + rule);
       test::TempDir dir;
-      json scene = test::closedBoxSceneJson({{"type", "lambertian"}, {"albedo", a}, {"emission", 1.0}}, 24, 64, bounces);
+      json scene =
+          test::closedBoxSceneJson({{"type", "lambertian"}, {"albedo", a}, {"emission", 1.0}}, 24, 64, bounces);
       scene["render"]["integrator"] = integrator;
       scene["render"]["russian_roulette"] = rule;
       const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));

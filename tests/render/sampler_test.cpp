@@ -60,7 +60,8 @@ TEST(Sampler, LaneFormsGiveEachStreamsValuesBitForBit) {
       }
     }
     // Every dimension for Sobol; from kStratifiedDimensions on for the others.
-    EXPECT_EQ(compared, kPacketWidth * int(kind == SamplerKind::kSobol ? 40 : 40 - kStratifiedDimensions)) << samplerName(kind);
+    EXPECT_EQ(compared, kPacketWidth * int(kind == SamplerKind::kSobol ? 40 : 40 - kStratifiedDimensions))
+        << samplerName(kind);
   }
 }
 
@@ -70,21 +71,22 @@ TEST(Sampler, SobolReplicatePrefixesArePowerOfTwoNetsInEveryDimensionPair) {
   // (the even units, the odd units) is such a sequence.
   const SamplerSetup s = setup(SamplerKind::kSobol, 1 << 10, 32);
   for (int replicate : {0, 1})
-  for (uint64_t pixel : {3ull, 999ull})
-    for (uint32_t dim : {dims::kSensor, dims::kLens, dims::segment(0) + dims::kMaterial, dims::segment(0) + dims::kLightPoint})
-      for (int m : {2, 4, 6, 8}) {
-        const uint32_t n = 1u << m;
-        for (int xBits = 0; xBits <= m; ++xBits) {
-          const int yBits = m - xBits;
-          std::set<uint32_t> boxes;
-          for (uint32_t i = 0; i < n; ++i) {
-            const Vec2 p = SampleStream(s, pixel, replicateSample(i, 32, replicate)).get2D(dim);
-            boxes.insert(uint32_t(p.x * float(1u << xBits)) << yBits | uint32_t(p.y * float(1u << yBits)));
+    for (uint64_t pixel : {3ull, 999ull})
+      for (uint32_t dim :
+           {dims::kSensor, dims::kLens, dims::segment(0) + dims::kMaterial, dims::segment(0) + dims::kLightPoint})
+        for (int m : {2, 4, 6, 8}) {
+          const uint32_t n = 1u << m;
+          for (int xBits = 0; xBits <= m; ++xBits) {
+            const int yBits = m - xBits;
+            std::set<uint32_t> boxes;
+            for (uint32_t i = 0; i < n; ++i) {
+              const Vec2 p = SampleStream(s, pixel, replicateSample(i, 32, replicate)).get2D(dim);
+              boxes.insert(uint32_t(p.x * float(1u << xBits)) << yBits | uint32_t(p.y * float(1u << yBits)));
+            }
+            ASSERT_EQ(boxes.size(), n) << "replicate " << replicate << " pixel " << pixel << " dim " << dim << " m "
+                                       << m << " x bits " << xBits;
           }
-          ASSERT_EQ(boxes.size(), n) << "replicate " << replicate << " pixel " << pixel << " dim " << dim << " m " << m
-                                     << " x bits " << xBits;
         }
-      }
 }
 
 TEST(Sampler, SobolReplicatesAreScrambledIndependently) {

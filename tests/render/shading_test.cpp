@@ -25,10 +25,18 @@ json quadScene(const json& lighting, uint64_t spp = 16) {
   json scene = {
       {"format", "lensfarm-scene/1"},
       {"camera",
-       {{"type", "pinhole"}, {"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}, {"sensor_width", 0.1}, {"focal_length", 0.1}}},
+       {{"type", "pinhole"},
+        {"position", {0, 0, -3}},
+        {"look_at", {0, 0, 0}},
+        {"sensor_width", 0.1},
+        {"focal_length", 0.1}}},
       {"materials", {{"white", {{"type", "lambertian"}, {"albedo", 0.5}}}}},
       {"shapes",
-       {{{"type", "quad"}, {"corner", {-1, -1, 0}}, {"edge1", {0, 2, 0}}, {"edge2", {2, 0, 0}}, {"material", "white"}}}},
+       {{{"type", "quad"},
+         {"corner", {-1, -1, 0}},
+         {"edge1", {0, 2, 0}},
+         {"edge2", {2, 0, 0}},
+         {"material", "white"}}}},
       {"render", {{"resolution", {kSide, kSide}}, {"samples_per_pixel", spp}, {"max_bounces", 1}, {"seed", 3}}}};
   for (auto it = lighting.begin(); it != lighting.end(); ++it) scene[it.key()] = it.value();
   return scene;
@@ -38,9 +46,7 @@ json quadScene(const json& lighting, uint64_t spp = 16) {
 // (-1,-1), (-1,1), (1,1), (1,-1). The camera's image has +y up and -x to the right, so the image's
 // top-left is world (1, 1). Texture coordinates that put the texture upright in the image:
 // (0, 0) at the top-left (texture/texture.h).
-void setUprightUv(TriangleMesh& mesh) {
-  mesh.uv[0] = {Vec2(1, 1), Vec2(1, 0), Vec2(0, 0), Vec2(0, 1)};
-}
+void setUprightUv(TriangleMesh& mesh) { mesh.uv[0] = {Vec2(1, 1), Vec2(1, 0), Vec2(0, 0), Vec2(0, 1)}; }
 
 // The mean radiance over image pixels [x0, x1) x [y0, y1).
 Spectrum meanOver(const Image& image, int x0, int y0, int x1, int y1) {
@@ -75,9 +81,11 @@ TEST(Shading, ATexturedQuadShowsEachTexelsColour) {
   image.width = image.height = 4;
   for (int y = 0; y < 4; ++y)
     for (int x = 0; x < 4; ++x)
-      image.texels.insert(image.texels.end(), {0.1f + 0.2f * float(x), 0.1f + 0.2f * float(y), 0.05f * float(x + y), 1.0f});
+      image.texels.insert(image.texels.end(),
+                          {0.1f + 0.2f * float(x), 0.1f + 0.2f * float(y), 0.05f * float(x + y), 1.0f});
   MaterialTextures t = diffuseTextures(Spectrum(1.0f));
-  t.baseColor.texture = std::make_shared<Texture>("checker", image, Wrap::kRepeat, Wrap::kRepeat, TextureFilter::kNearest);
+  t.baseColor.texture =
+      std::make_shared<Texture>("checker", image, Wrap::kRepeat, Wrap::kRepeat, TextureFilter::kNearest);
   scene.materials[0] = Material::textured("textured", std::make_shared<MaterialTextures>(t));
   setUprightUv(scene.meshes[0]);
   const test::Rendered r = test::renderScene(scene);
@@ -96,7 +104,8 @@ TEST(Shading, ATexturedQuadShowsEachTexelsColour) {
 // A directional light of irradiance pi from direction `toLight`: a Lambertian surface of albedo a
 // facing it has radiance a.
 json sun(const Vec3& toLight) {
-  return {{"lights", {{{"type", "directional"}, {"direction", {toLight.x, toLight.y, toLight.z}}, {"irradiance", kPi}}}}};
+  return {
+      {"lights", {{{"type", "directional"}, {"direction", {toLight.x, toLight.y, toLight.z}}, {"irradiance", kPi}}}}};
 }
 
 // The quad's radiance (mean over its central pixels) with vertex normals all `normal`.
@@ -164,8 +173,8 @@ TEST(Shading, AlphaMaskCutsTheSurfaceOutForEveryRay) {
   image.width = 2, image.height = 1;
   image.texels = {1, 1, 1, 0, 1, 1, 1, 1};
   MaterialTextures t = diffuseTextures(Spectrum(0.25f));
-  t.baseColor.texture = std::make_shared<Texture>("cut-out", image, Wrap::kClampToEdge, Wrap::kClampToEdge,
-                                                  TextureFilter::kNearest);
+  t.baseColor.texture =
+      std::make_shared<Texture>("cut-out", image, Wrap::kClampToEdge, Wrap::kClampToEdge, TextureFilter::kNearest);
   t.alphaMode = AlphaMode::kMask;
   scene.materials[0] = Material::textured("leaf", std::make_shared<MaterialTextures>(t));
   setUprightUv(scene.meshes[0]);
@@ -212,7 +221,8 @@ TEST(Principled, SpecularZeroWithoutMetalIsLambertian) {
   p.specular = 0.0f;
   const PrincipledBsdf bsdf(p);
   const Vec3 n(0, 0, 1), wo = glm::normalize(Vec3(0.3f, 0.1f, 0.9f));
-  for (const Vec3& wi : {Vec3(0, 0, 1), glm::normalize(Vec3(-0.3f, -0.1f, 0.9f)), glm::normalize(Vec3(0.9f, 0, 0.2f))}) {
+  for (const Vec3& wi :
+       {Vec3(0, 0, 1), glm::normalize(Vec3(-0.3f, -0.1f, 0.9f)), glm::normalize(Vec3(0.9f, 0, 0.2f))}) {
     const Spectrum f = bsdf.evalCos(n, wo, wi, true);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(f[c], p.baseColor[c] * wi.z / kPi, 1e-6f);
   }

@@ -27,11 +27,20 @@ json paneScene(const json* pane, int bounces = 1) {
             {"render", {{"resolution", {32, 32}}, {"samples_per_pixel", 16}, {"max_bounces", bounces}}},
             {"camera", {{"type", "pinhole"}, {"position", {0, 3, 4}}, {"look_at", {0, 0, 0}}, {"angle_of_view", 12}}},
             {"materials", {{"floor", {{"type", "lambertian"}, {"albedo", 0.5}}}}},
-            {"shapes", {{{"type", "quad"}, {"material", "floor"}, {"corner", {-5, 0, -5}}, {"edge1", {0, 0, 10}}, {"edge2", {10, 0, 0}}}}},
+            {"shapes",
+             {{{"type", "quad"},
+               {"material", "floor"},
+               {"corner", {-5, 0, -5}},
+               {"edge1", {0, 0, 10}},
+               {"edge2", {10, 0, 0}}}}},
             {"lights", {{{"type", "point"}, {"position", {0, 2, 0}}, {"intensity", 8}}}}};
   if (pane) {
     j["materials"]["pane"] = *pane;
-    j["shapes"].push_back({{"type", "quad"}, {"material", "pane"}, {"corner", {-0.5, 1, -0.5}}, {"edge1", {0, 0, 1}}, {"edge2", {1, 0, 0}}});
+    j["shapes"].push_back({{"type", "quad"},
+                           {"material", "pane"},
+                           {"corner", {-0.5, 1, -0.5}},
+                           {"edge1", {0, 0, 1}},
+                           {"edge2", {1, 0, 0}}});
   }
   return j;
 }
@@ -58,7 +67,11 @@ TEST(ThinWalls, APaneUnderAPointLightCastsAShadowOfItsTint) {
     Spectrum expected;  // straight transmittance at normal incidence
   } cases[] = {
       // glTF's thin-walled transmission: C (1 - F_d(0)) with the Schlick f0 of ior 1.5, 0.04.
-      {{{"type", "principled"}, {"base_color", {0.8, 0.6, 0.4}}, {"metallic", 0}, {"roughness", 0}, {"transmission", 1}},
+      {{{"type", "principled"},
+        {"base_color", {0.8, 0.6, 0.4}},
+        {"metallic", 0},
+        {"roughness", 0},
+        {"transmission", 1}},
        tint * 0.96f},
       // A dielectric pane: tint (1 - 2R / (1 + R)).
       {{{"type", "dielectric"}, {"transmittance", {0.8, 0.6, 0.4}}, {"ior", 1.5}, {"thin_walled", true}},
@@ -80,9 +93,10 @@ TEST(ThinWalls, ARoughOrSolidWallIsNoThinWall) {
   // Only the smooth thin-walled transmission is a straight crossing; a scene without one keeps
   // the surface tracers (it pays nothing).
   const test::TempDir dir;
-  for (const json& m : {json{{"type", "principled"}, {"roughness", 0.5}, {"transmission", 1}, {"metallic", 0}},
-                        json{{"type", "principled"}, {"roughness", 0}, {"transmission", 1}, {"metallic", 0}, {"thin_walled", false}},
-                        json{{"type", "dielectric"}, {"ior", 1.5}}, json{{"type", "lambertian"}, {"albedo", 0.5}}}) {
+  for (const json& m :
+       {json{{"type", "principled"}, {"roughness", 0.5}, {"transmission", 1}, {"metallic", 0}},
+        json{{"type", "principled"}, {"roughness", 0}, {"transmission", 1}, {"metallic", 0}, {"thin_walled", false}},
+        json{{"type", "dielectric"}, {"ior", 1.5}}, json{{"type", "lambertian"}, {"albedo", 0.5}}}) {
     const Scene s = test::loadSceneJson(dir, paneScene(&m));
     EXPECT_FALSE(analyzeEffects(s, s.camera()).thinWalls) << m.dump();
   }
@@ -93,11 +107,16 @@ TEST(ThinWalls, LightSamplingAndTheNaiveEstimatorAgreeThroughAPane) {
   // by paths that cross the pane, light sampling by shadow rays across it, each weighed by MIS
   // against the other: the same image.
   const test::TempDir dir;
-  json pane = {{"type", "principled"}, {"base_color", {0.9, 0.5, 0.3}}, {"metallic", 0}, {"roughness", 0}, {"transmission", 0.8}};
+  json pane = {{"type", "principled"},
+               {"base_color", {0.9, 0.5, 0.3}},
+               {"metallic", 0},
+               {"roughness", 0},
+               {"transmission", 0.8}};
   json j = paneScene(&pane, 3);
   j["render"]["resolution"] = {12, 12};
   j["render"]["samples_per_pixel"] = 256;
-  j["lights"] = {{{"type", "quad"}, {"corner", {-0.5, 2, -0.5}}, {"edge1", {1, 0, 0}}, {"edge2", {0, 0, 1}}, {"radiance", 10}}};
+  j["lights"] = {
+      {{"type", "quad"}, {"corner", {-0.5, 2, -0.5}}, {"edge1", {1, 0, 0}}, {"edge2", {0, 0, 1}}, {"radiance", 10}}};
   j["camera"]["angle_of_view"] = 20;
   Scene mis = test::loadSceneJson(dir, j);
   j["render"]["integrator"] = "naive";

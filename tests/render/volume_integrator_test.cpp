@@ -14,8 +14,8 @@
 
 #include "common/medium/medium.h"
 #include "common/render/render_scene.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -38,8 +38,8 @@ json boxShape(const std::array<double, 3>& lo, const std::array<double, 3>& hi, 
 // A pinhole camera at `position` looking at `target` with a field of view of about 1 degree, so
 // every pixel's ray makes nearly the same angle with the scene.
 json narrowCamera(const std::array<double, 3>& position, const std::array<double, 3>& target) {
-  return {{"type", "pinhole"}, {"position", position}, {"look_at", target}, {"up", {0, 0, 1}},
-          {"sensor_width", 0.002}, {"focal_length", 0.1}};
+  return {{"type", "pinhole"}, {"position", position},  {"look_at", target},
+          {"up", {0, 0, 1}},   {"sensor_width", 0.002}, {"focal_length", 0.1}};
 }
 
 json sceneWith(json camera, json media, json materials, json shapes, int resolution, uint64_t spp) {
@@ -48,8 +48,12 @@ json sceneWith(json camera, json media, json materials, json shapes, int resolut
           {"media", std::move(media)},
           {"materials", std::move(materials)},
           {"shapes", std::move(shapes)},
-          {"render", {{"resolution", {resolution, resolution}}, {"samples_per_pixel", spp}, {"max_bounces", 1},
-                      {"seed", 3}, {"russian_roulette", false}}}};
+          {"render",
+           {{"resolution", {resolution, resolution}},
+            {"samples_per_pixel", spp},
+            {"max_bounces", 1},
+            {"seed", 3},
+            {"russian_roulette", false}}}};
 }
 
 // An emitting quad of radiance 1 at y = -1 facing +y, seen from above through the box
@@ -57,8 +61,11 @@ json sceneWith(json camera, json media, json materials, json shapes, int resolut
 json slabOverLight(const json& medium, double thickness, double shift) {
   const auto at = [&](double x, double y, double z) { return std::array<double, 3>{x + shift, y + shift, z + shift}; };
   json shapes = json::array({boxShape(at(-50, 0, -50), at(50, thickness, 50), "boundary"),
-                             {{"type", "quad"}, {"material", "lamp"}, {"corner", at(-50, -1, -50)},
-                              {"edge1", {0, 0, 100}}, {"edge2", {100, 0, 0}}}});
+                             {{"type", "quad"},
+                              {"material", "lamp"},
+                              {"corner", at(-50, -1, -50)},
+                              {"edge1", {0, 0, 100}},
+                              {"edge2", {100, 0, 0}}}});
   json materials = {{"boundary", {{"type", "interface"}, {"interior_medium", "slab"}}},
                     {"lamp", {{"type", "emissive"}, {"radiance", 1.0}}}};
   return sceneWith(narrowCamera(at(0, 10, 0.001), at(0, 0, 0)), {{"slab", medium}}, materials, shapes, 8, 4);
@@ -71,7 +78,8 @@ TEST(VolumeTransmittance, AnAbsorbingSlabPassesExpMinusSigmaTDInEveryChannelAnyw
     test::TempDir dir;
     const json scene = slabOverLight({{"sigma_a", {sigma[0], sigma[1], sigma[2]}}}, d, shift);
     const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
-    for (int c = 0; c < 3; ++c) EXPECT_NEAR(r.mean[c], std::exp(-sigma[c] * d), 1e-3 * std::exp(-sigma[c] * d)) << shift;
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(r.mean[c], std::exp(-sigma[c] * d), 1e-3 * std::exp(-sigma[c] * d)) << shift;
   }
 }
 
@@ -82,7 +90,8 @@ TEST(VolumeTransmittance, ASlabInsideASlabReturnsToItsExteriorMedium) {
   test::TempDir dir;
   json scene = slabOverLight({{"sigma_a", 0.5}}, 1.0, 0.0);
   scene["media"]["inner"] = {{"sigma_a", 2.0}};
-  scene["materials"]["inner-boundary"] = {{"type", "interface"}, {"interior_medium", "inner"}, {"exterior_medium", "slab"}};
+  scene["materials"]["inner-boundary"] = {
+      {"type", "interface"}, {"interior_medium", "inner"}, {"exterior_medium", "slab"}};
   scene["shapes"].push_back(boxShape({-40, 0.3, -40}, {40, 0.6, 40}, "inner-boundary"));
   const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
   const double expected = std::exp(-0.5 * 0.7 - 2.0 * 0.3);
@@ -106,13 +115,15 @@ TEST(VolumeTransmittance, AnAbsorbingGridIsRatioTrackedWithoutBiasAnywhereInTheW
     const double d = 0.7;
     json grid = {{"type", "grid"},
                  {"bounds", {{-60 + shift, -0.5 + shift, -60 + shift}, {60 + shift, 0.35 + shift, 60 + shift}}},
-                 {"resolution", {2, 2, 2}}, {"density", {1, 1, 1, 1, 1, 1, 1, 1}}, {"sigma_a", {0.5, 1.0, 2.0}}};
+                 {"resolution", {2, 2, 2}},
+                 {"density", {1, 1, 1, 1, 1, 1, 1, 1}},
+                 {"sigma_a", {0.5, 1.0, 2.0}}};
     json scene = slabOverLight(grid, d, shift);
     // The grid's box reaches to y = 0.35, half the slab: the other half is clear.
     scene["render"]["samples_per_pixel"] = 64;
     const test::Rendered r = test::renderScene(test::loadSceneJson(dir, scene));
     const double sigma[3] = {0.5, 1.0, 2.0};
-      for (int c = 0; c < 3; ++c)
+    for (int c = 0; c < 3; ++c)
       EXPECT_NEAR(r.mean[c], std::exp(-sigma[c] * 0.35), 0.01 * std::exp(-sigma[c] * 0.35)) << "shift " << shift;
   }
 }
@@ -133,10 +144,15 @@ json sphereInEnvironment(const test::TempDir& dir, const json& materials, const 
     std::ofstream obj(dir.path() / "sphere.obj");
     obj << test::sphereObj(24, 48);
   }
-  json scene = sceneWith({{"type", "pinhole"}, {"position", {0, 0, -4}}, {"look_at", {0, 0, 0}}, {"up", {0, 1, 0}},
-                          {"sensor_width", 0.06}, {"focal_length", 0.1}},
-                         media, materials,
-                         json::array({{{"type", "obj"}, {"file", "sphere.obj"}, {"material", "skin"}}}), resolution, spp);
+  json scene =
+      sceneWith({{"type", "pinhole"},
+                 {"position", {0, 0, -4}},
+                 {"look_at", {0, 0, 0}},
+                 {"up", {0, 1, 0}},
+                 {"sensor_width", 0.06},
+                 {"focal_length", 0.1}},
+                media, materials, json::array({{{"type", "obj"}, {"file", "sphere.obj"}, {"material", "skin"}}}),
+                resolution, spp);
   scene["environment"] = {{"radiance", 1.0}};
   scene["render"]["max_medium_bounces"] = 65536;
   return scene;
@@ -214,8 +230,13 @@ TEST(VolumeSingleScattering, AThinSlabUnderASunMatchesTheAnalyticIntegralPerChan
     if (std::string(type) == "grid") {
       // The same medium as a density grid (spectral tracking instead of closed-form free flight),
       // with density 2 and half the coefficients.
-      medium = {{"type", "grid"}, {"bounds", {{-60, -1, -60}, {60, 1, 60}}}, {"resolution", {1, 1, 1}}, {"density", {2.0}},
-                {"sigma_s", {sigmaS[0] / 2, sigmaS[1] / 2, sigmaS[2] / 2}}, {"sigma_a", sigmaA / 2}, {"g", g}};
+      medium = {{"type", "grid"},
+                {"bounds", {{-60, -1, -60}, {60, 1, 60}}},
+                {"resolution", {1, 1, 1}},
+                {"density", {2.0}},
+                {"sigma_s", {sigmaS[0] / 2, sigmaS[1] / 2, sigmaS[2] / 2}},
+                {"sigma_a", sigmaA / 2},
+                {"g", g}};
     }
     Scene loaded = test::loadSceneJson(dir, singleScatteringScene(medium, d, theta));
     const test::ImageStatistics st = test::renderStatistics(loaded, 6);
@@ -236,8 +257,10 @@ TEST(Subsurface, AThickSlabShowsTheAlbedoItWasGiven) {
   test::TempDir dir;
   const double albedo[3] = {0.3, 0.55, 0.8};
   json scene = sceneWith(narrowCamera({0, 10, 0.001}, {0, 0, 0}), json::object(),
-                         {{"marble", {{"type", "subsurface"}, {"albedo", {albedo[0], albedo[1], albedo[2]}},
-                                      {"mean_free_path", {0.02, 0.05, 0.1}}}}},
+                         {{"marble",
+                           {{"type", "subsurface"},
+                            {"albedo", {albedo[0], albedo[1], albedo[2]}},
+                            {"mean_free_path", {0.02, 0.05, 0.1}}}}},
                          json::array({boxShape({-50, -50, -50}, {50, 0, 50}, "marble")}), 8, 64);
   scene.erase("media");
   scene["environment"] = {{"radiance", 1.0}};
@@ -249,10 +272,16 @@ TEST(Subsurface, AThickSlabShowsTheAlbedoItWasGiven) {
 
 TEST(VolumePaths, AreTheSameBitsForAnyThreadCount) {
   test::TempDir dir;
-  json scene = sphereInEnvironment(dir, {{"skin", {{"type", "dielectric"}, {"ior", 1.33}, {"interior_medium", "milk"}}}},
-                                   {{"milk", {{"type", "grid"}, {"bounds", {{-1, -1, -1}, {1, 1, 1}}}, {"resolution", {2, 2, 2}},
-                                              {"density", {0, 1, 2, 3, 4, 5, 6, 7}}, {"sigma_s", {1, 2, 3}}, {"g", 0.7}}}},
-                                   12, 4);
+  json scene =
+      sphereInEnvironment(dir, {{"skin", {{"type", "dielectric"}, {"ior", 1.33}, {"interior_medium", "milk"}}}},
+                          {{"milk",
+                            {{"type", "grid"},
+                             {"bounds", {{-1, -1, -1}, {1, 1, 1}}},
+                             {"resolution", {2, 2, 2}},
+                             {"density", {0, 1, 2, 3, 4, 5, 6, 7}},
+                             {"sigma_s", {1, 2, 3}},
+                             {"g", 0.7}}}},
+                          12, 4);
   scene["medium"] = "fog";
   scene["media"]["fog"] = {{"sigma_s", 0.02}, {"sigma_a", 0.01}};
   const Scene loaded = test::loadSceneJson(dir, scene);
@@ -345,7 +374,8 @@ TEST(VolumeInput, BadMediaAreRefusedNamingTheField) {
   expectFieldError(s, "materials.glass.exterior_medium");
 
   s = base;
-  s["media"]["haze"] = {{"type", "grid"}, {"bounds", {{0, 0, 0}, {1, 1, 1}}}, {"resolution", {2, 2, 2}}, {"density", {1, 2, 3}}};
+  s["media"]["haze"] = {
+      {"type", "grid"}, {"bounds", {{0, 0, 0}, {1, 1, 1}}}, {"resolution", {2, 2, 2}}, {"density", {1, 2, 3}}};
   expectFieldError(s, "media.haze.density");
   s["media"]["haze"]["density"] = {1, 1, 1, 1, 1, 1, 1, -1};
   expectFieldError(s, "media.haze.density[7]");

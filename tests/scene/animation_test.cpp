@@ -15,9 +15,9 @@
 
 #include "common/scene/keyframes.h"
 #include "common/scene/scene_loader.h"
+#include "common/util/error.h"
 #include "tests/scene/scene_error_fixture.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {
@@ -39,8 +39,9 @@ Scene parseAt(const json& scene, std::optional<double> frame) {
 
 // A camera dollying from z = -3 at frame 1 to z = -1 at frame 11, looking at the origin.
 json dollyScene() {
-  return sceneWith({{"position", nullptr},
-                    {"keyframes", {{{"frame", 1}, {"position", {0, 0, -3}}}, {{"frame", 11}, {"position", {0, 0, -1}}}}}});
+  return sceneWith(
+      {{"position", nullptr},
+       {"keyframes", {{{"frame", 1}, {"position", {0, 0, -3}}}, {{"frame", 11}, {"position", {0, 0, -1}}}}}});
 }
 
 TEST(Animation, CameraMovesLinearlyBetweenKeyframesAndHoldsBeyondThem) {
@@ -77,7 +78,7 @@ TEST(Animation, LensNumbersInterpolateLinearlyPerTrack) {
   const Scene at0 = parseAt(scene, 0), at5 = parseAt(scene, 5), at10 = parseAt(scene, 10), at20 = parseAt(scene, 20);
   EXPECT_EQ(at0.cameraParams.fNumber, 2.0);
   EXPECT_EQ(at0.cameraParams.focusDistance, 1.0);  // held before its first keyframe (5)
-  EXPECT_EQ(at5.cameraParams.fNumber, 5.0);         // half-way from 2 to 8
+  EXPECT_EQ(at5.cameraParams.fNumber, 5.0);        // half-way from 2 to 8
   EXPECT_EQ(at5.cameraParams.focusDistance, 1.0);
   EXPECT_EQ(at10.cameraParams.fNumber, 8.0);
   EXPECT_EQ(at10.cameraParams.focusDistance, 2.0);  // half-way from 1 to 3
@@ -150,12 +151,15 @@ TransformParts readParts(const json& transform) {
 
 // A triangle shape (in front of the quad) with `transform` or `keyframes`.
 json triangleShape(const char* key, const json& value) {
-  return {{"type", "triangles"}, {"material", "white"}, {"vertices", {{-0.5, -0.5, -1}, {0.5, -0.5, -1}, {0, 0.5, -1.2}}},
+  return {{"type", "triangles"},
+          {"material", "white"},
+          {"vertices", {{-0.5, -0.5, -1}, {0.5, -0.5, -1}, {0, 0.5, -1.2}}},
           {key, value}};
 }
 
 TEST(Animation, KeyframedShapeIsBitForBitTheStaticShapeWrittenByHand) {
-  const json rotated = {{"scale", 1.5}, {"rotate", {{"axis", {1, 2, 3}}, {"degrees", 33}}}, {"translate", {0.1, 0.2, 0.3}}};
+  const json rotated = {
+      {"scale", 1.5}, {"rotate", {{"axis", {1, 2, 3}}, {"degrees", 33}}}, {"translate", {0.1, 0.2, 0.3}}};
   const json keys = {
       {{"frame", 1}, {"transform", {{"rotate", {{"axis", {0, 1, 0}}, {"degrees", 30}}}}}},
       {{"frame", 5},
@@ -166,14 +170,15 @@ TEST(Animation, KeyframedShapeIsBitForBitTheStaticShapeWrittenByHand) {
   const json animated = sceneWith(json::object(), triangleShape("keyframes", keys));
   const auto expectStatic = [&](double frame, const json& transform) {
     SCOPED_TRACE(frame);
-    expectSameBits(allPositions(parseAt(animated, frame)),
-                   allPositions(parseAt(sceneWith(json::object(), triangleShape("transform", transform)), std::nullopt)));
+    expectSameBits(
+        allPositions(parseAt(animated, frame)),
+        allPositions(parseAt(sceneWith(json::object(), triangleShape("transform", transform)), std::nullopt)));
   };
   expectStatic(0, keys[0]["transform"]);  // held before
   expectStatic(1, keys[0]["transform"]);
   // Half-way from frame 5 to 9: scale 2, translate [1, 2, 3], the unchanged rotation as written.
   expectStatic(7, {{"scale", 2}, {"rotate", {{"axis", {0, 1, 0}}, {"degrees", 30}}}, {"translate", {1, 2, 3}}});
-  expectStatic(12, rotated);  // at a keyframe with a rotation of its own
+  expectStatic(12, rotated);   // at a keyframe with a rotation of its own
   expectStatic(100, rotated);  // held after
   // Between 9 and 12 the rotation is slerped: close to, not bit for bit, a hand computation.
   const Scene between = parseAt(animated, 10.5);
@@ -190,8 +195,8 @@ TEST(Animation, ShapeRotatedAQuarterTurnIsAnEighthTurnHalfWay) {
   // (1, 0, 0) is at (cos 45, sin 45, 0).
   const json keys = {{{"frame", 0}, {"transform", {{"rotate", {{"axis", {0, 0, 1}}, {"degrees", 0}}}}}},
                      {{"frame", 10}, {"transform", {{"rotate", {{"axis", {0, 0, 1}}, {"degrees", 90}}}}}}};
-  const json quad = {{"type", "quad"}, {"material", "white"}, {"corner", {1, 0, -1}}, {"edge1", {0, 0.5, 0}},
-                     {"edge2", {-0.5, 0, 0}}, {"keyframes", keys}};
+  const json quad = {{"type", "quad"},       {"material", "white"},   {"corner", {1, 0, -1}},
+                     {"edge1", {0, 0.5, 0}}, {"edge2", {-0.5, 0, 0}}, {"keyframes", keys}};
   const Scene s = parseAt(sceneWith(json::object(), quad), 5);
   ASSERT_EQ(s.meshes.size(), 3u);  // the quad, this quad, the light
   const Vec3 corner = s.meshes[1].positions[0];
@@ -208,9 +213,11 @@ TEST(Animation, ModelsAndQuadLightsAnimateToo) {
   const json moved = {{"translate", {0.25, 0.5, 0}}};
   json objShape = {{"type", "obj"}, {"file", "tri.obj"}, {"material", "white"}};
   json animated = sceneWith(json::object(), objShape);
-  animated["shapes"][1]["keyframes"] = {{{"frame", 0}, {"transform", json::object()}}, {{"frame", 2}, {"transform", {{"translate", {0.5, 1, 0}}}}}};
+  animated["shapes"][1]["keyframes"] = {{{"frame", 0}, {"transform", json::object()}},
+                                        {{"frame", 2}, {"transform", {{"translate", {0.5, 1, 0}}}}}};
   animated["lights"][0].erase("corner");
-  animated["lights"][0]["keyframes"] = {{{"frame", 0}, {"corner", {-0.5, -0.5, -1}}}, {{"frame", 2}, {"corner", {-0.5, -0.25, -1}}}};
+  animated["lights"][0]["keyframes"] = {{{"frame", 0}, {"corner", {-0.5, -0.5, -1}}},
+                                        {{"frame", 2}, {"corner", {-0.5, -0.25, -1}}}};
   json still = sceneWith(json::object(), objShape);
   still["shapes"][1]["transform"] = moved;
   still["lights"][0]["corner"] = {-0.5, -0.375, -1};
@@ -250,52 +257,65 @@ TEST(Animation, TheShippedAnimatedCornellBoxDolliesAndTurns) {
 class BadKeyframes : public test::SceneErrorTest {
  protected:
   BadKeyframes() : SceneErrorTest("anim.json") {}
-  std::string cameraKeys(const json& keys) const { return errorOf(sceneWith({{"keyframes", keys}, {"position", nullptr}})); }
-  std::string shapeKeys(const json& keys) const { return errorOf(sceneWith(json::object(), triangleShape("keyframes", keys))); }
+  std::string cameraKeys(const json& keys) const {
+    return errorOf(sceneWith({{"keyframes", keys}, {"position", nullptr}}));
+  }
+  std::string shapeKeys(const json& keys) const {
+    return errorOf(sceneWith(json::object(), triangleShape("keyframes", keys)));
+  }
 };
 
 TEST_F(BadKeyframes, EachNamesItsField) {
   EXPECT_TRUE(namesField(cameraKeys(json::array()), "camera.keyframes", {"non-empty array"}));
   EXPECT_TRUE(namesField(cameraKeys({{"frame", 1}}), "camera.keyframes", {"non-empty array"}));  // an object
   const json p = {0, 0, -3};
-  EXPECT_TRUE(namesField(cameraKeys({{{"frame", 1}, {"position", p}}, {{"frame", 5}, {"position", p}}, {{"frame", 3}, {"position", p}}}),
-                         "camera.keyframes[2].frame", {"3 is not after", "frame 5", "strictly increasing"}));
-  EXPECT_TRUE(namesField(cameraKeys({{{"frame", 1}, {"position", p}}, {{"frame", 1}, {"position", p}}}), "camera.keyframes[1].frame",
-                         {"not after"}));
+  EXPECT_TRUE(namesField(
+      cameraKeys({{{"frame", 1}, {"position", p}}, {{"frame", 5}, {"position", p}}, {{"frame", 3}, {"position", p}}}),
+      "camera.keyframes[2].frame", {"3 is not after", "frame 5", "strictly increasing"}));
+  EXPECT_TRUE(namesField(cameraKeys({{{"frame", 1}, {"position", p}}, {{"frame", 1}, {"position", p}}}),
+                         "camera.keyframes[1].frame", {"not after"}));
   EXPECT_TRUE(namesField(cameraKeys({{{"position", p}}}), "camera.keyframes[0].frame", {"is required"}));
-  EXPECT_TRUE(namesField(cameraKeys({{{"frame", "one"}, {"position", p}}}), "camera.keyframes[0].frame", {"must be a number"}));
-  EXPECT_TRUE(namesField(cameraKeys({{{"frame", 1}, {"position", p}}, {{"frame", 2}, {"zoom", 2}}}), "camera.keyframes[1].zoom",
-                         {"unknown field", "position", "f_number"}));
+  EXPECT_TRUE(
+      namesField(cameraKeys({{{"frame", "one"}, {"position", p}}}), "camera.keyframes[0].frame", {"must be a number"}));
+  EXPECT_TRUE(namesField(cameraKeys({{{"frame", 1}, {"position", p}}, {{"frame", 2}, {"zoom", 2}}}),
+                         "camera.keyframes[1].zoom", {"unknown field", "position", "f_number"}));
   EXPECT_TRUE(namesField(cameraKeys({{{"frame", 1}}}), "camera.keyframes[0]", {"gives no property", "look_at"}));
-  EXPECT_TRUE(namesField(cameraKeys({{{"frame", 1}, {"position", {0, 0}}}}), "camera.keyframes[0].position", {"3 numbers"}));
-  EXPECT_TRUE(namesField(cameraKeys({{{"frame", 1}, {"position", p}, {"focal_length", -1}}}), "camera.keyframes[0].focal_length",
-                         {"> 0"}));
-  EXPECT_TRUE(namesField(cameraKeys({{{"frame", 1}, {"position", p}, {"angle_of_view", 180}}}), "camera.keyframes[0].angle_of_view"));
+  EXPECT_TRUE(
+      namesField(cameraKeys({{{"frame", 1}, {"position", {0, 0}}}}), "camera.keyframes[0].position", {"3 numbers"}));
+  EXPECT_TRUE(namesField(cameraKeys({{{"frame", 1}, {"position", p}, {"focal_length", -1}}}),
+                         "camera.keyframes[0].focal_length", {"> 0"}));
+  EXPECT_TRUE(namesField(cameraKeys({{{"frame", 1}, {"position", p}, {"angle_of_view", 180}}}),
+                         "camera.keyframes[0].angle_of_view"));
   // A property both static and keyframed.
-  EXPECT_TRUE(namesField(errorOf(sceneWith({{"keyframes", {{{"frame", 1}, {"look_at", {0, 0, 0}}}}}})), "camera.look_at",
-                         {"keyframed too", "camera.keyframes"}));
+  EXPECT_TRUE(namesField(errorOf(sceneWith({{"keyframes", {{{"frame", 1}, {"look_at", {0, 0, 0}}}}}})),
+                         "camera.look_at", {"keyframed too", "camera.keyframes"}));
   // Numbers too large for a double (JSON allows 1e999) name the keyframe's field.
-  std::string text = sceneWith({{"keyframes", {{{"frame", 1}, {"position", {7, 0, -3}}}}}, {"position", nullptr}}).dump();
+  std::string text =
+      sceneWith({{"keyframes", {{{"frame", 1}, {"position", {7, 0, -3}}}}}, {"position", nullptr}}).dump();
   text.replace(text.find("7,0,-3"), 1, "1e999");
   EXPECT_TRUE(namesField(errorOfText(text), "camera.keyframes[0].position[0]", {"finite"}));
 }
 
 TEST_F(BadKeyframes, ShapeAndLightKeyframesNameTheirFields) {
   const json t = {{"translate", {0, 0, 0}}};
-  EXPECT_TRUE(namesField(shapeKeys({{{"frame", 0}, {"transform", {{"scale", {1, 0, 1}}}}}}), "shapes[1].keyframes[0].transform.scale",
-                         {"must not be zero"}));
-  EXPECT_TRUE(namesField(shapeKeys({{{"frame", 0}, {"transform", {{"scale", 1}}}}, {{"frame", 4}, {"transform", {{"scale", {1, -1, 1}}}}}}),
+  EXPECT_TRUE(namesField(shapeKeys({{{"frame", 0}, {"transform", {{"scale", {1, 0, 1}}}}}}),
+                         "shapes[1].keyframes[0].transform.scale", {"must not be zero"}));
+  EXPECT_TRUE(namesField(shapeKeys({{{"frame", 0}, {"transform", {{"scale", 1}}}},
+                                    {{"frame", 4}, {"transform", {{"scale", {1, -1, 1}}}}}}),
                          "shapes[1].keyframes[1].transform.scale", {"changes sign", "keyframes[0]", "zero"}));
-  EXPECT_TRUE(namesField(shapeKeys({{{"frame", 0}, {"transform", {{"rotate", {{"axis", {0, 0, 0}}, {"degrees", 9}}}}}}}),
-                         "shapes[1].keyframes[0].transform.rotate.axis", {"must not be zero"}));
+  EXPECT_TRUE(
+      namesField(shapeKeys({{{"frame", 0}, {"transform", {{"rotate", {{"axis", {0, 0, 0}}, {"degrees", 9}}}}}}}),
+                 "shapes[1].keyframes[0].transform.rotate.axis", {"must not be zero"}));
   EXPECT_TRUE(namesField(shapeKeys({{{"frame", 0}, {"translate", {1, 0, 0}}}}), "shapes[1].keyframes[0].translate",
                          {"unknown field", "transform"}));
-  EXPECT_TRUE(namesField(shapeKeys({{{"frame", 0}, {"transform", {{"shear", 1}}}}}), "shapes[1].keyframes[0].transform.shear"));
+  EXPECT_TRUE(
+      namesField(shapeKeys({{{"frame", 0}, {"transform", {{"shear", 1}}}}}), "shapes[1].keyframes[0].transform.shear"));
   json both = sceneWith(json::object(), triangleShape("transform", t));
   both["shapes"][1]["keyframes"] = {{{"frame", 0}, {"transform", t}}};
   EXPECT_TRUE(namesField(errorOf(both), "shapes[1].transform", {"keyframed too"}));
   json sun = test::minimalSceneJson();
-  sun["lights"].push_back({{"type", "directional"}, {"direction", {0, 1, 0}}, {"irradiance", 1}, {"keyframes", {{{"frame", 0}}}}});
+  sun["lights"].push_back(
+      {{"type", "directional"}, {"direction", {0, 1, 0}}, {"irradiance", 1}, {"keyframes", {{{"frame", 0}}}}});
   EXPECT_TRUE(namesField(errorOf(sun), "lights[1].keyframes", {"directional light cannot be keyframed"}));
   json lamp = test::minimalSceneJson();
   lamp["lights"][0]["keyframes"] = {{{"frame", 0}, {"radiance", 2}}};
@@ -309,8 +329,9 @@ TEST_F(BadKeyframes, ShapeAndLightKeyframesNameTheirFields) {
 TEST_F(BadKeyframes, AnEvaluatedCameraIsCheckedLikeAWrittenOne) {
   // look_at passes through the camera's position at frame 5: that frame names camera.look_at,
   // the others load.
-  const json scene = sceneWith(
-      {{"look_at", nullptr}, {"keyframes", {{{"frame", 0}, {"look_at", {0, 0, -4}}}, {{"frame", 10}, {"look_at", {0, 0, -2}}}}}});
+  const json scene =
+      sceneWith({{"look_at", nullptr},
+                 {"keyframes", {{{"frame", 0}, {"look_at", {0, 0, -4}}}, {{"frame", 10}, {"look_at", {0, 0, -2}}}}}});
   EXPECT_NO_THROW(parseAt(scene, 4));
   try {
     parseAt(scene, 5);

@@ -9,14 +9,14 @@
 #include <filesystem>
 #include <string>
 
-#include "coordinator/coordinator.h"
 #include "common/scene/asset_path.h"
 #include "common/scene/scene_loader.h"
+#include "common/util/error.h"
+#include "common/util/hash.h"
+#include "coordinator/coordinator.h"
 #include "tests/scene/asset_confinement_support.h"
 #include "tests/support/gltf_builder.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
-#include "common/util/hash.h"
 
 namespace lensfarm {
 namespace {
@@ -42,9 +42,9 @@ std::string loadError(const fs::path& scene, const std::vector<fs::path>& allowe
 TEST(AssetConfinement, AScenesFilesMustLieInsideItsFolder) {
   const Layout l;
   EXPECT_EQ(loadError(l.sceneWithMesh("models/../models/../inside.obj")),
-            (l.root / "scene.json").string() +
-                ": shapes[0].file: cannot read OBJ file \"" + (l.root / "models/../models/../inside.obj").string() +
-                "\": no such file (looked for " + (l.root / "inside.obj").string() + ")");
+            (l.root / "scene.json").string() + ": shapes[0].file: cannot read OBJ file \"" +
+                (l.root / "models/../models/../inside.obj").string() + "\": no such file (looked for " +
+                (l.root / "inside.obj").string() + ")");
   l.write("inside.obj", kTriangleObj);
   EXPECT_EQ(loadError(l.sceneWithMesh("models/../inside.obj")), "<no error>");
 
@@ -52,8 +52,8 @@ TEST(AssetConfinement, AScenesFilesMustLieInsideItsFolder) {
   EXPECT_TRUE(test::contains(climbs, "shapes[0].file: \"../secret.obj\" lies outside " + l.root.string()));
   EXPECT_TRUE(test::contains(climbs, "--allow-path"));
   EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh("models/../../secret.obj")), "lies outside"));
-  EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh(l.secret.string())), "shapes[0].file: \"" + l.secret.string() +
-                                                                                "\" is an absolute path outside"));
+  EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh(l.secret.string())),
+                             "shapes[0].file: \"" + l.secret.string() + "\" is an absolute path outside"));
   EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh("https://example.com/x.obj")),
                              "shapes[0].file: \"https://example.com/x.obj\" is a URL (https:)"));
   EXPECT_TRUE(test::contains(loadError(l.sceneWithMesh("file:///etc/passwd")), "is a URL (file:)"));
@@ -83,7 +83,10 @@ TEST(AssetConfinement, AnAllowedFolderIsRead) {
   const std::string saved = before ? before : "";
   setenv("LENSFARM_ALLOW_PATH", ("/nonexistent:" + l.dir.path().string()).c_str(), 1);
   EXPECT_EQ(loadError(l.sceneWithMesh(l.secret.string())), "<no error>");
-  if (before) setenv("LENSFARM_ALLOW_PATH", saved.c_str(), 1); else unsetenv("LENSFARM_ALLOW_PATH");
+  if (before)
+    setenv("LENSFARM_ALLOW_PATH", saved.c_str(), 1);
+  else
+    unsetenv("LENSFARM_ALLOW_PATH");
   fs::create_symlink(l.secret, l.root / "link.obj");
   EXPECT_EQ(loadError(l.sceneWithMesh("link.obj"), {l.dir.path()}), "<no error>");
   // Allowing one folder allows nothing beside it.
@@ -148,8 +151,8 @@ TEST(AssetConfinement, TheCoordinatorRefusesAssetNamesThatAreURLs) {
 
 TEST(AssetConfinement, PathProblemsAreRecognisedByForm) {
   // By their form alone: URLs and paths that name nothing.
-  for (const std::string& bad : std::vector<std::string>{"http://a/b.obj", "S3://bucket/b.obj", "file:///x", "",
-                                                         std::string("a\0b", 3)})
+  for (const std::string& bad :
+       std::vector<std::string>{"http://a/b.obj", "S3://bucket/b.obj", "file:///x", "", std::string("a\0b", 3)})
     EXPECT_TRUE(unreadablePathProblem(bad)) << bad;
   for (const std::string path : {"meshes/a.obj", "../a.obj", "/a.obj", "C:/a.obj", "a:b.obj"})
     EXPECT_FALSE(unreadablePathProblem(path)) << path;

@@ -4,14 +4,14 @@
 
 #include <filesystem>
 #include <initializer_list>
-#include <stdexcept>
 #include <limits>
+#include <stdexcept>
 #include <string>
 
 #include "common/scene/scene_loader.h"
+#include "common/util/error.h"
 #include "tests/scene/scene_error_fixture.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {

@@ -9,13 +9,13 @@
 #include <string>
 #include <vector>
 
-#include "coordinator/coordinator.h"
 #include "common/scene/obj_check.h"
 #include "common/scene/scene_loader.h"
-#include "tests/scene/scene_error_fixture.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
 #include "common/util/hash.h"
+#include "coordinator/coordinator.h"
+#include "tests/scene/scene_error_fixture.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -91,7 +91,8 @@ TEST_F(BadInputMesh, EveryKindOfNonObjIsRefusedWithTheFileAndTheReason) {
       {"only-vertices.obj", kTriangle, "no faces: 3 vertices"},
       {"only-lines.obj", kTriangle + "l 1 2 3\np 1\n", "no faces"},
       {"out-of-range.obj", kTriangle + "f 1 2 4\n", "line 4: face refers to vertex 4, but only 3 vertices"},
-      {"far-out-of-range.obj", kTriangle + "f 1 2 3\nf 1 2 999999999999\n", "line 5: face refers to vertex 999999999999"},
+      {"far-out-of-range.obj", kTriangle + "f 1 2 3\nf 1 2 999999999999\n",
+       "line 5: face refers to vertex 999999999999"},
       {"negative-out-of-range.obj", kTriangle + "f -1 -2 -4\n", "face refers to vertex -4"},
       {"forward-reference.obj", "f 1 2 3\n" + kTriangle, "line 1: face refers to vertex 1, but no vertex is"},
       {"zero-index.obj", kTriangle + "f 0 1 2\n", "line 4: '0' is not a vertex reference"},
@@ -136,7 +137,8 @@ TEST_F(BadInputMesh, ObjFilesFromRealExportersLoadWithEveryTriangle) {
   EXPECT_EQ(trianglesOf("v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 3\r"), 1u);
   // Negative (relative) indices, a quad and a pentagon (triangulated), w and colour on vertices.
   EXPECT_EQ(trianglesOf("v 0 0 0 1\nv 1 0 0 1\nv 1 1 0 1\nv 0 1 0 1\nf -4 -3 -2 -1\n"
-                        "v 0 0 1 0.5 0.5 0.5\nv 1 0 1 0.5 0.5 0.5\nv 1.5 0.5 1 0.5 0.5 0.5\nv 1 1 1 0.5 0.5 0.5\nv 0 1 1 0.5 0.5 0.5\n"
+                        "v 0 0 1 0.5 0.5 0.5\nv 1 0 1 0.5 0.5 0.5\nv 1.5 0.5 1 0.5 0.5 0.5\nv 1 1 1 0.5 0.5 0.5\nv 0 1 "
+                        "1 0.5 0.5 0.5\n"
                         "f 5 6 7 8 9\n"),
             5u);
   // A UTF-8 byte-order mark: the first vertex is not lost (tinyobjloader alone skips that line).

@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "common/scene/scene_loader.h"
+#include "common/util/error.h"
 #include "tests/scene/scene_error_fixture.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {
@@ -39,8 +39,8 @@ TEST_F(BadInputCamera, MillimetreLensInAMetreSceneNamesTheFocalLengthAndTheUnit)
   EXPECT_TRUE(namesField(errorOf(pinhole), "camera.focal_length",
                          {"f = 50", "(3)", "not millimetres", "focal_length 0.05", "sensor_width 0.036"}));
   // The same on a thin lens with its focus distance given in metres.
-  json thin = withCamera({{"type", "thin_lens"}, {"focal_length", 50}, {"sensor_width", 36}, {"f_number", 2.8},
-                          {"focus_distance", 3}});
+  json thin = withCamera(
+      {{"type", "thin_lens"}, {"focal_length", 50}, {"sensor_width", 36}, {"f_number", 2.8}, {"focus_distance", 3}});
   EXPECT_TRUE(namesField(errorOf(thin), "camera.focal_length", {"f = 50", "not millimetres", "focal_length 0.05"}));
   // Only the lens in millimetres (the sensor in metres): no advice to shrink the sensor too.
   const std::string lensOnly = errorOf(withCamera({{"focal_length", 50}, {"sensor_width", 0.036}}));
@@ -51,8 +51,11 @@ TEST_F(BadInputCamera, MillimetreLensInAMetreSceneNamesTheFocalLengthAndTheUnit)
                          "camera.sensor_width", {"angle_of_view 40", "not millimetres", "sensor_width 0.036"}));
   // The same values in metres render.
   EXPECT_EQ(errorOf(withCamera({{"focal_length", 0.05}, {"sensor_width", 0.036}})), kNoError);
-  EXPECT_EQ(errorOf(withCamera({{"type", "thin_lens"}, {"focal_length", 0.05}, {"sensor_width", 0.036},
-                                {"f_number", 2.8}, {"focus_distance", 3}})),
+  EXPECT_EQ(errorOf(withCamera({{"type", "thin_lens"},
+                                {"focal_length", 0.05},
+                                {"sensor_width", 0.036},
+                                {"f_number", 2.8},
+                                {"focus_distance", 3}})),
             kNoError);
 }
 
@@ -72,8 +75,11 @@ TEST_F(BadInputCamera, SensorWidthIsOptionalWithAngleOfView) {
   EXPECT_DOUBLE_EQ(kDefaultSensorWidth, 0.036);
   EXPECT_NEAR(scene.cameraParams.focalLength, 0.036 / (2 * std::tan(std::numbers::pi / 6)), 1e-12);
   // With a thin lens too.
-  EXPECT_EQ(errorOf(withCamera({{"type", "thin_lens"}, {"f_number", 8}, {"focal_length", nullptr},
-                                {"sensor_width", nullptr}, {"angle_of_view", 60}})),
+  EXPECT_EQ(errorOf(withCamera({{"type", "thin_lens"},
+                                {"f_number", 8},
+                                {"focal_length", nullptr},
+                                {"sensor_width", nullptr},
+                                {"angle_of_view", 60}})),
             kNoError);
   // With focal_length the pair sets the field of view: sensor_width stays required, and says why.
   EXPECT_TRUE(namesField(errorOf(withCamera({{"sensor_width", nullptr}})), "camera.sensor_width",
@@ -83,10 +89,10 @@ TEST_F(BadInputCamera, SensorWidthIsOptionalWithAngleOfView) {
 // ---- the frame -------------------------------------------------------------------------------
 
 TEST_F(BadInputCamera, LookAtAtThePositionIsNotAFocusProblem) {
-  for (const json& camera : {json{{"look_at", {0, 0, -3}}},
-                             json{{"type", "thin_lens"}, {"f_number", 4}, {"look_at", {0, 0, -3}}},
-                             json{{"type", "thin_lens"}, {"f_number", 4}, {"look_at", {0, 0, -3}}, {"focus_distance", 2}},
-                             json{{"look_at", {0, 0, -3}}, {"focal_length", nullptr}, {"angle_of_view", 50}}}) {
+  for (const json& camera :
+       {json{{"look_at", {0, 0, -3}}}, json{{"type", "thin_lens"}, {"f_number", 4}, {"look_at", {0, 0, -3}}},
+        json{{"type", "thin_lens"}, {"f_number", 4}, {"look_at", {0, 0, -3}}, {"focus_distance", 2}},
+        json{{"look_at", {0, 0, -3}}, {"focal_length", nullptr}, {"angle_of_view", 50}}}) {
     EXPECT_TRUE(namesField(errorOf(withCamera(camera)), "camera.look_at",
                            {"equals camera.position", "the view direction is undefined"}))
         << camera.dump();
@@ -108,7 +114,7 @@ TEST_F(BadInputCamera, AnUpAlongTheViewOrZeroNamesUp) {
 TEST_F(BadInputCamera, EveryDegenerateCameraNumberNamesItsField) {
   struct Field {
     std::string name;
-    json base;  // the camera fields that make `name` apply
+    json base;                        // the camera fields that make `name` apply
     std::vector<std::string> values;  // JSON texts
   };
   const json thinLens = {{"type", "thin_lens"}, {"f_number", 4}, {"focus_distance", 3}};
@@ -140,7 +146,8 @@ TEST_F(BadInputCamera, EveryDegenerateCameraNumberNamesItsField) {
   }
   // Vectors: non-finite (overflowing) or malformed components name the vector.
   for (const std::string name : {"position", "look_at", "up"})
-    for (const std::string v : {"[1e999, 0, 0]", "[0, -1e999, 0]", "[0, 0, \"nan\"]", "[0, 0]", "null", "[1e39, 0, 0]"}) {
+    for (const std::string v :
+         {"[1e999, 0, 0]", "[0, -1e999, 0]", "[0, 0, \"nan\"]", "[0, 0]", "null", "[1e39, 0, 0]"}) {
       std::string text = withCamera({{name, "@VALUE@"}}).dump(2);
       text.replace(text.find("\"@VALUE@\""), 9, v);
       // "camera.up: ..." or "camera.up[2]: ...".
@@ -150,8 +157,9 @@ TEST_F(BadInputCamera, EveryDegenerateCameraNumberNamesItsField) {
           << message;
     }
   // look_at and position so far apart that their difference overflows single precision.
-  EXPECT_TRUE(namesField(errorOf(withCamera({{"position", {-3e38, 0, 0}}, {"look_at", {3e38, 0, 0}}, {"up", {0, 1, 0}}})),
-                         "camera.look_at"));
+  EXPECT_TRUE(
+      namesField(errorOf(withCamera({{"position", {-3e38, 0, 0}}, {"look_at", {3e38, 0, 0}}, {"up", {0, 1, 0}}})),
+                 "camera.look_at"));
 }
 
 }  // namespace

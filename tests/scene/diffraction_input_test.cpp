@@ -6,8 +6,8 @@
 #include <string>
 
 #include "common/film/diffraction_psf.h"
-#include "common/scene/scene_diffraction.h"
 #include "common/scene/effects.h"
+#include "common/scene/scene_diffraction.h"
 #include "common/scene/scene_loader.h"
 #include "tests/scene/scene_error_fixture.h"
 #include "tests/test_support.h"

@@ -26,7 +26,7 @@ struct Case {
   // kRenders: the image mean must be `ratio` times the mean of the same scene with the field at
   // 1 (colours are linear; same random numbers), within float rounding. 0: not checked.
   double ratio = 0.0;
-  std::string namedAs = "";  // kRefused: the field the error names, when another field carries the fault
+  std::string namedAs = "";     // kRefused: the field the error names, when another field carries the fault
   json patch = json::object();  // merged into the base scene first (null removes a field)
 };
 
@@ -45,8 +45,10 @@ inline json baseScene() {
 inline json::json_pointer pointerOf(const std::string& field) {
   std::string p = "/";
   for (char c : field) {
-    if (c == '.' || c == '[') p += '/';
-    else if (c != ']') p += c;
+    if (c == '.' || c == '[')
+      p += '/';
+    else if (c != ']')
+      p += c;
   }
   return json::json_pointer(p);
 }

@@ -64,8 +64,11 @@ TEST(ExtremeValuesCli, ExtremeScenesAndFlagsExitTwoNamingTheFieldAndNeverAbort) 
   const std::string good = withValue("camera.f_number", "2");
   const std::vector<CliCase> cases = {
       {"f-number 1e-20 (aborted in Embree)", withValue("camera.f_number", "1e-20"), {}, "camera.f_number"},
-      {"an aperture of 5e24", withValue("camera.focal_length", "1e25", {{"camera", {{"sensor_width", 1e24}, {"focus_distance", 1e30}, {"f_number", 1}}}}),
-       {}, "camera.f_number"},
+      {"an aperture of 5e24",
+       withValue("camera.focal_length", "1e25",
+                 {{"camera", {{"sensor_width", 1e24}, {"focus_distance", 1e30}, {"f_number", 1}}}}),
+       {},
+       "camera.f_number"},
       {"a denormal radiance", withValue("lights[0].radiance", "1e-40"), {}, "lights[0].radiance"},
       {"the largest float as radiance", withValue("lights[0].radiance", kFloatMax), {}, "lights[0].radiance"},
       {"a 1e-30 sensor", withValue("camera.sensor_width", "1e-30"), {}, "camera.sensor_width"},

@@ -16,10 +16,10 @@
 #include "common/film/exposure.h"
 #include "common/render/integrator.h"
 #include "common/scene/scene_loader.h"
+#include "common/util/error.h"
 #include "tests/scene/extreme_values_cases.h"
 #include "tests/scene/scene_error_fixture.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {
@@ -128,7 +128,11 @@ TEST_F(ExtremeValues, EveryLensFieldAtEveryExtremeIsRefusedNamingItOrRendersSane
       {"camera.focal_length", kInf, Outcome::kRefused},
       // A huge focal length focused far away: the aperture (R = f / 2N) would put ray origins
       // beyond what Embree accepts (this too aborted).
-      {"camera.focal_length", "1e25", Outcome::kRefused, 0.0, "camera.f_number",
+      {"camera.focal_length",
+       "1e25",
+       Outcome::kRefused,
+       0.0,
+       "camera.f_number",
        {{"camera", {{"sensor_width", 1e24}, {"focus_distance", 1e30}, {"f_number", 1}}}}},
       // The sensor: a field of view below 1e-6 degrees (every pixel the same direction) or of
       // 180 degrees and more is refused.
@@ -207,8 +211,13 @@ TEST_F(ExtremeValues, ColoursAreZeroOrWithinWhatTheFloatKernelCarries) {
   // denormal radiance used to load and render black (the kernel flushes denormals to 0); 3.4e38
   // loaded and overflowed every sample.
   const json mirror = {{"materials", {{"white", {{"type", "mirror"}, {"albedo", nullptr}}}}}};
-  const json glowing = {{"lights", {{{"type", "quad"}, {"corner", {-0.5, -0.5, -1}}, {"edge1", {1, 0, 0}},
-                                     {"edge2", {0, 1, 0}}, {"radiance", 0}, {"visible_to_camera", false}}}}};
+  const json glowing = {{"lights",
+                         {{{"type", "quad"},
+                           {"corner", {-0.5, -0.5, -1}},
+                           {"edge1", {1, 0, 0}},
+                           {"edge2", {0, 1, 0}},
+                           {"radiance", 0},
+                           {"visible_to_camera", false}}}}};
   const std::vector<Case> cases = {
       {"lights[0].radiance", "0", Outcome::kBlack},
       {"lights[0].radiance", kDenormal, Outcome::kRefused},
@@ -271,15 +280,18 @@ TEST(ExtremeValuesExposure, TinyAndHugeImagesExposeLikeAnyOther) {
       Image image{2, 2, std::vector<float>(12, v)};
       const double scale = exposureScale(image, meter);
       EXPECT_TRUE(std::isfinite(scale) && scale > 0.0) << v;
-      for (uint8_t b : exposeToSrgb8(image, ExposureSettings{0.0, ToneMap::kReinhard, meter})) EXPECT_EQ(b, expected) << v;
+      for (uint8_t b : exposeToSrgb8(image, ExposureSettings{0.0, ToneMap::kReinhard, meter}))
+        EXPECT_EQ(b, expected) << v;
       // +-64 stops on top: white or black, never NaN (which lround would turn into anything).
       for (uint8_t b : exposeToSrgb8(image, ExposureSettings{64.0, ToneMap::kReinhard, meter})) EXPECT_EQ(b, 255) << v;
       for (uint8_t b : exposeToSrgb8(image, ExposureSettings{-64.0, ToneMap::kClamp, meter})) EXPECT_EQ(b, 0) << v;
     }
   }
   // One huge pixel among dark ones: the mean is finite, the huge pixel white, the others dark.
-  Image mixed{2, 1, {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
-                     1.0f, 1.0f, 1.0f}};
+  Image mixed{2,
+              1,
+              {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
+               1.0f, 1.0f, 1.0f}};
   EXPECT_TRUE(std::isfinite(autoExposureScale(mixed)));
   const auto rgb = exposeToSrgb8(mixed, ExposureSettings{0.0, ToneMap::kReinhard});
   EXPECT_GT(rgb[0], 200);

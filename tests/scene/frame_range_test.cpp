@@ -63,16 +63,18 @@ std::string errorOf(const std::string& text) {
 }
 
 TEST(FrameRange, EveryBadInputIsOneClearError) {
-  EXPECT_EQ(errorOf(""), "--frames: is empty: give a frame (7), a range (1-240) or a range with a step (1-240x2 or 1-240:2)");
+  EXPECT_EQ(errorOf(""),
+            "--frames: is empty: give a frame (7), a range (1-240) or a range with a step (1-240x2 or 1-240:2)");
   EXPECT_EQ(errorOf("240-1"), "--frames 240-1: the last frame is before the first");
   EXPECT_EQ(errorOf("-1--5"), "--frames -1--5: the last frame is before the first");
   EXPECT_EQ(errorOf("1-240x0"), "--frames 1-240x0: the step must be a positive integer, got 0");
   EXPECT_EQ(errorOf("1-240x-2"), "--frames 1-240x-2: the step must be a positive integer, got -2");
   EXPECT_EQ(errorOf("1-200000"), "--frames 1-200000: 200000 frames; at most 100000 in one range");
-  EXPECT_EQ(errorOf("1-99999999999999999999"), "--frames 1-99999999999999999999: frame numbers and steps must be within ±1000000000");
+  EXPECT_EQ(errorOf("1-99999999999999999999"),
+            "--frames 1-99999999999999999999: frame numbers and steps must be within ±1000000000");
   EXPECT_EQ(errorOf("2000000000"), "--frames 2000000000: frame numbers and steps must be within ±1000000000");
-  for (const char* bad : {"a", "1-", "-", "1-b", "1..240", "1-240x", "1-240x2x3", "1-240:2:3", "1 - 240", " 7", "7 ", "+7",
-                          "1,2,3", "1-2-3", "--5", "1-240x2.5", "1.5", "x2", "1-240y2"}) {
+  for (const char* bad : {"a", "1-", "-", "1-b", "1..240", "1-240x", "1-240x2x3", "1-240:2:3", "1 - 240", " 7", "7 ",
+                          "+7", "1,2,3", "1-2-3", "--5", "1-240x2.5", "1.5", "x2", "1-240y2"}) {
     SCOPED_TRACE(bad);
     const std::string e = errorOf(bad);
     EXPECT_EQ(e.rfind(std::string("--frames ") + bad + ": ", 0), 0u) << e;
@@ -107,7 +109,8 @@ TEST(FramePath, APatternNeedsAHashInTheFileName) {
     checkFramePattern("out/shot.exr", "-o");
     ADD_FAILURE() << "accepted";
   } catch (const InputError& e) {
-    EXPECT_STREQ(e.what(), "-o out/shot.exr: a frame pattern needs #### for the frame number when rendering several frames");
+    EXPECT_STREQ(e.what(),
+                 "-o out/shot.exr: a frame pattern needs #### for the frame number when rendering several frames");
   }
   try {
     checkFramePattern("out##/shot.exr", "-o");

@@ -1,8 +1,8 @@
 // The glTF 2.0 importer (scene/gltf_import.h): small models written here as JSON with their
 // buffers as a separate .bin (read through a ModelFileReader over a map), as data URIs, or as a
 // .glb assembled byte by byte (glTF 2.0 §4.4), checked against values computed independently.
-#include "common/medium/medium.h"
 #include "common/scene/gltf_import.h"
+#include "common/medium/medium.h"
 
 #include <gtest/gtest.h>
 
@@ -17,18 +17,18 @@
 #include <string>
 #include <vector>
 
-#include "tests/support/gltf_builder.h"
 #include "common/util/error.h"
+#include "tests/support/gltf_builder.h"
 
 namespace lensfarm {
 namespace {
 
 using json = nlohmann::json;
 
-using test::Builder;
-using test::glbOf;
-using test::bytesOf;
 using test::base64;
+using test::Builder;
+using test::bytesOf;
+using test::glbOf;
 using test::kFloat;
 using test::kUnsignedByte;
 using test::kUnsignedShort;
@@ -257,13 +257,15 @@ TEST(Gltf, MeshUsedByThreeNodesIsOnePrototypeWithThreeInstances) {
   for (size_t k = 0; k < 3; ++k) {
     EXPECT_EQ(model.instances[k].prototype, 0u);
     for (size_t i = 0; i < 8; ++i)
-      EXPECT_EQ(DVec3(model.instances[k].world * glm::dvec4(cube.vertex(i), 1.0)), scales[k] * cube.vertex(i) + offsets[k]);
+      EXPECT_EQ(DVec3(model.instances[k].world * glm::dvec4(cube.vertex(i), 1.0)),
+                scales[k] * cube.vertex(i) + offsets[k]);
   }
   EXPECT_EQ(model.instances[1].name, "fifth");
   // The model's bounds hold every use.
   expectNear(model.lo, DVec3(0, 1, -7), 0.0, "lo");
   expectNear(model.hi, DVec3(6, 3, 1), 0.0, "hi");
-  EXPECT_TRUE(hasNote(model, "meshes[0]: used by 3 nodes: stored once and instanced")) << ::testing::PrintToString(model.notes);
+  EXPECT_TRUE(hasNote(model, "meshes[0]: used by 3 nodes: stored once and instanced"))
+      << ::testing::PrintToString(model.notes);
 }
 
 TEST(Gltf, StripsFansAndPointsAndNormalizedTexcoords) {
@@ -361,7 +363,8 @@ TEST(Gltf, MaterialsMapFactorsAlphaModesAndExtensions) {
 
   const std::string notes = ::testing::PrintToString(model.notes);
   EXPECT_TRUE(hasNote(model, "materials[1] \"glass\": alphaMode BLEND rendered as MASK with cutoff 0.5")) << notes;
-  EXPECT_TRUE(hasNote(model, "materials[1] \"glass\": specularColorFactor approximated: F0 is scaled by its luminance")) << notes;
+  EXPECT_TRUE(hasNote(model, "materials[1] \"glass\": specularColorFactor approximated: F0 is scaled by its luminance"))
+      << notes;
   EXPECT_TRUE(hasNote(model, "materials[2]: KHR_materials_unlit rendered as a Lambertian")) << notes;
   EXPECT_TRUE(hasNote(model, "extensionsUsed: KHR_materials_clearcoat not supported")) << notes;
   EXPECT_EQ(model.meshes[0].mesh.materialIds, std::vector<uint32_t>(12, 0u));
@@ -377,7 +380,8 @@ TEST(Gltf, KhrMaterialsVolumeGivesATransmittingMaterialItsAbsorbingInterior) {
   const json volume = {{"thicknessFactor", 0.1}, {"attenuationDistance", 0.5}, {"attenuationColor", {0.9, 0.5, 0.25}}};
   b.doc["materials"] = {
       {{"name", "juice"},
-       {"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 1.0}}}, {"KHR_materials_volume", volume}}}},
+       {"extensions",
+        {{"KHR_materials_transmission", {{"transmissionFactor", 1.0}}}, {"KHR_materials_volume", volume}}}},
       {{"name", "paint"}, {"extensions", {{"KHR_materials_volume", volume}}}},
       {{"name", "film"},
        {"extensions",

@@ -7,8 +7,8 @@
 #include <gtest/gtest.h>
 
 #include "common/scene/scene_loader.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
+#include "tests/test_support.h"
 
 namespace lensfarm {
 namespace {
@@ -79,7 +79,9 @@ TEST(LensPrescription, BadFieldsAreRefusedNamingTheirPath) {
   EXPECT_TRUE(names(bad([](json& l) { l["surfaces"][3]["aperture"] = 500; }), "camera.lens.surfaces[3].aperture"));
   EXPECT_TRUE(names(bad([](json& l) { l["surfaces"][2]["thickness"] = -1; }), "camera.lens.surfaces[2].thickness"));
   EXPECT_TRUE(names(bad([](json& l) { l["surfaces"][1]["index"] = 0.5; }), "camera.lens.surfaces[1].index"));
-  EXPECT_TRUE(names(bad([](json& l) { l["surfaces"][1]["aspheric"] = {1, "x"}; }),
+  EXPECT_TRUE(names(bad([](json& l) {
+                      l["surfaces"][1]["aspheric"] = {1, "x"};
+                    }),
                     "camera.lens.surfaces[1].aspheric[1]"));
   EXPECT_TRUE(names(bad([](json& l) { l["surfaces"][0]["conic"] = 50; }), "camera.lens.surfaces[0].aperture"))
       << "an oblate conic closing inside the clear aperture";
@@ -108,7 +110,8 @@ TEST(LensPrescription, ASceneTakesTheLensInlineOrAsAJsonFile) {
   }
   scene["camera"]["lens"] = doubleGaussJson();
   scene["camera"]["lens"]["surfaces"][4]["radius"] = 1.0;
-  EXPECT_NE(errorOf([&] { test::loadSceneJson(dir, scene); }).find("camera.lens.surfaces[4].aperture"), std::string::npos)
+  EXPECT_NE(errorOf([&] { test::loadSceneJson(dir, scene); }).find("camera.lens.surfaces[4].aperture"),
+            std::string::npos)
       << errorOf([&] { test::loadSceneJson(dir, scene); });
 }
 

@@ -29,8 +29,8 @@ TEST(ModelScene, RenderingAModelFileUsesItsDefaultsAndSaysSo) {
   const std::vector<float> p = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1};
   const std::vector<uint16_t> idx = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
                                      3, 7, 6, 3, 6, 2, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5};
-  b.doc["meshes"] = json::array({{{"primitives", {{{"attributes", {{"POSITION", b.floats(p, "VEC3")}}},
-                                                  {"indices", b.indices(idx)}}}}}});
+  b.doc["meshes"] = json::array(
+      {{{"primitives", {{{"attributes", {{"POSITION", b.floats(p, "VEC3")}}}, {"indices", b.indices(idx)}}}}}});
   b.doc["nodes"] = json::array({{{"mesh", 0}}});
   writeFile(dir.path() / "cube.glb", b.glb());
 
@@ -47,8 +47,9 @@ TEST(ModelScene, RenderingAModelFileUsesItsDefaultsAndSaysSo) {
   const Vec3 toCentre = glm::normalize(Vec3(DVec3(0.5) - scene.origin) - camera.params().position);
   EXPECT_GT(glm::dot(toCentre, glm::normalize(camera.params().lookAt - camera.params().position)), 0.9999f);
 
-  const auto result = test::runProcess({test::cliPath().string(), "render", (dir.path() / "cube.glb").string(), "--resolution",
-                                        "32x18", "--spp", "4", "-o", (dir.path() / "cube.exr").string(), "--quiet"});
+  const auto result =
+      test::runProcess({test::cliPath().string(), "render", (dir.path() / "cube.glb").string(), "--resolution", "32x18",
+                        "--spp", "4", "-o", (dir.path() / "cube.exr").string(), "--quiet"});
   const std::string output = result.out + result.err;
   ASSERT_EQ(result.exitCode, 0) << output;
   EXPECT_NE(output.find("framing"), std::string::npos) << output;

@@ -9,9 +9,9 @@
 #include <sstream>
 
 #include "common/scene/scene_loader.h"
+#include "common/util/error.h"
 #include "tests/support/gltf_builder.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {
@@ -42,7 +42,8 @@ struct Cornell {
         if (m.isEmissive()) continue;  // the lights stay in the scene's "lights"
         auto [it, added] = partOf.try_emplace(mesh.materialIds[t], parts.size());
         if (added) parts.push_back(Part{m.name, m.albedo(), {}});
-        for (int k = 0; k < 3; ++k) parts[it->second].positions.push_back(DVec3(mesh.positions[mesh.indices[3 * t + k]]) + s.origin);
+        for (int k = 0; k < 3; ++k)
+          parts[it->second].positions.push_back(DVec3(mesh.positions[mesh.indices[3 * t + k]]) + s.origin);
       }
     }
   }
@@ -65,9 +66,10 @@ struct Cornell {
       std::vector<float> p;
       for (const DVec3& v : parts[i].positions) p.insert(p.end(), {float(v.x), float(v.y), float(v.z)});
       const Spectrum& a = parts[i].albedo;
-      b.add("materials", {{"name", parts[i].material},
-                          {"pbrMetallicRoughness", {{"baseColorFactor", {a.r, a.g, a.b, 1.0}}, {"metallicFactor", 0.0}}},
-                          {"extensions", {{"KHR_materials_specular", {{"specularFactor", 0.0}}}}}});
+      b.add("materials",
+            {{"name", parts[i].material},
+             {"pbrMetallicRoughness", {{"baseColorFactor", {a.r, a.g, a.b, 1.0}}, {"metallicFactor", 0.0}}},
+             {"extensions", {{"KHR_materials_specular", {{"specularFactor", 0.0}}}}}});
       primitives.push_back({{"attributes", {{"POSITION", b.floats(p, "VEC3")}}}, {"material", int(i)}});
     }
     b.doc["extensionsUsed"] = {"KHR_materials_specular"};
@@ -163,12 +165,14 @@ TEST(ModelScene, AModelCameraIsChosenByName) {
   test::Builder b;
   const std::vector<float> p = {-1, -1, 0, 1, -1, 0, 0, 1, 0};
   b.doc["meshes"] = json::array({{{"primitives", {{{"attributes", {{"POSITION", b.floats(p, "VEC3")}}}}}}}});
-  b.doc["cameras"] = json::array({{{"type", "perspective"}, {"perspective", {{"yfov", 0.8}, {"aspectRatio", 1.0}, {"znear", 0.1}}}},
-                                  {{"type", "perspective"}, {"perspective", {{"yfov", 0.8}, {"aspectRatio", 1.0}, {"znear", 0.1}}}}});
+  b.doc["cameras"] =
+      json::array({{{"type", "perspective"}, {"perspective", {{"yfov", 0.8}, {"aspectRatio", 1.0}, {"znear", 0.1}}}},
+                   {{"type", "perspective"}, {"perspective", {{"yfov", 0.8}, {"aspectRatio", 1.0}, {"znear", 0.1}}}}});
   const double s = std::sqrt(0.5);
-  b.doc["nodes"] = json::array({{{"mesh", 0}},
-                                {{"name", "front"}, {"camera", 0}, {"translation", {0, 0, 5}}},
-                                {{"name", "side"}, {"camera", 1}, {"translation", {5, 0, 0}}, {"rotation", {0, s, 0, s}}}});
+  b.doc["nodes"] =
+      json::array({{{"mesh", 0}},
+                   {{"name", "front"}, {"camera", 0}, {"translation", {0, 0, 5}}},
+                   {{"name", "side"}, {"camera", 1}, {"translation", {5, 0, 0}}, {"rotation", {0, s, 0, s}}}});
   b.doc["scenes"] = json::array({{{"nodes", {0, 1, 2}}}});
   writeFile(dir.path() / "two.glb", b.glb());
   const auto positionOf = [&](const std::optional<std::string>& camera) {
@@ -190,4 +194,3 @@ TEST(ModelScene, AModelCameraIsChosenByName) {
 
 }  // namespace
 }  // namespace lensfarm
-

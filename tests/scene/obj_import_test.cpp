@@ -16,10 +16,10 @@
 #include <sstream>
 
 #include "common/scene/obj_check.h"
-#include "tests/test_support.h"
 #include "common/texture/image_decode.h"
-#include "tests/texture/test_images.h"
 #include "common/util/error.h"
+#include "tests/test_support.h"
+#include "tests/texture/test_images.h"
 
 namespace lensfarm {
 namespace {

@@ -73,9 +73,9 @@ TEST_F(ObjNumbers, EveryBadNumberIsRefusedWithTheFileAndTheLine) {
 }
 
 TEST_F(ObjNumbers, FiniteNumbersUpTo1e30AndEveryUsualFormStillLoad) {
-  for (const std::string line : {"v 1e30 0 0", "v -1e30 0 0", "v 1e-300 0 0", "v 5e-324 0 0", "v +1.5 -2 .5",
-                                 "vn 0 0 1", "vn 1e300 0 0", "vt 0", "vt 0.5 0.5", "vt 0.5 0.5 0", "vp 0.5 0.5 1",
-                                 "v 0 0 0 1", "v 0 0 0 0.5 0.5 0.5"}) {
+  for (const std::string line :
+       {"v 1e30 0 0", "v -1e30 0 0", "v 1e-300 0 0", "v 5e-324 0 0", "v +1.5 -2 .5", "vn 0 0 1", "vn 1e300 0 0", "vt 0",
+        "vt 0.5 0.5", "vt 0.5 0.5 0", "vp 0.5 0.5 1", "v 0 0 0 1", "v 0 0 0 0.5 0.5 0.5"}) {
     const ObjCheck check = checkObjText("v 0 0 0\n" + line + "\nv 1 0 0\nv 0 1 0\nf -1 -2 -3\n");
     EXPECT_TRUE(check.ok()) << line << ": " << check.problem;
   }

@@ -13,9 +13,9 @@
 
 #include "common/light/light_source.h"
 #include "common/scene/scene_loader.h"
+#include "common/util/error.h"
 #include "tests/support/gltf_builder.h"
 #include "tests/test_support.h"
-#include "common/util/error.h"
 
 namespace lensfarm {
 namespace {
@@ -39,7 +39,8 @@ int addQuads(Builder& b, const std::vector<Quad>& quads, int material) {
       p.insert(p.end(), {float(v.x), float(v.y), float(v.z)});
     idx.insert(idx.end(), {base, uint16_t(base + 1), uint16_t(base + 2), base, uint16_t(base + 2), uint16_t(base + 3)});
   }
-  json primitive = {{"attributes", {{"POSITION", b.floats(p, "VEC3")}}}, {"indices", b.indices(idx)}, {"material", material}};
+  json primitive = {
+      {"attributes", {{"POSITION", b.floats(p, "VEC3")}}}, {"indices", b.indices(idx)}, {"material", material}};
   if (!b.doc.contains("meshes")) b.doc["meshes"] = json::array();
   return b.add("meshes", {{"primitives", json::array({primitive})}});
 }
@@ -66,7 +67,8 @@ std::vector<Quad> boxQuads(DVec3 lo, DVec3 hi) {
 // specularFactor 0 (no specular layer), as exporters write a diffuse material.
 json lambertianGltf(const std::string& name, DVec3 c) {
   return {{"name", name},
-          {"pbrMetallicRoughness", {{"baseColorFactor", {c.x, c.y, c.z, 1.0}}, {"metallicFactor", 0.0}, {"roughnessFactor", 1.0}}},
+          {"pbrMetallicRoughness",
+           {{"baseColorFactor", {c.x, c.y, c.z, 1.0}}, {"metallicFactor", 0.0}, {"roughnessFactor", 1.0}}},
           {"extensions", {{"KHR_materials_specular", {{"specularFactor", 0.0}}}}}};
 }
 
@@ -117,8 +119,8 @@ TEST(OtherTools, AModelWithoutACameraIsFramedWholeAtEveryAspect) {
         const DVec3 corner = DVec3(10, -3, 2) + DVec3(k & 1 ? size.x : 0, k & 2 ? size.y : 0, k & 4 ? size.z : 0);
         const Vec2 at = project(s, corner);
         EXPECT_TRUE(at.x > 0.0f && at.x < float(w) && at.y > 0.0f && at.y < float(h))
-            << "corner " << k << " of a " << size.x << "x" << size.y << " box at " << w << "x" << h << " lands at " << at.x
-            << ", " << at.y;
+            << "corner " << k << " of a " << size.x << "x" << size.y << " box at " << w << "x" << h << " lands at "
+            << at.x << ", " << at.y;
       }
     }
   }
@@ -198,7 +200,8 @@ TEST(OtherTools, ACornellBoxWrittenAsGltfRendersAsItsJsonTwin) {
   const DVec3 radiance(12, 9, 4);
   Builder b;
   b.doc["extensionsUsed"] = {"KHR_materials_specular", "KHR_materials_emissive_strength"};
-  b.doc["materials"] = {lambertianGltf("white", DVec3(0.75)), lambertianGltf("red", DVec3(0.75, 0.15, 0.15)),
+  b.doc["materials"] = {lambertianGltf("white", DVec3(0.75)),
+                        lambertianGltf("red", DVec3(0.75, 0.15, 0.15)),
                         lambertianGltf("green", DVec3(0.15, 0.75, 0.15)),
                         // An emitter that reflects nothing: black base, no specular layer; its
                         // radiance as emissiveFactor x emissiveStrength.
@@ -215,7 +218,8 @@ TEST(OtherTools, ACornellBoxWrittenAsGltfRendersAsItsJsonTwin) {
   addQuads(b, box.green, 2);
   addQuads(b, box.light, 3);
   b.doc["cameras"] = {{{"type", "perspective"}, {"perspective", {{"yfov", box.yfov}, {"znear", 0.1}}}}};
-  b.doc["nodes"] = {{{"mesh", 0}}, {{"mesh", 1}}, {{"mesh", 2}}, {{"mesh", 3}}, {{"camera", 0}, {"translation", vec(box.eye)}}};
+  b.doc["nodes"] = {
+      {{"mesh", 0}}, {{"mesh", 1}}, {{"mesh", 2}}, {{"mesh", 3}}, {{"camera", 0}, {"translation", vec(box.eye)}}};
   Scene gltf = loadModel(dir, b, "cornell.gltf", 48, 48, 16, 3);
 
   json twin = {{"format", "lensfarm-scene/1"},
@@ -238,7 +242,7 @@ TEST(OtherTools, ACornellBoxWrittenAsGltfRendersAsItsJsonTwin) {
                   {"edge2", vec(box.light[0].e2)},
                   {"radiance", vec(radiance)}}}}};
   for (const auto& [quads, material] : {std::pair{&box.white, "white"}, std::pair{&box.block, "white"},
-                                         std::pair{&box.red, "red"}, std::pair{&box.green, "green"}})
+                                        std::pair{&box.red, "red"}, std::pair{&box.green, "green"}})
     for (const json& q : jsonQuads(*quads, material)) twin["shapes"].push_back(q);
   const Scene fromJson = test::loadSceneJson(dir, twin);
 
@@ -270,14 +274,16 @@ TEST(OtherTools, ABlenderStyleLampKeepsItsBalanceWithAnEmitter) {
   addQuads(b, {{DVec3(-0.5, 0.01, -0.5), DVec3(0, 0, 1), DVec3(1, 0, 0)}}, 1);
   const double half = 0.3;  // the camera looks 0.6 rad down: [sin(-0.3), 0, 0, cos(-0.3)] about x
   b.doc["cameras"] = {{{"type", "perspective"}, {"perspective", {{"yfov", 1.0}, {"znear", 0.1}}}}};
-  b.doc["nodes"] = {{{"mesh", 0}}, {{"mesh", 1}},
+  b.doc["nodes"] = {{{"mesh", 0}},
+                    {{"mesh", 1}},
                     {{"camera", 0}, {"translation", {0, 4, 6}}, {"rotation", {-std::sin(half), 0, 0, std::cos(half)}}}};
   const std::filesystem::path withoutLamp = dir.write("room.gltf", b.embedded());
 
   // The lamp, pointing down (-z turned -90 degrees about x), added to the model as Blender would.
-  b.doc["extensions"] = {{"KHR_lights_punctual",
-                          {{"lights",
-                            {{{"type", "spot"}, {"intensity", candela}, {"spot", {{"innerConeAngle", 0.3}, {"outerConeAngle", 0.6}}}}}}}}};
+  b.doc["extensions"] = {
+      {"KHR_lights_punctual",
+       {{"lights",
+         {{{"type", "spot"}, {"intensity", candela}, {"spot", {{"innerConeAngle", 0.3}, {"outerConeAngle", 0.6}}}}}}}}};
   b.doc["nodes"].push_back({{"translation", {2, 3, 0}},
                             {"rotation", {-std::sin(kPi / 4), 0, 0, std::cos(kPi / 4)}},
                             {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
@@ -309,7 +315,8 @@ struct Sphere {
     for (int r = 0; r <= rings; ++r)
       for (int k = 0; k <= segments; ++k) {
         const double theta = kPi * r / rings, phi = 2 * kPi * k / segments;
-        const DVec3 p = centre + radius * DVec3(std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi));
+        const DVec3 p =
+            centre + radius * DVec3(std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi));
         positions.insert(positions.end(), {float(p.x), float(p.y), float(p.z)});
       }
     const auto at = [&](int r, int k) { return uint16_t(r * (segments + 1) + k); };
@@ -320,13 +327,16 @@ struct Sphere {
       }
   }
   int addTo(Builder& b, int material) const {
-    json primitive = {{"attributes", {{"POSITION", b.floats(positions, "VEC3")}}}, {"indices", b.indices(indices)}, {"material", material}};
+    json primitive = {{"attributes", {{"POSITION", b.floats(positions, "VEC3")}}},
+                      {"indices", b.indices(indices)},
+                      {"material", material}};
     if (!b.doc.contains("meshes")) b.doc["meshes"] = json::array();
     return b.add("meshes", {{"primitives", json::array({primitive})}});
   }
   json asTriangles(const std::string& material) const {
     json vertices = json::array(), triangles = json::array();
-    for (size_t i = 0; i < positions.size(); i += 3) vertices.push_back({positions[i], positions[i + 1], positions[i + 2]});
+    for (size_t i = 0; i < positions.size(); i += 3)
+      vertices.push_back({positions[i], positions[i + 1], positions[i + 2]});
     for (size_t i = 0; i < indices.size(); i += 3) triangles.push_back({indices[i], indices[i + 1], indices[i + 2]});
     return {{"type", "triangles"}, {"material", material}, {"vertices", vertices}, {"indices", triangles}};
   }
@@ -336,14 +346,17 @@ struct Sphere {
 // and its JSON twin with `glassJson`.
 struct GlassScene {
   Sphere ball{DVec3(0, 0.5, 0), 0.5};
-  std::vector<Quad> red{{DVec3(-2, 0, -2), DVec3(0, 0, 4), DVec3(2, 0, 0)}}, blue{{DVec3(0, 0, -2), DVec3(0, 0, 4), DVec3(2, 0, 0)}};
+  std::vector<Quad> red{{DVec3(-2, 0, -2), DVec3(0, 0, 4), DVec3(2, 0, 0)}},
+      blue{{DVec3(0, 0, -2), DVec3(0, 0, 4), DVec3(2, 0, 0)}};
   Quad light{DVec3(-0.5, 2.5, -0.5), DVec3(1, 0, 0), DVec3(0, 0, 1)};
 
   Scene gltf(const test::TempDir& dir, const json& glass, const std::string& name) const {
     Builder b;
-    b.doc["extensionsUsed"] = {"KHR_materials_specular", "KHR_materials_emissive_strength", "KHR_materials_transmission",
-                               "KHR_materials_ior", "KHR_materials_volume"};
-    b.doc["materials"] = {lambertianGltf("red", DVec3(0.7, 0.1, 0.1)), lambertianGltf("blue", DVec3(0.1, 0.1, 0.7)), glass,
+    b.doc["extensionsUsed"] = {"KHR_materials_specular", "KHR_materials_emissive_strength",
+                               "KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume"};
+    b.doc["materials"] = {lambertianGltf("red", DVec3(0.7, 0.1, 0.1)),
+                          lambertianGltf("blue", DVec3(0.1, 0.1, 0.7)),
+                          glass,
                           {{"name", "light"},
                            {"pbrMetallicRoughness", {{"baseColorFactor", {0, 0, 0, 1}}, {"metallicFactor", 0.0}}},
                            {"emissiveFactor", {1, 1, 1}},
@@ -355,8 +368,12 @@ struct GlassScene {
     ball.addTo(b, 2);
     addQuads(b, {light}, 3);
     b.doc["cameras"] = {{{"type", "perspective"}, {"perspective", {{"yfov", 0.7}, {"znear", 0.1}}}}};
-    b.doc["nodes"] = {{{"mesh", 0}}, {{"mesh", 1}}, {{"mesh", 2}}, {{"mesh", 3}},
-                      {{"camera", 0}, {"translation", {0, 1.2, 3}}, {"rotation", {-std::sin(0.12), 0, 0, std::cos(0.12)}}}};
+    b.doc["nodes"] = {
+        {{"mesh", 0}},
+        {{"mesh", 1}},
+        {{"mesh", 2}},
+        {{"mesh", 3}},
+        {{"camera", 0}, {"translation", {0, 1.2, 3}}, {"rotation", {-std::sin(0.12), 0, 0, std::cos(0.12)}}}};
     return loadModel(dir, b, name, 40, 40, 16, 8);
   }
 
@@ -375,7 +392,10 @@ struct GlassScene {
                 {"glass", glassJson}}},
               {"shapes", json::array({ball.asTriangles("glass")})},
               {"lights",
-               {{{"type", "quad"}, {"corner", vec(light.corner)}, {"edge1", vec(light.e1)}, {"edge2", vec(light.e2)},
+               {{{"type", "quad"},
+                 {"corner", vec(light.corner)},
+                 {"edge1", vec(light.e1)},
+                 {"edge2", vec(light.e2)},
                  {"radiance", 8}}}}};
     for (const json& q : jsonQuads(red, "red")) j["shapes"].push_back(q);
     for (const json& q : jsonQuads(blue, "blue")) j["shapes"].push_back(q);
@@ -385,8 +405,10 @@ struct GlassScene {
 
 json gltfGlass(double roughness, bool volume) {
   json g = {{"name", "glass"},
-            {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 1}}, {"metallicFactor", 0.0}, {"roughnessFactor", roughness}}},
-            {"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 1.0}}}, {"KHR_materials_ior", {{"ior", 1.5}}}}}};
+            {"pbrMetallicRoughness",
+             {{"baseColorFactor", {1, 1, 1, 1}}, {"metallicFactor", 0.0}, {"roughnessFactor", roughness}}},
+            {"extensions",
+             {{"KHR_materials_transmission", {{"transmissionFactor", 1.0}}}, {"KHR_materials_ior", {{"ior", 1.5}}}}}};
   // thicknessFactor: the ball's diameter, as Blender writes a solid's.
   if (volume) g["extensions"]["KHR_materials_volume"] = {{"thicknessFactor", 1.0}};
   return g;

@@ -9,8 +9,8 @@
 #include <string>
 
 #include "common/scene/scene_loader.h"
-#include "tests/test_support.h"
 #include "common/util/error.h"
+#include "tests/test_support.h"
 
 namespace lensfarm::test {
 

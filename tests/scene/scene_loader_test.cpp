@@ -65,7 +65,8 @@ TEST(SceneLoader, HashCoversTheSceneAndItsAssets) {
 TEST(SceneLoader, ZeroAreaTrianglesAreSkippedAndCounted) {
   test::TempDir dir;
   nlohmann::json j = test::minimalSceneJson();
-  j["shapes"].push_back({{"type", "triangles"}, {"material", "white"},
+  j["shapes"].push_back({{"type", "triangles"},
+                         {"material", "white"},
                          {"vertices", {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}}}});
   const Scene scene = test::loadSceneJson(dir, j);
   EXPECT_EQ(scene.skippedDegenerateTriangles, 2u);

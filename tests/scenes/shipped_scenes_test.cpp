@@ -1,7 +1,7 @@
 // scenes/ holds only scenes a user can render, and says what each is: every scene in it renders
 // through the real `lensfarm` binary (at a tiny size), every other file is a mesh or texture some
-// scene uses (or a model some scene uses refers to) or the folder's README, and the README names every scene. Anything else there (a
-// fuzzer's corpus, a stray output) fails this test.
+// scene uses (or a model some scene uses refers to) or the folder's README, and the README names every scene. Anything
+// else there (a fuzzer's corpus, a stray output) fails this test.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -34,7 +34,8 @@ TEST(ShippedScenes, EveryFileIsASceneTheReadmeOrAnAssetASceneUses) {
   for (const fs::path& s : scenes) sceneTexts += test::readFile(s);
   const std::string readme = test::readFile(test::scenesDir() / "README.md");
   size_t files = 0;
-  for (auto walk = fs::recursive_directory_iterator(test::scenesDir()); walk != fs::recursive_directory_iterator(); ++walk) {
+  for (auto walk = fs::recursive_directory_iterator(test::scenesDir()); walk != fs::recursive_directory_iterator();
+       ++walk) {
     if (walk->is_directory()) continue;
     ++files;
     const fs::path relative = fs::relative(walk->path(), test::scenesDir());
@@ -58,7 +59,8 @@ TEST(ShippedScenes, EveryFileIsASceneTheReadmeOrAnAssetASceneUses) {
         const std::string model = fs::relative(sibling.path(), test::scenesDir()).generic_string();
         const std::string text = test::readFile(sibling.path()), name = relative.filename().string();
         used |= sceneTexts.find("\"" + model + "\"") != std::string::npos &&
-                (text.find("\"" + name + "\"") != std::string::npos || (ext == ".mtl" && text.find(" " + name) != std::string::npos));
+                (text.find("\"" + name + "\"") != std::string::npos ||
+                 (ext == ".mtl" && text.find(" " + name) != std::string::npos));
       }
       EXPECT_TRUE(used) << "no scene uses it";
     }
@@ -71,8 +73,8 @@ TEST(ShippedScenes, EverySceneRendersThroughTheCli) {
   for (const fs::path& scene : sceneFiles()) {
     SCOPED_TRACE(scene.string());
     const fs::path exr = dir / (scene.stem().string() + ".exr"), png = dir / (scene.stem().string() + ".png");
-    const auto r = test::runProcess({test::cliPath().string(), "render", scene.string(), "--resolution", "24x24", "--spp", "2",
-                                     "-q", "-o", exr.string(), "-o", png.string()},
+    const auto r = test::runProcess({test::cliPath().string(), "render", scene.string(), "--resolution", "24x24",
+                                     "--spp", "2", "-q", "-o", exr.string(), "-o", png.string()},
                                     300);
     EXPECT_EQ(r.exitCode, 0) << r.out << r.err;
     ASSERT_TRUE(fs::exists(exr) && fs::exists(png));
@@ -92,7 +94,8 @@ TEST(ShippedScenes, EverySceneRendersThroughTheCli) {
 // for changes of shape (layout, interfaces, refactors) that must not change a single pixel. The
 // traversal kernel is pinned to SSE2 so that the hashes do not depend on this machine's instruction
 // sets (Embree's kernels differ in the last bits of a hit). A change meant to alter images rewrites
-// the file: LENSFARM_UPDATE_GOLDEN=1 build/tests/lensfarm_e2e_tests --gtest_filter='ShippedScenes.EverySceneKeepsItsBits'.
+// the file: LENSFARM_UPDATE_GOLDEN=1 build/tests/lensfarm_e2e_tests
+// --gtest_filter='ShippedScenes.EverySceneKeepsItsBits'.
 uint64_t fnv1a(const std::vector<float>& values) {
   uint64_t h = 1469598103934665603ull;
   for (const float v : values) {
@@ -120,15 +123,17 @@ TEST(ShippedScenes, EverySceneKeepsItsBits) {
   for (const fs::path& scene : sceneFiles()) {
     SCOPED_TRACE(scene.string());
     const fs::path exr = dir / (scene.stem().string() + ".exr");
-    const auto r = test::runProcess({test::cliPath().string(), "render", scene.string(), "--resolution", "32x24", "--spp", "4",
-                                     "--threads", "2", "-q", "-o", exr.string()},
+    const auto r = test::runProcess({test::cliPath().string(), "render", scene.string(), "--resolution", "32x24",
+                                     "--spp", "4", "--threads", "2", "-q", "-o", exr.string()},
                                     300);
     ASSERT_EQ(r.exitCode, 0) << r.out << r.err;
     char hash[17];
     std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(fnv1a(readExr(exr).rgb)));
     const std::string name = scene.filename().string();
-    if (update) out << name << " " << hash << "\n";
-    else EXPECT_EQ(golden[name], hash) << "the scene's pixels changed";
+    if (update)
+      out << name << " " << hash << "\n";
+    else
+      EXPECT_EQ(golden[name], hash) << "the scene's pixels changed";
   }
   ::unsetenv("LENSFARM_EMBREE_CONFIG");
 }

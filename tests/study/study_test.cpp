@@ -75,9 +75,9 @@ void checkReportTablesAndPlots(const StudyRun& run) {
     ASSERT_GT(png.size(), 2000u) << plot;
     EXPECT_EQ(png.substr(1, 3), "PNG") << plot;
   }
-  for (const char* csv : {"convergence.csv", "time-to-error.csv", "estimate.csv", "resolution.csv", "dof.csv",
-                          "bounces.csv", "materials.csv", "models.csv", "optics.csv", "denoise.csv", "adaptive.csv",
-                          "media.csv"})
+  for (const char* csv :
+       {"convergence.csv", "time-to-error.csv", "estimate.csv", "resolution.csv", "dof.csv", "bounces.csv",
+        "materials.csv", "models.csv", "optics.csv", "denoise.csv", "adaptive.csv", "media.csv"})
     EXPECT_GT(readCsv(run.out(csv)).size(), 2u) << csv;
 }
 
@@ -140,7 +140,8 @@ void checkMaterials(const StudyRun& run) {
   // The thin-walled ball is a thin wall, and only that variant pays for one.
   EXPECT_NE(rows.at("thin-walled glass (a thin wall), rough gold 0.3").at("effects").find("let light straight through"),
             std::string::npos);
-  EXPECT_EQ(rows.at("smooth glass, rough gold 0.3").at("effects").find("let light straight through"), std::string::npos);
+  EXPECT_EQ(rows.at("smooth glass, rough gold 0.3").at("effects").find("let light straight through"),
+            std::string::npos);
   EXPECT_LT(num(rows.at("smooth glass, rough gold 1.0, no energy compensation"), "image mean"),
             num(rows.at("smooth glass, rough gold 1.0"), "image mean"));
   EXPECT_EQ(rows.at("diffuse stand-ins").at("effects"), "diffuse only");
@@ -235,9 +236,10 @@ void checkDenoise(const StudyRun& run) {
 
 TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
   StudyRun run;
-  run.result = test::runProcess({test::cliPath().string(), "study", "--quick", "--out", (run.dir.path() / "out").string(),
-                                 "--report", (run.dir.path() / "docs" / "accuracy.md").string()},
-                                600);
+  run.result =
+      test::runProcess({test::cliPath().string(), "study", "--quick", "--out", (run.dir.path() / "out").string(),
+                        "--report", (run.dir.path() / "docs" / "accuracy.md").string()},
+                       600);
   ASSERT_EQ(run.result.exitCode, 0) << run.result.err;
   {
     SCOPED_TRACE("report, tables and plots");

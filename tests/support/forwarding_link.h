@@ -1,8 +1,8 @@
 #pragma once
 // The worker's real link to an in-process Coordinator (client/in_process_link.h, as `lensfarm
 // render` wires it), every call forwarded: a test derives from it to watch or bend one call.
-#include "coordinator/coordinator.h"
 #include "client/in_process_link.h"
+#include "coordinator/coordinator.h"
 
 namespace lensfarm::test {
 

@@ -32,7 +32,8 @@ std::string userName() {
 
 std::optional<std::string> LocalSlurm::unavailableReason() {
   for (const char* tool : {"munged", "slurmctld", "slurmd", "sbatch", "squeue", "scancel", "sinfo"})
-    if (!onPath(tool)) return std::string(tool) + " is not installed (Debian: slurm-wlm and munge; scripts/setup.sh test)";
+    if (!onPath(tool))
+      return std::string(tool) + " is not installed (Debian: slurm-wlm and munge; scripts/setup.sh test)";
   return std::nullopt;
 }
 
@@ -50,10 +51,10 @@ LocalSlurm::LocalSlurm(const fs::path& dir) : dir_(dir), conf_(dir / "slurm.conf
   }
   const fs::path socket = dir_ / "munge/socket";
   munged_ = std::make_unique<ChildProcess>(
-      std::vector<std::string>{*onPath("munged"), "--foreground", "--force", "--key-file=" + (dir_ / "munge/key").string(),
-                               "--socket=" + socket.string(), "--pid-file=" + (dir_ / "munge/pid").string(),
-                               "--log-file=" + (dir_ / "log/munged.log").string(),
-                               "--seed-file=" + (dir_ / "munge/seed").string()},
+      std::vector<std::string>{
+          *onPath("munged"), "--foreground", "--force", "--key-file=" + (dir_ / "munge/key").string(),
+          "--socket=" + socket.string(), "--pid-file=" + (dir_ / "munge/pid").string(),
+          "--log-file=" + (dir_ / "log/munged.log").string(), "--seed-file=" + (dir_ / "munge/seed").string()},
       dir_ / "log/munged");
   if (!waitFor([&] { return fs::exists(socket); }, 20))
     throw std::runtime_error("munged did not start: " + munged_->log() + readFile(dir_ / "log/munged.log"));
@@ -84,7 +85,11 @@ LocalSlurm::LocalSlurm(const fs::path& dir) : dir_(dir), conf_(dir / "slurm.conf
       std::vector<std::string>{*onPath("slurmctld"), "-D", "-f", conf_.string()}, dir_ / "log/slurmctld");
   slurmd_ = std::make_unique<ChildProcess>(
       std::vector<std::string>{*onPath("slurmd"), "-D", "-f", conf_.string(), "-N", "localhost"}, dir_ / "log/slurmd");
-  const bool idle = waitFor([&] { return run({"sinfo", "-h", "-o", "%T"}, 10).out.find("idle") != std::string::npos; }, 60);
+  const bool idle = waitFor(
+      [&] {
+        return run({"sinfo", "-h", "-o", "%T"}, 10).out.find("idle") != std::string::npos;
+      },
+      60);
   if (!idle) throw std::runtime_error("the Slurm node did not come up:\n" + logs());
 }
 

@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "common/film/image_io.h"
-#include "tests/texture/test_images.h"
 #include "common/util/error.h"
+#include "tests/texture/test_images.h"
 
 namespace lensfarm {
 namespace {

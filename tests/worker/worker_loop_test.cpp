@@ -91,8 +91,7 @@ TEST(WorkerLoop, ALeaseEndedByItsOwnUploadIsNotReportedRevoked) {
   EXPECT_EQ(link.races(), 4) << "every upload met the heartbeat that asks about its lease";
   EXPECT_EQ(worker.counters().unitsAbandoned.load(), 0u);
   EXPECT_EQ(worker.counters().unitsAccepted.load(), 4u);
-  for (const std::string& line : sink->last_formatted())
-    EXPECT_EQ(line.find("revoked"), std::string::npos) << line;
+  for (const std::string& line : sink->last_formatted()) EXPECT_EQ(line.find("revoked"), std::string::npos) << line;
 }
 
 // The real link, counting the worker's goodbyes.

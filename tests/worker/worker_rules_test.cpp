@@ -26,7 +26,8 @@ using Clock = std::chrono::steady_clock;
 // call is recorded; each hook, when set, answers instead of the script.
 class ScriptedLink final : public CoordinatorLink {
  public:
-  ScriptedLink(const nlohmann::json& scene, std::map<std::string, std::string> assets = {}) : files_(std::move(assets)) {
+  ScriptedLink(const nlohmann::json& scene, std::map<std::string, std::string> assets = {})
+      : files_(std::move(assets)) {
     spec_ = JobSpec{"scripted.json", scene.dump(), {}, {}, std::nullopt};
     for (const auto& [path, bytes] : files_) spec_.assets[path] = sha256Hex(bytes);
     const Scene s = jobScene(spec_, [&](const std::string& p) -> std::optional<std::string> {
@@ -209,7 +210,8 @@ TEST(WorkerRules, AUnitOverTheWorkersMemoryIsReportedBeforeAnythingIsAllocated) 
 // (the coordinator leases the unit again) and fetches the asset again for its next lease.
 TEST(WorkerRules, ACorruptAssetIsFetchedAgainAndTheUnitRendered) {
   nlohmann::json scene = tinyScene();
-  scene["shapes"].push_back({{"type", "obj"}, {"file", "ball.obj"}, {"material", "white"}, {"transform", {{"scale", 0.3}}}});
+  scene["shapes"].push_back(
+      {{"type", "obj"}, {"file", "ball.obj"}, {"material", "white"}, {"transform", {{"scale", 0.3}}}});
   ScriptedLink link(scene, {{"ball.obj", test::sphereObj(6, 8)}});
   link.corruptFetches = 1;
   link.unitsLeft = 2;
