@@ -78,7 +78,7 @@ bool Coordinator::acceptAudit(const UnitResult& result) {
   const uint64_t unit = result.unitIndex;
   AuditBook::Sums counted, dissent;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     Job& job = findJob(result.jobId);
     checkLeaseHeld(leases_, result.leaseId, result.workerId, result.jobId, unit);
     checkRegion(job, unit, result.buffer.width, result.buffer.height);  // the whole frame, or the unit's tile
@@ -102,7 +102,7 @@ bool Coordinator::acceptAudit(const UnitResult& result) {
     AuditBook::Sums mine;  // kept only if it disputes the counted result
     if (fromCounted && !dissent) mine = std::make_shared<const std::vector<double>>(result.buffer.sums);
 
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     Job& job = findJob(result.jobId);
     const AuditBook::Audit* audit = job.audits.find(unit);
     // Closed meanwhile, or its unit counted again and audited anew (not under this lease).
@@ -122,12 +122,14 @@ bool Coordinator::acceptAudit(const UnitResult& result) {
 
 void Coordinator::applyVerdict(Job& job, const AuditBook::Verdict& v) {
   const auto labelOf = [&](const std::string& id) {
+    mutex_.assertHeld();  // the lambdas run here, under the caller's lock
     auto it = workers_.find(id);
     return it == workers_.end() ? id : it->second->label();
   };
   // A worker whose result agreed was right then, so are the units it delivered before. Each
   // audit is counted once per worker, by role: its own unit confirmed, or another's checked.
   const auto vouchFor = [&](const std::string& id, uint64_t seq, bool ownUnit) {
+    mutex_.assertHeld();
     if (auto it = workers_.find(id); it != workers_.end()) {
       it->second->clearedSeq = std::max(it->second->clearedSeq, seq);
       ++(ownUnit ? it->second->auditsPassed : it->second->auditsRendered);

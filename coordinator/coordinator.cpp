@@ -71,7 +71,7 @@ Coordinator::~Coordinator() {
   stopLifecycle();
   if (!store_) return;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     stopping_ = true;
   }
   checkpointWake_.notify_all();
@@ -152,7 +152,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
     // The layout is fixed now, in the spec every process reads: the same units after a restart.
     uint32_t live = 0;
     {
-      std::lock_guard lock(mutex_);
+      MutexLock lock(mutex_);
       for (const auto& [id, w] : workers_) live += !w->gone;
     }
     resolved.overrides.tileSize = resolveTileSize(scene.render, spec.frames, live);
@@ -191,7 +191,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
   job->submittedUnixSeconds =
       std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   job->id = "job-" + std::to_string(nextJob_++);
   job->sequence = nextSequence_++;
   if (store_)
@@ -307,13 +307,13 @@ JobInfo Coordinator::infoOf(const Job& job) const {
 }
 
 JobInfo Coordinator::job(const std::string& jobId) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   if (deletedJobs_.count(jobId)) throw FarmError(FarmError::Kind::kNotFound, "no job " + jobId + " (it was deleted)");
   return infoOf(findJob(jobId));
 }
 
 std::vector<JobInfo> Coordinator::jobs() const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   std::vector<const Job*> ordered;
   for (const auto& [id, job] : jobs_) ordered.push_back(job.get());
   std::sort(ordered.begin(), ordered.end(), [](const Job* a, const Job* b) {
@@ -325,10 +325,11 @@ std::vector<JobInfo> Coordinator::jobs() const {
 }
 
 JobInfo Coordinator::waitForChange(const std::string& jobId, uint64_t afterVersion, double timeoutSeconds) const {
-  std::unique_lock lock(mutex_);
+  MutexLock lock(mutex_);
   findJob(jobId);
   // The job is looked up again after every wake: it may have been deleted meanwhile.
-  changed_.wait_for(lock, std::chrono::duration<double>(timeoutSeconds), [&] {
+  lock.waitFor(changed_, std::chrono::duration<double>(timeoutSeconds), [&] {
+    mutex_.assertHeld();  // the wait runs it with the lock held
     const auto it = jobs_.find(jobId);
     return it == jobs_.end() || it->second->version > afterVersion;
   });
@@ -363,7 +364,7 @@ void Coordinator::finish(Job& job, const std::string& reason) {
 }
 
 JobInfo Coordinator::cancel(const std::string& jobId) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   Job& job = findJob(jobId);
   if (!isTerminal(job.state)) {
     end(job, JobState::kCancelled);
@@ -398,9 +399,10 @@ JobImage Coordinator::image(const std::string& jobId, std::optional<int64_t> fra
   const Job* job;
   bool archived;
   {
-    std::unique_lock lock(mutex_);
+    MutexLock lock(mutex_);
     // An image being archived is served from the archive once it is stored.
-    changed_.wait(lock, [&] {
+    lock.wait(changed_, [&] {
+      mutex_.assertHeld();  // the wait runs it with the lock held
       const auto it = jobs_.find(jobId);
       return it == jobs_.end() || !it->second->archiving;
     });
@@ -418,7 +420,7 @@ JobImage Coordinator::developedImage(const Job& jobRef, std::optional<int64_t> f
   const Job* job = &jobRef;
   uint64_t frameIndex = 0;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     out.exposure = job->settings.exposure;
     out.metadata = metadataOf(*job);
     if (frame) {
@@ -477,7 +479,7 @@ std::string Coordinator::sensorState(const std::string& jobId) const {
   JobPin pin;
   const Job* job;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     Job& found = findJob(jobId);
     if (found.archived || found.archiving)
       throw FarmError(FarmError::Kind::kFailedPrecondition, jobId + " is archived: its sensor was freed");
@@ -488,12 +490,12 @@ std::string Coordinator::sensorState(const std::string& jobId) const {
 }
 
 JobSpec Coordinator::jobSpec(const std::string& jobId) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return findJob(jobId).spec;
 }
 
 JobSpec Coordinator::jobSpecFor(const std::string& workerId, const std::string& jobId) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   const Job& job = findJob(jobId);
   for (const LeaseTable::Lease* lease : leases_.ofJob(jobId))
     if (lease->workerId == workerId) return job.spec;
@@ -502,7 +504,7 @@ JobSpec Coordinator::jobSpecFor(const std::string& workerId, const std::string& 
 
 std::shared_ptr<const std::string> Coordinator::assetFor(const std::string& workerId, const std::string& sha256) {
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     bool held = false;
     for (const auto& [id, job] : jobs_) {
       bool jobHeld = false;
@@ -520,7 +522,7 @@ std::shared_ptr<const std::string> Coordinator::assetFor(const std::string& work
 // ---- dashboard ------------------------------------------------------------------------------
 
 JobInfo Coordinator::setPriority(const std::string& jobId, int priority) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   Job& job = findJob(jobId);
   if (job.priority != priority) {
     job.priority = priority;  // tryLease() and jobs() read it on every call: the order follows at once
@@ -532,7 +534,7 @@ JobInfo Coordinator::setPriority(const std::string& jobId, int priority) {
 }
 
 std::vector<ErrorPoint> Coordinator::errorHistory(const std::string& jobId) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return findJob(jobId).history;
 }
 
@@ -541,7 +543,7 @@ MetricsSnapshot Coordinator::metricsSnapshot() const {
   s.jobs = jobs();
   s.workers = workers();
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     s.leasesActive = leases_.size();
   }
   s.unitsLeased = counters_.unitsLeased;

@@ -50,6 +50,7 @@
 #include "coordinator/asset_store.h"
 #include "coordinator/audit.h"
 #include "coordinator/lease_table.h"
+#include "coordinator/locking.h"
 
 namespace lensfarm {
 
@@ -380,57 +381,60 @@ class Coordinator {
   struct Worker;
 
   // ---- the job table (coordinator.cpp) ----
-  Job& findJob(const std::string& jobId) const;    // requires mutex_
-  JobInfo infoOf(const Job& job) const;            // requires mutex_; walks the leases and workers (stalledReason)
+  Job& findJob(const std::string& jobId) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  JobInfo infoOf(const Job& job) const
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);       // walks the leases and workers (stalledReason)
   static double elapsedSecondsOf(const Job& job);  // since its first lease, to its end or now
-  void touch(Job& job);
-  void finish(Job& job, const std::string& reason);  // requires mutex_
-  // Ends a job that has not ended (requires mutex_): its state, its end time, its leases revoked
+  void touch(Job& job) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  void finish(Job& job, const std::string& reason) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // Ends a job that has not ended: its state, its end time, its leases revoked
   // and its units no longer leased, the state persisted.
-  void end(Job& job, JobState state);
+  void end(Job& job, JobState state) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
 
   // ---- leases (scheduler.cpp) ----
-  std::optional<LeaseGrant> tryLease(Worker& worker, Clock::time_point now);
+  std::optional<LeaseGrant> tryLease(Worker& worker, Clock::time_point now) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   Clock::time_point leaseDeadline(Clock::time_point now) const;  // a lease granted or extended at `now`
-  void reapExpiredLeases(Clock::time_point now);
-  // Revokes the worker's leases and queues their units again (requires mutex_); for messages,
+  void reapExpiredLeases(Clock::time_point now) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // Revokes the worker's leases and queues their units again; for messages,
   // "unit 5 queued again" or "" when it held nothing.
   // `verb` and `detail` say what happened ("lost", "connection closed").
-  std::string releaseLeasesOf(Worker& worker, const std::string& verb, const std::string& detail,
-                              Clock::time_point now);
-  void revokeLeasesOf(Job& job);
+  std::string releaseLeasesOf(Worker& worker, const std::string& verb, const std::string& detail, Clock::time_point now)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  void revokeLeasesOf(Job& job) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
 
   // ---- results and stopping (results.cpp) ----
-  bool accept(const UnitResult& result, UnitResult* owned);
+  bool accept(const UnitResult& result, UnitResult* owned) ABSL_LOCKS_EXCLUDED(mutex_);
   // FarmError kInvalidArgument unless the result is one the unit can produce (results.cpp).
   // `map`: an adaptive unit's samples (film/sample_map.h), whose counts then replace sampleCount.
   // `maxRaysPerPath`: the job's (render/unit_renderer.h).
   static void checkPlausible(const UnitResult& result, uint64_t cells, uint32_t sampleCount, const AovLayout& aovs,
                              const SampleMap* map, uint64_t maxRaysPerPath);
-  // Unit `unit` of `job` as a lease carries it: an adaptive unit with its map (requires mutex_).
+  // Unit `unit` of `job` as a lease carries it: an adaptive unit with its map.
   // `ready` (if given) is false for a unit of a round not allocated yet (no map: not to be leased).
-  WorkUnit unitToLease(const Job& job, uint64_t unit, bool* ready = nullptr) const;
-  void enforceDeadlines();  // requires mutex_
+  WorkUnit unitToLease(const Job& job, uint64_t unit, bool* ready = nullptr) const
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  void enforceDeadlines() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
 
   // ---- the cross-worker audit (auditing.cpp, docs/farm.md "Audit"); all but acceptAudit
   // require mutex_ ----
   // Whether `worker`'s counted unit of `job` is audited: its first one, then Options::auditFraction
   // of them, when another worker could render it.
-  bool chooseForAudit(const Job& job, Worker& worker);
+  bool chooseForAudit(const Job& job, Worker& worker) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   // An audit lease for `worker`, if a job it may render has a unit under audit it did not render.
-  std::optional<LeaseGrant> tryAuditLease(Worker& worker, Clock::time_point now);
+  std::optional<LeaseGrant> tryAuditLease(Worker& worker, Clock::time_point now) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   // A result uploaded under an audit lease (after checkPlausible; takes mutex_ itself, and
   // compares the sums outside it).
   bool acceptAudit(const UnitResult& result);
-  void applyVerdict(Job& job, const AuditBook::Verdict& verdict);
-  void quarantine(Worker& worker, const std::string& reason);
+  void applyVerdict(Job& job, const AuditBook::Verdict& verdict) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  void quarantine(Worker& worker, const std::string& reason) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   // Undoes `workerId`'s units of `job` since its last agreeing audit (and the units summed after
   // the rewind point before them), to render again.
-  void rewindFor(Job& job, const std::string& workerId);
-  void updateTrust(Job& job);  // moves trustedUnits on after an audit agreed
+  void rewindFor(Job& job, const std::string& workerId) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  void updateTrust(Job& job) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);  // moves trustedUnits on after an audit agreed
   // A job whose film reached its stop ends once its audits are settled, or cannot be (no worker left to render them).
-  void settleWaitingJobs();
-  bool mayAudit(const Job& job, const Worker& worker, const std::string& exceptWorker = "") const;
+  void settleWaitingJobs() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  bool mayAudit(const Job& job, const Worker& worker, const std::string& exceptWorker = "") const
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
 
   // ---- the job life cycle (lifecycle.cpp) ----
   // Keeps a job (and its film) alive while it is used outside mutex_: deleteJob and archiveJob
@@ -449,6 +453,29 @@ class Coordinator {
     const Coordinator* coordinator_ = nullptr;
     Job* job_ = nullptr;
   };
+
+  // ---- results (results.cpp), continued ----
+  // The steps of accept. checkProducible: FarmError kInvalidArgument for sums or counters the unit
+  // cannot produce (checkPlausible), outside the lock. admit: the unit exists, its lease is held
+  // and its shape is the unit's; the unit is then being recorded. record: the ledger row and sums,
+  // durable (the unit queued again if that fails). count: the unit counted, its audit opened;
+  // false when a rewind or a quarantine meanwhile means it is rendered again. sumAndPublish: the
+  // sums added to the film (outside the lock), its progress published and a stop applied
+  // (kResourceExhausted if the film could not keep them).
+  struct Admission {
+    Job* job = nullptr;
+    JobPin pin;  // the job is neither deleted nor archived while its result is summed
+    std::string workerName;
+    uint64_t generation = 0;  // the film's, at admission
+    bool duplicate = false;   // the unit is already counted or being counted: ignored
+    bool auditLease = false;  // the upload renders a counted unit again (auditing.cpp)
+    bool audited = false;     // chosen for audit: its sums are kept to compare
+  };
+  void checkProducible(const UnitResult& result) ABSL_LOCKS_EXCLUDED(mutex_);
+  Admission admit(const UnitResult& result) ABSL_LOCKS_EXCLUDED(mutex_);
+  void record(const UnitResult& result, const Admission& a) ABSL_LOCKS_EXCLUDED(mutex_);
+  bool count(const UnitResult& result, const Admission& a, AuditBook::Sums kept) ABSL_LOCKS_EXCLUDED(mutex_);
+  void sumAndPublish(const UnitResult& result, UnitResult* owned, const Admission& a) ABSL_LOCKS_EXCLUDED(mutex_);
   void startLifecycle();  // the constructor's last step: retention at start-up, then its thread
   void stopLifecycle();   // the destructor's first
   void lifecycleLoop();
@@ -462,28 +489,32 @@ class Coordinator {
   std::unique_ptr<class JobArchive> archive_;
   std::thread lifecycleThread_;
   std::condition_variable lifecycleWake_;  // with mutex_: a job ended, or the coordinator stops
-  bool lifecycleStopping_ = false;         // guarded by mutex_
-  bool lifecycleDue_ = false;              // guarded by mutex_: a job ended since the last pass
-  std::set<std::string> deletedJobs_;      // guarded by mutex_: ids deleted by this run
+  bool lifecycleStopping_ ABSL_GUARDED_BY(mutex_) = false;
+  bool lifecycleDue_ ABSL_GUARDED_BY(mutex_) = false;          // a job ended since the last pass
+  std::set<std::string> deletedJobs_ ABSL_GUARDED_BY(mutex_);  // ids deleted by this run
 
   // ---- durable state (persistence.cpp) ----
   // Stores the frames an animation's film completed (outside mutex_), then drops their unit files.
   void storeCompletedFrames(Job& job);
-  ImageMetadata metadataOf(const Job& job) const;  // requires mutex_
+  ImageMetadata metadataOf(const Job& job) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   void restore();
+  // The jobs of the state dir, back in the table; those with tiles into `tiled` (their completed
+  // frames are stored next, outside the lock).
+  void restoreJobs(std::vector<Job*>& tiled) ABSL_LOCKS_EXCLUDED(mutex_);
   // A tiled job's film from its stored frames and its ledger; returns the highest unit counted.
   std::optional<uint64_t> restoreTiled(Job& job);
-  void persistState(const Job& job);  // requires mutex_
+  void persistState(const Job& job) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   void checkpointLoop();
 
   // ---- workers (workers.cpp) ----
-  Worker& findWorker(const std::string& workerId);
-  Worker* liveWorker(const std::string& workerId);  // requires mutex_; null if unknown, lost or left
-  WorkerState stateOf(const Worker& worker, bool holdsLease, Clock::time_point now,
-                      double* secondsInState) const;                       // requires mutex_
-  std::string stalledReason(const Job& job, Clock::time_point now) const;  // requires mutex_
+  Worker& findWorker(const std::string& workerId) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  Worker* liveWorker(const std::string& workerId)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);  // null if unknown, lost or left
+  WorkerState stateOf(const Worker& worker, bool holdsLease, Clock::time_point now, double* secondsInState) const
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  std::string stalledReason(const Job& job, Clock::time_point now) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   double staleAfterSeconds() const;
-  void forgetSilentWorkers(Clock::time_point now);  // requires mutex_
+  void forgetSilentWorkers(Clock::time_point now) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
 
   Options options_;
   std::unique_ptr<class StateStore> store_;
@@ -491,16 +522,17 @@ class Coordinator {
   uint64_t epoch_ = 0;                        // distinguishes ids issued by this run from those of earlier runs
   std::thread checkpointer_;
   std::condition_variable checkpointWake_;
-  bool stopping_ = false;  // guarded by mutex_
-  mutable std::mutex mutex_;
+  bool stopping_ ABSL_GUARDED_BY(mutex_) = false;
+  mutable Mutex mutex_;
   mutable std::condition_variable changed_;  // any job changed, or work became available
   AssetStore assets_;                        // its own lock
-  std::map<std::string, std::unique_ptr<Job>> jobs_;
-  std::map<std::string, std::unique_ptr<Worker>> workers_;
-  LeaseTable leases_;  // guarded by mutex_
-  uint64_t nextJob_ = 1, nextWorker_ = 1, nextSequence_ = 1, nextAttachment_ = 1;
-  uint64_t nextAcceptance_ = 1;  // orders accepted units for the audit (Job::Provenance::seq)
-  std::mt19937_64 auditRandom_;  // which units are audited; seeded by the operating system
+  std::map<std::string, std::unique_ptr<Job>> jobs_ ABSL_GUARDED_BY(mutex_);
+  std::map<std::string, std::unique_ptr<Worker>> workers_ ABSL_GUARDED_BY(mutex_);
+  LeaseTable leases_ ABSL_GUARDED_BY(mutex_);
+  uint64_t nextJob_ ABSL_GUARDED_BY(mutex_) = 1, nextWorker_ ABSL_GUARDED_BY(mutex_) = 1;
+  uint64_t nextSequence_ ABSL_GUARDED_BY(mutex_) = 1, nextAttachment_ ABSL_GUARDED_BY(mutex_) = 1;
+  uint64_t nextAcceptance_ ABSL_GUARDED_BY(mutex_) = 1;  // orders accepted units for the audit (Job::Provenance::seq)
+  std::mt19937_64 auditRandom_ ABSL_GUARDED_BY(mutex_);  // which units are audited; seeded by the operating system
   // Held while a job's checkpoint is taken and written, and by a rewind that rewrites it.
   std::mutex checkpointMutex_;
 

@@ -75,7 +75,7 @@ Coordinator::JobPin::~JobPin() { release(); }
 
 void Coordinator::JobPin::release() {
   if (!job_) return;
-  std::lock_guard lock(coordinator_->mutex_);
+  MutexLock lock(coordinator_->mutex_);
   if (--job_->pins == 0) coordinator_->changed_.notify_all();
   job_ = nullptr;
 }
@@ -99,7 +99,7 @@ std::vector<JobInfo> Coordinator::jobs(const JobFilter& filter) const {
 void Coordinator::deleteJob(const std::string& jobId, bool force) {
   std::unique_ptr<Job> gone;  // freed outside the lock
   {
-    std::unique_lock lock(mutex_);
+    MutexLock lock(mutex_);
     if (deletedJobs_.count(jobId)) throw FarmError(FarmError::Kind::kNotFound, "no job " + jobId + " (it was deleted)");
     Job& job = findJob(jobId);
     if (job.deleting) throw FarmError(FarmError::Kind::kNotFound, "no job " + jobId + " (it is being deleted)");
@@ -111,7 +111,7 @@ void Coordinator::deleteJob(const std::string& jobId, bool force) {
       spdlog::info("job {}: cancelled to be deleted", job.id);
     }
     job.deleting = true;  // no new pin; the scheduler leases nothing of an ended job
-    changed_.wait(lock, [&] { return !job.archiving && job.pins == 0; });
+    lock.wait(changed_, [&] { return !job.archiving && job.pins == 0; });
     revokeLeasesOf(job);
     const auto it = jobs_.find(jobId);
     gone = std::move(it->second);
@@ -161,7 +161,7 @@ void Coordinator::restoreSummary(Job& job, const std::string& summary) {
 JobImage Coordinator::archivedImage(const Job& job) const {
   JobImage out;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     out.exposure = job.settings.exposure;
   }
   std::optional<Image> image = archive_->load(job.id, &out.metadata);
@@ -175,8 +175,9 @@ JobImage Coordinator::archivedImage(const Job& job) const {
 JobInfo Coordinator::archiveJob(const std::string& jobId) {
   Job* job;
   {
-    std::unique_lock lock(mutex_);
-    changed_.wait(lock, [&] {  // one archiving at a time per job
+    MutexLock lock(mutex_);
+    lock.wait(changed_, [&] {  // one archiving at a time per job
+      mutex_.assertHeld();     // the wait runs it with the lock held
       const auto it = jobs_.find(jobId);
       return it == jobs_.end() || !it->second->archiving;
     });
@@ -188,7 +189,7 @@ JobInfo Coordinator::archiveJob(const std::string& jobId) {
           jobId + " is " + jobStateName(found.state) + ": only a job that ended can be archived (cancel it first)");
     if (found.archived) return infoOf(found);
     found.archiving = true;  // image() waits, checkpoint() skips it, deleteJob() waits
-    changed_.wait(lock, [&] { return found.pins == 0; });
+    lock.wait(changed_, [&] { return found.pins == 0; });
     job = &found;
   }
   std::string summary;
@@ -196,18 +197,18 @@ JobInfo Coordinator::archiveJob(const std::string& jobId) {
     const JobImage image = developedImage(*job);
     archive_->store(jobId, image.image, image.metadata);
     {
-      std::lock_guard lock(mutex_);
+      MutexLock lock(mutex_);
       summary = summaryOf(*job);
     }
     if (store_) store_->markArchived(jobId, summary);
   } catch (...) {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     job->archiving = false;
     changed_.notify_all();
     throw;
   }
   std::unique_ptr<Accumulator> freed;  // destroyed outside the lock
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   freed = std::move(job->film);
   job->provenance.clear();
   job->archived = true;
@@ -223,7 +224,7 @@ void Coordinator::applyRetention() {
   const double now = unixNow();
   std::vector<std::string> toDelete, toArchive;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     lifecycleDue_ = false;
     for (const auto& [id, job] : jobs_) {
       if (!isTerminal(job->state) || job->deleting) continue;
@@ -260,7 +261,7 @@ void Coordinator::startLifecycle() {
 
 void Coordinator::stopLifecycle() {
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     lifecycleStopping_ = true;
   }
   lifecycleWake_.notify_all();
@@ -273,10 +274,12 @@ void Coordinator::lifecycleLoop() {
   double period = 10.0;
   for (const double limit : {options_.keepSeconds, options_.archiveAfterSeconds})
     if (limit > 0.0) period = std::min(period, std::max(0.05, limit / 4.0));
-  std::unique_lock lock(mutex_);
+  MutexLock lock(mutex_);
   while (!lifecycleStopping_) {
-    lifecycleWake_.wait_for(lock, std::chrono::duration<double>(period),
-                            [&] { return lifecycleStopping_ || lifecycleDue_; });
+    lock.waitFor(lifecycleWake_, std::chrono::duration<double>(period), [&] {
+      mutex_.assertHeld();
+      return lifecycleStopping_ || lifecycleDue_;
+    });
     if (lifecycleStopping_) break;
     lifecycleDue_ = false;
     lock.unlock();

@@ -67,36 +67,41 @@ void writeAddressFile(const std::string& file, const std::string& address, const
 }
 extern "C" void onSignal(int) { gStop = true; }
 
-}  // namespace
+using namespace lensfarm;
 
-int main(int argc, char** argv) {
-  using namespace lensfarm;
-  // Unit buffers are megabytes each: keep them out of the heap arenas (glibc would otherwise raise
-  // its mmap threshold after the first frees and hold freed buffers as resident memory).
-  mallopt(M_MMAP_THRESHOLD, 1 << 20);
-  CLI::App app{"lensfarm-coordinator: schedules render jobs over workers and accumulates their images"};
-  app.set_version_flag("--version", kRendererVersion);
+// Everything the command line sets.
+struct Flags {
   std::string listen = "127.0.0.1:7878", portFile, logLevel = "info";
   std::string clientTokenFile, workerTokenFile, viewerTokenFile, tlsCert, tlsKey, tlsClientCa;
+  std::string metricsListen, metricsPortFile, dashboardListen, dashboardPortFile;
+  std::string stateDir, uploadEncoding = "shuffle-zstd", maxJobMemory, keep = "0", archiveAfter = "0";
   Coordinator::Options options;
-  app.add_option("--listen", listen, "HOST:PORT to serve on (port 0 picks a free port)")
+};
+
+// Where the services listen, who may call them and how (tokens, TLS).
+void addServingFlags(CLI::App& app, Flags& f) {
+  app.add_option("--listen", f.listen, "HOST:PORT to serve on (port 0 picks a free port)")
       ->envname("LENSFARM_LISTEN")
       ->capture_default_str();
-  app.add_option("--client-token-file", clientTokenFile,
+  app.add_option("--client-token-file", f.clientTokenFile,
                  "File holding the token clients must present (or set LENSFARM_CLIENT_TOKEN)");
-  app.add_option("--worker-token-file", workerTokenFile,
+  app.add_option("--worker-token-file", f.workerTokenFile,
                  "File holding the token workers must present (or set LENSFARM_WORKER_TOKEN)");
-  app.add_option("--viewer-token-file", viewerTokenFile,
+  app.add_option("--viewer-token-file", f.viewerTokenFile,
                  "File holding a read-only token for the dashboard: it shows jobs, workers and images but cannot "
                  "cancel or reprioritize, and opens no gRPC call (or set LENSFARM_VIEWER_TOKEN to the token itself); "
                  "needs a client token")
       ->envname("LENSFARM_VIEWER_TOKEN_FILE");
-  app.add_option("--tls-cert", tlsCert, "PEM server certificate chain: serve TLS")->envname("LENSFARM_TLS_CERT");
-  app.add_option("--tls-key", tlsKey, "PEM private key of --tls-cert")->envname("LENSFARM_TLS_KEY");
-  app.add_option("--tls-client-ca", tlsClientCa, "PEM CA: require and verify client certificates")
+  app.add_option("--tls-cert", f.tlsCert, "PEM server certificate chain: serve TLS")->envname("LENSFARM_TLS_CERT");
+  app.add_option("--tls-key", f.tlsKey, "PEM private key of --tls-cert")->envname("LENSFARM_TLS_KEY");
+  app.add_option("--tls-client-ca", f.tlsClientCa, "PEM CA: require and verify client certificates")
       ->envname("LENSFARM_TLS_CLIENT_CA");
-  app.add_option("--port-file", portFile, "Write the address actually listened on to this file")
+  app.add_option("--port-file", f.portFile, "Write the address actually listened on to this file")
       ->envname("LENSFARM_PORT_FILE");
+}
+
+// Leases, failures and the audit (docs/farm.md).
+void addSchedulingFlags(CLI::App& app, Coordinator::Options& options) {
   app.add_option("--lease-timeout", options.leaseTimeoutSeconds, "Seconds without a heartbeat before a lease lapses")
       ->envname("LENSFARM_LEASE_TIMEOUT")
       ->check(numberIn(0.1, 86400.0, "seconds"))
@@ -132,222 +137,287 @@ int main(int argc, char** argv) {
       ->envname("LENSFARM_AUDIT_TOLERANCE")
       ->check(nonNegativeNumber(""))
       ->capture_default_str();
-  std::string metricsListen, metricsPortFile;
-  app.add_option("--metrics-listen", metricsListen,
+}
+
+// The metrics endpoint and the dashboard.
+void addHttpFlags(CLI::App& app, Flags& f) {
+  app.add_option("--metrics-listen", f.metricsListen,
                  "HOST:PORT to serve Prometheus metrics on over HTTP (GET /metrics; port 0 picks a free port); "
                  "empty: off")
       ->envname("LENSFARM_METRICS_LISTEN");
-  app.add_option("--metrics-port-file", metricsPortFile, "Write the metrics address actually listened on to this file")
+  app.add_option("--metrics-port-file", f.metricsPortFile,
+                 "Write the metrics address actually listened on to this file")
       ->envname("LENSFARM_METRICS_PORT_FILE");
-  std::string dashboardListen, dashboardPortFile;
-  app.add_option("--dashboard-listen", dashboardListen,
+  app.add_option("--dashboard-listen", f.dashboardListen,
                  "HOST:PORT to serve the web dashboard on, over HTTPS with --tls-cert and --tls-key, else HTTP (port 0 "
                  "picks a free port; its /api needs the client or viewer token); empty: off")
       ->envname("LENSFARM_DASHBOARD_LISTEN");
-  app.add_option("--dashboard-port-file", dashboardPortFile,
+  app.add_option("--dashboard-port-file", f.dashboardPortFile,
                  "Write the dashboard address actually listened on to this file")
       ->envname("LENSFARM_DASHBOARD_PORT_FILE");
-  std::string stateDir;
-  app.add_option("--state-dir", stateDir,
+}
+
+// Durable state, uploads, memory and the job life cycle (docs/farm.md "Job life cycle").
+void addStateFlags(CLI::App& app, Flags& f) {
+  app.add_option("--state-dir", f.stateDir,
                  "Keep jobs, assets, the unit ledger and sensors here (SQLite + files) "
                  "and resume them after a restart; empty: in memory only")
       ->envname("LENSFARM_STATE_DIR");
-  app.add_option("--checkpoint-every", options.checkpointEverySeconds,
+  app.add_option("--checkpoint-every", f.options.checkpointEverySeconds,
                  "Seconds between saves of the accumulated sensors (units are durable before they are acknowledged)")
       ->envname("LENSFARM_CHECKPOINT_EVERY")
       ->check(numberIn(0.01, 86400.0, "seconds"))
       ->capture_default_str();
-  std::string uploadEncoding = "shuffle-zstd";
-  app.add_option("--upload-encoding", uploadEncoding,
+  app.add_option("--upload-encoding", f.uploadEncoding,
                  "How workers are asked to upload unit sums: shuffle-zstd (byte-shuffled doubles, zstd level 1, "
                  "lossless) or raw (the doubles as they are); uploads in either are accepted")
       ->envname("LENSFARM_UPLOAD_ENCODING")
       ->check(CLI::IsMember({"shuffle-zstd", "raw"}))
       ->capture_default_str();
-  std::string maxJobMemory;
-  app.add_option("--max-job-memory", maxJobMemory,
+  app.add_option("--max-job-memory", f.maxJobMemory,
                  "Memory one job may take (e.g. 16G, 512MiB): bigger jobs are refused at submission with their "
                  "estimate; default 3/4 of this machine's memory (or of its cgroup limit)")
       ->envname("LENSFARM_MAX_JOB_MEMORY");
-  // The job life cycle (docs/farm.md "Job life cycle").
-  std::string keep = "0", archiveAfter = "0";
-  app.add_option("--keep", keep,
+  app.add_option("--keep", f.keep,
                  "Delete jobs this long after they ended (e.g. 7d, 12h, 30m, 3600s); 0: keep them forever")
       ->envname("LENSFARM_KEEP")
       ->capture_default_str();
-  app.add_option("--archive-after", archiveAfter,
+  app.add_option("--archive-after", f.archiveAfter,
                  "Archive jobs this long after they ended: keep the final image, free the sensor and ledger "
                  "(0: at once; \"never\": keep everything)")
       ->envname("LENSFARM_ARCHIVE_AFTER")
       ->capture_default_str();
-  addLogLevelOption(app, logLevel);
-  if (const auto exitCode = parseServiceFlags(app, argc, argv, "lensfarm-coordinator")) return *exitCode;
-  setupLogging("coordinator", logLevel);
-  if (!maxJobMemory.empty()) {
-    options.maxJobMemoryBytes = parseByteSize(maxJobMemory);
-    options.maxJobMemorySource = "--max-job-memory";
-    if (options.maxJobMemoryBytes == 0) {
+}
+
+// The options that need more than CLI11's checks; an exit code (2) after one clear error line.
+std::optional<int> finishOptions(Flags& f) {
+  if (!f.maxJobMemory.empty()) {
+    f.options.maxJobMemoryBytes = parseByteSize(f.maxJobMemory);
+    f.options.maxJobMemorySource = "--max-job-memory";
+    if (f.options.maxJobMemoryBytes == 0) {
       spdlog::error("--max-job-memory: expected a size such as 16G, 512MiB or 2000000000 (bytes), got \"{}\"",
-                    maxJobMemory);
+                    f.maxJobMemory);
       return 2;
     }
   }
-
   try {
-    options.keepSeconds = parseDuration(keep, "--keep");
-    options.archiveAfterSeconds = archiveAfter == "never" ? -1.0 : parseDuration(archiveAfter, "--archive-after");
+    f.options.keepSeconds = parseDuration(f.keep, "--keep");
+    f.options.archiveAfterSeconds = f.archiveAfter == "never" ? -1.0 : parseDuration(f.archiveAfter, "--archive-after");
   } catch (const InputError& e) {
     spdlog::error("{}", e.what());
     return 2;
   }
+  f.options.stateDir = f.stateDir;
+  return std::nullopt;
+}
 
-  options.stateDir = stateDir;
-  std::unique_ptr<Coordinator> owned;
-  try {
-    owned = std::make_unique<Coordinator>(options);
-  } catch (const std::exception& e) {
-    spdlog::error("--state-dir {}: {}", stateDir, e.what());
-    return 2;
-  }
-  Coordinator& coordinator = *owned;
-  spdlog::info("a job may take up to {} of memory ({})", formatBytes(coordinator.options().maxJobMemoryBytes),
-               coordinator.options().maxJobMemorySource);
-
-  // Security: tokens per service, TLS if certificates are given, and no open door to the network.
+// The tokens per service and the gRPC credentials (TLS if certificates are given).
+struct Security {
   std::optional<std::string> clientToken, workerToken, viewerToken;
   std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
-  try {
-    clientToken = readToken(clientTokenFile, "LENSFARM_CLIENT_TOKEN");
-    workerToken = readToken(workerTokenFile, "LENSFARM_WORKER_TOKEN");
-    if (clientToken)
-      checkTokenStrength(*clientToken, clientTokenFile.empty() ? "LENSFARM_CLIENT_TOKEN" : clientTokenFile);
-    if (workerToken)
-      checkTokenStrength(*workerToken, workerTokenFile.empty() ? "LENSFARM_WORKER_TOKEN" : workerTokenFile);
-    if (clientToken && workerToken && equalSecrets(*clientToken, *workerToken))
-      throw InputError("--worker-token-file", "workers and clients need different tokens");
-    viewerToken = readToken(viewerTokenFile, "LENSFARM_VIEWER_TOKEN");
-    if (viewerToken) {
-      const char* viewerFlag = "--viewer-token-file";
-      checkTokenStrength(*viewerToken, viewerTokenFile.empty() ? "LENSFARM_VIEWER_TOKEN" : viewerTokenFile);
-      if (!clientToken)
-        throw InputError(viewerFlag,
-                         "a viewer token needs a client token (--client-token-file): without one the "
-                         "dashboard is open to anyone on this machine");
-      if (equalSecrets(*viewerToken, *clientToken) || (workerToken && equalSecrets(*viewerToken, *workerToken)))
-        throw InputError(viewerFlag, "viewers need a token of their own, different from the client and worker tokens");
-    }
-    if (!tlsClientCa.empty() && tlsCert.empty())
-      throw InputError("--tls-client-ca", "client certificates need TLS: give --tls-cert and --tls-key too");
-    if (tlsCert.empty() != tlsKey.empty())
-      throw InputError(tlsCert.empty() ? "--tls-key" : "--tls-cert", "give both --tls-cert and --tls-key");
-    if (!tlsCert.empty()) {
-      grpc::SslServerCredentialsOptions tls(tlsClientCa.empty()
-                                                ? GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE
-                                                : GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY);
-      tls.pem_key_cert_pairs.push_back({readFileOrThrow(tlsKey, "--tls-key"), readFileOrThrow(tlsCert, "--tls-cert")});
-      if (!tlsClientCa.empty()) tls.pem_root_certs = readFileOrThrow(tlsClientCa, "--tls-client-ca");
-      credentials = grpc::SslServerCredentials(tls);
-    }
-  } catch (const InputError& e) {
-    spdlog::error("{}", e.what());
-    return 2;
+};
+
+// Reads and checks the tokens and certificates; InputError naming the flag or variable.
+Security readSecurity(const Flags& f) {
+  Security s;
+  s.clientToken = readToken(f.clientTokenFile, "LENSFARM_CLIENT_TOKEN");
+  s.workerToken = readToken(f.workerTokenFile, "LENSFARM_WORKER_TOKEN");
+  if (s.clientToken)
+    checkTokenStrength(*s.clientToken, f.clientTokenFile.empty() ? "LENSFARM_CLIENT_TOKEN" : f.clientTokenFile);
+  if (s.workerToken)
+    checkTokenStrength(*s.workerToken, f.workerTokenFile.empty() ? "LENSFARM_WORKER_TOKEN" : f.workerTokenFile);
+  if (s.clientToken && s.workerToken && equalSecrets(*s.clientToken, *s.workerToken))
+    throw InputError("--worker-token-file", "workers and clients need different tokens");
+  s.viewerToken = readToken(f.viewerTokenFile, "LENSFARM_VIEWER_TOKEN");
+  if (s.viewerToken) {
+    const char* viewerFlag = "--viewer-token-file";
+    checkTokenStrength(*s.viewerToken, f.viewerTokenFile.empty() ? "LENSFARM_VIEWER_TOKEN" : f.viewerTokenFile);
+    if (!s.clientToken)
+      throw InputError(viewerFlag,
+                       "a viewer token needs a client token (--client-token-file): without one the "
+                       "dashboard is open to anyone on this machine");
+    if (equalSecrets(*s.viewerToken, *s.clientToken) || (s.workerToken && equalSecrets(*s.viewerToken, *s.workerToken)))
+      throw InputError(viewerFlag, "viewers need a token of their own, different from the client and worker tokens");
   }
-  const std::string host = listen.substr(0, listen.rfind(':'));
+  if (!f.tlsClientCa.empty() && f.tlsCert.empty())
+    throw InputError("--tls-client-ca", "client certificates need TLS: give --tls-cert and --tls-key too");
+  if (f.tlsCert.empty() != f.tlsKey.empty())
+    throw InputError(f.tlsCert.empty() ? "--tls-key" : "--tls-cert", "give both --tls-cert and --tls-key");
+  if (!f.tlsCert.empty()) {
+    grpc::SslServerCredentialsOptions tls(f.tlsClientCa.empty()
+                                              ? GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE
+                                              : GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY);
+    tls.pem_key_cert_pairs.push_back(
+        {readFileOrThrow(f.tlsKey, "--tls-key"), readFileOrThrow(f.tlsCert, "--tls-cert")});
+    if (!f.tlsClientCa.empty()) tls.pem_root_certs = readFileOrThrow(f.tlsClientCa, "--tls-client-ca");
+    s.credentials = grpc::SslServerCredentials(tls);
+  }
+  return s;
+}
+
+// No open door to the network: a non-loopback address needs the tokens; an error line and exit
+// code 2, else warnings for what crosses the network in the clear.
+std::optional<int> refuseOpenDoors(const Flags& f, const Security& s) {
+  const std::string host = f.listen.substr(0, f.listen.rfind(':'));
   const bool loopback = isLoopback(host);
-  if (!loopback && !(clientToken && workerToken)) {
+  if (!loopback && !(s.clientToken && s.workerToken)) {
     spdlog::error(
         "refusing to listen on {} without --client-token-file and --worker-token-file: anyone who can "
         "reach it could submit jobs or lease work. Give both tokens, or listen on 127.0.0.1.",
-        listen);
+        f.listen);
     return 2;
   }
   // (A malformed address is refused with its own message when the dashboard starts.)
-  if (const size_t colon = dashboardListen.rfind(':');
-      colon != std::string::npos && colon > 0 && !isLoopback(dashboardListen.substr(0, colon)) && !clientToken) {
+  if (const size_t colon = f.dashboardListen.rfind(':');
+      colon != std::string::npos && colon > 0 && !isLoopback(f.dashboardListen.substr(0, colon)) && !s.clientToken) {
     spdlog::error(
         "refusing to serve the dashboard on {} without --client-token-file: anyone who can reach it could "
         "cancel jobs. Give a client token, or listen on 127.0.0.1.",
-        dashboardListen);
+        f.dashboardListen);
     return 2;
   }
-  if (!loopback && tlsCert.empty())
-    spdlog::warn("serving {} without TLS: tokens and images cross the network in the clear", listen);
-  if (const size_t colon = dashboardListen.rfind(':');
-      colon != std::string::npos && colon > 0 && !isLoopback(dashboardListen.substr(0, colon)) && tlsCert.empty())
+  if (!loopback && f.tlsCert.empty())
+    spdlog::warn("serving {} without TLS: tokens and images cross the network in the clear", f.listen);
+  if (const size_t colon = f.dashboardListen.rfind(':');
+      colon != std::string::npos && colon > 0 && !isLoopback(f.dashboardListen.substr(0, colon)) && f.tlsCert.empty())
     spdlog::warn("serving the dashboard on {} without TLS: tokens and images cross the network in the clear",
-                 dashboardListen);
+                 f.dashboardListen);
+  return std::nullopt;
+}
 
-  // The viewer token reads through gRPC too: status, watch, download, snapshots, workers.
-  ClientServiceImpl clientService(
-      coordinator, TokenGate(clientToken, "client", viewerToken, "viewer",
-                             {"GetJob", "ListJobs", "WatchJob", "Download", "GetSnapshot", "ListWorkers"}));
-  WorkerServiceImpl workerService(coordinator, TokenGate(workerToken, "worker"),
-                                  uploadEncoding == "raw" ? SumsEncoding::kRaw : SumsEncoding::kShuffleZstd);
-  // gRPC health checking (grpc.health.v1.Health): SERVING while the services are up, for load
-  // balancers and Kubernetes gRPC probes; it needs no token.
-  grpc::EnableDefaultHealthCheckService(true);
-  // From here on a signal stops the coordinator cleanly, also one sent as soon as --port-file appears.
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
-  grpc::ServerBuilder builder;
-  // Without SO_REUSEPORT (gRPC's default on Linux), a second coordinator on the same port fails
-  // to start instead of silently sharing the port's connections with the first.
-  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
-  // Keepalive (docs/farm.md "Failures"): ping a connection after 5 s of quiet and drop it if no
-  // answer comes within 5 s, so a worker whose machine or network died (its Attach stream open
-  // on a dead link) is lost in about 10 s; and accept the workers' own pings (every 5 s, also
-  // between calls; proto/channel_security.h) instead of answering them with GOAWAY.
-  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, 5000);
-  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 5000);
-  builder.AddChannelArgument(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);
-  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS, 4000);
-  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
-  // Each address checked before any server takes one: a port in use is one line naming its flag.
-  for (const auto& [flag, address] : {std::pair<const char*, const std::string*>{"--listen", &listen},
-                                      {"--metrics-listen", &metricsListen},
-                                      {"--dashboard-listen", &dashboardListen}}) {
+// Each address checked before any server takes one: a port in use is one line naming its flag.
+std::optional<int> refuseBusyAddresses(const Flags& f) {
+  for (const auto& [flag, address] : {std::pair<const char*, const std::string*>{"--listen", &f.listen},
+                                      {"--metrics-listen", &f.metricsListen},
+                                      {"--dashboard-listen", &f.dashboardListen}}) {
     if (address->empty()) continue;
     if (const std::optional<std::string> problem = listenProblem(*address)) {
       std::fprintf(stderr, "lensfarm-coordinator: error: %s %s: %s\n", flag, address->c_str(), problem->c_str());
       return 2;
     }
   }
-  int port = 0;
-  builder.AddListeningPort(listen, credentials, &port);
+  return std::nullopt;
+}
+
+// The gRPC server with both services, keepalive as docs/farm.md "Failures" says; its port into
+// `port` (0: it could not listen).
+std::unique_ptr<grpc::Server> startGrpc(const Flags& f, const Security& s, ClientServiceImpl& clientService,
+                                        WorkerServiceImpl& workerService, int& port) {
+  grpc::ServerBuilder builder;
+  // Without SO_REUSEPORT (gRPC's default on Linux), a second coordinator on the same port fails
+  // to start instead of silently sharing the port's connections with the first.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
+  // Keepalive: ping a connection after 5 s of quiet and drop it if no answer comes within 5 s, so
+  // a worker whose machine or network died (its Attach stream open on a dead link) is lost in
+  // about 10 s; and accept the workers' own pings (every 5 s, also between calls;
+  // proto/channel_security.h) instead of answering them with GOAWAY.
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, 5000);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 5000);
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS, 4000);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+  builder.AddListeningPort(f.listen, s.credentials, &port);
   builder.RegisterService(&clientService);
   builder.RegisterService(&workerService);
-  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  return builder.BuildAndStart();
+}
+
+// The HTTP servers (metrics, dashboard) and the address files; throws InputError or another
+// exception (the caller shuts the gRPC server down).
+struct HttpServers {
+  std::unique_ptr<MetricsServer> metrics;
+  std::unique_ptr<DashboardServer> dashboard;
+};
+HttpServers startHttp(const Flags& f, const Security& s, Coordinator& coordinator, Dashboard& dashboard,
+                      const std::string& address) {
+  HttpServers h;
+  if (!f.metricsListen.empty()) {
+    h.metrics = std::make_unique<MetricsServer>(
+        f.metricsListen, [&coordinator] { return renderMetrics(coordinator.metricsSnapshot()); });
+    spdlog::info("metrics on http://{}/metrics", h.metrics->address());
+  }
+  if (!f.dashboardListen.empty()) {
+    // The same certificate (and client CA) as the gRPC services.
+    std::optional<HttpTls> dashboardTls;
+    if (!f.tlsCert.empty()) dashboardTls = HttpTls{f.tlsCert, f.tlsKey, f.tlsClientCa};
+    h.dashboard = std::make_unique<DashboardServer>(f.dashboardListen, dashboard, dashboardTls);
+    spdlog::info("dashboard on {}://{}/ ({}client token {}, viewer token {})", h.dashboard->scheme(),
+                 h.dashboard->address(), f.tlsClientCa.empty() ? "" : "client certificate and ",
+                 s.clientToken ? "required" : "none", s.viewerToken ? "accepted (read-only)" : "none");
+  }
+  if (!f.portFile.empty()) writeAddressFile(f.portFile, address, "--port-file");
+  if (h.metrics && !f.metricsPortFile.empty())
+    writeAddressFile(f.metricsPortFile, h.metrics->address(), "--metrics-port-file");
+  if (h.dashboard && !f.dashboardPortFile.empty())
+    writeAddressFile(f.dashboardPortFile, h.dashboard->address(), "--dashboard-port-file");
+  return h;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Unit buffers are megabytes each: keep them out of the heap arenas (glibc would otherwise raise
+  // its mmap threshold after the first frees and hold freed buffers as resident memory).
+  mallopt(M_MMAP_THRESHOLD, 1 << 20);
+  CLI::App app{"lensfarm-coordinator: schedules render jobs over workers and accumulates their images"};
+  app.set_version_flag("--version", kRendererVersion);
+  Flags f;
+  addServingFlags(app, f);
+  addSchedulingFlags(app, f.options);
+  addHttpFlags(app, f);
+  addStateFlags(app, f);
+  addLogLevelOption(app, f.logLevel);
+  if (const auto exitCode = parseServiceFlags(app, argc, argv, "lensfarm-coordinator")) return *exitCode;
+  setupLogging("coordinator", f.logLevel);
+  if (const auto exitCode = finishOptions(f)) return *exitCode;
+
+  std::unique_ptr<Coordinator> owned;
+  try {
+    owned = std::make_unique<Coordinator>(f.options);
+  } catch (const std::exception& e) {
+    spdlog::error("--state-dir {}: {}", f.stateDir, e.what());
+    return 2;
+  }
+  Coordinator& coordinator = *owned;
+  spdlog::info("a job may take up to {} of memory ({})", formatBytes(coordinator.options().maxJobMemoryBytes),
+               coordinator.options().maxJobMemorySource);
+
+  Security security;
+  try {
+    security = readSecurity(f);
+  } catch (const InputError& e) {
+    spdlog::error("{}", e.what());
+    return 2;
+  }
+  if (const auto exitCode = refuseOpenDoors(f, security)) return *exitCode;
+
+  // The viewer token reads through gRPC too: status, watch, download, snapshots, workers.
+  ClientServiceImpl clientService(
+      coordinator, TokenGate(security.clientToken, "client", security.viewerToken, "viewer",
+                             {"GetJob", "ListJobs", "WatchJob", "Download", "GetSnapshot", "ListWorkers"}));
+  WorkerServiceImpl workerService(coordinator, TokenGate(security.workerToken, "worker"),
+                                  f.uploadEncoding == "raw" ? SumsEncoding::kRaw : SumsEncoding::kShuffleZstd);
+  // gRPC health checking (grpc.health.v1.Health): SERVING while the services are up, for load
+  // balancers and Kubernetes gRPC probes; it needs no token.
+  grpc::EnableDefaultHealthCheckService(true);
+  // From here on a signal stops the coordinator cleanly, also one sent as soon as --port-file appears.
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
+  if (const auto exitCode = refuseBusyAddresses(f)) return *exitCode;
+  int port = 0;
+  std::unique_ptr<grpc::Server> server = startGrpc(f, security, clientService, workerService, port);
   if (!server || port == 0) {
-    spdlog::error("cannot listen on {}", listen);
+    spdlog::error("cannot listen on {}", f.listen);
     return 1;
   }
-  const std::string address = host + ":" + std::to_string(port);
+  const std::string address = f.listen.substr(0, f.listen.rfind(':')) + ":" + std::to_string(port);
   spdlog::info("listening on {} ({}; {}; client token {}, worker token {})", address, kRendererVersion,
-               tlsCert.empty() ? "plain gRPC" : (tlsClientCa.empty() ? "TLS" : "mutual TLS"),
-               clientToken ? "required" : "none", workerToken ? "required" : "none");
-  std::unique_ptr<MetricsServer> metrics;
-  Dashboard dashboard(coordinator, clientToken, viewerToken);
-  std::unique_ptr<DashboardServer> dashboardServer;
+               f.tlsCert.empty() ? "plain gRPC" : (f.tlsClientCa.empty() ? "TLS" : "mutual TLS"),
+               security.clientToken ? "required" : "none", security.workerToken ? "required" : "none");
+  Dashboard dashboard(coordinator, security.clientToken, security.viewerToken);
+  HttpServers http;
   try {
-    if (!metricsListen.empty()) {
-      metrics =
-          std::make_unique<MetricsServer>(metricsListen, [&] { return renderMetrics(coordinator.metricsSnapshot()); });
-      spdlog::info("metrics on http://{}/metrics", metrics->address());
-    }
-    if (!dashboardListen.empty()) {
-      // The same certificate (and client CA) as the gRPC services.
-      std::optional<HttpTls> dashboardTls;
-      if (!tlsCert.empty()) dashboardTls = HttpTls{tlsCert, tlsKey, tlsClientCa};
-      dashboardServer = std::make_unique<DashboardServer>(dashboardListen, dashboard, dashboardTls);
-      spdlog::info("dashboard on {}://{}/ ({}client token {}, viewer token {})", dashboardServer->scheme(),
-                   dashboardServer->address(), tlsClientCa.empty() ? "" : "client certificate and ",
-                   clientToken ? "required" : "none", viewerToken ? "accepted (read-only)" : "none");
-    }
-    if (!portFile.empty()) writeAddressFile(portFile, address, "--port-file");
-    if (metrics && !metricsPortFile.empty())
-      writeAddressFile(metricsPortFile, metrics->address(), "--metrics-port-file");
-    if (dashboardServer && !dashboardPortFile.empty())
-      writeAddressFile(dashboardPortFile, dashboardServer->address(), "--dashboard-port-file");
+    http = startHttp(f, security, coordinator, dashboard, address);
   } catch (const InputError& e) {
     spdlog::error("{}", e.what());
     server->Shutdown();

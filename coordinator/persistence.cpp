@@ -22,9 +22,9 @@ void Coordinator::persistState(const Job& job) {
 }
 
 void Coordinator::checkpointLoop() {
-  std::unique_lock lock(mutex_);
+  MutexLock lock(mutex_);
   while (!stopping_) {
-    checkpointWake_.wait_for(lock, std::chrono::duration<double>(options_.checkpointEverySeconds));
+    lock.waitFor(checkpointWake_, std::chrono::duration<double>(options_.checkpointEverySeconds));
     if (stopping_) break;
     lock.unlock();
     try {
@@ -41,7 +41,7 @@ uint64_t Coordinator::checkpoint() {
   // Each job pinned (lifecycle.cpp): not deleted or archived while its sensor is saved.
   std::vector<std::pair<Job*, JobPin>> all;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     for (auto& [id, job] : jobs_)
       if (job->film && !job->archiving && !job->deleting) all.emplace_back(job.get(), JobPin(*this, *job));
   }
@@ -63,7 +63,7 @@ void Coordinator::storeCompletedFrames(Job& job) {
   if (done.empty()) return;
   ImageMetadata metadata;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     metadata = metadataOf(job);
   }
   const uint64_t perFrame = job.layout.unitsPerFrame();
@@ -87,7 +87,7 @@ void Coordinator::storeCompletedFrames(Job& job) {
       spdlog::error("job {}: cannot store frame {}: {}", job.id, c.frameIndex, e.what());
     }
   }
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   touch(job);
 }
 
@@ -129,12 +129,22 @@ std::optional<uint64_t> Coordinator::restoreTiled(Job& job) {
 }
 
 void Coordinator::restore() {
+  // Nothing else runs yet (the constructor calls this before any thread starts); the lock keeps
+  // the rules the same as everywhere else. The frames are stored after it, as they take it.
+  std::vector<Job*> tiled;
+  restoreJobs(tiled);
+  for (Job* job : tiled) storeCompletedFrames(*job);
+}
+
+void Coordinator::restoreJobs(std::vector<Job*>& tiled) {
+  MutexLock lock(mutex_);
   assets_.restore(*store_);
   store_->removeOrphanJobDirs();
   nextJob_ = std::max(nextJob_, store_->lastJobNumber() + 1);  // a deleted job's id is not reissued
   const auto now = Clock::now();
   const double nowUnix = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   const auto restoreJob = [&](StateStore::StoredJob& stored) {
+    mutex_.assertHeld();  // called below, under the lock
     auto job = std::make_unique<Job>();
     job->id = stored.id;
     job->spec = stored.spec;
@@ -244,9 +254,9 @@ void Coordinator::restore() {
       spdlog::error("cannot restore {}: out of memory for its buffers; it stays in the state directory", stored.id);
     }
   }
-  // Frames the replay completed (stored only in part before the restart) are stored now.
+  // Frames the replay completed (stored only in part before the restart) are stored after this.
   for (auto& [id, job] : jobs_)
-    if (job->layout.tiled()) storeCompletedFrames(*job);
+    if (job->layout.tiled()) tiled.push_back(job.get());
 }
 
 }  // namespace lensfarm

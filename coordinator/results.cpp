@@ -113,7 +113,7 @@ void Coordinator::checkPlausible(const UnitResult& result, uint64_t cells, uint3
 
 void Coordinator::admitUpload(const std::string& workerId, uint64_t leaseId, const std::string& jobId, uint64_t unit,
                               int width, int height, int channels) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   const Job& job = findJob(jobId);
   checkUnitExists(job, unit);
   if (job.units.isReceived(unit) || job.units.isRecording(unit)) return;  // a late duplicate: ignored by accept
@@ -127,156 +127,170 @@ void Coordinator::admitUpload(const std::string& workerId, uint64_t leaseId, con
                                                            std::to_string(job.layout.channels));
 }
 
+// A result's way in, in four steps: what the unit can produce (outside the lock), the lease and
+// the shape (admit), durable (record), counted (count), then summed by the film and published.
 bool Coordinator::accept(const UnitResult& result, UnitResult* owned) {
   counters_.unitBytes += result.buffer.sums.size() * sizeof(double);
-  // What the unit can produce, checked outside the coordinator's lock (it reads every cell of a
-  // frame: leases and heartbeats must not wait for it). A job's settings never change.
-  {
-    PixelRegion region;
-    uint32_t sampleCount = 0;
-    AovLayout aovs;
-    uint64_t raysPerPath = 1;
-    std::shared_ptr<const SampleMap> map;
-    {
-      std::lock_guard lock(mutex_);
-      const Job& found = findJob(result.jobId);
-      if (result.unitIndex < found.units.total()) {
-        bool ready = true;
-        sampleCount = found.layout.unit(result.unitIndex).sampleCount;
-        region = found.layout.regionOf(result.unitIndex);
-        aovs = AovLayout(found.settings.aovs);
-        raysPerPath = maxRaysPerPath(found.settings);
-        if (found.film && found.layout.adaptive()) map = found.film->samplesOf(result.unitIndex, &ready);
-        if (!ready) sampleCount = 0;  // not leased yet: refused below (no lease covers it)
-      }
-    }
-    // Only a buffer of the region's shape is read here; any other is refused by the size checks below.
-    const uint64_t cells = uint64_t(region.width) * uint64_t(region.height);
-    if (sampleCount > 0 && result.buffer.width == region.width && result.buffer.height == region.height &&
-        result.buffer.sums.size() == cells * uint64_t(aovs.channels))
-      checkPlausible(result, cells, sampleCount, aovs, map.get(), raysPerPath);
-  }
-  Job* job;
-  JobPin pin;  // not deleted or archived while its result is summed (lifecycle.cpp); outlives the locks below
-  std::string workerName;
-  uint64_t generation = 0;
-  bool auditLease = false;  // the upload renders a counted unit again (auditing.cpp)
-  bool audited = false;     // chosen for audit: its sums are kept to compare
-  {
-    std::lock_guard lock(mutex_);
-    job = &findJob(result.jobId);
-    pin = JobPin(*this, *job);
-    checkUnitExists(*job, result.unitIndex);
-    const LeaseTable::Lease* lease = leases_.find(result.leaseId);
-    auditLease = lease && lease->audit && lease->workerId == result.workerId;
-    // A late duplicate of a unit already counted (or being counted) is ignored.
-    if (!auditLease && (job->units.isReceived(result.unitIndex) || job->units.isRecording(result.unitIndex)))
-      return false;
-    checkLeaseHeld(leases_, result.leaseId, result.workerId, result.jobId, result.unitIndex);
-    if (!auditLease) {
-      checkRegion(*job, result.unitIndex, result.buffer.width, result.buffer.height);
-      checkSumCount(*job, result.unitIndex, result.buffer.sums.size());
-      Worker& worker = findWorker(result.workerId);
-      workerName = worker.info.name.empty() ? worker.id : worker.info.name;
-      leases_.erase(result.leaseId);
-      job->units.beginRecording(result.unitIndex);
-      generation = job->generation;
-      audited = chooseForAudit(*job, worker);
-    }
-  }
-  if (auditLease) return acceptAudit(result);
+  checkProducible(result);
+  Admission a = admit(result);
+  if (a.duplicate) return false;
+  if (a.auditLease) return acceptAudit(result);
   // An audited unit's sums, copied before the film takes them (outside the lock).
   AuditBook::Sums kept;
-  if (audited) kept = std::make_shared<const std::vector<double>>(result.buffer.sums);
+  if (a.audited) kept = std::make_shared<const std::vector<double>>(result.buffer.sums);
+  record(result, a);
+  if (!count(result, a, std::move(kept))) return true;  // to be rendered again after a rewind
+  sumAndPublish(result, owned, a);
+  return true;
+}
 
-  // Durable before acknowledged: the unit's sums and ledger row, outside the coordinator's lock.
+void Coordinator::checkProducible(const UnitResult& result) {
+  // What the unit can produce, checked outside the coordinator's lock (it reads every cell of a
+  // frame: leases and heartbeats must not wait for it). A job's settings never change.
+  PixelRegion region;
+  uint32_t sampleCount = 0;
+  AovLayout aovs;
+  uint64_t raysPerPath = 1;
+  std::shared_ptr<const SampleMap> map;
+  {
+    MutexLock lock(mutex_);
+    const Job& found = findJob(result.jobId);
+    if (result.unitIndex < found.units.total()) {
+      bool ready = true;
+      sampleCount = found.layout.unit(result.unitIndex).sampleCount;
+      region = found.layout.regionOf(result.unitIndex);
+      aovs = AovLayout(found.settings.aovs);
+      raysPerPath = maxRaysPerPath(found.settings);
+      if (found.film && found.layout.adaptive()) map = found.film->samplesOf(result.unitIndex, &ready);
+      if (!ready) sampleCount = 0;  // not leased yet: refused below (no lease covers it)
+    }
+  }
+  // Only a buffer of the region's shape is read here; any other is refused by the size checks below.
+  const uint64_t cells = uint64_t(region.width) * uint64_t(region.height);
+  if (sampleCount > 0 && result.buffer.width == region.width && result.buffer.height == region.height &&
+      result.buffer.sums.size() == cells * uint64_t(aovs.channels))
+    checkPlausible(result, cells, sampleCount, aovs, map.get(), raysPerPath);
+}
+
+Coordinator::Admission Coordinator::admit(const UnitResult& result) {
+  Admission a;
+  MutexLock lock(mutex_);
+  Job* job = a.job = &findJob(result.jobId);
+  a.pin = JobPin(*this, *job);
+  checkUnitExists(*job, result.unitIndex);
+  const LeaseTable::Lease* lease = leases_.find(result.leaseId);
+  a.auditLease = lease && lease->audit && lease->workerId == result.workerId;
+  // A late duplicate of a unit already counted (or being counted) is ignored.
+  if (!a.auditLease && (job->units.isReceived(result.unitIndex) || job->units.isRecording(result.unitIndex))) {
+    a.duplicate = true;
+    return a;
+  }
+  checkLeaseHeld(leases_, result.leaseId, result.workerId, result.jobId, result.unitIndex);
+  if (!a.auditLease) {
+    checkRegion(*job, result.unitIndex, result.buffer.width, result.buffer.height);
+    checkSumCount(*job, result.unitIndex, result.buffer.sums.size());
+    Worker& worker = findWorker(result.workerId);
+    a.workerName = worker.info.name.empty() ? worker.id : worker.info.name;
+    leases_.erase(result.leaseId);
+    job->units.beginRecording(result.unitIndex);
+    a.generation = job->generation;
+    a.audited = chooseForAudit(*job, worker);
+  }
+  return a;
+}
+
+// Durable before acknowledged: the unit's sums and ledger row, outside the coordinator's lock.
+void Coordinator::record(const UnitResult& result, const Admission& a) {
   if (store_) {
     try {
-      store_->recordUnit(job->id, StateStore::LedgerEntry{result.unitIndex, workerName, result.stats},
+      store_->recordUnit(a.job->id, StateStore::LedgerEntry{result.unitIndex, a.workerName, result.stats},
                          result.buffer.sums);
     } catch (const std::exception& e) {
-      std::lock_guard lock(mutex_);
-      job->units.endRecording(result.unitIndex);
-      if (!isTerminal(job->state)) job->units.requeue(result.unitIndex);
-      spdlog::error("cannot record unit {} of {}: {}", result.unitIndex, job->id, e.what());
+      MutexLock lock(mutex_);
+      a.job->units.endRecording(result.unitIndex);
+      if (!isTerminal(a.job->state)) a.job->units.requeue(result.unitIndex);
+      spdlog::error("cannot record unit {} of {}: {}", result.unitIndex, a.job->id, e.what());
       throw;
     }
   }
-  {
-    std::lock_guard lock(mutex_);
-    job->units.endRecording(result.unitIndex);
-    const auto from = workers_.find(result.workerId);
-    if (job->generation != generation || (from != workers_.end() && from->second->quarantined)) {
-      // The audit rewound the film, or quarantined this worker, meanwhile (auditing.cpp): this
-      // unit is rendered again.
-      if (store_) store_->forgetUnits(job->id, result.unitIndex, {}, result.unitIndex + 1);
-      // (The rewind made it pending again if it is at or past the next fresh unit.)
-      if (!isTerminal(job->state) && !job->units.isReceived(result.unitIndex) &&
-          result.unitIndex < job->units.nextFresh())
-        job->units.requeue(result.unitIndex);
-      changed_.notify_all();
-      return true;
-    }
-    job->units.markReceived(result.unitIndex);
-    const uint64_t seq = nextAcceptance_++;
-    if (result.unitIndex >= job->trustedUnits)
-      job->provenance[result.unitIndex] = Job::Provenance{result.workerId, seq};
-    if (kept) {
-      // Film copies to rewind to from the job's first audit on: a job no one audits keeps none.
-      job->film->keepRewindPoints(rewindPointSpacing(options_.auditFraction), kRewindPoints);
-      job->audits.open(result.unitIndex, {result.workerId, std::move(kept)}, seq);
-    }
-    ++counters_.unitsDone;
-    counters_.samples += result.stats.paths;
-    if (auto w = workers_.find(result.workerId); w != workers_.end()) {
-      ++w->second->unitsDone;
-      if (result.renderSeconds > 0.0) w->second->samplesPerSecond = double(result.stats.paths) / result.renderSeconds;
-      if (w->second->currentUnit == result.unitIndex) w->second->currentUnit.reset();
-    }
-    ++job->unitsByWorker[workerName];
-  }
-  // Sum outside the coordinator's lock: large buffers must not stall leases and heartbeats.
-  const std::optional<Accumulator::Progress> added = job->film->add(result, owned, generation);
-  if (job->layout.tiled()) storeCompletedFrames(*job);
+}
 
-  std::lock_guard lock(mutex_);
+bool Coordinator::count(const UnitResult& result, const Admission& a, AuditBook::Sums kept) {
+  MutexLock lock(mutex_);
+  a.job->units.endRecording(result.unitIndex);
+  const auto from = workers_.find(result.workerId);
+  if (a.job->generation != a.generation || (from != workers_.end() && from->second->quarantined)) {
+    // The audit rewound the film, or quarantined this worker, meanwhile (auditing.cpp): this
+    // unit is rendered again.
+    if (store_) store_->forgetUnits(a.job->id, result.unitIndex, {}, result.unitIndex + 1);
+    // (The rewind made it pending again if it is at or past the next fresh unit.)
+    if (!isTerminal(a.job->state) && !a.job->units.isReceived(result.unitIndex) &&
+        result.unitIndex < a.job->units.nextFresh())
+      a.job->units.requeue(result.unitIndex);
+    changed_.notify_all();
+    return false;
+  }
+  a.job->units.markReceived(result.unitIndex);
+  const uint64_t seq = nextAcceptance_++;
+  if (result.unitIndex >= a.job->trustedUnits)
+    a.job->provenance[result.unitIndex] = Job::Provenance{result.workerId, seq};
+  if (kept) {
+    // Film copies to rewind to from the job's first audit on: a job no one audits keeps none.
+    a.job->film->keepRewindPoints(rewindPointSpacing(options_.auditFraction), kRewindPoints);
+    a.job->audits.open(result.unitIndex, {result.workerId, std::move(kept)}, seq);
+  }
+  ++counters_.unitsDone;
+  counters_.samples += result.stats.paths;
+  if (auto w = workers_.find(result.workerId); w != workers_.end()) {
+    ++w->second->unitsDone;
+    if (result.renderSeconds > 0.0) w->second->samplesPerSecond = double(result.stats.paths) / result.renderSeconds;
+    if (w->second->currentUnit == result.unitIndex) w->second->currentUnit.reset();
+  }
+  ++a.job->unitsByWorker[a.workerName];
+  return true;
+}
+
+void Coordinator::sumAndPublish(const UnitResult& result, UnitResult* owned, const Admission& a) {
+  // Sum outside the coordinator's lock: large buffers must not stall leases and heartbeats.
+  const std::optional<Accumulator::Progress> added = a.job->film->add(result, owned, a.generation);
+  if (a.job->layout.tiled()) storeCompletedFrames(*a.job);
+  MutexLock lock(mutex_);
   if (!added) {
     // The unit is counted but cannot be kept: this job cannot finish; the coordinator and its
     // other jobs go on.
     const std::string what = "coordinator out of memory keeping unit " + std::to_string(result.unitIndex) + " (" +
                              formatBytes(result.buffer.memoryBytes()) + ") until the units before it arrive";
-    spdlog::error("job {}: {}", job->id, what);
-    if (!isTerminal(job->state)) {
-      job->error = what;
-      end(*job, JobState::kFailed);
-      touch(*job);
+    spdlog::error("job {}: {}", a.job->id, what);
+    if (!isTerminal(a.job->state)) {
+      a.job->error = what;
+      end(*a.job, JobState::kFailed);
+      touch(*a.job);
     }
-    throw FarmError(FarmError::Kind::kResourceExhausted, job->id + ": " + what);
+    throw FarmError(FarmError::Kind::kResourceExhausted, a.job->id + ": " + what);
   }
-  if (added->units > job->unitsAdded && job->generation == generation) {
-    job->publish(*added);
-    recordEstimate(*job, elapsedSecondsOf(*job));
-    if (!added->stopReason.empty() && job->state == JobState::kRunning && !job->stopAwaitingAudits) {
-      if (added->foldLimit < job->units.total()) job->stopUnits = added->foldLimit;
-      if (job->audits.empty()) {
-        finish(*job, added->stopReason);
+  if (added->units > a.job->unitsAdded && a.job->generation == a.generation) {
+    a.job->publish(*added);
+    recordEstimate(*a.job, elapsedSecondsOf(*a.job));
+    if (!added->stopReason.empty() && a.job->state == JobState::kRunning && !a.job->stopAwaitingAudits) {
+      if (added->foldLimit < a.job->units.total()) a.job->stopUnits = added->foldLimit;
+      if (a.job->audits.empty()) {
+        finish(*a.job, added->stopReason);
       } else {
         // The image is complete unless an audit finds a wrong worker: no more units, and the job
         // ends when its audits settle (settleWaitingJobs).
-        job->stopAwaitingAudits = added->stopReason;
-        job->units.clearPending();
-        leases_.eraseUnitsOf(job->id);
+        a.job->stopAwaitingAudits = added->stopReason;
+        a.job->units.clearPending();
+        leases_.eraseUnitsOf(a.job->id);
         settleWaitingJobs();
       }
     }
-    touch(*job);
+    touch(*a.job);
   }
-  return true;
 }
 
 void Coordinator::reportFailure(const std::string& workerId, uint64_t leaseId, const std::string& jobId,
                                 const std::string& error) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   Worker& worker = findWorker(workerId);
   const LeaseTable::Lease* lease = leases_.find(leaseId);
   if (!lease || lease->workerId != workerId)

@@ -86,7 +86,7 @@ WorkUnit Coordinator::unitToLease(const Job& job, uint64_t unit, bool* ready) co
 }
 
 std::optional<LeaseGrant> Coordinator::lease(const std::string& workerId, double waitSeconds) {
-  std::unique_lock lock(mutex_);
+  MutexLock lock(mutex_);
   const auto until =
       Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(waitSeconds));
   for (;;) {
@@ -99,12 +99,12 @@ std::optional<LeaseGrant> Coordinator::lease(const std::string& workerId, double
     worker.currentUnit.reset();
     if (now >= until) return std::nullopt;
     // Wake on new work, and now and then to reap lapsed leases.
-    changed_.wait_until(lock, std::min(until, now + std::chrono::milliseconds(200)));
+    lock.waitUntil(changed_, std::min(until, now + std::chrono::milliseconds(200)));
   }
 }
 
 std::vector<uint64_t> Coordinator::heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   Worker& worker = findWorker(workerId);
   const auto now = Clock::now();
   worker.lastHeartbeat = now;

@@ -375,12 +375,11 @@ grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext* context,
     UploadAssembler assembler;
     bool first = true;
     while (reader->Read(&message)) {
-      if (first && message.has_header()) {  // who sends it, and for what, before any sum is read
-        const v1::ResultHeader& h = message.header();
-        coordinator_.authenticateWorker(h.worker_id(), h.session());
-        coordinator_.admitUpload(h.worker_id(), h.lease_id(), h.job_id(), h.unit_index(), int(h.width()),
-                                 int(h.height()),
-                                 h.channels() == 0 ? 3 : int(std::min<uint32_t>(h.channels(), 1u << 20)));
+      if (first) {  // who sends it, and for what, before any sum is read
+        const UploadHeader& h = assembler.begin(message);
+        coordinator_.authenticateWorker(h.workerId, h.session);
+        coordinator_.admitUpload(h.workerId, h.leaseId, h.jobId, h.unitIndex, int(std::min(h.width, 1u << 20)),
+                                 int(std::min(h.height, 1u << 20)), int(std::min(h.channels, 1u << 20)));
       }
       first = false;
       assembler.add(message);

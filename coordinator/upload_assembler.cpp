@@ -18,32 +18,32 @@ constexpr uint64_t kMaxCells = uint64_t(1) << 28;  // 16384 x 16384, the scene f
 }
 }  // namespace
 
+const UploadHeader& UploadAssembler::begin(const v1::UploadResultRequest& first) {
+  if (haveHeader_) refuse("a second header");
+  if (!first.has_header()) refuse("the first piece must carry the header");
+  const v1::ResultHeader& h = first.header();
+  header_.workerId = h.worker_id();
+  header_.session = h.session();
+  header_.jobId = h.job_id();
+  header_.leaseId = h.lease_id();
+  header_.unitIndex = h.unit_index();
+  header_.width = h.width();
+  header_.height = h.height();
+  header_.channels = h.channels() == 0 ? 3 : h.channels();
+  header_.encoding = int(h.encoding());
+  result_.stats = proto::fromProto(h.stats());
+  result_.renderSeconds = h.stats().render_seconds();
+  haveHeader_ = true;
+  return header_;
+}
+
 void UploadAssembler::add(const v1::UploadResultRequest& piece) {
-  if (piece.has_header()) {
-    if (haveHeader_) refuse("a second header");
-    const v1::ResultHeader& h = piece.header();
-    const uint64_t cells = uint64_t(h.width()) * h.height();
-    if (h.width() == 0 || h.height() == 0 || h.width() > 16384 || h.height() > 16384 || cells > kMaxCells)
-      refuse("bad frame size " + std::to_string(h.width()) + "x" + std::to_string(h.height()));
-    result_.workerId = h.worker_id();
-    result_.leaseId = h.lease_id();
-    result_.jobId = h.job_id();
-    result_.unitIndex = h.unit_index();
-    const uint32_t channels = h.channels() == 0 ? 3 : h.channels();
-    if (channels < 3 || channels > kMaxChannels)
-      refuse("bad channel count " + std::to_string(h.channels()) + " (3 to " + std::to_string(kMaxChannels) +
-             " sums a cell, or 0 for 3)");
-    result_.buffer = SensorBuffer(int(h.width()), int(h.height()), int(channels));
-    result_.stats = proto::fromProto(h.stats());
-    result_.renderSeconds = h.stats().render_seconds();
-    if (h.encoding() != v1::SUMS_ENCODING_RAW && h.encoding() != v1::SUMS_ENCODING_SHUFFLE_ZSTD)
-      refuse("unknown sums encoding " + std::to_string(int(h.encoding())) +
-             " (expected 0, SUMS_ENCODING_RAW, or 1, SUMS_ENCODING_SHUFFLE_ZSTD)");
-    encoding_ = SumsEncoding(h.encoding());
-    haveHeader_ = true;
-  } else if (!haveHeader_) {
-    refuse("the first piece must carry the header");
+  if (!haveHeader_) {
+    begin(piece);
+  } else if (piece.has_header() && pieces_ > 0) {
+    refuse("a second header");
   }
+  if (pieces_++ == 0) allocate();
   const std::string& bytes = piece.sums();
   wireBytes_ += bytes.size();
   if (piece.offset() != filled_) refuse("pieces out of order");
@@ -59,6 +59,25 @@ void UploadAssembler::add(const v1::UploadResultRequest& piece) {
   if (count > room) refuse("more sums than the frame holds");
   std::memcpy(result_.buffer.sums.data() + filled_, bytes.data(), bytes.size());
   filled_ += count;
+}
+
+void UploadAssembler::allocate() {
+  const UploadHeader& h = header_;
+  const uint64_t cells = uint64_t(h.width) * h.height;
+  if (h.width == 0 || h.height == 0 || h.width > 16384 || h.height > 16384 || cells > kMaxCells)
+    refuse("bad frame size " + std::to_string(h.width) + "x" + std::to_string(h.height));
+  if (h.channels < 3 || h.channels > kMaxChannels)
+    refuse("bad channel count " + std::to_string(h.channels) + " (3 to " + std::to_string(kMaxChannels) +
+           " sums a cell, or 0 for 3)");
+  if (h.encoding != v1::SUMS_ENCODING_RAW && h.encoding != v1::SUMS_ENCODING_SHUFFLE_ZSTD)
+    refuse("unknown sums encoding " + std::to_string(h.encoding) +
+           " (expected 0, SUMS_ENCODING_RAW, or 1, SUMS_ENCODING_SHUFFLE_ZSTD)");
+  encoding_ = SumsEncoding(h.encoding);
+  result_.workerId = h.workerId;
+  result_.leaseId = h.leaseId;
+  result_.jobId = h.jobId;
+  result_.unitIndex = h.unitIndex;
+  result_.buffer = SensorBuffer(int(h.width), int(h.height), int(h.channels));
 }
 
 UnitResult UploadAssembler::finish() {

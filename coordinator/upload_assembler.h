@@ -40,9 +40,23 @@ class AssetUploadAssembler {
   uint64_t chunks_ = 0;    // messages received
 };
 
+// What a result stream's first piece says (ResultHeader), decoded once: who sends it, for which
+// lease and unit, and the shape and encoding of the sums that follow. `channels` is 3 where the
+// header says 0 (an older worker).
+struct UploadHeader {
+  std::string workerId, session, jobId;
+  uint64_t leaseId = 0, unitIndex = 0;
+  uint32_t width = 0, height = 0, channels = 3;
+  int encoding = 0;  // v1::SumsEncoding
+};
+
 class UploadAssembler {
  public:
   static constexpr uint32_t kMaxChannels = 64;  // sums a cell (ResultHeader.channels)
+  // The first piece's header, decoded but not yet checked and nothing allocated: the caller
+  // authenticates the sender and admits the upload (Coordinator::admitUpload) before any sum is
+  // read. Then add() takes the same piece. Optional: add() begins by itself.
+  const UploadHeader& begin(const v1::UploadResultRequest& first);
   // Throws FarmError(kInvalidArgument) naming what is wrong. Raw pieces are copied, compressed
   // ones (SUMS_ENCODING_SHUFFLE_ZSTD) decoded straight into the unit's buffer at their offset,
   // one block at a time: memory is the unit's buffer and one block, whatever a piece claims.
@@ -53,8 +67,11 @@ class UploadAssembler {
   UnitResult finish();
 
  private:
+  void allocate();  // the header's sizes, channels and encoding checked; the unit's buffer
+  UploadHeader header_;
   UnitResult result_;
   bool haveHeader_ = false;
+  uint64_t pieces_ = 0;                         // added so far
   SumsEncoding encoding_ = SumsEncoding::kRaw;  // the header's
   uint64_t filled_ = 0;                         // doubles received so far
   uint64_t wireBytes_ = 0;                      // bytes of `sums` received so far

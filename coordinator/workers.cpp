@@ -59,7 +59,7 @@ std::string Coordinator::registerWorker(const WorkerInfo& info, std::string* ses
                                                               " with renderer " + info.rendererVersion +
                                                               ", coordinator speaks " + kProtocolVersion +
                                                               " with renderer " + kRendererVersion);
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   auto worker = std::make_unique<Worker>();
   worker->id = "worker-" + std::to_string(epoch_) + "." + std::to_string(nextWorker_++);
   worker->info = info;
@@ -87,7 +87,7 @@ std::string Coordinator::registerWorker(const WorkerInfo& info, std::string* ses
 }
 
 void Coordinator::authenticateWorker(const std::string& workerId, const std::string& session) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   const Worker& worker = findWorker(workerId);
   if (session.empty())
     throw FarmError(FarmError::Kind::kUnauthenticated,
@@ -122,7 +122,7 @@ void Coordinator::forgetSilentWorkers(Clock::time_point now) {
 }
 
 uint64_t Coordinator::attachWorker(const std::string& workerId) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   Worker& worker = findWorker(workerId);
   worker.attachment = nextAttachment_++;
   worker.lastHeartbeat = Clock::now();
@@ -131,7 +131,7 @@ uint64_t Coordinator::attachWorker(const std::string& workerId) {
 }
 
 bool Coordinator::workerLost(const std::string& workerId, const std::string& reason, uint64_t attachment) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   Worker* worker = liveWorker(workerId);
   if (!worker || (attachment != 0 && worker->attachment != attachment)) return false;  // gone, or a superseded stream
   const auto now = Clock::now();
@@ -146,7 +146,7 @@ bool Coordinator::workerLost(const std::string& workerId, const std::string& rea
 }
 
 void Coordinator::workerLeft(const std::string& workerId, uint64_t attachment) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   Worker* worker = liveWorker(workerId);
   if (!worker || (attachment != 0 && worker->attachment != attachment)) return;
   const auto now = Clock::now();
@@ -251,7 +251,7 @@ std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) co
 }
 
 std::vector<WorkerView> Coordinator::workers() const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   std::vector<WorkerView> out;
   const auto now = Clock::now();
   const std::set<std::string> holders = leases_.holders();

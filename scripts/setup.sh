@@ -16,6 +16,7 @@ BUILD_PACKAGES=(
   cmake make g++ pkg-config
   libglm-dev
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
+  libabsl-dev  # Abseil's thread-safety annotations: coordinator/locking.h
   libopenexr-dev
   libspdlog-dev libfmt-dev
   libembree-dev libtbb-dev
@@ -43,7 +44,7 @@ TEST_PACKAGES=(
   chromium chromium-driver
   slurm-wlm munge
   blender python3-numpy  # tests/blender: Cycles, and Blender's glTF exporter, which needs numpy
-  clang-format  # the style check (.clang-format; tests/CMakeLists.txt Style.EverySourceIsClangFormatted)
+  clang-format clang  # the style check of .clang-format and the coordinator's thread-safety analysis, tests/CMakeLists.txt
 )
 
 # `make fuzz`: libFuzzer with ASan and UBSan.

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <functional>
 
 #include "common/farm/job_scene.h"
 #include "common/farm/memory_estimate.h"
@@ -116,38 +117,52 @@ std::shared_ptr<WorkerLoop::PreparedJob> WorkerLoop::prepare(const LeaseGrant& g
   return job;
 }
 
+namespace {
+
+// Retries back off exponentially (0.1 s, doubling, up to the cap). A streak of failures is logged
+// at warn when it starts, when its kind changes and once a minute; the retries between at debug;
+// its end at info.
+class Backoff {
+ public:
+  Backoff(double capSeconds, std::function<void(double)> sleep) : cap_(capSeconds), sleep_(std::move(sleep)) {}
+
+  void failed(const char* what, const std::exception& e) {
+    delay_ = std::min(cap_, delay_ > 0 ? delay_ * 2 : 0.1);
+    const auto now = std::chrono::steady_clock::now();
+    if (failures_++ == 0) streakStart_ = now;
+    if (failures_ == 1 || kind_ != what || now - lastWarn_ >= std::chrono::seconds(60)) {
+      spdlog::warn("{}: {}; retrying (attempt {}, every {:.1f} s at most)", what, e.what(), failures_, cap_);
+      lastWarn_ = now;
+    } else {
+      spdlog::debug("{}: {}; retrying in {:.1f} s", what, e.what(), delay_);
+    }
+    kind_ = what;
+    sleep_(delay_);
+  }
+
+  void recovered() {
+    if (failures_ > 0)
+      spdlog::info("coordinator reachable again after {} failed attempts over {:.1f} s", failures_,
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - streakStart_).count());
+    failures_ = 0;
+    delay_ = 0.0;
+    kind_.clear();
+  }
+
+ private:
+  double cap_, delay_ = 0.0;
+  std::function<void(double)> sleep_;
+  uint64_t failures_ = 0;
+  std::string kind_;
+  std::chrono::steady_clock::time_point streakStart_, lastWarn_;
+};
+
+}  // namespace
+
 void WorkerLoop::run() {
   heartbeat_ = std::thread([this] { heartbeatLoop(); });
   tbb::task_arena arena{int(std::max(1u, options_.threads))};
-  // Retries back off exponentially. A streak of failures is logged at warn when it starts, when
-  // its kind changes and once a minute; the retries between at debug; its end at info.
-  double backoff = 0.0;
-  uint64_t failures = 0;
-  std::string lastKind;
-  auto streakStart = std::chrono::steady_clock::now(), lastWarn = streakStart;
-  const auto failed = [&](const char* what, const std::exception& e) {
-    backoff = std::min(options_.maxBackoffSeconds, backoff > 0 ? backoff * 2 : 0.1);
-    const auto now = std::chrono::steady_clock::now();
-    if (failures++ == 0) streakStart = now;
-    if (failures == 1 || lastKind != what || now - lastWarn >= std::chrono::seconds(60)) {
-      spdlog::warn("{}: {}; retrying (attempt {}, every {:.1f} s at most)", what, e.what(), failures,
-                   options_.maxBackoffSeconds);
-      lastWarn = now;
-    } else {
-      spdlog::debug("{}: {}; retrying in {:.1f} s", what, e.what(), backoff);
-    }
-    lastKind = what;
-    sleepFor(backoff);
-  };
-  const auto recovered = [&] {
-    if (failures > 0)
-      spdlog::info("coordinator reachable again after {} failed attempts over {:.1f} s", failures,
-                   std::chrono::duration<double>(std::chrono::steady_clock::now() - streakStart).count());
-    failures = 0;
-    backoff = 0.0;
-    lastKind.clear();
-  };
-
+  Backoff backoff(options_.maxBackoffSeconds, [this](double seconds) { sleepFor(seconds); });
   // The last moment this worker had a unit (leased or just finished): --idle-exit counts from it,
   // through an idle farm and an unreachable coordinator alike.
   auto lastBusy = std::chrono::steady_clock::now();
@@ -165,110 +180,19 @@ void WorkerLoop::run() {
     }
     try {
       if (workerId().empty()) {
-        WorkerInfo info{options_.name, options_.threads, kProtocolVersion, kRendererVersion, options_.maxMemoryBytes};
-        const Registration r = link_.registerWorker(info);
-        std::lock_guard lock(mutex_);
-        workerId_ = r.workerId;
-        heartbeatInterval_ = r.heartbeatIntervalSeconds;
-        ++counters_.registrations;
-        spdlog::info("registered as {} ({} threads)", r.workerId, options_.threads);
-        recovered();
+        registerNow();
+        backoff.recovered();
       }
       const std::string id = workerId();
       const std::optional<LeaseGrant> grant = link_.lease(id, options_.leaseWaitSeconds);
-      recovered();
+      backoff.recovered();
       if (!grant) continue;  // the coordinator already waited for work
       lastBusy = std::chrono::steady_clock::now();
-      spdlog::debug("leased unit {} of {} (lease {}, samples {}..{})", grant->unit.index, grant->jobId, grant->leaseId,
-                    grant->unit.firstSample, grant->unit.firstSample + grant->unit.sampleCount);
-
-      std::shared_ptr<PreparedJob> job;
-      try {
-        job = prepare(*grant);
-      } catch (const InputError& e) {
-        spdlog::error("cannot render {}: {}", grant->jobId, e.what());
-        link_.reportFailure(id, grant->leaseId, grant->jobId, e.what());
-        continue;
-      } catch (const std::bad_alloc&) {
-        spdlog::error("cannot render {}: out of memory loading its scene", grant->jobId);
-        link_.reportFailure(id, grant->leaseId, grant->jobId, "out of memory loading the scene on " + options_.name);
-        continue;
-      }
-      // A unit this worker cannot hold is refused with a report, before it allocates anything. A
-      // coordinator that knows the worker's limit (WorkerInfo::maxUnitMemoryBytes) never leases
-      // one; this guards against one that does not.
-      const MemoryEstimate memory =
-          workerJobMemory(job->scene.render, storedTriangles(job->scene), sceneDataBytes(job->scene));
-      if (options_.maxMemoryBytes > 0 && memory.total() > options_.maxMemoryBytes) {
-        const std::string what =
-            overBudgetMessage(job->scene.render, memory, "worker", options_.maxMemoryBytes,
-                              "LENSFARM_MAX_JOB_MEMORY, else 3/4 of " + options_.name + "'s memory");
-        spdlog::error("cannot render {}: {}", grant->jobId, what);
-        link_.reportFailure(id, grant->leaseId, grant->jobId, what);
-        continue;
-      }
-
-      {
-        std::lock_guard lock(mutex_);
-        currentLease_ = grant->leaseId;
-        cancelUnit_ = stopNow_.load();  // a stopNow() during loading still counts
-      }
-      UnitResult result = resultForLease(id, *grant);
-      const auto start = std::chrono::steady_clock::now();
-      bool complete = false;
-      try {
-        arena.execute(
-            [&] { complete = renderUnit(*job->renderScene, grant->unit, result.buffer, result.stats, &cancelUnit_); });
-      } catch (const std::bad_alloc&) {
-        const std::string what =
-            "out of memory for a unit buffer (estimated " + memory.describe() + ") on " + options_.name;
-        spdlog::error("cannot render {}: {}", grant->jobId, what);
-        link_.reportFailure(id, grant->leaseId, grant->jobId, what);
-        continue;
-      }
-      result.renderSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      ++counters_.unitsRendered;
-      if (!complete) {
-        ++counters_.unitsAbandoned;
-        spdlog::info("unit {} of {}: abandoned after {:.2f} s ({})", grant->unit.index, grant->jobId,
-                     result.renderSeconds, stopNow_ ? "stopping" : "lease revoked");
-      } else {
-        {
-          std::lock_guard lock(mutex_);
-          uploading_ = true;
-        }
-        // A unit is worth keeping: retry the upload through network trouble while the lease
-        // may still be valid, then give it up (the coordinator re-leases it).
-        for (double wait = 0.1;; wait *= 2) {
-          try {
-            const bool accepted = link_.upload(result);
-            if (accepted) ++counters_.unitsAccepted;
-            spdlog::info("unit {} of {}: {} samples in {:.2f} s, {:.1f} MB uploaded, {}", grant->unit.index,
-                         grant->jobId, result.stats.paths, result.renderSeconds,
-                         double(result.buffer.sums.size() * sizeof(double)) / 1e6,
-                         accepted ? "accepted" : "a duplicate (already counted)");
-            break;
-          } catch (const FarmError& e) {
-            if (e.kind() == FarmError::Kind::kUnknownWorker) throw;
-            ++counters_.unitsAbandoned;
-            // A revoked lease is routine: the job stopped (target, deadline, cancel) or the unit
-            // lapsed and went to another worker. Anything else is worth a warning.
-            if (e.kind() == FarmError::Kind::kFailedPrecondition)
-              spdlog::info("unit {} of {} no longer wanted: {}", grant->unit.index, grant->jobId, e.what());
-            else
-              spdlog::warn("upload of unit {} of {} refused: {}", grant->unit.index, grant->jobId, e.what());
-            break;
-          } catch (const LinkUnavailable& e) {
-            if (stopNow_ || wait > grant->deadlineSeconds) throw;
-            spdlog::warn("upload of unit {} failed: {}; retrying in {:.1f} s", grant->unit.index, e.what(), wait);
-            sleepFor(std::min(wait, options_.maxBackoffSeconds));
-          }
-        }
-      }
+      serve(id, *grant, arena);
     } catch (const LinkUnavailable& e) {
-      failed("coordinator unavailable", e);
+      backoff.failed("coordinator unavailable", e);
     } catch (const CorruptAsset& e) {
-      failed("asset transfer", e);
+      backoff.failed("asset transfer", e);
     } catch (const FarmError& e) {
       if (e.kind() == FarmError::Kind::kUnknownWorker) {
         std::lock_guard lock(mutex_);
@@ -281,15 +205,106 @@ void WorkerLoop::run() {
         if (heartbeat_.joinable()) heartbeat_.join();
         throw;
       }
-      failed("coordinator refused", e);
+      backoff.failed("coordinator refused", e);
     } catch (const std::exception& e) {
-      failed("unexpected failure", e);  // keep serving the farm; the lease lapses and moves on
+      backoff.failed("unexpected failure", e);  // keep serving the farm; the lease lapses and moves on
     }
   }
   stopNow_ = true;
   wake_.notify_all();
   if (heartbeat_.joinable()) heartbeat_.join();
   link_.leave();  // a clean stop: shown as left, not lost
+}
+
+void WorkerLoop::registerNow() {
+  WorkerInfo info{options_.name, options_.threads, kProtocolVersion, kRendererVersion, options_.maxMemoryBytes};
+  const Registration r = link_.registerWorker(info);
+  std::lock_guard lock(mutex_);
+  workerId_ = r.workerId;
+  heartbeatInterval_ = r.heartbeatIntervalSeconds;
+  ++counters_.registrations;
+  spdlog::info("registered as {} ({} threads)", r.workerId, options_.threads);
+}
+
+void WorkerLoop::serve(const std::string& id, const LeaseGrant& grant, tbb::task_arena& arena) {
+  spdlog::debug("leased unit {} of {} (lease {}, samples {}..{})", grant.unit.index, grant.jobId, grant.leaseId,
+                grant.unit.firstSample, grant.unit.firstSample + grant.unit.sampleCount);
+  const auto refuse = [&](const std::string& what) {
+    spdlog::error("cannot render {}: {}", grant.jobId, what);
+    link_.reportFailure(id, grant.leaseId, grant.jobId, what);
+  };
+  std::shared_ptr<PreparedJob> job;
+  try {
+    job = prepare(grant);
+  } catch (const InputError& e) {
+    return refuse(e.what());
+  } catch (const std::bad_alloc&) {
+    return refuse("out of memory loading the scene on " + options_.name);
+  }
+  // A unit this worker cannot hold is refused with a report, before it allocates anything. A
+  // coordinator that knows the worker's limit (WorkerInfo::maxUnitMemoryBytes) never leases
+  // one; this guards against one that does not.
+  const MemoryEstimate memory =
+      workerJobMemory(job->scene.render, storedTriangles(job->scene), sceneDataBytes(job->scene));
+  if (options_.maxMemoryBytes > 0 && memory.total() > options_.maxMemoryBytes)
+    return refuse(overBudgetMessage(job->scene.render, memory, "worker", options_.maxMemoryBytes,
+                                    "LENSFARM_MAX_JOB_MEMORY, else 3/4 of " + options_.name + "'s memory"));
+  {
+    std::lock_guard lock(mutex_);
+    currentLease_ = grant.leaseId;
+    cancelUnit_ = stopNow_.load();  // a stopNow() during loading still counts
+  }
+  UnitResult result = resultForLease(id, grant);
+  const auto start = std::chrono::steady_clock::now();
+  bool complete = false;
+  try {
+    arena.execute(
+        [&] { complete = renderUnit(*job->renderScene, grant.unit, result.buffer, result.stats, &cancelUnit_); });
+  } catch (const std::bad_alloc&) {
+    return refuse("out of memory for a unit buffer (estimated " + memory.describe() + ") on " + options_.name);
+  }
+  result.renderSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ++counters_.unitsRendered;
+  if (!complete) {
+    ++counters_.unitsAbandoned;
+    spdlog::info("unit {} of {}: abandoned after {:.2f} s ({})", grant.unit.index, grant.jobId, result.renderSeconds,
+                 stopNow_ ? "stopping" : "lease revoked");
+    return;
+  }
+  {
+    std::lock_guard lock(mutex_);
+    uploading_ = true;
+  }
+  deliver(grant, result);
+}
+
+void WorkerLoop::deliver(const LeaseGrant& grant, const UnitResult& result) {
+  // A unit is worth keeping: retry the upload through network trouble while the lease may still
+  // be valid, then give it up (the coordinator re-leases it).
+  for (double wait = 0.1;; wait *= 2) {
+    try {
+      const bool accepted = link_.upload(result);
+      if (accepted) ++counters_.unitsAccepted;
+      spdlog::info("unit {} of {}: {} samples in {:.2f} s, {:.1f} MB uploaded, {}", grant.unit.index, grant.jobId,
+                   result.stats.paths, result.renderSeconds, double(result.buffer.sums.size() * sizeof(double)) / 1e6,
+                   accepted ? "accepted" : "a duplicate (already counted)");
+      return;
+    } catch (const FarmError& e) {
+      if (e.kind() == FarmError::Kind::kUnknownWorker) throw;
+      ++counters_.unitsAbandoned;
+      // A revoked lease is routine: the job stopped (target, deadline, cancel) or the unit lapsed
+      // and went to another worker. Anything else is worth a warning.
+      if (e.kind() == FarmError::Kind::kFailedPrecondition)
+        spdlog::info("unit {} of {} no longer wanted: {}", grant.unit.index, grant.jobId, e.what());
+      else
+        spdlog::warn("upload of unit {} of {} refused: {}", grant.unit.index, grant.jobId, e.what());
+      return;
+    } catch (const LinkUnavailable& e) {
+      if (stopNow_ || wait > grant.deadlineSeconds) throw;
+      spdlog::warn("upload of unit {} failed: {}; retrying in {:.1f} s", grant.unit.index, e.what(), wait);
+      sleepFor(std::min(wait, options_.maxBackoffSeconds));
+    }
+  }
 }
 
 }  // namespace lensfarm

@@ -16,6 +16,8 @@
 #include <string>
 #include <thread>
 
+#include <tbb/task_arena.h>
+
 #include "common/render/render_scene.h"
 #include "worker/asset_cache.h"
 #include "worker/coordinator_link.h"
@@ -64,6 +66,11 @@ class WorkerLoop {
     std::unique_ptr<RenderScene> renderScene;
   };
   std::shared_ptr<PreparedJob> prepare(const LeaseGrant& grant);
+  void registerNow();  // a new worker id from the coordinator
+  // One leased unit: its job prepared, the unit traced on `arena` and delivered; a unit this
+  // worker cannot render is reported (reportFailure), never left to lapse.
+  void serve(const std::string& id, const LeaseGrant& grant, tbb::task_arena& arena);
+  void deliver(const LeaseGrant& grant, const UnitResult& result);  // the upload, retried through outages
   void heartbeatLoop();
   void sleepFor(double seconds);  // interruptible by stop()
   std::string workerId();

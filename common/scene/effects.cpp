@@ -316,10 +316,56 @@ EffectSet EffectSet::all(const Scene& scene) {
   return e;
 }
 
-EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const RealLensCamera* real) {
-  EffectSet e = EffectSet::all(scene);
-  std::ostringstream why;
+namespace {
 
+// What the steps below share: the scene, its camera, and what the first step finds out about
+// its materials (which ones a camera path can meet, the closed shells, sealed mirrors, whether a
+// diffuse surface is met).
+struct Analysis {
+  const Scene& scene;
+  const ThinLensCamera& camera;
+  const RealLensCamera* real;
+  std::vector<bool> used;     // by material: on a mesh or prototype, and not sealed away
+  std::vector<Shell> shells;  // closed meshes (only where mirrors or emitters make them matter)
+  int sealedMirrors = 0;
+  bool diffuse = false;  // a Lambertian surface reflects
+};
+
+std::string listed(const std::set<std::string>& names) {
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
+// The materials a camera path can meet, and the closed shells that seal some of them away.
+void findReachableMaterials(Analysis& a) {
+  const Scene& scene = a.scene;
+  std::vector<bool>& used = a.used;
+  used.assign(scene.materials.size(), false);
+  for (const auto& mesh : scene.meshes)
+    for (uint32_t id : mesh.materialIds) used[id] = true;
+  for (const auto& mesh : scene.prototypes)  // (each drawn by at least one instance)
+    for (uint32_t id : mesh.materialIds) used[id] = true;
+  // A mirror sealed inside a closed shell the camera is outside of can never be reached. The
+  // shells matter only to mirrors and emitters: a scene with neither is not searched for them.
+  bool shellsMatter = false;
+  for (size_t m = 0; m < scene.materials.size(); ++m)
+    shellsMatter |= (used[m] && scene.materials[m].isSpecular()) || scene.materials[m].isEmissive();
+  if (shellsMatter) a.shells = closedShells(scene);
+  for (size_t m = 0; m < scene.materials.size(); ++m)
+    if (used[m] && scene.materials[m].isSpecular() && !a.shells.empty() &&
+        sealedAway(scene, a.shells, uint32_t(m), a.camera.params().position)) {
+      used[m] = false;
+      ++a.sealedMirrors;
+    }
+}
+
+// A real lens, a pinhole or a thin lens with its blur over the scene's depth.
+void decideCamera(Analysis& a, EffectSet& e) {
+  const Scene& scene = a.scene;
+  const ThinLensCamera& camera = a.camera;
+  const RealLensCamera* real = a.real;
+  std::ostringstream why;
   // A real lens: every camera ray through its surfaces (camera/real_lens_camera.h); depth of
   // field, aberrations, vignetting and distortion are the lens's own.
   if (scene.realLens) {
@@ -364,7 +410,10 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
     }
     e.decisions.push_back({"depth of field", e.depthOfField, why.str(), !e.depthOfField});
   }
+}
 
+void decideDiffraction(Analysis& a, EffectSet& e) {
+  const Scene& scene = a.scene;
   // Diffraction by the aperture (film/diffraction_psf.h): a post-process of the developed image.
   if (!scene.diffraction) {
     e.decisions.push_back({"diffraction", false, "not asked"});
@@ -386,42 +435,22 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
       e.sceneWarnings.push_back(text.str());
     }
   }
+}
 
-  // Specular materials.
-  std::vector<bool> used(scene.materials.size(), false);
-  for (const auto& mesh : scene.meshes)
-    for (uint32_t id : mesh.materialIds) used[id] = true;
-  for (const auto& mesh : scene.prototypes)  // (each drawn by at least one instance)
-    for (uint32_t id : mesh.materialIds) used[id] = true;
-  // A mirror sealed inside a closed shell the camera is outside of can never be reached. The
-  // shells matter only to mirrors and emitters: a scene with neither is not searched for them.
-  bool shellsMatter = false;
-  for (size_t m = 0; m < scene.materials.size(); ++m)
-    shellsMatter |= (used[m] && scene.materials[m].isSpecular()) || scene.materials[m].isEmissive();
-  const std::vector<Shell> shells = shellsMatter ? closedShells(scene) : std::vector<Shell>();
-  int sealedMirrors = 0;
-  for (size_t m = 0; m < scene.materials.size(); ++m)
-    if (used[m] && scene.materials[m].isSpecular() && !shells.empty() &&
-        sealedAway(scene, shells, uint32_t(m), camera.params().position)) {
-      used[m] = false;
-      ++sealedMirrors;
-    }
+// Mirrors, glossy models, shading normals and textures.
+void decideMaterials(Analysis& a, EffectSet& e) {
+  const Scene& scene = a.scene;
+  const std::vector<bool>& used = a.used;
   // The models the camera's paths can meet, by the effect each stands for (BsdfTraits::effect).
   std::set<std::string> deltaEffects, glossyEffects;
-  bool diffuse = false;
   for (size_t m = 0; m < scene.materials.size(); ++m) {
     const BsdfTraits& t = scene.materials[m].traits();
     if (!used[m] || !t.reflects) continue;
     if (t.lambertian)
-      diffuse = true;
+      a.diffuse = true;
     else
       (t.delta ? deltaEffects : glossyEffects).insert(t.effect);
   }
-  const auto list = [](const std::set<std::string>& names) {
-    std::string out;
-    for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
-    return out;
-  };
   // Surfaces that vary across a triangle: smooth shading and textures (render/shading_point.h).
   size_t smoothMeshes = 0, texturedMaterials = 0;
   for (const auto& mesh : scene.meshes) smoothMeshes += mesh.normals.empty() ? 0 : 1;
@@ -430,15 +459,20 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
   e.specular = !deltaEffects.empty();
   e.generalMaterials = e.specular || !glossyEffects.empty() || smoothMeshes > 0 || texturedMaterials > 0;
   e.decisions.push_back({"specular reflection", e.specular,
-                         e.specular      ? list(deltaEffects) + " in the scene"
-                         : sealedMirrors ? "every mirror is sealed inside a closed mesh the camera is outside of"
-                                         : "no mirror in the scene"});
-  if (!glossyEffects.empty()) e.decisions.push_back({"glossy materials", true, list(glossyEffects) + " in the scene"});
+                         e.specular        ? listed(deltaEffects) + " in the scene"
+                         : a.sealedMirrors ? "every mirror is sealed inside a closed mesh the camera is outside of"
+                                           : "no mirror in the scene"});
+  if (!glossyEffects.empty())
+    e.decisions.push_back({"glossy materials", true, listed(glossyEffects) + " in the scene"});
   if (smoothMeshes > 0 || texturedMaterials > 0)
     e.decisions.push_back({"shading normals and textures", true,
                            std::to_string(smoothMeshes) + " mesh(es) with vertex normals, " +
                                std::to_string(texturedMaterials) + " textured material(s)"});
+}
 
+void decideMedia(Analysis& a, EffectSet& e) {
+  const Scene& scene = a.scene;
+  const std::vector<bool>& used = a.used;
   // Participating media (docs/media.md): the volume path tracer runs only where a path can be in
   // one; every other scene keeps the surface tracers, which have no medium code at all.
   {
@@ -455,6 +489,11 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
     if (where.size() > 4) reason += "; ...";
     e.decisions.push_back({"participating media", e.media, e.media ? reason : "no medium in the scene"});
   }
+}
+
+void decideThinWalls(Analysis& a, EffectSet& e) {
+  const Scene& scene = a.scene;
+  const std::vector<bool>& used = a.used;
   // Thin walls: only a scene with one pays for shadow rays that cross surfaces.
   {
     std::set<std::string> walls;
@@ -463,12 +502,18 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
     e.thinWalls = !walls.empty();
     if (e.thinWalls)
       e.decisions.push_back(
-          {"thin walls", true, list(walls) + " let light straight through: shadow rays cross them with their tint"});
+          {"thin walls", true, listed(walls) + " let light straight through: shadow rays cross them with their tint"});
   }
+}
 
+// Which lights can light something, the lights that are not triangles, next-event estimation and
+// what the camera sees.
+void decideLights(Analysis& a, EffectSet& e) {
+  const Scene& scene = a.scene;
+  const std::vector<bool>& used = a.used;
   // Lights that can light something: an emitter is useful if the front of some triangle of its
   // material faces a surface or the camera (scene/effects.h).
-  const UselessLights useless = findUselessLights(scene, shells, camera.params().position);
+  const UselessLights useless = findUselessLights(scene, a.shells, a.camera.params().position);
   int usefulLights = 0, uselessLights = 0;
   for (size_t m = 0; m < scene.materials.size(); ++m) {
     if (!used[m] || !scene.materials[m].isEmissive()) continue;
@@ -528,9 +573,14 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
                          seenEmitter ? "an emitter is visible to camera rays"
                          : seenLight ? "camera rays that leave the scene see the light beyond it"
                                      : "every light is hidden from the camera"});
-  if (!diffuse && !e.generalMaterials)
+  if (!a.diffuse && !e.generalMaterials)
     e.decisions.push_back({"indirect light", false, "no surface reflects: only emitters are seen"});
+}
 
+void decideLightTracing(Analysis& a, EffectSet& e) {
+  const Scene& scene = a.scene;
+  const std::vector<bool>& used = a.used;
+  const RealLensCamera* real = a.real;
   // Light tracing (render/light_tracer.h): particles from the emitting triangles, connected to the
   // thin lens at every diffuse vertex, for the paths light -> mirror -> ... -> diffuse -> camera.
   bool emittingTriangles = false, tracedMirror = false, tracedDiffuse = false;
@@ -578,6 +628,20 @@ EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const
   }
   if (e.lightTracing || rs.lightTracing != LightTracingMode::kAuto || e.mirrorCaustics)
     e.decisions.push_back({"light tracing", e.lightTracing, ltWhy});
+}
+
+// The decisions, in the order `lensfarm render` lists them; each step is one effect.
+using EffectStep = void (*)(Analysis&, EffectSet&);
+constexpr EffectStep kEffectSteps[] = {decideCamera,    decideDiffraction, decideMaterials,   decideMedia,
+                                       decideThinWalls, decideLights,      decideLightTracing};
+
+}  // namespace
+
+EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const RealLensCamera* real) {
+  EffectSet e = EffectSet::all(scene);
+  Analysis a{scene, camera, real, {}, {}};
+  findReachableMaterials(a);
+  for (const EffectStep step : kEffectSteps) step(a, e);
   return e;
 }
 

@@ -57,7 +57,7 @@ std::set<std::string> setupPackages(const std::string& list) {
   const size_t begin = script.find("\n" + list + "=(");
   EXPECT_NE(begin, std::string::npos) << list << " not in scripts/setup.sh";
   if (begin == std::string::npos) return {};
-  const size_t start = begin + list.size() + 3, end = script.find(')', start);
+  const size_t start = begin + list.size() + 3, end = script.find("\n)", start);  // a comment may hold ')'
   std::set<std::string> out;
   std::istringstream in(script.substr(start, end - start));
   for (std::string line; std::getline(in, line);)
