@@ -123,16 +123,15 @@ bool Coordinator::acceptAudit(const UnitResult& result) {
 void Coordinator::applyVerdict(Job& job, const AuditBook::Verdict& v) {
   const auto labelOf = [&](const std::string& id) {
     mutex_.assertHeld();  // the lambdas run here, under the caller's lock
-    auto it = workers_.find(id);
-    return it == workers_.end() ? id : it->second->label();
+    return workers_.labelOf(id);
   };
   // A worker whose result agreed was right then, so are the units it delivered before. Each
   // audit is counted once per worker, by role: its own unit confirmed, or another's checked.
   const auto vouchFor = [&](const std::string& id, uint64_t seq, bool ownUnit) {
     mutex_.assertHeld();
-    if (auto it = workers_.find(id); it != workers_.end()) {
-      it->second->clearedSeq = std::max(it->second->clearedSeq, seq);
-      ++(ownUnit ? it->second->auditsPassed : it->second->auditsRendered);
+    if (Worker* w = workers_.known(id)) {
+      w->clearedSeq = std::max(w->clearedSeq, seq);
+      ++(ownUnit ? w->auditsPassed : w->auditsRendered);
     }
   };
   const std::string unit = "unit " + std::to_string(v.unit);
@@ -163,7 +162,7 @@ void Coordinator::applyVerdict(Job& job, const AuditBook::Verdict& v) {
                                  labelOf(v.right[0]) + " and " + labelOf(v.right[1]) + ", which agree";
       job.addEvent("audit of " + unit + ": " + labelOf(v.wrong) + " is wrong (" + v.detail + " from " +
                    labelOf(v.right[0]) + " and " + labelOf(v.right[1]) + ", which agree)");
-      if (auto it = workers_.find(v.wrong); it != workers_.end()) quarantine(*it->second, reason);
+      if (Worker* w = workers_.known(v.wrong)) quarantine(*w, reason);
       updateTrust(job);
       break;
     }
@@ -203,8 +202,8 @@ void Coordinator::quarantine(Worker& worker, const std::string& reason) {
 }
 
 void Coordinator::rewindFor(Job& job, const std::string& workerId) {
-  const auto w = workers_.find(workerId);
-  const uint64_t cleared = w == workers_.end() ? 0 : w->second->clearedSeq;
+  const Worker* w = workers_.known(workerId);
+  const uint64_t cleared = w ? w->clearedSeq : 0;
   std::optional<uint64_t> first;  // its first unit since its last agreeing audit
   for (const auto& [unit, p] : job.provenance)
     if (p.worker == workerId && p.seq > cleared) {
@@ -239,7 +238,7 @@ void Coordinator::rewindFor(Job& job, const std::string& workerId) {
       job.film->checkpointed(r.checkpoint->folded);
     }
   }
-  const std::string label = w == workers_.end() ? workerId : w->second->label();
+  const std::string label = workers_.labelOf(workerId);
   job.addEvent("worker " + label + " quarantined; its units from unit " + std::to_string(*first) +
                " on are rendered again: the film is back at unit " + std::to_string(r.units) + ", " +
                std::to_string(uncounted) + " counted unit(s) undone");
@@ -252,8 +251,8 @@ void Coordinator::updateTrust(Job& job) {
   uint64_t trusted = job.units.countedPrefix();
   for (const auto& [unit, p] : job.provenance) {
     if (unit >= trusted) break;
-    auto w = workers_.find(p.worker);
-    if (w == workers_.end() || p.seq > w->second->clearedSeq) {
+    const Worker* w = workers_.known(p.worker);
+    if (!w || p.seq > w->clearedSeq) {
       trusted = unit;
       break;
     }

@@ -56,9 +56,11 @@ Coordinator::Coordinator(Options options) : options_(std::move(options)), auditR
   archive_ = std::make_unique<JobArchive>(options_.stateDir);
   if (options_.stateDir.empty()) {
     epoch_ = std::random_device{}() & 0xfffff;
+    setWorkerEpoch();
   } else {
     store_ = std::make_unique<StateStore>(options_.stateDir);
     epoch_ = store_->bootCount();
+    setWorkerEpoch();
     restore();
     checkpointer_ = std::thread([this] { checkpointLoop(); });
   }

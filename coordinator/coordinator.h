@@ -51,6 +51,7 @@
 #include "coordinator/audit.h"
 #include "coordinator/lease_table.h"
 #include "coordinator/locking.h"
+#include "coordinator/worker_registry.h"
 
 namespace lensfarm {
 
@@ -130,16 +131,6 @@ double progressFraction(const JobInfo& info, double nowUnixSeconds);
 // A duration flag ("7d", "12h", "30m", "3600s", "90", "0.2s"; a bare number is seconds) in
 // seconds (lifecycle.cpp). InputError naming `flag` for anything else, or a negative duration.
 double parseDuration(const std::string& text, const std::string& flag);
-
-// What a worker is doing, as the coordinator sees it.
-enum class WorkerState {
-  kRendering,  // holds a lease
-  kIdle,       // heard from recently, holds nothing
-  kStale,      // silent for longer than a few heartbeat intervals (not yet lost)
-  kLost,       // its Attach stream broke, or (never attached) silent for longer than the lease timeout
-  kLeft,       // it stopped cleanly
-};
-const char* workerStateName(WorkerState state);
 
 struct WorkerView {
   std::string id;
@@ -378,7 +369,7 @@ class Coordinator {
  private:
   using Clock = std::chrono::steady_clock;
   struct Job;
-  struct Worker;
+  using Worker = WorkerRecord;
 
   // ---- the job table (coordinator.cpp) ----
   Job& findJob(const std::string& jobId) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
@@ -498,6 +489,7 @@ class Coordinator {
   void storeCompletedFrames(Job& job);
   ImageMetadata metadataOf(const Job& job) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   void restore();
+  void setWorkerEpoch() ABSL_LOCKS_EXCLUDED(mutex_);  // worker ids name this run (epoch_)
   // The jobs of the state dir, back in the table; those with tiles into `tiled` (their completed
   // frames are stored next, outside the lock).
   void restoreJobs(std::vector<Job*>& tiled) ABSL_LOCKS_EXCLUDED(mutex_);
@@ -527,9 +519,9 @@ class Coordinator {
   mutable std::condition_variable changed_;  // any job changed, or work became available
   AssetStore assets_;                        // its own lock
   std::map<std::string, std::unique_ptr<Job>> jobs_ ABSL_GUARDED_BY(mutex_);
-  std::map<std::string, std::unique_ptr<Worker>> workers_ ABSL_GUARDED_BY(mutex_);
+  WorkerRegistry workers_ ABSL_GUARDED_BY(mutex_);
   LeaseTable leases_ ABSL_GUARDED_BY(mutex_);
-  uint64_t nextJob_ ABSL_GUARDED_BY(mutex_) = 1, nextWorker_ ABSL_GUARDED_BY(mutex_) = 1;
+  uint64_t nextJob_ ABSL_GUARDED_BY(mutex_) = 1;
   uint64_t nextSequence_ ABSL_GUARDED_BY(mutex_) = 1, nextAttachment_ ABSL_GUARDED_BY(mutex_) = 1;
   uint64_t nextAcceptance_ ABSL_GUARDED_BY(mutex_) = 1;  // orders accepted units for the audit (Job::Provenance::seq)
   std::mt19937_64 auditRandom_ ABSL_GUARDED_BY(mutex_);  // which units are audited; seeded by the operating system

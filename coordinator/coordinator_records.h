@@ -113,30 +113,4 @@ struct Coordinator::Job {
   uint32_t pins = 0;              // Coordinator::JobPin's alive on this job
 };
 
-struct Coordinator::Worker {
-  std::string id;
-  std::string session;  // secret, from registerWorker: what authenticateWorker compares
-  WorkerInfo info;
-  Clock::time_point lastHeartbeat;
-  std::string currentJobId;
-  uint64_t unitsDone = 0;
-  uint64_t failures = 0;  // units it reported failed
-  std::optional<uint64_t> currentUnit;
-  double samplesPerSecond = 0.0;
-  // Liveness (attachWorker, workerLost, workerLeft).
-  uint64_t attachment = 0;          // the Attach stream it holds; 0: none
-  std::optional<WorkerState> gone;  // kLost or kLeft: its id is refused from then on
-  Clock::time_point goneAt;
-  std::string goneReason;
-  // The audit (auditing.cpp): its counted units with an acceptance sequence up to `clearedSeq`
-  // are vouched for by a later audit that agreed; its first counted unit is always audited.
-  uint64_t clearedSeq = 0;
-  bool firstUnitAudited = false;
-  uint64_t auditsPassed = 0;    // its own counted units an audit confirmed
-  uint64_t auditsRendered = 0;  // units it rendered again for another worker's audit, which agreed
-  bool quarantined = false;     // leased nothing more
-  std::string quarantineReason;
-  std::string label() const { return info.name.empty() ? id : info.name + " (" + id + ")"; }
-};
-
 }  // namespace lensfarm

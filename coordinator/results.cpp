@@ -218,8 +218,8 @@ void Coordinator::record(const UnitResult& result, const Admission& a) {
 bool Coordinator::count(const UnitResult& result, const Admission& a, AuditBook::Sums kept) {
   MutexLock lock(mutex_);
   a.job->units.endRecording(result.unitIndex);
-  const auto from = workers_.find(result.workerId);
-  if (a.job->generation != a.generation || (from != workers_.end() && from->second->quarantined)) {
+  const Worker* from = workers_.known(result.workerId);
+  if (a.job->generation != a.generation || (from && from->quarantined)) {
     // The audit rewound the film, or quarantined this worker, meanwhile (auditing.cpp): this
     // unit is rendered again.
     if (store_) store_->forgetUnits(a.job->id, result.unitIndex, {}, result.unitIndex + 1);
@@ -241,10 +241,10 @@ bool Coordinator::count(const UnitResult& result, const Admission& a, AuditBook:
   }
   ++counters_.unitsDone;
   counters_.samples += result.stats.paths;
-  if (auto w = workers_.find(result.workerId); w != workers_.end()) {
-    ++w->second->unitsDone;
-    if (result.renderSeconds > 0.0) w->second->samplesPerSecond = double(result.stats.paths) / result.renderSeconds;
-    if (w->second->currentUnit == result.unitIndex) w->second->currentUnit.reset();
+  if (Worker* w = workers_.known(result.workerId)) {
+    ++w->unitsDone;
+    if (result.renderSeconds > 0.0) w->samplesPerSecond = double(result.stats.paths) / result.renderSeconds;
+    if (w->currentUnit == result.unitIndex) w->currentUnit.reset();
   }
   ++a.job->unitsByWorker[a.workerName];
   return true;

@@ -27,8 +27,7 @@ void Coordinator::reapExpiredLeases(Clock::time_point now) {
     if (lease.audit) job.audits.release(lease.unit, lease.workerId);
     if (!isTerminal(job.state) && !job.units.isReceived(lease.unit)) job.units.requeue(lease.unit);
     ++counters_.unitsExpired;
-    if (auto w = workers_.find(lease.workerId); w != workers_.end() && w->second->currentJobId == job.id)
-      w->second->currentJobId.clear();
+    if (Worker* w = workers_.known(lease.workerId); w && w->currentJobId == job.id) w->currentJobId.clear();
     changed_.notify_all();
   }
   enforceDeadlines();

@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <random>
 
 #include "common/farm/memory_estimate.h"
 #include "common/util/error.h"
@@ -27,32 +26,6 @@ const char* workerStateName(WorkerState s) {
   return "?";
 }
 
-namespace {
-// `bytes` random bytes from the operating system's generator (std::random_device: getrandom on
-// Linux), as hex.
-std::string randomHex(size_t bytes) {
-  std::random_device random;
-  static const char* digits = "0123456789abcdef";
-  std::string out;
-  for (size_t k = 0; k < bytes; k += 4) {
-    const uint32_t word = random();
-    for (int b = 0; b < 4 && k + size_t(b) < bytes; ++b) {
-      const uint32_t byte = (word >> (8 * b)) & 0xffu;
-      out += digits[byte >> 4];
-      out += digits[byte & 15u];
-    }
-  }
-  return out;
-}
-
-// Equal strings, in a time that does not depend on where they differ.
-bool sameSecret(const std::string& a, const std::string& b) {
-  unsigned char diff = a.size() == b.size() ? 0 : 1;
-  for (size_t k = 0; k < a.size(); ++k) diff |= static_cast<unsigned char>(a[k] ^ (k < b.size() ? b[k] : 0));
-  return diff == 0;
-}
-}  // namespace
-
 std::string Coordinator::registerWorker(const WorkerInfo& info, std::string* session) {
   if (info.protocolVersion != kProtocolVersion || info.rendererVersion != kRendererVersion)
     throw FarmError(FarmError::Kind::kFailedPrecondition, "version mismatch: worker speaks " + info.protocolVersion +
@@ -60,65 +33,40 @@ std::string Coordinator::registerWorker(const WorkerInfo& info, std::string* ses
                                                               ", coordinator speaks " + kProtocolVersion +
                                                               " with renderer " + kRendererVersion);
   MutexLock lock(mutex_);
-  auto worker = std::make_unique<Worker>();
-  worker->id = "worker-" + std::to_string(epoch_) + "." + std::to_string(nextWorker_++);
-  worker->info = info;
-  worker->lastHeartbeat = Clock::now();
-  worker->session = randomHex(32);
-  if (session) *session = worker->session;
-  const std::string id = worker->id;
-  spdlog::info("{} registered: {} with {} threads", id, info.name, info.threads);
-  // A lost or departed worker of the same name is this one back: the new entry replaces it, and
-  // the running jobs it left say so to their watchers.
   bool back = false;
-  for (auto it = workers_.begin(); it != workers_.end();) {
-    const bool same = it->second->gone && !info.name.empty() && it->second->info.name == info.name;
-    back |= same;
-    it = same ? workers_.erase(it) : std::next(it);
-  }
+  WorkerRecord& worker = workers_.add(info, Clock::now(), &back);
+  if (session) *session = worker.session;
+  const std::string id = worker.id;
+  spdlog::info("{} registered: {} with {} threads", id, info.name, info.threads);
   if (back)
     for (auto& [jobId, job] : jobs_)
       if (!isTerminal(job->state) && job->workersLost.erase(info.name)) {
         job->addEvent("worker " + info.name + " (" + id + ") rejoined");
         touch(*job);
       }
-  workers_[id] = std::move(worker);
   return id;
 }
 
 void Coordinator::authenticateWorker(const std::string& workerId, const std::string& session) {
   MutexLock lock(mutex_);
-  const Worker& worker = findWorker(workerId);
-  if (session.empty())
-    throw FarmError(FarmError::Kind::kUnauthenticated,
-                    "no session for " + workerId + ": quote RegisterResponse.session with the worker id");
-  if (!sameSecret(session, worker.session))
-    throw FarmError(FarmError::Kind::kPermissionDenied, "the session is not " + workerId + "'s");
+  workers_.authenticate(workerId, session);
 }
 
-Coordinator::Worker& Coordinator::findWorker(const std::string& workerId) {
-  auto it = workers_.find(workerId);
-  if (it == workers_.end())
-    throw FarmError(FarmError::Kind::kUnknownWorker, "unknown worker " + workerId + "; register again");
-  if (it->second->gone)  // its leases were revoked: a live process must start afresh
-    throw FarmError(FarmError::Kind::kUnknownWorker, "unknown worker " + workerId + " (" +
-                                                         workerStateName(*it->second->gone) + ": " +
-                                                         it->second->goneReason + "); register again");
-  return *it->second;
+void Coordinator::setWorkerEpoch() {
+  MutexLock lock(mutex_);
+  workers_.setEpoch(epoch_);
 }
 
-Coordinator::Worker* Coordinator::liveWorker(const std::string& workerId) {
-  auto it = workers_.find(workerId);
-  return it == workers_.end() || it->second->gone ? nullptr : it->second.get();
-}
+Coordinator::Worker& Coordinator::findWorker(const std::string& workerId) { return workers_.find(workerId); }
+
+Coordinator::Worker* Coordinator::liveWorker(const std::string& workerId) { return workers_.live(workerId); }
 
 double Coordinator::staleAfterSeconds() const { return std::max(3.0, 5.0 * options_.heartbeatIntervalSeconds); }
 
 void Coordinator::forgetSilentWorkers(Clock::time_point now) {
   // Forget workers silent for much longer than a lease: they hold nothing any more.
   const auto forgetAfter = std::chrono::duration<double>(std::max(60.0, 10.0 * options_.leaseTimeoutSeconds));
-  for (auto it = workers_.begin(); it != workers_.end();)
-    it = now - it->second->lastHeartbeat > forgetAfter ? workers_.erase(it) : std::next(it);
+  workers_.forgetSilent(now, std::chrono::duration_cast<Clock::duration>(forgetAfter));
 }
 
 uint64_t Coordinator::attachWorker(const std::string& workerId) {
@@ -188,14 +136,14 @@ std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) co
   // Held by a worker that is heard from: it is being rendered.
   std::string silent;
   for (const LeaseTable::Lease* lease : leases_.ofJob(job.id)) {
-    auto it = workers_.find(lease->workerId);
-    if (it == workers_.end()) continue;
+    const Worker* holder = workers_.known(lease->workerId);
+    if (!holder) continue;
     double s = 0.0;
-    const WorkerState state = stateOf(*it->second, true, now, &s);
+    const WorkerState state = stateOf(*holder, true, now, &s);
     if (state == WorkerState::kRendering) return "";
     if (silent.empty())
-      silent = "worker " + it->second->label() + " silent for " + secondsText(s) + "; unit " +
-               std::to_string(lease->unit) + " is queued again when its lease lapses in " +
+      silent = "worker " + holder->label() + " silent for " + secondsText(s) + "; unit " + std::to_string(lease->unit) +
+               " is queued again when its lease lapses in " +
                secondsText(std::chrono::duration<double>(lease->deadline - now).count());
   }
   if (!silent.empty()) return silent;
