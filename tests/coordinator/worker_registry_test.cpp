@@ -4,26 +4,18 @@
 #include <gtest/gtest.h>
 
 #include "common/util/error.h"
+#include "tests/coordinator/coordinator_fixtures.h"
 
 namespace lensfarm {
 namespace {
 
 using Clock = WorkerRegistry::Clock;
+using test::kindOf;
 
 WorkerInfo named(const std::string& name) {
   WorkerInfo info;
   info.name = name;
   return info;
-}
-
-FarmError::Kind kindOf(const std::function<void()>& call) {
-  try {
-    call();
-  } catch (const FarmError& e) {
-    return e.kind();
-  }
-  ADD_FAILURE() << "no FarmError";
-  return FarmError::Kind::kInvalidArgument;
 }
 
 TEST(WorkerRegistry, IdsNameTheRunAndAreNeverReissued) {
