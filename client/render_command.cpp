@@ -152,54 +152,34 @@ void writeCompleteFrames(const Coordinator& coordinator, const JobInfo& info, co
   }
 }
 
-int runRender(const RenderFlags& flags, PhaseTimer& timer) {
-  const std::optional<FrameRange> frames = flags.overrides.frameRange();
-  LocalJob local =
-      makeLocalJob(flags.scene, toOverrides(flags), flags.overrides.camera, frames, flags.overrides.allowedFolders());
-  if (flags.denoise) {  // the guides' AOVs join the scene's (and --aov's), for every process of the job
-    local.scene.render.aovs.bits |= denoiseGuideAovs().bits;
-    local.spec.overrides.aovs = local.scene.render.aovs;
-  }
-  timer.mark("scene_load");
-  const Scene& scene = local.scene;
-  const RenderSettings& settings = scene.render;
-
-  // Refuse bad outputs before tracing a single ray. An animation's are patterns: out/shot_####.exr.
-  std::vector<fs::path> outputs;
+// The outputs asked for (-o), or the default ones named after the scene; an animation's get
+// "_####" before their extension.
+std::vector<std::string> outputPatterns(const RenderFlags& flags, const std::optional<FrameRange>& frames) {
   std::vector<std::string> patterns = flags.outputs;
   if (patterns.empty())
     for (const fs::path o : defaultOutputs(flags.scene))
       patterns.push_back(frames ? (o.parent_path() / (o.stem().string() + "_####" + o.extension().string())).string()
                                 : o.string());
+  return patterns;
+}
+
+// Each output checked (a writable .exr or .png; an animation's with a frame-number pattern),
+// InputError naming -o.
+std::vector<fs::path> checkedOutputs(const std::vector<std::string>& patterns,
+                                     const std::optional<FrameRange>& frames) {
+  std::vector<fs::path> outputs;
   for (const auto& o : patterns) {
     if (frames && frames->count() > 1) checkFramePattern(o, "-o");
     outputs.push_back(checkedOutput(o, {".exr", ".png"}));
   }
+  return outputs;
+}
 
-  // Refuse what this machine cannot hold before allocating anything frame-sized.
-  refuseLocalRenderOverBudget(settings, storedTriangles(scene),
-                              toOverrides(flags).width ? "--resolution" : flags.scene + ": render.resolution",
-                              sceneDataBytes(scene));
-
-  // The farm in one process: an embedded coordinator and one worker with all threads, wired by direct calls
-  // (docs/architecture.md, "The farm in one process"): the same scheduling, upload and accumulation as over gRPC.
-  Coordinator::Options options;
-  options.maxJobMemoryBytes = std::numeric_limits<uint64_t>::max();  // the whole process was checked above
-  options.leaseTimeoutSeconds = 3600.0;                              // the worker cannot vanish: it is this process
-  options.heartbeatIntervalSeconds = 0.25;
-  options.auditFraction = 0.0;  // one worker: nobody to compare with (docs/farm.md "Audit")
-  // Owned through pointers so that they can be freed beside the writing of the outputs (below).
-  auto coordinatorOwner = std::make_unique<Coordinator>(options);
-  Coordinator& coordinator = *coordinatorOwner;
-  for (const auto& [sha, bytes] : local.assetBytes) coordinator.putAsset(sha, bytes);
-  spdlog::set_level(spdlog::level::warn);
-  const JobInfo submitted = coordinator.submit(local.spec, 0);
-  spdlog::set_level(spdlog::level::info);
-  timer.mark("submit");
-  // From here Ctrl-C stops the render cleanly (the log line below says it has begun).
-  gInterrupted = false;
-  std::signal(SIGINT, onSigint);
-  const unsigned threads = flags.threads.value_or(std::max(1u, std::thread::hardware_concurrency()));
+// What is about to be rendered, and how, said before the first ray: the scene's size, the sample
+// budget and settings, the notes of its loading, and what the render leaves out of what the
+// scene asks for (scene/effects.h).
+void logRenderPlan(const RenderFlags& flags, const Scene& scene, unsigned threads, bool animation) {
+  const RenderSettings& settings = scene.render;
   std::string triangles = std::to_string(storedTriangles(scene)) + " triangles";
   if (!scene.instances.empty()) triangles += fmt::format(" (shared meshes drawn {} times)", scene.instances.size());
   std::string budget = settings.samplesPerPixel >= kMaxSamplesPerPixel
@@ -210,7 +190,7 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
   spdlog::info("{}: {}, {}x{} px, {} in units of {} spp, B = {}, {}, {} sampler on {} threads", flags.scene, triangles,
                settings.width, settings.height, budget, unitSize(settings), settings.maxBounces,
                integratorName(settings.integrator), samplerName(settings.sampler), threads);
-  if (const std::string a = JobLayout::of(settings, std::nullopt).adaptiveSummary(); !a.empty() && !frames)
+  if (const std::string a = JobLayout::of(settings, std::nullopt).adaptiveSummary(); !a.empty() && !animation)
     spdlog::info("{}: {}", flags.scene, a);
   for (const std::string& note : scene.notes) spdlog::info("{}: {}", flags.scene, note);
   if (const double framed = scene.cameraFramedAspect, image = double(settings.width) / settings.height;
@@ -224,6 +204,111 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
   // What the render leaves out of what the scene asks for is said before the first ray, not only
   // in the summary at the end (scene/effects.h).
   for (const std::string& w : analyzeEffects(scene, scene.camera()).warnings()) spdlog::warn("{}: {}", flags.scene, w);
+}
+
+// The summary on stdout: samples, paths, rays, time, the error estimate, why it stopped, the
+// effects simulated and the files written.
+void printSummary(const JobInfo& info, const JobImage& image, bool interrupted, const std::optional<FrameRange>& frames,
+                  const std::set<int64_t>& written, const std::vector<std::string>& patterns,
+                  const std::vector<fs::path>& outputs) {
+  const double seconds = std::max(info.elapsedSeconds, 1e-9);
+  std::printf("samples per pixel: %llu%s\n", (unsigned long long)image.metadata.samplesPerPixel,
+              interrupted ? " (interrupted)" : "");
+  std::printf("paths:             %llu (%.3f M paths/s)\n", (unsigned long long)info.stats.paths,
+              double(info.stats.paths) / seconds / 1e6);
+  std::printf("rays:              %llu (%.3f M rays/s)\n", (unsigned long long)info.stats.rays,
+              double(info.stats.rays) / seconds / 1e6);
+  std::printf("light-hit fraction: %.2f %%\n", 100.0 * info.lightHitFraction());
+  std::printf("dropped samples:   %llu\n", (unsigned long long)info.stats.dropped);
+  std::printf("time:              %.2f s\n", info.elapsedSeconds);
+  if (info.estimatedRelativeError >= 0.0)
+    std::printf("estimated error:   %.3f %% relative RMSE (film/convergence.h)\n", 100.0 * info.estimatedRelativeError);
+  else if (info.unitsDone > 0)
+    std::printf("estimated error:   unknown\n");  // fewer than two units, or a black image
+  if (!info.stopReason.empty()) std::printf("stopped:           %s\n", info.stopReason.c_str());
+  for (const auto& e : info.effects) std::printf("effect:            %s\n", e.c_str());
+  if (frames)
+    std::printf("frames:            %zu of %llu written (%s), %s\n", written.size(),
+                (unsigned long long)frames->count(), formatFrameRange(*frames).c_str(), patterns.front().c_str());
+  else
+    for (const auto& o : outputs) std::printf("wrote %s\n", o.c_str());
+}
+
+// Follows the job until it ends, writing snapshots (--snapshot-every) and an animation's frames
+// as they complete; Ctrl-C cancels it, keeping the units already added. Returns whether it was
+// interrupted.
+bool followJob(Coordinator& coordinator, WorkerLoop& worker, JobInfo& info, const RenderFlags& flags,
+               const std::optional<FrameRange>& frames, const std::vector<fs::path>& outputs,
+               std::set<int64_t>& written, ProgressDisplay& display) {
+  double lastSnapshot = 0.0;
+  for (;;) {
+    info = coordinator.waitForChange(info.id, info.version, 0.1);
+    display.update(toProto(info));
+    if (isTerminal(info.state)) break;
+    // The coordinator applies the time limit and target error itself (whole units); Ctrl-C
+    // cancels, keeping the units already added.
+    if (gInterrupted) {
+      coordinator.cancel(info.id);  // whole units only: the one in flight is dropped
+      worker.stopNow();
+      return true;
+    }
+    if (frames) writeCompleteFrames(coordinator, info, outputs, flags.compression(), flags.denoise, written);
+    if (!frames && flags.snapshotEvery > 0 && info.unitsDone > 0 &&
+        info.elapsedSeconds - lastSnapshot >= flags.snapshotEvery) {
+      writeOutputs(outputs, forOutput(coordinator.image(info.id), flags.denoise), flags.compression());
+      lastSnapshot = info.elapsedSeconds;
+    }
+  }
+  return false;
+}
+
+// The coordinator of `lensfarm render`: the farm in one process (docs/architecture.md, "The farm
+// in one process").
+std::unique_ptr<Coordinator> embeddedCoordinator() {
+  Coordinator::Options options;
+  options.maxJobMemoryBytes = std::numeric_limits<uint64_t>::max();  // runRender checks the whole process
+  options.leaseTimeoutSeconds = 3600.0;                              // the worker cannot vanish: it is this process
+  options.heartbeatIntervalSeconds = 0.25;
+  options.auditFraction = 0.0;  // one worker: nobody to compare with (docs/farm.md "Audit")
+  return std::make_unique<Coordinator>(options);
+}
+
+int runRender(const RenderFlags& flags, PhaseTimer& timer) {
+  const std::optional<FrameRange> frames = flags.overrides.frameRange();
+  LocalJob local =
+      makeLocalJob(flags.scene, toOverrides(flags), flags.overrides.camera, frames, flags.overrides.allowedFolders());
+  if (flags.denoise) {  // the guides' AOVs join the scene's (and --aov's), for every process of the job
+    local.scene.render.aovs.bits |= denoiseGuideAovs().bits;
+    local.spec.overrides.aovs = local.scene.render.aovs;
+  }
+  timer.mark("scene_load");
+  const Scene& scene = local.scene;
+  const RenderSettings& settings = scene.render;
+
+  // Refuse bad outputs before tracing a single ray. An animation's are patterns: out/shot_####.exr.
+  const std::vector<std::string> patterns = outputPatterns(flags, frames);
+  const std::vector<fs::path> outputs = checkedOutputs(patterns, frames);
+
+  // Refuse what this machine cannot hold before allocating anything frame-sized.
+  refuseLocalRenderOverBudget(settings, storedTriangles(scene),
+                              toOverrides(flags).width ? "--resolution" : flags.scene + ": render.resolution",
+                              sceneDataBytes(scene));
+
+  // The farm in one process: an embedded coordinator and one worker with all threads, wired by direct calls
+  // (docs/architecture.md, "The farm in one process"): the same scheduling, upload and accumulation as over gRPC.
+  // Owned through pointers so that they can be freed beside the writing of the outputs (below).
+  std::unique_ptr<Coordinator> coordinatorOwner = embeddedCoordinator();
+  Coordinator& coordinator = *coordinatorOwner;
+  for (const auto& [sha, bytes] : local.assetBytes) coordinator.putAsset(sha, bytes);
+  spdlog::set_level(spdlog::level::warn);
+  const JobInfo submitted = coordinator.submit(local.spec, 0);
+  spdlog::set_level(spdlog::level::info);
+  timer.mark("submit");
+  // From here Ctrl-C stops the render cleanly (the log line below says it has begun).
+  gInterrupted = false;
+  std::signal(SIGINT, onSigint);
+  const unsigned threads = flags.threads.value_or(std::max(1u, std::thread::hardware_concurrency()));
+  logRenderPlan(flags, scene, threads, frames.has_value());
 
   // The embedded coordinator and worker log only what goes wrong; the summary below says the rest.
   spdlog::set_level(spdlog::level::warn);
@@ -246,7 +331,6 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
 
   ProgressDisplay display(!flags.quiet, ::isatty(STDERR_FILENO), 0.0, flags.progressEvery);
   JobInfo info = submitted;
-  double lastSnapshot = 0.0;
   std::set<int64_t> written;  // an animation's frames written so far
   bool interrupted = false;
   // Whatever the loop throws (an output that cannot be written), the worker thread is stopped and
@@ -260,25 +344,7 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
       thread.join();
     }
   } joinOnThrow{worker, workerThread};
-  for (;;) {
-    info = coordinator.waitForChange(info.id, info.version, 0.1);
-    display.update(toProto(info));
-    if (isTerminal(info.state)) break;
-    // The coordinator applies the time limit and target error itself (whole units); Ctrl-C
-    // cancels, keeping the units already added.
-    if (gInterrupted) {
-      interrupted = true;
-      coordinator.cancel(info.id);  // whole units only: the one in flight is dropped
-      worker.stopNow();
-      break;
-    }
-    if (frames) writeCompleteFrames(coordinator, info, outputs, flags.compression(), flags.denoise, written);
-    if (!frames && flags.snapshotEvery > 0 && info.unitsDone > 0 &&
-        info.elapsedSeconds - lastSnapshot >= flags.snapshotEvery) {
-      writeOutputs(outputs, forOutput(coordinator.image(info.id), flags.denoise), flags.compression());
-      lastSnapshot = info.elapsedSeconds;
-    }
-  }
+  interrupted = followJob(coordinator, worker, info, flags, frames, outputs, written, display);
   std::signal(SIGINT, SIG_DFL);
   timer.mark("render_wait");
   worker.stop();
@@ -326,27 +392,7 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
                  [&](const fs::path& path) { timer.lap(path.extension() == ".exr" ? "write_exr" : "write_png"); });
     timer.mark("write_outputs");
   }
-  const double seconds = std::max(info.elapsedSeconds, 1e-9);
-  std::printf("samples per pixel: %llu%s\n", (unsigned long long)image.metadata.samplesPerPixel,
-              interrupted ? " (interrupted)" : "");
-  std::printf("paths:             %llu (%.3f M paths/s)\n", (unsigned long long)info.stats.paths,
-              double(info.stats.paths) / seconds / 1e6);
-  std::printf("rays:              %llu (%.3f M rays/s)\n", (unsigned long long)info.stats.rays,
-              double(info.stats.rays) / seconds / 1e6);
-  std::printf("light-hit fraction: %.2f %%\n", 100.0 * info.lightHitFraction());
-  std::printf("dropped samples:   %llu\n", (unsigned long long)info.stats.dropped);
-  std::printf("time:              %.2f s\n", info.elapsedSeconds);
-  if (info.estimatedRelativeError >= 0.0)
-    std::printf("estimated error:   %.3f %% relative RMSE (film/convergence.h)\n", 100.0 * info.estimatedRelativeError);
-  else if (info.unitsDone > 0)
-    std::printf("estimated error:   unknown\n");  // fewer than two units, or a black image
-  if (!info.stopReason.empty()) std::printf("stopped:           %s\n", info.stopReason.c_str());
-  for (const auto& e : info.effects) std::printf("effect:            %s\n", e.c_str());
-  if (frames)
-    std::printf("frames:            %zu of %llu written (%s), %s\n", written.size(),
-                (unsigned long long)frames->count(), formatFrameRange(*frames).c_str(), patterns.front().c_str());
-  else
-    for (const auto& o : outputs) std::printf("wrote %s\n", o.c_str());
+  printSummary(info, image, interrupted, frames, written, patterns, outputs);
   return interrupted ? kInterrupted : kOk;
 }
 
