@@ -31,7 +31,7 @@ bool Coordinator::mayAudit(const Job& job, const Worker& worker, const std::stri
   // Only a worker heard from lately: a silent one would hold the job's end back.
   const bool heard = Clock::now() - worker.lastHeartbeat < std::chrono::duration<double>(staleAfterSeconds());
   return heard && !worker.gone && !worker.quarantined && worker.id != exceptWorker && job.fitsOn(worker.info) &&
-         !job.blocklist.count(worker.id);
+         !job.failures.blocks(worker.id);
 }
 
 bool Coordinator::chooseForAudit(const Job& job, Worker& worker) {

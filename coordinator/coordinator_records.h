@@ -15,6 +15,7 @@
 #include "coordinator/accumulator.h"
 #include "coordinator/audit.h"
 #include "coordinator/coordinator.h"
+#include "coordinator/job_failures.h"
 #include "coordinator/job_units.h"
 
 namespace lensfarm {
@@ -64,23 +65,9 @@ struct Coordinator::Job {
   std::optional<uint64_t> stopUnits;  // a job stopped early keeps units [0, stopUnits)
   bool deadlinePassed = false;
   std::vector<ErrorPoint> history;  // guarded by Coordinator::mutex_; see recordEstimate()
-  // The last worker lost (or gone) while holding units of this job, for stalledReason().
-  struct Loss {
-    std::string worker, verb, detail;  // "w1 (worker-3.1)", "lost", "connection closed"
-    Clock::time_point when;
-    std::vector<uint64_t> units;
-  };
-  std::optional<Loss> lastLoss;  // guarded by Coordinator::mutex_
-  // The names (ids where unnamed) of workers that went while holding its units, so that one
-  // registering again is announced to the job's watchers; guarded by Coordinator::mutex_.
-  std::set<std::string> workersLost;
-  // Failures reported by workers (reportFailure), guarded by Coordinator::mutex_: per worker id
-  // its count; the workers each unit failed on; the reasons, oldest first (at most 16 kept);
-  // the workers no longer leased this job's units.
-  std::map<std::string, uint32_t> failuresByWorker;
-  std::map<uint64_t, std::set<std::string>> unitFailedOn;
-  std::vector<std::string> failureReasons;
-  std::set<std::string> blocklist;
+  // Failures reported by workers, the blocklist, and the workers gone holding its units
+  // (job_failures.h); guarded by Coordinator::mutex_.
+  JobFailures failures;
 
   // The cross-worker audit (audit.h, auditing.cpp), guarded by Coordinator::mutex_: the units
   // under audit; who each counted unit from `trustedUnits` on came from and when it was accepted

@@ -314,20 +314,15 @@ void Coordinator::reportFailure(const std::string& workerId, uint64_t leaseId, c
   ++worker.failures;
   const std::string reason = worker.label() + ": " + error;
   spdlog::warn("job {}: unit {} failed on {}", job.id, unit, reason);
-  if (job.failureReasons.size() < 16) job.failureReasons.push_back(reason);
-  std::set<std::string>& failedOn = job.unitFailedOn[unit];
-  failedOn.insert(workerId);
-  if (++job.failuresByWorker[workerId] >= options_.maxFailuresPerWorker) job.blocklist.insert(workerId);
+  const size_t failedOn = job.failures.record(unit, workerId, reason, options_.maxFailuresPerWorker);
   // The job fails when the unit failed on enough workers, or no live worker may take it.
   bool anyoneLeft = false;
-  for (const auto& [id, w] : workers_) anyoneLeft |= !w->gone && !job.blocklist.count(id);
-  if (failedOn.size() >= options_.maxUnitFailures || !anyoneLeft) {
-    std::string reasons;
-    for (const std::string& r : job.failureReasons) reasons += (reasons.empty() ? "" : "; ") + r;
-    job.error =
-        failedOn.size() >= options_.maxUnitFailures
-            ? "unit " + std::to_string(unit) + " failed on " + std::to_string(failedOn.size()) + " workers: " + reasons
-            : "no worker left that has not failed it: " + reasons;
+  for (const auto& [id, w] : workers_) anyoneLeft |= !w->gone && !job.failures.blocks(id);
+  if (failedOn >= options_.maxUnitFailures || !anyoneLeft) {
+    const std::string reasons = job.failures.reasons();
+    job.error = failedOn >= options_.maxUnitFailures
+                    ? "unit " + std::to_string(unit) + " failed on " + std::to_string(failedOn) + " workers: " + reasons
+                    : "no worker left that has not failed it: " + reasons;
     end(job, JobState::kFailed);
     spdlog::error("job {}: failed: {}", job.id, job.error);
   } else if (!job.units.isReceived(unit) && !job.units.isRecording(unit)) {

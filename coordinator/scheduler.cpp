@@ -43,7 +43,7 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   for (auto& [id, job] : jobs_) {
     if (isTerminal(job->state) || !job->units.hasPending()) continue;
     if (!job->fitsOn(worker.info)) continue;        // its units are for a worker with more memory
-    if (job->blocklist.count(worker.id)) continue;  // it failed this job too often (reportFailure)
+    if (job->failures.blocks(worker.id)) continue;  // it failed this job too often (reportFailure)
     if (!job->units.hasReturned() &&
         !job->layout.tiled()) {  // a fresh pass: only within the window ahead of the summed prefix
       const uint64_t window = unitsAheadWindow(job->settings.width, job->settings.height, options_.maxBytesAhead);
@@ -138,9 +138,9 @@ std::string Coordinator::releaseLeasesOf(Worker& worker, const std::string& verb
     if (!isTerminal(job.state)) {
       // The watcher's line (lensfarm watch, status, the dashboard): who went, why, what is redone.
       job.addEvent("worker " + worker.label() + " " + verb + " (" + detail + "): " + what);
-      job.workersLost.insert(worker.info.name.empty() ? worker.id : worker.info.name);
     }
-    job.lastLoss = Job::Loss{worker.label(), verb, detail, now, std::move(units)};
+    job.failures.lost(worker.info.name.empty() ? worker.id : worker.info.name,
+                      JobFailures::Loss{worker.label(), verb, detail, now, std::move(units)}, !isTerminal(job.state));
     touch(job);
   }
   worker.currentJobId.clear();

@@ -40,7 +40,7 @@ std::string Coordinator::registerWorker(const WorkerInfo& info, std::string* ses
   spdlog::info("{} registered: {} with {} threads", id, info.name, info.threads);
   if (back)
     for (auto& [jobId, job] : jobs_)
-      if (!isTerminal(job->state) && job->workersLost.erase(info.name)) {
+      if (!isTerminal(job->state) && job->failures.rejoined(info.name)) {
         job->addEvent("worker " + info.name + " (" + id + ") rejoined");
         touch(*job);
       }
@@ -170,11 +170,12 @@ std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) co
   }
   // Just submitted: give the workers (or `lensfarm render`'s own) a moment to call in.
   const double nowUnix = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-  const bool recentLoss = job.lastLoss && now - job.lastLoss->when < std::chrono::seconds(120);
+  const std::optional<JobFailures::Loss>& lastLoss = job.failures.lastLoss();
+  const bool recentLoss = lastLoss && now - lastLoss->when < std::chrono::seconds(120);
   if (!recentLoss && nowUnix - job.submittedUnixSeconds < 2.0) return "";
   std::string why;
   if (recentLoss) {
-    const Job::Loss& loss = *job.lastLoss;
+    const JobFailures::Loss& loss = *lastLoss;
     std::string units;
     for (uint64_t u : loss.units) units += (units.empty() ? "" : ", ") + std::to_string(u);
     why = "worker " + loss.worker + " " + loss.verb + " " +
@@ -220,7 +221,7 @@ std::vector<WorkerView> Coordinator::workers() const {
     v.quarantined = w->quarantined;
     v.quarantineReason = w->quarantineReason;
     for (const auto& [jobId, job] : jobs_)
-      if (job->blocklist.count(id)) v.blocklistedJobs.push_back(jobId);
+      if (job->failures.blocks(id)) v.blocklistedJobs.push_back(jobId);
     if (w->gone)
       v.stateReason = w->goneReason;
     else if (v.state == WorkerState::kLost)
