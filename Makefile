@@ -46,7 +46,7 @@ test: setup
 	@$(MAKE) --no-print-directory build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS)
 
-# The unit tests alone (CTest label unit: no process, network or browser; under a minute).
+# The unit tests alone (CTest label unit: no process, network or browser; about a minute).
 unit: build
 	cd $(BUILD_DIR) && ctest -L unit -j $(JOBS)
 
