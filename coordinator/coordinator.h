@@ -51,6 +51,7 @@
 #include "coordinator/audit.h"
 #include "coordinator/lease_table.h"
 #include "coordinator/locking.h"
+#include "coordinator/state_store.h"
 #include "coordinator/worker_registry.h"
 
 namespace lensfarm {
@@ -493,6 +494,9 @@ class Coordinator {
   // The jobs of the state dir, back in the table; those with tiles into `tiled` (their completed
   // frames are stored next, outside the lock).
   void restoreJobs(std::vector<Job*>& tiled) ABSL_LOCKS_EXCLUDED(mutex_);
+  std::unique_ptr<Job> jobFromRow(const StateStore::StoredJob& stored, Scene* scene);
+  uint64_t restoreFilm(Job& job, const Scene& scene, const StateStore::StoredJob& stored, Clock::time_point now,
+                       double nowUnix) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   // A tiled job's film from its stored frames and its ledger; returns the highest unit counted.
   std::optional<uint64_t> restoreTiled(Job& job);
   void persistState(const Job& job) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);

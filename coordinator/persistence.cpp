@@ -136,6 +136,98 @@ void Coordinator::restore() {
   for (Job* job : tiled) storeCompletedFrames(*job);
 }
 
+// A stored job's record and its scene (loaded with its overrides, its assets from the store).
+std::unique_ptr<Coordinator::Job> Coordinator::jobFromRow(const StateStore::StoredJob& stored, Scene* scene) {
+  auto job = std::make_unique<Job>();
+  job->id = stored.id;
+  job->spec = stored.spec;
+  job->priority = stored.priority;
+  job->sequence = stored.sequence;
+  job->submittedUnixSeconds = stored.submittedUnixSeconds;
+  job->state = parseJobState(stored.state);
+  job->error = stored.error;
+  job->stopUnits = stored.stopUnits;
+  job->stopReason = stored.stopReason;
+  job->owner = stored.owner;
+  job->endedUnixSeconds = stored.endedUnixSeconds;
+  const AssetReader reader = [&](const std::string& path) -> std::optional<std::string> {
+    auto it = job->spec.assets.find(path);
+    if (it == job->spec.assets.end()) return std::nullopt;
+    const std::shared_ptr<const std::string> bytes = assets_.find(it->second);
+    if (!bytes) return std::nullopt;
+    return *bytes;
+  };
+  *scene = jobScene(job->spec, reader);
+  job->setScene(*scene);
+  return job;
+}
+
+// An unarchived job's film: its checkpoint, then its ledger's units replayed in order (a tiled
+// job's tiles from its stored frames); its stop applied as before the restart. Returns the units
+// the checkpoint held.
+uint64_t Coordinator::restoreFilm(Job& job, const Scene& scene, const StateStore::StoredJob& stored,
+                                  Clock::time_point now, double nowUnix) {
+  std::optional<uint64_t> highest;
+  uint64_t folded = 0;
+  if (job.layout.tiled()) highest = restoreTiled(job);
+  // The checkpoint holds units [0, folded); the ledger lists every accepted unit.
+  const auto checkpoint = job.layout.tiled() ? std::nullopt : store_->loadCheckpoint(job.id);
+  if (job.layout.tiled()) {
+  } else if (checkpoint) {
+    Sensor sensor = Sensor::deserialize(checkpoint->sensorBytes);
+    job.film = std::make_unique<Accumulator>(scene.render, job.layout, std::move(sensor), checkpoint->trackerBytes,
+                                             checkpoint->foldedUnits);
+  } else {
+    job.film = std::make_unique<Accumulator>(scene.render, job.layout);
+  }
+  if (stored.stopUnits) job.film->limitTo(*stored.stopUnits);
+  if (checkpoint) folded = checkpoint->foldedUnits;
+  for (const auto& entry : job.layout.tiled() ? std::vector<StateStore::LedgerEntry>{} : store_->ledger(job.id)) {
+    job.units.markReceived(entry.unit);
+    ++job.unitsByWorker[entry.worker];
+    highest = std::max(highest.value_or(0), entry.unit);
+    if (entry.unit < folded) {
+      job.film->restoreFolded(entry.stats);
+      continue;
+    }
+    UnitResult r;
+    r.jobId = job.id;
+    r.unitIndex = entry.unit;
+    r.stats = entry.stats;
+    r.buffer.width = scene.render.width;  // the counts are the coordinator's (drainInOrder)
+    r.buffer.height = scene.render.height;
+    r.buffer.channels = job.layout.channels;
+    r.buffer.sums = store_->loadUnitSums(job.id, entry.unit, job.layout.sumsOf(entry.unit));
+    job.film->restoreWaiting(std::move(r));
+  }
+  job.film->drain();
+  // Units leased before the restart and never acknowledged go back to the queue.
+  job.units.resumeAfter(highest);
+  if (isTerminal(job.state)) job.units.clearPending();
+  const Accumulator::Progress progress = job.film->estimateNow();
+  job.publish(progress);
+  if (highest) job.started = now;  // elapsed time restarts with the coordinator (docs/farm.md)
+  if (isTerminal(job.state)) job.started = job.finished = now;
+  // A job that ended before its end time was stored: retention counts from this start.
+  if (isTerminal(job.state) && job.endedUnixSeconds <= 0.0) {
+    job.endedUnixSeconds = nowUnix;
+    persistState(job);
+  }
+  if (job.state == JobState::kRunning && !progress.stopReason.empty()) {
+    // It reached its stop before the restart (or in the replay): same units, same image.
+    job.state = JobState::kDone;
+    job.endedUnixSeconds = nowUnix;
+    job.stopReason = progress.stopReason;
+    if (progress.units < job.units.total()) {
+      job.stopUnits = progress.units;
+      job.film->limitTo(progress.units);
+    }
+    job.units.clearPending();
+    persistState(job);
+  }
+  return folded;
+}
+
 void Coordinator::restoreJobs(std::vector<Job*>& tiled) {
   MutexLock lock(mutex_);
   assets_.restore(*store_);
@@ -145,27 +237,8 @@ void Coordinator::restoreJobs(std::vector<Job*>& tiled) {
   const double nowUnix = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   const auto restoreJob = [&](StateStore::StoredJob& stored) {
     mutex_.assertHeld();  // called below, under the lock
-    auto job = std::make_unique<Job>();
-    job->id = stored.id;
-    job->spec = stored.spec;
-    job->priority = stored.priority;
-    job->sequence = stored.sequence;
-    job->submittedUnixSeconds = stored.submittedUnixSeconds;
-    job->state = parseJobState(stored.state);
-    job->error = stored.error;
-    job->stopUnits = stored.stopUnits;
-    job->stopReason = stored.stopReason;
-    job->owner = stored.owner;
-    job->endedUnixSeconds = stored.endedUnixSeconds;
-    const AssetReader reader = [&](const std::string& path) -> std::optional<std::string> {
-      auto it = job->spec.assets.find(path);
-      if (it == job->spec.assets.end()) return std::nullopt;
-      const std::shared_ptr<const std::string> bytes = assets_.find(it->second);
-      if (!bytes) return std::nullopt;
-      return *bytes;
-    };
-    Scene scene = jobScene(job->spec, reader);
-    job->setScene(scene);
+    Scene scene;
+    std::unique_ptr<Job> job = jobFromRow(stored, &scene);
     if (stored.archived) {  // its final image is in the archive (lifecycle.cpp): no film, no ledger
       job->archived = true;
       restoreSummary(*job, stored.summary);
@@ -179,64 +252,7 @@ void Coordinator::restoreJobs(std::vector<Job*>& tiled) {
       return;
     }
 
-    std::optional<uint64_t> highest;
-    uint64_t folded = 0;
-    if (job->layout.tiled()) highest = restoreTiled(*job);
-    // The checkpoint holds units [0, folded); the ledger lists every accepted unit.
-    const auto checkpoint = job->layout.tiled() ? std::nullopt : store_->loadCheckpoint(job->id);
-    if (job->layout.tiled()) {
-    } else if (checkpoint) {
-      Sensor sensor = Sensor::deserialize(checkpoint->sensorBytes);
-      job->film = std::make_unique<Accumulator>(scene.render, job->layout, std::move(sensor), checkpoint->trackerBytes,
-                                                checkpoint->foldedUnits);
-    } else {
-      job->film = std::make_unique<Accumulator>(scene.render, job->layout);
-    }
-    if (stored.stopUnits) job->film->limitTo(*stored.stopUnits);
-    if (checkpoint) folded = checkpoint->foldedUnits;
-    for (const auto& entry : job->layout.tiled() ? std::vector<StateStore::LedgerEntry>{} : store_->ledger(job->id)) {
-      job->units.markReceived(entry.unit);
-      ++job->unitsByWorker[entry.worker];
-      highest = std::max(highest.value_or(0), entry.unit);
-      if (entry.unit < folded) {
-        job->film->restoreFolded(entry.stats);
-        continue;
-      }
-      UnitResult r;
-      r.jobId = job->id;
-      r.unitIndex = entry.unit;
-      r.stats = entry.stats;
-      r.buffer.width = scene.render.width;  // the counts are the coordinator's (drainInOrder)
-      r.buffer.height = scene.render.height;
-      r.buffer.channels = job->layout.channels;
-      r.buffer.sums = store_->loadUnitSums(job->id, entry.unit, job->layout.sumsOf(entry.unit));
-      job->film->restoreWaiting(std::move(r));
-    }
-    job->film->drain();
-    // Units leased before the restart and never acknowledged go back to the queue.
-    job->units.resumeAfter(highest);
-    if (isTerminal(job->state)) job->units.clearPending();
-    const Accumulator::Progress progress = job->film->estimateNow();
-    job->publish(progress);
-    if (highest) job->started = now;  // elapsed time restarts with the coordinator (docs/farm.md)
-    if (isTerminal(job->state)) job->started = job->finished = now;
-    // A job that ended before its end time was stored: retention counts from this start.
-    if (isTerminal(job->state) && job->endedUnixSeconds <= 0.0) {
-      job->endedUnixSeconds = nowUnix;
-      persistState(*job);
-    }
-    if (job->state == JobState::kRunning && !progress.stopReason.empty()) {
-      // It reached its stop before the restart (or in the replay): same units, same image.
-      job->state = JobState::kDone;
-      job->endedUnixSeconds = nowUnix;
-      job->stopReason = progress.stopReason;
-      if (progress.units < job->units.total()) {
-        job->stopUnits = progress.units;
-        job->film->limitTo(progress.units);
-      }
-      job->units.clearPending();
-      persistState(*job);
-    }
+    const uint64_t folded = restoreFilm(*job, scene, stored, now, nowUnix);
     nextJob_ = std::max(nextJob_, uint64_t(std::stoull(job->id.substr(4))) + 1);
     nextSequence_ = std::max(nextSequence_, job->sequence + 1);
     spdlog::info("restored {}: {}, {} of {} units ({} from the checkpoint)", job->id, jobStateName(job->state),

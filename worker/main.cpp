@@ -46,19 +46,19 @@ std::string defaultCacheDir() {
   if (const char* home = std::getenv("HOME")) return std::string(home) + "/.cache/lensfarm/assets";
   return "";
 }
-}  // namespace
 
-int main(int argc, char** argv) {
-  using namespace lensfarm;
-  CLI::App app{"lensfarm-worker: renders units of lensfarm jobs for a coordinator"};
-  app.set_version_flag("--version", kRendererVersion);
-  app.footer(kEmbreeConfigHelp);
-  std::string coordinator, logLevel = "info";
+using namespace lensfarm;
+
+// Everything the command line sets.
+struct Flags {
+  std::string coordinator, logLevel = "info", cacheDir = defaultCacheDir(), tokenFile, onSigterm = "drain";
   WorkerOptions options;
-  options.threads = std::max(1u, std::thread::hardware_concurrency());
-  options.name = defaultName();
-  std::string cacheDir = defaultCacheDir();
-  app.add_option("--coordinator", coordinator, "Coordinator address HOST:PORT")
+  ChannelSecurity security;
+};
+
+void addFlags(CLI::App& app, Flags& f) {
+  WorkerOptions& options = f.options;
+  app.add_option("--coordinator", f.coordinator, "Coordinator address HOST:PORT")
       ->envname("LENSFARM_COORDINATOR")
       ->required();
   app.add_option("--threads", options.threads, "Render threads")
@@ -66,23 +66,20 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1u, 4096u))
       ->capture_default_str();
   app.add_option("--name", options.name, "Name shown by `lensfarm workers`")->envname("LENSFARM_WORKER_NAME");
-  app.add_option("--cache-dir", cacheDir, "Asset cache directory (empty: memory only)")
+  app.add_option("--cache-dir", f.cacheDir, "Asset cache directory (empty: memory only)")
       ->envname("LENSFARM_CACHE_DIR")
       ->capture_default_str();
   app.add_option("--max-backoff", options.maxBackoffSeconds, "Longest wait between retries, seconds")
       ->envname("LENSFARM_MAX_BACKOFF")
       ->check(numberIn(0.1, 600.0, "seconds"))
       ->capture_default_str();
-  std::string tokenFile;
-  ChannelSecurity security;
-  app.add_option("--token-file", tokenFile, "File holding the farm's worker token (or set LENSFARM_TOKEN)");
-  app.add_option("--tls-ca", security.caFile, "PEM CA certificate(s) to verify the coordinator: enables TLS")
+  app.add_option("--token-file", f.tokenFile, "File holding the farm's worker token (or set LENSFARM_TOKEN)");
+  app.add_option("--tls-ca", f.security.caFile, "PEM CA certificate(s) to verify the coordinator: enables TLS")
       ->envname("LENSFARM_TLS_CA");
-  app.add_option("--tls-cert", security.certFile, "PEM client certificate, for coordinators that require one")
+  app.add_option("--tls-cert", f.security.certFile, "PEM client certificate, for coordinators that require one")
       ->envname("LENSFARM_TLS_CERT");
-  app.add_option("--tls-key", security.keyFile, "PEM private key of --tls-cert")->envname("LENSFARM_TLS_KEY");
-  std::string onSigterm = "drain";
-  app.add_option("--on-sigterm", onSigterm,
+  app.add_option("--tls-key", f.security.keyFile, "PEM private key of --tls-cert")->envname("LENSFARM_TLS_KEY");
+  app.add_option("--on-sigterm", f.onSigterm,
                  "On SIGTERM: drain (finish and upload the unit in progress, then leave) or release (give its "
                  "lease back at once and leave; for batch schedulers that kill soon after SIGTERM)")
       ->envname("LENSFARM_ON_SIGTERM")
@@ -93,57 +90,72 @@ int main(int argc, char** argv) {
       ->envname("LENSFARM_IDLE_EXIT")
       ->check(numberIn(0.0, 1e9, "seconds"))
       ->capture_default_str();
-  addLogLevelOption(app, logLevel);
+  addLogLevelOption(app, f.logLevel);
+}
+
+// Turns the signals into stop requests until `finished`: the first drains (finishes and uploads
+// the current unit), or with --on-sigterm release gives the lease back at once on SIGTERM; a
+// second stops at once. Either way the worker then leaves the farm, and the coordinator queues the
+// units of its leases again at once.
+void watchSignals(WorkerLoop& loop, bool releaseOnTerm, const std::atomic<bool>& finished) {
+  int seen = 0;
+  while (!finished) {
+    const int n = gSignals.load();
+    if (n > seen) {
+      if (releaseOnTerm && gTerminates.load() > 0) {
+        if (seen == 0) spdlog::info("SIGTERM: giving the current unit back and leaving");
+        loop.stopNow();
+      } else if (seen == 0) {
+        spdlog::info("draining: finishing the current unit");
+        loop.stop();
+      }
+      if (n >= 2) loop.stopNow();
+      seen = n;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"lensfarm-worker: renders units of lensfarm jobs for a coordinator"};
+  app.set_version_flag("--version", kRendererVersion);
+  app.footer(kEmbreeConfigHelp);
+  Flags f;
+  f.options.threads = std::max(1u, std::thread::hardware_concurrency());
+  f.options.name = defaultName();
+  addFlags(app, f);
   if (const auto exitCode = parseServiceFlags(app, argc, argv, "lensfarm-worker")) return *exitCode;
-  setupLogging("worker " + options.name, logLevel);
-  options.cacheDir = cacheDir;
-  if (!cacheDir.empty()) {
+  WorkerOptions& options = f.options;
+  setupLogging("worker " + options.name, f.logLevel);
+  options.cacheDir = f.cacheDir;
+  if (!f.cacheDir.empty()) {
     std::error_code ec;
-    std::filesystem::create_directories(cacheDir, ec);
+    std::filesystem::create_directories(f.cacheDir, ec);
     if (ec) {
-      std::cerr << "lensfarm-worker: error: --cache-dir " << cacheDir << ": " << ec.message() << "\n";
+      std::cerr << "lensfarm-worker: error: --cache-dir " << f.cacheDir << ": " << ec.message() << "\n";
       return 2;
     }
   }
 
   std::shared_ptr<grpc::Channel> channel;
   try {
-    security.token = readToken(tokenFile, "LENSFARM_TOKEN");
+    f.security.token = readToken(f.tokenFile, "LENSFARM_TOKEN");
     options.maxMemoryBytes = defaultJobMemoryBudget();  // LENSFARM_MAX_JOB_MEMORY, else 3/4 of memory
-    channel = makeChannel(coordinator, security, options.maxBackoffSeconds, /*keepalive=*/true);
+    channel = makeChannel(f.coordinator, f.security, options.maxBackoffSeconds, /*keepalive=*/true);
   } catch (const InputError& e) {
     std::cerr << "lensfarm-worker: error: " << e.what() << "\n";
     return 2;
   }
-  GrpcCoordinatorLink link(channel, security);
+  GrpcCoordinatorLink link(channel, f.security);
   WorkerLoop loop(link, options);
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   std::signal(SIGUSR1, onSignal);
-  const bool releaseOnTerm = onSigterm == "release";
   std::atomic<bool> finished{false};
-  // First signal: drain (finish and upload the current unit), or release on SIGTERM with
-  // --on-sigterm release. Second: stop at once. Either way the worker then leaves the farm, and
-  // the coordinator queues the units of its leases again at once.
-  std::thread watcher([&] {
-    int seen = 0;
-    while (!finished) {
-      const int n = gSignals.load();
-      if (n > seen) {
-        if (releaseOnTerm && gTerminates.load() > 0) {
-          if (seen == 0) spdlog::info("SIGTERM: giving the current unit back and leaving");
-          loop.stopNow();
-        } else if (seen == 0) {
-          spdlog::info("draining: finishing the current unit");
-          loop.stop();
-        }
-        if (n >= 2) loop.stopNow();
-        seen = n;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-  });
-  spdlog::info("working for {} with {} threads", coordinator, options.threads);
+  std::thread watcher([&] { watchSignals(loop, f.onSigterm == "release", finished); });
+  spdlog::info("working for {} with {} threads", f.coordinator, options.threads);
   int code = 0;
   try {
     loop.run();
