@@ -81,7 +81,6 @@ struct NamedCodec {
                        ")");
     return kind;
   }
-  static Kind fromText(const std::string& text, const std::string& flag) { return in(text, flag, "", ""); }
 };
 
 template <>
@@ -89,6 +88,7 @@ struct Codec<IntegratorKind> : NamedCodec<IntegratorKind, integratorName, parseI
   static IntegratorKind in(const json& j, const std::string& name) {
     return NamedCodec::in(j, name, "integrator", "nee_mis, nee or naive");
   }
+  static IntegratorKind fromText(const std::string& text, const std::string& flag) { return in(text, flag); }
 };
 
 template <>
@@ -96,6 +96,7 @@ struct Codec<SamplerKind> : NamedCodec<SamplerKind, samplerName, parseSamplerNam
   static SamplerKind in(const json& j, const std::string& name) {
     return NamedCodec::in(j, name, "sampler", "sobol, stratified or independent");
   }
+  static SamplerKind fromText(const std::string& text, const std::string& flag) { return in(text, flag); }
 };
 
 // An AOV set travels as its list ("albedo,normal"; "" for none).

@@ -149,6 +149,15 @@ TEST(OverrideTable, TheCliTakesEveryFlagAndSetsWhatItSays) {
     return image.rgb;
   };
   EXPECT_NE(render("9", "a.exr"), render("10", "b.exr"));
+  // Without a stopping rule the job renders exactly the samples --spp asks for (the scene says 2).
+  const auto exact = dir / "exact.exr";
+  const auto plain = test::runProcess({test::cliPath().string(), "render", scene.string(), "--spp", "3", "--resolution",
+                                       "20x10", "-q", "-o", exact.string()});
+  ASSERT_EQ(plain.exitCode, 0) << plain.err;
+  ImageMetadata metadata;
+  const Image image = readExr(exact, &metadata);
+  EXPECT_EQ(metadata.samplesPerPixel, 3u);
+  EXPECT_EQ(image.width, 20);
   const auto twice = test::runProcess({test::cliPath().string(), "render", scene.string(), "--spp", "3", "--spp", "4"});
   EXPECT_EQ(twice.exitCode, 2) << "a single-valued flag given twice: " << twice.err;
 }
