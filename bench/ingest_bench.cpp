@@ -22,8 +22,8 @@
 
 #include "common/scene/scene_loader.h"
 #include "common/util/version.h"
-#include "coordinator/coordinator.h"
-#include "coordinator/service.h"
+#include "coordinator/core/coordinator.h"
+#include "coordinator/rpc/service.h"
 #include "worker/grpc_link.h"
 
 namespace lensfarm {

@@ -22,8 +22,8 @@
 #include <thread>
 
 #include "common/util/version.h"
-#include "coordinator/coordinator.h"
-#include "coordinator/service.h"
+#include "coordinator/core/coordinator.h"
+#include "coordinator/rpc/service.h"
 #include "proto/channel_security.h"
 #include "worker/grpc_link.h"
 

@@ -38,7 +38,7 @@
 #include "common/farm/memory_estimate.h"
 #include "common/film/image_io.h"
 #include "common/scene/render_overrides.h"
-#include "coordinator/audit.h"
+#include "coordinator/core/audit.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
 #include "proto/channel_security.h"
 #include "proto/convert.h"
@@ -169,7 +169,7 @@ struct RunReport {
 // The coordinator's peak memory may not exceed what it held with the farm registered and idle
 // (connections, threads, gRPC buffers), plus the film of every frame open at once, plus five of
 // the largest unit's buffers for every worker, plus 64 MiB of allocator slack.
-//  - Film of a tiled job (coordinator/tile_film.h): a float image a frame being rendered, and when
+//  - Film of a tiled job (coordinator/core/tile_film.h): a float image a frame being rendered, and when
 //    it is served, the stored frame read back and its EXR: three float frames (12 B a cell each),
 //    the bound tests/farm/tiles_farm_test.cpp checks. Frames open at once: the still; for an
 //    animation, the frames the workers' leases span (units are frame-major) and two more.

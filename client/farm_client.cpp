@@ -6,7 +6,7 @@
 #include <chrono>
 #include <optional>
 
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "proto/convert.h"
 
 namespace lensfarm::cli {

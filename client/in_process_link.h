@@ -1,7 +1,7 @@
 #pragma once
 // CoordinatorLink by direct calls to a Coordinator in the same process: `lensfarm render` runs an
 // embedded coordinator and worker through the same classes the farm uses over gRPC.
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "worker/coordinator_link.h"
 
 namespace lensfarm {

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <limits>
 #include <memory>
@@ -38,8 +39,8 @@
 #include "common/scene/scene_loader.h"
 #include "common/util/error.h"
 #include "common/util/version.h"
-#include "coordinator/coordinator.h"
-#include "coordinator/service.h"
+#include "coordinator/core/coordinator.h"
+#include "coordinator/rpc/service.h"
 #include "worker/worker_loop.h"
 
 namespace lensfarm::cli {
@@ -273,6 +274,91 @@ std::unique_ptr<Coordinator> embeddedCoordinator() {
   return std::make_unique<Coordinator>(options);
 }
 
+// The farm in one process (docs/architecture.md, "The farm in one process"): an embedded
+// coordinator and one worker with all threads, wired by direct calls: the same scheduling,
+// upload and accumulation as over gRPC. Owned through pointers so that they can be freed beside
+// the writing of the outputs (releaseInBackground). Whatever throws while the worker runs, its
+// thread is stopped and joined first (the destructor), so the error is reported, not a
+// std::terminate.
+class LocalFarm {
+ public:
+  explicit LocalFarm(const LocalJob& local) : coordinator_(embeddedCoordinator()) {
+    for (const auto& [sha, bytes] : local.assetBytes) coordinator_->putAsset(sha, bytes);
+  }
+  ~LocalFarm() {
+    if (!thread_.joinable()) return;
+    worker_->stopNow();
+    thread_.join();
+  }
+  Coordinator& coordinator() { return *coordinator_; }
+  WorkerLoop& worker() { return *worker_; }
+
+  // The worker, on a thread of its own with `threads` render threads.
+  void startWorker(unsigned threads) {
+    link_ = std::make_unique<InProcessLink>(*coordinator_);
+    WorkerOptions options;
+    options.name = "local";
+    options.threads = threads;
+    options.leaseWaitSeconds = 0.25;
+    worker_ = std::make_unique<WorkerLoop>(*link_, options);
+    thread_ = std::thread([this] {
+      try {
+        worker_->run();
+      } catch (...) {
+        error_ = std::current_exception();
+      }
+    });
+  }
+  // Stops the worker after its unit in flight and joins its thread.
+  void stopWorker() {
+    worker_->stop();
+    thread_.join();
+  }
+  // What the worker's thread threw, if anything (after stopWorker).
+  void rethrowWorkerError() const {
+    if (error_) std::rethrow_exception(error_);
+  }
+  // Frees the worker, link and coordinator, in the order the stack would, on a thread the caller
+  // joins (after stopWorker).
+  std::thread releaseInBackground() {
+    return std::thread([this] {
+      worker_.reset();
+      link_.reset();
+      coordinator_.reset();
+    });
+  }
+
+ private:
+  std::unique_ptr<Coordinator> coordinator_;
+  std::unique_ptr<InProcessLink> link_;
+  std::unique_ptr<WorkerLoop> worker_;
+  std::thread thread_;
+  std::exception_ptr error_;
+};
+
+// A still's image (denoised if asked), written to every output. Nothing here needs the farm again
+// (the worker has stopped; `info` is a copy): its frame-sized buffers (150 MB at 1080p) and
+// scenes are freed on a thread of their own while the outputs are written, joined before this
+// returns, a throw included.
+JobImage writeStill(LocalFarm& farm, const JobInfo& info, const RenderFlags& flags,
+                    const std::vector<fs::path>& outputs, PhaseTimer& timer) {
+  JobImage image = farm.coordinator().image(info.id);
+  timer.mark("image");
+  if (flags.denoise) {
+    image = forOutput(std::move(image), true);
+    timer.mark("denoise");
+  }
+  std::thread freeing = farm.releaseInBackground();
+  struct JoinFreeing {
+    std::thread& thread;
+    ~JoinFreeing() { thread.join(); }
+  } joinFreeing{freeing};
+  writeOutputs(outputs, image, flags.compression(),
+               [&](const fs::path& path) { timer.lap(path.extension() == ".exr" ? "write_exr" : "write_png"); });
+  timer.mark("write_outputs");
+  return image;
+}
+
 int runRender(const RenderFlags& flags, PhaseTimer& timer) {
   const std::optional<FrameRange> frames = flags.overrides.frameRange();
   LocalJob local =
@@ -294,14 +380,10 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
                               toOverrides(flags).width ? "--resolution" : flags.scene + ": render.resolution",
                               sceneDataBytes(scene));
 
-  // The farm in one process: an embedded coordinator and one worker with all threads, wired by direct calls
-  // (docs/architecture.md, "The farm in one process"): the same scheduling, upload and accumulation as over gRPC.
-  // Owned through pointers so that they can be freed beside the writing of the outputs (below).
-  std::unique_ptr<Coordinator> coordinatorOwner = embeddedCoordinator();
-  Coordinator& coordinator = *coordinatorOwner;
-  for (const auto& [sha, bytes] : local.assetBytes) coordinator.putAsset(sha, bytes);
+  LocalFarm farm(local);
+  Coordinator& coordinator = farm.coordinator();
   spdlog::set_level(spdlog::level::warn);
-  const JobInfo submitted = coordinator.submit(local.spec, 0);
+  JobInfo info = coordinator.submit(local.spec, 0);
   spdlog::set_level(spdlog::level::info);
   timer.mark("submit");
   // From here Ctrl-C stops the render cleanly (the log line below says it has begun).
@@ -312,49 +394,19 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
 
   // The embedded coordinator and worker log only what goes wrong; the summary below says the rest.
   spdlog::set_level(spdlog::level::warn);
-  auto linkOwner = std::make_unique<InProcessLink>(coordinator);
-  InProcessLink& link = *linkOwner;
-  WorkerOptions workerOptions;
-  workerOptions.name = "local";
-  workerOptions.threads = threads;
-  workerOptions.leaseWaitSeconds = 0.25;
-  auto workerOwner = std::make_unique<WorkerLoop>(link, workerOptions);
-  WorkerLoop& worker = *workerOwner;
-  std::exception_ptr workerError;
-  std::thread workerThread([&] {
-    try {
-      worker.run();
-    } catch (...) {
-      workerError = std::current_exception();
-    }
-  });
-
+  farm.startWorker(threads);
   ProgressDisplay display(!flags.quiet, ::isatty(STDERR_FILENO), 0.0, flags.progressEvery);
-  JobInfo info = submitted;
   std::set<int64_t> written;  // an animation's frames written so far
-  bool interrupted = false;
-  // Whatever the loop throws (an output that cannot be written), the worker thread is stopped and
-  // joined first, so the error is reported, not a std::terminate.
-  struct JoinOnThrow {
-    WorkerLoop& worker;
-    std::thread& thread;
-    ~JoinOnThrow() {
-      if (!thread.joinable()) return;
-      worker.stopNow();
-      thread.join();
-    }
-  } joinOnThrow{worker, workerThread};
-  interrupted = followJob(coordinator, worker, info, flags, frames, outputs, written, display);
+  const bool interrupted = followJob(coordinator, farm.worker(), info, flags, frames, outputs, written, display);
   std::signal(SIGINT, SIG_DFL);
   timer.mark("render_wait");
-  worker.stop();
-  workerThread.join();
+  farm.stopWorker();
   timer.mark("worker_stop");
   // The worker has stopped: no upload is in flight, so the status and the image agree.
   info = coordinator.job(info.id);
   if (interrupted) display.update(toProto(info));  // the last progress line: cancelled
   display.finish();
-  if (workerError) std::rethrow_exception(workerError);
+  farm.rethrowWorkerError();
   if (info.state == JobState::kFailed) throw std::runtime_error(info.error);
 
   // Ctrl-C before the first unit: there is no image, so every output is left as it was.
@@ -369,28 +421,7 @@ int runRender(const RenderFlags& flags, PhaseTimer& timer) {
     writeCompleteFrames(coordinator, info, outputs, flags.compression(), flags.denoise, written);
     image.metadata.samplesPerPixel = info.samplesPerPixelDone;
   } else {
-    image = coordinator.image(info.id);
-    timer.mark("image");
-    if (flags.denoise) {
-      image = forOutput(std::move(image), true);
-      timer.mark("denoise");
-    }
-    // Nothing below needs the coordinator or the worker (the worker thread has been joined, `info`
-    // and `image` are copies): their frame-sized buffers (150 MB at 1080p) and scenes are freed
-    // on a thread of their own while the outputs are written, in the order the stack would have
-    // (worker, link, coordinator). Joined before anything returns, a throw included.
-    std::thread freeing([&] {
-      workerOwner.reset();
-      linkOwner.reset();
-      coordinatorOwner.reset();
-    });
-    struct JoinFreeing {
-      std::thread& thread;
-      ~JoinFreeing() { thread.join(); }
-    } joinFreeing{freeing};
-    writeOutputs(outputs, image, flags.compression(),
-                 [&](const fs::path& path) { timer.lap(path.extension() == ".exr" ? "write_exr" : "write_png"); });
-    timer.mark("write_outputs");
+    image = writeStill(farm, info, flags, outputs, timer);
   }
   printSummary(info, image, interrupted, frames, written, patterns, outputs);
   return interrupted ? kInterrupted : kOk;

@@ -78,17 +78,151 @@ void cancelArray(const std::string& arrayId, const std::string& why) {
                  r.started ? ("exit " + std::to_string(r.exitCode)).c_str() : r.error.c_str());
 }
 
+struct SlurmFlags {
+  Connection c;
+  SlurmArray array;
+  std::vector<std::string> jobs;
+};
+
+// What the array's tasks are given, settled on the login node: the coordinator, the sbatch script,
+// the worker binary, the log directory (made) and the worker token file (read). kOk, or
+// kBadInput with the error printed.
+int prepareArray(SlurmFlags& f) {
+  SlurmArray& array = f.array;
+  array.coordinator = f.c.coordinator;
+  if (array.script.empty()) array.script = defaultWorkerScript();
+  if (array.script.empty() || !fs::is_regular_file(array.script)) {
+    std::fprintf(stderr, "lensfarm: error: --script %s: no lensfarm-worker.sbatch there\n", array.script.c_str());
+    return kBadInput;
+  }
+  if (array.workerBinary.empty()) array.workerBinary = defaultWorkerBinary();
+  std::error_code ec;
+  array.logDir = fs::absolute(array.logDir.empty() ? fs::current_path() : array.logDir);
+  fs::create_directories(array.logDir, ec);
+  if (ec) {
+    std::fprintf(stderr, "lensfarm: error: --log-dir %s: %s\n", array.logDir.c_str(), ec.message().c_str());
+    return kBadInput;
+  }
+  if (!array.workerTokenFile.empty()) {
+    // Read here, on the login node: a wrong path fails now, not on 50 compute nodes.
+    array.workerTokenFile = fs::absolute(array.workerTokenFile);
+    readToken(array.workerTokenFile.string(), "");
+  }
+  if (isLocalOnlyAddress(array.coordinator))
+    std::fprintf(stderr,
+                 "lensfarm: warning: workers will dial %s, which only reaches this machine; give --coordinator an "
+                 "address the compute nodes can reach\n",
+                 array.coordinator.c_str());
+  return kOk;
+}
+
+// The jobs that have not ended yet, in the order given (each that has is named on stderr); a job
+// that does not exist throws NOT_FOUND.
+std::vector<std::string> openJobs(FarmClient& client, const std::vector<std::string>& jobs) {
+  std::vector<std::string> open;
+  for (const std::string& job : jobs) {
+    const v1::JobStatus s = client.get(job);
+    if (ended(s.state()))
+      std::fprintf(stderr, "%s already %s\n", job.c_str(), stateName(s.state()));
+    else
+      open.push_back(job);
+  }
+  return open;
+}
+
+// sbatch of the worker array; its job id into `arrayId`, printed on stdout. kOk, or the exit code
+// with the error printed (kBadInput: no sbatch here; kFailure: sbatch refused).
+int submitArray(const SlurmArray& array, std::string& arrayId) {
+  const CommandResult submitted = runCommand(sbatchArguments(array), workerEnvironment(array));
+  if (!submitted.started) {
+    std::fprintf(stderr, "lensfarm: error: %s (run this on a Slurm login node)\n", submitted.error.c_str());
+    return kBadInput;
+  }
+  if (submitted.exitCode != 0) {
+    std::fprintf(stderr, "lensfarm: error: sbatch refused the worker array (exit %d)\n", submitted.exitCode);
+    return kFailure;
+  }
+  arrayId = parseSbatchJobId(submitted.out);
+  std::printf("%s\n", arrayId.c_str());
+  std::fflush(stdout);
+  std::fprintf(stderr, "submitted %u workers as Slurm job %s (squeue -r -j %s; logs in %s)\n", array.workers,
+               arrayId.c_str(), arrayId.c_str(), array.logDir.c_str());
+  return kOk;
+}
+
+// Waits for the jobs, then gives the allocation back. Ctrl-C (or a SIGTERM to this command)
+// cancels the array too: no worker outlives the command that started it for them. Gives up
+// (kJobNotDone) when every task of the array has left Slurm's queue with work left.
+int waitThenCancel(FarmClient& client, const SlurmFlags& f, std::vector<std::string> open, const std::string& arrayId) {
+  std::signal(SIGINT, onStopSignal);
+  std::signal(SIGTERM, onStopSignal);
+  bool allDone = true, warned = false;
+  auto lastQueueCheck = std::chrono::steady_clock::now();
+  while (!open.empty() && gStopSignal == 0) {
+    // Every task gone (time limit, preemption, scancel by hand, a node failure) with work left:
+    // waiting on would be waiting forever.
+    if (std::chrono::steady_clock::now() - lastQueueCheck >= std::chrono::seconds(5)) {
+      lastQueueCheck = std::chrono::steady_clock::now();
+      if (arrayQueued(arrayId) == false) {
+        std::fprintf(stderr,
+                     "lensfarm: error: every worker of Slurm job %s has ended (time limit, preemption or "
+                     "scancel; their logs are in %s) before %s ended; start more with lensfarm slurm\n",
+                     arrayId.c_str(), f.array.logDir.c_str(), open.front().c_str());
+        return kJobNotDone;
+      }
+    }
+    try {
+      const v1::JobStatus s = client.get(open.front());
+      warned = false;
+      if (ended(s.state())) {
+        std::fprintf(stderr, "%s %s\n", s.job_id().c_str(), stateName(s.state()));
+        allDone = allDone && s.state() == v1::JOB_STATE_DONE;
+        open.erase(open.begin());
+        continue;
+      }
+    } catch (const ClientError& e) {
+      if (e.code() == grpc::StatusCode::NOT_FOUND) {  // deleted meanwhile
+        std::fprintf(stderr, "%s: %s\n", open.front().c_str(), e.what());
+        allDone = false;
+        open.erase(open.begin());
+        continue;
+      }
+      if (e.code() != grpc::StatusCode::UNAVAILABLE && e.code() != grpc::StatusCode::DEADLINE_EXCEEDED) throw;
+      if (!warned) std::fprintf(stderr, "lensfarm: warning: %s; still waiting\n", e.what());
+      warned = true;
+    }
+    for (int i = 0; i < 10 && gStopSignal == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  if (gStopSignal != 0) {
+    cancelArray(arrayId, "interrupted");
+    return kInterrupted;
+  }
+  cancelArray(arrayId, f.jobs.size() == 1 ? f.jobs[0] + " ended" : "the jobs ended");
+  return allDone ? kOk : kJobNotDone;
+}
+
+// The command's run: the flags settled, the jobs checked, the array submitted and, given jobs,
+// waited for.
+int runSlurm(SlurmFlags& f) {
+  if (const int code = prepareArray(f); code != kOk) return code;
+  return guardedCall([&] {
+    FarmClient client(f.c.coordinator, f.c.resolved());
+    // The jobs exist (NOT_FOUND otherwise) before any allocation is asked for.
+    const std::vector<std::string> open = openJobs(client, f.jobs);
+    if (!f.jobs.empty() && open.empty()) return kOk;
+    std::string arrayId;
+    if (const int code = submitArray(f.array, arrayId); code != kOk) return code;
+    if (open.empty()) return kOk;
+    return waitThenCancel(client, f, open, arrayId);
+  });
+}
+
 }  // namespace
 
 Runner addSlurmCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "slurm", "Start workers as a Slurm job array; given jobs, wait until they end, then cancel the array");
-  struct Flags {
-    Connection c;
-    SlurmArray array;
-    std::vector<std::string> jobs;
-  };
-  auto f = std::make_shared<Flags>();
+  auto f = std::make_shared<SlurmFlags>();
   addCoordinatorOption(cmd, f->c);
   cmd->add_option("jobs", f->jobs,
                   "Jobs to work for: wait until they end, then scancel the workers (default: start "
@@ -119,111 +253,7 @@ Runner addSlurmCommand(CLI::App& app) {
       ->envname("LENSFARM_SLURM_SCRIPT");
   cmd->add_option("--sbatch-arg", f->array.extraSbatchArgs,
                   "One more sbatch argument (repeatable), e.g. --sbatch-arg=--mem=8G");
-  return [f] {
-    SlurmArray& array = f->array;
-    array.coordinator = f->c.coordinator;
-    if (array.script.empty()) array.script = defaultWorkerScript();
-    if (array.script.empty() || !fs::is_regular_file(array.script)) {
-      std::fprintf(stderr, "lensfarm: error: --script %s: no lensfarm-worker.sbatch there\n", array.script.c_str());
-      return kBadInput;
-    }
-    if (array.workerBinary.empty()) array.workerBinary = defaultWorkerBinary();
-    std::error_code ec;
-    array.logDir = fs::absolute(array.logDir.empty() ? fs::current_path() : array.logDir);
-    fs::create_directories(array.logDir, ec);
-    if (ec) {
-      std::fprintf(stderr, "lensfarm: error: --log-dir %s: %s\n", array.logDir.c_str(), ec.message().c_str());
-      return kBadInput;
-    }
-    if (!array.workerTokenFile.empty()) {
-      // Read here, on the login node: a wrong path fails now, not on 50 compute nodes.
-      array.workerTokenFile = fs::absolute(array.workerTokenFile);
-      readToken(array.workerTokenFile.string(), "");
-    }
-    if (isLocalOnlyAddress(array.coordinator))
-      std::fprintf(stderr,
-                   "lensfarm: warning: workers will dial %s, which only reaches this machine; give --coordinator an "
-                   "address the compute nodes can reach\n",
-                   array.coordinator.c_str());
-
-    return guardedCall([&] {
-      FarmClient client(f->c.coordinator, f->c.resolved());
-      // The jobs exist (NOT_FOUND otherwise) before any allocation is asked for.
-      std::vector<std::string> open;
-      for (const std::string& job : f->jobs) {
-        const v1::JobStatus s = client.get(job);
-        if (ended(s.state()))
-          std::fprintf(stderr, "%s already %s\n", job.c_str(), stateName(s.state()));
-        else
-          open.push_back(job);
-      }
-      if (!f->jobs.empty() && open.empty()) return kOk;
-
-      const CommandResult submitted = runCommand(sbatchArguments(array), workerEnvironment(array));
-      if (!submitted.started) {
-        std::fprintf(stderr, "lensfarm: error: %s (run this on a Slurm login node)\n", submitted.error.c_str());
-        return kBadInput;
-      }
-      if (submitted.exitCode != 0) {
-        std::fprintf(stderr, "lensfarm: error: sbatch refused the worker array (exit %d)\n", submitted.exitCode);
-        return kFailure;
-      }
-      const std::string arrayId = parseSbatchJobId(submitted.out);
-      std::printf("%s\n", arrayId.c_str());
-      std::fflush(stdout);
-      std::fprintf(stderr, "submitted %u workers as Slurm job %s (squeue -r -j %s; logs in %s)\n", array.workers,
-                   arrayId.c_str(), arrayId.c_str(), array.logDir.c_str());
-      if (open.empty()) return kOk;
-
-      // Wait for the jobs, then give the allocation back. Ctrl-C (or a SIGTERM to this command)
-      // cancels the array too: no worker outlives the command that started it for them.
-      std::signal(SIGINT, onStopSignal);
-      std::signal(SIGTERM, onStopSignal);
-      bool allDone = true, warned = false;
-      auto lastQueueCheck = std::chrono::steady_clock::now();
-      while (!open.empty() && gStopSignal == 0) {
-        // Every task gone (time limit, preemption, scancel by hand, a node failure) with work left:
-        // waiting on would be waiting forever.
-        if (std::chrono::steady_clock::now() - lastQueueCheck >= std::chrono::seconds(5)) {
-          lastQueueCheck = std::chrono::steady_clock::now();
-          if (arrayQueued(arrayId) == false) {
-            std::fprintf(stderr,
-                         "lensfarm: error: every worker of Slurm job %s has ended (time limit, preemption or "
-                         "scancel; their logs are in %s) before %s ended; start more with lensfarm slurm\n",
-                         arrayId.c_str(), array.logDir.c_str(), open.front().c_str());
-            return kJobNotDone;
-          }
-        }
-        try {
-          const v1::JobStatus s = client.get(open.front());
-          warned = false;
-          if (ended(s.state())) {
-            std::fprintf(stderr, "%s %s\n", s.job_id().c_str(), stateName(s.state()));
-            allDone = allDone && s.state() == v1::JOB_STATE_DONE;
-            open.erase(open.begin());
-            continue;
-          }
-        } catch (const ClientError& e) {
-          if (e.code() == grpc::StatusCode::NOT_FOUND) {  // deleted meanwhile
-            std::fprintf(stderr, "%s: %s\n", open.front().c_str(), e.what());
-            allDone = false;
-            open.erase(open.begin());
-            continue;
-          }
-          if (e.code() != grpc::StatusCode::UNAVAILABLE && e.code() != grpc::StatusCode::DEADLINE_EXCEEDED) throw;
-          if (!warned) std::fprintf(stderr, "lensfarm: warning: %s; still waiting\n", e.what());
-          warned = true;
-        }
-        for (int i = 0; i < 10 && gStopSignal == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      }
-      if (gStopSignal != 0) {
-        cancelArray(arrayId, "interrupted");
-        return kInterrupted;
-      }
-      cancelArray(arrayId, f->jobs.size() == 1 ? f->jobs[0] + " ended" : "the jobs ended");
-      return allDone ? kOk : kJobNotDone;
-    });
-  };
+  return [f] { return runSlurm(*f); };
 }
 
 }  // namespace lensfarm::cli

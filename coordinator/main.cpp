@@ -33,12 +33,12 @@
 #include "common/util/secret.h"
 #include "common/util/service_flags.h"
 #include "common/util/version.h"
-#include "coordinator/coordinator.h"
-#include "coordinator/dashboard.h"
-#include "coordinator/dashboard_server.h"
-#include "coordinator/metrics.h"
-#include "coordinator/metrics_server.h"
-#include "coordinator/service.h"
+#include "coordinator/core/coordinator.h"
+#include "coordinator/core/metrics.h"
+#include "coordinator/rpc/service.h"
+#include "coordinator/web/dashboard.h"
+#include "coordinator/web/dashboard_server.h"
+#include "coordinator/web/metrics_server.h"
 
 namespace {
 std::atomic<bool> gStop{false};

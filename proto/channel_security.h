@@ -1,7 +1,7 @@
 #pragma once
 // How a process secures its gRPC connection to a coordinator: TLS (server verified against a CA,
 // optionally a client certificate) and a bearer token sent as metadata with every call.
-// Shared by the worker and the client; the coordinator's side is coordinator/auth.h.
+// Shared by the worker and the client; the coordinator's side is coordinator/rpc/auth.h.
 #include <grpcpp/grpcpp.h>
 
 #include <memory>

@@ -16,7 +16,7 @@ BUILD_PACKAGES=(
   cmake make g++ pkg-config
   libglm-dev
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
-  libabsl-dev  # Abseil's thread-safety annotations: coordinator/locking.h
+  libabsl-dev  # Abseil's thread-safety annotations: coordinator/core/locking.h
   libopenexr-dev
   libspdlog-dev libfmt-dev
   libembree-dev libtbb-dev

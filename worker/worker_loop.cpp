@@ -9,6 +9,7 @@
 
 #include "common/farm/job_scene.h"
 #include "common/farm/memory_estimate.h"
+#include "common/render/unit_renderer.h"
 #include "common/scene/scene_loader.h"
 #include "common/util/error.h"
 #include "common/util/version.h"

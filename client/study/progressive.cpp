@@ -47,7 +47,7 @@ Checkpoint renderProgressive(Scene scene, const ProgressiveRun& run,
     const auto start = std::chrono::steady_clock::now();
     if (const int r = layout.roundOf(unit); r >= 0) {
       // A round is allocated from the film holding every unit before it, as the coordinator does
-      // (coordinator/accumulator.cpp).
+      // (coordinator/core/accumulator.cpp).
       if (unit == layout.roundStarts[size_t(r)]) {
         round = std::make_shared<const RoundAllocation>(allocateRound(sensor, tracker, layout.roundRequest(size_t(r))));
       }

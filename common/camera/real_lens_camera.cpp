@@ -157,4 +157,23 @@ std::optional<CameraRay> RealLensCamera::generateRay(int i, int j, Vec2 uSensor,
   return CameraRay{origin, direction};
 }
 
+void RealLensCamera::sampleRays(const CameraSampleLanes& s, CameraRayLanes& rays, float (&weight)[kPacketWidth]) const {
+  const bool disperses = spectral();
+  for (int k = 0; k < kPacketWidth; ++k) {
+    weight[k] = 0.0f;
+    std::optional<CameraRay> ray;
+    if (k < s.count)
+      ray = generateRay(s.column[k], s.row, Vec2(s.u0[k], s.u1[k]), Vec2(s.lens0[k], s.lens1[k]), &weight[k],
+                        disperses ? s.wavelengthNm[k] : LensSystem::kWavelengthD);
+    // A stopped lane keeps a finite ray that is never traced.
+    rays.set(k, ray ? *ray : CameraRay{frame_.params().position, frame_.forward()});
+    if (!ray) weight[k] = 0.0f;
+  }
+}
+
+ExitPupil RealLensCamera::exitPupil() const {
+  const LensSystem::Paraxial p = params_.lens->paraxial();
+  return ExitPupil{Aperture(), (filmZ_ - p.exitPupilZ) / p.exitPupilDiameter};
+}
+
 }  // namespace lensfarm

@@ -44,7 +44,7 @@ struct RealLensParams {
   double sceneUnitsPerMm = 0.001;
 };
 
-class RealLensCamera {
+class RealLensCamera final : public Camera {
  public:
   static constexpr int kPupilBins = 64;
 
@@ -58,8 +58,17 @@ class RealLensCamera {
   // lens stops it. `weight`: see above (the same for every wavelength).
   std::optional<CameraRay> generateRay(int i, int j, Vec2 uSensor, Vec2 uLens, float* weight,
                                        double wavelengthNm = LensSystem::kWavelengthD) const;
-  // Whether camera samples are spectral: the lens disperses.
-  bool spectral() const { return params_.lens->disperses(); }
+  // Camera (camera/camera.h): the frame's thin lens is the lens's paraxial equivalent; a ray the
+  // lens stops weighs 0; camera samples are spectral where the lens disperses.
+  const char* type() const override { return "real_lens"; }
+  const ThinLensCamera& paraxial() const override { return frame_; }
+  bool usesLensSample() const override { return true; }
+  bool spectral() const override { return params_.lens->disperses(); }
+  bool stopsRays() const override { return true; }
+  void sampleRays(const CameraSampleLanes& s, CameraRayLanes& rays, float (&weight)[kPacketWidth]) const override;
+  // The stop is round; the working f-number is the film's distance behind the exit pupil over its
+  // diameter (paraxial).
+  ExitPupil exitPupil() const override;
 
   double filmZ() const { return filmZ_; }  // mm behind the front vertex
   const LensSystem& lens() const { return *params_.lens; }

@@ -113,6 +113,8 @@ ThinLensCamera::ThinLensCamera(const ThinLensParams& p, int width, int height)
   invFocalLength_ = 1.0 / f;
   lensRadius_ = std::isinf(p.fNumber) ? 0.0 : f / (2.0 * p.fNumber);
   aperture_ = Aperture(ApertureSpec{p.apertureBlades, p.apertureRotation, p.apertureCurvature, p.apertureImage});
+  const double cellArea = (params_.sensorWidth / width) * (params_.sensorHeight / height);
+  importance_ = double(aperture_.weight()) * imageDistance_ * imageDistance_ / cellArea;
   if (p.apertureImage && std::isinf(p.fNumber))
     throw InputError("aperture_image", "needs a finite f_number: the image covers a square of side f / N");
   if (!std::isfinite(invImageDistance_) || !std::isfinite(invFocalLength_) || !(invImageDistance_ > 0.0) ||
@@ -205,6 +207,37 @@ void ThinLensCamera::generatePinholeRays(const int (&i)[kPacketWidth], int j, co
                                          const float (&u1)[kPacketWidth], CameraRayLanes& rays) const {
   pinholeLanes(*this, i, j, u0, u1, rays);
 }
+
+void ThinLensCamera::sampleRays(const CameraSampleLanes& s, CameraRayLanes& rays, float (&weight)[kPacketWidth]) const {
+  generateRays(s.column, s.row, s.u0, s.u1, s.lens0, s.lens1, rays);
+  std::fill(std::begin(weight), std::end(weight), aperture_.weight());
+}
+
+std::optional<CameraConnection> ThinLensCamera::connectThrough(const Vec3& p, Vec2 r) const {
+  CameraConnection c;
+  c.lensPoint = params_.position + r.x * right_ + r.y * up_;
+  const Vec3 toLens = c.lensPoint - p;
+  c.distance2 = glm::dot(toLens, toLens);
+  if (!(c.distance2 > 0.0f)) return std::nullopt;
+  c.distance = std::sqrt(c.distance2);
+  c.toLens = toLens / c.distance;
+  // rayThrough inverted: the ray from r in direction w = -toLens left sensor point
+  //     s = r - S2 (n2 + r / f),  n2 = w / (w . forward)  (the 2013 report's eq. 1, solved for s).
+  const Vec3 w = -c.toLens;
+  const double cosTheta = glm::dot(w, forward_);
+  if (!(cosTheta > 0.0)) return std::nullopt;
+  const double n2x = glm::dot(w, right_) / cosTheta, n2y = glm::dot(w, up_) / cosTheta;
+  const double sx = r.x - imageDistance_ * (n2x + r.x * invFocalLength_),
+               sy = r.y - imageDistance_ * (n2y + r.y * invFocalLength_);
+  const double fi = std::floor((sx / params_.sensorWidth + 0.5) * width_),
+               fj = std::floor((0.5 - sy / params_.sensorHeight) * height_);
+  if (!(fi >= 0.0 && fi < width_ && fj >= 0.0 && fj < height_)) return std::nullopt;
+  c.cell = uint64_t(fj) * uint64_t(width_) + uint64_t(fi);
+  c.importance = importance_ / (cosTheta * cosTheta * cosTheta);
+  return c;
+}
+
+ExitPupil ThinLensCamera::exitPupil() const { return ExitPupil{aperture_, imageDistance_ / (2.0 * lensRadius_)}; }
 
 double focalLengthFromAngleOfView(double sensorExtent, double angleOfViewDegrees) {
   const double alpha = angleOfViewDegrees * std::numbers::pi / 180.0;

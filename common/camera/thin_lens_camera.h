@@ -23,30 +23,12 @@
 #include <string>
 
 #include "common/camera/aperture.h"
+#include "common/camera/camera.h"
 #include "common/math/lanes.h"
 #include "common/math/sampling.h"
 #include "common/math/vec.h"
 
 namespace lensfarm {
-
-struct CameraRay {
-  Vec3 origin;
-  Vec3 direction;  // unit
-};
-
-// Camera rays of a packet's lanes, as arrays over the lanes.
-struct CameraRayLanes {
-  alignas(64) float ox[kPacketWidth], oy[kPacketWidth], oz[kPacketWidth];
-  alignas(64) float dx[kPacketWidth], dy[kPacketWidth], dz[kPacketWidth];
-
-  CameraRay ray(int lane) const {
-    return CameraRay{Vec3(ox[lane], oy[lane], oz[lane]), Vec3(dx[lane], dy[lane], dz[lane])};
-  }
-  void set(int lane, const CameraRay& ray) {
-    ox[lane] = ray.origin.x, oy[lane] = ray.origin.y, oz[lane] = ray.origin.z;
-    dx[lane] = ray.direction.x, dy[lane] = ray.direction.y, dz[lane] = ray.direction.z;
-  }
-};
 
 // The smallest f-number: N = 1 / (2 NA) for a lens in air, whose numerical aperture NA is at most
 // 1, so no lens is faster than f/0.5; the aperture radius R = f / (2N) is then at most f.
@@ -87,7 +69,7 @@ struct ThinLensParams {
   std::shared_ptr<const ApertureImage> apertureImage;
 };
 
-class ThinLensCamera {
+class ThinLensCamera : public Camera {
  public:
   // Validates the parameters; throws InputError whose `where` is the offending field name
   // (position, look_at, up, focal_length, sensor_width, sensor_height, focus_distance, f_number).
@@ -125,6 +107,23 @@ class ThinLensCamera {
   // (x along right, y along up); used by tests of the optics.
   CameraRay rayThrough(Vec2 sensorPoint, Vec2 lensPoint) const;
 
+  // Camera (camera/camera.h): the thin lens is its own paraxial lens; its rays weigh the
+  // aperture's weight and are never stopped.
+  const char* type() const override { return "thin_lens"; }
+  const ThinLensCamera& paraxial() const override { return *this; }
+  bool usesLensSample() const override { return true; }
+  void sampleRays(const CameraSampleLanes& s, CameraRayLanes& rays, float (&weight)[kPacketWidth]) const override;
+  bool connects() const override { return true; }
+  std::optional<CameraConnection> connect(const Vec3& p, Vec2 uLens) const override {
+    return connectThrough(p, aperture_.sample(uLens) * float(lensRadius_));
+  }
+  ExitPupil exitPupil() const override;
+
+  // The connection of p through lens point r (camera plane, x along right, y along up): the cell
+  // the lens images the ray from r toward -toLens onto, inverting rayThrough (so the pinhole's is
+  // r = 0).
+  std::optional<CameraConnection> connectThrough(const Vec3& p, Vec2 r) const;
+
   const ThinLensParams& params() const { return params_; }
   int width() const { return width_; }
   int height() const { return height_; }
@@ -146,6 +145,7 @@ class ThinLensCamera {
   double invImageDistance_, invFocalLength_;  // 1 / S2 and 1 / f, once, not per ray
 
   double lensRadius_;
+  double importance_ = 0.0;  // w_ap S2^2 / A_cell: the importance W cos^3 theta of every cell
   Vec3 right_, up_, forward_;
   Aperture aperture_;  // its shape, in units of R
 };

@@ -10,9 +10,9 @@
 
 #include <optional>
 #include "common/farm/sums_codec.h"
+#include "common/film/path_stats.h"
 #include "common/film/sensor.h"
-#include "common/render/integrator.h"
-#include "common/render/unit_renderer.h"
+#include "common/film/work_unit.h"
 
 #include "common/scene/frame_range.h"
 #include "common/scene/render_overrides.h"

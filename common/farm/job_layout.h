@@ -31,7 +31,7 @@
 #include <vector>
 
 #include "common/film/adaptive_allocation.h"
-#include "common/render/unit_renderer.h"
+#include "common/film/work_unit.h"
 #include "common/scene/frame_range.h"
 #include "common/scene/scene.h"
 

@@ -13,9 +13,9 @@
 #include <limits>
 #include <set>
 
+#include "common/film/work_unit.h"
 #include "common/light/environment_light.h"
 #include "common/medium/medium.h"
-#include "common/render/unit_renderer.h"
 #include "common/util/error.h"
 
 namespace lensfarm {

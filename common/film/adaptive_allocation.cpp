@@ -10,7 +10,55 @@ namespace lensfarm {
 
 namespace {
 constexpr uint64_t kMagic = 0x31764f4c4c414c4cull;  // "LLALLOv1"
+
+// Per block of `map`: its cells, the samples each cell holds so far (and map.first, half of them)
+// and its per-sample standard deviation; every cell of a block must hold the same even count.
+void measureBlocks(const Sensor& film, const ConvergenceTracker& halves, const AllocationRequest& request,
+                   SampleMap& map, std::vector<double>& cells, std::vector<double>& sigma, std::vector<double>& held) {
+  const int width = film.width(), height = film.height();
+  for (int by = 0; by < map.blocksY; ++by)
+    for (int bx = 0; bx < map.blocksX; ++bx) {
+      const size_t b = size_t(by) * size_t(map.blocksX) + size_t(bx);
+      const int x0 = bx * request.blockEdge, y0 = by * request.blockEdge;
+      const int x1 = std::min(width, x0 + request.blockEdge), y1 = std::min(height, y0 + request.blockEdge);
+      const uint64_t n = film.samples(x0, y0);
+      if (n % 2 != 0) throw std::invalid_argument("allocateRound: a cell holds an odd number of samples");
+      double variance = 0.0;
+      for (int j = y0; j < y1; ++j)
+        for (int i = x0; i < x1; ++i) {
+          if (film.samples(i, j) != n)
+            throw std::invalid_argument("allocateRound: a block's cells hold different counts");
+          variance += std::max(0.0, halves.cellVariance(film, i, j));
+        }
+      cells[b] = double(x1 - x0) * double(y1 - y0);
+      sigma[b] = std::isfinite(variance) ? std::sqrt(variance / cells[b]) : 0.0;
+      held[b] = double(n);
+      map.first[b] = n / 2;
+    }
 }
+
+// Whole samples: round down, then hand the rest out by the largest remainder (block order
+// breaks ties), never past the budget or the cap. Writes map.count.
+void wholeSamples(const std::vector<double>& share, const std::vector<double>& cells, double budget, double hi,
+                  SampleMap& map) {
+  const size_t blocks = share.size();
+  double left = budget;
+  std::vector<size_t> order(blocks);
+  for (size_t k = 0; k < blocks; ++k) {
+    map.count[k] = uint32_t(std::min(std::floor(share[k]), hi));
+    left -= cells[k] * map.count[k];
+    order[k] = k;
+  }
+  std::stable_sort(order.begin(), order.end(), [&](size_t x, size_t y) {
+    return share[x] - std::floor(share[x]) > share[y] - std::floor(share[y]);
+  });
+  for (size_t k : order)
+    if (cells[k] <= left && map.count[k] + 1 <= hi) {
+      ++map.count[k];
+      left -= cells[k];
+    }
+}
+}  // namespace
 
 std::shared_ptr<const SampleMap> RoundAllocation::mapOf(uint64_t u) const {
   if (u < start || u >= start + units) throw std::invalid_argument("RoundAllocation::mapOf: unit outside the round");
@@ -40,25 +88,7 @@ RoundAllocation allocateRound(const Sensor& film, const ConvergenceTracker& halv
 
   // Each block's cells, samples so far and per-sample standard deviation.
   std::vector<double> cells(blocks, 0.0), sigma(blocks, 0.0), held(blocks, 0.0);
-  for (int by = 0; by < map.blocksY; ++by)
-    for (int bx = 0; bx < map.blocksX; ++bx) {
-      const size_t b = size_t(by) * size_t(map.blocksX) + size_t(bx);
-      const int x0 = bx * request.blockEdge, y0 = by * request.blockEdge;
-      const int x1 = std::min(width, x0 + request.blockEdge), y1 = std::min(height, y0 + request.blockEdge);
-      const uint64_t n = film.samples(x0, y0);
-      if (n % 2 != 0) throw std::invalid_argument("allocateRound: a cell holds an odd number of samples");
-      double variance = 0.0;
-      for (int j = y0; j < y1; ++j)
-        for (int i = x0; i < x1; ++i) {
-          if (film.samples(i, j) != n)
-            throw std::invalid_argument("allocateRound: a block's cells hold different counts");
-          variance += std::max(0.0, halves.cellVariance(film, i, j));
-        }
-      cells[b] = double(x1 - x0) * double(y1 - y0);
-      sigma[b] = std::isfinite(variance) ? std::sqrt(variance / cells[b]) : 0.0;
-      held[b] = double(n);
-      map.first[b] = n / 2;
-    }
+  measureBlocks(film, halves, request, map, cells, sigma, held);
 
   // Per unit: at least `lo`, at most `hi` samples a cell; in all, P a cell on average.
   const double totalCells = double(width) * double(height);
@@ -87,23 +117,7 @@ RoundAllocation allocateRound(const Sensor& film, const ConvergenceTracker& halv
     }
     for (size_t k = 0; k < blocks; ++k) share[k] = perUnit(k, b);
   }
-  // Whole samples: round down, then hand the rest out by the largest remainder (block order
-  // breaks ties), never past the budget or the cap.
-  double left = budget;
-  std::vector<size_t> order(blocks);
-  for (size_t k = 0; k < blocks; ++k) {
-    map.count[k] = uint32_t(std::min(std::floor(share[k]), hi));
-    left -= cells[k] * map.count[k];
-    order[k] = k;
-  }
-  std::stable_sort(order.begin(), order.end(), [&](size_t x, size_t y) {
-    return share[x] - std::floor(share[x]) > share[y] - std::floor(share[y]);
-  });
-  for (size_t k : order)
-    if (cells[k] <= left && map.count[k] + 1 <= hi) {
-      ++map.count[k];
-      left -= cells[k];
-    }
+  wholeSamples(share, cells, budget, hi, map);
   return round;
 }
 

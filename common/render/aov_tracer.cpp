@@ -45,7 +45,7 @@ void addAovsFrom(const RenderScene& rs, const AovLayout& layout, Vec3 direction,
     const Material& material = rs.material(hit->material);
     if (hop == 0) {
       if (layout.depth >= 0) {
-        const ThinLensCamera& camera = rs.camera();
+        const ThinLensCamera& camera = rs.camera().paraxial();
         cell[layout.depth] += double(glm::dot(hit->p - camera.params().position, camera.forward()));
         cell[layout.depth + 1] += 1.0;
       }

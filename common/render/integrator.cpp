@@ -246,6 +246,7 @@ LENSFARM_LANE_LOOPS void addUnblocked(const DiffuseLanes& __restrict v, const in
 }
 }  // namespace
 
+// Kept whole: the lane loops share per-lane arrays across stages; one function lets the compiler keep them local.
 template <bool kNee, bool kGeneral>
 void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&radiance)[kPacketWidth],
                  PathStats& stats) {

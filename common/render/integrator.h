@@ -39,49 +39,13 @@
 #include <cstdint>
 
 #include "common/camera/thin_lens_camera.h"
+#include "common/film/path_stats.h"
 #include "common/math/vec.h"
 #include "common/render/render_scene.h"
 #include "common/render/sampler.h"
+#include "common/scene/path_limits.h"
 
 namespace lensfarm {
-
-// The most segments (rays from a vertex or the lens) a path may have for the bounce limit B:
-// B + 1 for the camera ray and the B counted bounces, as many again for mirror reflections that
-// do not count, and never fewer than kMinPathSegmentLimit, so that B is honoured up to
-// kMaxBounces (1024: 2050 segments) rather than cut at 255 bounces, and two facing mirrors still
-// end. For B <= 127 the limit is 256, what it always was. The sampler gives every segment its
-// own block of dimensions (dims::segment) with no upper end, so no other limit applies.
-inline constexpr int kMinPathSegmentLimit = 256;
-inline constexpr int pathSegmentLimit(int maxBounces) {
-  return maxBounces + 1 > kMinPathSegmentLimit / 2 ? 2 * (maxBounces + 1) : kMinPathSegmentLimit;
-}
-
-struct PathStats {
-  uint64_t paths = 0;
-  uint64_t rays = 0;       // every ray cast: camera, scattered and shadow rays
-  uint64_t lightHits = 0;  // paths whose camera or scattered ray reached an emitting surface
-  uint64_t dropped = 0;    // samples whose radiance was NaN or infinite (counted, not added)
-  // Paths still going when they reached pathSegmentLimit(B) segments (light trapped by total
-  // internal reflection in faceted glass, facing mirrors): their further light is not counted.
-  uint64_t truncated = 0;
-
-  PathStats& operator+=(const PathStats& o) {
-    paths += o.paths;
-    rays += o.rays;
-    lightHits += o.lightHits;
-    dropped += o.dropped;
-    truncated += o.truncated;
-    return *this;
-  }
-  PathStats& operator-=(const PathStats& o) {  // undoing counts added before
-    paths -= o.paths;
-    rays -= o.rays;
-    lightHits -= o.lightHits;
-    dropped -= o.dropped;
-    truncated -= o.truncated;
-    return *this;
-  }
-};
 
 // Radiance arriving along the camera ray of one sample, with next-event estimation and specular
 // materials compiled in or out (scene/effects.h): a specialisation has no branch for an effect

@@ -28,70 +28,44 @@ struct Splat {
   Spectrum value;
 };
 
-// What the particles of one unit share: the lights' cdf, the camera's constants
-// of (LT).
+// What the particles of one unit share: the lights' cdf, the path limits.
 struct Setup {
   const RenderScene& rs;
   SamplerSetup sampler;
   uint64_t key;            // the unit's stream key (its first sample and frame)
   std::vector<float> cdf;  // over LightSampler::triangleLights(), by power
   std::vector<float> pmf;  // the same, renormalised over the triangles
-  bool lens;               // sample the lens (depth of field), else the pinhole r = 0
-  double importance;       // w_ap S2^2 / A_cell: W cos^3 theta
-  double s2, invF, sensorW, sensorH;
-  int width, height, segments, maxBounces;
+  int segments, maxBounces;
   bool mirrorsCount;
 };
-
-// The sensor cell that the thin lens images the ray from lens point r (camera
-// plane) in direction w onto (inverting ThinLensCamera::rayThrough), and cos
-// theta; false off the sensor.
-bool cellOf(const Setup& s, const ThinLensCamera& camera, Vec2 r, const Vec3& w, uint64_t& cell, double& cosTheta) {
-  const double cz = glm::dot(w, camera.forward());
-  if (!(cz > 0.0)) return false;
-  const double n2x = glm::dot(w, camera.right()) / cz, n2y = glm::dot(w, camera.up()) / cz;
-  const double sx = r.x - s.s2 * (n2x + r.x * s.invF), sy = r.y - s.s2 * (n2y + r.y * s.invF);
-  const double fi = std::floor((sx / s.sensorW + 0.5) * s.width), fj = std::floor((0.5 - sy / s.sensorH) * s.height);
-  if (!(fi >= 0.0 && fi < s.width && fj >= 0.0 && fj < s.height)) return false;
-  cell = uint64_t(fj) * uint64_t(s.width) + uint64_t(fi);
-  cosTheta = cz;
-  return true;
-}
 
 // Connects the non-delta particle vertex `hit` (the particle arrived from w_l
 // with weight beta) to a lens point: the contribution (LT) in the header,
 // recorded as a splat.
 void connect(const Setup& s, const SampleStream& rng, uint32_t base, const SurfaceHit& hit, const Material& material,
              const Vec3& wl, const Spectrum& beta, std::vector<Splat>& splats, PathStats& stats) {
-  const ThinLensCamera& camera = s.rs.camera();
-  const Vec2 r =
-      s.lens ? camera.aperture().sample(rng.get2D(base + dims::kLensPoint)) * float(camera.lensRadius()) : Vec2(0.0f);
-  const Vec3 lensPoint = camera.params().position + r.x * camera.right() + r.y * camera.up();
-  const Vec3 toLens = lensPoint - hit.p;
-  const float d2 = glm::dot(toLens, toLens);
-  if (!(d2 > 0.0f)) return;
-  const float distance = std::sqrt(d2);
-  const Vec3 wc = toLens / distance;
+  // The lens point, the cell it images the connection onto and the camera's importance there
+  // (camera/camera.h, Camera::connect).
+  const std::optional<CameraConnection> c = s.rs.camera().connect(hit.p, rng.get2D(base + dims::kLensPoint));
+  if (!c) return;
+  const Vec3 wc = c->toLens;
   const bool front = glm::dot(hit.n, wc) >= 0.0f;
   const Vec3 n = front ? hit.n : -hit.n;
   const float cosL = std::abs(glm::dot(n, wl)), cosC = glm::dot(n, wc);
   if (!(cosL > 0.0f) || !(cosC > 0.0f)) return;
   const Spectrum fCos = material.evalCos(n, wc, wl, front);  // f(w_c, w_l) |cos_l|
   if (isBlack(fCos)) return;
-  uint64_t cell;
-  double cosTheta;
-  if (!cellOf(s, camera, r, -wc, cell, cosTheta)) return;
   // Visibility as a camera ray from the lens point sees it: the first surface
   // it meets is y.
   ++stats.rays;
-  const auto seen = s.rs.caster().intersect(lensPoint, -wc, RayKind::kCamera);
+  const auto seen = s.rs.caster().intersect(c->lensPoint, -wc, RayKind::kCamera);
   if (!seen || seen->triangle != hit.triangle || seen->instance != hit.instance ||
-      std::abs(seen->t - distance) > 1e-3f * distance)
+      std::abs(seen->t - c->distance) > 1e-3f * c->distance)
     return;
-  const double w = s.importance / (cosTheta * cosTheta * cosTheta) * double(cosC) / (double(d2) * double(cosL));
-  const Spectrum c = beta * fCos * float(w);
-  if (!isFinite(c)) return;
-  splats.push_back(Splat{cell, c});
+  const double w = c->importance * double(cosC) / (double(c->distance2) * double(cosL));
+  const Spectrum contribution = beta * fCos * float(w);
+  if (!isFinite(contribution)) return;
+  splats.push_back(Splat{c->cell, contribution});
 }
 
 // One light path: emission, then each vertex (the path tracer's rules for B),
@@ -160,21 +134,12 @@ bool traceLightPaths(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& 
                      const std::atomic<bool>* cancel) {
   const auto& lights = rs.lights().triangleLights();
   if (lights.empty() || unit.sampleCount == 0) return true;
-  const ThinLensCamera& camera = rs.camera();
   const RenderSettings& settings = rs.settings();
   Setup s{rs,
           SamplerSetup{SamplerKind::kIndependent, settings.seed ^ 0x4c5452414345ull, 1, 1},
           0,
           {},
           {},
-          rs.effects().depthOfField,
-          0.0,
-          camera.imageDistance(),
-          1.0 / camera.params().focalLength,
-          camera.params().sensorWidth,
-          camera.params().sensorHeight,
-          camera.width(),
-          camera.height(),
           pathSegmentLimit(settings.maxBounces),
           settings.maxBounces,
           settings.mirrorBouncesCount};
@@ -188,8 +153,6 @@ bool traceLightPaths(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& 
     s.pmf.push_back(float(l.pmf / total));
   }
   s.cdf.back() = 1.0f;
-  const double cellArea = (s.sensorW / s.width) * (s.sensorH / s.height);
-  s.importance = double(camera.aperture().weight()) * s.s2 * s.s2 / cellArea;
 
   const uint64_t particles = lightPathsOf(rs, unit.sampleCount);
   const uint64_t chunks = (particles + kChunkParticles - 1) / kChunkParticles;

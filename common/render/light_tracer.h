@@ -43,6 +43,8 @@
 // traces N = ceil(ratio n W H) particles and adds n C / N to the cell's sums:
 // the sensor divides by n, leaving the N-particle mean. V is a camera ray from
 // r to y (what a camera ray sees: geometry hidden from the camera is not seen).
+// The camera computes r, the cell and W (camera/camera.h, Camera::connect); a
+// camera without a closed-form importance (a real lens) is never light-traced.
 //
 // Combination (Veach 1997 §10.2: the weights need only sum to 1 per path):
 // binary. The light tracer takes exactly the paths whose camera-side first

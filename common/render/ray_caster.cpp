@@ -151,6 +151,19 @@ RayCaster::RayCaster(const Scene& scene) : source_(scene) {
     throw std::runtime_error("the scene has " + std::to_string(triangleCount + prototypeTriangleCount) +
                              " triangles; at most " + std::to_string(GatherView<Triangle>::kMaxRecords) +
                              " are supported");
+  createDevice();
+  chooseEmbreeScale(scene);
+  const std::vector<std::vector<uint32_t>> precise = preciseTrianglesOf(scene);
+  attachMeshes(scene, precise);
+  attachInstances(scene);
+  rtcCommitScene(scene_);
+  if (geomOffset_.empty()) placeGeometry(0, 0, false);  // (the packet decoder reads entry 0 for every lane)
+  buildTriangleTables(scene, precise, triangleCount, prototypeTriangleCount);
+  computeInstanceMargins(scene);
+  for (const auto& [lo, hi] : instanceBoxes(scene)) lo_ = glm::min(lo_, lo), hi_ = glm::max(hi_, hi);
+}
+
+void RayCaster::createDevice() {
   // LENSFARM_EMBREE_CONFIG passes an Embree device configuration, e.g. "isa=avx2": Embree's
   // kernels for different instruction sets round differently (about 1e-8 relative in an image),
   // so a farm of mixed machines pins one set on every worker to keep the same bits
@@ -165,25 +178,25 @@ RayCaster::RayCaster(const Scene& scene) : source_(scene) {
   scene_ = rtcNewScene(device_);
   rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+}
 
-  // Embree's scale (embreeScale_): from the scene's extent, meshes and placed instances.
-  {
-    DVec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
-    for (const TriangleMesh& mesh : scene.meshes)
-      for (const Vec3& v : mesh.positions) lo = glm::min(lo, DVec3(v)), hi = glm::max(hi, DVec3(v));
-    for (const auto& [a, b] : instanceBoxes(scene)) lo = glm::min(lo, a), hi = glm::max(hi, b);
-    const double extent = lo.x <= hi.x ? largestAbs(hi - lo) : 0.0;
-    if (extent > 0.0 && extent < kSmallScene) embreeScale_ = float(std::exp2(std::floor(-std::log2(extent))));
-    if (extent > kLargeScene) embreeScale_ = float(std::exp2(std::floor(std::log2(kLargeScene / extent))));
-  }
+void RayCaster::chooseEmbreeScale(const Scene& scene) {
+  DVec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+  for (const TriangleMesh& mesh : scene.meshes)
+    for (const Vec3& v : mesh.positions) lo = glm::min(lo, DVec3(v)), hi = glm::max(hi, DVec3(v));
+  for (const auto& [a, b] : instanceBoxes(scene)) lo = glm::min(lo, a), hi = glm::max(hi, b);
+  const double extent = lo.x <= hi.x ? largestAbs(hi - lo) : 0.0;
+  if (extent > 0.0 && extent < kSmallScene) embreeScale_ = float(std::exp2(std::floor(-std::log2(extent))));
+  if (extent > kLargeScene) embreeScale_ = float(std::exp2(std::floor(std::log2(kLargeScene / extent))));
+}
 
-  // Each Embree geometry's first triangle in triangles_, and whether it is precise.
-  const auto place = [&](unsigned id, uint32_t first, bool precise) {
-    if (geomOffset_.size() <= id) geomOffset_.resize(id + 1, 0), isPrecise_.resize(id + 1, 0);
-    geomOffset_[id] = first;
-    isPrecise_[id] = precise ? 1 : 0;
-  };
-  const std::vector<std::vector<uint32_t>> precise = preciseTrianglesOf(scene);
+void RayCaster::placeGeometry(unsigned id, uint32_t first, bool precise) {
+  if (geomOffset_.size() <= id) geomOffset_.resize(id + 1, 0), isPrecise_.resize(id + 1, 0);
+  geomOffset_[id] = first;
+  isPrecise_[id] = precise ? 1 : 0;
+}
+
+void RayCaster::attachMeshes(const Scene& scene, const std::vector<std::vector<uint32_t>>& precise) {
   uint32_t first = 0;  // of each mesh, in triangles_
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     const TriangleMesh& mesh = scene.meshes[m];
@@ -193,20 +206,23 @@ RayCaster::RayCaster(const Scene& scene) : source_(scene) {
     rtcCommitGeometry(geom);
     const unsigned id = rtcAttachGeometry(scene_, geom);
     rtcReleaseGeometry(geom);  // the scene holds its own reference
-    place(id, first, false);
+    placeGeometry(id, first, false);
     meshFirst_.push_back(first);
     if (!precise[m].empty()) {
       for (const uint32_t tri : precise[m]) preciseTriangles_.push_back(first + tri);
       precise_.push_back(std::make_unique<PreciseTriangles>(scene, mesh, precise[m], embreeScale_, mask));
       RTCGeometry user = precise_.back()->geometry(device_);
       rtcCommitGeometry(user);
-      place(rtcAttachGeometry(scene_, user), first, true);
+      placeGeometry(rtcAttachGeometry(scene_, user), first, true);
       rtcReleaseGeometry(user);
       spdlog::debug("mesh {}: {} triangles too large for Embree's float test are tested in double", m,
                     precise[m].size());
     }
     first += uint32_t(mesh.triangleCount());
   }
+}
+
+void RayCaster::attachInstances(const Scene& scene) {
   // Each prototype is a scene of its own, each use of it an instance geometry of the top scene.
   for (const TriangleMesh& mesh : scene.prototypes) {
     RTCScene child = rtcNewScene(device_);
@@ -236,9 +252,10 @@ RayCaster::RayCaster(const Scene& scene) : source_(scene) {
     if (instanceOfGeometry_.size() <= id) instanceOfGeometry_.resize(id + 1, kNoInstance);
     instanceOfGeometry_[id] = uint32_t(k);
   }
-  rtcCommitScene(scene_);
-  if (geomOffset_.empty()) place(0, 0, false);  // (the packet decoder reads entry 0 for every lane)
+}
 
+void RayCaster::buildTriangleTables(const Scene& scene, const std::vector<std::vector<uint32_t>>& precise,
+                                    size_t triangleCount, size_t prototypeTriangleCount) {
   // The triangle tables after the BVH: Embree's build memory is freed by then, so the two never
   // add up at the peak. Reserved whole, they are never reallocated while they grow.
   triangles_.reserve(std::max<size_t>(triangleCount, 1));
@@ -258,6 +275,9 @@ RayCaster::RayCaster(const Scene& scene) : source_(scene) {
     prototypeOffset_.push_back(uint32_t(prototypeTriangles_.size()));
     addTriangles(mesh, prototypeTriangles_);
   }
+}
+
+void RayCaster::computeInstanceMargins(const Scene& scene) {
   // Per instance, what its transform adds to the spawn margin (instanceHit). Embree intersects
   // an instance in object space, the ray's origin moved there in float as A^-1 o - A^-1 t (A the
   // linear part, t the translation): near the instance, o ~ t, so the two terms cancel and the
@@ -289,7 +309,6 @@ RayCaster::RayCaster(const Scene& scene) : source_(scene) {
     if (!isFinite(Spectrum(error))) error = DVec3(0.0);
     instanceMargins_.push_back({glm::transpose(glm::mat3(a)), Vec3(error)});
   }
-  for (const auto& [lo, hi] : instanceBoxes(scene)) lo_ = glm::min(lo_, lo), hi_ = glm::max(hi_, hi);
 }
 
 // Embree reports every allocation (bytes > 0) and release (bytes < 0) on the device.
@@ -514,6 +533,7 @@ bool RayCaster::occluded(const Vec3& o, const Vec3& d, float tFar, RayKind kind)
   return ray.tfar < 0.0f;  // Embree sets tfar = -inf on a hit
 }
 
+// Kept whole: one pass over a packet's RTCRayHit16 and lane arrays, through both Embree calls and the decoding.
 void RayCaster::intersect(const RayPacket& rays, RayKind kind, PacketHits& out) const {
   if (recorder_) recorder_->recordPacket(rays, unsigned(kind));
   RTCIntersectContext context;

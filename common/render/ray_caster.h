@@ -235,6 +235,24 @@ class RayCaster {
   std::vector<std::unique_ptr<CutoutMesh>> cutouts_;
   static void cutoutFilter(const RTCFilterFunctionNArguments* args);
 
+  // The constructor's steps, in its order.
+
+  // The Embree device (with LENSFARM_EMBREE_CONFIG) and the top-level scene, robust and high quality.
+  void createDevice();
+  // embreeScale_ from the extent of the scene's meshes and placed instances.
+  void chooseEmbreeScale(const Scene& scene);
+  // Records Embree geometry `id`'s first triangle in triangles_ and whether it is precise.
+  void placeGeometry(unsigned id, uint32_t first, bool precise);
+  // The scene's meshes as top-level geometries, with the precise triangles (per mesh) as their own.
+  void attachMeshes(const Scene& scene, const std::vector<std::vector<uint32_t>>& precise);
+  // Each prototype as an Embree scene of its own, each instance as an instance geometry of the top scene.
+  void attachInstances(const Scene& scene);
+  // triangles_ (and the bounds of the meshes) and prototypeTriangles_, after the BVH is built.
+  void buildTriangleTables(const Scene& scene, const std::vector<std::vector<uint32_t>>& precise, size_t triangleCount,
+                           size_t prototypeTriangleCount);
+  // instanceMargins_: per instance, the spawn margin's widening for the rounding of its transform.
+  void computeInstanceMargins(const Scene& scene);
+
   // ng: the hit's Ng, which for a precise triangle holds the hit point.
   SurfaceHit surfaceHit(unsigned geomID, unsigned primID, float u, float v, float t, const Vec3& ng) const;
   // The hit on triangle primID of instance `instance`, in render space.

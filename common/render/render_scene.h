@@ -4,14 +4,17 @@
 // the Embree scene and the light sampler.
 #include <algorithm>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
+#include "common/camera/camera.h"
 #include "common/camera/thin_lens_camera.h"
 #include "common/film/aov_layout.h"
 #include "common/render/light_sampler.h"
 #include "common/render/ray_caster.h"
 #include "common/scene/effects.h"
 #include "common/scene/scene.h"
+#include "common/scene/scene_camera.h"
 
 namespace lensfarm {
 
@@ -19,15 +22,15 @@ class RenderScene {
  public:
   // `general`: simulate every effect whatever the scene needs (the reference path the
   // specialised one is checked and benchmarked against).
-  explicit RenderScene(const Scene& scene, bool general = false)
+  explicit RenderScene(const Scene& scene, bool general = false) : RenderScene(scene, general, declaredCamera(scene)) {}
+
+ private:
+  RenderScene(const Scene& scene, bool general, std::unique_ptr<const Camera> declared)
       : scene_(scene),
-        camera_(scene.camera()),
-        realCamera_(scene.realLensCamera()),
-        effects_(general ? EffectSet::all(scene)
-                         : analyzeEffects(scene, camera_, realCamera_ ? &*realCamera_ : nullptr)),
-        mirrorsReachable_(general ? analyzeEffects(scene, camera_).specular : effects_.specular),
-        lightTracing_(general ? analyzeEffects(scene, camera_, realCamera_ ? &*realCamera_ : nullptr).lightTracing
-                              : effects_.lightTracing),
+        effects_(general ? EffectSet::all(scene) : analyzeEffects(scene, *declared)),
+        mirrorsReachable_(general ? analyzeEffects(scene, declared->paraxial()).specular : effects_.specular),
+        lightTracing_(general ? analyzeEffects(scene, *declared).lightTracing : effects_.lightTracing),
+        camera_(renderCamera(std::move(declared), effects_)),
         caster_(scene),
         lights_(scene, caster_, effects_.lightUseful, scene.render.integrator == IntegratorKind::kNaive),
         hasEscapeLights_(!lights_.escapeLights().empty()),
@@ -50,7 +53,8 @@ class RenderScene {
     if (lightTracing_)
       for (size_t m = 0; m < scene.materials.size(); ++m)
         lightTraced_.push_back(lightTraceable(scene.materials[m]) && !shaded_[m] ? 1 : 0);
-    pixelAngle_ = float(camera_.params().sensorWidth / (double(scene.render.width) * camera_.params().focalLength));
+    const ThinLensParams& lens = camera_->paraxial().params();
+    pixelAngle_ = float(lens.sensorWidth / (double(scene.render.width) * lens.focalLength));
     // The media a shadow ray can leave (render/volume_integrator.cpp): the scene's own, and those
     // inside a material that lets rays through (an interface).
     if (scene.medium) mediaShadowRaysLeave_.push_back(scene.medium.get());
@@ -60,11 +64,12 @@ class RenderScene {
     }
   }
 
+ public:
   const Scene& scene() const { return scene_; }
   const RenderSettings& settings() const { return scene_.render; }
-  const ThinLensCamera& camera() const { return camera_; }
-  // The real lens's camera, when the scene has one (its rays replace camera()'s).
-  const std::optional<RealLensCamera>& realCamera() const { return realCamera_; }
+  // The camera traced (scene/scene_camera.h, renderCamera): the declared one, or a pinhole where
+  // the declared thin lens's blur is invisible.
+  const Camera& camera() const { return *camera_; }
   const EffectSet& effects() const { return effects_; }
   // Whether a camera path can meet a mirror (the analysis's answer even for a general scene, so
   // both paths make the same choices that depend on it; render/integrator.cpp).
@@ -103,11 +108,10 @@ class RenderScene {
 
  private:
   const Scene& scene_;
-  ThinLensCamera camera_;
-  std::optional<RealLensCamera> realCamera_;
   EffectSet effects_;
   bool mirrorsReachable_;
   bool lightTracing_;
+  std::unique_ptr<const Camera> camera_;
   std::vector<uint8_t> lightTraced_;  // per material; empty without light tracing
   RayCaster caster_;
   LightSampler lights_;

@@ -119,10 +119,6 @@ bool scatterInMedium(const RenderScene& rs, const SampleStream& rng, int segment
 
 }  // namespace
 
-int volumePathSegmentLimit(const RenderSettings& settings) {
-  return pathSegmentLimit(settings.maxBounces) + settings.maxMediumBounces + kMaxCrossings;
-}
-
 template <bool kNee>
 Spectrum traceVolumePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats) {
   PathState path(cameraRay);

@@ -38,12 +38,4 @@ namespace lensfarm {
 template <bool kNee>
 Spectrum traceVolumePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats);
 
-// Index-matched boundaries one ray (or shadow ray) may cross before it is given up: a bound on
-// the work of a degenerate scene (coincident interface layers), far above any real one.
-inline constexpr int kMaxCrossings = 64;
-
-// The number of segments a volume path may have: the surface tracer's limit plus room for the
-// medium bounces and for crossings of index-matched boundaries.
-int volumePathSegmentLimit(const RenderSettings& settings);
-
 }  // namespace lensfarm

@@ -1,4 +1,5 @@
 #include "common/scene/effects.h"
+#include "common/camera/real_lens_camera.h"
 
 #include <algorithm>
 #include <cmath>
@@ -580,7 +581,6 @@ void decideLights(Analysis& a, EffectSet& e) {
 void decideLightTracing(Analysis& a, EffectSet& e) {
   const Scene& scene = a.scene;
   const std::vector<bool>& used = a.used;
-  const RealLensCamera* real = a.real;
   // Light tracing (render/light_tracer.h): particles from the emitting triangles, connected to the
   // thin lens at every diffuse vertex, for the paths light -> mirror -> ... -> diffuse -> camera.
   bool emittingTriangles = false, tracedMirror = false, tracedDiffuse = false;
@@ -600,7 +600,7 @@ void decideLightTracing(Analysis& a, EffectSet& e) {
     ltWhy = "participating media: light paths are not traced through media (the volume path tracer samples the image)";
   else if (e.thinWalls)
     ltWhy = "thin walls: light paths are not connected through them (the volume path tracer samples the image)";
-  else if (real)
+  else if (scene.realLens)
     ltWhy =
         "a real lens cannot be connected to: a path from a surface point to the sensor through its "
         "surfaces has no closed form (the path tracer alone samples the image)";
@@ -637,9 +637,9 @@ constexpr EffectStep kEffectSteps[] = {decideCamera,    decideDiffraction, decid
 
 }  // namespace
 
-EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const RealLensCamera* real) {
+EffectSet analyzeEffects(const Scene& scene, const Camera& camera) {
   EffectSet e = EffectSet::all(scene);
-  Analysis a{scene, camera, real, {}, {}};
+  Analysis a{scene, camera.paraxial(), dynamic_cast<const RealLensCamera*>(&camera), {}, {}};
   findReachableMaterials(a);
   for (const EffectStep step : kEffectSteps) step(a, e);
   return e;

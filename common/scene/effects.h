@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-#include "common/camera/real_lens_camera.h"
+#include "common/camera/camera.h"
 #include "common/camera/thin_lens_camera.h"
 #include "common/scene/scene.h"
 
@@ -78,9 +78,10 @@ struct EffectSet {
   static EffectSet all(const Scene& scene);
 };
 
-// `real`: the scene's real-lens camera, if built (its reason then says what share of camera rays
-// the lens lets through, from a 16 x 16 x 4 x 4 grid: 4096 rays).
-EffectSet analyzeEffects(const Scene& scene, const ThinLensCamera& camera, const RealLensCamera* real = nullptr);
+// `camera`: the scene's declared camera (scene/scene_camera.h, declaredCamera), or its paraxial
+// thin lens (Scene::camera()) where the lens's own figures are not wanted: with a real lens, the
+// reason then says what share of camera rays the lens lets through (a 16 x 16 x 4 x 4 grid: 4096 rays).
+EffectSet analyzeEffects(const Scene& scene, const Camera& camera);
 
 // Whether the light tracer handles scattering by `m` (render/light_tracer.h): a Lambertian
 // material without textures, a mirror or a rippled mirror (their adjoints are known there).

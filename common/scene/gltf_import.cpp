@@ -655,43 +655,13 @@ class GltfImporter {
     const std::string where = indexed("materials", i), label = labelled("materials", i, m.name);
     auto t = std::make_shared<MaterialTextures>();
     PrincipledParams& f = t->factors;
-    const auto& pbr = m.pbrMetallicRoughness;
-    const std::string pbrWhere = where + ".pbrMetallicRoughness";
-    if (pbr.baseColorFactor.size() != 4) fail(pbrWhere + ".baseColorFactor", "must be 4 numbers");
-    for (int c = 0; c < 4; ++c) inRange(pbr.baseColorFactor[size_t(c)], 0.0, 1.0, pbrWhere + ".baseColorFactor");
-    f.baseColor = Spectrum(float(pbr.baseColorFactor[0]), float(pbr.baseColorFactor[1]), float(pbr.baseColorFactor[2]));
-    t->alphaFactor = float(pbr.baseColorFactor[3]);
-    f.metallic = float(inRange(pbr.metallicFactor, 0.0, 1.0, pbrWhere + ".metallicFactor"));
-    f.roughness = float(inRange(pbr.roughnessFactor, 0.0, 1.0, pbrWhere + ".roughnessFactor"));
-    if (pbr.baseColorTexture.index >= 0)
-      t->baseColor = textureRef(pbr.baseColorTexture, ColorEncoding::kSrgb, pbrWhere + ".baseColorTexture");
-    if (pbr.metallicRoughnessTexture.index >= 0)
-      t->metallicRoughness =
-          textureRef(pbr.metallicRoughnessTexture, ColorEncoding::kLinear, pbrWhere + ".metallicRoughnessTexture");
-    if (m.normalTexture.index >= 0) {
-      const tinygltf::NormalTextureInfo& n = m.normalTexture;
-      t->normal = textureRef(n.index, n.texCoord, n.extensions, ColorEncoding::kLinear, where + ".normalTexture");
-      if (!std::isfinite(n.scale)) fail(where + ".normalTexture.scale", "must be a finite number");
-      t->normalScale = float(n.scale);
-    }
-    if (m.emissiveTexture.index >= 0)
-      t->emissive = textureRef(m.emissiveTexture, ColorEncoding::kSrgb, where + ".emissiveTexture");
-    if (m.occlusionTexture.index >= 0) occluded_.push_back(label);
+    coreFactorsAndTextures(m, where, label, *t);
 
     if (m.emissiveFactor.size() != 3) fail(where + ".emissiveFactor", "must be 3 numbers");
     DVec3 emission(0.0);
     for (int c = 0; c < 3; ++c) emission[c] = inRange(m.emissiveFactor[size_t(c)], 0.0, 1.0, where + ".emissiveFactor");
 
-    if (m.alphaMode == "MASK") {
-      t->alphaMode = AlphaMode::kMask;
-      t->alphaCutoff = float(inRange(m.alphaCutoff, 0.0, 1.0, where + ".alphaCutoff"));
-    } else if (m.alphaMode == "BLEND") {
-      t->alphaMode = AlphaMode::kBlend;
-      t->alphaCutoff = 0.5f;
-      model_.notes.push_back(label + ": alphaMode BLEND rendered as MASK with cutoff 0.5");
-    } else if (m.alphaMode != "OPAQUE") {
-      fail(where + ".alphaMode", "\"" + m.alphaMode + "\" is not OPAQUE, MASK or BLEND");
-    }
+    readAlphaMode(m, where, label, *t);
 
     const std::string ext = where + ".extensions.";
     if (const tinygltf::Value* e = extension(m.extensions, "KHR_materials_emissive_strength"))
@@ -704,25 +674,8 @@ class GltfImporter {
     }
     if (const tinygltf::Value* e = extension(m.extensions, "KHR_materials_ior"))
       f.ior = float(extensionNumber(*e, "ior", 1.5, 1.0, 10.0, ext + "KHR_materials_ior"));
-    if (const tinygltf::Value* e = extension(m.extensions, "KHR_materials_specular")) {
-      const std::string w = ext + "KHR_materials_specular";
-      f.specular = float(extensionNumber(*e, "specularFactor", 1.0, 0.0, 1.0, w));
-      if (e->Has("specularTexture")) model_.notes.push_back(label + ": specularTexture ignored (specularFactor used)");
-      if (e->Has("specularColorFactor")) {
-        const tinygltf::Value& v = e->Get("specularColorFactor");
-        if (!v.IsArray() || v.ArrayLen() != 3) fail(w + ".specularColorFactor", "must be 3 numbers");
-        Spectrum c;
-        for (int k = 0; k < 3; ++k) {
-          if (!v.Get(k).IsNumber()) fail(w + ".specularColorFactor", "must be 3 numbers");
-          c[k] = float(inRange(v.Get(k).GetNumberAsDouble(), 0.0, 1e6, w + ".specularColorFactor"));
-        }
-        f.specularColor = luminance(c);  // F0 scaled, untinted
-        if (c.r != c.g || c.g != c.b)
-          model_.notes.push_back(label + ": specularColorFactor approximated: F0 is scaled by its luminance, untinted");
-      }
-      if (e->Has("specularColorTexture"))
-        model_.notes.push_back(label + ": specularColorTexture ignored (specularColorFactor used)");
-    }
+    if (const tinygltf::Value* e = extension(m.extensions, "KHR_materials_specular"))
+      specularExtension(*e, ext + "KHR_materials_specular", label, f);
     if (extension(m.extensions, "KHR_materials_unlit")) {
       // Unlit: the base colour as it is, whatever the light. A path tracer has no such surface;
       // the nearest is a Lambertian of the base colour (lit by the scene like any other).
@@ -750,6 +703,71 @@ class GltfImporter {
                                       Spectrum(float(emission.x), float(emission.y), float(emission.z)), m.doubleSided);
     out.interior = std::move(interior);
     return out;
+  }
+
+  // The pbrMetallicRoughness factors and textures, the normal and emissive textures, and a note
+  // of an occlusion texture, checked into `t`.
+  void coreFactorsAndTextures(const tinygltf::Material& m, const std::string& where, const std::string& label,
+                              MaterialTextures& t) {
+    PrincipledParams& f = t.factors;
+    const auto& pbr = m.pbrMetallicRoughness;
+    const std::string pbrWhere = where + ".pbrMetallicRoughness";
+    if (pbr.baseColorFactor.size() != 4) fail(pbrWhere + ".baseColorFactor", "must be 4 numbers");
+    for (int c = 0; c < 4; ++c) inRange(pbr.baseColorFactor[size_t(c)], 0.0, 1.0, pbrWhere + ".baseColorFactor");
+    f.baseColor = Spectrum(float(pbr.baseColorFactor[0]), float(pbr.baseColorFactor[1]), float(pbr.baseColorFactor[2]));
+    t.alphaFactor = float(pbr.baseColorFactor[3]);
+    f.metallic = float(inRange(pbr.metallicFactor, 0.0, 1.0, pbrWhere + ".metallicFactor"));
+    f.roughness = float(inRange(pbr.roughnessFactor, 0.0, 1.0, pbrWhere + ".roughnessFactor"));
+    if (pbr.baseColorTexture.index >= 0)
+      t.baseColor = textureRef(pbr.baseColorTexture, ColorEncoding::kSrgb, pbrWhere + ".baseColorTexture");
+    if (pbr.metallicRoughnessTexture.index >= 0)
+      t.metallicRoughness =
+          textureRef(pbr.metallicRoughnessTexture, ColorEncoding::kLinear, pbrWhere + ".metallicRoughnessTexture");
+    if (m.normalTexture.index >= 0) {
+      const tinygltf::NormalTextureInfo& n = m.normalTexture;
+      t.normal = textureRef(n.index, n.texCoord, n.extensions, ColorEncoding::kLinear, where + ".normalTexture");
+      if (!std::isfinite(n.scale)) fail(where + ".normalTexture.scale", "must be a finite number");
+      t.normalScale = float(n.scale);
+    }
+    if (m.emissiveTexture.index >= 0)
+      t.emissive = textureRef(m.emissiveTexture, ColorEncoding::kSrgb, where + ".emissiveTexture");
+    if (m.occlusionTexture.index >= 0) occluded_.push_back(label);
+  }
+
+  // The material's alphaMode (and alphaCutoff) into `t`; BLEND is noted as rendered as MASK.
+  void readAlphaMode(const tinygltf::Material& m, const std::string& where, const std::string& label,
+                     MaterialTextures& t) {
+    if (m.alphaMode == "MASK") {
+      t.alphaMode = AlphaMode::kMask;
+      t.alphaCutoff = float(inRange(m.alphaCutoff, 0.0, 1.0, where + ".alphaCutoff"));
+    } else if (m.alphaMode == "BLEND") {
+      t.alphaMode = AlphaMode::kBlend;
+      t.alphaCutoff = 0.5f;
+      model_.notes.push_back(label + ": alphaMode BLEND rendered as MASK with cutoff 0.5");
+    } else if (m.alphaMode != "OPAQUE") {
+      fail(where + ".alphaMode", "\"" + m.alphaMode + "\" is not OPAQUE, MASK or BLEND");
+    }
+  }
+
+  // KHR_materials_specular (object `e`, at `w`) into `f`: its factor and an untinted colour factor.
+  void specularExtension(const tinygltf::Value& e, const std::string& w, const std::string& label,
+                         PrincipledParams& f) {
+    f.specular = float(extensionNumber(e, "specularFactor", 1.0, 0.0, 1.0, w));
+    if (e.Has("specularTexture")) model_.notes.push_back(label + ": specularTexture ignored (specularFactor used)");
+    if (e.Has("specularColorFactor")) {
+      const tinygltf::Value& v = e.Get("specularColorFactor");
+      if (!v.IsArray() || v.ArrayLen() != 3) fail(w + ".specularColorFactor", "must be 3 numbers");
+      Spectrum c;
+      for (int k = 0; k < 3; ++k) {
+        if (!v.Get(k).IsNumber()) fail(w + ".specularColorFactor", "must be 3 numbers");
+        c[k] = float(inRange(v.Get(k).GetNumberAsDouble(), 0.0, 1e6, w + ".specularColorFactor"));
+      }
+      f.specularColor = luminance(c);  // F0 scaled, untinted
+      if (c.r != c.g || c.g != c.b)
+        model_.notes.push_back(label + ": specularColorFactor approximated: F0 is scaled by its luminance, untinted");
+    }
+    if (e.Has("specularColorTexture"))
+      model_.notes.push_back(label + ": specularColorTexture ignored (specularColorFactor used)");
   }
 
   // KHR_materials_volume: the absorbing medium behind a transmitting surface (docs/media.md):
@@ -1023,6 +1041,14 @@ class GltfImporter {
         d.uv[set][i] = Vec2(float(u), float(v));
       }
     }
+    noteIgnoredAttributes(prim, where);
+
+    triangles(prim.mode, primitiveVertices(prim, count, where), d.indices, where);
+    return d;
+  }
+
+  // Notes (once each) the primitive's attributes and morph targets that are not read.
+  void noteIgnoredAttributes(const tinygltf::Primitive& prim, const std::string& where) {
     for (const auto& [name, index] : prim.attributes) {
       (void)index;
       if (name.rfind("TEXCOORD_", 0) == 0 && name != "TEXCOORD_0" && name != "TEXCOORD_1")
@@ -1030,7 +1056,11 @@ class GltfImporter {
       if (name.rfind("COLOR_", 0) == 0) noteOnce("color", where + ": vertex colours (" + name + ") ignored");
     }
     if (!prim.targets.empty()) noteOnce("targets", where + ": morph targets ignored (the base shape is rendered)");
+  }
 
+  // The primitive's vertex indices in primitive order, before its mode makes triangles: its
+  // indices accessor, each checked against `count` positions, or else 0 to count - 1.
+  std::vector<uint32_t> primitiveVertices(const tinygltf::Primitive& prim, size_t count, const std::string& where) {
     std::vector<uint32_t> vertices;  // in primitive order, before the mode makes triangles
     if (prim.indices != -1) {
       const AccessorData a = accessor(prim.indices, Semantic::kIndices, "indices", where);
@@ -1046,8 +1076,7 @@ class GltfImporter {
       vertices.resize(count);
       for (size_t k = 0; k < count; ++k) vertices[k] = uint32_t(k);
     }
-    triangles(prim.mode, std::move(vertices), d.indices, where);
-    return d;
+    return vertices;
   }
 
   // glTF 2.0 §3.7.2.1: TRIANGLES (4) as they are; TRIANGLE_STRIP (5) {v_i, v_(i+1+i%2),

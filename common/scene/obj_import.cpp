@@ -255,23 +255,7 @@ class MaterialBuilder {
     // Textures.
     const TextureRef kdMap = texture("map_Kd", m.diffuse_texname, m.diffuse_texopt, ColorEncoding::kSrgb);
     t->baseColor = kdMap;
-    const bool hasAlphaMap = !m.alpha_texname.empty();
-    if (glass && (d < 1.0f || hasAlphaMap)) {
-      note("d / map_d ignored: glass (illum " + std::to_string(illum) + ") is rendered as transmission");
-    } else if (d < 1.0f || hasAlphaMap) {
-      if (d < 0.0f || d > 1.0f) throw error(dKey, "dissolve " + shortNumber(d) + " is outside [0, 1]");
-      t->alphaFactor = d;
-      t->alphaMode = AlphaMode::kMask;
-      t->alphaCutoff = 0.5f;
-      if (hasAlphaMap) {
-        const TextureRef alpha = texture("map_d", m.alpha_texname, m.alpha_texopt, ColorEncoding::kLinear);
-        t->baseColor = combine(kdMap, {alpha, channelOf(m.alpha_texopt, alpha)}, -1, "map_Kd+map_d",
-                               wrapOf(kdMap ? m.diffuse_texopt : m.alpha_texopt));
-      }
-      note("dissolve " + shortNumber(d) + " (" + dKey + ")" + (hasAlphaMap ? " with map_d" : "") +
-           ": rendered as a cut-out, fully transparent where alpha < 0.5 and opaque elsewhere" +
-           (d == 0.0f && !hasAlphaMap ? " (here: invisible; some exporters write Tr 1 meaning opaque)" : ""));
-    }
+    dissolve(m, glass, illum, d, dKey, kdMap, *t);
     if (!m.roughness_texname.empty() || !m.metallic_texname.empty()) {
       const TextureRef pr = texture("map_Pr", m.roughness_texname, m.roughness_texopt, ColorEncoding::kLinear);
       const TextureRef pm = texture("map_Pm", m.metallic_texname, m.metallic_texopt, ColorEncoding::kLinear);
@@ -287,6 +271,37 @@ class MaterialBuilder {
       t->emissive = texture("map_Ke", m.emissive_texname, m.emissive_texopt, ColorEncoding::kSrgb);
     }
     const Spectrum emission = has("Ke") ? ke : Spectrum(t->emissive ? 1.0f : 0.0f);
+    noteIgnoredMaps(m);
+    if (illum > 10 || illum < 0) note("illum " + std::to_string(illum) + " unknown: rendered as illum 2");
+    return Material::textured(m.name, std::move(t), emission);
+  }
+
+ private:
+  // Dissolve (`d`, from statement `dKey`, and map_d) as a cut-out in `t`'s alpha; noted as
+  // ignored on glass.
+  void dissolve(const tinyobj::material_t& m, bool glass, int illum, float d, const std::string& dKey,
+                const TextureRef& kdMap, MaterialTextures& t) {
+    const bool hasAlphaMap = !m.alpha_texname.empty();
+    if (glass && (d < 1.0f || hasAlphaMap)) {
+      note("d / map_d ignored: glass (illum " + std::to_string(illum) + ") is rendered as transmission");
+    } else if (d < 1.0f || hasAlphaMap) {
+      if (d < 0.0f || d > 1.0f) throw error(dKey, "dissolve " + shortNumber(d) + " is outside [0, 1]");
+      t.alphaFactor = d;
+      t.alphaMode = AlphaMode::kMask;
+      t.alphaCutoff = 0.5f;
+      if (hasAlphaMap) {
+        const TextureRef alpha = texture("map_d", m.alpha_texname, m.alpha_texopt, ColorEncoding::kLinear);
+        t.baseColor = combine(kdMap, {alpha, channelOf(m.alpha_texopt, alpha)}, -1, "map_Kd+map_d",
+                              wrapOf(kdMap ? m.diffuse_texopt : m.alpha_texopt));
+      }
+      note("dissolve " + shortNumber(d) + " (" + dKey + ")" + (hasAlphaMap ? " with map_d" : "") +
+           ": rendered as a cut-out, fully transparent where alpha < 0.5 and opaque elsewhere" +
+           (d == 0.0f && !hasAlphaMap ? " (here: invisible; some exporters write Tr 1 meaning opaque)" : ""));
+    }
+  }
+
+  // Notes each map this importer does not read (map_Ka, map_Ks, map_Ns, disp, refl, map_Ps).
+  void noteIgnoredMaps(const tinyobj::material_t& m) {
     for (const auto& [key, name] : {std::pair<const char*, const std::string*>{"map_Ka", &m.ambient_texname},
                                     {"map_Ks", &m.specular_texname},
                                     {"map_Ns", &m.specular_highlight_texname},
@@ -294,11 +309,8 @@ class MaterialBuilder {
                                     {"refl", &m.reflection_texname},
                                     {"map_Ps", &m.sheen_texname}})
       if (!name->empty()) note(std::string(key) + " " + quote(*name) + " ignored (not supported)");
-    if (illum > 10 || illum < 0) note("illum " + std::to_string(illum) + " unknown: rendered as illum 2");
-    return Material::textured(m.name, std::move(t), emission);
   }
 
- private:
   bool has(const std::string& key) const { return lines_->count(key) > 0; }
   std::string at(const std::string& key) const {
     const auto it = lines_->find(key);
@@ -525,25 +537,20 @@ class ConsumingStreamBuf : public std::streambuf {
   uintptr_t released_;  // pages below this address (from the first whole page of the text) are released
 };
 
-}  // namespace
+// ---------------------------------------------------------------------------------------------
+// The import, step by step (importCheckedObj).
 
-ImportedObj importObj(const std::string& text, const std::string& shown, const ModelFileReader& read) {
-  // tinyobjloader skips what it does not understand: check first that this is an OBJ at all.
-  ObjCheck check = checkObjText(text);
-  if (!check.ok()) throw InputError(shown, check.problem);
-  return importCheckedObj(std::move(check.text), shown, read);
-}
-
-ImportedObj importCheckedObj(std::string text, const std::string& shown, const ModelFileReader& read) {
-  const ObjScan scan = scanObj(text, shown);
-  ImportedObj result;
-  ImportedModel& model = result.model;
-
-  // The material libraries, read through the reader relative to the OBJ file.
+// The MTL libraries an OBJ names, each read through the reader relative to the OBJ file and
+// parsed by tinyobjloader before the OBJ is: a missing one is an error naming its mtllib line.
+struct ObjMaterials {
   std::vector<tinyobj::material_t> materials;
   std::map<std::string, int> materialIndex;
   std::vector<MtlLibrary> libraries;
   std::vector<size_t> libraryOf;  // per material
+};
+
+ObjMaterials readMtlLibraries(const ObjScan& scan, const std::string& shown, const ModelFileReader& read) {
+  ObjMaterials out;
   for (const ObjScan::Library& library : scan.libraries) {
     const std::optional<std::string> bytes = read(library.name);
     MtlLibrary lib;
@@ -564,29 +571,99 @@ ImportedObj importCheckedObj(std::string text, const std::string& shown, const M
     });
     std::istringstream stream(mtl);
     std::string warn, err;
-    tinyobj::LoadMtl(&materialIndex, &materials, &stream, &warn, &err);
-    libraryOf.resize(materials.size(), libraries.size());
-    libraries.push_back(std::move(lib));
+    tinyobj::LoadMtl(&out.materialIndex, &out.materials, &stream, &warn, &err);
+    out.libraryOf.resize(out.materials.size(), out.libraries.size());
+    out.libraries.push_back(std::move(lib));
   }
+  return out;
+}
 
-  tinyobj::attrib_t attrib;
-  std::vector<tinyobj::shape_t> shapes;
+// The OBJ text parsed by tinyobjloader (triangulated) into `attrib` and `shapes`, with the
+// materials read beforehand; the text's memory is handed back as it is read, and the rest after.
+void loadObj(std::string& text, const std::string& shown, const ObjMaterials& mtl, tinyobj::attrib_t& attrib,
+             std::vector<tinyobj::shape_t>& shapes) {
   std::vector<tinyobj::material_t> parsedMaterials;
   std::string warn, err;
   {
     ConsumingStreamBuf buffer(text);
     std::istream stream(&buffer);
-    PreloadedMaterials reader(materials, materialIndex);
+    PreloadedMaterials reader(mtl.materials, mtl.materialIndex);
     if (!tinyobj::LoadObj(&attrib, &shapes, &parsedMaterials, &warn, &err, &stream, &reader, /*triangulate=*/true,
                           /*default_vcols_fallback=*/false))
       throw InputError(shown, "not a valid OBJ file: " + err);
   }
   std::string().swap(text);  // parsed (and released as it was read): the rest goes now
-  for (const std::string& name : scan.materialNames)
-    if (!materialIndex.count(name))
-      model.notes.push_back("usemtl " + quote(name) +
-                            " names no material of the mtllib files: the scene's material is used");
+}
 
+// Vertex v's position (0-based), in double as it is in the file.
+DVec3 objPosition(const tinyobj::attrib_t& attrib, int v) {
+  return DVec3(attrib.vertices[3 * size_t(v)], attrib.vertices[3 * size_t(v) + 1], attrib.vertices[3 * size_t(v) + 2]);
+}
+
+// The triangle's own normal, for corners without one (a unit vector even at zero area).
+Vec3 faceNormal(const tinyobj::attrib_t& attrib, const tinyobj::index_t* corner) {
+  const DVec3 p0 = objPosition(attrib, corner[0].vertex_index);
+  const DVec3 cross =
+      glm::cross(objPosition(attrib, corner[1].vertex_index) - p0, objPosition(attrib, corner[2].vertex_index) - p0);
+  return glm::length(cross) > 0.0 ? Vec3(glm::normalize(cross)) : Vec3(0.0f, 0.0f, 1.0f);
+}
+
+// The three corners of a triangle of a file whose faces have vt or vn: each distinct (v, vt, vn)
+// is one vertex, made once; a corner without a normal (or with a zero one) takes the face's
+// normal on a vertex of its own, and one without vt reads uv (0, 0). The triangles with such
+// corners are counted.
+void addCornerTriangle(const ObjScan& scan, const tinyobj::attrib_t& attrib, const tinyobj::index_t* corner,
+                       CornerVertices& corners, MeshInput& in, size_t& withoutTexcoords, size_t& withoutNormals) {
+  TriangleMesh& mesh = in.mesh;
+  bool missingTexcoord = false, missingNormal = false;
+  for (size_t c = 0; c < 3; ++c) {
+    const tinyobj::index_t& index = corner[c];
+    Vec3 normal(0.0f);
+    bool ownNormal = false;  // this corner takes the face's normal: not shared
+    if (scan.faceNormals) {
+      if (index.normal_index >= 0) {
+        const size_t n = 3 * size_t(index.normal_index);
+        normal = Vec3(float(attrib.normals[n]), float(attrib.normals[n + 1]), float(attrib.normals[n + 2]));
+      }
+      if (!(glm::length(normal) > 0.0f)) {
+        normal = faceNormal(attrib, corner);
+        ownNormal = missingNormal = true;
+      }
+    }
+    if (!ownNormal) {
+      if (const uint32_t made = corners.find(index.vertex_index, index.texcoord_index, index.normal_index);
+          made != CornerVertices::kNone) {
+        mesh.indices.push_back(made);
+        continue;
+      }
+    }
+    const uint32_t vertex = uint32_t(in.positions.size());
+    if (!ownNormal) corners.add(index.vertex_index, index.texcoord_index, index.normal_index, vertex);
+    in.positions.push_back(objPosition(attrib, index.vertex_index));
+    if (scan.faceNormals) mesh.normals.push_back(normal);
+    if (scan.faceTexcoords) {
+      Vec2 uv(0.0f);
+      if (index.texcoord_index >= 0) {
+        const size_t t = 2 * size_t(index.texcoord_index);
+        uv = Vec2(float(attrib.texcoords[t]), float(1.0 - attrib.texcoords[t + 1]));
+      } else {
+        missingTexcoord = true;
+      }
+      mesh.uv[0].push_back(uv);
+    }
+    mesh.indices.push_back(vertex);
+  }
+  withoutTexcoords += missingTexcoord;
+  withoutNormals += missingNormal;
+}
+
+// The whole file as one mesh, model.meshes[0], its triangles in file order with their groups and
+// materials (tinyobjloader's material index -> its number in the order of first use, in
+// `usedMaterials`); every vertex finite and every face reference defined; the model's bounds.
+void buildObjMesh(const ObjScan& scan, const tinyobj::attrib_t& attrib, const std::vector<tinyobj::shape_t>& shapes,
+                  size_t materialCount, const std::string& shown, ImportedObj& result,
+                  std::map<int, uint32_t>& usedMaterials) {
+  ImportedModel& model = result.model;
   // Positions in double, as they are in the file.
   for (size_t k = 0; k < attrib.vertices.size(); k += 3) {
     const DVec3 v(attrib.vertices[k], attrib.vertices[k + 1], attrib.vertices[k + 2]);
@@ -595,20 +672,15 @@ ImportedObj importCheckedObj(std::string text, const std::string& shown, const M
   }
   const size_t vertexCount = attrib.vertices.size() / 3, texcoordCount = attrib.texcoords.size() / 2,
                normalCount = attrib.normals.size() / 3;
-  auto position = [&](int v) {
-    return DVec3(attrib.vertices[3 * size_t(v)], attrib.vertices[3 * size_t(v) + 1],
-                 attrib.vertices[3 * size_t(v) + 2]);
-  };
 
   model.meshes.emplace_back();
   MeshInput& in = model.meshes.back();
   TriangleMesh& mesh = in.mesh;
   const bool byCorner = scan.faceTexcoords || scan.faceNormals;
   if (!byCorner)
-    for (size_t v = 0; v < vertexCount; ++v) in.positions.push_back(position(int(v)));
+    for (size_t v = 0; v < vertexCount; ++v) in.positions.push_back(objPosition(attrib, int(v)));
   CornerVertices corners(byCorner ? vertexCount : 0);
   size_t withoutTexcoords = 0, withoutNormals = 0;
-  std::map<int, uint32_t> usedMaterials;  // tinyobjloader's index -> model.materials
   for (const tinyobj::shape_t& shape : shapes) {
     const uint32_t group = uint32_t(result.groupNames.size());
     result.groupNames.push_back(shape.name);
@@ -626,57 +698,11 @@ ImportedObj importCheckedObj(std::string text, const std::string& shown, const M
       if (!byCorner) {
         for (size_t c = 0; c < 3; ++c) mesh.indices.push_back(uint32_t(indices[3 * tri + c].vertex_index));
       } else {
-        // The triangle's own normal, for corners without one (a unit vector even at zero area).
-        auto faceNormal = [&]() {
-          const DVec3 p0 = position(indices[3 * tri].vertex_index);
-          const DVec3 cross = glm::cross(position(indices[3 * tri + 1].vertex_index) - p0,
-                                         position(indices[3 * tri + 2].vertex_index) - p0);
-          return glm::length(cross) > 0.0 ? Vec3(glm::normalize(cross)) : Vec3(0.0f, 0.0f, 1.0f);
-        };
-        bool missingTexcoord = false, missingNormal = false;
-        for (size_t c = 0; c < 3; ++c) {
-          const tinyobj::index_t& index = indices[3 * tri + c];
-          Vec3 normal(0.0f);
-          bool ownNormal = false;  // this corner takes the face's normal: not shared
-          if (scan.faceNormals) {
-            if (index.normal_index >= 0) {
-              const size_t n = 3 * size_t(index.normal_index);
-              normal = Vec3(float(attrib.normals[n]), float(attrib.normals[n + 1]), float(attrib.normals[n + 2]));
-            }
-            if (!(glm::length(normal) > 0.0f)) {
-              normal = faceNormal();
-              ownNormal = missingNormal = true;
-            }
-          }
-          if (!ownNormal) {
-            if (const uint32_t made = corners.find(index.vertex_index, index.texcoord_index, index.normal_index);
-                made != CornerVertices::kNone) {
-              mesh.indices.push_back(made);
-              continue;
-            }
-          }
-          const uint32_t vertex = uint32_t(in.positions.size());
-          if (!ownNormal) corners.add(index.vertex_index, index.texcoord_index, index.normal_index, vertex);
-          in.positions.push_back(position(index.vertex_index));
-          if (scan.faceNormals) mesh.normals.push_back(normal);
-          if (scan.faceTexcoords) {
-            Vec2 uv(0.0f);
-            if (index.texcoord_index >= 0) {
-              const size_t t = 2 * size_t(index.texcoord_index);
-              uv = Vec2(float(attrib.texcoords[t]), float(1.0 - attrib.texcoords[t + 1]));
-            } else {
-              missingTexcoord = true;
-            }
-            mesh.uv[0].push_back(uv);
-          }
-          mesh.indices.push_back(vertex);
-        }
-        withoutTexcoords += missingTexcoord;
-        withoutNormals += missingNormal;
+        addCornerTriangle(scan, attrib, &indices[3 * tri], corners, in, withoutTexcoords, withoutNormals);
       }
       const int material = tri < shape.mesh.material_ids.size() ? shape.mesh.material_ids[tri] : -1;
       uint32_t id = kNoObjMaterial;
-      if (material >= 0 && size_t(material) < materials.size())
+      if (material >= 0 && size_t(material) < materialCount)
         id = usedMaterials.emplace(material, uint32_t(usedMaterials.size())).first->second;
       mesh.materialIds.push_back(id);
       result.triangleGroups.push_back(group);
@@ -693,13 +719,42 @@ ImportedObj importCheckedObj(std::string text, const std::string& shown, const M
     model.lo = glm::min(model.lo, p);
     model.hi = glm::max(model.hi, p);
   }
+}
+
+}  // namespace
+
+ImportedObj importObj(const std::string& text, const std::string& shown, const ModelFileReader& read) {
+  // tinyobjloader skips what it does not understand: check first that this is an OBJ at all.
+  ObjCheck check = checkObjText(text);
+  if (!check.ok()) throw InputError(shown, check.problem);
+  return importCheckedObj(std::move(check.text), shown, read);
+}
+
+ImportedObj importCheckedObj(std::string text, const std::string& shown, const ModelFileReader& read) {
+  const ObjScan scan = scanObj(text, shown);
+  ImportedObj result;
+  ImportedModel& model = result.model;
+
+  // The material libraries, read through the reader relative to the OBJ file.
+  const ObjMaterials mtl = readMtlLibraries(scan, shown, read);
+
+  tinyobj::attrib_t attrib;
+  std::vector<tinyobj::shape_t> shapes;
+  loadObj(text, shown, mtl, attrib, shapes);
+  for (const std::string& name : scan.materialNames)
+    if (!mtl.materialIndex.count(name))
+      model.notes.push_back("usemtl " + quote(name) +
+                            " names no material of the mtllib files: the scene's material is used");
+
+  std::map<int, uint32_t> usedMaterials;  // tinyobjloader's index -> model.materials
+  buildObjMesh(scan, attrib, shapes, mtl.materials.size(), shown, result, usedMaterials);
 
   // The materials the triangles use, in the order of first use.
   std::vector<std::pair<int, uint32_t>> order(usedMaterials.begin(), usedMaterials.end());
   std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
   MaterialBuilder builder(read, directoryOf(shown), model.notes);
   for (const auto& [index, id] : order)
-    model.materials.push_back(builder.build(materials[size_t(index)], libraries[libraryOf[size_t(index)]]));
+    model.materials.push_back(builder.build(mtl.materials[size_t(index)], mtl.libraries[mtl.libraryOf[size_t(index)]]));
   return result;
 }
 

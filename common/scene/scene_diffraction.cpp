@@ -3,37 +3,44 @@
 #include <cmath>
 
 #include "common/camera/aperture.h"
+#include "common/scene/scene_camera.h"
 
 namespace lensfarm {
 
-DiffractionOptics diffractionOpticsOf(const Scene& scene) {
+namespace {
+
+// The optics of `camera`, the scene's declared one: its exit pupil (camera/camera.h) and cells.
+DiffractionOptics opticsOf(const Scene& scene, const Camera& camera, const ExitPupil& pupil) {
   DiffractionOptics o;
   o.width = scene.render.width;
   o.height = scene.render.height;
-  const ThinLensCamera camera = scene.camera();
-  double unitsPerMm = scene.diffraction ? scene.diffraction->sceneUnitsPerMm : 0.001;
-  if (const auto real = scene.realLensCamera()) {
-    // The real lens's stop is round; the PSF scale comes from its exit pupil and film (mm).
-    const LensSystem::Paraxial p = real->lens().paraxial();
-    o.workingFNumber = (real->filmZ() - p.exitPupilZ) / p.exitPupilDiameter;
-    unitsPerMm = scene.realLens->sceneUnitsPerMm;
-  } else {
-    o.blades = camera.params().apertureBlades;
-    o.rotation = camera.params().apertureRotation * std::acos(-1.0) / 180.0;
-    o.workingFNumber = camera.imageDistance() / (2.0 * camera.lensRadius());
-  }
-  o.pixelWidthMm = camera.params().sensorWidth / o.width / unitsPerMm;
-  o.pixelHeightMm = camera.params().sensorHeight / o.height / unitsPerMm;
+  o.blades = pupil.shape.spec().blades;
+  o.rotation = pupil.shape.spec().rotationDegrees * std::acos(-1.0) / 180.0;
+  o.workingFNumber = pupil.workingFNumber;
+  // Millimetres for the PSF: a real lens's prescription sets the scene's unit; otherwise the
+  // scene's camera.diffraction says it.
+  const double unitsPerMm = scene.realLens      ? scene.realLens->sceneUnitsPerMm
+                            : scene.diffraction ? scene.diffraction->sceneUnitsPerMm
+                                                : 0.001;
+  const ThinLensParams& lens = camera.paraxial().params();
+  o.pixelWidthMm = lens.sensorWidth / o.width / unitsPerMm;
+  o.pixelHeightMm = lens.sensorHeight / o.height / unitsPerMm;
   return o;
+}
+
+}  // namespace
+
+DiffractionOptics diffractionOpticsOf(const Scene& scene) {
+  const std::unique_ptr<const Camera> camera = declaredCamera(scene);
+  return opticsOf(scene, *camera, camera->exitPupil());
 }
 
 std::shared_ptr<const DiffractionKernel> diffractionKernelFor(const Scene& scene) {
   if (!scene.diffraction) return nullptr;
-  const DiffractionOptics optics = diffractionOpticsOf(scene);
-  // A real lens's stop is round; a thin lens's aperture is its shape (blades, curvature, image).
-  const Aperture pupil = scene.realLens ? Aperture() : scene.camera().aperture();
-  return std::make_shared<const DiffractionKernel>(
-      diffractionKernel(fraunhoferPattern(pupil), optics, scene.diffraction->wavelengthsPerChannel));
+  const std::unique_ptr<const Camera> camera = declaredCamera(scene);
+  const ExitPupil pupil = camera->exitPupil();
+  return std::make_shared<const DiffractionKernel>(diffractionKernel(
+      fraunhoferPattern(pupil.shape), opticsOf(scene, *camera, pupil), scene.diffraction->wavelengthsPerChannel));
 }
 
 }  // namespace lensfarm

@@ -1,10 +1,12 @@
 // The house rules, checked on the sources (docs/architecture.md): every include names its path
 // from the repository root; common/'s folders include only the layers below them; common/ knows
-// nothing of the network or of the services; coordinator/ and worker/ never include each other.
+// nothing of the network or of the services; coordinator/ and worker/ never include each other;
+// coordinator/'s folders include only the folders below them (store < core < rpc, web).
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <regex>
 #include <set>
 
@@ -34,8 +36,8 @@ std::vector<std::pair<std::string, std::string>> includesIn(const std::string& f
 // The layers of common/, lowest first (common/CMakeLists.txt builds each into its own library):
 // a folder includes only folders before it. Folders on one rung may not include each other.
 const std::vector<std::vector<std::string>> kLayers = {
-    {"math"},  {"util"},   {"texture"}, {"camera", "medium"}, {"film", "material"}, {"light"},
-    {"scene"}, {"render"}, {"farm"}};
+    {"math"},  {"util"},  {"texture"},       {"camera", "medium"}, {"film", "material"},
+    {"light"}, {"scene"}, {"render", "farm"}};
 
 int rungOf(const std::string& folder) {
   for (size_t i = 0; i < kLayers.size(); ++i)
@@ -85,7 +87,7 @@ TEST(IncludeRules, CommonIncludesOnlyTheLayersBelow) {
     ++checked;
     EXPECT_LT(rungOf(to), rungOf(from)) << file << " includes " << header << ": common/" << from
                                         << " may include only the layers below it (math < util < texture < camera, "
-                                           "medium < film, material < light < scene < render < farm)";
+                                           "medium < film, material < light < scene < render, farm)";
   }
   EXPECT_GT(checked, 100u);
 }
@@ -113,6 +115,47 @@ TEST(IncludeRules, CoordinatorAndWorkerMeetOnlyInProtoAndCommon) {
     ++checked;
   }
   EXPECT_GT(checked, 50u);
+}
+
+// The coordinator knows scenes, films and the farm's vocabulary, never the tracer: it links no
+// Embree and no integrator (common/CMakeLists.txt: farm sits beside render, not above it).
+TEST(IncludeRules, TheCoordinatorAndTheProtocolIncludeNoTracer) {
+  size_t checked = 0;
+  for (const char* root : {"coordinator", "proto", "common/farm"})
+    for (const auto& [file, header] : includesIn(root)) {
+      EXPECT_NE(header.rfind("common/render/", 0), 0u) << file << " includes the tracer's " << header;
+      ++checked;
+    }
+  EXPECT_GT(checked, 100u);
+}
+
+// The folders of coordinator/, lowest first (coordinator/CMakeLists.txt builds each into its own
+// library): store/ (durable state) < core/ (Coordinator) < rpc/ (gRPC services), web/ (dashboard
+// and HTTP servers). rpc/ and web/ share a rung and do not include each other; main.cpp uses all.
+TEST(IncludeRules, CoordinatorFoldersIncludeOnlyTheFoldersBelow) {
+  const std::map<std::string, int> rung{{"store", 0}, {"core", 1}, {"rpc", 2}, {"web", 2}};
+  // "coordinator/core/coordinator.h" -> "core"; "" for anything else (coordinator/main.cpp too).
+  const auto folderOf = [](const std::string& path) -> std::string {
+    const std::string prefix = "coordinator/";
+    if (path.rfind(prefix, 0) != 0) return "";
+    const size_t slash = path.find('/', prefix.size());
+    return slash == std::string::npos ? "" : path.substr(prefix.size(), slash - prefix.size());
+  };
+  for (const auto& entry : fs::directory_iterator(test::sourceDir() / "coordinator")) {
+    if (!entry.is_directory()) continue;
+    EXPECT_TRUE(rung.count(entry.path().filename().string())) << entry.path() << " has no rung";
+  }
+  size_t checked = 0;
+  for (const auto& [file, header] : includesIn("coordinator")) {
+    const std::string from = folderOf(fs::relative(file, test::sourceDir()).generic_string());
+    const std::string to = folderOf(header);
+    if (from.empty() || to.empty() || to == from) continue;
+    ++checked;
+    ASSERT_TRUE(rung.count(to)) << file << " includes " << header << ", in no folder of coordinator/";
+    EXPECT_LT(rung.at(to), rung.at(from)) << file << " includes " << header << ": coordinator/" << from
+                                          << " may include only the folders below it (store < core < rpc, web)";
+  }
+  EXPECT_GT(checked, 10u);
 }
 
 }  // namespace

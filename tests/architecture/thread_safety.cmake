@@ -1,7 +1,7 @@
-# Compiles every source of coordinator/ with Clang's thread-safety analysis (-Wthread-safety), from
-# the build's own compile commands (compile_commands.json: the same flags and include paths),
-# syntax only, every other warning off. Fails on the first source whose locking breaks its
-# annotations (coordinator/locking.h). Run by CTest as ThreadSafety.CoordinatorLockingIsCheckedByClang:
+# Compiles every source of coordinator/ (main.cpp and the sources of core/, store/, rpc/ and web/)
+# with Clang's thread-safety analysis (-Wthread-safety), from the build's own compile commands
+# (compile_commands.json: the same flags and include paths), syntax only, every other warning off. Fails on the first source whose locking breaks its
+# annotations (coordinator/core/locking.h). Run by CTest as ThreadSafety.CoordinatorLockingIsCheckedByClang:
 #   cmake -DCLANG=clang++ -DCOMMANDS=build/compile_commands.json -DSOURCES=<root>/coordinator -P thread_safety.cmake
 file(READ "${COMMANDS}" commands)
 string(JSON count LENGTH "${commands}")
@@ -9,7 +9,7 @@ math(EXPR last "${count} - 1")
 set(checked 0)
 foreach(i RANGE ${last})
   string(JSON file GET "${commands}" ${i} file)
-  if(NOT file MATCHES "^${SOURCES}/[^/]+\\.cpp$")
+  if(NOT file MATCHES "^${SOURCES}/(.+/)?[^/]+\\.cpp$")  # main.cpp and core/, store/, rpc/, web/
     continue()
   endif()
   string(JSON directory GET "${commands}" ${i} directory)

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "coordinator/service.h"
+#include "coordinator/rpc/service.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
 #include "tests/coordinator/audit_views.h"
 #include "tests/test_support.h"

@@ -15,7 +15,7 @@
 #include "common/scene/render_overrides.h"
 #include "common/scene/scene_loader.h"
 #include "common/util/error.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"
 

@@ -4,7 +4,7 @@
 // layers. No network: the plain Coordinator class.
 #include <gtest/gtest.h>
 
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"
 

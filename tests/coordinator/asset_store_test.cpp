@@ -5,8 +5,8 @@
 
 #include "common/util/error.h"
 #include "common/util/hash.h"
-#include "coordinator/coordinator.h"
-#include "coordinator/metrics.h"
+#include "coordinator/core/coordinator.h"
+#include "coordinator/core/metrics.h"
 #include "tests/deploy_support.h"
 #include "tests/test_support.h"
 

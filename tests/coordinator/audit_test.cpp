@@ -8,10 +8,10 @@
 #include <set>
 #include <thread>
 
-#include "coordinator/accumulator.h"
-#include "coordinator/audit.h"
-#include "coordinator/coordinator.h"
-#include "coordinator/job_units.h"
+#include "coordinator/core/accumulator.h"
+#include "coordinator/core/audit.h"
+#include "coordinator/core/coordinator.h"
+#include "coordinator/core/job_units.h"
 #include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"
 

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "common/util/version.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 
 namespace lensfarm::test {
 

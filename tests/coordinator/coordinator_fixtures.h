@@ -9,7 +9,7 @@
 
 #include "common/util/error.h"
 #include "common/util/version.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 
 namespace lensfarm::test {
 

@@ -10,7 +10,7 @@
 
 #include "common/util/error.h"
 #include "common/util/version.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"
 

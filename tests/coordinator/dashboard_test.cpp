@@ -4,8 +4,8 @@
 
 #include "common/util/error.h"
 #include "common/util/version.h"
-#include "coordinator/coordinator.h"
-#include "coordinator/dashboard.h"
+#include "coordinator/core/coordinator.h"
+#include "coordinator/web/dashboard.h"
 #include "tests/coordinator/audit_views.h"
 #include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"

@@ -6,7 +6,7 @@
 #include "common/film/psf_convolution.h"
 #include "common/film/sensor.h"
 #include "common/scene/scene_diffraction.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"
 

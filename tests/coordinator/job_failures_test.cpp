@@ -1,5 +1,5 @@
-// The rules of a job's failures (coordinator/job_failures.h), on the record alone.
-#include "coordinator/job_failures.h"
+// The rules of a job's failures (coordinator/core/job_failures.h), on the record alone.
+#include "coordinator/core/job_failures.h"
 
 #include <gtest/gtest.h>
 

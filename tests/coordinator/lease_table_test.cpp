@@ -1,7 +1,7 @@
-// LeaseTable (coordinator/lease_table.h): lease ids say nothing of one another (random, 53 bits,
+// LeaseTable (coordinator/core/lease_table.h): lease ids say nothing of one another (random, 53 bits,
 // never 0, never one held now), and no lease outlives its longest end however often it is
 // extended, nor is extended by a worker that does not hold it.
-#include "coordinator/lease_table.h"
+#include "coordinator/core/lease_table.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// The job life cycle (coordinator/lifecycle.cpp, docs/farm.md "Job life cycle"): deleting,
+// The job life cycle (coordinator/core/lifecycle.cpp, docs/farm.md "Job life cycle"): deleting,
 // archiving, the retention policy and list filters, on a plain Coordinator (no network), with
 // results of known sums so that accumulation needs no rendering.
 #include <gtest/gtest.h>
@@ -8,7 +8,7 @@
 #include <thread>
 
 #include "common/util/error.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"
 

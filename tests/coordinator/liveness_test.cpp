@@ -8,9 +8,9 @@
 #include "common/scene/scene_loader.h"
 #include "common/util/error.h"
 #include "common/util/version.h"
-#include "coordinator/coordinator.h"
-#include "coordinator/dashboard.h"
-#include "coordinator/metrics.h"
+#include "coordinator/core/coordinator.h"
+#include "coordinator/core/metrics.h"
+#include "coordinator/web/dashboard.h"
 #include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"
 

@@ -4,8 +4,8 @@
 #include <gtest/gtest.h>
 
 #include "common/util/version.h"
-#include "coordinator/coordinator.h"
-#include "coordinator/metrics.h"
+#include "coordinator/core/coordinator.h"
+#include "coordinator/core/metrics.h"
 #include "tests/coordinator/audit_views.h"
 #include "tests/deploy_support.h"
 

@@ -3,7 +3,7 @@
 // field of the cross-worker audit (docs/farm.md "Audit") is seen to arrive.
 #include <gtest/gtest.h>
 
-#include "coordinator/service.h"
+#include "coordinator/rpc/service.h"
 #include "tests/coordinator/audit_views.h"
 
 namespace lensfarm {

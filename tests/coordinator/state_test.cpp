@@ -5,7 +5,7 @@
 #include <filesystem>
 
 #include "common/util/version.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"
 

@@ -6,7 +6,7 @@
 #include <random>
 
 #include "common/util/version.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "tests/test_support.h"
 
 namespace lensfarm {

@@ -7,8 +7,8 @@
 #include <limits>
 
 #include "common/util/error.h"
-#include "coordinator/coordinator.h"
-#include "coordinator/service.h"
+#include "coordinator/core/coordinator.h"
+#include "coordinator/rpc/service.h"
 #include "tests/test_support.h"
 
 namespace lensfarm {

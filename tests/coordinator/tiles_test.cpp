@@ -1,4 +1,4 @@
-// Tiles and frames (farm/job_layout.h, coordinator/tile_film.h, docs/farm.md "Tiles and passes"):
+// Tiles and frames (farm/job_layout.h, coordinator/core/tile_film.h, docs/farm.md "Tiles and passes"):
 // a tiled job gives the same bits as the same job in passes, whatever order tiles arrive in;
 // an animation's frames survive a restart; bad layouts are refused with one clear error.
 #include <gtest/gtest.h>
@@ -16,7 +16,7 @@
 #include "common/scene/render_overrides.h"
 #include "common/scene/scene_loader.h"
 #include "common/util/error.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"
 

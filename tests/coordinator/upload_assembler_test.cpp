@@ -6,7 +6,7 @@
 #include <string>
 
 #include "common/farm/sums_codec.h"
-#include "coordinator/upload_assembler.h"
+#include "coordinator/rpc/upload_assembler.h"
 
 namespace lensfarm {
 namespace {

@@ -1,5 +1,5 @@
-// The rules of a worker's identity (coordinator/worker_registry.h), on the registry alone.
-#include "coordinator/worker_registry.h"
+// The rules of a worker's identity (coordinator/core/worker_registry.h), on the registry alone.
+#include "coordinator/core/worker_registry.h"
 
 #include <gtest/gtest.h>
 

@@ -11,8 +11,8 @@
 #include <optional>
 
 #include "common/util/hash.h"
-#include "coordinator/coordinator.h"
-#include "coordinator/service.h"
+#include "coordinator/core/coordinator.h"
+#include "coordinator/rpc/service.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
 #include "tests/deploy_support.h"
 #include "tests/test_support.h"

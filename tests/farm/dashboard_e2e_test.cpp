@@ -21,7 +21,7 @@
 
 #include "common/film/image.h"
 #include "common/film/image_io.h"
-#include "coordinator/dashboard.h"
+#include "coordinator/web/dashboard.h"
 #include "tests/coordinator/audit_views.h"
 #include "tests/deploy_support.h"
 
@@ -228,7 +228,7 @@ TEST_F(DashboardFarm, ApiNeedsTheClientTokenAndThePageIsPublic) {
     EXPECT_EQ(page.status, 200) << path;
     EXPECT_EQ(page.contentType.rfind(type, 0), 0u) << path << ": " << page.contentType;
   }
-  EXPECT_EQ(test::readFile(test::sourceDir() / "coordinator/dashboard/index.html"),
+  EXPECT_EQ(test::readFile(test::sourceDir() / "coordinator/web/dashboard/index.html"),
             request(dashboard_, "GET", "/").body)
       << "the page is compiled in as it is";
 }
@@ -488,7 +488,7 @@ TEST_F(DashboardFarm, ARealBrowserShowsProgressWithoutASampleCapAndALostWorker) 
 TEST(DashboardPage, ARealBrowserShowsAQuarantinedWorkerAndAJobsAuditAndEvents) {
   ASSERT_TRUE(fs::exists(kChromium) && fs::exists(kChromedriver))
       << "needs Debian's chromium and chromium-driver (scripts/setup.sh installs them)";
-  const fs::path page = fs::path(LENSFARM_SOURCE_DIR) / "coordinator" / "dashboard";
+  const fs::path page = fs::path(LENSFARM_SOURCE_DIR) / "coordinator" / "web" / "dashboard";
   const JobInfo audited = test::auditedJob();
   JobInfo plain;  // no audit yet, no events
   plain.id = "job-8";

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "common/util/error.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "tests/test_support.h"
 
 namespace lensfarm {

@@ -21,8 +21,8 @@
 #include "common/farm/sums_codec.h"
 #include "common/util/error.h"
 #include "common/util/version.h"
-#include "coordinator/coordinator.h"
-#include "coordinator/upload_assembler.h"
+#include "coordinator/core/coordinator.h"
+#include "coordinator/rpc/upload_assembler.h"
 
 namespace {
 struct Fixture {

@@ -32,7 +32,7 @@ inline nlohmann::json planeSceneJson(const nlohmann::json& lights, const char* i
 inline Spectrum traceCellCentre(const RenderScene& rs, int i, int j, uint64_t sample, CameraRay* rayOut = nullptr) {
   const RenderSettings& s = rs.settings();
   const SamplerSetup setup{s.sampler, s.seed, s.samplesPerPixel, unitSize(s)};
-  const CameraRay ray = rs.camera().generateRay(i, j, Vec2(0.5f), Vec2(0.5f));
+  const CameraRay ray = rs.camera().paraxial().generateRay(i, j, Vec2(0.5f), Vec2(0.5f));
   if (rayOut) *rayOut = ray;
   const SampleStream rng(setup, uint64_t(j) * uint64_t(rs.camera().width()) + uint64_t(i), sample);
   const bool nee = rs.effects().lightSampling && !rs.lights().empty(), general = rs.effects().generalMaterials;

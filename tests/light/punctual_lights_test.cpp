@@ -54,8 +54,9 @@ double cellAverage(const RenderScene& rs, int i, int j, Expected expected) {
   double sum = 0.0;
   for (int a = 0; a < 16; ++a)
     for (int b = 0; b < 16; ++b)
-      sum += expected(test::onPlaneY0(
-          rs, rs.camera().generateRay(i, j, Vec2((float(a) + 0.5f) / 16.0f, (float(b) + 0.5f) / 16.0f), Vec2(0.5f))));
+      sum += expected(
+          test::onPlaneY0(rs, rs.camera().paraxial().generateRay(
+                                  i, j, Vec2((float(a) + 0.5f) / 16.0f, (float(b) + 0.5f) / 16.0f), Vec2(0.5f))));
   return sum / 256.0;
 }
 

@@ -8,7 +8,7 @@
 #include "common/film/sensor.h"
 #include "common/render/unit_renderer.h"
 #include "common/util/version.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "tests/test_support.h"
 
 namespace lensfarm {

@@ -10,7 +10,7 @@
 #include "common/render/unit_renderer.h"
 #include "common/scene/effects.h"
 #include "common/util/hash.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "tests/test_support.h"
 
 namespace lensfarm {

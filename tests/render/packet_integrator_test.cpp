@@ -37,7 +37,7 @@ template <bool kNee, bool kSpecular>
 void expectPacketsEqualSinglePaths(const RenderScene& rs, const std::vector<Lane>& lanes, int width) {
   const RenderSettings& settings = rs.settings();
   const SamplerSetup sampler{settings.sampler, settings.seed, settings.samplesPerPixel, unitSize(settings)};
-  const ThinLensCamera& camera = rs.camera();
+  const ThinLensCamera& camera = rs.camera().paraxial();
   PathStats packetStats, singleStats;
   int compared = 0, nonZero = 0;
   for (size_t first = 0; first < lanes.size(); first += size_t(width)) {

@@ -13,7 +13,7 @@
 #include "common/scene/scene_loader.h"
 #include "common/util/error.h"
 #include "common/util/hash.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "tests/scene/asset_confinement_support.h"
 #include "tests/support/gltf_builder.h"
 #include "tests/test_support.h"

@@ -13,7 +13,7 @@
 #include "common/scene/scene_loader.h"
 #include "common/util/error.h"
 #include "common/util/hash.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "tests/scene/scene_error_fixture.h"
 #include "tests/test_support.h"
 

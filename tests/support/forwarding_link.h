@@ -2,7 +2,7 @@
 // The worker's real link to an in-process Coordinator (client/in_process_link.h, as `lensfarm
 // render` wires it), every call forwarded: a test derives from it to watch or bend one call.
 #include "client/in_process_link.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 
 namespace lensfarm::test {
 

@@ -9,7 +9,7 @@
 #include <mutex>
 #include <thread>
 
-#include "coordinator/coordinator.h"
+#include "coordinator/core/coordinator.h"
 #include "tests/support/forwarding_link.h"
 #include "tests/test_support.h"
 #include "worker/worker_loop.h"

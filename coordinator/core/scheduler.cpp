@@ -1,0 +1,164 @@
+// Coordinator, the scheduler: which unit is leased to which worker (tryLease: the job first by
+// priority, then submission, among those whose units fit the worker, a fresh unit only within
+// the window ahead of the summed prefix), heartbeats that extend leases, and the ends of leases
+// (expiry, a worker's loss or departure, a job's end) that queue their units again. The lease
+// records are LeaseTable's (lease_table.h), each job's queue is its JobUnits (job_units.h).
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+
+#include "common/farm/memory_estimate.h"
+#include "coordinator/core/coordinator.h"
+#include "coordinator/core/coordinator_records.h"
+
+namespace lensfarm {
+
+Coordinator::Clock::time_point Coordinator::leaseDeadline(Clock::time_point now) const {
+  return now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options_.leaseTimeoutSeconds));
+}
+
+void Coordinator::reapExpiredLeases(Clock::time_point now) {
+  for (const auto& [leaseId, lease] : leases_.takeExpired(now)) {
+    Job& job = findJob(lease.jobId);
+    spdlog::warn("job {}: lease {} of unit {} held by {} lapsed; the unit goes back to the queue", job.definition.id,
+                 leaseId, lease.unit, lease.workerId);
+    if (lease.audit) job.audit.audits.release(lease.unit, lease.workerId);
+    if (!isTerminal(job.progress.state) && !job.progress.units.isReceived(lease.unit))
+      job.progress.units.requeue(lease.unit);
+    ++counters_.unitsExpired;
+    if (Worker* w = workers_.known(lease.workerId); w && w->currentJobId == job.definition.id) w->currentJobId.clear();
+    changed_.notify_all();
+  }
+  enforceDeadlines();
+  settleWaitingJobs();
+  forgetSilentWorkers(now);
+}
+
+std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_point now) {
+  if (worker.quarantined) return std::nullopt;  // auditing.cpp: it is leased nothing more
+  // Units under audit first: they hold back their jobs' ends, and are few.
+  if (auto grant = tryAuditLease(worker, now)) return grant;
+  Job* best = nullptr;
+  for (auto& [id, job] : jobs_) {
+    if (isTerminal(job->progress.state) || !job->progress.units.hasPending()) continue;
+    if (!job->definition.fitsOn(worker.info)) continue;  // its units are for a worker with more memory
+    if (job->failures.blocks(worker.id)) continue;       // it failed this job too often (reportFailure)
+    if (!job->progress.units.hasReturned() &&
+        !job->definition.layout.tiled()) {  // a fresh pass: only within the window ahead of the summed prefix
+      const uint64_t window =
+          unitsAheadWindow(job->definition.settings.width, job->definition.settings.height, options_.maxBytesAhead);
+      if (job->progress.units.nextFresh() >= job->progress.unitsAdded + window) continue;
+    }
+    // An adaptive round is leased once the film before it is summed (farm/job_layout.h), a unit
+    // queued again too (after a restart, one above a gap whose round is not allocated yet).
+    if (job->definition.layout.adaptive() && job->film && !job->film->leasable(job->progress.units.peekPending()))
+      continue;
+    if (!best || job->servedBefore(*best)) best = job.get();
+  }
+  if (!best) return std::nullopt;
+  Job& job = *best;
+  const uint64_t unit = job.progress.units.takePending();
+  const auto longest = now + std::chrono::duration_cast<Clock::duration>(
+                                 std::chrono::duration<double>(std::max(options_.maxLeaseSeconds, 1e-3)));
+  const uint64_t leaseId = leases_.grant(worker.id, job.definition.id, unit, leaseDeadline(now), longest);
+  ++counters_.unitsLeased;
+  if (!job.progress.started) job.progress.started = now;
+  if (job.progress.state == JobState::kQueued) {
+    job.progress.state = JobState::kRunning;
+    persistState(job);
+  }
+  worker.currentJobId = job.definition.id;
+  worker.currentUnit = unit;
+  touch(job);
+  bool ready = true;
+  WorkUnit leased = unitToLease(job, unit, &ready);
+  // (the check above leases a round's unit only once it is allocated)
+  if (!ready)
+    throw std::logic_error("unit " + std::to_string(unit) + " of " + job.definition.id + " leased before its round");
+  return LeaseGrant{leaseId, job.definition.id, std::move(leased), job.definition.sceneHash,
+                    options_.leaseTimeoutSeconds};
+}
+
+WorkUnit Coordinator::unitToLease(const Job& job, uint64_t unit, bool* ready) const {
+  WorkUnit w = job.definition.layout.unit(unit);
+  if (ready) *ready = true;
+  if (job.definition.layout.adaptive() && job.film) w.samples = job.film->samplesOf(unit, ready);
+  return w;
+}
+
+std::optional<LeaseGrant> Coordinator::lease(const std::string& workerId, double waitSeconds) {
+  MutexLock lock(mutex_);
+  const auto until =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(waitSeconds));
+  for (;;) {
+    Worker& worker = findWorker(workerId);
+    const auto now = Clock::now();
+    worker.lastHeartbeat = now;
+    reapExpiredLeases(now);
+    if (auto grant = tryLease(worker, now)) return grant;
+    worker.currentJobId.clear();
+    worker.currentUnit.reset();
+    if (now >= until) return std::nullopt;
+    // Wake on new work, and now and then to reap lapsed leases.
+    lock.waitUntil(changed_, std::min(until, now + std::chrono::milliseconds(200)));
+  }
+}
+
+std::vector<uint64_t> Coordinator::heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds) {
+  MutexLock lock(mutex_);
+  Worker& worker = findWorker(workerId);
+  const auto now = Clock::now();
+  worker.lastHeartbeat = now;
+  std::vector<uint64_t> revoked;
+  for (uint64_t id : leaseIds)
+    if (!leases_.extend(id, workerId, leaseDeadline(now))) revoked.push_back(id);
+  reapExpiredLeases(now);
+  return revoked;
+}
+
+std::string Coordinator::releaseLeasesOf(Worker& worker, const std::string& verb, const std::string& detail,
+                                         Clock::time_point now) {
+  std::map<std::string, std::vector<uint64_t>> byJob;
+  for (const LeaseTable::Lease& lease : leases_.takeAllOf(worker.id)) {
+    Job& job = findJob(lease.jobId);
+    const uint64_t unit = lease.unit;
+    if (lease.audit) job.audit.audits.release(unit, worker.id);
+    // Back in the queue, leased again before any fresh unit; an upload under the old lease is
+    // refused from now on, so the unit is still counted once.
+    if (!isTerminal(job.progress.state) && !job.progress.units.isReceived(unit) &&
+        !job.progress.units.isRecording(unit))
+      job.progress.units.requeue(unit);
+    byJob[job.definition.id].push_back(unit);
+    ++counters_.unitsExpired;
+  }
+  std::string requeued;
+  for (auto& [jobId, units] : byJob) {
+    Job& job = findJob(jobId);
+    std::string list;
+    for (uint64_t u : units) list += (list.empty() ? "" : ", ") + std::to_string(u);
+    const std::string what = (units.size() == 1 ? "unit " : "units ") + list + " of " + jobId + " queued again";
+    spdlog::debug("{} {} ({}): {}", worker.label(), verb, detail, what);
+    requeued += (requeued.empty() ? "" : "; ") + what;
+    if (!isTerminal(job.progress.state)) {
+      // The watcher's line (lensfarm watch, status, the dashboard): who went, why, what is redone.
+      job.addEvent("worker " + worker.label() + " " + verb + " (" + detail + "): " + what);
+    }
+    job.failures.lost(worker.info.name.empty() ? worker.id : worker.info.name,
+                      JobFailures::Loss{worker.label(), verb, detail, now, std::move(units)},
+                      !isTerminal(job.progress.state));
+    touch(job);
+  }
+  worker.currentJobId.clear();
+  worker.currentUnit.reset();
+  changed_.notify_all();  // idle workers waiting in lease() take the units at once
+  return requeued;
+}
+
+void Coordinator::revokeLeasesOf(Job& job) {
+  leases_.eraseAllOf(job.definition.id);
+  job.progress.units.clearPending();
+}
+
+}  // namespace lensfarm

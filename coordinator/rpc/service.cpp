@@ -1,0 +1,512 @@
+#include "coordinator/rpc/service.h"
+
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "common/scene/scene_loader.h"
+#include "common/util/error.h"
+#include "coordinator/rpc/upload_assembler.h"
+#include "proto/convert.h"
+
+namespace lensfarm {
+
+namespace {
+
+// A request's exposure compensation: finite and within the scene format's range, else
+// INVALID_ARGUMENT naming the field (a NaN would otherwise give a black image).
+double checkedEv(double ev) {
+  if (!(std::abs(ev) <= kMaxExposureEv))
+    throw FarmError(FarmError::Kind::kInvalidArgument, "ev: must be a finite number of stops in [-" +
+                                                           std::to_string(int(kMaxExposureEv)) + ", " +
+                                                           std::to_string(int(kMaxExposureEv)) + "]");
+  return ev;
+}
+
+// A FarmError's gRPC status.
+grpc::Status farmStatus(const FarmError& e) {
+  switch (e.kind()) {
+    case FarmError::Kind::kNotFound:
+    case FarmError::Kind::kUnknownWorker: return grpc::Status(grpc::StatusCode::NOT_FOUND, e.what());
+    case FarmError::Kind::kInvalidArgument: return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, e.what());
+    case FarmError::Kind::kFailedPrecondition: return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, e.what());
+    case FarmError::Kind::kUnauthenticated: return grpc::Status(grpc::StatusCode::UNAUTHENTICATED, e.what());
+    case FarmError::Kind::kPermissionDenied: return grpc::Status(grpc::StatusCode::PERMISSION_DENIED, e.what());
+    case FarmError::Kind::kResourceExhausted: return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, e.what());
+  }
+  return grpc::Status(grpc::StatusCode::UNKNOWN, e.what());
+}
+
+// Runs a handler body and maps the project's exceptions to gRPC status codes.
+template <class Body>
+grpc::Status guarded(const TokenGate& gate, const grpc::ServerContext* context, const char* rpc, Body&& body) {
+  if (grpc::Status s = gate.check(context, rpc); !s.ok()) return s;
+  try {
+    body();
+    return grpc::Status::OK;
+  } catch (const InputError& e) {
+    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, e.what());
+  } catch (const FarmError& e) {
+    return farmStatus(e);
+  } catch (const std::bad_alloc&) {  // this request only: the coordinator goes on
+    spdlog::error("{}: out of memory", rpc);
+    return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, std::string(rpc) + ": the coordinator ran out of memory");
+  } catch (const std::exception& e) {
+    spdlog::error("{}: internal error: {}", rpc, e.what());
+    return grpc::Status(grpc::StatusCode::INTERNAL, std::string(rpc) + ": " + e.what());
+  }
+}
+
+v1::JobState toProto(JobState s) {
+  switch (s) {
+    case JobState::kQueued: return v1::JOB_STATE_QUEUED;
+    case JobState::kRunning: return v1::JOB_STATE_RUNNING;
+    case JobState::kDone: return v1::JOB_STATE_DONE;
+    case JobState::kCancelled: return v1::JOB_STATE_CANCELLED;
+    case JobState::kFailed: return v1::JOB_STATE_FAILED;
+  }
+  return v1::JOB_STATE_UNSPECIFIED;
+}
+
+// Sends `bytes` in pieces of at most kChunkBytes.
+template <class Writer>
+void writeChunks(Writer* writer, const std::string& bytes) {
+  size_t offset = 0;
+  do {
+    v1::FileChunk chunk;
+    if (offset == 0) chunk.set_total_size(bytes.size());
+    const size_t n = std::min(proto::kChunkBytes, bytes.size() - offset);
+    chunk.set_data(bytes.data() + offset, n);
+    if (!writer->Write(chunk)) return;  // the client went away
+    offset += n;
+  } while (offset < bytes.size());
+}
+
+}  // namespace
+
+v1::JobStatus toProto(const JobInfo& info) {
+  v1::JobStatus s;
+  s.set_job_id(info.id);
+  s.set_state(toProto(info.state));
+  s.set_priority(info.priority);
+  s.set_scene_name(info.sceneName);
+  s.set_width(uint32_t(info.width));
+  s.set_height(uint32_t(info.height));
+  s.set_error(info.error);
+  s.set_scene_hash(info.sceneHash);
+  s.set_submitted_unix_seconds(info.submittedUnixSeconds);
+  s.set_version(info.version);
+  for (const auto& e : info.effects) s.add_effects(e);
+  auto* p = s.mutable_progress();
+  p->set_samples_per_pixel_done(info.samplesPerPixelDone);
+  p->set_samples_per_pixel_total(info.samplesPerPixelTotal);
+  p->set_units_done(info.unitsDone);
+  p->set_units_total(info.unitsTotal);
+  p->set_paths(info.stats.paths);
+  p->set_rays(info.stats.rays);
+  p->set_rays_per_second(info.raysPerSecond());
+  p->set_elapsed_seconds(info.elapsedSeconds);
+  p->set_remaining_seconds(info.remainingSeconds);
+  p->set_workers_busy(info.workersBusy);
+  p->set_light_hit_fraction(info.lightHitFraction());
+  p->set_dropped_samples(info.stats.dropped);
+  p->set_estimated_relative_error(info.estimatedRelativeError);
+  p->set_target_error(info.targetError);
+  p->set_seconds_to_target(info.secondsToTarget);
+  p->set_time_limit_seconds(info.timeLimitSeconds);
+  p->set_stop_reason(info.stopReason);
+  p->set_stalled_reason(info.stalledReason);
+  p->set_progress_fraction(info.progressFraction);
+  s.set_audits_passed(info.auditsPassed);
+  s.set_audits_failed(info.auditsFailed);
+  s.set_audits_pending(info.auditsPending);
+  s.set_units_rerendered(info.unitsRerendered);
+  for (const JobInfo::Event& e : info.events) {
+    v1::JobEvent* event = s.add_events();
+    event->set_unix_seconds(e.unixSeconds);
+    event->set_text(e.text);
+  }
+  s.set_tile_size(uint32_t(std::max(0, info.tileSize)));
+  s.set_tiles_per_frame(info.tilesPerFrame);
+  for (const JobInfo::Frame& f : info.frames) {
+    v1::FrameStatus* frame = s.add_frames();
+    frame->set_frame(f.number);
+    frame->set_tiles_done(f.tilesDone);
+    frame->set_tiles_total(f.tilesTotal);
+    frame->set_complete(f.complete());
+  }
+  s.set_owner(info.owner);
+  s.set_ended_unix_seconds(info.endedUnixSeconds);
+  s.set_archived(info.archived);
+  return s;
+}
+
+v1::WorkerStatus toProto(const WorkerView& w) {
+  v1::WorkerStatus p;
+  p.set_worker_id(w.id);
+  p.set_name(w.info.name);
+  p.set_threads(w.info.threads);
+  p.set_current_job_id(w.currentJobId);
+  p.set_units_done(w.unitsDone);
+  p.set_seconds_since_heartbeat(w.secondsSinceHeartbeat);
+  p.set_renderer_version(w.info.rendererVersion);
+  p.set_state(workerStateName(w.state));
+  p.set_seconds_in_state(w.secondsInState);
+  p.set_state_reason(w.stateReason);
+  p.set_attached(w.attached);
+  p.set_failures(w.failures);
+  for (const std::string& job : w.blocklistedJobs) p.add_blocklisted_jobs(job);
+  p.set_audits_passed(w.auditsPassed);
+  p.set_audits_rendered(w.auditsRendered);
+  p.set_quarantined(w.quarantined);
+  p.set_quarantine_reason(w.quarantineReason);
+  return p;
+}
+
+// ---- ClientService --------------------------------------------------------------------------
+
+grpc::Status ClientServiceImpl::FindMissingAssets(grpc::ServerContext* context,
+                                                  const v1::FindMissingAssetsRequest* request,
+                                                  v1::FindMissingAssetsResponse* response) {
+  return guarded(gate_, context, "FindMissingAssets", [&] {
+    const std::vector<std::string> asked(request->sha256().begin(), request->sha256().end());
+    for (std::string& sha : coordinator_.missingAssets(asked)) response->add_missing_sha256(std::move(sha));
+  });
+}
+
+grpc::Status ClientServiceImpl::UploadAsset(grpc::ServerContext* context,
+                                            grpc::ServerReader<v1::UploadAssetRequest>* reader,
+                                            v1::UploadAssetResponse* response) {
+  return guarded(gate_, context, "UploadAsset", [&] {
+    v1::UploadAssetRequest message;
+    AssetUploadAssembler upload;  // refuses a malformed stream before anything is stored
+    while (reader->Read(&message)) {
+      const bool first = !upload.started();
+      upload.add(message);
+      // Already stored: answer now and read no more (the client's next writes fail; its call ends OK).
+      if (first && coordinator_.uploadFindsAssetPresent(upload.sha256())) {
+        response->set_sha256(upload.sha256());
+        response->set_already_present(true);
+        return;
+      }
+    }
+    std::string bytes = upload.finish();
+    response->set_sha256(upload.sha256());
+    response->set_already_present(!coordinator_.putAsset(upload.sha256(), std::move(bytes)));
+  });
+}
+
+grpc::Status ClientServiceImpl::SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request,
+                                          v1::SubmitJobResponse* response) {
+  return guarded(gate_, context, "SubmitJob", [&] {
+    const JobInfo info = coordinator_.submit(proto::fromProto(request->spec()), request->priority(), request->owner());
+    response->set_job_id(info.id);
+    *response->mutable_status() = toProto(info);
+  });
+}
+
+grpc::Status ClientServiceImpl::GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request,
+                                       v1::JobStatus* response) {
+  return guarded(gate_, context, "GetJob", [&] { *response = toProto(coordinator_.job(request->job_id())); });
+}
+
+Coordinator::JobFilter jobFilterOf(const v1::ListJobsRequest& request) {
+  Coordinator::JobFilter filter;
+  const JobState all[] = {JobState::kQueued, JobState::kRunning, JobState::kDone, JobState::kCancelled,
+                          JobState::kFailed};
+  for (const int state : request.states()) {
+    bool known = false;
+    for (const JobState s : all)
+      if (toProto(s) == state) filter.states.insert(s), known = true;
+    if (!known)
+      throw FarmError(FarmError::Kind::kInvalidArgument, "states: unknown job state " + std::to_string(state));
+  }
+  for (const std::string& name : request.state_names()) {
+    bool known = false;
+    for (const JobState s : all)
+      if (name == jobStateName(s)) filter.states.insert(s), known = true;
+    if (!known)
+      throw FarmError(FarmError::Kind::kInvalidArgument,
+                      "state_names: unknown job state \"" + name + "\" (queued, running, done, cancelled, failed)");
+  }
+  filter.owner = request.owner();
+  filter.nameContains = request.name_contains();
+  filter.limit = request.limit();
+  return filter;
+}
+
+grpc::Status ClientServiceImpl::ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest* request,
+                                         v1::ListJobsResponse* response) {
+  return guarded(gate_, context, "ListJobs", [&] {
+    for (const JobInfo& info : coordinator_.jobs(jobFilterOf(*request))) *response->add_jobs() = toProto(info);
+  });
+}
+
+grpc::Status ClientServiceImpl::DeleteJob(grpc::ServerContext* context, const v1::DeleteJobRequest* request,
+                                          v1::DeleteJobResponse*) {
+  return guarded(gate_, context, "DeleteJob", [&] { coordinator_.deleteJob(request->job_id(), request->force()); });
+}
+
+grpc::Status ClientServiceImpl::ArchiveJob(grpc::ServerContext* context, const v1::ArchiveJobRequest* request,
+                                           v1::ArchiveJobResponse* response) {
+  return guarded(gate_, context, "ArchiveJob",
+                 [&] { *response->mutable_status() = toProto(coordinator_.archiveJob(request->job_id())); });
+}
+
+grpc::Status ClientServiceImpl::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
+                                         grpc::ServerWriter<v1::JobStatus>* writer) {
+  return guarded(gate_, context, "WatchJob", [&] {
+    JobInfo info = coordinator_.job(request->job_id());
+    if (!writer->Write(toProto(info))) return;
+    while (!isTerminal(info.state) && !context->IsCancelled()) {
+      const JobInfo next = coordinator_.waitForChange(info.id, info.version, 1.0);
+      // Send on a change, and at least every second so elapsed time and rates stay live.
+      info = next;
+      if (!writer->Write(toProto(info))) return;
+    }
+  });
+}
+
+grpc::Status ClientServiceImpl::Download(grpc::ServerContext* context, const v1::DownloadRequest* request,
+                                         grpc::ServerWriter<v1::FileChunk>* writer) {
+  return guarded(gate_, context, "Download", [&] {
+    JobImage image = coordinator_.image(request->job_id(),
+                                        request->has_frame() ? std::optional<int64_t>(request->frame()) : std::nullopt);
+    std::string bytes;
+    if (request->format() == v1::IMAGE_FORMAT_PNG) {
+      if (request->has_ev()) image.exposure.ev = checkedEv(request->ev());
+      bytes = encodePng(image.image, image.exposure);
+    } else if (request->format() == v1::IMAGE_FORMAT_EXR) {
+      bytes = encodeExr(image.image, image.metadata);
+    } else {
+      throw FarmError(FarmError::Kind::kInvalidArgument, "Download: format must be EXR or PNG");
+    }
+    writeChunks(writer, bytes);
+  });
+}
+
+grpc::Status ClientServiceImpl::GetSnapshot(grpc::ServerContext* context, const v1::SnapshotRequest* request,
+                                            v1::Snapshot* response) {
+  return guarded(gate_, context, "GetSnapshot", [&] {
+    constexpr uint32_t kDefaultSize = 512, kLargest = 1024;  // a 1024^2 PNG stays far below 4 MiB
+    const uint32_t maxSize = std::min(request->max_size() ? request->max_size() : kDefaultSize, kLargest);
+    *response->mutable_status() = toProto(coordinator_.job(request->job_id()));
+    JobImage image = coordinator_.image(request->job_id(),
+                                        request->has_frame() ? std::optional<int64_t>(request->frame()) : std::nullopt);
+    if (request->has_ev()) image.exposure.ev = checkedEv(request->ev());
+    // A box filter keeps the mean luminance, so the automatic exposure matches the download's.
+    const Image preview = downscaleToFit(image.image, int(maxSize));
+    response->set_png(encodePng(preview, image.exposure));
+    response->set_width(uint32_t(preview.width));
+    response->set_height(uint32_t(preview.height));
+  });
+}
+
+grpc::Status ClientServiceImpl::CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request,
+                                          v1::CancelJobResponse* response) {
+  return guarded(gate_, context, "CancelJob",
+                 [&] { *response->mutable_status() = toProto(coordinator_.cancel(request->job_id())); });
+}
+
+grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext* context, const v1::ListWorkersRequest*,
+                                            v1::ListWorkersResponse* response) {
+  return guarded(gate_, context, "ListWorkers", [&] {
+    for (const WorkerView& w : coordinator_.workers()) *response->add_workers() = toProto(w);
+  });
+}
+
+// ---- WorkerService --------------------------------------------------------------------------
+
+grpc::Status WorkerServiceImpl::Register(grpc::ServerContext* context, const v1::RegisterRequest* request,
+                                         v1::RegisterResponse* response) {
+  return guarded(gate_, context, "Register", [&] {
+    WorkerInfo info{request->name(), std::max(1u, request->threads()), request->protocol_version(),
+                    request->renderer_version(), request->max_unit_memory_bytes()};
+    std::string session;
+    response->set_worker_id(coordinator_.registerWorker(info, &session));
+    response->set_session(session);
+    response->set_heartbeat_interval_ms(uint32_t(coordinator_.options().heartbeatIntervalSeconds * 1000));
+  });
+}
+
+grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext* context, const v1::HeartbeatRequest* request,
+                                          v1::HeartbeatResponse* response) {
+  return guarded(gate_, context, "Heartbeat", [&] {
+    coordinator_.authenticateWorker(request->worker_id(), request->session());
+    const std::vector<uint64_t> leases(request->lease_ids().begin(), request->lease_ids().end());
+    for (uint64_t id : coordinator_.heartbeat(request->worker_id(), leases)) response->add_revoked_lease_ids(id);
+  });
+}
+
+grpc::Status WorkerServiceImpl::LeaseWork(grpc::ServerContext* context, const v1::LeaseWorkRequest* request,
+                                          v1::LeaseWorkResponse* response) {
+  return guarded(gate_, context, "LeaseWork", [&] {
+    coordinator_.authenticateWorker(request->worker_id(), request->session());
+    const double wait = std::min(10.0, request->wait_ms() / 1000.0);
+    if (auto grant = coordinator_.lease(request->worker_id(), wait)) {
+      grant->uploadEncoding = uploadEncoding_;
+      *response->mutable_lease() = proto::toProto(*grant);
+    }
+  });
+}
+
+grpc::Status WorkerServiceImpl::GetJobSpec(grpc::ServerContext* context, const v1::GetJobSpecRequest* request,
+                                           v1::JobSpec* response) {
+  return guarded(gate_, context, "GetJobSpec", [&] {
+    coordinator_.authenticateWorker(request->worker_id(), request->session());
+    *response = proto::toProto(coordinator_.jobSpecFor(request->worker_id(), request->job_id()));
+  });
+}
+
+grpc::Status WorkerServiceImpl::FetchAsset(grpc::ServerContext* context, const v1::FetchAssetRequest* request,
+                                           grpc::ServerWriter<v1::FileChunk>* writer) {
+  return guarded(gate_, context, "FetchAsset", [&] {
+    coordinator_.authenticateWorker(request->worker_id(), request->session());
+    writeChunks(writer, *coordinator_.assetFor(request->worker_id(), request->sha256()));
+  });
+}
+
+grpc::Status WorkerServiceImpl::UploadResult(grpc::ServerContext* context,
+                                             grpc::ServerReader<v1::UploadResultRequest>* reader,
+                                             v1::UploadResultResponse* response) {
+  return guarded(gate_, context, "UploadResult", [&] {
+    v1::UploadResultRequest message;
+    UploadAssembler assembler;
+    bool first = true;
+    while (reader->Read(&message)) {
+      if (first) {  // who sends it, and for what, before any sum is read
+        const UploadHeader& h = assembler.begin(message);
+        coordinator_.authenticateWorker(h.workerId, h.session);
+        coordinator_.admitUpload(h.workerId, h.leaseId, h.jobId, h.unitIndex, int(std::min(h.width, 1u << 20)),
+                                 int(std::min(h.height, 1u << 20)), int(std::min(h.channels, 1u << 20)));
+      }
+      first = false;
+      assembler.add(message);
+    }
+    UnitResult result = assembler.finish();
+    coordinator_.countUnitWireBytes(assembler.wireBytes());
+    response->set_accepted(coordinator_.acceptResult(std::move(result)));
+  });
+}
+
+// One worker's Attach stream: the worker names itself, gets one event back, and holds the stream
+// for its life. How it ends says how the worker went: a `leaving` message first makes it left;
+// any other end (its connection closed, keepalive pings unanswered, the call cancelled) makes it
+// lost at once (Coordinator::workerLost). gRPC may run OnCancel beside OnReadDone, so the state
+// they share is atomic, and Finish is called once.
+class AttachReactor final : public grpc::ServerBidiReactor<v1::AttachRequest, v1::AttachEvent> {
+ public:
+  AttachReactor(WorkerServiceImpl& service, grpc::CallbackServerContext* context) : service_(service) {
+    {
+      std::lock_guard lock(service_.attachMutex_);
+      service_.attached_.insert(this);
+      if (service_.closing_) {
+        finish(grpc::Status(grpc::StatusCode::UNAVAILABLE, "Attach: coordinator shutting down"));
+        return;
+      }
+    }
+    if (grpc::Status s = service_.gate_.check(context, "Attach"); !s.ok()) {
+      finish(s);
+      return;
+    }
+    read();
+  }
+
+  void OnReadDone(bool ok) override {
+    if (!ok) {  // half-closed without leaving, or the connection broke
+      ended();
+      return;
+    }
+    if (attachment_.load() == 0 && workerId_.empty()) {
+      workerId_ = request_.worker_id();
+      try {
+        service_.coordinator_.authenticateWorker(workerId_, request_.session());
+        attachment_.store(service_.coordinator_.attachWorker(workerId_));
+      } catch (const FarmError& e) {
+        finish(farmStatus(e));
+        return;
+      } catch (const std::exception& e) {
+        finish(grpc::Status(grpc::StatusCode::INTERNAL, std::string("Attach: ") + e.what()));
+        return;
+      }
+      if (finished_) {  // the call ended while it attached (OnCancel saw no attachment yet)
+        if (!closing_) service_.coordinator_.workerLost(workerId_, "connection broke", attachment_.load());
+        return;
+      }
+      event_.set_attached(true);
+      std::lock_guard lock(ops_);
+      if (!finished_) StartWrite(&event_);
+    } else if (request_.leaving()) {
+      leaving_ = true;
+      service_.coordinator_.workerLeft(workerId_, attachment_.load());
+      finish(grpc::Status::OK);
+      return;
+    }
+    read();
+  }
+  void OnWriteDone(bool) override {}
+  void OnCancel() override { ended(); }
+  void OnDone() override {
+    {
+      std::lock_guard lock(service_.attachMutex_);
+      service_.attached_.erase(this);
+    }
+    delete this;
+  }
+
+  // The coordinator is shutting down: end the stream without calling the worker lost.
+  void close() {
+    closing_ = true;
+    finish(grpc::Status(grpc::StatusCode::UNAVAILABLE, "Attach: coordinator shutting down"));
+  }
+
+ private:
+  void ended() {
+    const uint64_t attachment = attachment_.load();
+    if (attachment != 0 && !leaving_ && !closing_)
+      service_.coordinator_.workerLost(workerId_, "connection broke", attachment);
+    finish(grpc::Status(grpc::StatusCode::CANCELLED, "Attach: stream ended"));
+  }
+  // No operation may start after Finish (close() may finish from another thread).
+  void read() {
+    std::lock_guard lock(ops_);
+    if (!finished_) StartRead(&request_);
+  }
+  void finish(const grpc::Status& status) {
+    std::lock_guard lock(ops_);
+    if (!finished_.exchange(true)) Finish(status);
+  }
+
+  WorkerServiceImpl& service_;
+  v1::AttachRequest request_;
+  v1::AttachEvent event_;
+  std::string workerId_;  // written before attachment_ is set, read after it is seen set
+  std::atomic<uint64_t> attachment_{0};
+  std::atomic<bool> leaving_{false}, closing_{false}, finished_{false};
+  std::mutex ops_;
+};
+
+grpc::ServerBidiReactor<v1::AttachRequest, v1::AttachEvent>* WorkerServiceImpl::Attach(
+    grpc::CallbackServerContext* context) {
+  return new AttachReactor(*this, context);
+}
+
+void WorkerServiceImpl::endAttachments() {
+  std::lock_guard lock(attachMutex_);
+  closing_ = true;
+  const std::set<AttachReactor*> open = attached_;  // a reactor leaves attached_ only under the lock
+  for (AttachReactor* r : open) r->close();
+}
+
+WorkerServiceImpl::~WorkerServiceImpl() = default;
+
+grpc::Status WorkerServiceImpl::ReportFailure(grpc::ServerContext* context, const v1::ReportFailureRequest* request,
+                                              v1::ReportFailureResponse*) {
+  return guarded(gate_, context, "ReportFailure", [&] {
+    coordinator_.authenticateWorker(request->worker_id(), request->session());
+    coordinator_.reportFailure(request->worker_id(), request->lease_id(), request->job_id(), request->error());
+  });
+}
+
+}  // namespace lensfarm

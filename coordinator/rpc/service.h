@@ -1,0 +1,105 @@
+#pragma once
+// The coordinator's gRPC services: thin handlers that translate lensfarm.v1 messages and status
+// codes and call Coordinator (coordinator.h), in the style of gRPC's route_guide example.
+#include <grpcpp/grpcpp.h>
+
+#include <mutex>
+#include <set>
+
+#include "coordinator/core/coordinator.h"
+#include "coordinator/rpc/auth.h"
+#include "lensfarm/v1/client_service.grpc.pb.h"
+#include "lensfarm/v1/worker_service.grpc.pb.h"
+
+namespace lensfarm {
+
+class ClientServiceImpl final : public v1::ClientService::Service {
+ public:
+  ClientServiceImpl(Coordinator& coordinator, TokenGate gate = TokenGate({}, "client"))
+      : coordinator_(coordinator), gate_(std::move(gate)) {}
+
+  grpc::Status FindMissingAssets(grpc::ServerContext* context, const v1::FindMissingAssetsRequest* request,
+                                 v1::FindMissingAssetsResponse* response) override;
+  grpc::Status UploadAsset(grpc::ServerContext* context, grpc::ServerReader<v1::UploadAssetRequest>* reader,
+                           v1::UploadAssetResponse* response) override;
+  grpc::Status SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request,
+                         v1::SubmitJobResponse* response) override;
+  grpc::Status GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request, v1::JobStatus* response) override;
+  grpc::Status ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest*,
+                        v1::ListJobsResponse* response) override;
+  grpc::Status WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
+                        grpc::ServerWriter<v1::JobStatus>* writer) override;
+  grpc::Status Download(grpc::ServerContext* context, const v1::DownloadRequest* request,
+                        grpc::ServerWriter<v1::FileChunk>* writer) override;
+  grpc::Status GetSnapshot(grpc::ServerContext* context, const v1::SnapshotRequest* request,
+                           v1::Snapshot* response) override;
+  grpc::Status CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request,
+                         v1::CancelJobResponse* response) override;
+  grpc::Status ListWorkers(grpc::ServerContext* context, const v1::ListWorkersRequest*,
+                           v1::ListWorkersResponse* response) override;
+  grpc::Status DeleteJob(grpc::ServerContext* context, const v1::DeleteJobRequest* request,
+                         v1::DeleteJobResponse*) override;
+  grpc::Status ArchiveJob(grpc::ServerContext* context, const v1::ArchiveJobRequest* request,
+                          v1::ArchiveJobResponse* response) override;
+
+ private:
+  Coordinator& coordinator_;
+  TokenGate gate_;
+};
+
+// ListJobsRequest's filters as Coordinator::JobFilter; FarmError kInvalidArgument naming an
+// unknown state.
+Coordinator::JobFilter jobFilterOf(const v1::ListJobsRequest& request);
+
+class AttachReactor;
+
+// Sync handlers, except Attach: a stream every worker holds for its life, served by gRPC's
+// callback API (a reactor per stream, no thread pinned), so any number of attached workers
+// costs no threads.
+class WorkerServiceImpl final : public v1::WorkerService::WithCallbackMethod_Attach<v1::WorkerService::Service> {
+ public:
+  // `uploadEncoding`: how leases ask workers to upload their sums (Lease.sums_encoding; uploads
+  // in either encoding are accepted whatever was asked).
+  WorkerServiceImpl(Coordinator& coordinator, TokenGate gate = TokenGate({}, "worker"),
+                    SumsEncoding uploadEncoding = SumsEncoding::kShuffleZstd)
+      : coordinator_(coordinator), gate_(std::move(gate)), uploadEncoding_(uploadEncoding) {}
+  ~WorkerServiceImpl() override;
+
+  // Ends every Attach stream (UNAVAILABLE, "coordinator shutting down") without marking its
+  // worker lost, and refuses new ones: call before grpc::Server::Shutdown, which would otherwise
+  // wait out its deadline for these never-ending calls.
+  void endAttachments();
+
+  grpc::Status Register(grpc::ServerContext* context, const v1::RegisterRequest* request,
+                        v1::RegisterResponse* response) override;
+  grpc::Status Heartbeat(grpc::ServerContext* context, const v1::HeartbeatRequest* request,
+                         v1::HeartbeatResponse* response) override;
+  grpc::Status LeaseWork(grpc::ServerContext* context, const v1::LeaseWorkRequest* request,
+                         v1::LeaseWorkResponse* response) override;
+  grpc::Status GetJobSpec(grpc::ServerContext* context, const v1::GetJobSpecRequest* request,
+                          v1::JobSpec* response) override;
+  grpc::Status FetchAsset(grpc::ServerContext* context, const v1::FetchAssetRequest* request,
+                          grpc::ServerWriter<v1::FileChunk>* writer) override;
+  grpc::Status UploadResult(grpc::ServerContext* context, grpc::ServerReader<v1::UploadResultRequest>* reader,
+                            v1::UploadResultResponse* response) override;
+  grpc::Status ReportFailure(grpc::ServerContext* context, const v1::ReportFailureRequest* request,
+                             v1::ReportFailureResponse*) override;
+  grpc::ServerBidiReactor<v1::AttachRequest, v1::AttachEvent>* Attach(grpc::CallbackServerContext* context) override;
+
+ private:
+  friend class AttachReactor;
+  Coordinator& coordinator_;
+  TokenGate gate_;
+  SumsEncoding uploadEncoding_;
+  // The open Attach streams. Recursive: a stream finished by endAttachments() may end (and
+  // unregister itself) on the same thread.
+  std::recursive_mutex attachMutex_;
+  std::set<AttachReactor*> attached_;
+  bool closing_ = false;
+};
+
+// JobInfo as the wire's JobStatus, and WorkerView as its WorkerStatus (ListWorkers).
+v1::JobStatus toProto(const JobInfo& info);
+v1::WorkerStatus toProto(const WorkerView& worker);
+
+}  // namespace lensfarm

@@ -1,0 +1,103 @@
+// AssetStore: assets by SHA-256, the checks on uploads and queries, and their counts
+// (asset_store.h).
+#include "coordinator/store/asset_store.h"
+
+#include <algorithm>
+#include <set>
+
+#include "common/farm/farm_types.h"
+#include "common/util/hash.h"
+#include "coordinator/store/state_store.h"
+
+namespace lensfarm {
+
+namespace {
+bool isSha256Hex(const std::string& text) {
+  return text.size() == 64 &&
+         std::all_of(text.begin(), text.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
+}
+
+// A client's string in an error message: at most 80 characters, control characters as '?'.
+std::string shown(const std::string& text) {
+  std::string out = text.substr(0, 80);
+  for (char& c : out)
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+  return text.size() > 80 ? out + "..." : out;
+}
+}  // namespace
+
+void AssetStore::checkSha256(const std::string& sha256, const std::string& field) {
+  if (!isSha256Hex(sha256))
+    throw FarmError(FarmError::Kind::kInvalidArgument,
+                    field + ": \"" + shown(sha256) + "\" is not a SHA-256 (64 lowercase hex digits)");
+}
+
+void AssetStore::restore(StateStore& store) {
+  auto loaded = store.loadAssets();
+  std::lock_guard lock(mutex_);
+  store_ = &store;
+  assets_ = std::move(loaded);
+}
+
+bool AssetStore::has(const std::string& sha256) const {
+  std::lock_guard lock(mutex_);
+  return assets_.count(sha256) > 0;
+}
+
+bool AssetStore::put(const std::string& sha256, std::string bytes) {
+  checkSha256(sha256, "sha256");
+  bytesReceived_ += bytes.size();
+  const std::string actual = sha256Hex(bytes);
+  if (actual != sha256)
+    throw FarmError(FarmError::Kind::kInvalidArgument,
+                    "asset " + sha256 + ": the uploaded bytes hash to " + actual + " (corrupted upload?)");
+  if (uploadFindsPresent(sha256)) return false;
+  if (store_) store_->putAsset(sha256, bytes);
+  std::lock_guard lock(mutex_);
+  const bool stored = assets_.emplace(sha256, std::make_shared<const std::string>(std::move(bytes))).second;
+  ++(stored ? uploadsStored_ : uploadsPresent_);  // two uploads of it at once: one stored
+  return stored;
+}
+
+bool AssetStore::uploadFindsPresent(const std::string& sha256) {
+  std::lock_guard lock(mutex_);
+  if (!assets_.count(sha256)) return false;
+  ++uploadsPresent_;
+  return true;
+}
+
+std::vector<std::string> AssetStore::missing(const std::vector<std::string>& sha256s) const {
+  if (sha256s.size() > kMaxQuery)
+    throw FarmError(FarmError::Kind::kInvalidArgument, std::to_string(sha256s.size()) +
+                                                           " hashes in one query; at most " +
+                                                           std::to_string(kMaxQuery) + " (ask in batches)");
+  for (size_t i = 0; i < sha256s.size(); ++i) checkSha256(sha256s[i], "sha256[" + std::to_string(i) + "]");
+  std::vector<std::string> out;
+  std::set<std::string> seen;
+  std::lock_guard lock(mutex_);
+  for (const std::string& sha : sha256s)
+    if (!assets_.count(sha) && seen.insert(sha).second) out.push_back(sha);
+  return out;
+}
+
+std::shared_ptr<const std::string> AssetStore::find(const std::string& sha256) const {
+  std::lock_guard lock(mutex_);
+  auto it = assets_.find(sha256);
+  return it == assets_.end() ? nullptr : it->second;
+}
+
+std::shared_ptr<const std::string> AssetStore::get(const std::string& sha256) const {
+  std::shared_ptr<const std::string> bytes = find(sha256);
+  if (!bytes) throw FarmError(FarmError::Kind::kNotFound, "no asset " + sha256);
+  return bytes;
+}
+
+std::shared_ptr<const std::string> AssetStore::send(const std::string& sha256) {
+  std::shared_ptr<const std::string> bytes = get(sha256);
+  ++sent_;
+  return bytes;
+}
+
+AssetStore::Counts AssetStore::counts() const { return Counts{bytesReceived_, uploadsStored_, uploadsPresent_, sent_}; }
+
+}  // namespace lensfarm

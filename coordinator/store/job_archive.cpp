@@ -1,0 +1,52 @@
+#include "coordinator/store/job_archive.h"
+
+namespace lensfarm {
+
+namespace fs = std::filesystem;
+
+JobArchive::JobArchive(fs::path stateDir) : dir_(std::move(stateDir)) {}
+
+fs::path JobArchive::pathOf(const std::string& jobId) const {
+  return dir_.empty() ? fs::path() : dir_ / "jobs" / jobId / "final.exr";
+}
+
+void JobArchive::store(const std::string& jobId, const Image& image, const ImageMetadata& metadata) {
+  std::string bytes = encodeExr(image, metadata);
+  if (dir_.empty()) {
+    std::lock_guard lock(mutex_);
+    inMemory_[jobId] = std::move(bytes);
+    return;
+  }
+  fs::create_directories(pathOf(jobId).parent_path());
+  writeBytesAtomically(pathOf(jobId), bytes);  // temp file, fsync, rename (util/atomic_file.h)
+}
+
+std::optional<Image> JobArchive::load(const std::string& jobId, ImageMetadata* metadata) const {
+  if (dir_.empty()) {
+    std::lock_guard lock(mutex_);
+    const auto it = inMemory_.find(jobId);
+    if (it == inMemory_.end()) return std::nullopt;
+    return decodeExr(it->second, metadata);
+  }
+  if (!fs::exists(pathOf(jobId))) return std::nullopt;
+  return readExr(pathOf(jobId), metadata);
+}
+
+void JobArchive::remove(const std::string& jobId) {
+  if (dir_.empty()) {
+    std::lock_guard lock(mutex_);
+    inMemory_.erase(jobId);
+    return;
+  }
+  std::error_code ignored;
+  fs::remove(pathOf(jobId), ignored);
+}
+
+uint64_t JobArchive::bytesInMemory() const {
+  std::lock_guard lock(mutex_);
+  uint64_t total = 0;
+  for (const auto& [id, bytes] : inMemory_) total += bytes.size();
+  return total;
+}
+
+}  // namespace lensfarm
