@@ -878,6 +878,7 @@ class Study {
     return out;
   }
 
+  // Long on purpose, as adaptiveSampling: one script, its steps in the report's order.
   std::string denoising() {
     const int side = scale_.denoiseSide;
     const GuidedSeed guided = guidedSeed();
@@ -999,6 +1000,8 @@ class Study {
   // differs: uniform and adaptive without AOVs, uniform + denoise with the guide AOVs the denoiser
   // needs, charged that render's time plus the denoiser's (the median of its times, as in the
   // denoise experiment). Renders cheaper than Scale::cheapSeconds are timed three times (median).
+  // Long on purpose, like the study's other experiments: one script read top to bottom, each step
+  // printed to the report in the order it runs.
   std::string adaptiveSampling() {
     const GuidedSeed guided = guidedSeed();
     const ExposureSettings& exposure = guided.scene.render.exposure;
