@@ -24,6 +24,7 @@
 #include "common/scene/frame_range.h"
 #include "common/scene/scene_loader.h"
 #include "common/util/error.h"
+#include "common/util/log_text.h"
 #include "common/util/secret.h"
 
 namespace lensfarm::cli {
@@ -45,9 +46,9 @@ void printStatus(const v1::JobStatus& s) {
   const auto& p = s.progress();
   std::printf("job:        %s\n", s.job_id().c_str());
   std::printf("state:      %s\n", stateName(s.state()));
-  std::printf("scene:      %s (%ux%u)\n", s.scene_name().c_str(), s.width(), s.height());
+  std::printf("scene:      %s (%ux%u)\n", logText(s.scene_name()).c_str(), s.width(), s.height());
   std::printf("priority:   %d\n", s.priority());
-  if (!s.owner().empty()) std::printf("owner:      %s\n", s.owner().c_str());
+  if (!s.owner().empty()) std::printf("owner:      %s\n", logText(s.owner()).c_str());
   if (s.ended_unix_seconds() > 0.0) std::printf("ended:      %s\n", localTimeText(s.ended_unix_seconds()).c_str());
   if (s.archived()) std::printf("archived:   yes (final image kept; sensor and ledger freed)\n");
   if (hasSampleCap(p))
@@ -80,21 +81,22 @@ void printStatus(const v1::JobStatus& s) {
   std::printf("elapsed:    %s\n", formatDuration(p.elapsed_seconds()).c_str());
   std::printf("remaining:  %s\n", timeLeftText(s).c_str());
   std::printf("workers:    %u busy\n", p.workers_busy());
-  if (!p.stalled_reason().empty()) std::printf("stalled:    %s\n", p.stalled_reason().c_str());
+  if (!p.stalled_reason().empty()) std::printf("stalled:    %s\n", logText(p.stalled_reason()).c_str());
   std::printf("light hits: %.2f %%\n", 100.0 * p.light_hit_fraction());
   std::printf("dropped:    %llu samples\n", (unsigned long long)p.dropped_samples());
   std::printf("error:      %s\n", convergenceText(p).c_str());
   if (p.time_limit_seconds() > 0.0)
     std::printf("deadline:   %s after submission\n", formatDuration(p.time_limit_seconds()).c_str());
-  if (!p.stop_reason().empty()) std::printf("stopped:    %s\n", p.stop_reason().c_str());
+  if (!p.stop_reason().empty()) std::printf("stopped:    %s\n", logText(p.stop_reason()).c_str());
   if (s.audits_passed() + s.audits_failed() + s.audits_pending() + s.units_rerendered() > 0)
     std::printf("audit:      %llu passed, %llu failed, %llu pending; %llu units rendered again\n",
                 (unsigned long long)s.audits_passed(), (unsigned long long)s.audits_failed(),
                 (unsigned long long)s.audits_pending(), (unsigned long long)s.units_rerendered());
-  for (const auto& e : s.effects()) std::printf("effect:     %s\n", e.c_str());
+  for (const auto& e : s.effects()) std::printf("effect:     %s\n", logText(e).c_str());
   if (!s.events().empty()) std::printf("events:\n");
-  for (const auto& e : s.events()) std::printf("  %s  %s\n", localTimeText(e.unix_seconds()).c_str(), e.text().c_str());
-  if (!s.error().empty()) std::printf("error:      %s\n", s.error().c_str());
+  for (const auto& e : s.events())
+    std::printf("  %s  %s\n", localTimeText(e.unix_seconds()).c_str(), logText(e.text()).c_str());
+  if (!s.error().empty()) std::printf("error:      %s\n", logText(s.error()).c_str());
 }
 
 }  // namespace
@@ -164,8 +166,9 @@ Runner addStatusCommand(CLI::App& app) {
       for (const auto& s : jobs) {
         const std::string spp = samplesText(s.progress());
         std::printf("%-10s %-10s %8d %-24s %18s %10s  %s%s\n", s.job_id().c_str(), stateName(s.state()), s.priority(),
-                    s.scene_name().c_str(), spp.c_str(), formatDuration(s.progress().elapsed_seconds()).c_str(),
-                    s.owner().empty() ? "-" : s.owner().c_str(), s.archived() ? " (archived)" : "");
+                    logText(s.scene_name()).c_str(), spp.c_str(),
+                    formatDuration(s.progress().elapsed_seconds()).c_str(),
+                    s.owner().empty() ? "-" : logText(s.owner()).c_str(), s.archived() ? " (archived)" : "");
       }
       return kOk;
     });
@@ -201,13 +204,13 @@ Runner addWatchCommand(CLI::App& app) {
           if (!told.emplace(e.unix_seconds(), e.text()).second) continue;
           display.finish();
           std::fprintf(stderr, "%s: %s  %s\n", s.job_id().c_str(), localTimeText(e.unix_seconds()).c_str(),
-                       e.text().c_str());
+                       logText(e.text()).c_str());
         }
         const std::string& reason = s.progress().stalled_reason();
         if (withoutDigits(reason) != withoutDigits(stall)) {
           display.finish();
           if (!reason.empty())
-            std::fprintf(stderr, "%s: stalled: %s\n", s.job_id().c_str(), reason.c_str());
+            std::fprintf(stderr, "%s: stalled: %s\n", s.job_id().c_str(), logText(reason).c_str());
           else
             std::fprintf(stderr, "%s: rendering again\n", s.job_id().c_str());
           stall = reason;
@@ -218,9 +221,9 @@ Runner addWatchCommand(CLI::App& app) {
       std::printf("%s %s: %llu spp, %s%s\n", last.job_id().c_str(), stateName(last.state()),
                   (unsigned long long)last.progress().samples_per_pixel_done(),
                   convergenceText(last.progress(), f->target).c_str(),
-                  last.progress().stop_reason().empty() ? "" : ("; " + last.progress().stop_reason()).c_str());
+                  last.progress().stop_reason().empty() ? "" : ("; " + logText(last.progress().stop_reason())).c_str());
       if (last.state() == v1::JOB_STATE_DONE) return kOk;
-      if (!last.error().empty()) std::fprintf(stderr, "lensfarm: job failed: %s\n", last.error().c_str());
+      if (!last.error().empty()) std::fprintf(stderr, "lensfarm: job failed: %s\n", logText(last.error()).c_str());
       return kJobNotDone;
     });
   };
@@ -415,9 +418,10 @@ Runner addWorkersCommand(CLI::App& app) {
           state += "; " + std::to_string(w.audits_passed()) + " of its units confirmed by audit";
         if (w.audits_rendered() > 0) state += "; audited " + std::to_string(w.audits_rendered()) + " of other workers'";
         for (const std::string& job : w.blocklisted_jobs()) state += "; blocklisted for " + job;
-        std::printf("%-18s %-28s %7u %-10s %8llu %9.1fs  %s\n", w.worker_id().c_str(), w.name().c_str(), w.threads(),
+        std::printf("%-18s %-28s %7u %-10s %8llu %9.1fs  %s\n", logText(w.worker_id()).c_str(),
+                    logText(w.name()).c_str(), w.threads(),
                     w.current_job_id().empty() ? "-" : w.current_job_id().c_str(), (unsigned long long)w.units_done(),
-                    w.seconds_since_heartbeat(), state.c_str());
+                    w.seconds_since_heartbeat(), logText(state).c_str());
       }
       return kOk;
     });

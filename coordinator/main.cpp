@@ -88,9 +88,10 @@ void addServingFlags(CLI::App& app, Flags& f) {
   app.add_option("--worker-token-file", f.workerTokenFile,
                  "File holding the token workers must present (or set LENSFARM_WORKER_TOKEN)");
   app.add_option("--viewer-token-file", f.viewerTokenFile,
-                 "File holding a read-only token for the dashboard: it shows jobs, workers and images but cannot "
-                 "cancel or reprioritize, and opens no gRPC call (or set LENSFARM_VIEWER_TOKEN to the token itself); "
-                 "needs a client token")
+                 "File holding a read-only token: on the dashboard it shows jobs, workers and images but cannot "
+                 "cancel or reprioritize; on gRPC it opens only the reading calls (GetJob, ListJobs, WatchJob, "
+                 "Download, GetSnapshot, ListWorkers) (or set LENSFARM_VIEWER_TOKEN to the token itself); needs a "
+                 "client token")
       ->envname("LENSFARM_VIEWER_TOKEN_FILE");
   app.add_option("--tls-cert", f.tlsCert, "PEM server certificate chain: serve TLS")->envname("LENSFARM_TLS_CERT");
   app.add_option("--tls-key", f.tlsKey, "PEM private key of --tls-cert")->envname("LENSFARM_TLS_KEY");
@@ -276,6 +277,16 @@ std::optional<int> refuseOpenDoors(const Flags& f, const Security& s) {
         f.dashboardListen);
     return 2;
   }
+  // On loopback one token without the other protects one service and leaves the other to any
+  // local user: said loudly, since it looks protected.
+  if (s.clientToken && !s.workerToken)
+    spdlog::warn(
+        "the worker service takes no token (no --worker-token-file): any user of this machine can register a "
+        "worker, read every queued job's scene and assets, and send results. Give a worker token too.");
+  if (s.workerToken && !s.clientToken)
+    spdlog::warn(
+        "the client service takes no token (no --client-token-file): any user of this machine can submit, "
+        "download and cancel jobs. Give a client token too.");
   if (!loopback && f.tlsCert.empty())
     spdlog::warn("serving {} without TLS: tokens and images cross the network in the clear", f.listen);
   if (const size_t colon = f.dashboardListen.rfind(':');
@@ -369,7 +380,9 @@ int main(int argc, char** argv) {
   addLogLevelOption(app, f.logLevel);
   if (const auto exitCode = parseServiceFlags(app, argc, argv, "lensfarm-coordinator")) return *exitCode;
   setupLogging("coordinator", f.logLevel);
+  createFilesPrivately();  // the state dir holds users' scenes, assets and images
   if (const auto exitCode = finishOptions(f)) return *exitCode;
+  if (!f.stateDir.empty()) makePrivateDirectory(f.stateDir, "--state-dir");
 
   std::unique_ptr<Coordinator> owned;
   try {
@@ -432,6 +445,7 @@ int main(int argc, char** argv) {
   spdlog::info("shutting down");
   server->GetHealthCheckService()->SetServingStatus(false);
   workerService.endAttachments();  // workers' streams end now (not lost), instead of at the deadline
+  clientService.endWatches();
   server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
   return 0;
 }

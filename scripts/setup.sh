@@ -24,10 +24,10 @@ BUILD_PACKAGES=(
   libpng-dev zlib1g-dev
   libssl-dev openssl
   libsqlite3-dev
-  libcpp-httplib-dev
   libfftw3-dev
   libzstd-dev
-  libopenvdb-dev libboost-dev  # OpenVDB grids; its headers include Boost's, which the package does not pull in
+  libopenvdb-dev  # OpenVDB grids
+  libboost-dev  # Boost.Beast for the coordinator's HTTP servers (OpenVDB's headers include Boost's too)
 )
 
 # tests/ and bench/ (GoogleTest, Google Benchmark, yaml-cpp for the deployment files), and what
@@ -37,6 +37,7 @@ BUILD_PACKAGES=(
 TEST_PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libyaml-cpp-dev
+  libcpp-httplib-dev  # the tests' and benchmarks' HTTP client
   nodejs  # runs tests/deploy/kubernetes_schema.js, the Kubernetes schema check (its npm packages: below)
   iproute2
   gnuplot-nox

@@ -49,6 +49,8 @@ fs::path TempDir::write(const std::string& name, const std::string& text) const 
   const fs::path p = path_ / name;
   fs::create_directories(p.parent_path());
   std::ofstream(p, std::ios::binary) << text;
+  // Its owner's alone, as a token file must be (the services refuse one others can read).
+  fs::permissions(p, fs::perms::owner_read | fs::perms::owner_write);
   return p;
 }
 

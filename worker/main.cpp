@@ -129,6 +129,7 @@ int main(int argc, char** argv) {
   if (const auto exitCode = parseServiceFlags(app, argc, argv, "lensfarm-worker")) return *exitCode;
   WorkerOptions& options = f.options;
   setupLogging("worker " + options.name, f.logLevel);
+  createFilesPrivately();  // cached scenes and assets are the farm's, not the machine's other users'
   options.cacheDir = f.cacheDir;
   if (!f.cacheDir.empty()) {
     std::error_code ec;
@@ -137,6 +138,7 @@ int main(int argc, char** argv) {
       std::cerr << "lensfarm-worker: error: --cache-dir " << f.cacheDir << ": " << ec.message() << "\n";
       return 2;
     }
+    makePrivateDirectory(f.cacheDir, "--cache-dir");
   }
 
   std::shared_ptr<grpc::Channel> channel;

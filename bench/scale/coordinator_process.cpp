@@ -30,8 +30,8 @@ std::string slurp(const fs::path& path) {
 }
 
 void writeText(const fs::path& path, const std::string& text) {
-  std::ofstream out(path);
-  out << text << "\n";
+  std::ofstream(path) << text << "\n";
+  fs::permissions(path, fs::perms::owner_read | fs::perms::owner_write);  // a token file must be
 }
 
 // A field "Name:   123 kB" of /proc/<pid>/status, in bytes.

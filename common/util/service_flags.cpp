@@ -1,5 +1,10 @@
 #include "common/util/service_flags.h"
 
+#include <spdlog/spdlog.h>
+#include <sys/stat.h>
+
+#include <filesystem>
+
 #include <CLI/CLI.hpp>
 #include <iostream>
 
@@ -22,6 +27,15 @@ std::optional<int> parseServiceFlags(CLI::App& app, int argc, char** argv, const
     return 2;
   }
   return std::nullopt;
+}
+
+void createFilesPrivately() { ::umask(077); }
+
+void makePrivateDirectory(const std::string& dir, const char* flag) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (!ec) std::filesystem::permissions(dir, std::filesystem::perms::owner_all, ec);
+  if (ec) spdlog::warn("{} {}: cannot make it private to its owner (mode 0700): {}", flag, dir, ec.message());
 }
 
 }  // namespace lensfarm

@@ -13,6 +13,7 @@
 
 #include "common/film/work_unit.h"
 #include "common/util/error.h"
+#include "common/util/log_text.h"
 #include "coordinator/core/coordinator.h"
 #include "coordinator/core/coordinator_records.h"
 #include "coordinator/core/result_checks.h"
@@ -21,7 +22,7 @@
 namespace lensfarm {
 
 void Coordinator::Job::addEvent(std::string text) {
-  spdlog::info("job {}: {}", definition.id, text);
+  spdlog::info("job {}: {}", definition.id, logText(text));
   if (events.size() >= kMaxJobEvents) events.erase(events.begin());
   const double now = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   events.push_back(JobInfo::Event{now, std::move(text)});
@@ -186,7 +187,7 @@ void Coordinator::quarantine(Worker& worker, const std::string& reason) {
   if (first) {
     worker.quarantined = true;
     worker.quarantineReason = reason;
-    spdlog::warn("worker {} quarantined: {}", worker.label(), reason);
+    spdlog::warn("worker {} quarantined: {}", logText(worker.label()), logText(reason));
     releaseLeasesOf(worker, "quarantined", reason, Clock::now());
   }
   for (auto& [id, job] : jobs_) {

@@ -5,6 +5,7 @@
 // workers.cpp; the records they share are in coordinator_records.h.
 #include "coordinator/core/coordinator.h"
 #include "common/scene/scene_diffraction.h"
+#include "common/util/log_text.h"
 
 #include <spdlog/spdlog.h>
 
@@ -199,7 +200,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
     const std::string what = spec.sceneName + ": out of memory allocating the " + std::to_string(scene.render.width) +
                              "x" + std::to_string(scene.render.height) + " job's sensor (estimated " +
                              formatBytes(memory.total()) + " in all); the job was not queued";
-    spdlog::error("SubmitJob: {}", what);
+    spdlog::error("SubmitJob: {}", logText(what));
     throw FarmError(FarmError::Kind::kResourceExhausted, what);
   }
   job->definition.submittedUnixSeconds =
@@ -213,7 +214,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
                                             job->definition.spec, jobStateName(job->progress.state), "",
                                             job->definition.submittedUnixSeconds, 0, std::nullopt, "",
                                             job->definition.owner, 0.0, false, ""});
-  spdlog::info("job {}: {} {}x{}, {} spp in {} units of {}, priority {}{}", job->definition.id, spec.sceneName,
+  spdlog::info("job {}: {} {}x{}, {} spp in {} units of {}, priority {}{}", job->definition.id, logText(spec.sceneName),
                job->definition.settings.width, job->definition.settings.height, job->definition.layout.samplesPerPixel,
                job->progress.units.total(), job->definition.unitSize, priority,
                job->definition.layout.adaptive() ? "; " + job->definition.layout.adaptiveSummary() : "");

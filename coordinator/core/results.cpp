@@ -13,6 +13,7 @@
 #include "common/film/work_unit.h"
 #include "common/scene/path_limits.h"
 #include "common/util/error.h"
+#include "common/util/log_text.h"
 #include "coordinator/core/coordinator.h"
 #include "coordinator/core/coordinator_records.h"
 #include "coordinator/core/result_checks.h"
@@ -317,7 +318,7 @@ void Coordinator::reportFailure(const std::string& workerId, uint64_t leaseId, c
   }
   ++worker.failures;
   const std::string reason = worker.label() + ": " + error;
-  spdlog::warn("job {}: unit {} failed on {}", job.definition.id, unit, reason);
+  spdlog::warn("job {}: unit {} failed on {}", job.definition.id, unit, logText(reason));
   const size_t failedOn = job.failures.record(unit, workerId, reason, options_.maxFailuresPerWorker);
   // The job fails when the unit failed on enough workers, or no live worker may take it.
   bool anyoneLeft = false;
@@ -328,7 +329,7 @@ void Coordinator::reportFailure(const std::string& workerId, uint64_t leaseId, c
                                                                     std::to_string(failedOn) + " workers: " + reasons
                                                               : "no worker left that has not failed it: " + reasons;
     end(job, JobState::kFailed);
-    spdlog::error("job {}: failed: {}", job.definition.id, job.progress.error);
+    spdlog::error("job {}: failed: {}", job.definition.id, logText(job.progress.error));
   } else if (!job.progress.units.isReceived(unit) && !job.progress.units.isRecording(unit)) {
     job.progress.units.requeue(unit);  // for another worker (or this one, until it is blocklisted)
     changed_.notify_all();

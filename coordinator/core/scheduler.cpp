@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "common/farm/memory_estimate.h"
+#include "common/util/log_text.h"
 #include "coordinator/core/coordinator.h"
 #include "coordinator/core/coordinator_records.h"
 
@@ -139,7 +140,7 @@ std::string Coordinator::releaseLeasesOf(Worker& worker, const std::string& verb
     std::string list;
     for (uint64_t u : units) list += (list.empty() ? "" : ", ") + std::to_string(u);
     const std::string what = (units.size() == 1 ? "unit " : "units ") + list + " of " + jobId + " queued again";
-    spdlog::debug("{} {} ({}): {}", worker.label(), verb, detail, what);
+    spdlog::debug("{} {} ({}): {}", logText(worker.label()), verb, logText(detail), what);
     requeued += (requeued.empty() ? "" : "; ") + what;
     if (!isTerminal(job.progress.state)) {
       // The watcher's line (lensfarm watch, status, the dashboard): who went, why, what is redone.

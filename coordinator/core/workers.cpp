@@ -9,6 +9,7 @@
 
 #include "common/farm/memory_estimate.h"
 #include "common/util/error.h"
+#include "common/util/log_text.h"
 #include "common/util/version.h"
 #include "coordinator/core/coordinator.h"
 #include "coordinator/core/coordinator_records.h"
@@ -37,7 +38,7 @@ std::string Coordinator::registerWorker(const WorkerInfo& info, std::string* ses
   WorkerRecord& worker = workers_.add(info, Clock::now(), &back);
   if (session) *session = worker.session;
   const std::string id = worker.id;
-  spdlog::info("{} registered: {} with {} threads", id, info.name, info.threads);
+  spdlog::info("{} registered: {} with {} threads", id, logText(info.name), info.threads);
   if (back)
     for (auto& [jobId, job] : jobs_)
       if (!isTerminal(job->progress.state) && job->failures.rejoined(info.name)) {
@@ -74,7 +75,7 @@ uint64_t Coordinator::attachWorker(const std::string& workerId) {
   Worker& worker = findWorker(workerId);
   worker.attachment = nextAttachment_++;
   worker.lastHeartbeat = Clock::now();
-  spdlog::debug("{} attached (stream {})", worker.label(), worker.attachment);
+  spdlog::debug("{} attached (stream {})", logText(worker.label()), worker.attachment);
   return worker.attachment;
 }
 
@@ -89,7 +90,7 @@ bool Coordinator::workerLost(const std::string& workerId, const std::string& rea
   ++counters_.workersLost;
   const std::string requeued = releaseLeasesOf(*worker, "lost", reason, now);
   worker->goneReason = reason + (requeued.empty() ? "" : "; " + requeued);
-  spdlog::warn("{} lost: {}", worker->label(), worker->goneReason);
+  spdlog::warn("{} lost: {}", logText(worker->label()), logText(worker->goneReason));
   return true;
 }
 
@@ -103,7 +104,7 @@ void Coordinator::workerLeft(const std::string& workerId, uint64_t attachment) {
   worker->attachment = 0;
   const std::string requeued = releaseLeasesOf(*worker, "left", "stopped", now);
   worker->goneReason = "stopped" + (requeued.empty() ? std::string() : "; " + requeued);
-  spdlog::info("{} left: {}", worker->label(), worker->goneReason);
+  spdlog::info("{} left: {}", logText(worker->label()), logText(worker->goneReason));
 }
 
 WorkerState Coordinator::stateOf(const Worker& worker, bool holdsLease, Clock::time_point now,

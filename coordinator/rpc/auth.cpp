@@ -4,27 +4,51 @@
 
 #include "common/util/secret.h"
 
+#include <optional>
+
 namespace lensfarm {
+
+namespace {
+
+// The token of "authorization: Bearer <token>", or nullopt (no such metadata, or another scheme).
+std::optional<std::string> bearerOf(const grpc::ServerContextBase* context, bool& present) {
+  const auto& metadata = context->client_metadata();
+  const auto it = metadata.find("authorization");
+  present = it != metadata.end();
+  const std::string prefix = "Bearer ";
+  if (!present) return std::nullopt;
+  const std::string given(it->second.data(), it->second.size());
+  if (given.rfind(prefix, 0) != 0) return std::nullopt;
+  return given.substr(prefix.size());
+}
+
+}  // namespace
 
 grpc::Status TokenGate::check(const grpc::ServerContextBase* context, const char* rpc) const {
   if (!token_) return grpc::Status::OK;
-  const auto& metadata = context->client_metadata();
-  const auto it = metadata.find("authorization");
-  const std::string prefix = "Bearer ";
-  const bool present = it != metadata.end();
-  const std::string given = present ? std::string(it->second.data(), it->second.size()) : "";
-  const bool bearer = present && given.rfind(prefix, 0) == 0;
-  if (bearer && equalSecrets(given.substr(prefix.size()), *token_)) return grpc::Status::OK;
-  if (bearer && readOnlyToken_ && equalSecrets(given.substr(prefix.size()), *readOnlyToken_)) {
+  bool present = false;
+  const std::optional<std::string> bearer = bearerOf(context, present);
+  if (bearer && equalSecrets(*bearer, *token_)) return grpc::Status::OK;
+  if (bearer && readOnlyToken_ && equalSecrets(*bearer, *readOnlyToken_)) {
     if (readOnlyRpcs_.count(rpc)) return grpc::Status::OK;
-    spdlog::warn("refused {} from {}: the {} token is read-only", rpc, context->peer(), readOnlyRole_);
+    refusals_->warn("read-only",
+                    fmt::format("refused {} from {}: the {} token is read-only", rpc, context->peer(), readOnlyRole_));
     return grpc::Status(grpc::StatusCode::PERMISSION_DENIED,
                         std::string(rpc) + ": the " + readOnlyRole_ + " token is read-only");
   }
   const std::string roles = readOnlyToken_ ? role_ + " or " + readOnlyRole_ : role_;
-  spdlog::warn("refused {} from {}: {} {} token", rpc, context->peer(), present ? "wrong" : "missing", roles);
+  refusals_->warn("token", fmt::format("refused {} from {}: {} {} token", rpc, context->peer(),
+                                       present ? "wrong" : "missing", roles));
   return grpc::Status(grpc::StatusCode::UNAUTHENTICATED,
                       std::string(rpc) + ": " + (present ? "wrong " : "missing ") + roles + " token");
+}
+
+std::string TokenGate::roleOf(const grpc::ServerContextBase* context) const {
+  if (!token_) return "anyone";
+  bool present = false;
+  const std::optional<std::string> bearer = bearerOf(context, present);
+  if (bearer && readOnlyToken_ && equalSecrets(*bearer, *readOnlyToken_)) return readOnlyRole_;
+  return role_;
 }
 
 }  // namespace lensfarm

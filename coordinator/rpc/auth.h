@@ -2,13 +2,16 @@
 // Token authentication for the coordinator's services: each service has its own token (clients
 // and workers never share one), checked against the "authorization: Bearer <token>" metadata of
 // every call. A missing or wrong token gets UNAUTHENTICATED and a log line naming the peer, never
-// the token. A service may also take a read-only token (the viewer's, on the client service) for
-// the calls that only read: it gets PERMISSION_DENIED on any other.
+// the token (at a bounded rate: ThrottledLog). A service may also take a read-only token (the viewer's, on the client
+// service) for the calls that only read: it gets PERMISSION_DENIED on any other.
 #include <grpcpp/grpcpp.h>
 
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
+
+#include "common/util/throttled_log.h"
 
 namespace lensfarm {
 
@@ -25,6 +28,9 @@ class TokenGate {
         readOnlyRole_(std::move(readOnlyRole)),
         readOnlyRpcs_(std::move(readOnlyRpcs)) {}
   grpc::Status check(const grpc::ServerContextBase* context, const char* rpc) const;
+  // The role of a call check() let through: the role of the token it carries, or "anyone" when
+  // the service takes no token.
+  std::string roleOf(const grpc::ServerContextBase* context) const;
   bool enabled() const { return token_.has_value(); }
 
  private:
@@ -33,6 +39,7 @@ class TokenGate {
   std::optional<std::string> readOnlyToken_;
   std::string readOnlyRole_;
   std::set<std::string> readOnlyRpcs_;
+  std::shared_ptr<ThrottledLog> refusals_ = std::make_shared<ThrottledLog>();  // shared by copies
 };
 
 }  // namespace lensfarm

@@ -14,6 +14,9 @@ namespace lensfarm {
 
 namespace {
 
+// Bounds on text a worker sends that the coordinator keeps and shows.
+constexpr size_t kMaxWorkerNameBytes = 256, kMaxFailureTextBytes = 4096;
+
 // A request's exposure compensation: finite and within the scene format's range, else
 // INVALID_ARGUMENT naming the field (a NaN would otherwise give a black image).
 double checkedEv(double ev) {
@@ -254,18 +257,10 @@ grpc::Status ClientServiceImpl::ArchiveJob(grpc::ServerContext* context, const v
                  [&] { *response->mutable_status() = toProto(coordinator_.archiveJob(request->job_id())); });
 }
 
-grpc::Status ClientServiceImpl::WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
-                                         grpc::ServerWriter<v1::JobStatus>* writer) {
-  return guarded(gate_, context, "WatchJob", [&] {
-    JobInfo info = coordinator_.job(request->job_id());
-    if (!writer->Write(toProto(info))) return;
-    while (!isTerminal(info.state) && !context->IsCancelled()) {
-      const JobInfo next = coordinator_.waitForChange(info.id, info.version, 1.0);
-      // Send on a change, and at least every second so elapsed time and rates stay live.
-      info = next;
-      if (!writer->Write(toProto(info))) return;
-    }
-  });
+grpc::ServerWriteReactor<v1::JobStatus>* ClientServiceImpl::WatchJob(grpc::CallbackServerContext* context,
+                                                                     const v1::WatchJobRequest* request) {
+  const grpc::Status admitted = gate_.check(context, "WatchJob");
+  return watchers_.watch(request->job_id(), admitted.ok() ? gate_.roleOf(context) : "", admitted);
 }
 
 grpc::Status ClientServiceImpl::Download(grpc::ServerContext* context, const v1::DownloadRequest* request,
@@ -321,6 +316,8 @@ grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext* context, const 
 grpc::Status WorkerServiceImpl::Register(grpc::ServerContext* context, const v1::RegisterRequest* request,
                                          v1::RegisterResponse* response) {
   return guarded(gate_, context, "Register", [&] {
+    if (request->name().size() > kMaxWorkerNameBytes)
+      throw InputError("name", "at most " + std::to_string(kMaxWorkerNameBytes) + " bytes");
     WorkerInfo info{request->name(), std::max(1u, request->threads()), request->protocol_version(),
                     request->renderer_version(), request->max_unit_memory_bytes()};
     std::string session;
@@ -505,7 +502,11 @@ grpc::Status WorkerServiceImpl::ReportFailure(grpc::ServerContext* context, cons
                                               v1::ReportFailureResponse*) {
   return guarded(gate_, context, "ReportFailure", [&] {
     coordinator_.authenticateWorker(request->worker_id(), request->session());
-    coordinator_.reportFailure(request->worker_id(), request->lease_id(), request->job_id(), request->error());
+    // The worker's words are kept for the job's error and events, at most kMaxFailureTextBytes.
+    const std::string& error = request->error();
+    coordinator_.reportFailure(
+        request->worker_id(), request->lease_id(), request->job_id(),
+        error.size() <= kMaxFailureTextBytes ? error : error.substr(0, kMaxFailureTextBytes) + "...");
   });
 }
 

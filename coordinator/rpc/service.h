@@ -8,15 +8,27 @@
 
 #include "coordinator/core/coordinator.h"
 #include "coordinator/rpc/auth.h"
+#include "coordinator/rpc/job_watchers.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
 #include "lensfarm/v1/worker_service.grpc.pb.h"
 
 namespace lensfarm {
 
-class ClientServiceImpl final : public v1::ClientService::Service {
+// Sync handlers, except WatchJob: a stream a client may hold for a job's life, served by gRPC's
+// callback API (JobWatchers: one thread for every stream, a cap per caller role).
+class ClientServiceImpl final : public v1::ClientService::WithCallbackMethod_WatchJob<v1::ClientService::Service> {
  public:
-  ClientServiceImpl(Coordinator& coordinator, TokenGate gate = TokenGate({}, "client"))
-      : coordinator_(coordinator), gate_(std::move(gate)) {}
+  // The most WatchJob streams one role (client token, viewer token, or anyone without a token)
+  // may hold open.
+  static constexpr size_t kMaxWatchStreamsPerRole = 1024;
+
+  ClientServiceImpl(Coordinator& coordinator, TokenGate gate = TokenGate({}, "client"),
+                    size_t maxWatchStreamsPerRole = kMaxWatchStreamsPerRole)
+      : coordinator_(coordinator), gate_(std::move(gate)), watchers_(coordinator, maxWatchStreamsPerRole) {}
+
+  // Ends every WatchJob stream (UNAVAILABLE) and refuses new ones: call before
+  // grpc::Server::Shutdown.
+  void endWatches() { watchers_.stop(); }
 
   grpc::Status FindMissingAssets(grpc::ServerContext* context, const v1::FindMissingAssetsRequest* request,
                                  v1::FindMissingAssetsResponse* response) override;
@@ -27,8 +39,8 @@ class ClientServiceImpl final : public v1::ClientService::Service {
   grpc::Status GetJob(grpc::ServerContext* context, const v1::GetJobRequest* request, v1::JobStatus* response) override;
   grpc::Status ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest*,
                         v1::ListJobsResponse* response) override;
-  grpc::Status WatchJob(grpc::ServerContext* context, const v1::WatchJobRequest* request,
-                        grpc::ServerWriter<v1::JobStatus>* writer) override;
+  grpc::ServerWriteReactor<v1::JobStatus>* WatchJob(grpc::CallbackServerContext* context,
+                                                    const v1::WatchJobRequest* request) override;
   grpc::Status Download(grpc::ServerContext* context, const v1::DownloadRequest* request,
                         grpc::ServerWriter<v1::FileChunk>* writer) override;
   grpc::Status GetSnapshot(grpc::ServerContext* context, const v1::SnapshotRequest* request,
@@ -45,6 +57,7 @@ class ClientServiceImpl final : public v1::ClientService::Service {
  private:
   Coordinator& coordinator_;
   TokenGate gate_;
+  JobWatchers watchers_;
 };
 
 // ListJobsRequest's filters as Coordinator::JobFilter; FarmError kInvalidArgument naming an

@@ -1,15 +1,23 @@
 #pragma once
-// Serves the web dashboard over HTTP, or HTTPS with the coordinator's certificate (cpp-httplib,
-// http_server.h): the page's assets (compiled into the binary, public: they hold no data) and the
+// Serves the web dashboard over HTTP, or HTTPS with the coordinator's certificate (http_server.h,
+// with its limits): the page's assets (compiled into the binary, public: they hold no data) and the
 // /api routes over Dashboard (dashboard.h), each of which needs "Authorization: Bearer <token>"
 // when the coordinator has a client token: the client token for everything, the viewer token for
 // the GET routes only (a POST with it is 403). The routes are listed in docs/dashboard.md.
 #include <string>
+#include <string_view>
+
+#include "common/util/throttled_log.h"
 
 #include "coordinator/web/dashboard.h"
 #include "coordinator/web/http_server.h"
 
 namespace lensfarm {
+
+// Whether a Host header names this machine by a loopback name or address, with or without a
+// port: localhost, an IPv4 dotted quad in 127.0.0.0/8, or [::1]; nothing that merely begins so
+// ("127.0.0.1.nip.io", "[::1]evil").
+bool loopbackHost(std::string_view host);
 
 class DashboardServer {
  public:
@@ -22,6 +30,7 @@ class DashboardServer {
   const char* scheme() const { return server_.scheme(); }
 
  private:
+  ThrottledLog refusals_;  // refused tokens, logged at a bounded rate
   HttpServer server_;
 };
 

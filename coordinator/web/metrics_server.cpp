@@ -1,18 +1,30 @@
 #include "coordinator/web/metrics_server.h"
 
-#include <httplib.h>
-
 #include "coordinator/core/metrics.h"
 
 namespace lensfarm {
 
+namespace {
+
+HttpRoutes metricsRoutes(std::function<std::string()> render) {
+  HttpRoutes routes;
+  routes.get("/metrics", [render = std::move(render)](const HttpRequest&, HttpResponse& response) {
+    response.setContent(render(), kMetricsContentType);
+  });
+  return routes;
+}
+
+// A scrape is a bodiless GET: no body is accepted, and a couple of handler threads suffice.
+HttpLimits metricsLimits() {
+  HttpLimits limits;
+  limits.maxBodyBytes = 0;
+  limits.handlerThreads = 2;
+  return limits;
+}
+
+}  // namespace
+
 MetricsServer::MetricsServer(const std::string& listen, std::function<std::string()> render)
-    : server_(listen, "--metrics-listen", "metrics", 2,  // scrapes are rare and small
-              [&render](httplib::Server& server) {
-                server.Get("/metrics",
-                           [render = std::move(render)](const httplib::Request&, httplib::Response& response) {
-                             response.set_content(render(), kMetricsContentType);
-                           });
-              }) {}
+    : server_(listen, "--metrics-listen", "metrics", metricsRoutes(std::move(render)), metricsLimits()) {}
 
 }  // namespace lensfarm

@@ -1,6 +1,6 @@
 #pragma once
 // Serves the coordinator's metrics (metrics.h) over HTTP for Prometheus: GET /metrics. A thin
-// shell over cpp-httplib (http_server.h); the text comes from a callback, so the server knows
+// shell over HttpServer (http_server.h); the text comes from a callback, so the server knows
 // nothing of jobs.
 #include <functional>
 #include <string>

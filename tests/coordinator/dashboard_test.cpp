@@ -6,6 +6,7 @@
 #include "common/util/version.h"
 #include "coordinator/core/coordinator.h"
 #include "coordinator/web/dashboard.h"
+#include "coordinator/web/dashboard_server.h"
 #include "tests/coordinator/audit_views.h"
 #include "tests/coordinator/coordinator_fixtures.h"
 #include "tests/test_support.h"
@@ -253,6 +254,38 @@ TEST(Dashboard, ErrorHistoryStaysBoundedAndKeepsItsSpan) {
   EXPECT_EQ(history.front().samplesPerPixel, 2u) << "the first point survives thinning";
   EXPECT_EQ(history.back().samplesPerPixel, 1100u);
   for (size_t k = 1; k < history.size(); ++k) EXPECT_LT(history[k - 1].samplesPerPixel, history[k].samplesPerPixel);
+}
+
+// The DNS-rebinding guard of a tokenless dashboard: the Host must be a loopback name or address,
+// exactly, with at most a numeric port; a name that merely begins like one is another site.
+TEST(Dashboard, OnlyLoopbackHostsPassTheRebindingGuard) {
+  for (const char* host : {"localhost", "localhost:8080", "LocalHost:1", "127.0.0.1", "127.0.0.1:80", "127.1.2.3:65535",
+                           "[::1]", "[::1]:8080"})
+    EXPECT_TRUE(loopbackHost(host)) << host;
+  for (const char* host : {"",
+                           "127.attacker.example",
+                           "127.0.0.1.nip.io",
+                           "127.0.0.1.nip.io:80",
+                           "[::1]evil",
+                           "[::1]:80evil",
+                           "[::1",
+                           "localhost.evil.example",
+                           "localhost.",
+                           "evil.localhost",
+                           "127.0.0.1:",
+                           "127.0.0.1:80:80",
+                           "127.0.0.1:99999",
+                           "127.0.0.1:+80",
+                           "128.0.0.1",
+                           "0.0.0.0",
+                           "10.0.0.1:80",
+                           "127.0.0.1 ",
+                           " 127.0.0.1",
+                           "127.0.0.01x",
+                           "[::2]",
+                           "[::ffff:8.8.8.8]",
+                           "127.0.0.1\r\nX: y"})
+    EXPECT_FALSE(loopbackHost(host)) << host;
 }
 
 }  // namespace

@@ -153,6 +153,7 @@ const std::map<std::string, Dependency>& debianNames() {
       // (libzstd.pc says libdir=/usr/lib; the library pkg-config found is the evidence.)
       {"libzstd", {{"libzstd-dev"}, cached("pkgcfg_lib_ZSTD_zstd")}},
       {"openvdb", {{"libopenvdb-dev"}, cached("OPENVDB_LIBRARY")}},  // find_library (CMakeLists.txt says why)
+      {"Boost", {{"libboost-dev"}, config("Boost")}},
   };
   return table;
 }

@@ -1,0 +1,178 @@
+// Hostile clients against a real coordinator's gRPC services, each bound asserted and printed:
+// a flood of WatchJob streams from the viewer token (threads stay flat, the role's cap holds,
+// other roles and calls are served), and a flood of refused calls (the log stays short).
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "lensfarm/v1/client_service.grpc.pb.h"
+#include "tests/deploy_support.h"
+
+namespace lensfarm {
+namespace {
+
+namespace fs = std::filesystem;
+
+int threadsOf(int pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("Threads:", 0) == 0) return std::atoi(line.c_str() + 8);
+  return -1;
+}
+
+class HostileGrpc : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto secret = [&](const std::string& name, const std::string& token) {
+      const fs::path file = dir_.write(name, token + "\n");
+      fs::permissions(file, fs::perms::owner_read | fs::perms::owner_write);
+      return file.string();
+    };
+    address_ =
+        farm_.startCoordinator({"--listen", "127.0.0.1:0", "--client-token-file", secret("client.token", client_),
+                                "--viewer-token-file", secret("viewer.token", viewer_), "--worker-token-file",
+                                secret("worker.token", "worker-token-of-the-hostile-grpc-test")});
+    job_ = farm_.submit({test::writeSeedScene(dir_, 16, 1 << 20, 8).string(), "--coordinator", address_, "--token-file",
+                         (dir_ / "client.token").string()});
+  }
+
+  std::unique_ptr<v1::ClientService::Stub> stub() {
+    grpc::ChannelArguments args;
+    args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);  // a connection of its own
+    return v1::ClientService::NewStub(grpc::CreateCustomChannel(address_, grpc::InsecureChannelCredentials(), args));
+  }
+
+  test::TempDir dir_;
+  test::FarmProcesses farm_{dir_};
+  const std::string client_ = "client-token-of-the-hostile-grpc-test",
+                    viewer_ = "viewer-token-of-the-hostile-grpc-test";
+  std::string address_, job_;
+};
+
+// One asynchronous WatchJob stream and what it has received.
+struct Watch {
+  grpc::ClientContext context;
+  v1::JobStatus status;
+  grpc::Status end;
+  std::unique_ptr<grpc::ClientAsyncReader<v1::JobStatus>> reader;
+};
+
+// 2,000 viewer WatchJob streams on 20 connections: the coordinator's threads stay within 50 of
+// idle, the viewer's cap (1,024 streams) holds (the rest are RESOURCE_EXHAUSTED, naming it), and
+// while they are open the client token still watches and a GetJob answers.
+TEST_F(HostileGrpc, AWatchJobFloodCostsNoThreadsAndMeetsTheRolesCap) {
+  const int pid = farm_.coordinator().pid();
+  const int idle = threadsOf(pid);
+  std::vector<std::unique_ptr<v1::ClientService::Stub>> stubs;
+  for (int i = 0; i < 20; ++i) stubs.push_back(stub());
+  grpc::CompletionQueue queue;
+  std::vector<std::unique_ptr<Watch>> watches;
+  v1::WatchJobRequest request;
+  request.set_job_id(job_);
+  // Tags: 3k = started, 3k+1 = first message read, 3k+2 = finished.
+  for (size_t k = 0; k < 2000; ++k) {
+    auto watch = std::make_unique<Watch>();
+    watch->context.AddMetadata("authorization", "Bearer " + viewer_);
+    watch->reader = stubs[k % stubs.size()]->PrepareAsyncWatchJob(&watch->context, request, &queue);
+    watch->reader->StartCall(reinterpret_cast<void*>(3 * k));
+    watches.push_back(std::move(watch));
+  }
+  size_t streaming = 0, exhausted = 0, other = 0, pending = 2000;
+  std::string refusal;
+  const auto deadline = std::chrono::system_clock::now() + std::chrono::seconds(120);
+  while (pending > 0) {
+    void* tag = nullptr;
+    bool ok = false;
+    if (queue.AsyncNext(&tag, &ok, deadline) != grpc::CompletionQueue::NextStatus::GOT_EVENT) break;
+    const size_t k = reinterpret_cast<size_t>(tag) / 3, step = reinterpret_cast<size_t>(tag) % 3;
+    Watch& watch = *watches[k];
+    if (step == 0) {
+      watch.reader->Read(&watch.status, reinterpret_cast<void*>(3 * k + 1));
+    } else if (step == 1 && ok) {
+      ++streaming;  // held open: the job renders for a long time
+      --pending;
+    } else if (step == 1) {
+      watch.reader->Finish(&watch.end, reinterpret_cast<void*>(3 * k + 2));
+    } else {
+      if (watch.end.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
+        ++exhausted;
+        refusal = watch.end.error_message();
+      } else {
+        ++other;
+      }
+      --pending;
+    }
+  }
+  const int flooded = threadsOf(pid);
+
+  // Meanwhile the client's own watch and a plain call are served.
+  auto clientStub = stub();
+  grpc::ClientContext clientContext;
+  clientContext.AddMetadata("authorization", "Bearer " + client_);
+  auto reader = clientStub->WatchJob(&clientContext, request);
+  v1::JobStatus first;
+  EXPECT_TRUE(reader->Read(&first)) << "the client token's own streams have their own cap";
+  clientContext.TryCancel();
+  grpc::ClientContext getContext;
+  getContext.AddMetadata("authorization", "Bearer " + viewer_);
+  getContext.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
+  v1::GetJobRequest get;
+  get.set_job_id(job_);
+  v1::JobStatus got;
+  EXPECT_TRUE(clientStub->GetJob(&getContext, get, &got).ok());
+
+  std::printf(
+      "2000 viewer WatchJob streams: %zu streaming, %zu refused RESOURCE_EXHAUSTED, %zu other; coordinator "
+      "threads %d idle -> %d\n",
+      streaming, exhausted, other, idle, flooded);
+  EXPECT_EQ(pending, 0u);
+  EXPECT_EQ(streaming, 1024u);
+  EXPECT_EQ(exhausted, 2000u - 1024u);
+  EXPECT_NE(refusal.find("the viewer token already has 1024 streams open"), std::string::npos) << refusal;
+  EXPECT_LT(flooded - idle, 50);
+
+  for (auto& watch : watches) watch->context.TryCancel();
+  queue.Shutdown();
+  void* tag = nullptr;
+  bool ok = false;
+  while (queue.Next(&tag, &ok)) {
+    const size_t k = reinterpret_cast<size_t>(tag) / 3, step = reinterpret_cast<size_t>(tag) % 3;
+    if (step == 1) watches[k]->reader->Finish(&watches[k]->end, reinterpret_cast<void*>(3 * k + 2));
+  }
+  // The streams end and their slots come back: a new viewer watch is served.
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        grpc::ClientContext again;
+        again.AddMetadata("authorization", "Bearer " + viewer_);
+        auto r = clientStub->WatchJob(&again, request);
+        v1::JobStatus status;
+        const bool read = r->Read(&status);
+        again.TryCancel();
+        return read;
+      },
+      30));
+}
+
+// 5,000 refused calls (wrong token) in a burst: the coordinator's log holds a few lines that say
+// how many more there were, not 5,000.
+TEST_F(HostileGrpc, RefusedCallsAreLoggedAtABoundedRate) {
+  auto s = stub();
+  for (int i = 0; i < 5000; ++i) {
+    grpc::ClientContext context;
+    context.AddMetadata("authorization", "Bearer not-the-token");
+    v1::ListJobsRequest request;
+    v1::ListJobsResponse response;
+    ASSERT_EQ(s->ListJobs(&context, request, &response).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  }
+  std::string log = farm_.coordinator().log();
+  size_t lines = 0;
+  for (size_t at = log.find("refused ListJobs"); at != std::string::npos; at = log.find("refused ListJobs", at + 1))
+    ++lines;
+  std::printf("5000 refused calls: %zu log lines\n", lines);
+  EXPECT_GE(lines, 1u);
+  EXPECT_LE(lines, 20u);
+}
+
+}  // namespace
+}  // namespace lensfarm
