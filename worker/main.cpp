@@ -17,6 +17,7 @@
 
 #include "common/farm/memory_estimate.h"
 #include "common/render/ray_caster.h"
+#include "common/util/atomic_file.h"
 #include "common/util/error.h"
 #include "common/util/flag_checks.h"
 #include "common/util/logging.h"
@@ -139,6 +140,7 @@ int main(int argc, char** argv) {
       return 2;
     }
     makePrivateDirectory(f.cacheDir, "--cache-dir");
+    removeStaleTemporaries(f.cacheDir, true);  // writes a killed worker left
   }
 
   std::shared_ptr<grpc::Channel> channel;

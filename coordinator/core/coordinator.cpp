@@ -573,6 +573,11 @@ MetricsSnapshot Coordinator::metricsSnapshot() const {
   s.unitsDone = counters_.unitsDone;
   s.unitsExpired = counters_.unitsExpired;
   s.workersLost = counters_.workersLost;
+  s.stateWriteFailures = counters_.stateWriteFailures;
+  {
+    MutexLock lock(mutex_);
+    s.stateWritesStalled = storageStall_.has_value();
+  }
   s.auditsPassed = counters_.auditsPassed;
   s.auditsFailed = counters_.auditsFailed;
   s.unitsRerendered = counters_.unitsRerendered;

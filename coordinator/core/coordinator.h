@@ -177,6 +177,8 @@ struct MetricsSnapshot {
   uint64_t unitsDone = 0;              // results accepted and counted, each unit once
   uint64_t unitsExpired = 0;           // leases that lapsed without a result
   uint64_t workersLost = 0;            // workers marked lost when their Attach stream broke
+  uint64_t stateWriteFailures = 0;     // writes the state dir refused (a full disk, a quota, an I/O error)
+  bool stateWritesStalled = false;     // leasing paused until the state dir takes writes again
   uint64_t auditsPassed = 0;           // audits whose two results agreed
   uint64_t auditsFailed = 0;           // audits that found a wrong worker
   uint64_t unitsRerendered = 0;        // counted units queued again after a wrong worker was found
@@ -499,6 +501,8 @@ class Coordinator {
                        double nowUnix) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   // A tiled job's film from its stored frames and its ledger; returns the highest unit counted.
   std::optional<uint64_t> restoreTiled(Job& job);
+  std::optional<uint64_t> replayStoredUnits(Job& job, const std::function<bool(uint64_t)>& fileExpected);
+  void reportRepair(Job& job, const std::string& repair);
   void persistState(const Job& job) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   void checkpointLoop();
 
@@ -533,10 +537,23 @@ class Coordinator {
   // Held while a job's checkpoint is taken and written, and by a rewind that rewrites it.
   std::mutex checkpointMutex_;
 
+  // The state dir refused a write (a full disk, a quota, an I/O error: StorageError): no unit is
+  // leased until a probe write succeeds (checkpointLoop, every kStorageProbeSeconds), and every
+  // running job says why in its stalled reason; workers wait in LeaseWork instead of rendering
+  // units that could not be kept.
+  struct StorageStall {
+    std::string reason;  // the file (relative to the state dir) and errno's text
+    Clock::time_point since;
+  };
+  static constexpr double kStorageProbeSeconds = 2.0;
+  std::optional<StorageStall> storageStall_ ABSL_GUARDED_BY(mutex_);
+  void storageFailed(const class StorageError& e) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  void probeStorage() ABSL_LOCKS_EXCLUDED(mutex_);
+
   // Counted for metricsSnapshot() since this process started (the assets' by assets_).
   struct Counters {
     std::atomic<uint64_t> unitsLeased{0}, unitsDone{0}, unitsExpired{0}, samples{0}, unitBytes{0}, unitWireBytes{0};
-    std::atomic<uint64_t> workersLost{0};
+    std::atomic<uint64_t> workersLost{0}, stateWriteFailures{0};
     std::atomic<uint64_t> auditsPassed{0}, auditsFailed{0}, unitsRerendered{0};
   };
   Counters counters_;

@@ -97,6 +97,12 @@ void workerMetrics(Exposition& e, const MetricsSnapshot& s) {
   e.family("lensfarm_workers_lost_total", "counter",
            "Workers marked lost at once because their Attach stream broke (their units were queued again).");
   e.sample(s.workersLost);
+  e.family("lensfarm_state_write_failures_total", "counter",
+           "Writes the state dir refused (a full disk, a quota, an I/O error); the log names the file and the error.");
+  e.sample(s.stateWriteFailures);
+  e.family("lensfarm_state_writes_stalled", "gauge",
+           "1 while the state dir refuses writes: no unit is leased until a probe write goes through.");
+  e.sample(uint64_t(s.stateWritesStalled));
   e.family("lensfarm_workers_quarantined", "gauge",
            "Known workers quarantined by the cross-worker audit: leased nothing more until the coordinator restarts.");
   e.sample(quarantined);

@@ -5,34 +5,79 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cstring>
 
 #include "common/farm/job_scene.h"
 #include "common/scene/scene_loader.h"
+#include "common/util/log_text.h"
 #include "coordinator/core/coordinator.h"
 #include "coordinator/core/coordinator_records.h"
+#include "coordinator/store/checked_file.h"
 #include "coordinator/store/frame_store.h"
 #include "coordinator/store/state_store.h"
 
 namespace lensfarm {
 
 void Coordinator::persistState(const Job& job) {
-  if (store_)
+  if (!store_) return;
+  try {
     store_->updateJobState(job.definition.id, jobStateName(job.progress.state), job.progress.error,
                            job.progress.stopUnits, job.progress.stopReason, job.retention.endedUnixSeconds);
+  } catch (const StorageError& e) {
+    storageFailed(e);  // kept in memory, written again when the state dir takes writes (probeStorage)
+  }
 }
 
 void Coordinator::checkpointLoop() {
   MutexLock lock(mutex_);
   while (!stopping_) {
-    lock.waitFor(checkpointWake_, std::chrono::duration<double>(options_.checkpointEverySeconds));
+    const double wait = storageStall_ ? std::min(kStorageProbeSeconds, options_.checkpointEverySeconds)
+                                      : options_.checkpointEverySeconds;
+    lock.waitFor(checkpointWake_, std::chrono::duration<double>(wait));
     if (stopping_) break;
+    const bool stalled = storageStall_.has_value();
     lock.unlock();
     try {
-      checkpoint();
+      if (stalled)
+        probeStorage();
+      else
+        checkpoint();
+    } catch (const StorageError& e) {
+      MutexLock relock(mutex_);
+      storageFailed(e);
     } catch (const std::exception& e) {
       spdlog::error("checkpoint failed (the ledger still holds every unit): {}", e.what());
     }
     lock.lock();
+  }
+}
+
+void Coordinator::storageFailed(const StorageError& e) {
+  ++counters_.stateWriteFailures;
+  if (storageStall_) return;
+  std::error_code ec;
+  const std::filesystem::path relative = std::filesystem::relative(e.file(), options_.stateDir, ec);
+  storageStall_ = StorageStall{(ec ? e.file() : relative).string() + ": " + std::strerror(e.code()), Clock::now()};
+  spdlog::error("the state dir refused a write ({}): no unit is leased until it takes writes again", e.what());
+  for (auto& [id, job] : jobs_)
+    if (!isTerminal(job->progress.state)) touch(*job);  // watchers see the stalled reason
+}
+
+// A write of the size of a large unit's file, in the state dir: when it goes through, leasing
+// resumes.
+void Coordinator::probeStorage() {
+  const std::filesystem::path probe = std::filesystem::path(options_.stateDir) / "write-probe";
+  writeCheckedFile(probe, {std::string(size_t(16) << 20, '\0')});  // throws StorageError while it cannot
+  std::error_code ignored;
+  std::filesystem::remove(probe, ignored);
+  MutexLock lock(mutex_);
+  if (!storageStall_) return;
+  spdlog::info("the state dir takes writes again after {:.0f} s: leasing resumes",
+               std::chrono::duration<double>(Clock::now() - storageStall_->since).count());
+  storageStall_.reset();
+  for (auto& [id, job] : jobs_) {
+    persistState(*job);  // the states a refused write left in memory only
+    if (!isTerminal(job->progress.state)) touch(*job);
   }
 }
 
@@ -103,32 +148,65 @@ static JobState parseJobState(const std::string& name) {
 std::optional<uint64_t> Coordinator::restoreTiled(Job& job) {
   // An animation's frames stored before the restart count whole; the ledger's other tiles are
   // written again from their unit files, in any order (tile_film.h).
-  job.film = std::make_unique<Accumulator>(job.definition.settings, job.definition.layout);
+  const JobLayout& layout = job.definition.layout;
+  job.film = std::make_unique<Accumulator>(job.definition.settings, layout);
   const std::set<uint64_t> stored = frames_->storedFrames(job.definition.id);
   for (uint64_t f : stored)
-    if (job.definition.layout.frames && f < job.definition.layout.frameCount()) job.film->restoreCompleteFrame(f);
+    if (layout.frames && f < layout.frameCount()) job.film->restoreCompleteFrame(f);
+  const auto inStoredFrame = [&](uint64_t unit) { return stored.count(layout.frameIndexOf(unit)) > 0; };
+  std::optional<uint64_t> highest = replayStoredUnits(job, [&](uint64_t unit) { return !inStoredFrame(unit); });
+  // A stored frame counts whole even where the ledger lost its rows.
+  for (uint64_t unit = 0; unit < job.progress.units.total(); ++unit)
+    if (inStoredFrame(unit) && !job.progress.units.isReceived(unit)) {
+      job.progress.units.markReceived(unit);
+      highest = std::max(highest.value_or(0), unit);
+    }
+  return highest;
+}
+
+// Counts the units the ledger and the unit files agree on (StateStore::reconcileUnits): those
+// folded into the checkpoint or a stored frame by their counters alone, the others replayed into
+// the film from their sums. Returns the highest unit counted.
+std::optional<uint64_t> Coordinator::replayStoredUnits(Job& job, const std::function<bool(uint64_t)>& fileExpected) {
+  const JobLayout& layout = job.definition.layout;
+  StateStore::Reconciled units =
+      store_->reconcileUnits(job.definition.id, fileExpected, [&](uint64_t unit) { return layout.sumsOf(unit); });
+  for (const std::string& repair : units.repairs) reportRepair(job, repair);
   std::optional<uint64_t> highest;
-  for (const auto& entry : store_->ledger(job.definition.id)) {
+  for (StateStore::StoredUnit& u : units.units) {
+    const StateStore::LedgerEntry& entry = u.entry;
     if (entry.unit >= job.progress.units.total()) continue;
     job.progress.units.markReceived(entry.unit);
     ++job.progress.unitsByWorker[entry.worker];
     highest = std::max(highest.value_or(0), entry.unit);
-    if (stored.count(job.definition.layout.frameIndexOf(entry.unit))) {
+    if (!u.sums) {
       job.film->restoreFolded(entry.stats);
       continue;
     }
     UnitResult r;
     r.jobId = job.definition.id;
     r.unitIndex = entry.unit;
-    r.workerId = entry.worker;
     r.stats = entry.stats;
-    const PixelRegion region = job.definition.layout.regionOf(entry.unit);
-    r.buffer.width = region.width;
-    r.buffer.height = region.height;
-    r.buffer.sums = store_->loadUnitSums(job.definition.id, entry.unit, job.definition.layout.sumsOf(entry.unit));
+    if (layout.tiled()) {  // a tile, written again in any order (tile_film.h)
+      r.workerId = entry.worker;
+      const PixelRegion region = layout.regionOf(entry.unit);
+      r.buffer.width = region.width;
+      r.buffer.height = region.height;
+    } else {  // the whole frame; the counts are the coordinator's (drainInOrder)
+      r.buffer.width = job.definition.settings.width;
+      r.buffer.height = job.definition.settings.height;
+      r.buffer.channels = layout.channels;
+    }
+    r.buffer.sums = std::move(*u.sums);
     job.film->restoreWaiting(std::move(r));
   }
   return highest;
+}
+
+// A repair of the state dir (state_store.h): an error in the log and an event of the job.
+void Coordinator::reportRepair(Job& job, const std::string& repair) {
+  spdlog::error("restore {}: {}", job.definition.id, repair);
+  job.addEvent("state dir repaired: " + repair);
 }
 
 void Coordinator::restore() {
@@ -172,37 +250,38 @@ uint64_t Coordinator::restoreFilm(Job& job, const Scene& scene, const StateStore
                                   Clock::time_point now, double nowUnix) {
   std::optional<uint64_t> highest;
   uint64_t folded = 0;
-  if (job.definition.layout.tiled()) highest = restoreTiled(job);
-  // The checkpoint holds units [0, folded); the ledger lists every accepted unit.
-  const auto checkpoint = job.definition.layout.tiled() ? std::nullopt : store_->loadCheckpoint(job.definition.id);
   if (job.definition.layout.tiled()) {
-  } else if (checkpoint) {
-    Sensor sensor = Sensor::deserialize(checkpoint->sensorBytes);
-    job.film = std::make_unique<Accumulator>(scene.render, job.definition.layout, std::move(sensor),
-                                             checkpoint->trackerBytes, checkpoint->foldedUnits);
+    highest = restoreTiled(job);
   } else {
-    job.film = std::make_unique<Accumulator>(scene.render, job.definition.layout);
+    // The checkpoint holds units [0, folded); the ledger and the unit files list every accepted unit.
+    std::string damage;
+    const auto checkpoint = store_->loadCheckpoint(job.definition.id, &damage);
+    if (!damage.empty()) reportRepair(job, damage + "; the units it held are rendered again");
+    if (checkpoint) {
+      Sensor sensor = Sensor::deserialize(checkpoint->sensorBytes);
+      job.film = std::make_unique<Accumulator>(scene.render, job.definition.layout, std::move(sensor),
+                                               checkpoint->trackerBytes, checkpoint->foldedUnits);
+      folded = checkpoint->foldedUnits;
+    } else {
+      job.film = std::make_unique<Accumulator>(scene.render, job.definition.layout);
+    }
   }
   if (stored.stopUnits) job.film->limitTo(*stored.stopUnits);
-  if (checkpoint) folded = checkpoint->foldedUnits;
-  for (const auto& entry :
-       job.definition.layout.tiled() ? std::vector<StateStore::LedgerEntry>{} : store_->ledger(job.definition.id)) {
-    job.progress.units.markReceived(entry.unit);
-    ++job.progress.unitsByWorker[entry.worker];
-    highest = std::max(highest.value_or(0), entry.unit);
-    if (entry.unit < folded) {
-      job.film->restoreFolded(entry.stats);
-      continue;
+  if (!job.definition.layout.tiled()) {
+    highest = replayStoredUnits(job, [&](uint64_t unit) { return unit >= folded; });
+    // The checkpoint holds its units whether or not the ledger kept their rows.
+    std::vector<uint64_t> unlisted;
+    for (uint64_t unit = 0; unit < folded; ++unit)
+      if (!job.progress.units.isReceived(unit)) {
+        job.progress.units.markReceived(unit);
+        unlisted.push_back(unit);
+      }
+    if (!unlisted.empty()) {
+      highest = std::max(highest.value_or(0), folded - 1);
+      reportRepair(job, std::to_string(unlisted.size()) +
+                            " unit(s) held by the checkpoint had no ledger row: counted (their path and ray "
+                            "counters are not known)");
     }
-    UnitResult r;
-    r.jobId = job.definition.id;
-    r.unitIndex = entry.unit;
-    r.stats = entry.stats;
-    r.buffer.width = scene.render.width;  // the counts are the coordinator's (drainInOrder)
-    r.buffer.height = scene.render.height;
-    r.buffer.channels = job.definition.layout.channels;
-    r.buffer.sums = store_->loadUnitSums(job.definition.id, entry.unit, job.definition.layout.sumsOf(entry.unit));
-    job.film->restoreWaiting(std::move(r));
   }
   job.film->drain();
   // Units leased before the restart and never acknowledged go back to the queue.
@@ -235,7 +314,9 @@ uint64_t Coordinator::restoreFilm(Job& job, const Scene& scene, const StateStore
 void Coordinator::restoreJobs(std::vector<Job*>& tiled) {
   MutexLock lock(mutex_);
   assets_.restore(*store_);
-  store_->removeOrphanJobDirs();
+  // The database's own repairs and the jobs taken back from their files (state_store.h).
+  for (const std::string& repair : store_->openingRepairs()) spdlog::error("restore: {}", repair);
+  for (const std::string& repair : store_->recoverJobs()) spdlog::error("restore: {}", repair);
   nextJob_ = std::max(nextJob_, store_->lastJobNumber() + 1);  // a deleted job's id is not reissued
   const auto now = Clock::now();
   const double nowUnix = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
@@ -264,15 +345,21 @@ void Coordinator::restoreJobs(std::vector<Job*>& tiled) {
     jobs_[job->definition.id] = std::move(job);
   };
   for (StateStore::StoredJob& stored : store_->loadJobs()) {
+    // One job that cannot come back (out of memory for its buffers, files no repair explains)
+    // stays out, and in the state dir, not the others.
+    std::string failure;
     try {
       restoreJob(stored);
     } catch (const std::bad_alloc&) {
-      // One job that no longer fits in memory stays out (and in the state dir), not the coordinator.
-      jobs_.erase(stored.id);
-      nextJob_ = std::max(nextJob_, uint64_t(std::stoull(stored.id.substr(4))) + 1);
-      nextSequence_ = std::max(nextSequence_, stored.sequence + 1);
-      spdlog::error("cannot restore {}: out of memory for its buffers; it stays in the state directory", stored.id);
+      failure = "out of memory for its buffers";
+    } catch (const std::exception& e) {
+      failure = e.what();
     }
+    if (failure.empty()) continue;
+    jobs_.erase(stored.id);
+    nextJob_ = std::max(nextJob_, uint64_t(std::stoull(stored.id.substr(4))) + 1);
+    nextSequence_ = std::max(nextSequence_, stored.sequence + 1);
+    spdlog::error("cannot restore {}: {}; it stays in the state directory", stored.id, logText(failure));
   }
   // Frames the replay completed (stored only in part before the restart) are stored after this.
   for (auto& [id, job] : jobs_)

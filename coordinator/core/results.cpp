@@ -6,6 +6,7 @@
 #include <spdlog/spdlog.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <set>
 
@@ -17,6 +18,7 @@
 #include "coordinator/core/coordinator.h"
 #include "coordinator/core/coordinator_records.h"
 #include "coordinator/core/result_checks.h"
+#include "coordinator/store/checked_file.h"
 #include "coordinator/store/state_store.h"
 
 namespace lensfarm {
@@ -214,6 +216,13 @@ void Coordinator::record(const UnitResult& result, const Admission& a) {
       MutexLock lock(mutex_);
       a.job->progress.units.endRecording(result.unitIndex);
       if (!isTerminal(a.job->progress.state)) a.job->progress.units.requeue(result.unitIndex);
+      if (const auto* storage = dynamic_cast<const StorageError*>(&e)) {
+        storageFailed(*storage);
+        // The worker is told why (never where: the state dir's path is the coordinator's own).
+        throw FarmError(FarmError::Kind::kResourceExhausted,
+                        "UploadResult: the coordinator cannot store results now (" +
+                            std::string(std::strerror(storage->code())) + "); the unit is leased again when it can");
+      }
       spdlog::error("cannot record unit {} of {}: {}", result.unitIndex, a.job->definition.id, e.what());
       throw;
     }

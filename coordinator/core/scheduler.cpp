@@ -39,6 +39,7 @@ void Coordinator::reapExpiredLeases(Clock::time_point now) {
 
 std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_point now) {
   if (worker.quarantined) return std::nullopt;  // auditing.cpp: it is leased nothing more
+  if (storageStall_) return std::nullopt;       // a result could not be kept now (persistence.cpp)
   // Units under audit first: they hold back their jobs' ends, and are few.
   if (auto grant = tryAuditLease(worker, now)) return grant;
   Job* best = nullptr;

@@ -133,6 +133,10 @@ std::string secondsText(double seconds) { return std::to_string(long(std::max(0.
 
 std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) const {
   if (isTerminal(job.progress.state)) return "";
+  if (storageStall_)
+    return "the coordinator cannot write its state dir (" + storageStall_->reason + ") for " +
+           secondsText(std::chrono::duration<double>(now - storageStall_->since).count()) +
+           ": no unit is leased until it can; rendering resumes by itself";
   const std::set<std::string> holders = leases_.holders();  // workers holding a lease of any job
   // Held by a worker that is heard from: it is being rendered.
   std::string silent;

@@ -8,6 +8,7 @@
 #include "common/scene/scene_loader.h"
 #include "common/util/error.h"
 #include "coordinator/rpc/upload_assembler.h"
+#include "coordinator/store/checked_file.h"
 #include "proto/convert.h"
 
 namespace lensfarm {
@@ -52,6 +53,9 @@ grpc::Status guarded(const TokenGate& gate, const grpc::ServerContext* context, 
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, e.what());
   } catch (const FarmError& e) {
     return farmStatus(e);
+  } catch (const StorageError& e) {  // the disk's, not the request's: never the state dir's path
+    return grpc::Status(grpc::StatusCode::UNAVAILABLE, std::string(rpc) + ": the coordinator cannot write its state (" +
+                                                           std::strerror(e.code()) + "); try again later");
   } catch (const std::bad_alloc&) {  // this request only: the coordinator goes on
     spdlog::error("{}: out of memory", rpc);
     return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, std::string(rpc) + ": the coordinator ran out of memory");

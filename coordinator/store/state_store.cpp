@@ -6,6 +6,7 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -16,6 +17,7 @@
 #include "common/scene/scene.h"
 #include "common/util/atomic_file.h"
 #include "common/util/version.h"
+#include "coordinator/store/checked_file.h"
 
 namespace lensfarm {
 
@@ -24,12 +26,27 @@ using json = nlohmann::json;
 
 namespace {
 
+// SQLite says the database file is damaged (not merely busy or misused).
+class DamagedDatabase : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+[[noreturn]] void throwSqlite(sqlite3* db, const std::string& what) {
+  const int code = sqlite3_errcode(db);
+  if (code == SQLITE_CORRUPT || code == SQLITE_NOTADB) throw DamagedDatabase("state.db: " + what);
+  // A full disk or an I/O error is the disk's, as for the files (a stall, not a bug).
+  const char* file = sqlite3_db_filename(db, "main");
+  if (code == SQLITE_FULL) throw StorageError(file ? file : "state.db", ENOSPC);
+  if (code == SQLITE_IOERR) throw StorageError(file ? file : "state.db", EIO);
+  throw std::runtime_error("state.db: " + what);
+}
+
 // A prepared statement that finalizes itself; bind() by 1-based index.
 class Statement {
  public:
   Statement(sqlite3* db, const char* sql) : db_(db) {
-    if (sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr) != SQLITE_OK)
-      throw std::runtime_error(std::string("state.db: ") + sqlite3_errmsg(db));
+    if (sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr) != SQLITE_OK) throwSqlite(db, sqlite3_errmsg(db));
   }
   ~Statement() { sqlite3_finalize(stmt_); }
   Statement& bind(int i, const std::string& v) {
@@ -48,7 +65,7 @@ class Statement {
     const int rc = sqlite3_step(stmt_);
     if (rc == SQLITE_ROW) return true;
     if (rc == SQLITE_DONE) return false;
-    throw std::runtime_error(std::string("state.db: ") + sqlite3_errmsg(db_));
+    throwSqlite(db_, sqlite3_errmsg(db_));
   }
   std::string text(int col) const {
     const auto* p = sqlite3_column_text(stmt_, col);
@@ -63,17 +80,6 @@ class Statement {
 };
 
 std::string readAll(const fs::path& p) { return readWholeFileOrThrow(p, p.string()); }
-
-// Writes the pieces one after another into `path`, atomically, without joining them in memory
-// first (a checkpoint's pieces are frame-sized).
-void writePiecesAtomically(const fs::path& path, std::initializer_list<std::pair<const char*, size_t>> pieces) {
-  writeFileAtomically(path, [&](const fs::path& tmp) {
-    std::ofstream out(tmp, std::ios::binary);
-    for (const auto& [data, size] : pieces) out.write(data, std::streamsize(size));
-    out.close();
-    if (!out) throw std::runtime_error("write failed");
-  });
-}
 
 json specToJson(const JobSpec& spec) {
   json out{{"scene_name", spec.sceneName},
@@ -97,19 +103,110 @@ JobSpec specFromJson(const json& j) {
   return spec;
 }
 
+// "unit 3", "units 3, 5-9": a sorted list of units for a line of the log.
+std::string unitList(const std::vector<uint64_t>& units) {
+  std::string out;
+  for (size_t i = 0; i < units.size();) {
+    size_t j = i;
+    while (j + 1 < units.size() && units[j + 1] == units[j] + 1) ++j;
+    out += (out.empty() ? "" : ", ") + std::to_string(units[i]) + (j > i ? "-" + std::to_string(units[j]) : "");
+    i = j + 1;
+  }
+  return (units.size() == 1 ? "unit " : "units ") + out;
+}
+
+// A unit file's payload: "LFUNIT01", the unit, its ledger counters, its worker, its sums.
+constexpr std::string_view kUnitMagic = "LFUNIT01";
+
+void appendU64(std::string& out, uint64_t v) { out.append(reinterpret_cast<const char*>(&v), sizeof v); }
+
+std::string unitHeader(const StateStore::LedgerEntry& e, size_t sums) {
+  std::string header(kUnitMagic);
+  for (uint64_t v :
+       {e.unit, e.stats.paths, e.stats.rays, e.stats.lightHits, e.stats.dropped, uint64_t(e.worker.size())})
+    appendU64(header, v);
+  header += e.worker;
+  appendU64(header, sums);
+  return header;
+}
+
+// The entry and sums of a unit file's payload, or nullopt if it is not one for `unit` with `count`
+// sums.
+std::optional<StateStore::StoredUnit> parseUnit(const std::string& payload, uint64_t unit, size_t count) {
+  size_t at = kUnitMagic.size();
+  const auto u64 = [&](uint64_t& v) {
+    if (at + sizeof v > payload.size()) return false;
+    std::memcpy(&v, payload.data() + at, sizeof v);
+    at += sizeof v;
+    return true;
+  };
+  StateStore::StoredUnit out;
+  uint64_t workerBytes = 0, sums = 0;
+  StateStore::LedgerEntry& e = out.entry;
+  if (payload.compare(0, kUnitMagic.size(), kUnitMagic) != 0 || !u64(e.unit) || !u64(e.stats.paths) ||
+      !u64(e.stats.rays) || !u64(e.stats.lightHits) || !u64(e.stats.dropped) || !u64(workerBytes) ||
+      workerBytes > payload.size() - at)
+    return std::nullopt;
+  e.worker = payload.substr(at, workerBytes);
+  at += workerBytes;
+  if (!u64(sums) || e.unit != unit || sums != count || payload.size() - at != count * sizeof(double))
+    return std::nullopt;
+  out.sums.emplace(count);
+  std::memcpy(out.sums->data(), payload.data() + at, count * sizeof(double));
+  return out;
+}
+
+bool sameEntry(const StateStore::LedgerEntry& a, const StateStore::LedgerEntry& b) {
+  return a.unit == b.unit && a.worker == b.worker && a.stats.paths == b.stats.paths && a.stats.rays == b.stats.rays &&
+         a.stats.lightHits == b.stats.lightHits && a.stats.dropped == b.stats.dropped;
+}
+
+json manifestOf(const StateStore::StoredJob& job) {
+  return json{{"id", job.id},
+              {"sequence", job.sequence},
+              {"priority", job.priority},
+              {"spec", specToJson(job.spec)},
+              {"owner", job.owner},
+              {"submitted", job.submittedUnixSeconds}};
+}
+
 }  // namespace
 
 StateStore::StateStore(fs::path dir) : dir_(std::move(dir)) {
   fs::create_directories(dir_ / "assets");
   fs::create_directories(dir_ / "jobs");
   // One coordinator per state dir: a second would corrupt the first's ledger.
-  lockFd_ = ::open((dir_ / "lock").c_str(), O_RDWR | O_CREAT, 0600);
+  lockFd_ = ::open((dir_ / "lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600);
   if (lockFd_ < 0 || ::flock(lockFd_, LOCK_EX | LOCK_NB) != 0)
     throw std::runtime_error("another coordinator is using " + dir_.string());
+  removeStaleTemporaries(dir_, true);  // writes a crash cut short (ours only: we hold the lock)
+  try {
+    open();
+  } catch (const DamagedDatabase& e) {
+    // Kept aside, never deleted: the jobs come back from their files (recoverJobs).
+    sqlite3_close(db_);
+    db_ = nullptr;
+    const std::string stamp = std::to_string(
+        std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count());
+    for (const char* suffix : {"", "-wal", "-shm"})
+      if (fs::exists(dir_ / (std::string("state.db") + suffix)))
+        setAside(dir_ / (std::string("state.db") + suffix), "");
+    openingRepairs_.push_back(dir_.string() + "/state.db is damaged (" + e.what() +
+                              "): kept aside in lost+found/, and a new one started; the jobs are taken back from "
+                              "their files");
+    open();
+  }
+}
+
+void StateStore::open() {
   if (sqlite3_open((dir_ / "state.db").c_str(), &db_) != SQLITE_OK)
     throw std::runtime_error("cannot open " + (dir_ / "state.db").string() + ": " + sqlite3_errmsg(db_));
   exec("PRAGMA journal_mode=WAL");
   exec("PRAGMA synchronous=FULL");
+  {
+    Statement check(db_, "PRAGMA quick_check");
+    if (check.step() && check.text(0) != "ok") throw DamagedDatabase("state.db: quick_check: " + check.text(0));
+  }
   exec("CREATE TABLE IF NOT EXISTS meta(key TEXT PRIMARY KEY, value INTEGER)");
   exec(
       "CREATE TABLE IF NOT EXISTS jobs(id TEXT PRIMARY KEY, sequence INTEGER, priority INTEGER, spec TEXT, "
@@ -142,6 +239,19 @@ StateStore::StateStore(fs::path dir) : dir_(std::move(dir)) {
   if (s.step()) bootCount_ = uint64_t(s.integer(0));
 }
 
+void StateStore::setAside(const fs::path& file, const std::string& why) {
+  const fs::path aside = dir_ / "lost+found";
+  fs::create_directories(aside);
+  std::string name = file.parent_path().filename() == "jobs" || file.parent_path() == dir_
+                         ? file.filename().string()
+                         : file.parent_path().filename().string() + "-" + file.filename().string();
+  fs::path target = aside / name;
+  for (int k = 1; fs::exists(target); ++k) target = aside / (name + "." + std::to_string(k));
+  std::error_code ec;
+  fs::rename(file, target, ec);
+  if (!why.empty()) openingRepairs_.push_back(file.string() + " " + why + ": kept aside as " + target.string());
+}
+
 StateStore::~StateStore() {
   sqlite3_close(db_);
   if (lockFd_ >= 0) ::close(lockFd_);  // releases the lock
@@ -152,7 +262,7 @@ void StateStore::exec(const std::string& sql) {
   if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &error) != SQLITE_OK) {
     const std::string what = error ? error : "unknown error";
     sqlite3_free(error);
-    throw std::runtime_error("state.db: " + what);
+    throwSqlite(db_, what);
   }
 }
 
@@ -196,6 +306,12 @@ void StateStore::insertJob(const StoredJob& job) {
               "ON CONFLICT(key) DO UPDATE SET value = max(value, excluded.value)")
         .bind(1, int64_t(std::stoull(job.id.substr(4))))
         .step();
+  writeManifest(job);
+}
+
+void StateStore::writeManifest(const StoredJob& job) {
+  const std::string text = manifestOf(job).dump();
+  writeCheckedFile(jobDir(job.id) / "job.json", {text});
 }
 
 uint64_t StateStore::lastJobNumber() {
@@ -235,26 +351,66 @@ void StateStore::markArchived(const std::string& jobId, const std::string& summa
 }
 
 void StateStore::deleteJob(const std::string& jobId) {
+  // Renamed first: a crash from here on leaves a directory that says it was being deleted, never
+  // one that looks like a job the database lost (recoverJobs finishes the deletion).
+  const fs::path deleting = dir_ / "jobs" / (".deleting-" + jobId);
+  std::error_code renamed;
+  fs::rename(jobDir(jobId), deleting, renamed);
   inTransaction([&] {
     Statement(db_, "DELETE FROM ledger WHERE job_id = ?").bind(1, jobId).step();
     Statement(db_, "DELETE FROM jobs WHERE id = ?").bind(1, jobId).step();
   });
-  // No row names the job now: a crash before its directory is gone leaves an orphan that the
-  // next start removes (removeOrphanJobDirs).
   std::error_code ignored;
-  fs::remove_all(jobDir(jobId), ignored);
+  fs::remove_all(deleting, ignored);
 }
 
-void StateStore::removeOrphanJobDirs() {
+std::vector<std::string> StateStore::recoverJobs() {
+  std::vector<std::string> repairs;
   std::set<std::string> known;
   {
     std::lock_guard lock(mutex_);
     Statement s(db_, "SELECT id FROM jobs");
     while (s.step()) known.insert(s.text(0));
   }
-  std::error_code ignored;
+  std::vector<fs::path> dirs;
   for (const auto& entry : fs::directory_iterator(dir_ / "jobs"))
-    if (entry.is_directory() && !known.count(entry.path().filename().string())) fs::remove_all(entry.path(), ignored);
+    if (entry.is_directory()) dirs.push_back(entry.path());
+  for (const fs::path& dir : dirs) {
+    const std::string name = dir.filename().string();
+    if (name.rfind(".deleting-", 0) == 0) {  // a deletion a crash cut short: finished now
+      const std::string id = name.substr(std::string(".deleting-").size());
+      if (known.count(id))
+        inTransaction([&] {
+          Statement(db_, "DELETE FROM ledger WHERE job_id = ?").bind(1, id).step();
+          Statement(db_, "DELETE FROM jobs WHERE id = ?").bind(1, id).step();
+        });
+      std::error_code ignored;
+      fs::remove_all(dir, ignored);
+      continue;
+    }
+    if (known.count(name) || name.front() == '.') continue;
+    std::string damage;
+    const std::optional<std::string> manifest = readCheckedFile(dir / "job.json", damage);
+    json j = manifest ? json::parse(*manifest, nullptr, false) : json();
+    if (!manifest || j.is_discarded() || j.value("id", "") != name) {
+      setAside(dir, "has no row in state.db and no valid job.json (" + (manifest ? "not the job's" : damage) + ")");
+      repairs.push_back(openingRepairs_.back());
+      continue;
+    }
+    StoredJob job;
+    job.id = name;
+    job.sequence = j.at("sequence").get<uint64_t>();
+    job.priority = j.at("priority").get<int>();
+    job.spec = specFromJson(j.at("spec"));
+    job.state = "queued";
+    job.owner = j.value("owner", "");
+    job.submittedUnixSeconds = j.value("submitted", 0.0);
+    insertJob(job);
+    repairs.push_back(dir.string() +
+                      ": state.db had no row for it (a lost WAL or a damaged database?): taken back "
+                      "from its files as submitted; its later priority, cancellation or end were not kept");
+  }
+  return repairs;
 }
 
 void StateStore::updateJobState(const std::string& jobId, const std::string& state, const std::string& error,
@@ -306,7 +462,9 @@ std::vector<StateStore::StoredJob> StateStore::loadJobs() {
 
 void StateStore::recordUnit(const std::string& jobId, const LedgerEntry& e, const std::vector<double>& sums) {
   const fs::path file = jobDir(jobId) / ("unit-" + std::to_string(e.unit) + ".bin");
-  writePiecesAtomically(file, {{reinterpret_cast<const char*>(sums.data()), sums.size() * sizeof(double)}});
+  const std::string header = unitHeader(e, sums.size());
+  writeCheckedFile(
+      file, {header, std::string_view(reinterpret_cast<const char*>(sums.data()), sums.size() * sizeof(double))});
   std::lock_guard lock(mutex_);
   Statement(db_,
             "INSERT OR IGNORE INTO ledger(job_id, unit, worker, paths, rays, light_hits, dropped) "
@@ -362,13 +520,76 @@ std::vector<StateStore::LedgerEntry> StateStore::ledger(const std::string& jobId
   return out;
 }
 
-std::vector<double> StateStore::loadUnitSums(const std::string& jobId, uint64_t unit, size_t count) {
-  const std::string bytes = readAll(jobDir(jobId) / ("unit-" + std::to_string(unit) + ".bin"));
-  if (bytes.size() != count * sizeof(double))
-    throw std::runtime_error("unit " + std::to_string(unit) + " of " + jobId + " has the wrong size on disk");
-  std::vector<double> sums(count);
-  std::memcpy(sums.data(), bytes.data(), bytes.size());
-  return sums;
+StateStore::Reconciled StateStore::reconcileUnits(const std::string& jobId,
+                                                  const std::function<bool(uint64_t)>& fileExpected,
+                                                  const std::function<size_t(uint64_t)>& sumsOf) {
+  std::map<uint64_t, LedgerEntry> rows;
+  for (LedgerEntry& e : ledger(jobId)) rows.emplace(e.unit, std::move(e));
+  std::set<uint64_t> files;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(jobDir(jobId), ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("unit-", 0) == 0 && name.size() > 9 && name.compare(name.size() - 4, 4, ".bin") == 0 &&
+        name.find_first_not_of("0123456789", 5) == name.size() - 4)
+      files.insert(std::stoull(name.substr(5)));
+  }
+  std::set<uint64_t> units(files);
+  for (const auto& [unit, row] : rows) units.insert(unit);
+  std::lock_guard lock(mutex_);
+  Reconciled out;
+  std::vector<uint64_t> damaged, missing, adopted, corrected;
+  std::string why;
+  for (const uint64_t unit : units) {
+    const auto row = rows.find(unit);
+    const fs::path file = jobDir(jobId) / ("unit-" + std::to_string(unit) + ".bin");
+    if (!fileExpected(unit)) {  // folded into the checkpoint or a stored frame: the row says enough
+      if (row != rows.end()) out.units.push_back({row->second, std::nullopt});
+      continue;
+    }
+    std::string damage;
+    const std::optional<std::string> payload = files.count(unit) ? readCheckedFile(file, damage) : std::nullopt;
+    std::optional<StoredUnit> stored = payload ? parseUnit(*payload, unit, sumsOf(unit)) : std::nullopt;
+    if (!stored) {
+      if (files.count(unit)) {
+        why = payload ? "not this unit's file" : damage;
+        damaged.push_back(unit);
+        setAside(file, "");
+      } else {
+        missing.push_back(unit);
+      }
+      if (row != rows.end())
+        Statement(db_, "DELETE FROM ledger WHERE job_id = ? AND unit = ?").bind(1, jobId).bind(2, int64_t(unit)).step();
+      continue;
+    }
+    if (row == rows.end() || !sameEntry(row->second, stored->entry)) {
+      (row == rows.end() ? adopted : corrected).push_back(unit);
+      Statement(db_,
+                "INSERT OR REPLACE INTO ledger(job_id, unit, worker, paths, rays, light_hits, dropped) "
+                "VALUES(?, ?, ?, ?, ?, ?, ?)")
+          .bind(1, jobId)
+          .bind(2, int64_t(unit))
+          .bind(3, stored->entry.worker)
+          .bind(4, int64_t(stored->entry.stats.paths))
+          .bind(5, int64_t(stored->entry.stats.rays))
+          .bind(6, int64_t(stored->entry.stats.lightHits))
+          .bind(7, int64_t(stored->entry.stats.dropped))
+          .step();
+    }
+    out.units.push_back(std::move(*stored));
+  }
+  const std::string where = jobDir(jobId).string();
+  if (!damaged.empty())
+    out.repairs.push_back(unitList(damaged) + " of " + jobId + ": file damaged (" + why +
+                          "): kept aside in lost+found/ and rendered again");
+  if (!missing.empty())
+    out.repairs.push_back(unitList(missing) + " of " + jobId + ": in the ledger but no file in " + where +
+                          ": rendered again");
+  if (!adopted.empty())
+    out.repairs.push_back(unitList(adopted) + " of " + jobId +
+                          ": a valid file but no ledger row (the database lost the commit): taken back");
+  if (!corrected.empty())
+    out.repairs.push_back(unitList(corrected) + " of " + jobId + ": ledger row corrected from the unit's file");
+  return out;
 }
 
 void StateStore::writeCheckpoint(const std::string& jobId, const std::string& sensorBytes,
@@ -376,11 +597,10 @@ void StateStore::writeCheckpoint(const std::string& jobId, const std::string& se
   // The count of folded units travels inside the file with the sensor and the convergence
   // tracker, so the three can never disagree, whatever moment a crash picks.
   const uint64_t sensorSize = sensorBytes.size();
-  writePiecesAtomically(jobDir(jobId) / "sensor.bin",
-                        {{reinterpret_cast<const char*>(&foldedUnits), sizeof foldedUnits},
-                         {reinterpret_cast<const char*>(&sensorSize), sizeof sensorSize},
-                         {sensorBytes.data(), sensorBytes.size()},
-                         {trackerBytes.data(), trackerBytes.size()}});
+  writeCheckedFile(
+      jobDir(jobId) / "sensor.bin",
+      {std::string_view(reinterpret_cast<const char*>(&foldedUnits), sizeof foldedUnits),
+       std::string_view(reinterpret_cast<const char*>(&sensorSize), sizeof sensorSize), sensorBytes, trackerBytes});
   {
     std::lock_guard lock(mutex_);
     Statement(db_, "UPDATE jobs SET folded_units = ? WHERE id = ?").bind(1, int64_t(foldedUnits)).bind(2, jobId).step();
@@ -394,18 +614,28 @@ void StateStore::writeCheckpoint(const std::string& jobId, const std::string& se
   }
 }
 
-std::optional<StateStore::Checkpoint> StateStore::loadCheckpoint(const std::string& jobId) {
+std::optional<StateStore::Checkpoint> StateStore::loadCheckpoint(const std::string& jobId, std::string* damage) {
   const fs::path file = jobDir(jobId) / "sensor.bin";
   if (!fs::exists(file)) return std::nullopt;
-  std::string bytes = readAll(file);
-  Checkpoint c;
+  std::string why;
+  std::optional<std::string> read = readCheckedFile(file, why);
+  bool valid = read.has_value();
+  std::string bytes = valid ? std::move(*read) : std::string();
   uint64_t sensorSize = 0;
-  if (bytes.size() >= 2 * sizeof(uint64_t))
+  if (valid && bytes.size() >= 2 * sizeof(uint64_t))
     std::memcpy(&sensorSize, bytes.data() + sizeof(uint64_t), sizeof sensorSize);
-  if (bytes.size() < 2 * sizeof(uint64_t) || sensorSize > bytes.size() - 2 * sizeof(uint64_t))
-    throw std::runtime_error(file.string() + " is truncated");
+  if (valid && (bytes.size() < 2 * sizeof(uint64_t) || sensorSize > bytes.size() - 2 * sizeof(uint64_t))) {
+    why = "inconsistent sizes";
+    valid = false;
+  }
+  if (!valid) {
+    setAside(file, "");
+    if (damage) *damage = file.string() + " is damaged (" + why + "): kept aside in lost+found/";
+    return std::nullopt;
+  }
+  Checkpoint c;
   std::memcpy(&c.foldedUnits, bytes.data(), sizeof(uint64_t));
-  // Cut the file in place rather than copy the sensor out of it (it is most of a checkpoint).
+  // Cut the payload in place rather than copy the sensor out of it (it is most of a checkpoint).
   c.trackerBytes = bytes.substr(2 * sizeof(uint64_t) + sensorSize);
   bytes.resize(2 * sizeof(uint64_t) + sensorSize);
   bytes.erase(0, 2 * sizeof(uint64_t));

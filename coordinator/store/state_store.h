@@ -4,18 +4,29 @@
 //
 //   state.db                  jobs, ledger (one row per accepted unit), meta (counters)
 //   assets/<sha256>           uploaded assets
+//   jobs/<id>/job.json        the job as submitted (its row's first state): a checked file
 //   jobs/<id>/sensor.bin      folded (uint64), sensor size (uint64), the job's sensor with units
-//                             [0, folded) added, and its convergence tracker (film/convergence.h)
+//                             [0, folded) added, and its convergence tracker (film/convergence.h):
+//                             a checked file
 //   lock                      flock'ed by the one coordinator using the directory
-//   jobs/<id>/unit-<k>.bin    an accepted unit's sums, until a checkpoint folds it in (a tiled
-//                             job's: until its frame is stored)
+//   jobs/<id>/unit-<k>.bin    an accepted unit's ledger entry and sums, until a checkpoint folds
+//                             it in (a tiled job's: until its frame is stored): a checked file
 //   jobs/<id>/frame-<i>.exr   a tiled job's completed frame i (frame_store.h)
 //   jobs/<id>/final.exr       an archived job's final image (job_archive.h); its sensor.bin,
 //                             unit files and ledger rows are then gone
+//   jobs/.deleting-<id>       a job being deleted (renamed first, so a crash cannot leave it
+//                             looking like a job the database lost)
+//   lost+found/               what was found on disk that nothing explains, kept aside, and
+//                             damaged files, never deleted
 //
-// Every file is written atomically (write, fsync, rename) and SQLite runs with synchronous=FULL,
-// so a unit acknowledged to a worker survives a SIGKILL: its file and ledger row are durable
-// before the acknowledgement is sent.
+// Every file is written atomically (write, fsync, rename) and SQLite runs in WAL mode with
+// synchronous=FULL (each commit's WAL frames fsync'ed before it returns), so a unit acknowledged
+// to a worker survives a SIGKILL: its file and ledger row are durable before the acknowledgement
+// is sent. The files are the truth of what was rendered and the database their index: a checked
+// file (checked_file.h) says when it is damaged, and at start the two are reconciled
+// (reconcileUnits, recoverJobs): a unit whose file is damaged is rendered again, a unit file or
+// job directory the database lost (a truncated WAL, a damaged or emptied state.db, which is kept
+// aside and started anew) is taken back from the files, each with a line saying so.
 #include <filesystem>
 #include <functional>
 #include <limits>
@@ -35,8 +46,13 @@ namespace lensfarm {
 
 class StateStore {
  public:
-  // Opens (or creates) the state in `dir`; throws std::runtime_error naming the problem.
+  // Opens (or creates) the state in `dir`; throws std::runtime_error naming the problem. A
+  // state.db SQLite finds damaged is moved aside (state.db.damaged-<time>) and started anew:
+  // recoverJobs() then takes the jobs back from their files.
   explicit StateStore(std::filesystem::path dir);
+
+  // What opening found and repaired (a damaged database moved aside), for the log.
+  const std::vector<std::string>& openingRepairs() const { return openingRepairs_; }
   ~StateStore();
   StateStore(const StateStore&) = delete;
   StateStore& operator=(const StateStore&) = delete;
@@ -78,18 +94,38 @@ class StateStore {
   void markArchived(const std::string& jobId, const std::string& summary);
   // Deleted: the job row and ledger rows in one transaction, then the job's directory.
   void deleteJob(const std::string& jobId);
-  // Removes job directories with no job row (a deletion cut short by a crash).
-  void removeOrphanJobDirs();
+  // Reconciles the job directories with the job rows: a deletion cut short by a crash is
+  // finished; a directory with a valid job.json but no row (the database lost it) gets its row
+  // back, as submitted (state queued); anything else is moved to lost+found/. Returns what it did,
+  // one line each, naming the files.
+  std::vector<std::string> recoverJobs();
 
   struct LedgerEntry {
     uint64_t unit = 0;
     std::string worker;
     PathStats stats;
   };
-  // Makes an accepted unit durable: its sums file, then its ledger row.
+  // Makes an accepted unit durable: its checked file (entry and sums), then its ledger row. Throws
+  // StorageError (checked_file.h) when the file cannot be written: then there is no row either.
   void recordUnit(const std::string& jobId, const LedgerEntry& entry, const std::vector<double>& sums);
   std::vector<LedgerEntry> ledger(const std::string& jobId);
-  std::vector<double> loadUnitSums(const std::string& jobId, uint64_t unit, size_t count);
+
+  struct StoredUnit {
+    LedgerEntry entry;
+    std::optional<std::vector<double>> sums;  // present when its file was expected
+  };
+  struct Reconciled {
+    std::vector<StoredUnit> units;     // in unit order
+    std::vector<std::string> repairs;  // one line per kind of repair, naming the units
+  };
+  // The job's accepted units as its ledger and its files agree. `fileExpected(unit)`: whether the
+  // unit's sums must be on disk (not folded into the checkpoint, not in a stored frame);
+  // `sumsOf(unit)`: how many doubles its file holds. A row whose needed file is missing or damaged
+  // is dropped (the unit is rendered again; a damaged file goes to lost+found/); a valid unit
+  // file without a row is taken back (the database lost the commit); a row that differs from its
+  // file is corrected from the file.
+  Reconciled reconcileUnits(const std::string& jobId, const std::function<bool(uint64_t)>& fileExpected,
+                            const std::function<size_t(uint64_t)>& sumsOf);
   // The audit undid units (docs/farm.md "Audit"): every ledger row and unit file of the job in
   // [fromUnit, toUnit), except those of `kept`, is removed.
   void forgetUnits(const std::string& jobId, uint64_t fromUnit, const std::set<uint64_t>& kept,
@@ -107,9 +143,14 @@ class StateStore {
     std::string sensorBytes;
     std::string trackerBytes;
   };
-  std::optional<Checkpoint> loadCheckpoint(const std::string& jobId);
+  // The job's checkpoint, or nullopt if it has none; a damaged one is moved to lost+found/,
+  // `damage` says why, and nullopt is returned (its units are then rendered again).
+  std::optional<Checkpoint> loadCheckpoint(const std::string& jobId, std::string* damage = nullptr);
 
  private:
+  void open();  // opens state.db and its schema; throws on a damaged database
+  void setAside(const std::filesystem::path& file, const std::string& why);  // into lost+found/
+  void writeManifest(const StoredJob& job);
   void exec(const std::string& sql);
   void addColumnIfMissing(const std::string& table, const std::string& column, const std::string& type);
   void inTransaction(const std::function<void()>& body);  // takes mutex_; rolls back if body throws
@@ -120,6 +161,7 @@ class StateStore {
   std::mutex mutex_;
   uint64_t bootCount_ = 0;
   int lockFd_ = -1;
+  std::vector<std::string> openingRepairs_;
 };
 
 }  // namespace lensfarm

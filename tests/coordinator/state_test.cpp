@@ -1,8 +1,11 @@
 // The durable coordinator: what it acknowledged survives a crash, and a restarted coordinator
-// finishes the job with the same bits as one that never stopped.
+// finishes the job with the same bits as one that never stopped, also when the crash or a bad
+// disk damaged its state dir.
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
+#include <map>
 
 #include "common/util/version.h"
 #include "coordinator/core/coordinator.h"
@@ -196,6 +199,165 @@ TEST(DurableCoordinator, RefusesAStateDirItCannotUse) {
   Coordinator::Options options;
   options.stateDir = dir / "file";
   EXPECT_ANY_THROW(Coordinator c(options));
+}
+
+// ---- a state dir damaged by a crash or a bad disk (state_store.h) ----
+// Each case ends with the exact image (the damaged units rendered again, what the database lost
+// taken back from the files) and a line saying what was repaired, never with a silently different
+// image, a job gone or a file deleted: a "crash" taken as a copy of the state dir, then damaged
+// byte by byte as a bad disk would.
+
+void flipBytes(const fs::path& file, size_t offset, size_t count) {
+  std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
+  for (size_t k = 0; k < count; ++k) {
+    f.seekg(std::streamoff(offset + k));
+    const int c = f.get();
+    f.seekp(std::streamoff(offset + k));
+    f.put(char(c ^ 0x5A));
+  }
+}
+
+class DamagedState : public ::testing::Test {
+ protected:
+  // Two jobs, each with units 0 and 1 in the checkpoint (sensor.bin) and units 2 and 3 in unit
+  // files and the ledger; units 4 and 5 not rendered. Then the "crash": a copy of the state dir.
+  void SetUp() override {
+    options_.stateDir = dir_ / "live";
+    options_.checkpointEverySeconds = 3600;  // only the explicit checkpoint below
+    auto first = std::make_unique<Coordinator>(options_);
+    jobs_ = {first->submit(sixUnits(), 0).id, first->submit(sixUnits(), 0).id};
+    const std::string a = first->registerWorker(workerInfo("a"));
+    std::map<std::pair<std::string, uint64_t>, LeaseGrant> grants;
+    while (auto g = first->lease(a, 0)) grants.emplace(std::pair(g->jobId, g->unit.index), *g);
+    ASSERT_EQ(grants.size(), 12u);
+    for (const uint64_t from : {0, 2}) {
+      for (const std::string& job : jobs_)
+        for (uint64_t unit = from; unit < from + 2; ++unit)
+          ASSERT_TRUE(first->acceptResult(resultFor(a, grants.at({job, unit}))));
+      if (from == 0) {
+        ASSERT_GT(first->checkpoint(), 0u);
+      }
+    }
+    fs::copy(options_.stateDir, dir_ / "crashed", fs::copy_options::recursive);
+    first.reset();
+    options_.stateDir = dir_ / "crashed";
+    for (const std::string& job : jobs_) {
+      ASSERT_TRUE(fs::exists(jobDir(job) / "sensor.bin"));
+      ASSERT_TRUE(fs::exists(jobDir(job) / "unit-3.bin"));
+      ASSERT_FALSE(fs::exists(jobDir(job) / "unit-1.bin")) << "folded into the checkpoint";
+    }
+  }
+
+  fs::path jobDir(const std::string& job) const { return options_.stateDir / "jobs" / job; }
+
+  // Restarts on the damaged copy and renders what is left; checks each job's image against one
+  // that never stopped, and returns the units leased again per job.
+  std::map<std::string, std::vector<uint64_t>> finish(Coordinator& c) {
+    std::map<std::string, std::vector<uint64_t>> leased;
+    const std::string b = c.registerWorker(workerInfo("b"));
+    while (auto g = c.lease(b, 0)) {
+      leased[g->jobId].push_back(g->unit.index);
+      c.acceptResult(resultFor(b, *g));
+    }
+    for (const std::string& job : jobs_) {
+      EXPECT_EQ(c.job(job).state, JobState::kDone) << job;
+      EXPECT_EQ(c.image(job).image.rgb, kExact) << job << ": the image must not change a single bit";
+    }
+    return leased;
+  }
+
+  static std::string events(const Coordinator& c, const std::string& job) {
+    std::string out;
+    for (const auto& e : c.job(job).events) out += e.text + "\n";
+    return out;
+  }
+
+  const std::vector<float> kExact = uninterrupted().rgb;
+  test::TempDir dir_;
+  Coordinator::Options options_;
+  std::vector<std::string> jobs_;
+};
+
+TEST_F(DamagedState, ABitFlippedUnitFileIsRenderedAgainAndKeptAside) {
+  flipBytes(jobDir(jobs_[0]) / "unit-3.bin", 100, 64);
+  Coordinator c(options_);
+  EXPECT_EQ(c.job(jobs_[0]).unitsDone, 3u) << "units 0, 1 (checkpoint) and 2";
+  EXPECT_NE(events(c, jobs_[0]).find("unit 3 of " + jobs_[0] + ": file damaged (checksum mismatch)"), std::string::npos)
+      << events(c, jobs_[0]);
+  EXPECT_TRUE(fs::exists(options_.stateDir / "lost+found" / (jobs_[0] + "-unit-3.bin"))) << "kept, not deleted";
+  const auto leased = finish(c);
+  EXPECT_EQ(leased.at(jobs_[0]), (std::vector<uint64_t>{3, 4, 5}));
+  EXPECT_EQ(leased.at(jobs_[1]), (std::vector<uint64_t>{4, 5})) << "the other job loses nothing";
+}
+
+TEST_F(DamagedState, ATruncatedUnitFileStopsOnlyThatUnit) {
+  const fs::path unit = jobDir(jobs_[1]) / "unit-2.bin";
+  fs::resize_file(unit, fs::file_size(unit) / 2);
+  Coordinator c(options_);
+  EXPECT_NE(events(c, jobs_[1]).find("unit 2 of " + jobs_[1] + ": file damaged (truncated"), std::string::npos)
+      << events(c, jobs_[1]);
+  const auto leased = finish(c);
+  EXPECT_EQ(leased.at(jobs_[1]), (std::vector<uint64_t>{2, 4, 5}));
+  EXPECT_EQ(leased.at(jobs_[0]), (std::vector<uint64_t>{4, 5}));
+}
+
+TEST_F(DamagedState, ADamagedCheckpointFallsBackToTheLedgerAndItsUnitsAreRenderedAgain) {
+  flipBytes(jobDir(jobs_[0]) / "sensor.bin", 40, 64);
+  Coordinator c(options_);
+  EXPECT_NE(events(c, jobs_[0]).find("sensor.bin is damaged (checksum mismatch)"), std::string::npos)
+      << events(c, jobs_[0]);
+  EXPECT_TRUE(fs::exists(options_.stateDir / "lost+found" / (jobs_[0] + "-sensor.bin")));
+  const auto leased = finish(c);
+  EXPECT_EQ(leased.at(jobs_[0]), (std::vector<uint64_t>{0, 1, 4, 5})) << "its units 2 and 3 are kept";
+}
+
+// SQLite loses its state: the database emptied with its WAL, the WAL alone lost (the database
+// file holds only what was checkpointed into it), or its header overwritten. The jobs come back
+// from their files: job.json, the checkpoint and the unit files.
+TEST_F(DamagedState, AnEmptiedDatabaseLosesNoJob) {
+  for (const char* f : {"state.db-wal", "state.db-shm"}) fs::remove(options_.stateDir / f);
+  fs::resize_file(options_.stateDir / "state.db", 0);
+  Coordinator c(options_);
+  for (const std::string& job : jobs_) {
+    EXPECT_EQ(c.job(job).unitsDone, 4u) << job;
+    EXPECT_NE(events(c, job).find("taken back"), std::string::npos) << events(c, job);
+  }
+  const auto leased = finish(c);
+  EXPECT_EQ(leased.at(jobs_[0]), (std::vector<uint64_t>{4, 5}));
+  EXPECT_EQ(c.submit(sixUnits(), 0).id, "job-3") << "ids are not reissued";
+}
+
+TEST_F(DamagedState, ALostWalLosesNoUnit) {
+  fs::resize_file(options_.stateDir / "state.db-wal", 0);
+  Coordinator c(options_);
+  for (const std::string& job : jobs_) EXPECT_EQ(c.job(job).unitsDone, 4u) << job;
+  const auto leased = finish(c);
+  EXPECT_EQ(leased.at(jobs_[1]), (std::vector<uint64_t>{4, 5}));
+}
+
+TEST_F(DamagedState, ADatabaseWithFlippedBytesIsKeptAsideAndItsJobsComeBack) {
+  for (const char* f : {"state.db-wal", "state.db-shm"}) fs::remove(options_.stateDir / f);
+  flipBytes(options_.stateDir / "state.db", 0, 64);  // its header: "not a database"
+  Coordinator c(options_);
+  bool keptAside = false;
+  for (const auto& entry : fs::directory_iterator(options_.stateDir / "lost+found"))
+    keptAside |= entry.path().filename().string().rfind("state.db", 0) == 0;
+  EXPECT_TRUE(keptAside) << "the damaged database is kept, not deleted";
+  for (const std::string& job : jobs_) EXPECT_EQ(c.job(job).unitsDone, 4u) << job;
+  finish(c);
+}
+
+// A directory the database cannot explain (no row, no valid job.json) is kept aside, never
+// deleted; a deletion a crash cut short is finished.
+TEST_F(DamagedState, NothingTheDatabaseCannotExplainIsDeleted) {
+  fs::create_directories(options_.stateDir / "jobs" / "job-77");
+  std::ofstream(options_.stateDir / "jobs" / "job-77" / "unit-0.bin") << "someone's data";
+  fs::rename(jobDir(jobs_[1]), options_.stateDir / "jobs" / (".deleting-" + jobs_[1]));
+  Coordinator c(options_);
+  EXPECT_TRUE(fs::exists(options_.stateDir / "lost+found" / "job-77" / "unit-0.bin"));
+  EXPECT_THROW(c.job(jobs_[1]), FarmError) << "the deletion the crash cut short is finished";
+  EXPECT_FALSE(fs::exists(options_.stateDir / "jobs" / (".deleting-" + jobs_[1])));
+  EXPECT_EQ(c.job(jobs_[0]).unitsDone, 4u);
 }
 
 }  // namespace
