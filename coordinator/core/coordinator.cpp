@@ -587,6 +587,7 @@ MetricsSnapshot Coordinator::metricsSnapshot() const {
   const AssetStore::Counts assets = assets_.counts();
   s.assetBytesReceived = assets.bytesReceived;
   s.assetsSent = assets.sent;
+  s.assetBytesResident = assets_.residentBytes();
   s.assetUploadsStored = assets.uploadsStored;
   s.assetUploadsPresent = assets.uploadsPresent;
   s.leaseTimeoutSeconds = options_.leaseTimeoutSeconds;

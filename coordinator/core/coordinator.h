@@ -189,6 +189,7 @@ struct MetricsSnapshot {
   uint64_t assetUploadsStored = 0;     // uploads of assets new to the coordinator
   uint64_t assetUploadsPresent = 0;    // uploads of assets it held already (a client that asks first makes none)
   uint64_t assetsSent = 0;             // assets sent to workers (each worker fetches one once)
+  uint64_t assetBytesResident = 0;     // asset bytes in memory now (with a state dir: those in use)
   uint64_t leasesActive = 0;
   double leaseTimeoutSeconds = 0.0;
   std::vector<JobInfo> jobs;

@@ -67,6 +67,10 @@ void transferMetrics(Exposition& e, const MetricsSnapshot& s) {
            "Assets sent to workers (FetchAsset). A worker fetches each asset once into its cache, so this grows by "
            "the assets of a job once per worker new to them, not per unit.");
   e.sample(s.assetsSent);
+  e.family("lensfarm_asset_bytes_resident", "gauge",
+           "Asset bytes held in memory now: with a state dir only those in use (a job's scene being loaded, a "
+           "worker fetching one), else every uploaded asset.");
+  e.sample(s.assetBytesResident);
 }
 
 // Appends the worker families: alive, known, by state, lost and quarantined.

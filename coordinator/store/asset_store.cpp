@@ -3,6 +3,7 @@
 #include "coordinator/store/asset_store.h"
 
 #include <algorithm>
+#include <optional>
 #include <set>
 
 #include "common/farm/farm_types.h"
@@ -33,15 +34,15 @@ void AssetStore::checkSha256(const std::string& sha256, const std::string& field
 }
 
 void AssetStore::restore(StateStore& store) {
-  auto loaded = store.loadAssets();
+  auto listed = store.listAssets();
   std::lock_guard lock(mutex_);
   store_ = &store;
-  assets_ = std::move(loaded);
+  onDisk_ = std::move(listed);
 }
 
 bool AssetStore::has(const std::string& sha256) const {
   std::lock_guard lock(mutex_);
-  return assets_.count(sha256) > 0;
+  return assets_.count(sha256) > 0 || onDisk_.count(sha256) > 0;
 }
 
 bool AssetStore::put(const std::string& sha256, std::string bytes) {
@@ -54,14 +55,15 @@ bool AssetStore::put(const std::string& sha256, std::string bytes) {
   if (uploadFindsPresent(sha256)) return false;
   if (store_) store_->putAsset(sha256, bytes);
   std::lock_guard lock(mutex_);
-  const bool stored = assets_.emplace(sha256, std::make_shared<const std::string>(std::move(bytes))).second;
+  const bool stored = store_ ? onDisk_.emplace(sha256, bytes.size()).second
+                             : assets_.emplace(sha256, std::make_shared<const std::string>(std::move(bytes))).second;
   ++(stored ? uploadsStored_ : uploadsPresent_);  // two uploads of it at once: one stored
   return stored;
 }
 
 bool AssetStore::uploadFindsPresent(const std::string& sha256) {
   std::lock_guard lock(mutex_);
-  if (!assets_.count(sha256)) return false;
+  if (!assets_.count(sha256) && !onDisk_.count(sha256)) return false;
   ++uploadsPresent_;
   return true;
 }
@@ -76,14 +78,47 @@ std::vector<std::string> AssetStore::missing(const std::vector<std::string>& sha
   std::set<std::string> seen;
   std::lock_guard lock(mutex_);
   for (const std::string& sha : sha256s)
-    if (!assets_.count(sha) && seen.insert(sha).second) out.push_back(sha);
+    if (!assets_.count(sha) && !onDisk_.count(sha) && seen.insert(sha).second) out.push_back(sha);
   return out;
 }
 
 std::shared_ptr<const std::string> AssetStore::find(const std::string& sha256) const {
+  {
+    std::lock_guard lock(mutex_);
+    if (auto it = assets_.find(sha256); it != assets_.end()) return it->second;
+    if (!onDisk_.count(sha256)) return nullptr;
+    if (auto it = inUse_.find(sha256); it != inUse_.end())
+      if (auto bytes = it->second.lock()) return bytes;
+  }
+  // Read outside the lock; two readers at once may both read it, and share the first one kept.
+  std::optional<std::string> read = store_->loadAsset(sha256);
+  if (!read || sha256Hex(*read) != sha256) {
+    store_->setAssetAside(sha256, read ? "its bytes no longer hash to its name" : "unreadable");
+    std::lock_guard lock(mutex_);
+    onDisk_.erase(sha256);
+    return nullptr;
+  }
+  auto bytes = std::make_shared<const std::string>(std::move(*read));
   std::lock_guard lock(mutex_);
-  auto it = assets_.find(sha256);
-  return it == assets_.end() ? nullptr : it->second;
+  std::weak_ptr<const std::string>& slot = inUse_[sha256];
+  if (auto kept = slot.lock()) return kept;
+  slot = bytes;
+  return bytes;
+}
+
+uint64_t AssetStore::residentBytes() const {
+  std::lock_guard lock(mutex_);
+  uint64_t bytes = 0;
+  for (const auto& [sha, held] : assets_) bytes += held->size();
+  for (auto it = inUse_.begin(); it != inUse_.end();) {
+    if (auto held = it->second.lock()) {
+      bytes += held->size();
+      ++it;
+    } else {
+      it = inUse_.erase(it);
+    }
+  }
+  return bytes;
 }
 
 std::shared_ptr<const std::string> AssetStore::get(const std::string& sha256) const {

@@ -1,13 +1,21 @@
 #pragma once
 // The coordinator's content-addressed asset store: the bytes of every uploaded asset by their
-// SHA-256, in memory and, with a state dir, in StateStore's assets/. It checks what clients
+// SHA-256, in memory or, with a state dir, in StateStore's assets/. It checks what clients
 // upload and ask about, and counts what the metrics show. No network code.
+//
+// With a state dir the bytes live on disk, not in memory: the store keeps each asset's size, and
+// an asset's bytes are read when someone needs them (a job's scene is loaded, a worker fetches it)
+// and shared while anyone holds them, then freed, so uploaded assets cost the coordinator no
+// memory for its life and a restart loads none of them. An asset read from disk is checked
+// against its hash: a damaged file is kept aside (lost+found/) and the asset counts as missing,
+// so the next client that needs it uploads it again.
 //
 // Invariants:
 //  - An asset is stored only under the hash of its bytes, and never removed or replaced, so a
 //    job's assets stay readable for as long as the job is.
 //  - With a state store, an asset is durable before it is listed.
-//  - Thread-safe: its own lock, held only around the map (never while taking another).
+//  - Thread-safe: its own lock, held only around the maps (never while taking another, nor while
+//    reading a file).
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
@@ -32,7 +40,8 @@ class AssetStore {
   // `sha256[3]: "..." is not a SHA-256 (64 lowercase hex digits)`.
   static void checkSha256(const std::string& sha256, const std::string& field);
 
-  // Loads the assets saved in `store`, which keeps every new one from now on.
+  // Lists the assets saved in `store` (their bytes stay on disk), which keeps every new one from
+  // now on.
   void restore(StateStore& store);
 
   bool has(const std::string& sha256) const;
@@ -62,10 +71,16 @@ class AssetStore {
   };
   Counts counts() const;
 
+  // Bytes of assets held in memory now: all of them without a state dir, else those in use.
+  uint64_t residentBytes() const;
+
  private:
   StateStore* store_ = nullptr;  // null: in memory only
   mutable std::mutex mutex_;
-  std::map<std::string, std::shared_ptr<const std::string>> assets_;  // guarded by mutex_
+  std::map<std::string, std::shared_ptr<const std::string>> assets_;  // without a store; guarded by mutex_
+  // With a store: the sizes of those on disk (a damaged one found by find() leaves); guarded by mutex_.
+  mutable std::map<std::string, uint64_t> onDisk_;
+  mutable std::map<std::string, std::weak_ptr<const std::string>> inUse_;  // with a store; guarded by mutex_
   std::atomic<uint64_t> bytesReceived_{0}, uploadsStored_{0}, uploadsPresent_{0}, sent_{0};
 };
 

@@ -2,6 +2,7 @@
 #include "common/util/file_contents.h"
 
 #include <fcntl.h>
+#include <spdlog/spdlog.h>
 #include <sqlite3.h>
 #include <sys/file.h>
 #include <unistd.h>
@@ -189,8 +190,7 @@ StateStore::StateStore(fs::path dir) : dir_(std::move(dir)) {
     const std::string stamp = std::to_string(
         std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count());
     for (const char* suffix : {"", "-wal", "-shm"})
-      if (fs::exists(dir_ / (std::string("state.db") + suffix)))
-        setAside(dir_ / (std::string("state.db") + suffix), "");
+      if (fs::exists(dir_ / (std::string("state.db") + suffix))) setAside(dir_ / (std::string("state.db") + suffix));
     openingRepairs_.push_back(dir_.string() + "/state.db is damaged (" + e.what() +
                               "): kept aside in lost+found/, and a new one started; the jobs are taken back from "
                               "their files");
@@ -239,7 +239,7 @@ void StateStore::open() {
   if (s.step()) bootCount_ = uint64_t(s.integer(0));
 }
 
-void StateStore::setAside(const fs::path& file, const std::string& why) {
+fs::path StateStore::setAside(const fs::path& file) {
   const fs::path aside = dir_ / "lost+found";
   fs::create_directories(aside);
   std::string name = file.parent_path().filename() == "jobs" || file.parent_path() == dir_
@@ -249,7 +249,7 @@ void StateStore::setAside(const fs::path& file, const std::string& why) {
   for (int k = 1; fs::exists(target); ++k) target = aside / (name + "." + std::to_string(k));
   std::error_code ec;
   fs::rename(file, target, ec);
-  if (!why.empty()) openingRepairs_.push_back(file.string() + " " + why + ": kept aside as " + target.string());
+  return target;
 }
 
 StateStore::~StateStore() {
@@ -277,12 +277,28 @@ void StateStore::putAsset(const std::string& sha256, const std::string& bytes) {
   writeBytesAtomically(dir_ / "assets" / sha256, bytes);
 }
 
-std::map<std::string, std::shared_ptr<const std::string>> StateStore::loadAssets() {
-  std::map<std::string, std::shared_ptr<const std::string>> out;
+std::map<std::string, uint64_t> StateStore::listAssets() {
+  std::map<std::string, uint64_t> out;
   for (const auto& entry : fs::directory_iterator(dir_ / "assets"))
     if (entry.is_regular_file() && entry.path().filename().string().front() != '.')
-      out[entry.path().filename().string()] = std::make_shared<const std::string>(readAll(entry.path()));
+      out[entry.path().filename().string()] = entry.file_size();
   return out;
+}
+
+std::optional<std::string> StateStore::loadAsset(const std::string& sha256) {
+  try {
+    return readAll(dir_ / "assets" / sha256);
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+void StateStore::setAssetAside(const std::string& sha256, const std::string& why) {
+  const fs::path file = dir_ / "assets" / sha256;
+  std::lock_guard lock(mutex_);
+  const fs::path target = setAside(file);
+  spdlog::error("{}: {}: kept aside as {}; the asset counts as missing until a client uploads it again", file.string(),
+                why, target.string());
 }
 
 void StateStore::insertJob(const StoredJob& job) {
@@ -393,8 +409,9 @@ std::vector<std::string> StateStore::recoverJobs() {
     const std::optional<std::string> manifest = readCheckedFile(dir / "job.json", damage);
     json j = manifest ? json::parse(*manifest, nullptr, false) : json();
     if (!manifest || j.is_discarded() || j.value("id", "") != name) {
-      setAside(dir, "has no row in state.db and no valid job.json (" + (manifest ? "not the job's" : damage) + ")");
-      repairs.push_back(openingRepairs_.back());
+      const fs::path target = setAside(dir);
+      repairs.push_back(dir.string() + " has no row in state.db and no valid job.json (" +
+                        (manifest ? "not the job's" : damage) + "): kept aside as " + target.string());
       continue;
     }
     StoredJob job;
@@ -553,7 +570,7 @@ StateStore::Reconciled StateStore::reconcileUnits(const std::string& jobId,
       if (files.count(unit)) {
         why = payload ? "not this unit's file" : damage;
         damaged.push_back(unit);
-        setAside(file, "");
+        setAside(file);
       } else {
         missing.push_back(unit);
       }
@@ -629,7 +646,7 @@ std::optional<StateStore::Checkpoint> StateStore::loadCheckpoint(const std::stri
     valid = false;
   }
   if (!valid) {
-    setAside(file, "");
+    setAside(file);
     if (damage) *damage = file.string() + " is damaged (" + why + "): kept aside in lost+found/";
     return std::nullopt;
   }

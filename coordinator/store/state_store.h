@@ -61,7 +61,12 @@ class StateStore {
   uint64_t bootCount() const { return bootCount_; }
 
   void putAsset(const std::string& sha256, const std::string& bytes);
-  std::map<std::string, std::shared_ptr<const std::string>> loadAssets();
+  // The stored assets and their sizes (their bytes are not read).
+  std::map<std::string, uint64_t> listAssets();
+  // An asset's bytes, or nullopt if its file cannot be read.
+  std::optional<std::string> loadAsset(const std::string& sha256);
+  // A damaged asset file goes to lost+found/, with an error line saying why.
+  void setAssetAside(const std::string& sha256, const std::string& why);
 
   struct StoredJob {
     std::string id;
@@ -149,7 +154,7 @@ class StateStore {
 
  private:
   void open();  // opens state.db and its schema; throws on a damaged database
-  void setAside(const std::filesystem::path& file, const std::string& why);  // into lost+found/
+  std::filesystem::path setAside(const std::filesystem::path& file);  // into lost+found/; returns where
   void writeManifest(const StoredJob& job);
   void exec(const std::string& sql);
   void addColumnIfMissing(const std::string& table, const std::string& column, const std::string& type);

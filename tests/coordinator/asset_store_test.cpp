@@ -3,6 +3,8 @@
 // malformed queries by index, and the count of assets sent to workers.
 #include <gtest/gtest.h>
 
+#include <fstream>
+
 #include "common/util/error.h"
 #include "common/util/hash.h"
 #include "coordinator/core/coordinator.h"
@@ -53,6 +55,44 @@ TEST(AssetStore, ARestartedCoordinatorStillHasTheAssetsOfItsStateDir) {
   }
   Coordinator restarted(options);
   EXPECT_EQ(restarted.missingAssets({kHello, absent('c')}), std::vector<std::string>{absent('c')});
+}
+
+// With a state dir an asset's bytes live on disk: held in memory only while someone uses them,
+// shared by everyone using them at once, none loaded by a restart; a file damaged on disk is
+// found by its hash, kept aside, and the asset counts as missing until it is uploaded again.
+TEST(AssetStore, WithAStateDirAssetsLiveOnDiskAndADamagedOneIsUploadedAgain) {
+  test::TempDir dir;
+  Coordinator::Options options;
+  options.stateDir = dir / "state";
+  const std::string big(8 << 20, 'x');
+  const std::string sha = sha256Hex(big);
+  {
+    Coordinator c(options);
+    ASSERT_TRUE(c.putAsset(sha, big));
+    ASSERT_TRUE(c.putAsset(kHello, "hello\n"));
+    EXPECT_EQ(c.metricsSnapshot().assetBytesResident, 0u) << "an upload is not kept in memory";
+    {
+      const auto first = c.asset(sha), second = c.asset(sha);
+      EXPECT_EQ(*first, big);
+      EXPECT_EQ(first.get(), second.get()) << "one copy, shared";
+      EXPECT_EQ(c.metricsSnapshot().assetBytesResident, big.size());
+    }
+    EXPECT_EQ(c.metricsSnapshot().assetBytesResident, 0u) << "freed when nobody uses it";
+  }
+  Coordinator restarted(options);
+  EXPECT_EQ(restarted.metricsSnapshot().assetBytesResident, 0u) << "a restart loads no asset";
+  EXPECT_TRUE(restarted.missingAssets({sha, kHello}).empty());
+  // A bad disk flips a byte of the big one.
+  {
+    std::fstream f(options.stateDir / "assets" / sha, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(4096);
+    f.put('y');
+  }
+  EXPECT_THROW(restarted.asset(sha), FarmError) << "its bytes no longer hash to its name";
+  EXPECT_EQ(restarted.missingAssets({sha, kHello}), std::vector<std::string>{sha}) << "to be uploaded again";
+  EXPECT_TRUE(fs::exists(options.stateDir / "lost+found" / ("assets-" + sha))) << "kept aside, not deleted";
+  EXPECT_TRUE(restarted.putAsset(sha, big));
+  EXPECT_EQ(*restarted.asset(sha), big);
 }
 
 TEST(AssetStore, AMalformedHashIsRefusedByItsIndex) {
