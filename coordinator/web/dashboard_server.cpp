@@ -2,6 +2,7 @@
 
 #include <arpa/inet.h>
 #include <spdlog/spdlog.h>
+#include <strings.h>
 
 #include <nlohmann/json.hpp>
 
@@ -42,12 +43,6 @@ void setImageHeaders(HttpResponse& response, const Dashboard::Png& png) {
   response.setHeader("X-Height", std::to_string(png.height));
 }
 
-bool equalsIgnoringCase(std::string_view a, std::string_view b) {
-  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
-           return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
-         });
-}
-
 }  // namespace
 
 bool loopbackHost(std::string_view host) {
@@ -68,7 +63,7 @@ bool loopbackHost(std::string_view host) {
         end != port.data() + port.size() || value > 65535)
       return false;
   }
-  if (equalsIgnoringCase(name, "localhost") || name == "[::1]") return true;
+  if ((name.size() == 9 && ::strncasecmp(name.data(), "localhost", 9) == 0) || name == "[::1]") return true;
   in_addr address{};
   const std::string text(name);
   return inet_pton(AF_INET, text.c_str(), &address) == 1 && (ntohl(address.s_addr) >> 24) == 127;

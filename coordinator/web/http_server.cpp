@@ -35,16 +35,10 @@ namespace ssl = asio::ssl;
 using tcp = asio::ip::tcp;
 using boost::system::error_code;
 
-bool equalsIgnoringCase(std::string_view a, std::string_view b) {
-  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
-           return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
-         });
-}
-
 std::string_view valueOf(const std::vector<std::pair<std::string, std::string>>& pairs, std::string_view name,
                          bool ignoreCase) {
   for (const auto& [key, value] : pairs)
-    if (ignoreCase ? equalsIgnoringCase(key, name) : key == name) return value;
+    if (ignoreCase ? beast::iequals(key, beast::string_view(name.data(), name.size())) : key == name) return value;
   return {};
 }
 
@@ -424,7 +418,7 @@ void HttpResponse::setContent(std::string content, std::string contentType) {
 }
 void HttpResponse::setHeader(std::string name, std::string value) {
   for (auto& [key, existing] : headers)
-    if (equalsIgnoringCase(key, name)) {
+    if (beast::iequals(key, beast::string_view(name.data(), name.size()))) {
       existing = std::move(value);
       return;
     }

@@ -59,23 +59,29 @@ TEST(TokenFile, OnlyItsOwnerMayReadIt) {
   test::TempDir dir;
   const fs::path file = dir.write("client.token", "Zm9vYmFyLWEtcmVhbC1yYW5kb20tdG9rZW4tMTIz\n");
   EXPECT_EQ(readToken(file.string(), nullptr), "Zm9vYmFyLWEtcmVhbC1yYW5kb20tdG9rZW4tMTIz");
+  // Owned by someone other than root (as the test's own file is when it does not run as root),
+  // no group or other permission is allowed.
+  if (::geteuid() == 0) {
+    ASSERT_EQ(::chown(file.c_str(), 65534, 65534), 0);
+  }
   for (const auto mode : {fs::perms(0644), fs::perms(0604), fs::perms(0640), fs::perms(0620)}) {
     fs::permissions(file, mode);
     try {
       readToken(file.string(), nullptr);
-      if (::geteuid() != 0 || (mode & fs::perms::others_all) != fs::perms::none)
-        ADD_FAILURE() << "mode " << std::oct << int(mode) << " accepted";
+      ADD_FAILURE() << "mode " << std::oct << int(mode) << " accepted";
     } catch (const InputError& e) {
       const std::string why = e.what();
       EXPECT_NE(why.find(file.string()), std::string::npos) << why;
       EXPECT_NE(why.find("chmod 600 " + file.string()), std::string::npos) << why;
     }
   }
-  // Group access is allowed only when root owns the file (a mounted secret); this test's files
-  // are root's when it runs as root.
-  fs::permissions(file, fs::perms(0640));
+  // Group access is allowed only when root owns the file (a mounted secret); anyone else never.
   if (::geteuid() == 0) {
+    ASSERT_EQ(::chown(file.c_str(), 0, 0), 0);
+    fs::permissions(file, fs::perms(0640));
     EXPECT_NO_THROW(readToken(file.string(), nullptr));
+    fs::permissions(file, fs::perms(0644));
+    EXPECT_THROW(readToken(file.string(), nullptr), InputError);
   }
 }
 
