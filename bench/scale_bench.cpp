@@ -186,7 +186,7 @@ uint64_t memoryBound(const JobPlan& plan, bool tiled, uint64_t unitsPerFrame, ui
   const uint64_t cells = uint64_t(plan.width) * uint64_t(plan.height);
   const uint64_t filmPerCell =
       tiled ? 3 * kImageBytesPerCell
-            : (1 + kRewindPoints) * kSensorBytesPerCell + kTrackerBytesPerCell + kImageBytesPerCell + kExrBytesPerCell;
+            : (1 + kRewindPoints) * kSensorBytesPerCell + kTrackerBytesPerCell + 2 * kImageBytesPerCell;
   const uint64_t framesSpanned = tiled ? uint64_t(workers) / unitsPerFrame + 2 : 1;
   const uint64_t openFrames = plan.frames ? std::min<uint64_t>(plan.frameCount(), framesSpanned) : 1;
   return idleRss + openFrames * cells * filmPerCell +

@@ -418,6 +418,9 @@ Runner addWorkersCommand(CLI::App& app) {
           state += "; " + std::to_string(w.audits_passed()) + " of its units confirmed by audit";
         if (w.audits_rendered() > 0) state += "; audited " + std::to_string(w.audits_rendered()) + " of other workers'";
         for (const std::string& job : w.blocklisted_jobs()) state += "; blocklisted for " + job;
+        if (!w.credential().empty())
+          state += "; credential " + w.credential() +
+                   (w.registrations() > 1 ? " (registered " + std::to_string(w.registrations()) + " times)" : "");
         std::printf("%-18s %-28s %7u %-10s %8llu %9.1fs  %s\n", logText(w.worker_id()).c_str(),
                     logText(w.name()).c_str(), w.threads(),
                     w.current_job_id().empty() ? "-" : w.current_job_id().c_str(), (unsigned long long)w.units_done(),

@@ -268,7 +268,8 @@ bool followJob(Coordinator& coordinator, WorkerLoop& worker, JobInfo& info, cons
 std::unique_ptr<Coordinator> embeddedCoordinator() {
   Coordinator::Options options;
   options.maxJobMemoryBytes = std::numeric_limits<uint64_t>::max();  // runRender checks the whole process
-  options.leaseTimeoutSeconds = 3600.0;                              // the worker cannot vanish: it is this process
+  options.memoryBudgetBytes = std::numeric_limits<uint64_t>::max();
+  options.leaseTimeoutSeconds = 3600.0;  // the worker cannot vanish: it is this process
   options.heartbeatIntervalSeconds = 0.25;
   options.auditFraction = 0.0;  // one worker: nobody to compare with (docs/farm.md "Audit")
   return std::make_unique<Coordinator>(options);

@@ -72,9 +72,9 @@ using namespace lensfarm;
 // Everything the command line sets.
 struct Flags {
   std::string listen = "127.0.0.1:7878", portFile, logLevel = "info";
-  std::string clientTokenFile, workerTokenFile, viewerTokenFile, tlsCert, tlsKey, tlsClientCa;
+  std::string clientTokenFile, workerTokenFile, workerCredentialsFile, viewerTokenFile, tlsCert, tlsKey, tlsClientCa;
   std::string metricsListen, metricsPortFile, dashboardListen, dashboardPortFile;
-  std::string stateDir, uploadEncoding = "shuffle-zstd", maxJobMemory, keep = "0", archiveAfter = "0";
+  std::string stateDir, uploadEncoding = "shuffle-zstd", maxJobMemory, memoryBudget, keep = "0", archiveAfter = "0";
   Coordinator::Options options;
 };
 
@@ -87,6 +87,11 @@ void addServingFlags(CLI::App& app, Flags& f) {
                  "File holding the token clients must present (or set LENSFARM_CLIENT_TOKEN)");
   app.add_option("--worker-token-file", f.workerTokenFile,
                  "File holding the token workers must present (or set LENSFARM_WORKER_TOKEN)");
+  app.add_option("--worker-credentials", f.workerCredentialsFile,
+                 "File of per-machine worker credentials, one \"NAME TOKEN\" a line: each registers one worker at "
+                 "a time and counts as one machine in failures and audits (docs/farm.md \"Worker identity\"); with "
+                 "or instead of --worker-token-file")
+      ->envname("LENSFARM_WORKER_CREDENTIALS");
   app.add_option("--viewer-token-file", f.viewerTokenFile,
                  "File holding a read-only token: on the dashboard it shows jobs, workers and images but cannot "
                  "cancel or reprioritize; on gRPC it opens only the reading calls (GetJob, ListJobs, WatchJob, "
@@ -179,6 +184,15 @@ void addStateFlags(CLI::App& app, Flags& f) {
                  "Memory one job may take (e.g. 16G, 512MiB): bigger jobs are refused at submission with their "
                  "estimate; default 3/4 of this machine's memory (or of its cgroup limit)")
       ->envname("LENSFARM_MAX_JOB_MEMORY");
+  app.add_option("--memory-budget", f.memoryBudget,
+                 "Memory all jobs, downloads and (without --state-dir) assets may take together (e.g. 48G): a job "
+                 "that does not fit beside the others is refused, a download waits for room; default as "
+                 "--max-job-memory's")
+      ->envname("LENSFARM_MEMORY_BUDGET");
+  app.add_option("--max-jobs-per-owner", f.options.maxJobsPerOwner,
+                 "Jobs one owner may have queued or running at once; a submit past it is refused (0: no cap)")
+      ->envname("LENSFARM_MAX_JOBS_PER_OWNER")
+      ->capture_default_str();
   app.add_option("--keep", f.keep,
                  "Delete jobs this long after they ended (e.g. 7d, 12h, 30m, 3600s); 0: keep them forever")
       ->envname("LENSFARM_KEEP")
@@ -201,6 +215,15 @@ std::optional<int> finishOptions(Flags& f) {
       return 2;
     }
   }
+  if (!f.memoryBudget.empty()) {
+    f.options.memoryBudgetBytes = parseByteSize(f.memoryBudget);
+    f.options.memoryBudgetSource = "--memory-budget";
+    if (f.options.memoryBudgetBytes == 0) {
+      spdlog::error("--memory-budget: expected a size such as 48G, 512MiB or 2000000000 (bytes), got \"{}\"",
+                    f.memoryBudget);
+      return 2;
+    }
+  }
   try {
     f.options.keepSeconds = parseDuration(f.keep, "--keep");
     f.options.archiveAfterSeconds = f.archiveAfter == "never" ? -1.0 : parseDuration(f.archiveAfter, "--archive-after");
@@ -215,6 +238,8 @@ std::optional<int> finishOptions(Flags& f) {
 // The tokens per service and the gRPC credentials (TLS if certificates are given).
 struct Security {
   std::optional<std::string> clientToken, workerToken, viewerToken;
+  std::vector<WorkerCredential> workerCredentials;
+  bool workersAuthenticated() const { return workerToken || !workerCredentials.empty(); }
   std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
 };
 
@@ -229,6 +254,14 @@ Security readSecurity(const Flags& f) {
     checkTokenStrength(*s.workerToken, f.workerTokenFile.empty() ? "LENSFARM_WORKER_TOKEN" : f.workerTokenFile);
   if (s.clientToken && s.workerToken && equalSecrets(*s.clientToken, *s.workerToken))
     throw InputError("--worker-token-file", "workers and clients need different tokens");
+  if (!f.workerCredentialsFile.empty()) {
+    s.workerCredentials = readWorkerCredentials(f.workerCredentialsFile);
+    for (const WorkerCredential& c : s.workerCredentials)
+      if ((s.clientToken && equalSecrets(c.token, *s.clientToken)) ||
+          (s.workerToken && equalSecrets(c.token, *s.workerToken)))
+        throw InputError(f.workerCredentialsFile, "the token of credential " + c.name +
+                                                      " is also the client or shared worker token: each needs its own");
+  }
   s.viewerToken = readToken(f.viewerTokenFile, "LENSFARM_VIEWER_TOKEN");
   if (s.viewerToken) {
     const char* viewerFlag = "--viewer-token-file";
@@ -237,7 +270,9 @@ Security readSecurity(const Flags& f) {
       throw InputError(viewerFlag,
                        "a viewer token needs a client token (--client-token-file): without one the "
                        "dashboard is open to anyone on this machine");
-    if (equalSecrets(*s.viewerToken, *s.clientToken) || (s.workerToken && equalSecrets(*s.viewerToken, *s.workerToken)))
+    bool workers = s.workerToken && equalSecrets(*s.viewerToken, *s.workerToken);
+    for (const WorkerCredential& c : s.workerCredentials) workers |= equalSecrets(*s.viewerToken, c.token);
+    if (equalSecrets(*s.viewerToken, *s.clientToken) || workers)
       throw InputError(viewerFlag, "viewers need a token of their own, different from the client and worker tokens");
   }
   if (!f.tlsClientCa.empty() && f.tlsCert.empty())
@@ -261,7 +296,7 @@ Security readSecurity(const Flags& f) {
 std::optional<int> refuseOpenDoors(const Flags& f, const Security& s) {
   const std::string host = f.listen.substr(0, f.listen.rfind(':'));
   const bool loopback = isLoopback(host);
-  if (!loopback && !(s.clientToken && s.workerToken)) {
+  if (!loopback && !(s.clientToken && s.workersAuthenticated())) {
     spdlog::error(
         "refusing to listen on {} without --client-token-file and --worker-token-file: anyone who can "
         "reach it could submit jobs or lease work. Give both tokens, or listen on 127.0.0.1.",
@@ -279,11 +314,11 @@ std::optional<int> refuseOpenDoors(const Flags& f, const Security& s) {
   }
   // On loopback one token without the other protects one service and leaves the other to any
   // local user: said loudly, since it looks protected.
-  if (s.clientToken && !s.workerToken)
+  if (s.clientToken && !s.workersAuthenticated())
     spdlog::warn(
         "the worker service takes no token (no --worker-token-file): any user of this machine can register a "
         "worker, read every queued job's scene and assets, and send results. Give a worker token too.");
-  if (s.workerToken && !s.clientToken)
+  if (s.workersAuthenticated() && !s.clientToken)
     spdlog::warn(
         "the client service takes no token (no --client-token-file): any user of this machine can submit, "
         "download and cancel jobs. Give a client token too.");
@@ -392,8 +427,9 @@ int main(int argc, char** argv) {
     return 2;
   }
   Coordinator& coordinator = *owned;
-  spdlog::info("a job may take up to {} of memory ({})", formatBytes(coordinator.options().maxJobMemoryBytes),
-               coordinator.options().maxJobMemorySource);
+  spdlog::info("a job may take up to {} of memory ({}), all of them together {} ({})",
+               formatBytes(coordinator.options().maxJobMemoryBytes), coordinator.options().maxJobMemorySource,
+               formatBytes(coordinator.options().memoryBudgetBytes), coordinator.options().memoryBudgetSource);
 
   Security security;
   try {
@@ -408,7 +444,8 @@ int main(int argc, char** argv) {
   ClientServiceImpl clientService(
       coordinator, TokenGate(security.clientToken, "client", security.viewerToken, "viewer",
                              {"GetJob", "ListJobs", "WatchJob", "Download", "GetSnapshot", "ListWorkers"}));
-  WorkerServiceImpl workerService(coordinator, TokenGate(security.workerToken, "worker"),
+  WorkerServiceImpl workerService(coordinator,
+                                  TokenGate(security.workerToken, "worker").withCredentials(security.workerCredentials),
                                   f.uploadEncoding == "raw" ? SumsEncoding::kRaw : SumsEncoding::kShuffleZstd);
   // gRPC health checking (grpc.health.v1.Health): SERVING while the services are up, for load
   // balancers and Kubernetes gRPC probes; it needs no token.
@@ -426,7 +463,10 @@ int main(int argc, char** argv) {
   const std::string address = f.listen.substr(0, f.listen.rfind(':')) + ":" + std::to_string(port);
   spdlog::info("listening on {} ({}; {}; client token {}, worker token {})", address, kRendererVersion,
                f.tlsCert.empty() ? "plain gRPC" : (f.tlsClientCa.empty() ? "TLS" : "mutual TLS"),
-               security.clientToken ? "required" : "none", security.workerToken ? "required" : "none");
+               security.clientToken ? "required" : "none",
+               security.workerCredentials.empty() ? (security.workerToken ? "required" : "none")
+                                                  : std::to_string(security.workerCredentials.size()) + " credentials" +
+                                                        (security.workerToken ? " and the shared token" : ""));
   Dashboard dashboard(coordinator, security.clientToken, security.viewerToken);
   HttpServers http;
   try {

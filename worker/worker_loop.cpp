@@ -218,7 +218,12 @@ void WorkerLoop::run() {
 }
 
 void WorkerLoop::registerNow() {
-  WorkerInfo info{options_.name, options_.threads, kProtocolVersion, kRendererVersion, options_.maxMemoryBytes};
+  WorkerInfo info{options_.name,
+                  options_.threads,
+                  kProtocolVersion,
+                  kRendererVersion,
+                  options_.maxMemoryBytes,
+                  /*credential: the coordinator knows it from the token*/ {}};
   const Registration r = link_.registerWorker(info);
   std::lock_guard lock(mutex_);
   workerId_ = r.workerId;

@@ -184,8 +184,8 @@ void SimulatedFarm::run(int index) {
     if (id.empty()) {
       const auto t = Clock::now();
       try {
-        const Registration r =
-            w.link.registerWorker(WorkerInfo{"sim-" + std::to_string(index), 1, kProtocolVersion, kRendererVersion, 0});
+        const Registration r = w.link.registerWorker(
+            WorkerInfo{"sim-" + std::to_string(index), 1, kProtocolVersion, kRendererVersion, 0, {}});
         record(tally.registerWorker, t);
         std::lock_guard lock(w.mutex);
         if (r.heartbeatIntervalSeconds > 0) w.heartbeatInterval = r.heartbeatIntervalSeconds;

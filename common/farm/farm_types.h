@@ -40,6 +40,9 @@ struct WorkerInfo {
   // workerJobMemory); 0: not said (any unit is leased to it). The coordinator leases a worker only
   // units it can hold, so a small machine in a big farm never fails a big job.
   uint64_t maxUnitMemoryBytes = 0;
+  // The per-machine credential it registered with (docs/farm.md "Worker identity"); empty for the
+  // shared worker token or none. Set by the coordinator from the call's token, never by the worker.
+  std::string credential{};
 };
 
 // A unit leased to one worker. Only an upload quoting the current lease id is counted.

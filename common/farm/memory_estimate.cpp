@@ -22,10 +22,11 @@ namespace lensfarm {
 
 namespace {
 // The AOVs' share (film/aov_layout.h): their sums beside the beauty's in the film (`cells`) and in
-// `held` unit buffers, their layers in the developed images and a download's EXR, and in a
-// checkpoint; a worker's unit buffer alone when `workerCells` is given. Nothing without AOVs.
+// `held` unit buffers and in a checkpoint, and with `layers` their layers in the developed image
+// (a coordinator's are in imageMemory); a worker's unit buffer alone when `workerCells` is given.
+// Nothing without AOVs.
 void addAovItems(MemoryEstimate& e, const RenderSettings& s, uint64_t cells, uint64_t held, bool stateDir,
-                 uint64_t workerCells = 0) {
+                 uint64_t workerCells = 0, bool layers = false) {
   const AovLayout layout(s.aovs);
   if (!layout.any()) return;
   const uint64_t sums = uint64_t(layout.channels - 3), floats = uint64_t(layout.layerChannels());
@@ -36,7 +37,7 @@ void addAovItems(MemoryEstimate& e, const RenderSettings& s, uint64_t cells, uin
   e.items.push_back(
       {"AOVs (" + aovListText(layout.set) + ")",
        cells * (sums * (sizeof(CompensatedSum) + held * sizeof(double) + (stateDir ? 2 * sizeof(double) : 0)) +
-                floats * (kImageBytesPerCell + 2 * kExrBytesPerCell) / 3)});
+                (layers ? floats * sizeof(float) : 0))});
 }
 }  // namespace
 
@@ -76,6 +77,13 @@ void addAdaptiveItems(MemoryEstimate& e, const RenderSettings& s, uint64_t cells
 }
 }  // namespace
 
+uint64_t imageMemory(const RenderSettings& s) {
+  const uint64_t cells = cellsOf(s);
+  const AovLayout layout(s.aovs);
+  const uint64_t layerFloats = layout.any() ? uint64_t(layout.layerChannels()) : 0;
+  return cells * (kImageBytesPerCell + kPngBytesPerCell + layerFloats * sizeof(float));
+}
+
 MemoryEstimate coordinatorJobMemory(const RenderSettings& s, uint64_t maxBytesAhead, bool stateDir,
                                     uint64_t auditCopies) {
   const uint64_t cells = cellsOf(s);
@@ -85,8 +93,8 @@ MemoryEstimate coordinatorJobMemory(const RenderSettings& s, uint64_t maxBytesAh
     // no tracker, no results waiting); an animation may hold a second frame while one completes;
     // audited tiles' sums are a tile each.
     e.items.push_back({"the frame's image (tiled: no sensor)", cells * kImageBytesPerCell});
-    e.items.push_back({"a download", cells * (kImageBytesPerCell + 2 * kExrBytesPerCell)});
     addAovItems(e, s, cells, 0, false);
+    e.items.push_back({"a download", imageMemory(s)});
     return e;
   }
   const uint64_t held = std::min(unitsOf(s), unitsAheadWindow(s.width, s.height, maxBytesAhead));
@@ -94,13 +102,13 @@ MemoryEstimate coordinatorJobMemory(const RenderSettings& s, uint64_t maxBytesAh
   e.items.push_back({"error-estimate half-image", cells * kTrackerBytesPerCell});
   e.items.push_back({std::to_string(held) + (held == 1 ? " unit buffer" : " unit buffers in flight"),
                      held * cells * kUnitBufferBytesPerCell});
-  e.items.push_back({"a download", cells * (kImageBytesPerCell + 2 * kExrBytesPerCell)});
   if (stateDir) e.items.push_back({"a checkpoint", cells * kCheckpointBytesPerCell});
   addAdaptiveItems(e, s, cells, auditCopies);
   addAovItems(e, s, cells, held, stateDir);
   if (auditCopies > 0)
     e.items.push_back({std::to_string(auditCopies) + " film copies and an audited unit (the audit)",
                        cells * (auditCopies * (kSensorBytesPerCell + kTrackerBytesPerCell) + kUnitBufferBytesPerCell)});
+  e.items.push_back({"a download", imageMemory(s)});
   return e;
 }
 
@@ -152,7 +160,7 @@ MemoryEstimate localRenderMemory(const RenderSettings& s, uint64_t triangles, ui
   e.items.push_back({"error-estimate half-image", cells * kTrackerBytesPerCell});
   e.items.push_back({"unit buffer", cells * kUnitBufferBytesPerCell});
   e.items.push_back({"output image", cells * (kImageBytesPerCell + kPngBytesPerCell)});
-  addAovItems(e, s, cells, 1, false);
+  addAovItems(e, s, cells, 1, false, 0, /*layers=*/true);
   addAdaptiveItems(e, s, cells, 0);
   e.items.push_back({"scene", triangles * kSceneBytesPerTriangle});
   if (sceneData > 0) e.items.push_back({"textures, vertex attributes and instances", sceneData});

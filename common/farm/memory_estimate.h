@@ -18,14 +18,15 @@
 //                                                         + a uint32 count); coordinator: each upload
 //                                                         being received and each unit waiting for
 //                                                         an earlier one, at most unitsAheadWindow().
-//   developed image (film/image.h)               12       coordinator, per download or snapshot, and
-//                                                         `lensfarm render` when it writes: 3 floats.
-//   encoded output                         <= 24 or 6     a download's EXR bytes (float RGB, ZIP: at
-//                                                         most 12, noise compresses little) with the
-//                                                         string's room to grow (as much again); a
-//                                                         PNG's 8-bit pixels and bytes. `lensfarm
-//                                                         render` writes EXR files straight from the
-//                                                         image, a few scanlines at a time.
+//   developed image (film/image.h)               12       coordinator, per download, snapshot or
+//                                                         archiving, and `lensfarm render` when it
+//                                                         writes: 3 floats.
+//   encoded output                              <= 6      a PNG's 8-bit pixels and bytes. An EXR
+//                                                         is written straight from the image, a few
+//                                                         scanlines at a time: into its file, or for
+//                                                         a download into a spool file streamed from
+//                                                         disk; an archived image's file is streamed
+//                                                         as it is.
 //   checkpoint (state dir only)                  80       coordinator, while it saves a job: the
 //                                                         serialized sensor (48 + 8 for the counts
 //                                                         of the file format) and tracker (24).
@@ -48,8 +49,7 @@ inline constexpr uint64_t kSensorBytesPerCell = 3 * sizeof(CompensatedSum);
 inline constexpr uint64_t kTrackerBytesPerCell = 3 * sizeof(double);
 inline constexpr uint64_t kUnitBufferBytesPerCell = 3 * sizeof(double) + sizeof(uint32_t);
 inline constexpr uint64_t kImageBytesPerCell = 3 * sizeof(float);
-inline constexpr uint64_t kExrBytesPerCell = 3 * sizeof(float);  // at most: float RGB that ZIP cannot shrink
-inline constexpr uint64_t kPngBytesPerCell = 2 * 3;              // 8-bit sRGB pixels, and at most as many of PNG
+inline constexpr uint64_t kPngBytesPerCell = 2 * 3;  // 8-bit sRGB pixels, and at most as many of PNG
 inline constexpr uint64_t kCheckpointBytesPerCell = 3 * 2 * sizeof(double) + sizeof(uint64_t) + 3 * sizeof(double);
 inline constexpr uint64_t kSceneBytesPerTriangle = 256;  // positions, normals, BVH (Embree) and build headroom
 // One use of an instanced mesh (scene/scene.h, MeshInstance): the MeshInstance, Embree's instance
@@ -72,9 +72,14 @@ struct MemoryEstimate {
 // many ahead of the summed prefix (Coordinator::tryLease), and never more than the job has.
 uint64_t unitsAheadWindow(int width, int height, uint64_t maxBytesAhead);
 
+// Bytes one image of the job takes while a download, snapshot or archiving uses it: the developed
+// image with its AOV layers, and a PNG's pixels and bytes.
+uint64_t imageMemory(const RenderSettings& settings);
+
 // Bytes the coordinator needs for one job: its sensor and tracker, the unit buffers it may hold
-// (unitsAheadWindow, at most the job's units), one EXR download (image and encoded file) and, with a
-// state directory, one checkpoint.
+// (unitsAheadWindow, at most the job's units), one image (imageMemory: the item "a download",
+// last) and, with a state directory, one checkpoint. What the job holds for its life is the total
+// less that last item; each download, snapshot or archiving reserves its image when it happens.
 // `auditCopies`: the film copies the cross-worker audit keeps (docs/farm.md "Audit"; 0 without
 // audit), each a sensor and a tracker, plus one audited unit's sums.
 MemoryEstimate coordinatorJobMemory(const RenderSettings& settings, uint64_t maxBytesAhead, bool stateDir,

@@ -93,6 +93,29 @@ class StringOStream final : public Imf::OStream {
 };
 }  // namespace
 
+namespace {
+// An OStream over a std::ostream (Imf::StdOFStream takes only an ofstream).
+class StdOStreamAdapter final : public Imf::OStream {
+ public:
+  explicit StdOStreamAdapter(std::ostream& out) : Imf::OStream("(stream)"), out_(out) {}
+  void write(const char c[], int n) override {
+    if (!out_.write(c, n)) throw std::runtime_error("write failed");
+  }
+  uint64_t tellp() override { return uint64_t(out_.tellp()); }
+  void seekp(uint64_t pos) override { out_.seekp(std::streamoff(pos)); }
+
+ private:
+  std::ostream& out_;
+};
+}  // namespace
+
+void writeExr(std::ostream& out, const Image& image, const ImageMetadata& metadata, ExrCompression compression) {
+  StdOStreamAdapter stream(out);
+  writeExrTo(stream, image, metadata, compression);
+  out.flush();
+  if (!out) throw std::runtime_error("write failed");
+}
+
 std::string encodeExr(const Image& image, const ImageMetadata& metadata, ExrCompression compression) {
   StringOStream stream;
   writeExrTo(stream, image, metadata, compression);

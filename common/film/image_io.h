@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <ostream>
 #include <string>
 
 #include "common/film/exposure.h"
@@ -40,6 +41,9 @@ std::string encodeExr(const Image& image, const ImageMetadata& metadata,
 std::string encodePng(const Image& image, const ExposureSettings& exposure);
 
 void writeExr(const std::filesystem::path& path, const Image& image, const ImageMetadata& metadata,
+              ExrCompression compression = ExrCompression::kZip);
+// The same bytes into a seekable stream (a download's spool file), a few scanlines at a time.
+void writeExr(std::ostream& out, const Image& image, const ImageMetadata& metadata,
               ExrCompression compression = ExrCompression::kZip);
 Image readExr(const std::filesystem::path& path, ImageMetadata* metadata = nullptr);
 Image decodeExr(const std::string& bytes, ImageMetadata* metadata = nullptr);

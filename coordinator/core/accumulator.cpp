@@ -363,8 +363,10 @@ Accumulator::Developed Accumulator::develop() const {
   std::lock_guard lock(mutex_);
   Developed out;
   if (tiles_) {
+    // (Not value_or: its black image would be made, a frame's worth, even when the film has one.)
+    std::optional<Image> held = tiles_->image(0);
     out.image =
-        tiles_->image(0).value_or(Image{width_, height_, std::vector<float>(size_t(width_) * height_ * 3, 0.0f)});
+        held ? std::move(*held) : Image{width_, height_, std::vector<float>(size_t(width_) * height_ * 3, 0.0f)};
     if (out.image.layers.empty() && aovs_.any()) out.image.layers = aovLayers(aovs_, width_, height_);
     const Progress p = progress();
     out.samplesPerPixel = p.samplesPerPixel;

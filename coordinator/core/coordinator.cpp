@@ -93,6 +93,11 @@ Coordinator::Coordinator(Options options) : options_(std::move(options)), auditR
     options_.maxJobMemoryBytes = defaultJobMemoryBudget();
     options_.maxJobMemorySource = defaultJobMemoryBudgetSource();
   }
+  if (options_.memoryBudgetBytes == 0) {
+    options_.memoryBudgetBytes = defaultJobMemoryBudget();
+    options_.memoryBudgetSource = defaultJobMemoryBudgetSource();
+  }
+  memory_ = MemoryBudget::create(options_.memoryBudgetBytes);
   frames_ = std::make_unique<FrameStore>(options_.stateDir);
   archive_ = std::make_unique<JobArchive>(options_.stateDir);
   if (options_.stateDir.empty()) {
@@ -141,8 +146,22 @@ void JobDefinition::setScene(const Scene& scene) {
 bool Coordinator::hasAsset(const std::string& sha256) const { return assets_.has(sha256); }
 
 bool Coordinator::putAsset(const std::string& sha256, std::string bytes) {
-  return assets_.put(sha256, std::move(bytes));
+  if (store_) return assets_.put(sha256, std::move(bytes));  // on disk, read while in use
+  // In memory for the coordinator's life: a share of its budget.
+  const uint64_t size = bytes.size();
+  std::optional<MemoryBudget::Reservation> reserved = memory_->tryReserve(size, "asset " + sha256.substr(0, 12));
+  if (!reserved)
+    throw FarmError(FarmError::Kind::kResourceExhausted, "asset " + sha256.substr(0, 12) + " (" + formatBytes(size) +
+                                                             ") does not fit in the coordinator's memory (" +
+                                                             memoryBudgetText() +
+                                                             "); run it with --state-dir to keep assets on disk");
+  if (!assets_.put(sha256, std::move(bytes))) return false;  // present already: the reservation goes back
+  MutexLock lock(mutex_);
+  assetMemory_.emplace(sha256, std::move(*reserved));
+  return true;
 }
+
+std::string Coordinator::memoryBudgetText() const { return memory_->describe() + ", " + options_.memoryBudgetSource; }
 
 bool Coordinator::uploadFindsAssetPresent(const std::string& sha256) { return assets_.uploadFindsPresent(sha256); }
 
@@ -187,7 +206,30 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
                                           options_.maxJobMemorySource) +
                         "; lower the resolution (--resolution) or give the coordinator more (--max-job-memory)");
 
+  if (options_.maxJobsPerOwner > 0) {
+    MutexLock lock(mutex_);
+    uint32_t unfinished = 0;
+    for (const auto& [id, j] : jobs_) unfinished += j->definition.owner == owner && !isTerminal(j->progress.state);
+    if (unfinished >= options_.maxJobsPerOwner)
+      throw FarmError(FarmError::Kind::kResourceExhausted,
+                      spec.sceneName + ": " +
+                          (owner.empty() ? std::string("the unnamed owner") : "owner " + logText(owner)) + " has " +
+                          std::to_string(unfinished) + " jobs queued or running, the most allowed (" +
+                          "--max-jobs-per-owner); wait for some to end or cancel them");
+  }
+  // Its film's share of the coordinator's whole budget, beside every other job's (one image, the
+  // last item, is reserved by each download or archiving when it happens).
+  const uint64_t filmBytes = memory.total() - memory.items.back().bytes;
+  std::optional<MemoryBudget::Reservation> reserved = memory_->tryReserve(filmBytes, spec.sceneName);
+  if (!reserved)
+    throw FarmError(
+        FarmError::Kind::kResourceExhausted,
+        spec.sceneName + ": the job needs " + formatBytes(filmBytes) + " of coordinator memory (" + memory.describe() +
+            ", less a download reserved when it happens), and the coordinator " + memoryBudgetText() +
+            "; wait for jobs to end, delete or archive ended ones (lensfarm delete), or raise --memory-budget");
+
   auto job = std::make_unique<Job>();
+  job->memory = std::move(*reserved);
   job->definition.spec = resolved;
   job->priority = priority;
   job->definition.owner = owner;
@@ -209,6 +251,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
   MutexLock lock(mutex_);
   job->definition.id = "job-" + std::to_string(nextJob_++);
   job->definition.sequence = nextSequence_++;
+  job->memory.rename(job->definition.id);
   if (store_)
     store_->insertJob(StateStore::StoredJob{job->definition.id, job->definition.sequence, job->priority,
                                             job->definition.spec, jobStateName(job->progress.state), "",
@@ -414,24 +457,64 @@ ImageMetadata Coordinator::metadataOf(const Job& job) const {
 }
 
 JobImage Coordinator::image(const std::string& jobId, std::optional<int64_t> frame) const {
+  // The image's memory first, waiting for room, before the job is pinned (archiving a job frees
+  // room and waits for its pins): concurrent downloads of large images take turns.
+  RenderSettings settings;
+  {
+    MutexLock lock(mutex_);
+    settings = findJob(jobId).definition.settings;
+  }
+  MemoryBudget::Reservation memory = reserveImage(settings, "an image of " + jobId);
   JobPin pin;  // the job and its film stay while the image is made (lifecycle.cpp)
   const Job* job;
   bool archived;
   {
     MutexLock lock(mutex_);
-    // An image being archived is served from the archive once it is stored.
-    lock.wait(changed_, [&] {
-      mutex_.assertHeld();  // the wait runs it with the lock held
-      const auto it = jobs_.find(jobId);
-      return it == jobs_.end() || !it->second->retention.archiving;
-    });
-    Job& found = findJob(jobId);
+    Job& found = findJobNotArchiving(lock, jobId);  // an image being archived is served from the archive
     pin = JobPin(*this, found);
     job = &found;
     archived = found.retention.archived;
   }
   // An animation's frames are stored as they complete (frame_store.h), archived or not.
-  return archived && !job->definition.layout.frames ? archivedImage(*job) : developedImage(*job, frame);
+  JobImage out = archived && !job->definition.layout.frames ? archivedImage(*job) : developedImage(*job, frame);
+  out.memory = std::move(memory);
+  return out;
+}
+
+Coordinator::Job& Coordinator::findJobNotArchiving(MutexLock& lock, const std::string& jobId) const {
+  lock.wait(changed_, [&] {
+    mutex_.assertHeld();  // the wait runs it with the lock held
+    const auto it = jobs_.find(jobId);
+    return it == jobs_.end() || !it->second->retention.archiving;
+  });
+  return findJob(jobId);
+}
+
+std::unique_ptr<std::istream> Coordinator::archivedExr(const std::string& jobId, uint64_t* size) const {
+  JobPin pin;
+  {
+    MutexLock lock(mutex_);
+    Job& found = findJobNotArchiving(lock, jobId);
+    if (!found.retention.archived || found.definition.layout.frames) return nullptr;
+    pin = JobPin(*this, found);
+  }
+  return archive_->open(jobId, size);
+}
+
+std::filesystem::path Coordinator::spoolDirectory() const {
+  return options_.stateDir.empty() ? std::filesystem::temp_directory_path() : options_.stateDir;
+}
+
+MemoryBudget::Reservation Coordinator::reserveImage(const RenderSettings& settings, const std::string& what) const {
+  const uint64_t bytes = imageMemory(settings);
+  std::optional<MemoryBudget::Reservation> reserved =
+      memory_->reserve(bytes, what, std::chrono::milliseconds(int64_t(options_.imageWaitSeconds * 1000.0)));
+  if (!reserved)
+    throw FarmError(FarmError::Kind::kResourceExhausted,
+                    what + " needs " + formatBytes(bytes) + " of coordinator memory, and for " +
+                        fmt::format("{:g} s", options_.imageWaitSeconds) + " the coordinator " + memoryBudgetText() +
+                        "; try again when other downloads have ended");
+  return std::move(*reserved);
 }
 
 JobImage Coordinator::developedImage(const Job& jobRef, std::optional<int64_t> frame) const {
@@ -588,6 +671,8 @@ MetricsSnapshot Coordinator::metricsSnapshot() const {
   s.assetBytesReceived = assets.bytesReceived;
   s.assetsSent = assets.sent;
   s.assetBytesResident = assets_.residentBytes();
+  s.memoryBudgetBytes = memory_->total();
+  s.memoryReservedBytes = memory_->reserved();
   s.assetUploadsStored = assets.uploadsStored;
   s.assetUploadsPresent = assets.uploadsPresent;
   s.leaseTimeoutSeconds = options_.leaseTimeoutSeconds;

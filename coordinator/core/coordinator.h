@@ -47,6 +47,7 @@
 #include "common/film/convergence.h"
 #include "common/film/image_io.h"
 #include "common/film/sensor.h"
+#include "common/util/memory_budget.h"
 #include "coordinator/core/audit.h"
 #include "coordinator/core/lease_table.h"
 #include "coordinator/core/locking.h"
@@ -152,6 +153,7 @@ struct WorkerView {
   // another two workers disagreed with; it is leased nothing more until the coordinator restarts.
   uint64_t auditsPassed = 0;    // its own counted units an audit confirmed
   uint64_t auditsRendered = 0;  // audits it rendered for another worker's units, which agreed
+  uint64_t registrations = 1;   // of its credential (info.credential), this run
   bool quarantined = false;
   std::string quarantineReason;  // "unit 12 of job-3: sums differ from w2 and w4 by up to 1.0e-03 (cell 4711)"
 };
@@ -168,6 +170,7 @@ struct JobImage {
   Image image;
   ImageMetadata metadata;
   ExposureSettings exposure;
+  MemoryBudget::Reservation memory;  // the image's share of the coordinator's budget, while it lives
 };
 
 // What the metrics endpoint shows (metrics.h renders it): counters since this process started,
@@ -190,6 +193,8 @@ struct MetricsSnapshot {
   uint64_t assetUploadsPresent = 0;    // uploads of assets it held already (a client that asks first makes none)
   uint64_t assetsSent = 0;             // assets sent to workers (each worker fetches one once)
   uint64_t assetBytesResident = 0;     // asset bytes in memory now (with a state dir: those in use)
+  uint64_t memoryBudgetBytes = 0;      // Options::memoryBudgetBytes
+  uint64_t memoryReservedBytes = 0;    // reserved from it now: jobs, images, assets and archives in memory
   uint64_t leasesActive = 0;
   double leaseTimeoutSeconds = 0.0;
   std::vector<JobInfo> jobs;
@@ -212,6 +217,16 @@ class Coordinator {
     // 0: defaultJobMemoryBudget() (LENSFARM_MAX_JOB_MEMORY, else 3/4 of the machine's memory).
     uint64_t maxJobMemoryBytes = 0;
     std::string maxJobMemorySource;  // for messages, e.g. "--max-job-memory"; empty: the default's
+    // The memory all jobs, images and (without a state dir) assets and archived images may take
+    // together (util/memory_budget.h, docs/farm.md "Memory"): a job that does not fit beside the
+    // others is refused (kResourceExhausted naming what holds the budget), a download waits
+    // up to imageWaitSeconds for room. 0: defaultJobMemoryBudget(), as for one job.
+    uint64_t memoryBudgetBytes = 0;
+    std::string memoryBudgetSource;  // for messages, e.g. "--memory-budget"
+    double imageWaitSeconds = 30.0;
+    // Jobs one owner (JobSpec's owner label) may have queued or running at once: a submit past it
+    // is refused (kResourceExhausted), so one script in a loop cannot fill the queue. 0: no cap.
+    uint32_t maxJobsPerOwner = 1000;
     // The longest a lease may be held, however often it is extended: a worker that heartbeats
     // without ever uploading loses its unit after this (LeaseTable's longest end).
     double maxLeaseSeconds = 3600.0;
@@ -271,6 +286,13 @@ class Coordinator {
   // one image, or an animation's first frame). FarmError kNotFound for a frame outside the range,
   // kFailedPrecondition for an animation frame not rendered yet.
   JobImage image(const std::string& jobId, std::optional<int64_t> frame = std::nullopt) const;
+  // An archived still's EXR as stored (with a state dir), opened, with its `size`: Download streams
+  // it as it is, developing nothing. Null when there is none (not archived, an animation, no state
+  // dir). FarmError kNotFound for an unknown job.
+  std::unique_ptr<std::istream> archivedExr(const std::string& jobId, uint64_t* size) const;
+  // Where a download's EXR is spooled when it is too large to encode in memory: the state dir, or
+  // the system's temp dir without one.
+  std::filesystem::path spoolDirectory() const;
   // The job's sensor in full precision (Sensor::serialize), as a checkpoint would save it.
   std::string sensorState(const std::string& jobId) const;
   std::vector<WorkerView> workers() const;
@@ -377,6 +399,8 @@ class Coordinator {
 
   // ---- the job table (coordinator.cpp) ----
   Job& findJob(const std::string& jobId) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // findJob, once the job is not being archived (waiting on `lock`, of mutex_, meanwhile).
+  Job& findJobNotArchiving(MutexLock& lock, const std::string& jobId) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   JobInfo infoOf(const Job& job) const
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);       // walks the leases and workers (stalledReason)
   static double elapsedSecondsOf(const Job& job);  // since its first lease, to its end or now
@@ -474,6 +498,11 @@ class Coordinator {
   void startLifecycle();  // the constructor's last step: retention at start-up, then its thread
   void stopLifecycle();   // the destructor's first
   void lifecycleLoop();
+  // "holds 3.1 GB of its 16.0 GB: job-3 2.0 GB, ..., --memory-budget": for refusals.
+  std::string memoryBudgetText() const;
+  // One image's share of the budget (imageMemory), for `what`, waiting up to imageWaitSeconds for
+  // room: FarmError kResourceExhausted naming what holds the budget when there is none.
+  MemoryBudget::Reservation reserveImage(const RenderSettings& settings, const std::string& what) const;
   // The image of an archived job, and of one with a film (both require a JobPin or archiving).
   JobImage archivedImage(const Job& job) const;
   // The job's image from its film (an animation's frame: from the film or the frame store).
@@ -482,6 +511,11 @@ class Coordinator {
   static std::string summaryOf(const Job& job);
   static void restoreSummary(Job& job, const std::string& summary);
   std::unique_ptr<class JobArchive> archive_;
+  // Every frame-sized thing held, reserved before it is allocated (Options::memoryBudgetBytes).
+  // Its own lock; reservations live in Jobs, JobImages and assetMemory_.
+  std::shared_ptr<MemoryBudget> memory_;
+  // Without a state dir, each asset's bytes in memory, by SHA-256.
+  std::map<std::string, MemoryBudget::Reservation> assetMemory_ ABSL_GUARDED_BY(mutex_);
   std::thread lifecycleThread_;
   std::condition_variable lifecycleWake_;  // with mutex_: a job ended, or the coordinator stops
   bool lifecycleStopping_ ABSL_GUARDED_BY(mutex_) = false;

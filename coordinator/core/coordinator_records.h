@@ -156,6 +156,9 @@ struct Coordinator::Job {
   // Accumulation: the sensor, tracker and stopping rules, behind the accumulator's own lock
   // (never held while taking Coordinator::mutex_). Set once, before the job is listed.
   std::unique_ptr<Accumulator> film;
+  // The film's share of the coordinator's memory budget (the estimate less one image), held while
+  // the film is; and, without a state dir, the archived image's encoded bytes.
+  MemoryBudget::Reservation memory, archiveMemory;
 
   JobRetention retention;  // the job life cycle
 

@@ -176,12 +176,7 @@ JobInfo Coordinator::archiveJob(const std::string& jobId) {
   Job* job;
   {
     MutexLock lock(mutex_);
-    lock.wait(changed_, [&] {  // one archiving at a time per job
-      mutex_.assertHeld();     // the wait runs it with the lock held
-      const auto it = jobs_.find(jobId);
-      return it == jobs_.end() || !it->second->retention.archiving;
-    });
-    Job& found = findJob(jobId);
+    Job& found = findJobNotArchiving(lock, jobId);  // one archiving at a time per job
     if (found.retention.deleting) throw FarmError(FarmError::Kind::kFailedPrecondition, jobId + " is being deleted");
     if (!isTerminal(found.progress.state))
       throw FarmError(FarmError::Kind::kFailedPrecondition,
@@ -193,9 +188,12 @@ JobInfo Coordinator::archiveJob(const std::string& jobId) {
     job = &found;
   }
   std::string summary;
+  MemoryBudget::Reservation archived;  // without a state dir, the encoded image stays in memory
   try {
+    MemoryBudget::Reservation memory = reserveImage(job->definition.settings, "archiving " + jobId);
     const JobImage image = developedImage(*job);
     archive_->store(jobId, image.image, image.metadata);
+    if (!store_) archived = memory_->force(archive_->bytesInMemoryOf(jobId), jobId + "'s archived image");
     {
       MutexLock lock(mutex_);
       summary = summaryOf(*job);
@@ -207,9 +205,12 @@ JobInfo Coordinator::archiveJob(const std::string& jobId) {
     changed_.notify_all();
     throw;
   }
+  MemoryBudget::Reservation released;  // returned once the film is freed (declared first: destroyed last)
   std::unique_ptr<Accumulator> freed;  // destroyed outside the lock
   MutexLock lock(mutex_);
+  released = std::move(job->memory);
   freed = std::move(job->film);
+  job->archiveMemory = std::move(archived);
   job->audit.provenance.clear();
   job->retention.archived = true;
   job->retention.archiving = false;

@@ -71,6 +71,13 @@ void transferMetrics(Exposition& e, const MetricsSnapshot& s) {
            "Asset bytes held in memory now: with a state dir only those in use (a job's scene being loaded, a "
            "worker fetching one), else every uploaded asset.");
   e.sample(s.assetBytesResident);
+  e.family("lensfarm_memory_budget_bytes", "gauge",
+           "The coordinator's memory budget (--memory-budget): what jobs' films, images being served or archived, "
+           "and without a state dir assets and archived images may hold together.");
+  e.sample(s.memoryBudgetBytes);
+  e.family("lensfarm_memory_reserved_bytes", "gauge",
+           "Bytes reserved from the memory budget now. A job that does not fit is refused; a download waits for room.");
+  e.sample(s.memoryReservedBytes);
 }
 
 // Appends the worker families: alive, known, by state, lost and quarantined.

@@ -8,6 +8,7 @@
 #include <cstring>
 
 #include "common/farm/job_scene.h"
+#include "common/farm/memory_estimate.h"
 #include "common/scene/scene_loader.h"
 #include "common/util/log_text.h"
 #include "coordinator/core/coordinator.h"
@@ -250,6 +251,10 @@ uint64_t Coordinator::restoreFilm(Job& job, const Scene& scene, const StateStore
                                   Clock::time_point now, double nowUnix) {
   std::optional<uint64_t> highest;
   uint64_t folded = 0;
+  // Accepted before the restart: held again whatever the budget says now (it may be smaller).
+  const MemoryEstimate estimate = coordinatorJobMemory(scene.render, options_.maxBytesAhead, true,
+                                                       options_.auditFraction > 0.0 ? kRewindPoints : 0);
+  job.memory = memory_->force(estimate.total() - estimate.items.back().bytes, job.definition.id);
   if (job.definition.layout.tiled()) {
     highest = restoreTiled(job);
   } else {

@@ -64,7 +64,7 @@ std::vector<TileFilm::Completed> TileFilm::takeCompleted() {
       held_.erase(it);
       completeFrames_.insert(f);
     } else {
-      out.push_back(Completed{f, std::make_shared<const Image>(it->second.image)});
+      out.push_back(Completed{f, nullptr});  // a still's image stays in the film: no copy
     }
   }
   justCompleted_.clear();

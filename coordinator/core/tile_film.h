@@ -42,7 +42,8 @@ class TileFilm {
   bool frameComplete(uint64_t frameIndex) const { return tilesDone(frameIndex) == layout_.unitsPerFrame(); }
 
   // Frames completed since the last call, with their images, in completion order. A still's
-  // image stays held (image() serves it); an animation's is handed over and freed.
+  // image stays held (image() serves it) and is not handed over (null); an animation's is handed
+  // over and freed.
   // Until stored() is called for it, a handed-over frame is still served by image(): the file
   // is written outside any lock, and the job may be done before the write ends.
   struct Completed {

@@ -32,7 +32,31 @@ bool sameSecret(const std::string& a, const std::string& b) {
 }
 }  // namespace
 
+WorkerRecord* WorkerRegistry::liveByCredential(const std::string& credential) {
+  if (credential.empty()) return nullptr;
+  for (auto& [id, w] : workers_)
+    if (!w->gone && w->info.credential == credential) return w.get();
+  return nullptr;
+}
+
 WorkerRecord& WorkerRegistry::add(const WorkerInfo& info, Clock::time_point now, bool* replacedGone) {
+  if (!info.credential.empty())
+    for (auto& [id, w] : workers_)
+      if (w->info.credential == info.credential) {  // the machine again: its record, a new session
+        const bool wasGone = w->gone.has_value();
+        WorkerRecord& record = *w;
+        record.info = info;
+        record.lastHeartbeat = now;
+        record.session = randomHex(32);
+        record.gone.reset();
+        record.goneReason.clear();
+        record.attachment = 0;
+        record.currentJobId.clear();
+        record.currentUnit.reset();
+        ++record.registrations;
+        if (replacedGone) *replacedGone = wasGone;
+        return record;
+      }
   auto worker = std::make_unique<WorkerRecord>();
   worker->id = "worker-" + std::to_string(epoch_) + "." + std::to_string(next_++);
   worker->info = info;
@@ -41,7 +65,9 @@ WorkerRecord& WorkerRegistry::add(const WorkerInfo& info, Clock::time_point now,
   // A lost or departed worker of the same name is this one back: the new entry replaces it.
   bool back = false;
   for (auto it = workers_.begin(); it != workers_.end();) {
-    const bool same = it->second->gone && !info.name.empty() && it->second->info.name == info.name;
+    // (A credential's record stays: it is the machine's identity for the run.)
+    const bool same = it->second->gone && !info.name.empty() && it->second->info.name == info.name &&
+                      it->second->info.credential.empty();
     back |= same;
     it = same ? workers_.erase(it) : std::next(it);
   }
@@ -83,7 +109,11 @@ void WorkerRegistry::authenticate(const std::string& id, const std::string& sess
     throw FarmError(FarmError::Kind::kUnauthenticated,
                     "no session for " + id + ": quote RegisterResponse.session with the worker id");
   if (!sameSecret(session, worker.session))
-    throw FarmError(FarmError::Kind::kPermissionDenied, "the session is not " + id + "'s");
+    throw FarmError(FarmError::Kind::kPermissionDenied,
+                    worker.info.credential.empty()
+                        ? "the session is not " + id + "'s"
+                        : "the session is not " + id + "'s current one: another worker registered with credential " +
+                              worker.info.credential + " since (a credential is one machine; each needs its own)");
 }
 
 std::string WorkerRegistry::labelOf(const std::string& id) const {
@@ -93,7 +123,8 @@ std::string WorkerRegistry::labelOf(const std::string& id) const {
 
 void WorkerRegistry::forgetSilent(Clock::time_point now, Clock::duration forgetAfter) {
   for (auto it = workers_.begin(); it != workers_.end();)
-    it = now - it->second->lastHeartbeat > forgetAfter ? workers_.erase(it) : std::next(it);
+    it = now - it->second->lastHeartbeat > forgetAfter && it->second->info.credential.empty() ? workers_.erase(it)
+                                                                                              : std::next(it);
 }
 
 }  // namespace lensfarm

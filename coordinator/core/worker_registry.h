@@ -5,6 +5,12 @@
 // worker registering under the name of one that is gone replaces it; workers silent for long are
 // forgotten. The records also carry what the scheduler and the audit note per worker.
 //
+// A worker with a per-machine credential (WorkerInfo::credential) is one identity for the run:
+// every registration of the credential gets the same id and record (quarantine and counts kept,
+// forgotten or not), with a new session, so the last registration supersedes the one before —
+// whose session is refused from then on — and what the farm counts per worker id (a unit's
+// failures, the blocklist, the audit's votes) counts the machine once.
+//
 // Not thread-safe: the Coordinator holds its registry under its lock (coordinator.h).
 #include <chrono>
 #include <map>
@@ -28,7 +34,8 @@ const char* workerStateName(WorkerState state);
 
 struct WorkerRecord {
   std::string id;
-  std::string session;  // secret, from registerWorker: what authenticateWorker compares
+  std::string session;         // secret, from registerWorker: what authenticateWorker compares
+  uint64_t registrations = 1;  // of its credential, this run (1 without a credential)
   WorkerInfo info;
   std::chrono::steady_clock::time_point lastHeartbeat;
   std::string currentJobId;
@@ -59,8 +66,11 @@ class WorkerRegistry {
 
   void setEpoch(uint64_t epoch) { epoch_ = epoch; }
   // A new worker, heard from at `now`. `*replacedGone`: a lost or departed worker of the same
-  // name was replaced by it (its jobs say it rejoined).
+  // name was replaced by it (its jobs say it rejoined). With a credential, the credential's record
+  // afresh; the caller releases what a live one held first (byCredential).
   WorkerRecord& add(const WorkerInfo& info, Clock::time_point now, bool* replacedGone);
+  // The live worker registered with `credential`, or null.
+  WorkerRecord* liveByCredential(const std::string& credential);
   // The worker, alive: FarmError kUnknownWorker if unknown, lost or left ("register again").
   WorkerRecord& find(const std::string& id);
   // The worker if known and alive, else null; the record whatever its state, else null.

@@ -34,11 +34,20 @@ std::string Coordinator::registerWorker(const WorkerInfo& info, std::string* ses
                                                               ", coordinator speaks " + kProtocolVersion +
                                                               " with renderer " + kRendererVersion);
   MutexLock lock(mutex_);
+  const auto now = Clock::now();
+  // One machine, one registration: the credential's live worker gives its leases back first.
+  if (Worker* earlier = workers_.liveByCredential(info.credential)) {
+    const std::string requeued =
+        releaseLeasesOf(*earlier, "superseded", "another worker registered with credential " + info.credential, now);
+    spdlog::warn("{}: superseded by a new registration of credential {}{}", logText(earlier->label()), info.credential,
+                 requeued.empty() ? "" : "; " + requeued);
+  }
   bool back = false;
-  WorkerRecord& worker = workers_.add(info, Clock::now(), &back);
+  WorkerRecord& worker = workers_.add(info, now, &back);
   if (session) *session = worker.session;
   const std::string id = worker.id;
-  spdlog::info("{} registered: {} with {} threads", id, logText(info.name), info.threads);
+  spdlog::info("{} registered: {} with {} threads{}", id, logText(info.name), info.threads,
+               info.credential.empty() ? "" : " (credential " + info.credential + ")");
   if (back)
     for (auto& [jobId, job] : jobs_)
       if (!isTerminal(job->progress.state) && job->failures.rejoined(info.name)) {
@@ -223,6 +232,7 @@ std::vector<WorkerView> Coordinator::workers() const {
     v.failures = w->failures;
     v.auditsPassed = w->auditsPassed;
     v.auditsRendered = w->auditsRendered;
+    v.registrations = w->registrations;
     v.quarantined = w->quarantined;
     v.quarantineReason = w->quarantineReason;
     for (const auto& [jobId, job] : jobs_)

@@ -3,7 +3,9 @@
 // and workers never share one), checked against the "authorization: Bearer <token>" metadata of
 // every call. A missing or wrong token gets UNAUTHENTICATED and a log line naming the peer, never
 // the token (at a bounded rate: ThrottledLog). A service may also take a read-only token (the viewer's, on the client
-// service) for the calls that only read: it gets PERMISSION_DENIED on any other.
+// service) for the calls that only read: it gets PERMISSION_DENIED on any other. The worker
+// service may also take per-machine credentials (worker_credentials.h): each is a token of the
+// service's role, and credentialOf() says which one a call carries.
 #include <grpcpp/grpcpp.h>
 
 #include <memory>
@@ -12,6 +14,7 @@
 #include <string>
 
 #include "common/util/throttled_log.h"
+#include "coordinator/rpc/worker_credentials.h"
 
 namespace lensfarm {
 
@@ -27,11 +30,16 @@ class TokenGate {
         readOnlyToken_(std::move(readOnlyToken)),
         readOnlyRole_(std::move(readOnlyRole)),
         readOnlyRpcs_(std::move(readOnlyRpcs)) {}
+  // Also the per-machine `credentials`, each a token of this gate's role. A gate with credentials
+  // and no shared token takes only the credentials.
+  TokenGate withCredentials(std::vector<WorkerCredential> credentials) &&;
   grpc::Status check(const grpc::ServerContextBase* context, const char* rpc) const;
   // The role of a call check() let through: the role of the token it carries, or "anyone" when
   // the service takes no token.
   std::string roleOf(const grpc::ServerContextBase* context) const;
-  bool enabled() const { return token_.has_value(); }
+  // The name of the credential a call carries; empty for the shared token, another role's or none.
+  std::string credentialOf(const grpc::ServerContextBase* context) const;
+  bool enabled() const { return token_.has_value() || !credentials_->empty(); }
 
  private:
   std::optional<std::string> token_;
@@ -39,6 +47,7 @@ class TokenGate {
   std::optional<std::string> readOnlyToken_;
   std::string readOnlyRole_;
   std::set<std::string> readOnlyRpcs_;
+  std::shared_ptr<const std::vector<WorkerCredential>> credentials_ = std::make_shared<std::vector<WorkerCredential>>();
   std::shared_ptr<ThrottledLog> refusals_ = std::make_shared<ThrottledLog>();  // shared by copies
 };
 

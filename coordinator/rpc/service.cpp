@@ -2,8 +2,13 @@
 
 #include <spdlog/spdlog.h>
 
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
 
 #include "common/scene/scene_loader.h"
 #include "common/util/error.h"
@@ -90,6 +95,39 @@ void writeChunks(Writer* writer, const std::string& bytes) {
   } while (offset < bytes.size());
 }
 
+// Sends `size` bytes of `in`, from where it is, in pieces of at most kChunkBytes.
+template <class Writer>
+void writeChunks(Writer* writer, std::istream& in, uint64_t size) {
+  std::string buffer(proto::kChunkBytes, '\0');
+  uint64_t sent = 0;
+  do {
+    v1::FileChunk chunk;
+    if (sent == 0) chunk.set_total_size(size);
+    const size_t n = size_t(std::min<uint64_t>(buffer.size(), size - sent));
+    if (!in.read(buffer.data(), std::streamsize(n)))
+      throw std::runtime_error("Download: the image's file could not be read back");
+    chunk.set_data(buffer.data(), n);
+    if (!writer->Write(chunk)) return;  // the client went away
+    sent += n;
+  } while (sent < size);
+}
+
+// An EXR larger than this is written to a spool file and streamed from it, not encoded in memory.
+constexpr uint64_t kSpoolAboveBytes = uint64_t(64) << 20;
+
+// A file in `dir` that disappears when closed (unlinked at once): the download's EXR, written
+// scanline by scanline from the image and read back in chunks, so no encoded copy is in memory.
+std::fstream openSpool(const std::filesystem::path& dir) {
+  std::string name = (dir / ".download-XXXXXX").string();
+  const int fd = ::mkstemp(name.data());
+  if (fd < 0) throw StorageError(name, errno);
+  std::fstream spool(name, std::ios::in | std::ios::out | std::ios::binary | std::ios::trunc);
+  ::close(fd);
+  ::unlink(name.c_str());
+  if (!spool) throw StorageError(name, EIO);
+  return spool;
+}
+
 }  // namespace
 
 v1::JobStatus toProto(const JobInfo& info) {
@@ -166,6 +204,8 @@ v1::WorkerStatus toProto(const WorkerView& w) {
   for (const std::string& job : w.blocklistedJobs) p.add_blocklisted_jobs(job);
   p.set_audits_passed(w.auditsPassed);
   p.set_audits_rendered(w.auditsRendered);
+  p.set_credential(w.info.credential);
+  p.set_registrations(w.registrations);
   p.set_quarantined(w.quarantined);
   p.set_quarantine_reason(w.quarantineReason);
   return p;
@@ -270,18 +310,36 @@ grpc::ServerWriteReactor<v1::JobStatus>* ClientServiceImpl::WatchJob(grpc::Callb
 grpc::Status ClientServiceImpl::Download(grpc::ServerContext* context, const v1::DownloadRequest* request,
                                          grpc::ServerWriter<v1::FileChunk>* writer) {
   return guarded(gate_, context, "Download", [&] {
+    if (request->format() != v1::IMAGE_FORMAT_PNG && request->format() != v1::IMAGE_FORMAT_EXR)
+      throw FarmError(FarmError::Kind::kInvalidArgument, "Download: format must be EXR or PNG");
+    const bool exr = request->format() == v1::IMAGE_FORMAT_EXR;
+    // An archived still's EXR is streamed as stored: no image developed, nothing frame-sized held.
+    uint64_t size = 0;
+    if (exr && !request->has_frame())
+      if (std::unique_ptr<std::istream> stored = coordinator_.archivedExr(request->job_id(), &size)) {
+        writeChunks(writer, *stored, size);
+        return;
+      }
+    // Otherwise the image, its memory reserved from the coordinator's budget while it lives.
     JobImage image = coordinator_.image(request->job_id(),
                                         request->has_frame() ? std::optional<int64_t>(request->frame()) : std::nullopt);
-    std::string bytes;
-    if (request->format() == v1::IMAGE_FORMAT_PNG) {
+    if (!exr) {
       if (request->has_ev()) image.exposure.ev = checkedEv(request->ev());
-      bytes = encodePng(image.image, image.exposure);
-    } else if (request->format() == v1::IMAGE_FORMAT_EXR) {
-      bytes = encodeExr(image.image, image.metadata);
+      writeChunks(writer, encodePng(image.image, image.exposure));
+    } else if (image.image.rgb.size() * sizeof(float) <= kSpoolAboveBytes) {
+      writeChunks(writer, encodeExr(image.image, image.metadata));
     } else {
-      throw FarmError(FarmError::Kind::kInvalidArgument, "Download: format must be EXR or PNG");
+      std::fstream spool = openSpool(coordinator_.spoolDirectory());
+      try {
+        writeExr(spool, image.image, image.metadata);
+      } catch (const std::exception&) {
+        throw StorageError(coordinator_.spoolDirectory() / ".download-*", errno ? errno : EIO);
+      }
+      size = uint64_t(spool.tellp());
+      image = JobImage();  // the image goes before the bytes are streamed
+      spool.seekg(0);
+      writeChunks(writer, spool, size);
     }
-    writeChunks(writer, bytes);
   });
 }
 
@@ -322,8 +380,12 @@ grpc::Status WorkerServiceImpl::Register(grpc::ServerContext* context, const v1:
   return guarded(gate_, context, "Register", [&] {
     if (request->name().size() > kMaxWorkerNameBytes)
       throw InputError("name", "at most " + std::to_string(kMaxWorkerNameBytes) + " bytes");
-    WorkerInfo info{request->name(), std::max(1u, request->threads()), request->protocol_version(),
-                    request->renderer_version(), request->max_unit_memory_bytes()};
+    WorkerInfo info{request->name(),
+                    std::max(1u, request->threads()),
+                    request->protocol_version(),
+                    request->renderer_version(),
+                    request->max_unit_memory_bytes(),
+                    gate_.credentialOf(context)};
     std::string session;
     response->set_worker_id(coordinator_.registerWorker(info, &session));
     response->set_session(session);

@@ -1,5 +1,7 @@
 #include "coordinator/store/job_archive.h"
 
+#include <fstream>
+
 namespace lensfarm {
 
 namespace fs = std::filesystem;
@@ -11,14 +13,24 @@ fs::path JobArchive::pathOf(const std::string& jobId) const {
 }
 
 void JobArchive::store(const std::string& jobId, const Image& image, const ImageMetadata& metadata) {
-  std::string bytes = encodeExr(image, metadata);
   if (dir_.empty()) {
+    std::string bytes = encodeExr(image, metadata);
     std::lock_guard lock(mutex_);
     inMemory_[jobId] = std::move(bytes);
     return;
   }
   fs::create_directories(pathOf(jobId).parent_path());
-  writeBytesAtomically(pathOf(jobId), bytes);  // temp file, fsync, rename (util/atomic_file.h)
+  // Straight from the image into a temp file, fsync, rename (util/atomic_file.h): no encoded copy.
+  writeExr(pathOf(jobId), image, metadata);
+}
+
+std::unique_ptr<std::istream> JobArchive::open(const std::string& jobId, uint64_t* size) const {
+  if (dir_.empty()) return nullptr;
+  auto in = std::make_unique<std::ifstream>(pathOf(jobId), std::ios::binary | std::ios::ate);
+  if (!*in) return nullptr;
+  *size = uint64_t(in->tellg());
+  in->seekg(0);
+  return in;
 }
 
 std::optional<Image> JobArchive::load(const std::string& jobId, ImageMetadata* metadata) const {
@@ -40,6 +52,12 @@ void JobArchive::remove(const std::string& jobId) {
   }
   std::error_code ignored;
   fs::remove(pathOf(jobId), ignored);
+}
+
+uint64_t JobArchive::bytesInMemoryOf(const std::string& jobId) const {
+  std::lock_guard lock(mutex_);
+  const auto it = inMemory_.find(jobId);
+  return it == inMemory_.end() ? 0 : it->second.size();
 }
 
 uint64_t JobArchive::bytesInMemory() const {

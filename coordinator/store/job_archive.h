@@ -8,7 +8,9 @@
 // Used by the job life cycle (lifecycle.cpp, docs/farm.md "Job life cycle"): archiving stores the
 // image, Download and snapshots load it, deleting the job removes it.
 #include <filesystem>
+#include <istream>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -27,12 +29,17 @@ class JobArchive {
   void store(const std::string& jobId, const Image& image, const ImageMetadata& metadata);
   // The image as stored, with its metadata; nullopt if none was stored (or its file is missing).
   std::optional<Image> load(const std::string& jobId, ImageMetadata* metadata = nullptr) const;
+  // With a state dir, the stored file opened for reading (its bytes are what encodeExr gives for
+  // the image and metadata load() returns), with its `size`; null without one or if it is missing.
+  // Open, it stays readable if the job is deleted meanwhile.
+  std::unique_ptr<std::istream> open(const std::string& jobId, uint64_t* size) const;
   // Forgets the job's image (and removes its file).
   void remove(const std::string& jobId);
   // Where the image of `jobId` is kept with a state dir (empty without one).
   std::filesystem::path pathOf(const std::string& jobId) const;
   // Bytes held in memory (the encoded images without a state dir; 0 with one).
   uint64_t bytesInMemory() const;
+  uint64_t bytesInMemoryOf(const std::string& jobId) const;
 
  private:
   const std::filesystem::path dir_;

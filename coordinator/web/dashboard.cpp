@@ -99,6 +99,7 @@ std::string workerListJson(const std::vector<WorkerView>& workers) {
                         {"attached", w.attached},
                         {"audits_passed", w.auditsPassed},
                         {"audits_rendered", w.auditsRendered},
+                        {"credential", w.info.credential},
                         {"quarantined", w.quarantined},
                         {"quarantine_reason", w.quarantineReason}});
   }

@@ -234,6 +234,73 @@ TEST(Coordinator, AFailedUnitIsRetriedElsewhereAndTheJobFailsWithEveryReason) {
   for (int k = 0; k < 3; ++k) EXPECT_NE(failed.error.find("no GPU driver " + std::to_string(k)), std::string::npos);
 }
 
+// A per-machine credential is one worker whatever it does (docs/farm.md "Worker identity"): the
+// same attack with three registrations of one credential — each leasing the unit and failing it
+// — counts one failing machine, never fails the job while another worker is there, and each new
+// registration takes the last one's lease and session away. The honest worker renders the unit.
+TEST(Coordinator, ThreeRegistrationsOfOneCredentialCannotFailAJob) {
+  Coordinator c;
+  const JobInfo job = c.submit(specFor(test::minimalSceneJson(), 1, 1), 0);
+  const std::string honest = c.registerWorker(workerInfo("honest"));
+  WorkerInfo sybil = workerInfo("sybil");
+  sybil.credential = "render-07";
+  std::vector<std::string> ids, sessions;
+  for (int k = 0; k < 3; ++k) {
+    std::string session;
+    sybil.name = "sybil-" + std::to_string(k);
+    ids.push_back(c.registerWorker(sybil, &session));
+    sessions.push_back(session);
+    const auto g = c.lease(ids.back(), 0);
+    ASSERT_TRUE(g) << "registration " << k << " is leased the unit";
+    c.reportFailure(ids.back(), g->leaseId, job.id, "forged failure " + std::to_string(k));
+    EXPECT_EQ(c.job(job.id).state, JobState::kRunning) << "after " << k + 1 << " forged failure(s)";
+  }
+  EXPECT_EQ(ids[0], ids[1]) << "one credential, one worker id";
+  EXPECT_EQ(ids[1], ids[2]);
+  EXPECT_NE(sessions[0], sessions[2]);
+  EXPECT_EQ(test::kindOf([&] { c.authenticateWorker(ids[0], sessions[0]); }), FarmError::Kind::kPermissionDenied)
+      << "a superseded registration's session is refused";
+  try {
+    c.authenticateWorker(ids[0], sessions[1]);
+  } catch (const FarmError& e) {
+    EXPECT_NE(std::string(e.what()).find("credential render-07"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(c.authenticateWorker(ids[2], sessions[2]));
+  EXPECT_FALSE(c.lease(ids[2], 0)) << "the credential failed the job 3 times: blocklisted for it";
+  const auto g = c.lease(honest, 0);
+  ASSERT_TRUE(g) << "the honest worker gets the unit";
+  EXPECT_TRUE(c.acceptResult(resultFor(honest, *g, 1.0)));
+  EXPECT_EQ(c.job(job.id).state, JobState::kDone);
+  const std::vector<WorkerView> views = c.workers();
+  ASSERT_EQ(views.size(), 2u) << "one line per machine";
+  for (const WorkerView& v : views)
+    if (v.info.credential == "render-07") {
+      EXPECT_EQ(v.registrations, 3u);
+      EXPECT_EQ(v.failures, 3u);
+    }
+}
+
+// A registration of a credential whose worker holds a lease supersedes it: the lease is given
+// back (the unit queued again at once) and the earlier registration's upload is refused.
+TEST(Coordinator, ANewRegistrationOfACredentialTakesTheLastOnesLease) {
+  Coordinator c;
+  const JobInfo job = c.submit(specFor(test::minimalSceneJson(), 1, 1), 0);
+  WorkerInfo info = workerInfo("render-01");
+  info.credential = "render-01";
+  const std::string first = c.registerWorker(info);
+  const auto g = c.lease(first, 0);
+  ASSERT_TRUE(g);
+  const std::string again = c.registerWorker(info);  // the machine restarted
+  EXPECT_EQ(again, first);
+  EXPECT_EQ(test::kindOf([&] { c.acceptResult(resultFor(first, *g, 1.0)); }), FarmError::Kind::kFailedPrecondition)
+      << "the superseded lease's upload does not count";
+  const auto h = c.lease(again, 0);
+  ASSERT_TRUE(h) << "the unit was queued again at once";
+  EXPECT_NE(h->leaseId, g->leaseId);
+  EXPECT_TRUE(c.acceptResult(resultFor(again, *h, 1.0)));
+  EXPECT_EQ(c.job(job.id).state, JobState::kDone);
+}
+
 // A worker that failed a job maxFailuresPerWorker (3) times is not leased it again; when that
 // leaves no live worker for the job, it fails at once (a farm of one: `lensfarm render`).
 TEST(Coordinator, AWorkerThatKeepsFailingAJobIsBlocklistedForIt) {

@@ -8,6 +8,7 @@
 
 #include "common/farm/job_layout.h"
 #include "common/farm/memory_estimate.h"
+#include "common/util/hash.h"
 #include "common/util/version.h"
 #include "coordinator/core/audit.h"
 #include "coordinator/core/coordinator.h"
@@ -79,6 +80,120 @@ TEST(CoordinatorMemory, AJobOverTheBudgetIsRefusedWithItsEstimateAndOthersGoOn) 
   finishJob(c, before, w);
   EXPECT_EQ(c.job(after).state, JobState::kDone);
   EXPECT_EQ(c.image(after).image.width, 8);
+}
+
+// The film's share of the coordinator's budget that one job of specAt(w, h) reserves.
+uint64_t filmShareOf(int w, int h) {
+  Coordinator c;
+  c.submit(specAt(w, h), 0);
+  return c.metricsSnapshot().memoryReservedBytes;
+}
+
+// Jobs are summed (--memory-budget): one that does not fit beside the others is refused with
+// what holds the budget, and fits again once a job is deleted; what is reserved never passes the
+// budget. (Without it, 40 queued 512x512 jobs held 794 MB against a 300 MB per-job budget.)
+TEST(CoordinatorMemory, JobsTogetherStayWithinTheCoordinatorsBudget) {
+  const uint64_t share = filmShareOf(512, 512);
+  ASSERT_GT(share, uint64_t(512) * 512 * (kSensorBytesPerCell + kTrackerBytesPerCell));
+  Coordinator::Options options;
+  options.memoryBudgetBytes = 3 * share + share / 2;
+  options.memoryBudgetSource = "--memory-budget";
+  Coordinator c(options);
+  std::vector<std::string> jobs;
+  for (int k = 0; k < 3; ++k) jobs.push_back(c.submit(specAt(512, 512), 0).id);
+  try {
+    c.submit(specAt(512, 512), 0);
+    FAIL() << "a fourth job does not fit in 3.5 jobs' budget";
+  } catch (const FarmError& e) {
+    EXPECT_EQ(e.kind(), FarmError::Kind::kResourceExhausted);
+    const std::string what = e.what();
+    EXPECT_NE(what.find("the job needs " + formatBytes(share)), std::string::npos) << what;
+    EXPECT_NE(what.find("holds " + formatBytes(3 * share) + " of its " + formatBytes(options.memoryBudgetBytes)),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("job-1 " + formatBytes(share)), std::string::npos) << what;
+    EXPECT_NE(what.find("--memory-budget"), std::string::npos) << what;
+  }
+  EXPECT_EQ(c.jobs().size(), 3u);
+  EXPECT_LE(c.metricsSnapshot().memoryReservedBytes, options.memoryBudgetBytes);
+  c.cancel(jobs[0]);
+  c.deleteJob(jobs[0]);
+  EXPECT_EQ(c.metricsSnapshot().memoryReservedBytes, 2 * share) << "a deleted job's film is returned";
+  EXPECT_NO_THROW(c.submit(specAt(512, 512), 0));
+}
+
+// Each image made for a download or snapshot reserves its bytes while it lives: one more than
+// the budget holds waits, and is refused naming the budget if no room comes; room returned lets
+// the next one through.
+TEST(CoordinatorMemory, ImagesTakeTurnsInTheBudget) {
+  const uint64_t share = filmShareOf(64, 64);
+  RenderSettings s;
+  s.width = s.height = 64;
+  const uint64_t image = imageMemory(s);
+  Coordinator::Options options;
+  options.memoryBudgetBytes = share + image + image / 2;
+  options.memoryBudgetSource = "--memory-budget";
+  options.imageWaitSeconds = 0.2;
+  Coordinator c(options);
+  const std::string job = c.submit(specAt(64, 64), 0).id;
+  {
+    JobImage first = c.image(job);
+    EXPECT_EQ(first.memory.bytes(), image);
+    try {
+      c.image(job);
+      FAIL() << "two images do not fit";
+    } catch (const FarmError& e) {
+      EXPECT_EQ(e.kind(), FarmError::Kind::kResourceExhausted);
+      EXPECT_NE(std::string(e.what()).find("an image of " + job + " needs " + formatBytes(image)), std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find("--memory-budget"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(c.image(job).image.width, 64) << "the first image's room came back";
+  EXPECT_EQ(c.metricsSnapshot().memoryReservedBytes, share);
+}
+
+// Without a state dir, uploaded assets live in memory: each is reserved, and one that does not
+// fit is refused, naming --state-dir.
+TEST(CoordinatorMemory, AssetsInMemoryAreWithinTheBudget) {
+  Coordinator::Options options;
+  options.memoryBudgetBytes = 4096;
+  options.memoryBudgetSource = "--memory-budget";
+  Coordinator c(options);
+  const std::string small(1000, 'a'), big(5000, 'b');
+  EXPECT_TRUE(c.putAsset(sha256Hex(small), small));
+  EXPECT_EQ(c.metricsSnapshot().memoryReservedBytes, 1000u);
+  EXPECT_FALSE(c.putAsset(sha256Hex(small), small)) << "present: nothing more reserved";
+  EXPECT_EQ(c.metricsSnapshot().memoryReservedBytes, 1000u);
+  try {
+    c.putAsset(sha256Hex(big), big);
+    FAIL() << "5000 bytes do not fit in 4096";
+  } catch (const FarmError& e) {
+    EXPECT_EQ(e.kind(), FarmError::Kind::kResourceExhausted);
+    EXPECT_NE(std::string(e.what()).find("--state-dir"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(c.hasAsset(sha256Hex(big)));
+}
+
+// One owner's unfinished jobs are capped (--max-jobs-per-owner): past it a submit is refused,
+// other owners go on, and an ended job makes room.
+TEST(CoordinatorMemory, OneOwnersUnfinishedJobsAreCapped) {
+  Coordinator::Options options;
+  options.maxJobsPerOwner = 2;
+  Coordinator c(options);
+  const std::string first = c.submit(specAt(8, 6), 0, "ann").id;
+  c.submit(specAt(8, 6), 0, "ann");
+  try {
+    c.submit(specAt(8, 6), 0, "ann");
+    FAIL() << "a third unfinished job of ann's";
+  } catch (const FarmError& e) {
+    EXPECT_EQ(e.kind(), FarmError::Kind::kResourceExhausted);
+    EXPECT_NE(std::string(e.what()).find("owner ann has 2 jobs queued or running"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--max-jobs-per-owner"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(c.submit(specAt(8, 6), 0, "bob"));
+  c.cancel(first);
+  EXPECT_NO_THROW(c.submit(specAt(8, 6), 0, "ann")) << "a cancelled job no longer counts";
 }
 
 TEST(CoordinatorMemory, AFailedAllocationRefusesThatJobOnlyAndTheCoordinatorLives) {

@@ -72,5 +72,35 @@ TEST(WorkerRegistry, OnlyWorkersSilentForTheWholeSpanAreForgotten) {
   EXPECT_NE(r.known(recent), nullptr);
 }
 
+// A credential is one machine for the run: each registration of it gets the same id and record
+// (its quarantine kept) with a new session, the last one superseding the one before; a gone
+// credential's record is not forgotten, so its id and counts come back with it.
+TEST(WorkerRegistry, ACredentialIsOneRecordWhateverItsRegistrations) {
+  WorkerRegistry r;
+  WorkerInfo info = named("gpu-a");
+  info.credential = "gpu-a";
+  WorkerRecord& first = r.add(info, Clock::now(), nullptr);
+  const std::string id = first.id, session = first.session;
+  first.quarantined = true;
+  EXPECT_EQ(r.liveByCredential("gpu-a"), &first);
+  EXPECT_EQ(r.liveByCredential(""), nullptr);
+  info.name = "another-name";
+  WorkerRecord& again = r.add(info, Clock::now(), nullptr);
+  EXPECT_EQ(again.id, id);
+  EXPECT_EQ(again.registrations, 2u);
+  EXPECT_TRUE(again.quarantined) << "a quarantined machine stays quarantined when it registers again";
+  EXPECT_NE(again.session, session);
+  EXPECT_EQ(kindOf([&] { r.authenticate(id, session); }), FarmError::Kind::kPermissionDenied);
+  EXPECT_NO_THROW(r.authenticate(id, again.session));
+  again.gone = WorkerState::kLost;
+  r.forgetSilent(Clock::now() + std::chrono::hours(1), std::chrono::seconds(60));
+  ASSERT_NE(r.known(id), nullptr) << "a credential's record is kept";
+  bool back = false;
+  EXPECT_EQ(r.add(info, Clock::now(), &back).id, id);
+  EXPECT_TRUE(back);
+  EXPECT_EQ(r.size(), 1u);
+  EXPECT_NE(r.add(named("gpu-a"), Clock::now(), nullptr).id, id) << "the shared token's worker of that name is another";
+}
+
 }  // namespace
 }  // namespace lensfarm

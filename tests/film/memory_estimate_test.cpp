@@ -62,7 +62,8 @@ TEST(MemoryEstimate, TheFormulaIsWhatTheBufferTypesAllocate) {
   const MemoryEstimate local = localRenderMemory(s, 0);
   EXPECT_EQ(local.total(), sensor.memoryBytes() + tracker.memoryBytes() + unit.memoryBytes() +
                                cells * (kImageBytesPerCell + kPngBytesPerCell));
-  EXPECT_EQ(itemBytes(coordinator, "a download"), cells * (kImageBytesPerCell + 2 * kExrBytesPerCell));
+  EXPECT_EQ(itemBytes(coordinator, "a download"), cells * (kImageBytesPerCell + kPngBytesPerCell));
+  EXPECT_EQ(imageMemory(s), itemBytes(coordinator, "a download"));
   // The audit's film copies (a sensor and a tracker each) and one audited unit's sums.
   EXPECT_EQ(itemBytes(coordinatorJobMemory(s, uint64_t(2) << 30, true, 3), "3 film copies"),
             3 * (sensor.memoryBytes() + tracker.memoryBytes()) + unit.memoryBytes());
