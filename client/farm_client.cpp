@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <fstream>
 #include <optional>
+
+#include "common/util/atomic_file.h"
 
 #include "coordinator/core/coordinator.h"
 #include "proto/convert.h"
@@ -192,6 +195,40 @@ std::string FarmClient::download(const std::string& jobId, v1::ImageFormat forma
   return bytes;
 }
 
+void FarmClient::downloadTo(const std::string& jobId, v1::ImageFormat format, std::optional<double> ev,
+                            std::optional<int64_t> frame, const std::filesystem::path& file) {
+  v1::DownloadRequest request;
+  request.set_job_id(jobId);
+  request.set_format(format);
+  if (ev) request.set_ev(*ev);
+  if (frame) request.set_frame(*frame);
+  // The coordinator's refusal leaves no file and keeps its own error (and exit code): it passes
+  // writeFileAtomically as a type it does not wrap.
+  struct Refused {
+    grpc::Status status;
+  };
+  try {
+    writeFileAtomically(file, [&](const std::filesystem::path& tmp) {
+      std::ofstream out(tmp, std::ios::binary);
+      if (!out) throw std::runtime_error("cannot create " + tmp.string());
+      auto ctx = context(true);
+      auto reader = stub_->Download(ctx.get(), request);
+      v1::FileChunk chunk;
+      while (reader->Read(&chunk))
+        if (!out.write(chunk.data().data(), std::streamsize(chunk.data().size()))) {
+          ctx->TryCancel();
+          reader->Finish();
+          throw std::runtime_error("write failed");
+        }
+      if (grpc::Status s = reader->Finish(); !s.ok()) throw Refused{s};
+      out.close();
+      if (!out) throw std::runtime_error("write failed");
+    });
+  } catch (const Refused& r) {
+    check(r.status, address_);
+  }
+}
+
 v1::Snapshot FarmClient::snapshot(const std::string& jobId, uint32_t maxSize, std::optional<double> ev) {
   v1::SnapshotRequest request;
   request.set_job_id(jobId);
@@ -222,7 +259,8 @@ v1::JobStatus FarmClient::archive(const std::string& jobId) {
   v1::ArchiveJobRequest request;
   request.set_job_id(jobId);
   v1::ArchiveJobResponse response;
-  check(stub_->ArchiveJob(context().get(), request, &response), address_);
+  // No deadline: archiving writes the whole image (minutes for a 16384² one), and ends either way.
+  check(stub_->ArchiveJob(context(true).get(), request, &response), address_);
   return response.status();
 }
 

@@ -1,5 +1,6 @@
 #pragma once
 // The client side of lensfarm.v1.ClientService, for the CLI's farm commands.
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <memory>
@@ -40,6 +41,10 @@ class FarmClient {
   // `frame`: an animation's frame (a scene frame number); nullopt: the still or the first frame.
   std::string download(const std::string& jobId, v1::ImageFormat format, std::optional<double> ev,
                        std::optional<int64_t> frame = std::nullopt);
+  // The same, written into `file` as the chunks arrive (atomically: a temporary, then renamed;
+  // nothing is left at `file` if the call fails), so a large image never sits in memory.
+  void downloadTo(const std::string& jobId, v1::ImageFormat format, std::optional<double> ev,
+                  std::optional<int64_t> frame, const std::filesystem::path& file);
   v1::Snapshot snapshot(const std::string& jobId, uint32_t maxSize, std::optional<double> ev);
   v1::JobStatus cancel(const std::string& jobId);
   void deleteJob(const std::string& jobId, bool force);

@@ -265,7 +265,7 @@ Runner addDownloadCommand(CLI::App& app) {
         if (!f->denoise) {
           for (const auto& [path, format] : targets) {
             const std::string file = name(path);
-            writeBytesAtomically(file, client.download(f->job, format, f->ev, frame));
+            client.downloadTo(f->job, format, f->ev, frame, file);
             std::printf("wrote %s\n", file.c_str());
           }
           return;

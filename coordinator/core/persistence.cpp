@@ -151,7 +151,19 @@ std::optional<uint64_t> Coordinator::restoreTiled(Job& job) {
   // written again from their unit files, in any order (tile_film.h).
   const JobLayout& layout = job.definition.layout;
   job.film = std::make_unique<Accumulator>(job.definition.settings, layout);
-  const std::set<uint64_t> stored = frames_->storedFrames(job.definition.id);
+  std::set<uint64_t> stored = frames_->storedFrames(job.definition.id);
+  // A damaged frame file is kept aside and its tiles rendered again (their unit files went when
+  // the frame was stored, so the ledger's rows for them are dropped as missing).
+  for (auto it = stored.begin(); it != stored.end();) {
+    if (const std::optional<std::string> damage = frames_->damage(job.definition.id, *it)) {
+      const std::filesystem::path aside = store_->setAside(frames_->pathOf(job.definition.id, *it));
+      reportRepair(job, "frame file " + frames_->pathOf(job.definition.id, *it).filename().string() + " was " +
+                            *damage + "; kept as " + aside.string() + " and its tiles are rendered again");
+      it = stored.erase(it);
+    } else {
+      ++it;
+    }
+  }
   for (uint64_t f : stored)
     if (layout.frames && f < layout.frameCount()) job.film->restoreCompleteFrame(f);
   const auto inStoredFrame = [&](uint64_t unit) { return stored.count(layout.frameIndexOf(unit)) > 0; };

@@ -6,6 +6,9 @@
 
 #include <array>
 #include <cstring>
+#include <fstream>
+
+#include "common/util/hash.h"
 
 namespace lensfarm {
 
@@ -98,6 +101,39 @@ std::optional<std::string> readCheckedFile(const fs::path& path, std::string& da
   }
   bytes.resize(payload);
   return bytes;
+}
+
+fs::path sidecarOf(const fs::path& file) { return fs::path(file.string() + ".sha256"); }
+
+namespace {
+// The file's SHA-256 in hex, read in 1 MiB pieces; nullopt if it cannot be read.
+std::optional<std::string> fileSha256(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return std::nullopt;
+  Sha256 sha;
+  std::string buffer(size_t(1) << 20, '\0');
+  while (in.read(buffer.data(), std::streamsize(buffer.size())) || in.gcount() > 0)
+    sha.update(std::string_view(buffer.data(), size_t(in.gcount())));
+  if (in.bad()) return std::nullopt;
+  return sha.hexDigest();
+}
+}  // namespace
+
+void writeChecksumSidecar(const fs::path& file) {
+  const std::optional<std::string> digest = fileSha256(file);
+  if (!digest) throw StorageError(file, EIO);
+  writeCheckedFile(sidecarOf(file), {*digest});
+}
+
+std::optional<std::string> checkChecksumSidecar(const fs::path& file) {
+  std::string damage;
+  if (!fs::exists(sidecarOf(file))) return std::nullopt;
+  const std::optional<std::string> expected = readCheckedFile(sidecarOf(file), damage);
+  if (!expected) return "its checksum file " + sidecarOf(file).filename().string() + " is " + damage;
+  const std::optional<std::string> actual = fileSha256(file);
+  if (!actual) return std::string("missing or unreadable");
+  if (*actual != *expected) return std::string("checksum mismatch (its bytes are not those written)");
+  return std::nullopt;
 }
 
 }  // namespace lensfarm

@@ -39,4 +39,13 @@ void writeCheckedFile(const std::filesystem::path& path, std::initializer_list<s
 // "not a checked file", "checksum mismatch". Never throws for a damaged file.
 std::optional<std::string> readCheckedFile(const std::filesystem::path& path, std::string& damage);
 
+// Files the coordinator streams as they are (an archived image, a stored frame: EXR files that
+// other tools read) carry their checksum beside them instead, in "<file>.sha256" (the SHA-256 in
+// hex), written atomically once the file is: writeChecksumSidecar. Throws StorageError.
+void writeChecksumSidecar(const std::filesystem::path& file);
+// nullopt if `file` matches its sidecar, or has none (written before sidecars, or a crash came
+// between the file and its sidecar); else what is wrong ("checksum mismatch", "missing").
+std::optional<std::string> checkChecksumSidecar(const std::filesystem::path& file);
+std::filesystem::path sidecarOf(const std::filesystem::path& file);
+
 }  // namespace lensfarm

@@ -2,7 +2,10 @@
 #include "coordinator/store/frame_store.h"
 
 #include <cstdlib>
+#include <stdexcept>
+
 #include <system_error>
+#include "coordinator/store/checked_file.h"
 
 namespace lensfarm {
 
@@ -29,7 +32,15 @@ void FrameStore::write(const std::string& jobId, uint64_t frameIndex, const Imag
     temporary_ = true;
   }
   fs::create_directories(pathOf(jobId, frameIndex).parent_path());
+  std::error_code ignored;
+  fs::remove(sidecarOf(pathOf(jobId, frameIndex)), ignored);  // an earlier write's must not judge this one
   writeExr(pathOf(jobId, frameIndex), image, metadata);
+  writeChecksumSidecar(pathOf(jobId, frameIndex));
+}
+
+std::optional<std::string> FrameStore::damage(const std::string& jobId, uint64_t frameIndex) const {
+  if (!has(jobId, frameIndex)) return std::nullopt;
+  return checkChecksumSidecar(pathOf(jobId, frameIndex));
 }
 
 bool FrameStore::has(const std::string& jobId, uint64_t frameIndex) const {
@@ -38,6 +49,8 @@ bool FrameStore::has(const std::string& jobId, uint64_t frameIndex) const {
 
 std::optional<Image> FrameStore::read(const std::string& jobId, uint64_t frameIndex, ImageMetadata* metadata) const {
   if (!has(jobId, frameIndex)) return std::nullopt;
+  if (const std::optional<std::string> wrong = damage(jobId, frameIndex))
+    throw std::runtime_error(pathOf(jobId, frameIndex).string() + " is damaged: " + *wrong);
   return readExr(pathOf(jobId, frameIndex), metadata);
 }
 

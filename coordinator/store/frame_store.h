@@ -26,7 +26,11 @@ class FrameStore {
 
   void write(const std::string& jobId, uint64_t frameIndex, const Image& image, const ImageMetadata& metadata);
   bool has(const std::string& jobId, uint64_t frameIndex) const;
-  // nullopt when the frame is not stored; std::runtime_error when its file cannot be read.
+  // What is wrong with the stored frame's file (checked_file.h: its SHA-256 kept beside it), or
+  // nullopt when it is sound or not stored.
+  std::optional<std::string> damage(const std::string& jobId, uint64_t frameIndex) const;
+  // nullopt when the frame is not stored; std::runtime_error when its file cannot be read or is
+  // damaged.
   std::optional<Image> read(const std::string& jobId, uint64_t frameIndex, ImageMetadata* metadata = nullptr) const;
   // The frames of the job stored, by index.
   std::set<uint64_t> storedFrames(const std::string& jobId) const;

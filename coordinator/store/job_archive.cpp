@@ -2,6 +2,9 @@
 
 #include <fstream>
 
+#include "common/farm/farm_types.h"
+#include "coordinator/store/checked_file.h"
+
 namespace lensfarm {
 
 namespace fs = std::filesystem;
@@ -20,12 +23,24 @@ void JobArchive::store(const std::string& jobId, const Image& image, const Image
     return;
   }
   fs::create_directories(pathOf(jobId).parent_path());
+  std::error_code ignored;
+  fs::remove(sidecarOf(pathOf(jobId)), ignored);  // an earlier image's checksum must not judge this one
   // Straight from the image into a temp file, fsync, rename (util/atomic_file.h): no encoded copy.
   writeExr(pathOf(jobId), image, metadata);
+  writeChecksumSidecar(pathOf(jobId));
+}
+
+void JobArchive::check(const std::string& jobId) const {
+  if (const std::optional<std::string> damage = checkChecksumSidecar(pathOf(jobId)))
+    throw FarmError(FarmError::Kind::kFailedPrecondition,
+                    jobId + "'s archived image " + pathOf(jobId).string() + " is damaged: " + *damage +
+                        "; its film was freed when it was archived, so the image is lost (lensfarm delete " + jobId +
+                        ")");
 }
 
 std::unique_ptr<std::istream> JobArchive::open(const std::string& jobId, uint64_t* size) const {
-  if (dir_.empty()) return nullptr;
+  if (dir_.empty() || !fs::exists(pathOf(jobId))) return nullptr;
+  check(jobId);
   auto in = std::make_unique<std::ifstream>(pathOf(jobId), std::ios::binary | std::ios::ate);
   if (!*in) return nullptr;
   *size = uint64_t(in->tellg());
@@ -41,6 +56,7 @@ std::optional<Image> JobArchive::load(const std::string& jobId, ImageMetadata* m
     return decodeExr(it->second, metadata);
   }
   if (!fs::exists(pathOf(jobId))) return std::nullopt;
+  check(jobId);
   return readExr(pathOf(jobId), metadata);
 }
 
@@ -52,6 +68,7 @@ void JobArchive::remove(const std::string& jobId) {
   }
   std::error_code ignored;
   fs::remove(pathOf(jobId), ignored);
+  fs::remove(sidecarOf(pathOf(jobId)), ignored);
 }
 
 uint64_t JobArchive::bytesInMemoryOf(const std::string& jobId) const {

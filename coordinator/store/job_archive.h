@@ -4,6 +4,8 @@
 // EXR metadata. With a state dir it is the file jobs/<id>/final.exr, written atomically (temp
 // file, fsync, rename: film/image_io.h); without one, the encoded EXR bytes are held in memory.
 // OpenEXR's FLOAT channels with its default (ZIP, lossless) compression give back the same bits.
+// The file's SHA-256 is kept beside it (checked_file.h, "final.exr.sha256") and checked before
+// it is read or streamed: a damaged archive is one error naming the file, never another image.
 //
 // Used by the job life cycle (lifecycle.cpp, docs/farm.md "Job life cycle"): archiving stores the
 // image, Download and snapshots load it, deleting the job removes it.
@@ -27,7 +29,8 @@ class JobArchive {
 
   // Stores the job's final image (replacing any earlier one); durable on return with a state dir.
   void store(const std::string& jobId, const Image& image, const ImageMetadata& metadata);
-  // The image as stored, with its metadata; nullopt if none was stored (or its file is missing).
+  // The image as stored, with its metadata; nullopt if none was stored (or its file is missing);
+  // FarmError kFailedPrecondition naming the file if it does not match its checksum.
   std::optional<Image> load(const std::string& jobId, ImageMetadata* metadata = nullptr) const;
   // With a state dir, the stored file opened for reading (its bytes are what encodeExr gives for
   // the image and metadata load() returns), with its `size`; null without one or if it is missing.
@@ -42,6 +45,7 @@ class JobArchive {
   uint64_t bytesInMemoryOf(const std::string& jobId) const;
 
  private:
+  void check(const std::string& jobId) const;  // the file against its checksum; FarmError naming it
   const std::filesystem::path dir_;
   mutable std::mutex mutex_;
   std::map<std::string, std::string> inMemory_;  // job id -> EXR bytes (no state dir)

@@ -151,10 +151,11 @@ class StateStore {
   // The job's checkpoint, or nullopt if it has none; a damaged one is moved to lost+found/,
   // `damage` says why, and nullopt is returned (its units are then rendered again).
   std::optional<Checkpoint> loadCheckpoint(const std::string& jobId, std::string* damage = nullptr);
+  // Moves a damaged state file into lost+found/ (kept, never deleted); returns where it went.
+  std::filesystem::path setAside(const std::filesystem::path& file);
 
  private:
   void open();  // opens state.db and its schema; throws on a damaged database
-  std::filesystem::path setAside(const std::filesystem::path& file);  // into lost+found/; returns where
   void writeManifest(const StoredJob& job);
   void exec(const std::string& sql);
   void addColumnIfMissing(const std::string& table, const std::string& column, const std::string& type);

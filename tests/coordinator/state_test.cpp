@@ -3,6 +3,8 @@
 // disk damaged its state dir.
 #include <gtest/gtest.h>
 
+#include <functional>
+
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -277,6 +279,37 @@ class DamagedState : public ::testing::Test {
   Coordinator::Options options_;
   std::vector<std::string> jobs_;
 };
+
+// An archived image is checked against the SHA-256 kept beside it before it is read or streamed:
+// a damaged one is one error naming the file, never another image.
+TEST(DamagedArchive, AnArchivedImageWithFlippedBytesIsOneErrorNamingTheFile) {
+  test::TempDir dir;
+  Coordinator::Options options;
+  options.stateDir = dir / "state";
+  options.archiveAfterSeconds = -1;
+  Coordinator c(options);
+  const std::string job = c.submit(sixUnits(), 0).id;
+  const std::string a = c.registerWorker(workerInfo("a"));
+  while (auto g = c.lease(a, 0)) ASSERT_TRUE(c.acceptResult(resultFor(a, *g)));
+  c.archiveJob(job);
+  uint64_t size = 0;
+  ASSERT_NE(c.archivedExr(job, &size), nullptr);
+  EXPECT_EQ(c.image(job).image.rgb, uninterrupted().rgb);
+  const fs::path file = dir / "state" / "jobs" / job / "final.exr";
+  ASSERT_EQ(size, fs::file_size(file));
+  flipBytes(file, size_t(size) - 40, 4);
+  for (const auto& call :
+       std::vector<std::function<void()>>{[&] { c.image(job); }, [&] { c.archivedExr(job, &size); }}) {
+    try {
+      call();
+      ADD_FAILURE() << "a damaged archive was served";
+    } catch (const FarmError& e) {
+      EXPECT_EQ(e.kind(), FarmError::Kind::kFailedPrecondition);
+      EXPECT_NE(std::string(e.what()).find(file.string() + " is damaged: checksum mismatch"), std::string::npos)
+          << e.what();
+    }
+  }
+}
 
 TEST_F(DamagedState, ABitFlippedUnitFileIsRenderedAgainAndKeptAside) {
   flipBytes(jobDir(jobs_[0]) / "unit-3.bin", 100, 64);

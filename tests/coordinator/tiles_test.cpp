@@ -3,6 +3,8 @@
 // an animation's frames survive a restart; bad layouts are refused with one clear error.
 #include <gtest/gtest.h>
 
+#include <fstream>
+
 #include <tbb/task_arena.h>
 #include <algorithm>
 #include <cstring>
@@ -244,6 +246,47 @@ TEST(TiledJob, AnimationFramesSurviveARestartBitForBit) {
   }
   EXPECT_THROW(second.image(job, 8), FarmError);  // not a frame of 7-11x2
   EXPECT_THROW(second.image(job, 13), FarmError);
+}
+
+// A stored frame's file is checked against the SHA-256 kept beside it: bytes flipped by a bad disk
+// make the restarted coordinator keep the file aside, say so, and render the frame's tiles again
+// (their sums went when it was stored), so every frame comes out exact.
+TEST(TiledJob, ADamagedFrameFileIsKeptAsideAndItsTilesRenderedAgain) {
+  test::TempDir dir;
+  Coordinator::Options options;
+  options.stateDir = dir / "state";
+  options.auditFraction = 0;
+  std::string job;
+  {
+    Coordinator first(options);
+    job = first.submit(animation(), 0).id;
+    const std::string w = first.registerWorker(workerInfo("w"));
+    for (int k = 0; k < 6; ++k) ASSERT_TRUE(first.acceptResult(tileResult(w, *first.lease(w, 0))));
+  }
+  const fs::path frame = dir / "state" / "jobs" / job / "frame-0.exr";
+  ASSERT_TRUE(fs::exists(frame));
+  ASSERT_TRUE(fs::exists(frame.string() + ".sha256"));
+  {
+    std::fstream f(frame, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(std::streamoff(fs::file_size(frame) - 40));
+    f.write("\x5a\x5a\x5a\x5a", 4);  // in the pixels: the EXR still opens
+  }
+  Coordinator second(options);
+  std::string events;
+  for (const auto& e : second.job(job).events) events += e.text + "\n";
+  EXPECT_NE(events.find("frame file frame-0.exr was checksum mismatch"), std::string::npos) << events;
+  EXPECT_TRUE(fs::exists(dir / "state" / "lost+found" / (job + "-frame-0.exr"))) << "kept, not deleted";
+  EXPECT_EQ(second.job(job).unitsDone, 0u) << "frame 7's tiles count no more";
+  const std::string w = second.registerWorker(workerInfo("w2"));
+  std::vector<uint64_t> leased;
+  while (auto g = second.lease(w, 0)) {
+    leased.push_back(g->unit.index);
+    ASSERT_TRUE(second.acceptResult(tileResult(w, *g)));
+  }
+  EXPECT_EQ(leased.size(), 18u);
+  EXPECT_EQ(second.job(job).state, JobState::kDone);
+  const Image image = second.image(job, 7).image;
+  EXPECT_EQ(image.rgb[0], float(double(6) * 4.0 * (1.0 / 4.0))) << "pixel (0, 0) is cell (4, 2): tile 5";
 }
 
 TEST(TiledJob, RefusesUploadsOfTheWrongRegion) {
