@@ -7,6 +7,7 @@
 //                                                                       HTTPS with --tls-cert)
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/resource_quota.h>
 #include <spdlog/spdlog.h>
 
 #include <arpa/inet.h>
@@ -362,6 +363,12 @@ std::unique_ptr<grpc::Server> startGrpc(const Flags& f, const Security& s, Clien
   builder.AddChannelArgument(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);
   builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS, 4000);
   builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+  // A backstop on the sync handlers' threads (long streams use the callback API, and each role's
+  // Downloads are capped): past it a call is RESOURCE_EXHAUSTED instead of a thread more. A farm
+  // of 1,000 workers long-polling LeaseWork holds about 1,000.
+  grpc::ResourceQuota quota("lensfarm-coordinator");
+  quota.SetMaxThreads(4096);
+  builder.SetResourceQuota(quota);
   builder.AddListeningPort(f.listen, s.credentials, &port);
   builder.RegisterService(&clientService);
   builder.RegisterService(&workerService);

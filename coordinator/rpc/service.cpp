@@ -313,6 +313,12 @@ grpc::Status ClientServiceImpl::Download(grpc::ServerContext* context, const v1:
     if (request->format() != v1::IMAGE_FORMAT_PNG && request->format() != v1::IMAGE_FORMAT_EXR)
       throw FarmError(FarmError::Kind::kInvalidArgument, "Download: format must be EXR or PNG");
     const bool exr = request->format() == v1::IMAGE_FORMAT_EXR;
+    const std::string role = gate_.roleOf(context);
+    const std::optional<RoleSlots::Slot> slot = downloads_.take(role);
+    if (!slot)
+      throw FarmError(FarmError::Kind::kResourceExhausted,
+                      "Download: " + std::to_string(downloads_.perRole()) + " downloads of the " + role +
+                          " role are in progress, the most at once; try again when one ends");
     // An archived still's EXR is streamed as stored: no image developed, nothing frame-sized held.
     uint64_t size = 0;
     if (exr && !request->has_frame())

@@ -9,6 +9,7 @@
 #include "coordinator/core/coordinator.h"
 #include "coordinator/rpc/auth.h"
 #include "coordinator/rpc/job_watchers.h"
+#include "coordinator/rpc/role_slots.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
 #include "lensfarm/v1/worker_service.grpc.pb.h"
 
@@ -21,10 +22,17 @@ class ClientServiceImpl final : public v1::ClientService::WithCallbackMethod_Wat
   // The most WatchJob streams one role (client token, viewer token, or anyone without a token)
   // may hold open.
   static constexpr size_t kMaxWatchStreamsPerRole = 1024;
+  // The most Download streams one role may have in progress: each holds a server thread while its
+  // client reads (and an image's memory, within the coordinator's budget).
+  static constexpr size_t kMaxDownloadsPerRole = 16;
 
   ClientServiceImpl(Coordinator& coordinator, TokenGate gate = TokenGate({}, "client"),
-                    size_t maxWatchStreamsPerRole = kMaxWatchStreamsPerRole)
-      : coordinator_(coordinator), gate_(std::move(gate)), watchers_(coordinator, maxWatchStreamsPerRole) {}
+                    size_t maxWatchStreamsPerRole = kMaxWatchStreamsPerRole,
+                    size_t maxDownloadsPerRole = kMaxDownloadsPerRole)
+      : coordinator_(coordinator),
+        gate_(std::move(gate)),
+        watchers_(coordinator, maxWatchStreamsPerRole),
+        downloads_(maxDownloadsPerRole) {}
 
   // Ends every WatchJob stream (UNAVAILABLE) and refuses new ones: call before
   // grpc::Server::Shutdown.
@@ -58,6 +66,7 @@ class ClientServiceImpl final : public v1::ClientService::WithCallbackMethod_Wat
   Coordinator& coordinator_;
   TokenGate gate_;
   JobWatchers watchers_;
+  RoleSlots downloads_;
 };
 
 // ListJobsRequest's filters as Coordinator::JobFilter; FarmError kInvalidArgument naming an
