@@ -75,7 +75,8 @@ struct Flags {
   std::string listen = "127.0.0.1:7878", portFile, logLevel = "info";
   std::string clientTokenFile, workerTokenFile, workerCredentialsFile, viewerTokenFile, tlsCert, tlsKey, tlsClientCa;
   std::string metricsListen, metricsPortFile, dashboardListen, dashboardPortFile;
-  std::string stateDir, uploadEncoding = "shuffle-zstd", maxJobMemory, memoryBudget, keep = "0", archiveAfter = "0";
+  std::string stateDir, uploadEncoding = "shuffle-zstd", maxJobMemory, memoryBudget, maxAssetBytes, keep = "0",
+                        archiveAfter = "0";
   Coordinator::Options options;
 };
 
@@ -190,6 +191,10 @@ void addStateFlags(CLI::App& app, Flags& f) {
                  "that does not fit beside the others is refused, a download waits for room; default as "
                  "--max-job-memory's")
       ->envname("LENSFARM_MEMORY_BUDGET");
+  app.add_option("--max-asset-bytes", f.maxAssetBytes,
+                 "The most bytes of uploaded assets the coordinator keeps (e.g. 100G); an upload past it is refused "
+                 "(default: no limit)")
+      ->envname("LENSFARM_MAX_ASSET_BYTES");
   app.add_option("--max-jobs-per-owner", f.options.maxJobsPerOwner,
                  "Jobs one owner may have queued or running at once; a submit past it is refused (0: no cap)")
       ->envname("LENSFARM_MAX_JOBS_PER_OWNER")
@@ -213,6 +218,13 @@ std::optional<int> finishOptions(Flags& f) {
     if (f.options.maxJobMemoryBytes == 0) {
       spdlog::error("--max-job-memory: expected a size such as 16G, 512MiB or 2000000000 (bytes), got \"{}\"",
                     f.maxJobMemory);
+      return 2;
+    }
+  }
+  if (!f.maxAssetBytes.empty()) {
+    f.options.maxAssetBytes = parseByteSize(f.maxAssetBytes);
+    if (f.options.maxAssetBytes == 0) {
+      spdlog::error("--max-asset-bytes: expected a size such as 100G or 512MiB, got \"{}\"", f.maxAssetBytes);
       return 2;
     }
   }

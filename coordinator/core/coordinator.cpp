@@ -98,6 +98,7 @@ Coordinator::Coordinator(Options options) : options_(std::move(options)), auditR
     options_.memoryBudgetSource = defaultJobMemoryBudgetSource();
   }
   memory_ = MemoryBudget::create(options_.memoryBudgetBytes);
+  assets_.setQuota(options_.maxAssetBytes);
   frames_ = std::make_unique<FrameStore>(options_.stateDir);
   archive_ = std::make_unique<JobArchive>(options_.stateDir);
   if (options_.stateDir.empty()) {
@@ -164,6 +165,20 @@ bool Coordinator::putAsset(const std::string& sha256, std::string bytes) {
 std::string Coordinator::memoryBudgetText() const { return memory_->describe() + ", " + options_.memoryBudgetSource; }
 
 bool Coordinator::uploadFindsAssetPresent(const std::string& sha256) { return assets_.uploadFindsPresent(sha256); }
+
+MemoryBudget::Reservation Coordinator::admitAssetUpload(const std::string& sha256, uint64_t bytes) {
+  assets_.checkRoom(sha256, bytes);
+  const std::string what = "uploading asset " + sha256.substr(0, 12);
+  std::optional<MemoryBudget::Reservation> reserved =
+      memory_->reserve(bytes, what, std::chrono::milliseconds(int64_t(options_.imageWaitSeconds * 1000.0)));
+  if (!reserved)
+    throw FarmError(FarmError::Kind::kResourceExhausted,
+                    what + " (" + formatBytes(bytes) +
+                        ") needs as much coordinator memory while it arrives, and the "
+                        "coordinator " +
+                        memoryBudgetText() + "; try again when other uploads have ended");
+  return std::move(*reserved);
+}
 
 std::vector<std::string> Coordinator::missingAssets(const std::vector<std::string>& sha256s) const {
   return assets_.missing(sha256s);

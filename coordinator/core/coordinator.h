@@ -227,6 +227,8 @@ class Coordinator {
     // Jobs one owner (JobSpec's owner label) may have queued or running at once: a submit past it
     // is refused (kResourceExhausted), so one script in a loop cannot fill the queue. 0: no cap.
     uint32_t maxJobsPerOwner = 1000;
+    // The most bytes of uploaded assets kept, in memory or on disk (AssetStore::setQuota); 0: no limit.
+    uint64_t maxAssetBytes = 0;
     // The longest a lease may be held, however often it is extended: a worker that heartbeats
     // without ever uploading loses its unit after this (LeaseTable's longest end).
     double maxLeaseSeconds = 3600.0;
@@ -269,6 +271,10 @@ class Coordinator {
   // An upload of `sha256` has begun (its first message): true if the asset is stored already, so
   // the rest need not be read. Counted like a putAsset that found it present.
   bool uploadFindsAssetPresent(const std::string& sha256);
+  // An upload of `bytes` (its declared size) begins: the asset quota is checked and the bytes it
+  // will hold while it arrives are reserved from the memory budget (waiting up to
+  // imageWaitSeconds), FarmError kResourceExhausted naming what is full otherwise.
+  MemoryBudget::Reservation admitAssetUpload(const std::string& sha256, uint64_t bytes);
   // An asset's bytes for a worker (FetchAsset; counted in MetricsSnapshot::assetsSent).
   // FarmError(kNotFound) if it is not stored.
   std::shared_ptr<const std::string> asset(const std::string& sha256);

@@ -228,6 +228,7 @@ grpc::Status ClientServiceImpl::UploadAsset(grpc::ServerContext* context,
   return guarded(gate_, context, "UploadAsset", [&] {
     v1::UploadAssetRequest message;
     AssetUploadAssembler upload;  // refuses a malformed stream before anything is stored
+    MemoryBudget::Reservation held;
     while (reader->Read(&message)) {
       const bool first = !upload.started();
       upload.add(message);
@@ -237,8 +238,11 @@ grpc::Status ClientServiceImpl::UploadAsset(grpc::ServerContext* context,
         response->set_already_present(true);
         return;
       }
+      // Its room, on disk and in memory, before its bytes are read.
+      if (first) held = coordinator_.admitAssetUpload(upload.sha256(), upload.declared());
     }
     std::string bytes = upload.finish();
+    held.release();  // putAsset reserves what it keeps in memory
     response->set_sha256(upload.sha256());
     response->set_already_present(!coordinator_.putAsset(upload.sha256(), std::move(bytes)));
   });

@@ -29,6 +29,7 @@ class AssetUploadAssembler {
   void add(const v1::UploadAssetRequest& message);
   bool started() const { return chunks_ > 0; }
   const std::string& sha256() const { return sha256_; }  // once started
+  uint64_t declared() const { return declared_; }        // once started: the asset's size
   // The asset's bytes, exactly total_size of them; throws FarmError(kInvalidArgument) for an
   // empty stream or one that ended short of its declared size.
   std::string finish();

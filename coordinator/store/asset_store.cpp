@@ -7,6 +7,7 @@
 #include <set>
 
 #include "common/farm/farm_types.h"
+#include "common/util/byte_size.h"
 #include "common/util/hash.h"
 #include "coordinator/store/state_store.h"
 
@@ -53,12 +54,30 @@ bool AssetStore::put(const std::string& sha256, std::string bytes) {
     throw FarmError(FarmError::Kind::kInvalidArgument,
                     "asset " + sha256 + ": the uploaded bytes hash to " + actual + " (corrupted upload?)");
   if (uploadFindsPresent(sha256)) return false;
+  checkRoom(sha256, bytes.size());
   if (store_) store_->putAsset(sha256, bytes);
   std::lock_guard lock(mutex_);
   const bool stored = store_ ? onDisk_.emplace(sha256, bytes.size()).second
                              : assets_.emplace(sha256, std::make_shared<const std::string>(std::move(bytes))).second;
   ++(stored ? uploadsStored_ : uploadsPresent_);  // two uploads of it at once: one stored
   return stored;
+}
+
+uint64_t AssetStore::storedBytes() const {
+  std::lock_guard lock(mutex_);
+  uint64_t total = 0;
+  for (const auto& [sha, bytes] : assets_) total += bytes->size();
+  for (const auto& [sha, size] : onDisk_) total += size;
+  return total;
+}
+
+void AssetStore::checkRoom(const std::string& sha256, uint64_t bytes) const {
+  const uint64_t quota = quota_, stored = quota ? storedBytes() : 0;
+  if (quota && (bytes > quota || stored > quota - bytes))
+    throw FarmError(FarmError::Kind::kResourceExhausted, "asset " + sha256.substr(0, 12) + " (" + formatBytes(bytes) +
+                                                             ") does not fit: the coordinator keeps " +
+                                                             formatBytes(stored) + " of assets, at most " +
+                                                             formatBytes(quota) + " (--max-asset-bytes)");
 }
 
 bool AssetStore::uploadFindsPresent(const std::string& sha256) {

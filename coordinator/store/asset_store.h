@@ -73,6 +73,13 @@ class AssetStore {
 
   // Bytes of assets held in memory now: all of them without a state dir, else those in use.
   uint64_t residentBytes() const;
+  // Bytes of every asset kept, in memory or on disk.
+  uint64_t storedBytes() const;
+  // The most bytes of assets kept (--max-asset-bytes; 0: no limit). An asset that would pass it is
+  // refused, FarmError(kResourceExhausted) naming both: checkRoom() on an upload's declared size
+  // before its bytes are read, and put() again.
+  void setQuota(uint64_t bytes) { quota_ = bytes; }
+  void checkRoom(const std::string& sha256, uint64_t bytes) const;
 
  private:
   StateStore* store_ = nullptr;  // null: in memory only
@@ -82,6 +89,7 @@ class AssetStore {
   mutable std::map<std::string, uint64_t> onDisk_;
   mutable std::map<std::string, std::weak_ptr<const std::string>> inUse_;  // with a store; guarded by mutex_
   std::atomic<uint64_t> bytesReceived_{0}, uploadsStored_{0}, uploadsPresent_{0}, sent_{0};
+  std::atomic<uint64_t> quota_{0};
 };
 
 }  // namespace lensfarm

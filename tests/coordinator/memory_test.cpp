@@ -173,6 +173,39 @@ TEST(CoordinatorMemory, AssetsInMemoryAreWithinTheBudget) {
     EXPECT_NE(std::string(e.what()).find("--state-dir"), std::string::npos) << e.what();
   }
   EXPECT_FALSE(c.hasAsset(sha256Hex(big)));
+  // An upload is admitted on its declared size, before its bytes are read: its memory while it
+  // arrives is reserved, and one that could never fit is refused at once.
+  {
+    MemoryBudget::Reservation held = c.admitAssetUpload(sha256Hex(small), 2000);
+    EXPECT_EQ(c.metricsSnapshot().memoryReservedBytes, 3000u);
+  }
+  EXPECT_EQ(c.metricsSnapshot().memoryReservedBytes, 1000u);
+  EXPECT_EQ(test::kindOf([&] { c.admitAssetUpload(sha256Hex(big), 5000); }), FarmError::Kind::kResourceExhausted);
+}
+
+// The asset quota (--max-asset-bytes) counts every asset kept, on disk too: an upload past it is
+// refused on its declared size, naming the flag; one that fits is kept.
+TEST(CoordinatorMemory, AssetsStayWithinTheirQuota) {
+  test::TempDir dir;
+  Coordinator::Options options;
+  options.stateDir = dir / "state";
+  options.maxAssetBytes = 3000;
+  Coordinator c(options);
+  const std::string a(2000, 'a'), b(2000, 'b');
+  EXPECT_TRUE(c.putAsset(sha256Hex(a), a));
+  try {
+    c.admitAssetUpload(sha256Hex(b), b.size());
+    FAIL() << "2000 + 2000 > 3000";
+  } catch (const FarmError& e) {
+    EXPECT_EQ(e.kind(), FarmError::Kind::kResourceExhausted);
+    EXPECT_NE(std::string(e.what()).find("keeps 2.00 kB of assets, at most 3.00 kB (--max-asset-bytes)"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(test::kindOf([&] { c.putAsset(sha256Hex(b), b); }), FarmError::Kind::kResourceExhausted);
+  EXPECT_FALSE(c.hasAsset(sha256Hex(b)));
+  const std::string small(900, 'c');
+  EXPECT_TRUE(c.putAsset(sha256Hex(small), small));
 }
 
 // One owner's unfinished jobs are capped (--max-jobs-per-owner): past it a submit is refused,
