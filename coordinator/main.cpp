@@ -210,33 +210,24 @@ void addStateFlags(CLI::App& app, Flags& f) {
       ->capture_default_str();
 }
 
+// A size flag given as `text` ("16G", "512MiB", "2000000000") into `bytes` (unchanged when not
+// given); false after one error line naming `flag` when it is not a size.
+bool parseSizeFlag(const std::string& text, const char* flag, uint64_t& bytes) {
+  if (text.empty()) return true;
+  bytes = parseByteSize(text);
+  if (bytes == 0)
+    spdlog::error("{}: expected a size such as 16G, 512MiB or 2000000000 (bytes), got \"{}\"", flag, text);
+  return bytes != 0;
+}
+
 // The options that need more than CLI11's checks; an exit code (2) after one clear error line.
 std::optional<int> finishOptions(Flags& f) {
-  if (!f.maxJobMemory.empty()) {
-    f.options.maxJobMemoryBytes = parseByteSize(f.maxJobMemory);
-    f.options.maxJobMemorySource = "--max-job-memory";
-    if (f.options.maxJobMemoryBytes == 0) {
-      spdlog::error("--max-job-memory: expected a size such as 16G, 512MiB or 2000000000 (bytes), got \"{}\"",
-                    f.maxJobMemory);
-      return 2;
-    }
-  }
-  if (!f.maxAssetBytes.empty()) {
-    f.options.maxAssetBytes = parseByteSize(f.maxAssetBytes);
-    if (f.options.maxAssetBytes == 0) {
-      spdlog::error("--max-asset-bytes: expected a size such as 100G or 512MiB, got \"{}\"", f.maxAssetBytes);
-      return 2;
-    }
-  }
-  if (!f.memoryBudget.empty()) {
-    f.options.memoryBudgetBytes = parseByteSize(f.memoryBudget);
-    f.options.memoryBudgetSource = "--memory-budget";
-    if (f.options.memoryBudgetBytes == 0) {
-      spdlog::error("--memory-budget: expected a size such as 48G, 512MiB or 2000000000 (bytes), got \"{}\"",
-                    f.memoryBudget);
-      return 2;
-    }
-  }
+  if (!parseSizeFlag(f.maxJobMemory, "--max-job-memory", f.options.maxJobMemoryBytes) ||
+      !parseSizeFlag(f.maxAssetBytes, "--max-asset-bytes", f.options.maxAssetBytes) ||
+      !parseSizeFlag(f.memoryBudget, "--memory-budget", f.options.memoryBudgetBytes))
+    return 2;
+  if (!f.maxJobMemory.empty()) f.options.maxJobMemorySource = "--max-job-memory";
+  if (!f.memoryBudget.empty()) f.options.memoryBudgetSource = "--memory-budget";
   try {
     f.options.keepSeconds = parseDuration(f.keep, "--keep");
     f.options.archiveAfterSeconds = f.archiveAfter == "never" ? -1.0 : parseDuration(f.archiveAfter, "--archive-after");
