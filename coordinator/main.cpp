@@ -145,6 +145,12 @@ void addSchedulingFlags(CLI::App& app, Coordinator::Options& options) {
       ->envname("LENSFARM_AUDIT_TOLERANCE")
       ->check(nonNegativeNumber(""))
       ->capture_default_str();
+  app.add_option("--audit-wait", options.auditWaitSeconds,
+                 "Seconds a job with every unit in waits for its audits to be taken; then an audit no worker "
+                 "took is waived, with an event")
+      ->envname("LENSFARM_AUDIT_WAIT")
+      ->check(numberIn(0.0, 86400.0, "seconds"))
+      ->capture_default_str();
 }
 
 // The metrics endpoint and the dashboard.

@@ -272,16 +272,21 @@ void Coordinator::settleWaitingJobs() {
   for (auto& [id, jobPtr] : jobs_) {
     Job& job = *jobPtr;
     if (isTerminal(job.progress.state) || !job.audit.stopAwaitingAudits) continue;
-    std::vector<uint64_t> orphans;
+    const double waited = std::chrono::duration<double>(Clock::now() - job.audit.awaitingSince).count();
+    std::vector<std::pair<uint64_t, std::string>> orphans;
     for (const auto& [unit, audit] : job.audit.audits.audits()) {
       if (audit.leasedTo) continue;
-      bool someone = false;
-      for (const auto& [wid, w] : workers_) someone = someone || (mayAudit(job, *w) && !audit.renderedBy.count(wid));
-      if (!someone) orphans.push_back(unit);
+      std::string able;
+      for (const auto& [wid, w] : workers_)
+        if (mayAudit(job, *w) && !audit.renderedBy.count(wid)) able += (able.empty() ? "" : ", ") + w->label();
+      if (able.empty())
+        orphans.emplace_back(unit, "no other worker is left to render it");
+      else if (waited >= options_.auditWaitSeconds)
+        orphans.emplace_back(unit, "waived after " + secondsText(waited) + ": the workers that could render it (" +
+                                       able + ") did not take it");
     }
-    for (uint64_t unit : orphans) {
-      job.addEvent("audit of unit " + std::to_string(unit) +
-                   " not settled: no other worker is left to render it; the counted result stands");
+    for (const auto& [unit, why] : orphans) {
+      job.addEvent("audit of unit " + std::to_string(unit) + " not settled: " + why + "; the counted result stands");
       job.audit.audits.close(unit);
     }
     if (!job.audit.audits.empty()) continue;

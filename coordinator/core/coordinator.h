@@ -243,6 +243,10 @@ class Coordinator {
     // wrong one is quarantined. 0 turns the audit off.
     double auditFraction = 0.02;
     double auditTolerance = 1e-6;
+    // A job with every unit in waits at most this long for its audits to be taken: past it, an
+    // audit no worker has leased is waived with an event (a worker that heartbeats but never asks
+    // for work, the only one that could render it, must not hold the job).
+    double auditWaitSeconds = 60.0;
     // Test-only: called with a job's estimated bytes just before its frame-sized buffers are
     // allocated; a test throws std::bad_alloc from it to simulate an allocation failing.
     std::function<void(uint64_t bytes)> beforeJobAllocation;

@@ -8,6 +8,7 @@
 // audit (JobAudit) and its life cycle (JobRetention). The groups are plain records of the Job
 // that holds them, guarded by Coordinator::mutex_ as every field of Job (Clang's analysis cannot
 // name a lock of Coordinator from them, so the rule is written here, on each).
+#include <algorithm>
 #include <chrono>
 #include <map>
 #include <memory>
@@ -26,6 +27,9 @@
 #include "coordinator/core/job_units.h"
 
 namespace lensfarm {
+
+// "12 s": a span for people, in whole seconds (stalled reasons, events).
+inline std::string secondsText(double seconds) { return std::to_string(long(std::max(0.0, seconds) + 0.5)) + " s"; }
 
 // What a job is, fixed at submission (Coordinator::submit, or jobFromRow at a restart) before the
 // job is listed, and never changed after. Guarded by Coordinator::mutex_ (Coordinator::Job::definition).
@@ -103,6 +107,7 @@ struct JobAudit {
   uint64_t generation = 0;  // the film's (Accumulator::generation): grows with every rewind
   // The stop the film reached while audits were pending: the job ends with it once they settle.
   std::optional<std::string> stopAwaitingAudits;
+  std::chrono::steady_clock::time_point awaitingSince;  // when stopAwaitingAudits was set
   uint64_t auditsPassed = 0, auditsFailed = 0, unitsRerendered = 0;
 };
 

@@ -293,6 +293,7 @@ void Coordinator::sumAndPublish(const UnitResult& result, UnitResult* owned, con
         // The image is complete unless an audit finds a wrong worker: no more units, and the job
         // ends when its audits settle (settleWaitingJobs).
         a.job->audit.stopAwaitingAudits = added->stopReason;
+        a.job->audit.awaitingSince = Clock::now();
         a.job->progress.units.clearPending();
         leases_.eraseUnitsOf(a.job->definition.id);
         settleWaitingJobs();

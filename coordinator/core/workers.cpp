@@ -136,16 +136,22 @@ WorkerState Coordinator::stateOf(const Worker& worker, bool holdsLease, Clock::t
   return holdsLease ? WorkerState::kRendering : WorkerState::kIdle;
 }
 
-namespace {
-std::string secondsText(double seconds) { return std::to_string(long(std::max(0.0, seconds) + 0.5)) + " s"; }
-}  // namespace
-
 std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) const {
   if (isTerminal(job.progress.state)) return "";
   if (storageStall_)
     return "the coordinator cannot write its state dir (" + storageStall_->reason + ") for " +
            secondsText(std::chrono::duration<double>(now - storageStall_->since).count()) +
            ": no unit is leased until it can; rendering resumes by itself";
+  if (job.audit.stopAwaitingAudits && !job.audit.audits.empty()) {
+    // Every unit is in: what is left is rendering some again, by other workers, to check them.
+    const double waited = std::chrono::duration<double>(now - job.audit.awaitingSince).count();
+    size_t leased = 0;
+    for (const auto& [unit, audit] : job.audit.audits.audits()) leased += audit.leasedTo.has_value();
+    return "every unit is in; waiting for " + std::to_string(job.audit.audits.size()) +
+           " audit(s) by workers that did not render those units (" + std::to_string(leased) +
+           " being rendered); one not taken is waived in " +
+           secondsText(std::max(0.0, options_.auditWaitSeconds - waited));
+  }
   const std::set<std::string> holders = leases_.holders();  // workers holding a lease of any job
   // Held by a worker that is heard from: it is being rendered.
   std::string silent;

@@ -326,6 +326,40 @@ TEST(Audit, TwoWorkersThatDisagreeWithNoThirdQuarantineNobody) {
   for (const Worker& w : workers) EXPECT_FALSE(viewOf(c, w.id, keep).quarantined);
 }
 
+// An audit never holds a job hostage: a worker that heartbeats but never asks for work is the only
+// one that could render the pending audit (the other rendered the unit). The job says why it
+// waits, and once auditWaitSeconds pass the next call waives the audit with an event naming the
+// worker; the job ends with the counted result.
+TEST(Audit, AnAuditNoWorkerTakesIsWaivedAndTheJobSaysWhyItWaits) {
+  Coordinator::Options options;
+  options.auditFraction = 1.0;
+  options.auditWaitSeconds = 0.3;
+  Coordinator c(options);
+  const std::string job = c.submit(auditSpec(2), 0).id;
+  const std::string honest = c.registerWorker(test::workerInfo("honest"));
+  const std::string hung = c.registerWorker(test::workerInfo("hung"));
+  c.heartbeat(hung, {});
+  while (auto g = c.lease(honest, 0.0)) c.acceptResult(rendered(honest, *g));
+  JobInfo info = c.job(job);
+  ASSERT_EQ(info.unitsDone, 2u);
+  ASSERT_EQ(info.state, JobState::kRunning) << "its audits are pending";
+  EXPECT_NE(info.stalledReason.find("every unit is in; waiting for 2 audit(s)"), std::string::npos)
+      << info.stalledReason;
+  EXPECT_NE(info.stalledReason.find("waived in"), std::string::npos) << info.stalledReason;
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        c.heartbeat(hung, {});  // it keeps heartbeating, and never asks for work
+        c.lease(honest, 0.0);   // the honest worker's calls notice the wait is over
+        return c.job(job).state == JobState::kDone;
+      },
+      30))
+      << c.job(job).stalledReason;
+  info = c.job(job);
+  EXPECT_TRUE(anyEventHas(info, "not settled: waived after")) << eventsOf(info);
+  EXPECT_TRUE(anyEventHas(info, "hung")) << eventsOf(info);
+  EXPECT_EQ(c.sensorState(job), cleanSensor(2)) << "the counted results stand";
+}
+
 // One worker alone (`lensfarm render`) is never audited: nothing to compare with, nothing spent.
 // Each agreeing audit is counted once per worker, by role: the counted unit's worker confirmed
 // (auditsPassed), the worker that rendered it again (auditsRendered). Over a farm the two sums
