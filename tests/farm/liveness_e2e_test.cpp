@@ -107,6 +107,43 @@ TEST_F(FarmLiveness, AWorkerKilledMidUnitIsLostAtOnceAndItsUnitGoesToAnotherWork
   EXPECT_EQ(farmImage.rgb, readExr(localExr, &localMeta).rgb) << "the farm's image equals the in-process render";
 }
 
+// A worker suspended (SIGSTOP: a laptop lid closed, a VM paused) for longer than its lease, then
+// resumed: its unit went to another worker meanwhile; awake, it is told its lease is gone (it
+// drops the unit, or its late upload is refused), registers again and carries on serving the
+// farm, and the image is still the in-process render's, every unit once.
+TEST_F(FarmLiveness, AWorkerSuspendedPastItsLeaseIsRefusedCleanlyWhenItWakes) {
+  const fs::path scene = test::writeSeedScene(dir_, 128, 512, 128);
+  test::ChildProcess& sleeper = farm_.startWorker("sleeper", {"--coordinator", address_, "--threads", "1"});
+  const std::string job = farm_.submit({scene.string(), "--coordinator", address_});
+  ASSERT_TRUE(test::waitFor([&] { return unitsDone(job) >= 1; }, 120)) << sleeper.log();
+  ASSERT_TRUE(
+      test::waitFor([&] { return test::lineOf(workers(), "sleeper").find("s  rendering") != std::string::npos; }, 30))
+      << workers();
+  sleeper.signal(SIGSTOP);
+  // Suspended, it answers no keepalive: lost, its unit queued again, long before the 60 s lease.
+  ASSERT_TRUE(
+      test::waitFor([&] { return test::lineOf(workers(), "sleeper").find("s  lost ") != std::string::npos; }, 60))
+      << workers();
+  farm_.startWorker("steady", {"--coordinator", address_, "--threads", "1"});
+  ASSERT_TRUE(test::waitFor([&] { return unitsDone(job) >= 2; }, 120)) << "the steady worker took over";
+  sleeper.signal(SIGCONT);
+  const auto watched = cli({"watch", job});
+  ASSERT_EQ(watched.exitCode, 0) << watched.err;
+  EXPECT_TRUE(sleeper.running()) << "waking to a lost lease does not stop the worker: " << sleeper.log();
+  // Awake, it learns its lease is gone (the first heartbeat or call): it drops the unit or its
+  // upload is refused, and it registers again.
+  EXPECT_TRUE(std::regex_search(sleeper.log(), std::regex("abandoned after [0-9.]+ s \\(lease revoked\\)|refused")))
+      << sleeper.log();
+
+  const fs::path farmExr = dir_ / "farm.exr", localExr = dir_ / "local.exr";
+  ASSERT_EQ(cli({"download", job, "-o", farmExr.string()}).exitCode, 0);
+  ASSERT_EQ(farm_.cli({"render", scene.string(), "-o", localExr.string(), "--threads", "2", "-q"}).exitCode, 0);
+  ImageMetadata farmMeta, localMeta;
+  const Image farmImage = readExr(farmExr, &farmMeta);
+  EXPECT_EQ(farmMeta.totalSamples, 128u * 128u * 512u) << "every unit counted exactly once";
+  EXPECT_EQ(farmImage.rgb, readExr(localExr, &localMeta).rgb) << "the farm's image equals the in-process render";
+}
+
 TEST_F(FarmLiveness, TheWatcherIsToldWhenAWorkerOfTheJobIsLostAndWhenItRejoins) {
   const fs::path scene = test::writeSeedScene(dir_, 128, 512, 128);
   test::ChildProcess& first = farm_.startWorker("w1", {"--coordinator", address_, "--threads", "1"});
