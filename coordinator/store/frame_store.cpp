@@ -50,7 +50,9 @@ bool FrameStore::has(const std::string& jobId, uint64_t frameIndex) const {
 std::optional<Image> FrameStore::read(const std::string& jobId, uint64_t frameIndex, ImageMetadata* metadata) const {
   if (!has(jobId, frameIndex)) return std::nullopt;
   if (const std::optional<std::string> wrong = damage(jobId, frameIndex))
-    throw std::runtime_error(pathOf(jobId, frameIndex).string() + " is damaged: " + *wrong);
+    throw std::runtime_error(  // named inside the state dir: a client is not told where it is
+        "jobs/" + jobId + "/" + pathOf(jobId, frameIndex).filename().string() +
+        " in the state dir is damaged: " + *wrong);
   return readExr(pathOf(jobId, frameIndex), metadata);
 }
 

@@ -31,9 +31,10 @@ void JobArchive::store(const std::string& jobId, const Image& image, const Image
 }
 
 void JobArchive::check(const std::string& jobId) const {
+  // The file named inside the state dir: a client is not told where the state dir is.
   if (const std::optional<std::string> damage = checkChecksumSidecar(pathOf(jobId)))
     throw FarmError(FarmError::Kind::kFailedPrecondition,
-                    jobId + "'s archived image " + pathOf(jobId).string() + " is damaged: " + *damage +
+                    jobId + "'s archived image (jobs/" + jobId + "/final.exr in the state dir) is damaged: " + *damage +
                         "; its film was freed when it was archived, so the image is lost (lensfarm delete " + jobId +
                         ")");
 }

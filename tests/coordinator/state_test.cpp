@@ -305,8 +305,11 @@ TEST(DamagedArchive, AnArchivedImageWithFlippedBytesIsOneErrorNamingTheFile) {
       ADD_FAILURE() << "a damaged archive was served";
     } catch (const FarmError& e) {
       EXPECT_EQ(e.kind(), FarmError::Kind::kFailedPrecondition);
-      EXPECT_NE(std::string(e.what()).find(file.string() + " is damaged: checksum mismatch"), std::string::npos)
-          << e.what();
+      const std::string what = e.what();
+      EXPECT_NE(what.find("(jobs/" + job + "/final.exr in the state dir) is damaged: checksum mismatch"),
+                std::string::npos)
+          << what;
+      EXPECT_EQ(what.find(dir.path().string()), std::string::npos) << "the state dir's path stays private: " << what;
     }
   }
 }
