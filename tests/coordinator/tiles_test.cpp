@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <functional>
 
 #include <tbb/task_arena.h>
 #include <algorithm>
@@ -207,25 +208,32 @@ UnitResult tileResult(const std::string& w, const LeaseGrant& g) {
   return test::resultFor(w, g, double(g.unit.index + 1) * 4.0, 0.0, g.unit.region.width, g.unit.region.height);
 }
 
+// A coordinator with `options` (a state dir) that renders the first `tiles` tiles of animation()
+// as one worker, lets `inspect` look at it, and goes; returns the job's id.
+std::string renderTilesThenStop(const Coordinator::Options& options, uint64_t tiles,
+                                const std::function<void(Coordinator&, const std::string&)>& inspect = {}) {
+  Coordinator first(options);
+  const std::string job = first.submit(animation(), 0).id;
+  const std::string w = first.registerWorker(workerInfo("w"));
+  for (uint64_t k = 0; k < tiles; ++k) EXPECT_TRUE(first.acceptResult(tileResult(w, *first.lease(w, 0))));
+  if (inspect) inspect(first, job);
+  return job;
+}
+
 TEST(TiledJob, AnimationFramesSurviveARestartBitForBit) {
   test::TempDir dir;
   Coordinator::Options options;
   options.stateDir = dir / "state";
   options.auditFraction = 0;
-  std::string job;
-  {
-    Coordinator first(options);
-    job = first.submit(animation(), 0).id;
-    const std::string w = first.registerWorker(workerInfo("w"));
-    // Frame 7 whole and half of frame 9, then the coordinator goes.
-    for (int k = 0; k < 9; ++k) ASSERT_TRUE(first.acceptResult(tileResult(w, *first.lease(w, 0))));
-    const JobInfo info = first.job(job);
+  // Frame 7 whole and half of frame 9, then the coordinator goes.
+  const std::string job = renderTilesThenStop(options, 9, [&](Coordinator& first, const std::string& id) {
+    const JobInfo info = first.job(id);
     ASSERT_EQ(info.frames.size(), 3u);
     EXPECT_TRUE(info.frames[0].complete());
     EXPECT_EQ(info.frames[1].tilesDone, 3u);
-    EXPECT_TRUE(fs::exists(dir / "state" / "jobs" / job / "frame-0.exr"));
-    EXPECT_FALSE(fs::exists(dir / "state" / "jobs" / job / "unit-0.bin"));  // stored: its tiles' sums dropped
-  }
+    EXPECT_TRUE(fs::exists(dir / "state" / "jobs" / id / "frame-0.exr"));
+    EXPECT_FALSE(fs::exists(dir / "state" / "jobs" / id / "unit-0.bin"));  // stored: its tiles' sums dropped
+  });
   Coordinator second(options);
   EXPECT_EQ(second.job(job).unitsDone, 9u);
   const std::string w = second.registerWorker(workerInfo("w2"));
@@ -256,13 +264,7 @@ TEST(TiledJob, ADamagedFrameFileIsKeptAsideAndItsTilesRenderedAgain) {
   Coordinator::Options options;
   options.stateDir = dir / "state";
   options.auditFraction = 0;
-  std::string job;
-  {
-    Coordinator first(options);
-    job = first.submit(animation(), 0).id;
-    const std::string w = first.registerWorker(workerInfo("w"));
-    while (first.job(job).unitsDone < 6) ASSERT_TRUE(first.acceptResult(tileResult(w, *first.lease(w, 0))));
-  }
+  const std::string job = renderTilesThenStop(options, 6);  // frame 7 whole
   const fs::path frame = dir / "state" / "jobs" / job / "frame-0.exr";
   ASSERT_TRUE(fs::exists(frame));
   ASSERT_TRUE(fs::exists(frame.string() + ".sha256"));

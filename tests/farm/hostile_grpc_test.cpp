@@ -12,6 +12,7 @@
 #include "lensfarm/v1/client_service.grpc.pb.h"
 #include "lensfarm/v1/worker_service.grpc.pb.h"
 #include "tests/deploy_support.h"
+#include "tests/support/stream_flood.h"
 
 namespace lensfarm {
 namespace {
@@ -56,14 +57,6 @@ class HostileGrpc : public ::testing::Test {
   std::string address_, job_;
 };
 
-// One asynchronous WatchJob stream and what it has received.
-struct Watch {
-  grpc::ClientContext context;
-  v1::JobStatus status;
-  grpc::Status end;
-  std::unique_ptr<grpc::ClientAsyncReader<v1::JobStatus>> reader;
-};
-
 // 2,000 viewer WatchJob streams on 20 connections: the coordinator's threads stay within 50 of
 // idle, the viewer's cap (1,024 streams) holds (the rest are RESOURCE_EXHAUSTED, naming it), and
 // while they are open the client token still watches and a GetJob answers.
@@ -72,44 +65,14 @@ TEST_F(HostileGrpc, AWatchJobFloodCostsNoThreadsAndMeetsTheRolesCap) {
   const int idle = threadsOf(pid);
   std::vector<std::unique_ptr<v1::ClientService::Stub>> stubs;
   for (int i = 0; i < 20; ++i) stubs.push_back(stub());
-  grpc::CompletionQueue queue;
-  std::vector<std::unique_ptr<Watch>> watches;
   v1::WatchJobRequest request;
   request.set_job_id(job_);
-  // Tags: 3k = started, 3k+1 = first message read, 3k+2 = finished.
-  for (size_t k = 0; k < 2000; ++k) {
-    auto watch = std::make_unique<Watch>();
-    watch->context.AddMetadata("authorization", "Bearer " + viewer_);
-    watch->reader = stubs[k % stubs.size()]->PrepareAsyncWatchJob(&watch->context, request, &queue);
-    watch->reader->StartCall(reinterpret_cast<void*>(3 * k));
-    watches.push_back(std::move(watch));
-  }
-  size_t streaming = 0, exhausted = 0, other = 0, pending = 2000;
-  std::string refusal;
-  const auto deadline = std::chrono::system_clock::now() + std::chrono::seconds(120);
-  while (pending > 0) {
-    void* tag = nullptr;
-    bool ok = false;
-    if (queue.AsyncNext(&tag, &ok, deadline) != grpc::CompletionQueue::NextStatus::GOT_EVENT) break;
-    const size_t k = reinterpret_cast<size_t>(tag) / 3, step = reinterpret_cast<size_t>(tag) % 3;
-    Watch& watch = *watches[k];
-    if (step == 0) {
-      watch.reader->Read(&watch.status, reinterpret_cast<void*>(3 * k + 1));
-    } else if (step == 1 && ok) {
-      ++streaming;  // held open: the job renders for a long time
-      --pending;
-    } else if (step == 1) {
-      watch.reader->Finish(&watch.end, reinterpret_cast<void*>(3 * k + 2));
-    } else {
-      if (watch.end.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
-        ++exhausted;
-        refusal = watch.end.error_message();
-      } else {
-        ++other;
-      }
-      --pending;
-    }
-  }
+  test::StreamFlood<v1::JobStatus> flood(
+      2000, [&](size_t k, grpc::ClientContext& context, grpc::CompletionQueue& queue) {
+        context.AddMetadata("authorization", "Bearer " + viewer_);
+        return stubs[k % stubs.size()]->PrepareAsyncWatchJob(&context, request, &queue);
+      });
+  const auto counts = flood.settle(std::chrono::seconds(120));
   const int flooded = threadsOf(pid);
 
   // Meanwhile the client's own watch and a plain call are served.
@@ -131,21 +94,14 @@ TEST_F(HostileGrpc, AWatchJobFloodCostsNoThreadsAndMeetsTheRolesCap) {
   std::printf(
       "2000 viewer WatchJob streams: %zu streaming, %zu refused RESOURCE_EXHAUSTED, %zu other; coordinator "
       "threads %d idle -> %d\n",
-      streaming, exhausted, other, idle, flooded);
-  EXPECT_EQ(pending, 0u);
-  EXPECT_EQ(streaming, 1024u);
-  EXPECT_EQ(exhausted, 2000u - 1024u);
-  EXPECT_NE(refusal.find("the viewer token already has 1024 streams open"), std::string::npos) << refusal;
+      counts.held, counts.refused, counts.other, idle, flooded);
+  EXPECT_EQ(counts.pending, 0u);
+  EXPECT_EQ(counts.held, 1024u);
+  EXPECT_EQ(counts.refused, 2000u - 1024u);
+  EXPECT_NE(counts.refusal.find("the viewer token already has 1024 streams open"), std::string::npos) << counts.refusal;
   EXPECT_LT(flooded - idle, 50);
 
-  for (auto& watch : watches) watch->context.TryCancel();
-  queue.Shutdown();
-  void* tag = nullptr;
-  bool ok = false;
-  while (queue.Next(&tag, &ok)) {
-    const size_t k = reinterpret_cast<size_t>(tag) / 3, step = reinterpret_cast<size_t>(tag) % 3;
-    if (step == 1) watches[k]->reader->Finish(&watches[k]->end, reinterpret_cast<void*>(3 * k + 2));
-  }
+  flood.cancel();
   // The streams end and their slots come back: a new viewer watch is served.
   ASSERT_TRUE(test::waitFor(
       [&] {

@@ -12,6 +12,7 @@
 #include "coordinator/core/audit.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
 #include "tests/farm/farm_fixture.h"
+#include "tests/support/stream_flood.h"
 
 namespace lensfarm {
 namespace {
@@ -65,14 +66,6 @@ class MemoryPeak : public test::FarmFixture {
   }
 };
 
-// One asynchronous Download stream that reads its first chunk and then nothing more.
-struct StalledDownload {
-  grpc::ClientContext context;
-  v1::FileChunk chunk;
-  grpc::Status end;
-  std::unique_ptr<grpc::ClientAsyncReader<v1::FileChunk>> reader;
-};
-
 // Downloads are capped per role: 40 streams of a large archived EXR whose client never reads past
 // the first chunk hold 16 server threads at most (the cap); the rest are refused at once naming
 // it, and once the stalled streams are cancelled their slots come back.
@@ -86,44 +79,15 @@ TEST_F(MemoryPeak, StalledDownloadsAreCappedPerRole) {
   ASSERT_TRUE(test::waitFor([&] { return fs::exists(dir_ / "state" / "jobs" / job / "final.exr.sha256"); }, 60));
   const int pid = coordinator_->pid();
   auto stub = v1::ClientService::NewStub(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
-  grpc::CompletionQueue queue;
   v1::DownloadRequest request;
   request.set_job_id(job);
   request.set_format(v1::IMAGE_FORMAT_EXR);
   constexpr size_t kStreams = 40;
-  std::vector<std::unique_ptr<StalledDownload>> downloads;
-  for (size_t k = 0; k < kStreams; ++k) {  // tags: 3k started, 3k+1 first chunk, 3k+2 finished
-    auto d = std::make_unique<StalledDownload>();
-    d->reader = stub->PrepareAsyncDownload(&d->context, request, &queue);
-    d->reader->StartCall(reinterpret_cast<void*>(3 * k));
-    downloads.push_back(std::move(d));
-  }
-  size_t stalled = 0, refused = 0, other = 0, pending = kStreams;
-  std::string refusal;
-  const auto deadline = std::chrono::system_clock::now() + std::chrono::seconds(60);
-  while (pending > 0) {
-    void* tag = nullptr;
-    bool ok = false;
-    if (queue.AsyncNext(&tag, &ok, deadline) != grpc::CompletionQueue::NextStatus::GOT_EVENT) break;
-    const size_t k = reinterpret_cast<size_t>(tag) / 3, step = reinterpret_cast<size_t>(tag) % 3;
-    StalledDownload& d = *downloads[k];
-    if (step == 0) {
-      d.reader->Read(&d.chunk, reinterpret_cast<void*>(3 * k + 1));
-    } else if (step == 1 && ok) {
-      ++stalled;  // a chunk came; nothing more is read
-      --pending;
-    } else if (step == 1) {
-      d.reader->Finish(&d.end, reinterpret_cast<void*>(3 * k + 2));
-    } else {
-      if (d.end.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
-        ++refused;
-        refusal = d.end.error_message();
-      } else {
-        ++other;
-      }
-      --pending;
-    }
-  }
+  test::StreamFlood<v1::FileChunk> flood(kStreams,
+                                         [&](size_t, grpc::ClientContext& context, grpc::CompletionQueue& queue) {
+                                           return stub->PrepareAsyncDownload(&context, request, &queue);
+                                         });
+  const auto counts = flood.settle(std::chrono::seconds(60));
   int threads = 0;
   {
     std::ifstream in("/proc/" + std::to_string(pid) + "/status");
@@ -131,20 +95,14 @@ TEST_F(MemoryPeak, StalledDownloadsAreCappedPerRole) {
       if (line.rfind("Threads:", 0) == 0) threads = std::atoi(line.c_str() + 8);
   }
   std::printf("[bound] %zu stalled Download streams: %zu held, %zu refused, %zu other; coordinator threads %d\n",
-              kStreams, stalled, refused, other, threads);
-  EXPECT_EQ(pending, 0u);
-  EXPECT_EQ(stalled, 16u) << "the per-role cap";
-  EXPECT_EQ(refused, kStreams - 16);
-  EXPECT_NE(refusal.find("16 downloads of the anyone role are in progress"), std::string::npos) << refusal;
+              kStreams, counts.held, counts.refused, counts.other, threads);
+  EXPECT_EQ(counts.pending, 0u);
+  EXPECT_EQ(counts.held, 16u) << "the per-role cap";
+  EXPECT_EQ(counts.refused, kStreams - 16);
+  EXPECT_NE(counts.refusal.find("16 downloads of the anyone role are in progress"), std::string::npos)
+      << counts.refusal;
 
-  for (auto& d : downloads) d->context.TryCancel();
-  queue.Shutdown();
-  void* tag = nullptr;
-  bool ok = false;
-  while (queue.Next(&tag, &ok)) {
-    const size_t k = reinterpret_cast<size_t>(tag) / 3, step = reinterpret_cast<size_t>(tag) % 3;
-    if (step == 1) downloads[k]->reader->Finish(&downloads[k]->end, reinterpret_cast<void*>(3 * k + 2));
-  }
+  flood.cancel();
   // The slots come back: a whole download is served.
   ASSERT_TRUE(test::waitFor(
       [&] {
