@@ -92,7 +92,12 @@ void printStatus(const v1::JobStatus& s) {
     std::printf("audit:      %llu passed, %llu failed, %llu pending; %llu units rendered again\n",
                 (unsigned long long)s.audits_passed(), (unsigned long long)s.audits_failed(),
                 (unsigned long long)s.audits_pending(), (unsigned long long)s.units_rerendered());
+  if (s.audits_explained() > 0)
+    std::printf("            %llu explained by the workers' builds (not wrong)\n",
+                (unsigned long long)s.audits_explained());
   for (const auto& e : s.effects()) std::printf("effect:     %s\n", logText(e).c_str());
+  if (!s.kernel().empty()) std::printf("kernel:     %s\n", logText(s.kernel()).c_str());
+  for (const auto& b : s.builds()) std::printf("build:      %s\n", logText(b).c_str());
   if (!s.events().empty()) std::printf("events:\n");
   for (const auto& e : s.events())
     std::printf("  %s  %s\n", localTimeText(e.unix_seconds()).c_str(), logText(e.text()).c_str());
@@ -406,6 +411,7 @@ Runner addWorkersCommand(CLI::App& app) {
         char since[32];
         std::snprintf(since, sizeof since, "%.1f s", w.seconds_in_state());
         std::string state = w.state().empty() ? "-" : w.state();
+        if (w.state() == "idle" && !w.state_reason().empty()) state += ": " + w.state_reason();
         if (w.state() == "lost" || w.state() == "left")
           state += std::string(" ") + since + " ago" + (w.state_reason().empty() ? "" : ": " + w.state_reason());
         else if (w.state() == "stale")
@@ -421,6 +427,11 @@ Runner addWorkersCommand(CLI::App& app) {
         if (!w.credential().empty())
           state += "; credential " + w.credential() +
                    (w.registrations() > 1 ? " (registered " + std::to_string(w.registrations()) + " times)" : "");
+        if (w.kernels_size() > 0) {  // docs/farm.md "Mixed machines"
+          std::string kernels;
+          for (const std::string& k : w.kernels()) kernels += (kernels.empty() ? "" : " ") + k;
+          state += "; kernels " + kernels;
+        }
         std::printf("%-18s %-28s %7u %-10s %8llu %9.1fs  %s\n", logText(w.worker_id()).c_str(),
                     logText(w.name()).c_str(), w.threads(),
                     w.current_job_id().empty() ? "-" : w.current_job_id().c_str(), (unsigned long long)w.units_done(),

@@ -113,6 +113,7 @@ v1::Lease toProto(const LeaseGrant& g) {
   }
   p.set_pass_samples(g.unit.passSamples);
   p.set_sums_encoding(v1::SumsEncoding(g.uploadEncoding));
+  p.set_kernel(g.kernel);
   if (const SampleMap* map = g.unit.samples.get()) {
     v1::Lease::AdaptiveSamples& a = *p.mutable_adaptive();
     a.set_block_edge(uint32_t(map->blockEdge));
@@ -151,6 +152,7 @@ LeaseGrant fromProto(const v1::Lease& p) {
   }
   g.sceneHash = p.scene_hash();
   g.deadlineSeconds = p.deadline_seconds();
+  g.kernel = p.kernel();
   // A value this worker does not know: raw, which every coordinator accepts.
   g.uploadEncoding =
       p.sums_encoding() == v1::SUMS_ENCODING_SHUFFLE_ZSTD ? SumsEncoding::kShuffleZstd : SumsEncoding::kRaw;

@@ -48,6 +48,9 @@ Registration GrpcCoordinatorLink::registerWorker(const WorkerInfo& info) {
   request.set_protocol_version(info.protocolVersion);
   request.set_renderer_version(info.rendererVersion);
   request.set_max_unit_memory_bytes(info.maxUnitMemoryBytes);
+  for (const std::string& k : info.kernels) request.add_kernels(k);
+  request.set_build(info.build);
+  request.set_cpu(info.cpu);
   v1::RegisterResponse response;
   const grpc::Status s = stub_->Register(context().get(), request, &response);
   if (!s.ok()) raise(s, "Register");
@@ -245,6 +248,7 @@ bool GrpcCoordinatorLink::upload(const UnitResult& result) {
       if (result.buffer.channels != 3) h->set_channels(uint32_t(result.buffer.channels));
       *h->mutable_stats() = proto::toProto(result.stats, result.renderSeconds);
       h->set_encoding(compress ? v1::SUMS_ENCODING_SHUFFLE_ZSTD : v1::SUMS_ENCODING_RAW);
+      h->set_kernel(result.kernel);
     }
     const size_t n = std::min(perChunk, sums.size() - offset);
     message.set_offset(offset);

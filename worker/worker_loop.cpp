@@ -9,9 +9,11 @@
 
 #include "common/farm/job_scene.h"
 #include "common/farm/memory_estimate.h"
+#include "common/render/build_identity.h"
 #include "common/render/unit_renderer.h"
 #include "common/scene/scene_loader.h"
 #include "common/util/error.h"
+#include "common/util/trace_kernel.h"
 #include "common/util/version.h"
 
 namespace lensfarm {
@@ -84,7 +86,9 @@ void WorkerLoop::heartbeatLoop() {
 std::shared_ptr<WorkerLoop::PreparedJob> WorkerLoop::prepare(const LeaseGrant& grant) {
   // An animation's frames are scenes of their own (keyframes evaluated at the frame,
   // docs/scene-format.md "Animation"): loaded per job and frame; a still's frame is always 0.
-  const std::string key = grant.jobId + "@" + std::to_string(grant.unit.frame);
+  // A job's kernel is pinned before its first lease, so it is one per job in practice; it is in the
+  // key all the same, as the scene's traversal depends on it.
+  const std::string key = grant.jobId + "@" + std::to_string(grant.unit.frame) + "@" + grant.kernel;
   if (auto it = jobs_.find(key); it != jobs_.end()) return it->second;
   const JobSpec spec = link_.jobSpec(grant.jobId);
   std::map<std::string, std::string> files;
@@ -106,6 +110,15 @@ std::shared_ptr<WorkerLoop::PreparedJob> WorkerLoop::prepare(const LeaseGrant& g
   job->scene = jobScene(spec, reader, options);
   if (job->scene.hash != grant.sceneHash)
     throw InputError(spec.sceneName, "scene hash " + job->scene.hash + " differs from the job's " + grant.sceneHash);
+  if (!grant.kernel.empty()) {
+    const std::optional<TraceKernel> kernel = kernelNamed(grant.kernel);
+    const std::vector<TraceKernel> runs = machineKernels();
+    if (!kernel || std::find(runs.begin(), runs.end(), *kernel) == runs.end())
+      throw InputError("Lease.kernel",
+                       "traversal kernel \"" + grant.kernel + "\" is not one " + options_.name + " runs");
+    job->scene.render.kernel = kernel;
+  }
+  job->kernel = kernelName(job->scene.render.kernel.value_or(machineBestKernel()));
   job->renderScene = std::make_unique<RenderScene>(job->scene);
   if (jobs_.size() >= kJobsKept) {
     jobs_.erase(jobOrder_.front());
@@ -218,12 +231,17 @@ void WorkerLoop::run() {
 }
 
 void WorkerLoop::registerNow() {
+  std::vector<std::string> kernels;
+  for (TraceKernel k : machineKernels()) kernels.push_back(kernelName(k));
   WorkerInfo info{options_.name,
                   options_.threads,
                   kProtocolVersion,
                   kRendererVersion,
                   options_.maxMemoryBytes,
-                  /*credential: the coordinator knows it from the token*/ {}};
+                  /*credential: the coordinator knows it from the token*/ {},
+                  std::move(kernels),
+                  buildIdentity(),
+                  cpuModel()};
   const Registration r = link_.registerWorker(info);
   std::lock_guard lock(mutex_);
   workerId_ = r.workerId;
@@ -261,6 +279,7 @@ void WorkerLoop::serve(const std::string& id, const LeaseGrant& grant, tbb::task
     cancelUnit_ = stopNow_.load();  // a stopNow() during loading still counts
   }
   UnitResult result = resultForLease(id, grant);
+  result.kernel = job->kernel;
   const auto start = std::chrono::steady_clock::now();
   bool complete = false;
   try {

@@ -64,6 +64,7 @@ class WorkerLoop {
   struct PreparedJob {
     Scene scene;
     std::unique_ptr<RenderScene> renderScene;
+    std::string kernel;  // the traversal kernel it renders with (UnitResult::kernel)
   };
   std::shared_ptr<PreparedJob> prepare(const LeaseGrant& grant);
   void registerNow();  // a new worker id from the coordinator

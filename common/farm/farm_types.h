@@ -7,6 +7,7 @@
 #include <map>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <optional>
 #include "common/farm/sums_codec.h"
@@ -43,6 +44,11 @@ struct WorkerInfo {
   // The per-machine credential it registered with (docs/farm.md "Worker identity"); empty for the
   // shared worker token or none. Set by the coordinator from the call's token, never by the worker.
   std::string credential{};
+  // The traversal kernels it runs (util/trace_kernel.h names; empty: not said), its build identity
+  // (render/build_identity.h) and CPU model: a result's provenance (docs/farm.md "Mixed machines").
+  std::vector<std::string> kernels{};
+  std::string build{};
+  std::string cpu{};
 };
 
 // A unit leased to one worker. Only an upload quoting the current lease id is counted.
@@ -55,6 +61,9 @@ struct LeaseGrant {
   // How the coordinator wants the sums uploaded (a wire concern: the gRPC service sets it, the
   // gRPC link honours it; an in-process link ignores it).
   SumsEncoding uploadEncoding = SumsEncoding::kRaw;
+  // The job's traversal kernel (util/trace_kernel.h): the worker renders the unit with it. Empty:
+  // its own widest.
+  std::string kernel{};
 };
 
 // A unit's partial sensor buffer and the counters of its paths.
@@ -67,6 +76,7 @@ struct UnitResult {
   PathStats stats;
   double renderSeconds = 0.0;
   SumsEncoding uploadEncoding = SumsEncoding::kRaw;  // the lease's (LeaseGrant::uploadEncoding)
+  std::string kernel{};                              // the traversal kernel it was rendered with; empty: not said
 };
 
 // An empty result addressed to `grant`'s lease: what `workerId` fills in and uploads.
@@ -77,6 +87,7 @@ inline UnitResult resultForLease(const std::string& workerId, const LeaseGrant& 
   r.jobId = grant.jobId;
   r.unitIndex = grant.unit.index;
   r.uploadEncoding = grant.uploadEncoding;
+  r.kernel = grant.kernel;
   return r;
 }
 

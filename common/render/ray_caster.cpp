@@ -15,6 +15,7 @@
 #include "common/math/ray_offset.h"
 #include "common/math/triangle.h"
 #include "common/render/cutout.h"
+#include "common/util/error.h"
 
 namespace lensfarm {
 
@@ -151,7 +152,7 @@ RayCaster::RayCaster(const Scene& scene) : source_(scene) {
     throw std::runtime_error("the scene has " + std::to_string(triangleCount + prototypeTriangleCount) +
                              " triangles; at most " + std::to_string(GatherView<Triangle>::kMaxRecords) +
                              " are supported");
-  createDevice();
+  createDevice(scene.render.kernel.value_or(machineBestKernel()));
   chooseEmbreeScale(scene);
   const std::vector<std::vector<uint32_t>> precise = preciseTrianglesOf(scene);
   attachMeshes(scene, precise);
@@ -163,16 +164,20 @@ RayCaster::RayCaster(const Scene& scene) : source_(scene) {
   for (const auto& [lo, hi] : instanceBoxes(scene)) lo_ = glm::min(lo_, lo), hi_ = glm::max(hi_, hi);
 }
 
-void RayCaster::createDevice() {
-  // LENSFARM_EMBREE_CONFIG passes an Embree device configuration, e.g. "isa=avx2": Embree's
-  // kernels for different instruction sets round differently (about 1e-8 relative in an image),
-  // so a farm of mixed machines pins one set on every worker to keep the same bits
-  // (docs/deploy.md).
-  const char* config = std::getenv("LENSFARM_EMBREE_CONFIG");
-  device_ = rtcNewDevice(config);
-  if (!device_)
-    throw std::runtime_error(std::string("cannot create an Embree device") +
-                             (config ? std::string(" with LENSFARM_EMBREE_CONFIG=\"") + config + "\"" : std::string()));
+void RayCaster::createDevice(TraceKernel kernel) {
+  // Embree's kernels for different instruction sets round differently (util/trace_kernel.h): the
+  // device is always told which, so the bits never depend on what Embree would pick by itself.
+  // Embree quietly runs a narrower kernel than one the CPU lacks: refused here instead.
+  const std::vector<TraceKernel> runs = machineKernels();
+  if (std::find(runs.begin(), runs.end(), kernel) == runs.end()) {
+    std::string names;
+    for (TraceKernel k : runs) names += std::string(names.empty() ? "" : ", ") + kernelName(k);
+    throw InputError("kernel", std::string("this machine cannot run Embree's ") + kernelName(kernel) +
+                                   " traversal kernel (it runs " + names + ")");
+  }
+  const std::string config = embreeDeviceConfig(kernel);
+  device_ = rtcNewDevice(config.c_str());
+  if (!device_) throw std::runtime_error("cannot create an Embree device with configuration \"" + config + "\"");
   rtcSetDeviceErrorFunction(device_, embreeError, nullptr);
   rtcSetDeviceMemoryMonitorFunction(device_, embreeMemory, this);
   scene_ = rtcNewScene(device_);

@@ -33,8 +33,9 @@ namespace lensfarm {
 // Help text for the programs that trace rays (lensfarm render, lensfarm-worker): the environment
 // variable RayCaster reads.
 inline constexpr const char* kEmbreeConfigHelp =
-    "Environment: LENSFARM_EMBREE_CONFIG, Embree's device configuration (e.g. isa=avx2): give every worker "
-    "of a farm of mixed machines the same, so images keep the same bits (docs/deploy.md).";
+    "Environment: LENSFARM_EMBREE_CONFIG, Embree's device configuration for experts (e.g. threads=2); its isa= "
+    "caps the traversal kernels this machine offers (isa=avx2: sse2 and avx2). A farm pins one kernel per job "
+    "by itself (docs/farm.md \"Mixed machines\").";
 
 enum class RayKind : unsigned { kCamera = 1u, kScattered = 2u };
 
@@ -237,8 +238,9 @@ class RayCaster {
 
   // The constructor's steps, in its order.
 
-  // The Embree device (with LENSFARM_EMBREE_CONFIG) and the top-level scene, robust and high quality.
-  void createDevice();
+  // The Embree device for `kernel` (the scene's, else the machine's widest; util/trace_kernel.h)
+  // and the top-level scene, robust and high quality.
+  void createDevice(TraceKernel kernel);
   // embreeScale_ from the extent of the scene's meshes and placed instances.
   void chooseEmbreeScale(const Scene& scene);
   // Records Embree geometry `id`'s first triangle in triangles_ and whether it is precise.

@@ -91,6 +91,20 @@ struct Codec<IntegratorKind> : NamedCodec<IntegratorKind, integratorName, parseI
   static IntegratorKind fromText(const std::string& text, const std::string& flag) { return in(text, flag); }
 };
 
+bool parseKernelName(const std::string& text, TraceKernel& kernel) {
+  const std::optional<TraceKernel> k = kernelNamed(text);
+  if (k) kernel = *k;
+  return k.has_value();
+}
+
+template <>
+struct Codec<TraceKernel> : NamedCodec<TraceKernel, kernelName, parseKernelName> {
+  static TraceKernel in(const json& j, const std::string& name) {
+    return NamedCodec::in(j, name, "traversal kernel", "sse2, avx2, avx512 or neon");
+  }
+  static TraceKernel fromText(const std::string& text, const std::string& flag) { return in(text, flag); }
+};
+
 template <>
 struct Codec<SamplerKind> : NamedCodec<SamplerKind, samplerName, parseSamplerName> {
   static SamplerKind in(const json& j, const std::string& name) {
@@ -217,6 +231,11 @@ std::vector<OverrideRow> makeTable() {
           "on: spend a quarter of the samples uniformly, then the rest where the estimated error is "
           "(docs/accuracy.md \"Adaptive sampling\"; --spp becomes the mean); off: uniform (overrides the scene)",
           &O::adaptive, [](bool on, S& s) { s.adaptive.enabled = on; }));
+  t.push_back(named(row("kernel", "--kernel", K::kName,
+                        "Embree's traversal kernel: sse2, avx2, avx512 or neon (default: the widest every worker "
+                        "runs, docs/farm.md \"Mixed machines\"); the same kernel gives the same bits on any machine",
+                        &O::kernel, [](TraceKernel v, S& s) { s.kernel = v; }),
+                    kernelNames()));
   t.push_back(
       ranged(row("ev", "--ev", K::kNumber, "Exposure compensation in stops for PNG images (overrides the scene)",
                  &O::ev, [](double v, S& s) { s.exposure.ev = v; }),

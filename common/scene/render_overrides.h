@@ -31,9 +31,10 @@ struct RenderOverrides {
   std::optional<double> targetError;       // relative RMSE; samplesPerPixel becomes a cap
   std::optional<double> timeLimitSeconds;  // the deadline, from submission
   std::optional<double> ev;
-  std::optional<int> tileSize;   // RenderSettings::tileSize's code (scene/tile_size.h)
-  std::optional<AovSet> aovs;    // replaces render.aovs (docs/aovs.md)
-  std::optional<bool> adaptive;  // RenderSettings::adaptive.enabled (its other settings stay the scene's)
+  std::optional<int> tileSize;        // RenderSettings::tileSize's code (scene/tile_size.h)
+  std::optional<AovSet> aovs;         // replaces render.aovs (docs/aovs.md)
+  std::optional<bool> adaptive;       // RenderSettings::adaptive.enabled (its other settings stay the scene's)
+  std::optional<TraceKernel> kernel;  // RenderSettings::kernel (util/trace_kernel.h)
 };
 
 // What a flag's text must look like; the CLI checks it before the row parses it.

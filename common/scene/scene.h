@@ -18,6 +18,7 @@
 #include "common/light/light_source.h"
 #include "common/material/material.h"
 #include "common/math/vec.h"
+#include "common/util/trace_kernel.h"
 
 namespace lensfarm {
 
@@ -153,6 +154,9 @@ struct RenderSettings {
   int tileSize = 0;
   static constexpr int kTilesAuto = 0, kTilesOff = -1;
   AdaptiveSettings adaptive;  // needs passes (tile_size "off" or "auto")
+  // Embree's traversal kernel (util/trace_kernel.h): unset, the machine's widest. A farm job's is
+  // pinned (docs/farm.md "Mixed machines"); it changes bits, never what is simulated.
+  std::optional<TraceKernel> kernel;
   ExposureSettings exposure;
 
   bool convergenceDriven() const { return targetError > 0.0 || timeLimitSeconds > 0.0; }

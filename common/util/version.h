@@ -9,7 +9,8 @@
 // scenes; a 0.4.0 worker would refuse fov_axis and thin_walled). 0.6.0: triangles far larger
 // than the scene tested in double, Embree's scale for scenes beyond 2^32, quad lights' power held
 // against rounding, and a scattered ray approaching a plane within its margin meets it (other bits
-// for such scenes, and for the rare ray beside an edge).
+// for such scenes, and for the rare ray beside an edge). 0.7.0: every unit of a job is traced with
+// the job's Embree kernel (Lease.kernel, util/trace_kernel.h), which a 0.6.0 worker would ignore.
 namespace lensfarm {
-inline constexpr const char* kRendererVersion = "lensfarm-renderer/0.6.0";
+inline constexpr const char* kRendererVersion = "lensfarm-renderer/0.7.0";
 }

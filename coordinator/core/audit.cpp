@@ -30,6 +30,27 @@ std::optional<std::string> sumsDiffer(const std::vector<double>& a, const std::v
   return std::string(text);
 }
 
+bool differenceLooksLikeRounding(const std::vector<double>& a, const std::vector<double>& b, double tolerance,
+                                 int channels) {
+  if (a.size() != b.size() || a.empty()) return false;
+  const size_t stride = size_t(std::max(channels, 1));
+  size_t cellsDiffering = 0;
+  double squaredDifference = 0.0, squaredMean = 0.0;
+  for (size_t cell = 0; cell * stride < a.size(); ++cell) {
+    bool differs = false;
+    for (size_t k = cell * stride; k < std::min(a.size(), (cell + 1) * stride); ++k) {
+      const double d = a[k] - b[k], mean = 0.5 * (a[k] + b[k]);
+      squaredDifference += d * d;
+      squaredMean += mean * mean;
+      differs = differs || std::abs(d) > tolerance * std::max(std::abs(a[k]), std::abs(b[k]));
+    }
+    cellsDiffering += differs;
+  }
+  const double cells = double((a.size() + stride - 1) / stride);
+  return double(cellsDiffering) <= kRoundingCells * cells &&
+         squaredDifference <= kRoundingRmse * kRoundingRmse * squaredMean;
+}
+
 uint64_t rewindPointSpacing(double auditFraction) {
   // A worker is audited about every 1 / fraction of its units: copies at half that spacing.
   return auditFraction > 0.0 ? uint64_t(std::ceil(std::min(0.5 / auditFraction, 1e6))) : 0;

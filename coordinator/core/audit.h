@@ -33,6 +33,16 @@ namespace lensfarm {
 std::optional<std::string> sumsDiffer(const std::vector<double>& a, const std::vector<double>& b, double tolerance,
                                       int channels = 3);
 
+// Whether the difference between two results of one unit looks like two machines' rounding, not
+// a wrong result: at most kRoundingCells of the cells differ beyond `tolerance`, and the
+// difference's relative RMSE (over all sums) is at most kRoundingRmse. Embree's kernels for
+// different instruction sets differ so (measured: at most 0.4 % of the cells, relative RMSE at
+// most 8e-5; docs/farm.md "Mixed machines"); a worker that skipped samples, traced another seed
+// or returned garbage differs in most cells.
+constexpr double kRoundingCells = 0.02, kRoundingRmse = 1e-3;
+bool differenceLooksLikeRounding(const std::vector<double>& a, const std::vector<double>& b, double tolerance,
+                                 int channels = 3);
+
 // While auditing, a job's film keeps a copy of itself every rewindPointSpacing(fraction) units, at
 // most kRewindPoints at once (Accumulator::keepRewindPoints): a wrong worker found costs the
 // units summed since the latest copy before its first unaudited one (docs/farm.md "Audit").

@@ -31,8 +31,8 @@ void Coordinator::Job::addEvent(std::string text) {
 bool Coordinator::mayAudit(const Job& job, const Worker& worker, const std::string& exceptWorker) const {
   // Only a worker heard from lately: a silent one would hold the job's end back.
   const bool heard = Clock::now() - worker.lastHeartbeat < std::chrono::duration<double>(staleAfterSeconds());
-  return heard && !worker.gone && !worker.quarantined && worker.id != exceptWorker &&
-         job.definition.fitsOn(worker.info) && !job.failures.blocks(worker.id);
+  return heard && !worker.gone && !worker.quarantined && worker.id != exceptWorker && job.takes(worker.info) &&
+         !job.failures.blocks(worker.id);
 }
 
 bool Coordinator::chooseForAudit(const Job& job, Worker& worker) {
@@ -73,8 +73,7 @@ std::optional<LeaseGrant> Coordinator::tryAuditLease(Worker& worker, Clock::time
   worker.currentJobId = job.definition.id;
   worker.currentUnit = unit;
   touch(job);
-  return LeaseGrant{leaseId, job.definition.id, std::move(leased), job.definition.sceneHash,
-                    options_.leaseTimeoutSeconds};
+  return grantOf(job, leaseId, std::move(leased));
 }
 
 bool Coordinator::acceptAudit(const UnitResult& result) {
@@ -104,6 +103,13 @@ bool Coordinator::acceptAudit(const UnitResult& result) {
                 : std::nullopt;
     AuditBook::Sums mine;  // kept only if it disputes the counted result
     if (fromCounted && !dissent) mine = std::make_shared<const std::vector<double>>(result.buffer.sums);
+    // Whether the differences this result makes look like two machines' rounding (read only when
+    // a verdict names a wrong worker of another build).
+    const int channels = result.buffer.channels;
+    const bool rounding =
+        (!fromCounted ||
+         differenceLooksLikeRounding(*counted, result.buffer.sums, options_.auditTolerance, channels)) &&
+        (!fromDissent || differenceLooksLikeRounding(*dissent, result.buffer.sums, options_.auditTolerance, channels));
 
     MutexLock lock(mutex_);
     Job& job = findJob(result.jobId);
@@ -119,13 +125,20 @@ bool Coordinator::acceptAudit(const UnitResult& result) {
     }
     if (const auto verdict =
             job.audit.audits.settle(unit, {result.workerId, std::move(mine)}, fromCounted, fromDissent))
-      applyVerdict(job, *verdict);
+      applyVerdict(job, *verdict, rounding);
     touch(job);
     return true;
   }
 }
 
-void Coordinator::applyVerdict(Job& job, const AuditBook::Verdict& v) {
+std::string Coordinator::buildOf(const std::string& workerId) const {
+  const Worker* w = workers_.known(workerId);
+  if (!w) return "unknown";
+  return (w->info.build.empty() ? std::string("build not said") : w->info.build) +
+         (w->info.kernels.empty() ? ", kernel not said" : "");
+}
+
+void Coordinator::applyVerdict(Job& job, const AuditBook::Verdict& v, bool rounding) {
   const auto labelOf = [&](const std::string& id) {
     mutex_.assertHeld();  // the lambdas run here, under the caller's lock
     return workers_.labelOf(id);
@@ -154,8 +167,6 @@ void Coordinator::applyVerdict(Job& job, const AuditBook::Verdict& v) {
                    "; a third worker decides");
       break;
     case AuditBook::Verdict::Kind::kSettled: {
-      ++job.audit.auditsFailed;
-      ++counters_.auditsFailed;
       {
         // The counted worker is right[0] when it was right; otherwise both rendered it again.
         const AuditBook::Audit* audit = job.audit.audits.find(v.unit);
@@ -163,8 +174,25 @@ void Coordinator::applyVerdict(Job& job, const AuditBook::Verdict& v) {
         vouchFor(v.right[0], v.acceptedSeq, countedRight);
         vouchFor(v.right[1], nextAcceptance_ - 1, false);
       }
+      // An honest difference of machines (docs/farm.md "Mixed machines"): another build, or a
+      // kernel not said, whose result differs as rounding does. Explained, never punished.
+      const std::string wrongBuild = buildOf(v.wrong), rightBuild = buildOf(v.right[0]);
+      if (rounding && wrongBuild != rightBuild && rightBuild == buildOf(v.right[1])) {
+        ++job.audit.auditsExplained;
+        ++counters_.auditsExplained;
+        job.addEvent("audit of " + unit + ": " + labelOf(v.wrong) + "'s result " + v.detail + " from " +
+                     labelOf(v.right[0]) + "'s and " + labelOf(v.right[1]) + "'s, as two builds' rounding does (" +
+                     labelOf(v.wrong) + ": " + wrongBuild + "; the others: " + rightBuild +
+                     "): a difference of machines, not a wrong result; nobody is quarantined and the counted "
+                     "result stands");
+        updateTrust(job);
+        break;
+      }
       const std::string reason = unit + " of " + job.definition.id + ": its sums " + v.detail + " from those of " +
-                                 labelOf(v.right[0]) + " and " + labelOf(v.right[1]) + ", which agree";
+                                 labelOf(v.right[0]) + " and " + labelOf(v.right[1]) + ", which agree" +
+                                 (wrongBuild != rightBuild ? " (by more than two builds' rounding)" : "");
+      ++job.audit.auditsFailed;
+      ++counters_.auditsFailed;
       job.addEvent("audit of " + unit + ": " + labelOf(v.wrong) + " is wrong (" + v.detail + " from " +
                    labelOf(v.right[0]) + " and " + labelOf(v.right[1]) + ", which agree)");
       if (Worker* w = workers_.known(v.wrong)) quarantine(*w, reason);

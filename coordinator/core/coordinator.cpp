@@ -248,6 +248,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
   job->definition.spec = resolved;
   job->priority = priority;
   job->definition.owner = owner;
+  if (spec.overrides.kernel) job->kernel = kernelName(*spec.overrides.kernel);
   job->setScene(scene);
   try {
     if (options_.beforeJobAllocation) options_.beforeJobAllocation(memory.total());
@@ -366,6 +367,7 @@ JobInfo Coordinator::infoOf(const Job& job) const {
   info.workersBusy = uint32_t(leases_.ofJob(job.definition.id).size());
   info.auditsPassed = job.audit.auditsPassed;
   info.auditsFailed = job.audit.auditsFailed;
+  info.auditsExplained = job.audit.auditsExplained;
   info.auditsPending = job.audit.audits.size();
   info.unitsRerendered = job.audit.unitsRerendered;
   info.events = job.events;
@@ -373,6 +375,9 @@ JobInfo Coordinator::infoOf(const Job& job) const {
   info.submittedUnixSeconds = job.definition.submittedUnixSeconds;
   info.version = job.progress.version;
   info.effects = job.definition.effects;
+  info.kernel = job.kernel;
+  for (const auto& [build, units] : job.progress.unitsByBuild)
+    info.builds.push_back(build + ": " + std::to_string(units) + " units");
   info.owner = job.definition.owner;
   info.endedUnixSeconds = job.retention.endedUnixSeconds;
   info.archived = job.retention.archived;
@@ -464,6 +469,12 @@ ImageMetadata Coordinator::metadataOf(const Job& job) const {
   for (const auto& [name, units] : job.progress.unitsByWorker)
     provenance += (provenance.empty() ? "" : ", ") + name + ": " + std::to_string(units) + " units";
   metadata.extra["workers"] = provenance;
+  // What rendered it, beside who (docs/farm.md "Mixed machines").
+  metadata.extra["kernel"] = job.kernel;
+  std::string builds;
+  for (const auto& [build, units] : job.progress.unitsByBuild)
+    builds += (builds.empty() ? "" : "; ") + build + ": " + std::to_string(units) + " units";
+  metadata.extra["builds"] = builds;
   std::string effects;
   for (const auto& e : job.definition.effects) effects += (effects.empty() ? "" : "; ") + e;
   metadata.extra["effects"] = effects;
@@ -668,6 +679,7 @@ MetricsSnapshot Coordinator::metricsSnapshot() const {
     s.leasesActive = leases_.size();
   }
   s.unitsLeased = counters_.unitsLeased;
+  s.backupLeases = counters_.backupLeases;
   s.unitsDone = counters_.unitsDone;
   s.unitsExpired = counters_.unitsExpired;
   s.workersLost = counters_.workersLost;
@@ -678,6 +690,7 @@ MetricsSnapshot Coordinator::metricsSnapshot() const {
   }
   s.auditsPassed = counters_.auditsPassed;
   s.auditsFailed = counters_.auditsFailed;
+  s.auditsExplained = counters_.auditsExplained;
   s.unitsRerendered = counters_.unitsRerendered;
   s.samples = counters_.samples;
   s.unitBytesReceived = counters_.unitBytes;

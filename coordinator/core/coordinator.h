@@ -81,6 +81,8 @@ struct JobInfo {
   double submittedUnixSeconds = 0.0;
   uint64_t version = 0;              // grows with every change of the job
   std::vector<std::string> effects;  // "depth of field: off (aperture closed ...)", scene/effects.h
+  std::string kernel;                // its traversal kernel (util/trace_kernel.h); empty until pinned
+  std::vector<std::string> builds;   // "BUILD (KERNEL): N units", one per build that rendered units
   // Convergence (film/convergence.h, docs/accuracy.md).
   double estimatedRelativeError = -1.0;  // estimated relative RMSE of the image; < 0 until known
   double targetError = 0.0;              // the job's target; 0 if none
@@ -98,6 +100,7 @@ struct JobInfo {
   // worker and compared with the counted result.
   uint64_t auditsPassed = 0;     // agreed within Options::auditTolerance
   uint64_t auditsFailed = 0;     // disagreed, and a third worker said which one was wrong
+  uint64_t auditsExplained = 0;  // disagreed as two builds' rounding does: nobody was wrong
   uint64_t auditsPending = 0;    // waiting for a worker to render them again
   uint64_t unitsRerendered = 0;  // counted units queued again because a wrong worker was found
   // What happened to the job that a person watching it should know: audits that failed, workers
@@ -177,6 +180,7 @@ struct JobImage {
 // and jobs, workers and leases as they are at one moment.
 struct MetricsSnapshot {
   uint64_t unitsLeased = 0;            // leases granted (a unit leased again after a lapse counts again)
+  uint64_t backupLeases = 0;           // of those, backups of a unit leased to a much slower worker
   uint64_t unitsDone = 0;              // results accepted and counted, each unit once
   uint64_t unitsExpired = 0;           // leases that lapsed without a result
   uint64_t workersLost = 0;            // workers marked lost when their Attach stream broke
@@ -184,6 +188,7 @@ struct MetricsSnapshot {
   bool stateWritesStalled = false;     // leasing paused until the state dir takes writes again
   uint64_t auditsPassed = 0;           // audits whose two results agreed
   uint64_t auditsFailed = 0;           // audits that found a wrong worker
+  uint64_t auditsExplained = 0;        // disagreements explained by the workers' builds
   uint64_t unitsRerendered = 0;        // counted units queued again after a wrong worker was found
   uint64_t samples = 0;                // camera paths in the accepted results
   uint64_t unitBytesReceived = 0;      // result buffers (sums) received from workers, as doubles (decoded)
@@ -442,6 +447,21 @@ class Coordinator {
   // `ready` (if given) is false for a unit of a round not allocated yet (no map: not to be leased).
   WorkUnit unitToLease(const Job& job, uint64_t unit, bool* ready = nullptr) const
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // The grant of lease `leaseId` of `unit` of `job` (which carries the job's kernel).
+  LeaseGrant grantOf(const Job& job, uint64_t leaseId, WorkUnit unit) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // A backup lease for an idle `worker` of a unit still leased to a much slower one, near a job's
+  // end (docs/farm.md "Slow machines"); nullopt when no backup would save time.
+  std::optional<LeaseGrant> tryBackupLease(Worker& worker, Clock::time_point now) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // How long `worker` is expected to take for `unit` of `job`, from its measured samples per
+  // second; -1 when not known yet.
+  double expectedUnitSeconds(const Job& job, uint64_t unit, const Worker& worker) const
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // A backup is leased only when it is expected to finish this many of its own unit times before
+  // the straggler would: a backup costs a unit's work, so it must save more than that.
+  static constexpr double kBackupMargin = 1.5;
+  // Pins `job`'s traversal kernel as its first unit goes to `worker` (docs/farm.md "Mixed
+  // machines"): the widest every connected worker that can hold a unit runs.
+  void pinKernel(Job& job, const Worker& worker) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   void enforceDeadlines() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
 
   // ---- the cross-worker audit (auditing.cpp, docs/farm.md "Audit"); all but acceptAudit
@@ -454,7 +474,11 @@ class Coordinator {
   // A result uploaded under an audit lease (after checkPlausible; takes mutex_ itself, and
   // compares the sums outside it).
   bool acceptAudit(const UnitResult& result);
-  void applyVerdict(Job& job, const AuditBook::Verdict& verdict) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // `rounding`: the result's differences look like two machines' rounding (differenceLooksLikeRounding).
+  void applyVerdict(Job& job, const AuditBook::Verdict& verdict, bool rounding) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // A worker's build and whether it said its kernel: what an audit compares before it calls a
+  // disagreement wrong (docs/farm.md "Mixed machines").
+  std::string buildOf(const std::string& workerId) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   void quarantine(Worker& worker, const std::string& reason) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   // Undoes `workerId`'s units of `job` since its last agreeing audit (and the units summed after
   // the rewind point before them), to render again.
@@ -495,6 +519,7 @@ class Coordinator {
     Job* job = nullptr;
     JobPin pin;  // the job is neither deleted nor archived while its result is summed
     std::string workerName;
+    std::string build;        // the worker's build and the result's kernel (LedgerEntry::build)
     uint64_t generation = 0;  // the film's, at admission
     bool duplicate = false;   // the unit is already counted or being counted: ignored
     bool auditLease = false;  // the upload renders a counted unit again (auditing.cpp)
@@ -599,7 +624,8 @@ class Coordinator {
   struct Counters {
     std::atomic<uint64_t> unitsLeased{0}, unitsDone{0}, unitsExpired{0}, samples{0}, unitBytes{0}, unitWireBytes{0};
     std::atomic<uint64_t> workersLost{0}, stateWriteFailures{0};
-    std::atomic<uint64_t> auditsPassed{0}, auditsFailed{0}, unitsRerendered{0};
+    std::atomic<uint64_t> auditsPassed{0}, auditsFailed{0}, auditsExplained{0}, unitsRerendered{0};
+    std::atomic<uint64_t> backupLeases{0};  // units also leased to a faster worker (tryBackupLease)
   };
   Counters counters_;
 };

@@ -20,6 +20,7 @@
 #include "common/farm/job_layout.h"
 #include "common/film/diffraction_psf.h"
 #include "common/scene/scene.h"
+#include "common/util/trace_kernel.h"
 #include "coordinator/core/accumulator.h"
 #include "coordinator/core/audit.h"
 #include "coordinator/core/coordinator.h"
@@ -69,6 +70,7 @@ struct JobProgress {
   std::optional<Clock::time_point> started;
   std::optional<Clock::time_point> finished;
   std::map<std::string, uint64_t> unitsByWorker;  // provenance
+  std::map<std::string, uint64_t> unitsByBuild;   // the same by build and kernel (LedgerEntry::build)
   uint64_t version = 1;
   // Published accumulation progress (copied from the accumulator under mutex_).
   uint64_t unitsAdded = 0;
@@ -109,6 +111,7 @@ struct JobAudit {
   std::optional<std::string> stopAwaitingAudits;
   std::chrono::steady_clock::time_point awaitingSince;  // when stopAwaitingAudits was set
   uint64_t auditsPassed = 0, auditsFailed = 0, unitsRerendered = 0;
+  uint64_t auditsExplained = 0;  // disagreements explained by the workers' builds (auditing.cpp)
 };
 
 // The job life cycle (lifecycle.cpp), guarded by Coordinator::mutex_ (Coordinator::Job::retention):
@@ -150,6 +153,12 @@ struct Coordinator::Job {
   bool servedBefore(const Job& other) const {
     return priority != other.priority ? priority > other.priority : definition.sequence < other.definition.sequence;
   }
+  // The traversal kernel every unit is rendered with (util/trace_kernel.h; docs/farm.md "Mixed
+  // machines"): the spec's `kernel`, else pinned when its first unit is leased (pinKernel) and
+  // persisted. Empty until then.
+  std::string kernel;
+  // Whether `worker` may render its units: it can hold one, and runs the kernel.
+  bool takes(const WorkerInfo& worker) const { return definition.fitsOn(worker) && runsKernel(worker.kernels, kernel); }
   JobProgress progress;  // its state, units and published progress
   // Failures reported by workers, the blocklist, and the workers gone holding its units
   // (job_failures.h); guarded by Coordinator::mutex_.

@@ -13,7 +13,7 @@ uint64_t LeaseTable::grant(const std::string& workerId, const std::string& jobId
   uint64_t id = 0;
   while (id == 0 || leases_.count(id))
     id = ((uint64_t(random()) << 32) | uint64_t(random())) & ((uint64_t(1) << 53) - 1);
-  leases_[id] = Lease{workerId, jobId, unit, std::min(deadline, longestEnd), longestEnd, audit};
+  leases_[id] = Lease{workerId, jobId, unit, std::min(deadline, longestEnd), longestEnd, audit, Clock::now()};
   return id;
 }
 
@@ -40,6 +40,20 @@ bool LeaseTable::extend(uint64_t id, const std::string& workerId, Clock::time_po
 }
 
 void LeaseTable::erase(uint64_t id) { leases_.erase(id); }
+
+std::vector<uint64_t> LeaseTable::unitLeases(const std::string& jobId, uint64_t unit) const {
+  std::vector<uint64_t> out;
+  for (const auto& [id, lease] : leases_)
+    if (lease.jobId == jobId && lease.unit == unit && !lease.audit) out.push_back(id);
+  return out;
+}
+
+void LeaseTable::eraseOthersOf(const std::string& jobId, uint64_t unit, uint64_t keep) {
+  for (auto it = leases_.begin(); it != leases_.end();)
+    it = it->first != keep && it->second.jobId == jobId && it->second.unit == unit && !it->second.audit
+             ? leases_.erase(it)
+             : std::next(it);
+}
 
 std::vector<std::pair<uint64_t, LeaseTable::Lease>> LeaseTable::takeExpired(Clock::time_point now) {
   std::vector<std::pair<uint64_t, Lease>> out;

@@ -11,6 +11,9 @@
 //  - Only the worker a lease names may extend it, upload under it or report it failed.
 //  - No lease outlives its longest end (granted + Options::maxLeaseSeconds), however often it is
 //    extended: a worker that heartbeats without ever uploading loses its units.
+//  - A unit has at most two leases that are not audits: its lease and, near a job's end, one backup
+//    on a faster worker (Coordinator::tryBackupLease). The first result counts; the unit's other
+//    lease ends then (eraseOthersOf), so its holder is told at its next heartbeat.
 #include <chrono>
 #include <cstdint>
 #include <map>
@@ -31,6 +34,7 @@ class LeaseTable {
     Clock::time_point deadline;
     Clock::time_point longestEnd;  // the deadline never moves past this
     bool audit = false;            // renders a counted unit again (docs/farm.md "Audit"); the worker is not told
+    Clock::time_point granted{};
   };
 
   // A new lease; returns its id.
@@ -48,6 +52,10 @@ class LeaseTable {
   bool extend(uint64_t id, const std::string& workerId, Clock::time_point deadline);
 
   void erase(uint64_t id);
+  // The leases of unit `unit` of `jobId` that are not audits (its lease, and a backup), in id order.
+  std::vector<uint64_t> unitLeases(const std::string& jobId, uint64_t unit) const;
+  // Ends every lease of that unit that is not an audit, but `keep`: the unit's first result is in.
+  void eraseOthersOf(const std::string& jobId, uint64_t unit, uint64_t keep);
   // Removes and returns the leases whose deadline is before `now`, in id order.
   std::vector<std::pair<uint64_t, Lease>> takeExpired(Clock::time_point now);
   // Removes and returns the leases `workerId` holds, in id order.

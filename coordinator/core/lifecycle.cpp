@@ -130,6 +130,8 @@ void Coordinator::deleteJob(const std::string& jobId, bool force) {
 std::string Coordinator::summaryOf(const Job& job) {
   nlohmann::json workers = nlohmann::json::object();
   for (const auto& [name, units] : job.progress.unitsByWorker) workers[name] = units;
+  nlohmann::json builds = nlohmann::json::object();
+  for (const auto& [build, units] : job.progress.unitsByBuild) builds[build] = units;
   return nlohmann::json{{"units", job.progress.unitsAdded},
                         {"samples_per_pixel", job.progress.samplesPerPixelDone},
                         {"paths", job.progress.stats.paths},
@@ -139,7 +141,8 @@ std::string Coordinator::summaryOf(const Job& job) {
                         {"truncated", job.progress.stats.truncated},
                         {"estimate_valid", job.progress.estimate.valid},
                         {"relative_rmse", job.progress.estimate.relativeRmse},
-                        {"workers", workers}}
+                        {"workers", workers},
+                        {"builds", builds}}
       .dump();
 }
 
@@ -156,6 +159,8 @@ void Coordinator::restoreSummary(Job& job, const std::string& summary) {
   job.progress.estimate.relativeRmse = j.value("relative_rmse", 0.0);
   if (j.contains("workers"))
     for (const auto& [name, units] : j["workers"].items()) job.progress.unitsByWorker[name] = units.get<uint64_t>();
+  if (j.contains("builds"))
+    for (const auto& [build, units] : j["builds"].items()) job.progress.unitsByBuild[build] = units.get<uint64_t>();
 }
 
 JobImage Coordinator::archivedImage(const Job& job) const {

@@ -131,6 +131,10 @@ std::string renderMetrics(const MetricsSnapshot& s) {
   e.family("lensfarm_units_leased_total", "counter",
            "Units handed out to workers; a unit leased again after its lease lapsed counts again.");
   e.sample(s.unitsLeased);
+  e.family("lensfarm_backup_leases_total", "counter",
+           "Units also leased to an idle worker while a much slower one renders them, near a job's end; the first "
+           "result counts.");
+  e.sample(s.backupLeases);
   e.family("lensfarm_units_done_total", "counter", "Unit results accepted and counted (each unit once).");
   e.sample(s.unitsDone);
   e.family(
@@ -141,9 +145,11 @@ std::string renderMetrics(const MetricsSnapshot& s) {
   e.sample(s.leasesActive);
   e.family("lensfarm_audits_total", "counter",
            "Units rendered again by another worker and compared (the cross-worker audit): result=\"passed\" the two "
-           "results agreed, result=\"failed\" they did not and a third worker found the wrong one.");
+           "results agreed, result=\"failed\" they did not and a third worker found the wrong one, "
+           "result=\"explained\" they differed as two builds' rounding does (nobody was wrong).");
   e.sample(s.auditsPassed, "result=\"passed\"");
   e.sample(s.auditsFailed, "result=\"failed\"");
+  e.sample(s.auditsExplained, "result=\"explained\"");
   e.family("lensfarm_units_rerendered_total", "counter",
            "Counted units queued again because an audit found the worker that rendered them wrong.");
   e.sample(s.unitsRerendered);

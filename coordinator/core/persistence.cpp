@@ -24,6 +24,7 @@ void Coordinator::persistState(const Job& job) {
   try {
     store_->updateJobState(job.definition.id, jobStateName(job.progress.state), job.progress.error,
                            job.progress.stopUnits, job.progress.stopReason, job.retention.endedUnixSeconds);
+    if (!job.kernel.empty()) store_->updateJobKernel(job.definition.id, job.kernel);
   } catch (const StorageError& e) {
     storageFailed(e);  // kept in memory, written again when the state dir takes writes (probeStorage)
   }
@@ -191,6 +192,7 @@ std::optional<uint64_t> Coordinator::replayStoredUnits(Job& job, const std::func
     if (entry.unit >= job.progress.units.total()) continue;
     job.progress.units.markReceived(entry.unit);
     ++job.progress.unitsByWorker[entry.worker];
+    if (!entry.build.empty()) ++job.progress.unitsByBuild[entry.build];
     highest = std::max(highest.value_or(0), entry.unit);
     if (!u.sums) {
       job.film->restoreFolded(entry.stats);
@@ -243,6 +245,9 @@ std::unique_ptr<Coordinator::Job> Coordinator::jobFromRow(const StateStore::Stor
   job->progress.stopUnits = stored.stopUnits;
   job->progress.stopReason = stored.stopReason;
   job->definition.owner = stored.owner;
+  job->kernel = !stored.kernel.empty()         ? stored.kernel
+                : stored.spec.overrides.kernel ? std::string(kernelName(*stored.spec.overrides.kernel))
+                                               : std::string();
   job->retention.endedUnixSeconds = stored.endedUnixSeconds;
   const AssetReader reader = [&](const std::string& path) -> std::optional<std::string> {
     auto it = job->definition.spec.assets.find(path);

@@ -193,12 +193,21 @@ Coordinator::Admission Coordinator::admit(const UnitResult& result) {
     return a;
   }
   checkLeaseHeld(leases_, result.leaseId, result.workerId, result.jobId, result.unitIndex);
+  // Every unit of a job is traced with its kernel (Lease.kernel), or the image would mix bits.
+  if (!result.kernel.empty() && !job->kernel.empty() && result.kernel != job->kernel)
+    throw FarmError(FarmError::Kind::kFailedPrecondition,
+                    "result for unit " + std::to_string(result.unitIndex) + " of " + result.jobId +
+                        " was rendered with traversal kernel \"" + logText(result.kernel.substr(0, 32)) +
+                        "\"; the job's is " + job->kernel + " (Lease.kernel)");
   if (!a.auditLease) {
     checkRegion(*job, result.unitIndex, result.buffer.width, result.buffer.height);
     checkSumCount(*job, result.unitIndex, result.buffer.sums.size());
     Worker& worker = findWorker(result.workerId);
     a.workerName = worker.info.name.empty() ? worker.id : worker.info.name;
+    a.build = (worker.info.build.empty() ? std::string("build not said") : worker.info.build) + " (" +
+              (result.kernel.empty() ? std::string("kernel not said") : result.kernel) + ")";
     leases_.erase(result.leaseId);
+    leases_.eraseOthersOf(result.jobId, result.unitIndex, result.leaseId);  // a backup's, or the straggler's
     job->progress.units.beginRecording(result.unitIndex);
     a.generation = job->audit.generation;
     a.audited = chooseForAudit(*job, worker);
@@ -210,7 +219,8 @@ Coordinator::Admission Coordinator::admit(const UnitResult& result) {
 void Coordinator::record(const UnitResult& result, const Admission& a) {
   if (store_) {
     try {
-      store_->recordUnit(a.job->definition.id, StateStore::LedgerEntry{result.unitIndex, a.workerName, result.stats},
+      store_->recordUnit(a.job->definition.id,
+                         StateStore::LedgerEntry{result.unitIndex, a.workerName, result.stats, a.build},
                          result.buffer.sums);
     } catch (const std::exception& e) {
       MutexLock lock(mutex_);
@@ -261,6 +271,7 @@ bool Coordinator::count(const UnitResult& result, const Admission& a, AuditBook:
     if (w->currentUnit == result.unitIndex) w->currentUnit.reset();
   }
   ++a.job->progress.unitsByWorker[a.workerName];
+  ++a.job->progress.unitsByBuild[a.build];
   return true;
 }
 
@@ -340,8 +351,9 @@ void Coordinator::reportFailure(const std::string& workerId, uint64_t leaseId, c
                                                               : "no worker left that has not failed it: " + reasons;
     end(job, JobState::kFailed);
     spdlog::error("job {}: failed: {}", job.definition.id, logText(job.progress.error));
-  } else if (!job.progress.units.isReceived(unit) && !job.progress.units.isRecording(unit)) {
-    job.progress.units.requeue(unit);  // for another worker (or this one, until it is blocklisted)
+  } else if (!job.progress.units.isReceived(unit) && !job.progress.units.isRecording(unit) &&
+             leases_.unitLeases(jobId, unit).empty()) {  // (a backup still renders it)
+    job.progress.units.requeue(unit);                    // for another worker (or this one, until it is blocklisted)
     changed_.notify_all();
   }
   touch(job);

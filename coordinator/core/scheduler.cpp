@@ -26,7 +26,9 @@ void Coordinator::reapExpiredLeases(Clock::time_point now) {
     spdlog::warn("job {}: lease {} of unit {} held by {} lapsed; the unit goes back to the queue", job.definition.id,
                  leaseId, lease.unit, lease.workerId);
     if (lease.audit) job.audit.audits.release(lease.unit, lease.workerId);
-    if (!isTerminal(job.progress.state) && !job.progress.units.isReceived(lease.unit))
+    // (A unit whose backup is still leased is not queued again: the backup renders it.)
+    if (!lease.audit && !isTerminal(job.progress.state) && !job.progress.units.isReceived(lease.unit) &&
+        leases_.unitLeases(job.definition.id, lease.unit).empty())
       job.progress.units.requeue(lease.unit);
     ++counters_.unitsExpired;
     if (Worker* w = workers_.known(lease.workerId); w && w->currentJobId == job.definition.id) w->currentJobId.clear();
@@ -45,8 +47,8 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   Job* best = nullptr;
   for (auto& [id, job] : jobs_) {
     if (isTerminal(job->progress.state) || !job->progress.units.hasPending()) continue;
-    if (!job->definition.fitsOn(worker.info)) continue;  // its units are for a worker with more memory
-    if (job->failures.blocks(worker.id)) continue;       // it failed this job too often (reportFailure)
+    if (!job->takes(worker.info)) continue;         // its units are for a worker with more memory, or another kernel
+    if (job->failures.blocks(worker.id)) continue;  // it failed this job too often (reportFailure)
     if (!job->progress.units.hasReturned() &&
         !job->definition.layout.tiled()) {  // a fresh pass: only within the window ahead of the summed prefix
       const uint64_t window =
@@ -59,8 +61,9 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
       continue;
     if (!best || job->servedBefore(*best)) best = job.get();
   }
-  if (!best) return std::nullopt;
+  if (!best) return tryBackupLease(worker, now);
   Job& job = *best;
+  if (job.kernel.empty()) pinKernel(job, worker);
   const uint64_t unit = job.progress.units.takePending();
   const auto longest = now + std::chrono::duration_cast<Clock::duration>(
                                  std::chrono::duration<double>(std::max(options_.maxLeaseSeconds, 1e-3)));
@@ -79,8 +82,95 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   // (the check above leases a round's unit only once it is allocated)
   if (!ready)
     throw std::logic_error("unit " + std::to_string(unit) + " of " + job.definition.id + " leased before its round");
-  return LeaseGrant{leaseId, job.definition.id, std::move(leased), job.definition.sceneHash,
-                    options_.leaseTimeoutSeconds};
+  return grantOf(job, leaseId, std::move(leased));
+}
+
+LeaseGrant Coordinator::grantOf(const Job& job, uint64_t leaseId, WorkUnit unit) const {
+  LeaseGrant grant{leaseId, job.definition.id, std::move(unit), job.definition.sceneHash, options_.leaseTimeoutSeconds};
+  grant.kernel = job.kernel;
+  return grant;
+}
+
+void Coordinator::pinKernel(Job& job, const Worker& worker) {
+  std::vector<std::vector<std::string>> connected;
+  std::string runs;  // for the event: what each worker runs
+  const auto heardWithin = std::chrono::duration<double>(staleAfterSeconds());
+  for (const auto& [id, w] : workers_) {
+    if (w->gone || w->quarantined || Clock::now() - w->lastHeartbeat > heardWithin || !job.definition.fitsOn(w->info))
+      continue;
+    connected.push_back(w->info.kernels);
+    if (!w->info.kernels.empty()) {
+      std::string list;
+      for (const std::string& k : w->info.kernels) list += (list.empty() ? "" : " ") + k;
+      runs += (runs.empty() ? "" : ", ") + w->label() + ": " + list;
+    }
+  }
+  job.kernel = commonKernel(connected, worker.info.kernels);
+  if (job.kernel.empty()) return;  // no worker said which it runs: each traces with its own
+  job.addEvent("traces with Embree's " + job.kernel + " kernel, the widest every connected worker runs (" + runs +
+               "): the same bits whichever renders what; a worker without it is not leased this job");
+  persistState(job);
+}
+
+double Coordinator::expectedUnitSeconds(const Job& job, uint64_t unit, const Worker& worker) const {
+  if (!(worker.samplesPerSecond > 0.0)) return -1.0;
+  const WorkUnit w = job.definition.layout.unit(unit);
+  const PixelRegion region = job.definition.layout.regionOf(unit);
+  return double(region.width) * double(region.height) * double(w.sampleCount) / worker.samplesPerSecond;
+}
+
+std::optional<LeaseGrant> Coordinator::tryBackupLease(Worker& worker, Clock::time_point now) {
+  // Stragglers (Dean and Ghemawat, "MapReduce", OSDI 2004, §3.6): a worker with nothing to do
+  // renders a unit still leased to a much slower one. Both leases stand; the first result counts
+  // and ends the other (admit), the unit is counted once, and the image does not change, as any
+  // worker's result for a unit is the same bits. One backup a unit; never an audit.
+  Job* bestJob = nullptr;
+  const LeaseTable::Lease* straggler = nullptr;
+  double bestGain = 0.0;
+  for (auto& [id, job] : jobs_) {
+    // (Called when no job has a unit for this worker: a job's pending units, if any, are beyond the
+    // window ahead of its summed prefix, which a straggler's unit holds back.)
+    if (isTerminal(job->progress.state) || job->audit.stopAwaitingAudits || !job->takes(worker.info) ||
+        job->failures.blocks(worker.id) || (bestJob && bestJob->servedBefore(*job)))
+      continue;  // (the first job by service order that has a straggler worth a backup)
+    for (const LeaseTable::Lease* lease : leases_.ofJob(job->definition.id)) {
+      if (lease->audit || lease->workerId == worker.id ||
+          leases_.unitLeases(job->definition.id, lease->unit).size() > 1 ||
+          job->progress.units.isRecording(lease->unit) || job->progress.units.isReceived(lease->unit))
+        continue;
+      const double mine = expectedUnitSeconds(*job, lease->unit, worker);
+      if (mine < 0.0) continue;  // this worker's speed is not known yet
+      const Worker* holder = workers_.known(lease->workerId);
+      const double elapsed = std::chrono::duration<double>(now - lease->granted).count();
+      const double theirs = holder ? expectedUnitSeconds(*job, lease->unit, *holder) : -1.0;
+      // What the backup saves: the holder's expected time left (unknown: it has taken three times
+      // this worker's whole unit already) against this worker's whole unit, with margin.
+      const double left = theirs >= 0.0 ? theirs - elapsed : (elapsed > 3.0 * mine ? elapsed : 0.0);
+      const double gain = left - kBackupMargin * mine;
+      if (gain > 0.0 && (bestJob != job.get() || gain > bestGain))
+        bestJob = job.get(), straggler = lease, bestGain = gain;
+    }
+  }
+  if (!bestJob) return std::nullopt;
+  Job& job = *bestJob;
+  const uint64_t unit = straggler->unit;
+  const std::string holder = workers_.labelOf(straggler->workerId);
+  const double elapsed = std::chrono::duration<double>(now - straggler->granted).count();
+  bool ready = true;
+  WorkUnit leased = unitToLease(job, unit, &ready);
+  if (!ready) return std::nullopt;
+  const auto longest = now + std::chrono::duration_cast<Clock::duration>(
+                                 std::chrono::duration<double>(std::max(options_.maxLeaseSeconds, 1e-3)));
+  const uint64_t leaseId = leases_.grant(worker.id, job.definition.id, unit, leaseDeadline(now), longest);
+  ++counters_.unitsLeased;
+  ++counters_.backupLeases;
+  worker.currentJobId = job.definition.id;
+  worker.currentUnit = unit;
+  job.addEvent("unit " + std::to_string(unit) + ", leased to " + holder + " " + secondsText(elapsed) +
+               " ago, also leased to " + worker.label() + " (about " + secondsText(bestGain) +
+               " sooner): the first result counts");
+  touch(job);
+  return grantOf(job, leaseId, std::move(leased));
 }
 
 WorkUnit Coordinator::unitToLease(const Job& job, uint64_t unit, bool* ready) const {
@@ -129,8 +219,8 @@ std::string Coordinator::releaseLeasesOf(Worker& worker, const std::string& verb
     if (lease.audit) job.audit.audits.release(unit, worker.id);
     // Back in the queue, leased again before any fresh unit; an upload under the old lease is
     // refused from now on, so the unit is still counted once.
-    if (!isTerminal(job.progress.state) && !job.progress.units.isReceived(unit) &&
-        !job.progress.units.isRecording(unit))
+    if (!lease.audit && !isTerminal(job.progress.state) && !job.progress.units.isReceived(unit) &&
+        !job.progress.units.isRecording(unit) && leases_.unitLeases(job.definition.id, unit).empty())
       job.progress.units.requeue(unit);
     byJob[job.definition.id].push_back(unit);
     ++counters_.unitsExpired;

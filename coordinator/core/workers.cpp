@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <set>
 
 #include "common/farm/memory_estimate.h"
 #include "common/util/error.h"
@@ -168,7 +169,8 @@ std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) co
   }
   if (!silent.empty()) return silent;
   if (!job.progress.units.hasPending()) return "";  // every unit is in or being recorded
-  uint64_t busyElsewhere = 0, tooSmall = 0, largest = 0;
+  uint64_t busyElsewhere = 0, tooSmall = 0, largest = 0, otherKernel = 0;
+  std::set<std::string> kernelsRun;  // by the connected workers without the job's kernel
   const Worker* recentlyGone = nullptr;
   for (const auto& [id, w] : workers_) {
     double s = 0.0;
@@ -176,6 +178,11 @@ std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) co
     if ((state == WorkerState::kIdle || state == WorkerState::kRendering) && !job.definition.fitsOn(w->info)) {
       ++tooSmall;  // connected, but never leased a unit of this job
       largest = std::max(largest, w->info.maxUnitMemoryBytes);
+      continue;
+    }
+    if ((state == WorkerState::kIdle || state == WorkerState::kRendering) && !job.takes(w->info)) {
+      ++otherKernel;  // connected, but it cannot run the kernel the job's units are traced with
+      kernelsRun.insert(w->info.kernels.back());
       continue;
     }
     switch (state) {
@@ -206,7 +213,14 @@ std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) co
     why += "no connected worker can hold a unit of this job: it needs " + formatBytes(job.definition.unitMemoryBytes) +
            " of worker memory, the largest of the " + std::to_string(tooSmall) + " connected allows " +
            formatBytes(largest) + " (LENSFARM_MAX_JOB_MEMORY on a worker); lower the resolution or add a bigger worker";
-  else if (busyElsewhere)
+  else if (otherKernel && !busyElsewhere) {
+    std::string run;
+    for (const std::string& k : kernelsRun) run += (run.empty() ? "" : " or ") + k;
+    why += "no connected worker runs this job's traversal kernel " + job.kernel + " (pinned when its first unit " +
+           "was leased, docs/farm.md \"Mixed machines\"); the " + std::to_string(otherKernel) +
+           " connected run at most " + run + ": start a worker that runs " + job.kernel +
+           ", or submit the job again with --kernel " + *kernelsRun.begin();
+  } else if (busyElsewhere)
     why += "waiting for a worker: " +
            (busyElsewhere == 1 ? std::string("the only one is") : "all " + std::to_string(busyElsewhere) + " are") +
            " rendering other jobs";
@@ -247,6 +261,16 @@ std::vector<WorkerView> Coordinator::workers() const {
       v.stateReason = w->goneReason;
     else if (v.state == WorkerState::kLost)
       v.stateReason = "no heartbeat for " + secondsText(v.secondsSinceHeartbeat) + " (not attached)";
+    else if (v.state == WorkerState::kIdle)
+      for (const auto& [jobId, job] : jobs_)  // idle beside work it cannot take: say why
+        if (!isTerminal(job->progress.state) && job->progress.units.hasPending() &&
+            !runsKernel(w->info.kernels, job->kernel)) {
+          std::string runs;
+          for (const std::string& k : w->info.kernels) runs += (runs.empty() ? "" : ", ") + k;
+          v.stateReason = "not leased " + jobId + ": its units are traced with kernel " + job->kernel +
+                          ", this worker runs " + runs;
+          break;
+        }
     if (!holders.count(id)) {  // it holds nothing now
       v.currentJobId.clear();
       v.currentUnit.reset();

@@ -143,6 +143,8 @@ v1::JobStatus toProto(const JobInfo& info) {
   s.set_submitted_unix_seconds(info.submittedUnixSeconds);
   s.set_version(info.version);
   for (const auto& e : info.effects) s.add_effects(e);
+  s.set_kernel(info.kernel);
+  for (const auto& b : info.builds) s.add_builds(b);
   auto* p = s.mutable_progress();
   p->set_samples_per_pixel_done(info.samplesPerPixelDone);
   p->set_samples_per_pixel_total(info.samplesPerPixelTotal);
@@ -165,6 +167,7 @@ v1::JobStatus toProto(const JobInfo& info) {
   p->set_progress_fraction(info.progressFraction);
   s.set_audits_passed(info.auditsPassed);
   s.set_audits_failed(info.auditsFailed);
+  s.set_audits_explained(info.auditsExplained);
   s.set_audits_pending(info.auditsPending);
   s.set_units_rerendered(info.unitsRerendered);
   for (const JobInfo::Event& e : info.events) {
@@ -196,6 +199,9 @@ v1::WorkerStatus toProto(const WorkerView& w) {
   p.set_units_done(w.unitsDone);
   p.set_seconds_since_heartbeat(w.secondsSinceHeartbeat);
   p.set_renderer_version(w.info.rendererVersion);
+  for (const std::string& k : w.info.kernels) p.add_kernels(k);
+  p.set_build(w.info.build);
+  p.set_cpu(w.info.cpu);
   p.set_state(workerStateName(w.state));
   p.set_seconds_in_state(w.secondsInState);
   p.set_state_reason(w.stateReason);
@@ -390,12 +396,25 @@ grpc::Status WorkerServiceImpl::Register(grpc::ServerContext* context, const v1:
   return guarded(gate_, context, "Register", [&] {
     if (request->name().size() > kMaxWorkerNameBytes)
       throw InputError("name", "at most " + std::to_string(kMaxWorkerNameBytes) + " bytes");
+    // What a worker says of itself is shown to people and written into EXR headers: short and printable.
+    const auto checkText = [](const char* field, const std::string& text, size_t most) {
+      if (text.size() > most) throw InputError(field, "at most " + std::to_string(most) + " bytes");
+      for (unsigned char c : text)
+        if (c < 0x20 || c == 0x7f) throw InputError(field, "holds a control character");
+    };
+    if (request->kernels_size() > 16) throw InputError("kernels", "at most 16 names");
+    for (const std::string& k : request->kernels()) checkText("kernels", k, 32);
+    checkText("build", request->build(), 256);
+    checkText("cpu", request->cpu(), 256);
     WorkerInfo info{request->name(),
                     std::max(1u, request->threads()),
                     request->protocol_version(),
                     request->renderer_version(),
                     request->max_unit_memory_bytes(),
-                    gate_.credentialOf(context)};
+                    gate_.credentialOf(context),
+                    {request->kernels().begin(), request->kernels().end()},
+                    request->build(),
+                    request->cpu()};
     std::string session;
     response->set_worker_id(coordinator_.registerWorker(info, &session));
     response->set_session(session);

@@ -33,6 +33,7 @@ const UploadHeader& UploadAssembler::begin(const v1::UploadResultRequest& first)
   header_.encoding = int(h.encoding());
   result_.stats = proto::fromProto(h.stats());
   result_.renderSeconds = h.stats().render_seconds();
+  result_.kernel = h.kernel();
   haveHeader_ = true;
   return header_;
 }

@@ -216,9 +216,11 @@ void StateStore::open() {
   addColumnIfMissing("jobs", "ended", "REAL");
   addColumnIfMissing("jobs", "archived", "INTEGER");
   addColumnIfMissing("jobs", "summary", "TEXT");
+  addColumnIfMissing("jobs", "kernel", "TEXT");
   exec(
       "CREATE TABLE IF NOT EXISTS ledger(job_id TEXT, unit INTEGER, worker TEXT, paths INTEGER, rays INTEGER, "
       "light_hits INTEGER, dropped INTEGER, PRIMARY KEY(job_id, unit))");
+  addColumnIfMissing("ledger", "build", "TEXT");
   exec("CREATE TABLE IF NOT EXISTS stamp(key TEXT PRIMARY KEY, value TEXT)");
   {
     // Units rendered by another renderer version would mix two images in one sensor.
@@ -449,13 +451,18 @@ void StateStore::updateJobPriority(const std::string& jobId, int priority) {
   Statement(db_, "UPDATE jobs SET priority = ? WHERE id = ?").bind(1, int64_t(priority)).bind(2, jobId).step();
 }
 
+void StateStore::updateJobKernel(const std::string& jobId, const std::string& kernel) {
+  std::lock_guard lock(mutex_);
+  Statement(db_, "UPDATE jobs SET kernel = ? WHERE id = ?").bind(1, kernel).bind(2, jobId).step();
+}
+
 std::vector<StateStore::StoredJob> StateStore::loadJobs() {
   std::lock_guard lock(mutex_);
   std::vector<StoredJob> out;
   Statement s(db_,
               "SELECT id, sequence, priority, spec, state, error, submitted, folded_units, "
               "coalesce(stop_units, -1), coalesce(stop_reason, ''), coalesce(owner, ''), coalesce(ended, 0), "
-              "coalesce(archived, 0), coalesce(summary, '') FROM jobs ORDER BY sequence");
+              "coalesce(archived, 0), coalesce(summary, ''), coalesce(kernel, '') FROM jobs ORDER BY sequence");
   while (s.step()) {
     StoredJob j;
     j.id = s.text(0);
@@ -472,6 +479,7 @@ std::vector<StateStore::StoredJob> StateStore::loadJobs() {
     j.endedUnixSeconds = s.real(11);
     j.archived = s.integer(12) != 0;
     j.summary = s.text(13);
+    j.kernel = s.text(14);
     out.push_back(std::move(j));
   }
   return out;
@@ -484,8 +492,8 @@ void StateStore::recordUnit(const std::string& jobId, const LedgerEntry& e, cons
       file, {header, std::string_view(reinterpret_cast<const char*>(sums.data()), sums.size() * sizeof(double))});
   std::lock_guard lock(mutex_);
   Statement(db_,
-            "INSERT OR IGNORE INTO ledger(job_id, unit, worker, paths, rays, light_hits, dropped) "
-            "VALUES(?, ?, ?, ?, ?, ?, ?)")
+            "INSERT OR IGNORE INTO ledger(job_id, unit, worker, paths, rays, light_hits, dropped, build) "
+            "VALUES(?, ?, ?, ?, ?, ?, ?, ?)")
       .bind(1, jobId)
       .bind(2, int64_t(e.unit))
       .bind(3, e.worker)
@@ -493,6 +501,7 @@ void StateStore::recordUnit(const std::string& jobId, const LedgerEntry& e, cons
       .bind(5, int64_t(e.stats.rays))
       .bind(6, int64_t(e.stats.lightHits))
       .bind(7, int64_t(e.stats.dropped))
+      .bind(8, e.build)
       .step();
 }
 
@@ -522,7 +531,9 @@ void StateStore::dropUnitFiles(const std::string& jobId, uint64_t fromUnit, uint
 std::vector<StateStore::LedgerEntry> StateStore::ledger(const std::string& jobId) {
   std::lock_guard lock(mutex_);
   std::vector<LedgerEntry> out;
-  Statement s(db_, "SELECT unit, worker, paths, rays, light_hits, dropped FROM ledger WHERE job_id = ? ORDER BY unit");
+  Statement s(db_,
+              "SELECT unit, worker, paths, rays, light_hits, dropped, coalesce(build, '') FROM ledger WHERE job_id = ? "
+              "ORDER BY unit");
   s.bind(1, jobId);
   while (s.step()) {
     LedgerEntry e;
@@ -532,6 +543,7 @@ std::vector<StateStore::LedgerEntry> StateStore::ledger(const std::string& jobId
     e.stats.rays = uint64_t(s.integer(3));
     e.stats.lightHits = uint64_t(s.integer(4));
     e.stats.dropped = uint64_t(s.integer(5));
+    e.build = s.text(6);
     out.push_back(e);
   }
   return out;

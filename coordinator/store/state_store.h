@@ -82,13 +82,15 @@ class StateStore {
     std::string owner;
     double endedUnixSeconds = 0.0;  // 0: not ended (or ended before this column existed)
     bool archived = false;
-    std::string summary;  // an archived job's progress (Coordinator::summaryOf)
+    std::string summary;   // an archived job's progress (Coordinator::summaryOf)
+    std::string kernel{};  // its pinned traversal kernel (util/trace_kernel.h); empty: not yet
   };
   void insertJob(const StoredJob& job);
   void updateJobState(const std::string& jobId, const std::string& state, const std::string& error,
                       const std::optional<uint64_t>& stopUnits = std::nullopt, const std::string& stopReason = "",
                       double endedUnixSeconds = 0.0);
   void updateJobPriority(const std::string& jobId, int priority);
+  void updateJobKernel(const std::string& jobId, const std::string& kernel);
   std::vector<StoredJob> loadJobs();  // in submission order
   // The highest job number ever inserted ("job-<n>"), so ids of deleted jobs are never reissued.
   uint64_t lastJobNumber();
@@ -109,6 +111,9 @@ class StateStore {
     uint64_t unit = 0;
     std::string worker;
     PathStats stats;
+    // The build and kernel it was rendered with ("gcc 12.2.0 Release, ... (avx512)"): the EXR's
+    // provenance. Empty for a row written before the column, or rebuilt from its unit file.
+    std::string build{};
   };
   // Makes an accepted unit durable: its checked file (entry and sums), then its ledger row. Throws
   // StorageError (checked_file.h) when the file cannot be written: then there is no row either.

@@ -67,6 +67,8 @@ std::string jobDetailJson(const JobInfo& info, const std::vector<ErrorPoint>& er
   j["frames"] = frames;
   j["scene_hash"] = info.sceneHash;
   j["effects"] = info.effects;
+  j["kernel"] = info.kernel;
+  j["builds"] = info.builds;
   j["light_hit_fraction"] = info.lightHitFraction();
   j["dropped_samples"] = info.stats.dropped;
   json history = json::array();
@@ -100,6 +102,9 @@ std::string workerListJson(const std::vector<WorkerView>& workers) {
                         {"audits_passed", w.auditsPassed},
                         {"audits_rendered", w.auditsRendered},
                         {"credential", w.info.credential},
+                        {"kernels", w.info.kernels},
+                        {"build", w.info.build},
+                        {"cpu", w.info.cpu},
                         {"quarantined", w.quarantined},
                         {"quarantine_reason", w.quarantineReason}});
   }

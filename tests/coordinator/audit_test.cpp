@@ -22,11 +22,11 @@ using nlohmann::json;
 
 constexpr int kWidth = 4, kHeight = 3;
 
-JobSpec auditSpec(uint64_t units) {
+JobSpec auditSpec(uint64_t units, int width = kWidth, int height = kHeight) {
   json scene = test::minimalSceneJson();
   scene["render"]["samples_per_pixel"] = units;
   scene["render"]["samples_per_unit"] = 1;
-  scene["render"]["resolution"] = {kWidth, kHeight};
+  scene["render"]["resolution"] = {width, height};
   JobSpec spec;
   spec.sceneName = "audit.json";
   spec.sceneJson = scene.dump();
@@ -35,8 +35,9 @@ JobSpec auditSpec(uint64_t units) {
 
 // A unit's result as a deterministic renderer gives it: every sum a function of the unit and the
 // cell alone (values whose sums depend on their order), times `scale` (1 for an honest worker).
-UnitResult rendered(const std::string& worker, const LeaseGrant& g, double scale = 1.0) {
-  UnitResult r = test::resultFor(worker, g, 0.0);
+UnitResult rendered(const std::string& worker, const LeaseGrant& g, double scale = 1.0, int width = kWidth,
+                    int height = kHeight) {
+  UnitResult r = test::resultFor(worker, g, 0.0, 0.0, width, height);
   for (size_t k = 0; k < r.buffer.sums.size(); ++k)
     r.buffer.sums[k] = scale * (std::fmod(double(g.unit.index * 7919 + k * 104729) * 0.6180339887, 1.0) * 1e3 + 1e-3);
   return r;
@@ -47,13 +48,19 @@ struct Worker {
   // Its sums for unit `u`, its n-th (from 0) result: 1 when honest.
   std::function<double(uint64_t n)> scale = [](uint64_t) { return 1.0; };
   uint64_t results = 0;
+  std::function<void(UnitResult&)> alter = [](UnitResult&) {};  // after scaling
 };
 
 // Leases and uploads round-robin until the job ends (a quarantined worker is leased nothing).
-void drive(Coordinator& c, const std::string& job, std::vector<Worker>& workers) {
+void drive(Coordinator& c, const std::string& job, std::vector<Worker>& workers, int width = kWidth,
+           int height = kHeight) {
   for (int round = 0; round < 20000 && !isTerminal(c.job(job).state); ++round)
     for (Worker& w : workers)
-      if (auto g = c.lease(w.id, 0.0)) c.acceptResult(rendered(w.id, *g, w.scale(w.results++)));
+      if (auto g = c.lease(w.id, 0.0)) {
+        UnitResult r = rendered(w.id, *g, w.scale(w.results++), width, height);
+        w.alter(r);
+        c.acceptResult(r);
+      }
   ASSERT_TRUE(isTerminal(c.job(job).state)) << "the job never ended";
 }
 
@@ -324,6 +331,71 @@ TEST(Audit, TwoWorkersThatDisagreeWithNoThirdQuarantineNobody) {
   EXPECT_TRUE(anyEventHas(info, "not settled: no other worker")) << eventsOf(info);
   std::vector<WorkerView> keep;
   for (const Worker& w : workers) EXPECT_FALSE(viewOf(c, w.id, keep).quarantined);
+}
+
+// A farm of two builds (docs/farm.md "Mixed machines"): a worker of another build whose results
+// differ from the others' in one cell of 256 by 1e-5, as another compiler's or Embree's rounding
+// does, is never quarantined: each disagreement is explained by the builds in an event, and counted
+// as explained. The same difference from a worker of the same build, or a difference in every cell
+// from a worker of another build, is a wrong result.
+TEST(Audit, AnotherBuildsRoundingIsExplainedAndOnlyAWrongResultIsQuarantined) {
+  const auto roundingInOneCell = [](UnitResult& r) { r.buffer.sums[40] *= 1.0 + 1e-5; };
+  const auto infoOf = [](const std::string& name, const std::string& build) {
+    WorkerInfo info = test::workerInfo(name);
+    info.build = build;
+    return info;
+  };
+  struct Case {
+    std::string build;  // the odd worker's (the others': "gcc A")
+    bool everyCell;     // its results differ in every cell (else in one)
+    bool quarantined;
+  };
+  for (const Case& k : {Case{"gcc B", false, false}, Case{"gcc A", false, true}, Case{"gcc B", true, true}}) {
+    SCOPED_TRACE(k.build + (k.everyCell ? ", every cell" : ", one cell"));
+    Coordinator::Options options;
+    options.auditFraction = 1.0;
+    Coordinator c(options);
+    const std::string job = c.submit(auditSpec(12, 16, 16), 0).id;
+    std::vector<Worker> workers;
+    for (const char* name : {"a", "b"}) workers.push_back({c.registerWorker(infoOf(name, "gcc A"))});
+    workers.push_back({c.registerWorker(infoOf("odd", k.build))});
+    if (k.everyCell)
+      workers[2].scale = [](uint64_t) { return 1.001; };
+    else
+      workers[2].alter = roundingInOneCell;
+    drive(c, job, workers, 16, 16);
+    const JobInfo info = c.job(job);
+    EXPECT_EQ(info.state, JobState::kDone) << info.error;
+    std::vector<WorkerView> keep;
+    EXPECT_EQ(viewOf(c, workers[2].id, keep).quarantined, k.quarantined) << eventsOf(info);
+    EXPECT_FALSE(viewOf(c, workers[0].id, keep).quarantined);
+    EXPECT_FALSE(viewOf(c, workers[1].id, keep).quarantined);
+    if (!k.quarantined) {
+      EXPECT_GE(info.auditsExplained, 1u) << eventsOf(info);
+      EXPECT_EQ(info.auditsFailed, 0u) << eventsOf(info);
+      EXPECT_TRUE(anyEventHas(info, "a difference of machines, not a wrong result")) << eventsOf(info);
+      EXPECT_TRUE(anyEventHas(info, ": gcc B, kernel not said; the others: gcc A, kernel not said)")) << eventsOf(info);
+    } else {
+      EXPECT_EQ(info.auditsExplained, 0u) << eventsOf(info);
+      EXPECT_GE(info.auditsFailed, 1u) << eventsOf(info);
+    }
+  }
+}
+
+TEST(Audit, RoundingLooksLikeAFewCellsAndASmallRmseAWrongResultDoesNot) {
+  std::vector<double> a(3 * 100);
+  for (size_t k = 0; k < a.size(); ++k) a[k] = 1.0 + double(k % 7);
+  std::vector<double> b = a;
+  b[5] *= 1.0 + 1e-4;  // one cell of 100: 1 %
+  EXPECT_TRUE(differenceLooksLikeRounding(a, b, 1e-6));
+  b[3 * 50] *= 1.0 + 1e-4;  // two cells of 100
+  EXPECT_TRUE(differenceLooksLikeRounding(a, b, 1e-6));
+  b[3 * 70] *= 1.0 + 1e-4;  // three: more than kRoundingCells
+  EXPECT_FALSE(differenceLooksLikeRounding(a, b, 1e-6));
+  b = a;
+  b[0] *= 1.5;  // one cell, but far more than rounding: relative RMSE above kRoundingRmse
+  EXPECT_FALSE(differenceLooksLikeRounding(a, b, 1e-6));
+  EXPECT_FALSE(differenceLooksLikeRounding(a, std::vector<double>(3, 1.0), 1e-6)) << "different sizes";
 }
 
 // An audit never holds a job hostage: a worker that heartbeats but never asks for work is the only

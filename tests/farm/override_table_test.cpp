@@ -38,6 +38,7 @@ RenderOverrides everyOverride() {
   EXPECT_TRUE(parseAovList("albedo,depth", aovs, &bad));
   o.aovs = aovs;
   o.adaptive = true;
+  o.kernel = TraceKernel::kAvx2;
   return o;
 }
 

@@ -19,23 +19,9 @@
 namespace lensfarm {
 namespace {
 
-// Sets LENSFARM_EMBREE_CONFIG for the lifetime of the guard (Embree reads it when a RayCaster is
-// made), then restores what was there.
-class EmbreeConfig {
- public:
-  explicit EmbreeConfig(const char* value) {
-    if (const char* old = std::getenv("LENSFARM_EMBREE_CONFIG")) old_ = old;
-    setenv("LENSFARM_EMBREE_CONFIG", value, 1);
-  }
-  ~EmbreeConfig() {
-    if (old_)
-      setenv("LENSFARM_EMBREE_CONFIG", old_->c_str(), 1);
-    else
-      unsetenv("LENSFARM_EMBREE_CONFIG");
-  }
-
- private:
-  std::optional<std::string> old_;
+// Embree reads LENSFARM_EMBREE_CONFIG when a RayCaster is made.
+struct EmbreeConfig : test::ScopedEnv {
+  explicit EmbreeConfig(const char* value) : test::ScopedEnv("LENSFARM_EMBREE_CONFIG", value) {}
 };
 
 Scene classicScene(test::TempDir& dir, int size, int spp) {
