@@ -12,6 +12,7 @@
 #include <regex>
 #include <sstream>
 
+#include "common/render/build_identity.h"
 #include "tests/deploy_support.h"
 
 namespace lensfarm {
@@ -341,6 +342,29 @@ TEST(Container, ComposeRunsTheBinariesWithTheirFlagsOnThePortsItPublishes) {
   const std::string workerSecret = secretFile(coordinator, c, "--worker-token-file");
   EXPECT_NE(clientSecret, workerSecret);
   EXPECT_EQ(secretFile(worker, w, "--token-file"), workerSecret);
+}
+
+// The image's worker is the same build as `make build` on Debian 12, so a farm mixing the two
+// gives the same bits and the same build identity (docs/farm.md "Mixed machines"): the same base
+// (Debian 12's compiler, Embree and glibc), the same build type as the Makefile's default, and no
+// flags of its own that could change the code generated.
+TEST(Container, TheImageBuildsTheRendererAsMakeBuildDoes) {
+  const std::vector<Stage> stages = stagesOf(dockerfile());
+  ASSERT_EQ(stages.size(), 2u);
+  std::string configure;
+  for (const std::string& i : stages[0].instructions)
+    if (i.find("cmake -S") != std::string::npos) configure = i;
+  ASSERT_FALSE(configure.empty()) << "the build stage configures with cmake -S";
+  EXPECT_NE(configure.find("-DCMAKE_BUILD_TYPE=Release"), std::string::npos) << configure;
+  for (const char* flag : {"CMAKE_CXX_FLAGS", "CMAKE_C_FLAGS", "-march", "-mtune", "-O", "CMAKE_CXX_COMPILER"})
+    EXPECT_EQ(configure.find(flag), std::string::npos) << flag << " would make another build: " << configure;
+  const std::string makefile = test::readFile(test::sourceDir() / "Makefile");
+  EXPECT_NE(makefile.find("CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release\n"), std::string::npos)
+      << "make build's default build type is the image's";
+  // A build's identity names what the image's shares with `make build`'s: compiler, build type,
+  // Embree and glibc.
+  EXPECT_TRUE(std::regex_search(buildIdentity(), std::regex(R"(^(gcc|clang) \S+.* \S+, Embree [0-9.]+, glibc [0-9.]+, )")))
+      << buildIdentity();
 }
 
 }  // namespace
