@@ -13,6 +13,8 @@
 #include "common/util/log_text.h"
 #include "coordinator/core/coordinator.h"
 #include "coordinator/core/coordinator_records.h"
+#include "coordinator/store/checked_file.h"
+#include "coordinator/store/state_store.h"
 
 namespace lensfarm {
 
@@ -109,7 +111,11 @@ void Coordinator::pinKernel(Job& job, const Worker& worker) {
   if (job.kernel.empty()) return;  // no worker said which it runs: each traces with its own
   job.addEvent("traces with Embree's " + job.kernel + " kernel, the widest every connected worker runs (" + runs +
                "): the same bits whichever renders what; a worker without it is not leased this job");
-  persistState(job);
+  if (store_) try {
+      store_->updateJobKernel(job.definition.id, job.kernel, true);
+    } catch (const StorageError& e) {
+      storageFailed(e);  // the row is written again with the job's state (persistState)
+    }
 }
 
 double Coordinator::expectedUnitSeconds(const Job& job, uint64_t unit, const Worker& worker) const {

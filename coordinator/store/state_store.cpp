@@ -424,7 +424,9 @@ std::vector<std::string> StateStore::recoverJobs() {
     job.state = "queued";
     job.owner = j.value("owner", "");
     job.submittedUnixSeconds = j.value("submitted", 0.0);
+    job.kernel = j.value("kernel", "");
     insertJob(job);
+    if (!job.kernel.empty()) updateJobKernel(job.id, job.kernel, false);
     repairs.push_back(dir.string() +
                       ": state.db had no row for it (a lost WAL or a damaged database?): taken back "
                       "from its files as submitted; its later priority, cancellation or end were not kept");
@@ -451,9 +453,17 @@ void StateStore::updateJobPriority(const std::string& jobId, int priority) {
   Statement(db_, "UPDATE jobs SET priority = ? WHERE id = ?").bind(1, int64_t(priority)).bind(2, jobId).step();
 }
 
-void StateStore::updateJobKernel(const std::string& jobId, const std::string& kernel) {
+void StateStore::updateJobKernel(const std::string& jobId, const std::string& kernel, bool inManifest) {
   std::lock_guard lock(mutex_);
   Statement(db_, "UPDATE jobs SET kernel = ? WHERE id = ?").bind(1, kernel).bind(2, jobId).step();
+  if (!inManifest) return;
+  // The manifest too, so a job taken back from its files (recoverJobs) keeps the bits of its units.
+  std::string damage;
+  const std::optional<std::string> text = readCheckedFile(jobDir(jobId) / "job.json", damage);
+  json manifest = text ? json::parse(*text, nullptr, false) : json();
+  if (manifest.is_discarded() || !manifest.is_object()) return;  // recoverJobs reports a damaged one
+  manifest["kernel"] = kernel;
+  writeCheckedFile(jobDir(jobId) / "job.json", {manifest.dump()});
 }
 
 std::vector<StateStore::StoredJob> StateStore::loadJobs() {

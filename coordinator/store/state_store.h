@@ -90,7 +90,9 @@ class StateStore {
                       const std::optional<uint64_t>& stopUnits = std::nullopt, const std::string& stopReason = "",
                       double endedUnixSeconds = 0.0);
   void updateJobPriority(const std::string& jobId, int priority);
-  void updateJobKernel(const std::string& jobId, const std::string& kernel);
+  // The job's pinned traversal kernel; `inManifest`: written into its job.json as well (once, when
+  // it is pinned), so a job taken back from its files keeps it.
+  void updateJobKernel(const std::string& jobId, const std::string& kernel, bool inManifest = false);
   std::vector<StoredJob> loadJobs();  // in submission order
   // The highest job number ever inserted ("job-<n>"), so ids of deleted jobs are never reissued.
   uint64_t lastJobNumber();

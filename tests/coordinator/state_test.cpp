@@ -228,7 +228,9 @@ class DamagedState : public ::testing::Test {
     options_.checkpointEverySeconds = 3600;  // only the explicit checkpoint below
     auto first = std::make_unique<Coordinator>(options_);
     jobs_ = {first->submit(sixUnits(), 0).id, first->submit(sixUnits(), 0).id};
-    const std::string a = first->registerWorker(workerInfo("a"));
+    WorkerInfo info = workerInfo("a");
+    info.kernels = {"sse2", "avx2"};  // the jobs pin avx2 (docs/farm.md "Mixed machines")
+    const std::string a = first->registerWorker(info);
     std::map<std::pair<std::string, uint64_t>, LeaseGrant> grants;
     while (auto g = first->lease(a, 0)) grants.emplace(std::pair(g->jobId, g->unit.index), *g);
     ASSERT_EQ(grants.size(), 12u);
@@ -357,10 +359,17 @@ TEST_F(DamagedState, AnEmptiedDatabaseLosesNoJob) {
   for (const std::string& job : jobs_) {
     EXPECT_EQ(c.job(job).unitsDone, 4u) << job;
     EXPECT_NE(events(c, job).find("taken back"), std::string::npos) << events(c, job);
+    EXPECT_EQ(c.job(job).kernel, "avx2") << "the pinned kernel comes back from job.json: " << job;
   }
   const auto leased = finish(c);
   EXPECT_EQ(leased.at(jobs_[0]), (std::vector<uint64_t>{4, 5}));
   EXPECT_EQ(c.submit(sixUnits(), 0).id, "job-3") << "ids are not reissued";
+}
+
+TEST_F(DamagedState, ARestartKeepsEachJobsPinnedKernel) {
+  Coordinator c(options_);
+  for (const std::string& job : jobs_) EXPECT_EQ(c.job(job).kernel, "avx2") << job;
+  finish(c);
 }
 
 TEST_F(DamagedState, ALostWalLosesNoUnit) {

@@ -363,7 +363,8 @@ TEST(Container, TheImageBuildsTheRendererAsMakeBuildDoes) {
       << "make build's default build type is the image's";
   // A build's identity names what the image's shares with `make build`'s: compiler, build type,
   // Embree and glibc.
-  EXPECT_TRUE(std::regex_search(buildIdentity(), std::regex(R"(^(gcc|clang) \S+.* \S+, Embree [0-9.]+, glibc [0-9.]+, )")))
+  EXPECT_TRUE(
+      std::regex_search(buildIdentity(), std::regex(R"(^(gcc|clang) \S+.* \S+, Embree [0-9.]+, glibc [0-9.]+, )")))
       << buildIdentity();
 }
 
