@@ -13,6 +13,7 @@
 #include "common/render/unit_renderer.h"
 #include "common/scene/scene_loader.h"
 #include "common/util/error.h"
+#include "common/util/log_text.h"
 #include "common/util/trace_kernel.h"
 #include "common/util/version.h"
 
@@ -110,13 +111,10 @@ std::shared_ptr<WorkerLoop::PreparedJob> WorkerLoop::prepare(const LeaseGrant& g
   job->scene = jobScene(spec, reader, options);
   if (job->scene.hash != grant.sceneHash)
     throw InputError(spec.sceneName, "scene hash " + job->scene.hash + " differs from the job's " + grant.sceneHash);
-  if (!grant.kernel.empty()) {
-    const std::optional<TraceKernel> kernel = kernelNamed(grant.kernel);
-    const std::vector<TraceKernel> runs = machineKernels();
-    if (!kernel || std::find(runs.begin(), runs.end(), *kernel) == runs.end())
-      throw InputError("Lease.kernel",
-                       "traversal kernel \"" + grant.kernel + "\" is not one " + options_.name + " runs");
-    job->scene.render.kernel = kernel;
+  if (!grant.kernel.empty()) {  // one this machine cannot run is refused by RayCaster (InputError)
+    job->scene.render.kernel = kernelNamed(grant.kernel);
+    if (!job->scene.render.kernel)
+      throw InputError("Lease.kernel", "unknown traversal kernel \"" + logText(grant.kernel.substr(0, 32)) + "\"");
   }
   job->kernel = kernelName(job->scene.render.kernel.value_or(machineBestKernel()));
   job->renderScene = std::make_unique<RenderScene>(job->scene);

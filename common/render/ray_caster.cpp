@@ -168,13 +168,10 @@ void RayCaster::createDevice(TraceKernel kernel) {
   // Embree's kernels for different instruction sets round differently (util/trace_kernel.h): the
   // device is always told which, so the bits never depend on what Embree would pick by itself.
   // Embree quietly runs a narrower kernel than one the CPU lacks: refused here instead.
-  const std::vector<TraceKernel> runs = machineKernels();
-  if (std::find(runs.begin(), runs.end(), kernel) == runs.end()) {
-    std::string names;
-    for (TraceKernel k : runs) names += std::string(names.empty() ? "" : ", ") + kernelName(k);
+  std::string runs;
+  if (!machineRuns(kernel, &runs))
     throw InputError("kernel", std::string("this machine cannot run Embree's ") + kernelName(kernel) +
-                                   " traversal kernel (it runs " + names + ")");
-  }
+                                   " traversal kernel (it runs " + runs + ")");
   const std::string config = embreeDeviceConfig(kernel);
   device_ = rtcNewDevice(config.c_str());
   if (!device_) throw std::runtime_error("cannot create an Embree device with configuration \"" + config + "\"");

@@ -113,6 +113,15 @@ std::vector<TraceKernel> machineKernels() {
 
 TraceKernel machineBestKernel() { return machineKernels().back(); }
 
+bool machineRuns(TraceKernel kernel, std::string* runs) {
+  const std::vector<TraceKernel> kernels = machineKernels();
+  if (runs) {
+    runs->clear();
+    for (TraceKernel k : kernels) *runs += std::string(runs->empty() ? "" : ", ") + kernelName(k);
+  }
+  return std::find(kernels.begin(), kernels.end(), kernel) != kernels.end();
+}
+
 std::string embreeDeviceConfig(TraceKernel kernel) {
   std::string config;
   for (const std::string& s : configSettings())

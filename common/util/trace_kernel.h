@@ -32,6 +32,8 @@ const std::vector<std::string>& kernelNames();
 std::vector<TraceKernel> machineKernels();
 // The widest of machineKernels(): what `lensfarm render` and a job without a kernel use.
 TraceKernel machineBestKernel();
+// Whether `kernel` is one of machineKernels(); `runs` (if given) receives them as "sse2, avx2".
+bool machineRuns(TraceKernel kernel, std::string* runs = nullptr);
 
 // The Embree device configuration that selects `kernel`: LENSFARM_EMBREE_CONFIG's other settings
 // (threads, verbose, ...) with its `isa=` replaced by the kernel's.

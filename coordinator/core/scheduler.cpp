@@ -149,9 +149,9 @@ std::optional<LeaseGrant> Coordinator::tryBackupLease(Worker& worker, Clock::tim
       const Worker* holder = workers_.known(lease->workerId);
       const double elapsed = std::chrono::duration<double>(now - lease->granted).count();
       const double theirs = holder ? expectedUnitSeconds(*job, lease->unit, *holder) : -1.0;
-      // What the backup saves: the holder's expected time left (unknown: it has taken three times
-      // this worker's whole unit already) against this worker's whole unit, with margin.
-      const double left = theirs >= 0.0 ? theirs - elapsed : (elapsed > 3.0 * mine ? elapsed : 0.0);
+      // What the backup saves: the holder's expected time left against this worker's whole unit,
+      // with margin. A holder of unknown speed is expected to take as long again as it has so far.
+      const double left = theirs >= 0.0 ? theirs - elapsed : elapsed;
       const double gain = left - kBackupMargin * mine;
       if (gain > 0.0 && (bestJob != job.get() || gain > bestGain))
         bestJob = job.get(), straggler = lease, bestGain = gain;

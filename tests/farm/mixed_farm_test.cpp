@@ -151,9 +151,9 @@ class Throttle {
 };
 
 // One worker slowed 15x beside two others: near the job's end its unit is also leased to an idle
-// fast worker, whose result counts. The job's wall time stays within 1.3x of the two fast workers'
+// fast worker, whose result counts. The job's wall time stays within 1.4x of the two fast workers'
 // alone (measured in the same run, fast pair first), the image is the same bits, and each unit is
-// counted once.
+// counted once. A wall-time ratio: registered to run alone (tests/CMakeLists.txt, RUN_SERIAL).
 TEST_F(MixedFarm, AWorkerFifteenTimesSlowerDoesNotHoldTheJobsEndBack) {
   // 16 units of 16 samples a cell at 256 x 256: about half a second each on one core here.
   const std::filesystem::path scene = writeScene(256, 256, 16);
@@ -177,10 +177,12 @@ TEST_F(MixedFarm, AWorkerFifteenTimesSlowerDoesNotHoldTheJobsEndBack) {
   const auto [mixed, mixedSeconds] = timeJob(address);
   std::printf("wall time: two fast workers %.2f s; with a 15x slower third %.2f s (%.2fx)\n", aloneSeconds,
               mixedSeconds, mixedSeconds / aloneSeconds);
-  EXPECT_LE(mixedSeconds, 1.3 * aloneSeconds) << "the slow worker held the job back";
+  // Without backups this is 2.2x here: the slow worker's first unit takes 15 of the others'.
+  EXPECT_LE(mixedSeconds, 1.4 * aloneSeconds) << "the slow worker held the job back";
 
   const auto status = cli({"status", mixed, "--coordinator", address});
   EXPECT_NE(status.out.find("(16 / 16 units)"), std::string::npos) << status.out;
+  EXPECT_NE(status.out.find(", also leased to fast-"), std::string::npos) << status.out;
   expectFarmImageIsTheLocalRender(address, mixed, scene, "a backup lease must not change a bit");
 }
 
