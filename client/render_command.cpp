@@ -4,6 +4,7 @@
 // written with at least one whole unit in it: never an image of no samples.
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
+#include <sys/resource.h>
 #include <tbb/parallel_for_each.h>
 #include <tbb/task_arena.h>
 #include <unistd.h>
@@ -58,8 +59,10 @@ extern "C" void onSigint(int) {
 
 // Phase timings of the whole process (docs/performance.md, "Everything around the render"), at
 // debug level on a logger of their own, so the render's own levels (warn while tracing) do not
-// hide them: LENSFARM_TIMINGS=1 prints one line per phase on stderr, each with the wall-clock
-// time it ended (Unix seconds, for bench/whole_process.sh to add process start and exit).
+// hide them: LENSFARM_TIMINGS=1 prints one line per phase on stderr, each with the process's minor
+// page faults in the phase (a first write to a 4 KiB page: what frame-sized buffers cost where
+// huge pages are not given, util/large_pages.h) and the wall-clock time it ended (Unix seconds,
+// for bench/whole_process.sh to add process start and exit).
 class PhaseTimer {
  public:
   using Clock = std::chrono::steady_clock;
@@ -86,13 +89,18 @@ class PhaseTimer {
     const auto now = Clock::now();
     const double unixSeconds =
         std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-    logger_.debug("timing {:<14} {:9.2f} ms  (ends at {:.6f})", name,
-                  std::chrono::duration<double, std::milli>(now - since).count(), unixSeconds);
+    rusage usage{};
+    ::getrusage(RUSAGE_SELF, &usage);
+    logger_.debug("timing {:<14} {:9.2f} ms {:7} faults  (ends at {:.6f})", name,
+                  std::chrono::duration<double, std::milli>(now - since).count(), usage.ru_minflt - faults_,
+                  unixSeconds);
+    faults_ = usage.ru_minflt;
     return now;
   }
   std::mutex mutex_;
   spdlog::logger logger_;
   Clock::time_point last_ = Clock::now();
+  long faults_ = 0;  // minor faults when the last line was logged
 };
 
 struct RenderFlags {
@@ -300,7 +308,9 @@ class LocalFarm {
     WorkerOptions options;
     options.name = "local";
     options.threads = threads;
-    options.leaseWaitSeconds = 0.25;
+    // Idle only between a job's rounds and at its end, where stopWorker waits out the poll in
+    // flight: a short one keeps that wait off the command's time (a poll is a function call here).
+    options.leaseWaitSeconds = 0.05;
     worker_ = std::make_unique<WorkerLoop>(*link_, options);
     thread_ = std::thread([this] {
       try {

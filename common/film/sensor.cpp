@@ -1,5 +1,8 @@
 #include "common/film/sensor.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cstring>
 #include <stdexcept>
@@ -73,21 +76,24 @@ Image Sensor::developImage(const AovLayout& layout) const {
     throw std::invalid_argument("Sensor::developImage: the AOV layout is not the sensor's");
   Image image{width_, height_, std::vector<float>(size_t(width_) * height_ * 3)};
   if (layout.any()) image.layers = aovLayers(layout, width_, height_);
-  std::vector<double> cell(static_cast<size_t>(channels_));
-  for (int y = 0; y < height_; ++y) {
-    for (int x = 0; x < width_; ++x) {
-      const int i = width_ - 1 - x, j = height_ - 1 - y;  // 2013 report §4.7: the lens flips both axes
-      const DVec3 m = mean(i, j);
-      const size_t pixel = size_t(y) * width_ + x, k = 3 * pixel;
-      image.rgb[k] = float(m.x);
-      image.rgb[k + 1] = float(m.y);
-      image.rgb[k + 2] = float(m.z);
-      if (!layout.any()) continue;
-      const size_t at = (size_t(j) * width_ + i) * size_t(channels_);
-      for (size_t v = 0; v < cell.size(); ++v) cell[v] = sums_[at + v].value();
-      developAovPixel(layout, cell.data(), samples(i, j), pixel, image.layers);
+  // Each pixel is its own cell's mean: rows in parallel give the same bits for any thread count.
+  tbb::parallel_for(tbb::blocked_range<int>(0, height_, 16), [&](const tbb::blocked_range<int>& rows) {
+    std::vector<double> cell(static_cast<size_t>(channels_));
+    for (int y = rows.begin(); y < rows.end(); ++y) {
+      for (int x = 0; x < width_; ++x) {
+        const int i = width_ - 1 - x, j = height_ - 1 - y;  // 2013 report §4.7: the lens flips both axes
+        const DVec3 m = mean(i, j);
+        const size_t pixel = size_t(y) * width_ + x, k = 3 * pixel;
+        image.rgb[k] = float(m.x);
+        image.rgb[k + 1] = float(m.y);
+        image.rgb[k + 2] = float(m.z);
+        if (!layout.any()) continue;
+        const size_t at = (size_t(j) * width_ + i) * size_t(channels_);
+        for (size_t v = 0; v < cell.size(); ++v) cell[v] = sums_[at + v].value();
+        developAovPixel(layout, cell.data(), samples(i, j), pixel, image.layers);
+      }
     }
-  }
+  });
   return image;
 }
 

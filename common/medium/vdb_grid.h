@@ -8,6 +8,11 @@
 // transform(i, j, k); the box is the bounding box of the active voxels grown by half a voxel, in
 // the scene's world coordinates. Only axis-aligned transforms (scale and translation, the ones
 // exporters write) are read; a rotated or perspective (frustum) grid is refused.
+//
+// OpenVDB is loaded only when a scene names a .vdb: the reader is the module liblensfarm_openvdb.so
+// (medium/openvdb/openvdb_module.cpp), found next to the binaries as `cmake --install` lays them
+// out (<prefix>/<libdir>/lensfarm/) or in the build tree. Linked into every process, OpenVDB's
+// symbol bindings cost each start 60 ms (docs/performance.md).
 #include <string>
 #include <vector>
 
@@ -31,7 +36,15 @@ inline constexpr size_t kMaxGridVoxels = size_t(1) << 27;
 // InputError(file, field + ": ...") naming the file as `shown`: not an OpenVDB file, no grid of
 // that name (the names it has are listed), a grid that is not of floats, no active voxels, a
 // transform that is not axis-aligned, more than kMaxGridVoxels voxels.
+//
+// A missing module is the same InputError, saying where it was looked for.
 DenseGrid readVdbGrid(const std::string& content, const std::string& gridName, const std::string& shown,
                       const std::string& file, const std::string& field);
+
+// The module's entry point: fills `out`, or returns false with `error` saying why (the text after
+// "field: " in readVdbGrid's error).
+using VdbReadFunction = bool (*)(const std::string& content, const std::string& gridName, const std::string& shown,
+                                 DenseGrid& out, std::string& error);
+inline constexpr const char* kVdbReadSymbol = "lensfarm_read_vdb_grid";
 
 }  // namespace lensfarm

@@ -1,8 +1,9 @@
 // `cmake --install` into a temporary prefix: the binaries, the systemd units and the example
 // settings land where they belong; the units run the installed binaries with flags they accept,
 // load the tokens as credentials, restart on failure and drain on stop; systemd-analyze verifies
-// them when it is there.
+// them when it is there; the installed binary finds its OpenVDB module.
 #include <gtest/gtest.h>
+#include <openvdb/openvdb.h>
 #include <sys/stat.h>
 
 #include <fstream>
@@ -96,6 +97,32 @@ TEST_F(Install, PutsBinariesUnitsAndSettingsInTheirPlaces) {
       {LENSFARM_CMAKE_COMMAND, "--install", LENSFARM_BINARY_DIR, "--prefix", prefix_.path().string()}, 120);
   ASSERT_EQ(again.exitCode, 0) << again.err;
   EXPECT_EQ(test::readFile(prefix_ / "etc/lensfarm/coordinator.env"), "LENSFARM_LISTEN=10.0.0.1:7878\n");
+}
+
+// The installed `lensfarm` reads an OpenVDB file through the module installed beside it
+// (medium/vdb_grid.h), not the build tree's: the dynamic linker names the file it loads.
+TEST_F(Install, TheInstalledBinaryReadsOpenVdbThroughItsInstalledModule) {
+  const fs::path module = prefix_ / "lib/lensfarm/liblensfarm_openvdb.so";
+  ASSERT_TRUE(fs::is_regular_file(module)) << module;
+  openvdb::initialize();
+  openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
+  grid->setName("density");
+  grid->tree().setValue(openvdb::Coord(0, 0, 0), 1.0f);
+  openvdb::io::File((prefix_ / "fog.vdb").string()).write({grid});
+  nlohmann::json scene = test::minimalSceneJson();
+  scene["medium"] = "fog";
+  scene["media"] = {{"fog", {{"type", "grid"}, {"file", "fog.vdb"}, {"sigma_s", 0.5}, {"sigma_a", 0.1}}}};
+  prefix_.write("fog.json", scene.dump());
+  const auto r = test::runProcess({"/usr/bin/env", "LD_DEBUG=files", (prefix_ / "bin/lensfarm").string(), "render",
+                                   (prefix_ / "fog.json").string(), "-q", "-o", (prefix_ / "fog.exr").string()},
+                                  120);
+  ASSERT_EQ(r.exitCode, 0) << r.err.substr(r.err.size() > 4000 ? r.err.size() - 4000 : 0);
+  std::string loaded;  // the loader's lines about the module, for the message
+  for (const std::string& line : test::lines(r.err))
+    if (line.find("openvdb") != std::string::npos) loaded += line + "\n";
+  EXPECT_NE(r.err.find("file=" + module.string()), std::string::npos)
+      << "the installed module was not the one loaded:\n"
+      << loaded;
 }
 
 // The installed `lensfarm slurm` submits the installed worker script and names the installed
