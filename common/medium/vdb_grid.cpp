@@ -1,10 +1,8 @@
 #include "common/medium/vdb_grid.h"
 
 #include <dlfcn.h>
-#include <unistd.h>
 
 #include <filesystem>
-#include <mutex>
 #include <string>
 #include <vector>
 
@@ -30,24 +28,25 @@ struct Module {
   std::string why;  // when read is null
 };
 
-const Module& openModule() {
-  static Module module;
-  static std::once_flag once;
-  std::call_once(once, [] {
-    std::string tried;
-    for (const std::filesystem::path& path : moduleCandidates()) {
-      void* handle = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-      if (!handle) {
-        tried += std::string(tried.empty() ? "" : "; ") + ::dlerror();
-        continue;
-      }
-      module.read = reinterpret_cast<VdbReadFunction>(::dlsym(handle, kVdbReadSymbol));
-      if (module.read) return;  // kept loaded for the process's life
-      tried += path.string() + " has no " + kVdbReadSymbol;
-      ::dlclose(handle);
+Module loadModule() {
+  std::string tried;
+  for (const std::filesystem::path& path : moduleCandidates()) {
+    void* handle = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (!handle) {
+      tried += std::string(tried.empty() ? "" : "; ") + ::dlerror();
+      continue;
     }
-    module.why = "this installation cannot read OpenVDB files: its reader module is missing (" + tried + ")";
-  });
+    if (auto read = reinterpret_cast<VdbReadFunction>(::dlsym(handle, kVdbReadSymbol)))
+      return {read, ""};  // kept loaded for the process's life
+    tried += path.string() + " has no " + kVdbReadSymbol;
+    ::dlclose(handle);
+  }
+  return {nullptr, "this installation cannot read OpenVDB files: its reader module is missing (" + tried + ")"};
+}
+
+// Loaded once, by the first scene that names a .vdb (a function-local static: thread-safe).
+const Module& openModule() {
+  static const Module module = loadModule();
   return module;
 }
 
