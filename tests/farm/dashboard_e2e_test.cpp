@@ -365,8 +365,19 @@ TEST_F(DashboardFarm, ARealBrowserWatchesTheImageChangeAndCancels) {
   EXPECT_NE(browser.text("#workers tbody").find("w1"), std::string::npos);
   browser.screenshot(fs::path(LENSFARM_BINARY_DIR) / "dashboard-overview.png");
 
+  // The lists refresh every second without replacing what did not change: the job's link is the
+  // same node a poll later, so a click (press and release) on it is never lost.
+  const auto polled = [&] { return browser.text("#connection"); };
+  browser.run("document.querySelector('" + row + " a').lensfarmMarked = 'yes';");
+  const std::string lastPoll = polled();
+  ASSERT_TRUE(test::waitFor([&] { return polled() != lastPoll; }, 30)) << "the overview is not refreshed";
+  EXPECT_EQ(browser.run("const a = document.querySelector('" + row + " a'); return a ? a.lensfarmMarked || '' : null;"),
+            "yes");
+
   // The job page: the image on it changes as samples arrive.
   browser.click(row + " a");
+  ASSERT_TRUE(test::waitFor([&] { return browser.run("return location.hash;") == "#/job/" + job; }, 30))
+      << browser.run("return location.hash;").dump();
   const auto shown = [&] {
     const json v = browser.run(
         "const i = document.querySelector('#snapshot'); return [i.dataset.hash || '', i.dataset.spp || '', "

@@ -74,6 +74,25 @@ function el(tag, attributes = {}, ...children) {
   for (const child of children) node.append(child instanceof Node ? child : document.createTextNode(String(child)));
   return node;
 }
+// Puts `rows` into `tbody`, keeping every row and cell whose content did not change: the lists are
+// refreshed every second, and a node replaced between a click's press and release loses the click
+// (for a person and for WebDriver alike), so a job's link must be the same node from poll to poll.
+function patchRows(tbody, rows) {
+  rows.forEach((row, i) => {
+    const old = tbody.children[i];
+    if (!old || old.dataset.key !== row.dataset.key || old.cells.length !== row.cells.length) {
+      if (old) old.replaceWith(row); else tbody.append(row);
+      return;
+    }
+    Object.assign(old.dataset, row.dataset);
+    [...row.cells].forEach((cell, c) => {
+      const kept = old.cells[c];
+      if (kept.innerHTML !== cell.innerHTML || kept.className !== cell.className || kept.title !== cell.title)
+        kept.replaceWith(cell);
+    });
+  });
+  while (tbody.children.length > rows.length) tbody.lastElementChild.remove();
+}
 const badge = (state) => el("span", { class: `badge state-${state}` }, state);
 // Samples per pixel: "106 / 128", or "688" for a job that runs to a target error or a deadline
 // (spp_total null: it has no cap of its own).
@@ -115,7 +134,7 @@ function show(view) {
 async function renderOverview() {
   const [{ jobs }, { workers }] = await Promise.all([getJson("/api/jobs"), getJson("/api/workers")]);
   const jobRows = jobs.map((j) =>
-    el("tr", { dataset: { job: j.id, state: j.state } },
+    el("tr", { dataset: { key: j.id, job: j.id, state: j.state } },
       el("td", {}, el("a", { href: `#/job/${encodeURIComponent(j.id)}` }, j.id)),
       el("td", {}, `${j.scene} `, el("span", { class: "muted" }, `${j.width}×${j.height}`)),
       el("td", {}, badge(j.state), j.archived ? el("span", { class: "muted small" }, " archived") : "",
@@ -126,7 +145,7 @@ async function renderOverview() {
       el("td", { class: "num" }, isTerminal(j.state) ? "–" : fmtCount(j.samples_per_second)),
       el("td", { class: "num" }, fmtError(j.estimated_error, j.units_done)),
       el("td", { class: "num time-left" }, timeLeft(j))));
-  $("#jobs tbody").replaceChildren(...jobRows);
+  patchRows($("#jobs tbody"), jobRows);
   $("#jobs-empty").hidden = jobs.length > 0;
   const gone = (w) => w.state === "lost" || w.state === "left";
   // A quarantined worker (the cross-worker audit) says so first, its state beside, the reason below.
@@ -137,7 +156,7 @@ async function renderOverview() {
        gone(w) || w.state === "stale" ? el("span", { class: "muted" }, ` ${fmtDuration(w.seconds_in_state)}${gone(w) ? " ago" : " silent"}`) : "",
        w.state_reason ? el("div", { class: "muted small" }, w.state_reason) : ""];
   const workerRows = workers.map((w) =>
-    el("tr", { dataset: { worker: w.id, state: w.quarantined ? "quarantined" : w.state } },
+    el("tr", { dataset: { key: w.id, worker: w.id, state: w.quarantined ? "quarantined" : w.state } },
       el("td", {}, w.name || w.id, " ", el("span", { class: "muted" }, w.id)),
       el("td", { class: "num" }, w.cores),
       el("td", { class: "worker-state" }, ...workerState(w)),
@@ -147,7 +166,7 @@ async function renderOverview() {
       el("td", { class: "num" }, w.samples_per_second > 0 ? fmtCount(w.samples_per_second) : "–"),
       el("td", { class: "num" }, w.units_done),
       el("td", { class: "num" }, `${w.seconds_since_heartbeat.toFixed(1)} s ago`)));
-  $("#workers tbody").replaceChildren(...workerRows);
+  patchRows($("#workers tbody"), workerRows);
   $("#workers-empty").hidden = workers.length > 0;
 }
 
@@ -228,7 +247,9 @@ async function loadSnapshot(job) {
 }
 
 // The estimated relative error against elapsed time, log-scaled, as plain SVG.
-function drawErrorChart(svg, points, target) {
+function drawErrorChart(svg, history, target) {
+  // Only positive, finite errors have a place on a log axis (a 0 would make the grid endless).
+  const points = history.filter((p) => p.error > 0 && isFinite(p.error) && isFinite(p.t));
   const NS = "http://www.w3.org/2000/svg";
   const W = 480, H = 240, left = 58, right = 14, top = 12, bottom = 40;
   const node = (tag, attributes, text) => {
