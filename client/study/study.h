@@ -23,8 +23,9 @@
 //    target errors, the worst 1 % of pixels, the bias check (mean ratio), the live estimate beside
 //    the true error, and the crossovers;
 //  - media: cornell-media without its media, with each alone and with all (the fog bank, the
-//    marble block's random walk, the glass of milk), and with walks cut short: time per path,
-//    rays per path, energy and the time to the same error.
+//    marble block's random walk, the glass of milk), the fog and the whole scene without
+//    equiangular sampling, and with walks cut short: time per path, rays per path, energy and the
+//    time to the same error.
 #include <filesystem>
 #include <set>
 #include <string>

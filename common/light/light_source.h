@@ -98,6 +98,9 @@ class LightSource {
   // A light sample from `ref` with sample values u; pdf is the light's own density (1 for a delta
   // light), not yet multiplied by the probability of choosing it. Nothing where there is none.
   virtual std::optional<LightSample> sample(const Vec3& ref, Vec2 u, const SceneSphere& sphere) const = 0;
+  // The one point every sample() of a light at a point lies on (a point, a spot), whatever ref
+  // and u; nothing for the others (render/light_sampler.h, LightSampler::position).
+  virtual std::optional<Vec3> position() const { return std::nullopt; }
 
   // For lights reached by escaped rays: the radiance arriving along a ray that leaves the scene
   // in direction d (unit), and the solid-angle density with which sample() gives d.

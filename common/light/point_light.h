@@ -36,6 +36,7 @@ class PointLight final : public LightSource {
   std::optional<LightSample> sample(const Vec3& ref, Vec2, const SceneSphere&) const override {
     return pointLightSample(position_, intensity_, ref);
   }
+  std::optional<Vec3> position() const override { return position_; }
 
  private:
   Vec3 position_;  // render space

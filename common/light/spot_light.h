@@ -32,6 +32,7 @@ class SpotLight final : public LightSource {
   // Phi = 2 pi I (1 - (cos falloff_start + cos cone_angle) / 2) (pbrt-v4's SpotLight::Phi).
   double powerOverPi(const SceneSphere&) const override;
   std::optional<LightSample> sample(const Vec3& ref, Vec2, const SceneSphere&) const override;
+  std::optional<Vec3> position() const override { return position_; }
 
   // The fraction of I sent in direction w (unit, from the light).
   float falloff(const Vec3& w) const { return smoothStep(cosTotal_, cosFalloffStart_, glm::dot(axis_, w)); }

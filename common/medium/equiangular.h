@@ -19,12 +19,15 @@
 
 namespace lensfarm {
 
+// The angles are in double: a segment far along the ray from a light near its line spans angles
+// next to pi / 2, whose float spacing (1.2e-7) would quantise the samples and misstate their
+// density (a bias, once weighted by MIS); double keeps both to 1e-16 of the angle.
 struct EquiangularSegment {
   float tMin = 0.0f, tMax = 0.0f;
-  float delta = 0.0f;   // distance along the ray to the point nearest the light
-  float d = 0.0f;       // the ray's distance to the light, > 0
-  float thetaA = 0.0f;  // atan((tMin - delta) / d)
-  float thetaB = 0.0f;  // atan((tMax - delta) / d)
+  double delta = 0.0;   // distance along the ray to the point nearest the light
+  double d = 0.0;       // the ray's distance to the light, > 0
+  double thetaA = 0.0;  // atan((tMin - delta) / d)
+  double thetaB = 0.0;  // atan((tMax - delta) / d)
 };
 
 // The floor of D, relative to the segment's scale (max of |delta|, tMin and the finite tMax).

@@ -27,6 +27,12 @@ namespace {
 double transmit(double sigma, double t) { return sigma > 0.0 ? std::exp(-sigma * t) : 1.0; }
 }  // namespace
 
+float HomogeneousMedium::freeFlightDensity(float t) const {
+  double p = 0.0;
+  for (int c = 0; c < 3; ++c) p += sigmaT_[c] > 0.0f ? double(sigmaT_[c]) * transmit(sigmaT_[c], t) : 0.0;
+  return float(p / 3.0);
+}
+
 FreeFlight HomogeneousMedium::sampleFreeFlight(float tMax, float uChannel, float u) const {
   Spectrum ratio(1.0f);
   return sampleFreeFlight(tMax, std::min(2, int(uChannel * 3.0f)), u, ratio);

@@ -63,6 +63,10 @@ class HomogeneousMedium {
   const HenyeyGreenstein& phase() const { return phase_; }
 
   Spectrum transmittance(float d) const { return beerLambert(sigmaT_, d); }
+  // pbar(t) = (1/3) sum_c sigma_c exp(-sigma_c t), the density of a scattering event at t of the
+  // free-flight sampling below before any spectral history (a path's first segment): what the
+  // volume tracer weighs equiangular sampling against (render/volume_integrator.cpp).
+  float freeFlightDensity(float t) const;
 
   // Free-flight sampling for a chromatic medium with one-sample spectral MIS (the "hero channel"
   // of pbrt-v3's GridDensityMedium and Cycles' volume code): a channel c is chosen uniformly from

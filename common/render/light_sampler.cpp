@@ -57,6 +57,7 @@ LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const st
     otherOfLight[k] = others_.size();
     others_.push_back(Other{&light, 0.0f});
     hasDelta_ |= light.isDelta();
+    hasPositioned_ |= light.position().has_value();
     power.push_back(p);
     total += p;
   }
@@ -201,6 +202,15 @@ std::optional<LightSample> LightSampler::sampleOther(size_t i, const Vec3& ref, 
   s->pdf *= o.pmf;
   if (!(s->pdf > 0.0f && std::isfinite(s->pdf))) return std::nullopt;
   return s;
+}
+
+std::optional<Vec3> LightSampler::position(float uChoice, Vec2 uPoint) const {
+  if (empty()) return std::nullopt;
+  const size_t i = choose(uChoice);
+  if (i >= lights_.size()) return others_[i - lights_.size()].light->position();
+  const Light& l = lights_[i];
+  const Vec2 b = sampleUniformTriangle(uPoint);
+  return b.x * l.v0 + b.y * l.v1 + (1.0f - b.x - b.y) * l.v2;  // sampleTrianglePoint's point
 }
 
 std::optional<LightSample> LightSampler::sample(const Vec3& ref, float uChoice, Vec2 uPoint) const {

@@ -55,6 +55,9 @@ class LightSampler {
   size_t size() const { return lights_.size() + others_.size(); }  // the lights sampled
   // Whether a light sample may be of a delta light (LightSample::delta).
   bool hasDeltaLights() const { return hasDelta_; }
+  // Whether some light sampled lies at points (emitting triangles, point and spot lights): only
+  // those have a position() for equiangular sampling.
+  bool hasPositionedLights() const { return !lights_.empty() || hasPositioned_; }
   // Whether lights other than triangles are sampled: only then does the lane form write the
   // lanes' delta and reach.
   bool hasOtherLights() const { return !others_.empty(); }
@@ -71,6 +74,11 @@ class LightSampler {
   std::optional<LightSample> sample(const Vec3& ref, float uChoice, Vec2 uPoint) const;
   // The same for every lane of a packet: each lane gets the bits sample() gives it.
   void sample(LightSampleLanes& lanes) const;
+  // The point sample() gives for these numbers from every `ref`, where it does not depend on ref:
+  // on an emitting triangle (uniform by area) or a light at a point. Nothing for the other lights
+  // (directions, not points) and where there are none. Equiangular sampling towards a light
+  // (render/volume_integrator.cpp) chooses the point before the shading point it lights.
+  std::optional<Vec3> position(float uChoice, Vec2 uPoint) const;
 
   // Density (solid angle, at a point at distance `distance` in direction d) with which sample()
   // would have produced the point hit on emitting triangle `triangle` (RayCaster index); 0 where
@@ -129,6 +137,7 @@ class LightSampler {
   SceneSphere sphere_;
   std::vector<EscapeLight> escapeLights_;
   bool hasDelta_ = false;
+  bool hasPositioned_ = false;
 };
 
 // The bounding sphere of the caster's triangles and the camera (render space's origin).

@@ -5,10 +5,12 @@
 // limit, a light sample as a shadow query, the scattered direction). Internal to the tracers.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include "common/math/ray_offset.h"
 #include "common/math/sampling.h"
+#include "common/medium/equiangular.h"
 #include "common/render/integrator.h"
 #include "common/render/shading_point.h"
 
@@ -16,6 +18,24 @@ namespace lensfarm::path_vertex {
 
 // Shadow rays stop this fraction short of the light point (itself offset off the light).
 constexpr float kShadowEpsilon = 1e-4f;
+
+// A medium vertex whose direct light equiangular sampling also estimates (render/volume_integrator.cpp):
+// its ray segment [0, tMax) from `origin` along `direction`, its distance t on it and the
+// free-flight density there. A triangle light its scattered ray reaches is weighed against both
+// light strategies: the light sample's solid-angle density is scaled by
+// sqrt(1 + (p_equiangular(t | x) / p_free-flight(t))^2), x the point reached (the power heuristic
+// over three strategies, volume_integrator.cpp).
+struct MediumVertexMis {
+  Vec3 origin, direction;
+  float tMax, t, freeFlightPdf;
+
+  float lightPdfScale(const Vec3& x) const {
+    const double pe = equiangularPdf(equiangularSegment(origin, direction, 0.0f, tMax, x), t);
+    if (!(freeFlightPdf > 0.0f)) return pe > 0.0 ? std::numeric_limits<float>::infinity() : 1.0f;
+    const double r = pe / double(freeFlightPdf);
+    return float(std::sqrt(1.0 + r * r));
+  }
+};
 
 // One camera path between two ray casts.
 struct PathState {
@@ -31,6 +51,8 @@ struct PathState {
   // vertex (render/light_tracer.h): its first vertex scattered by a non-delta lobe and every vertex
   // is of a material the light tracer handles. Only set while light tracing is on.
   bool lightTraced = false;
+  // Set by the volume tracer after a medium vertex whose direct light two strategies sample.
+  const MediumVertexMis* mediumVertex = nullptr;
 
   explicit PathState(const CameraRay& ray) : origin(ray.origin), direction(ray.direction) {}
   PathState() = default;
@@ -95,8 +117,10 @@ inline void addEmittedLight(const RenderScene& rs, const SurfaceHit& hit, const 
   // Binary MIS with the light tracer (render/light_tracer.h): a light reached through a delta
   // vertex after a diffuse first vertex is the light tracer's to count, where it emits.
   if (path.lightTraced && path.lastSpecular && rs.lights().samplesTriangle(hit.triangle)) return;
-  const float weight =
-      reachedLightWeight<kNee>(rs, path, [&] { return rs.lights().pdf(hit.triangle, hit.t, path.direction); });
+  const float weight = reachedLightWeight<kNee>(rs, path, [&] {
+    const float pdf = rs.lights().pdf(hit.triangle, hit.t, path.direction);
+    return path.mediumVertex && pdf > 0.0f ? pdf * path.mediumVertex->lightPdfScale(hit.p) : pdf;
+  });
   path.radiance += path.throughput * le * weight;
 }
 

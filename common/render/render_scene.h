@@ -10,6 +10,7 @@
 #include "common/camera/camera.h"
 #include "common/camera/thin_lens_camera.h"
 #include "common/film/aov_layout.h"
+#include "common/medium/medium.h"
 #include "common/render/light_sampler.h"
 #include "common/render/ray_caster.h"
 #include "common/scene/effects.h"
@@ -30,6 +31,7 @@ class RenderScene {
         effects_(general ? EffectSet::all(scene) : analyzeEffects(scene, *declared)),
         mirrorsReachable_(general ? analyzeEffects(scene, declared->paraxial()).specular : effects_.specular),
         lightTracing_(general ? analyzeEffects(scene, *declared).lightTracing : effects_.lightTracing),
+        equiangular_(general ? analyzeEffects(scene, *declared).equiangular : effects_.equiangular),
         camera_(renderCamera(std::move(declared), effects_)),
         caster_(scene),
         lights_(scene, caster_, effects_.lightUseful, scene.render.integrator == IntegratorKind::kNaive),
@@ -62,6 +64,9 @@ class RenderScene {
       if (m.interior && m.passesThrough()) mediaShadowRaysLeave_.push_back(m.interior.get());
       if (m.exterior) mediaShadowRaysLeave_.push_back(m.exterior.get());  // (an outside is open)
     }
+    if (equiangular_)
+      for (const Medium* m : mediaShadowRaysLeave_)
+        if (m->homogeneous() && m->scatters()) mediaEquiangular_.push_back(m->asHomogeneous());
   }
 
  public:
@@ -97,6 +102,13 @@ class RenderScene {
   bool shadowRaysLeave(const Medium* medium) const {
     return std::find(mediaShadowRaysLeave_.begin(), mediaShadowRaysLeave_.end(), medium) != mediaShadowRaysLeave_.end();
   }
+  // The medium's coefficients where equiangular sampling serves it (EffectSet::equiangular: a
+  // homogeneous scattering medium shadow rays can leave, the effect on); else null.
+  const HomogeneousMedium* equiangularIn(const Medium* medium) const {
+    if (!medium || mediaEquiangular_.empty()) return nullptr;
+    const HomogeneousMedium* h = medium->asHomogeneous();
+    return std::find(mediaEquiangular_.begin(), mediaEquiangular_.end(), h) != mediaEquiangular_.end() ? h : nullptr;
+  }
   // What the packet tracer's lane loops read of each material (render/integrator.cpp): its
   // Lambertian albedo and Material's predicates as masks (~0u where true, 0 where false);
   // `general`: a model beyond Lambertian, which the one-path vertex code shades.
@@ -111,6 +123,7 @@ class RenderScene {
   EffectSet effects_;
   bool mirrorsReachable_;
   bool lightTracing_;
+  bool equiangular_;
   std::unique_ptr<const Camera> camera_;
   std::vector<uint8_t> lightTraced_;  // per material; empty without light tracing
   RayCaster caster_;
@@ -120,6 +133,7 @@ class RenderScene {
   std::vector<MaterialRecord> materialRecords_;
   std::vector<uint8_t> shaded_;
   std::vector<const Medium*> mediaShadowRaysLeave_;
+  std::vector<const HomogeneousMedium*> mediaEquiangular_;
   float pixelAngle_ = 0.0f;
 };
 

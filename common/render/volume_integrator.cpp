@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "common/medium/equiangular.h"
+#include "common/medium/homogeneous_medium.h"
 #include "common/medium/medium.h"
 #include "common/render/path_vertex.h"
 
@@ -70,14 +72,110 @@ Spectrum shadowTransmittance(const RenderScene& rs, Vec3 from, const Vec3& direc
   return Spectrum(0.0f);
 }
 
+// Whether a path may scatter once more (the limits on medium events and surface bounces).
+bool mayScatter(const RenderSettings& settings, int mediumBounces, const PathState& path) {
+  return mediumBounces < settings.maxMediumBounces && path.bounces < settings.maxBounces;
+}
+
+// Whether a scattering event now would be the last the limit allows: its light sample alone
+// carries the direct light (weight 1) and no scattered ray is cast.
+bool lastMediumEvent(const RenderScene& rs, int mediumBounces) {
+  return mediumBounces + 1 >= rs.settings().maxMediumBounces && lastBounceCanEndPaths(rs);
+}
+
+// Equiangular sampling (medium/equiangular.h) joined to free-flight sampling. In a homogeneous
+// scattering medium lit by a light at points, the direct light scattered along a ray segment
+// [0, tMax) is the integral over t and over points x on the lights of
+//     T(t) sigma_s phase(wo, wi) L_e(x) G(v(t), x) T(v(t), x),
+// which three strategies sample: (d) a free-flight distance t, then a light point x (the
+// vertex's light sample); (p) a free-flight distance t, then the phase function's direction,
+// whose ray reaches x; (e) a light point x first (LightSampler::position), then t equiangularly
+// towards it (this segment's own light sample, whether or not the path scatters in it). With
+// the densities per unit t and per solid angle at v(t),
+//     a = p_d(t) p_phase(wi),   b = p_d(t) p_light(wi),   c = p_e(t | x) p_light(wi),
+// each sample is weighted by the power heuristic over the three, its own density squared over
+// a^2 + b^2 + c^2 (Veach 1997 §9.2.2; weights that sum to 1 for every (t, x), whatever densities
+// they use, keep the estimate unbiased). p_d is the free-flight density before spectral history
+// (HomogeneousMedium::freeFlightDensity); a is 0 where the phase sample is not weighed against
+// light samples (NEE alone, a delta light, the last event). Dividing by p_d:
+//     w_d = b'^2 / (a'^2 + b'^2 (1 + r^2)),  w_e = b'^2 r^2 / (same),  r = p_e(t | x) / p_d(t),
+// a' = p_phase, b' = p_light; the phase sample's weight is the power heuristic against
+// p_light sqrt(1 + r^2) (path_vertex.h, MediumVertexMis). Infinite lights (directions, not
+// points) keep the two-strategy weights of a vertex.
+struct EquiangularWeights {
+  float light, equiangular;  // w_d and w_e
+};
+EquiangularWeights equiangularWeights(float phasePdf, float lightPdf, double r) {
+  if (std::isinf(r)) return {0.0f, 1.0f};  // free flight cannot reach t (its density underflowed)
+  const double a2 = double(phasePdf) * phasePdf, b2 = double(lightPdf) * lightPdf;
+  const double sum = a2 + b2 * (1.0 + r * r);
+  if (!(sum > 0.0) || std::isinf(sum)) return {0.0f, 0.0f};
+  return {float(b2 / sum), float(b2 * r * r / sum)};
+}
+
+// r = p_e(t | x) / p_d(t) for the point at t of a ray segment (MediumVertexMis's ratio).
+double equiangularRatio(const HomogeneousMedium& fog, const Vec3& origin, const Vec3& dir, float tMax, float t,
+                        const Vec3& x) {
+  const double pe = equiangularPdf(equiangularSegment(origin, dir, 0.0f, tMax, x), t);
+  const double pd = fog.freeFlightDensity(t);
+  if (!(pd > 0.0)) return pe > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
+  return pe / pd;
+}
+
+// The segment of a path's ray in a medium equiangular sampling serves.
+struct EquiangularSegmentOfPath {
+  const HomogeneousMedium* fog;
+  Vec3 origin, direction;
+  float tMax;
+};
+
+// Strategy (e) for the segment: the light scattered towards the path at one equiangular t
+// towards one light point, weighted against (d) and (p) (see above).
+Spectrum equiangularDirect(const RenderScene& rs, const SampleStream& rng, int segment, const Medium& medium,
+                           const EquiangularSegmentOfPath& seg, const PathState& path, bool lastEvent,
+                           PathStats& stats) {
+  const uint32_t base = dims::segment(uint32_t(segment));
+  // The light point from the segment's light dimensions (the vertex a segment ends at draws the
+  // same: correlated strategies, each unbiased), t from the segment's own stream.
+  const float uChoice = rng.get1D(base + dims::kLightChoice);
+  const Vec2 uPoint = rng.get2D(base + dims::kLightPoint);
+  const std::optional<Vec3> x = rs.lights().position(uChoice, uPoint);
+  if (!x) return Spectrum(0.0f);
+  MediumRng mr(rng.streamKey(base + dims::kMaterialLobe) ^ 0x5851f42d4c957f2dull);
+  const EquiangularSegment es = equiangularSegment(seg.origin, seg.direction, 0.0f, seg.tMax, *x);
+  const float t = sampleEquiangular(es, mr());
+  const float pe = equiangularPdf(es, t);
+  if (!(pe > 0.0f)) return Spectrum(0.0f);
+  const Vec3 v = seg.origin + t * seg.direction;
+  const auto ls = rs.lights().sample(v, uChoice, uPoint);  // the same point x, seen from v
+  if (!ls || isBlack(ls->radiance)) return Spectrum(0.0f);
+  const Vec3 wi = glm::normalize(ls->p - v);
+  const float f = medium.phase().eval(-seg.direction, wi);
+  if (!(f > 0.0f)) return Spectrum(0.0f);
+  const bool mis = rs.settings().integrator == IntegratorKind::kNeeMis && !lastEvent && !ls->delta;
+  const double pd = seg.fog->freeFlightDensity(t);
+  const double r = pd > 0.0 ? double(pe) / pd : std::numeric_limits<double>::infinity();
+  const float w = equiangularWeights(mis ? f : 0.0f, ls->pdf, r).equiangular;
+  if (!(w > 0.0f)) return Spectrum(0.0f);
+  Vec3 direction = spawnOrigin(ls->p, ls->plane(), -wi) - v;
+  float tFar = 1.0f - kShadowEpsilon;
+  if (ls->reach > 0.0f) unitShadowRay(direction, ls->reach, direction, tFar);
+  const Spectrum tr = shadowTransmittance(rs, v, direction, tFar, &medium,
+                                          rng.streamKey(base + dims::kMaterialLobe) ^ 0x2545f4914f6cdd1dull, stats);
+  return path.throughput * seg.fog->transmittance(t) * seg.fog->sigmaS() * ls->radiance * tr * (f * w / (ls->pdf * pe));
+}
+
 // A scattering event at p inside `medium`: one light sample through the media (next-event
 // estimation), then the phase function's direction and Russian roulette. False where the path
-// ends. `mediumBounces` counts the path's events so far.
+// ends. `mediumBounces` counts the path's events so far. Where equiangular sampling serves the
+// segment (`seg`, at distance t), the light sample and the phase sample are weighted against it
+// and `vertex` records the event for the light the scattered ray reaches.
 template <bool kNee>
 bool scatterInMedium(const RenderScene& rs, const SampleStream& rng, int segment, const Vec3& p, const Medium& medium,
-                     int& mediumBounces, PathState& path, PathStats& stats) {
+                     const EquiangularSegmentOfPath* seg, float t, MediumVertexMis& vertex, int& mediumBounces,
+                     PathState& path, PathStats& stats) {
   const RenderSettings& settings = rs.settings();
-  if (mediumBounces >= settings.maxMediumBounces || path.bounces >= settings.maxBounces) return false;
+  if (!mayScatter(settings, mediumBounces, path)) return false;
   const uint32_t base = dims::segment(uint32_t(segment));
   const Vec3 wo = -path.direction;
   const HenyeyGreenstein& phase = medium.phase();
@@ -86,8 +184,7 @@ bool scatterInMedium(const RenderScene& rs, const SampleStream& rng, int segment
   // reaches counts with weight 1 instead (set below), which keeps the estimate unbiased and
   // halves the rays of a random walk.
   const bool sampleLights = kNee && rs.shadowRaysLeave(&medium);
-  // The last event the limit allows: its light sample alone carries the direct light (weight 1).
-  const bool lastBounce = sampleLights && mediumBounces + 1 >= settings.maxMediumBounces && lastBounceCanEndPaths(rs);
+  const bool lastBounce = sampleLights && lastMediumEvent(rs, mediumBounces);
   if (sampleLights) {
     const auto ls = rs.lights().sample(p, rng.get1D(base + dims::kLightChoice), rng.get2D(base + dims::kLightPoint));
     if (ls && !isBlack(ls->radiance)) {
@@ -97,8 +194,12 @@ bool scatterInMedium(const RenderScene& rs, const SampleStream& rng, int segment
         Vec3 direction = spawnOrigin(ls->p, ls->plane(), -wi) - p;
         float tFar = 1.0f - kShadowEpsilon;
         if (ls->reach > 0.0f) unitShadowRay(direction, ls->reach, direction, tFar);
-        const bool mis = settings.integrator == IntegratorKind::kNeeMis;
-        const float weight = mis && !lastBounce && !ls->delta ? powerHeuristic(ls->pdf, f) : 1.0f;
+        const bool mis = settings.integrator == IntegratorKind::kNeeMis && !lastBounce && !ls->delta;
+        float weight = mis ? powerHeuristic(ls->pdf, f) : 1.0f;
+        if (seg && ls->reach <= 1.0f)  // a light at points (a triangle: 0; a point or spot: 1)
+          weight = equiangularWeights(mis ? f : 0.0f, ls->pdf,
+                                      equiangularRatio(*seg->fog, seg->origin, seg->direction, seg->tMax, t, ls->p))
+                       .light;
         const Spectrum tr =
             shadowTransmittance(rs, p, direction, tFar, &medium, rng.streamKey(base + dims::kLightPoint), stats);
         path.radiance += path.throughput * ls->radiance * tr * (f * weight / ls->pdf);
@@ -112,6 +213,11 @@ bool scatterInMedium(const RenderScene& rs, const SampleStream& rng, int segment
   if (!survivesRoulette(settings, rng, base, mediumBounces, path.etaScale, path.throughput)) return false;
   path.lastSpecular = !sampleLights;  // no light sample here: a light reached next weighs 1
   path.lastPdf = s.pdf;
+  path.mediumVertex = nullptr;
+  if (seg) {
+    vertex = MediumVertexMis{seg->origin, seg->direction, seg->tMax, t, seg->fog->freeFlightDensity(t)};
+    path.mediumVertex = &vertex;
+  }
   path.origin = p;
   path.direction = s.wi;
   return true;
@@ -128,8 +234,9 @@ Spectrum traceVolumePath(const RenderScene& rs, const CameraRay& cameraRay, cons
   SpectralMis mis;  // the path's hero channel (medium/medium.h)
   mis.hero = std::min(2, int(MediumRng(rng.streamKey(dims::kHeroChannel))() * 3.0f));
   int mediumBounces = 0;
-  bool fromCamera = true;    // no vertex yet: rays see what the camera sees (RayKind::kCamera)
-  float sinceVertex = 0.0f;  // distance from the last vertex to the ray's origin (crossings)
+  MediumVertexMis vertexMis{};  // the last medium vertex, where path.mediumVertex points to it
+  bool fromCamera = true;       // no vertex yet: rays see what the camera sees (RayKind::kCamera)
+  float sinceVertex = 0.0f;     // distance from the last vertex to the ray's origin (crossings)
   const int segments = volumePathSegmentLimit(rs.settings());
   int segment = 0;
   for (; segment < segments; ++segment) {
@@ -139,12 +246,21 @@ Spectrum traceVolumePath(const RenderScene& rs, const CameraRay& cameraRay, cons
     if (medium) {
       MediumRng mr(rng.streamKey(dims::segment(uint32_t(segment)) + dims::kRoulette));
       const float tMax = hit ? hit->t : std::numeric_limits<float>::infinity();
+      // Equiangular sampling's light for the segment, before free flight changes the throughput.
+      const HomogeneousMedium* fog = kNee ? rs.equiangularIn(medium) : nullptr;
+      const bool equiangular = fog && mayScatter(rs.settings(), mediumBounces, path);
+      const EquiangularSegmentOfPath seg{fog, path.origin, path.direction, tMax};
+      if (equiangular)
+        path.radiance +=
+            equiangularDirect(rs, rng, segment, *medium, seg, path, lastMediumEvent(rs, mediumBounces), stats);
       const FreeFlight ff = medium->sampleFreeFlight(path.origin, path.direction, tMax, path.throughput, mr, mis);
       path.throughput *= ff.weight;
       if (isBlack(path.throughput)) break;
       if (ff.scattered) {
         const Vec3 p = path.origin + ff.t * path.direction;
-        if (!scatterInMedium<kNee>(rs, rng, segment, p, *medium, mediumBounces, path, stats)) break;
+        if (!scatterInMedium<kNee>(rs, rng, segment, p, *medium, equiangular ? &seg : nullptr, ff.t, vertexMis,
+                                   mediumBounces, path, stats))
+          break;
         fromCamera = false;
         sinceVertex = 0.0f;
         continue;
@@ -183,6 +299,7 @@ Spectrum traceVolumePath(const RenderScene& rs, const CameraRay& cameraRay, cons
       sinceVertex += hit->t;
       continue;
     }
+    path.mediumVertex = nullptr;  // a surface vertex scattered: its own MIS from here
     fromCamera = false;
     sinceVertex = 0.0f;
   }

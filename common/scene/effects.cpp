@@ -578,6 +578,45 @@ void decideLights(Analysis& a, EffectSet& e) {
     e.decisions.push_back({"indirect light", false, "no surface reflects: only emitters are seen"});
 }
 
+// Equiangular sampling in media (render/volume_integrator.cpp): listed only for scenes with media.
+void decideEquiangular(Analysis& a, EffectSet& e) {
+  if (!e.media) return;
+  const Scene& scene = a.scene;
+  // The media it can serve: homogeneous and scattering, where shadow rays can leave (the scene's
+  // medium, one inside an interface, one around a surface): RenderScene picks the same.
+  std::set<std::string> media;
+  const auto consider = [&](const Medium* m) {
+    if (m && m->homogeneous() && m->scatters()) media.insert("\"" + m->name() + "\"");
+  };
+  consider(scene.medium.get());
+  for (size_t m = 0; m < scene.materials.size(); ++m) {
+    if (!a.used[m]) continue;
+    const Material& mat = scene.materials[m];
+    if (mat.passesThrough()) consider(mat.interior.get());
+    consider(mat.exterior.get());
+  }
+  bool positioned = false;
+  for (size_t m = 0; m < scene.materials.size(); ++m) {
+    const Material& mat = scene.materials[m];
+    positioned |= a.used[m] && mat.isEmissive() && e.lightUseful[m] && !(mat.textures() && mat.textures()->emissive);
+  }
+  for (const auto& light : scene.lights) positioned |= light->position().has_value();
+  std::string why;
+  if (scene.render.mediumLightSampling == MediumLightSampling::kDistance)
+    why = "render.medium_light_sampling is \"distance\"";
+  else if (scene.render.integrator == IntegratorKind::kNaive || !e.lightSampling)
+    why = "no light sampling";
+  else if (media.empty())
+    why = "no homogeneous scattering medium that shadow rays can leave (a grid is distance-sampled alone)";
+  else if (!positioned)
+    why = "no light at points (an emitting surface, a point or a spot light)";
+  e.equiangular = why.empty();
+  if (e.equiangular)
+    why = "in " + listed(media) +
+          ", towards a point on a light, combined with free-flight sampling by MIS (Kulla & Fajardo 2012)";
+  e.decisions.push_back({"equiangular sampling", e.equiangular, why});
+}
+
 void decideLightTracing(Analysis& a, EffectSet& e) {
   const Scene& scene = a.scene;
   const std::vector<bool>& used = a.used;
@@ -633,7 +672,7 @@ void decideLightTracing(Analysis& a, EffectSet& e) {
 // The decisions, in the order `lensfarm render` lists them; each step is one effect.
 using EffectStep = void (*)(Analysis&, EffectSet&);
 constexpr EffectStep kEffectSteps[] = {decideCamera,    decideDiffraction, decideMaterials,   decideMedia,
-                                       decideThinWalls, decideLights,      decideLightTracing};
+                                       decideThinWalls, decideLights,      decideEquiangular, decideLightTracing};
 
 }  // namespace
 

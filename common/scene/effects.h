@@ -49,6 +49,10 @@ struct EffectSet {
   // A path can be inside a participating medium (a fog, a medium inside a mesh, subsurface
   // scattering): camera paths are traced by the volume path tracer (render/volume_integrator.h).
   bool media = false;
+  // Equiangular sampling (render/volume_integrator.cpp): on where a path can be in a homogeneous
+  // scattering medium that shadow rays can leave, lit by a light at points (an emitting
+  // triangle, a point or spot light), with light sampling and render.medium_light_sampling "auto".
+  bool equiangular = false;
   // A used material is a thin wall that lets light straight through with a tint (BsdfTraits::
   // thinWall: a window pane, glTF glass without a volume): camera paths are traced by the volume
   // path tracer, whose shadow rays cross such walls attenuated and whose paths cross them as null

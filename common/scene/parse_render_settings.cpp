@@ -51,6 +51,11 @@ void SceneParser::parseIntegratorSettings(FieldReader& r) {
   else
     r.fail("render.light_tracing", "unknown mode \"" + lightTracing + "\" (expected auto, on or off)");
   s.lightTracingRatio = r.number("light_tracing_ratio", 0.25, 1e-6, 64.0);
+  const std::string mediumLight = r.string("medium_light_sampling", "auto");
+  if (mediumLight == "auto" || mediumLight == "distance")
+    s.mediumLightSampling = mediumLight == "auto" ? MediumLightSampling::kAuto : MediumLightSampling::kDistance;
+  else
+    r.fail("render.medium_light_sampling", "unknown mode \"" + mediumLight + "\" (expected auto or distance)");
 }
 
 void SceneParser::parseAovs(FieldReader& r) {

@@ -94,6 +94,12 @@ enum class SamplerKind { kIndependent, kStratified, kSobol };
 // decide (scene/effects.h), kOn and kOff force it where the camera and layout allow it.
 enum class LightTracingMode { kAuto, kOn, kOff };
 
+// How the volume path tracer finds the light scattered towards the camera in a medium
+// (render/volume_integrator.cpp): kAuto adds equiangular sampling towards a light point, combined
+// with free-flight sampling by MIS, wherever the effect analysis finds it applies; kDistance
+// keeps free-flight sampling alone (the study's baseline).
+enum class MediumLightSampling { kAuto, kDistance };
+
 // Diffraction by the aperture (docs/scene-format.md, camera.diffraction; film/diffraction_psf.h): a
 // point-spread function applied to the developed image, never to the sensor's sums.
 struct DiffractionSettings {
@@ -143,6 +149,7 @@ struct RenderSettings {
   RouletteRule roulette = kDefaultRoulette;
   int rouletteMinBounces = 1;
   LightTracingMode lightTracing = LightTracingMode::kAuto;  // render/light_tracer.h
+  MediumLightSampling mediumLightSampling = MediumLightSampling::kAuto;
   AovSet aovs;                      // outputs beside the beauty (film/aov_layout.h, docs/aovs.md)
   double lightTracingRatio = 0.25;  // light paths per camera path (pixel-sample) of a unit
   // Stopping rules besides samplesPerPixel (which is then a cap); 0 = not set. See docs/accuracy.md.

@@ -332,6 +332,203 @@ void expectFieldError(const json& scene, const std::string& field) {
   }
 }
 
+// ---- equiangular sampling (render/volume_integrator.cpp) ---------------------------------------
+
+// Single scattering of an isotropic point light of intensity I at distance D from a ray that
+// starts `delta` before the point nearest the light, in a homogeneous medium (isotropic phase)
+// that fills space, the ray escaping to infinity:
+//     L = int_0^inf sigma_s / (4 pi) I exp(-sigma_t (t + r(t))) / r(t)^2 dt.
+// With t = delta + D tan(theta) (dt = r^2 / D dtheta) the integrand is smooth in theta:
+//     L = sigma_s I / (4 pi D) int_{atan(-delta / D)}^{pi / 2} exp(-sigma_t (t + r)) dtheta,
+// integrated here by Simpson's rule (an answer independent of the tracer's sampling).
+double pointLightInFog(double intensity, double sigmaS, double sigmaT, double delta, double d) {
+  const double a = std::atan(-delta / d), b = M_PI / 2;
+  const int n = 200000;
+  const double h = (b - a) / n;
+  const auto f = [&](double theta) {
+    const double t = delta + d * std::tan(theta), r = d / std::cos(theta);
+    return std::isfinite(t) ? std::exp(-sigmaT * (t + r)) : 0.0;
+  };
+  double sum = f(a) + f(b);
+  for (int i = 1; i < n; ++i) sum += (i % 2 ? 4.0 : 2.0) * f(a + i * h);
+  return sigmaS * intensity / (4 * M_PI * d) * sum * h / 3.0;
+}
+
+// A camera at `shift` (each axis) looking along +x through fog that fills the scene, a point
+// light 2 along the ray and `d` off it, one scattering event allowed; a black quad behind the
+// camera gives the caster a triangle. The field of view (1e-6 rad) keeps every pixel's ray
+// within 2e-6 of the light's distance `d`.
+json pointLightFogScene(double d, double shift, const std::string& sampling) {
+  const auto at = [&](double x, double y, double z) { return std::array<double, 3>{x + shift, y + shift, z + shift}; };
+  json camera = {{"type", "pinhole"}, {"position", at(0, 0, 0)}, {"look_at", at(1, 0, 0)},
+                 {"up", {0, 0, 1}},   {"sensor_width", 1e-7},    {"focal_length", 0.1}};
+  json scene = sceneWith(camera, {{"fog", {{"sigma_s", 0.3}, {"sigma_a", 0.1}}}},
+                         {{"black", {{"type", "lambertian"}, {"albedo", 0.0}}}},
+                         json::array({{{"type", "quad"},
+                                       {"material", "black"},
+                                       {"corner", at(-5, -1, -1)},
+                                       {"edge1", {0, 2, 0}},
+                                       {"edge2", {0, 0, 2}}}}),
+                         4, 64);
+  scene["medium"] = "fog";
+  scene["lights"] = json::array({{{"type", "point"}, {"position", at(2, d, 0)}, {"intensity", 1.0}}});
+  scene["render"]["max_medium_bounces"] = 1;
+  scene["render"]["medium_light_sampling"] = sampling;
+  return scene;
+}
+
+TEST(VolumeEquiangular, APointLightInFogMatchesTheSingleScatteringIntegralAtAnyDistanceAndPlace) {
+  // From a light half a unit off the ray to one a thousandth off it (nearly on the camera ray,
+  // where the in-scattered light peaks as 1 / D), at the origin and a million units away.
+  for (const double d : {0.5, 1e-3}) {
+    const double expected = pointLightInFog(1.0, 0.3, 0.4, 2.0, d);
+    for (const double shift : {0.0, 1e6}) {
+      test::TempDir dir;
+      const test::ImageStatistics st =
+          test::renderStatistics(test::loadSceneJson(dir, pointLightFogScene(d, shift, "auto")), 8);
+      const auto [mean, error] = imageMean(st, 1);
+      EXPECT_NEAR(mean, expected, 4.0 * error + 1e-3 * expected) << "D " << d << " shift " << shift;
+      EXPECT_LT(error, 0.01 * expected) << "D " << d << " shift " << shift << ": too noisy";
+    }
+  }
+}
+
+TEST(VolumeEquiangular, FindsTheLightNearALightWithFarLessNoiseThanFreeFlightAlone) {
+  // The same samples with free-flight sampling alone: the same answer, with a standard error many
+  // times larger (the samples near the light are rare and weigh much). The ratio of errors at
+  // equal samples is a property of the estimators, not of the machine.
+  test::TempDir dir;
+  const double expected = pointLightInFog(1.0, 0.3, 0.4, 2.0, 0.05);
+  const test::ImageStatistics both =
+      test::renderStatistics(test::loadSceneJson(dir, pointLightFogScene(0.05, 0, "auto")), 8);
+  const test::ImageStatistics alone =
+      test::renderStatistics(test::loadSceneJson(dir, pointLightFogScene(0.05, 0, "distance")), 8);
+  const auto [m1, e1] = imageMean(both, 1);
+  const auto [m2, e2] = imageMean(alone, 1);
+  EXPECT_NEAR(m1, expected, 4.0 * e1 + 1e-3 * expected);
+  EXPECT_NEAR(m2, expected, 4.0 * e2 + 1e-3 * expected);
+  EXPECT_GT(e2, 5.0 * e1) << "equiangular " << e1 << ", free flight " << e2;
+}
+
+// A closed grey room (4 x 4 x 3) filled with fog, lit by a small emitting quad under its ceiling
+// and a spot light, seen through its open front: multiple scattering and bounces off the walls.
+json foggyRoom(const std::string& sampling, const std::string& integrator) {
+  json shapes = json::array();
+  const auto quad = [&](std::array<double, 3> corner, std::array<double, 3> e1, std::array<double, 3> e2,
+                        const std::string& material) {
+    shapes.push_back({{"type", "quad"}, {"material", material}, {"corner", corner}, {"edge1", e1}, {"edge2", e2}});
+  };
+  quad({-2, -2, 0}, {0, 4, 0}, {4, 0, 0}, "wall");             // floor, facing +z
+  quad({-2, -2, 3}, {4, 0, 0}, {0, 4, 0}, "wall");             // ceiling, facing -z
+  quad({-2, 2, 0}, {0, 0, 3}, {4, 0, 0}, "wall");              // back, facing -y
+  quad({-2, -2, 0}, {0, 0, 3}, {0, 4, 0}, "wall");             // left, facing +x
+  quad({2, -2, 0}, {0, 4, 0}, {0, 0, 3}, "wall");              // right, facing -x
+  quad({-0.6, -0.6, 2.95}, {1.2, 0, 0}, {0, 1.2, 0}, "lamp");  // facing -z
+  json scene = sceneWith(
+      {{"type", "pinhole"},
+       {"position", {0, -6, 1.5}},
+       {"look_at", {0, 0, 1.5}},
+       {"up", {0, 0, 1}},
+       {"sensor_width", 0.036},
+       {"focal_length", 0.035}},
+      {{"fog", {{"sigma_s", {0.15, 0.2, 0.25}}, {"sigma_a", 0.02}, {"g", 0.3}}}},
+      {{"wall", {{"type", "lambertian"}, {"albedo", 0.6}}}, {"lamp", {{"type", "emissive"}, {"radiance", 5.0}}}},
+      shapes, 12, 64);
+  scene["medium"] = "fog";
+  scene["lights"] = json::array({{{"type", "spot"},
+                                  {"position", {1.5, 1.5, 2.5}},
+                                  {"look_at", {0, 0, 0}},
+                                  {"intensity", 3.0},
+                                  {"cone_angle", 30}}});
+  scene["render"]["max_bounces"] = 3;
+  scene["render"]["max_medium_bounces"] = 8;
+  scene["render"]["integrator"] = integrator;
+  scene["render"]["medium_light_sampling"] = sampling;
+  return scene;
+}
+
+// Fog with single scattering under a 1 x 1 lamp 0.3 above the camera's rays: near a broad light
+// the phase function's samples reach it about as often as light samples do, and equiangular
+// samples peak there, so all three strategies carry weight (the case the weights must get right).
+json fogUnderALamp(const std::string& sampling, const std::string& integrator) {
+  json scene = sceneWith({{"type", "pinhole"},
+                          {"position", {0, 0, 0}},
+                          {"look_at", {1, 0, 0}},
+                          {"up", {0, 0, 1}},
+                          {"sensor_width", 0.01},
+                          {"focal_length", 0.05}},
+                         {{"fog", {{"sigma_s", {0.8, 1.0, 1.2}}, {"sigma_a", 0.1}, {"g", 0.2}}}},
+                         {{"lamp", {{"type", "emissive"}, {"radiance", 1.0}}}},
+                         json::array({{{"type", "quad"},
+                                       {"material", "lamp"},
+                                       {"corner", {1.0, -0.5, 0.3}},
+                                       {"edge1", {0, 1, 0}},
+                                       {"edge2", {1, 0, 0}}}}),
+                         8, 256);
+  scene["medium"] = "fog";
+  scene["render"]["max_medium_bounces"] = 2;
+  scene["render"]["integrator"] = integrator;
+  scene["render"]["medium_light_sampling"] = sampling;
+  return scene;
+}
+
+// The same image with and without equiangular sampling (unbiased weights), with NEE + MIS and
+// with NEE alone.
+void expectTheSameImageWithAndWithoutEquiangular(json (*scene)(const std::string&, const std::string&)) {
+  for (const char* integrator : {"nee_mis", "nee"}) {
+    SCOPED_TRACE(integrator);
+    test::TempDir dir;
+    const Scene with = test::loadSceneJson(dir, scene("auto", integrator));
+    ASSERT_TRUE(RenderScene(with).effects().equiangular);
+    const test::ImageStatistics a = test::renderStatistics(with, 16);
+    const test::ImageStatistics b = test::renderStatistics(test::loadSceneJson(dir, scene("distance", integrator)), 16);
+    test::expectSameImage(a, b);
+  }
+}
+
+TEST(VolumeEquiangular, AFoggyRoomIsTheSameImageWithAndWithoutIt) {
+  // Where everything meets: area and spot lights, several scattering events, bounces off walls.
+  expectTheSameImageWithAndWithoutEquiangular(foggyRoom);
+}
+
+TEST(VolumeEquiangular, FogUnderABroadLampIsTheSameImageWithAndWithoutIt) {
+  expectTheSameImageWithAndWithoutEquiangular(fogUnderALamp);
+}
+
+TEST(VolumeEquiangular, IsOnOnlyWhereItCanServe) {
+  test::TempDir dir;
+  const auto decision = [&](const json& scene) {
+    const RenderScene rs(test::loadSceneJson(dir, scene));
+    for (const EffectDecision& d : rs.effects().decisions)
+      if (d.effect == "equiangular sampling") return std::string(d.simulated ? "on: " : "off: ") + d.reason;
+    return std::string("not listed");
+  };
+  EXPECT_EQ(decision(test::minimalSceneJson()), "not listed") << "a scene without media";
+  const json room = foggyRoom("auto", "nee_mis");
+  EXPECT_NE(decision(room).find("on: in \"fog\""), std::string::npos) << decision(room);
+  EXPECT_NE(decision(foggyRoom("distance", "nee_mis")).find("off: render.medium_light_sampling"), std::string::npos);
+  json naive = room;
+  naive["render"]["integrator"] = "naive";
+  EXPECT_EQ(decision(naive).rfind("off", 0), 0u) << decision(naive);
+  json grid = room;
+  grid["media"]["fog"] = {{"type", "grid"},
+                          {"bounds", {{-2, -2, 0}, {2, 2, 3}}},
+                          {"resolution", {1, 1, 1}},
+                          {"density", {1.0}},
+                          {"sigma_s", 0.2}};
+  EXPECT_NE(decision(grid).find("off: no homogeneous scattering medium"), std::string::npos) << decision(grid);
+  json absorbing = room;
+  absorbing["media"]["fog"] = {{"sigma_a", 0.2}};
+  EXPECT_EQ(decision(absorbing).rfind("off", 0), 0u) << decision(absorbing);
+  json sunOnly = room;
+  sunOnly["materials"]["lamp"] = {{"type", "lambertian"}, {"albedo", 0.5}};
+  sunOnly["lights"] = json::array({{{"type", "directional"}, {"direction", {0, 0, -1}}, {"irradiance", 1.0}}});
+  EXPECT_NE(decision(sunOnly).find("off: no light at points"), std::string::npos) << decision(sunOnly);
+  json bad = room;
+  bad["render"]["medium_light_sampling"] = "equiangular";
+  expectFieldError(bad, "render.medium_light_sampling");
+}
+
 TEST(VolumeInput, BadMediaAreRefusedNamingTheField) {
   json base = test::minimalSceneJson();
   base["media"] = {{"haze", {{"sigma_s", 0.1}}}};

@@ -162,11 +162,12 @@ void checkModels(const StudyRun& run) {
 }
 
 // Participating media: the baseline runs without them and says so, each medium is named where it
-// is used, the volume tracer's walks cost rays, and cutting them short loses light.
+// is used, the volume tracer's walks cost rays, equiangular sampling is on in the fog and off in
+// its free-flight rows (one more shadow ray per segment), and cutting walks short loses light.
 void checkMedia(const StudyRun& run) {
   std::map<std::string, std::map<std::string, std::string>> rows;
   for (const auto& row : readCsv(run.out("media.csv"))) rows[row.at("variant")] = row;
-  ASSERT_EQ(rows.size(), 6u);
+  ASSERT_EQ(rows.size(), 8u);
   const auto& none = rows.at("no media (marble block Lambertian, empty glass)");
   const auto& all = rows.at("all three (the scene)");
   EXPECT_EQ(none.at("effects"), "none");
@@ -175,6 +176,12 @@ void checkMedia(const StudyRun& run) {
   EXPECT_NE(rows.at("marble block only (random walk)").at("effects").find("inside \"marble\""), std::string::npos);
   EXPECT_NE(rows.at("glass of milk only").at("effects").find("\"milk\" inside \"milk-glass\""), std::string::npos);
   EXPECT_GT(num(all, "rays per path"), 2.0 * num(none, "rays per path")) << "walks cost rays";
+  const auto& fog = rows.at("fog bank only");
+  const auto& fogAlone = rows.at("fog bank only, free-flight sampling alone");
+  EXPECT_NE(fog.at("effects").find("towards a point on a light"), std::string::npos) << fog.at("effects");
+  EXPECT_EQ(fogAlone.at("effects").find("towards a point on a light"), std::string::npos) << fogAlone.at("effects");
+  EXPECT_GT(num(fog, "rays per path"), num(fogAlone, "rays per path")) << "a shadow ray per segment in fog";
+  EXPECT_EQ(rows.count("all three, free-flight sampling alone"), 1u);
   EXPECT_LT(num(rows.at("all three, max_medium_bounces 16"), "image mean"), num(all, "image mean"))
       << "a walk cut at 16 events loses light";
 }
