@@ -32,15 +32,17 @@ LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const st
     const auto& t = triangles[k];
     const Material& m = scene.materials[t.material];
     if (!m.isEmissive() || (!useful.empty() && !useful[t.material])) continue;
-    // Emission that varies over the surface (an emissive texture) is not light-sampled: the rays
-    // that reach it count it, with weight 1 (render/integrator.cpp).
-    if (m.textures() && m.textures()->emissive) continue;
+    // Emission that varies over the surface (an emissive texture): power by the texture's mean.
+    const bool textured = m.textures() && m.textures()->emissive;
     const float area = float(triangleArea(t.v0, t.v1, t.v2));
-    const double p = double(area) * luminance(m.emission) * (m.twoSidedEmission ? 2.0 : 1.0);
+    double p = double(area) * luminance(m.emission) * (m.twoSidedEmission ? 2.0 : 1.0);
+    if (textured) p *= meanEmissiveTexture(k, m.textures()->emissive);
     if (!(p > 0.0)) continue;
     lightOfTriangle_[k] = int32_t(lights_.size());
     lights_.push_back(Light{k, area, 0.0f, t.v0, t.v1, t.v2, t.n, t.margin, m.emission,
-                            m.twoSidedEmission ? 1.0f : 0.0f, caster.isPrecise(k) ? 1.0f : 0.0f});
+                            m.twoSidedEmission ? 1.0f : 0.0f, caster.isPrecise(k) ? 1.0f : 0.0f, t.material,
+                            textured ? 1.0f : 0.0f});
+    hasTextured_ |= textured;
     power.push_back(p);
     total += p;
   }
@@ -204,6 +206,46 @@ std::optional<LightSample> LightSampler::sampleOther(size_t i, const Vec3& ref, 
   return s;
 }
 
+namespace {
+// Texture coordinates at barycentrics (b1, b2) of caster triangle k (render/shading_point.h's).
+void textureCoordinatesAt(const RayCaster& caster, uint32_t k, float b1, float b2, Vec2 (&uv)[2]) {
+  SurfaceHit at{};
+  at.triangle = k;
+  at.instance = kNoInstance;
+  const RayCaster::HitMesh where = caster.hitMesh(at);
+  for (int set = 0; set < 2; ++set)
+    uv[set] =
+        where.mesh->uv[set].empty() ? Vec2(0.0f) : where.mesh->interpolate(where.mesh->uv[set], where.index, b1, b2);
+}
+}  // namespace
+
+float LightSampler::meanEmissiveTexture(uint32_t k, const TextureRef& texture) const {
+  // 16 points of a 4 x 4 grid over the unit square, mapped onto the triangle as samples are,
+  // each looked up with a footprint a quarter of the triangle's extent in texture space.
+  Vec2 corners[3][2];
+  for (int c = 0; c < 3; ++c) textureCoordinatesAt(caster_, k, c == 1 ? 1.0f : 0.0f, c == 2 ? 1.0f : 0.0f, corners[c]);
+  const Vec2 e1 = corners[1][0] - corners[0][0], e2 = corners[2][0] - corners[0][0];
+  const float footprint = 0.25f * std::sqrt(std::abs(e1.x * e2.y - e1.y * e2.x));
+  double sum = 0.0;
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) {
+      const Vec2 b = sampleUniformTriangle(Vec2((float(i) + 0.5f) / 4.0f, (float(j) + 0.5f) / 4.0f));
+      Vec2 uv[2];
+      textureCoordinatesAt(caster_, k, b.y, 1.0f - b.x - b.y, uv);
+      sum += double(luminance(glm::max(Spectrum(texture.sample(uv, footprint)), Spectrum(0.0f))));
+    }
+  return float(sum / 16.0);
+}
+
+Spectrum LightSampler::emissiveTexture(const Light& l, Vec2 uPoint) const {
+  if (l.textured == 0.0f) return Spectrum(1.0f);
+  // The point sampleTrianglePoint takes: b.x v0 + b.y v1 + (1 - b.x - b.y) v2, so (b1, b2) = (b.y, 1 - b.x - b.y).
+  const Vec2 b = sampleUniformTriangle(uPoint);
+  Vec2 uv[2];
+  textureCoordinatesAt(caster_, l.triangle, b.y, 1.0f - b.x - b.y, uv);
+  return glm::max(Spectrum(scene_.materials[l.material].textures()->emissive.sample(uv, 0.0f)), Spectrum(0.0f));
+}
+
 std::optional<Vec3> LightSampler::position(float uChoice, Vec2 uPoint) const {
   if (empty()) return std::nullopt;
   const size_t i = choose(uChoice);
@@ -222,7 +264,8 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, float uChoice, 
       sampleTrianglePoint(l.v0, l.v1, l.v2, l.n, ref, uPoint, l.pmf, l.area, l.emission, l.twoSided);
   if (!s.valid()) return std::nullopt;
   const SpawnPlane plane = l.planeAt(s.p);
-  return LightSample{s.p, l.n, plane.v0, l.margin, s.radiance, s.pdf};
+  const Spectrum radiance = l.textured != 0.0f ? s.radiance * emissiveTexture(l, uPoint) : s.radiance;
+  return LightSample{s.p, l.n, plane.v0, l.margin, radiance, s.pdf};
 }
 
 void LightSampler::sample(LightSampleLanes& lanes) const {
@@ -230,10 +273,22 @@ void LightSampler::sample(LightSampleLanes& lanes) const {
     for (int& found : lanes.found) found = 0;
     return;
   }
-  if (!others_.empty()) {
+  if (!others_.empty())
     sampleMixedLanes(lanes);
-    return;
+  else
+    sampleTriangleLanes(lanes);
+  if (!hasTextured_) return;
+  // Lanes on a textured emitter: its texture's value at their point (sample()'s radiance).
+  for (int k = 0; k < kPacketWidth; ++k) {
+    if (lanes.found[k] == 0) continue;
+    const size_t i = choose(lanes.uChoice[k]);
+    if (i >= lights_.size() || lights_[i].textured == 0.0f) continue;
+    const Spectrum f = emissiveTexture(lights_[i], Vec2(lanes.u0[k], lanes.u1[k]));
+    lanes.rr[k] *= f.r, lanes.rg[k] *= f.g, lanes.rb[k] *= f.b;
   }
+}
+
+void LightSampler::sampleTriangleLanes(LightSampleLanes& lanes) const {
   // A lane not asked for computes on the first light (finite values) and stays not found.
   alignas(64) float dist2[kPacketWidth], cosLight[kPacketWidth];
   if (lights_.size() <= SelectView::kLights) {

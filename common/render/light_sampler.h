@@ -4,6 +4,12 @@
 // spot, directional, the environment), chosen with probability proportional to its power, then a
 // point on it (uniform on a triangle) or a direction (the light's own sampling).
 //
+// An emissive texture multiplies a triangle's emission point by point: its power counts the
+// texture's mean over the triangle (16 stratified lookups at load), the point is still uniform by
+// area (the density a ray that hits it weighs against stays the triangle's), and the sample's
+// radiance is the texture's value there. A triangle whose texture is black at every lookup is
+// left to the rays that reach it (weight 1), which keeps the estimate unbiased whatever it hides.
+//
 // Power, in luminance and over pi (only ratios matter): an emitting triangle's is A L (doubled
 // when two-sided, Phi = pi A L); the other lights' is LightSource::powerOverPi, which uses the
 // scene's bounding sphere (SceneSphere: every triangle and the camera) for infinite lights. A
@@ -110,18 +116,26 @@ class LightSampler {
     // 1: a precise triangle (render/precise_triangles.h), whose spawn plane is anchored at the
     // point sampled on it, as the caster anchors its hits; 0: at v0.
     float anchored;
+    uint32_t material;  // its material, for an emissive texture
+    float textured;     // 1: the material's emissive texture multiplies `emission` at each point
 
     // The spawn plane at point p of the triangle.
     SpawnPlane planeAt(const Vec3& p) const { return SpawnPlane{anchored > 0.0f ? p : v0, n, margin}; }
   };
   // The emitting triangles sampled, their pmf among every light sampled.
   const std::vector<Light>& triangleLights() const { return lights_; }
+  // The emissive texture's value (RGB, >= 0) at the point of light l that uPoint samples (uniform
+  // on the triangle, as sample() maps it); 1 without a texture.
+  Spectrum emissiveTexture(const Light& l, Vec2 uPoint) const;
 
  private:
   size_t choose(float uChoice) const;  // the light whose cdf interval holds uChoice
   // A light sample of other light i (an index into others_).
   std::optional<LightSample> sampleOther(size_t i, const Vec3& ref, Vec2 uPoint) const;
-  void sampleMixedLanes(LightSampleLanes& lanes) const;  // the lane form with other lights
+  void sampleMixedLanes(LightSampleLanes& lanes) const;     // the lane form with other lights
+  void sampleTriangleLanes(LightSampleLanes& lanes) const;  // the lane form without them
+  // The texture's mean over triangle k of the caster (for its power).
+  float meanEmissiveTexture(uint32_t k, const TextureRef& texture) const;
 
   const Scene& scene_;
   const RayCaster& caster_;
@@ -138,6 +152,7 @@ class LightSampler {
   std::vector<EscapeLight> escapeLights_;
   bool hasDelta_ = false;
   bool hasPositioned_ = false;
+  bool hasTextured_ = false;  // some light is an emitting triangle with an emissive texture
 };
 
 // The bounding sphere of the caster's triangles and the camera (render space's origin).

@@ -79,14 +79,16 @@ void traceParticle(const Setup& s, uint64_t particle, std::vector<Splat>& splats
       size_t(std::upper_bound(s.cdf.begin(), s.cdf.end(), rng.get1D(base0 + dims::kLightChoice)) - s.cdf.begin()),
       lights.size() - 1);
   const LightSampler::Light& light = lights[li];
-  const Vec2 b = sampleUniformTriangle(rng.get2D(base0 + dims::kLightPoint));
+  const Vec2 uPoint = rng.get2D(base0 + dims::kLightPoint);
+  const Vec2 b = sampleUniformTriangle(uPoint);
   const Vec3 p = b.x * light.v0 + b.y * light.v1 + (1.0f - b.x - b.y) * light.v2;
   const bool back = light.twoSided > 0.0f && rng.get1D(base0 + dims::kMaterialLobe) < 0.5f;
   const Vec3 ln = back ? -light.n : light.n;
   Vec3 direction = Frame::fromNormal(ln).toWorld(sampleCosineHemisphere(rng.get2D(base0 + dims::kEmitDirection)));
   // beta_0 = L_e cos / (P(light) / A * cos / pi [/ 2]) = L_e pi A / P(light) [x
   // 2].
-  Spectrum beta = light.emission * (kPi * light.area * (light.twoSided > 0.0f ? 2.0f : 1.0f) / s.pmf[li]);
+  Spectrum beta = light.emission * rs.lights().emissiveTexture(light, uPoint) *
+                  (kPi * light.area * (light.twoSided > 0.0f ? 2.0f : 1.0f) / s.pmf[li]);
   Vec3 origin = spawnOrigin(p, light.planeAt(p), direction);
   int bounces = 0;
   // Vertex v is reached by the v-th ray; its camera connection is the path's (v

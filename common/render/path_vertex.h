@@ -105,8 +105,8 @@ inline void addEmittedLight(const RenderScene& rs, const SurfaceHit& hit, const 
   Spectrum le = rs.lights().emitted(hit.triangle, path.direction);
   if (isBlack(le)) return;
   if (const MaterialTextures* t = material.textures(); t && t->emissive) {
-    // An emissive texture (never light-sampled: LightSampler leaves such emitters to the rays
-    // that reach them, which count with weight 1).
+    // An emissive texture: its value at the hit (light samples take it at their point,
+    // render/light_sampler.h, and weigh against this hit by the triangle's density).
     const Vec3 wo = -path.direction;
     const bool front = glm::dot(hit.n, wo) >= 0.0f;
     const ShadingPoint sp = shadingPoint(rs, hit, wo, front ? hit.n : -hit.n, front);

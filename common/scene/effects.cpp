@@ -598,7 +598,7 @@ void decideEquiangular(Analysis& a, EffectSet& e) {
   bool positioned = false;
   for (size_t m = 0; m < scene.materials.size(); ++m) {
     const Material& mat = scene.materials[m];
-    positioned |= a.used[m] && mat.isEmissive() && e.lightUseful[m] && !(mat.textures() && mat.textures()->emissive);
+    positioned |= a.used[m] && mat.isEmissive() && e.lightUseful[m];
   }
   for (const auto& light : scene.lights) positioned |= light->position().has_value();
   std::string why;
@@ -626,7 +626,7 @@ void decideLightTracing(Analysis& a, EffectSet& e) {
   for (size_t m = 0; m < scene.materials.size(); ++m) {
     if (!used[m]) continue;
     const Material& mat = scene.materials[m];
-    emittingTriangles |= mat.isEmissive() && e.lightUseful[m] && !(mat.textures() && mat.textures()->emissive);
+    emittingTriangles |= mat.isEmissive() && e.lightUseful[m];
     if (!mat.reflects() || !lightTraceable(mat)) continue;
     (mat.isSpecular() ? tracedMirror : tracedDiffuse) = true;
   }
