@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cstdlib>
 #include <sstream>
+#if defined(__x86_64__) || defined(__i386__)
+#include <cpuid.h>
+#endif
 
 namespace lensfarm {
 
@@ -68,8 +71,12 @@ std::vector<TraceKernel> cpuKernels() {
   // Embree 3's requirements for its AVX2 kernels (CPU_FEATURES_AVX2: AVX, F16C, AVX2, FMA3, BMI1,
   // BMI2, LZCNT) and its AVX-512 ones (CPU_FEATURES_AVX512SKX: those, and AVX-512 F, DQ, CD, BW,
   // VL); libgcc also checks that the operating system saves the registers (XGETBV).
+  // LZCNT and F16C are read from CPUID itself: clang's __builtin_cpu_supports does not know them.
+  unsigned eax = 0, ebx = 0, ecx = 0, edx = 0;
+  const bool f16c = __get_cpuid(1, &eax, &ebx, &ecx, &edx) && (ecx & bit_F16C) != 0;
+  const bool lzcnt = __get_cpuid(0x80000001u, &eax, &ebx, &ecx, &edx) && (ecx & bit_LZCNT) != 0;
   const bool avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && __builtin_cpu_supports("bmi") &&
-                    __builtin_cpu_supports("bmi2") && __builtin_cpu_supports("lzcnt") && __builtin_cpu_supports("f16c");
+                    __builtin_cpu_supports("bmi2") && lzcnt && f16c;
   if (avx2) kernels.push_back(TraceKernel::kAvx2);
   if (avx2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
       __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl"))
