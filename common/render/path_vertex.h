@@ -25,15 +25,24 @@ constexpr float kShadowEpsilon = 1e-4f;
 // light strategies: the light sample's solid-angle density is scaled by
 // sqrt(1 + (p_equiangular(t | x) / p_free-flight(t))^2), x the point reached (the power heuristic
 // over three strategies, volume_integrator.cpp).
+// r = p_e / p_d, the equiangular density over the free-flight one at a point of a segment; infinite
+// where free flight cannot reach it (its density underflowed) and equiangular sampling can.
+inline double equiangularRatio(double pe, double pd) {
+  if (!(pd > 0.0)) return pe > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
+  return pe / pd;
+}
+
 struct MediumVertexMis {
   Vec3 origin, direction;
   float tMax, t, freeFlightPdf;
 
+  // r for light point x at this vertex.
+  double ratio(const Vec3& x) const {
+    return equiangularRatio(equiangularPdf(equiangularSegment(origin, direction, 0.0f, tMax, x), t), freeFlightPdf);
+  }
   float lightPdfScale(const Vec3& x) const {
-    const double pe = equiangularPdf(equiangularSegment(origin, direction, 0.0f, tMax, x), t);
-    if (!(freeFlightPdf > 0.0f)) return pe > 0.0 ? std::numeric_limits<float>::infinity() : 1.0f;
-    const double r = pe / double(freeFlightPdf);
-    return float(std::sqrt(1.0 + r * r));
+    const double r = ratio(x);
+    return std::isinf(r) ? std::numeric_limits<float>::infinity() : float(std::sqrt(1.0 + r * r));
   }
 };
 

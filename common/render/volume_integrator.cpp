@@ -113,15 +113,6 @@ EquiangularWeights equiangularWeights(float phasePdf, float lightPdf, double r) 
   return {float(b2 / sum), float(b2 * r * r / sum)};
 }
 
-// r = p_e(t | x) / p_d(t) for the point at t of a ray segment (MediumVertexMis's ratio).
-double equiangularRatio(const HomogeneousMedium& fog, const Vec3& origin, const Vec3& dir, float tMax, float t,
-                        const Vec3& x) {
-  const double pe = equiangularPdf(equiangularSegment(origin, dir, 0.0f, tMax, x), t);
-  const double pd = fog.freeFlightDensity(t);
-  if (!(pd > 0.0)) return pe > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
-  return pe / pd;
-}
-
 // The segment of a path's ray in a medium equiangular sampling serves.
 struct EquiangularSegmentOfPath {
   const HomogeneousMedium* fog;
@@ -153,9 +144,8 @@ Spectrum equiangularDirect(const RenderScene& rs, const SampleStream& rng, int s
   const float f = medium.phase().eval(-seg.direction, wi);
   if (!(f > 0.0f)) return Spectrum(0.0f);
   const bool mis = rs.settings().integrator == IntegratorKind::kNeeMis && !lastEvent && !ls->delta;
-  const double pd = seg.fog->freeFlightDensity(t);
-  const double r = pd > 0.0 ? double(pe) / pd : std::numeric_limits<double>::infinity();
-  const float w = equiangularWeights(mis ? f : 0.0f, ls->pdf, r).equiangular;
+  const float w =
+      equiangularWeights(mis ? f : 0.0f, ls->pdf, equiangularRatio(pe, seg.fog->freeFlightDensity(t))).equiangular;
   if (!(w > 0.0f)) return Spectrum(0.0f);
   Vec3 direction = spawnOrigin(ls->p, ls->plane(), -wi) - v;
   float tFar = 1.0f - kShadowEpsilon;
@@ -185,6 +175,8 @@ bool scatterInMedium(const RenderScene& rs, const SampleStream& rng, int segment
   // halves the rays of a random walk.
   const bool sampleLights = kNee && rs.shadowRaysLeave(&medium);
   const bool lastBounce = sampleLights && lastMediumEvent(rs, mediumBounces);
+  // The event as the three strategies' weights see it: one free-flight density for all of them.
+  if (seg) vertex = MediumVertexMis{seg->origin, seg->direction, seg->tMax, t, seg->fog->freeFlightDensity(t)};
   if (sampleLights) {
     const auto ls = rs.lights().sample(p, rng.get1D(base + dims::kLightChoice), rng.get2D(base + dims::kLightPoint));
     if (ls && !isBlack(ls->radiance)) {
@@ -197,9 +189,7 @@ bool scatterInMedium(const RenderScene& rs, const SampleStream& rng, int segment
         const bool mis = settings.integrator == IntegratorKind::kNeeMis && !lastBounce && !ls->delta;
         float weight = mis ? powerHeuristic(ls->pdf, f) : 1.0f;
         if (seg && ls->reach <= 1.0f)  // a light at points (a triangle: 0; a point or spot: 1)
-          weight = equiangularWeights(mis ? f : 0.0f, ls->pdf,
-                                      equiangularRatio(*seg->fog, seg->origin, seg->direction, seg->tMax, t, ls->p))
-                       .light;
+          weight = equiangularWeights(mis ? f : 0.0f, ls->pdf, vertex.ratio(ls->p)).light;
         const Spectrum tr =
             shadowTransmittance(rs, p, direction, tFar, &medium, rng.streamKey(base + dims::kLightPoint), stats);
         path.radiance += path.throughput * ls->radiance * tr * (f * weight / ls->pdf);
@@ -213,11 +203,7 @@ bool scatterInMedium(const RenderScene& rs, const SampleStream& rng, int segment
   if (!survivesRoulette(settings, rng, base, mediumBounces, path.etaScale, path.throughput)) return false;
   path.lastSpecular = !sampleLights;  // no light sample here: a light reached next weighs 1
   path.lastPdf = s.pdf;
-  path.mediumVertex = nullptr;
-  if (seg) {
-    vertex = MediumVertexMis{seg->origin, seg->direction, seg->tMax, t, seg->fog->freeFlightDensity(t)};
-    path.mediumVertex = &vertex;
-  }
+  path.mediumVertex = seg ? &vertex : nullptr;
   path.origin = p;
   path.direction = s.wi;
   return true;
