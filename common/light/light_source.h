@@ -69,6 +69,11 @@ struct SceneSphere {
   // axis, so r <= 1.8e18 and the far end lies within 5r <= 8.7e18 of the camera, its squared
   // length finite in single precision (docs/numerics.md).
   static constexpr float kReach = 3.0f;
+  // The sphere around the box [lo, hi] (double): its centre and half-diagonal, rounded up so that
+  // the float sphere still holds every point of the box.
+  static SceneSphere around(const DVec3& lo, const DVec3& hi) {
+    return SceneSphere{Vec3(0.5 * (lo + hi)), float(0.5 * glm::length(hi - lo) * (1.0 + 1e-6))};
+  }
   LightSample infiniteSample(const Vec3& ref, const Vec3& wi, const Spectrum& radiance, float pdf, bool delta) const {
     const Vec3 p = ref + wi * radius;
     return LightSample{p, Vec3(0.0f), p, 0.0f, radiance, pdf, delta, kReach};

@@ -16,10 +16,8 @@
 namespace lensfarm {
 
 SceneSphere sceneSphereOf(const RayCaster& caster) {
-  // The box of every vertex and the camera (render space's origin), in double; its centre and
-  // half-diagonal, rounded up so that the float sphere still holds every point.
-  const DVec3 lo = caster.boundsLo(), hi = caster.boundsHi();
-  return SceneSphere{Vec3(0.5 * (lo + hi)), float(0.5 * glm::length(hi - lo) * (1.0 + 1e-6))};
+  // The box of every vertex and the camera (render space's origin), in double.
+  return SceneSphere::around(caster.boundsLo(), caster.boundsHi());
 }
 
 LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const std::vector<bool>& useful, bool deltaOnly)

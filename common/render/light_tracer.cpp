@@ -10,6 +10,7 @@
 
 #include "common/math/ray_offset.h"
 #include "common/math/sampling.h"
+#include "common/render/light_emission.h"
 #include "common/render/unit_renderer.h"
 
 #if defined(__SSE__)
@@ -32,9 +33,12 @@ struct Splat {
 struct Setup {
   const RenderScene& rs;
   SamplerSetup sampler;
-  uint64_t key;            // the unit's stream key (its first sample and frame)
-  std::vector<float> cdf;  // over LightSampler::triangleLights(), by power
-  std::vector<float> pmf;  // the same, renormalised over the triangles
+  uint64_t key;  // the unit's stream key (its first sample and frame)
+  // The emitters, by the flux they send where it counts: LightSampler::triangleLights() (when the
+  // tracer emits from triangles), then the other lights in `others` (render/light_emission.h).
+  std::vector<float> cdf, pmf;
+  std::vector<const LightSource*> others;
+  size_t triangles = 0;
   int segments, maxBounces;
   bool mirrorsCount;
 };
@@ -73,23 +77,40 @@ void connect(const Setup& s, const SampleStream& rng, uint32_t base, const Surfa
 void traceParticle(const Setup& s, uint64_t particle, std::vector<Splat>& splats, PathStats& stats) {
   const RenderScene& rs = s.rs;
   const SampleStream rng(s.sampler, s.key, particle);
-  const auto& lights = rs.lights().triangleLights();
   const uint32_t base0 = dims::segment(0);
   const size_t li = std::min<size_t>(
       size_t(std::upper_bound(s.cdf.begin(), s.cdf.end(), rng.get1D(base0 + dims::kLightChoice)) - s.cdf.begin()),
-      lights.size() - 1);
-  const LightSampler::Light& light = lights[li];
+      s.cdf.size() - 1);
   const Vec2 uPoint = rng.get2D(base0 + dims::kLightPoint);
-  const Vec2 b = sampleUniformTriangle(uPoint);
-  const Vec3 p = b.x * light.v0 + b.y * light.v1 + (1.0f - b.x - b.y) * light.v2;
-  const bool back = light.twoSided > 0.0f && rng.get1D(base0 + dims::kMaterialLobe) < 0.5f;
-  const Vec3 ln = back ? -light.n : light.n;
-  Vec3 direction = Frame::fromNormal(ln).toWorld(sampleCosineHemisphere(rng.get2D(base0 + dims::kEmitDirection)));
-  // beta_0 = L_e cos / (P(light) / A * cos / pi [/ 2]) = L_e pi A / P(light) [x
-  // 2].
-  Spectrum beta = light.emission * rs.lights().emissiveTexture(light, uPoint) *
-                  (kPi * light.area * (light.twoSided > 0.0f ? 2.0f : 1.0f) / s.pmf[li]);
-  Vec3 origin = spawnOrigin(p, light.planeAt(p), direction);
+  Vec3 origin, direction;
+  Spectrum beta;
+  float reach = 0.0f;  // > 0: the particle starts off its light (LightEmission::reach)
+  if (li < s.triangles) {
+    const LightSampler::Light& light = rs.lights().triangleLights()[li];
+    const Vec2 b = sampleUniformTriangle(uPoint);
+    const Vec3 p = b.x * light.v0 + b.y * light.v1 + (1.0f - b.x - b.y) * light.v2;
+    const Vec2 uDirection = rng.get2D(base0 + dims::kEmitDirection);
+    const Spectrum le = light.emission * rs.lights().emissiveTexture(light, uPoint);
+    if (const AimedDirection aim = aimAt(p, uDirection, rs.particleTarget()); aim.cone) {
+      // Aimed at the delta surfaces (render/light_emission.h): beta_0 = L_e |cos| A / (P p(w)).
+      const float cosL = glm::dot(light.n, aim.w);
+      if (!(cosL > 0.0f) && !(light.twoSided > 0.0f && cosL < 0.0f)) return;
+      direction = aim.w;
+      beta = le * float(double(std::abs(cosL)) * light.area / (double(s.pmf[li]) * aim.pdf));
+    } else {
+      const bool back = light.twoSided > 0.0f && rng.get1D(base0 + dims::kMaterialLobe) < 0.5f;
+      direction = Frame::fromNormal(back ? -light.n : light.n).toWorld(sampleCosineHemisphere(uDirection));
+      // beta_0 = L_e cos / (P(light) / A * cos / pi [/ 2]) = L_e pi A / P(light) [x 2].
+      beta = le * (kPi * light.area * (light.twoSided > 0.0f ? 2.0f : 1.0f) / s.pmf[li]);
+    }
+    origin = spawnOrigin(p, light.planeAt(p), direction);
+  } else {
+    const auto e = emitTowards(*s.others[li - s.triangles], rng.get2D(base0 + dims::kEmitDirection), uPoint,
+                               rs.particleTarget(), rs.lights().sceneSphere());
+    if (!e) return;
+    origin = e->origin, direction = e->direction, reach = e->reach;
+    beta = e->beta / s.pmf[li];
+  }
   int bounces = 0;
   // Vertex v is reached by the v-th ray; its camera connection is the path's (v
   // + 1)-th segment.
@@ -101,6 +122,11 @@ void traceParticle(const Setup& s, uint64_t particle, std::vector<Splat>& splats
     if (!material.reflects() || !rs.lightTraced(hit->material)) return;  // the path tracer's paths
     const bool specular = material.isSpecular();
     if (v == 1 && !specular) return;  // the vertex next to the light must be delta
+    if (v == 1 && reach > 0.0f) {
+      // A particle from an infinite light's disk: its light reaches it if nothing lies between.
+      ++stats.rays;
+      if (rs.caster().occluded(origin, -direction, reach)) return;
+    }
     const bool counts = !specular || s.mirrorsCount;
     if (counts && bounces >= s.maxBounces) return;
     if (counts) ++bounces;
@@ -115,8 +141,12 @@ void traceParticle(const Setup& s, uint64_t particle, std::vector<Splat>& splats
     if (!sample) return;
     Spectrum weight = sample->weight;
     // The adjoint of a mirror's reflection (header): its sampling density is
-    // symmetric, f cos is not.
-    if (specular) weight *= std::abs(glm::dot(n, sample->wi)) / std::abs(glm::dot(n, wl));
+    // symmetric, f cos is not. The adjoint of a refraction carries no 1/eta^2: particles carry
+    // flux, not radiance (Veach 1997 §5.2; pbrt-v4's TransportMode::Importance).
+    if (sample->eta != 1.0f)
+      weight *= sample->eta * sample->eta;
+    else if (specular)
+      weight *= std::abs(glm::dot(n, sample->wi)) / std::abs(glm::dot(n, wl));
     beta *= weight;
     if (isBlack(beta) || !isFinite(beta)) return;
     direction = sample->wi;
@@ -134,25 +164,44 @@ uint64_t lightPathsOf(const RenderScene& rs, uint32_t samples) {
 
 bool traceLightPaths(const RenderScene& rs, const WorkUnit& unit, SensorBuffer& out, PathStats& stats,
                      const std::atomic<bool>* cancel) {
-  const auto& lights = rs.lights().triangleLights();
-  if (lights.empty() || unit.sampleCount == 0) return true;
+  if (unit.sampleCount == 0) return true;
   const RenderSettings& settings = rs.settings();
   Setup s{rs,
           SamplerSetup{SamplerKind::kIndependent, settings.seed ^ 0x4c5452414345ull, 1, 1},
           0,
           {},
           {},
+          {},
+          0,
           pathSegmentLimit(settings.maxBounces),
           settings.maxBounces,
           settings.mirrorBouncesCount};
   s.key = SampleStream::mix(unit.firstSample ^ SampleStream::mix(uint64_t(unit.frame)));
+  // Each emitter's flux: a triangle's pi A L_e [x 2] in the proportions of the light sampler's
+  // pmf (which holds an emissive texture's mean), the other lights' towards the target.
+  std::vector<double> flux;
+  if (rs.lightTracesTriangles()) {
+    double pmfs = 0.0, triangleFlux = 0.0;
+    for (const auto& l : rs.lights().triangleLights()) {
+      pmfs += l.pmf;
+      triangleFlux += double(kPi) * l.area * luminance(l.emission) * (l.twoSided > 0.0f ? 2.0 : 1.0);
+    }
+    for (const auto& l : rs.lights().triangleLights()) flux.push_back(double(l.pmf) / pmfs * triangleFlux);
+    s.triangles = flux.size();
+  }
+  for (const auto& light : rs.scene().lights)
+    if (const double f = fluxTowards(*light, rs.particleTarget(), rs.lights().sceneSphere()); f > 0.0) {
+      s.others.push_back(light.get());
+      flux.push_back(f);
+    }
   double total = 0.0;
-  for (const auto& l : lights) total += l.pmf;
+  for (double f : flux) total += f;
+  if (!(total > 0.0)) return true;
   double running = 0.0;
-  for (const auto& l : lights) {
-    running += l.pmf;
+  for (double f : flux) {
+    running += f;
     s.cdf.push_back(float(running / total));
-    s.pmf.push_back(float(l.pmf / total));
+    s.pmf.push_back(float(f / total));
   }
   s.cdf.back() = 1.0f;
 

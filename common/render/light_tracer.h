@@ -1,13 +1,16 @@
 #pragma once
 // Light tracing (Veach 1997 ch. 10: bidirectional strategy t = 1; pbrt-v4
 // ConnectBDPT), beside the path tracer, for the caustics next-event estimation
-// cannot sample: light -> mirror -> diffuse surface -> camera (cornell-seed's
-// floor lit through its rippled mirror).
+// cannot sample: light -> mirror or glass -> diffuse surface -> camera
+// (cornell-seed's floor lit through its rippled mirror, glass-metal-sky's sun
+// through the glass ball, any delta light's caustic).
 //
 // Particles leave the emitting triangles the light sampler samples
-// (render/light_sampler.h): a triangle chosen by power, a uniform point on it, a
-// cosine-weighted direction (either face of a two-sided light with probability
-// 1/2). Their weight beta is flux: after k scatterings,
+// (render/light_sampler.h), when RenderScene::lightTracesTriangles: a triangle
+// chosen by power, a uniform point on it, a cosine-weighted direction (either
+// face of a two-sided light with probability 1/2); and every other light, aimed
+// at the delta surfaces the tracer handles (render/light_emission.h). Their
+// weight beta is flux: after k scatterings,
 //     E[sum over particle vertices y of beta(y) g(y, w_l)] = int_A int L_i(y,
 //     w_l) |cos_l| g dw_l dA,
 // with beta_0 = L_e pi A / P(triangle) (x2 two-sided) and, at each scattering,
@@ -50,10 +53,11 @@
 // binary. The light tracer takes exactly the paths whose camera-side first
 // vertex is non-delta and whose vertex next to the light is delta, every vertex
 // of a material it handles (scene/effects.h, lightTraceable) and the light one
-// it samples; the path tracer drops exactly those (the emitter hit after a
-// delta vertex; render/integrator.cpp, PathState::lightTraced) and keeps the
-// rest. Both honour the bounce limit B, the counting of mirror bounces and
-// pathSegmentLimit(B) alike.
+// that emits particles; the path tracer drops exactly those (the emitter hit or
+// the ray leaving the scene after a delta vertex; render/path_vertex.h,
+// PathState::lightTraced) and keeps the rest. Smooth glass: the sample's weight
+// times eta^2 (flux, not radiance, crosses the boundary). Both honour the bounce limit B, the counting of mirror
+// bounces and pathSegmentLimit(B) alike.
 //
 // Determinism: a particle's numbers are counter-based (render/sampler.h,
 // dims::kEmitDirection, dims::kLensPoint), keyed by the unit's first sample and

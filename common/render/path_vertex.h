@@ -125,7 +125,8 @@ inline void addEmittedLight(const RenderScene& rs, const SurfaceHit& hit, const 
   path.hitLight = true;
   // Binary MIS with the light tracer (render/light_tracer.h): a light reached through a delta
   // vertex after a diffuse first vertex is the light tracer's to count, where it emits.
-  if (path.lightTraced && path.lastSpecular && rs.lights().samplesTriangle(hit.triangle)) return;
+  if (path.lightTraced && path.lastSpecular && rs.lightTracesTriangles() && rs.lights().samplesTriangle(hit.triangle))
+    return;
   const float weight = reachedLightWeight<kNee>(rs, path, [&] {
     const float pdf = rs.lights().pdf(hit.triangle, hit.t, path.direction);
     return path.mediumVertex && pdf > 0.0f ? pdf * path.mediumVertex->lightPdfScale(hit.p) : pdf;
@@ -138,6 +139,9 @@ inline void addEmittedLight(const RenderScene& rs, const SurfaceHit& hit, const 
 // called where the scene has such lights (RenderScene::hasEscapeLights); the path ends.
 template <bool kNee>
 inline void addEscapedLight(const RenderScene& rs, PathState& path) {
+  // Binary MIS with the light tracer: every light beyond the scene emits light paths (render/
+  // light_emission.h), which count what arrives through a delta vertex after a diffuse first one.
+  if (path.lightTraced && path.lastSpecular) return;
   for (const LightSampler::EscapeLight& e : rs.lights().escapeLights()) {
     const Spectrum le = e.light->escaped(path.direction);
     if (isBlack(le)) continue;

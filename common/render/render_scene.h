@@ -11,6 +11,7 @@
 #include "common/camera/thin_lens_camera.h"
 #include "common/film/aov_layout.h"
 #include "common/medium/medium.h"
+#include "common/render/light_emission.h"
 #include "common/render/light_sampler.h"
 #include "common/render/ray_caster.h"
 #include "common/scene/effects.h"
@@ -31,6 +32,8 @@ class RenderScene {
         effects_(general ? EffectSet::all(scene) : analyzeEffects(scene, *declared)),
         mirrorsReachable_(general ? analyzeEffects(scene, declared->paraxial()).specular : effects_.specular),
         lightTracing_(general ? analyzeEffects(scene, *declared).lightTracing : effects_.lightTracing),
+        lightTracesTriangles_(general ? analyzeEffects(scene, *declared).lightTracingTriangles
+                                      : effects_.lightTracingTriangles),
         equiangular_(general ? analyzeEffects(scene, *declared).equiangular : effects_.equiangular),
         camera_(renderCamera(std::move(declared), effects_)),
         caster_(scene),
@@ -52,9 +55,14 @@ class RenderScene {
     }
     // The materials whose scattering the light tracer handles (render/light_tracer.h); a path
     // through any other belongs to the path tracer alone.
-    if (lightTracing_)
-      for (size_t m = 0; m < scene.materials.size(); ++m)
+    if (lightTracing_) {
+      std::vector<uint8_t> deltaTraced;
+      for (size_t m = 0; m < scene.materials.size(); ++m) {
         lightTraced_.push_back(lightTraceable(scene.materials[m]) && !shaded_[m] ? 1 : 0);
+        deltaTraced.push_back(lightTraced_[m] && scene.materials[m].isSpecular() ? 1 : 0);
+      }
+      particleTarget_ = targetSphere(scene, caster_, deltaTraced);
+    }
     const ThinLensParams& lens = camera_->paraxial().params();
     pixelAngle_ = float(lens.sensorWidth / (double(scene.render.width) * lens.focalLength));
     // The media a shadow ray can leave (render/volume_integrator.cpp): the scene's own, and those
@@ -84,6 +92,11 @@ class RenderScene {
   // scattering by material `id`.
   bool lightTracing() const { return lightTracing_; }
   bool lightTraced(uint32_t id) const { return lightTraced_[id] != 0; }
+  // Whether emitting triangles emit light paths (EffectSet::lightTracingTriangles; the other lights
+  // do whenever light paths are traced), and the sphere their particles are aimed at: every delta
+  // surface the light tracer handles (render/light_emission.h).
+  bool lightTracesTriangles() const { return lightTracesTriangles_; }
+  const SceneSphere& particleTarget() const { return particleTarget_; }
   const RayCaster& caster() const { return caster_; }
   const LightSampler& lights() const { return lights_; }
   // Whether rays that leave the scene can reach a light (the environment, a sun with an angular
@@ -123,9 +136,11 @@ class RenderScene {
   EffectSet effects_;
   bool mirrorsReachable_;
   bool lightTracing_;
+  bool lightTracesTriangles_;
   bool equiangular_;
   std::unique_ptr<const Camera> camera_;
   std::vector<uint8_t> lightTraced_;  // per material; empty without light tracing
+  SceneSphere particleTarget_;
   RayCaster caster_;
   LightSampler lights_;
   bool hasEscapeLights_;

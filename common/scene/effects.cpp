@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "common/film/diffraction_psf.h"
+#include "common/material/dielectric.h"
 #include "common/material/mirror.h"
 #include "common/math/triangle.h"
 #include "common/medium/medium.h"
@@ -620,21 +621,32 @@ void decideEquiangular(Analysis& a, EffectSet& e) {
 void decideLightTracing(Analysis& a, EffectSet& e) {
   const Scene& scene = a.scene;
   const std::vector<bool>& used = a.used;
-  // Light tracing (render/light_tracer.h): particles from the emitting triangles, connected to the
-  // thin lens at every diffuse vertex, for the paths light -> mirror -> ... -> diffuse -> camera.
-  bool emittingTriangles = false, tracedMirror = false, tracedDiffuse = false;
+  // Light tracing (render/light_tracer.h): particles from the lights, connected to the thin lens at
+  // every diffuse vertex, for the paths light -> mirror or glass -> ... -> diffuse -> camera.
+  bool emittingTriangles = false, tracedDelta = false, tracedMirror = false, tracedDiffuse = false;
   for (size_t m = 0; m < scene.materials.size(); ++m) {
     if (!used[m]) continue;
     const Material& mat = scene.materials[m];
     emittingTriangles |= mat.isEmissive() && e.lightUseful[m];
     if (!mat.reflects() || !lightTraceable(mat)) continue;
-    (mat.isSpecular() ? tracedMirror : tracedDiffuse) = true;
+    (mat.isSpecular() ? tracedDelta : tracedDiffuse) = true;
+    tracedMirror |= mat.isSpecular() && !mat.traits().transmits;
   }
+  // The lights whose caustics camera paths sample badly or not at all: a delta light (point, spot,
+  // a sun without diameter) is reached by no ray, so light -> delta surface -> diffuse is black
+  // without light paths; the environment and a sun with a diameter only by a scattered ray that
+  // happens to leave the scene through the glass towards their bright part.
+  std::vector<std::string> deltaLights, farLights;
+  for (const auto& light : scene.lights)
+    (light->isDelta() ? deltaLights : farLights).push_back(std::string(light->type()) + " \"" + light->name() + "\"");
   e.mirrorCaustics = emittingTriangles && tracedMirror && tracedDiffuse;
+  const bool lightCaustics = tracedDelta && tracedDiffuse && !(deltaLights.empty() && farLights.empty());
   const RenderSettings& rs = scene.render;
   std::string ltWhy;
   if (rs.lightTracing == LightTracingMode::kOff)
     ltWhy = "render.light_tracing is off";
+  else if (!(lightCaustics || (rs.lightTracing == LightTracingMode::kOn && emittingTriangles)))
+    ltWhy = e.mirrorCaustics ? "" : "no mirror or smooth glass through which a diffuse surface sees a light";
   else if (e.media)
     ltWhy = "participating media: light paths are not traced through media (the volume path tracer samples the image)";
   else if (e.thinWalls)
@@ -649,21 +661,24 @@ void decideLightTracing(Analysis& a, EffectSet& e) {
     ltWhy = "tiled units render a region only; light paths splat over the whole frame";
   else if (rs.adaptive.enabled)
     ltWhy = "adaptive sampling gives blocks their own sample counts; light paths splat over the whole frame";
-  else if (!emittingTriangles)
-    ltWhy = "no emitting triangle to trace light from";
-  else if (rs.lightTracing == LightTracingMode::kAuto && !e.mirrorCaustics)
-    ltWhy = "no mirror through which a diffuse surface sees a light";
-  else if (rs.lightTracing == LightTracingMode::kAuto)
-    // Measured on cornell-seed (docs/performance.md, "Light tracing for the 2013 report's caustic"): with binary
-    // weights the light paths cost more time than the variance they remove, so auto leaves it off.
+  // Emitting triangles emit particles only when asked: measured on cornell-seed (docs/performance.md,
+  // "Light tracing for the 2013 report's caustic"), with binary weights their light paths cost more
+  // time than the variance they remove.
+  e.lightTracingTriangles = ltWhy.empty() && emittingTriangles && rs.lightTracing == LightTracingMode::kOn;
+  if (ltWhy.empty() && !lightCaustics && !e.lightTracingTriangles)
     ltWhy =
-        "mirror caustics, but light tracing with binary weights does not pay at equal time "
-        "(docs/performance.md); render.light_tracing \"on\" forces it";
+        "mirror caustics of emitting surfaces, but light tracing with binary weights does not pay at equal time "
+        "there (docs/performance.md); render.light_tracing \"on\" forces it";
   e.lightTracing = ltWhy.empty();
   if (e.lightTracing) {
-    std::ostringstream ratio;
-    ratio << rs.lightTracingRatio;
-    ltWhy = "render.light_tracing is on; " + ratio.str() + " light path(s) per camera path, connected to the camera";
+    std::ostringstream why;
+    why << rs.lightTracingRatio << " light path(s) per camera path from ";
+    std::set<std::string> from(deltaLights.begin(), deltaLights.end());
+    from.insert(farLights.begin(), farLights.end());
+    if (e.lightTracingTriangles) from.insert("the emitting surfaces");
+    why << listed(from) << ", aimed at the mirrors and glass they light, connected to the camera";
+    if (!deltaLights.empty()) why << " (a delta light's caustics: no camera path reaches them)";
+    ltWhy = why.str();
   }
   if (e.lightTracing || rs.lightTracing != LightTracingMode::kAuto || e.mirrorCaustics)
     e.decisions.push_back({"light tracing", e.lightTracing, ltWhy});
@@ -687,6 +702,8 @@ EffectSet analyzeEffects(const Scene& scene, const Camera& camera) {
 bool lightTraceable(const Material& m) {
   if (m.textures()) return false;
   if (!m.reflects() || m.isLambertian()) return true;
+  if (const auto* glass = dynamic_cast<const DielectricBsdf*>(m.bsdf()))
+    return glass->smooth() && !m.traits().thinWall && !m.interior;
   return dynamic_cast<const MirrorBsdf*>(m.bsdf()) || dynamic_cast<const RippledMirrorBsdf*>(m.bsdf());
 }
 

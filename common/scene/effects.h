@@ -58,12 +58,16 @@ struct EffectSet {
   // path tracer, whose shadow rays cross such walls attenuated and whose paths cross them as null
   // events; light tracing is off (its connections could not cross them).
   bool thinWalls = false;
-  // Light tracing beside the path tracer (render/light_tracer.h): on where render.light_tracing
-  // is "on" and it can run (a thin-lens camera, an NEE estimator, whole-frame units, an emitting
-  // triangle). `auto` leaves it off: where the scene has mirrorCaustics (a diffuse surface can see
-  // an emitting triangle through a mirror, a caustic next-event estimation cannot sample) the
+  // Light tracing beside the path tracer (render/light_tracer.h), where it can run (a thin-lens
+  // camera, an NEE estimator, whole-frame units, no media or thin walls). `auto` turns it on where
+  // a diffuse surface sees a light other than an emitting surface (a point, spot, sun or the
+  // environment) through a mirror or smooth glass: a delta light's caustics no camera path reaches,
+  // an infinite light's it reaches only by chance. Emitting triangles emit particles only with
+  // "on" (lightTracingTriangles): where the scene has mirrorCaustics (a diffuse surface can see an
+  // emitting triangle through a mirror, a caustic next-event estimation cannot sample) the
   // binary-weighted light tracer was measured not to pay at equal time (docs/performance.md).
   bool lightTracing = false;
+  bool lightTracingTriangles = false;
   bool mirrorCaustics = false;
   std::vector<bool> lightUseful;  // per material index: false for emitters that light nothing
   std::vector<EffectDecision> decisions;
