@@ -216,35 +216,42 @@ TEST(LightTracer, ForcedOnADiffuseSceneChangesNothingButAgrees) {
   expectAgreement(dir, bundledAt("cornell-classic.json", 16, 4), "classic", 8);
 }
 
+// Light paths from an emitting surface (cornell-seed, forced on) and from the environment
+// (glass-metal-sky, auto): the same bits for 1, 2 and 3 threads and unit by unit.
 TEST(LightTracer, SameBitsForAnyThreadCountAndUnitSplit) {
   test::TempDir dir;
-  json j = bundledAt("cornell-seed.json", 40, 4);
-  j["render"]["samples_per_unit"] = 2;
-  j["render"]["light_tracing"] = "on";
-  j["render"]["light_tracing_ratio"] = 4.0;  // several chunks per unit
-  const Scene scene = test::loadSceneJson(dir, j);
-  const RenderScene rs(scene);
-  ASSERT_TRUE(rs.lightTracing());
-  ASSERT_GT(lightPathsOf(rs, 2), 2 * kChunkParticles);
-  std::vector<std::vector<float>> images;
-  for (int threads : {1, 2, 3}) images.push_back(test::renderScene(scene, threads).image.rgb);
-  EXPECT_EQ(images[0], images[1]);
-  EXPECT_EQ(images[0], images[2]);
-  // The units of the job, rendered one by one into a sensor, are the job (what
-  // a farm folds).
-  Sensor sensor(40, 40);
-  PathStats stats;
-  for (uint64_t u : {0u, 1u}) {
+  for (const std::string name : {"cornell-seed.json", "glass-metal-sky.json"}) {
+    SCOPED_TRACE(name);
+    json j = bundledAt(name, 40, 4);
+    if (j.contains("environment"))
+      j["environment"]["file"] = (test::scenesDir() / j["environment"]["file"].get<std::string>()).string();
+    j["render"]["samples_per_unit"] = 2;
+    if (name == "cornell-seed.json") j["render"]["light_tracing"] = "on";
+    j["render"]["light_tracing_ratio"] = 4.0;  // several chunks per unit
+    const Scene scene = test::loadSceneJson(dir, j);
+    const RenderScene rs(scene);
+    ASSERT_TRUE(rs.lightTracing());
+    ASSERT_GT(lightPathsOf(rs, 2), 2 * kChunkParticles);
+    std::vector<std::vector<float>> images;
+    for (int threads : {1, 2, 3}) images.push_back(test::renderScene(scene, threads).image.rgb);
+    EXPECT_EQ(images[0], images[1]);
+    EXPECT_EQ(images[0], images[2]);
+    // The units of the job, rendered one by one into a sensor, are the job (what
+    // a farm folds).
+    Sensor sensor(40, 40);
+    PathStats stats;
+    for (uint64_t u : {0u, 1u}) {
+      SensorBuffer b;
+      ASSERT_TRUE(renderUnit(rs, unitAt(u, 4, 2), b, stats));
+      sensor.add(b);
+    }
+    EXPECT_EQ(sensor.developImage().rgb, images[0]);
+    // A tile of a job with light tracing is refused, not silently wrong.
+    WorkUnit tile = unitAt(0, 4, 2);
+    tile.region = PixelRegion{0, 0, 8, 8};
     SensorBuffer b;
-    ASSERT_TRUE(renderUnit(rs, unitAt(u, 4, 2), b, stats));
-    sensor.add(b);
+    EXPECT_THROW(renderUnit(rs, tile, b, stats), std::invalid_argument);
   }
-  EXPECT_EQ(sensor.developImage().rgb, images[0]);
-  // A tile of a job with light tracing is refused, not silently wrong.
-  WorkUnit tile = unitAt(0, 4, 2);
-  tile.region = PixelRegion{0, 0, 8, 8};
-  SensorBuffer b;
-  EXPECT_THROW(renderUnit(rs, tile, b, stats), std::invalid_argument);
 }
 
 // The 2013 report's caustic: at equal samples, the variance of the pixels the light
