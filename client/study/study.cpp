@@ -12,6 +12,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -609,15 +610,27 @@ class Study {
         {"variant", "effects", "us per path", "rays per path", "image mean", "rel. RMSE at budget", "time to 5 % (s)"});
   }
   // The effects a variant table lists (the others are the same in every row).
-  static inline const std::set<std::string> kMaterialEffects = {"specular reflection", "glossy materials", "thin walls",
-                                                                "environment", "shading normals and textures"};
+  static inline const std::set<std::string> kMaterialEffects = {
+      "specular reflection",          "glossy materials", "thin walls", "environment",
+      "shading normals and textures", "light tracing"};
+  // `referenceFrom`: the reference is rendered from this variant of the scene instead (another
+  // estimator of the same image, where the variant's own would miss what it fails to sample).
   void measureVariant(const fs::path& sceneFile, json j, const std::string& name, Table& table,
-                      std::vector<Series>& all, const std::set<std::string>& listed = kMaterialEffects) {
+                      std::vector<Series>& all, const std::set<std::string>& listed = kMaterialEffects,
+                      std::optional<json> referenceFrom = std::nullopt) {
     const int side = scale_.materialsSide;
     j["render"]["resolution"] = {side, side};
     j["render"]["samples_per_unit"] = 0;
     Scene scene = parseScene(j.dump(), sceneFile);
-    const Image reference = referenceImage(scene, scale_.materialsReferenceSpp, cache_, nullptr, options_.threads);
+    Image reference;
+    if (referenceFrom) {
+      (*referenceFrom)["render"]["resolution"] = {side, side};
+      (*referenceFrom)["render"]["samples_per_unit"] = 0;
+      reference = referenceImage(parseScene(referenceFrom->dump(), sceneFile), scale_.materialsReferenceSpp, cache_,
+                                 nullptr, options_.threads);
+    } else {
+      reference = referenceImage(scene, scale_.materialsReferenceSpp, cache_, nullptr, options_.threads);
+    }
     ProgressiveRun run;
     run.firstCheckpoint = 4;
     run.budgetSeconds = scale_.materialsBudget;
@@ -740,6 +753,7 @@ class Study {
       const char* name;
       json glass, metal;
       const char* scene = "cornell-glass-metal.json";
+      bool cameraPathsAlone = false;  // light_tracing off, against the reference with light paths
     };
     const json white = {{"type", "lambertian"}, {"albedo", 0.75}};
     const json glass = {{"type", "dielectric"}, {"ior", 1.5}};
@@ -762,6 +776,7 @@ class Study {
         {"smooth glass, rough gold 1.0", glass, veryRoughGold},
         {"smooth glass, rough gold 1.0, no energy compensation", glass, veryRoughGoldSingle},
         {"outdoors, lit by an environment map (sky and sun)", glass, roughGold, "glass-metal-sky.json"},
+        {"outdoors, camera paths alone (no light paths)", glass, roughGold, "glass-metal-sky.json", true},
     };
     Table table = variantTable();
     std::vector<Series> all;
@@ -770,7 +785,13 @@ class Study {
       json j = json::parse(readWholeFileOrThrow(sceneFile, sceneFile.string()));
       j["materials"]["glass"] = v.glass;
       j["materials"]["brushed-gold"] = v.metal;
-      measureVariant(sceneFile, j, v.name, table, all);
+      if (!v.cameraPathsAlone) {
+        measureVariant(sceneFile, j, v.name, table, all);
+        continue;
+      }
+      json alone = j;
+      alone["render"]["light_tracing"] = "off";
+      measureVariant(sceneFile, alone, v.name, table, all, kMaterialEffects, j);
     }
     table.writeCsv(options_.out / "materials.csv");
     plotErrorAgainstTime("materials", all);
@@ -785,8 +806,11 @@ class Study {
            "scattered paths). The image mean shows what energy compensation keeps: without it a rough metal "
            "darkens (59 % of the light lost at roughness 1 with F = 1). The thin-walled ball is a thin wall: its "
            "shadow is its tint, not black, and the scene runs the volume path tracer (its cost per path is that "
-           "tracer's). The last row is glass-metal-sky: the same "
-           "materials outdoors, lit only by an importance-sampled environment map with a small sun.\n\n" +
+           "tracer's). The last two rows are glass-metal-sky: the same "
+           "materials outdoors, lit only by an importance-sampled environment map with a small sun, whose caustic "
+           "through the glass ball light paths aimed at the glass draw (the effect analysis turns them on there); "
+           "then the same with camera paths alone, measured against the reference with light paths (its own would "
+           "lack the caustic it rarely finds).\n\n" +
            table.markdown() + "\n" + link("materials");
   }
 

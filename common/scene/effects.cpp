@@ -680,8 +680,15 @@ void decideLightTracing(Analysis& a, EffectSet& e) {
     if (!deltaLights.empty()) why << " (a delta light's caustics: no camera path reaches them)";
     ltWhy = why.str();
   }
-  if (e.lightTracing || rs.lightTracing != LightTracingMode::kAuto || e.mirrorCaustics)
-    e.decisions.push_back({"light tracing", e.lightTracing, ltWhy});
+  // A delta light's caustic through glass or a mirror is black without light paths: where they
+  // cannot run, the picture differs from the scene's, which the render says as a warning.
+  const bool deltaCausticLost =
+      !e.lightTracing && lightCaustics && !deltaLights.empty() && rs.lightTracing != LightTracingMode::kOff;
+  if (deltaCausticLost)
+    ltWhy += "; the caustics of " + listed(std::set<std::string>(deltaLights.begin(), deltaLights.end())) +
+             " through mirrors and glass are black without light paths";
+  if (e.lightTracing || rs.lightTracing != LightTracingMode::kAuto || e.mirrorCaustics || lightCaustics)
+    e.decisions.push_back({"light tracing", e.lightTracing, ltWhy, deltaCausticLost});
 }
 
 // The decisions, in the order `lensfarm render` lists them; each step is one effect.

@@ -378,6 +378,12 @@ TEST(LightTracer, ADeltaLightThroughAGlassSlabLightsTheFloorAsFresnelAndTheSlabs
     std::printf("%s scale %g: floor under the slab %.5f, expected %.5f (sigma %.5f)\n", c.light.c_str(), c.scale, mean,
                 expected, std::sqrt(variance));
     EXPECT_NEAR(mean, expected, 4.0 * std::sqrt(variance) + 0.01 * expected) << "sigma " << std::sqrt(variance);
+    // Where light paths cannot run (adaptive sampling), the render warns that the caustic is lost.
+    json adaptive = j;
+    adaptive["render"]["adaptive"] = true;
+    const auto warnings = RenderScene(test::loadSceneJson(dir, adaptive, "slab-adaptive.json")).effects().warnings();
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("are black without light paths"), std::string::npos) << warnings[0];
     // Without light paths the floor under the slab is black: the caustic is the light tracer's.
     j["render"]["light_tracing"] = "off";
     const auto off = test::renderScene(test::loadSceneJson(dir, j, "slab-off.json"), 2).image.rgb;

@@ -134,9 +134,15 @@ void checkBounces(const StudyRun& run) {
 void checkMaterials(const StudyRun& run) {
   std::map<std::string, std::map<std::string, std::string>> rows;
   for (const auto& row : readCsv(run.out("materials.csv"))) rows[row.at("variant")] = row;
-  ASSERT_EQ(rows.size(), 8u);
-  EXPECT_NE(rows.at("outdoors, lit by an environment map (sky and sun)").at("effects").find("environment"),
-            std::string::npos);
+  ASSERT_EQ(rows.size(), 9u);
+  const auto& outdoors = rows.at("outdoors, lit by an environment map (sky and sun)");
+  EXPECT_NE(outdoors.at("effects").find("environment"), std::string::npos);
+  // Light paths from the sky through the glass ball, and the row without them.
+  EXPECT_NE(outdoors.at("effects").find("light path(s) per camera path from environment"), std::string::npos)
+      << outdoors.at("effects");
+  const auto& alone = rows.at("outdoors, camera paths alone (no light paths)");
+  EXPECT_EQ(alone.at("effects").find("light path"), std::string::npos) << alone.at("effects");
+  EXPECT_EQ(alone.at("image mean"), outdoors.at("image mean")) << "one reference: the one with light paths";
   // The thin-walled ball is a thin wall, and only that variant pays for one.
   EXPECT_NE(rows.at("thin-walled glass (a thin wall), rough gold 0.3").at("effects").find("let light straight through"),
             std::string::npos);
