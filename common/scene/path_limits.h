@@ -29,9 +29,9 @@ int volumePathSegmentLimit(const RenderSettings& settings);
 
 // The most rays one camera path of a unit may cast, the light paths traced beside it included,
 // for any integrator: each of a volume path's segments (volumePathSegmentLimit) casts up to
-// kMaxCrossings rays and as many for its shadow ray, and a light path per camera path two rays
-// per segment. The coordinator refuses a worker's counters beyond it (docs/farm.md, "Threat
-// model"); a fixed bound (1024) once refused honest units of B = 1000 with light sampling.
+// kMaxCrossings rays and as many for its shadow ray, and each of up to ratio + 1 light paths per
+// camera path two rays per segment and one more. The coordinator refuses a worker's counters beyond it (docs/farm.md,
+// "Threat model"); a fixed bound (1024) once refused honest units of B = 1000 with light sampling.
 uint64_t maxRaysPerPath(const RenderSettings& settings);
 
 }  // namespace lensfarm
