@@ -28,13 +28,16 @@ class RenderScene {
 
  private:
   RenderScene(const Scene& scene, bool general, std::unique_ptr<const Camera> declared)
+      : RenderScene(scene, general, analyzeEffects(scene, *declared), std::move(declared)) {}
+  // `analyzed`: the scene's effect analysis, run once; a general render simulates every effect but
+  // makes the choices that depend on the analysis as the specialised one does.
+  RenderScene(const Scene& scene, bool general, const EffectSet& analyzed, std::unique_ptr<const Camera>&& declared)
       : scene_(scene),
-        effects_(general ? EffectSet::all(scene) : analyzeEffects(scene, *declared)),
-        mirrorsReachable_(general ? analyzeEffects(scene, declared->paraxial()).specular : effects_.specular),
-        lightTracing_(general ? analyzeEffects(scene, *declared).lightTracing : effects_.lightTracing),
-        lightTracesTriangles_(general ? analyzeEffects(scene, *declared).lightTracingTriangles
-                                      : effects_.lightTracingTriangles),
-        equiangular_(general ? analyzeEffects(scene, *declared).equiangular : effects_.equiangular),
+        effects_(general ? EffectSet::all(scene) : analyzed),
+        mirrorsReachable_(general ? analyzeEffects(scene, declared->paraxial()).specular : analyzed.specular),
+        lightTracing_(analyzed.lightTracing),
+        lightTracesTriangles_(analyzed.lightTracingTriangles),
+        equiangular_(analyzed.equiangular),
         camera_(renderCamera(std::move(declared), effects_)),
         caster_(scene),
         lights_(scene, caster_, effects_.lightUseful, scene.render.integrator == IntegratorKind::kNaive),

@@ -636,9 +636,9 @@ void decideLightTracing(Analysis& a, EffectSet& e) {
   // a sun without diameter) is reached by no ray, so light -> delta surface -> diffuse is black
   // without light paths; the environment and a sun with a diameter only by a scattered ray that
   // happens to leave the scene through the glass towards their bright part.
-  std::vector<std::string> deltaLights, farLights;
+  std::set<std::string> deltaLights, farLights;
   for (const auto& light : scene.lights)
-    (light->isDelta() ? deltaLights : farLights).push_back(std::string(light->type()) + " \"" + light->name() + "\"");
+    (light->isDelta() ? deltaLights : farLights).insert(std::string(light->type()) + " \"" + light->name() + "\"");
   e.mirrorCaustics = emittingTriangles && tracedMirror && tracedDiffuse;
   const bool lightCaustics = tracedDelta && tracedDiffuse && !(deltaLights.empty() && farLights.empty());
   const RenderSettings& rs = scene.render;
@@ -673,7 +673,7 @@ void decideLightTracing(Analysis& a, EffectSet& e) {
   if (e.lightTracing) {
     std::ostringstream why;
     why << rs.lightTracingRatio << " light path(s) per camera path from ";
-    std::set<std::string> from(deltaLights.begin(), deltaLights.end());
+    std::set<std::string> from = deltaLights;
     from.insert(farLights.begin(), farLights.end());
     if (e.lightTracingTriangles) from.insert("the emitting surfaces");
     why << listed(from) << ", aimed at the mirrors and glass they light, connected to the camera";
@@ -685,8 +685,7 @@ void decideLightTracing(Analysis& a, EffectSet& e) {
   const bool deltaCausticLost =
       !e.lightTracing && lightCaustics && !deltaLights.empty() && rs.lightTracing != LightTracingMode::kOff;
   if (deltaCausticLost)
-    ltWhy += "; the caustics of " + listed(std::set<std::string>(deltaLights.begin(), deltaLights.end())) +
-             " through mirrors and glass are black without light paths";
+    ltWhy += "; the caustics of " + listed(deltaLights) + " through mirrors and glass are black without light paths";
   if (e.lightTracing || rs.lightTracing != LightTracingMode::kAuto || e.mirrorCaustics || lightCaustics)
     e.decisions.push_back({"light tracing", e.lightTracing, ltWhy, deltaCausticLost});
 }
