@@ -44,7 +44,7 @@ struct StudyOptions {
 
 inline const std::set<std::string> kExperiments = {"convergence", "estimate",  "resolution", "dof",
                                                    "bounces",     "materials", "models",     "optics",
-                                                   "denoise",     "adaptive",  "media"};
+                                                   "denoise",     "adaptive",  "media",      "lights"};
 
 // Runs the experiments and writes the outputs; throws InputError for bad options and
 // std::runtime_error when a tool (gnuplot) fails.

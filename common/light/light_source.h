@@ -25,6 +25,7 @@
 #include <optional>
 #include <string>
 
+#include "common/light/light_bounds.h"
 #include "common/math/ray_offset.h"
 #include "common/math/vec.h"
 
@@ -51,6 +52,11 @@ struct LightSample {
   // segment to p; else it is cast along the unit direction towards p and runs `reach` times the
   // distance: 1 for a point or spot, SceneSphere::kReach for an infinite light.
   float reach = 0.0f;
+  // The probability that the light sampler's choice by power (LightSampler::position) picks this
+  // light over the probability it was chosen with: 1 unless a light tree chose it by the shading
+  // point (render/light_tree.h); infinite where the tree cannot choose it there. Equiangular
+  // sampling, which chooses its light point by power, weighs its samples by it.
+  float powerChoiceRatio = 1.0f;
 
   SpawnPlane plane() const { return SpawnPlane{v0, n, margin}; }
 };
@@ -106,6 +112,10 @@ class LightSource {
   // The one point every sample() of a light at a point lies on (a point, a spot), whatever ref
   // and u; nothing for the others (render/light_sampler.h, LightSampler::position).
   virtual std::optional<Vec3> position() const { return std::nullopt; }
+  // Where it lies, how strongly and in which directions it emits, for the light tree
+  // (light/light_bounds.h): for a light in the scene (a point, a spot); nothing for the infinite
+  // lights, which the light sampler chooses by power alone.
+  virtual std::optional<LightBounds> bounds() const { return std::nullopt; }
 
   // For lights reached by escaped rays: the radiance arriving along a ray that leaves the scene
   // in direction d (unit), and the solid-angle density with which sample() gives d.

@@ -37,6 +37,10 @@ class PointLight final : public LightSource {
     return pointLightSample(position_, intensity_, ref);
   }
   std::optional<Vec3> position() const override { return position_; }
+  // Intensity I in every direction: normals over the whole sphere, each emitting over its hemisphere.
+  std::optional<LightBounds> bounds() const override {
+    return LightBounds{position_, position_, luminance(intensity_), DirectionCone::sphere(), 0.0f, false};
+  }
 
  private:
   Vec3 position_;  // render space

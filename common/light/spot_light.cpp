@@ -34,6 +34,15 @@ double SpotLight::powerOverPi(const SceneSphere&) const {
   return 2.0 * double(luminance(intensity_)) * (1.0 - 0.5 * (double(cosFalloffStart_) + double(cosTotal_)));
 }
 
+std::optional<LightBounds> SpotLight::bounds() const {
+  return LightBounds{position_,
+                     position_,
+                     luminance(intensity_),
+                     DirectionCone{axis_, cosFalloffStart_},
+                     float(std::cos(radians(coneAngle_ - falloffStart_))),
+                     false};
+}
+
 std::optional<LightSample> SpotLight::sample(const Vec3& ref, Vec2, const SceneSphere&) const {
   const Vec3 toRef = ref - position_;
   const float dist2 = glm::dot(toRef, toRef);

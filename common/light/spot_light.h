@@ -33,6 +33,8 @@ class SpotLight final : public LightSource {
   double powerOverPi(const SceneSphere&) const override;
   std::optional<LightSample> sample(const Vec3& ref, Vec2, const SceneSphere&) const override;
   std::optional<Vec3> position() const override { return position_; }
+  // Full intensity within falloff_start of the axis, some out to cone_angle (pbrt-v4's SpotLight::Bounds).
+  std::optional<LightBounds> bounds() const override;
 
   // The fraction of I sent in direction w (unit, from the light).
   float falloff(const Vec3& w) const { return smoothStep(cosTotal_, cosFalloffStart_, glm::dot(axis_, w)); }

@@ -50,7 +50,8 @@ struct PathLanes {
   alignas(64) float lastPdf[kPacketWidth];
   alignas(64) float etaScale[kPacketWidth];
   alignas(64) int bounces[kPacketWidth];
-  alignas(64) int lastSpecular[kPacketWidth];  // 1 or 0 (an int, so lane loops can set it)
+  alignas(64) int lastSpecular[kPacketWidth];                              // 1 or 0 (an int, so lane loops can set it)
+  alignas(64) float vx[kPacketWidth], vy[kPacketWidth], vz[kPacketWidth];  // PathState::vertex
   bool hitLight[kPacketWidth];
   bool lightTraced[kPacketWidth];
 
@@ -63,6 +64,7 @@ struct PathLanes {
       etaScale[k] = 1.0f;
       bounces[k] = 0;
       lastSpecular[k] = 1;
+      vx[k] = vy[k] = vz[k] = 0.0f;
       hitLight[k] = false;
       lightTraced[k] = false;
     }
@@ -77,6 +79,7 @@ struct PathLanes {
     path.lastSpecular = lastSpecular[k] != 0;
     path.lastPdf = lastPdf[k];
     path.etaScale = etaScale[k];
+    path.vertex = Vec3(vx[k], vy[k], vz[k]);
     path.hitLight = hitLight[k];
     path.lightTraced = lightTraced[k];
     return path;
@@ -88,6 +91,7 @@ struct PathLanes {
     lastSpecular[k] = path.lastSpecular ? 1 : 0;
     lastPdf[k] = path.lastPdf;
     etaScale[k] = path.etaScale;
+    vx[k] = path.vertex.x, vy[k] = path.vertex.y, vz[k] = path.vertex.z;
     hitLight[k] = path.hitLight;
     lightTraced[k] = path.lightTraced;
   }
@@ -352,6 +356,9 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
       }
       sampleDirections(hits, v);
       scatterDiffuse(v, goes, paths);
+      if (rs.lights().usesTree())  // the vertex a light tree weighs the next ray's light from
+        for (int k = 0; k < kPacketWidth; ++k)
+          if (goes[k]) paths.vx[k] = hits.px[k], paths.vy[k] = hits.py[k], paths.vz[k] = hits.pz[k];
       if (settings.roulette != RouletteRule::kOff)
         for (int k = 0; k < kPacketWidth; ++k) {
           if (!goes[k]) continue;

@@ -20,7 +20,8 @@ SceneSphere sceneSphereOf(const RayCaster& caster) {
   return SceneSphere::around(caster.boundsLo(), caster.boundsHi());
 }
 
-LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const std::vector<bool>& useful, bool deltaOnly)
+LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const std::vector<bool>& useful, bool deltaOnly,
+                           bool tree)
     : scene_(scene), caster_(caster), sphere_(sceneSphereOf(caster)) {
   const auto& triangles = caster.triangles();
   lightOfTriangle_.assign(triangles.size(), -1);
@@ -73,6 +74,36 @@ LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const st
     if (scene.lights[k]->isReachedByEscapedRays())
       escapeLights_.push_back(
           EscapeLight{scene.lights[k].get(), otherOfLight[k] == SIZE_MAX ? 0.0f : others_[otherOfLight[k]].pmf});
+  if (tree) buildTree(power);
+}
+
+void LightSampler::buildTree(const std::vector<double>& power) {
+  // Each emitting triangle's bounds: its box, its peak intensity A L (its power over pi without the
+  // second face's share) along its normal, emitting over the hemisphere (both, when two-sided).
+  std::vector<LightBounds> bounds(size());
+  for (size_t i = 0; i < lights_.size(); ++i) {
+    const Light& l = lights_[i];
+    const float intensity = float(power[i] / (l.twoSided != 0.0f ? 2.0 : 1.0));
+    bounds[i] = LightBounds{glm::min(l.v0, glm::min(l.v1, l.v2)),
+                            glm::max(l.v0, glm::max(l.v1, l.v2)),
+                            intensity,
+                            DirectionCone{l.n, 1.0f},
+                            0.0f,
+                            l.twoSided != 0.0f};
+  }
+  // The others in the scene bring their own; the infinite ones are chosen by power, before the tree.
+  float running = 0.0f;
+  for (size_t j = 0; j < others_.size(); ++j) {
+    if (const std::optional<LightBounds> b = others_[j].light->bounds()) {
+      bounds[lights_.size() + j] = *b;
+      continue;
+    }
+    infinite_.push_back(j);
+    running += others_[j].pmf;
+    infiniteCdf_.push_back(running);
+  }
+  infinitePmf_ = infinite_.empty() ? 0.0f : std::min(running, 1.0f);
+  tree_ = LightTree(bounds);
 }
 
 namespace {
@@ -147,14 +178,13 @@ class SelectView {
 // The packet form's lane loops: lane k samples a point on light i, read from `lights` (a
 // GatherView or a SelectView).
 template <typename Lights>
-[[gnu::always_inline]] inline void sampleLane(Lights lights, uint32_t i, int k, LightSampleLanes& l, float* dist2,
-                                              float* cosLight) {
+[[gnu::always_inline]] inline void sampleLane(Lights lights, uint32_t i, float pmf, int k, LightSampleLanes& l,
+                                              float* dist2, float* cosLight) {
   const Vec3 n = lights.vec3(i, offsetof(Light, n)), v0 = lights.vec3(i, offsetof(Light, v0));
-  const TrianglePoint s =
-      sampleTrianglePoint(lights.vec3(i, offsetof(Light, v0)), lights.vec3(i, offsetof(Light, v1)),
-                          lights.vec3(i, offsetof(Light, v2)), n, Vec3(l.refx[k], l.refy[k], l.refz[k]),
-                          Vec2(l.u0[k], l.u1[k]), lights.f(i, offsetof(Light, pmf)), lights.f(i, offsetof(Light, area)),
-                          lights.vec3(i, offsetof(Light, emission)), lights.f(i, offsetof(Light, twoSided)));
+  const TrianglePoint s = sampleTrianglePoint(
+      lights.vec3(i, offsetof(Light, v0)), lights.vec3(i, offsetof(Light, v1)), lights.vec3(i, offsetof(Light, v2)), n,
+      Vec3(l.refx[k], l.refy[k], l.refz[k]), Vec2(l.u0[k], l.u1[k]), pmf, lights.f(i, offsetof(Light, area)),
+      lights.vec3(i, offsetof(Light, emission)), lights.f(i, offsetof(Light, twoSided)));
   l.px[k] = s.p.x, l.py[k] = s.p.y, l.pz[k] = s.p.z;
   l.nx[k] = n.x, l.ny[k] = n.y, l.nz[k] = n.z;
   const Vec3 anchor = lights.f(i, offsetof(Light, anchored)) > 0.0f ? s.p : v0;  // Light::planeAt
@@ -175,7 +205,7 @@ LENSFARM_LANE_LOOPS void sampleSelectedLanes(SelectView lights, uint32_t lastLig
   std::copy(std::begin(cdf), std::end(cdf), fewCdf);
   for (int k = 0; k < kPacketWidth; ++k) {
     const uint32_t i = std::min(chooseAmongFew(fewCdf, l.uChoice[k]), lastLight) & uint32_t(l.found[k]);
-    sampleLane(lights, i, k, l, dist2, cosLight);
+    sampleLane(lights, i, lights.f(i, offsetof(Light, pmf)), k, l, dist2, cosLight);
   }
 }
 
@@ -183,9 +213,43 @@ LENSFARM_LANE_LOOPS void sampleSelectedLanes(SelectView lights, uint32_t lastLig
 LENSFARM_LANE_LOOPS void sampleGatheredLanes(GatherView<Light> lights, const uint32_t* __restrict chosen,
                                              LightSampleLanes& __restrict l, float* __restrict dist2,
                                              float* __restrict cosLight) {
-  for (int k = 0; k < kPacketWidth; ++k) sampleLane(lights, chosen[k], k, l, dist2, cosLight);
+  for (int k = 0; k < kPacketWidth; ++k)
+    sampleLane(lights, chosen[k], lights.f(chosen[k], offsetof(Light, pmf)), k, l, dist2, cosLight);
+}
+
+// The same with each lane's own probability of its light (a light tree's, LightSampler::chooseFrom).
+LENSFARM_LANE_LOOPS void sampleGatheredLanesWithPmf(GatherView<Light> lights, const uint32_t* __restrict chosen,
+                                                    const float* __restrict pmf, LightSampleLanes& __restrict l,
+                                                    float* __restrict dist2, float* __restrict cosLight) {
+  for (int k = 0; k < kPacketWidth; ++k) sampleLane(lights, chosen[k], pmf[k], k, l, dist2, cosLight);
 }
 }  // namespace
+
+std::optional<LightSampler::Choice> LightSampler::chooseFrom(const Vec3& ref, float uChoice) const {
+  if (!usesTree()) {
+    const size_t i = choose(uChoice);
+    return Choice{i, pmfByPower(i)};
+  }
+  if (uChoice < infinitePmf_) {
+    const size_t k =
+        std::min(size_t(std::upper_bound(infiniteCdf_.begin(), infiniteCdf_.end(), uChoice) - infiniteCdf_.begin()),
+                 infinite_.size() - 1);
+    return Choice{lights_.size() + infinite_[k], others_[infinite_[k]].pmf};
+  }
+  // The rest of [0, 1) stretched over the tree's choice.
+  const float rest = 1.0f - infinitePmf_;
+  const std::optional<LightTree::Choice> c =
+      tree_.sample(ref, std::min((uChoice - infinitePmf_) / rest, 0x1.fffffep-1f));
+  if (!c) return std::nullopt;
+  return Choice{c->light, rest * c->pmf};
+}
+
+float LightSampler::pmfFrom(const Vec3& ref, size_t light) const {
+  if (!usesTree() || (light >= lights_.size() &&
+                      std::find(infinite_.begin(), infinite_.end(), light - lights_.size()) != infinite_.end()))
+    return pmfByPower(light);
+  return (1.0f - infinitePmf_) * tree_.pmf(ref, uint32_t(light));
+}
 
 size_t LightSampler::choose(float uChoice) const {
   // The first cdf entry above uChoice (std::upper_bound).
@@ -195,11 +259,10 @@ size_t LightSampler::choose(float uChoice) const {
   return std::min(i, count - 1);
 }
 
-std::optional<LightSample> LightSampler::sampleOther(size_t i, const Vec3& ref, Vec2 uPoint) const {
-  const Other& o = others_[i];
-  std::optional<LightSample> s = o.light->sample(ref, uPoint, sphere_);
+std::optional<LightSample> LightSampler::sampleOther(size_t i, const Vec3& ref, Vec2 uPoint, float pmf) const {
+  std::optional<LightSample> s = others_[i].light->sample(ref, uPoint, sphere_);
   if (!s) return std::nullopt;
-  s->pdf *= o.pmf;
+  s->pdf *= pmf;
   if (!(s->pdf > 0.0f && std::isfinite(s->pdf))) return std::nullopt;
   return s;
 }
@@ -253,22 +316,46 @@ std::optional<Vec3> LightSampler::position(float uChoice, Vec2 uPoint) const {
   return b.x * l.v0 + b.y * l.v1 + (1.0f - b.x - b.y) * l.v2;  // sampleTrianglePoint's point
 }
 
-std::optional<LightSample> LightSampler::sample(const Vec3& ref, float uChoice, Vec2 uPoint) const {
-  if (empty()) return std::nullopt;
-  const size_t i = choose(uChoice);
-  if (i >= lights_.size()) return sampleOther(i - lights_.size(), ref, uPoint);
+std::optional<LightSample> LightSampler::sampleTriangle(size_t i, const Vec3& ref, Vec2 uPoint, float pmf) const {
   const Light& l = lights_[i];
-  const TrianglePoint s =
-      sampleTrianglePoint(l.v0, l.v1, l.v2, l.n, ref, uPoint, l.pmf, l.area, l.emission, l.twoSided);
+  const TrianglePoint s = sampleTrianglePoint(l.v0, l.v1, l.v2, l.n, ref, uPoint, pmf, l.area, l.emission, l.twoSided);
   if (!s.valid()) return std::nullopt;
   const SpawnPlane plane = l.planeAt(s.p);
   const Spectrum radiance = l.textured != 0.0f ? s.radiance * emissiveTexture(l, uPoint) : s.radiance;
   return LightSample{s.p, l.n, plane.v0, l.margin, radiance, s.pdf};
 }
 
+std::optional<LightSample> LightSampler::sample(const Vec3& ref, float uChoice, Vec2 uPoint) const {
+  if (empty()) return std::nullopt;
+  const std::optional<Choice> c = chooseFrom(ref, uChoice);
+  if (!c) return std::nullopt;
+  const size_t i = c->light;
+  std::optional<LightSample> s = i < lights_.size() ? sampleTriangle(i, ref, uPoint, c->pmf)
+                                                    : sampleOther(i - lights_.size(), ref, uPoint, c->pmf);
+  if (s && usesTree()) s->powerChoiceRatio = pmfByPower(i) / c->pmf;
+  return s;
+}
+
+std::optional<LightSample> LightSampler::samplePositioned(const Vec3& ref, float uChoice, Vec2 uPoint) const {
+  if (!usesTree()) return sample(ref, uChoice, uPoint);
+  if (empty()) return std::nullopt;
+  const size_t i = choose(uChoice);
+  const float byPower = pmfByPower(i);
+  std::optional<LightSample> s = i < lights_.size() ? sampleTriangle(i, ref, uPoint, byPower)
+                                                    : sampleOther(i - lights_.size(), ref, uPoint, byPower);
+  if (!s) return std::nullopt;
+  const float chosen = pmfFrom(ref, i);
+  s->powerChoiceRatio = chosen > 0.0f ? byPower / chosen : std::numeric_limits<float>::infinity();
+  return s;
+}
+
 void LightSampler::sample(LightSampleLanes& lanes) const {
   if (empty()) {
     for (int& found : lanes.found) found = 0;
+    return;
+  }
+  if (usesTree()) {
+    sampleTreeLanes(lanes);
     return;
   }
   if (!others_.empty())
@@ -328,30 +415,84 @@ void LightSampler::sampleMixedLanes(LightSampleLanes& lanes) const {
   }
   for (int k = 0; k < kPacketWidth; ++k) {
     if (other[k] == SIZE_MAX) continue;
-    const std::optional<LightSample> s =
-        sampleOther(other[k], Vec3(lanes.refx[k], lanes.refy[k], lanes.refz[k]), Vec2(lanes.u0[k], lanes.u1[k]));
-    if (!s) {
-      lanes.found[k] = 0;
-      continue;
-    }
-    lanes.px[k] = s->p.x, lanes.py[k] = s->p.y, lanes.pz[k] = s->p.z;
-    lanes.nx[k] = s->n.x, lanes.ny[k] = s->n.y, lanes.nz[k] = s->n.z;
-    lanes.v0x[k] = s->v0.x, lanes.v0y[k] = s->v0.y, lanes.v0z[k] = s->v0.z;
-    lanes.margin[k] = s->margin;
-    lanes.rr[k] = s->radiance.r, lanes.rg[k] = s->radiance.g, lanes.rb[k] = s->radiance.b;
-    lanes.pdf[k] = s->pdf;
-    lanes.delta[k] = s->delta ? 1 : 0;
-    lanes.reach[k] = s->reach;
+    const std::optional<LightSample> s = sampleOther(other[k], Vec3(lanes.refx[k], lanes.refy[k], lanes.refz[k]),
+                                                     Vec2(lanes.u0[k], lanes.u1[k]), others_[other[k]].pmf);
+    putLane(lanes, k, s);
   }
 }
 
-float LightSampler::pdf(uint32_t triangle, float distance, const Vec3& d) const {
+void LightSampler::sampleTreeLanes(LightSampleLanes& lanes) const {
+  // Each lane descends the tree from its own point (a loop of branches: lane by lane); those that
+  // choose a triangle sample it in the lane loop with their own pmf, the others one by one.
+  alignas(64) uint32_t chosen[kPacketWidth];
+  alignas(64) float pmf[kPacketWidth];
+  size_t other[kPacketWidth];
+  bool triangle[kPacketWidth], anyTriangle = false;
+  for (int k = 0; k < kPacketWidth; ++k) {
+    chosen[k] = 0, pmf[k] = 1.0f, other[k] = SIZE_MAX, triangle[k] = false;
+    lanes.delta[k] = 0;
+    lanes.reach[k] = 0.0f;
+    if (lanes.found[k] == 0) continue;
+    const std::optional<Choice> c = chooseFrom(Vec3(lanes.refx[k], lanes.refy[k], lanes.refz[k]), lanes.uChoice[k]);
+    if (!c) {
+      lanes.found[k] = 0;
+      continue;
+    }
+    pmf[k] = c->pmf;
+    triangle[k] = c->light < lights_.size();
+    if (triangle[k])
+      chosen[k] = uint32_t(c->light);
+    else
+      other[k] = c->light - lights_.size();
+    anyTriangle |= triangle[k];
+  }
+  if (anyTriangle) {
+    alignas(64) float dist2[kPacketWidth], cosLight[kPacketWidth];
+    sampleGatheredLanesWithPmf(GatherView<Light>(lights_.data()), chosen, pmf, lanes, dist2, cosLight);
+    for (int k = 0; k < kPacketWidth; ++k) {
+      if (!triangle[k]) continue;
+      const TrianglePoint s{{}, {}, lanes.pdf[k], dist2[k], cosLight[k]};
+      if (!s.valid()) {
+        lanes.found[k] = 0;
+        continue;
+      }
+      const Light& l = lights_[chosen[k]];
+      if (l.textured == 0.0f) continue;
+      const Spectrum f = emissiveTexture(l, Vec2(lanes.u0[k], lanes.u1[k]));
+      lanes.rr[k] *= f.r, lanes.rg[k] *= f.g, lanes.rb[k] *= f.b;
+    }
+  }
+  for (int k = 0; k < kPacketWidth; ++k)
+    if (other[k] != SIZE_MAX)
+      putLane(lanes, k,
+              sampleOther(other[k], Vec3(lanes.refx[k], lanes.refy[k], lanes.refz[k]), Vec2(lanes.u0[k], lanes.u1[k]),
+                          pmf[k]));
+}
+
+void LightSampler::putLane(LightSampleLanes& lanes, int k, const std::optional<LightSample>& s) {
+  if (!s) {
+    lanes.found[k] = 0;
+    return;
+  }
+  lanes.px[k] = s->p.x, lanes.py[k] = s->p.y, lanes.pz[k] = s->p.z;
+  lanes.nx[k] = s->n.x, lanes.ny[k] = s->n.y, lanes.nz[k] = s->n.z;
+  lanes.v0x[k] = s->v0.x, lanes.v0y[k] = s->v0.y, lanes.v0z[k] = s->v0.z;
+  lanes.margin[k] = s->margin;
+  lanes.rr[k] = s->radiance.r, lanes.rg[k] = s->radiance.g, lanes.rb[k] = s->radiance.b;
+  lanes.pdf[k] = s->pdf;
+  lanes.delta[k] = s->delta ? 1 : 0;
+  lanes.reach[k] = s->reach;
+}
+
+LightSampler::HitPdf LightSampler::pdfs(uint32_t triangle, const Vec3& ref, float distance, const Vec3& d) const {
   const int32_t i = lightOfTriangle_[triangle];
-  if (i < 0) return 0.0f;
+  if (i < 0) return {0.0f, 0.0f};
   const Light& light = lights_[i];
   const float cosLight = std::abs(glm::dot(caster_.triangles()[triangle].n, d));
-  if (!(cosLight > 0.0f)) return 0.0f;
-  return light.pmf * distance * distance / (cosLight * light.area);
+  if (!(cosLight > 0.0f)) return {0.0f, 0.0f};
+  const float byPower = light.pmf * distance * distance / (cosLight * light.area);
+  if (!usesTree()) return {byPower, byPower};
+  return {pmfFrom(ref, size_t(i)) * distance * distance / (cosLight * light.area), byPower};
 }
 
 Spectrum LightSampler::emitted(uint32_t triangle, const Vec3& d) const {

@@ -17,6 +17,13 @@
 // the same bits); only other lights bring in the combined choice, where a packet's lanes that
 // choose one of them take the one-sample code (sample()) lane by lane.
 //
+// With a light tree (`tree`, where the effect analysis turns it on: scene/effects.h), the lights
+// in the scene (emitting triangles, points and spots) are chosen by their importance at the
+// shading point (render/light_tree.h): the infinite lights keep their share of the power, chosen
+// by power among themselves, and the tree chooses within the rest. The probability of a light then
+// depends on the shading point (`ref`), which pdf() takes too. position() chooses by power always
+// (it has no shading point); LightSample::powerChoiceRatio relates the two choices.
+//
 // With the naive estimator (`deltaOnly`) only delta lights are sampled: nothing else can reach
 // them, and every other light is counted where rays hit it (render/integrator.h).
 #include <cstddef>
@@ -26,6 +33,7 @@
 
 #include "common/light/light_source.h"
 #include "common/math/vec.h"
+#include "common/render/light_tree.h"
 #include "common/render/ray_caster.h"
 #include "common/scene/scene.h"
 
@@ -54,8 +62,9 @@ class LightSampler {
  public:
   // `useful[m]` false: emitters of material m light nothing and are not sampled (empty: all are).
   // `deltaOnly`: sample only the delta lights (the naive estimator).
+  // `tree`: choose the lights in the scene with a light tree.
   LightSampler(const Scene& scene, const RayCaster& caster, const std::vector<bool>& useful = {},
-               bool deltaOnly = false);
+               bool deltaOnly = false, bool tree = false);
 
   bool empty() const { return size() == 0; }
   size_t size() const { return lights_.size() + others_.size(); }  // the lights sampled
@@ -67,6 +76,9 @@ class LightSampler {
   // Whether lights other than triangles are sampled: only then does the lane form write the
   // lanes' delta and reach.
   bool hasOtherLights() const { return !others_.empty(); }
+  // Whether a light tree chooses (then the probability of a light depends on the shading point).
+  bool usesTree() const { return !tree_.empty(); }
+  const LightTree& tree() const { return tree_; }
   // The lights that rays leaving the scene reach (the environment, a sun with a diameter), each
   // with the probability of choosing it for a light sample (0 where it is not sampled).
   struct EscapeLight {
@@ -80,16 +92,27 @@ class LightSampler {
   std::optional<LightSample> sample(const Vec3& ref, float uChoice, Vec2 uPoint) const;
   // The same for every lane of a packet: each lane gets the bits sample() gives it.
   void sample(LightSampleLanes& lanes) const;
+  // The light position() chooses for uChoice, sampled from `ref` at the point position() gives:
+  // its pdf is that of position()'s choice (by power); its powerChoiceRatio that choice's
+  // probability over the probability sample() would choose it from ref. Without a tree, sample().
+  std::optional<LightSample> samplePositioned(const Vec3& ref, float uChoice, Vec2 uPoint) const;
   // The point sample() gives for these numbers from every `ref`, where it does not depend on ref:
   // on an emitting triangle (uniform by area) or a light at a point. Nothing for the other lights
   // (directions, not points) and where there are none. Equiangular sampling towards a light
   // (render/volume_integrator.cpp) chooses the point before the shading point it lights.
   std::optional<Vec3> position(float uChoice, Vec2 uPoint) const;
 
-  // Density (solid angle, at a point at distance `distance` in direction d) with which sample()
-  // would have produced the point hit on emitting triangle `triangle` (RayCaster index); 0 where
-  // the triangle is not sampled.
-  float pdf(uint32_t triangle, float distance, const Vec3& d) const;
+  // Density (solid angle, at a point at distance `distance` in direction d from `ref`) with which
+  // sample() from ref would have produced the point hit on emitting triangle `triangle` (RayCaster
+  // index), and the density position()'s choice by power gives it (the same without a tree); 0
+  // where the triangle is not sampled.
+  struct HitPdf {
+    float pdf, byPower;
+  };
+  HitPdf pdfs(uint32_t triangle, const Vec3& ref, float distance, const Vec3& d) const;
+  float pdf(uint32_t triangle, const Vec3& ref, float distance, const Vec3& d) const {
+    return pdfs(triangle, ref, distance, d).pdf;
+  }
   // The same for a ray leaving the scene in direction d and reaching escape light e.
   static float pdf(const EscapeLight& e, const Vec3& d) { return e.pmf > 0.0f ? e.pmf * e.light->pdf(d) : 0.0f; }
 
@@ -130,8 +153,24 @@ class LightSampler {
 
  private:
   size_t choose(float uChoice) const;  // the light whose cdf interval holds uChoice
-  // A light sample of other light i (an index into others_).
-  std::optional<LightSample> sampleOther(size_t i, const Vec3& ref, Vec2 uPoint) const;
+  // The light sample() chooses from ref and the probability of choosing it; nothing where none.
+  struct Choice {
+    size_t light;  // into lights_, then others_
+    float pmf;
+  };
+  std::optional<Choice> chooseFrom(const Vec3& ref, float uChoice) const;
+  float pmfFrom(const Vec3& ref, size_t light) const;  // chooseFrom's probability of `light`
+  // A light sample of other light i (an index into others_), chosen with probability pmf.
+  std::optional<LightSample> sampleOther(size_t i, const Vec3& ref, Vec2 uPoint, float pmf) const;
+  // A light sample of emitting triangle i (an index into lights_), chosen with probability pmf.
+  std::optional<LightSample> sampleTriangle(size_t i, const Vec3& ref, Vec2 uPoint, float pmf) const;
+  void sampleTreeLanes(LightSampleLanes& lanes) const;  // the lane form with a light tree
+  // Lane k of the lane form takes light sample s (found 0 where there is none).
+  static void putLane(LightSampleLanes& lanes, int k, const std::optional<LightSample>& s);
+  float pmfByPower(size_t light) const {
+    return light < lights_.size() ? lights_[light].pmf : others_[light - lights_.size()].pmf;
+  }
+  void buildTree(const std::vector<double>& power);
   void sampleMixedLanes(LightSampleLanes& lanes) const;     // the lane form with other lights
   void sampleTriangleLanes(LightSampleLanes& lanes) const;  // the lane form without them
   // The texture's mean over triangle k of the caster (for its power).
@@ -150,6 +189,12 @@ class LightSampler {
   std::vector<int32_t> lightOfTriangle_;  // per RayCaster triangle, -1 if not emitting
   SceneSphere sphere_;
   std::vector<EscapeLight> escapeLights_;
+  // With a tree: the infinite lights (into others_), their cumulative pmf (by power, summing to
+  // infinitePmf_), and the tree over the rest (ids: the light index of Choice).
+  std::vector<size_t> infinite_;
+  std::vector<float> infiniteCdf_;
+  float infinitePmf_ = 0.0f;
+  LightTree tree_;
   bool hasDelta_ = false;
   bool hasPositioned_ = false;
   bool hasTextured_ = false;  // some light is an emitting triangle with an emissive texture

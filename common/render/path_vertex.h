@@ -40,9 +40,16 @@ struct MediumVertexMis {
   double ratio(const Vec3& x) const {
     return equiangularRatio(equiangularPdf(equiangularSegment(origin, direction, 0.0f, tMax, x), t), freeFlightPdf);
   }
-  float lightPdfScale(const Vec3& x) const {
+  // The density to weigh a phase sample reaching light point x against, both light strategies
+  // together: sqrt(b^2 + c^2) over p_d, b = `lightPdf` (the light sample's), c = r `byPower` (the
+  // equiangular strategy's, whose light point is chosen by power: LightSampler::HitPdf).
+  float lightPdf(const Vec3& x, float lightPdf, float byPower) const {
     const double r = ratio(x);
-    return std::isinf(r) ? std::numeric_limits<float>::infinity() : float(std::sqrt(1.0 + r * r));
+    if (lightPdf == byPower)
+      return std::isinf(r) ? std::numeric_limits<float>::infinity() : lightPdf * float(std::sqrt(1.0 + r * r));
+    if (std::isinf(r)) return byPower > 0.0f ? std::numeric_limits<float>::infinity() : lightPdf;
+    const double c = r * byPower;
+    return float(std::sqrt(double(lightPdf) * lightPdf + c * c));
   }
 };
 
@@ -51,10 +58,14 @@ struct PathState {
   Spectrum radiance{0.0f};
   Spectrum throughput{1.0f};
   Vec3 origin{0.0f}, direction{0.0f};  // the next ray to cast
-  int bounces = 0;                     // counted bounces so far (toward B)
-  bool lastSpecular = true;            // the camera ray behaves like a specular one: no MIS for it
-  float lastPdf = 0.0f;                // solid-angle pdf of the last scattered direction
-  float etaScale = 1.0f;               // product of eta^2 over the refractions so far (Russian roulette)
+  // The vertex the last scattered ray left: the point its light sample was taken from, where a
+  // light tree's choice of the light that ray reaches is weighed (render/light_tree.h). (The
+  // packet form keeps it only while a tree chooses lights.)
+  Vec3 vertex{0.0f};
+  int bounces = 0;           // counted bounces so far (toward B)
+  bool lastSpecular = true;  // the camera ray behaves like a specular one: no MIS for it
+  float lastPdf = 0.0f;      // solid-angle pdf of the last scattered direction
+  float etaScale = 1.0f;     // product of eta^2 over the refractions so far (Russian roulette)
   bool hitLight = false;
   // The path so far is one the light tracer also samples, once it reaches a light through a delta
   // vertex (render/light_tracer.h): its first vertex scattered by a non-delta lobe and every vertex
@@ -128,8 +139,8 @@ inline void addEmittedLight(const RenderScene& rs, const SurfaceHit& hit, const 
   if (path.lightTraced && path.lastSpecular && rs.lightTracesTriangles() && rs.lights().samplesTriangle(hit.triangle))
     return;
   const float weight = reachedLightWeight<kNee>(rs, path, [&] {
-    const float pdf = rs.lights().pdf(hit.triangle, hit.t, path.direction);
-    return path.mediumVertex && pdf > 0.0f ? pdf * path.mediumVertex->lightPdfScale(hit.p) : pdf;
+    const LightSampler::HitPdf pdf = rs.lights().pdfs(hit.triangle, path.vertex, hit.t, path.direction);
+    return path.mediumVertex && pdf.byPower > 0.0f ? path.mediumVertex->lightPdf(hit.p, pdf.pdf, pdf.byPower) : pdf.pdf;
   });
   path.radiance += path.throughput * le * weight;
 }
@@ -320,6 +331,7 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
                                                         : material.sampleLambertian(n, uDirection);
   if (!s || (shaded && !scattersTo(s->wi, ng, n))) return outcome;
   if (!scatter(rs, rng, base, counts, *s, path)) return outcome;
+  path.vertex = hit.p;
   path.origin = spawnOrigin(hit.p, hit.plane(), s->wi);
   path.direction = s->wi;
   outcome.continues = true;

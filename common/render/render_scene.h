@@ -40,7 +40,8 @@ class RenderScene {
         equiangular_(analyzed.equiangular),
         camera_(renderCamera(std::move(declared), effects_)),
         caster_(scene),
-        lights_(scene, caster_, effects_.lightUseful, scene.render.integrator == IntegratorKind::kNaive),
+        lights_(scene, caster_, effects_.lightUseful, scene.render.integrator == IntegratorKind::kNaive,
+                analyzed.lightTree),
         hasEscapeLights_(!lights_.escapeLights().empty()),
         aovLayout_(scene.render.aovs) {
     // Materials with textures, and those of meshes with vertex normals, are shaded per point

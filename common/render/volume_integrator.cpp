@@ -105,12 +105,16 @@ bool lastMediumEvent(const RenderScene& rs, int mediumBounces) {
 struct EquiangularWeights {
   float light, equiangular;  // w_d and w_e
 };
-EquiangularWeights equiangularWeights(float phasePdf, float lightPdf, double r) {
+// With a light tree, the light sample's choice (b') and the equiangular strategy's (by power:
+// LightSampler::position) differ: c' = r p_byPower, and the weights are b'^2 and c'^2 over
+// a'^2 + b'^2 + c'^2 (`byPower` equal to `lightPdf` without a tree: the form above).
+EquiangularWeights equiangularWeights(float phasePdf, float lightPdf, double r, float byPower) {
   if (std::isinf(r)) return {0.0f, 1.0f};  // free flight cannot reach t (its density underflowed)
   const double a2 = double(phasePdf) * phasePdf, b2 = double(lightPdf) * lightPdf;
-  const double sum = a2 + b2 * (1.0 + r * r);
+  const double c2 = lightPdf == byPower ? b2 * r * r : (r * byPower) * (r * byPower);
+  const double sum = lightPdf == byPower ? a2 + b2 * (1.0 + r * r) : a2 + b2 + c2;
   if (!(sum > 0.0) || std::isinf(sum)) return {0.0f, 0.0f};
-  return {float(b2 / sum), float(b2 * r * r / sum)};
+  return {float(b2 / sum), float(c2 / sum)};
 }
 
 // The segment of a path's ray in a medium equiangular sampling serves.
@@ -138,14 +142,18 @@ Spectrum equiangularDirect(const RenderScene& rs, const SampleStream& rng, int s
   const float pe = equiangularPdf(es, t);
   if (!(pe > 0.0f)) return Spectrum(0.0f);
   const Vec3 v = seg.origin + t * seg.direction;
-  const auto ls = rs.lights().sample(v, uChoice, uPoint);  // the same point x, seen from v
+  // The same point x, seen from v: ls->pdf is the density of x by position()'s choice (c / p_e);
+  // the light sample's own from v is that over powerChoiceRatio (0 where a tree cannot choose it).
+  const auto ls = rs.lights().samplePositioned(v, uChoice, uPoint);
   if (!ls || isBlack(ls->radiance)) return Spectrum(0.0f);
   const Vec3 wi = glm::normalize(ls->p - v);
   const float f = medium.phase().eval(-seg.direction, wi);
   if (!(f > 0.0f)) return Spectrum(0.0f);
   const bool mis = rs.settings().integrator == IntegratorKind::kNeeMis && !lastEvent && !ls->delta;
+  const float lightPdf = ls->powerChoiceRatio == 1.0f ? ls->pdf : ls->pdf / ls->powerChoiceRatio;
   const float w =
-      equiangularWeights(mis ? f : 0.0f, ls->pdf, equiangularRatio(pe, seg.fog->freeFlightDensity(t))).equiangular;
+      equiangularWeights(mis ? f : 0.0f, lightPdf, equiangularRatio(pe, seg.fog->freeFlightDensity(t)), ls->pdf)
+          .equiangular;
   if (!(w > 0.0f)) return Spectrum(0.0f);
   Vec3 direction = spawnOrigin(ls->p, ls->plane(), -wi) - v;
   float tFar = 1.0f - kShadowEpsilon;
@@ -189,7 +197,9 @@ bool scatterInMedium(const RenderScene& rs, const SampleStream& rng, int segment
         const bool mis = settings.integrator == IntegratorKind::kNeeMis && !lastBounce && !ls->delta;
         float weight = mis ? powerHeuristic(ls->pdf, f) : 1.0f;
         if (seg && ls->reach <= 1.0f)  // a light at points (a triangle: 0; a point or spot: 1)
-          weight = equiangularWeights(mis ? f : 0.0f, ls->pdf, vertex.ratio(ls->p)).light;
+          weight = equiangularWeights(mis ? f : 0.0f, ls->pdf, vertex.ratio(ls->p),
+                                      ls->powerChoiceRatio == 1.0f ? ls->pdf : ls->pdf * ls->powerChoiceRatio)
+                       .light;
         const Spectrum tr =
             shadowTransmittance(rs, p, direction, tFar, &medium, rng.streamKey(base + dims::kLightPoint), stats);
         path.radiance += path.throughput * ls->radiance * tr * (f * weight / ls->pdf);
@@ -204,6 +214,7 @@ bool scatterInMedium(const RenderScene& rs, const SampleStream& rng, int segment
   path.lastSpecular = !sampleLights;  // no light sample here: a light reached next weighs 1
   path.lastPdf = s.pdf;
   path.mediumVertex = seg ? &vertex : nullptr;
+  path.vertex = p;
   path.origin = p;
   path.direction = s.wi;
   return true;

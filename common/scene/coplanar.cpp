@@ -91,26 +91,105 @@ void planarLamps(const Scene& scene, size_t index, std::vector<FlushCandidate>& 
   }
 }
 
+// Every triangle of the scene's meshes in the cells of a uniform grid its box overlaps (those
+// overlapping very many cells in a list of their own), so that the triangles near a lamp are found
+// without visiting all of them: a scene of many lamps is not quadratic in its triangles.
+class TriangleGrid {
+ public:
+  explicit TriangleGrid(const Scene& scene) {
+    std::vector<std::pair<uint64_t, Box>> boxes;
+    for (size_t m = 0; m < scene.meshes.size(); ++m) {
+      const TriangleMesh& mesh = scene.meshes[m];
+      for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+        Box box;
+        for (int k = 0; k < 3; ++k) box.add(DVec3(mesh.positions[mesh.indices[3 * t + k]]));
+        bounds_.add(box.lo), bounds_.add(box.hi);
+        boxes.push_back({uint64_t(m) << 32 | t, box});
+      }
+    }
+    res_ = std::clamp(int(std::cbrt(double(boxes.size()) / 2.0)), 1, 64);
+    const DVec3 extent = bounds_.hi - bounds_.lo;
+    for (int c = 0; c < 3; ++c) scale_[c] = extent[c] > 0.0 ? double(res_) / extent[c] : 0.0;
+    // Counts, then entries (compressed rows).
+    start_.assign(size_t(res_) * res_ * res_ + 1, 0);
+    const auto each = [&](const Box& box, auto&& visit) {
+      int lo[3], hi[3];
+      range(box, 0.0, lo, hi);
+      if (int64_t(hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1) > kLargeCells) return false;
+      for (int z = lo[2]; z <= hi[2]; ++z)
+        for (int y = lo[1]; y <= hi[1]; ++y)
+          for (int x = lo[0]; x <= hi[0]; ++x) visit(cellIndex(x, y, z));
+      return true;
+    };
+    for (const auto& [id, box] : boxes)
+      if (!each(box, [&](size_t c) { ++start_[c + 1]; })) large_.push_back(id);
+    for (size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+    entries_.resize(start_.back());
+    std::vector<size_t> fill(start_.begin(), start_.end() - 1);
+    for (const auto& [id, box] : boxes) each(box, [&, id = id](size_t c) { entries_[fill[c]++] = id; });
+  }
+
+  // Calls visit(mesh, triangle) for every triangle whose box may overlap `box` padded by pad
+  // (some more than once), also after lamps have moved forward (by far less than the slack: a few
+  // margins, each a few float steps of the scene's magnitude).
+  template <typename Visit>
+  void near(const Box& box, double pad, Visit&& visit) const {
+    for (uint64_t id : large_) visit(size_t(id >> 32), size_t(id & 0xffffffffu));
+    int lo[3], hi[3];
+    const double slack = 1024.0 * kEps * std::max(largestAbs(bounds_.lo), largestAbs(bounds_.hi));
+    range(box, pad + slack, lo, hi);
+    for (int z = lo[2]; z <= hi[2]; ++z)
+      for (int y = lo[1]; y <= hi[1]; ++y)
+        for (int x = lo[0]; x <= hi[0]; ++x) {
+          const size_t c = cellIndex(x, y, z);
+          for (size_t e = start_[c]; e < start_[c + 1]; ++e)
+            visit(size_t(entries_[e] >> 32), size_t(entries_[e] & 0xffffffffu));
+        }
+  }
+
+ private:
+  static constexpr int64_t kLargeCells = 64;
+  size_t cellIndex(int x, int y, int z) const {
+    return (size_t(z) * size_t(res_) + size_t(y)) * size_t(res_) + size_t(x);
+  }
+  void range(const Box& box, double pad, int (&lo)[3], int (&hi)[3]) const {
+    for (int c = 0; c < 3; ++c) {
+      const auto cell = [&](double v) {
+        return std::clamp(int(std::floor((v - bounds_.lo[c]) * scale_[c])), 0, res_ - 1);
+      };
+      lo[c] = cell(box.lo[c] - pad), hi[c] = cell(box.hi[c] + pad);
+    }
+  }
+
+  Box bounds_;
+  int res_ = 1;
+  double scale_[3] = {};
+  std::vector<size_t> start_;
+  std::vector<uint64_t> entries_, large_;
+};
+
 }  // namespace
 
 size_t bringFlushLightsForward(Scene& scene) {
   std::vector<FlushCandidate> lamps;
   for (size_t m = 0; m < scene.meshes.size(); ++m) planarLamps(scene, m, lamps);
+  if (lamps.empty()) return 0;
+  const TriangleGrid grid(scene);
   size_t moved = 0;
   for (const FlushCandidate& lamp : lamps) {
     // The partner margin: the largest of the surfaces lying in the lamp's plane over it.
     double partner = -1.0;
     const double pad = 8.0 * kEps * lamp.magnitude;
-    for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    grid.near(lamp.box, pad, [&](size_t m, size_t t) {
       const TriangleMesh& mesh = scene.meshes[m];
-      for (size_t t = 0; t < mesh.triangleCount(); ++t) {
-        if (m == lamp.mesh && oneSidedEmitter(scene, mesh, t)) continue;  // the lamp itself, or another
+      {
+        if (m == lamp.mesh && oneSidedEmitter(scene, mesh, t)) return;  // the lamp itself, or another
         const Vec3 &a = mesh.positions[mesh.indices[3 * t]], &b = mesh.positions[mesh.indices[3 * t + 1]],
                    &d = mesh.positions[mesh.indices[3 * t + 2]];
         Box box;
         for (const Vec3* v : {&a, &b, &d}) box.add(DVec3(*v));
-        if (!box.overlaps(lamp.box, pad)) continue;
-        if (!triangleNormal(a, b, d)) continue;
+        if (!box.overlaps(lamp.box, pad)) return;
+        if (!triangleNormal(a, b, d)) return;
         const SpawnPlane plane = spawnPlaneOf(a, b, d);
         // In the lamp's plane: every vertex within both triangles' resolution of it.
         const double tolerance = 4.0 * (lamp.margin + double(plane.margin)) + pad;
@@ -118,7 +197,7 @@ size_t bringFlushLightsForward(Scene& scene) {
         for (const Vec3* v : {&a, &b, &d}) coplanar &= std::abs(glm::dot(lamp.n, DVec3(*v) - lamp.point)) <= tolerance;
         if (coplanar) partner = std::max(partner, double(plane.margin));
       }
-    }
+    });
     if (partner < 0.0) continue;
     // Forward by twice the two margins (each bounds Embree's error in one plane test), plus
     // twice the most rounding the moved vertices can undo.

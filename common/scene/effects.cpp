@@ -618,6 +618,35 @@ void decideEquiangular(Analysis& a, EffectSet& e) {
   e.decisions.push_back({"equiangular sampling", e.equiangular, why});
 }
 
+void decideLightTree(Analysis& a, EffectSet& e) {
+  const Scene& scene = a.scene;
+  // The lights a tree would hold: the emitting triangles sampled and the lights at points.
+  const bool deltaOnly = scene.render.integrator == IntegratorKind::kNaive;
+  uint64_t triangles = 0, points = 0;
+  for (const TriangleMesh& mesh : scene.meshes)
+    for (uint32_t id : mesh.materialIds)
+      triangles += !deltaOnly && a.used[id] && scene.materials[id].isEmissive() && e.lightUseful[id] ? 1 : 0;
+  for (const auto& light : scene.lights) points += light->bounds() ? 1 : 0;
+  const uint64_t lights = triangles + points;
+  const LightTreeMode mode = scene.render.lightTree;
+  std::ostringstream why;
+  if (!e.lightSampling)
+    why << "no light sampling";
+  else if (mode == LightTreeMode::kOff)
+    why << "render.light_tree is off";
+  else if (lights == 0)
+    why << "no light in the scene (only lights beyond it)";
+  else if (mode == LightTreeMode::kAuto && lights <= kLightTreeAutoLights)
+    why << lights << " light(s) in the scene, chosen by power (the tree from " << kLightTreeAutoLights + 1 << " on)";
+  e.lightTree = why.str().empty();
+  if (e.lightTree)
+    why << "over " << triangles << " emitting triangle(s) and " << points
+        << " point or spot light(s): each light sample chooses by the lights' bounds as seen from its point "
+           "(Conty Estevez & Kulla 2018)";
+  if (e.lightTree || mode != LightTreeMode::kAuto || lights > 8)
+    e.decisions.push_back({"light tree", e.lightTree, why.str()});
+}
+
 void decideLightTracing(Analysis& a, EffectSet& e) {
   const Scene& scene = a.scene;
   const std::vector<bool>& used = a.used;
@@ -692,8 +721,9 @@ void decideLightTracing(Analysis& a, EffectSet& e) {
 
 // The decisions, in the order `lensfarm render` lists them; each step is one effect.
 using EffectStep = void (*)(Analysis&, EffectSet&);
-constexpr EffectStep kEffectSteps[] = {decideCamera,    decideDiffraction, decideMaterials,   decideMedia,
-                                       decideThinWalls, decideLights,      decideEquiangular, decideLightTracing};
+constexpr EffectStep kEffectSteps[] = {decideCamera,    decideDiffraction, decideMaterials,
+                                       decideMedia,     decideThinWalls,   decideLights,
+                                       decideLightTree, decideEquiangular, decideLightTracing};
 
 }  // namespace
 

@@ -19,6 +19,8 @@
 //  - lights that face away from every surface and from the camera (or only into the inside of
 //    the closed mesh they lie on, with nothing there) are dropped from sampling and reported as
 //    warnings: they emit nothing into the scene;
+//  - light tree: on past kLightTreeAutoLights lights in the scene (emitting triangles, points and
+//    spots), or as render.light_tree forces; listed where it is on, forced, or there are more than 8;
 //  - the lights that are not triangles (point, spot, directional, the environment) are listed,
 //    e.g. "environment: on (sky.exr 2048x1024)"; with the naive estimator, light samples are
 //    taken of the delta lights alone (render/integrator.h).
@@ -40,6 +42,10 @@ struct EffectDecision {
   // user asked for, printed as a warning at the start of a render (EffectSet::warnings).
   bool changesScene = false;
 };
+
+// The number of lights in the scene above which `render.light_tree: "auto"` turns the light tree
+// on (docs/performance.md, "Many lights").
+inline constexpr uint64_t kLightTreeAutoLights = 64;
 
 struct EffectSet {
   bool depthOfField = true;
@@ -68,6 +74,10 @@ struct EffectSet {
   // binary-weighted light tracer was measured not to pay at equal time (docs/performance.md).
   bool lightTracing = false;
   bool lightTracingTriangles = false;
+  // Next-event estimation chooses the lights in the scene with a light tree (render/light_tree.h):
+  // `auto` where there are more than kLightTreeAutoLights of them (emitting triangles, point and
+  // spot lights), where choosing by power alone spends most samples on lights that cannot matter.
+  bool lightTree = false;
   bool mirrorCaustics = false;
   std::vector<bool> lightUseful;  // per material index: false for emitters that light nothing
   std::vector<EffectDecision> decisions;

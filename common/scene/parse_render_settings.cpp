@@ -26,6 +26,19 @@ void SceneParser::parseResolution(FieldReader& r) {
   s.height = int(h);
 }
 
+namespace {
+// A render setting of "auto", "on" or "off" (default auto), or one error naming render.<field>.
+template <typename Mode>
+Mode autoOnOff(FieldReader& r, const char* field) {
+  const std::string mode = r.string(field, "auto");
+  if (mode == "on") return Mode::kOn;
+  if (mode == "off") return Mode::kOff;
+  if (mode != "auto")
+    r.fail(std::string("render.") + field, "unknown mode \"" + mode + "\" (expected auto, on or off)");
+  return Mode::kAuto;
+}
+}  // namespace
+
 void SceneParser::parseIntegratorSettings(FieldReader& r) {
   RenderSettings& s = scene_.render;
   const std::string integrator = r.string("integrator", "nee_mis");
@@ -43,14 +56,9 @@ void SceneParser::parseIntegratorSettings(FieldReader& r) {
       r.fail("render.russian_roulette", "must be \"off\", \"max\", \"throughput\", true or false, got " + rr.dump());
   }
   s.rouletteMinBounces = int(r.integer("roulette_min_bounces", 1, 0, kMaxBounces));
-  const std::string lightTracing = r.string("light_tracing", "auto");
-  if (lightTracing == "auto" || lightTracing == "on" || lightTracing == "off")
-    s.lightTracing = lightTracing == "on"    ? LightTracingMode::kOn
-                     : lightTracing == "off" ? LightTracingMode::kOff
-                                             : LightTracingMode::kAuto;
-  else
-    r.fail("render.light_tracing", "unknown mode \"" + lightTracing + "\" (expected auto, on or off)");
+  s.lightTracing = autoOnOff<LightTracingMode>(r, "light_tracing");
   s.lightTracingRatio = r.number("light_tracing_ratio", 0.25, 1e-6, 64.0);
+  s.lightTree = autoOnOff<LightTreeMode>(r, "light_tree");
   const std::string mediumLight = r.string("medium_light_sampling", "auto");
   if (mediumLight == "auto" || mediumLight == "distance")
     s.mediumLightSampling = mediumLight == "auto" ? MediumLightSampling::kAuto : MediumLightSampling::kDistance;

@@ -94,6 +94,11 @@ enum class SamplerKind { kIndependent, kStratified, kSobol };
 // decide (scene/effects.h), kOn and kOff force it where the camera and layout allow it.
 enum class LightTracingMode { kAuto, kOn, kOff };
 
+// How next-event estimation chooses among the lights in the scene (render/light_tree.h): kAuto
+// lets the effect analysis decide by their number (scene/effects.h), kOn always by a light tree,
+// kOff by power alone.
+enum class LightTreeMode { kAuto, kOn, kOff };
+
 // How the volume path tracer finds the light scattered towards the camera in a medium
 // (render/volume_integrator.cpp): kAuto adds equiangular sampling towards a light point, combined
 // with free-flight sampling by MIS, wherever the effect analysis finds it applies; kDistance
@@ -150,6 +155,7 @@ struct RenderSettings {
   int rouletteMinBounces = 1;
   LightTracingMode lightTracing = LightTracingMode::kAuto;  // render/light_tracer.h
   MediumLightSampling mediumLightSampling = MediumLightSampling::kAuto;
+  LightTreeMode lightTree = LightTreeMode::kAuto;
   AovSet aovs;                      // outputs beside the beauty (film/aov_layout.h, docs/aovs.md)
   double lightTracingRatio = 0.25;  // light paths per camera path (pixel-sample) of a unit
   // Stopping rules besides samplesPerPixel (which is then a cap); 0 = not set. See docs/accuracy.md.

@@ -134,7 +134,7 @@ TEST(LightSelection, AnEmittingTriangleSceneChoosesExactlyAsItAlwaysHas) {
       const auto& tri = rs.caster().triangles()[triangles[i]];
       // pdf at distance 1 straight along the normal: the pmf over the area, bit for bit.
       const float pmf = float(power[i] / total), area = float(triangleArea(tri.v0, tri.v1, tri.v2));
-      EXPECT_EQ(rs.lights().pdf(triangles[i], 1.0f, tri.n), pmf * 1.0f * 1.0f / (1.0f * area)) << i;
+      EXPECT_EQ(rs.lights().pdf(triangles[i], Vec3(0.0f), 1.0f, tri.n), pmf * 1.0f * 1.0f / (1.0f * area)) << i;
       running += power[i] / total;
       cdf.push_back(float(running));
     }
@@ -158,7 +158,8 @@ TEST(LightSelection, OtherLightsTakeTheirShareWithoutChangingTheTrianglesRelativ
   const auto& tri = a.caster().triangles()[2];  // the quad light's first triangle (the square is 0 and 1)
   ASSERT_TRUE(alone.materials[tri.material].isEmissive());
   const double quad = kPi * 0.5 * lum(3, 2, 1), point = 4 * kPi * 2;
-  EXPECT_NEAR(b.lights().pdf(2, 1.0f, tri.n) / a.lights().pdf(2, 1.0f, tri.n), quad / (quad + point), 1e-6);
+  EXPECT_NEAR(b.lights().pdf(2, Vec3(0.0f), 1.0f, tri.n) / a.lights().pdf(2, Vec3(0.0f), 1.0f, tri.n),
+              quad / (quad + point), 1e-6);
 }
 
 TEST(LightSelection, TheNaiveEstimatorSamplesTheDeltaLightsAlone) {
@@ -182,7 +183,8 @@ TEST(LightSelection, TheNaiveEstimatorSamplesTheDeltaLightsAlone) {
     ASSERT_TRUE(s);
     EXPECT_TRUE(s->delta);
   }
-  EXPECT_EQ(rs.lights().pdf(2, 1.0f, rs.caster().triangles()[2].n), 0.0f) << "the quad is left to scattered rays";
+  EXPECT_EQ(rs.lights().pdf(2, Vec3(0.0f), 1.0f, rs.caster().triangles()[2].n), 0.0f)
+      << "the quad is left to scattered rays";
 }
 
 }  // namespace

@@ -208,6 +208,23 @@ TEST(PacketIntegrator, EveryLaneGivesTheSinglePathBitsWithEveryKindOfLight) {
   }
 }
 
+TEST(PacketIntegrator, EveryLaneGivesTheSinglePathBitsWithALightTree) {
+  // Each lane descends the tree from its own point; the triangles it chooses are sampled in the
+  // lane loop with its own probability, the other lights one by one, the infinite ones by power.
+  for (const char* integrator : {"nee_mis", "nee", "naive"}) {
+    SCOPED_TRACE(integrator);
+    test::TempDir dir;
+    json classic = withEveryKindOfLight(sceneFile("cornell-classic.json"), dir);
+    classic["render"]["integrator"] = integrator;
+    classic["render"]["max_bounces"] = 4;
+    classic["render"]["light_tree"] = "on";
+    const Scene scene = test::loadSceneJson(dir, classic);
+    const RenderScene rs(scene);
+    ASSERT_TRUE(rs.lights().usesTree());
+    for (int width : {16, 5}) expectPacketsEqualSinglePaths<true, false>(rs, lanesFor(48, 48), width);
+  }
+}
+
 TEST(PacketIntegrator, UnitsRenderedInPacketsEqualUnitsRenderedOneRayAtATime) {
   // The whole unit renderer, packets against single rays, for unit sizes that put one pixel,
   // several pixels, or a pixel and a half in a packet.

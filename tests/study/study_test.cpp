@@ -66,10 +66,10 @@ void checkReportTablesAndPlots(const StudyRun& run) {
   for (const char* section :
        {"## Convergence", "## The live error estimate", "## Resolution", "## Depth of field", "## Bounces",
         "## Glass and metal", "## Models", "## Camera optics", "## Uniform sampling against",
-        "## Adaptive sampling against uniform sampling", "## Participating media", "lensfarm study"})
+        "## Adaptive sampling against uniform sampling", "## Participating media", "## Many lights", "lensfarm study"})
     EXPECT_NE(report.find(section), std::string::npos) << section;
   for (const char* plot : {"convergence", "estimate", "resolution", "dof", "bounces", "materials", "models", "optics",
-                           "denoise", "adaptive", "media"}) {
+                           "denoise", "adaptive", "media", "lights"}) {
     EXPECT_NE(report.find("(../out/" + std::string(plot) + ".png)"), std::string::npos) << "relative link to " << plot;
     const std::string png = test::readFile(run.out(std::string(plot) + ".png"));
     ASSERT_GT(png.size(), 2000u) << plot;
@@ -79,6 +79,7 @@ void checkReportTablesAndPlots(const StudyRun& run) {
        {"convergence.csv", "time-to-error.csv", "estimate.csv", "resolution.csv", "dof.csv", "bounces.csv",
         "materials.csv", "models.csv", "optics.csv", "denoise.csv", "adaptive.csv", "media.csv"})
     EXPECT_GT(readCsv(run.out(csv)).size(), 2u) << csv;
+  EXPECT_EQ(readCsv(run.out("lights.csv")).size(), 2u) << "the light tree and choosing by power";
 }
 
 void checkConvergence(const StudyRun& run) {
@@ -192,6 +193,21 @@ void checkMedia(const StudyRun& run) {
       << "a walk cut at 16 events loses light";
 }
 
+// Many lights: the tree row says it is on and over how many triangles, the by-power row says it is
+// off; both are one image (their references are one), and the tree's error at the budget is lower.
+void checkLights(const StudyRun& run) {
+  std::map<std::string, std::map<std::string, std::string>> rows;
+  for (const auto& row : readCsv(run.out("lights.csv"))) rows[row.at("variant")] = row;
+  ASSERT_EQ(rows.size(), 2u);
+  const auto& tree = rows.at("light tree (auto: on)");
+  const auto& power = rows.at("by power (the light tree off)");
+  EXPECT_NE(tree.at("effects").find("over 23034 emitting triangle(s)"), std::string::npos) << tree.at("effects");
+  EXPECT_EQ(power.at("effects"), "none");
+  EXPECT_EQ(num(tree, "image mean"), num(power, "image mean")) << "one reference";
+  // At equal time the tree's error is lower (2.3x measured: 8x less variance per sample, 1.5x the time).
+  EXPECT_LT(num(tree, "rel. RMSE at budget"), num(power, "rel. RMSE at budget"));
+}
+
 // Every camera model renders; the real lenses say they trace every camera ray; the thin lens
 // keeps the 2013 report's convention that the aperture does not change the brightness.
 void checkOptics(const StudyRun& run) {
@@ -289,6 +305,10 @@ TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
   {
     SCOPED_TRACE("media");
     checkMedia(run);
+  }
+  {
+    SCOPED_TRACE("lights");
+    checkLights(run);
   }
 }
 
