@@ -133,8 +133,10 @@ TEST_F(Farm, OneWorkerAndThreeWorkersGiveTheSameBits) {
   fs::path scene = writeScene(40, 24, 2);  // 12 units
   {
     // With light tracing (render/light_tracer.h): its splats are summed in a fixed order per unit.
+    // And a light tree (render/light_tree.h): each worker builds it from the scene alone.
     nlohmann::json j = nlohmann::json::parse(test::readFile(scene));
     j["render"]["light_tracing"] = "on";
+    j["render"]["light_tree"] = "on";
     scene = dir_.write("scene.json", j.dump(2));
   }
   std::vector<std::vector<float>> images;
