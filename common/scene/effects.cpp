@@ -611,6 +611,12 @@ void decideEquiangular(Analysis& a, EffectSet& e) {
     why = "no homogeneous scattering medium that shadow rays can leave (a grid is distance-sampled alone)";
   else if (!positioned)
     why = "no light at points (an emitting surface, a point or a spot light)";
+  else if (e.lightTree && scene.render.mediumLightSampling == MediumLightSampling::kAuto)
+    // Its light point is chosen by power, with no shading point to choose by: among the many
+    // lights a tree serves, mostly lights that light nothing near the segment (docs/media.md).
+    why =
+        "a light tree chooses among the lights, and equiangular sampling's choice by power does not pay beside "
+        "it (render.medium_light_sampling \"equiangular\" forces it)";
   e.equiangular = why.empty();
   if (e.equiangular)
     why = "in " + listed(media) +

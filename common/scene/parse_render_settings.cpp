@@ -60,10 +60,15 @@ void SceneParser::parseIntegratorSettings(FieldReader& r) {
   s.lightTracingRatio = r.number("light_tracing_ratio", 0.25, 1e-6, 64.0);
   s.lightTree = autoOnOff<LightTreeMode>(r, "light_tree");
   const std::string mediumLight = r.string("medium_light_sampling", "auto");
-  if (mediumLight == "auto" || mediumLight == "distance")
-    s.mediumLightSampling = mediumLight == "auto" ? MediumLightSampling::kAuto : MediumLightSampling::kDistance;
+  if (mediumLight == "auto")
+    s.mediumLightSampling = MediumLightSampling::kAuto;
+  else if (mediumLight == "distance")
+    s.mediumLightSampling = MediumLightSampling::kDistance;
+  else if (mediumLight == "equiangular")
+    s.mediumLightSampling = MediumLightSampling::kEquiangular;
   else
-    r.fail("render.medium_light_sampling", "unknown mode \"" + mediumLight + "\" (expected auto or distance)");
+    r.fail("render.medium_light_sampling",
+           "unknown mode \"" + mediumLight + "\" (expected auto, equiangular or distance)");
 }
 
 void SceneParser::parseAovs(FieldReader& r) {

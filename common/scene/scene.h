@@ -101,9 +101,10 @@ enum class LightTreeMode { kAuto, kOn, kOff };
 
 // How the volume path tracer finds the light scattered towards the camera in a medium
 // (render/volume_integrator.cpp): kAuto adds equiangular sampling towards a light point, combined
-// with free-flight sampling by MIS, wherever the effect analysis finds it applies; kDistance
-// keeps free-flight sampling alone (the study's baseline).
-enum class MediumLightSampling { kAuto, kDistance };
+// with free-flight sampling by MIS, wherever the effect analysis finds it applies and pays;
+// kEquiangular adds it wherever it applies (also beside a light tree); kDistance keeps free-flight
+// sampling alone (the study's baseline).
+enum class MediumLightSampling { kAuto, kDistance, kEquiangular };
 
 // Diffraction by the aperture (docs/scene-format.md, camera.diffraction; film/diffraction_psf.h): a
 // point-spread function applied to the developed image, never to the sensor's sums.

@@ -297,13 +297,19 @@ TEST(LightTree, TheImageIsTheSameWithNeeAloneWithASkyAndInFog) {
   sky["lights"].push_back({{"type", "directional"}, {"direction", {0.5, -0.2, 1}}, {"irradiance", 0.3}});
   sky["environment"] = {{"radiance", {0.05, 0.07, 0.1}}};
   expectTreeAgrees(dir, sky, "sky");
-  // Fog: equiangular sampling chooses its light point by power, weighed against the tree's choice.
+  // Fog: equiangular sampling (forced: auto leaves it off beside a tree) chooses its light point by
+  // power, weighed against the tree's choice.
   json fog = manyLightsScene(5, 1.0, glm::dvec3(0.0));
   fog["media"]["fog"] = {{"sigma_s", 0.15}, {"sigma_a", 0.05}};
   fog["medium"] = "fog";
   fog["render"]["max_medium_bounces"] = 2;
+  EXPECT_FALSE(RenderScene(withTree(dir, fog, "on", "fog-auto")).effects().equiangular);
+  fog["render"]["medium_light_sampling"] = "equiangular";
   ASSERT_TRUE(RenderScene(withTree(dir, fog, "on", "fog-check")).effects().equiangular);
   expectTreeAgrees(dir, fog, "fog");
+  // Without the tree, auto keeps equiangular sampling.
+  fog["render"]["medium_light_sampling"] = "auto";
+  EXPECT_TRUE(RenderScene(withTree(dir, fog, "off", "fog-power")).effects().equiangular);
 }
 
 TEST(LightTree, LowersTheNoiseOfARoomOfManyLightsAtEqualSamples) {

@@ -525,7 +525,7 @@ TEST(VolumeEquiangular, IsOnOnlyWhereItCanServe) {
   sunOnly["lights"] = json::array({{{"type", "directional"}, {"direction", {0, 0, -1}}, {"irradiance", 1.0}}});
   EXPECT_NE(decision(sunOnly).find("off: no light at points"), std::string::npos) << decision(sunOnly);
   json bad = room;
-  bad["render"]["medium_light_sampling"] = "equiangular";
+  bad["render"]["medium_light_sampling"] = "sometimes";
   expectFieldError(bad, "render.medium_light_sampling");
 }
 
