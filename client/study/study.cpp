@@ -655,6 +655,21 @@ class Study {
                number(t, 3) + (extrapolated ? " (extrapolated)" : "")});
   }
 
+  // A section of variants measured by measureVariant: the table as CSV, the error-against-time
+  // plot, and the section's text around the table. `reference` says what each row is measured
+  // against; `text` follows the common preamble.
+  std::string variantSection(const std::string& name, const std::string& title, const std::string& scene,
+                             const json& base, const Table& table, const std::vector<Series>& all,
+                             const std::string& reference, const std::string& text) {
+    table.writeCsv(options_.out / (name + ".csv"));
+    plotErrorAgainstTime(name, all);
+    const std::string side = std::to_string(scale_.materialsSide);
+    return "## " + title + "\n\n" + scene + " at " + side + "x" + side +
+           ", NEE + MIS, Sobol, B = " + std::to_string(base["render"].value("max_bounces", 2)) + ", " + reference +
+           " (" + std::to_string(scale_.materialsReferenceSpp) + " spp). Time per path is per thread. " + text +
+           "\n\n" + table.markdown() + "\n" + link(name);
+  }
+
   // ---- models: what smooth shading and textures cost ------------------------------------------
   // textured-spheres (a glTF model with base-colour, normal, metallic-roughness and cut-out
   // textures and smooth vertex normals) as modelled, then with its materials replaced by one
@@ -677,19 +692,14 @@ class Study {
                    "one untextured principled material, smooth normals", table, all);
     measureVariant(sceneFile, withMaterial({{"type", "lambertian"}, {"albedo", 0.5}}),
                    "one Lambertian material, smooth normals", table, all);
-    table.writeCsv(options_.out / "models.csv");
-    plotErrorAgainstTime("models", all);
-    return "## Models: textures and smooth shading\n\n"
-           "textured-spheres (a glTF model) at " +
-           std::to_string(scale_.materialsSide) + "x" + std::to_string(scale_.materialsSide) +
-           ", NEE + MIS, Sobol, B = " + std::to_string(base["render"].value("max_bounces", 2)) +
-           ", each variant against its own reference (" + std::to_string(scale_.materialsReferenceSpp) +
-           " spp). Time per path is per thread. Every hit on a textured material or a mesh with vertex normals is "
-           "shaded one path at a time (interpolated normal, normal map, texture lookups at the pixel's footprint) "
-           "instead of in the 16-wide lane loops: the first row against the other two is what textures and "
-           "per-point shading cost; a scene without them pays nothing (the Cornell rows above run the lane "
-           "loops).\n\n" +
-           table.markdown() + "\n" + link("models");
+    return variantSection(
+        "models", "Models: textures and smooth shading", "textured-spheres (a glTF model)", base, table, all,
+        "each variant against its own reference",
+        "Every hit on a textured material or a mesh with vertex normals is "
+        "shaded one path at a time (interpolated normal, normal map, texture lookups at the pixel's footprint) "
+        "instead of in the 16-wide lane loops: the first row against the other two is what textures and "
+        "per-point shading cost; a scene without them pays nothing (the Cornell rows above run the lane "
+        "loops).");
   }
 
   // ---- optics: what the camera's optics cost --------------------------------------------------
@@ -749,7 +759,6 @@ class Study {
   // without energy compensation: per variant the time per path, the energy against its own
   // reference, and the time to reach the same error.
   std::string materials() {
-    const int side = scale_.materialsSide;
     const fs::path file = options_.scenes / "cornell-glass-metal.json";
     const json base = json::parse(readWholeFileOrThrow(file, file.string()));
     struct Variant {
@@ -796,25 +805,20 @@ class Study {
       alone["render"]["light_tracing"] = "off";
       measureVariant(sceneFile, alone, v.name, table, all, kMaterialEffects, j);
     }
-    table.writeCsv(options_.out / "materials.csv");
-    plotErrorAgainstTime("materials", all);
-    return "## Glass and metal\n\n"
-           "cornell-glass-metal at " +
-           std::to_string(side) + "x" + std::to_string(side) +
-           ", NEE + MIS, Sobol, B = " + std::to_string(base["render"].value("max_bounces", 2)) +
-           ", each variant against its own reference (" + std::to_string(scale_.materialsReferenceSpp) +
-           " spp). Time per path is per thread. What a material costs "
-           "is its time per path (refraction and microfacet sampling, longer paths through glass, whose bounces do "
-           "not count towards B when smooth) and its noise (caustics through smooth glass reach the sensor only on "
-           "scattered paths). The image mean shows what energy compensation keeps: without it a rough metal "
-           "darkens (59 % of the light lost at roughness 1 with F = 1). The thin-walled ball is a thin wall: its "
-           "shadow is its tint, not black, and the scene runs the volume path tracer (its cost per path is that "
-           "tracer's). The last two rows are glass-metal-sky: the same "
-           "materials outdoors, lit only by an importance-sampled environment map with a small sun, whose caustic "
-           "through the glass ball light paths aimed at the glass draw (the effect analysis turns them on there); "
-           "then the same with camera paths alone, measured against the reference with light paths (its own would "
-           "lack the caustic it rarely finds).\n\n" +
-           table.markdown() + "\n" + link("materials");
+    return variantSection(
+        "materials", "Glass and metal", "cornell-glass-metal", base, table, all,
+        "each variant against its own reference",
+        "What a material costs "
+        "is its time per path (refraction and microfacet sampling, longer paths through glass, whose bounces do "
+        "not count towards B when smooth) and its noise (caustics through smooth glass reach the sensor only on "
+        "scattered paths). The image mean shows what energy compensation keeps: without it a rough metal "
+        "darkens (59 % of the light lost at roughness 1 with F = 1). The thin-walled ball is a thin wall: its "
+        "shadow is its tint, not black, and the scene runs the volume path tracer (its cost per path is that "
+        "tracer's). The last two rows are glass-metal-sky: the same "
+        "materials outdoors, lit only by an importance-sampled environment map with a small sun, whose caustic "
+        "through the glass ball light paths aimed at the glass draw (the effect analysis turns them on there); "
+        "then the same with camera paths alone, measured against the reference with light paths (its own would "
+        "lack the caustic it rarely finds).");
   }
 
   // ---- media: what participating media cost ---------------------------------------------------
@@ -864,22 +868,17 @@ class Study {
     json cut = base;
     cut["render"]["max_medium_bounces"] = 16;
     measureVariant(sceneFile, cut, "all three, max_medium_bounces 16", table, all, listed);
-    table.writeCsv(options_.out / "media.csv");
-    plotErrorAgainstTime("media", all);
-    return "## Participating media and subsurface scattering\n\n"
-           "cornell-media at " +
-           std::to_string(scale_.materialsSide) + "x" + std::to_string(scale_.materialsSide) +
-           ", NEE + MIS, Sobol, B = " + std::to_string(base["render"].value("max_bounces", 2)) +
-           ", each variant against its own reference (" + std::to_string(scale_.materialsReferenceSpp) +
-           " spp). Time per path is per thread. A scene with a medium is traced by the volume path tracer one path at "
-           "a "
-           "time (no 16-wide lane loops): the first row runs the surface tracers and is the baseline. Every scattering "
-           "event costs a ray (and a shadow ray where light can reach it); a random walk in marble or milk takes many. "
-           "The rows with free-flight sampling alone leave out equiangular sampling towards the light (docs/media.md): "
-           "the same image, more noise near the light, less time per path. "
-           "The last row cuts walks at 16 events: cheaper, and the image mean shows the light it loses (a bias no "
-           "sample count removes).\n\n" +
-           table.markdown() + "\n" + link("media");
+    return variantSection(
+        "media", "Participating media and subsurface scattering", "cornell-media", base, table, all,
+        "each variant against its own reference",
+        "A scene with a medium is traced by the volume path tracer one path at "
+        "a "
+        "time (no 16-wide lane loops): the first row runs the surface tracers and is the baseline. Every scattering "
+        "event costs a ray (and a shadow ray where light can reach it); a random walk in marble or milk takes many. "
+        "The rows with free-flight sampling alone leave out equiangular sampling towards the light (docs/media.md): "
+        "the same image, more noise near the light, less time per path. "
+        "The last row cuts walks at 16 events: cheaper, and the image mean shows the light it loses (a bias no "
+        "sample count removes).");
   }
 
   // ---- lights: choosing among many lights ------------------------------------------------------
@@ -899,21 +898,16 @@ class Study {
     // both, rule the relative RMSE until 1024 samples or so).
     measureVariant(sceneFile, tree, "light tree (auto: on)", table, all, listed, std::nullopt, 3.0);
     measureVariant(sceneFile, power, "by power (the light tree off)", table, all, listed, tree, 3.0);
-    table.writeCsv(options_.out / "lights.csv");
-    plotErrorAgainstTime("lights", all);
-    return "## Many lights: the light tree\n\n"
-           "night-street at " +
-           std::to_string(scale_.materialsSide) + "x" + std::to_string(scale_.materialsSide) +
-           ", NEE + MIS, Sobol, B = " + std::to_string(base["render"].value("max_bounces", 2)) +
-           ", both rows against the light tree's reference (" + std::to_string(scale_.materialsReferenceSpp) +
-           " spp). Time per path is per thread. 23,034 emitting triangles: by power, most light samples go to "
-           "windows far down the street or facing away from the point; the light tree (docs/performance.md, "
-           "\"Many lights\") chooses by the lights' bounds as seen from each point, at the cost of its descent. "
-           "The relative RMSE (RMSE over the image's mean) is ruled by the brightest pixels, the edges of the "
-           "windows seen directly, whose noise is the pixel sampling's and the same in both rows (it falls as 1/n "
-           "with Sobol samples): the two curves meet. Where the choice of light matters, on the walls and the "
-           "street, the relMSE and the display error show it (docs/performance.md: 5.1x and 5.5x sooner).\n\n" +
-           table.markdown() + "\n" + link("lights");
+    return variantSection(
+        "lights", "Many lights: the light tree", "night-street", base, table, all,
+        "both rows against the light tree's reference",
+        "23,034 emitting triangles: by power, most light samples go to "
+        "windows far down the street or facing away from the point; the light tree (docs/performance.md, "
+        "\"Many lights\") chooses by the lights' bounds as seen from each point, at the cost of its descent. "
+        "The relative RMSE (RMSE over the image's mean) is ruled by the brightest pixels, the edges of the "
+        "windows seen directly, whose noise is the pixel sampling's and the same in both rows (it falls as 1/n "
+        "with Sobol samples): the two curves meet. Where the choice of light matters, on the walls and the "
+        "street, the relMSE and the display error show it (docs/performance.md: 5.1x and 5.5x sooner).");
   }
 
   // ---- denoise: uniform sampling against uniform sampling + denoise ---------------------------

@@ -56,8 +56,6 @@ LightBounds LightBounds::merge(const LightBounds& a, const LightBounds& b) {
   return m;
 }
 
-float LightBounds::importance(const Vec3& p) const { return LightCluster(*this).importance(p); }
-
 LightCluster::LightCluster(const LightBounds& b)
     : centre(b.centroid()),
       radius(0.5f * glm::length(b.hi - b.lo)),

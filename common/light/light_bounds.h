@@ -48,8 +48,6 @@ struct LightBounds {
   Vec3 centroid() const { return 0.5f * (lo + hi); }
   // The bounds of a cluster of both.
   static LightBounds merge(const LightBounds& a, const LightBounds& b);
-  // See above; >= 0, finite for finite inputs.
-  float importance(const Vec3& p) const;
 };
 
 // LightBounds as importance() reads them, with what it needs computed once (the light tree holds
@@ -64,6 +62,7 @@ struct LightCluster {
 
   LightCluster() = default;
   explicit LightCluster(const LightBounds& b);
+  // See above; >= 0, finite for finite inputs.
   float importance(const Vec3& p) const;
 };
 

@@ -245,9 +245,7 @@ std::optional<LightSampler::Choice> LightSampler::chooseFrom(const Vec3& ref, fl
 }
 
 float LightSampler::pmfFrom(const Vec3& ref, size_t light) const {
-  if (!usesTree() || (light >= lights_.size() &&
-                      std::find(infinite_.begin(), infinite_.end(), light - lights_.size()) != infinite_.end()))
-    return pmfByPower(light);
+  if (!usesTree() || chosenFirst(light)) return pmfByPower(light);
   return (1.0f - infinitePmf_) * tree_.pmf(ref, uint32_t(light));
 }
 
@@ -354,14 +352,11 @@ void LightSampler::sample(LightSampleLanes& lanes) const {
     for (int& found : lanes.found) found = 0;
     return;
   }
-  if (usesTree()) {
-    sampleTreeLanes(lanes);
+  if (usesTree() || !others_.empty()) {
+    sampleChosenLanes(lanes);
     return;
   }
-  if (!others_.empty())
-    sampleMixedLanes(lanes);
-  else
-    sampleTriangleLanes(lanes);
+  sampleTriangleLanes(lanes);
   if (!hasTextured_) return;
   // Lanes on a textured emitter: its texture's value at their point (sample()'s radiance).
   for (int k = 0; k < kPacketWidth; ++k) {
@@ -390,40 +385,10 @@ void LightSampler::sampleTriangleLanes(LightSampleLanes& lanes) const {
   }
 }
 
-void LightSampler::sampleMixedLanes(LightSampleLanes& lanes) const {
-  // Each lane chooses among all lights; those that choose a triangle sample it in the lane loop,
-  // the others one by one (sampleOther, what sample() does for them).
-  alignas(64) uint32_t chosen[kPacketWidth];
-  size_t other[kPacketWidth];
-  bool anyTriangle = false;
-  for (int k = 0; k < kPacketWidth; ++k) {
-    const size_t i = lanes.found[k] != 0 ? choose(lanes.uChoice[k]) : SIZE_MAX;
-    const bool triangle = i < lights_.size();
-    chosen[k] = triangle ? uint32_t(i) : 0u;
-    other[k] = triangle || i == SIZE_MAX ? SIZE_MAX : i - lights_.size();
-    anyTriangle |= triangle;
-    lanes.delta[k] = 0;
-    lanes.reach[k] = 0.0f;
-  }
-  if (anyTriangle) {
-    alignas(64) float dist2[kPacketWidth], cosLight[kPacketWidth];
-    sampleGatheredLanes(GatherView<Light>(lights_.data()), chosen, lanes, dist2, cosLight);
-    for (int k = 0; k < kPacketWidth; ++k) {
-      const TrianglePoint s{{}, {}, lanes.pdf[k], dist2[k], cosLight[k]};
-      if (other[k] == SIZE_MAX && !s.valid()) lanes.found[k] = 0;
-    }
-  }
-  for (int k = 0; k < kPacketWidth; ++k) {
-    if (other[k] == SIZE_MAX) continue;
-    const std::optional<LightSample> s = sampleOther(other[k], Vec3(lanes.refx[k], lanes.refy[k], lanes.refz[k]),
-                                                     Vec2(lanes.u0[k], lanes.u1[k]), others_[other[k]].pmf);
-    putLane(lanes, k, s);
-  }
-}
-
-void LightSampler::sampleTreeLanes(LightSampleLanes& lanes) const {
-  // Each lane descends the tree from its own point (a loop of branches: lane by lane); those that
-  // choose a triangle sample it in the lane loop with their own pmf, the others one by one.
+void LightSampler::sampleChosenLanes(LightSampleLanes& lanes) const {
+  // Each lane chooses its light (with a tree, descending it from its own point: a loop of
+  // branches, lane by lane); those that choose a triangle sample it in the lane loop with their
+  // own pmf, the others one by one (sampleOther, what sample() does for them).
   alignas(64) uint32_t chosen[kPacketWidth];
   alignas(64) float pmf[kPacketWidth];
   size_t other[kPacketWidth];

@@ -26,6 +26,7 @@
 //
 // With the naive estimator (`deltaOnly`) only delta lights are sampled: nothing else can reach
 // them, and every other light is counted where rays hit it (render/integrator.h).
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -164,14 +165,18 @@ class LightSampler {
   std::optional<LightSample> sampleOther(size_t i, const Vec3& ref, Vec2 uPoint, float pmf) const;
   // A light sample of emitting triangle i (an index into lights_), chosen with probability pmf.
   std::optional<LightSample> sampleTriangle(size_t i, const Vec3& ref, Vec2 uPoint, float pmf) const;
-  void sampleTreeLanes(LightSampleLanes& lanes) const;  // the lane form with a light tree
+  // The lane form with a tree or with other lights: each lane's choice (chooseFrom) is its own.
+  void sampleChosenLanes(LightSampleLanes& lanes) const;
   // Lane k of the lane form takes light sample s (found 0 where there is none).
   static void putLane(LightSampleLanes& lanes, int k, const std::optional<LightSample>& s);
   float pmfByPower(size_t light) const {
     return light < lights_.size() ? lights_[light].pmf : others_[light - lights_.size()].pmf;
   }
   void buildTree(const std::vector<double>& power);
-  void sampleMixedLanes(LightSampleLanes& lanes) const;     // the lane form with other lights
+  // With a tree: whether `light` is an infinite light, chosen by power before the tree.
+  bool chosenFirst(size_t light) const {
+    return light >= lights_.size() && std::binary_search(infinite_.begin(), infinite_.end(), light - lights_.size());
+  }
   void sampleTriangleLanes(LightSampleLanes& lanes) const;  // the lane form without them
   // The texture's mean over triangle k of the caster (for its power).
   float meanEmissiveTexture(uint32_t k, const TextureRef& texture) const;
@@ -191,7 +196,7 @@ class LightSampler {
   std::vector<EscapeLight> escapeLights_;
   // With a tree: the infinite lights (into others_), their cumulative pmf (by power, summing to
   // infinitePmf_), and the tree over the rest (ids: the light index of Choice).
-  std::vector<size_t> infinite_;
+  std::vector<size_t> infinite_;  // ascending
   std::vector<float> infiniteCdf_;
   float infinitePmf_ = 0.0f;
   LightTree tree_;

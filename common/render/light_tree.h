@@ -60,8 +60,8 @@ class LightTree {
   std::optional<float> firstChildProbability(uint32_t node, const Vec3& p) const;
 
   std::vector<Node> nodes_;  // the root at 0, each node's children together
-  // Per light: bit d set where its way down takes the second child at depth d; ~0 for a light not
-  // in the tree (depth is at most kMaxDepth < 64).
+  // Per light: bit d set where its way down takes the second child at depth d (depth is at most
+  // kMaxDepth < 64); inTree_ 0 for a light left out (zero or non-finite intensity).
   std::vector<uint64_t> trail_;
   std::vector<uint8_t> inTree_;
   size_t depth_ = 0;

@@ -150,7 +150,7 @@ Spectrum equiangularDirect(const RenderScene& rs, const SampleStream& rng, int s
   const float f = medium.phase().eval(-seg.direction, wi);
   if (!(f > 0.0f)) return Spectrum(0.0f);
   const bool mis = rs.settings().integrator == IntegratorKind::kNeeMis && !lastEvent && !ls->delta;
-  const float lightPdf = ls->powerChoiceRatio == 1.0f ? ls->pdf : ls->pdf / ls->powerChoiceRatio;
+  const float lightPdf = ls->pdf / ls->powerChoiceRatio;
   const float w =
       equiangularWeights(mis ? f : 0.0f, lightPdf, equiangularRatio(pe, seg.fog->freeFlightDensity(t)), ls->pdf)
           .equiangular;
@@ -197,9 +197,8 @@ bool scatterInMedium(const RenderScene& rs, const SampleStream& rng, int segment
         const bool mis = settings.integrator == IntegratorKind::kNeeMis && !lastBounce && !ls->delta;
         float weight = mis ? powerHeuristic(ls->pdf, f) : 1.0f;
         if (seg && ls->reach <= 1.0f)  // a light at points (a triangle: 0; a point or spot: 1)
-          weight = equiangularWeights(mis ? f : 0.0f, ls->pdf, vertex.ratio(ls->p),
-                                      ls->powerChoiceRatio == 1.0f ? ls->pdf : ls->pdf * ls->powerChoiceRatio)
-                       .light;
+          weight =
+              equiangularWeights(mis ? f : 0.0f, ls->pdf, vertex.ratio(ls->p), ls->pdf * ls->powerChoiceRatio).light;
         const Spectrum tr =
             shadowTransmittance(rs, p, direction, tFar, &medium, rng.streamKey(base + dims::kLightPoint), stats);
         path.radiance += path.throughput * ls->radiance * tr * (f * weight / ls->pdf);
