@@ -607,8 +607,8 @@ class Study {
   // image's mean, the error at the budget and the time to 5 %; its effects as the analysis lists
   // them.
   static Table variantTable() {
-    return Table(
-        {"variant", "effects", "us per path", "rays per path", "image mean", "rel. RMSE at budget", "time to 5 % (s)"});
+    return Table({"variant", "effects", "us per path", "rays per path", "image mean", "rel. RMSE at budget",
+                  "relMSE at budget", "worst 1 % at budget", "time to 5 % (s)"});
   }
   // The effects a variant table lists (the others are the same in every row).
   static inline const std::set<std::string> kMaterialEffects = {
@@ -652,6 +652,7 @@ class Study {
     table.add({name, effects.empty() ? (&listed == &kMaterialEffects ? "diffuse only" : "none") : effects,
                number(s.seconds.back() / paths * 1e6 * double(std::thread::hardware_concurrency()), 3),
                number(double(stats.rays) / paths, 3), number(meanValue(reference), 4), number(s.error.back(), 3),
+               number(s.details.back().relativeMse, 3), number(s.details.back().worstPercentRelative, 3),
                number(t, 3) + (extrapolated ? " (extrapolated)" : "")});
   }
 

@@ -21,6 +21,8 @@
 
 namespace lensfarm {
 
+struct PrincipledModel;
+
 class Medium;
 
 struct MaterialSample {
@@ -110,6 +112,10 @@ class Bsdf {
   // exactly when uLobe < q (with weight straightTransmittance / q), so a path tracer can tell a
   // crossing from a vertex before it samples; zero for every other model.
   virtual float straightProbability(const Vec3& /*n*/, const Vec3& /*wo*/) const { return 0.0f; }
+  // Whether the packet tracer's lane loops can shade the model (render/integrator.cpp): true for
+  // a model whose formulas a PrincipledModel record holds (material/principled_model.h), which
+  // it writes to `model`.
+  virtual bool laneModel(PrincipledModel& /*model*/) const { return false; }
 };
 
 // Mirror reflection of wo about n.

@@ -121,7 +121,7 @@ class GgxAlbedoTable {
       const float u2 = float((double((k * step) % n) + 0.5) / double(n));
       const double weight = 3.0 * oneMinusV * oneMinusV;
       weightSum += weight;
-      const Vec3 m = ggx.sampleVisibleNormal(wo, Vec2(u1, u2));
+      const Vec3 m = ggx.sampleVisibleNormalPolar(wo, Vec2(u1, u2));
       const Vec3 wi = 2.0f * glm::dot(wo, m) * m - wo;
       if (!(wi.z > 0.0f)) continue;
       const float si = ggx.stretchedLength(wi);

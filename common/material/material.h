@@ -102,6 +102,9 @@ class Material {
     return lensfarm::sampleLambertian(traits_.albedo, n, u);
   }
 
+  // The record the packet tracer's lane loops shade the material with, where they can (Bsdf::laneModel).
+  bool laneModel(PrincipledModel& model) const { return traits_.reflects && bsdf_->laneModel(model); }
+
   // A material with textures (glTF, MTL): its Bsdf at a point is the principled model with the
   // textures' values there (principledAt). `emission` is the emissive factor; the emissive
   // texture multiplies it.

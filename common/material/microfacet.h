@@ -144,6 +144,29 @@ struct GgxDistribution {
   // flipped (see D(w, m)). The result has m.z >= 0; m.z == 0 only on the disk's rim, a set of
   // measure zero where the pdf is 0.
   Vec3 sampleVisibleNormal(const Vec3& w, Vec2 u) const {
+    // A uniform point on the unit disk by the concentric map (H18's code uses the polar map; any
+    // area-preserving map will do, and this one needs no libm call, so the packet tracer's lane
+    // loops vectorise it). It sends the square's rim (u.x or u.y exactly 0) to the disk's rim,
+    // where the normal would lie in the surface (density 0, a sample lost): such u, a set of
+    // measure zero, are taken a little inside instead, which leaves the distribution as it is.
+    const float inside = (u.x > 0.0f) & (u.y > 0.0f) ? 1.0f : kInsideRim;
+    return visibleNormalFromDisk(w, sampleConcentricDisk(u) * inside);
+  }
+  static constexpr float kInsideRim = 0.999f;
+
+  // The same distribution by H18's polar map (r = sqrt(u.x), phi = 2 pi u.y), smooth in u: for
+  // quadratures over u (material/ggx_albedo.h), which a map with kinks would slow down.
+  Vec3 sampleVisibleNormalPolar(const Vec3& w, Vec2 u) const {
+    const float r = std::sqrt(u.x);
+    const float phi = 2.0f * kPi * u.y;
+    return visibleNormalFromDisk(w, Vec2(r * std::cos(phi), r * std::sin(phi)));
+  }
+
+  // The visible normal seen from w for a point of the unit disk (uniform there: uniform over the
+  // projected area): H18's projected-area warp and reprojection. The hemisphere seen along Vh
+  // projects to the upper half disk plus half an ellipse of semi-axis Vh.z (its rim), so each
+  // chord [-h, h] of the disk at p1 (h = sqrt(1 - p1^2)) is mapped linearly onto [-Vh.z h, h].
+  Vec3 visibleNormalFromDisk(const Vec3& w, Vec2 disk) const {
     const Vec3 wu = w.z < 0.0f ? -w : w;
     // The view direction stretched to the alpha = 1 configuration. Its length is >= alpha |w| > 0.
     const Vec3 vh = glm::normalize(Vec3(alpha * wu.x, alpha * wu.y, wu.z));
@@ -151,16 +174,9 @@ struct GgxDistribution {
     const float lensq = vh.x * vh.x + vh.y * vh.y;
     const Vec3 t1 = lensq > 0.0f ? Vec3(-vh.y, vh.x, 0.0f) / std::sqrt(lensq) : Vec3(1.0f, 0.0f, 0.0f);
     const Vec3 t2 = glm::cross(vh, t1);
-    // A uniform point on the unit disk (the polar map of H18's code; any area-preserving map
-    // would do), then the projected-area warp: the hemisphere seen along Vh projects to the upper
-    // half disk plus half an ellipse of semi-axis Vh.z (its rim), so each chord [-h, h] of the disk
-    // at p1 (h = sqrt(1 - p1^2)) is mapped linearly onto [-Vh.z h, h].
-    const float r = std::sqrt(u.x);
-    const float phi = 2.0f * kPi * u.y;
-    const float p1 = r * std::cos(phi);
-    float p2 = r * std::sin(phi);
+    const float p1 = disk.x;
     const float s = 0.5f * (1.0f + vh.z);
-    p2 = (1.0f - s) * std::sqrt(std::max(0.0f, 1.0f - p1 * p1)) + s * p2;
+    const float p2 = (1.0f - s) * std::sqrt(std::max(0.0f, 1.0f - p1 * p1)) + s * disk.y;
     // Reprojection onto the hemisphere, and back to the ellipsoid configuration.
     const Vec3 nh = p1 * t1 + p2 * t2 + std::sqrt(std::max(0.0f, 1.0f - p1 * p1 - p2 * p2)) * vh;
     return glm::normalize(Vec3(alpha * nh.x, alpha * nh.y, std::max(0.0f, nh.z)));

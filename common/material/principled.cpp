@@ -8,19 +8,9 @@
 
 namespace lensfarm {
 
-namespace {
-float schlickWeight(float cosI) {
-  const float m = 1.0f - std::min(1.0f, std::abs(cosI)), m2 = m * m;
-  return m2 * m2 * m;
-}
-// The surface's mirror image of a direction below it.
-Vec3 mirrored(const Vec3& w) { return Vec3(w.x, w.y, -w.z); }
-}  // namespace
-
-PrincipledBsdf::PrincipledBsdf(const PrincipledParams& params)
-    : p_(params), ggx_{std::max(GgxDistribution::alphaFromRoughness(params.roughness), GgxDistribution::kSmoothAlpha)} {
+PrincipledBsdf::PrincipledBsdf(const PrincipledParams& params) : p_(params) {
   const float r = (p_.ior - 1.0f) / (p_.ior + 1.0f);
-  f0_ = std::min(1.0f, r * r * std::max(p_.specularColor, 0.0f));
+  const float f0 = std::min(1.0f, r * r * std::max(p_.specularColor, 0.0f));
   const float w = p_.transmission * (1.0f - p_.metallic);
   straight_ =
       p_.thinWalled && w > 0.0f && GgxDistribution::alphaFromRoughness(p_.roughness) < GgxDistribution::kSmoothAlpha;
@@ -31,6 +21,22 @@ PrincipledBsdf::PrincipledBsdf(const PrincipledParams& params)
     p_.transmission = 0.0f;
     p_.metallic = w < 1.0f ? std::min(1.0f, p_.metallic / (1.0f - w)) : 0.0f;
   }
+  model_ = PrincipledModel{p_.baseColor.r,
+                           p_.baseColor.g,
+                           p_.baseColor.b,
+                           p_.metallic,
+                           p_.transmission,
+                           p_.specular,
+                           f0,
+                           std::max(GgxDistribution::alphaFromRoughness(p_.roughness), GgxDistribution::kSmoothAlpha),
+                           std::max(luminance(p_.baseColor), 0.0f),
+                           straight_ ? 1.0f : 0.0f};
+}
+
+bool PrincipledBsdf::laneModel(PrincipledModel& model) const {
+  if (glass_ || straight_) return false;
+  model = model_;
+  return true;
 }
 
 BsdfTraits PrincipledBsdf::traits() const {
@@ -51,65 +57,16 @@ BsdfTraits PrincipledBsdf::traits() const {
   return t;
 }
 
-PrincipledBsdf::LobeChoice PrincipledBsdf::lobes(float cosO) const {
-  const float fd = p_.specular * (f0_ + (1.0f - f0_) * schlickWeight(cosO));
-  const float metal = p_.metallic;
-  const float dielectric = 1.0f - p_.metallic;
-  const float colour = std::max(luminance(p_.baseColor), 0.0f);
-  const float specular = metal + dielectric * fd;
-  const float diffuse = dielectric * (1.0f - fd) * (1.0f - p_.transmission) * colour;
-  const float transmission = dielectric * (1.0f - fd) * p_.transmission * colour;
-  const float total = specular + diffuse + transmission;
-  if (!(total > 0.0f)) return {1.0f, 0.0f, 0.0f};
-  return {specular / total, diffuse / total, transmission / total};
-}
-
-Spectrum PrincipledBsdf::evalLocal(const Vec3& wo, const Vec3& wi) const {
-  if (!(wo.z > 0.0f) || wi.z == 0.0f) return Spectrum(0.0f);
-  const bool reflection = wi.z > 0.0f;
-  const Vec3 wr = reflection ? wi : mirrored(wi);
-  const Vec3 sum = wo + wr;
-  const float length = glm::length(sum);
-  if (!(length > 0.0f)) return Spectrum(0.0f);
-  const Vec3 h = sum / length;
-  const float vh = glm::dot(wo, h);
-  const float lobe = ggxReflectionCos(ggx_, wo, wr, h);  // specular_brdf(alpha) cos_i
-  // KHR_materials_specular: the dielectric's Fresnel term times specularFactor, in the layer and
-  // in the base's weight alike.
-  const float fd = p_.specular * (f0_ + (1.0f - f0_) * schlickWeight(vh));
-  const float baseWeight =
-      1.0f - p_.specular * (f0_ + (1.0f - f0_) * schlickWeight(wo.z));  // see the header: 1 - F_d(N.V)
-  const float dielectric = 1.0f - p_.metallic;
-  if (!reflection)
-    return straight_ ? Spectrum(0.0f) : p_.baseColor * (dielectric * p_.transmission * baseWeight * lobe);
-  const Spectrum metalFresnel = p_.baseColor + (Spectrum(1.0f) - p_.baseColor) * schlickWeight(vh);
-  const Spectrum metal = metalFresnel * (p_.metallic * lobe);
-  const Spectrum diffuse = p_.baseColor * (baseWeight * (1.0f - p_.transmission) * kInvPi * wi.z);
-  return metal + dielectric * (Spectrum(fd * lobe) + diffuse);
-}
-
-float PrincipledBsdf::pdfLocal(const Vec3& wo, const Vec3& wi) const {
-  if (!(wo.z > 0.0f) || wi.z == 0.0f) return 0.0f;
-  const LobeChoice c = lobes(wo.z);
-  const bool reflection = wi.z > 0.0f;
-  const Vec3 wr = reflection ? wi : mirrored(wi);
-  const Vec3 sum = wo + wr;
-  const float length = glm::length(sum);
-  const float ggx = length > 0.0f ? ggxReflectionPdf(ggx_, wo, sum / length) : 0.0f;
-  if (!reflection) return straight_ ? 0.0f : c.transmission * ggx;
-  return c.specular * ggx + c.diffuse * cosineHemispherePdf(wi.z);
-}
-
 Spectrum PrincipledBsdf::evalCos(const Vec3& n, const Vec3& wo, const Vec3& wi, bool front) const {
   const Frame frame = Frame::fromNormal(n);
-  const Spectrum opaque = glassWeight_ < 1.0f ? evalLocal(frame.toLocal(wo), frame.toLocal(wi)) : Spectrum(0.0f);
+  const Spectrum opaque = glassWeight_ < 1.0f ? model_.evalLocal(frame.toLocal(wo), frame.toLocal(wi)) : Spectrum(0.0f);
   if (!glass_) return opaque;
   return glass_->evalCos(n, wo, wi, front) * glassWeight_ + opaque * (1.0f - glassWeight_);
 }
 
 float PrincipledBsdf::pdf(const Vec3& n, const Vec3& wo, const Vec3& wi, bool front) const {
   const Frame frame = Frame::fromNormal(n);
-  const float opaque = glassWeight_ < 1.0f ? pdfLocal(frame.toLocal(wo), frame.toLocal(wi)) : 0.0f;
+  const float opaque = glassWeight_ < 1.0f ? model_.pdfLocal(frame.toLocal(wo), frame.toLocal(wi)) : 0.0f;
   if (!glass_) return opaque;
   return glassWeight_ * glass_->pdf(n, wo, wi, front) + (1.0f - glassWeight_) * opaque;
 }
@@ -142,7 +99,7 @@ std::optional<MaterialSample> PrincipledBsdf::sampleOpaque(const Vec3& n, const 
   const Frame frame = Frame::fromNormal(n);
   const Vec3 woLocal = frame.toLocal(wo);
   if (!(woLocal.z > 0.0f)) return std::nullopt;
-  const LobeChoice c = lobes(woLocal.z);
+  const PrincipledModel::LobeChoice c = model_.lobes(woLocal.z);
   // A thin wall's smooth transmission first (Bsdf::straightProbability's convention): straight
   // through, weighed by its share of the choice; then diffuse and specular as for any surface.
   float choice = uLobe;
@@ -151,23 +108,16 @@ std::optional<MaterialSample> PrincipledBsdf::sampleOpaque(const Vec3& n, const 
       return MaterialSample{-wo, straightAt(woLocal.z) / c.transmission, 0.0f, true, 1.0f, /*straight=*/true};
     choice -= c.transmission;
   }
-  Vec3 wiLocal;
-  if (choice < c.diffuse) {
-    wiLocal = sampleCosineHemisphere(u);
-  } else {
-    const Vec3 wr = reflect(woLocal, ggx_.sampleVisibleNormal(woLocal, u));
-    if (!(wr.z > 0.0f)) return std::nullopt;  // reflected below the surface: masked, absorbed
-    wiLocal = !straight_ && choice < c.diffuse + c.transmission ? mirrored(wr) : wr;
-  }
-  const float pdf = pdfLocal(woLocal, wiLocal);
+  const Vec3 wiLocal = model_.sampleLocal(woLocal, c, choice, u);
+  const float pdf = model_.pdfLocal(woLocal, wiLocal);
   if (!(pdf > 0.0f)) return std::nullopt;
-  const Spectrum f = evalLocal(woLocal, wiLocal);
+  const Spectrum f = model_.evalLocal(woLocal, wiLocal);
   if (isBlack(f)) return std::nullopt;
   return MaterialSample{frame.toWorld(wiLocal), f / pdf, pdf, false};
 }
 
 Spectrum PrincipledBsdf::straightAt(float cosO) const {
-  const float fd = p_.specular * (f0_ + (1.0f - f0_) * schlickWeight(cosO));
+  const float fd = p_.specular * (model_.f0 + (1.0f - model_.f0) * PrincipledModel::schlickWeight(cosO));
   return p_.baseColor * ((1.0f - p_.metallic) * p_.transmission * (1.0f - fd));
 }
 
@@ -176,7 +126,7 @@ Spectrum PrincipledBsdf::straightTransmittance(const Vec3& n, const Vec3& wo) co
 }
 
 float PrincipledBsdf::straightProbability(const Vec3& n, const Vec3& wo) const {
-  return straight_ ? lobes(std::abs(glm::dot(n, wo))).transmission : 0.0f;
+  return straight_ ? model_.lobes(std::abs(glm::dot(n, wo))).transmission : 0.0f;
 }
 
 std::shared_ptr<const Bsdf> parsePrincipled(FieldReader& r) {

@@ -45,6 +45,7 @@
 #include "common/material/bsdf.h"
 #include "common/material/dielectric.h"
 #include "common/material/microfacet.h"
+#include "common/material/principled_model.h"
 
 namespace lensfarm {
 
@@ -76,20 +77,15 @@ class PrincipledBsdf final : public Bsdf {
   std::optional<MaterialSample> sample(const Vec3& n, const Vec3& wo, float uLobe, Vec2 u, bool front) const override;
   Spectrum straightTransmittance(const Vec3& n, const Vec3& wo) const override;
   float straightProbability(const Vec3& n, const Vec3& wo) const override;
+  // Only without a solid's refracting share and without a straight transmission.
+  bool laneModel(PrincipledModel& model) const override;
 
  private:
-  struct LobeChoice {
-    float specular, diffuse, transmission;  // probabilities, summing to 1
-  };
-  LobeChoice lobes(float cosO) const;
-  Spectrum evalLocal(const Vec3& wo, const Vec3& wi) const;
   // The thin-walled model's sample (all of it, or the opaque share of a solid).
   std::optional<MaterialSample> sampleOpaque(const Vec3& n, const Vec3& wo, float uLobe, Vec2 u) const;
-  float pdfLocal(const Vec3& wo, const Vec3& wi) const;
 
   PrincipledParams p_;
-  GgxDistribution ggx_;
-  float f0_;  // the dielectric's reflectance at normal incidence
+  PrincipledModel model_;  // the opaque share's formulas (material/principled_model.h)
   // A solid's refracting share (not thin-walled): glassWeight_ = w of the header, glass_ set.
   float glassWeight_ = 0.0f;
   std::optional<DielectricBsdf> glass_;

@@ -172,11 +172,32 @@ LENSFARM_LANE_LOOPS void sampleDirections(const RayCaster::PacketHits& __restric
   }
 }
 
+// The lanes whose vertex is on a material the lane loops shade with its PrincipledModel record
+// (RenderScene::laneModels: glTF's metallic-roughness without textures). The Lambertian loops run
+// for them too; these loops then put the model's values in their place (the light sample's f and
+// weight, the scattered direction, its weight and density), with the operations of shadeVertex's
+// Bsdf calls (material/principled_model.h), in the same order.
+struct GlossyLanes {
+  alignas(64) uint32_t on[kPacketWidth];      // ~0u: a glossy lane
+  alignas(64) uint32_t shaded[kPacketWidth];  // ~0u: its shading normal is per point (rule 2 of shading_point.h)
+  alignas(64) float snx[kPacketWidth], sny[kPacketWidth], snz[kPacketWidth];  // the shading normal, on wo's side
+  alignas(64) float ngx[kPacketWidth], ngy[kPacketWidth], ngz[kPacketWidth];  // the geometric one, on wo's side
+  alignas(64) float uLobe[kPacketWidth];
+  // Steps between the loops: wo and wi in the shading frame, the model's f cos and density there,
+  // 1 where wi lies below the surface or the shading normal (rule 2 of shading_point.h).
+  alignas(64) float wox[kPacketWidth], woy[kPacketWidth], woz[kPacketWidth];
+  alignas(64) float wix[kPacketWidth], wiy[kPacketWidth], wiz[kPacketWidth];
+  alignas(64) float fr[kPacketWidth], fg[kPacketWidth], fb[kPacketWidth], pdf[kPacketWidth];
+  alignas(64) float below[kPacketWidth];
+};
+
 // What each lane's vertex does, as masks over the lanes (~0u or 0): the decisions shadeVertex
 // makes before its light sample, for every lane at once.
 struct VertexLanes {
-  alignas(64) uint32_t special[kPacketWidth];  // a mirror or an emitter: the one-path code runs first
-  alignas(64) uint32_t diffuse[kPacketWidth];  // a diffuse vertex within the bounce limit: the lane loops
+  // A model the lane loops do not shade, or an emitter: the one-path code runs first.
+  alignas(64) uint32_t special[kPacketWidth];
+  // A Lambertian or glossy (GlossyLanes) vertex within the bounce limit: the lane loops.
+  alignas(64) uint32_t diffuse[kPacketWidth];
 };
 struct ClassifyRules {
   int maxBounces;
@@ -189,18 +210,22 @@ struct ClassifyRules {
 LENSFARM_LANE_LOOPS void classifyVertices(const RayCaster::PacketHits& __restrict h, const PathLanes& __restrict path,
                                           GatherView<RenderScene::MaterialRecord> materials, ClassifyRules rules,
                                           VertexLanes& __restrict out, DiffuseLanes& __restrict v,
-                                          LightSampleLanes& __restrict ls, int* __restrict goes) {
+                                          GlossyLanes& __restrict g, LightSampleLanes& __restrict ls,
+                                          int* __restrict goes) {
   using Record = RenderScene::MaterialRecord;
   for (int k = 0; k < kPacketWidth; ++k) {
     const uint32_t hit = uint32_t(h.found[k]), m = h.material[k];
     const uint32_t general = materials.u(m, offsetof(Record, general)) & rules.generalMaterials;
     const uint32_t emissive = materials.u(m, offsetof(Record, emissive));
     const uint32_t reflects = materials.u(m, offsetof(Record, reflects));
+    const uint32_t glossy = materials.u(m, offsetof(Record, glossy)) & rules.generalMaterials;
     const uint32_t withinLimit = path.bounces[k] < rules.maxBounces ? ~0u : 0u;
-    const uint32_t diffuse = hit & ~general & reflects & withinLimit;
+    const uint32_t diffuse = hit & (~general | glossy) & reflects & withinLimit;
     const uint32_t lastBounce = (path.bounces[k] + 1 >= rules.maxBounces ? ~0u : 0u) & rules.lastBounceEnds;
-    out.special[k] = hit & (general | emissive);
+    out.special[k] = hit & ((general & ~glossy) | emissive);
     out.diffuse[k] = diffuse;
+    g.on[k] = diffuse & glossy;
+    g.shaded[k] = diffuse & glossy & materials.u(m, offsetof(Record, shaded));
     ls.found[k] = int(diffuse & rules.nee);
     v.misOn[k] = (rules.mis & ~lastBounce) != 0 ? 1.0f : 0.0f;
     goes[k] = int(diffuse & ~lastBounce);
@@ -248,6 +273,100 @@ LENSFARM_LANE_LOOPS void addUnblocked(const DiffuseLanes& __restrict v, const in
     path.rb[k] = on ? path.rb[k] + v.cb[k] : path.rb[k];
   }
 }
+
+[[gnu::always_inline]] inline PrincipledModel gatherModel(GatherView<PrincipledModel> models, uint32_t m) {
+  return PrincipledModel{
+      models.f(m, offsetof(PrincipledModel, baseR)),        models.f(m, offsetof(PrincipledModel, baseG)),
+      models.f(m, offsetof(PrincipledModel, baseB)),        models.f(m, offsetof(PrincipledModel, metallic)),
+      models.f(m, offsetof(PrincipledModel, transmission)), models.f(m, offsetof(PrincipledModel, specular)),
+      models.f(m, offsetof(PrincipledModel, f0)),           models.f(m, offsetof(PrincipledModel, alpha)),
+      models.f(m, offsetof(PrincipledModel, colour)),       models.f(m, offsetof(PrincipledModel, straight))};
+}
+
+// The glossy lanes' directions in their shading frames (Frame::fromNormal of the shading normal):
+// wo, and wi towards the light point (glossyLightSamples) or as sampled (glossyDirections).
+LENSFARM_LANE_LOOPS void toShadingFrames(const RayCaster::PacketHits& __restrict h, const RayPacket& __restrict rays,
+                                         const LightSampleLanes& __restrict ls, GlossyLanes& __restrict g) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const Vec3 p(h.px[k], h.py[k], h.pz[k]), lightPoint(ls.px[k], ls.py[k], ls.pz[k]);
+    const Vec3 wi = glm::normalize(lightPoint - p);
+    const Frame frame = Frame::fromNormal(Vec3(g.snx[k], g.sny[k], g.snz[k]));
+    const Vec3 wo = frame.toLocal(-Vec3(rays.dx[k], rays.dy[k], rays.dz[k])), wiLocal = frame.toLocal(wi);
+    g.wox[k] = wo.x, g.woy[k] = wo.y, g.woz[k] = wo.z;
+    g.wix[k] = wiLocal.x, g.wiy[k] = wiLocal.y, g.wiz[k] = wiLocal.z;
+    g.below[k] =
+        (g.shaded[k] != 0) & !scattersTo(wi, Vec3(g.ngx[k], g.ngy[k], g.ngz[k]), Vec3(g.snx[k], g.sny[k], g.snz[k]))
+            ? 1.0f
+            : 0.0f;
+  }
+}
+
+// The model's f cos (fr, fg, fb) and density (pdf) for each lane's local wo and wi. (Loops of
+// their own: GCC vectorises each, but not all of a vertex's steps in one.)
+LENSFARM_LANE_LOOPS void evaluateModels(const RayCaster::PacketHits& __restrict h, GatherView<PrincipledModel> models,
+                                        GlossyLanes& __restrict g) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const PrincipledModel m = gatherModel(models, h.material[k]);
+    const Spectrum f = m.evalLocal(Vec3(g.wox[k], g.woy[k], g.woz[k]), Vec3(g.wix[k], g.wiy[k], g.wiz[k]));
+    g.fr[k] = f.r, g.fg[k] = f.g, g.fb[k] = f.b;
+  }
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const PrincipledModel m = gatherModel(models, h.material[k]);
+    g.pdf[k] = m.pdfLocal(Vec3(g.wox[k], g.woy[k], g.woz[k]), Vec3(g.wix[k], g.wiy[k], g.wiz[k]));
+  }
+}
+
+// The light sample of every glossy lane: f and the MIS weight of the model (prepareShadowRays'
+// Lambertian ones replaced).
+LENSFARM_LANE_LOOPS void glossyLightSamples(const PathLanes& __restrict path, const GlossyLanes& __restrict g,
+                                            DiffuseLanes& __restrict v, const LightSampleLanes& __restrict ls) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const Spectrum f = g.below[k] != 0.0f ? Spectrum(0.0f) : Spectrum(g.fr[k], g.fg[k], g.fb[k]);
+    const float weight = v.misOn[k] != 0.0f ? powerHeuristic(ls.pdf[k], g.pdf[k]) : 1.0f;
+    const Spectrum c = Spectrum(path.tr[k], path.tg[k], path.tb[k]) * f * Spectrum(ls.rr[k], ls.rg[k], ls.rb[k]) *
+                       (weight / ls.pdf[k]);
+    const bool on = g.on[k] != 0;
+    v.fr[k] = on ? f.r : v.fr[k], v.fg[k] = on ? f.g : v.fg[k], v.fb[k] = on ? f.b : v.fb[k];
+    v.cr[k] = on ? c.r : v.cr[k], v.cg[k] = on ? c.g : v.cg[k], v.cb[k] = on ? c.b : v.cb[k];
+  }
+}
+
+// Each glossy lane's sampled direction in its shading frame (PrincipledBsdf::sample's opaque form).
+LENSFARM_LANE_LOOPS void sampleModels(const RayCaster::PacketHits& __restrict h, const RayPacket& __restrict rays,
+                                      GatherView<PrincipledModel> models, const DiffuseLanes& __restrict v,
+                                      GlossyLanes& __restrict g) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const Frame frame = Frame::fromNormal(Vec3(g.snx[k], g.sny[k], g.snz[k]));
+    const Vec3 wo = frame.toLocal(-Vec3(rays.dx[k], rays.dy[k], rays.dz[k]));
+    const PrincipledModel m = gatherModel(models, h.material[k]);
+    const Vec3 wi = m.sampleLocal(wo, m.lobes(wo.z), g.uLobe[k], Vec2(v.u0[k], v.u1[k]));
+    g.wox[k] = wo.x, g.woy[k] = wo.y, g.woz[k] = wo.z;
+    g.wix[k] = wi.x, g.wiy[k] = wi.y, g.wiz[k] = wi.z;
+  }
+}
+
+// The scattered ray of every glossy lane: its weight f / pdf in place of the albedo, its density,
+// and cosTheta 1 where it exists, 0 where the sample is absorbed (scatterDiffuse then ends the path).
+LENSFARM_LANE_LOOPS void glossyDirections(const RayCaster::PacketHits& __restrict h, const GlossyLanes& __restrict g,
+                                          DiffuseLanes& __restrict v) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const Vec3 n(g.snx[k], g.sny[k], g.snz[k]);
+    const Vec3 wi = Frame::fromNormal(n).toWorld(Vec3(g.wix[k], g.wiy[k], g.wiz[k]));
+    const Spectrum f(g.fr[k], g.fg[k], g.fb[k]);
+    const Spectrum weight = f / g.pdf[k];
+    const bool lit = !isBlack(f);
+    const bool leaves = (g.shaded[k] == 0) | scattersTo(wi, Vec3(g.ngx[k], g.ngy[k], g.ngz[k]), n);
+    const bool exists = (g.woz[k] > 0.0f) & (g.pdf[k] > 0.0f) & lit & leaves;
+    const Vec3 o = spawnOrigin(Vec3(h.px[k], h.py[k], h.pz[k]), Vec3(h.v0x[k], h.v0y[k], h.v0z[k]),
+                               Vec3(h.nx[k], h.ny[k], h.nz[k]), h.margin[k], wi);
+    const bool on = g.on[k] != 0;
+    v.cosTheta[k] = on ? (exists ? 1.0f : 0.0f) : v.cosTheta[k];
+    v.pdf[k] = on ? g.pdf[k] : v.pdf[k];
+    v.ar[k] = on ? weight.r : v.ar[k], v.ag[k] = on ? weight.g : v.ag[k], v.ab[k] = on ? weight.b : v.ab[k];
+    v.ox[k] = on ? o.x : v.ox[k], v.oy[k] = on ? o.y : v.oy[k], v.oz[k] = on ? o.z : v.oz[k];
+    v.dx[k] = on ? wi.x : v.dx[k], v.dy[k] = on ? wi.y : v.dy[k], v.dz[k] = on ? wi.z : v.dz[k];
+  }
+}
 }  // namespace
 
 // Kept whole: the lane loops share per-lane arrays across stages; one function lets the compiler keep them local.
@@ -266,9 +385,11 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
   // Lanes that are not in use still run through the lane loops, on what the packet's start or an
   // earlier segment left (finite values), and their results are ignored.
   DiffuseLanes v{};
+  GlossyLanes glossy{};
   LightSampleLanes lights{};
   const SampleStream::LaneKeys keys = SampleStream::keysOf(packet.rng);
   const GatherView<RenderScene::MaterialRecord> materials(rs.materialRecords().data());
+  const GatherView<PrincipledModel> models(rs.laneModels().data());
   const ClassifyRules rules{settings.maxBounces, kGeneral ? ~0u : 0u, kNee ? ~0u : 0u, mis ? ~0u : 0u,
                             kNee && lastBounceCanEndPaths(rs) ? ~0u : 0u};
   paths.start();
@@ -306,7 +427,7 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
 
     // Every lane's decisions in one lane loop; then, lane by lane, the few that meet a mirror or
     // an emitter take the one-path code (shadeVertex, addEmittedLight).
-    classifyVertices(hits, paths, materials, rules, vertices, v, lights, goes);
+    classifyVertices(hits, paths, materials, rules, vertices, v, glossy, lights, goes);
     alignas(64) int generalGoes[kPacketWidth] = {};
     bool generalShadow[kPacketWidth] = {};
     for (int k = 0; k < kPacketWidth; ++k) {
@@ -314,7 +435,8 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
       const Material& material = rs.material(hits.material[k]);
       PathState path = paths.get(k, rays);
       const SurfaceHit hit = hits.hit(k);
-      if (kGeneral && material.reflects() && (!material.isLambertian() || rs.shaded(hits.material[k]))) {
+      if (kGeneral && material.reflects() && !vertices.diffuse[k] &&
+          (!material.isLambertian() || rs.shaded(hits.material[k]))) {
         const VertexOutcome outcome =
             shadeVertex<kNee, kGeneral>(rs, packet.rng[k], segment, hit, path, generalShadows[k]);
         generalShadow[k] = outcome.castShadow;
@@ -328,11 +450,26 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
       paths.put(k, path);
     }
 
-    bool anyDiffuse = false;
-    for (int k = 0; k < kPacketWidth; ++k) anyDiffuse |= vertices.diffuse[k] != 0;
+    bool anyDiffuse = false, anyGlossy = false;
+    for (int k = 0; k < kPacketWidth; ++k) anyDiffuse |= vertices.diffuse[k] != 0, anyGlossy |= glossy.on[k] != 0;
     if (anyDiffuse) {
       // The lane loops, then each diffuse lane's path goes on along its scattered ray or ends.
       orientNormals(hits, rays, v, lights);
+      if (kGeneral && anyGlossy) {
+        // The glossy lanes' lobe choice and shading normals (per point, one by one, where the
+        // material's mesh has vertex normals: shadingPoint, as shadeVertex).
+        SampleStream::values1D(packet.rng, keys, packet.count, segmentBase + dims::kMaterialLobe, glossy.uLobe);
+        for (int k = 0; k < kPacketWidth; ++k) {
+          Vec3 n(v.nx[k], v.ny[k], v.nz[k]);
+          if (glossy.shaded[k]) {
+            const SurfaceHit hit = hits.hit(k);
+            const Vec3 wo = -rays.direction(k);
+            n = shadingPoint(rs, hit, wo, n, glm::dot(hit.n, wo) >= 0.0f).n;
+          }
+          glossy.snx[k] = n.x, glossy.sny[k] = n.y, glossy.snz[k] = n.z;
+          glossy.ngx[k] = v.nx[k], glossy.ngy[k] = v.ny[k], glossy.ngz[k] = v.nz[k];
+        }
+      }
       if (kNee) {
         rs.lights().sample(lights);
         // A delta light's sample has MIS weight 1, and a light that is not a triangle a shadow ray
@@ -348,6 +485,11 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
             unitShadowRay(d, lights.reach[k], d, shadowRays.tFar[k]);
             shadowRays.dx[k] = d.x, shadowRays.dy[k] = d.y, shadowRays.dz[k] = d.z;
           }
+        if (kGeneral && anyGlossy) {
+          toShadingFrames(hits, rays, lights, glossy);
+          evaluateModels(hits, models, glossy);
+          glossyLightSamples(paths, glossy, v, lights);
+        }
         for (int k = 0; k < kPacketWidth; ++k)
           shadowRays.valid[k] = lights.found[k] != 0 && !isBlack(Spectrum(lights.rr[k], lights.rg[k], lights.rb[k])) &&
                                         !isBlack(Spectrum(v.fr[k], v.fg[k], v.fb[k]))
@@ -355,6 +497,11 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
                                     : 0;
       }
       sampleDirections(hits, v);
+      if (kGeneral && anyGlossy) {
+        sampleModels(hits, rays, models, v, glossy);
+        evaluateModels(hits, models, glossy);
+        glossyDirections(hits, glossy, v);
+      }
       scatterDiffuse(v, goes, paths);
       if (rs.lights().usesTree())  // the vertex a light tree weighs the next ray's light from
         for (int k = 0; k < kPacketWidth; ++k)

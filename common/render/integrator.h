@@ -25,14 +25,17 @@
 //  - tracePacket traces up to kPacketWidth paths at once (docs/performance.md): each
 //    segment of the packet's live paths is one 16-wide Embree intersection call and at most one
 //    16-wide occlusion call for their shadow rays; paths that end leave the packet (their lane is
-//    switched off). The paths' state, the hits and every step of a diffuse vertex (the decisions,
-//    the light sample, the shadow ray, the scattered direction) are arrays over the lanes and
-//    loops over them, which the compiler vectorises (math/lanes.h); only lanes that meet a mirror
-//    or an emitter, leave the scene towards a light beyond it (only in a scene that has one) or
-//    choose a light that is not a triangle go one at a time, through shadeVertex /
+//    switched off). The paths' state, the hits and every step of a Lambertian or glossy vertex
+//    (the decisions, the light sample, the shadow ray, the scattered direction) are arrays over
+//    the lanes and loops over them, which the compiler vectorises (math/lanes.h). Glossy: a
+//    material whose model a PrincipledModel record holds (glTF's metallic-roughness without
+//    textures, material/principled_model.h), its shading normal taken per point where its mesh
+//    has vertex normals. Only lanes that meet another model (mirrors, glass, conductors,
+//    textures) or an emitter, leave the scene towards a light beyond it (only in a scene that has
+//    one) or choose a light that is not a triangle go one at a time, through shadeVertex /
 //    addEmittedLight / addEscapedLight / LightSampler::sample. The lane loops evaluate
-//    the same shared formulas (the warps, offsets, Lambertian lobe, light sample, MIS weight) in
-//    the same order, so a lane computes exactly what tracePath computes for its sample and its
+//    the same shared formulas (the warps, offsets, Lambertian lobe, principled model, light
+//    sample, MIS weight) in the same order, so a lane computes exactly what tracePath computes for its sample and its
 //    radiance depends on its own sample only: never on which samples share its packet, on the
 //    thread, the worker or the machine's vector width (tests/render/packet_integrator_test.cpp).
 

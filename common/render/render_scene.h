@@ -10,6 +10,7 @@
 #include "common/camera/camera.h"
 #include "common/camera/thin_lens_camera.h"
 #include "common/film/aov_layout.h"
+#include "common/material/principled_model.h"
 #include "common/medium/medium.h"
 #include "common/render/light_emission.h"
 #include "common/render/light_sampler.h"
@@ -52,10 +53,13 @@ class RenderScene {
       for (const TriangleMesh& mesh : *meshes)
         if (!mesh.normals.empty())
           for (uint32_t id : mesh.materialIds) shaded_[id] = 1;
+    laneModels_.resize(scene.materials.size());
     for (size_t k = 0; k < scene.materials.size(); ++k) {
       const Material& m = scene.materials[k];
+      const bool glossy = !m.varies() && m.laneModel(laneModels_[k]);
       materialRecords_.push_back({m.albedo(), m.isEmissive() ? ~0u : 0u, m.reflects() ? ~0u : 0u,
-                                  (m.reflects() && !m.isLambertian()) || shaded_[k] ? ~0u : 0u});
+                                  (m.reflects() && !m.isLambertian()) || shaded_[k] ? ~0u : 0u, glossy ? ~0u : 0u,
+                                  shaded_[k] ? ~0u : 0u});
     }
     // The materials whose scattering the light tracer handles (render/light_tracer.h); a path
     // through any other belongs to the path tracer alone.
@@ -128,12 +132,15 @@ class RenderScene {
   }
   // What the packet tracer's lane loops read of each material (render/integrator.cpp): its
   // Lambertian albedo and Material's predicates as masks (~0u where true, 0 where false);
-  // `general`: a model beyond Lambertian, which the one-path vertex code shades.
+  // `general`: a model beyond Lambertian, which the one-path vertex code shades unless `glossy`:
+  // the lane loops shade it with its laneModels() record (Material::laneModel; not where it has
+  // textures); `shaded`: hits on it are shaded per point (shaded()).
   struct MaterialRecord {
     Spectrum albedo;
-    uint32_t emissive, reflects, general;
+    uint32_t emissive, reflects, general, glossy, shaded;
   };
   const std::vector<MaterialRecord>& materialRecords() const { return materialRecords_; }
+  const std::vector<PrincipledModel>& laneModels() const { return laneModels_; }  // per material
 
  private:
   const Scene& scene_;
@@ -150,6 +157,7 @@ class RenderScene {
   bool hasEscapeLights_;
   AovLayout aovLayout_;
   std::vector<MaterialRecord> materialRecords_;
+  std::vector<PrincipledModel> laneModels_;
   std::vector<uint8_t> shaded_;
   std::vector<const Medium*> mediaShadowRaysLeave_;
   std::vector<const HomogeneousMedium*> mediaEquiangular_;
