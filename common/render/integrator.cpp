@@ -180,8 +180,8 @@ LENSFARM_LANE_LOOPS void sampleDirections(const RayCaster::PacketHits& __restric
 struct GlossyLanes {
   alignas(64) uint32_t on[kPacketWidth];      // ~0u: a glossy lane
   alignas(64) uint32_t shaded[kPacketWidth];  // ~0u: its shading normal is per point (rule 2 of shading_point.h)
-  alignas(64) float snx[kPacketWidth], sny[kPacketWidth], snz[kPacketWidth];  // the shading normal, on wo's side
-  alignas(64) float ngx[kPacketWidth], ngy[kPacketWidth], ngz[kPacketWidth];  // the geometric one, on wo's side
+  // The shading normal, on wo's side (the geometric one is DiffuseLanes' n).
+  alignas(64) float snx[kPacketWidth], sny[kPacketWidth], snz[kPacketWidth];
   alignas(64) float uLobe[kPacketWidth];
   // Steps between the loops: wo and wi in the shading frame, the model's f cos and density there,
   // 1 where wi lies below the surface or the shading normal (rule 2 of shading_point.h).
@@ -286,7 +286,8 @@ LENSFARM_LANE_LOOPS void addUnblocked(const DiffuseLanes& __restrict v, const in
 // The glossy lanes' directions in their shading frames (Frame::fromNormal of the shading normal):
 // wo, and wi towards the light point (glossyLightSamples) or as sampled (glossyDirections).
 LENSFARM_LANE_LOOPS void toShadingFrames(const RayCaster::PacketHits& __restrict h, const RayPacket& __restrict rays,
-                                         const LightSampleLanes& __restrict ls, GlossyLanes& __restrict g) {
+                                         const DiffuseLanes& __restrict v, const LightSampleLanes& __restrict ls,
+                                         GlossyLanes& __restrict g) {
   for (int k = 0; k < kPacketWidth; ++k) {
     const Vec3 p(h.px[k], h.py[k], h.pz[k]), lightPoint(ls.px[k], ls.py[k], ls.pz[k]);
     const Vec3 wi = glm::normalize(lightPoint - p);
@@ -295,7 +296,7 @@ LENSFARM_LANE_LOOPS void toShadingFrames(const RayCaster::PacketHits& __restrict
     g.wox[k] = wo.x, g.woy[k] = wo.y, g.woz[k] = wo.z;
     g.wix[k] = wiLocal.x, g.wiy[k] = wiLocal.y, g.wiz[k] = wiLocal.z;
     g.below[k] =
-        (g.shaded[k] != 0) & !scattersTo(wi, Vec3(g.ngx[k], g.ngy[k], g.ngz[k]), Vec3(g.snx[k], g.sny[k], g.snz[k]))
+        (g.shaded[k] != 0) & !scattersTo(wi, Vec3(v.nx[k], v.ny[k], v.nz[k]), Vec3(g.snx[k], g.sny[k], g.snz[k]))
             ? 1.0f
             : 0.0f;
   }
@@ -355,7 +356,7 @@ LENSFARM_LANE_LOOPS void glossyDirections(const RayCaster::PacketHits& __restric
     const Spectrum f(g.fr[k], g.fg[k], g.fb[k]);
     const Spectrum weight = f / g.pdf[k];
     const bool lit = !isBlack(f);
-    const bool leaves = (g.shaded[k] == 0) | scattersTo(wi, Vec3(g.ngx[k], g.ngy[k], g.ngz[k]), n);
+    const bool leaves = (g.shaded[k] == 0) | scattersTo(wi, Vec3(v.nx[k], v.ny[k], v.nz[k]), n);
     const bool exists = (g.woz[k] > 0.0f) & (g.pdf[k] > 0.0f) & lit & leaves;
     const Vec3 o = spawnOrigin(Vec3(h.px[k], h.py[k], h.pz[k]), Vec3(h.v0x[k], h.v0y[k], h.v0z[k]),
                                Vec3(h.nx[k], h.ny[k], h.nz[k]), h.margin[k], wi);
@@ -467,7 +468,6 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
             n = shadingPoint(rs, hit, wo, n, glm::dot(hit.n, wo) >= 0.0f).n;
           }
           glossy.snx[k] = n.x, glossy.sny[k] = n.y, glossy.snz[k] = n.z;
-          glossy.ngx[k] = v.nx[k], glossy.ngy[k] = v.ny[k], glossy.ngz[k] = v.nz[k];
         }
       }
       if (kNee) {
@@ -486,7 +486,7 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
             shadowRays.dx[k] = d.x, shadowRays.dy[k] = d.y, shadowRays.dz[k] = d.z;
           }
         if (kGeneral && anyGlossy) {
-          toShadingFrames(hits, rays, lights, glossy);
+          toShadingFrames(hits, rays, v, lights, glossy);
           evaluateModels(hits, models, glossy);
           glossyLightSamples(paths, glossy, v, lights);
         }
