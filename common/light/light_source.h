@@ -52,11 +52,12 @@ struct LightSample {
   // segment to p; else it is cast along the unit direction towards p and runs `reach` times the
   // distance: 1 for a point or spot, SceneSphere::kReach for an infinite light.
   float reach = 0.0f;
-  // The probability that the light sampler's choice by power (LightSampler::position) picks this
-  // light over the probability it was chosen with: 1 unless a light tree chose it by the shading
-  // point (render/light_tree.h); infinite where the tree cannot choose it there. Equiangular
-  // sampling, which chooses its light point by power, weighs its samples by it.
-  float powerChoiceRatio = 1.0f;
+  // The density with which the light sampler's position() strategy (the light chosen by power,
+  // the point uniform by area: render/light_sampler.h) gives this sample's point, over `pdf`: 1
+  // unless a light tree chose the light by the shading point or the point was sampled by solid
+  // angle; infinite where sample() cannot give it. Equiangular sampling, which takes its light
+  // point from position(), weighs its samples by it.
+  float positionPdfRatio = 1.0f;
 
   SpawnPlane plane() const { return SpawnPlane{v0, n, margin}; }
 };

@@ -12,7 +12,7 @@ PrincipledBsdf::PrincipledBsdf(const PrincipledParams& params) : p_(params) {
   const float r = (p_.ior - 1.0f) / (p_.ior + 1.0f);
   const float f0 = std::min(1.0f, r * r * std::max(p_.specularColor, 0.0f));
   const float w = p_.transmission * (1.0f - p_.metallic);
-  straight_ =
+  const bool straight =
       p_.thinWalled && w > 0.0f && GgxDistribution::alphaFromRoughness(p_.roughness) < GgxDistribution::kSmoothAlpha;
   if (!p_.thinWalled && w > 0.0f) {
     // The header's mixture: the glass share apart, the rest opaque with its metal share kept.
@@ -30,11 +30,11 @@ PrincipledBsdf::PrincipledBsdf(const PrincipledParams& params) : p_(params) {
                            f0,
                            std::max(GgxDistribution::alphaFromRoughness(p_.roughness), GgxDistribution::kSmoothAlpha),
                            std::max(luminance(p_.baseColor), 0.0f),
-                           straight_ ? 1.0f : 0.0f};
+                           straight ? 1.0f : 0.0f};
 }
 
 bool PrincipledBsdf::laneModel(PrincipledModel& model) const {
-  if (glass_ || straight_) return false;
+  if (glass_ || straight()) return false;
   model = model_;
   return true;
 }
@@ -49,11 +49,11 @@ BsdfTraits PrincipledBsdf::traits() const {
   // Black only when nothing can scatter: a black metal (F0 = 0 still reflects at grazing, but
   // C = 0 with metallic 1 reflects (1 - 0) x^5: not black). Every glTF material scatters something.
   const bool transmits = p_.transmission > 0.0f && p_.metallic < 1.0f;
-  BsdfTraits t = BsdfTraits::glossyLobes(true, straight_   ? "principled (glTF) with thin-walled transmission"
+  BsdfTraits t = BsdfTraits::glossyLobes(true, straight()  ? "principled (glTF) with thin-walled transmission"
                                                : transmits ? "principled (glTF) with transmission"
                                                            : "principled (glTF)");
   t.transmits = transmits;
-  t.thinWall = straight_;
+  t.thinWall = straight();
   return t;
 }
 
@@ -103,7 +103,7 @@ std::optional<MaterialSample> PrincipledBsdf::sampleOpaque(const Vec3& n, const 
   // A thin wall's smooth transmission first (Bsdf::straightProbability's convention): straight
   // through, weighed by its share of the choice; then diffuse and specular as for any surface.
   float choice = uLobe;
-  if (straight_) {
+  if (straight()) {
     if (choice < c.transmission)
       return MaterialSample{-wo, straightAt(woLocal.z) / c.transmission, 0.0f, true, 1.0f, /*straight=*/true};
     choice -= c.transmission;
@@ -122,11 +122,11 @@ Spectrum PrincipledBsdf::straightAt(float cosO) const {
 }
 
 Spectrum PrincipledBsdf::straightTransmittance(const Vec3& n, const Vec3& wo) const {
-  return straight_ ? straightAt(std::abs(glm::dot(n, wo))) : Spectrum(0.0f);
+  return straight() ? straightAt(std::abs(glm::dot(n, wo))) : Spectrum(0.0f);
 }
 
 float PrincipledBsdf::straightProbability(const Vec3& n, const Vec3& wo) const {
-  return straight_ ? model_.lobes(std::abs(glm::dot(n, wo))).transmission : 0.0f;
+  return straight() ? model_.lobes(std::abs(glm::dot(n, wo))).transmission : 0.0f;
 }
 
 std::shared_ptr<const Bsdf> parsePrincipled(FieldReader& r) {

@@ -90,7 +90,7 @@ class PrincipledBsdf final : public Bsdf {
   float glassWeight_ = 0.0f;
   std::optional<DielectricBsdf> glass_;
   // Thin-walled, transmitting and smooth: the transmission is a delta straight through.
-  bool straight_ = false;
+  bool straight() const { return model_.straight != 0.0f; }
   Spectrum straightAt(float cosO) const;  // C (1 - m) t (1 - F_d(cos_o))
 };
 

@@ -34,4 +34,13 @@ inline double triangleArea(const Vec3& v0, const Vec3& v1, const Vec3& v2) {
   return 0.5 * glm::length(triangleCross(v0, v1, v2));
 }
 
+// The barycentrics (b1, b2) of x's projection onto the triangle's plane: x = (1 - b1 - b2) v0 +
+// b1 v1 + b2 v2 there (the ray caster's convention). (0, 0) for a triangle of zero area.
+inline glm::dvec2 triangleBarycentrics(const DVec3& x, const Vec3& v0, const Vec3& v1, const Vec3& v2) {
+  const DVec3 a(v0), e1 = DVec3(v1) - a, e2 = DVec3(v2) - a, n = glm::cross(e1, e2), d = x - a;
+  const double nn = glm::dot(n, n);
+  if (!(nn > 0.0) || !std::isfinite(nn)) return glm::dvec2(0.0);
+  return glm::dvec2(glm::dot(glm::cross(d, e2), n), glm::dot(glm::cross(e1, d), n)) / nn;
+}
+
 }  // namespace lensfarm

@@ -503,9 +503,10 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
         glossyDirections(hits, glossy, v);
       }
       scatterDiffuse(v, goes, paths);
-      if (rs.lights().usesTree())  // the vertex a light tree weighs the next ray's light from
-        for (int k = 0; k < kPacketWidth; ++k)
-          if (goes[k]) paths.vx[k] = hits.px[k], paths.vy[k] = hits.py[k], paths.vz[k] = hits.pz[k];
+      // The vertex the light the next ray reaches is weighed from (its light sample's choice and
+      // density depend on it: a light tree, sampling by solid angle near a light).
+      for (int k = 0; k < kPacketWidth; ++k)
+        if (goes[k]) paths.vx[k] = hits.px[k], paths.vy[k] = hits.py[k], paths.vz[k] = hits.pz[k];
       if (settings.roulette != RouletteRule::kOff)
         for (int k = 0; k < kPacketWidth; ++k) {
           if (!goes[k]) continue;

@@ -11,6 +11,7 @@
 #include "common/math/lanes.h"
 #include "common/math/ray_offset.h"
 #include "common/math/sampling.h"
+#include "common/math/spherical_triangle.h"
 #include "common/math/triangle.h"
 
 namespace lensfarm {
@@ -20,8 +21,84 @@ SceneSphere sceneSphereOf(const RayCaster& caster) {
   return SceneSphere::around(caster.boundsLo(), caster.boundsHi());
 }
 
+namespace {
+// The point of triangle (a, b, c) closest to p (Ericson 2005, "Real-Time Collision Detection",
+// 5.1.5: by the Voronoi regions of its vertices, edges and face).
+DVec3 closestPointOnTriangle(const DVec3& p, const DVec3& a, const DVec3& b, const DVec3& c) {
+  const DVec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
+  if (d1 <= 0.0 && d2 <= 0.0) return a;
+  const DVec3 bp = p - b;
+  const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
+  if (d3 >= 0.0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return a + ab * (d1 / (d1 - d3));
+  const DVec3 cp = p - c;
+  const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+  if (d6 >= 0.0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return a + ac * (d2 / (d2 - d6));
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+// For each light, whether a path vertex can lie within its reach where it emits: a triangle of
+// the scene that reflects (not the light's own) comes within it, with a vertex off the light's
+// plane on a side it emits to.
+// Path vertices lie on surfaces, or anywhere in a medium: with media or instances (whose
+// triangles are not in the caster's list), every light keeps its reach. The triangles are swept
+// along x against the reaches; a scene where that takes too many tests keeps every reach too.
+std::vector<bool> surfacesWithinReach(const Scene& scene, const RayCaster& caster,
+                                      const std::vector<LightSampler::Light>& lights) {
+  bool media = scene.medium != nullptr;
+  for (const Material& m : scene.materials) media |= m.interior != nullptr || m.exterior != nullptr;
+  if (media || !scene.instances.empty()) return std::vector<bool>(lights.size(), true);
+  const auto& triangles = caster.triangles();
+  std::vector<uint32_t> byLo(triangles.size());
+  std::vector<float> lo(triangles.size()), hi(triangles.size());
+  for (uint32_t k = 0; k < triangles.size(); ++k) {
+    const auto& t = triangles[k];
+    byLo[k] = k, lo[k] = std::min({t.v0.x, t.v1.x, t.v2.x}), hi[k] = std::max({t.v0.x, t.v1.x, t.v2.x});
+  }
+  std::sort(byLo.begin(), byLo.end(), [&](uint32_t a, uint32_t b) { return lo[a] < lo[b]; });
+  std::vector<float> sortedLo(byLo.size());
+  for (size_t j = 0; j < byLo.size(); ++j) sortedLo[j] = lo[byLo[j]];
+  constexpr uint64_t kMaxTests = uint64_t(1) << 24;
+  uint64_t tests = 0;
+  std::vector<bool> reaches(lights.size(), false);
+  for (size_t i = 0; i < lights.size(); ++i) {
+    const auto& l = lights[i];
+    if (!(l.solidAngleRadius2 > 0.0f)) continue;
+    if (std::isinf(l.solidAngleRadius2)) {  // "solid_angle": everywhere, as asked
+      reaches[i] = true;
+      continue;
+    }
+    const double r2 = double(l.solidAngleRadius2), r = std::sqrt(r2);
+    const DVec3 c(l.centroid), n(l.n);
+    const auto end = std::upper_bound(sortedLo.begin(), sortedLo.end(), float(double(l.centroid.x) + r));
+    for (auto it = sortedLo.begin(); it != end && !reaches[i]; ++it) {
+      if (++tests > kMaxTests) return std::vector<bool>(lights.size(), true);
+      const uint32_t k = byLo[size_t(it - sortedLo.begin())];
+      const auto& t = triangles[k];
+      if (k == l.triangle || double(hi[k]) < double(l.centroid.x) - r || !scene.materials[t.material].reflects())
+        continue;  // a path ends on an emitter that reflects nothing
+      const DVec3 a(t.v0), b(t.v1), d(t.v2);
+      const DVec3 q = closestPointOnTriangle(c, a, b, d) - c;
+      if (!(glm::dot(q, q) < r2)) continue;
+      // Off the light's plane on a side it emits to (in its plane a point sees none of it).
+      const double ha = glm::dot(a - c, n), hb = glm::dot(b - c, n), hd = glm::dot(d - c, n);
+      const double tol = 1e-6 * std::max({glm::length(a - c), glm::length(b - c), glm::length(d - c)});
+      reaches[i] = std::max({ha, hb, hd}) > tol || (l.twoSided != 0.0f && std::min({ha, hb, hd}) < -tol);
+    }
+  }
+  return reaches;
+}
+}  // namespace
+
 LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const std::vector<bool>& useful, bool deltaOnly,
-                           bool tree)
+                           bool tree, float solidAngleReach)
     : scene_(scene), caster_(caster), sphere_(sceneSphereOf(caster)) {
   const auto& triangles = caster.triangles();
   lightOfTriangle_.assign(triangles.size(), -1);
@@ -38,12 +115,26 @@ LightSampler::LightSampler(const Scene& scene, const RayCaster& caster, const st
     if (textured) p *= meanEmissiveTexture(k, m.textures()->emissive);
     if (!(p > 0.0)) continue;
     lightOfTriangle_[k] = int32_t(lights_.size());
+    const Vec3 centroid = (t.v0 + t.v1 + t.v2) / 3.0f;
+    const float radius = solidAngleReach * std::sqrt(std::max({glm::dot(t.v0 - centroid, t.v0 - centroid),
+                                                               glm::dot(t.v1 - centroid, t.v1 - centroid),
+                                                               glm::dot(t.v2 - centroid, t.v2 - centroid)}));
     lights_.push_back(Light{k, area, 0.0f, t.v0, t.v1, t.v2, t.n, t.margin, m.emission,
                             m.twoSidedEmission ? 1.0f : 0.0f, caster.isPrecise(k) ? 1.0f : 0.0f, t.material,
-                            textured ? 1.0f : 0.0f});
+                            textured ? 1.0f : 0.0f, centroid, radius * radius});
     hasTextured_ |= textured;
     power.push_back(p);
     total += p;
+  }
+  // A light whose reach holds no surface in front of it never takes the solid-angle map; a scene
+  // where none does skips the test per lane (reachLo_ above reachHi_).
+  const std::vector<bool> reaches = surfacesWithinReach(scene, caster, lights_);
+  for (size_t i = 0; i < lights_.size(); ++i) {
+    Light& l = lights_[i];
+    if (!reaches[i]) l.solidAngleRadius2 = 0.0f;
+    if (!(l.solidAngleRadius2 > 0.0f)) continue;
+    const float radius = std::sqrt(l.solidAngleRadius2);
+    reachLo_ = glm::min(reachLo_, l.centroid - radius), reachHi_ = glm::max(reachHi_, l.centroid + radius);
   }
   if (lights_.size() > GatherView<Light>::kMaxRecords)  // the packet form's lane loop indexes them with 32 bits
     throw std::runtime_error("the scene has " + std::to_string(lights_.size()) + " emitting triangles; at most " +
@@ -176,7 +267,7 @@ class SelectView {
 };
 
 // The packet form's lane loops: lane k samples a point on light i, read from `lights` (a
-// GatherView or a SelectView).
+// GatherView or a SelectView), by area; out per lane, the quantities TrianglePoint::valid() reads.
 template <typename Lights>
 [[gnu::always_inline]] inline void sampleLane(Lights lights, uint32_t i, float pmf, int k, LightSampleLanes& l,
                                               float* dist2, float* cosLight) {
@@ -199,12 +290,13 @@ template <typename Lights>
 // Without branches, so the loops vectorise; lanes not asked for take light 0.
 LENSFARM_LANE_LOOPS void sampleSelectedLanes(SelectView lights, uint32_t lastLight,
                                              const float (&cdf)[LightSampler::kFewLights],
-                                             LightSampleLanes& __restrict l, float* __restrict dist2,
-                                             float* __restrict cosLight) {
+                                             LightSampleLanes& __restrict l, uint32_t* __restrict chosen,
+                                             float* __restrict dist2, float* __restrict cosLight) {
   float fewCdf[LightSampler::kFewLights];  // a copy nothing else can write (else GCC checks aliasing)
   std::copy(std::begin(cdf), std::end(cdf), fewCdf);
   for (int k = 0; k < kPacketWidth; ++k) {
     const uint32_t i = std::min(chooseAmongFew(fewCdf, l.uChoice[k]), lastLight) & uint32_t(l.found[k]);
+    chosen[k] = i;
     sampleLane(lights, i, lights.f(i, offsetof(Light, pmf)), k, l, dist2, cosLight);
   }
 }
@@ -222,6 +314,20 @@ LENSFARM_LANE_LOOPS void sampleGatheredLanesWithPmf(GatherView<Light> lights, co
                                                     const float* __restrict pmf, LightSampleLanes& __restrict l,
                                                     float* __restrict dist2, float* __restrict cosLight) {
   for (int k = 0; k < kPacketWidth; ++k) sampleLane(lights, chosen[k], pmf[k], k, l, dist2, cosLight);
+}
+
+// near[k] = 1 where lane k (found) takes its point on triangle chosen[k] by solid angle
+// (LightSampler::bySolidAngle, written without branches so that the loop vectorises).
+LENSFARM_LANE_LOOPS void markNearLanes(GatherView<Light> lights, const uint32_t* __restrict chosen,
+                                       const LightSampleLanes& __restrict l, float* __restrict near) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    const uint32_t i = chosen[k];
+    const Vec3 d = Vec3(l.refx[k], l.refy[k], l.refz[k]) - lights.vec3(i, offsetof(Light, centroid));
+    const bool within = glm::dot(d, d) < lights.f(i, offsetof(Light, solidAngleRadius2));
+    const bool facing =
+        (lights.f(i, offsetof(Light, twoSided)) != 0.0f) | (glm::dot(d, lights.vec3(i, offsetof(Light, n))) > 0.0f);
+    near[k] = (l.found[k] != 0) & within & facing ? 1.0f : 0.0f;
+  }
 }
 }  // namespace
 
@@ -300,8 +406,13 @@ Spectrum LightSampler::emissiveTexture(const Light& l, Vec2 uPoint) const {
   if (l.textured == 0.0f) return Spectrum(1.0f);
   // The point sampleTrianglePoint takes: b.x v0 + b.y v1 + (1 - b.x - b.y) v2, so (b1, b2) = (b.y, 1 - b.x - b.y).
   const Vec2 b = sampleUniformTriangle(uPoint);
+  return emissiveTextureAt(l, b.y, 1.0f - b.x - b.y);
+}
+
+Spectrum LightSampler::emissiveTextureAt(const Light& l, float b1, float b2) const {
+  if (l.textured == 0.0f) return Spectrum(1.0f);
   Vec2 uv[2];
-  textureCoordinatesAt(caster_, l.triangle, b.y, 1.0f - b.x - b.y, uv);
+  textureCoordinatesAt(caster_, l.triangle, b1, b2, uv);
   return glm::max(Spectrum(scene_.materials[l.material].textures()->emissive.sample(uv, 0.0f)), Spectrum(0.0f));
 }
 
@@ -314,7 +425,32 @@ std::optional<Vec3> LightSampler::position(float uChoice, Vec2 uPoint) const {
   return b.x * l.v0 + b.y * l.v1 + (1.0f - b.x - b.y) * l.v2;  // sampleTrianglePoint's point
 }
 
-std::optional<LightSample> LightSampler::sampleTriangle(size_t i, const Vec3& ref, Vec2 uPoint, float pmf) const {
+std::optional<LightSample> LightSampler::sampleTriangleBySolidAngle(size_t i, const Vec3& ref, Vec2 uPoint,
+                                                                    float pmf) const {
+  const Light& l = lights_[i];
+  const std::optional<SphericalTriangle> st = SphericalTriangle::seen(ref, l.v0, l.v1, l.v2);
+  if (!st) return std::nullopt;  // ref in the light's plane: it sees none of it
+  // The direction, then the point where it meets the triangle's plane (in double: the direction
+  // is a unit vector, the distance as precise as the plane).
+  const DVec3 w = st->sample(uPoint), n(l.n), origin(ref);
+  const double cosine = glm::dot(w, n);
+  const double t = glm::dot(DVec3(l.v0) - origin, n) / cosine;
+  if (!(t > 0.0) || !std::isfinite(t)) return std::nullopt;
+  const DVec3 x = origin + t * w;
+  const Vec3 p(x);
+  const float pdf = float(double(pmf) / st->solidAngle);
+  if (!(pdf > 0.0f) || !std::isfinite(pdf)) return std::nullopt;
+  // Emitted towards ref, zero where ref sees the back of a one-sided light (sampleTrianglePoint's rule).
+  const float facing = l.twoSided != 0.0f || !(cosine >= 0.0) ? 1.0f : 0.0f;
+  Spectrum radiance = l.emission * facing;
+  if (l.textured != 0.0f) {
+    const glm::dvec2 b = triangleBarycentrics(x, l.v0, l.v1, l.v2);
+    radiance *= emissiveTextureAt(l, float(b.x), float(b.y));
+  }
+  return LightSample{p, l.n, l.planeAt(p).v0, l.margin, radiance, pdf};
+}
+
+std::optional<LightSample> LightSampler::sampleTriangleByArea(size_t i, const Vec3& ref, Vec2 uPoint, float pmf) const {
   const Light& l = lights_[i];
   const TrianglePoint s = sampleTrianglePoint(l.v0, l.v1, l.v2, l.n, ref, uPoint, pmf, l.area, l.emission, l.twoSided);
   if (!s.valid()) return std::nullopt;
@@ -328,22 +464,43 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, float uChoice, 
   const std::optional<Choice> c = chooseFrom(ref, uChoice);
   if (!c) return std::nullopt;
   const size_t i = c->light;
-  std::optional<LightSample> s = i < lights_.size() ? sampleTriangle(i, ref, uPoint, c->pmf)
-                                                    : sampleOther(i - lights_.size(), ref, uPoint, c->pmf);
-  if (s && usesTree()) s->powerChoiceRatio = pmfByPower(i) / c->pmf;
+  const bool triangle = i < lights_.size();
+  const bool bySolidAngle = triangle && LightSampler::bySolidAngle(lights_[i], ref);
+  std::optional<LightSample> s = bySolidAngle ? sampleTriangleBySolidAngle(i, ref, uPoint, c->pmf)
+                                 : triangle   ? sampleTriangleByArea(i, ref, uPoint, c->pmf)
+                                              : sampleOther(i - lights_.size(), ref, uPoint, c->pmf);
+  if (!s) return s;
+  if (bySolidAngle) {
+    // position()'s density of the point: the light by power, the point by area.
+    const Light& l = lights_[i];
+    const Vec3 toLight = s->p - ref;
+    const float dist2 = glm::dot(toLight, toLight);
+    const float cosLight = std::abs(glm::dot(l.n, toLight)) / std::sqrt(dist2);
+    s->positionPdfRatio = pmfByPower(i) * dist2 / (cosLight * l.area) / s->pdf;
+  } else if (usesTree()) {
+    s->positionPdfRatio = pmfByPower(i) / c->pmf;
+  }
   return s;
 }
 
 std::optional<LightSample> LightSampler::samplePositioned(const Vec3& ref, float uChoice, Vec2 uPoint) const {
-  if (!usesTree()) return sample(ref, uChoice, uPoint);
   if (empty()) return std::nullopt;
   const size_t i = choose(uChoice);
   const float byPower = pmfByPower(i);
-  std::optional<LightSample> s = i < lights_.size() ? sampleTriangle(i, ref, uPoint, byPower)
+  std::optional<LightSample> s = i < lights_.size() ? sampleTriangleByArea(i, ref, uPoint, byPower)
                                                     : sampleOther(i - lights_.size(), ref, uPoint, byPower);
   if (!s) return std::nullopt;
+  // The density sample() gives the same point from ref: its own choice of the light, and where it
+  // takes the point by solid angle, 1 / Omega instead of the area's density.
   const float chosen = pmfFrom(ref, i);
-  s->powerChoiceRatio = chosen > 0.0f ? byPower / chosen : std::numeric_limits<float>::infinity();
+  constexpr float kNever = std::numeric_limits<float>::infinity();
+  s->positionPdfRatio = chosen > 0.0f ? byPower / chosen : kNever;  // the same point density, two choices
+  if (i < lights_.size() && bySolidAngle(lights_[i], ref)) {
+    const Light& l = lights_[i];
+    const std::optional<SphericalTriangle> st = SphericalTriangle::seen(ref, l.v0, l.v1, l.v2);
+    const float sampled = st ? float(double(chosen) / st->solidAngle) : 0.0f;
+    s->positionPdfRatio = sampled > 0.0f ? s->pdf / sampled : kNever;
+  }
   return s;
 }
 
@@ -357,31 +514,50 @@ void LightSampler::sample(LightSampleLanes& lanes) const {
     return;
   }
   sampleTriangleLanes(lanes);
-  if (!hasTextured_) return;
-  // Lanes on a textured emitter: its texture's value at their point (sample()'s radiance).
-  for (int k = 0; k < kPacketWidth; ++k) {
-    if (lanes.found[k] == 0) continue;
-    const size_t i = choose(lanes.uChoice[k]);
-    if (i >= lights_.size() || lights_[i].textured == 0.0f) continue;
-    const Spectrum f = emissiveTexture(lights_[i], Vec2(lanes.u0[k], lanes.u1[k]));
-    lanes.rr[k] *= f.r, lanes.rg[k] *= f.g, lanes.rb[k] *= f.b;
-  }
 }
 
 void LightSampler::sampleTriangleLanes(LightSampleLanes& lanes) const {
   // A lane not asked for computes on the first light (finite values) and stays not found.
-  alignas(64) float dist2[kPacketWidth], cosLight[kPacketWidth];
+  alignas(64) float dist2[kPacketWidth], cosLight[kPacketWidth], near[kPacketWidth];
+  alignas(64) uint32_t chosen[kPacketWidth];
   if (lights_.size() <= SelectView::kLights) {
-    sampleSelectedLanes(SelectView(lights_.data(), lights_.size()), uint32_t(lights_.size() - 1), fewCdf_, lanes, dist2,
-                        cosLight);
+    sampleSelectedLanes(SelectView(lights_.data(), lights_.size()), uint32_t(lights_.size() - 1), fewCdf_, lanes,
+                        chosen, dist2, cosLight);
   } else {
-    alignas(64) uint32_t chosen[kPacketWidth];
     for (int k = 0; k < kPacketWidth; ++k) chosen[k] = lanes.found[k] != 0 ? uint32_t(choose(lanes.uChoice[k])) : 0u;
     sampleGatheredLanes(GatherView<Light>(lights_.data()), chosen, lanes, dist2, cosLight);
   }
+  nearLanes(lanes, chosen, near);
   for (int k = 0; k < kPacketWidth; ++k) {
     const TrianglePoint s{{}, {}, lanes.pdf[k], dist2[k], cosLight[k]};
-    if (!s.valid()) lanes.found[k] = 0;
+    if (!s.valid() && near[k] == 0.0f) lanes.found[k] = 0;
+  }
+  finishTriangleLanes(lanes, chosen, nullptr, near);
+}
+
+void LightSampler::nearLanes(const LightSampleLanes& lanes, const uint32_t* chosen, float* near) const {
+  if (reachLo_.x > reachHi_.x)  // no light's reach holds a surface
+    std::fill(near, near + kPacketWidth, 0.0f);
+  else
+    markNearLanes(GatherView<Light>(lights_.data()), chosen, lanes, near);
+}
+
+void LightSampler::finishTriangleLanes(LightSampleLanes& lanes, const uint32_t* chosen, const float* pmf,
+                                       const float* near) const {
+  if (!hasTextured_ && std::all_of(near, near + kPacketWidth, [](float x) { return x == 0.0f; })) return;
+  for (int k = 0; k < kPacketWidth; ++k) {
+    if (lanes.found[k] == 0) continue;
+    const Light& l = lights_[chosen[k]];
+    const Vec2 uPoint(lanes.u0[k], lanes.u1[k]);
+    if (near[k] != 0.0f) {
+      const Vec3 ref(lanes.refx[k], lanes.refy[k], lanes.refz[k]);
+      putLane(lanes, k, sampleTriangleBySolidAngle(chosen[k], ref, uPoint, pmf ? pmf[k] : l.pmf));
+      continue;
+    }
+    if (l.textured == 0.0f) continue;
+    // A textured emitter: its texture's value at the lane's point (sample()'s radiance).
+    const Spectrum f = emissiveTexture(l, uPoint);
+    lanes.rr[k] *= f.r, lanes.rg[k] *= f.g, lanes.rb[k] *= f.b;
   }
 }
 
@@ -412,20 +588,16 @@ void LightSampler::sampleChosenLanes(LightSampleLanes& lanes) const {
     anyTriangle |= triangle[k];
   }
   if (anyTriangle) {
-    alignas(64) float dist2[kPacketWidth], cosLight[kPacketWidth];
+    alignas(64) float dist2[kPacketWidth], cosLight[kPacketWidth], near[kPacketWidth];
     sampleGatheredLanesWithPmf(GatherView<Light>(lights_.data()), chosen, pmf, lanes, dist2, cosLight);
+    nearLanes(lanes, chosen, near);
+    // (The other lights' lanes computed on light 0 here; putLane below overwrites all they hold.)
     for (int k = 0; k < kPacketWidth; ++k) {
-      if (!triangle[k]) continue;
+      if (!triangle[k]) near[k] = 0.0f;
       const TrianglePoint s{{}, {}, lanes.pdf[k], dist2[k], cosLight[k]};
-      if (!s.valid()) {
-        lanes.found[k] = 0;
-        continue;
-      }
-      const Light& l = lights_[chosen[k]];
-      if (l.textured == 0.0f) continue;
-      const Spectrum f = emissiveTexture(l, Vec2(lanes.u0[k], lanes.u1[k]));
-      lanes.rr[k] *= f.r, lanes.rg[k] *= f.g, lanes.rb[k] *= f.b;
+      if (triangle[k] && !s.valid() && near[k] == 0.0f) lanes.found[k] = 0;
     }
+    finishTriangleLanes(lanes, chosen, pmf, near);
   }
   for (int k = 0; k < kPacketWidth; ++k)
     if (other[k] != SIZE_MAX)
@@ -456,6 +628,11 @@ LightSampler::HitPdf LightSampler::pdfs(uint32_t triangle, const Vec3& ref, floa
   const float cosLight = std::abs(glm::dot(caster_.triangles()[triangle].n, d));
   if (!(cosLight > 0.0f)) return {0.0f, 0.0f};
   const float byPower = light.pmf * distance * distance / (cosLight * light.area);
+  if (bySolidAngle(light, ref)) {
+    const std::optional<SphericalTriangle> st = SphericalTriangle::seen(ref, light.v0, light.v1, light.v2);
+    const float pmf = usesTree() ? pmfFrom(ref, size_t(i)) : light.pmf;
+    return {st ? float(double(pmf) / st->solidAngle) : 0.0f, byPower};
+  }
   if (!usesTree()) return {byPower, byPower};
   return {pmfFrom(ref, size_t(i)) * distance * distance / (cosLight * light.area), byPower};
 }

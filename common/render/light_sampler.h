@@ -2,12 +2,21 @@
 // Next-event estimation's choice of a light: every triangle whose material emits (quads from
 // `lights`, emissive meshes) and every other light of the scene (light/light_source.h: point,
 // spot, directional, the environment), chosen with probability proportional to its power, then a
-// point on it (uniform on a triangle) or a direction (the light's own sampling).
+// point on it or a direction (the light's own sampling).
+//
+// The point on a triangle: uniform by area where the shading point is far from it, uniform by
+// the solid angle it covers (math/spherical_triangle.h) where the shading point lies within
+// kSolidAngleReach times the triangle's radius of its centroid. By area, the density per
+// steradian is d^2 / (A cos), unbounded near the light: a ceiling a centimetre above a two-sided
+// lamp gets estimates 10^4 times their mean (fireflies wherever paths reach it). By solid angle
+// it is 1 / Omega and an estimate is at most L Omega cos; it costs a few libm calls in double,
+// paid only near the light. The choice depends on the shading point alone, so pdf() makes it the
+// same way for a ray that hits the light.
 //
 // An emissive texture multiplies a triangle's emission point by point: its power counts the
-// texture's mean over the triangle (16 stratified lookups at load), the point is still uniform by
-// area (the density a ray that hits it weighs against stays the triangle's), and the sample's
-// radiance is the texture's value there. A triangle whose texture is black at every lookup is
+// texture's mean over the triangle (16 stratified lookups at load), the point is sampled as
+// without it (the density a ray that hits it weighs against stays the triangle's), and the
+// sample's radiance is the texture's value there. A triangle whose texture is black at every lookup is
 // left to the rays that reach it (weight 1), which keeps the estimate unbiased whatever it hides.
 //
 // Power, in luminance and over pi (only ratios matter): an emitting triangle's is A L (doubled
@@ -21,14 +30,16 @@
 // in the scene (emitting triangles, points and spots) are chosen by their importance at the
 // shading point (render/light_tree.h): the infinite lights keep their share of the power, chosen
 // by power among themselves, and the tree chooses within the rest. The probability of a light then
-// depends on the shading point (`ref`), which pdf() takes too. position() chooses by power always
-// (it has no shading point); LightSample::powerChoiceRatio relates the two choices.
+// depends on the shading point (`ref`), which pdf() takes too. position() chooses by power and
+// the point by area always (it has no shading point); LightSample::positionPdfRatio relates its
+// density to the light sample's.
 //
 // With the naive estimator (`deltaOnly`) only delta lights are sampled: nothing else can reach
 // them, and every other light is counted where rays hit it (render/integrator.h).
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -64,8 +75,10 @@ class LightSampler {
   // `useful[m]` false: emitters of material m light nothing and are not sampled (empty: all are).
   // `deltaOnly`: sample only the delta lights (the naive estimator).
   // `tree`: choose the lights in the scene with a light tree.
+  // `solidAngleReach`: a triangle's points are sampled by solid angle within this many times its
+  // radius of its centroid (0: never; infinity: always).
   LightSampler(const Scene& scene, const RayCaster& caster, const std::vector<bool>& useful = {},
-               bool deltaOnly = false, bool tree = false);
+               bool deltaOnly = false, bool tree = false, float solidAngleReach = kSolidAngleReach);
 
   bool empty() const { return size() == 0; }
   size_t size() const { return lights_.size() + others_.size(); }  // the lights sampled
@@ -94,8 +107,8 @@ class LightSampler {
   // The same for every lane of a packet: each lane gets the bits sample() gives it.
   void sample(LightSampleLanes& lanes) const;
   // The light position() chooses for uChoice, sampled from `ref` at the point position() gives:
-  // its pdf is that of position()'s choice (by power); its powerChoiceRatio that choice's
-  // probability over the probability sample() would choose it from ref. Without a tree, sample().
+  // its pdf is position()'s density (the light by power, the point by area); its positionPdfRatio
+  // that density over the density with which sample() from ref gives the same point.
   std::optional<LightSample> samplePositioned(const Vec3& ref, float uChoice, Vec2 uPoint) const;
   // The point sample() gives for these numbers from every `ref`, where it does not depend on ref:
   // on an emitting triangle (uniform by area) or a light at a point. Nothing for the other lights
@@ -105,8 +118,8 @@ class LightSampler {
 
   // Density (solid angle, at a point at distance `distance` in direction d from `ref`) with which
   // sample() from ref would have produced the point hit on emitting triangle `triangle` (RayCaster
-  // index), and the density position()'s choice by power gives it (the same without a tree); 0
-  // where the triangle is not sampled.
+  // index), and the density position()'s choice (by power, by area) gives it; 0 where the
+  // triangle is not sampled.
   struct HitPdf {
     float pdf, byPower;
   };
@@ -142,15 +155,35 @@ class LightSampler {
     float anchored;
     uint32_t material;  // its material, for an emissive texture
     float textured;     // 1: the material's emissive texture multiplies `emission` at each point
+    // From a shading point closer than this (squared) to `centroid`, the point is sampled by
+    // solid angle; else by area.
+    Vec3 centroid;
+    float solidAngleRadius2;
 
     // The spawn plane at point p of the triangle.
     SpawnPlane planeAt(const Vec3& p) const { return SpawnPlane{anchored > 0.0f ? p : v0, n, margin}; }
   };
   // The emitting triangles sampled, their pmf among every light sampled.
   const std::vector<Light>& triangleLights() const { return lights_; }
-  // The emissive texture's value (RGB, >= 0) at the point of light l that uPoint samples (uniform
-  // on the triangle, as sample() maps it); 1 without a texture.
+  // The emissive texture's value (RGB, >= 0) at the point of light l that uPoint samples uniformly
+  // by area (as position() maps it); 1 without a texture.
   Spectrum emissiveTexture(const Light& l, Vec2 uPoint) const;
+  // The same at barycentrics (b1, b2) of light l.
+  Spectrum emissiveTextureAt(const Light& l, float b1, float b2) const;
+  // Within this many times a triangle's radius (its farthest vertex from its centroid) of its
+  // centroid, its points are sampled by solid angle (render.triangle_light_sampling "auto").
+  static constexpr float kSolidAngleReach = 2.0f;
+  static float solidAngleReachFor(TriangleLightSampling mode) {
+    return mode == TriangleLightSampling::kAuto   ? kSolidAngleReach
+           : mode == TriangleLightSampling::kArea ? 0.0f
+                                                  : std::numeric_limits<float>::infinity();
+  }
+  // Whether sample() from ref takes light l's point by solid angle: within its reach, where l
+  // emits towards ref (behind a one-sided light every point gives nothing: the cheaper map serves).
+  static bool bySolidAngle(const Light& l, const Vec3& ref) {
+    const Vec3 d = ref - l.centroid;
+    return glm::dot(d, d) < l.solidAngleRadius2 && (l.twoSided != 0.0f || glm::dot(d, l.n) > 0.0f);
+  }
 
  private:
   size_t choose(float uChoice) const;  // the light whose cdf interval holds uChoice
@@ -163,8 +196,15 @@ class LightSampler {
   float pmfFrom(const Vec3& ref, size_t light) const;  // chooseFrom's probability of `light`
   // A light sample of other light i (an index into others_), chosen with probability pmf.
   std::optional<LightSample> sampleOther(size_t i, const Vec3& ref, Vec2 uPoint, float pmf) const;
-  // A light sample of emitting triangle i (an index into lights_), chosen with probability pmf.
-  std::optional<LightSample> sampleTriangle(size_t i, const Vec3& ref, Vec2 uPoint, float pmf) const;
+  // A light sample of emitting triangle i (an index into lights_), chosen with probability pmf,
+  // its point by area or by solid angle (sample() chooses as bySolidAngle() says).
+  std::optional<LightSample> sampleTriangleByArea(size_t i, const Vec3& ref, Vec2 uPoint, float pmf) const;
+  std::optional<LightSample> sampleTriangleBySolidAngle(size_t i, const Vec3& ref, Vec2 uPoint, float pmf) const;
+  // near[k] = 1 where lane k (found, its triangle chosen[k]) takes its point by solid angle.
+  void nearLanes(const LightSampleLanes& lanes, const uint32_t* chosen, float* near) const;
+  // The lane form's lanes whose light is sampled by solid angle (near[k] != 0) or textured take
+  // the one-sample code's values; chosen[k] is each lane's triangle, pmf[k] its probability.
+  void finishTriangleLanes(LightSampleLanes& lanes, const uint32_t* chosen, const float* pmf, const float* near) const;
   // The lane form with a tree or with other lights: each lane's choice (chooseFrom) is its own.
   void sampleChosenLanes(LightSampleLanes& lanes) const;
   // Lane k of the lane form takes light sample s (found 0 where there is none).
@@ -203,6 +243,8 @@ class LightSampler {
   bool hasDelta_ = false;
   bool hasPositioned_ = false;
   bool hasTextured_ = false;  // some light is an emitting triangle with an emissive texture
+  // The box of every triangle's reach (where its points may be sampled by solid angle).
+  Vec3 reachLo_{std::numeric_limits<float>::infinity()}, reachHi_{-std::numeric_limits<float>::infinity()};
 };
 
 // The bounding sphere of the caster's triangles and the camera (render space's origin).

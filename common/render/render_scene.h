@@ -42,7 +42,7 @@ class RenderScene {
         camera_(renderCamera(std::move(declared), effects_)),
         caster_(scene),
         lights_(scene, caster_, effects_.lightUseful, scene.render.integrator == IntegratorKind::kNaive,
-                analyzed.lightTree),
+                analyzed.lightTree, LightSampler::solidAngleReachFor(scene.render.triangleLightSampling)),
         hasEscapeLights_(!lights_.escapeLights().empty()),
         aovLayout_(scene.render.aovs) {
     // Materials with textures, and those of meshes with vertex normals, are shaded per point

@@ -143,14 +143,14 @@ Spectrum equiangularDirect(const RenderScene& rs, const SampleStream& rng, int s
   if (!(pe > 0.0f)) return Spectrum(0.0f);
   const Vec3 v = seg.origin + t * seg.direction;
   // The same point x, seen from v: ls->pdf is the density of x by position()'s choice (c / p_e);
-  // the light sample's own from v is that over powerChoiceRatio (0 where a tree cannot choose it).
+  // the light sample's own from v is that over positionPdfRatio (0 where a tree cannot choose it).
   const auto ls = rs.lights().samplePositioned(v, uChoice, uPoint);
   if (!ls || isBlack(ls->radiance)) return Spectrum(0.0f);
   const Vec3 wi = glm::normalize(ls->p - v);
   const float f = medium.phase().eval(-seg.direction, wi);
   if (!(f > 0.0f)) return Spectrum(0.0f);
   const bool mis = rs.settings().integrator == IntegratorKind::kNeeMis && !lastEvent && !ls->delta;
-  const float lightPdf = ls->pdf / ls->powerChoiceRatio;
+  const float lightPdf = ls->pdf / ls->positionPdfRatio;
   const float w =
       equiangularWeights(mis ? f : 0.0f, lightPdf, equiangularRatio(pe, seg.fog->freeFlightDensity(t)), ls->pdf)
           .equiangular;
@@ -198,7 +198,7 @@ bool scatterInMedium(const RenderScene& rs, const SampleStream& rng, int segment
         float weight = mis ? powerHeuristic(ls->pdf, f) : 1.0f;
         if (seg && ls->reach <= 1.0f)  // a light at points (a triangle: 0; a point or spot: 1)
           weight =
-              equiangularWeights(mis ? f : 0.0f, ls->pdf, vertex.ratio(ls->p), ls->pdf * ls->powerChoiceRatio).light;
+              equiangularWeights(mis ? f : 0.0f, ls->pdf, vertex.ratio(ls->p), ls->pdf * ls->positionPdfRatio).light;
         const Spectrum tr =
             shadowTransmittance(rs, p, direction, tFar, &medium, rng.streamKey(base + dims::kLightPoint), stats);
         path.radiance += path.throughput * ls->radiance * tr * (f * weight / ls->pdf);

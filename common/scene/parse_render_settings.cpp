@@ -69,6 +69,16 @@ void SceneParser::parseIntegratorSettings(FieldReader& r) {
   else
     r.fail("render.medium_light_sampling",
            "unknown mode \"" + mediumLight + "\" (expected auto, equiangular or distance)");
+  const std::string trianglePoint = r.string("triangle_light_sampling", "auto");
+  if (trianglePoint == "auto")
+    s.triangleLightSampling = TriangleLightSampling::kAuto;
+  else if (trianglePoint == "area")
+    s.triangleLightSampling = TriangleLightSampling::kArea;
+  else if (trianglePoint == "solid_angle")
+    s.triangleLightSampling = TriangleLightSampling::kSolidAngle;
+  else
+    r.fail("render.triangle_light_sampling",
+           "unknown mode \"" + trianglePoint + "\" (expected auto, area or solid_angle)");
 }
 
 void SceneParser::parseAovs(FieldReader& r) {

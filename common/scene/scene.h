@@ -106,6 +106,11 @@ enum class LightTreeMode { kAuto, kOn, kOff };
 // sampling alone (the study's baseline).
 enum class MediumLightSampling { kAuto, kDistance, kEquiangular };
 
+// How a light sample takes its point on an emitting triangle (render/light_sampler.h): kAuto by
+// the solid angle the triangle covers where the shading point is near it and by area elsewhere;
+// kArea by area everywhere (the study's baseline); kSolidAngle by solid angle everywhere.
+enum class TriangleLightSampling { kAuto, kArea, kSolidAngle };
+
 // Diffraction by the aperture (docs/scene-format.md, camera.diffraction; film/diffraction_psf.h): a
 // point-spread function applied to the developed image, never to the sensor's sums.
 struct DiffractionSettings {
@@ -157,6 +162,7 @@ struct RenderSettings {
   LightTracingMode lightTracing = LightTracingMode::kAuto;  // render/light_tracer.h
   MediumLightSampling mediumLightSampling = MediumLightSampling::kAuto;
   LightTreeMode lightTree = LightTreeMode::kAuto;
+  TriangleLightSampling triangleLightSampling = TriangleLightSampling::kAuto;
   AovSet aovs;                      // outputs beside the beauty (film/aov_layout.h, docs/aovs.md)
   double lightTracingRatio = 0.25;  // light paths per camera path (pixel-sample) of a unit
   // Stopping rules besides samplesPerPixel (which is then a cap); 0 = not set. See docs/accuracy.md.

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <fstream>
 #include <random>
+#include <string>
 
 #include "common/render/render_scene.h"
 
@@ -97,48 +98,66 @@ TEST(LightSampling, ALightFacingAwayOrBehindTheFloorLightsNothing) {
 
 // The packet form of the light sample reads a lane's light two ways, by the number of emitting
 // triangles: selects among up to 4 (2 here), gathers beyond (6: chosen by counting cdf entries,
-// 12: by a search). Each must give every lane the one-sample form's bits.
+// 12: by a search), or each lane's own choice by a light tree; lanes near their light take its
+// point by solid angle, the others by area. Each must give every lane the one-sample form's bits.
 TEST(LightSampling, PacketFormGivesEachLaneTheOneSampleBitsForAnyNumberOfLights) {
-  for (int quads : {1, 3, 6}) {  // 2, 6 and 12 emitting triangles
-    json scene = floorScene(quad({-0.5, 1.5, -0.5}, {1, 0, 0}, {0, 0, 1}, 2.0), 1);
-    for (int q = 1; q < quads; ++q)  // more quads of other sizes, heights and radiances
-      scene["lights"].push_back(
-          quad({-1.5 + 0.4 * q, 1.0 + 0.2 * q, -1.0}, {0.3 * q, 0, 0}, {0, 0.1 * q, 0.5}, 1.0 + q));
-    test::TempDir dir;
-    const Scene loaded = test::loadSceneJson(dir, scene);
-    const RenderScene rs(loaded);
-    ASSERT_EQ(rs.lights().size(), size_t(2 * quads));
+  for (const char* tree : {"off", "on"})
+    for (int quads : {1, 3, 6}) {  // 2, 6 and 12 emitting triangles
+      SCOPED_TRACE(std::string("tree ") + tree);
+      // The first lamp low enough that the floor lies within its reach (LightSampler::bySolidAngle).
+      json scene = floorScene(quad({-0.5, 1.0, -0.5}, {1, 0, 0}, {0, 0, 1}, 2.0), 1);
+      for (int q = 1; q < quads; ++q)  // more quads of other sizes, heights and radiances
+        scene["lights"].push_back(
+            quad({-1.5 + 0.4 * q, 1.0 + 0.2 * q, -1.0}, {0.3 * q, 0, 0}, {0, 0.1 * q, 0.5}, 1.0 + q));
+      scene["render"]["light_tree"] = tree;
+      test::TempDir dir;
+      const Scene loaded = test::loadSceneJson(dir, scene);
+      const RenderScene rs(loaded);
+      ASSERT_EQ(rs.lights().size(), size_t(2 * quads));
+      ASSERT_EQ(rs.lights().usesTree(), std::string(tree) == "on");
 
-    std::mt19937 rng(quads);
-    std::uniform_real_distribution<float> u01(0.0f, 1.0f), coord(-2.0f, 2.0f);
-    for (int round = 0; round < 50; ++round) {
-      LightSampleLanes lanes{};
-      for (int k = 0; k < kPacketWidth; ++k) {
-        lanes.found[k] = (k + round) % 5 == 0 ? 0 : -1;  // some lanes are not asked
-        lanes.uChoice[k] = u01(rng), lanes.u0[k] = u01(rng), lanes.u1[k] = u01(rng);
-        lanes.refx[k] = coord(rng), lanes.refy[k] = 0.5f * u01(rng), lanes.refz[k] = coord(rng);
-      }
-      const LightSampleLanes asked = lanes;
-      rs.lights().sample(lanes);
-      for (int k = 0; k < kPacketWidth; ++k) {
-        if (!asked.found[k]) {
-          EXPECT_EQ(lanes.found[k], 0) << quads << " quads, lane " << k << " was not asked";
-          continue;
+      std::mt19937 rng(quads);
+      std::uniform_real_distribution<float> u01(0.0f, 1.0f), coord(-2.0f, 2.0f);
+      int near = 0, far = 0;
+      for (int round = 0; round < 50; ++round) {
+        LightSampleLanes lanes{};
+        for (int k = 0; k < kPacketWidth; ++k) {
+          lanes.found[k] = (k + round) % 5 == 0 ? 0 : -1;  // some lanes are not asked
+          lanes.uChoice[k] = u01(rng), lanes.u0[k] = u01(rng), lanes.u1[k] = u01(rng);
+          // Anywhere, or about a light (render space, whose origin is the camera), where many lanes
+          // are near theirs.
+          const auto& lights = rs.lights().triangleLights();
+          const Vec3 about = round % 2 ? lights[size_t(u01(rng) * float(lights.size())) % lights.size()].centroid
+                                       : Vec3(0.0f, -2.0f, 3.0f);
+          const float spread = round % 2 ? 0.5f : 1.0f;
+          lanes.refx[k] = about.x + spread * coord(rng), lanes.refy[k] = about.y + spread * coord(rng),
+          lanes.refz[k] = about.z + spread * coord(rng);
+          for (const auto& l : rs.lights().triangleLights())
+            (LightSampler::bySolidAngle(l, Vec3(lanes.refx[k], lanes.refy[k], lanes.refz[k])) ? near : far) += 1;
         }
-        const auto one = rs.lights().sample(Vec3(asked.refx[k], asked.refy[k], asked.refz[k]), asked.uChoice[k],
-                                            Vec2(asked.u0[k], asked.u1[k]));
-        ASSERT_EQ(lanes.found[k] != 0, one.has_value()) << quads << " quads, lane " << k;
-        if (!one) continue;
-        const float packet[14] = {lanes.px[k], lanes.py[k],  lanes.pz[k],  lanes.nx[k],  lanes.ny[k],
-                                  lanes.nz[k], lanes.v0x[k], lanes.v0y[k], lanes.v0z[k], lanes.margin[k],
-                                  lanes.rr[k], lanes.rg[k],  lanes.rb[k],  lanes.pdf[k]};
-        const float single[14] = {one->p.x,        one->p.y,        one->p.z,        one->n.x,  one->n.y,
-                                  one->n.z,        one->v0.x,       one->v0.y,       one->v0.z, one->margin,
-                                  one->radiance.r, one->radiance.g, one->radiance.b, one->pdf};
-        EXPECT_EQ(std::memcmp(packet, single, sizeof(packet)), 0) << quads << " quads, lane " << k;
+        const LightSampleLanes asked = lanes;
+        rs.lights().sample(lanes);
+        for (int k = 0; k < kPacketWidth; ++k) {
+          if (!asked.found[k]) {
+            EXPECT_EQ(lanes.found[k], 0) << quads << " quads, lane " << k << " was not asked";
+            continue;
+          }
+          const auto one = rs.lights().sample(Vec3(asked.refx[k], asked.refy[k], asked.refz[k]), asked.uChoice[k],
+                                              Vec2(asked.u0[k], asked.u1[k]));
+          ASSERT_EQ(lanes.found[k] != 0, one.has_value()) << quads << " quads, lane " << k;
+          if (!one) continue;
+          const float packet[14] = {lanes.px[k], lanes.py[k],  lanes.pz[k],  lanes.nx[k],  lanes.ny[k],
+                                    lanes.nz[k], lanes.v0x[k], lanes.v0y[k], lanes.v0z[k], lanes.margin[k],
+                                    lanes.rr[k], lanes.rg[k],  lanes.rb[k],  lanes.pdf[k]};
+          const float single[14] = {one->p.x,        one->p.y,        one->p.z,        one->n.x,  one->n.y,
+                                    one->n.z,        one->v0.x,       one->v0.y,       one->v0.z, one->margin,
+                                    one->radiance.r, one->radiance.g, one->radiance.b, one->pdf};
+          EXPECT_EQ(std::memcmp(packet, single, sizeof(packet)), 0) << quads << " quads, lane " << k;
+        }
       }
+      EXPECT_GT(near, 100) << quads << " quads: lanes near a light";
+      EXPECT_GT(far, 100);
     }
-  }
 }
 
 TEST(ImageStatisticsCheck, TellsAnUnbiasedEstimateFromABiasedOne) {

@@ -66,10 +66,11 @@ void checkReportTablesAndPlots(const StudyRun& run) {
   for (const char* section :
        {"## Convergence", "## The live error estimate", "## Resolution", "## Depth of field", "## Bounces",
         "## Glass and metal", "## Models", "## Camera optics", "## Uniform sampling against",
-        "## Adaptive sampling against uniform sampling", "## Participating media", "## Many lights", "lensfarm study"})
+        "## Adaptive sampling against uniform sampling", "## Participating media", "## Many lights",
+        "## Light points by solid angle", "lensfarm study"})
     EXPECT_NE(report.find(section), std::string::npos) << section;
   for (const char* plot : {"convergence", "estimate", "resolution", "dof", "bounces", "materials", "models", "optics",
-                           "denoise", "adaptive", "media", "lights"}) {
+                           "denoise", "adaptive", "media", "lights", "near-lights"}) {
     EXPECT_NE(report.find("(../out/" + std::string(plot) + ".png)"), std::string::npos) << "relative link to " << plot;
     const std::string png = test::readFile(run.out(std::string(plot) + ".png"));
     ASSERT_GT(png.size(), 2000u) << plot;
@@ -80,6 +81,7 @@ void checkReportTablesAndPlots(const StudyRun& run) {
         "materials.csv", "models.csv", "optics.csv", "denoise.csv", "adaptive.csv", "media.csv"})
     EXPECT_GT(readCsv(run.out(csv)).size(), 2u) << csv;
   EXPECT_EQ(readCsv(run.out("lights.csv")).size(), 2u) << "the light tree and choosing by power";
+  EXPECT_EQ(readCsv(run.out("near-lights.csv")).size(), 3u) << "auto, by area, by solid angle";
 }
 
 void checkConvergence(const StudyRun& run) {
@@ -211,6 +213,21 @@ void checkLights(const StudyRun& run) {
   EXPECT_LE(num(tree, "rel. RMSE at budget"), 1.1 * num(power, "rel. RMSE at budget"));
 }
 
+// Near lights: one image three ways (one reference); by area, the ceiling over the two-sided lamp
+// gets fireflies, so its error at the budget is the highest; by solid angle everywhere pays libm
+// calls at every point for nothing, so auto's time per path is not above it.
+void checkNearLights(const StudyRun& run) {
+  std::map<std::string, std::map<std::string, std::string>> rows;
+  for (const auto& row : readCsv(run.out("near-lights.csv"))) rows[row.at("variant")] = row;
+  ASSERT_EQ(rows.size(), 3u);
+  const auto& automatic = rows.at("auto: by solid angle within two radii of a triangle");
+  const auto& area = rows.at("by area everywhere");
+  const auto& everywhere = rows.at("by solid angle everywhere");
+  EXPECT_EQ(num(automatic, "image mean"), num(area, "image mean")) << "one reference";
+  EXPECT_EQ(num(automatic, "image mean"), num(everywhere, "image mean")) << "one reference";
+  EXPECT_GT(num(area, "worst 1 % at budget"), num(automatic, "worst 1 % at budget")) << "the fireflies";
+}
+
 // Every camera model renders; the real lenses say they trace every camera ray; the thin lens
 // keeps the 2013 report's convention that the aperture does not change the brightness.
 void checkOptics(const StudyRun& run) {
@@ -312,6 +329,10 @@ TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
   {
     SCOPED_TRACE("lights");
     checkLights(run);
+  }
+  {
+    SCOPED_TRACE("near lights");
+    checkNearLights(run);
   }
 }
 
