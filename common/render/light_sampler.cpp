@@ -44,6 +44,13 @@ DVec3 closestPointOnTriangle(const DVec3& p, const DVec3& a, const DVec3& b, con
   return a + ab * (vb * denom) + ac * (vc * denom);
 }
 
+// The density (solid angle) of the point the solid-angle map gives ref on light l, chosen with
+// probability pmf: pmf / Omega; 0 where ref sees none of the triangle.
+float solidAnglePdf(const LightSampler::Light& l, const Vec3& ref, float pmf) {
+  const std::optional<SphericalTriangle> st = SphericalTriangle::seen(ref, l.v0, l.v1, l.v2);
+  return st ? float(double(pmf) / st->solidAngle) : 0.0f;
+}
+
 // For each light, whether a path vertex can lie within its reach where it emits: a triangle of
 // the scene that reflects (not the light's own) comes within it, with a vertex off the light's
 // plane on a side it emits to.
@@ -496,9 +503,7 @@ std::optional<LightSample> LightSampler::samplePositioned(const Vec3& ref, float
   constexpr float kNever = std::numeric_limits<float>::infinity();
   s->positionPdfRatio = chosen > 0.0f ? byPower / chosen : kNever;  // the same point density, two choices
   if (i < lights_.size() && bySolidAngle(lights_[i], ref)) {
-    const Light& l = lights_[i];
-    const std::optional<SphericalTriangle> st = SphericalTriangle::seen(ref, l.v0, l.v1, l.v2);
-    const float sampled = st ? float(double(chosen) / st->solidAngle) : 0.0f;
+    const float sampled = solidAnglePdf(lights_[i], ref, chosen);
     s->positionPdfRatio = sampled > 0.0f ? s->pdf / sampled : kNever;
   }
   return s;
@@ -628,11 +633,8 @@ LightSampler::HitPdf LightSampler::pdfs(uint32_t triangle, const Vec3& ref, floa
   const float cosLight = std::abs(glm::dot(caster_.triangles()[triangle].n, d));
   if (!(cosLight > 0.0f)) return {0.0f, 0.0f};
   const float byPower = light.pmf * distance * distance / (cosLight * light.area);
-  if (bySolidAngle(light, ref)) {
-    const std::optional<SphericalTriangle> st = SphericalTriangle::seen(ref, light.v0, light.v1, light.v2);
-    const float pmf = usesTree() ? pmfFrom(ref, size_t(i)) : light.pmf;
-    return {st ? float(double(pmf) / st->solidAngle) : 0.0f, byPower};
-  }
+  if (bySolidAngle(light, ref))
+    return {solidAnglePdf(light, ref, usesTree() ? pmfFrom(ref, size_t(i)) : light.pmf), byPower};
   if (!usesTree()) return {byPower, byPower};
   return {pmfFrom(ref, size_t(i)) * distance * distance / (cosLight * light.area), byPower};
 }

@@ -6,6 +6,7 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "common/scene/scene_parser.h"
 #include "common/scene/tile_size.h"
@@ -27,15 +28,26 @@ void SceneParser::parseResolution(FieldReader& r) {
 }
 
 namespace {
-// A render setting of "auto", "on" or "off" (default auto), or one error naming render.<field>.
+// A render setting named by one of `modes` (the first is the default), or one error naming
+// render.<field> and listing them.
+template <typename Mode>
+Mode modeOf(FieldReader& r, const char* field, std::initializer_list<std::pair<const char*, Mode>> modes) {
+  const std::string mode = r.string(field, modes.begin()->first);
+  std::string expected;
+  size_t k = 0;
+  for (const auto& [name, value] : modes) {
+    if (mode == name) return value;
+    expected += (k == 0 ? "" : k + 1 == modes.size() ? " or " : ", ") + std::string(name);
+    ++k;
+  }
+  r.fail(std::string("render.") + field, "unknown mode \"" + mode + "\" (expected " + expected + ")");
+  return modes.begin()->second;
+}
+
+// "auto", "on" or "off" (default auto).
 template <typename Mode>
 Mode autoOnOff(FieldReader& r, const char* field) {
-  const std::string mode = r.string(field, "auto");
-  if (mode == "on") return Mode::kOn;
-  if (mode == "off") return Mode::kOff;
-  if (mode != "auto")
-    r.fail(std::string("render.") + field, "unknown mode \"" + mode + "\" (expected auto, on or off)");
-  return Mode::kAuto;
+  return modeOf<Mode>(r, field, {{"auto", Mode::kAuto}, {"on", Mode::kOn}, {"off", Mode::kOff}});
 }
 }  // namespace
 
@@ -59,26 +71,14 @@ void SceneParser::parseIntegratorSettings(FieldReader& r) {
   s.lightTracing = autoOnOff<LightTracingMode>(r, "light_tracing");
   s.lightTracingRatio = r.number("light_tracing_ratio", 0.25, 1e-6, 64.0);
   s.lightTree = autoOnOff<LightTreeMode>(r, "light_tree");
-  const std::string mediumLight = r.string("medium_light_sampling", "auto");
-  if (mediumLight == "auto")
-    s.mediumLightSampling = MediumLightSampling::kAuto;
-  else if (mediumLight == "distance")
-    s.mediumLightSampling = MediumLightSampling::kDistance;
-  else if (mediumLight == "equiangular")
-    s.mediumLightSampling = MediumLightSampling::kEquiangular;
-  else
-    r.fail("render.medium_light_sampling",
-           "unknown mode \"" + mediumLight + "\" (expected auto, equiangular or distance)");
-  const std::string trianglePoint = r.string("triangle_light_sampling", "auto");
-  if (trianglePoint == "auto")
-    s.triangleLightSampling = TriangleLightSampling::kAuto;
-  else if (trianglePoint == "area")
-    s.triangleLightSampling = TriangleLightSampling::kArea;
-  else if (trianglePoint == "solid_angle")
-    s.triangleLightSampling = TriangleLightSampling::kSolidAngle;
-  else
-    r.fail("render.triangle_light_sampling",
-           "unknown mode \"" + trianglePoint + "\" (expected auto, area or solid_angle)");
+  s.mediumLightSampling = modeOf<MediumLightSampling>(r, "medium_light_sampling",
+                                                      {{"auto", MediumLightSampling::kAuto},
+                                                       {"equiangular", MediumLightSampling::kEquiangular},
+                                                       {"distance", MediumLightSampling::kDistance}});
+  s.triangleLightSampling = modeOf<TriangleLightSampling>(r, "triangle_light_sampling",
+                                                          {{"auto", TriangleLightSampling::kAuto},
+                                                           {"area", TriangleLightSampling::kArea},
+                                                           {"solid_angle", TriangleLightSampling::kSolidAngle}});
 }
 
 void SceneParser::parseAovs(FieldReader& r) {

@@ -231,6 +231,8 @@ TEST(TriangleLightSampling, TheImageIsTheSameByAreaBySolidAngleAndMixedAtAnyScal
 TEST(TriangleLightSampling, TheImageIsTheSameInFogWhereEquiangularSamplingTakesItsPointByArea) {
   expectModesAgree(glm::dvec3(0.0), 1.0, 0.15, true, "auto", "area");
   expectModesAgree(glm::dvec3(0.0), 1.0, 0.01, true, "auto", "solid_angle");
+  // Every light sample in the fog and on the walls by one map against the other.
+  expectModesAgree(glm::dvec3(0.0), 1.0, 0.15, true, "solid_angle", "area");
 }
 
 }  // namespace

@@ -61,6 +61,13 @@ struct StudyRun {
   fs::path out(const std::string& name) const { return dir.path() / "out" / name; }
 };
 
+// A variant table's rows by their variant's name.
+std::map<std::string, std::map<std::string, std::string>> rowsByVariant(const StudyRun& run, const char* csv) {
+  std::map<std::string, std::map<std::string, std::string>> rows;
+  for (const auto& row : readCsv(run.out(csv))) rows[row.at("variant")] = row;
+  return rows;
+}
+
 void checkReportTablesAndPlots(const StudyRun& run) {
   const std::string report = test::readFile(run.dir.path() / "docs" / "accuracy.md");
   for (const char* section :
@@ -135,8 +142,7 @@ void checkBounces(const StudyRun& run) {
 // Energy compensation keeps a rough metal's light: the variant without it is darker, and the
 // diffuse stand-ins simulate no glass or metal.
 void checkMaterials(const StudyRun& run) {
-  std::map<std::string, std::map<std::string, std::string>> rows;
-  for (const auto& row : readCsv(run.out("materials.csv"))) rows[row.at("variant")] = row;
+  const auto rows = rowsByVariant(run, "materials.csv");
   ASSERT_EQ(rows.size(), 9u);
   const auto& outdoors = rows.at("outdoors, lit by an environment map (sky and sun)");
   EXPECT_NE(outdoors.at("effects").find("environment"), std::string::npos);
@@ -160,8 +166,7 @@ void checkMaterials(const StudyRun& run) {
 // The textured model shades per point and says so; its stand-ins with one material do not
 // texture anything.
 void checkModels(const StudyRun& run) {
-  std::map<std::string, std::map<std::string, std::string>> rows;
-  for (const auto& row : readCsv(run.out("models.csv"))) rows[row.at("variant")] = row;
+  const auto rows = rowsByVariant(run, "models.csv");
   ASSERT_EQ(rows.size(), 3u);
   const auto& textured = rows.at("as modelled: textures, normal maps, cut-outs, smooth normals");
   EXPECT_NE(textured.at("effects").find("textured material"), std::string::npos) << textured.at("effects");
@@ -174,8 +179,7 @@ void checkModels(const StudyRun& run) {
 // is used, the volume tracer's walks cost rays, equiangular sampling is on in the fog and off in
 // its free-flight rows (one more shadow ray per segment), and cutting walks short loses light.
 void checkMedia(const StudyRun& run) {
-  std::map<std::string, std::map<std::string, std::string>> rows;
-  for (const auto& row : readCsv(run.out("media.csv"))) rows[row.at("variant")] = row;
+  const auto rows = rowsByVariant(run, "media.csv");
   ASSERT_EQ(rows.size(), 8u);
   const auto& none = rows.at("no media (marble block Lambertian, empty glass)");
   const auto& all = rows.at("all three (the scene)");
@@ -198,8 +202,7 @@ void checkMedia(const StudyRun& run) {
 // Many lights: the tree row says it is on and over how many triangles, the by-power row says it is
 // off; both are one image (their references are one), and the tree's error at the budget is lower.
 void checkLights(const StudyRun& run) {
-  std::map<std::string, std::map<std::string, std::string>> rows;
-  for (const auto& row : readCsv(run.out("lights.csv"))) rows[row.at("variant")] = row;
+  const auto rows = rowsByVariant(run, "lights.csv");
   ASSERT_EQ(rows.size(), 2u);
   const auto& tree = rows.at("light tree (auto: on)");
   const auto& power = rows.at("by power (the light tree off)");
@@ -217,8 +220,7 @@ void checkLights(const StudyRun& run) {
 // gets fireflies, so its error at the budget is the highest; by solid angle everywhere pays libm
 // calls at every point for nothing, so auto's time per path is not above it.
 void checkNearLights(const StudyRun& run) {
-  std::map<std::string, std::map<std::string, std::string>> rows;
-  for (const auto& row : readCsv(run.out("near-lights.csv"))) rows[row.at("variant")] = row;
+  const auto rows = rowsByVariant(run, "near-lights.csv");
   ASSERT_EQ(rows.size(), 3u);
   const auto& automatic = rows.at("auto: by solid angle within two radii of a triangle");
   const auto& area = rows.at("by area everywhere");
@@ -231,8 +233,7 @@ void checkNearLights(const StudyRun& run) {
 // Every camera model renders; the real lenses say they trace every camera ray; the thin lens
 // keeps the 2013 report's convention that the aperture does not change the brightness.
 void checkOptics(const StudyRun& run) {
-  std::map<std::string, std::map<std::string, std::string>> rows;
-  for (const auto& row : readCsv(run.out("optics.csv"))) rows[row.at("variant")] = row;
+  const auto rows = rowsByVariant(run, "optics.csv");
   ASSERT_EQ(rows.size(), 6u);
   const double pinhole = num(rows.at("pinhole"), "image mean");
   EXPECT_GT(pinhole, 0.0);
