@@ -4,6 +4,7 @@
 #include <tbb/task_arena.h>
 
 #include <chrono>
+#include <optional>
 #include <thread>
 
 #include "common/farm/job_layout.h"
@@ -25,7 +26,15 @@ Checkpoint renderProgressive(Scene scene, const ProgressiveRun& run,
   settings.samplesPerPixel = run.maxSamples;
   if (settings.samplesPerUnit == 0)
     settings.samplesPerUnit = settings.adaptive.enabled ? unitSize(settings) : uint32_t(run.firstCheckpoint);
-  const RenderScene rs(scene);
+  tbb::task_arena arena(int(run.threads ? run.threads : std::max(1u, std::thread::hardware_concurrency())));
+  // Building the scene for rendering is timed with the render where it depends on the samples
+  // (path guiding's training passes, render/path_guiding.h); elsewhere it is the load's.
+  const auto built = std::chrono::steady_clock::now();
+  std::optional<RenderScene> prepared;
+  arena.execute([&] { prepared.emplace(scene); });
+  const RenderScene& rs = *prepared;
+  const double preparation =
+      rs.guide() ? std::chrono::duration<double>(std::chrono::steady_clock::now() - built).count() : 0.0;
   const uint32_t perUnit = settings.samplesPerUnit;
   // An adaptive scene's passes and rounds (farm/job_layout.h); any other scene's layout is its passes.
   const JobLayout layout = JobLayout::of(settings, std::nullopt);
@@ -34,11 +43,10 @@ Checkpoint renderProgressive(Scene scene, const ProgressiveRun& run,
   const AovLayout& aovs = rs.aovLayout();
   Sensor sensor(settings.width, settings.height, aovs.channels);
   ConvergenceTracker tracker(settings.width, settings.height);
-  tbb::task_arena arena(int(run.threads ? run.threads : std::max(1u, std::thread::hardware_concurrency())));
 
   Checkpoint last;
   PathStats stats;
-  double seconds = 0.0;
+  double seconds = preparation;
   uint64_t next = run.firstCheckpoint;
   std::shared_ptr<const RoundAllocation> round;
   for (uint64_t unit = 0; unit < units; ++unit) {

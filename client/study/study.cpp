@@ -170,6 +170,7 @@ class Study {
     if (wants("media")) body += media();
     if (wants("lights")) body += manyLights();
     if (wants("near-lights")) body += nearLights();
+    if (wants("guiding")) body += pathGuiding();
     const double minutes = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / 60.0;
     writeBytesAtomically(report_, header(minutes) + body);
     spdlog::info("wrote {} ({:.1f} min)", report_.string(), minutes);
@@ -613,8 +614,8 @@ class Study {
   }
   // The effects a variant table lists (the others are the same in every row).
   static inline const std::set<std::string> kMaterialEffects = {
-      "specular reflection",          "glossy materials", "thin walls", "environment",
-      "shading normals and textures", "light tracing"};
+      "specular reflection",          "glossy materials", "thin walls",  "environment",
+      "shading normals and textures", "light tracing",    "path guiding"};
   // `referenceFrom`: the reference is rendered from this variant of the scene instead (another
   // estimator of the same image, where the variant's own would miss what it fails to sample).
   // `budgetScale`: the budget times this, for a scene whose rows need more samples to reach its
@@ -941,6 +942,27 @@ class Study {
         "angle the triangle covers (Arvo 1995) an estimate is at most L Omega cos (docs/performance.md, \"Lights "
         "sampled by solid angle near them\"). Everywhere by solid angle costs its libm calls at every shading point "
         "for nothing far from the lamp, where the two densities agree.");
+  }
+
+  // ---- guiding: path guiding on the 2013 report's mirror caustic -------------------------------
+  // cornell-seed as shipped (path guiding auto: on, for the floor lit through the rippled mirror)
+  // and with it off, both against the unguided path tracer's reference.
+  std::string pathGuiding() {
+    const fs::path sceneFile = options_.scenes / "cornell-seed.json";
+    const json base = json::parse(readWholeFileOrThrow(sceneFile, sceneFile.string()));
+    Table table = variantTable();
+    std::vector<Series> all;
+    json off = base;
+    off["render"]["path_guiding"] = "off";
+    measureVariant(sceneFile, off, "path tracer (guiding off)", table, all);
+    measureVariant(sceneFile, base, "auto: guided", table, all, kMaterialEffects, off);
+    return variantSection(
+        "guiding", "Path guiding", "cornell-seed", base, table, all, "both rows against the unguided reference",
+        "The floor and walls near the rippled mirror are lit light -> mirror -> surface, a path next-event "
+        "estimation cannot sample: only a scattered ray that happens to leave towards the lamp's mirror image finds "
+        "it. Guiding (docs/performance.md, \"Path guiding\") learns, in training passes before the image, where "
+        "the light arriving at each region comes from and draws half of the diffuse directions there; its "
+        "training time is part of every guided row's time.");
   }
 
   // ---- denoise: uniform sampling against uniform sampling + denoise ---------------------------

@@ -42,9 +42,9 @@ struct StudyOptions {
   std::string command;                  // how it was invoked, quoted in the report
 };
 
-inline const std::set<std::string> kExperiments = {"convergence", "estimate", "resolution", "dof",     "bounces",
-                                                   "materials",   "models",   "optics",     "denoise", "adaptive",
-                                                   "media",       "lights",   "near-lights"};
+inline const std::set<std::string> kExperiments = {"convergence", "estimate", "resolution",  "dof",     "bounces",
+                                                   "materials",   "models",   "optics",      "denoise", "adaptive",
+                                                   "media",       "lights",   "near-lights", "guiding"};
 
 // Runs the experiments and writes the outputs; throws InputError for bad options and
 // std::runtime_error when a tool (gnuplot) fails.

@@ -13,9 +13,14 @@ namespace lensfarm {
 
 using namespace path_vertex;
 
+namespace {
+// tracePath, its vertices guided by `guide` (null: none) and recorded by `recorder` (null: none).
 template <bool kNee, bool kGeneral>
-Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats) {
+Spectrum traceOnePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats,
+                      const GuidingField* guide, GuidingRecorder* recorder) {
   PathState path(cameraRay);
+  path.guide = guide;
+  path.recorder = recorder;
   ShadowQuery shadow;
   ++stats.paths;
   const int segments = pathSegmentLimit(rs.settings().maxBounces);
@@ -34,11 +39,27 @@ Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const Samp
       ++stats.rays;
       if (!rs.caster().occluded(shadow.from, shadow.direction, shadow.tFar)) path.radiance += shadow.contribution;
     }
+    if (recorder) recorder->settle(path.radiance);
     if (!outcome.continues) break;
     if (segment + 1 == segments) ++stats.truncated;
   }
   if (path.hitLight) ++stats.lightHits;
   return path.radiance;
+}
+}  // namespace
+
+template <bool kNee, bool kGeneral>
+Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats) {
+  return traceOnePath<kNee, kGeneral>(rs, cameraRay, rng, stats, rs.guide(), nullptr);
+}
+
+Spectrum traceTrainingPath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng,
+                           const GuidingField* guide, GuidingRecorder& recorder, PathStats& stats) {
+  recorder.pending.clear();
+  const Spectrum radiance = rs.effects().lightSampling
+                                ? traceOnePath<true, true>(rs, cameraRay, rng, stats, guide, &recorder)
+                                : traceOnePath<false, true>(rs, cameraRay, rng, stats, guide, &recorder);
+  return radiance;
 }
 
 namespace {
@@ -105,7 +126,8 @@ struct PathLanes {
 struct DiffuseLanes {
   alignas(64) float nx[kPacketWidth], ny[kPacketWidth], nz[kPacketWidth];  // normal on the side of wo
   alignas(64) float ar[kPacketWidth], ag[kPacketWidth], ab[kPacketWidth];  // albedo
-  alignas(64) float misOn[kPacketWidth];  // 1: the light sample takes the power heuristic's weight; 0: weight 1
+  alignas(64) float misOn[kPacketWidth];      // 1: the light sample takes the power heuristic's weight; 0: weight 1
+  alignas(64) uint32_t guided[kPacketWidth];  // ~0u: a material path guiding guides (RenderScene::guided)
   alignas(64) float u0[kPacketWidth], u1[kPacketWidth];  // the scattered direction's sample
   // Out: the scattered ray, its cosine with n (a direction only where it is above 0) and density.
   alignas(64) float ox[kPacketWidth], oy[kPacketWidth], oz[kPacketWidth];
@@ -274,6 +296,59 @@ LENSFARM_LANE_LOOPS void addUnblocked(const DiffuseLanes& __restrict v, const in
   }
 }
 
+// Path guiding in the lanes (render/path_guiding.h): each guided lane that scatters on looks up
+// its region (one by one: a tree walk); where one guides, the lane's light sample weight and its
+// scattered direction are redone after the Lambertian loops, as shadeVertex's guided vertex does
+// them: the mixture of the field and the cosine lobe, with the same formulas in the same order.
+bool findGuidedRegions(const GuidingField& guide, const RayCaster::PacketHits& h, const DiffuseLanes& v,
+                       const int* goes, int (&region)[kPacketWidth]) {
+  bool any = false;
+  for (int k = 0; k < kPacketWidth; ++k) {
+    region[k] = v.guided[k] && goes[k] ? guide.regionAt(Vec3(h.px[k], h.py[k], h.pz[k])) : -1;
+    any |= region[k] >= 0;
+  }
+  return any;
+}
+
+// The light sample's MIS weight against the mixture's density (prepareShadowRays' with it).
+void guidedLightSamples(const GuidingField& guide, const int (&region)[kPacketWidth], const RayCaster::PacketHits& h,
+                        const PathLanes& path, DiffuseLanes& v, const LightSampleLanes& ls) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    if (region[k] < 0 || !ls.found[k] || v.misOn[k] == 0.0f) continue;
+    const Vec3 p(h.px[k], h.py[k], h.pz[k]), lightPoint(ls.px[k], ls.py[k], ls.pz[k]);
+    const Vec3 n(v.nx[k], v.ny[k], v.nz[k]);
+    const Vec3 wi = glm::normalize(lightPoint - p);
+    const Spectrum f = lambertianEvalCos(Spectrum(v.ar[k], v.ag[k], v.ab[k]), n, wi);
+    const float weight = powerHeuristic(ls.pdf[k], guidedPdf(guide.pdf(region[k], wi), lambertianPdf(n, wi)));
+    const Spectrum c = Spectrum(path.tr[k], path.tg[k], path.tb[k]) * f * Spectrum(ls.rr[k], ls.rg[k], ls.rb[k]) *
+                       (weight / ls.pdf[k]);
+    v.cr[k] = c.r, v.cg[k] = c.g, v.cb[k] = c.b;
+  }
+}
+
+// The scattered direction from the mixture (sampleGuided): its weight f cos / p in place of the
+// albedo, its density, cosTheta 1 where it exists and 0 where it does not (the path ends).
+void guidedDirections(const GuidingField& guide, const int (&region)[kPacketWidth], const PathPacket& packet,
+                      uint32_t segmentBase, const RayCaster::PacketHits& h, DiffuseLanes& v) {
+  for (int k = 0; k < kPacketWidth; ++k) {
+    if (region[k] < 0) continue;
+    const Vec3 n(v.nx[k], v.ny[k], v.nz[k]);
+    const bool fromField = packet.rng[k].get1D(segmentBase + dims::kMaterialLobe) < kGuidedShare;
+    const Vec3 wi = fromField ? guide.sample(region[k], Vec2(v.u0[k], v.u1[k])) : Vec3(v.dx[k], v.dy[k], v.dz[k]);
+    const float p = guidedPdf(guide.pdf(region[k], wi), lambertianPdf(n, wi));
+    const Spectrum f = lambertianEvalCos(Spectrum(v.ar[k], v.ag[k], v.ab[k]), n, wi);
+    const bool exists = (fromField || v.cosTheta[k] > 0.0f) && p > 0.0f && !isBlack(f);
+    const Spectrum weight = f / p;
+    const Vec3 o = spawnOrigin(Vec3(h.px[k], h.py[k], h.pz[k]), Vec3(h.v0x[k], h.v0y[k], h.v0z[k]),
+                               Vec3(h.nx[k], h.ny[k], h.nz[k]), h.margin[k], wi);
+    v.ar[k] = weight.r, v.ag[k] = weight.g, v.ab[k] = weight.b;
+    v.cosTheta[k] = exists ? 1.0f : 0.0f;
+    v.pdf[k] = p;
+    v.ox[k] = o.x, v.oy[k] = o.y, v.oz[k] = o.z;
+    v.dx[k] = wi.x, v.dy[k] = wi.y, v.dz[k] = wi.z;
+  }
+}
+
 [[gnu::always_inline]] inline PrincipledModel gatherModel(GatherView<PrincipledModel> models, uint32_t m) {
   return PrincipledModel{
       models.f(m, offsetof(PrincipledModel, baseR)),        models.f(m, offsetof(PrincipledModel, baseG)),
@@ -375,6 +450,7 @@ template <bool kNee, bool kGeneral>
 void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&radiance)[kPacketWidth],
                  PathStats& stats) {
   const RenderSettings& settings = rs.settings();
+  const GuidingField* guide = rs.guide();
   const bool mis = settings.integrator == IntegratorKind::kNeeMis;
   PathLanes paths;
   ShadowQuery generalShadows[kPacketWidth];  // the light samples of lanes at materials beyond Lambertian
@@ -429,15 +505,20 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
     // Every lane's decisions in one lane loop; then, lane by lane, the few that meet a mirror or
     // an emitter take the one-path code (shadeVertex, addEmittedLight).
     classifyVertices(hits, paths, materials, rules, vertices, v, glossy, lights, goes);
+    // (The guided lanes are found here, not in the loop above: a scene without guiding pays no gather.)
+    if (guide)
+      for (int k = 0; k < kPacketWidth; ++k)
+        v.guided[k] = vertices.diffuse[k] ? rs.materialRecords()[hits.material[k]].guided : 0u;
     alignas(64) int generalGoes[kPacketWidth] = {};
     bool generalShadow[kPacketWidth] = {};
     for (int k = 0; k < kPacketWidth; ++k) {
       if (!vertices.special[k]) continue;
       const Material& material = rs.material(hits.material[k]);
       PathState path = paths.get(k, rays);
+      path.guide = rs.guide();
       const SurfaceHit hit = hits.hit(k);
       if (kGeneral && material.reflects() && !vertices.diffuse[k] &&
-          (!material.isLambertian() || rs.shaded(hits.material[k]))) {
+          (!material.isLambertian() || rs.shaded(hits.material[k]) || rs.guided(material))) {
         const VertexOutcome outcome =
             shadeVertex<kNee, kGeneral>(rs, packet.rng[k], segment, hit, path, generalShadows[k]);
         generalShadow[k] = outcome.castShadow;
@@ -456,6 +537,8 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
     if (anyDiffuse) {
       // The lane loops, then each diffuse lane's path goes on along its scattered ray or ends.
       orientNormals(hits, rays, v, lights);
+      int region[kPacketWidth];
+      const bool anyGuided = guide && findGuidedRegions(*guide, hits, v, goes, region);
       if (kGeneral && anyGlossy) {
         // The glossy lanes' lobe choice and shading normals (per point, one by one, where the
         // material's mesh has vertex normals: shadingPoint, as shadeVertex).
@@ -490,6 +573,7 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
           evaluateModels(hits, models, glossy);
           glossyLightSamples(paths, glossy, v, lights);
         }
+        if (anyGuided) guidedLightSamples(*guide, region, hits, paths, v, lights);
         for (int k = 0; k < kPacketWidth; ++k)
           shadowRays.valid[k] = lights.found[k] != 0 && !isBlack(Spectrum(lights.rr[k], lights.rg[k], lights.rb[k])) &&
                                         !isBlack(Spectrum(v.fr[k], v.fg[k], v.fb[k]))
@@ -502,6 +586,7 @@ void tracePacket(const RenderScene& rs, const PathPacket& packet, Spectrum (&rad
         evaluateModels(hits, models, glossy);
         glossyDirections(hits, glossy, v);
       }
+      if (anyGuided) guidedDirections(*guide, region, packet, segmentBase, hits, v);
       scatterDiffuse(v, goes, paths);
       // The vertex the light the next ray reaches is weighed from (its light sample's choice and
       // density depend on it: a light tree, sampling by solid angle near a light).

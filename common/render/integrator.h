@@ -56,6 +56,14 @@ namespace lensfarm {
 template <bool kNee, bool kGeneral>
 Spectrum tracePath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng, PathStats& stats);
 
+class GuidingField;
+struct GuidingRecorder;
+// A training path of path guiding (render/path_guiding.h): tracePath's path for `rs`'s estimator
+// with every material's code compiled in, guided by `guide` (null: unguided), its guided vertices
+// recorded by `recorder` (cleared first; GuidingRecorder::finish turns them into records).
+Spectrum traceTrainingPath(const RenderScene& rs, const CameraRay& cameraRay, const SampleStream& rng,
+                           const GuidingField* guide, GuidingRecorder& recorder, PathStats& stats);
+
 // The camera paths of one packet: lane k traces its camera ray with the sample values rng[k], for
 // k < count (count <= kPacketWidth).
 struct PathPacket {

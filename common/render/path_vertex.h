@@ -12,6 +12,7 @@
 #include "common/math/sampling.h"
 #include "common/medium/equiangular.h"
 #include "common/render/integrator.h"
+#include "common/render/path_guiding.h"
 #include "common/render/shading_point.h"
 
 namespace lensfarm::path_vertex {
@@ -73,6 +74,10 @@ struct PathState {
   bool lightTraced = false;
   // Set by the volume tracer after a medium vertex whose direct light two strategies sample.
   const MediumVertexMis* mediumVertex = nullptr;
+  // Path guiding (render/path_guiding.h): the field that guides the path's diffuse vertices (null:
+  // none), and while training, what records them.
+  const GuidingField* guide = nullptr;
+  GuidingRecorder* recorder = nullptr;
 
   explicit PathState(const CameraRay& ray) : origin(ray.origin), direction(ray.direction) {}
   PathState() = default;
@@ -224,6 +229,28 @@ inline bool scatter(const RenderScene& rs, const SampleStream& rng, uint32_t bas
   return true;
 }
 
+// A guided vertex's scattered direction (render/path_guiding.h): from the field with probability
+// kGuidedShare (uChoice below it), else from the material's cosine lobe; weighed f cos / p by the
+// mixture's density p (`pdf`), so it is one sample of the one-sample MIS estimator. Empty where
+// the direction carries nothing (below the surface).
+template <typename EvalCos, typename Pdf>
+inline std::optional<MaterialSample> sampleGuided(const GuidingField& guide, int region, float uChoice, Vec2 u,
+                                                  const EvalCos& evalCos, const Pdf& pdf, const Material& material,
+                                                  const Vec3& n) {
+  Vec3 wi;
+  if (uChoice < kGuidedShare) {
+    wi = guide.sample(region, u);
+  } else {
+    const auto lobe = material.sampleLambertian(n, u);
+    if (!lobe) return std::nullopt;
+    wi = lobe->wi;
+  }
+  const float p = pdf(wi);
+  const Spectrum f = evalCos(wi);
+  if (!(p > 0.0f) || isBlack(f)) return std::nullopt;
+  return MaterialSample{wi, f / p, p, false};
+}
+
 // What a path does at the surface its last ray hit, `segment` rays after the camera: emission
 // reaching the sensor (MIS-weighted after a diffuse vertex), the bounce limit, one light sample
 // (next-event estimation) prepared as a shadow query, then the scattered direction and Russian
@@ -271,8 +298,13 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
     if (shaded && !scattersTo(wi, ng, n)) return Spectrum(0.0f);
     return local ? local->evalCos(n, wo, wi, front) : material.evalCos(n, wo, wi, front);
   };
+  // A guided vertex (render/path_guiding.h): a Lambertian one in a region where the field has
+  // learned a distribution; its directions come from the mixture of the field and the cosine lobe.
+  const bool guidable = !local && material.isLambertian() && (path.guide || path.recorder);
+  const int region = guidable && path.guide ? path.guide->regionAt(hit.p) : -1;
   const auto pdf = [&](const Vec3& wi) {
-    return local ? local->pdf(n, wo, wi, front) : material.pdf(n, wo, wi, front);
+    const float p = local ? local->pdf(n, wo, wi, front) : material.pdf(n, wo, wi, front);
+    return region >= 0 ? guidedPdf(path.guide->pdf(region, wi), p) : p;
   };
 
   // A thin wall: first whether the path crosses it straight, with the model's probability q
@@ -326,11 +358,14 @@ inline VertexOutcome shadeVertex(const RenderScene& rs, const SampleStream& rng,
   // The lobe choice is drawn only where a model has lobes to choose (not Lambertian, not mirrors).
   const float uLobe = material.choosesLobe() || local ? rng.get1D(base + dims::kMaterialLobe) : 0.0f;
   const Vec2 uDirection = rng.get2D(base + dims::kMaterial);
-  const auto s = local                                  ? local->sample(n, wo, uLobe, uDirection, front)
+  const auto s = region >= 0 ? sampleGuided(*path.guide, region, rng.get1D(base + dims::kMaterialLobe), uDirection,
+                                            evalCos, pdf, material, n)
+                 : local     ? local->sample(n, wo, uLobe, uDirection, front)
                  : kGeneral && !material.isLambertian() ? material.sample(n, wo, uLobe, uDirection, front)
                                                         : material.sampleLambertian(n, uDirection);
   if (!s || (shaded && !scattersTo(s->wi, ng, n))) return outcome;
   if (!scatter(rs, rng, base, counts, *s, path)) return outcome;
+  if (guidable && path.recorder) path.recorder->add(hit.p, s->wi, s->pdf, path.throughput);
   path.vertex = hit.p;
   path.origin = spawnOrigin(hit.p, hit.plane(), s->wi);
   path.direction = s->wi;

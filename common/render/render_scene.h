@@ -14,6 +14,7 @@
 #include "common/medium/medium.h"
 #include "common/render/light_emission.h"
 #include "common/render/light_sampler.h"
+#include "common/render/path_guiding.h"
 #include "common/render/ray_caster.h"
 #include "common/scene/effects.h"
 #include "common/scene/scene.h"
@@ -38,6 +39,7 @@ class RenderScene {
         mirrorsReachable_(general ? analyzeEffects(scene, declared->paraxial()).specular : analyzed.specular),
         lightTracing_(analyzed.lightTracing),
         lightTracesTriangles_(analyzed.lightTracingTriangles),
+        pathGuiding_(analyzed.pathGuiding),
         equiangular_(analyzed.equiangular),
         camera_(renderCamera(std::move(declared), effects_)),
         caster_(scene),
@@ -59,7 +61,7 @@ class RenderScene {
       const bool glossy = !m.varies() && m.laneModel(laneModels_[k]);
       materialRecords_.push_back({m.albedo(), m.isEmissive() ? ~0u : 0u, m.reflects() ? ~0u : 0u,
                                   (m.reflects() && !m.isLambertian()) || shaded_[k] ? ~0u : 0u, glossy ? ~0u : 0u,
-                                  shaded_[k] ? ~0u : 0u});
+                                  shaded_[k] ? ~0u : 0u, guided(m) && !shaded_[k] ? ~0u : 0u});
     }
     // The materials whose scattering the light tracer handles (render/light_tracer.h); a path
     // through any other belongs to the path tracer alone.
@@ -83,6 +85,8 @@ class RenderScene {
     if (equiangular_)
       for (const Medium* m : mediaShadowRaysLeave_)
         if (m->homogeneous() && m->scatters()) mediaEquiangular_.push_back(m->asHomogeneous());
+    // Last: the training passes trace this scene's paths.
+    if (pathGuiding_) guide_ = trainGuidingField(*this);
   }
 
  public:
@@ -134,13 +138,21 @@ class RenderScene {
   // Lambertian albedo and Material's predicates as masks (~0u where true, 0 where false);
   // `general`: a model beyond Lambertian, which the one-path vertex code shades unless `glossy`:
   // the lane loops shade it with its laneModels() record (Material::laneModel; not where it has
-  // textures); `shaded`: hits on it are shaded per point (shaded()).
+  // textures); `shaded`: hits on it are shaded per point (shaded()); `guided`: a Lambertian one whose
+  // vertices path guiding guides (guided()).
   struct MaterialRecord {
     Spectrum albedo;
-    uint32_t emissive, reflects, general, glossy, shaded;
+    uint32_t emissive, reflects, general, glossy, shaded, guided;
   };
   const std::vector<MaterialRecord>& materialRecords() const { return materialRecords_; }
   const std::vector<PrincipledModel>& laneModels() const { return laneModels_; }  // per material
+  // The field that guides the camera paths' diffuse vertices (render/path_guiding.h), or null
+  // where the analysis left path guiding off.
+  const GuidingField* guide() const { return guide_.get(); }
+  // Whether the paths' vertices on `m` are guided (render/path_guiding.h): its Lambertian lobe,
+  // without textures, in a scene whose analysis turned guiding on (the analysis's answer even for a
+  // general scene, like lightTracing).
+  bool guided(const Material& m) const { return pathGuiding_ && m.isLambertian() && !m.varies(); }
 
  private:
   const Scene& scene_;
@@ -148,6 +160,7 @@ class RenderScene {
   bool mirrorsReachable_;
   bool lightTracing_;
   bool lightTracesTriangles_;
+  bool pathGuiding_;
   bool equiangular_;
   std::unique_ptr<const Camera> camera_;
   std::vector<uint8_t> lightTraced_;  // per material; empty without light tracing
@@ -162,6 +175,7 @@ class RenderScene {
   std::vector<const Medium*> mediaShadowRaysLeave_;
   std::vector<const HomogeneousMedium*> mediaEquiangular_;
   float pixelAngle_ = 0.0f;
+  std::unique_ptr<const GuidingField> guide_;
 };
 
 }  // namespace lensfarm

@@ -725,11 +725,40 @@ void decideLightTracing(Analysis& a, EffectSet& e) {
     e.decisions.push_back({"light tracing", e.lightTracing, ltWhy, deltaCausticLost});
 }
 
+void decidePathGuiding(Analysis& a, EffectSet& e) {
+  // Path guiding (render/path_guiding.h) serves the paths next-event estimation cannot sample: a
+  // diffuse surface lit through a mirror or smooth glass. Elsewhere its training and its lookups
+  // would cost time for nothing.
+  const PathGuidingMode mode = a.scene.render.pathGuiding;
+  std::string why;
+  if (mode == PathGuidingMode::kOff)
+    why = "render.path_guiding is off";
+  else if (!a.diffuse)
+    why = "no diffuse surface to guide";
+  else if (e.media || e.thinWalls)
+    why = "the volume path tracer is not guided";
+  else if (mode == PathGuidingMode::kAuto && !e.specular)
+    why = "no mirror or smooth glass through which a diffuse surface sees a light";
+  else if (mode == PathGuidingMode::kAuto && e.lightTracing)
+    why = "light paths carry the caustics";
+  else if (mode == PathGuidingMode::kAuto && !e.mirrorCaustics)
+    why =
+        "measured not to pay at equal time through glass and metal (docs/performance.md, \"Path guiding\"); "
+        "render.path_guiding \"on\" forces it";
+  e.pathGuiding = why.empty();
+  if (e.pathGuiding)
+    why = std::string(e.mirrorCaustics ? "a diffuse surface sees an emitting surface through a mirror; " : "") +
+          "training passes learn where the light on the diffuse surfaces comes from, and half of their directions "
+          "are drawn from it";
+  if (e.pathGuiding || mode != PathGuidingMode::kAuto || e.specular)
+    e.decisions.push_back({"path guiding", e.pathGuiding, why});
+}
+
 // The decisions, in the order `lensfarm render` lists them; each step is one effect.
 using EffectStep = void (*)(Analysis&, EffectSet&);
-constexpr EffectStep kEffectSteps[] = {decideCamera,    decideDiffraction, decideMaterials,
-                                       decideMedia,     decideThinWalls,   decideLights,
-                                       decideLightTree, decideEquiangular, decideLightTracing};
+constexpr EffectStep kEffectSteps[] = {decideCamera,       decideDiffraction, decideMaterials, decideMedia,
+                                       decideThinWalls,    decideLights,      decideLightTree, decideEquiangular,
+                                       decideLightTracing, decidePathGuiding};
 
 }  // namespace
 

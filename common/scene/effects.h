@@ -78,6 +78,14 @@ struct EffectSet {
   // `auto` where there are more than kLightTreeAutoLights of them (emitting triangles, point and
   // spot lights), where choosing by power alone spends most samples on lights that cannot matter.
   bool lightTree = false;
+  // Path guiding (render/path_guiding.h): camera paths learn, in training passes before the image,
+  // where the light arriving at the diffuse surfaces comes from, and draw half of their directions
+  // there. It serves where a diffuse surface sees a light through a mirror or smooth glass (the
+  // caustic paths next-event estimation cannot sample) and the surface path tracer runs; `auto`
+  // turns it on where a diffuse surface sees an emitting surface through a mirror (mirrorCaustics:
+  // cornell-seed, measured to pay) and lists it, off, where only glass or metal shows a light
+  // (measured not to pay there; docs/performance.md, "Path guiding").
+  bool pathGuiding = false;
   bool mirrorCaustics = false;
   std::vector<bool> lightUseful;  // per material index: false for emitters that light nothing
   std::vector<EffectDecision> decisions;

@@ -71,6 +71,7 @@ void SceneParser::parseIntegratorSettings(FieldReader& r) {
   s.lightTracing = autoOnOff<LightTracingMode>(r, "light_tracing");
   s.lightTracingRatio = r.number("light_tracing_ratio", 0.25, 1e-6, 64.0);
   s.lightTree = autoOnOff<LightTreeMode>(r, "light_tree");
+  s.pathGuiding = autoOnOff<PathGuidingMode>(r, "path_guiding");
   s.mediumLightSampling = modeOf<MediumLightSampling>(r, "medium_light_sampling",
                                                       {{"auto", MediumLightSampling::kAuto},
                                                        {"equiangular", MediumLightSampling::kEquiangular},

@@ -93,6 +93,9 @@ enum class SamplerKind { kIndependent, kStratified, kSobol };
 // Light tracing beside the path tracer (render/light_tracer.h): kAuto lets the effect analysis
 // decide (scene/effects.h), kOn and kOff force it where the camera and layout allow it.
 enum class LightTracingMode { kAuto, kOn, kOff };
+// render.path_guiding (render/path_guiding.h): auto turns it on where a diffuse surface sees a light
+// through a mirror or smooth glass (scene/effects.h).
+enum class PathGuidingMode { kAuto, kOn, kOff };
 
 // How next-event estimation chooses among the lights in the scene (render/light_tree.h): kAuto
 // lets the effect analysis decide by their number (scene/effects.h), kOn always by a light tree,
@@ -163,8 +166,9 @@ struct RenderSettings {
   MediumLightSampling mediumLightSampling = MediumLightSampling::kAuto;
   LightTreeMode lightTree = LightTreeMode::kAuto;
   TriangleLightSampling triangleLightSampling = TriangleLightSampling::kAuto;
-  AovSet aovs;                      // outputs beside the beauty (film/aov_layout.h, docs/aovs.md)
-  double lightTracingRatio = 0.25;  // light paths per camera path (pixel-sample) of a unit
+  PathGuidingMode pathGuiding = PathGuidingMode::kAuto;  // render/path_guiding.h
+  AovSet aovs;                                           // outputs beside the beauty (film/aov_layout.h, docs/aovs.md)
+  double lightTracingRatio = 0.25;                       // light paths per camera path (pixel-sample) of a unit
   // Stopping rules besides samplesPerPixel (which is then a cap); 0 = not set. See docs/accuracy.md.
   double targetError = 0.0;       // stop when the estimated relative RMSE falls to this
   double timeLimitSeconds = 0.0;  // stop this long after submission, in whole units

@@ -153,6 +153,25 @@ TEST_F(Farm, OneWorkerAndThreeWorkersGiveTheSameBits) {
   EXPECT_EQ(images[0], images[1]);
 }
 
+// Path guiding (render/path_guiding.h; cornell-seed's auto turns it on, so every farm test here
+// renders guided): every worker trains the same field from the scene alone, so a guided job on
+// three workers is the bits of one process, and differs from the unguided job.
+TEST_F(Farm, AGuidedJobOnThreeWorkersIsTheBitsOfOneProcess) {
+  const fs::path scene = writeScene(40, 24, 2);  // 12 units
+  nlohmann::json j = nlohmann::json::parse(test::readFile(scene));
+  j["render"]["path_guiding"] = "off";
+  const fs::path plain = dir_.write("plain.json", j.dump(2));
+  const std::string address = startCoordinator();
+  for (int w = 0; w < 3; ++w) startWorker(address, "g" + std::to_string(w));
+  const std::string job = submit(address, scene);
+  ASSERT_EQ(cli({"watch", job, "--coordinator", address}).exitCode, 0);
+  ImageMetadata farmMeta, localMeta, plainMeta;
+  const Image farm = download(address, job, &farmMeta);
+  EXPECT_EQ(farmMeta.totalSamples, 40u * 40u * 24u) << "every unit counted once";
+  EXPECT_EQ(farm.rgb, renderInProcess(scene, &localMeta).rgb);
+  EXPECT_NE(farm.rgb, renderInProcess(plain, &plainMeta).rgb) << "guiding changed nothing";
+}
+
 TEST_F(Farm, AWorkerKilledMidUnitCostsTimeNotCorrectness) {
   const fs::path scene = writeScene(96, 192, 8);  // 24 units of ~74k paths
   const std::string address = startCoordinator("127.0.0.1:0", {"--lease-timeout", "1"});

@@ -104,6 +104,7 @@ json bundledAt(const std::string& name, int side, int spp) {
 
 Scene withMode(const test::TempDir& dir, json j, const std::string& mode, const std::string& name) {
   j["render"]["light_tracing"] = mode;
+  j["render"]["path_guiding"] = "off";  // light paths against the path tracer alone
   return test::loadSceneJson(dir, j, name + "-" + mode + ".json");
 }
 

@@ -74,10 +74,10 @@ void checkReportTablesAndPlots(const StudyRun& run) {
        {"## Convergence", "## The live error estimate", "## Resolution", "## Depth of field", "## Bounces",
         "## Glass and metal", "## Models", "## Camera optics", "## Uniform sampling against",
         "## Adaptive sampling against uniform sampling", "## Participating media", "## Many lights",
-        "## Light points by solid angle", "lensfarm study"})
+        "## Light points by solid angle", "## Path guiding", "lensfarm study"})
     EXPECT_NE(report.find(section), std::string::npos) << section;
   for (const char* plot : {"convergence", "estimate", "resolution", "dof", "bounces", "materials", "models", "optics",
-                           "denoise", "adaptive", "media", "lights", "near-lights"}) {
+                           "denoise", "adaptive", "media", "lights", "near-lights", "guiding"}) {
     EXPECT_NE(report.find("(../out/" + std::string(plot) + ".png)"), std::string::npos) << "relative link to " << plot;
     const std::string png = test::readFile(run.out(std::string(plot) + ".png"));
     ASSERT_GT(png.size(), 2000u) << plot;
@@ -89,6 +89,7 @@ void checkReportTablesAndPlots(const StudyRun& run) {
     EXPECT_GT(readCsv(run.out(csv)).size(), 2u) << csv;
   EXPECT_EQ(readCsv(run.out("lights.csv")).size(), 2u) << "the light tree and choosing by power";
   EXPECT_EQ(readCsv(run.out("near-lights.csv")).size(), 3u) << "auto, by area, by solid angle";
+  EXPECT_EQ(readCsv(run.out("guiding.csv")).size(), 2u) << "off and guided";
 }
 
 void checkConvergence(const StudyRun& run) {
@@ -230,6 +231,17 @@ void checkNearLights(const StudyRun& run) {
   EXPECT_GT(num(area, "worst 1 % at budget"), num(automatic, "worst 1 % at budget")) << "the fireflies";
 }
 
+// Path guiding: one image two ways (one reference, the unguided one); the guided row says so.
+void checkGuiding(const StudyRun& run) {
+  const auto rows = rowsByVariant(run, "guiding.csv");
+  ASSERT_EQ(rows.size(), 2u);
+  const auto& off = rows.at("path tracer (guiding off)");
+  const auto& guided = rows.at("auto: guided");
+  EXPECT_EQ(num(off, "image mean"), num(guided, "image mean")) << "one reference";
+  EXPECT_NE(guided.at("effects").find("training passes"), std::string::npos) << guided.at("effects");
+  EXPECT_EQ(off.at("effects").find("training passes"), std::string::npos) << off.at("effects");
+}
+
 // Every camera model renders; the real lenses say they trace every camera ray; the thin lens
 // keeps the 2013 report's convention that the aperture does not change the brightness.
 void checkOptics(const StudyRun& run) {
@@ -334,6 +346,10 @@ TEST(Study, QuickRunWritesEverythingAndItsNumbersFollowThePhysics) {
   {
     SCOPED_TRACE("near lights");
     checkNearLights(run);
+  }
+  {
+    SCOPED_TRACE("guiding");
+    checkGuiding(run);
   }
 }
 
