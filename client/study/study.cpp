@@ -189,6 +189,8 @@ class Study {
     s.render.width = s.render.height = side;
     s.render.maxBounces = bounces;
     s.render.samplesPerUnit = 0;
+    // The estimators, samplers and settings themselves: path guiding has its own experiment.
+    s.render.pathGuiding = PathGuidingMode::kOff;
     return s;
   }
 

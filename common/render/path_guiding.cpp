@@ -10,18 +10,13 @@
 #include "common/render/integrator.h"
 #include "common/render/render_scene.h"
 #include "common/render/sampler.h"
+#include "common/scene/effects.h"
 
 namespace lensfarm {
 
 namespace {
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr int kMaxDepth = 48;  // ends the splitting of records that share one point
-// The training budget: kTrainingPasses passes (1 + 2 + 4 + 8 samples per pixel) over at most
-// kTrainingPixels pixels of the frame. On cornell-seed at 200 x 200 (docs/performance.md, "Path
-// guiding") 4 x as many pixels lowered the guided image's relMSE by another 1.15 x at 1.3 x the
-// time per sample: the budget trades the two.
-constexpr int kTrainingPasses = 4;
-constexpr double kTrainingPixels = double(1u << 15);
 }  // namespace
 
 int GuidingField::binOf(const Vec3& wi) const {
@@ -208,11 +203,10 @@ std::vector<GuidingField::Record> trainingPass(const RenderScene& rs, const Guid
 
 std::unique_ptr<const GuidingField> trainGuidingField(const RenderScene& rs) {
   const RenderSettings& settings = rs.settings();
-  const uint64_t pixels = uint64_t(settings.width) * uint64_t(settings.height);
-  const int stride = std::max(1, int(std::ceil(std::sqrt(double(pixels) / kTrainingPixels))));
+  const int stride = guidingTrainingStride(settings.width, settings.height);
   const GuidingField::Shape shape;
   auto field = std::make_unique<GuidingField>();
-  for (int pass = 0; pass < kTrainingPasses; ++pass) {
+  for (int pass = 0; pass < kGuidingTrainingPasses; ++pass) {
     // Each pass learns from its own records alone, traced with the field of the pass before
     // (Müller et al. 2017, §5.2): later passes sample better and hold more samples.
     const auto records = trainingPass(rs, pass == 0 ? nullptr : field.get(), pass, 1u << pass, stride);

@@ -131,7 +131,7 @@ struct GuidingRecorder {
 // The field learned by the training passes for `rs` (its effect analysis has pathGuiding on; the
 // surface path tracer's paths, rs's own tracer): passes of 1, 2, 4 ... samples per pixel over an
 // even grid of the frame's pixels, each pass guided by the field the pass before it learned (the
-// budget: path_guiding.cpp). Empty for a scene with no diffuse vertex.
+// budget: scene/effects.h, kGuidingTrainingPasses). Empty for a scene with no diffuse vertex.
 std::unique_ptr<const GuidingField> trainGuidingField(const RenderScene& rs);
 
 }  // namespace lensfarm

@@ -725,6 +725,21 @@ void decideLightTracing(Analysis& a, EffectSet& e) {
     e.decisions.push_back({"light tracing", e.lightTracing, ltWhy, deltaCausticLost});
 }
 
+}  // namespace
+
+int guidingTrainingStride(int width, int height) {
+  const double pixels = double(width) * double(height);
+  return std::max(1, int(std::ceil(std::sqrt(pixels / double(kGuidingTrainingPixels)))));
+}
+
+uint64_t guidingTrainingPaths(int width, int height) {
+  const int stride = guidingTrainingStride(width, height);
+  const uint64_t grid = uint64_t((width + stride - 1) / stride) * uint64_t((height + stride - 1) / stride);
+  return grid * ((uint64_t(1) << kGuidingTrainingPasses) - 1);
+}
+
+namespace {
+
 void decidePathGuiding(Analysis& a, EffectSet& e) {
   // Path guiding (render/path_guiding.h) serves the paths next-event estimation cannot sample: a
   // diffuse surface lit through a mirror or smooth glass. Elsewhere its training and its lookups
@@ -745,6 +760,12 @@ void decidePathGuiding(Analysis& a, EffectSet& e) {
     why =
         "measured not to pay at equal time through glass and metal (docs/performance.md, \"Path guiding\"); "
         "render.path_guiding \"on\" forces it";
+  else if (const RenderSettings& r = a.scene.render;
+           mode == PathGuidingMode::kAuto && uint64_t(r.width) * uint64_t(r.height) * r.samplesPerPixel <
+                                                 kGuidingAutoBudget * guidingTrainingPaths(r.width, r.height))
+    why = "a mirror shows an emitting surface, but the job is too small for guiding's training to pay (" +
+          std::to_string(r.samplesPerPixel) + " spp at " + std::to_string(r.width) + "x" + std::to_string(r.height) +
+          "); render.path_guiding \"on\" forces it";
   e.pathGuiding = why.empty();
   if (e.pathGuiding)
     why = std::string(e.mirrorCaustics ? "a diffuse surface sees an emitting surface through a mirror; " : "") +

@@ -43,6 +43,17 @@ struct EffectDecision {
   bool changesScene = false;
 };
 
+// Path guiding's training budget (render/path_guiding.h): kGuidingTrainingPasses passes of 1, 2, 4
+// ... samples per pixel over an even grid of at most kGuidingTrainingPixels of the frame's pixels,
+// every guidingTrainingStride-th pixel in each direction. `auto` guides a job only where its own
+// paths (pixels x samples per pixel) are at least kGuidingAutoBudget times the training's: on a
+// small or short job the training would cost more than guiding saves (docs/performance.md).
+inline constexpr int kGuidingTrainingPasses = 4;
+inline constexpr uint64_t kGuidingTrainingPixels = uint64_t(1) << 15;
+inline constexpr uint64_t kGuidingAutoBudget = 8;
+int guidingTrainingStride(int width, int height);
+uint64_t guidingTrainingPaths(int width, int height);  // over all the passes
+
 // The number of lights in the scene above which `render.light_tree: "auto"` turns the light tree
 // on (docs/performance.md, "Many lights").
 inline constexpr uint64_t kLightTreeAutoLights = 64;

@@ -153,14 +153,14 @@ TEST_F(Farm, OneWorkerAndThreeWorkersGiveTheSameBits) {
   EXPECT_EQ(images[0], images[1]);
 }
 
-// Path guiding (render/path_guiding.h; cornell-seed's auto turns it on, so every farm test here
-// renders guided): every worker trains the same field from the scene alone, so a guided job on
-// three workers is the bits of one process, and differs from the unguided job.
+// Path guiding (render/path_guiding.h; forced on: auto finds this job too small for its training):
+// every worker trains the same field from the scene alone, so a guided job on three workers is the
+// bits of one process, and differs from the unguided job.
 TEST_F(Farm, AGuidedJobOnThreeWorkersIsTheBitsOfOneProcess) {
-  const fs::path scene = writeScene(40, 24, 2);  // 12 units
-  nlohmann::json j = nlohmann::json::parse(test::readFile(scene));
-  j["render"]["path_guiding"] = "off";
-  const fs::path plain = dir_.write("plain.json", j.dump(2));
+  const fs::path plain = writeScene(40, 24, 2);  // 12 units
+  nlohmann::json j = nlohmann::json::parse(test::readFile(plain));
+  j["render"]["path_guiding"] = "on";
+  const fs::path scene = dir_.write("guided.json", j.dump(2));
   const std::string address = startCoordinator();
   for (int w = 0; w < 3; ++w) startWorker(address, "g" + std::to_string(w));
   const std::string job = submit(address, scene);
