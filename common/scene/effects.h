@@ -45,12 +45,9 @@ struct EffectDecision {
 
 // Path guiding's training budget (render/path_guiding.h): kGuidingTrainingPasses passes of 1, 2, 4
 // ... samples per pixel over an even grid of at most kGuidingTrainingPixels of the frame's pixels,
-// every guidingTrainingStride-th pixel in each direction. `auto` guides a job only where its own
-// paths (pixels x samples per pixel) are at least kGuidingAutoBudget times the training's: on a
-// small or short job the training would cost more than guiding saves (docs/performance.md).
+// every guidingTrainingStride-th pixel in each direction.
 inline constexpr int kGuidingTrainingPasses = 4;
 inline constexpr uint64_t kGuidingTrainingPixels = uint64_t(1) << 15;
-inline constexpr uint64_t kGuidingAutoBudget = 8;
 int guidingTrainingStride(int width, int height);
 uint64_t guidingTrainingPaths(int width, int height);  // over all the passes
 
@@ -93,9 +90,9 @@ struct EffectSet {
   // where the light arriving at the diffuse surfaces comes from, and draw half of their directions
   // there. It serves where a diffuse surface sees a light through a mirror or smooth glass (the
   // caustic paths next-event estimation cannot sample) and the surface path tracer runs; `auto`
-  // turns it on where a diffuse surface sees an emitting surface through a mirror (mirrorCaustics:
-  // cornell-seed, measured to pay) and lists it, off, where only glass or metal shows a light
-  // (measured not to pay there; docs/performance.md, "Path guiding").
+  // lists it there, off: on cornell-seed it reaches an equal relMSE sooner but an equal relative
+  // RMSE (what target-error jobs stop on) later, and through glass it does not pay at all
+  // (docs/performance.md, "Path guiding"). "on" forces it.
   bool pathGuiding = false;
   bool mirrorCaustics = false;
   std::vector<bool> lightUseful;  // per material index: false for emitters that light nothing

@@ -153,9 +153,9 @@ TEST_F(Farm, OneWorkerAndThreeWorkersGiveTheSameBits) {
   EXPECT_EQ(images[0], images[1]);
 }
 
-// Path guiding (render/path_guiding.h; forced on: auto finds this job too small for its training):
-// every worker trains the same field from the scene alone, so a guided job on three workers is the
-// bits of one process, and differs from the unguided job.
+// Path guiding (render/path_guiding.h; forced on: auto leaves it off): every worker trains the
+// same field from the scene alone, so a guided job on three workers is the bits of one process,
+// and differs from the unguided job.
 TEST_F(Farm, AGuidedJobOnThreeWorkersIsTheBitsOfOneProcess) {
   const fs::path plain = writeScene(40, 24, 2);  // 12 units
   nlohmann::json j = nlohmann::json::parse(test::readFile(plain));

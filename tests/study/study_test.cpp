@@ -236,7 +236,7 @@ void checkGuiding(const StudyRun& run) {
   const auto rows = rowsByVariant(run, "guiding.csv");
   ASSERT_EQ(rows.size(), 2u);
   const auto& off = rows.at("path tracer (guiding off)");
-  const auto& guided = rows.at("auto: guided");
+  const auto& guided = rows.at("guided (on)");
   EXPECT_EQ(num(off, "image mean"), num(guided, "image mean")) << "one reference";
   EXPECT_NE(guided.at("effects").find("training passes"), std::string::npos) << guided.at("effects");
   EXPECT_EQ(off.at("effects").find("training passes"), std::string::npos) << off.at("effects");
