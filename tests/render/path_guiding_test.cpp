@@ -214,6 +214,16 @@ json mirrorScene(double scale = 1.0, glm::dvec3 offset = glm::dvec3(0.0)) {
   return j;
 }
 
+// A shipped scene at side x side pixels and spp samples, rendered as whole passes.
+json smallBundled(const std::string& name, int side, int spp) {
+  json j = test::bundledSceneJson(name);
+  j["render"]["resolution"] = {side, side};
+  j["render"]["samples_per_pixel"] = spp;
+  j["render"].erase("samples_per_unit");
+  j["render"].erase("tile_size");
+  return j;
+}
+
 Scene withGuiding(const test::TempDir& dir, json j, const std::string& mode, const std::string& name) {
   j["render"]["path_guiding"] = mode;
   return test::loadSceneJson(dir, j, name + "-" + mode + ".json");
@@ -264,18 +274,12 @@ TEST(PathGuiding, AgreesFarFromTheOriginAndAtExtremeScales) {
 
 TEST(PathGuiding, AgreesThroughGlassAndMetalOnTheShippedBox) {
   test::TempDir dir;
-  json j = test::bundledSceneJson("cornell-glass-metal.json");
-  j["render"]["resolution"] = {20, 20};
-  j["render"]["samples_per_pixel"] = 32;
-  j["render"].erase("samples_per_unit");
-  j["render"].erase("tile_size");
-  expectAgreement(dir, j, "glass-metal", 12);
+  expectAgreement(dir, smallBundled("cornell-glass-metal.json", 20, 32), "glass-metal", 12);
 }
 
-// Training is a pure function of the scene: every thread count, every construction of the scene
-// and every split of the job into units gives the same bits; the training passes' own samples
-// are not the image's.
-TEST(PathGuiding, SameBitsForAnyThreadCountAndUnitSplit) {
+// Training is a pure function of the scene: every thread count and every construction of the
+// scene gives the same bits (units split across workers: Farm.AGuidedJobOnThreeWorkers...).
+TEST(PathGuiding, SameBitsForAnyThreadCount) {
   test::TempDir dir;
   json j = mirrorScene();
   j["render"]["samples_per_unit"] = 8;
@@ -289,14 +293,10 @@ TEST(PathGuiding, SameBitsForAnyThreadCountAndUnitSplit) {
 }
 
 // Guiding off is the path tracer: a scene where the analysis leaves it off (auto) gives the bits of
-// the same scene with it off, and forced on with a field that guides nowhere (a scene too dark to
-// learn from) too: the guided vertices' one-path code computes what the lane loops do.
+// the same scene with it off.
 TEST(PathGuiding, OffIsThePathTracerBitForBit) {
   test::TempDir dir;
-  json j = test::bundledSceneJson("cornell-classic.json");
-  j["render"]["resolution"] = {16, 16};
-  j["render"]["samples_per_pixel"] = 8;
-  j["render"].erase("samples_per_unit");
+  const json j = smallBundled("cornell-classic.json", 16, 8);
   const Scene autoScene = withGuiding(dir, j, "auto", "classic"), off = withGuiding(dir, j, "off", "classic");
   ASSERT_EQ(RenderScene(autoScene).guide(), nullptr);
   EXPECT_EQ(test::renderScene(autoScene, 2).image.rgb, test::renderScene(off, 2).image.rgb);
