@@ -140,12 +140,15 @@ void FarmClient::uploadAssets(const std::map<std::string, std::string>& assetByt
                double(uploadedBytes) / 1e6, skipped, double(skippedBytes) / 1e6);
 }
 
-v1::SubmitJobResponse FarmClient::submit(const LocalJob& job, int priority, const std::string& owner) {
+v1::SubmitJobResponse FarmClient::submit(const LocalJob& job, int priority, const std::string& owner,
+                                         const JobPolicy& policy, bool paused) {
   uploadAssets(job.assetBytes);
   v1::SubmitJobRequest request;
   *request.mutable_spec() = proto::toProto(job.spec);
   request.set_priority(priority);
   request.set_owner(owner);
+  *request.mutable_policy() = proto::toProto(policy);
+  request.set_paused(paused);
   v1::SubmitJobResponse response;
   check(stub_->SubmitJob(context().get(), request, &response), address_);
   return response;
@@ -244,6 +247,24 @@ v1::JobStatus FarmClient::cancel(const std::string& jobId) {
   request.set_job_id(jobId);
   v1::CancelJobResponse response;
   check(stub_->CancelJob(context().get(), request, &response), address_);
+  return response.status();
+}
+
+v1::JobStatus FarmClient::pause(const std::string& jobId) {
+  return jobAction(&v1::ClientService::Stub::PauseJob, jobId);
+}
+v1::JobStatus FarmClient::resume(const std::string& jobId) {
+  return jobAction(&v1::ClientService::Stub::ResumeJob, jobId);
+}
+v1::JobStatus FarmClient::approve(const std::string& jobId) {
+  return jobAction(&v1::ClientService::Stub::ApproveJob, jobId);
+}
+
+v1::JobStatus FarmClient::jobAction(JobAction call, const std::string& jobId) {
+  v1::JobActionRequest request;
+  request.set_job_id(jobId);
+  v1::JobActionResponse response;
+  check(((*stub_).*call)(context().get(), request, &response), address_);
   return response.status();
 }
 

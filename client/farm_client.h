@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "client/job_spec.h"
+#include "common/farm/job_policy.h"
 #include "lensfarm/v1/client_service.grpc.pb.h"
 #include "proto/channel_security.h"
 
@@ -33,7 +34,8 @@ class FarmClient {
   // Uploads the job's assets the coordinator does not hold (FindMissingAssets; every one for a
   // coordinator older than it) and submits the job. Logs how many assets and bytes were uploaded
   // and how many were skipped as already on the coordinator.
-  v1::SubmitJobResponse submit(const LocalJob& job, int priority, const std::string& owner = "");
+  v1::SubmitJobResponse submit(const LocalJob& job, int priority, const std::string& owner = "",
+                               const JobPolicy& policy = {}, bool paused = false);
   v1::JobStatus get(const std::string& jobId);
   std::vector<v1::JobStatus> list(const v1::ListJobsRequest& filters = {});
   // Calls `onStatus` for every status the coordinator sends; returns the last one.
@@ -47,12 +49,19 @@ class FarmClient {
                   std::optional<int64_t> frame, const std::filesystem::path& file);
   v1::Snapshot snapshot(const std::string& jobId, uint32_t maxSize, std::optional<double> ev);
   v1::JobStatus cancel(const std::string& jobId);
+  // The scheduling actions (docs/farm.md "Scheduling"): PauseJob, ResumeJob, ApproveJob.
+  v1::JobStatus pause(const std::string& jobId);
+  v1::JobStatus resume(const std::string& jobId);
+  v1::JobStatus approve(const std::string& jobId);
   void deleteJob(const std::string& jobId, bool force);
   v1::JobStatus archive(const std::string& jobId);
   std::vector<v1::WorkerStatus> workers();
 
  private:
   std::unique_ptr<grpc::ClientContext> context(bool streaming = false) const;
+  using JobAction = grpc::Status (v1::ClientService::Stub::*)(grpc::ClientContext*, const v1::JobActionRequest&,
+                                                              v1::JobActionResponse*);
+  v1::JobStatus jobAction(JobAction call, const std::string& jobId);
   void uploadAssets(const std::map<std::string, std::string>& assetBytes);  // sha256 -> bytes
   // The hashes among `hashes` the coordinator lacks; nullopt if it cannot say (UNIMPLEMENTED).
   std::optional<std::set<std::string>> missingAssets(const std::vector<std::string>& hashes);

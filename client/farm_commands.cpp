@@ -19,6 +19,7 @@
 #include "client/farm_connection.h"
 #include "client/output_paths.h"
 #include "client/override_flags.h"
+#include "client/policy_flags.h"
 #include "client/progress_display.h"
 #include "common/film/image_io.h"
 #include "common/scene/frame_range.h"
@@ -26,6 +27,7 @@
 #include "common/util/error.h"
 #include "common/util/log_text.h"
 #include "common/util/secret.h"
+#include "proto/convert.h"
 
 namespace lensfarm::cli {
 
@@ -42,6 +44,22 @@ std::string localTimeText(double unixSeconds) {
   return text;
 }
 
+// The job's scheduling policy, the lines that differ from the default only.
+void printPolicy(const v1::JobPolicy& wire) {
+  const JobPolicy p = proto::fromProto(wire);
+  if (!p.after.empty()) {
+    std::string list;
+    for (const Dependency& d : p.after) list += (list.empty() ? "" : ", ") + dependencyText(d);
+    std::printf("after:      %s (on failure: %s)\n", logText(list).c_str(),
+                p.onDependencyFailure == OnDependencyFailure::kWait ? "wait" : "fail");
+  }
+  if (!p.requireTags.empty()) std::printf("requires:   %s\n", tagsText(p.requireTags).c_str());
+  if (!p.preferTags.empty()) std::printf("prefers:    %s\n", tagsText(p.preferTags).c_str());
+  if (!p.auditRequireTags.empty()) std::printf("audits on:  %s\n", tagsText(p.auditRequireTags).c_str());
+  if (p.maxWorkers) std::printf("max workers: %u\n", *p.maxWorkers);
+  if (p.shareWeight != 1.0) std::printf("share:      %g\n", p.shareWeight);
+}
+
 void printStatus(const v1::JobStatus& s) {
   const auto& p = s.progress();
   std::printf("job:        %s\n", s.job_id().c_str());
@@ -51,6 +69,10 @@ void printStatus(const v1::JobStatus& s) {
   if (!s.owner().empty()) std::printf("owner:      %s\n", logText(s.owner()).c_str());
   if (s.ended_unix_seconds() > 0.0) std::printf("ended:      %s\n", localTimeText(s.ended_unix_seconds()).c_str());
   if (s.archived()) std::printf("archived:   yes (final image kept; sensor and ledger freed)\n");
+  if (s.paused()) std::printf("paused:     yes (lensfarm resume %s)\n", s.job_id().c_str());
+  if (s.approved()) std::printf("approved:   yes\n");
+  printPolicy(s.policy());
+  for (const auto& w : s.waiting_for()) std::printf("waits for:  %s\n", logText(w).c_str());
   if (hasSampleCap(p))
     std::printf("samples:    %llu / %llu per pixel (%llu / %llu units)\n",
                 (unsigned long long)p.samples_per_pixel_done(), (unsigned long long)p.samples_per_pixel_total(),
@@ -114,6 +136,8 @@ Runner addSubmitCommand(CLI::App& app) {
     OverrideFlags overrides;
     int priority = 0;
     std::string owner;
+    PolicyFlags policy;
+    bool paused = false;
   };
   auto f = std::make_shared<Flags>();
   addCoordinatorOption(cmd, f->c);
@@ -122,14 +146,18 @@ Runner addSubmitCommand(CLI::App& app) {
   cmd->add_option("scene", f->scene, "Scene file (JSON), or a model to render as it is (.gltf, .glb, .obj)")
       ->required();
   f->overrides.addTo(cmd);
-  cmd->add_option("--priority", f->priority, "Higher runs first")->capture_default_str();
+  cmd->add_option("--priority", f->priority, "Higher runs first (equal priorities share the farm)")
+      ->capture_default_str();
+  f->policy.addTo(cmd);
+  cmd->add_flag("--paused", f->paused, "Submit it paused: nothing is rendered until `lensfarm resume JOB`");
   return [f] {
+    const JobPolicy policy = f->policy.toPolicy();
     const RenderOverrides o = f->overrides.toOverrides();
     const LocalJob job =
         makeLocalJob(f->scene, o, f->overrides.camera, f->overrides.frameRange(), f->overrides.allowedFolders());
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());
-      std::printf("%s\n", client.submit(job, f->priority, f->owner).job_id().c_str());
+      std::printf("%s\n", client.submit(job, f->priority, f->owner, policy, f->paused).job_id().c_str());
       return kOk;
     });
   };
@@ -173,7 +201,11 @@ Runner addStatusCommand(CLI::App& app) {
         std::printf("%-10s %-10s %8d %-24s %18s %10s  %s%s\n", s.job_id().c_str(), stateName(s.state()), s.priority(),
                     logText(s.scene_name()).c_str(), spp.c_str(),
                     formatDuration(s.progress().elapsed_seconds()).c_str(),
-                    s.owner().empty() ? "-" : logText(s.owner()).c_str(), s.archived() ? " (archived)" : "");
+                    s.owner().empty() ? "-" : logText(s.owner()).c_str(),
+                    s.archived()               ? " (archived)"
+                    : s.paused()               ? " (paused)"
+                    : !s.waiting_for().empty() ? " (waiting)"
+                                               : "");
       }
       return kOk;
     });

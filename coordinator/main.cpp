@@ -30,6 +30,7 @@
 #include "common/util/file_contents.h"
 #include "common/util/flag_checks.h"
 #include "common/util/listen_check.h"
+#include "common/util/log_text.h"
 #include "common/util/logging.h"
 #include "common/util/secret.h"
 #include "common/util/service_flags.h"
@@ -77,6 +78,8 @@ struct Flags {
   std::string metricsListen, metricsPortFile, dashboardListen, dashboardPortFile;
   std::string stateDir, uploadEncoding = "shuffle-zstd", maxJobMemory, memoryBudget, maxAssetBytes, keep = "0",
                         archiveAfter = "0";
+  std::string sharing = "fair";
+  std::vector<std::string> ownerWeights;  // NAME=WEIGHT
   Coordinator::Options options;
 };
 
@@ -205,6 +208,17 @@ void addStateFlags(CLI::App& app, Flags& f) {
                  "Jobs one owner may have queued or running at once; a submit past it is refused (0: no cap)")
       ->envname("LENSFARM_MAX_JOBS_PER_OWNER")
       ->capture_default_str();
+  app.add_option("--sharing", f.sharing,
+                 "Jobs of equal priority: fair (shared between owners by weight, then between an owner's jobs) "
+                 "or fifo (in submission order); higher priorities always come first")
+      ->envname("LENSFARM_SHARING")
+      ->check(CLI::IsMember({"fair", "fifo"}))
+      ->capture_default_str();
+  app.add_option("--owner-weight", f.ownerWeights,
+                 "An owner's share of the farm under fair sharing, NAME=WEIGHT (repeat, or comma-separated); "
+                 "owners not listed weigh 1")
+      ->envname("LENSFARM_OWNER_WEIGHTS")
+      ->delimiter(',');
   app.add_option("--keep", f.keep,
                  "Delete jobs this long after they ended (e.g. 7d, 12h, 30m, 3600s); 0: keep them forever")
       ->envname("LENSFARM_KEEP")
@@ -242,6 +256,25 @@ std::optional<int> finishOptions(Flags& f) {
     return 2;
   }
   f.options.stateDir = f.stateDir;
+  f.options.sharing =
+      f.sharing == "fifo" ? Coordinator::Options::Sharing::kFifo : Coordinator::Options::Sharing::kFairShare;
+  for (const std::string& entry : f.ownerWeights) {
+    const size_t eq = entry.rfind('=');
+    double weight = 0.0;
+    size_t used = 0;
+    try {
+      if (eq != std::string::npos) weight = std::stod(entry.substr(eq + 1), &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (eq == std::string::npos || eq == 0 || used == 0 || used != entry.size() - eq - 1 || !(weight > 0.0) ||
+        !(weight <= 1e6)) {
+      spdlog::error("--owner-weight: expected NAME=WEIGHT with a weight above 0 and at most 1e6, got \"{}\"",
+                    logText(entry));
+      return 2;
+    }
+    f.options.ownerWeights[entry.substr(0, eq)] = weight;
+  }
   return std::nullopt;
 }
 

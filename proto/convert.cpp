@@ -95,6 +95,68 @@ JobSpec fromProto(const v1::JobSpec& p) {
   return spec;
 }
 
+namespace {
+struct ConditionPair {
+  Dependency::Condition plain;
+  v1::DependencyCondition wire;
+};
+constexpr ConditionPair kConditionPairs[] = {
+    {Dependency::Condition::kDone, v1::DEPENDENCY_CONDITION_DONE},
+    {Dependency::Condition::kFailed, v1::DEPENDENCY_CONDITION_FAILED},
+    {Dependency::Condition::kEnded, v1::DEPENDENCY_CONDITION_ENDED},
+    {Dependency::Condition::kErrorAtMost, v1::DEPENDENCY_CONDITION_ERROR_AT_MOST},
+    {Dependency::Condition::kApproved, v1::DEPENDENCY_CONDITION_APPROVED}};
+}  // namespace
+
+v1::JobPolicy toProto(const JobPolicy& policy) {
+  v1::JobPolicy p;
+  for (const Dependency& d : policy.after) {
+    v1::Dependency* out = p.add_after();
+    out->set_job_id(d.jobId);
+    for (const ConditionPair& c : kConditionPairs)
+      if (c.plain == d.condition) out->set_condition(c.wire);
+    out->set_max_error(d.maxError);
+  }
+  p.set_on_dependency_failure(policy.onDependencyFailure == OnDependencyFailure::kWait ? v1::DEPENDENCY_FAILURE_WAIT
+                                                                                       : v1::DEPENDENCY_FAILURE_FAIL);
+  for (const std::string& t : policy.requireTags) p.add_require_tags(t);
+  for (const std::string& t : policy.preferTags) p.add_prefer_tags(t);
+  for (const std::string& t : policy.auditRequireTags) p.add_audit_require_tags(t);
+  if (policy.maxWorkers) p.set_max_workers(*policy.maxWorkers);
+  p.set_share_weight(policy.shareWeight);
+  return p;
+}
+
+JobPolicy fromProto(const v1::JobPolicy& p) {
+  JobPolicy policy;
+  for (int i = 0; i < p.after_size(); ++i) {
+    const v1::Dependency& in = p.after(i);
+    Dependency d;
+    d.jobId = in.job_id();
+    d.maxError = in.max_error();
+    bool known = in.condition() == v1::DEPENDENCY_CONDITION_UNSPECIFIED;
+    for (const ConditionPair& c : kConditionPairs)
+      if (c.wire == in.condition()) d.condition = c.plain, known = true;
+    if (!known)
+      throw FarmError(FarmError::Kind::kInvalidArgument, "after[" + std::to_string(i) + "].condition: unknown value " +
+                                                             std::to_string(int(in.condition())));
+    policy.after.push_back(d);
+  }
+  if (p.on_dependency_failure() != v1::DEPENDENCY_FAILURE_UNSPECIFIED &&
+      p.on_dependency_failure() != v1::DEPENDENCY_FAILURE_FAIL &&
+      p.on_dependency_failure() != v1::DEPENDENCY_FAILURE_WAIT)
+    throw FarmError(FarmError::Kind::kInvalidArgument,
+                    "on_dependency_failure: unknown value " + std::to_string(int(p.on_dependency_failure())));
+  policy.onDependencyFailure = p.on_dependency_failure() == v1::DEPENDENCY_FAILURE_WAIT ? OnDependencyFailure::kWait
+                                                                                        : OnDependencyFailure::kFail;
+  policy.requireTags.assign(p.require_tags().begin(), p.require_tags().end());
+  policy.preferTags.assign(p.prefer_tags().begin(), p.prefer_tags().end());
+  policy.auditRequireTags.assign(p.audit_require_tags().begin(), p.audit_require_tags().end());
+  if (p.has_max_workers()) policy.maxWorkers = p.max_workers();
+  policy.shareWeight = p.share_weight() == 0.0 ? 1.0 : p.share_weight();
+  return policy;
+}
+
 v1::Lease toProto(const LeaseGrant& g) {
   v1::Lease p;
   p.set_lease_id(g.leaseId);

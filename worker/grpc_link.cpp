@@ -49,6 +49,7 @@ Registration GrpcCoordinatorLink::registerWorker(const WorkerInfo& info) {
   request.set_renderer_version(info.rendererVersion);
   request.set_max_unit_memory_bytes(info.maxUnitMemoryBytes);
   for (const std::string& k : info.kernels) request.add_kernels(k);
+  for (const std::string& t : info.tags) request.add_tags(t);
   request.set_build(info.build);
   request.set_cpu(info.cpu);
   v1::RegisterResponse response;

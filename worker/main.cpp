@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <thread>
 
+#include "common/farm/job_policy.h"
 #include "common/farm/memory_estimate.h"
 #include "common/render/ray_caster.h"
 #include "common/util/atomic_file.h"
@@ -67,6 +68,11 @@ void addFlags(CLI::App& app, Flags& f) {
       ->check(CLI::Range(1u, 4096u))
       ->capture_default_str();
   app.add_option("--name", options.name, "Name shown by `lensfarm workers`")->envname("LENSFARM_WORKER_NAME");
+  app.add_option("--tags", options.tags,
+                 "Its tags, comma-separated (e.g. studio-a,bigmem): jobs submitted --require TAGS render only on "
+                 "workers with them")
+      ->envname("LENSFARM_WORKER_TAGS")
+      ->delimiter(',');
   app.add_option("--cache-dir", f.cacheDir, "Asset cache directory (empty: memory only)")
       ->envname("LENSFARM_CACHE_DIR")
       ->capture_default_str();
@@ -145,6 +151,13 @@ int main(int argc, char** argv) {
 
   std::shared_ptr<grpc::Channel> channel;
   try {
+    for (const std::string& tag : options.tags) {
+      try {
+        checkTag(tag, "--tags");
+      } catch (const FarmError& e) {
+        throw InputError("--tags", std::string(e.what()).substr(std::string("--tags: ").size()));
+      }
+    }
     f.security.token = readToken(f.tokenFile, "LENSFARM_TOKEN");
     options.maxMemoryBytes = defaultJobMemoryBudget();  // LENSFARM_MAX_JOB_MEMORY, else 3/4 of memory
     channel = makeChannel(f.coordinator, f.security, options.maxBackoffSeconds, /*keepalive=*/true);

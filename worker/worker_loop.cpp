@@ -239,7 +239,8 @@ void WorkerLoop::registerNow() {
                   /*credential: the coordinator knows it from the token*/ {},
                   std::move(kernels),
                   buildIdentity(),
-                  cpuModel()};
+                  cpuModel(),
+                  options_.tags};
   const Registration r = link_.registerWorker(info);
   std::lock_guard lock(mutex_);
   workerId_ = r.workerId;

@@ -36,6 +36,9 @@ struct WorkerOptions {
   // Leave the farm after this many seconds without a unit to render (a batch-scheduled worker
   // gives its allocation back when the farm has no work: deploy/slurm); 0: never.
   double idleExitSeconds = 0.0;
+  // Its tags (farm/job_policy.h): jobs that require tags are leased only to workers with all of
+  // them (docs/farm.md "Scheduling").
+  std::vector<std::string> tags;
 };
 
 struct WorkerCounters {

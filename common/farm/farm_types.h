@@ -49,6 +49,9 @@ struct WorkerInfo {
   std::vector<std::string> kernels{};
   std::string build{};
   std::string cpu{};
+  // Its tags (--tags; farm/job_policy.h's conventions): jobs that require tags are leased only to
+  // workers with all of them (docs/farm.md "Scheduling").
+  std::vector<std::string> tags{};
 };
 
 // A unit leased to one worker. Only an upload quoting the current lease id is counted.

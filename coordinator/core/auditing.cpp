@@ -31,8 +31,12 @@ void Coordinator::Job::addEvent(std::string text) {
 bool Coordinator::mayAudit(const Job& job, const Worker& worker, const std::string& exceptWorker) const {
   // Only a worker heard from lately: a silent one would hold the job's end back.
   const bool heard = Clock::now() - worker.lastHeartbeat < std::chrono::duration<double>(staleAfterSeconds());
+  // Its tags: those the job requires of every worker, and those it requires of its auditors (a
+  // job may ask for its audits on another class of machine, docs/farm.md "Scheduling").
+  const JobPolicy& policy = job.definition.policy;
   return heard && !worker.gone && !worker.quarantined && worker.id != exceptWorker && job.takes(worker.info) &&
-         !job.failures.blocks(worker.id);
+         !job.failures.blocks(worker.id) && hasAllTags(worker.info.tags, policy.requireTags) &&
+         hasAllTags(worker.info.tags, policy.auditRequireTags);
 }
 
 bool Coordinator::chooseForAudit(const Job& job, Worker& worker) {
@@ -50,7 +54,7 @@ bool Coordinator::chooseForAudit(const Job& job, Worker& worker) {
 std::optional<LeaseGrant> Coordinator::tryAuditLease(Worker& worker, Clock::time_point now) {
   Job* best = nullptr;
   for (auto& [id, job] : jobs_) {
-    if (isTerminal(job->progress.state) || job->audit.audits.empty() || !mayAudit(*job, worker) ||
+    if (isTerminal(job->progress.state) || job->paused || job->audit.audits.empty() || !mayAudit(*job, worker) ||
         !job->audit.audits.offers(worker.id))
       continue;
     if (!best || job->servedBefore(*best)) best = job.get();

@@ -188,7 +188,9 @@ std::shared_ptr<const std::string> Coordinator::asset(const std::string& sha256)
 
 // ---- jobs -----------------------------------------------------------------------------------
 
-JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string& owner) {
+JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string& owner, const JobPolicy& policy,
+                            bool paused) {
+  checkPolicy(policy);
   checkSpecAssets(spec, assets_);
   // Load the scene exactly as a worker will, to validate it and fix its settings and hash.
   const AssetReader reader = [&](const std::string& path) -> std::optional<std::string> {
@@ -248,6 +250,9 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
   job->definition.spec = resolved;
   job->priority = priority;
   job->definition.owner = owner;
+  job->definition.policy = policy;
+  job->released = policy.after.empty();
+  job->paused = paused;
   if (spec.overrides.kernel) job->kernel = kernelName(*spec.overrides.kernel);
   job->setScene(scene);
   try {
@@ -265,20 +270,22 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
       std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 
   MutexLock lock(mutex_);
+  checkDependenciesExist(policy);
   job->definition.id = "job-" + std::to_string(nextJob_++);
   job->definition.sequence = nextSequence_++;
   job->memory.rename(job->definition.id);
   if (store_)
-    store_->insertJob(StateStore::StoredJob{job->definition.id, job->definition.sequence, job->priority,
-                                            job->definition.spec, jobStateName(job->progress.state), "",
-                                            job->definition.submittedUnixSeconds, 0, std::nullopt, "",
-                                            job->definition.owner, 0.0, false, ""});
+    store_->insertJob(StateStore::StoredJob{
+        job->definition.id, job->definition.sequence, job->priority, job->definition.spec,
+        jobStateName(job->progress.state), "", job->definition.submittedUnixSeconds, 0, std::nullopt, "",
+        job->definition.owner, 0.0, false, "", "", policyToJson(policy), paused, false, job->released});
   spdlog::info("job {}: {} {}x{}, {} spp in {} units of {}, priority {}{}", job->definition.id, logText(spec.sceneName),
                job->definition.settings.width, job->definition.settings.height, job->definition.layout.samplesPerPixel,
                job->progress.units.total(), job->definition.unitSize, priority,
                job->definition.layout.adaptive() ? "; " + job->definition.layout.adaptiveSummary() : "");
   Job& ref = *job;
   jobs_[job->definition.id] = std::move(job);
+  updateDependencies();  // (those already held release it now; one that cannot hold fails it)
   changed_.notify_all();
   return infoOf(ref);
 }
@@ -381,6 +388,10 @@ JobInfo Coordinator::infoOf(const Job& job) const {
   info.owner = job.definition.owner;
   info.endedUnixSeconds = job.retention.endedUnixSeconds;
   info.archived = job.retention.archived;
+  info.policy = job.definition.policy;
+  info.paused = job.paused;
+  info.approved = job.approved;
+  if (!job.released && !isTerminal(job.progress.state)) info.waitingFor = dependencyWaits(job, nullptr);
   info.stalledReason = stalledReason(job, Clock::now());
   info.progressFraction = progressFraction(
       info, std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count());
@@ -428,6 +439,7 @@ void Coordinator::end(Job& job, JobState state) {
   job.audit.stopAwaitingAudits.reset();
   job.progress.state = state;
   job.progress.finished = Clock::now();
+  share_.forgetJob(job.definition.owner, job.definition.id);
   job.retention.endedUnixSeconds =
       std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   lifecycleDue_ = true;  // archive it, or delete it, when its time comes

@@ -44,11 +44,13 @@
 #include <vector>
 
 #include "common/farm/farm_types.h"
+#include "common/farm/job_policy.h"
 #include "common/film/convergence.h"
 #include "common/film/image_io.h"
 #include "common/film/sensor.h"
 #include "common/util/memory_budget.h"
 #include "coordinator/core/audit.h"
+#include "coordinator/core/fair_share.h"
 #include "coordinator/core/lease_table.h"
 #include "coordinator/core/locking.h"
 #include "coordinator/core/worker_registry.h"
@@ -125,6 +127,11 @@ struct JobInfo {
   std::string owner;              // who submitted it (SubmitJobRequest.owner: the client's $USER or --owner)
   double endedUnixSeconds = 0.0;  // when it ended (done, cancelled, failed); 0 while it runs
   bool archived = false;          // its film was freed; its final image, status and events stay readable
+  // Scheduling (docs/farm.md "Scheduling", scheduling.cpp).
+  JobPolicy policy;                     // as submitted
+  bool paused = false;                  // pauseJob: nothing of it is leased until resumeJob
+  bool approved = false;                // approveJob: what "JOB:approved" dependencies wait for
+  std::vector<std::string> waitingFor;  // its dependencies that do not hold yet, one line each
 
   double raysPerSecond() const { return elapsedSeconds > 0 ? double(stats.rays) / elapsedSeconds : 0.0; }
   double lightHitFraction() const { return stats.paths ? double(stats.lightHits) / double(stats.paths) : 0.0; }
@@ -260,6 +267,12 @@ class Coordinator {
     // is archived (0: at once; < 0: never). Checked every few seconds and at start-up.
     double keepSeconds = 0.0;
     double archiveAfterSeconds = -1.0;
+    // Scheduling (docs/farm.md "Scheduling"): jobs of one priority share the farm between their
+    // owners by weight (fair_share.h; an owner not listed weighs 1), or are served in submission
+    // order (kFifo, the farm before fair share). Higher priorities always come first.
+    enum class Sharing { kFairShare, kFifo };
+    Sharing sharing = Sharing::kFairShare;
+    std::map<std::string, double> ownerWeights;
   };
   explicit Coordinator(Options options);
   Coordinator();
@@ -291,7 +304,10 @@ class Coordinator {
   // ---- jobs (client side) ----
   // Validates the scene with its overrides (InputError naming the field) and that every asset
   // was uploaded (FarmError kFailedPrecondition listing the missing ones).
-  JobInfo submit(const JobSpec& spec, int priority, const std::string& owner = "");
+  // `policy` (farm/job_policy.h): FarmError kInvalidArgument naming its field (checkPolicy),
+  // kNotFound naming a job it waits for that does not exist. `paused`: submitted paused (pauseJob).
+  JobInfo submit(const JobSpec& spec, int priority, const std::string& owner = "", const JobPolicy& policy = {},
+                 bool paused = false);
   JobInfo job(const std::string& jobId) const;  // FarmError kNotFound
   std::vector<JobInfo> jobs() const;            // in serving order
   // Waits until the job's version exceeds `afterVersion` or `timeoutSeconds` pass.
@@ -322,6 +338,15 @@ class Coordinator {
   // The most events a job keeps (JobInfo::events).
   static constexpr size_t kMaxJobEvents = 64;
   std::vector<ErrorPoint> errorHistory(const std::string& jobId) const;
+
+  // ---- scheduling (scheduling.cpp, docs/farm.md "Scheduling") ----
+  // Pause: no unit (nor audit, nor backup) of the job is leased until resumeJob; leases held go
+  // on, and their results count. Durable with a state dir. FarmError kNotFound for an unknown job,
+  // kFailedPrecondition for one that has ended; pausing a paused job changes nothing.
+  JobInfo pauseJob(const std::string& jobId);
+  JobInfo resumeJob(const std::string& jobId);
+  // A person approved the job: dependencies "JOB:approved" hold from now on. Durable.
+  JobInfo approveJob(const std::string& jobId);
 
   // ---- workers ----
   // FarmError kFailedPrecondition naming both versions when they differ from this process's.
@@ -575,6 +600,31 @@ class Coordinator {
   void reportRepair(Job& job, const std::string& repair);
   void persistState(const Job& job) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   void checkpointLoop();
+
+  // ---- scheduling (scheduling.cpp) ----
+  // Whether `job`, which has units to lease, may be leased to `worker` now by its policy and
+  // state: not paused, its dependencies held, the worker has its tags, its cap is not reached and
+  // no idle worker it prefers is waiting.
+  bool policyAllows(const Job& job, const Worker& worker, Clock::time_point now) const
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // Among jobs that may be leased to a worker: whether `a` is served before `b` (priority, then
+  // fair share or submission order, Options::sharing).
+  bool leasedBefore(const Job& a, const Job& b) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // A lease of `unit` of `job` was granted: its owner and the job are charged (fair_share.h).
+  void chargeShare(const Job& job, uint64_t unit) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // Releases the jobs whose dependencies now hold, and fails (or marks waiting) those whose
+  // dependencies can no longer hold.
+  void updateDependencies() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // What `job`'s dependencies wait for (JobInfo::waitingFor), and in `*broken` the first that can
+  // no longer hold ("job-7 was cancelled"), if any.
+  std::vector<std::string> dependencyWaits(const Job& job, std::string* broken) const
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // Refuses (kNotFound) a policy waiting for a job that does not exist.
+  void checkDependenciesExist(const JobPolicy& policy) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // "no connected worker has the tags it requires (bigmem; connected: w1 [studio-a], ...)", or
+  // "" when one has.
+  std::string tagsStall(const Job& job, Clock::time_point now) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  FairShare share_ ABSL_GUARDED_BY(mutex_);
 
   // ---- workers (workers.cpp) ----
   Worker& findWorker(const std::string& workerId) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);

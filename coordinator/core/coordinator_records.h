@@ -56,6 +56,7 @@ struct JobDefinition {
   // also sizes the job's `units` from its layout).
   void setScene(const Scene& scene);
   std::string owner;  // who submitted it (JobInfo::owner; the job life cycle, lifecycle.cpp)
+  JobPolicy policy;   // how it is scheduled (farm/job_policy.h, scheduling.cpp)
 };
 
 // How far a job has come: its state, its units and the accumulation's published progress.
@@ -149,7 +150,15 @@ struct Coordinator::Job {
   // Guarded by Coordinator::mutex_; it changes over the job's life (setPriority), read by
   // tryLease(), tryAuditLease() and jobs() on every call.
   int priority = 0;
-  // Whether this job is served before `other` (tryLease, tryAuditLease, jobs()).
+  // Scheduling state (scheduling.cpp), guarded by Coordinator::mutex_ and persisted: paused
+  // (pauseJob), approved (approveJob), and released: its dependencies held once, so it is
+  // leased from then on whatever becomes of the jobs it waited for.
+  bool paused = false;
+  bool approved = false;
+  bool released = false;
+  bool brokenReported = false;  // a dependency that can no longer hold was said in an event
+  // Whether this job is served before `other` in listings, audits and backups (tryLease uses
+  // leasedBefore, which adds fair share).
   bool servedBefore(const Job& other) const {
     return priority != other.priority ? priority > other.priority : definition.sequence < other.definition.sequence;
   }

@@ -25,6 +25,7 @@ void Coordinator::persistState(const Job& job) {
     store_->updateJobState(job.definition.id, jobStateName(job.progress.state), job.progress.error,
                            job.progress.stopUnits, job.progress.stopReason, job.retention.endedUnixSeconds);
     if (!job.kernel.empty()) store_->updateJobKernel(job.definition.id, job.kernel);
+    store_->updateJobSchedule(job.definition.id, job.paused, job.approved, job.released);
   } catch (const StorageError& e) {
     storageFailed(e);  // kept in memory, written again when the state dir takes writes (probeStorage)
   }
@@ -249,6 +250,12 @@ std::unique_ptr<Coordinator::Job> Coordinator::jobFromRow(const StateStore::Stor
                 : stored.spec.overrides.kernel ? std::string(kernelName(*stored.spec.overrides.kernel))
                                                : std::string();
   job->retention.endedUnixSeconds = stored.endedUnixSeconds;
+  std::string damage;
+  job->definition.policy = policyFromJson(stored.policy, &damage);
+  if (!damage.empty()) job->addEvent(damage);
+  job->paused = stored.paused;
+  job->approved = stored.approved;
+  job->released = stored.released;
   const AssetReader reader = [&](const std::string& path) -> std::optional<std::string> {
     auto it = job->definition.spec.assets.find(path);
     if (it == job->definition.spec.assets.end()) return std::nullopt;

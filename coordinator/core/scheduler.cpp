@@ -38,6 +38,7 @@ void Coordinator::reapExpiredLeases(Clock::time_point now) {
   }
   enforceDeadlines();
   settleWaitingJobs();
+  updateDependencies();
   forgetSilentWorkers(now);
 }
 
@@ -49,8 +50,9 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   Job* best = nullptr;
   for (auto& [id, job] : jobs_) {
     if (isTerminal(job->progress.state) || !job->progress.units.hasPending()) continue;
-    if (!job->takes(worker.info)) continue;         // its units are for a worker with more memory, or another kernel
-    if (job->failures.blocks(worker.id)) continue;  // it failed this job too often (reportFailure)
+    if (!job->takes(worker.info)) continue;          // its units are for a worker with more memory, or another kernel
+    if (job->failures.blocks(worker.id)) continue;   // it failed this job too often (reportFailure)
+    if (!policyAllows(*job, worker, now)) continue;  // paused, waiting, tags, cap (scheduling.cpp)
     if (!job->progress.units.hasReturned() &&
         !job->definition.layout.tiled()) {  // a fresh pass: only within the window ahead of the summed prefix
       const uint64_t window =
@@ -61,12 +63,13 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
     // queued again too (after a restart, one above a gap whose round is not allocated yet).
     if (job->definition.layout.adaptive() && job->film && !job->film->leasable(job->progress.units.peekPending()))
       continue;
-    if (!best || job->servedBefore(*best)) best = job.get();
+    if (!best || leasedBefore(*job, *best)) best = job.get();
   }
   if (!best) return tryBackupLease(worker, now);
   Job& job = *best;
   if (job.kernel.empty()) pinKernel(job, worker);
   const uint64_t unit = job.progress.units.takePending();
+  chargeShare(job, unit);
   const auto longest = now + std::chrono::duration_cast<Clock::duration>(
                                  std::chrono::duration<double>(std::max(options_.maxLeaseSeconds, 1e-3)));
   const uint64_t leaseId = leases_.grant(worker.id, job.definition.id, unit, leaseDeadline(now), longest);
@@ -137,7 +140,8 @@ std::optional<LeaseGrant> Coordinator::tryBackupLease(Worker& worker, Clock::tim
     // (Called when no job has a unit for this worker: a job's pending units, if any, are beyond the
     // window ahead of its summed prefix, which a straggler's unit holds back.)
     if (isTerminal(job->progress.state) || job->audit.stopAwaitingAudits || !job->takes(worker.info) ||
-        job->failures.blocks(worker.id) || (bestJob && bestJob->servedBefore(*job)))
+        job->failures.blocks(worker.id) || job->paused ||
+        !hasAllTags(worker.info.tags, job->definition.policy.requireTags) || (bestJob && bestJob->servedBefore(*job)))
       continue;  // (the first job by service order that has a straggler worth a backup)
     for (const LeaseTable::Lease* lease : leases_.ofJob(job->definition.id)) {
       if (lease->audit || lease->workerId == worker.id ||

@@ -143,6 +143,19 @@ std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) co
     return "the coordinator cannot write its state dir (" + storageStall_->reason + ") for " +
            secondsText(std::chrono::duration<double>(now - storageStall_->since).count()) +
            ": no unit is leased until it can; rendering resumes by itself";
+  if (job.paused) {
+    const size_t inFlight = leases_.ofJob(job.definition.id).size();
+    return "paused: no unit is leased until it is resumed (lensfarm resume " + job.definition.id + ")" +
+           (inFlight ? "; " + std::to_string(inFlight) + " lease(s) in flight finish and count" : std::string());
+  }
+  if (!job.released) {
+    std::string broken;
+    const std::vector<std::string> waits = dependencyWaits(job, &broken);
+    std::string text;
+    for (const std::string& w : waits) text += (text.empty() ? "" : "; ") + w;
+    if (!broken.empty()) return "a dependency can no longer hold (" + broken + "); it waits until it is cancelled";
+    return "waiting for " + text;
+  }
   if (job.audit.stopAwaitingAudits && !job.audit.audits.empty()) {
     // Every unit is in: what is left is rendering some again, by other workers, to check them.
     const double waited = std::chrono::duration<double>(now - job.audit.awaitingSince).count();
@@ -169,6 +182,7 @@ std::string Coordinator::stalledReason(const Job& job, Clock::time_point now) co
   }
   if (!silent.empty()) return silent;
   if (!job.progress.units.hasPending()) return "";  // every unit is in or being recorded
+  if (std::string tags = tagsStall(job, now); !tags.empty()) return tags;
   uint64_t busyElsewhere = 0, tooSmall = 0, largest = 0, otherKernel = 0;
   std::set<std::string> kernelsRun;  // by the connected workers without the job's kernel
   const Worker* recentlyGone = nullptr;

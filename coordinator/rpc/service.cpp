@@ -187,6 +187,10 @@ v1::JobStatus toProto(const JobInfo& info) {
   s.set_owner(info.owner);
   s.set_ended_unix_seconds(info.endedUnixSeconds);
   s.set_archived(info.archived);
+  *s.mutable_policy() = proto::toProto(info.policy);
+  s.set_paused(info.paused);
+  s.set_approved(info.approved);
+  for (const std::string& w : info.waitingFor) s.add_waiting_for(w);
   return s;
 }
 
@@ -200,6 +204,7 @@ v1::WorkerStatus toProto(const WorkerView& w) {
   p.set_seconds_since_heartbeat(w.secondsSinceHeartbeat);
   p.set_renderer_version(w.info.rendererVersion);
   for (const std::string& k : w.info.kernels) p.add_kernels(k);
+  for (const std::string& t : w.info.tags) p.add_tags(t);
   p.set_build(w.info.build);
   p.set_cpu(w.info.cpu);
   p.set_state(workerStateName(w.state));
@@ -257,7 +262,8 @@ grpc::Status ClientServiceImpl::UploadAsset(grpc::ServerContext* context,
 grpc::Status ClientServiceImpl::SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request,
                                           v1::SubmitJobResponse* response) {
   return guarded(gate_, context, "SubmitJob", [&] {
-    const JobInfo info = coordinator_.submit(proto::fromProto(request->spec()), request->priority(), request->owner());
+    const JobInfo info = coordinator_.submit(proto::fromProto(request->spec()), request->priority(), request->owner(),
+                                             proto::fromProto(request->policy()), request->paused());
     response->set_job_id(info.id);
     *response->mutable_status() = toProto(info);
   });
@@ -382,6 +388,24 @@ grpc::Status ClientServiceImpl::CancelJob(grpc::ServerContext* context, const v1
                  [&] { *response->mutable_status() = toProto(coordinator_.cancel(request->job_id())); });
 }
 
+grpc::Status ClientServiceImpl::PauseJob(grpc::ServerContext* context, const v1::JobActionRequest* request,
+                                         v1::JobActionResponse* response) {
+  return guarded(gate_, context, "PauseJob",
+                 [&] { *response->mutable_status() = toProto(coordinator_.pauseJob(request->job_id())); });
+}
+
+grpc::Status ClientServiceImpl::ResumeJob(grpc::ServerContext* context, const v1::JobActionRequest* request,
+                                          v1::JobActionResponse* response) {
+  return guarded(gate_, context, "ResumeJob",
+                 [&] { *response->mutable_status() = toProto(coordinator_.resumeJob(request->job_id())); });
+}
+
+grpc::Status ClientServiceImpl::ApproveJob(grpc::ServerContext* context, const v1::JobActionRequest* request,
+                                           v1::JobActionResponse* response) {
+  return guarded(gate_, context, "ApproveJob",
+                 [&] { *response->mutable_status() = toProto(coordinator_.approveJob(request->job_id())); });
+}
+
 grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext* context, const v1::ListWorkersRequest*,
                                             v1::ListWorkersResponse* response) {
   return guarded(gate_, context, "ListWorkers", [&] {
@@ -406,6 +430,9 @@ grpc::Status WorkerServiceImpl::Register(grpc::ServerContext* context, const v1:
     for (const std::string& k : request->kernels()) checkText("kernels", k, 32);
     checkText("build", request->build(), 256);
     checkText("cpu", request->cpu(), 256);
+    if (request->tags_size() > int(kMaxTags))
+      throw FarmError(FarmError::Kind::kInvalidArgument, "tags: at most " + std::to_string(kMaxTags));
+    for (int i = 0; i < request->tags_size(); ++i) checkTag(request->tags(i), "tags[" + std::to_string(i) + "]");
     WorkerInfo info{request->name(),
                     std::max(1u, request->threads()),
                     request->protocol_version(),
@@ -414,7 +441,8 @@ grpc::Status WorkerServiceImpl::Register(grpc::ServerContext* context, const v1:
                     gate_.credentialOf(context),
                     {request->kernels().begin(), request->kernels().end()},
                     request->build(),
-                    request->cpu()};
+                    request->cpu(),
+                    {request->tags().begin(), request->tags().end()}};
     std::string session;
     response->set_worker_id(coordinator_.registerWorker(info, &session));
     response->set_session(session);

@@ -57,6 +57,12 @@ class ClientServiceImpl final : public v1::ClientService::WithCallbackMethod_Wat
                          v1::CancelJobResponse* response) override;
   grpc::Status ListWorkers(grpc::ServerContext* context, const v1::ListWorkersRequest*,
                            v1::ListWorkersResponse* response) override;
+  grpc::Status PauseJob(grpc::ServerContext* context, const v1::JobActionRequest* request,
+                        v1::JobActionResponse* response) override;
+  grpc::Status ResumeJob(grpc::ServerContext* context, const v1::JobActionRequest* request,
+                         v1::JobActionResponse* response) override;
+  grpc::Status ApproveJob(grpc::ServerContext* context, const v1::JobActionRequest* request,
+                          v1::JobActionResponse* response) override;
   grpc::Status DeleteJob(grpc::ServerContext* context, const v1::DeleteJobRequest* request,
                          v1::DeleteJobResponse*) override;
   grpc::Status ArchiveJob(grpc::ServerContext* context, const v1::ArchiveJobRequest* request,

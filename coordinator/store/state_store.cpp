@@ -168,6 +168,7 @@ json manifestOf(const StateStore::StoredJob& job) {
               {"priority", job.priority},
               {"spec", specToJson(job.spec)},
               {"owner", job.owner},
+              {"policy", job.policy},
               {"submitted", job.submittedUnixSeconds}};
 }
 
@@ -217,6 +218,12 @@ void StateStore::open() {
   addColumnIfMissing("jobs", "archived", "INTEGER");
   addColumnIfMissing("jobs", "summary", "TEXT");
   addColumnIfMissing("jobs", "kernel", "TEXT");
+  // Added by the scheduler (docs/farm.md "Scheduling"): a row written before gains the default
+  // policy, not paused, not approved, and released (it had no dependencies).
+  addColumnIfMissing("jobs", "policy", "TEXT");
+  addColumnIfMissing("jobs", "paused", "INTEGER");
+  addColumnIfMissing("jobs", "approved", "INTEGER");
+  addColumnIfMissing("jobs", "released", "INTEGER");
   exec(
       "CREATE TABLE IF NOT EXISTS ledger(job_id TEXT, unit INTEGER, worker TEXT, paths INTEGER, rays INTEGER, "
       "light_hits INTEGER, dropped INTEGER, PRIMARY KEY(job_id, unit))");
@@ -308,7 +315,7 @@ void StateStore::insertJob(const StoredJob& job) {
   fs::create_directories(jobDir(job.id));
   Statement(db_,
             "INSERT INTO jobs(id, sequence, priority, spec, state, error, submitted, folded_units, owner, "
-            "ended, archived) VALUES(?, ?, ?, ?, ?, ?, ?, 0, ?, 0, 0)")
+            "ended, archived, policy, paused, approved, released) VALUES(?, ?, ?, ?, ?, ?, ?, 0, ?, 0, 0, ?, ?, ?, ?)")
       .bind(1, job.id)
       .bind(2, int64_t(job.sequence))
       .bind(3, int64_t(job.priority))
@@ -317,6 +324,10 @@ void StateStore::insertJob(const StoredJob& job) {
       .bind(6, job.error)
       .bind(7, job.submittedUnixSeconds)
       .bind(8, job.owner)
+      .bind(9, job.policy)
+      .bind(10, int64_t(job.paused))
+      .bind(11, int64_t(job.approved))
+      .bind(12, int64_t(job.released))
       .step();
   if (job.id.rfind("job-", 0) == 0)
     Statement(db_,
@@ -425,6 +436,8 @@ std::vector<std::string> StateStore::recoverJobs() {
     job.owner = j.value("owner", "");
     job.submittedUnixSeconds = j.value("submitted", 0.0);
     job.kernel = j.value("kernel", "");
+    job.policy = j.value("policy", "");
+    job.released = true;  // as submitted, less its dependencies: the jobs it waited for may be gone
     insertJob(job);
     if (!job.kernel.empty()) updateJobKernel(job.id, job.kernel, false);
     repairs.push_back(dir.string() +
@@ -445,6 +458,16 @@ void StateStore::updateJobState(const std::string& jobId, const std::string& sta
       .bind(4, stopReason)
       .bind(5, endedUnixSeconds)
       .bind(6, jobId)
+      .step();
+}
+
+void StateStore::updateJobSchedule(const std::string& jobId, bool paused, bool approved, bool released) {
+  std::lock_guard lock(mutex_);
+  Statement(db_, "UPDATE jobs SET paused = ?, approved = ?, released = ? WHERE id = ?")
+      .bind(1, int64_t(paused))
+      .bind(2, int64_t(approved))
+      .bind(3, int64_t(released))
+      .bind(4, jobId)
       .step();
 }
 
@@ -472,7 +495,8 @@ std::vector<StateStore::StoredJob> StateStore::loadJobs() {
   Statement s(db_,
               "SELECT id, sequence, priority, spec, state, error, submitted, folded_units, "
               "coalesce(stop_units, -1), coalesce(stop_reason, ''), coalesce(owner, ''), coalesce(ended, 0), "
-              "coalesce(archived, 0), coalesce(summary, ''), coalesce(kernel, '') FROM jobs ORDER BY sequence");
+              "coalesce(archived, 0), coalesce(summary, ''), coalesce(kernel, ''), coalesce(policy, ''), "
+              "coalesce(paused, 0), coalesce(approved, 0), coalesce(released, 1) FROM jobs ORDER BY sequence");
   while (s.step()) {
     StoredJob j;
     j.id = s.text(0);
@@ -490,6 +514,10 @@ std::vector<StateStore::StoredJob> StateStore::loadJobs() {
     j.archived = s.integer(12) != 0;
     j.summary = s.text(13);
     j.kernel = s.text(14);
+    j.policy = s.text(15);
+    j.paused = s.integer(16) != 0;
+    j.approved = s.integer(17) != 0;
+    j.released = s.integer(18) != 0;
     out.push_back(std::move(j));
   }
   return out;

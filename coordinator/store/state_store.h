@@ -84,12 +84,17 @@ class StateStore {
     bool archived = false;
     std::string summary;   // an archived job's progress (Coordinator::summaryOf)
     std::string kernel{};  // its pinned traversal kernel (util/trace_kernel.h); empty: not yet
+    // Scheduling (docs/farm.md "Scheduling"): its policy (farm/job_policy.h, policyToJson; empty:
+    // the default), paused, approved, and released (its dependencies held once).
+    std::string policy{};
+    bool paused = false, approved = false, released = true;
   };
   void insertJob(const StoredJob& job);
   void updateJobState(const std::string& jobId, const std::string& state, const std::string& error,
                       const std::optional<uint64_t>& stopUnits = std::nullopt, const std::string& stopReason = "",
                       double endedUnixSeconds = 0.0);
   void updateJobPriority(const std::string& jobId, int priority);
+  void updateJobSchedule(const std::string& jobId, bool paused, bool approved, bool released);
   // The job's pinned traversal kernel; `inManifest`: written into its job.json as well (once, when
   // it is pinned), so a job taken back from its files keeps it.
   void updateJobKernel(const std::string& jobId, const std::string& kernel, bool inManifest = false);

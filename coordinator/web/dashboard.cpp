@@ -23,6 +23,20 @@ json summaryOf(const JobInfo& info) {
   j["scene"] = info.sceneName;
   j["owner"] = info.owner;
   j["archived"] = info.archived;  // its final image is served; its sensor was freed
+  // Scheduling (docs/farm.md "Scheduling").
+  j["paused"] = info.paused;
+  j["approved"] = info.approved;
+  j["waiting_for"] = info.waitingFor;
+  {
+    json after = json::array();
+    for (const Dependency& d : info.policy.after) after.push_back(dependencyText(d));
+    j["policy"] = {{"after", after},
+                   {"require_tags", info.policy.requireTags},
+                   {"prefer_tags", info.policy.preferTags},
+                   {"audit_require_tags", info.policy.auditRequireTags},
+                   {"max_workers", info.policy.maxWorkers ? json(*info.policy.maxWorkers) : json(nullptr)},
+                   {"share_weight", info.policy.shareWeight}};
+  }
   j["width"] = info.width;
   j["height"] = info.height;
   j["spp_done"] = info.samplesPerPixelDone;
@@ -159,6 +173,10 @@ Dashboard::Png Dashboard::png(const std::string& jobId, std::optional<double> ev
 }
 
 std::string Dashboard::cancel(const std::string& jobId) { return summaryOf(coordinator_.cancel(jobId)).dump(); }
+
+std::string Dashboard::pause(const std::string& jobId) { return summaryOf(coordinator_.pauseJob(jobId)).dump(); }
+std::string Dashboard::resume(const std::string& jobId) { return summaryOf(coordinator_.resumeJob(jobId)).dump(); }
+std::string Dashboard::approve(const std::string& jobId) { return summaryOf(coordinator_.approveJob(jobId)).dump(); }
 
 std::string Dashboard::setPriority(const std::string& jobId, int priority) {
   return summaryOf(coordinator_.setPriority(jobId, priority)).dump();

@@ -55,6 +55,9 @@ class Dashboard {
   // Actions; each returns the job's summary JSON afterwards.
   std::string cancel(const std::string& jobId);
   std::string setPriority(const std::string& jobId, int priority);
+  std::string pause(const std::string& jobId);  // docs/farm.md "Scheduling"
+  std::string resume(const std::string& jobId);
+  std::string approve(const std::string& jobId);
 
  private:
   Coordinator& coordinator_;

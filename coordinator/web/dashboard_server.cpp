@@ -192,6 +192,17 @@ HttpRoutes dashboardRoutes(Dashboard& dashboard, ThrottledLog& refusals) {
                     response.setContent(dashboard.cancel(request.matches[1]), kJson);
                   }),
               guard);
+  // The scheduling actions (docs/farm.md "Scheduling"): no body; each answers the job's summary.
+  for (const auto& [name, action] :
+       {std::pair<const char*, std::string (Dashboard::*)(const std::string&)>{"/pause", &Dashboard::pause},
+        {"/resume", &Dashboard::resume},
+        {"/approve", &Dashboard::approve}})
+    routes.post(job + name,
+                api(dashboard,
+                    [&dashboard, call = action](const HttpRequest& request, HttpResponse& response) {
+                      response.setContent((dashboard.*call)(request.matches[1]), kJson);
+                    }),
+                guard);
   routes.post(job + "/priority",
               api(dashboard,
                   [&dashboard](const HttpRequest& request, HttpResponse& response) {

@@ -10,6 +10,7 @@
 #include "common/util/error.h"
 #include "common/util/version.h"
 #include "coordinator/core/coordinator.h"
+#include "tests/test_support.h"
 
 namespace lensfarm::test {
 
@@ -30,6 +31,19 @@ inline UnitResult resultFor(const std::string& worker, const LeaseGrant& g, doub
   r.renderSeconds = renderSeconds;
   return r;
 }
+
+// `scene` at 4 x 3 pixels, `spp` samples a pixel in units of `perUnit`, as a job's spec.
+inline JobSpec specFor(nlohmann::json scene, uint64_t spp, uint32_t perUnit) {
+  scene["render"]["samples_per_pixel"] = spp;
+  scene["render"]["samples_per_unit"] = perUnit;
+  scene["render"]["resolution"] = {4, 3};
+  JobSpec spec;
+  spec.sceneName = "test.json";
+  spec.sceneJson = scene.dump();
+  return spec;
+}
+// The minimal scene (test_support.h) so.
+inline JobSpec minimalSpec(uint64_t spp, uint32_t perUnit = 1) { return specFor(minimalSceneJson(), spp, perUnit); }
 
 // The kind of the FarmError `call` throws (a test failure if it throws none).
 inline FarmError::Kind kindOf(const std::function<void()>& call) {

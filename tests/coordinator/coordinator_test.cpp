@@ -22,15 +22,7 @@ using test::workerInfo;
 
 using nlohmann::json;
 
-JobSpec specFor(json scene, uint64_t spp, uint32_t perUnit) {
-  scene["render"]["samples_per_pixel"] = spp;
-  scene["render"]["samples_per_unit"] = perUnit;
-  scene["render"]["resolution"] = {4, 3};
-  JobSpec spec;
-  spec.sceneName = "test.json";
-  spec.sceneJson = scene.dump();
-  return spec;
-}
+using test::specFor;
 
 TEST(Coordinator, RefusesBadScenesAndMissingAssets) {
   Coordinator c;
@@ -59,7 +51,9 @@ TEST(Coordinator, AssetsAreStoredByVerifiedHash) {
 }
 
 TEST(Coordinator, UnitsAreLeasedInOrderAndJobsByPriorityThenSubmission) {
-  Coordinator c;
+  Coordinator::Options options;
+  options.sharing = Coordinator::Options::Sharing::kFifo;  // (fair share: scheduling_test.cpp)
+  Coordinator c(options);
   const std::string low = c.submit(specFor(test::minimalSceneJson(), 2, 1), 0).id;
   const std::string high = c.submit(specFor(test::minimalSceneJson(), 2, 1), 5).id;
   const std::string low2 = c.submit(specFor(test::minimalSceneJson(), 2, 1), 0).id;

@@ -140,6 +140,26 @@ TEST(Dashboard, EstimateIsNullUntilKnown) {
   EXPECT_TRUE(json::parse(d.workersJson())["workers"].empty());
 }
 
+TEST(Dashboard, PauseResumeAndApproveAnswerTheJobsSchedulingState) {
+  Coordinator c;
+  Dashboard d(c, std::nullopt);
+  const std::string first = c.submit(specFor(4), 0).id;
+  JobPolicy policy;
+  policy.after = {parseDependency(first + ":approved", "after")};
+  policy.requireTags = {"bigmem"};
+  const std::string second = c.submit(specFor(4), 0, "ann", policy).id;
+  const json waiting = json::parse(d.jobsJson())["jobs"][1];
+  EXPECT_EQ(waiting["waiting_for"], json::array({first + " to be approved (lensfarm approve " + first + ")"}));
+  EXPECT_EQ(waiting["policy"]["after"], json::array({first + ":approved"}));
+  EXPECT_EQ(waiting["policy"]["require_tags"], json::array({"bigmem"}));
+  EXPECT_TRUE(waiting["policy"]["max_workers"].is_null());
+  EXPECT_EQ(json::parse(d.pause(first))["paused"], true);
+  EXPECT_EQ(json::parse(d.resume(first))["paused"], false);
+  EXPECT_EQ(json::parse(d.approve(first))["approved"], true);
+  EXPECT_EQ(json::parse(d.jobsJson())["jobs"][1]["waiting_for"], json::array());
+  EXPECT_THROW(d.pause("job-404"), FarmError);
+}
+
 TEST(Dashboard, PriorityChangesReorderJobsAndLeases) {
   test::TempDir dir;
   Coordinator::Options options;

@@ -250,6 +250,15 @@ TEST_F(DashboardFarm, ApiServesJobsImagesAndActions) {
             400);
   EXPECT_NE(status(second).find("priority:   4"), std::string::npos) << status(second);
 
+  // Pause and resume (docs/farm.md "Scheduling"): the CLI sees what the dashboard did.
+  const Reply paused = request(dashboard_, "POST", "/api/jobs/" + second + "/pause", token_);
+  EXPECT_EQ(paused.status, 200) << paused.body;
+  EXPECT_EQ(json::parse(paused.body)["paused"], true);
+  EXPECT_NE(status(second).find("paused:     yes"), std::string::npos) << status(second);
+  EXPECT_EQ(json::parse(request(dashboard_, "POST", "/api/jobs/" + second + "/resume", token_).body)["paused"], false);
+  EXPECT_EQ(request(dashboard_, "POST", "/api/jobs/job-404/pause", token_).status, 404);
+  EXPECT_EQ(request(dashboard_, "POST", "/api/jobs/" + second + "/approve", "not-the-token").status, 401);
+
   // A worker renders the raised job to its end; the workers list shows it.
   farm_.startWorker("w1", {"--coordinator", address_, "--threads", "1"});
   ASSERT_TRUE(test::waitFor(

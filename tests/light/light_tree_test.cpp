@@ -16,6 +16,7 @@
 #include "common/render/light_tree.h"
 #include "common/render/render_scene.h"
 #include "common/scene/effects.h"
+#include "tests/support/placement.h"
 #include "tests/test_support.h"
 
 namespace lensfarm {
@@ -217,10 +218,8 @@ TEST(LightTree, HoldsOneLightAndAHundredThousand) {
 // two-sided, their radiance spread over 16x), with a point and a spot light; every length times
 // `scale`, everything moved by `offset`.
 json manyLightsScene(int side, double scale, const glm::dvec3& offset) {
-  const auto at = [&](double x, double y, double z) {
-    return json::array({offset.x + scale * x, offset.y + scale * y, offset.z + scale * z});
-  };
-  const auto v = [&](double x, double y, double z) { return json::array({scale * x, scale * y, scale * z}); };
+  const test::PlacedPoint at{scale, offset};
+  const test::ScaledVector v{scale};
   json j = json::parse(R"({
     "format": "lensfarm-scene/1",
     "camera": { "type": "pinhole", "up": [0, 1, 0] },

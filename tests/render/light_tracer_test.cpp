@@ -15,6 +15,7 @@
 #include "common/render/render_scene.h"
 #include "common/render/unit_renderer.h"
 #include "common/scene/effects.h"
+#include "tests/support/placement.h"
 #include "tests/test_support.h"
 
 namespace lensfarm {
@@ -57,10 +58,8 @@ json causticScene(const std::string& mirrorType, const json& camera) {
 // with k reflections inside: E = I T sum_k R^k / (n + 0.1 + 0.2 k)^2. The floor's radiance is
 // (0.5 / pi) E.
 json slabScene(const std::string& light, double scale, const glm::dvec3& offset) {
-  const auto at = [&](double x, double y, double z) {
-    return json::array({offset.x + scale * x, offset.y + scale * y, offset.z + scale * z});
-  };
-  const auto v = [&](double x, double y, double z) { return json::array({scale * x, scale * y, scale * z}); };
+  const test::PlacedPoint at{scale, offset};
+  const test::ScaledVector v{scale};
   json j = json::parse(R"({
     "format": "lensfarm-scene/1",
     "camera": { "type": "pinhole", "up": [0, 1, 0], "sensor_width": 0.01, "focal_length": 0.05 },

@@ -15,6 +15,7 @@
 #include "common/render/sampler.h"
 #include "common/render/unit_renderer.h"
 #include "common/scene/effects.h"
+#include "tests/support/placement.h"
 #include "tests/test_support.h"
 
 namespace lensfarm {
@@ -183,10 +184,8 @@ TEST(GuidingRecorder, RecordsTheRadianceThatCameBackAlongEachDirection) {
 // floor (render/light_tracer_test.cpp's caustic scene): most of the floor's light near the mirror
 // arrives light -> mirror -> floor, which next-event estimation cannot sample.
 json mirrorScene(double scale = 1.0, glm::dvec3 offset = glm::dvec3(0.0)) {
-  const auto at = [&](double x, double y, double z) {
-    return json::array({offset.x + scale * x, offset.y + scale * y, offset.z + scale * z});
-  };
-  const auto v = [&](double x, double y, double z) { return json::array({scale * x, scale * y, scale * z}); };
+  const test::PlacedPoint at{scale, offset};
+  const test::ScaledVector v{scale};
   json j = json::parse(R"({
     "format": "lensfarm-scene/1",
     "camera": { "type": "pinhole", "up": [0, 1, 0] },

@@ -1,0 +1,237 @@
+// Coordinator, scheduling by policy (docs/farm.md "Scheduling"): which jobs may be leased to a
+// worker (pause, dependencies, tags, caps, preferred workers), the order among those that may
+// (strict priority, then weighted fair share, fair_share.h), and the actions of people on it
+// (pause, resume, approve). The unit a lease carries and the lease records are scheduler.cpp's.
+//
+// Invariants: a job's policy never changes the bits of its image (workers never see it); a
+// paused job's leases in flight finish and count, exactly once, as any lease's; a job is
+// released (leasable) once all its dependencies held, and stays released.
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "common/util/log_text.h"
+#include "coordinator/core/coordinator.h"
+#include "coordinator/core/coordinator_records.h"
+#include "coordinator/store/state_store.h"
+
+namespace lensfarm {
+namespace {
+
+std::string percentText(double fraction) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g %%", fraction * 100.0);
+  return text;
+}
+
+}  // namespace
+
+bool Coordinator::policyAllows(const Job& job, const Worker& worker, Clock::time_point now) const {
+  const JobPolicy& policy = job.definition.policy;
+  if (job.paused || !job.released) return false;
+  if (!hasAllTags(worker.info.tags, policy.requireTags)) return false;
+  if (policy.maxWorkers) {
+    std::set<std::string> rendering;
+    for (const LeaseTable::Lease* lease : leases_.ofJob(job.definition.id))
+      if (!lease->audit) rendering.insert(lease->workerId);
+    if (rendering.size() >= *policy.maxWorkers && !rendering.count(worker.id)) return false;
+  }
+  if (!policy.preferTags.empty() && !hasAllTags(worker.info.tags, policy.preferTags)) {
+    // A worker it prefers that waits for work (connected, holding no lease) takes it instead.
+    const std::set<std::string> holders = leases_.holders();
+    for (const auto& [id, w] : workers_) {
+      if (w.get() == &worker || holders.count(id) || w->gone || w->quarantined) continue;
+      double seconds = 0.0;
+      if (stateOf(*w, false, now, &seconds) != WorkerState::kIdle) continue;
+      if (hasAllTags(w->info.tags, policy.preferTags) && hasAllTags(w->info.tags, policy.requireTags) &&
+          job.takes(w->info) && !job.failures.blocks(id))
+        return false;
+    }
+  }
+  return true;
+}
+
+bool Coordinator::leasedBefore(const Job& a, const Job& b) const {
+  if (a.priority != b.priority) return a.priority > b.priority;
+  if (options_.sharing == Options::Sharing::kFairShare) {
+    const std::string& ownerA = a.definition.owner;
+    const std::string& ownerB = b.definition.owner;
+    if (ownerA != ownerB) {
+      const double startA = share_.ownerStart(ownerA), startB = share_.ownerStart(ownerB);
+      if (startA != startB) return startA < startB;
+    } else {
+      const double startA = share_.jobStart(ownerA, a.definition.id), startB = share_.jobStart(ownerB, b.definition.id);
+      if (startA != startB) return startA < startB;
+    }
+  }
+  return a.definition.sequence < b.definition.sequence;
+}
+
+void Coordinator::chargeShare(const Job& job, uint64_t unit) {
+  const PixelRegion region = job.definition.layout.regionOf(unit);
+  const double cost =
+      double(region.width) * double(region.height) * double(job.definition.layout.unit(unit).sampleCount);
+  const auto weight = options_.ownerWeights.find(job.definition.owner);
+  share_.charge(job.definition.owner, weight == options_.ownerWeights.end() ? 1.0 : weight->second, job.definition.id,
+                job.definition.policy.shareWeight, std::max(cost, 1.0));
+}
+
+std::vector<std::string> Coordinator::dependencyWaits(const Job& job, std::string* broken) const {
+  std::vector<std::string> waits;
+  for (const Dependency& d : job.definition.policy.after) {
+    const auto it = jobs_.find(d.jobId);
+    if (it == jobs_.end()) {
+      if (broken && broken->empty()) *broken = d.jobId + ", which it waits for, was deleted";
+      continue;
+    }
+    const Job& other = *it->second;
+    const JobState state = other.progress.state;
+    const bool ended = isTerminal(state);
+    const std::string now = std::string(" (") + jobStateName(state) + ")";
+    std::string wait, cannot;
+    switch (d.condition) {
+      case Dependency::Condition::kDone:
+        if (state == JobState::kDone) break;
+        if (ended)
+          cannot = d.jobId + ", which it waits for to be done, " + jobStateName(state);
+        else
+          wait = d.jobId + " to be done" + now;
+        break;
+      case Dependency::Condition::kFailed:
+        if (state == JobState::kFailed) break;
+        if (ended)
+          cannot = d.jobId + ", which it waits for to fail, ended " + jobStateName(state);
+        else
+          wait = d.jobId + " to fail" + now;
+        break;
+      case Dependency::Condition::kEnded:
+        if (!ended) wait = d.jobId + " to end" + now;
+        break;
+      case Dependency::Condition::kApproved:
+        if (!other.approved) wait = d.jobId + " to be approved (lensfarm approve " + d.jobId + ")";
+        break;
+      case Dependency::Condition::kErrorAtMost: {
+        const bool known = other.progress.estimate.valid;
+        const double error = known ? other.progress.estimate.relativeRmse : 0.0;
+        if (known && error <= d.maxError) break;
+        const std::string at = known ? "now " + percentText(error) : "not estimated yet";
+        if (ended)
+          cannot = d.jobId + " ended " + jobStateName(state) + " at " + (known ? percentText(error) : "no estimated") +
+                   " error, above the " + percentText(d.maxError) + " it waits for";
+        else
+          wait = d.jobId + " to reach " + percentText(d.maxError) + " error (" + at + ")";
+        break;
+      }
+    }
+    if (!cannot.empty() && broken && broken->empty()) *broken = cannot;
+    if (!wait.empty()) waits.push_back(wait);
+  }
+  return waits;
+}
+
+void Coordinator::updateDependencies() {
+  for (auto& [id, jobPtr] : jobs_) {
+    Job& job = *jobPtr;
+    if (job.released || isTerminal(job.progress.state)) continue;
+    std::string broken;
+    const std::vector<std::string> waits = dependencyWaits(job, &broken);
+    if (!broken.empty()) {
+      if (job.definition.policy.onDependencyFailure == OnDependencyFailure::kFail) {
+        job.progress.error = "a dependency can no longer hold: " + broken;
+        job.addEvent("failed: " + job.progress.error);
+        end(job, JobState::kFailed);
+        touch(job);
+      } else if (!job.brokenReported) {
+        job.brokenReported = true;
+        job.addEvent("a dependency can no longer hold (" + broken +
+                     "); it waits, as its policy says, until it is cancelled");
+        touch(job);
+      }
+      continue;
+    }
+    if (!waits.empty()) continue;
+    job.released = true;
+    std::string held;
+    for (const Dependency& d : job.definition.policy.after) held += (held.empty() ? "" : ", ") + dependencyText(d);
+    job.addEvent("its dependencies hold (" + held + "): its units are leased from now on");
+    persistState(job);
+    touch(job);
+  }
+}
+
+void Coordinator::checkDependenciesExist(const JobPolicy& policy) const {
+  for (size_t i = 0; i < policy.after.size(); ++i) {
+    const std::string& other = policy.after[i].jobId;
+    if (!jobs_.count(other))
+      throw FarmError(FarmError::Kind::kNotFound, "after[" + std::to_string(i) + "]: no job " + logText(other) +
+                                                      (deletedJobs_.count(other) ? " (it was deleted)" : ""));
+  }
+}
+
+std::string Coordinator::tagsStall(const Job& job, Clock::time_point now) const {
+  const std::vector<std::string>& need = job.definition.policy.requireTags;
+  if (need.empty()) return "";
+  std::string connected;
+  for (const auto& [id, w] : workers_) {
+    double seconds = 0.0;
+    const WorkerState state = stateOf(*w, false, now, &seconds);
+    if (state != WorkerState::kIdle && state != WorkerState::kRendering) continue;
+    if (hasAllTags(w->info.tags, need)) return "";
+    connected += (connected.empty() ? "" : ", ") + w->label() + " [" + tagsText(w->info.tags) + "]";
+  }
+  return "no connected worker has the tags it requires (" + tagsText(need) +
+         "; connected: " + (connected.empty() ? "none" : connected) + "); start one with --tags " + [&] {
+           std::string list;
+           for (const std::string& t : need) list += (list.empty() ? "" : ",") + t;
+           return list;
+         }();
+}
+
+JobInfo Coordinator::pauseJob(const std::string& jobId) {
+  MutexLock lock(mutex_);
+  Job& job = findJob(jobId);
+  if (isTerminal(job.progress.state))
+    throw FarmError(FarmError::Kind::kFailedPrecondition,
+                    jobId + " has ended (" + jobStateName(job.progress.state) + "): there is nothing to pause");
+  if (!job.paused) {
+    job.paused = true;
+    const size_t inFlight = leases_.ofJob(jobId).size();
+    job.addEvent("paused: no unit is leased until it is resumed" +
+                 (inFlight ? "; " + std::to_string(inFlight) + " lease(s) in flight finish and count" : std::string()));
+    persistState(job);
+    touch(job);
+  }
+  return infoOf(job);
+}
+
+JobInfo Coordinator::resumeJob(const std::string& jobId) {
+  MutexLock lock(mutex_);
+  Job& job = findJob(jobId);
+  if (isTerminal(job.progress.state))
+    throw FarmError(FarmError::Kind::kFailedPrecondition,
+                    jobId + " has ended (" + jobStateName(job.progress.state) + "): there is nothing to resume");
+  if (job.paused) {
+    job.paused = false;
+    job.addEvent("resumed");
+    persistState(job);
+    touch(job);  // (wakes the workers waiting for work)
+  }
+  return infoOf(job);
+}
+
+JobInfo Coordinator::approveJob(const std::string& jobId) {
+  MutexLock lock(mutex_);
+  Job& job = findJob(jobId);
+  if (!job.approved) {
+    job.approved = true;
+    job.addEvent("approved");
+    persistState(job);
+    touch(job);
+    updateDependencies();
+  }
+  return infoOf(job);
+}
+
+}  // namespace lensfarm
