@@ -73,6 +73,7 @@ void printStatus(const v1::JobStatus& s) {
   if (s.approved()) std::printf("approved:   yes\n");
   printPolicy(s.policy());
   for (const auto& w : s.waiting_for()) std::printf("waits for:  %s\n", logText(w).c_str());
+  if (!s.deadline_outlook().empty()) std::printf("outlook:    %s\n", logText(s.deadline_outlook()).c_str());
   if (hasSampleCap(p))
     std::printf("samples:    %llu / %llu per pixel (%llu / %llu units)\n",
                 (unsigned long long)p.samples_per_pixel_done(), (unsigned long long)p.samples_per_pixel_total(),

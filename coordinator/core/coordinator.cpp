@@ -392,6 +392,7 @@ JobInfo Coordinator::infoOf(const Job& job) const {
   info.paused = job.paused;
   info.approved = job.approved;
   if (!job.released && !isTerminal(job.progress.state)) info.waitingFor = dependencyWaits(job, nullptr);
+  if (!isTerminal(job.progress.state)) info.deadlineOutlook = job.progress.deadlineOutlook;
   info.stalledReason = stalledReason(job, Clock::now());
   info.progressFraction = progressFraction(
       info, std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count());

@@ -132,6 +132,9 @@ struct JobInfo {
   bool paused = false;                  // pauseJob: nothing of it is leased until resumeJob
   bool approved = false;                // approveJob: what "JOB:approved" dependencies wait for
   std::vector<std::string> waitingFor;  // its dependencies that do not hold yet, one line each
+  // A job with a target error and a deadline: whether the farm can reach the target in time, e.g.
+  // "on track: about 40 s of the farm's 2 workers needed, 120 s left"; empty otherwise.
+  std::string deadlineOutlook;
 
   double raysPerSecond() const { return elapsedSeconds > 0 ? double(stats.rays) / elapsedSeconds : 0.0; }
   double lightHitFraction() const { return stats.paths ? double(stats.lightHits) / double(stats.paths) : 0.0; }
@@ -607,9 +610,16 @@ class Coordinator {
   // no idle worker it prefers is waiting.
   bool policyAllows(const Job& job, const Worker& worker, Clock::time_point now) const
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // The deadline-aware share: a job with a target error and a deadline is *urgent* when, at its
+  // measured speed, reaching its target needs more of the farm's remaining time before the
+  // deadline than its fair share (1 / the owners with work at its priority). Urgent jobs come
+  // before the others of their priority, earliest deadline first. Updates the job's outlook (and
+  // says once, in an event, when the target is out of reach even with the whole farm).
+  bool urgent(Job& job, size_t ownersSharing, Clock::time_point now) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   // Among jobs that may be leased to a worker: whether `a` is served before `b` (priority, then
-  // fair share or submission order, Options::sharing).
-  bool leasedBefore(const Job& a, const Job& b) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // urgency (earliest deadline first), then fair share or submission order, Options::sharing).
+  // `urgentA`, `urgentB`: urgent() of each.
+  bool leasedBefore(const Job& a, bool urgentA, const Job& b, bool urgentB) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   // A lease of `unit` of `job` was granted: its owner and the job are charged (fair_share.h).
   void chargeShare(const Job& job, uint64_t unit) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   // Releases the jobs whose dependencies now hold, and fails (or marks waiting) those whose

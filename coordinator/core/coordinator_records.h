@@ -72,6 +72,14 @@ struct JobProgress {
   std::optional<Clock::time_point> finished;
   std::map<std::string, uint64_t> unitsByWorker;  // provenance
   std::map<std::string, uint64_t> unitsByBuild;   // the same by build and kernel (LedgerEntry::build)
+  // The job's speed on one worker (the deadline-aware share, scheduling.cpp): camera paths of the
+  // units counted this run, and the seconds the workers said they took to render them.
+  uint64_t pathsCounted = 0;
+  double renderSeconds = 0.0;
+  // The outlook of a job with a target error and a deadline (JobInfo::deadlineOutlook), and
+  // whether its target was said to be out of reach in an event (once).
+  std::string deadlineOutlook;
+  bool outOfReachReported = false;
   uint64_t version = 1;
   // Published accumulation progress (copied from the accumulator under mutex_).
   uint64_t unitsAdded = 0;

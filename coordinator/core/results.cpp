@@ -270,6 +270,8 @@ bool Coordinator::count(const UnitResult& result, const Admission& a, AuditBook:
     if (result.renderSeconds > 0.0) w->samplesPerSecond = double(result.stats.paths) / result.renderSeconds;
     if (w->currentUnit == result.unitIndex) w->currentUnit.reset();
   }
+  a.job->progress.pathsCounted += result.stats.paths;
+  a.job->progress.renderSeconds += std::max(0.0, result.renderSeconds);
   ++a.job->progress.unitsByWorker[a.workerName];
   ++a.job->progress.unitsByBuild[a.build];
   return true;

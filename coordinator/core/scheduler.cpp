@@ -7,7 +7,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <map>
+#include <set>
 #include <stdexcept>
+#include <vector>
 
 #include "common/farm/memory_estimate.h"
 #include "common/util/log_text.h"
@@ -47,7 +50,7 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   if (storageStall_) return std::nullopt;       // a result could not be kept now (persistence.cpp)
   // Units under audit first: they hold back their jobs' ends, and are few.
   if (auto grant = tryAuditLease(worker, now)) return grant;
-  Job* best = nullptr;
+  std::vector<Job*> candidates;
   for (auto& [id, job] : jobs_) {
     if (isTerminal(job->progress.state) || !job->progress.units.hasPending()) continue;
     if (!job->takes(worker.info)) continue;          // its units are for a worker with more memory, or another kernel
@@ -63,7 +66,16 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
     // queued again too (after a restart, one above a gap whose round is not allocated yet).
     if (job->definition.layout.adaptive() && job->film && !job->film->leasable(job->progress.units.peekPending()))
       continue;
-    if (!best || leasedBefore(*job, *best)) best = job.get();
+    candidates.push_back(job.get());
+  }
+  // The order among them (scheduling.cpp): priority, urgency by deadline, fair share.
+  std::map<int, std::set<std::string>> owners;  // by priority: the owners with work
+  for (const Job* job : candidates) owners[job->priority].insert(job->definition.owner);
+  Job* best = nullptr;
+  bool bestUrgent = false;
+  for (Job* job : candidates) {
+    const bool isUrgent = urgent(*job, owners[job->priority].size(), now);
+    if (!best || leasedBefore(*job, isUrgent, *best, bestUrgent)) best = job, bestUrgent = isUrgent;
   }
   if (!best) return tryBackupLease(worker, now);
   Job& job = *best;

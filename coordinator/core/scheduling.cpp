@@ -9,8 +9,10 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <set>
 
 #include "common/util/log_text.h"
 #include "coordinator/core/coordinator.h"
@@ -53,8 +55,61 @@ bool Coordinator::policyAllows(const Job& job, const Worker& worker, Clock::time
   return true;
 }
 
-bool Coordinator::leasedBefore(const Job& a, const Job& b) const {
+bool Coordinator::urgent(Job& job, size_t ownersSharing, Clock::time_point now) {
+  const RenderSettings& settings = job.definition.settings;
+  std::string& outlook = job.progress.deadlineOutlook;
+  outlook.clear();
+  if (!(settings.targetError > 0.0 && settings.timeLimitSeconds > 0.0)) return false;
+  const double nowUnix = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  const double left = job.definition.submittedUnixSeconds + settings.timeLimitSeconds - nowUnix;
+  if (!job.progress.estimate.valid || job.progress.pathsCounted == 0 || !(job.progress.renderSeconds > 0.0)) {
+    outlook = "measuring: its error and speed are not known yet";
+    return false;
+  }
+  const double error = job.progress.estimate.relativeRmse, target = settings.targetError;
+  if (error <= target || left <= 0.0) return false;
+  // The error's square falls as 1 / samples (film/convergence.h): the paths to the target, at
+  // the job's own measured speed on one worker, spread over the workers that may render it.
+  const double pathsLeft = double(job.progress.stats.paths) * ((error / target) * (error / target) - 1.0);
+  const double perWorkerSecond = double(job.progress.pathsCounted) / job.progress.renderSeconds;
+  const std::set<std::string> holders = leases_.holders();
+  size_t workers = 0;
+  for (const auto& [id, w] : workers_) {
+    double seconds = 0.0;
+    const WorkerState state = stateOf(*w, holders.count(id) > 0, now, &seconds);
+    workers += (state == WorkerState::kIdle || state == WorkerState::kRendering) && !w->quarantined &&
+               job.takes(w->info) && hasAllTags(w->info.tags, job.definition.policy.requireTags) &&
+               !job.failures.blocks(id);
+  }
+  if (job.definition.policy.maxWorkers) workers = std::min<size_t>(workers, *job.definition.policy.maxWorkers);
+  if (workers == 0) return false;
+  const double needed = pathsLeft / (perWorkerSecond * double(workers));
+  const double fair = 1.0 / double(std::max<size_t>(ownersSharing, 1));
+  const std::string figures = "about " + secondsText(needed) + " of the farm's " + std::to_string(workers) +
+                              " worker(s) to reach " + percentText(target) + " from " + percentText(error) + ", " +
+                              secondsText(left) + " left";
+  if (needed > left) {
+    outlook = "out of reach: " + figures + "; served first, it stops at its deadline with the error it reached";
+    if (!job.progress.outOfReachReported) {
+      job.progress.outOfReachReported = true;
+      job.addEvent("its target error cannot be met by its deadline: " + figures);
+    }
+  } else if (needed > fair * left) {
+    outlook = "at risk: " + figures + ", more than its fair share; served first";
+  } else {
+    outlook = "on track: " + figures;
+  }
+  return needed > fair * left;
+}
+
+bool Coordinator::leasedBefore(const Job& a, bool urgentA, const Job& b, bool urgentB) const {
   if (a.priority != b.priority) return a.priority > b.priority;
+  if (urgentA != urgentB) return urgentA;
+  if (urgentA) {  // earliest deadline first (Liu and Layland 1973)
+    const double endA = a.definition.submittedUnixSeconds + a.definition.settings.timeLimitSeconds;
+    const double endB = b.definition.submittedUnixSeconds + b.definition.settings.timeLimitSeconds;
+    if (endA != endB) return endA < endB;
+  }
   if (options_.sharing == Options::Sharing::kFairShare) {
     const std::string& ownerA = a.definition.owner;
     const std::string& ownerB = b.definition.owner;

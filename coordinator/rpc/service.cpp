@@ -191,6 +191,7 @@ v1::JobStatus toProto(const JobInfo& info) {
   s.set_paused(info.paused);
   s.set_approved(info.approved);
   for (const std::string& w : info.waitingFor) s.add_waiting_for(w);
+  s.set_deadline_outlook(info.deadlineOutlook);
   return s;
 }
 

@@ -27,6 +27,7 @@ json summaryOf(const JobInfo& info) {
   j["paused"] = info.paused;
   j["approved"] = info.approved;
   j["waiting_for"] = info.waitingFor;
+  j["deadline_outlook"] = info.deadlineOutlook;
   {
     json after = json::array();
     for (const Dependency& d : info.policy.after) after.push_back(dependencyText(d));

@@ -339,6 +339,55 @@ TEST(Scheduling, AuditsOfAJobGoOnlyToWorkersWithItsAuditTags) {
   EXPECT_EQ(c.job(job).auditsPending, 1u);
 }
 
+// A job of bob's to a target error of `target` within `deadlineSeconds`, beside a long job of
+// ann's, on one worker whose units take `unitSeconds`: which owner each of 12 leases goes to once
+// bob's error is known, and bob's outlook.
+struct DeadlineRun {
+  std::map<std::string, int> leases;
+  std::string outlook;
+  std::vector<JobInfo::Event> events;
+};
+DeadlineRun runBesideABigJob(double target, double deadlineSeconds, double unitSeconds) {
+  Coordinator c(noAudit());
+  const std::string ann = c.submit(test::minimalSpec(1000), 0, "ann").id;
+  nlohmann::json scene = test::minimalSceneJson();
+  scene["render"]["target_error"] = target;
+  scene["render"]["time_limit"] = deadlineSeconds;
+  const std::string bob = c.submit(test::specFor(scene, 1000, 1), 0, "bob").id;
+  const std::string w = c.registerWorker(workerInfo("w"));
+  const auto leaseAndReturn = [&] {
+    const auto g = c.lease(w, 0.0);
+    EXPECT_TRUE(g);
+    // Even and odd units apart by 0.1: an estimated error of about 20 %, far above the targets
+    // (film/convergence.h compares the two halves).
+    if (g) c.acceptResult(resultFor(w, *g, g->unit.index % 2 ? 0.2 : 0.3, unitSeconds));
+    return g ? g->jobId : std::string();
+  };
+  for (int i = 0; i < 40 && c.job(bob).estimatedRelativeError < 0.0; ++i) leaseAndReturn();
+  EXPECT_GE(c.job(bob).estimatedRelativeError, 0.0) << "bob's error is estimated";
+  DeadlineRun run;
+  for (int i = 0; i < 12; ++i) ++run.leases[leaseAndReturn() == ann ? "ann" : "bob"];
+  run.outlook = c.job(bob).deadlineOutlook;
+  run.events = c.job(bob).events;
+  return run;
+}
+
+TEST(Scheduling, AJobThatCannotMeetItsDeadlineOnItsShareIsServedFirstAndSaysSo) {
+  // On track: 0.01 % in 4 months at 12 paths a millisecond: its fair share does; the two alternate.
+  const DeadlineRun easy = runBesideABigJob(0.0001, 1e7, 0.001);
+  EXPECT_EQ(easy.leases.at("ann"), 6);
+  EXPECT_EQ(easy.leases.at("bob"), 6);
+  EXPECT_EQ(easy.outlook.rfind("on track: about ", 0), 0u) << easy.outlook;
+  // 0.01 % in 100 s at 12 paths a second: out of reach even with the whole farm; served first.
+  const DeadlineRun hard = runBesideABigJob(0.0001, 100.0, 1.0);
+  EXPECT_EQ(hard.leases.count("ann"), 0u);
+  EXPECT_EQ(hard.leases.at("bob"), 12);
+  EXPECT_EQ(hard.outlook.rfind("out of reach: about ", 0), 0u) << hard.outlook;
+  EXPECT_NE(hard.outlook.find("of the farm's 1 worker(s) to reach 0.01 %"), std::string::npos) << hard.outlook;
+  ASSERT_FALSE(hard.events.empty());
+  EXPECT_EQ(hard.events.back().text.rfind("its target error cannot be met by its deadline", 0), 0u);
+}
+
 TEST(Scheduling, PolicyPauseApprovalAndWaitingSurviveARestart) {
   test::TempDir dir;
   Coordinator::Options options = noAudit();

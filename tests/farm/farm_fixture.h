@@ -112,7 +112,7 @@ class FarmFixture : public ::testing::Test {
   uint64_t unitsDone(const std::string& address, const std::string& job) {
     const auto r = cli({"status", job, "--coordinator", address});
     std::smatch m;
-    if (!std::regex_search(r.out, m, std::regex(R"(\(([0-9]+) / [0-9]+ units\))"))) return 0;
+    if (!std::regex_search(r.out, m, std::regex(R"(\(([0-9]+)( / [0-9]+)? units)"))) return 0;
     return std::stoull(m[1]);
   }
 

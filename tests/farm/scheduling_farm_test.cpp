@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <regex>
@@ -64,6 +65,38 @@ TEST_F(SchedulingFarm, TwoOwnersSubmittingAtOnceEachGetHalfTheFarm) {
   EXPECT_NEAR(share, 0.5, 0.1) << annUnits << " units of ann's job, " << bobUnits << " of bob's";
   for (const std::string& job : {ann, bob}) ASSERT_TRUE(test::waitFor([&] { return isDone(address, job); }, 300));
   expectFarmImageIsTheLocalRender(address, bob, scene, "a shared job's image is the render's, bit for bit");
+}
+
+TEST_F(SchedulingFarm, AJobWithADeadlineMeetsItWhileABigJobRuns) {
+  const fs::path scene = writeScene(64, 4096, 4);  // to 3 % error: some seconds on two workers
+  const std::string address = startCoordinator("127.0.0.1:0", {"--audit-fraction", "0"});
+  startWorker(address, "w1");
+  startWorker(address, "w2");
+  // How long the whole farm takes to 3 %, alone.
+  const auto start = std::chrono::steady_clock::now();
+  const std::string probe = submit(address, scene, {"--owner", "bob", "--target-error", "0.03"});
+  ASSERT_EQ(cli({"watch", probe, "--coordinator", address}).exitCode, 0);
+  const double alone = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  // ann's big job takes the farm; bob's job then has 1.25x that time: its fair half would take 2x.
+  const std::string big = submit(address, writeScene(64, 1 << 20, 4), {"--owner", "ann"});
+  ASSERT_TRUE(test::waitFor([&] { return unitsDone(address, big) >= 4; }, 120));
+  const uint64_t bigBefore = unitsDone(address, big);
+  const double deadline = 1.25 * alone;
+  const std::string bob = submit(
+      address, scene, {"--owner", "bob", "--target-error", "0.03", "--deadline", std::to_string(deadline) + "s"});
+  ASSERT_EQ(cli({"watch", bob, "--coordinator", address}).exitCode, 0);
+  const std::string done = status(address, bob);
+  const uint64_t bigDuring = unitsDone(address, big) - bigBefore, bobUnits = unitsDone(address, bob);
+  std::printf(
+      "deadline share: alone to 3 %% in %.1f s; beside the big job, deadline %.1f s: %s; the big job took %llu "
+      "units meanwhile, bob's %llu\n",
+      alone, deadline, test::contains(done, "target error reached") ? "target reached" : "missed",
+      (unsigned long long)bigDuring, (unsigned long long)bobUnits);
+  EXPECT_TRUE(test::contains(done, "stopped:    target error reached")) << done;
+  // Served first whenever its share would not do (fair share alone gives the two about as many
+  // units, and bob's job would miss): the big job got clearly fewer.
+  EXPECT_LT(double(bigDuring), 0.7 * double(bobUnits)) << done;
+  ASSERT_EQ(cli({"cancel", big, "--coordinator", address}).exitCode, 0);
 }
 
 TEST_F(SchedulingFarm, APausedJobStaysPausedAcrossARestartAndEndsWithTheRendersBits) {
