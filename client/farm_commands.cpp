@@ -58,6 +58,13 @@ void printPolicy(const v1::JobPolicy& wire) {
   if (!p.auditRequireTags.empty()) std::printf("audits on:  %s\n", tagsText(p.auditRequireTags).c_str());
   if (p.maxWorkers) std::printf("max workers: %u\n", *p.maxWorkers);
   if (p.shareWeight != 1.0) std::printf("share:      %g\n", p.shareWeight);
+  if (p.maxUnitFailures || p.maxWorkerFailures || p.unitTimeLimitSeconds || p.onFailure == OnFailure::kPause) {
+    std::string limits;
+    if (p.maxUnitFailures) limits += "a unit on " + std::to_string(*p.maxUnitFailures) + " workers; ";
+    if (p.maxWorkerFailures) limits += std::to_string(*p.maxWorkerFailures) + " on one worker; ";
+    if (p.unitTimeLimitSeconds) limits += "units within " + std::to_string(*p.unitTimeLimitSeconds) + " s; ";
+    std::printf("failures:   %sthen %s\n", limits.c_str(), p.onFailure == OnFailure::kPause ? "pause" : "fail");
+  }
 }
 
 void printStatus(const v1::JobStatus& s) {

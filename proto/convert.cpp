@@ -124,6 +124,10 @@ v1::JobPolicy toProto(const JobPolicy& policy) {
   for (const std::string& t : policy.auditRequireTags) p.add_audit_require_tags(t);
   if (policy.maxWorkers) p.set_max_workers(*policy.maxWorkers);
   p.set_share_weight(policy.shareWeight);
+  if (policy.maxUnitFailures) p.set_max_unit_failures(*policy.maxUnitFailures);
+  if (policy.maxWorkerFailures) p.set_max_worker_failures(*policy.maxWorkerFailures);
+  if (policy.unitTimeLimitSeconds) p.set_unit_time_limit_seconds(*policy.unitTimeLimitSeconds);
+  p.set_on_failure(policy.onFailure == OnFailure::kPause ? v1::ON_FAILURE_PAUSE : v1::ON_FAILURE_FAIL);
   return p;
 }
 
@@ -154,6 +158,14 @@ JobPolicy fromProto(const v1::JobPolicy& p) {
   policy.auditRequireTags.assign(p.audit_require_tags().begin(), p.audit_require_tags().end());
   if (p.has_max_workers()) policy.maxWorkers = p.max_workers();
   policy.shareWeight = p.share_weight() == 0.0 ? 1.0 : p.share_weight();
+  if (p.has_max_unit_failures()) policy.maxUnitFailures = p.max_unit_failures();
+  if (p.has_max_worker_failures()) policy.maxWorkerFailures = p.max_worker_failures();
+  if (p.has_unit_time_limit_seconds()) policy.unitTimeLimitSeconds = p.unit_time_limit_seconds();
+  if (p.on_failure() != v1::ON_FAILURE_UNSPECIFIED && p.on_failure() != v1::ON_FAILURE_FAIL &&
+      p.on_failure() != v1::ON_FAILURE_PAUSE)
+    throw FarmError(FarmError::Kind::kInvalidArgument,
+                    "on_failure: unknown value " + std::to_string(int(p.on_failure())));
+  policy.onFailure = p.on_failure() == v1::ON_FAILURE_PAUSE ? OnFailure::kPause : OnFailure::kFail;
   return policy;
 }
 

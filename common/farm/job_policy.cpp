@@ -130,6 +130,14 @@ void checkPolicy(const JobPolicy& policy) {
     invalid("max_workers", "0 workers would never render it; leave it unset for no cap");
   if (!(std::isfinite(policy.shareWeight) && policy.shareWeight > 0.0 && policy.shareWeight <= 1e6))
     invalid("share_weight", "must be a number above 0 and at most 1e6");
+  if (policy.maxUnitFailures && (*policy.maxUnitFailures < 1 || *policy.maxUnitFailures > 1000))
+    invalid("max_unit_failures", "must be 1 to 1000");
+  if (policy.maxWorkerFailures && (*policy.maxWorkerFailures < 1 || *policy.maxWorkerFailures > 1000))
+    invalid("max_worker_failures", "must be 1 to 1000");
+  if (policy.unitTimeLimitSeconds &&
+      !(std::isfinite(*policy.unitTimeLimitSeconds) && *policy.unitTimeLimitSeconds >= 0.1 &&
+        *policy.unitTimeLimitSeconds <= 7 * 24 * 3600.0))
+    invalid("unit_time_limit_seconds", "must be 0.1 s to 7 days");
 }
 
 bool hasAllTags(const std::vector<std::string>& have, const std::vector<std::string>& need) {
@@ -153,6 +161,10 @@ std::string policyToJson(const JobPolicy& p) {
             {"audit_require_tags", p.auditRequireTags},
             {"share_weight", p.shareWeight}};
   if (p.maxWorkers) j["max_workers"] = *p.maxWorkers;
+  if (p.maxUnitFailures) j["max_unit_failures"] = *p.maxUnitFailures;
+  if (p.maxWorkerFailures) j["max_worker_failures"] = *p.maxWorkerFailures;
+  if (p.unitTimeLimitSeconds) j["unit_time_limit_seconds"] = *p.unitTimeLimitSeconds;
+  j["on_failure"] = p.onFailure == OnFailure::kPause ? "pause" : "fail";
   return j.dump();
 }
 
@@ -169,6 +181,10 @@ JobPolicy policyFromJson(const std::string& text, std::string* damage) {
     p.auditRequireTags = j.at("audit_require_tags").get<std::vector<std::string>>();
     p.shareWeight = j.at("share_weight").get<double>();
     if (j.contains("max_workers")) p.maxWorkers = j.at("max_workers").get<uint32_t>();
+    if (j.contains("max_unit_failures")) p.maxUnitFailures = j.at("max_unit_failures").get<uint32_t>();
+    if (j.contains("max_worker_failures")) p.maxWorkerFailures = j.at("max_worker_failures").get<uint32_t>();
+    if (j.contains("unit_time_limit_seconds")) p.unitTimeLimitSeconds = j.at("unit_time_limit_seconds").get<double>();
+    p.onFailure = j.value("on_failure", "fail") == "pause" ? OnFailure::kPause : OnFailure::kFail;
     checkPolicy(p);
   } catch (const std::exception& e) {
     if (damage)

@@ -29,6 +29,11 @@ struct Dependency {
 // the reason, until a person cancels it).
 enum class OnDependencyFailure { kFail, kWait };
 
+// What a job does when its failures reach its limits (a unit failed on maxUnitFailures workers,
+// or no worker is left that has not failed it): fail, or pause itself with the reason (resuming it
+// forgets its failures and tries again).
+enum class OnFailure { kFail, kPause };
+
 struct JobPolicy {
   std::vector<Dependency> after;  // every one must hold before its first unit is leased
   OnDependencyFailure onDependencyFailure = OnDependencyFailure::kFail;
@@ -37,6 +42,12 @@ struct JobPolicy {
   std::vector<std::string> auditRequireTags;  // an audit of it only by a worker with all of these
   std::optional<uint32_t> maxWorkers;         // at most this many workers at once; unset: no cap
   double shareWeight = 1.0;                   // its share among its owner's jobs (fair share)
+  // Failures (docs/farm.md "Failures"); unset: the coordinator's --max-unit-failures,
+  // --max-failures-per-worker and --max-lease (a unit's longest time, after which its lease lapses
+  // and counts as a failure of that worker).
+  std::optional<uint32_t> maxUnitFailures, maxWorkerFailures;
+  std::optional<double> unitTimeLimitSeconds;
+  OnFailure onFailure = OnFailure::kFail;
   bool operator==(const JobPolicy&) const = default;
 };
 

@@ -68,8 +68,7 @@ std::optional<LeaseGrant> Coordinator::tryAuditLease(Worker& worker, Clock::time
     job.audit.audits.release(unit, worker.id);
     return std::nullopt;
   }
-  const auto longest = now + std::chrono::duration_cast<Clock::duration>(
-                                 std::chrono::duration<double>(std::max(options_.maxLeaseSeconds, 1e-3)));
+  const auto longest = longestLeaseEnd(job, now);
   // The grant looks like any other: a worker cannot tell an audit from a unit queued again.
   const uint64_t leaseId =
       leases_.grant(worker.id, job.definition.id, unit, leaseDeadline(now), longest, /*audit=*/true);

@@ -554,6 +554,13 @@ class Coordinator {
     bool audited = false;     // chosen for audit: its sums are kept to compare
   };
   void checkProducible(const UnitResult& result) ABSL_LOCKS_EXCLUDED(mutex_);
+  // A failure of `unit` of `job` on `worker` (reported, or its unit time limit passed): counted
+  // against the job's limits (its policy's, else Options'), which fail or pause the job.
+  void recordFailure(Job& job, Worker& worker, uint64_t unit, const std::string& error)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // The longest a lease of `job` granted at `now` may be held: Options::maxLeaseSeconds, or the
+  // job's unit time limit if shorter.
+  Clock::time_point longestLeaseEnd(const Job& job, Clock::time_point now) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   Admission admit(const UnitResult& result) ABSL_LOCKS_EXCLUDED(mutex_);
   void record(const UnitResult& result, const Admission& a) ABSL_LOCKS_EXCLUDED(mutex_);
   bool count(const UnitResult& result, const Admission& a, AuditBook::Sums kept) ABSL_LOCKS_EXCLUDED(mutex_);

@@ -32,6 +32,14 @@ class JobFailures {
   // failed on.
   size_t record(uint64_t unit, const std::string& workerId, const std::string& reason, uint32_t maxPerWorker);
   bool blocks(const std::string& workerId) const { return blocklist_.count(workerId) > 0; }
+  // Forgets the failures, their reasons and the blocklist (a job resumed after its failure policy
+  // paused it tries again); the workers gone are kept.
+  void forgetFailures() {
+    byWorker_.clear();
+    unitFailedOn_.clear();
+    reasons_.clear();
+    blocklist_.clear();
+  }
   std::string reasons() const;  // "; " between them, oldest first
 
   // Worker `name` (its id where unnamed) went holding units: the last loss is `loss`.

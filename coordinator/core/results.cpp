@@ -339,23 +339,41 @@ void Coordinator::reportFailure(const std::string& workerId, uint64_t leaseId, c
     changed_.notify_all();
     return;
   }
+  recordFailure(job, worker, unit, error);
+}
+
+void Coordinator::recordFailure(Job& job, Worker& worker, uint64_t unit, const std::string& error) {
   ++worker.failures;
   const std::string reason = worker.label() + ": " + error;
   spdlog::warn("job {}: unit {} failed on {}", job.definition.id, unit, logText(reason));
-  const size_t failedOn = job.failures.record(unit, workerId, reason, options_.maxFailuresPerWorker);
-  // The job fails when the unit failed on enough workers, or no live worker may take it.
+  const JobPolicy& policy = job.definition.policy;  // its own limits, else the coordinator's
+  const uint32_t maxUnitFailures = policy.maxUnitFailures.value_or(options_.maxUnitFailures);
+  const size_t failedOn =
+      job.failures.record(unit, worker.id, reason, policy.maxWorkerFailures.value_or(options_.maxFailuresPerWorker));
+  // The job fails (or pauses, by its policy) when the unit failed on enough workers, or no live
+  // worker may take it.
   bool anyoneLeft = false;
   for (const auto& [id, w] : workers_) anyoneLeft |= !w->gone && !job.failures.blocks(id);
-  if (failedOn >= options_.maxUnitFailures || !anyoneLeft) {
+  const bool requeue = !job.progress.units.isReceived(unit) && !job.progress.units.isRecording(unit) &&
+                       leases_.unitLeases(job.definition.id, unit).empty();  // (a backup still renders it)
+  if (failedOn >= maxUnitFailures || !anyoneLeft) {
     const std::string reasons = job.failures.reasons();
-    job.progress.error = failedOn >= options_.maxUnitFailures ? "unit " + std::to_string(unit) + " failed on " +
-                                                                    std::to_string(failedOn) + " workers: " + reasons
-                                                              : "no worker left that has not failed it: " + reasons;
-    end(job, JobState::kFailed);
-    spdlog::error("job {}: failed: {}", job.definition.id, logText(job.progress.error));
-  } else if (!job.progress.units.isReceived(unit) && !job.progress.units.isRecording(unit) &&
-             leases_.unitLeases(jobId, unit).empty()) {  // (a backup still renders it)
-    job.progress.units.requeue(unit);                    // for another worker (or this one, until it is blocklisted)
+    const std::string why = failedOn >= maxUnitFailures ? "unit " + std::to_string(unit) + " failed on " +
+                                                              std::to_string(failedOn) + " workers: " + reasons
+                                                        : "no worker left that has not failed it: " + reasons;
+    if (policy.onFailure == OnFailure::kPause) {
+      if (requeue) job.progress.units.requeue(unit);  // kept for when it is resumed
+      job.paused = true;
+      job.addEvent("paused by its failure policy: " + why +
+                   "; resume it (lensfarm resume) to forget its failures and try again, or cancel it");
+      persistState(job);
+    } else {
+      job.progress.error = why;
+      end(job, JobState::kFailed);
+      spdlog::error("job {}: failed: {}", job.definition.id, logText(job.progress.error));
+    }
+  } else if (requeue) {
+    job.progress.units.requeue(unit);  // for another worker (or this one, until it is blocklisted)
     changed_.notify_all();
   }
   touch(job);

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <map>
 #include <set>
 #include <stdexcept>
@@ -25,9 +26,34 @@ Coordinator::Clock::time_point Coordinator::leaseDeadline(Clock::time_point now)
   return now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options_.leaseTimeoutSeconds));
 }
 
+Coordinator::Clock::time_point Coordinator::longestLeaseEnd(const Job& job, Clock::time_point now) const {
+  double seconds = std::max(options_.maxLeaseSeconds, 1e-3);
+  if (job.definition.policy.unitTimeLimitSeconds)
+    seconds = std::min(seconds, *job.definition.policy.unitTimeLimitSeconds);
+  return now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+}
+
 void Coordinator::reapExpiredLeases(Clock::time_point now) {
   for (const auto& [leaseId, lease] : leases_.takeExpired(now)) {
     Job& job = findJob(lease.jobId);
+    const std::optional<double> limit = job.definition.policy.unitTimeLimitSeconds;
+    if (limit && !lease.audit && lease.deadline >= lease.longestEnd && !isTerminal(job.progress.state) &&
+        !job.progress.units.isReceived(lease.unit) && !job.progress.units.isRecording(lease.unit)) {
+      // Its unit time limit passed (a worker that heartbeats but never finishes): a failure of that
+      // worker, by the job's limits; the unit goes back to the queue.
+      ++counters_.unitsExpired;
+      if (Worker* w = workers_.known(lease.workerId)) {
+        if (w->currentJobId == job.definition.id) w->currentJobId.clear();
+        char text[32];
+        std::snprintf(text, sizeof text, "%.3g s", *limit);
+        recordFailure(job, *w, lease.unit,
+                      "unit " + std::to_string(lease.unit) + " took longer than its time limit of " + text);
+      } else if (leases_.unitLeases(job.definition.id, lease.unit).empty()) {
+        job.progress.units.requeue(lease.unit);
+      }
+      changed_.notify_all();
+      continue;
+    }
     spdlog::warn("job {}: lease {} of unit {} held by {} lapsed; the unit goes back to the queue", job.definition.id,
                  leaseId, lease.unit, lease.workerId);
     if (lease.audit) job.audit.audits.release(lease.unit, lease.workerId);
@@ -82,8 +108,7 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   if (job.kernel.empty()) pinKernel(job, worker);
   const uint64_t unit = job.progress.units.takePending();
   chargeShare(job, unit);
-  const auto longest = now + std::chrono::duration_cast<Clock::duration>(
-                                 std::chrono::duration<double>(std::max(options_.maxLeaseSeconds, 1e-3)));
+  const auto longest = longestLeaseEnd(job, now);
   const uint64_t leaseId = leases_.grant(worker.id, job.definition.id, unit, leaseDeadline(now), longest);
   ++counters_.unitsLeased;
   if (!job.progress.started) job.progress.started = now;
@@ -181,8 +206,7 @@ std::optional<LeaseGrant> Coordinator::tryBackupLease(Worker& worker, Clock::tim
   bool ready = true;
   WorkUnit leased = unitToLease(job, unit, &ready);
   if (!ready) return std::nullopt;
-  const auto longest = now + std::chrono::duration_cast<Clock::duration>(
-                                 std::chrono::duration<double>(std::max(options_.maxLeaseSeconds, 1e-3)));
+  const auto longest = longestLeaseEnd(job, now);
   const uint64_t leaseId = leases_.grant(worker.id, job.definition.id, unit, leaseDeadline(now), longest);
   ++counters_.unitsLeased;
   ++counters_.backupLeases;

@@ -269,6 +269,7 @@ JobInfo Coordinator::resumeJob(const std::string& jobId) {
                     jobId + " has ended (" + jobStateName(job.progress.state) + "): there is nothing to resume");
   if (job.paused) {
     job.paused = false;
+    job.failures.forgetFailures();  // (a job its failure policy paused tries again afresh)
     job.addEvent("resumed");
     persistState(job);
     touch(job);  // (wakes the workers waiting for work)

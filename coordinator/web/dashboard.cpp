@@ -31,12 +31,18 @@ json summaryOf(const JobInfo& info) {
   {
     json after = json::array();
     for (const Dependency& d : info.policy.after) after.push_back(dependencyText(d));
-    j["policy"] = {{"after", after},
-                   {"require_tags", info.policy.requireTags},
-                   {"prefer_tags", info.policy.preferTags},
-                   {"audit_require_tags", info.policy.auditRequireTags},
-                   {"max_workers", info.policy.maxWorkers ? json(*info.policy.maxWorkers) : json(nullptr)},
-                   {"share_weight", info.policy.shareWeight}};
+    j["policy"] = {
+        {"after", after},
+        {"require_tags", info.policy.requireTags},
+        {"prefer_tags", info.policy.preferTags},
+        {"audit_require_tags", info.policy.auditRequireTags},
+        {"max_workers", info.policy.maxWorkers ? json(*info.policy.maxWorkers) : json(nullptr)},
+        {"share_weight", info.policy.shareWeight},
+        {"max_unit_failures", info.policy.maxUnitFailures ? json(*info.policy.maxUnitFailures) : json(nullptr)},
+        {"max_worker_failures", info.policy.maxWorkerFailures ? json(*info.policy.maxWorkerFailures) : json(nullptr)},
+        {"unit_time_limit_seconds",
+         info.policy.unitTimeLimitSeconds ? json(*info.policy.unitTimeLimitSeconds) : json(nullptr)},
+        {"on_failure", info.policy.onFailure == OnFailure::kPause ? "pause" : "fail"}};
   }
   j["width"] = info.width;
   j["height"] = info.height;

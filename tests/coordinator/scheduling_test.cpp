@@ -388,6 +388,58 @@ TEST(Scheduling, AJobThatCannotMeetItsDeadlineOnItsShareIsServedFirstAndSaysSo) 
   EXPECT_EQ(hard.events.back().text.rfind("its target error cannot be met by its deadline", 0), 0u);
 }
 
+TEST(Scheduling, AJobsOwnFailureLimitsFailOrPauseItAndResumingTriesAgain) {
+  Coordinator c(noAudit());  // the coordinator's limits: 3 workers a unit, 3 failures a worker
+  JobPolicy strict;
+  strict.maxUnitFailures = 1;
+  const std::string failsAtOnce = c.submit(smallSpec(2), 0, "ann", strict).id;
+  JobPolicy pausing;
+  pausing.maxWorkerFailures = 1;
+  pausing.onFailure = OnFailure::kPause;
+  const std::string pauses = c.submit(smallSpec(2), 0, "bob", pausing).id;
+  const std::string w = c.registerWorker(workerInfo("w"));
+  for (int i = 0; i < 2; ++i) {
+    const auto g = c.lease(w, 0.0);
+    ASSERT_TRUE(g);
+    c.reportFailure(w, g->leaseId, g->jobId, "out of disk");
+  }
+  const JobInfo failed = c.job(failsAtOnce);
+  EXPECT_EQ(failed.state, JobState::kFailed);
+  EXPECT_NE(failed.error.find("unit 0 failed on 1 workers: w (" + w + "): out of disk"), std::string::npos)
+      << failed.error;
+  // One failure blocklists the only worker: the job pauses, keeping its work, instead of failing.
+  const JobInfo paused = c.job(pauses);
+  EXPECT_EQ(paused.state, JobState::kRunning);
+  EXPECT_TRUE(paused.paused);
+  EXPECT_NE(paused.events.back().text.find("paused by its failure policy: no worker left"), std::string::npos);
+  EXPECT_FALSE(c.lease(w, 0.0));
+  c.resumeJob(pauses);  // forgets the failures: the same worker may try again
+  const auto again = c.lease(w, 0.0);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->jobId, pauses);
+  EXPECT_EQ(again->unit.index, 0u);
+}
+
+TEST(Scheduling, AUnitPastItsTimeLimitLapsesAndCountsAsAFailure) {
+  Coordinator::Options options = noAudit();
+  options.leaseTimeoutSeconds = 60.0;  // heartbeats would keep it for a minute; the limit does not
+  Coordinator c(options);
+  JobPolicy limited;
+  limited.unitTimeLimitSeconds = 0.2;
+  limited.maxUnitFailures = 2;
+  const std::string job = c.submit(smallSpec(1), 0, "ann", limited).id;
+  const std::string a = c.registerWorker(workerInfo("a")), b = c.registerWorker(workerInfo("b"));
+  for (const std::string& w : {a, b}) {
+    const auto g = c.lease(w, 5.0);  // (waits for the unit to come back from the first worker)
+    ASSERT_TRUE(g) << w;
+    EXPECT_EQ(g->unit.index, 0u);
+    ASSERT_TRUE(test::waitFor([&] { return !c.heartbeat(w, {g->leaseId}).empty(); }, 10.0)) << "revoked at its limit";
+  }
+  const JobInfo failed = c.job(job);
+  EXPECT_EQ(failed.state, JobState::kFailed);
+  EXPECT_NE(failed.error.find("unit 0 took longer than its time limit of 0.2 s"), std::string::npos) << failed.error;
+}
+
 TEST(Scheduling, PolicyPauseApprovalAndWaitingSurviveARestart) {
   test::TempDir dir;
   Coordinator::Options options = noAudit();

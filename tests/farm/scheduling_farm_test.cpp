@@ -193,6 +193,8 @@ TEST_F(SchedulingFarm, BadSchedulingRequestsGetOneClearErrorAndQueueNothing) {
   refused({"--after", "job-1:error<=0%"}, test::kBadInput, "above 0 and at most 100 %");
   refused({"--max-workers", "0"}, test::kBadInput, "--max-workers: 0 workers would never render it");
   refused({"--require", "Big Mem"}, test::kBadInput, "--require: \"Big Mem\": a tag is lower-case letters");
+  refused({"--max-unit-failures", "0"}, test::kBadInput, "--max-unit-failures: must be 1 to 1000");
+  refused({"--unit-time-limit", "0.01"}, test::kBadInput, "--unit-time-limit: must be 0.1 s to 7 days");
   const auto jobs = cli({"jobs", "--coordinator", address});
   EXPECT_EQ(test::lines(jobs.out).size(), 1u) << "nothing was queued: " << jobs.out;
   const auto badWorker = test::runProcess({test::workerPath(), "--coordinator", address, "--tags", "gpu/a"}, 30);
