@@ -411,6 +411,19 @@ TEST_F(DashboardFarm, ARealBrowserWatchesTheImageChangeAndCancels) {
   EXPECT_EQ(browser.text("#job-state"), "running");
   browser.screenshot(fs::path(LENSFARM_BINARY_DIR) / "dashboard.png");
 
+  // Pause, resume and approve (docs/farm.md "Scheduling"): the page and the coordinator agree.
+  browser.click("#pause");
+  ASSERT_TRUE(test::waitFor([&] { return browser.text("#pause") == "Resume"; }, 30)) << browser.text("#pause");
+  EXPECT_NE(browser.text("#job-paused").find("no unit is leased"), std::string::npos);
+  EXPECT_NE(status(job).find("paused:     yes"), std::string::npos) << status(job);
+  browser.click("#pause");
+  ASSERT_TRUE(test::waitFor([&] { return browser.text("#pause") == "Pause"; }, 30)) << browser.text("#pause");
+  EXPECT_EQ(status(job).find("paused:     yes"), std::string::npos) << status(job);
+  browser.click("#approve");
+  ASSERT_TRUE(
+      test::waitFor([&] { return browser.run("return document.querySelector('#approve').disabled;") == true; }, 30));
+  EXPECT_NE(status(job).find("approved:   yes"), std::string::npos) << status(job);
+
   // Cancel: the page and the coordinator agree.
   browser.click("#cancel");
   ASSERT_TRUE(test::waitFor([&] { return browser.text("#job-state") == "cancelled"; }, 30))

@@ -203,11 +203,20 @@ async function renderJob(jobId) {
     ...stat("Workers busy", job.workers_busy),
     ...(job.owner ? stat("Owner", job.owner, "job-owner") : []),
     ...(job.archived ? stat("Archived", "final image kept; sensor and ledger freed", "job-archived") : []),
+    ...(job.paused ? stat("Paused", "no unit is leased until it is resumed", "job-paused") : []),
+    ...(job.waiting_for && job.waiting_for.length ? stat("Waits for", job.waiting_for.join("; "), "job-waiting") : []),
+    ...(job.deadline_outlook ? stat("Deadline", job.deadline_outlook, "job-outlook") : []),
+    ...(job.policy && job.policy.require_tags.length ? stat("Requires", job.policy.require_tags.join(", "), "job-requires") : []),
+    ...(job.approved ? stat("Approved", "yes", "job-approved") : []),
     ...(job.stalled_reason ? stat("Stalled", job.stalled_reason, "job-stalled") : []),
     ...(audit ? stat("Audit", audit, "job-audit") : []));
   $("#job-priority").textContent = job.priority;
   const mayAct = running && access !== "read";
   $("#cancel").disabled = !mayAct;
+  // Pause and resume: one button, its label the action it takes (docs/farm.md "Scheduling").
+  $("#pause").disabled = !mayAct;
+  $("#pause").textContent = job.paused ? "Resume" : "Pause";
+  $("#approve").disabled = access === "read" || job.approved;
   $("#priority-up").disabled = $("#priority-down").disabled = !mayAct;
   $("#effects").replaceChildren(...job.effects.map((e) => {
     const m = /^([^:]+): (on|off)(?: \((.*)\))?$/.exec(e);
@@ -388,6 +397,17 @@ $("#ev-auto").addEventListener("click", () => { evChoice = null; poll(); });
 $("#cancel").addEventListener("click", async () => {
   if (!lastJob) return;
   try { await postJson(`/api/jobs/${encodeURIComponent(lastJob.id)}/cancel`); } catch (e) { report(e); }
+  poll();
+});
+$("#pause").addEventListener("click", async () => {
+  if (!lastJob) return;
+  const action = lastJob.paused ? "resume" : "pause";
+  try { await postJson(`/api/jobs/${encodeURIComponent(lastJob.id)}/${action}`); } catch (e) { report(e); }
+  poll();
+});
+$("#approve").addEventListener("click", async () => {
+  if (!lastJob) return;
+  try { await postJson(`/api/jobs/${encodeURIComponent(lastJob.id)}/approve`); } catch (e) { report(e); }
   poll();
 });
 for (const [id, delta] of [["#priority-up", 1], ["#priority-down", -1]]) {
