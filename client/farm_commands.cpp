@@ -472,6 +472,11 @@ Runner addWorkersCommand(CLI::App& app) {
           for (const std::string& k : w.kernels()) kernels += (kernels.empty() ? "" : " ") + k;
           state += "; kernels " + kernels;
         }
+        if (w.tags_size() > 0) {  // docs/farm.md "Scheduling"
+          std::string tags;
+          for (const std::string& t : w.tags()) tags += (tags.empty() ? "" : ",") + t;
+          state += "; tags " + tags;
+        }
         std::printf("%-18s %-28s %7u %-10s %8llu %9.1fs  %s\n", logText(w.worker_id()).c_str(),
                     logText(w.name()).c_str(), w.threads(),
                     w.current_job_id().empty() ? "-" : w.current_job_id().c_str(), (unsigned long long)w.units_done(),

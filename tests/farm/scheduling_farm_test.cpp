@@ -163,6 +163,12 @@ TEST_F(SchedulingFarm, TagsDependenciesAndApprovalOverTheCli) {
   const auto listed = cli({"jobs", "--coordinator", address});
   EXPECT_TRUE(std::regex_search(listed.out, std::regex(onApproval + ".*\\(waiting\\)"))) << listed.out;
   startTaggedWorker(address, "big", "bigmem,studio-b");
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        return test::contains(cli({"workers", "--coordinator", address}).out, "; tags bigmem,studio-b");
+      },
+      60))
+      << cli({"workers", "--coordinator", address}).out;
   const auto watched = cli({"watch", big, "--coordinator", address});
   ASSERT_EQ(watched.exitCode, 0) << watched.err;
   ASSERT_TRUE(test::waitFor([&] { return isDone(address, onError); }, 120)) << status(address, onError);
