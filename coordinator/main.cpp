@@ -29,6 +29,7 @@
 #include "common/util/error.h"
 #include "common/util/file_contents.h"
 #include "common/util/flag_checks.h"
+#include "common/util/hash.h"
 #include "common/util/listen_check.h"
 #include "common/util/log_text.h"
 #include "common/util/logging.h"
@@ -38,6 +39,7 @@
 #include "coordinator/core/coordinator.h"
 #include "coordinator/core/metrics.h"
 #include "coordinator/rpc/service.h"
+#include "coordinator/rpc/users.h"
 #include "coordinator/web/dashboard.h"
 #include "coordinator/web/dashboard_server.h"
 #include "coordinator/web/metrics_server.h"
@@ -75,6 +77,7 @@ using namespace lensfarm;
 struct Flags {
   std::string listen = "127.0.0.1:7878", portFile, logLevel = "info";
   std::string clientTokenFile, workerTokenFile, workerCredentialsFile, viewerTokenFile, tlsCert, tlsKey, tlsClientCa;
+  std::string usersFile;
   std::string metricsListen, metricsPortFile, dashboardListen, dashboardPortFile;
   std::string stateDir, uploadEncoding = "shuffle-zstd", maxJobMemory, memoryBudget, maxAssetBytes, keep = "0",
                         archiveAfter = "0";
@@ -92,6 +95,11 @@ void addServingFlags(CLI::App& app, Flags& f) {
                  "File holding the token clients must present (or set LENSFARM_CLIENT_TOKEN)");
   app.add_option("--worker-token-file", f.workerTokenFile,
                  "File holding the token workers must present (or set LENSFARM_WORKER_TOKEN)");
+  app.add_option("--users", f.usersFile,
+                 "File of people, one \"NAME ROLE SHA256-OF-TOKEN\" a line (roles admin, submitter, viewer): each "
+                 "uses the client service with a token of their own, owns the jobs they submit and acts on their own "
+                 "only unless admin (docs/farm.md \"People and permissions\"); needs --client-token-file")
+      ->envname("LENSFARM_USERS");
   app.add_option("--worker-credentials", f.workerCredentialsFile,
                  "File of per-machine worker credentials, one \"NAME TOKEN\" a line: each registers one worker at "
                  "a time and counts as one machine in failures and audits (docs/farm.md \"Worker identity\"); with "
@@ -282,6 +290,7 @@ std::optional<int> finishOptions(Flags& f) {
 struct Security {
   std::optional<std::string> clientToken, workerToken, viewerToken;
   std::vector<WorkerCredential> workerCredentials;
+  std::vector<User> users;
   bool workersAuthenticated() const { return workerToken || !workerCredentials.empty(); }
   std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
 };
@@ -304,6 +313,15 @@ Security readSecurity(const Flags& f) {
           (s.workerToken && equalSecrets(c.token, *s.workerToken)))
         throw InputError(f.workerCredentialsFile, "the token of credential " + c.name +
                                                       " is also the client or shared worker token: each needs its own");
+  }
+  if (!f.usersFile.empty()) {
+    if (!s.clientToken)
+      throw InputError("--users", "people need the administrators' client token too (--client-token-file)");
+    s.users = readUsers(f.usersFile);
+    for (const User& u : s.users)
+      if (equalSecrets(u.tokenSha256, sha256Hex(*s.clientToken)) ||
+          (s.workerToken && equalSecrets(u.tokenSha256, sha256Hex(*s.workerToken))))
+        throw InputError(f.usersFile, "the token of " + u.name + " is the client or worker token: each needs its own");
   }
   s.viewerToken = readToken(f.viewerTokenFile, "LENSFARM_VIEWER_TOKEN");
   if (s.viewerToken) {
@@ -492,7 +510,8 @@ int main(int argc, char** argv) {
   // The viewer token reads through gRPC too: status, watch, download, snapshots, workers.
   ClientServiceImpl clientService(
       coordinator, TokenGate(security.clientToken, "client", security.viewerToken, "viewer",
-                             {"GetJob", "ListJobs", "WatchJob", "Download", "GetSnapshot", "ListWorkers"}));
+                             {"GetJob", "ListJobs", "WatchJob", "Download", "GetSnapshot", "ListWorkers"})
+                       .withUsers(security.users));
   WorkerServiceImpl workerService(coordinator,
                                   TokenGate(security.workerToken, "worker").withCredentials(security.workerCredentials),
                                   f.uploadEncoding == "raw" ? SumsEncoding::kRaw : SumsEncoding::kShuffleZstd);

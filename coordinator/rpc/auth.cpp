@@ -29,6 +29,18 @@ TokenGate TokenGate::withCredentials(std::vector<WorkerCredential> credentials) 
   return std::move(*this);
 }
 
+TokenGate TokenGate::withUsers(std::vector<User> users) && {
+  users_ = std::make_shared<const std::vector<User>>(std::move(users));
+  return std::move(*this);
+}
+
+std::optional<User> TokenGate::userOf(const grpc::ServerContextBase* context) const {
+  bool present = false;
+  const std::optional<std::string> bearer = bearerOf(context, present);
+  if (!bearer || users_->empty()) return std::nullopt;
+  return userOfToken(*users_, *bearer);
+}
+
 std::string TokenGate::credentialOf(const grpc::ServerContextBase* context) const {
   bool present = false;
   const std::optional<std::string> bearer = bearerOf(context, present);
@@ -46,6 +58,12 @@ grpc::Status TokenGate::check(const grpc::ServerContextBase* context, const char
   const std::optional<std::string> bearer = bearerOf(context, present);
   if (bearer && token_ && equalSecrets(*bearer, *token_)) return grpc::Status::OK;
   if (bearer && !credentialOf(context).empty()) return grpc::Status::OK;
+  if (const std::optional<User> user = userOf(context)) {
+    if (user->role != User::Role::kViewer || readOnlyRpcs_.count(rpc)) return grpc::Status::OK;
+    refusals_->warn("read-only", fmt::format("refused {} from {}: {} is a viewer", rpc, context->peer(), user->name));
+    return grpc::Status(grpc::StatusCode::PERMISSION_DENIED,
+                        std::string(rpc) + ": " + user->name + " is a viewer: reading only");
+  }
   if (bearer && readOnlyToken_ && equalSecrets(*bearer, *readOnlyToken_)) {
     if (readOnlyRpcs_.count(rpc)) return grpc::Status::OK;
     refusals_->warn("read-only",
@@ -65,6 +83,7 @@ std::string TokenGate::roleOf(const grpc::ServerContextBase* context) const {
   bool present = false;
   const std::optional<std::string> bearer = bearerOf(context, present);
   if (bearer && readOnlyToken_ && equalSecrets(*bearer, *readOnlyToken_)) return readOnlyRole_;
+  if (const std::optional<User> user = userOf(context)) return roleName(user->role);
   return role_;
 }
 

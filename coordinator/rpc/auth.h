@@ -14,6 +14,7 @@
 #include <string>
 
 #include "common/util/throttled_log.h"
+#include "coordinator/rpc/users.h"
 #include "coordinator/rpc/worker_credentials.h"
 
 namespace lensfarm {
@@ -33,13 +34,18 @@ class TokenGate {
   // Also the per-machine `credentials`, each a token of this gate's role. A gate with credentials
   // and no shared token takes only the credentials.
   TokenGate withCredentials(std::vector<WorkerCredential> credentials) &&;
+  // Also the people of users.h, each with their own token and role (a viewer: the read-only RPCs
+  // only). The shared token stays the administrators'.
+  TokenGate withUsers(std::vector<User> users) &&;
+  // The user a call carries the token of, or nullopt (the shared token, another role's, none).
+  std::optional<User> userOf(const grpc::ServerContextBase* context) const;
   grpc::Status check(const grpc::ServerContextBase* context, const char* rpc) const;
   // The role of a call check() let through: the role of the token it carries, or "anyone" when
   // the service takes no token.
   std::string roleOf(const grpc::ServerContextBase* context) const;
   // The name of the credential a call carries; empty for the shared token, another role's or none.
   std::string credentialOf(const grpc::ServerContextBase* context) const;
-  bool enabled() const { return token_.has_value() || !credentials_->empty(); }
+  bool enabled() const { return token_.has_value() || !credentials_->empty() || !users_->empty(); }
 
  private:
   std::optional<std::string> token_;
@@ -48,6 +54,7 @@ class TokenGate {
   std::string readOnlyRole_;
   std::set<std::string> readOnlyRpcs_;
   std::shared_ptr<const std::vector<WorkerCredential>> credentials_ = std::make_shared<std::vector<WorkerCredential>>();
+  std::shared_ptr<const std::vector<User>> users_ = std::make_shared<std::vector<User>>();
   std::shared_ptr<ThrottledLog> refusals_ = std::make_shared<ThrottledLog>();  // shared by copies
 };
 

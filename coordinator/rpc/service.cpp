@@ -263,8 +263,11 @@ grpc::Status ClientServiceImpl::UploadAsset(grpc::ServerContext* context,
 grpc::Status ClientServiceImpl::SubmitJob(grpc::ServerContext* context, const v1::SubmitJobRequest* request,
                                           v1::SubmitJobResponse* response) {
   return guarded(gate_, context, "SubmitJob", [&] {
-    const JobInfo info = coordinator_.submit(proto::fromProto(request->spec()), request->priority(), request->owner(),
-                                             proto::fromProto(request->policy()), request->paused());
+    // A user's job is theirs, whatever the request says (users.h).
+    const std::optional<User> user = gate_.userOf(context);
+    const JobInfo info = coordinator_.submit(proto::fromProto(request->spec()), request->priority(),
+                                             user ? user->name : request->owner(), proto::fromProto(request->policy()),
+                                             request->paused());
     response->set_job_id(info.id);
     *response->mutable_status() = toProto(info);
   });
@@ -309,13 +312,18 @@ grpc::Status ClientServiceImpl::ListJobs(grpc::ServerContext* context, const v1:
 
 grpc::Status ClientServiceImpl::DeleteJob(grpc::ServerContext* context, const v1::DeleteJobRequest* request,
                                           v1::DeleteJobResponse*) {
-  return guarded(gate_, context, "DeleteJob", [&] { coordinator_.deleteJob(request->job_id(), request->force()); });
+  return guarded(gate_, context, "DeleteJob", [&] {
+    checkMayAct(context, "DeleteJob", request->job_id());
+    coordinator_.deleteJob(request->job_id(), request->force());
+  });
 }
 
 grpc::Status ClientServiceImpl::ArchiveJob(grpc::ServerContext* context, const v1::ArchiveJobRequest* request,
                                            v1::ArchiveJobResponse* response) {
-  return guarded(gate_, context, "ArchiveJob",
-                 [&] { *response->mutable_status() = toProto(coordinator_.archiveJob(request->job_id())); });
+  return guarded(gate_, context, "ArchiveJob", [&] {
+    checkMayAct(context, "ArchiveJob", request->job_id());
+    *response->mutable_status() = toProto(coordinator_.archiveJob(request->job_id()));
+  });
 }
 
 grpc::ServerWriteReactor<v1::JobStatus>* ClientServiceImpl::WatchJob(grpc::CallbackServerContext* context,
@@ -385,26 +393,41 @@ grpc::Status ClientServiceImpl::GetSnapshot(grpc::ServerContext* context, const 
 
 grpc::Status ClientServiceImpl::CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request,
                                           v1::CancelJobResponse* response) {
-  return guarded(gate_, context, "CancelJob",
-                 [&] { *response->mutable_status() = toProto(coordinator_.cancel(request->job_id())); });
+  return guarded(gate_, context, "CancelJob", [&] {
+    checkMayAct(context, "CancelJob", request->job_id());
+    *response->mutable_status() = toProto(coordinator_.cancel(request->job_id()));
+  });
+}
+
+void ClientServiceImpl::checkMayAct(const grpc::ServerContextBase* context, const std::string& action,
+                                    const std::string& jobId) const {
+  const std::optional<User> user = gate_.userOf(context);
+  if (!user) return;
+  lensfarm::checkMayAct(*user, action, jobId, coordinator_.job(jobId).owner);
 }
 
 grpc::Status ClientServiceImpl::PauseJob(grpc::ServerContext* context, const v1::JobActionRequest* request,
                                          v1::JobActionResponse* response) {
-  return guarded(gate_, context, "PauseJob",
-                 [&] { *response->mutable_status() = toProto(coordinator_.pauseJob(request->job_id())); });
+  return guarded(gate_, context, "PauseJob", [&] {
+    checkMayAct(context, "PauseJob", request->job_id());
+    *response->mutable_status() = toProto(coordinator_.pauseJob(request->job_id()));
+  });
 }
 
 grpc::Status ClientServiceImpl::ResumeJob(grpc::ServerContext* context, const v1::JobActionRequest* request,
                                           v1::JobActionResponse* response) {
-  return guarded(gate_, context, "ResumeJob",
-                 [&] { *response->mutable_status() = toProto(coordinator_.resumeJob(request->job_id())); });
+  return guarded(gate_, context, "ResumeJob", [&] {
+    checkMayAct(context, "ResumeJob", request->job_id());
+    *response->mutable_status() = toProto(coordinator_.resumeJob(request->job_id()));
+  });
 }
 
 grpc::Status ClientServiceImpl::ApproveJob(grpc::ServerContext* context, const v1::JobActionRequest* request,
                                            v1::JobActionResponse* response) {
-  return guarded(gate_, context, "ApproveJob",
-                 [&] { *response->mutable_status() = toProto(coordinator_.approveJob(request->job_id())); });
+  return guarded(gate_, context, "ApproveJob", [&] {
+    checkMayAct(context, "ApproveJob", request->job_id());
+    *response->mutable_status() = toProto(coordinator_.approveJob(request->job_id()));
+  });
 }
 
 grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext* context, const v1::ListWorkersRequest*,

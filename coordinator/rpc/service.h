@@ -69,6 +69,10 @@ class ClientServiceImpl final : public v1::ClientService::WithCallbackMethod_Wat
                           v1::ArchiveJobResponse* response) override;
 
  private:
+  // People (users.h): a user's call acts on a job only if their role allows it on that job's
+  // owner (FarmError kPermissionDenied otherwise; kNotFound for an unknown job). The shared client
+  // token acts on every job.
+  void checkMayAct(const grpc::ServerContextBase* context, const std::string& action, const std::string& jobId) const;
   Coordinator& coordinator_;
   TokenGate gate_;
   JobWatchers watchers_;

@@ -10,14 +10,12 @@
 
 namespace lensfarm {
 
-namespace {
-bool validName(const std::string& name) {
+bool isCredentialName(const std::string& name) {
   if (name.empty() || name.size() > 64) return false;
   for (const unsigned char c : name)
     if (!std::isalnum(c) && c != '.' && c != '_' && c != '-') return false;
   return true;
 }
-}  // namespace
 
 std::vector<WorkerCredential> parseWorkerCredentials(const std::string& text, const std::string& source) {
   std::vector<WorkerCredential> out;
@@ -32,7 +30,7 @@ std::vector<WorkerCredential> parseWorkerCredentials(const std::string& text, co
     std::string extra;
     if (!(fields >> c.token) || (fields >> extra))
       throw InputError(where, "expected a name and a token separated by white space");
-    if (!validName(c.name))
+    if (!isCredentialName(c.name))
       throw InputError(where, "a credential name is 1-64 characters of letters, digits, '.', '_' and '-'");
     checkTokenStrength(c.token, where);
     if (!names.insert(c.name).second) throw InputError(where, "credential " + c.name + " is given twice");

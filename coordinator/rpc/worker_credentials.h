@@ -24,6 +24,9 @@ struct WorkerCredential {
   std::string token;
 };
 
+// Whether `name` is a credential's (or a user's, users.h) name: 1-64 characters of [A-Za-z0-9._-].
+bool isCredentialName(const std::string& name);
+
 // The credentials in `file`; InputError naming "FILE:LINE" and what is wrong (a malformed line, a
 // bad name, a weak or repeated token, a name given twice), or the file when it holds none.
 std::vector<WorkerCredential> readWorkerCredentials(const std::string& file);
