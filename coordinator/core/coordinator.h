@@ -636,6 +636,8 @@ class Coordinator {
   // no longer hold ("job-7 was cancelled"), if any.
   std::vector<std::string> dependencyWaits(const Job& job, std::string* broken) const
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // pauseJob (true) and resumeJob (false).
+  JobInfo setPaused(const std::string& jobId, bool paused) ABSL_LOCKS_EXCLUDED(mutex_);
   // Refuses (kNotFound) a policy waiting for a job that does not exist.
   void checkDependenciesExist(const JobPolicy& policy) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   // "no connected worker has the tags it requires (bigmem; connected: w1 [studio-a], ...)", or

@@ -244,36 +244,28 @@ std::string Coordinator::tagsStall(const Job& job, Clock::time_point now) const 
          }();
 }
 
-JobInfo Coordinator::pauseJob(const std::string& jobId) {
+JobInfo Coordinator::pauseJob(const std::string& jobId) { return setPaused(jobId, true); }
+JobInfo Coordinator::resumeJob(const std::string& jobId) { return setPaused(jobId, false); }
+
+JobInfo Coordinator::setPaused(const std::string& jobId, bool paused) {
   MutexLock lock(mutex_);
   Job& job = findJob(jobId);
   if (isTerminal(job.progress.state))
-    throw FarmError(FarmError::Kind::kFailedPrecondition,
-                    jobId + " has ended (" + jobStateName(job.progress.state) + "): there is nothing to pause");
-  if (!job.paused) {
-    job.paused = true;
+    throw FarmError(FarmError::Kind::kFailedPrecondition, jobId + " has ended (" + jobStateName(job.progress.state) +
+                                                              "): there is nothing to " +
+                                                              (paused ? "pause" : "resume"));
+  if (job.paused == paused) return infoOf(job);  // changes nothing
+  job.paused = paused;
+  if (paused) {
     const size_t inFlight = leases_.ofJob(jobId).size();
     job.addEvent("paused: no unit is leased until it is resumed" +
                  (inFlight ? "; " + std::to_string(inFlight) + " lease(s) in flight finish and count" : std::string()));
-    persistState(job);
-    touch(job);
-  }
-  return infoOf(job);
-}
-
-JobInfo Coordinator::resumeJob(const std::string& jobId) {
-  MutexLock lock(mutex_);
-  Job& job = findJob(jobId);
-  if (isTerminal(job.progress.state))
-    throw FarmError(FarmError::Kind::kFailedPrecondition,
-                    jobId + " has ended (" + jobStateName(job.progress.state) + "): there is nothing to resume");
-  if (job.paused) {
-    job.paused = false;
+  } else {
     job.failures.forgetFailures();  // (a job its failure policy paused tries again afresh)
     job.addEvent("resumed");
-    persistState(job);
-    touch(job);  // (wakes the workers waiting for work)
   }
+  persistState(job);
+  touch(job);  // (resumed: wakes the workers waiting for work)
   return infoOf(job);
 }
 
