@@ -20,6 +20,8 @@ Runner addArchiveCommand(CLI::App& app);
 Runner addPauseCommand(CLI::App& app);
 Runner addResumeCommand(CLI::App& app);
 Runner addApproveCommand(CLI::App& app);
+Runner addUpdateCommand(CLI::App& app);
+Runner addEventsCommand(CLI::App& app);
 Runner addWorkersCommand(CLI::App& app);
 Runner addSlurmCommand(CLI::App& app);
 Runner addStudyCommand(CLI::App& app);

@@ -260,6 +260,22 @@ v1::JobStatus FarmClient::approve(const std::string& jobId) {
   return jobAction(&v1::ClientService::Stub::ApproveJob, jobId);
 }
 
+v1::JobStatus FarmClient::update(const v1::UpdateJobRequest& request) {
+  v1::JobActionResponse response;
+  check(stub_->UpdateJob(context().get(), request, &response), address_);
+  return response.status();
+}
+
+v1::ListEventsResponse FarmClient::events(const v1::ListEventsRequest& request) {
+  v1::ListEventsResponse response;
+  // (the call's deadline covers the long poll)
+  auto ctx = context(true);
+  ctx->set_deadline(std::chrono::system_clock::now() +
+                    std::chrono::milliseconds(int64_t(1000 * (timeout_ + request.wait_seconds()))));
+  check(stub_->ListEvents(ctx.get(), request, &response), address_);
+  return response;
+}
+
 v1::JobStatus FarmClient::jobAction(JobAction call, const std::string& jobId) {
   v1::JobActionRequest request;
   request.set_job_id(jobId);

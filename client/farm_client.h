@@ -53,6 +53,10 @@ class FarmClient {
   v1::JobStatus pause(const std::string& jobId);
   v1::JobStatus resume(const std::string& jobId);
   v1::JobStatus approve(const std::string& jobId);
+  // UpdateJob: the fields set in `request` (priority, max_workers, share_weight) change.
+  v1::JobStatus update(const v1::UpdateJobRequest& request);
+  // ListEvents: the farm's notifications after `request.after()` (a long poll with wait_seconds).
+  v1::ListEventsResponse events(const v1::ListEventsRequest& request);
   void deleteJob(const std::string& jobId, bool force);
   v1::JobStatus archive(const std::string& jobId);
   std::vector<v1::WorkerStatus> workers();

@@ -43,6 +43,9 @@
 #include "coordinator/web/dashboard.h"
 #include "coordinator/web/dashboard_server.h"
 #include "coordinator/web/metrics_server.h"
+#include "coordinator/web/openapi.h"
+#include "coordinator/web/rest_api.h"
+#include "coordinator/web/webhooks.h"
 
 namespace {
 std::atomic<bool> gStop{false};
@@ -83,6 +86,8 @@ struct Flags {
                         archiveAfter = "0";
   std::string sharing = "fair";
   std::vector<std::string> ownerWeights;  // NAME=WEIGHT
+  std::string webhookSecretFile, webhookEvents;
+  WebhookOptions webhooks;
   Coordinator::Options options;
 };
 
@@ -180,6 +185,37 @@ void addHttpFlags(CLI::App& app, Flags& f) {
   app.add_option("--dashboard-port-file", f.dashboardPortFile,
                  "Write the dashboard address actually listened on to this file")
       ->envname("LENSFARM_DASHBOARD_PORT_FILE");
+  // Webhooks (webhooks.h, docs/api.md "Webhooks").
+  app.add_option("--webhook", f.webhooks.urls,
+                 "POST the farm's events as signed JSON to this http:// or https:// URL, at least once, in order "
+                 "(repeatable)");
+  app.add_option("--webhook-secret-file", f.webhookSecretFile,
+                 "File holding the webhooks' HMAC-SHA256 key (or set LENSFARM_WEBHOOK_SECRET)");
+  app.add_option("--webhook-events", f.webhookEvents,
+                 "Comma-separated event types to send (e.g. job.done,job.failed,worker.lost); empty: all")
+      ->envname("LENSFARM_WEBHOOK_EVENTS");
+  app.add_option("--webhook-attempts", f.webhooks.attempts,
+                 "Tries per event before it is given up (waits 1, 2, 4, ... s between, at most 60 s)")
+      ->envname("LENSFARM_WEBHOOK_ATTEMPTS")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+}
+
+// The webhooks' options from the flags; InputError naming the flag.
+WebhookOptions webhookOptions(const Flags& f) {
+  WebhookOptions w = f.webhooks;
+  if (w.urls.empty()) return w;
+  if (const auto secret = readToken(f.webhookSecretFile, "LENSFARM_WEBHOOK_SECRET")) {
+    checkTokenStrength(*secret, f.webhookSecretFile.empty() ? "LENSFARM_WEBHOOK_SECRET" : f.webhookSecretFile);
+    w.secret = *secret;
+  }
+  for (size_t start = 0; start < f.webhookEvents.size();) {
+    const size_t comma = std::min(f.webhookEvents.find(',', start), f.webhookEvents.size());
+    if (comma > start) w.types.insert(f.webhookEvents.substr(start, comma - start));
+    start = comma + 1;
+  }
+  checkWebhookOptions(w);
+  return w;
 }
 
 // Durable state, uploads, memory and the job life cycle (docs/farm.md "Job life cycle").
@@ -441,7 +477,7 @@ struct HttpServers {
   std::unique_ptr<MetricsServer> metrics;
   std::unique_ptr<DashboardServer> dashboard;
 };
-HttpServers startHttp(const Flags& f, const Security& s, Coordinator& coordinator, Dashboard& dashboard,
+HttpServers startHttp(const Flags& f, const Security& s, Coordinator& coordinator, Dashboard& dashboard, RestApi& api,
                       const std::string& address) {
   HttpServers h;
   if (!f.metricsListen.empty()) {
@@ -453,9 +489,9 @@ HttpServers startHttp(const Flags& f, const Security& s, Coordinator& coordinato
     // The same certificate (and client CA) as the gRPC services.
     std::optional<HttpTls> dashboardTls;
     if (!f.tlsCert.empty()) dashboardTls = HttpTls{f.tlsCert, f.tlsKey, f.tlsClientCa};
-    h.dashboard = std::make_unique<DashboardServer>(f.dashboardListen, dashboard, dashboardTls);
-    spdlog::info("dashboard on {}://{}/ ({}client token {}, viewer token {})", h.dashboard->scheme(),
-                 h.dashboard->address(), f.tlsClientCa.empty() ? "" : "client certificate and ",
+    h.dashboard = std::make_unique<DashboardServer>(f.dashboardListen, dashboard, &api, dashboardTls);
+    spdlog::info("dashboard and HTTP API (/api/v1) on {}://{}/ ({}client token {}, viewer token {})",
+                 h.dashboard->scheme(), h.dashboard->address(), f.tlsClientCa.empty() ? "" : "client certificate and ",
                  s.clientToken ? "required" : "none", s.viewerToken ? "accepted (read-only)" : "none");
   }
   if (!f.portFile.empty()) writeAddressFile(f.portFile, address, "--port-file");
@@ -480,7 +516,14 @@ int main(int argc, char** argv) {
   addHttpFlags(app, f);
   addStateFlags(app, f);
   addLogLevelOption(app, f.logLevel);
+  bool printOpenApi = false;
+  app.add_flag("--print-openapi", printOpenApi,
+               "Print the OpenAPI 3.0 document of the HTTP API (/api/v1, docs/api.md) and exit");
   if (const auto exitCode = parseServiceFlags(app, argc, argv, "lensfarm-coordinator")) return *exitCode;
+  if (printOpenApi) {
+    std::fputs(openApiDocument("1").c_str(), stdout);
+    return 0;
+  }
   setupLogging("coordinator", f.logLevel);
   createFilesPrivately();  // the state dir holds users' scenes, assets and images
   if (const auto exitCode = finishOptions(f)) return *exitCode;
@@ -508,10 +551,11 @@ int main(int argc, char** argv) {
   if (const auto exitCode = refuseOpenDoors(f, security)) return *exitCode;
 
   // The viewer token reads through gRPC too: status, watch, download, snapshots, workers.
-  ClientServiceImpl clientService(
-      coordinator, TokenGate(security.clientToken, "client", security.viewerToken, "viewer",
-                             {"GetJob", "ListJobs", "WatchJob", "Download", "GetSnapshot", "ListWorkers"})
-                       .withUsers(security.users));
+  const TokenGate clientGate =
+      TokenGate(security.clientToken, "client", security.viewerToken, "viewer",
+                {"GetJob", "ListJobs", "WatchJob", "Download", "GetSnapshot", "ListWorkers", "ListEvents"})
+          .withUsers(security.users);
+  ClientServiceImpl clientService(coordinator, clientGate);
   WorkerServiceImpl workerService(coordinator,
                                   TokenGate(security.workerToken, "worker").withCredentials(security.workerCredentials),
                                   f.uploadEncoding == "raw" ? SumsEncoding::kRaw : SumsEncoding::kShuffleZstd);
@@ -535,10 +579,19 @@ int main(int argc, char** argv) {
                security.workerCredentials.empty() ? (security.workerToken ? "required" : "none")
                                                   : std::to_string(security.workerCredentials.size()) + " credentials" +
                                                         (security.workerToken ? " and the shared token" : ""));
-  Dashboard dashboard(coordinator, security.clientToken, security.viewerToken);
+  Dashboard dashboard(coordinator, security.clientToken, security.viewerToken, security.users);
+  // The HTTP/JSON API calls the client service through the gRPC server itself, in process.
+  RestApi api(server->InProcessChannel(grpc::ChannelArguments()), clientGate, clientGate.enabled());
   HttpServers http;
+  std::unique_ptr<WebhookSender> webhooks;
   try {
-    http = startHttp(f, security, coordinator, dashboard, address);
+    const WebhookOptions hooks = webhookOptions(f);
+    if (!hooks.urls.empty()) {
+      webhooks = std::make_unique<WebhookSender>(coordinator.events(), hooks);
+      spdlog::info("webhooks: {} URL(s), events: {}", hooks.urls.size(),
+                   f.webhookEvents.empty() ? "all" : f.webhookEvents);
+    }
+    http = startHttp(f, security, coordinator, dashboard, api, address);
   } catch (const InputError& e) {
     spdlog::error("{}", e.what());
     server->Shutdown();

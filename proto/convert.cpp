@@ -252,4 +252,16 @@ PathStats fromProto(const v1::UnitStats& p) {
   return s;
 }
 
+v1::FarmEvent toProto(const FarmEvent& e) {
+  v1::FarmEvent out;
+  out.set_sequence(e.sequence);
+  out.set_unix_seconds(e.unixSeconds);
+  out.set_type(e.type);
+  out.set_job_id(e.jobId);
+  out.set_worker_id(e.workerId);
+  out.set_owner(e.owner);
+  out.set_text(e.text);
+  return out;
+}
+
 }  // namespace lensfarm::proto

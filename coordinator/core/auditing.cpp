@@ -198,6 +198,8 @@ void Coordinator::applyVerdict(Job& job, const AuditBook::Verdict& v, bool round
       ++counters_.auditsFailed;
       job.addEvent("audit of " + unit + ": " + labelOf(v.wrong) + " is wrong (" + v.detail + " from " +
                    labelOf(v.right[0]) + " and " + labelOf(v.right[1]) + ", which agree)");
+      events_.publish(
+          FarmEvent{0, 0.0, farm_event::kAuditFailed, job.definition.id, v.wrong, job.definition.owner, reason});
       if (Worker* w = workers_.known(v.wrong)) quarantine(*w, reason);
       updateTrust(job);
       break;
@@ -219,6 +221,7 @@ void Coordinator::quarantine(Worker& worker, const std::string& reason) {
     worker.quarantined = true;
     worker.quarantineReason = reason;
     spdlog::warn("worker {} quarantined: {}", logText(worker.label()), logText(reason));
+    events_.publish(FarmEvent{0, 0.0, farm_event::kWorkerQuarantined, "", worker.id, "", reason});
     releaseLeasesOf(worker, "quarantined", reason, Clock::now());
   }
   for (auto& [id, job] : jobs_) {

@@ -285,6 +285,9 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
                job->definition.layout.adaptive() ? "; " + job->definition.layout.adaptiveSummary() : "");
   Job& ref = *job;
   jobs_[job->definition.id] = std::move(job);
+  notify(ref, farm_event::kJobSubmitted,
+         ref.definition.spec.sceneName + (paused ? " (paused)" : "") +
+             (ref.released ? "" : " (waits for its dependencies)"));
   updateDependencies();  // (those already held release it now; one that cannot hold fails it)
   changed_.notify_all();
   return infoOf(ref);
@@ -441,6 +444,13 @@ void Coordinator::end(Job& job, JobState state) {
   job.progress.state = state;
   job.progress.finished = Clock::now();
   share_.forgetJob(job.definition.owner, job.definition.id);
+  if (state == JobState::kDone && job.progress.stopReason == "target error reached")
+    notify(job, farm_event::kJobTargetReached, job.progress.stopReason);
+  notify(job,
+         state == JobState::kDone     ? farm_event::kJobDone
+         : state == JobState::kFailed ? farm_event::kJobFailed
+                                      : farm_event::kJobCancelled,
+         state == JobState::kFailed ? job.progress.error : job.progress.stopReason);
   job.retention.endedUnixSeconds =
       std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   lifecycleDue_ = true;  // archive it, or delete it, when its time comes
@@ -667,15 +677,9 @@ std::shared_ptr<const std::string> Coordinator::assetFor(const std::string& work
 // ---- dashboard ------------------------------------------------------------------------------
 
 JobInfo Coordinator::setPriority(const std::string& jobId, int priority) {
-  MutexLock lock(mutex_);
-  Job& job = findJob(jobId);
-  if (job.priority != priority) {
-    job.priority = priority;  // tryLease() and jobs() read it on every call: the order follows at once
-    if (store_) store_->updateJobPriority(job.definition.id, priority);
-    spdlog::info("job {}: priority {}", job.definition.id, priority);
-    touch(job);
-  }
-  return infoOf(job);
+  JobUpdate update;
+  update.priority = priority;
+  return updateJob(jobId, update);
 }
 
 std::vector<ErrorPoint> Coordinator::errorHistory(const std::string& jobId) const {

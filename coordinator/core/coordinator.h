@@ -50,6 +50,7 @@
 #include "common/film/sensor.h"
 #include "common/util/memory_budget.h"
 #include "coordinator/core/audit.h"
+#include "coordinator/core/event_feed.h"
 #include "coordinator/core/fair_share.h"
 #include "coordinator/core/lease_table.h"
 #include "coordinator/core/locking.h"
@@ -350,6 +351,18 @@ class Coordinator {
   JobInfo resumeJob(const std::string& jobId);
   // A person approved the job: dependencies "JOB:approved" hold from now on. Durable.
   JobInfo approveJob(const std::string& jobId);
+  // Changes a running job's priority, worker cap and share weight (each only when given), as
+  // submit --priority, --max-workers and --share-weight would have: serving order and caps follow
+  // at once. FarmError kInvalidArgument naming the field (a cap of 0, a weight outside (0, 1000]).
+  struct JobUpdate {
+    std::optional<int> priority;
+    std::optional<uint32_t> maxWorkers;
+    std::optional<double> shareWeight;
+  };
+  JobInfo updateJob(const std::string& jobId, const JobUpdate& update);
+
+  // The farm's notifications (event_feed.h): ListEvents, the HTTP API's event stream, webhooks.
+  const EventFeed& events() const { return events_; }
 
   // ---- workers ----
   // FarmError kFailedPrecondition naming both versions when they differ from this process's.
@@ -644,6 +657,9 @@ class Coordinator {
   // "" when one has.
   std::string tagsStall(const Job& job, Clock::time_point now) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   FairShare share_ ABSL_GUARDED_BY(mutex_);
+  // Publishes a notification about the job (event_feed.h).
+  void notify(const Job& job, const char* type, std::string text) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  EventFeed events_;  // its own lock
 
   // ---- workers (workers.cpp) ----
   Worker& findWorker(const std::string& workerId) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);

@@ -117,6 +117,7 @@ void Coordinator::deleteJob(const std::string& jobId, bool force) {
     gone = std::move(it->second);
     jobs_.erase(it);
     deletedJobs_.insert(jobId);
+    notify(*gone, farm_event::kJobDeleted, "deleted");
     changed_.notify_all();  // watchers of the job see it gone
   }
   if (store_) store_->deleteJob(jobId);

@@ -115,6 +115,7 @@ std::optional<LeaseGrant> Coordinator::tryLease(Worker& worker, Clock::time_poin
   if (job.progress.state == JobState::kQueued) {
     job.progress.state = JobState::kRunning;
     persistState(job);
+    notify(job, farm_event::kJobStarted, "first unit leased to " + worker.label());
   }
   worker.currentJobId = job.definition.id;
   worker.currentUnit = unit;

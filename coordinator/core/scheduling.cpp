@@ -264,6 +264,7 @@ JobInfo Coordinator::setPaused(const std::string& jobId, bool paused) {
     job.failures.forgetFailures();  // (a job its failure policy paused tries again afresh)
     job.addEvent("resumed");
   }
+  notify(job, paused ? farm_event::kJobPaused : farm_event::kJobResumed, paused ? "paused" : "resumed");
   persistState(job);
   touch(job);  // (resumed: wakes the workers waiting for work)
   return infoOf(job);
@@ -275,11 +276,37 @@ JobInfo Coordinator::approveJob(const std::string& jobId) {
   if (!job.approved) {
     job.approved = true;
     job.addEvent("approved");
+    notify(job, farm_event::kJobApproved, "approved");
     persistState(job);
     touch(job);
     updateDependencies();
   }
   return infoOf(job);
+}
+
+JobInfo Coordinator::updateJob(const std::string& jobId, const JobUpdate& update) {
+  MutexLock lock(mutex_);
+  Job& job = findJob(jobId);
+  JobPolicy policy = job.definition.policy;
+  if (update.maxWorkers) policy.maxWorkers = *update.maxWorkers;
+  if (update.shareWeight) policy.shareWeight = *update.shareWeight;
+  checkPolicy(policy);  // (a cap of 0, a weight out of range: nothing changes)
+  if (update.priority && *update.priority != job.priority) {
+    job.priority = *update.priority;
+    if (store_) store_->updateJobPriority(job.definition.id, job.priority);
+  }
+  if (update.maxWorkers || update.shareWeight) {
+    job.definition.policy = policy;
+    if (store_) store_->updateJobPolicy(job.definition.id, policyToJson(policy));
+  }
+  spdlog::info("job {}: priority {}, max workers {}, share weight {}", job.definition.id, job.priority,
+               policy.maxWorkers ? std::to_string(*policy.maxWorkers) : "any", policy.shareWeight);
+  touch(job);  // (a raised cap: wakes the workers waiting for work)
+  return infoOf(job);
+}
+
+void Coordinator::notify(const Job& job, const char* type, std::string text) {
+  events_.publish(FarmEvent{0, 0.0, type, job.definition.id, "", job.definition.owner, std::move(text)});
 }
 
 }  // namespace lensfarm

@@ -49,6 +49,9 @@ std::string Coordinator::registerWorker(const WorkerInfo& info, std::string* ses
   const std::string id = worker.id;
   spdlog::info("{} registered: {} with {} threads{}", id, logText(info.name), info.threads,
                info.credential.empty() ? "" : " (credential " + info.credential + ")");
+  events_.publish(
+      FarmEvent{0, 0.0, farm_event::kWorkerJoined, "", id, "",
+                info.name + " with " + std::to_string(info.threads) + " threads" + (back ? " (again)" : "")});
   if (back)
     for (auto& [jobId, job] : jobs_)
       if (!isTerminal(job->progress.state) && job->failures.rejoined(info.name)) {
@@ -101,6 +104,8 @@ bool Coordinator::workerLost(const std::string& workerId, const std::string& rea
   const std::string requeued = releaseLeasesOf(*worker, "lost", reason, now);
   worker->goneReason = reason + (requeued.empty() ? "" : "; " + requeued);
   spdlog::warn("{} lost: {}", logText(worker->label()), logText(worker->goneReason));
+  events_.publish(
+      FarmEvent{0, 0.0, farm_event::kWorkerLost, "", worker->id, "", worker->label() + ": " + worker->goneReason});
   return true;
 }
 

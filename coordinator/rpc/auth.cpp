@@ -10,16 +10,20 @@ namespace lensfarm {
 
 namespace {
 
-// The token of "authorization: Bearer <token>", or nullopt (no such metadata, or another scheme).
+// The token of an authorization value "Bearer <token>", or nullopt (another scheme).
+std::optional<std::string> bearerOf(const std::string& given) {
+  const std::string prefix = "Bearer ";
+  if (given.rfind(prefix, 0) != 0) return std::nullopt;
+  return given.substr(prefix.size());
+}
+
+// The same of a call's "authorization" metadata, or nullopt (none, or another scheme).
 std::optional<std::string> bearerOf(const grpc::ServerContextBase* context, bool& present) {
   const auto& metadata = context->client_metadata();
   const auto it = metadata.find("authorization");
   present = it != metadata.end();
-  const std::string prefix = "Bearer ";
   if (!present) return std::nullopt;
-  const std::string given(it->second.data(), it->second.size());
-  if (given.rfind(prefix, 0) != 0) return std::nullopt;
-  return given.substr(prefix.size());
+  return bearerOf(std::string(it->second.data(), it->second.size()));
 }
 
 }  // namespace
@@ -43,7 +47,10 @@ std::optional<User> TokenGate::userOf(const grpc::ServerContextBase* context) co
 
 std::string TokenGate::credentialOf(const grpc::ServerContextBase* context) const {
   bool present = false;
-  const std::optional<std::string> bearer = bearerOf(context, present);
+  return credentialOfBearer(bearerOf(context, present));
+}
+
+std::string TokenGate::credentialOfBearer(const std::optional<std::string>& bearer) const {
   if (!bearer) return "";
   // Every credential compared, in constant time each: the time says nothing of which matched.
   std::string name;
@@ -53,27 +60,37 @@ std::string TokenGate::credentialOf(const grpc::ServerContextBase* context) cons
 }
 
 grpc::Status TokenGate::check(const grpc::ServerContextBase* context, const char* rpc) const {
-  if (!enabled()) return grpc::Status::OK;
   bool present = false;
   const std::optional<std::string> bearer = bearerOf(context, present);
+  return checkBearer(bearer, present, rpc, context->peer());
+}
+
+grpc::Status TokenGate::checkAuthorization(const std::string& authorization, const char* rpc,
+                                           const std::string& peer) const {
+  return checkBearer(bearerOf(authorization), !authorization.empty(), rpc, peer);
+}
+
+grpc::Status TokenGate::checkBearer(const std::optional<std::string>& bearer, bool present, const char* rpc,
+                                    const std::string& peer) const {
+  if (!enabled()) return grpc::Status::OK;
   if (bearer && token_ && equalSecrets(*bearer, *token_)) return grpc::Status::OK;
-  if (bearer && !credentialOf(context).empty()) return grpc::Status::OK;
-  if (const std::optional<User> user = userOf(context)) {
+  if (bearer && !credentialOfBearer(bearer).empty()) return grpc::Status::OK;
+  if (const std::optional<User> user = bearer && !users_->empty() ? userOfToken(*users_, *bearer) : std::nullopt) {
     if (user->role != User::Role::kViewer || readOnlyRpcs_.count(rpc)) return grpc::Status::OK;
-    refusals_->warn("read-only", fmt::format("refused {} from {}: {} is a viewer", rpc, context->peer(), user->name));
+    refusals_->warn("read-only", fmt::format("refused {} from {}: {} is a viewer", rpc, peer, user->name));
     return grpc::Status(grpc::StatusCode::PERMISSION_DENIED,
                         std::string(rpc) + ": " + user->name + " is a viewer: reading only");
   }
   if (bearer && readOnlyToken_ && equalSecrets(*bearer, *readOnlyToken_)) {
     if (readOnlyRpcs_.count(rpc)) return grpc::Status::OK;
     refusals_->warn("read-only",
-                    fmt::format("refused {} from {}: the {} token is read-only", rpc, context->peer(), readOnlyRole_));
+                    fmt::format("refused {} from {}: the {} token is read-only", rpc, peer, readOnlyRole_));
     return grpc::Status(grpc::StatusCode::PERMISSION_DENIED,
                         std::string(rpc) + ": the " + readOnlyRole_ + " token is read-only");
   }
   const std::string roles = readOnlyToken_ ? role_ + " or " + readOnlyRole_ : role_;
-  refusals_->warn("token", fmt::format("refused {} from {}: {} {} token", rpc, context->peer(),
-                                       present ? "wrong" : "missing", roles));
+  refusals_->warn("token",
+                  fmt::format("refused {} from {}: {} {} token", rpc, peer, present ? "wrong" : "missing", roles));
   return grpc::Status(grpc::StatusCode::UNAUTHENTICATED,
                       std::string(rpc) + ": " + (present ? "wrong " : "missing ") + roles + " token");
 }

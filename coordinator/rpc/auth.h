@@ -40,6 +40,9 @@ class TokenGate {
   // The user a call carries the token of, or nullopt (the shared token, another role's, none).
   std::optional<User> userOf(const grpc::ServerContextBase* context) const;
   grpc::Status check(const grpc::ServerContextBase* context, const char* rpc) const;
+  // The same check of an HTTP request's Authorization value ("Bearer <token>"; "" when absent),
+  // for the HTTP API to refuse a request before reading its body (rest_api.h).
+  grpc::Status checkAuthorization(const std::string& authorization, const char* rpc, const std::string& peer) const;
   // The role of a call check() let through: the role of the token it carries, or "anyone" when
   // the service takes no token.
   std::string roleOf(const grpc::ServerContextBase* context) const;
@@ -48,6 +51,9 @@ class TokenGate {
   bool enabled() const { return token_.has_value() || !credentials_->empty() || !users_->empty(); }
 
  private:
+  grpc::Status checkBearer(const std::optional<std::string>& bearer, bool present, const char* rpc,
+                           const std::string& peer) const;
+  std::string credentialOfBearer(const std::optional<std::string>& bearer) const;
   std::optional<std::string> token_;
   std::string role_;
   std::optional<std::string> readOnlyToken_;

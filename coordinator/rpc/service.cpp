@@ -430,6 +430,49 @@ grpc::Status ClientServiceImpl::ApproveJob(grpc::ServerContext* context, const v
   });
 }
 
+grpc::Status ClientServiceImpl::UpdateJob(grpc::ServerContext* context, const v1::UpdateJobRequest* request,
+                                          v1::JobActionResponse* response) {
+  return guarded(gate_, context, "UpdateJob", [&] {
+    checkMayAct(context, "UpdateJob", request->job_id());
+    Coordinator::JobUpdate update;
+    if (request->has_priority()) update.priority = request->priority();
+    if (request->has_max_workers()) update.maxWorkers = request->max_workers();
+    if (request->has_share_weight()) update.shareWeight = request->share_weight();
+    *response->mutable_status() = toProto(coordinator_.updateJob(request->job_id(), update));
+  });
+}
+
+grpc::Status ClientServiceImpl::ListEvents(grpc::ServerContext* context, const v1::ListEventsRequest* request,
+                                           v1::ListEventsResponse* response) {
+  return guarded(gate_, context, "ListEvents", [&] {
+    constexpr uint32_t kMost = 1000;
+    if (!(request->wait_seconds() >= 0 && request->wait_seconds() <= 30))
+      throw InputError("wait_seconds", "expected seconds in [0, 30]");
+    const size_t limit = request->limit() == 0 || request->limit() > kMost ? kMost : request->limit();
+    const EventFeed& feed = coordinator_.events();
+    // Filtered by job, a long poll waits for an event of that job (in slices, so a busy farm's
+    // other events do not end it early).
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(request->wait_seconds());
+    uint64_t cursor = request->after();
+    for (;;) {
+      const auto left =
+          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+      const std::vector<FarmEvent> events = feed.after(cursor, kMost, std::max(left, std::chrono::milliseconds(0)));
+      for (const FarmEvent& e : events) {
+        cursor = e.sequence;
+        if (!request->job_id().empty() && e.jobId != request->job_id()) continue;
+        *response->add_events() = proto::toProto(e);
+        if (size_t(response->events_size()) == limit) break;
+      }
+      if (response->events_size() > 0 || events.empty() || context->IsCancelled() ||
+          std::chrono::steady_clock::now() >= deadline)
+        break;
+    }
+    response->set_latest(feed.latest());
+    response->set_oldest(feed.oldest());
+  });
+}
+
 grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext* context, const v1::ListWorkersRequest*,
                                             v1::ListWorkersResponse* response) {
   return guarded(gate_, context, "ListWorkers", [&] {

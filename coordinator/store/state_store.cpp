@@ -471,6 +471,11 @@ void StateStore::updateJobSchedule(const std::string& jobId, bool paused, bool a
       .step();
 }
 
+void StateStore::updateJobPolicy(const std::string& jobId, const std::string& policy) {
+  std::lock_guard lock(mutex_);
+  Statement(db_, "UPDATE jobs SET policy = ? WHERE id = ?").bind(1, policy).bind(2, jobId).step();
+}
+
 void StateStore::updateJobPriority(const std::string& jobId, int priority) {
   std::lock_guard lock(mutex_);
   Statement(db_, "UPDATE jobs SET priority = ? WHERE id = ?").bind(1, int64_t(priority)).bind(2, jobId).step();

@@ -94,6 +94,7 @@ class StateStore {
                       const std::optional<uint64_t>& stopUnits = std::nullopt, const std::string& stopReason = "",
                       double endedUnixSeconds = 0.0);
   void updateJobPriority(const std::string& jobId, int priority);
+  void updateJobPolicy(const std::string& jobId, const std::string& policy);  // policyToJson text
   void updateJobSchedule(const std::string& jobId, bool paused, bool approved, bool released);
   // The job's pinned traversal kernel; `inManifest`: written into its job.json as well (once, when
   // it is pinned), so a job taken back from its files keeps it.

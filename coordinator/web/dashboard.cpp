@@ -140,7 +140,14 @@ Dashboard::Access Dashboard::access(const std::string& header) const {
   // Both comparisons always run, so the time taken does not tell which token was close.
   const bool client = equalSecrets(given, *token_);
   const bool viewer = viewerToken_ && equalSecrets(given, *viewerToken_);
-  return client ? Access::kFull : viewer ? Access::kRead : Access::kNone;
+  const bool person = !users_.empty() && userOfToken(users_, given).has_value();
+  return client ? Access::kFull : (viewer || person) ? Access::kRead : Access::kNone;
+}
+
+std::optional<User> Dashboard::userOf(const std::string& header) const {
+  const std::string prefix = "Bearer ";
+  if (users_.empty() || header.rfind(prefix, 0) != 0) return std::nullopt;
+  return userOfToken(users_, header.substr(prefix.size()));
 }
 
 std::string Dashboard::jobsJson() const {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "coordinator/core/coordinator.h"
+#include "coordinator/rpc/users.h"
 
 namespace lensfarm {
 
@@ -20,15 +21,22 @@ class Dashboard {
  public:
   // `clientToken`: the token every /api request must carry ("Bearer <token>"), for everything;
   // none: open (a loopback-only coordinator). `viewerToken` (only with a client token): read-only.
+  // `users` (--users, users.h): each person's own token reads here; their actions go through the
+  // HTTP API (/api/v1, rest_api.h), which checks their role on the job.
   Dashboard(Coordinator& coordinator, std::optional<std::string> clientToken,
-            std::optional<std::string> viewerToken = std::nullopt)
-      : coordinator_(coordinator), token_(std::move(clientToken)), viewerToken_(std::move(viewerToken)) {}
+            std::optional<std::string> viewerToken = std::nullopt, std::vector<User> users = {})
+      : coordinator_(coordinator),
+        token_(std::move(clientToken)),
+        viewerToken_(std::move(viewerToken)),
+        users_(std::move(users)) {}
 
   // What an Authorization header value admits: nothing, reading (the viewer token: the lists,
   // details, images and downloads) or everything (the client token, or no token required).
   // Both tokens are compared whole, in constant time.
   enum class Access { kNone, kRead, kFull };
   Access access(const std::string& authorizationHeader) const;
+  // The person whose token the header carries (users.h), or nullopt.
+  std::optional<User> userOf(const std::string& authorizationHeader) const;
   bool authorized(const std::string& authorizationHeader) const { return access(authorizationHeader) != Access::kNone; }
   bool tokenRequired() const { return token_.has_value(); }
   bool viewerToken() const { return token_.has_value() && viewerToken_.has_value(); }
@@ -62,6 +70,7 @@ class Dashboard {
  private:
   Coordinator& coordinator_;
   std::optional<std::string> token_, viewerToken_;
+  std::vector<User> users_;
 };
 
 }  // namespace lensfarm

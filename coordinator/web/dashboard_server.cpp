@@ -104,7 +104,9 @@ HttpGuard apiGuard(Dashboard& dashboard, ThrottledLog& refusals) {
       refusals.warn("dashboard-read-only",
                     fmt::format("dashboard: refused {} {} from {}: the viewer token is read-only", request.method,
                                 logText(request.path), request.remoteAddress));
-      fail(response, 403, "the viewer token is read-only: this needs the client token");
+      fail(response, 403,
+           dashboard.userOf(header) ? "a person's actions go through /api/v1 (docs/api.md), which checks their role"
+                                    : "the viewer token is read-only: this needs the client token");
       return true;
     }
     return false;
@@ -116,8 +118,18 @@ HttpGuard apiGuard(Dashboard& dashboard, ThrottledLog& refusals) {
 template <class Body>
 HttpHandler api(Dashboard& dashboard, Body body) {
   return [&dashboard, body](const HttpRequest& request, HttpResponse& response) {
-    response.setHeader("X-Lensfarm-Access",
-                       dashboard.access(request.header("Authorization")) == Dashboard::Access::kFull ? "full" : "read");
+    // What the page offers: "full" (every action), "own" (a submitter: actions on their own jobs,
+    // through /api/v1, which checks), "read"; and who is signed in.
+    const std::string authorization = request.header("Authorization");
+    if (const std::optional<User> user = dashboard.userOf(authorization)) {
+      response.setHeader("X-Lensfarm-Access", user->role == User::Role::kAdmin       ? "full"
+                                              : user->role == User::Role::kSubmitter ? "own"
+                                                                                     : "read");
+      response.setHeader("X-Lensfarm-User", user->name);
+    } else {
+      response.setHeader("X-Lensfarm-Access",
+                         dashboard.access(authorization) == Dashboard::Access::kFull ? "full" : "read");
+    }
     try {
       response.setHeader("Cache-Control", "no-store");
       body(request, response);
@@ -132,8 +144,9 @@ HttpHandler api(Dashboard& dashboard, Body body) {
   };
 }
 
-HttpRoutes dashboardRoutes(Dashboard& dashboard, ThrottledLog& refusals) {
+HttpRoutes dashboardRoutes(Dashboard& dashboard, ThrottledLog& refusals, RestApi* restApi) {
   HttpRoutes routes;
+  if (restApi) restApi->addRoutes(routes);
   // The page: public, compiled into the binary.
   for (const DashboardAsset& asset : dashboardAssets()) {
     const auto serve = [asset](const HttpRequest&, HttpResponse& response) {
@@ -220,8 +233,9 @@ HttpRoutes dashboardRoutes(Dashboard& dashboard, ThrottledLog& refusals) {
 
 }  // namespace
 
-DashboardServer::DashboardServer(const std::string& listen, Dashboard& dashboard, const std::optional<HttpTls>& tls)
-    : server_(listen, "--dashboard-listen", "the dashboard", dashboardRoutes(dashboard, refusals_), HttpLimits{}, tls) {
-}
+DashboardServer::DashboardServer(const std::string& listen, Dashboard& dashboard, RestApi* restApi,
+                                 const std::optional<HttpTls>& tls)
+    : server_(listen, "--dashboard-listen", "the dashboard", dashboardRoutes(dashboard, refusals_, restApi),
+              HttpLimits{}, tls) {}
 
 }  // namespace lensfarm

@@ -11,6 +11,7 @@
 
 #include "coordinator/web/dashboard.h"
 #include "coordinator/web/http_server.h"
+#include "coordinator/web/rest_api.h"
 
 namespace lensfarm {
 
@@ -21,10 +22,11 @@ bool loopbackHost(std::string_view host);
 
 class DashboardServer {
  public:
-  // Listens on `listen` (HOST:PORT; port 0 picks a free port), with TLS when `tls` is given.
-  // Throws InputError for a malformed address or a certificate OpenSSL refuses and
-  // std::runtime_error when it cannot listen.
-  DashboardServer(const std::string& listen, Dashboard& dashboard, const std::optional<HttpTls>& tls = std::nullopt);
+  // Listens on `listen` (HOST:PORT; port 0 picks a free port), with TLS when `tls` is given, and
+  // serves the HTTP/JSON API's /api/v1 routes too when `api` is given. Throws InputError for a
+  // malformed address or a certificate OpenSSL refuses and std::runtime_error when it cannot listen.
+  DashboardServer(const std::string& listen, Dashboard& dashboard, RestApi* api = nullptr,
+                  const std::optional<HttpTls>& tls = std::nullopt);
 
   const std::string& address() const { return server_.address(); }
   const char* scheme() const { return server_.scheme(); }

@@ -160,7 +160,8 @@ using Message = http::response<http::string_body>;
 
 // Headers every response carries: no framing by another site, no content sniffing, no Referer to
 // other origins, and a page that loads only its own scripts, styles and images (and blob: images).
-void addSafetyHeaders(Message& message, bool tls) {
+template <class Header>
+void addSafetyHeaders(Header& message, bool tls) {
   message.set("X-Frame-Options", "DENY");
   message.set("Content-Security-Policy",
               "default-src 'self'; img-src 'self' blob: data:; connect-src 'self' blob:; object-src 'none'; "
@@ -290,16 +291,18 @@ class Session final : public Connection, public std::enable_shared_from_this<Ses
       if (route_->guard(request_, refused)) return respond(std::move(refused), closeAfterEarlyAnswer());
     }
     if (parser_->is_done()) return dispatch();
-    if (const auto length = parser_->content_length(); length && *length > limits_.maxBodyBytes)
+    if (const auto length = parser_->content_length(); length && *length > bodyLimit())
       return refuseRead(http::error::body_limit, "body");
-    parser_->body_limit(limits_.maxBodyBytes);  // a chunked body is counted as it comes
-    armDeadline(limits_.bodyDeadline);
+    parser_->body_limit(bodyLimit());  // a chunked body is counted as it comes
+    armDeadline(limits_.bodyDeadline + std::chrono::seconds(bodyLimit() >> 20));
     http::async_read(stream_, buffer_, *parser_, [self = this->shared_from_this()](error_code error, size_t) {
       self->disarm();
       if (error) return self->refuseRead(error, "body");
       self->dispatch();
     });
   }
+
+  size_t bodyLimit() const { return route_ && route_->maxBodyBytes ? route_->maxBodyBytes : limits_.maxBodyBytes; }
 
   // Whether to close after answering from the header alone: the body, if any, is unread.
   bool closeAfterEarlyAnswer() const { return !parser_->is_done() || !parser_->get().keep_alive(); }
@@ -321,8 +324,7 @@ class Session final : public Connection, public std::enable_shared_from_this<Ses
       return respond(
           errorResponse(431, "request header larger than " + std::to_string(limits_.maxHeaderBytes) + " bytes"), true);
     if (ec == http::error::body_limit)
-      return respond(errorResponse(413, "request body larger than " + std::to_string(limits_.maxBodyBytes) + " bytes"),
-                     true);
+      return respond(errorResponse(413, "request body larger than " + std::to_string(bodyLimit()) + " bytes"), true);
     if (ec.category() == http::make_error_code(http::error::bad_method).category() &&
         ec != http::error::end_of_stream && ec != http::error::partial_message)
       return respond(errorResponse(400, "malformed request: " + ec.message()), true);
@@ -348,6 +350,7 @@ class Session final : public Connection, public std::enable_shared_from_this<Ses
   }
 
   void respond(HttpResponse response, bool close) {
+    if (response.stream) return startStream(std::move(response));
     message_.emplace();
     Message& message = *message_;
     message.version(11);
@@ -364,6 +367,64 @@ class Session final : public Connection, public std::enable_shared_from_this<Ses
       if (ec || close) return self->lingeringClose(ec);
       self->readHeader();
     });
+  }
+
+  // A streamed response: the header (chunked, the connection closing at its end), then each piece
+  // `next` gives as a chunk, polling while it has none.
+  void startStream(HttpResponse response) {
+    feed_ = std::move(response.stream);
+    streamHeader_.emplace();
+    auto& header = *streamHeader_;
+    header.version(11);
+    header.result(unsigned(response.status));
+    addSafetyHeaders(header, kTls);
+    for (const auto& [name, value] : response.headers) header.set(name, value);
+    header.keep_alive(false);
+    header.chunked(true);
+    streamSerializer_.emplace(header);
+    armDeadline(limits_.writeDeadline);
+    http::async_write_header(stream_, *streamSerializer_, [self = this->shared_from_this()](error_code ec, size_t) {
+      self->disarm();
+      if (ec) return self->close();
+      self->pump();
+    });
+  }
+  void pump() {
+    asio::post(shared_->handlers, [self = this->shared_from_this()] {
+      std::optional<std::string> piece;
+      bool failed = false;  // cut short: closed without the last chunk, so the reader knows
+      try {
+        piece = self->feed_->next();
+      } catch (const std::exception& e) {
+        failed = true;
+        spdlog::warn("http: stream {}: {}", logText(self->request_.path), logText(e.what()));
+      }
+      asio::post(self->stream_.get_executor(), [self, failed, piece = std::move(piece)]() mutable {
+        if (failed) return self->close();
+        self->onPiece(std::move(piece));
+      });
+    });
+  }
+  void onPiece(std::optional<std::string> piece) {
+    if (!piece) {
+      armDeadline(limits_.writeDeadline);
+      return asio::async_write(stream_, http::make_chunk_last(),
+                               [self = this->shared_from_this()](error_code, size_t) { self->close(); });
+    }
+    if (piece->empty()) {
+      pollTimer_.expires_after(feed_->pollInterval);
+      return pollTimer_.async_wait([self = this->shared_from_this()](error_code ec) {
+        if (!ec) self->pump();
+      });
+    }
+    pending_ = std::move(*piece);
+    armDeadline(limits_.writeDeadline);
+    asio::async_write(stream_, http::make_chunk(asio::buffer(pending_)),
+                      [self = this->shared_from_this()](error_code ec, size_t) {
+                        self->disarm();
+                        if (ec) return self->close();
+                        self->pump();
+                      });
   }
 
   // After an early answer (413, 431) the client may still be sending: stop writing, read and
@@ -386,6 +447,7 @@ class Session final : public Connection, public std::enable_shared_from_this<Ses
 
   void close() {
     disarm();
+    pollTimer_.cancel();
     beast::get_lowest_layer(stream_).close();
   }
 
@@ -396,6 +458,13 @@ class Session final : public Connection, public std::enable_shared_from_this<Ses
   beast::flat_buffer buffer_;
   std::optional<http::request_parser<http::string_body>> parser_;
   std::optional<Message> message_;
+  // A streamed response (HttpStream): its source, header, serializer, the piece being written and
+  // the timer between polls.
+  std::shared_ptr<HttpStream> feed_;
+  std::optional<http::response<http::empty_body>> streamHeader_;
+  std::optional<http::response_serializer<http::empty_body>> streamSerializer_;
+  std::string pending_;
+  asio::steady_timer pollTimer_{stream_.get_executor()};
   HttpRequest request_;
   const HttpRoutes::Route* route_ = nullptr;
   std::string remote_;
@@ -426,10 +495,14 @@ void HttpResponse::setHeader(std::string name, std::string value) {
 }
 
 void HttpRoutes::get(const std::string& pattern, HttpHandler handler, HttpGuard guard) {
-  routes_.push_back({"GET", std::regex(pattern), std::move(handler), std::move(guard)});
+  add("GET", pattern, std::move(handler), std::move(guard));
 }
 void HttpRoutes::post(const std::string& pattern, HttpHandler handler, HttpGuard guard) {
-  routes_.push_back({"POST", std::regex(pattern), std::move(handler), std::move(guard)});
+  add("POST", pattern, std::move(handler), std::move(guard));
+}
+void HttpRoutes::add(std::string method, const std::string& pattern, HttpHandler handler, HttpGuard guard,
+                     size_t maxBodyBytes) {
+  routes_.push_back({std::move(method), std::regex(pattern), std::move(handler), std::move(guard), maxBodyBytes});
 }
 
 const HttpRoutes::Route* HttpRoutes::match(const std::string& method, const std::string& path,

@@ -60,10 +60,20 @@ struct HttpRequest {
   std::string param(std::string_view name) const;
 };
 
+// A response body written as it comes (Server-Sent Events): after the header, `next` runs on the
+// handler pool again and again and returns the bytes to send next, "" when there are none yet
+// (asked again after `pollInterval`), or nullopt to end the response. The connection closes at
+// the end or when a write fails or misses its deadline (a reader gone).
+struct HttpStream {
+  std::function<std::optional<std::string>()> next;
+  std::chrono::milliseconds pollInterval{250};
+};
+
 struct HttpResponse {
   int status = 200;
   std::string body;
   std::vector<std::pair<std::string, std::string>> headers;
+  std::shared_ptr<HttpStream> stream;  // set: `body` is ignored and the stream is sent instead
 
   void setContent(std::string content, std::string contentType);
   void setHeader(std::string name, std::string value);
@@ -84,9 +94,14 @@ class HttpRoutes {
     std::regex pattern;
     HttpHandler handler;
     HttpGuard guard;
+    size_t maxBodyBytes = 0;  // 0: HttpLimits::maxBodyBytes
   };
   void get(const std::string& pattern, HttpHandler handler, HttpGuard guard = nullptr);
   void post(const std::string& pattern, HttpHandler handler, HttpGuard guard = nullptr);
+  // Any method; `maxBodyBytes` (0: the server's limit) for routes that take large bodies, whose
+  // body deadline then grows by a second per MiB.
+  void add(std::string method, const std::string& pattern, HttpHandler handler, HttpGuard guard = nullptr,
+           size_t maxBodyBytes = 0);
 
   // The route for METHOD PATH (its groups in `matches`), or null; `pathKnown` tells whether
   // another method's route matches the path.

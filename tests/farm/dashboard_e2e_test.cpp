@@ -21,6 +21,7 @@
 
 #include "common/film/image.h"
 #include "common/film/image_io.h"
+#include "common/util/hash.h"
 #include "coordinator/web/dashboard.h"
 #include "tests/coordinator/audit_views.h"
 #include "tests/deploy_support.h"
@@ -313,6 +314,90 @@ TEST_F(DashboardFarm, ApiServesJobsImagesAndActions) {
   EXPECT_EQ(cancelled.status, 200);
   EXPECT_EQ(json::parse(cancelled.body)["state"], "cancelled");
   EXPECT_NE(status(first).find("cancelled"), std::string::npos);
+}
+
+// People on the dashboard (--users): a submitter signs in with their own token, sees only their
+// jobs when they ask, acts (cap, pause, delete) on their own jobs and not on another's (the page
+// offers nothing, and the API refuses); the job page draws its dependencies as a graph.
+TEST(DashboardPeople, ARealBrowserShowsAPersonTheirJobsCapsDeletesAndTheDependencyGraph) {
+  ASSERT_TRUE(fs::exists(kChromium) && fs::exists(kChromedriver));
+  test::TempDir dir;
+  test::FarmProcesses farm(dir);
+  const std::string admin = "the-administrators-dashboard-token", ann = "anns-own-dashboard-token-1",
+                    bob = "bobs-own-dashboard-token-2";
+  const fs::path adminFile = dir.write("admin.token", admin + "\n"), annFile = dir.write("ann.token", ann + "\n"),
+                 bobFile = dir.write("bob.token", bob + "\n");
+  for (const fs::path& f : {adminFile, annFile, bobFile})
+    fs::permissions(f, fs::perms::owner_read | fs::perms::owner_write);
+  const fs::path users =
+      dir.write("users", "ann submitter " + sha256Hex(ann) + "\nbob submitter " + sha256Hex(bob) + "\n");
+  fs::permissions(users, fs::perms::owner_read | fs::perms::owner_write);
+  const std::string address =
+      farm.startCoordinator({"--listen", "127.0.0.1:0", "--client-token-file", adminFile.string(), "--users",
+                             users.string(), "--dashboard-listen", "127.0.0.1:0", "--heartbeat-interval", "0.2"});
+  const std::string dashboard = farm.dashboardAddress();
+  const auto as = [&](const fs::path& token, std::vector<std::string> args) {
+    args.insert(args.end(), {"--coordinator", address, "--token-file", token.string()});
+    return farm.cli(args);
+  };
+  const fs::path scene = test::writeSeedScene(dir, 32, 1 << 20, 8);
+  const std::string first =
+      farm.submit({scene.string(), "--coordinator", address, "--token-file", annFile.string(), "--paused"});
+  const std::string bobs =
+      farm.submit({scene.string(), "--coordinator", address, "--token-file", bobFile.string(), "--paused"});
+  const std::string second = farm.submit(
+      {scene.string(), "--coordinator", address, "--token-file", annFile.string(), "--after", first + ":done"});
+
+  Browser browser(dir);
+  browser.go("http://" + dashboard + "/");
+  ASSERT_TRUE(test::waitFor([&] { return browser.visible("#token"); }, 30));
+  browser.type("#token", ann);
+  browser.click("#token-submit");
+  const auto row = [](const std::string& job) { return "#jobs tbody tr[data-job=\"" + job + "\"]"; };
+  ASSERT_TRUE(test::waitFor([&] { return browser.visible(row(bobs)); }, 60)) << browser.text("#jobs");
+  // Only ann's.
+  ASSERT_TRUE(browser.visible("#mine-label"));
+  EXPECT_EQ(browser.text("#user-name"), "ann");
+  browser.click("#mine");
+  ASSERT_TRUE(test::waitFor([&] { return !browser.visible(row(bobs)) && browser.visible(row(first)); }, 30));
+  EXPECT_TRUE(browser.visible(row(second)));
+
+  // ann's first job: the graph shows the job waiting for it; she caps it.
+  browser.click(row(first) + " a");
+  ASSERT_TRUE(test::waitFor([&] { return browser.visible("#deps-card"); }, 30)) << "no dependency graph";
+  EXPECT_TRUE(browser.visible("#deps a[data-job=\"" + second + "\"]"));
+  EXPECT_NE(browser.text("#deps").find("done"), std::string::npos) << browser.text("#deps");
+  browser.screenshot(fs::path(LENSFARM_BINARY_DIR) / "dashboard-dependencies.png");
+  browser.run("const e = document.querySelector('#max-workers'); e.value = '1';");
+  browser.click("#set-cap");
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        return test::contains(as(adminFile, {"status", first}).out, "max workers: 1");
+      },
+      30))
+      << as(adminFile, {"status", first}).out;
+
+  // bob's job: nothing offered; the API refuses her all the same.
+  browser.go("http://" + dashboard + "/#/job/" + bobs);
+  ASSERT_TRUE(test::waitFor([&] { return browser.text("#job-id") == bobs; }, 30));
+  ASSERT_TRUE(test::waitFor([&] { return browser.text("#job-owner") == "bob"; }, 30));
+  for (const char* button : {"#cancel", "#delete", "#pause", "#set-cap", "#approve"})
+    EXPECT_TRUE(browser.run(std::string("return document.querySelector('") + button + "').disabled;") == true)
+        << button;
+  const Reply refused = request(dashboard, "POST", "/api/v1/jobs/" + bobs + "/cancel", ann, "");
+  EXPECT_EQ(refused.status, 403) << refused.body;
+  EXPECT_NE(refused.body.find("ann (submitter) may act on their own jobs only"), std::string::npos) << refused.body;
+
+  // ann deletes her second job from its page (confirming).
+  browser.go("http://" + dashboard + "/#/job/" + second);
+  ASSERT_TRUE(test::waitFor([&] { return browser.text("#job-id") == second; }, 30));
+  ASSERT_TRUE(
+      test::waitFor([&] { return browser.run("return document.querySelector('#delete').disabled;") == false; }, 30));
+  browser.run("window.confirm = () => true;");
+  browser.click("#delete");
+  ASSERT_TRUE(test::waitFor([&] { return browser.run("return location.hash;") == "#/"; }, 30));
+  EXPECT_EQ(as(adminFile, {"status", second}).exitCode, 4) << "deleted";
+  EXPECT_EQ(as(adminFile, {"status", bobs}).exitCode, 0) << "bob's job is untouched";
 }
 
 TEST(DashboardFlags, RefusesAnAddressOpenToTheNetworkWithoutATokenOrMalformed) {

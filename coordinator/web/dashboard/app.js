@@ -13,7 +13,11 @@ let shown = { jobId: null, version: -1, ev: null, url: null };  // the snapshot 
 let evChoice = null;  // null: the scene's exposure; a number: the slider's
 let lastJob = null;
 let pollTimer = null;
-let access = "full";  // "read" with the viewer token (X-Lensfarm-Access): no Cancel, no priority
+// X-Lensfarm-Access: "full" (every action), "own" (a person who submits: actions on their own
+// jobs), "read" (the viewer token or a viewer); X-Lensfarm-User: the person signed in, if any.
+let access = "full";
+let user = null;
+let allJobs = [];  // the last job list, for the dependency graph
 
 // ---- talking to the coordinator --------------------------------------------------------------
 
@@ -28,14 +32,22 @@ async function api(path, options = {}) {
   const response = await fetch(path, { ...options, headers: { ...authHeaders(), ...(options.headers || {}) } });
   if (response.status === 401) throw new Unauthorized((await response.json()).error || "unauthorized");
   const granted = response.headers.get("X-Lensfarm-Access");
-  if (granted) access = granted;
+  if (granted) { access = granted; user = response.headers.get("X-Lensfarm-User"); }
   if (!response.ok) {
     let message = `${response.status} ${response.statusText}`;
-    try { message = (await response.json()).error || message; } catch (_) { /* not JSON */ }
+    try {
+      const error = (await response.json()).error;  // /api: a text; /api/v1: {code, status, message}
+      message = (error && error.message) || error || message;
+    } catch (_) { /* not JSON */ }
     throw new Error(message);
   }
   return response;
 }
+// The actions go through the HTTP API (/api/v1, docs/api.md), which checks the person's role.
+const v1 = async (method, path, body) =>
+  (await api(`/api/v1/jobs/${path}`, { method, headers: { "Content-Type": "application/json" },
+    body: body === undefined ? undefined : JSON.stringify(body) })).json();
+const mayActOn = (job) => access === "full" || (access === "own" && job.owner === user);
 const getJson = async (path) => (await api(path)).json();
 const postJson = async (path, body) =>
   (await api(path, { method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body || {}) })).json();
@@ -132,7 +144,10 @@ function show(view) {
 }
 
 async function renderOverview() {
-  const [{ jobs }, { workers }] = await Promise.all([getJson("/api/jobs"), getJson("/api/workers")]);
+  const [{ jobs: everyJob }, { workers }] = await Promise.all([getJson("/api/jobs"), getJson("/api/workers")]);
+  $("#mine-label").hidden = !user;
+  $("#user-name").textContent = user || "";
+  const jobs = user && $("#mine").checked ? everyJob.filter((j) => j.owner === user) : everyJob;
   const jobRows = jobs.map((j) =>
     el("tr", { dataset: { key: j.id, job: j.id, state: j.state } },
       el("td", {}, el("a", { href: `#/job/${encodeURIComponent(j.id)}` }, j.id)),
@@ -175,7 +190,8 @@ function stat(term, value, id) {
 }
 
 async function renderJob(jobId) {
-  const job = await getJson(`/api/jobs/${encodeURIComponent(jobId)}`);
+  const [job, { jobs }] = await Promise.all([getJson(`/api/jobs/${encodeURIComponent(jobId)}`), getJson("/api/jobs")]);
+  allJobs = jobs;
   lastJob = job;
   $("#job-id").textContent = job.id;
   $("#job-scene").textContent = `${job.scene} · ${job.width}×${job.height}`;
@@ -211,12 +227,16 @@ async function renderJob(jobId) {
     ...(job.stalled_reason ? stat("Stalled", job.stalled_reason, "job-stalled") : []),
     ...(audit ? stat("Audit", audit, "job-audit") : []));
   $("#job-priority").textContent = job.priority;
-  const mayAct = running && access !== "read";
+  const mayAct = running && mayActOn(job);
   $("#cancel").disabled = !mayAct;
+  $("#delete").disabled = !mayActOn(job);
+  $("#set-cap").disabled = $("#max-workers").disabled = !mayAct;
+  if (document.activeElement !== $("#max-workers"))
+    $("#max-workers").value = job.policy && job.policy.max_workers ? job.policy.max_workers : "";
   // Pause and resume: one button, its label the action it takes (docs/farm.md "Scheduling").
   $("#pause").disabled = !mayAct;
   $("#pause").textContent = job.paused ? "Resume" : "Pause";
-  $("#approve").disabled = access === "read" || job.approved;
+  $("#approve").disabled = !mayActOn(job) || job.approved;
   $("#priority-up").disabled = $("#priority-down").disabled = !mayAct;
   $("#effects").replaceChildren(...job.effects.map((e) => {
     const m = /^([^:]+): (on|off)(?: \((.*)\))?$/.exec(e);
@@ -229,6 +249,7 @@ async function renderJob(jobId) {
   $("#events").replaceChildren(...events.map((e) =>
     el("li", {}, el("span", { class: "muted" }, new Date(1000 * e.unix_seconds).toLocaleString()), " ", e.text)));
   drawErrorChart($("#error-chart"), job.error_history, job.target_error);
+  drawDependencies(job);
   if (job.version !== shown.version || evChoice !== shown.ev || shown.jobId !== job.id) await loadSnapshot(job);
 }
 
@@ -256,6 +277,56 @@ async function loadSnapshot(job) {
 }
 
 // The estimated relative error against elapsed time, log-scaled, as plain SVG.
+// The job's dependencies as a graph: the jobs it waits for (left, each with its condition) and the
+// jobs waiting for it (right), an arrow from each it waits for; each node's colour its state, a
+// dashed arrow a condition that does not hold yet; each node a link to that job.
+function drawDependencies(job) {
+  const svg = $("#deps");
+  const idOf = (text) => text.split(":")[0];
+  const conditionOf = (text) => text.includes(":") ? text.slice(text.indexOf(":") + 1) : "done";
+  const byId = new Map(allJobs.map((j) => [j.id, j]));
+  const upstream = ((job.policy && job.policy.after) || []).map((t) => ({ id: idOf(t), label: conditionOf(t),
+    holds: !(job.waiting_for || []).some((w) => w.startsWith(idOf(t) + " ") || w.startsWith(idOf(t) + ":")) }));
+  const downstream = allJobs.filter((j) => j.policy && (j.policy.after || []).some((t) => idOf(t) === job.id))
+    .map((j) => ({ id: j.id, label: conditionOf(j.policy.after.find((t) => idOf(t) === job.id)),
+      holds: !(j.waiting_for || []).length }));
+  $("#deps-card").hidden = upstream.length === 0 && downstream.length === 0;
+  if ($("#deps-card").hidden) return;
+  const rows = Math.max(upstream.length, downstream.length, 1);
+  const W = 480, H = 40 + 44 * rows, boxW = 120, boxH = 30;
+  svg.setAttribute("viewBox", `0 0 ${W} ${H}`);
+  const NS = "http://www.w3.org/2000/svg";
+  const make = (tag, attrs, text) => {
+    const node = document.createElementNS(NS, tag);
+    for (const [k, v] of Object.entries(attrs)) node.setAttribute(k, v);
+    if (text !== undefined) node.textContent = text;
+    return node;
+  };
+  const node = (id, x, y, extra) => {
+    const j = byId.get(id);
+    const link = make("a", { href: `#/job/${encodeURIComponent(id)}`, class: `dep-node state-${j ? j.state : "gone"}`,
+      "data-job": id });
+    link.append(make("rect", { x: x - boxW / 2, y: y - boxH / 2, width: boxW, height: boxH, rx: 6 }),
+      make("text", { x, y: y + 4, "text-anchor": "middle" }, `${id} · ${j ? j.state : "deleted"}${extra || ""}`));
+    return link;
+  };
+  const yOf = (i, n) => 20 + (H - 40) * (n === 1 ? 0.5 : i / (n - 1));
+  const parts = [make("defs", {}), node(job.id, W / 2, H / 2, "")];
+  parts[0].innerHTML = '<marker id="arrow" viewBox="0 0 8 8" refX="8" refY="4" markerWidth="6" markerHeight="6" orient="auto"><path d="M0,0 L8,4 L0,8 z"/></marker>';
+  const edge = (x1, y1, x2, y2, label, holds) => [
+    make("line", { x1, y1, x2, y2, class: holds ? "dep-edge" : "dep-edge waiting", "marker-end": "url(#arrow)" }),
+    make("text", { x: (x1 + x2) / 2, y: (y1 + y2) / 2 - 4, "text-anchor": "middle", class: "dep-label" }, label)];
+  upstream.forEach((u, i) => {
+    const y = yOf(i, upstream.length);
+    parts.push(...edge(70 + boxW / 2 - 10, y, W / 2 - boxW / 2, H / 2, u.label, u.holds), node(u.id, 70, y, ""));
+  });
+  downstream.forEach((d, i) => {
+    const y = yOf(i, downstream.length);
+    parts.push(...edge(W / 2 + boxW / 2, H / 2, W - 70 - boxW / 2 + 10, y, d.label, d.holds), node(d.id, W - 70, y, ""));
+  });
+  svg.replaceChildren(...parts);
+}
+
 function drawErrorChart(svg, history, target) {
   // Only positive, finite errors have a place on a log axis (a 0 would make the grid endless).
   const points = history.filter((p) => p.error > 0 && isFinite(p.error) && isFinite(p.t));
@@ -396,24 +467,40 @@ $("#ev").addEventListener("change", () => poll());
 $("#ev-auto").addEventListener("click", () => { evChoice = null; poll(); });
 $("#cancel").addEventListener("click", async () => {
   if (!lastJob) return;
-  try { await postJson(`/api/jobs/${encodeURIComponent(lastJob.id)}/cancel`); } catch (e) { report(e); }
+  try { await v1("POST", `${encodeURIComponent(lastJob.id)}/cancel`); } catch (e) { report(e); }
   poll();
 });
+$("#delete").addEventListener("click", async () => {
+  if (!lastJob || !confirm(`Delete ${lastJob.id} for good? Its image and files are removed.`)) return;
+  try {
+    await v1("DELETE", `${encodeURIComponent(lastJob.id)}?force=true`);
+    location.hash = "#/";
+  } catch (e) { report(e); }
+  poll();
+});
+$("#set-cap").addEventListener("click", async () => {
+  if (!lastJob) return;
+  const cap = Number($("#max-workers").value);
+  try { await v1("PATCH", encodeURIComponent(lastJob.id), { max_workers: cap }); } catch (e) { report(e); }
+  $("#max-workers").blur();
+  poll();
+});
+$("#mine").addEventListener("change", () => poll());
 $("#pause").addEventListener("click", async () => {
   if (!lastJob) return;
   const action = lastJob.paused ? "resume" : "pause";
-  try { await postJson(`/api/jobs/${encodeURIComponent(lastJob.id)}/${action}`); } catch (e) { report(e); }
+  try { await v1("POST", `${encodeURIComponent(lastJob.id)}/${action}`); } catch (e) { report(e); }
   poll();
 });
 $("#approve").addEventListener("click", async () => {
   if (!lastJob) return;
-  try { await postJson(`/api/jobs/${encodeURIComponent(lastJob.id)}/approve`); } catch (e) { report(e); }
+  try { await v1("POST", `${encodeURIComponent(lastJob.id)}/approve`); } catch (e) { report(e); }
   poll();
 });
 for (const [id, delta] of [["#priority-up", 1], ["#priority-down", -1]]) {
   $(id).addEventListener("click", async () => {
     if (!lastJob) return;
-    try { await postJson(`/api/jobs/${encodeURIComponent(lastJob.id)}/priority`, { priority: lastJob.priority + delta }); }
+    try { await v1("PATCH", encodeURIComponent(lastJob.id), { priority: lastJob.priority + delta }); }
     catch (e) { report(e); }
     poll();
   });
