@@ -21,6 +21,7 @@ Runner addPauseCommand(CLI::App& app);
 Runner addResumeCommand(CLI::App& app);
 Runner addApproveCommand(CLI::App& app);
 Runner addUpdateCommand(CLI::App& app);
+Runner addPrefetchCommand(CLI::App& app);
 Runner addEventsCommand(CLI::App& app);
 Runner addWorkersCommand(CLI::App& app);
 Runner addSlurmCommand(CLI::App& app);

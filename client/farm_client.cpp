@@ -259,6 +259,9 @@ v1::JobStatus FarmClient::resume(const std::string& jobId) {
 v1::JobStatus FarmClient::approve(const std::string& jobId) {
   return jobAction(&v1::ClientService::Stub::ApproveJob, jobId);
 }
+v1::JobStatus FarmClient::prefetch(const std::string& jobId) {
+  return jobAction(&v1::ClientService::Stub::PrefetchJob, jobId);
+}
 
 v1::JobStatus FarmClient::update(const v1::UpdateJobRequest& request) {
   v1::JobActionResponse response;

@@ -53,6 +53,7 @@ class FarmClient {
   v1::JobStatus pause(const std::string& jobId);
   v1::JobStatus resume(const std::string& jobId);
   v1::JobStatus approve(const std::string& jobId);
+  v1::JobStatus prefetch(const std::string& jobId);  // PrefetchJob
   // UpdateJob: the fields set in `request` (priority, max_workers, share_weight) change.
   v1::JobStatus update(const v1::UpdateJobRequest& request);
   // ListEvents: the farm's notifications after `request.after()` (a long poll with wait_seconds).

@@ -1,6 +1,6 @@
 // `lensfarm`: the command-line client. Subcommands: render (one machine), dof (depth-of-field
 // table), study and compare, the farm commands submit, status, watch, download, snapshot, cancel,
-// delete, archive, pause, resume, approve, update, events,
+// delete, archive, pause, resume, approve, update, prefetch, events,
 // workers, and help. Without a subcommand it prints the usage; a mistyped one gets a suggestion.
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
@@ -66,9 +66,9 @@ int main(int argc, char** argv) {
   for (auto add : {cli::addRenderCommand,  cli::addDofCommand,      cli::addSubmitCommand,   cli::addStatusCommand,
                    cli::addWatchCommand,   cli::addDownloadCommand, cli::addSnapshotCommand, cli::addCancelCommand,
                    cli::addDeleteCommand,  cli::addArchiveCommand,  cli::addPauseCommand,    cli::addResumeCommand,
-                   cli::addApproveCommand, cli::addUpdateCommand,   cli::addEventsCommand,   cli::addWorkersCommand,
-                   cli::addSlurmCommand,   cli::addStudyCommand,    cli::addCompareCommand,  cli::addLensCommand,
-                   cli::addDenoiseCommand}) {
+                   cli::addApproveCommand, cli::addUpdateCommand,   cli::addPrefetchCommand, cli::addEventsCommand,
+                   cli::addWorkersCommand, cli::addSlurmCommand,    cli::addStudyCommand,    cli::addCompareCommand,
+                   cli::addLensCommand,    cli::addDenoiseCommand}) {
     cli::Runner run = add(app);
     runners[app.get_subcommands({}).back()] = std::move(run);
   }

@@ -24,8 +24,8 @@ Runner addJobAction(CLI::App& app, const char* name, const char* description, Ac
     return guardedCall([&] {
       FarmClient client(f->c.coordinator, f->c.resolved());
       const v1::JobStatus s = (client.*action)(f->job);
-      std::printf("%s %s%s%s\n", s.job_id().c_str(), stateName(s.state()), s.paused() ? ", paused" : "",
-                  s.approved() ? ", approved" : "");
+      std::printf("%s %s%s%s%s\n", s.job_id().c_str(), stateName(s.state()), s.paused() ? ", paused" : "",
+                  s.approved() ? ", approved" : "", s.prefetch() ? ", prefetching" : "");
       return kOk;
     });
   };
@@ -45,6 +45,12 @@ Runner addResumeCommand(CLI::App& app) {
 Runner addApproveCommand(CLI::App& app) {
   return addJobAction(app, "approve", "Approve a job (its preview): jobs submitted --after JOB:approved start",
                       &FarmClient::approve);
+}
+
+Runner addPrefetchCommand(CLI::App& app) {
+  return addJobAction(app, "prefetch",
+                      "Have the workers that may render a job fetch its assets now, before its units are leased",
+                      &FarmClient::prefetch);
 }
 
 Runner addUpdateCommand(CLI::App& app) {

@@ -83,7 +83,7 @@ struct Flags {
   std::string usersFile;
   std::string metricsListen, metricsPortFile, dashboardListen, dashboardPortFile;
   std::string stateDir, uploadEncoding = "shuffle-zstd", maxJobMemory, memoryBudget, maxAssetBytes, keep = "0",
-                        archiveAfter = "0";
+                        archiveAfter = "0", assetGrace = "1h", maxAssetBytesPerOwner;
   std::string sharing = "fair";
   std::vector<std::string> ownerWeights;  // NAME=WEIGHT
   std::string webhookSecretFile, webhookEvents;
@@ -248,6 +248,20 @@ void addStateFlags(CLI::App& app, Flags& f) {
                  "The most bytes of uploaded assets the coordinator keeps (e.g. 100G); an upload past it is refused "
                  "(default: no limit)")
       ->envname("LENSFARM_MAX_ASSET_BYTES");
+  app.add_option("--max-asset-bytes-per-owner", f.maxAssetBytesPerOwner,
+                 "The most bytes of distinct assets one owner's jobs may refer to (e.g. 20G); a submit past it is "
+                 "refused (default: no limit)")
+      ->envname("LENSFARM_MAX_ASSET_BYTES_PER_OWNER");
+  app.add_option("--max-samples-per-owner", f.options.maxSamplesPerOwner,
+                 "The most pixel-samples one owner's queued and running jobs may have still to render (e.g. "
+                 "1000000000000); a submit past it is refused (0: no limit)")
+      ->envname("LENSFARM_MAX_SAMPLES_PER_OWNER")
+      ->capture_default_str();
+  app.add_option("--asset-grace", f.assetGrace,
+                 "Remove an uploaded asset once no job has referred to it for this long (e.g. 1h, 30m; archived "
+                 "jobs count, deleted ones do not); \"never\": keep every asset")
+      ->envname("LENSFARM_ASSET_GRACE")
+      ->capture_default_str();
   app.add_option("--max-jobs-per-owner", f.options.maxJobsPerOwner,
                  "Jobs one owner may have queued or running at once; a submit past it is refused (0: no cap)")
       ->envname("LENSFARM_MAX_JOBS_PER_OWNER")
@@ -288,6 +302,7 @@ bool parseSizeFlag(const std::string& text, const char* flag, uint64_t& bytes) {
 std::optional<int> finishOptions(Flags& f) {
   if (!parseSizeFlag(f.maxJobMemory, "--max-job-memory", f.options.maxJobMemoryBytes) ||
       !parseSizeFlag(f.maxAssetBytes, "--max-asset-bytes", f.options.maxAssetBytes) ||
+      !parseSizeFlag(f.maxAssetBytesPerOwner, "--max-asset-bytes-per-owner", f.options.maxAssetBytesPerOwner) ||
       !parseSizeFlag(f.memoryBudget, "--memory-budget", f.options.memoryBudgetBytes))
     return 2;
   if (!f.maxJobMemory.empty()) f.options.maxJobMemorySource = "--max-job-memory";
@@ -295,6 +310,7 @@ std::optional<int> finishOptions(Flags& f) {
   try {
     f.options.keepSeconds = parseDuration(f.keep, "--keep");
     f.options.archiveAfterSeconds = f.archiveAfter == "never" ? -1.0 : parseDuration(f.archiveAfter, "--archive-after");
+    f.options.assetGraceSeconds = f.assetGrace == "never" ? -1.0 : parseDuration(f.assetGrace, "--asset-grace");
   } catch (const InputError& e) {
     spdlog::error("{}", e.what());
     return 2;
@@ -490,7 +506,7 @@ HttpServers startHttp(const Flags& f, const Security& s, Coordinator& coordinato
     std::optional<HttpTls> dashboardTls;
     if (!f.tlsCert.empty()) dashboardTls = HttpTls{f.tlsCert, f.tlsKey, f.tlsClientCa};
     h.dashboard = std::make_unique<DashboardServer>(f.dashboardListen, dashboard, &api, dashboardTls);
-    spdlog::info("dashboard and HTTP API (/api/v1) on {}://{}/ ({}client token {}, viewer token {})",
+    spdlog::info("dashboard on {}://{}/ and the HTTP API under /api/v1 ({}client token {}, viewer token {})",
                  h.dashboard->scheme(), h.dashboard->address(), f.tlsClientCa.empty() ? "" : "client certificate and ",
                  s.clientToken ? "required" : "none", s.viewerToken ? "accepted (read-only)" : "none");
   }

@@ -31,6 +31,9 @@ class CoordinatorLink {
   // Returns the leases the worker must drop.
   virtual std::vector<uint64_t> heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds) = 0;
   virtual std::optional<LeaseGrant> lease(const std::string& workerId, double waitSeconds) = 0;
+  // After a lease() that granted nothing: a job whose assets to fetch into the cache now
+  // (prefetch, docs/farm.md "Assets"), or "". Links without prefetch answer "".
+  virtual std::string takePrefetch() { return ""; }
   virtual JobSpec jobSpec(const std::string& jobId) = 0;
   virtual std::string asset(const std::string& sha256) = 0;
   // True if counted, false if the coordinator already had the unit (a harmless duplicate).

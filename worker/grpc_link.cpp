@@ -189,7 +189,10 @@ std::optional<LeaseGrant> GrpcCoordinatorLink::lease(const std::string& workerId
   v1::LeaseWorkResponse response;
   const grpc::Status s = stub_->LeaseWork(context(waitSeconds).get(), request, &response);
   if (!s.ok()) raise(s, "LeaseWork");
-  if (!response.has_lease()) return std::nullopt;
+  if (!response.has_lease()) {
+    prefetch_ = response.prefetch_job_id();
+    return std::nullopt;
+  }
   return proto::fromProto(response.lease());
 }
 

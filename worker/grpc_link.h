@@ -7,6 +7,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
 
 #include "lensfarm/v1/worker_service.grpc.pb.h"
 #include "proto/channel_security.h"
@@ -28,6 +29,7 @@ class GrpcCoordinatorLink final : public CoordinatorLink {
   Registration registerWorker(const WorkerInfo& info) override;
   std::vector<uint64_t> heartbeat(const std::string& workerId, const std::vector<uint64_t>& leaseIds) override;
   std::optional<LeaseGrant> lease(const std::string& workerId, double waitSeconds) override;
+  std::string takePrefetch() override { return std::exchange(prefetch_, std::string()); }
   JobSpec jobSpec(const std::string& jobId) override;
   std::string asset(const std::string& sha256) override;
   bool upload(const UnitResult& result) override;
@@ -48,6 +50,7 @@ class GrpcCoordinatorLink final : public CoordinatorLink {
   void attachLoop();
   void stopAttaching();
   std::unique_ptr<v1::WorkerService::Stub> stub_;
+  std::string prefetch_;  // the last LeaseWork's prefetch_job_id (the worker loop's thread only)
   ChannelSecurity security_;
   double callTimeoutSeconds_;
 

@@ -84,6 +84,19 @@ void WorkerLoop::heartbeatLoop() {
   }
 }
 
+void WorkerLoop::prefetch(const std::string& jobId) {
+  try {
+    const JobSpec spec = link_.jobSpec(jobId);
+    uint64_t bytes = 0;
+    for (const auto& [path, sha] : spec.assets)
+      bytes += assets_.get(sha, [&](const std::string& h) { return link_.asset(h); }).size();
+    spdlog::info("prefetched the {} asset(s) of {} ({:.2f} MB) into the cache", spec.assets.size(), jobId,
+                 double(bytes) / 1e6);
+  } catch (const FarmError& e) {  // (it ended, or was deleted, meanwhile: its units will not come)
+    spdlog::warn("prefetch of {}: {}", jobId, e.what());
+  }
+}
+
 std::shared_ptr<WorkerLoop::PreparedJob> WorkerLoop::prepare(const LeaseGrant& grant) {
   // An animation's frames are scenes of their own (keyframes evaluated at the frame,
   // docs/scene-format.md "Animation"): loaded per job and frame; a still's frame is always 0.
@@ -198,7 +211,10 @@ void WorkerLoop::run() {
       const std::string id = workerId();
       const std::optional<LeaseGrant> grant = link_.lease(id, options_.leaseWaitSeconds);
       backoff.recovered();
-      if (!grant) continue;  // the coordinator already waited for work
+      if (!grant) {
+        if (const std::string job = link_.takePrefetch(); !job.empty()) prefetch(job);
+        continue;  // the coordinator already waited for work
+      }
       lastBusy = std::chrono::steady_clock::now();
       serve(id, *grant, arena);
     } catch (const LinkUnavailable& e) {

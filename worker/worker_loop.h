@@ -70,6 +70,8 @@ class WorkerLoop {
     std::string kernel;  // the traversal kernel it renders with (UnitResult::kernel)
   };
   std::shared_ptr<PreparedJob> prepare(const LeaseGrant& grant);
+  // Fetches the job's assets into the cache ahead of its units (LeaseWorkResponse.prefetch_job_id).
+  void prefetch(const std::string& jobId);
   void registerNow();  // a new worker id from the coordinator
   // One leased unit: its job prepared, the unit traced on `arena` and delivered; a unit this
   // worker cannot render is reported (reportFailure), never left to lapse.

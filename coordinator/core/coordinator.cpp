@@ -271,6 +271,14 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
 
   MutexLock lock(mutex_);
   checkDependenciesExist(policy);
+  // Checked again under the lock: the asset garbage collection removes only under it.
+  for (const auto& [path, sha] : spec.assets)
+    if (!assets_.has(sha))
+      throw FarmError(FarmError::Kind::kFailedPrecondition,
+                      "missing assets (upload them first): " + path + " (" + sha.substr(0, 12) + ")");
+  checkOwnerQuotas(job->definition.owner, spec,
+                   uint64_t(job->definition.layout.width) * uint64_t(job->definition.layout.height) *
+                       job->definition.layout.samplesPerPixel * job->definition.layout.frameCount());
   job->definition.id = "job-" + std::to_string(nextJob_++);
   job->definition.sequence = nextSequence_++;
   job->memory.rename(job->definition.id);
@@ -394,6 +402,7 @@ JobInfo Coordinator::infoOf(const Job& job) const {
   info.policy = job.definition.policy;
   info.paused = job.paused;
   info.approved = job.approved;
+  info.prefetch = job.prefetch;
   if (!job.released && !isTerminal(job.progress.state)) info.waitingFor = dependencyWaits(job, nullptr);
   if (!isTerminal(job.progress.state)) info.deadlineOutlook = job.progress.deadlineOutlook;
   info.stalledReason = stalledReason(job, Clock::now());
@@ -654,6 +663,8 @@ JobSpec Coordinator::jobSpecFor(const std::string& workerId, const std::string& 
   const Job& job = findJob(jobId);
   for (const LeaseTable::Lease* lease : leases_.ofJob(jobId))
     if (lease->workerId == workerId) return job.definition.spec;
+  if (const WorkerRecord* worker = workers_.known(workerId); worker && worker->prefetched.count(jobId))
+    return job.definition.spec;  // asked to fetch it ahead (takePrefetch)
   throw FarmError(FarmError::Kind::kFailedPrecondition, workerId + " holds no lease of " + jobId);
 }
 
@@ -661,8 +672,9 @@ std::shared_ptr<const std::string> Coordinator::assetFor(const std::string& work
   {
     MutexLock lock(mutex_);
     bool held = false;
+    const WorkerRecord* worker = workers_.known(workerId);
     for (const auto& [id, job] : jobs_) {
-      bool jobHeld = false;
+      bool jobHeld = worker && worker->prefetched.count(id);  // asked to fetch it ahead
       for (const LeaseTable::Lease* lease : leases_.ofJob(id)) jobHeld |= lease->workerId == workerId;
       if (!jobHeld) continue;
       for (const auto& [path, sha] : job->definition.spec.assets) held |= sha == sha256;
@@ -672,6 +684,36 @@ std::shared_ptr<const std::string> Coordinator::assetFor(const std::string& work
                       "asset " + sha256.substr(0, 12) + " belongs to no job " + workerId + " holds a lease of");
   }
   return asset(sha256);
+}
+
+void Coordinator::checkOwnerQuotas(const std::string& owner, const JobSpec& spec, uint64_t pixelSamples) const {
+  if (!options_.maxAssetBytesPerOwner && !options_.maxSamplesPerOwner) return;
+  const std::string who = owner.empty() ? std::string("the unnamed owner") : "owner " + logText(owner);
+  std::set<std::string> assets;
+  double outstanding = double(pixelSamples);
+  for (const auto& [id, j] : jobs_) {
+    if (j->definition.owner != owner) continue;
+    for (const auto& [path, sha] : j->definition.spec.assets) assets.insert(sha);
+    if (isTerminal(j->progress.state)) continue;
+    const JobLayout& l = j->definition.layout;
+    const double total = double(l.width) * double(l.height) * double(l.samplesPerPixel) * double(l.frameCount());
+    const uint64_t units = j->progress.units.total();
+    outstanding += units ? total * double(units - std::min(units, j->progress.unitsAdded)) / double(units) : 0.0;
+  }
+  for (const auto& [path, sha] : spec.assets) assets.insert(sha);
+  uint64_t bytes = 0;
+  for (const std::string& sha : assets) bytes += assets_.sizeOf(sha);
+  if (options_.maxAssetBytesPerOwner && bytes > options_.maxAssetBytesPerOwner)
+    throw FarmError(FarmError::Kind::kResourceExhausted,
+                    spec.sceneName + ": " + who + "'s jobs would refer to " + formatBytes(bytes) +
+                        " of assets, above " + formatBytes(options_.maxAssetBytesPerOwner) +
+                        " an owner may (--max-asset-bytes-per-owner); delete jobs no longer needed");
+  if (options_.maxSamplesPerOwner && outstanding > double(options_.maxSamplesPerOwner))
+    throw FarmError(FarmError::Kind::kResourceExhausted,
+                    spec.sceneName + ": " + who + "'s queued and running jobs would have " +
+                        fmt::format("{:.3g}", outstanding) + " pixel-samples to render, above the " +
+                        fmt::format("{:.3g}", double(options_.maxSamplesPerOwner)) +
+                        " an owner may (--max-samples-per-owner); wait for some to end or cancel them");
 }
 
 // ---- dashboard ------------------------------------------------------------------------------
@@ -715,6 +757,8 @@ MetricsSnapshot Coordinator::metricsSnapshot() const {
   const AssetStore::Counts assets = assets_.counts();
   s.assetBytesReceived = assets.bytesReceived;
   s.assetsSent = assets.sent;
+  s.assetsCollected = assets.collected;
+  s.assetBytesStored = assets_.storedBytes();
   s.assetBytesResident = assets_.residentBytes();
   s.memoryBudgetBytes = memory_->total();
   s.memoryReservedBytes = memory_->reserved();

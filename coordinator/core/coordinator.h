@@ -136,6 +136,7 @@ struct JobInfo {
   // A job with a target error and a deadline: whether the farm can reach the target in time, e.g.
   // "on track: about 40 s of the farm's 2 workers needed, 120 s left"; empty otherwise.
   std::string deadlineOutlook;
+  bool prefetch = false;  // prefetchJob: workers fetch its assets ahead
 
   double raysPerSecond() const { return elapsedSeconds > 0 ? double(stats.rays) / elapsedSeconds : 0.0; }
   double lightHitFraction() const { return stats.paths ? double(stats.lightHits) / double(stats.paths) : 0.0; }
@@ -209,6 +210,8 @@ struct MetricsSnapshot {
   uint64_t assetUploadsPresent = 0;    // uploads of assets it held already (a client that asks first makes none)
   uint64_t assetsSent = 0;             // assets sent to workers (each worker fetches one once)
   uint64_t assetBytesResident = 0;     // asset bytes in memory now (with a state dir: those in use)
+  uint64_t assetBytesStored = 0;       // asset bytes kept, in memory or on disk
+  uint64_t assetsCollected = 0;        // assets removed by the garbage collection (collectAssets)
   uint64_t memoryBudgetBytes = 0;      // Options::memoryBudgetBytes
   uint64_t memoryReservedBytes = 0;    // reserved from it now: jobs, images, assets and archives in memory
   uint64_t leasesActive = 0;
@@ -271,6 +274,15 @@ class Coordinator {
     // is archived (0: at once; < 0: never). Checked every few seconds and at start-up.
     double keepSeconds = 0.0;
     double archiveAfterSeconds = -1.0;
+    // Asset garbage collection (lifecycle.cpp, docs/farm.md "Assets"): an asset no job refers to
+    // (archived jobs count; a deleted job does not) is removed once it has been unreferenced this
+    // long (uploaded and never submitted, or its last job deleted); < 0: assets are kept forever.
+    double assetGraceSeconds = 3600.0;
+    // Quotas per owner at submission (kResourceExhausted naming the owner; 0: none): the bytes of
+    // the distinct assets their jobs refer to, and the pixel-samples their queued and running
+    // jobs have still to render.
+    uint64_t maxAssetBytesPerOwner = 0;
+    uint64_t maxSamplesPerOwner = 0;
     // Scheduling (docs/farm.md "Scheduling"): jobs of one priority share the farm between their
     // owners by weight (fair_share.h; an owner not listed weighs 1), or are served in submission
     // order (kFifo, the farm before fair share). Higher priorities always come first.
@@ -360,6 +372,14 @@ class Coordinator {
     std::optional<double> shareWeight;
   };
   JobInfo updateJob(const std::string& jobId, const JobUpdate& update);
+  // Prefetch: the connected workers that may render the job (its required tags) are asked, each
+  // once, to fetch its assets into their caches now (takePrefetch), so a job that waits (paused,
+  // dependencies, a busy farm) starts without a transfer. FarmError kNotFound for an unknown job,
+  // kFailedPrecondition for one that has ended. Returns the job's status.
+  JobInfo prefetchJob(const std::string& jobId);
+  // A job whose assets the worker should fetch now (and may, without a lease: jobSpecFor,
+  // assetFor), each job once per worker; "" if none. lease() returns early when there is one.
+  std::string takePrefetch(const std::string& workerId);
 
   // The farm's notifications (event_feed.h): ListEvents, the HTTP API's event stream, webhooks.
   const EventFeed& events() const { return events_; }
@@ -438,6 +458,9 @@ class Coordinator {
   // Its status, events and image stay readable. kFailedPrecondition for a job that has not ended;
   // archiving an archived job changes nothing.
   JobInfo archiveJob(const std::string& jobId);
+  // Removes the assets unreferenced for Options::assetGraceSeconds (also done every few
+  // seconds); returns how many.
+  size_t collectAssets();
   // Applies Options::keepSeconds and archiveAfterSeconds now (also done every few seconds).
   void applyRetention();
 
@@ -657,6 +680,14 @@ class Coordinator {
   // "" when one has.
   std::string tagsStall(const Job& job, Clock::time_point now) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   FairShare share_ ABSL_GUARDED_BY(mutex_);
+  // The per-owner quotas at submission (Options::maxAssetBytesPerOwner, maxSamplesPerOwner).
+  void checkOwnerQuotas(const std::string& owner, const JobSpec& spec, uint64_t pixelSamples) const
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  // Since when (steady seconds) each stored asset no job refers to has been so (collectAssets).
+  std::map<std::string, double> assetUnreferencedSince_ ABSL_GUARDED_BY(mutex_);
+  // The job (prefetched, not ended, its tags held) whose assets `worker` has not been asked to
+  // fetch yet; null if none.
+  const Job* prefetchFor(const Worker& worker) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   // Publishes a notification about the job (event_feed.h).
   void notify(const Job& job, const char* type, std::string text) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   EventFeed events_;  // its own lock

@@ -165,6 +165,7 @@ struct Coordinator::Job {
   bool approved = false;
   bool released = false;
   bool brokenReported = false;  // a dependency that can no longer hold was said in an event
+  bool prefetch = false;        // prefetchJob: workers fetch its assets ahead (not persisted)
   // Whether this job is served before `other` in listings, audits and backups (tryLease uses
   // leasedBefore, which adds fair share).
   bool servedBefore(const Job& other) const {

@@ -14,10 +14,13 @@
 //    is never issued again (StateStore::lastJobNumber).
 #include <spdlog/spdlog.h>
 
+#include <chrono>
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <regex>
+#include <set>
 
+#include "common/util/byte_size.h"
 #include "common/util/error.h"
 #include "coordinator/core/coordinator.h"
 #include "coordinator/core/coordinator_records.h"
@@ -260,9 +263,40 @@ void Coordinator::applyRetention() {
   }
 }
 
+// ---- asset garbage collection ------------------------------------------------------------------
+
+size_t Coordinator::collectAssets() {
+  if (options_.assetGraceSeconds < 0.0) return 0;
+  const double now = std::chrono::duration<double>(Clock::now().time_since_epoch()).count();
+  std::vector<std::string> collected;
+  uint64_t bytes = 0;
+  MutexLock lock(mutex_);
+  std::set<std::string> referenced;  // by every job the coordinator holds, archived ones too
+  for (const auto& [id, job] : jobs_)
+    for (const auto& [path, sha] : job->definition.spec.assets) referenced.insert(sha);
+  const std::map<std::string, uint64_t> stored = assets_.sizes();
+  for (auto it = assetUnreferencedSince_.begin(); it != assetUnreferencedSince_.end();)
+    it = stored.count(it->first) && !referenced.count(it->first) ? std::next(it) : assetUnreferencedSince_.erase(it);
+  for (const auto& [sha, size] : stored) {
+    if (referenced.count(sha)) continue;
+    const double since = assetUnreferencedSince_.emplace(sha, now).first->second;
+    if (now - since < options_.assetGraceSeconds) continue;
+    // Under the lock: a submission that refers to it checks again under the lock (submit()).
+    assets_.remove(sha);
+    assetUnreferencedSince_.erase(sha);
+    collected.push_back(sha);
+    bytes += size;
+  }
+  if (!collected.empty())
+    spdlog::info("assets: collected {} ({}) no job has referred to for {:g} s (--asset-grace)", collected.size(),
+                 formatBytes(bytes), options_.assetGraceSeconds);
+  return collected.size();
+}
+
 void Coordinator::startLifecycle() {
-  if (options_.keepSeconds <= 0.0 && options_.archiveAfterSeconds < 0.0) return;
+  if (options_.keepSeconds <= 0.0 && options_.archiveAfterSeconds < 0.0 && options_.assetGraceSeconds < 0.0) return;
   applyRetention();  // at start-up, after restore()
+  collectAssets();
   lifecycleThread_ = std::thread([this] { lifecycleLoop(); });
 }
 
@@ -279,7 +313,7 @@ void Coordinator::lifecycleLoop() {
   // Often enough that a job outlives its limit by at most a quarter of it (and 10 s); a job
   // that ends wakes the loop at once (end()).
   double period = 10.0;
-  for (const double limit : {options_.keepSeconds, options_.archiveAfterSeconds})
+  for (const double limit : {options_.keepSeconds, options_.archiveAfterSeconds, options_.assetGraceSeconds})
     if (limit > 0.0) period = std::min(period, std::max(0.05, limit / 4.0));
   MutexLock lock(mutex_);
   while (!lifecycleStopping_) {
@@ -291,6 +325,7 @@ void Coordinator::lifecycleLoop() {
     lifecycleDue_ = false;
     lock.unlock();
     applyRetention();
+    collectAssets();
     lock.lock();
   }
 }

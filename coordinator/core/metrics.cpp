@@ -71,6 +71,14 @@ void transferMetrics(Exposition& e, const MetricsSnapshot& s) {
            "Asset bytes held in memory now: with a state dir only those in use (a job's scene being loaded, a "
            "worker fetching one), else every uploaded asset.");
   e.sample(s.assetBytesResident);
+  e.family("lensfarm_asset_bytes_stored", "gauge",
+           "Asset bytes kept, in memory or on disk: what --max-asset-bytes limits and the garbage collection "
+           "(--asset-grace) frees.");
+  e.sample(s.assetBytesStored);
+  e.family("lensfarm_assets_collected_total", "counter",
+           "Assets removed because no job had referred to them for --asset-grace (uploaded and never submitted, or "
+           "their last job deleted).");
+  e.sample(s.assetsCollected);
   e.family("lensfarm_memory_budget_bytes", "gauge",
            "The coordinator's memory budget (--memory-budget): what jobs' films, images being served or archived, "
            "and without a state dir assets and archived images may hold together.");

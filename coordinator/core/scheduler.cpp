@@ -239,7 +239,7 @@ std::optional<LeaseGrant> Coordinator::lease(const std::string& workerId, double
     if (auto grant = tryLease(worker, now)) return grant;
     worker.currentJobId.clear();
     worker.currentUnit.reset();
-    if (now >= until) return std::nullopt;
+    if (now >= until || prefetchFor(worker)) return std::nullopt;  // (then takePrefetch)
     // Wake on new work, and now and then to reap lapsed leases.
     lock.waitUntil(changed_, std::min(until, now + std::chrono::milliseconds(200)));
   }

@@ -305,6 +305,39 @@ JobInfo Coordinator::updateJob(const std::string& jobId, const JobUpdate& update
   return infoOf(job);
 }
 
+JobInfo Coordinator::prefetchJob(const std::string& jobId) {
+  MutexLock lock(mutex_);
+  Job& job = findJob(jobId);
+  if (isTerminal(job.progress.state))
+    throw FarmError(FarmError::Kind::kFailedPrecondition,
+                    jobId + " has ended (" + jobStateName(job.progress.state) + "): there is nothing to prefetch");
+  if (!job.prefetch) {
+    job.prefetch = true;
+    job.addEvent("prefetch: the workers that may render it fetch its assets now");
+    touch(job);  // (wakes the workers waiting in lease())
+  }
+  return infoOf(job);
+}
+
+const Coordinator::Job* Coordinator::prefetchFor(const Worker& worker) const {
+  if (worker.gone || worker.quarantined) return nullptr;
+  for (const auto& [id, job] : jobs_)
+    if (job->prefetch && !isTerminal(job->progress.state) && !worker.prefetched.count(id) &&
+        !job->definition.spec.assets.empty() && hasAllTags(worker.info.tags, job->definition.policy.requireTags))
+      return job.get();
+  return nullptr;
+}
+
+std::string Coordinator::takePrefetch(const std::string& workerId) {
+  MutexLock lock(mutex_);
+  Worker* worker = liveWorker(workerId);
+  const Job* job = worker ? prefetchFor(*worker) : nullptr;
+  if (!job) return "";
+  worker->prefetched.insert(job->definition.id);
+  spdlog::info("{}: fetches the assets of {} ahead", logText(worker->label()), job->definition.id);
+  return job->definition.id;
+}
+
 void Coordinator::notify(const Job& job, const char* type, std::string text) {
   events_.publish(FarmEvent{0, 0.0, type, job.definition.id, "", job.definition.owner, std::move(text)});
 }

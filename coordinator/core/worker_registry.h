@@ -16,6 +16,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 
 #include "common/farm/farm_types.h"
@@ -56,6 +57,9 @@ struct WorkerRecord {
   uint64_t auditsRendered = 0;  // units it rendered again for another worker's audit, which agreed
   bool quarantined = false;     // leased nothing more
   std::string quarantineReason;
+  // Jobs whose assets it was asked to fetch ahead (Coordinator::prefetchJob): it may fetch their
+  // spec and assets without a lease.
+  std::set<std::string> prefetched;
   std::string label() const { return info.name.empty() ? id : info.name + " (" + id + ")"; }
 };
 

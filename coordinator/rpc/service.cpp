@@ -192,6 +192,7 @@ v1::JobStatus toProto(const JobInfo& info) {
   s.set_approved(info.approved);
   for (const std::string& w : info.waitingFor) s.add_waiting_for(w);
   s.set_deadline_outlook(info.deadlineOutlook);
+  s.set_prefetch(info.prefetch);
   return s;
 }
 
@@ -442,6 +443,14 @@ grpc::Status ClientServiceImpl::UpdateJob(grpc::ServerContext* context, const v1
   });
 }
 
+grpc::Status ClientServiceImpl::PrefetchJob(grpc::ServerContext* context, const v1::JobActionRequest* request,
+                                            v1::JobActionResponse* response) {
+  return guarded(gate_, context, "PrefetchJob", [&] {
+    checkMayAct(context, "PrefetchJob", request->job_id());
+    *response->mutable_status() = toProto(coordinator_.prefetchJob(request->job_id()));
+  });
+}
+
 grpc::Status ClientServiceImpl::ListEvents(grpc::ServerContext* context, const v1::ListEventsRequest* request,
                                            v1::ListEventsResponse* response) {
   return guarded(gate_, context, "ListEvents", [&] {
@@ -534,6 +543,8 @@ grpc::Status WorkerServiceImpl::LeaseWork(grpc::ServerContext* context, const v1
     if (auto grant = coordinator_.lease(request->worker_id(), wait)) {
       grant->uploadEncoding = uploadEncoding_;
       *response->mutable_lease() = proto::toProto(*grant);
+    } else {
+      response->set_prefetch_job_id(coordinator_.takePrefetch(request->worker_id()));
     }
   });
 }

@@ -65,6 +65,8 @@ class ClientServiceImpl final : public v1::ClientService::WithCallbackMethod_Wat
                           v1::JobActionResponse* response) override;
   grpc::Status UpdateJob(grpc::ServerContext* context, const v1::UpdateJobRequest* request,
                          v1::JobActionResponse* response) override;
+  grpc::Status PrefetchJob(grpc::ServerContext* context, const v1::JobActionRequest* request,
+                           v1::JobActionResponse* response) override;
   grpc::Status ListEvents(grpc::ServerContext* context, const v1::ListEventsRequest* request,
                           v1::ListEventsResponse* response) override;
   grpc::Status DeleteJob(grpc::ServerContext* context, const v1::DeleteJobRequest* request,

@@ -63,6 +63,42 @@ bool AssetStore::put(const std::string& sha256, std::string bytes) {
   return stored;
 }
 
+std::map<std::string, uint64_t> AssetStore::sizes() const {
+  std::lock_guard lock(mutex_);
+  std::map<std::string, uint64_t> out = onDisk_;
+  for (const auto& [sha, bytes] : assets_) out[sha] = bytes->size();
+  return out;
+}
+
+uint64_t AssetStore::sizeOf(const std::string& sha256) const {
+  std::lock_guard lock(mutex_);
+  if (const auto it = assets_.find(sha256); it != assets_.end()) return it->second->size();
+  const auto it = onDisk_.find(sha256);
+  return it == onDisk_.end() ? 0 : it->second;
+}
+
+void AssetStore::remove(const std::string& sha256) {
+  uint64_t size = 0;
+  bool onDisk = false;
+  {
+    std::lock_guard lock(mutex_);
+    if (const auto it = assets_.find(sha256); it != assets_.end()) {
+      size = it->second->size();
+      assets_.erase(it);
+    } else if (const auto disk = onDisk_.find(sha256); disk != onDisk_.end()) {
+      size = disk->second;
+      onDisk = true;
+      onDisk_.erase(disk);
+      inUse_.erase(sha256);
+    } else {
+      return;
+    }
+  }
+  if (onDisk) store_->removeAsset(sha256);
+  ++collected_;
+  collectedBytes_ += size;
+}
+
 uint64_t AssetStore::storedBytes() const {
   std::lock_guard lock(mutex_);
   uint64_t total = 0;
@@ -152,6 +188,8 @@ std::shared_ptr<const std::string> AssetStore::send(const std::string& sha256) {
   return bytes;
 }
 
-AssetStore::Counts AssetStore::counts() const { return Counts{bytesReceived_, uploadsStored_, uploadsPresent_, sent_}; }
+AssetStore::Counts AssetStore::counts() const {
+  return Counts{bytesReceived_, uploadsStored_, uploadsPresent_, sent_, collected_, collectedBytes_};
+}
 
 }  // namespace lensfarm

@@ -11,8 +11,9 @@
 // so the next client that needs it uploads it again.
 //
 // Invariants:
-//  - An asset is stored only under the hash of its bytes, and never removed or replaced, so a
-//    job's assets stay readable for as long as the job is.
+//  - An asset is stored only under the hash of its bytes, and never replaced. It is removed only
+//    by remove(), which the Coordinator calls for an asset no job refers to (asset garbage
+//    collection, docs/farm.md "Assets"), so a job's assets stay readable for as long as the job is.
 //  - With a state store, an asset is durable before it is listed.
 //  - Thread-safe: its own lock, held only around the maps (never while taking another, nor while
 //    reading a file).
@@ -62,12 +63,21 @@ class AssetStore {
   // get() for a worker, counted in Counts::sent.
   std::shared_ptr<const std::string> send(const std::string& sha256);
 
+  // Every stored asset and its size in bytes.
+  std::map<std::string, uint64_t> sizes() const;
+  // The asset's size; 0 if it is not stored.
+  uint64_t sizeOf(const std::string& sha256) const;
+  // Forgets the asset and removes its bytes (its file, with a state dir); holders of its bytes
+  // keep them. Counted in Counts::collected.
+  void remove(const std::string& sha256);
+
   // Counted since this process started (MetricsSnapshot).
   struct Counts {
-    uint64_t bytesReceived = 0;   // asset bytes uploaded (read in full)
-    uint64_t uploadsStored = 0;   // uploads of assets new to the store
-    uint64_t uploadsPresent = 0;  // uploads of assets it held already
-    uint64_t sent = 0;            // assets sent to workers
+    uint64_t bytesReceived = 0;                  // asset bytes uploaded (read in full)
+    uint64_t uploadsStored = 0;                  // uploads of assets new to the store
+    uint64_t uploadsPresent = 0;                 // uploads of assets it held already
+    uint64_t sent = 0;                           // assets sent to workers
+    uint64_t collected = 0, collectedBytes = 0;  // removed by the garbage collection
   };
   Counts counts() const;
 
@@ -89,6 +99,7 @@ class AssetStore {
   mutable std::map<std::string, uint64_t> onDisk_;
   mutable std::map<std::string, std::weak_ptr<const std::string>> inUse_;  // with a store; guarded by mutex_
   std::atomic<uint64_t> bytesReceived_{0}, uploadsStored_{0}, uploadsPresent_{0}, sent_{0};
+  std::atomic<uint64_t> collected_{0}, collectedBytes_{0};
   std::atomic<uint64_t> quota_{0};
 };
 

@@ -310,6 +310,11 @@ void StateStore::setAssetAside(const std::string& sha256, const std::string& why
                 why, target.string());
 }
 
+void StateStore::removeAsset(const std::string& sha256) {
+  std::error_code ignored;
+  fs::remove(dir_ / "assets" / sha256, ignored);
+}
+
 void StateStore::insertJob(const StoredJob& job) {
   std::lock_guard lock(mutex_);
   fs::create_directories(jobDir(job.id));

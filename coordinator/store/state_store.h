@@ -67,6 +67,8 @@ class StateStore {
   std::optional<std::string> loadAsset(const std::string& sha256);
   // A damaged asset file goes to lost+found/, with an error line saying why.
   void setAssetAside(const std::string& sha256, const std::string& why);
+  // Removes a collected asset's file (AssetStore::remove); a file already gone is no error.
+  void removeAsset(const std::string& sha256);
 
   struct StoredJob {
     std::string id;

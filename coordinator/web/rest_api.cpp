@@ -32,6 +32,7 @@ constexpr const char* kJson = "application/json";
 }  // namespace
 
 const std::vector<RestOperation>& restOperations() {
+  // clang-format off: one route a line, as a table
   static const std::vector<RestOperation> operations{
       {"GET",
        "/api/v1/jobs",
@@ -77,6 +78,13 @@ const std::vector<RestOperation>& restOperations() {
        B::kJson,
        R::kJson,
        "Approve a job (jobs waiting for JOB:approved start)",
+       {}},
+      {"POST",
+       "/api/v1/jobs/{job_id}/prefetch",
+       "PrefetchJob",
+       B::kJson,
+       R::kJson,
+       "Have the workers that may render the job fetch its assets now",
        {}},
       {"POST",
        "/api/v1/jobs/{job_id}/archive",
@@ -129,6 +137,7 @@ const std::vector<RestOperation>& restOperations() {
        "Upload one asset: the body is its bytes, checked against the SHA-256",
        {}},
   };
+  // clang-format on
   return operations;
 }
 
