@@ -371,6 +371,10 @@ Security readSecurity(const Flags& f) {
       throw InputError("--users", "people need the administrators' client token too (--client-token-file)");
     s.users = readUsers(f.usersFile);
     for (const User& u : s.users)
+      if (!u.certificateName.empty() && f.tlsClientCa.empty())
+        throw InputError(f.usersFile, u.name + " is known by a client certificate (cert=" + u.certificateName +
+                                          "): that needs mutual TLS (--tls-client-ca)");
+    for (const User& u : s.users)
       if (equalSecrets(u.tokenSha256, sha256Hex(*s.clientToken)) ||
           (s.workerToken && equalSecrets(u.tokenSha256, sha256Hex(*s.workerToken))))
         throw InputError(f.usersFile, "the token of " + u.name + " is the client or worker token: each needs its own");
@@ -601,7 +605,13 @@ int main(int argc, char** argv) {
   HttpServers http;
   std::unique_ptr<WebhookSender> webhooks;
   try {
-    const WebhookOptions hooks = webhookOptions(f);
+    WebhookOptions hooks = webhookOptions(f);
+    if (!f.stateDir.empty()) {  // each URL's progress kept, so deliveries go on after a restart
+      hooks.loadCursor = [&coordinator](const std::string& url) { return coordinator.webhookCursor(url); };
+      hooks.saveCursor = [&coordinator](const std::string& url, uint64_t sequence) {
+        coordinator.setWebhookCursor(url, sequence);
+      };
+    }
     if (!hooks.urls.empty()) {
       webhooks = std::make_unique<WebhookSender>(coordinator.events(), hooks);
       spdlog::info("webhooks: {} URL(s), events: {}", hooks.urls.size(),

@@ -109,6 +109,16 @@ Coordinator::Coordinator(Options options) : options_(std::move(options)), auditR
     epoch_ = store_->bootCount();
     setWorkerEpoch();
     restore();
+    // The events go on from where they were, each kept as it is published (a write that fails
+    // is logged: an event is worth less than the job it is about).
+    events_.restore(store_->loadEvents());
+    events_.setSink([this](const FarmEvent& e) {
+      try {
+        store_->appendEvent(e, events_.capacity());
+      } catch (const std::exception& error) {
+        spdlog::warn("event {} ({}) not kept in the state dir: {}", e.sequence, e.type, error.what());
+      }
+    });
     checkpointer_ = std::thread([this] { checkpointLoop(); });
   }
   startLifecycle();

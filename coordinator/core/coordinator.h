@@ -382,7 +382,10 @@ class Coordinator {
   std::string takePrefetch(const std::string& workerId);
 
   // The farm's notifications (event_feed.h): ListEvents, the HTTP API's event stream, webhooks.
+  // With a state dir they are kept, and so is each webhook URL's progress (webhooks.h).
   const EventFeed& events() const { return events_; }
+  std::optional<uint64_t> webhookCursor(const std::string& url) const;
+  void setWebhookCursor(const std::string& url, uint64_t sequence);
 
   // ---- workers ----
   // FarmError kFailedPrecondition naming both versions when they differ from this process's.

@@ -10,6 +10,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -23,8 +24,15 @@ class EventFeed {
  public:
   explicit EventFeed(size_t capacity = 4096) : capacity_(capacity) {}
 
-  // Appends the event (its sequence and time assigned) and returns its sequence.
+  // Appends the event (its sequence and time assigned), hands it to the sink, and returns its
+  // sequence.
   uint64_t publish(FarmEvent event);
+  // Durable events (with a state dir): the events kept before a restart, oldest first (numbering
+  // goes on after the last), and what keeps each new one. The sink runs under the feed's lock, so
+  // it sees events in order; it must not throw.
+  void restore(std::vector<FarmEvent> events);
+  void setSink(std::function<void(const FarmEvent&)> sink);
+  size_t capacity() const { return capacity_; }
   // The held events with sequence > `after`, oldest first, at most `max`; when there is none,
   // waits up to `wait` for one.
   std::vector<FarmEvent> after(uint64_t after, size_t max,
@@ -37,6 +45,7 @@ class EventFeed {
   mutable std::mutex mutex_;
   mutable std::condition_variable published_;
   std::deque<FarmEvent> events_;
+  std::function<void(const FarmEvent&)> sink_;
   uint64_t next_ = 1;
 };
 

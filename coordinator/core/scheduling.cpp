@@ -338,6 +338,19 @@ std::string Coordinator::takePrefetch(const std::string& workerId) {
   return job->definition.id;
 }
 
+std::optional<uint64_t> Coordinator::webhookCursor(const std::string& url) const {
+  return store_ ? store_->webhookCursor(url) : std::nullopt;
+}
+
+void Coordinator::setWebhookCursor(const std::string& url, uint64_t sequence) {
+  if (!store_) return;
+  try {
+    store_->setWebhookCursor(url, sequence);
+  } catch (const std::exception& e) {
+    spdlog::warn("webhook {}: progress not kept in the state dir: {}", logText(url), e.what());
+  }
+}
+
 void Coordinator::notify(const Job& job, const char* type, std::string text) {
   events_.publish(FarmEvent{0, 0.0, type, job.definition.id, "", job.definition.owner, std::move(text)});
 }

@@ -4,6 +4,7 @@
 
 #include "common/util/secret.h"
 
+#include <ctime>
 #include <optional>
 
 namespace lensfarm {
@@ -39,10 +40,19 @@ TokenGate TokenGate::withUsers(std::vector<User> users) && {
 }
 
 std::optional<User> TokenGate::userOf(const grpc::ServerContextBase* context) const {
+  if (users_->empty()) return std::nullopt;
   bool present = false;
   const std::optional<std::string> bearer = bearerOf(context, present);
-  if (!bearer || users_->empty()) return std::nullopt;
-  return userOfToken(*users_, *bearer);
+  if (bearer) return userOfToken(*users_, *bearer);
+  return present ? std::nullopt : certificateUserOf(context);
+}
+
+std::optional<User> TokenGate::certificateUserOf(const grpc::ServerContextBase* context) const {
+  const std::shared_ptr<const grpc::AuthContext> auth = context->auth_context();
+  if (!auth || !auth->IsPeerAuthenticated()) return std::nullopt;  // (mutual TLS verified the certificate)
+  for (const grpc::string_ref& name : auth->FindPropertyValues(GRPC_X509_CN_PROPERTY_NAME))
+    if (std::optional<User> user = userOfCertificate(*users_, std::string(name.data(), name.size()))) return user;
+  return std::nullopt;
 }
 
 std::string TokenGate::credentialOf(const grpc::ServerContextBase* context) const {
@@ -62,6 +72,9 @@ std::string TokenGate::credentialOfBearer(const std::optional<std::string>& bear
 grpc::Status TokenGate::check(const grpc::ServerContextBase* context, const char* rpc) const {
   bool present = false;
   const std::optional<std::string> bearer = bearerOf(context, present);
+  // No token: a person known by their client certificate (users.h), if any.
+  if (!present && !users_->empty())
+    if (const std::optional<User> user = certificateUserOf(context)) return checkUser(*user, rpc, context->peer());
   return checkBearer(bearer, present, rpc, context->peer());
 }
 
@@ -70,17 +83,27 @@ grpc::Status TokenGate::checkAuthorization(const std::string& authorization, con
   return checkBearer(bearerOf(authorization), !authorization.empty(), rpc, peer);
 }
 
+grpc::Status TokenGate::checkUser(const User& user, const char* rpc, const std::string& peer) const {
+  const char* what = user.certificateName.empty() ? "token" : "identity";
+  if (user.expired(int64_t(std::time(nullptr)))) {
+    refusals_->warn("expired", fmt::format("refused {} from {}: the {} of {} expired at {}", rpc, peer, what, user.name,
+                                           user.expiryText()));
+    return grpc::Status(grpc::StatusCode::UNAUTHENTICATED,
+                        std::string(rpc) + ": the " + what + " of " + user.name + " expired at " + user.expiryText());
+  }
+  if (user.role != User::Role::kViewer || readOnlyRpcs_.count(rpc)) return grpc::Status::OK;
+  refusals_->warn("read-only", fmt::format("refused {} from {}: {} is a viewer", rpc, peer, user.name));
+  return grpc::Status(grpc::StatusCode::PERMISSION_DENIED,
+                      std::string(rpc) + ": " + user.name + " is a viewer: reading only");
+}
+
 grpc::Status TokenGate::checkBearer(const std::optional<std::string>& bearer, bool present, const char* rpc,
                                     const std::string& peer) const {
   if (!enabled()) return grpc::Status::OK;
   if (bearer && token_ && equalSecrets(*bearer, *token_)) return grpc::Status::OK;
   if (bearer && !credentialOfBearer(bearer).empty()) return grpc::Status::OK;
-  if (const std::optional<User> user = bearer && !users_->empty() ? userOfToken(*users_, *bearer) : std::nullopt) {
-    if (user->role != User::Role::kViewer || readOnlyRpcs_.count(rpc)) return grpc::Status::OK;
-    refusals_->warn("read-only", fmt::format("refused {} from {}: {} is a viewer", rpc, peer, user->name));
-    return grpc::Status(grpc::StatusCode::PERMISSION_DENIED,
-                        std::string(rpc) + ": " + user->name + " is a viewer: reading only");
-  }
+  if (const std::optional<User> user = bearer && !users_->empty() ? userOfToken(*users_, *bearer) : std::nullopt)
+    return checkUser(*user, rpc, peer);
   if (bearer && readOnlyToken_ && equalSecrets(*bearer, *readOnlyToken_)) {
     if (readOnlyRpcs_.count(rpc)) return grpc::Status::OK;
     refusals_->warn("read-only",

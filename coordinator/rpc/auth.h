@@ -37,7 +37,8 @@ class TokenGate {
   // Also the people of users.h, each with their own token and role (a viewer: the read-only RPCs
   // only). The shared token stays the administrators'.
   TokenGate withUsers(std::vector<User> users) &&;
-  // The user a call carries the token of, or nullopt (the shared token, another role's, none).
+  // The user a call carries the token of, or with no token the user its verified client
+  // certificate names; nullopt otherwise (the shared token, another role's, none).
   std::optional<User> userOf(const grpc::ServerContextBase* context) const;
   grpc::Status check(const grpc::ServerContextBase* context, const char* rpc) const;
   // The same check of an HTTP request's Authorization value ("Bearer <token>"; "" when absent),
@@ -51,6 +52,10 @@ class TokenGate {
   bool enabled() const { return token_.has_value() || !credentials_->empty() || !users_->empty(); }
 
  private:
+  // A person's call: refused if their token or identity expired, or a viewer's call that writes.
+  grpc::Status checkUser(const User& user, const char* rpc, const std::string& peer) const;
+  // The person whose verified client certificate the call came with (users.h: cert=NAME).
+  std::optional<User> certificateUserOf(const grpc::ServerContextBase* context) const;
   grpc::Status checkBearer(const std::optional<std::string>& bearer, bool present, const char* rpc,
                            const std::string& peer) const;
   std::string credentialOfBearer(const std::optional<std::string>& bearer) const;

@@ -1,5 +1,9 @@
 #include "coordinator/rpc/users.h"
 
+#include <cctype>
+#include <cstring>
+#include <ctime>
+#include <iomanip>
 #include <set>
 #include <sstream>
 
@@ -21,6 +25,41 @@ const char* roleName(User::Role role) {
   return "viewer";
 }
 
+namespace {
+
+// "expires=YYYY-MM-DD" or "expires=YYYY-MM-DDTHH:MM:SSZ" as Unix seconds (UTC); nullopt if malformed.
+std::optional<int64_t> parseExpiry(const std::string& field) {
+  const std::string prefix = "expires=";
+  if (field.rfind(prefix, 0) != 0) return std::nullopt;
+  const std::string when = field.substr(prefix.size());
+  std::tm tm{};
+  std::istringstream in(when);
+  if (when.size() == 10)
+    in >> std::get_time(&tm, "%Y-%m-%d");
+  else if (when.size() == 20 && when.back() == 'Z')
+    in >> std::get_time(&tm, "%Y-%m-%dT%H:%M:%S");
+  else
+    return std::nullopt;
+  if (in.fail() || tm.tm_year < 70 || tm.tm_year > 1100) return std::nullopt;
+  std::tm check = tm;
+  const time_t seconds = timegm(&check);
+  // timegm normalises 2027-02-30 to March: such a date was not a date.
+  if (check.tm_mday != tm.tm_mday || check.tm_mon != tm.tm_mon) return std::nullopt;
+  return int64_t(seconds);
+}
+
+}  // namespace
+
+std::string User::expiryText() const {
+  if (!expiresUnixSeconds) return "";
+  const time_t t = time_t(*expiresUnixSeconds);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return text;
+}
+
 std::vector<User> parseUsers(const std::string& text, const std::string& source) {
   std::vector<User> out;
   std::set<std::string> names, hashes;
@@ -30,10 +69,15 @@ std::vector<User> parseUsers(const std::string& text, const std::string& source)
     const std::string where = source + ":" + std::to_string(number);
     std::istringstream fields(line);
     User u;
-    std::string role, extra;
+    std::string role, expiry, extra;
     if (!(fields >> u.name) || u.name[0] == '#') continue;
-    if (!(fields >> role >> u.tokenSha256) || (fields >> extra))
-      throw InputError(where, "expected a name, a role and the SHA-256 of the user's token, separated by white space");
+    if (!(fields >> role >> u.tokenSha256) || ((fields >> expiry) && (fields >> extra)))
+      throw InputError(where,
+                       "expected a name, a role and the SHA-256 of the user's token (and an expiry), separated by "
+                       "white space");
+    if (!expiry.empty() && !(u.expiresUnixSeconds = parseExpiry(expiry)))
+      throw InputError(
+          where, "\"" + expiry.substr(0, 40) + "\": expected expires=YYYY-MM-DD or expires=YYYY-MM-DDTHH:MM:SSZ (UTC)");
     if (!isCredentialName(u.name))
       throw InputError(where, "a user name is 1-64 characters of letters, digits, '.', '_' and '-'");
     if (role == "admin")
@@ -44,6 +88,21 @@ std::vector<User> parseUsers(const std::string& text, const std::string& source)
       u.role = User::Role::kViewer;
     else
       throw InputError(where, "unknown role \"" + role.substr(0, 32) + "\" (admin, submitter, viewer)");
+    if (u.tokenSha256.rfind("cert=", 0) == 0) {  // a client certificate's name instead of a token
+      u.certificateName = u.tokenSha256.substr(5);
+      u.tokenSha256.clear();
+      bool name = !u.certificateName.empty() && u.certificateName.size() <= 64;
+      for (char c : u.certificateName) name = name && (std::isalnum((unsigned char)c) || std::strchr("._@-", c));
+      if (!name)
+        throw InputError(where,
+                         "cert=NAME: a certificate name is 1-64 characters of letters, digits, '.', '_', '@' "
+                         "and '-'");
+      if (!names.insert(u.name).second) throw InputError(where, "user " + u.name + " is given twice");
+      if (!hashes.insert("cert=" + u.certificateName).second)
+        throw InputError(where, "the certificate " + u.certificateName + " is another user's too");
+      out.push_back(std::move(u));
+      continue;
+    }
     bool hex = u.tokenSha256.size() == 64;
     for (char c : u.tokenSha256) hex = hex && ((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'));
     if (!hex)
@@ -68,8 +127,14 @@ std::optional<User> userOfToken(const std::vector<User>& users, const std::strin
   const std::string hash = sha256Hex(token);
   std::optional<User> found;
   for (const User& u : users)  // every hash compared: the time says nothing of which matched
-    if (equalSecrets(hash, u.tokenSha256)) found = u;
+    if (!u.tokenSha256.empty() && equalSecrets(hash, u.tokenSha256)) found = u;
   return found;
+}
+
+std::optional<User> userOfCertificate(const std::vector<User>& users, const std::string& commonName) {
+  for (const User& u : users)
+    if (!u.certificateName.empty() && u.certificateName == commonName) return u;
+  return std::nullopt;
 }
 
 void checkMayAct(const User& user, const std::string& action, const std::string& jobId, const std::string& owner) {

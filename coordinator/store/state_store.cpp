@@ -229,6 +229,11 @@ void StateStore::open() {
       "light_hits INTEGER, dropped INTEGER, PRIMARY KEY(job_id, unit))");
   addColumnIfMissing("ledger", "build", "TEXT");
   exec("CREATE TABLE IF NOT EXISTS stamp(key TEXT PRIMARY KEY, value TEXT)");
+  // Added with the events and webhooks (docs/api.md "Events").
+  exec(
+      "CREATE TABLE IF NOT EXISTS events(sequence INTEGER PRIMARY KEY, unix REAL, type TEXT, job TEXT, worker TEXT, "
+      "owner TEXT, text TEXT)");
+  exec("CREATE TABLE IF NOT EXISTS webhooks(url TEXT PRIMARY KEY, sequence INTEGER)");
   {
     // Units rendered by another renderer version would mix two images in one sensor.
     Statement read(db_, "SELECT value FROM stamp WHERE key = 'renderer_version'");
@@ -308,6 +313,47 @@ void StateStore::setAssetAside(const std::string& sha256, const std::string& why
   const fs::path target = setAside(file);
   spdlog::error("{}: {}: kept aside as {}; the asset counts as missing until a client uploads it again", file.string(),
                 why, target.string());
+}
+
+void StateStore::appendEvent(const FarmEvent& e, size_t keep) {
+  std::lock_guard lock(mutex_);
+  Statement(db_,
+            "INSERT OR REPLACE INTO events(sequence, unix, type, job, worker, owner, text) VALUES(?, ?, ?, ?, ?, ?, ?)")
+      .bind(1, int64_t(e.sequence))
+      .bind(2, e.unixSeconds)
+      .bind(3, e.type)
+      .bind(4, e.jobId)
+      .bind(5, e.workerId)
+      .bind(6, e.owner)
+      .bind(7, e.text)
+      .step();
+  if (e.sequence > keep && e.sequence % 64 == 0)  // (trimmed now and then, not on every event)
+    Statement(db_, "DELETE FROM events WHERE sequence <= ?").bind(1, int64_t(e.sequence - keep)).step();
+}
+
+std::vector<FarmEvent> StateStore::loadEvents() {
+  std::lock_guard lock(mutex_);
+  std::vector<FarmEvent> out;
+  Statement s(db_, "SELECT sequence, unix, type, job, worker, owner, text FROM events ORDER BY sequence");
+  while (s.step())
+    out.push_back(FarmEvent{uint64_t(s.integer(0)), s.real(1), s.text(2), s.text(3), s.text(4), s.text(5), s.text(6)});
+  return out;
+}
+
+std::optional<uint64_t> StateStore::webhookCursor(const std::string& url) {
+  std::lock_guard lock(mutex_);
+  Statement s(db_, "SELECT sequence FROM webhooks WHERE url = ?");
+  s.bind(1, url);
+  if (!s.step()) return std::nullopt;
+  return uint64_t(s.integer(0));
+}
+
+void StateStore::setWebhookCursor(const std::string& url, uint64_t sequence) {
+  std::lock_guard lock(mutex_);
+  Statement(db_, "INSERT OR REPLACE INTO webhooks(url, sequence) VALUES(?, ?)")
+      .bind(1, url)
+      .bind(2, int64_t(sequence))
+      .step();
 }
 
 void StateStore::removeAsset(const std::string& sha256) {

@@ -38,6 +38,7 @@
 #include <string>
 #include <vector>
 
+#include "common/farm/farm_event.h"
 #include "common/farm/farm_types.h"
 
 struct sqlite3;
@@ -69,6 +70,14 @@ class StateStore {
   void setAssetAside(const std::string& sha256, const std::string& why);
   // Removes a collected asset's file (AssetStore::remove); a file already gone is no error.
   void removeAsset(const std::string& sha256);
+
+  // The farm's events (coordinator/core/event_feed.h), so numbering and webhooks go on after a
+  // restart: appendEvent keeps the newest `keep`; loadEvents gives them oldest first.
+  void appendEvent(const FarmEvent& event, size_t keep);
+  std::vector<FarmEvent> loadEvents();
+  // The last event a webhook URL has had (delivered or given up), or nullopt for a URL new here.
+  std::optional<uint64_t> webhookCursor(const std::string& url);
+  void setWebhookCursor(const std::string& url, uint64_t sequence);
 
   struct StoredJob {
     std::string id;

@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <ctime>
 
 #include "common/film/image.h"
 #include "common/film/image_io.h"
@@ -140,14 +141,17 @@ Dashboard::Access Dashboard::access(const std::string& header) const {
   // Both comparisons always run, so the time taken does not tell which token was close.
   const bool client = equalSecrets(given, *token_);
   const bool viewer = viewerToken_ && equalSecrets(given, *viewerToken_);
-  const bool person = !users_.empty() && userOfToken(users_, given).has_value();
+  const std::optional<User> user = users_.empty() ? std::nullopt : userOfToken(users_, given);
+  const bool person = user && !user->expired(int64_t(std::time(nullptr)));
   return client ? Access::kFull : (viewer || person) ? Access::kRead : Access::kNone;
 }
 
 std::optional<User> Dashboard::userOf(const std::string& header) const {
   const std::string prefix = "Bearer ";
   if (users_.empty() || header.rfind(prefix, 0) != 0) return std::nullopt;
-  return userOfToken(users_, header.substr(prefix.size()));
+  std::optional<User> user = userOfToken(users_, header.substr(prefix.size()));
+  if (user && user->expired(int64_t(std::time(nullptr)))) return std::nullopt;
+  return user;
 }
 
 std::string Dashboard::jobsJson() const {

@@ -193,23 +193,35 @@ bool WebhookSender::waitUnlessStopping(double seconds) {
 
 void WebhookSender::run(const std::string& url) {
   uint64_t cursor = 0;
+  if (options_.loadCursor) {
+    const std::optional<uint64_t> kept = options_.loadCursor(url);
+    cursor = kept ? *kept : feed_.latest();
+    // A URL new here starts now, and is kept from now: what it has not had by the next start is
+    // delivered then.
+    if (!kept && options_.saveCursor) options_.saveCursor(url, cursor);
+  }
   while (!stopping_) {
     const std::vector<FarmEvent> events = feed_.after(cursor, 100, std::chrono::milliseconds(500));
     for (const FarmEvent& event : events) {
       if (stopping_) return;
       cursor = event.sequence;
-      if (!options_.types.empty() && !options_.types.count(event.type)) continue;
+      if (!options_.types.empty() && !options_.types.count(event.type)) {
+        if (options_.saveCursor) options_.saveCursor(url, cursor);
+        continue;
+      }
       const std::string body = protoJson(proto::toProto(event));
       double wait = options_.firstRetrySeconds;
       for (int attempt = 1;; ++attempt) {
         std::string why;
         if (post(url, event, body, why)) {
           ++delivered_;
+          if (options_.saveCursor) options_.saveCursor(url, cursor);
           spdlog::debug("webhook {}: {} {} delivered (attempt {})", logText(url), event.sequence, event.type, attempt);
           break;
         }
         if (attempt >= options_.attempts) {
           ++givenUp_;
+          if (options_.saveCursor) options_.saveCursor(url, cursor);
           spdlog::error("webhook {}: event {} ({}) given up after {} attempts: {}", logText(url), event.sequence,
                         event.type, attempt, logText(why));
           break;

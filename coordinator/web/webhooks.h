@@ -10,11 +10,14 @@
 // receiver refuse a replayed old delivery). Any answer but 2xx, a refused connection or a timeout
 // is retried after 1, 2, 4, ... s (at most maxRetrySeconds) up to `attempts` times, the URL's
 // later events waiting behind it so order holds; then the event is given up with an error in the
-// log. Deliveries are not kept across a coordinator restart (the feed is not).
+// log. With a state dir the events and each URL's progress are kept, so a delivery pending when the
+// coordinator stops is made after it restarts (at least once across restarts too).
 #include <atomic>
 #include <condition_variable>
+#include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <string>
 #include <thread>
@@ -31,6 +34,11 @@ struct WebhookOptions {
   int attempts = 8;
   double firstRetrySeconds = 1.0, maxRetrySeconds = 60.0;
   double timeoutSeconds = 10.0;  // to connect, send and be answered
+  // Where each URL's progress is kept (the coordinator's state dir): the last event it has had,
+  // read at start (nullopt: a URL new here, which starts with the events from now on) and
+  // written after each event. Unset: from the feed's oldest event, kept nowhere.
+  std::function<std::optional<uint64_t>(const std::string& url)> loadCursor;
+  std::function<void(const std::string& url, uint64_t sequence)> saveCursor;
 };
 
 // "t=UNIX,v1=HEX" for `body` sent at `unixSeconds`.

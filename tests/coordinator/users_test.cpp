@@ -36,6 +36,36 @@ TEST(Users, TheFileGivesNamesRolesAndHashesAndNamesTheLineOfAMistake) {
   EXPECT_NE(refusal("a/b viewer " + kAnn).find("a user name is"), std::string::npos);
   EXPECT_NE(refusal("ann submitter").find("expected a name, a role"), std::string::npos);
   EXPECT_EQ(refusal("# nobody\n"), "users: holds no user (lines of: NAME ROLE SHA256)");
+  // Expiry: a date (00:00 UTC) or a UTC time; anything else names the line.
+  const std::vector<User> dated = parseUsers(
+      "ann submitter " + kAnn + " expires=2027-03-31\nbob viewer " + sha256Hex("b") + " expires=2027-03-31T18:30:00Z\n",
+      "users");
+  EXPECT_EQ(dated[0].expiresUnixSeconds, std::optional<int64_t>(1806451200));  // date -u -d 2027-03-31 +%s
+  EXPECT_EQ(dated[0].expiryText(), "2027-03-31T00:00:00Z");
+  EXPECT_EQ(dated[1].expiresUnixSeconds, std::optional<int64_t>(1806451200 + 18 * 3600 + 30 * 60));
+  EXPECT_TRUE(dated[0].expired(1806451200));
+  EXPECT_FALSE(dated[0].expired(1806451199));
+  EXPECT_FALSE(users[0].expired(INT64_MAX)) << "no date: never";
+  for (const std::string bad :
+       {"expires=2027-02-30", "expires=31.03.2027", "until=2027-03-31", "expires=2027-03-31T18:30:00", "expires="})
+    EXPECT_NE(
+        refusal("ann submitter " + kAnn + " " + bad).find("users:1: \"" + bad + "\": expected expires=YYYY-MM-DD"),
+        std::string::npos)
+        << bad << ": " << refusal("ann submitter " + kAnn + " " + bad);
+  EXPECT_NE(refusal("ann submitter " + kAnn + " expires=2027-03-31 more").find("users:1: expected"), std::string::npos);
+  // Known by a client certificate's name instead of a token.
+  const std::vector<User> certified =
+      parseUsers("ann submitter cert=ann@studio expires=2027-03-31\nbob viewer " + kAnn + "\n", "users");
+  EXPECT_EQ(certified[0].certificateName, "ann@studio");
+  EXPECT_TRUE(certified[0].tokenSha256.empty());
+  EXPECT_EQ(userOfCertificate(certified, "ann@studio")->name, "ann");
+  EXPECT_FALSE(userOfCertificate(certified, "ann"));
+  EXPECT_FALSE(userOfCertificate(certified, "")) << "bob has no certificate name";
+  EXPECT_EQ(userOfToken(certified, "anns-very-own-token-2")->name, "bob");
+  EXPECT_NE(refusal("ann submitter cert=").find("users:1: cert=NAME"), std::string::npos);
+  EXPECT_NE(refusal("ann submitter cert=a/b").find("users:1: cert=NAME"), std::string::npos);
+  EXPECT_NE(refusal("ann submitter cert=x\nbob viewer cert=x").find("users:2: the certificate x is another user's"),
+            std::string::npos);
 }
 
 TEST(Users, ATokenFindsItsUserByItsHashOnly) {

@@ -10,6 +10,8 @@
 #include <httplib.h>
 #include <openssl/hmac.h>
 
+#include <atomic>
+#include <csignal>
 #include <mutex>
 #include <thread>
 
@@ -93,19 +95,21 @@ TEST_F(HttpApi, TheCliUpdatesAJobAndPrintsTheFarmsEvents) {
   EXPECT_FALSE(test::contains(after.out, "job.submitted")) << after.out;
 }
 
-// A webhook receiver: answers 500 to the first delivery, 200 to the rest, and keeps them all.
+// A webhook receiver: answers 500 to the first delivery (or to every one while refusing), 200 to
+// the rest, and keeps them all.
 class Receiver {
  public:
   struct Delivery {
     std::string event, id, signature, body;
     int answered = 0;
   };
+  std::atomic<bool> refusing{false};
   Receiver() {
     server_.Post("/hook", [this](const httplib::Request& request, httplib::Response& response) {
       std::lock_guard lock(mutex_);
       Delivery d{request.get_header_value("X-Lensfarm-Event"), request.get_header_value("X-Lensfarm-Delivery"),
                  request.get_header_value("X-Lensfarm-Signature"), request.body};
-      d.answered = deliveries_.empty() ? 500 : 200;
+      d.answered = deliveries_.empty() || refusing ? 500 : 200;
       response.status = d.answered;
       deliveries_.push_back(d);
     });
@@ -195,6 +199,60 @@ TEST_F(HttpApi, AWebhookReceiverThatFailsTheFirstDeliveryGetsEveryEventSignedAnd
   EXPECT_FALSE(signatureHolds("another-secret", deliveries[1].signature, deliveries[1].body));
   // Nothing secret in the log.
   EXPECT_FALSE(test::contains(coordinator_->log(), secret));
+}
+
+// With a state dir the events and each URL's progress are kept: a delivery the receiver refused
+// until the coordinator stopped is made after it restarts, with the same id; one already made is
+// not made again; the numbering goes on.
+TEST_F(HttpApi, AWebhookDeliveryPendingWhenTheCoordinatorStopsIsMadeAfterItRestarts) {
+  Receiver receiver;
+  receiver.refusing = true;
+  const fs::path secretFile = token("webhook", "a-webhook-signing-secret-7");
+  const std::vector<std::string> flags = {"--state-dir",
+                                          (dir_ / "state").string(),
+                                          "--webhook",
+                                          "http://127.0.0.1:" + std::to_string(receiver.port()) + "/hook",
+                                          "--webhook-secret-file",
+                                          secretFile.string(),
+                                          "--webhook-events",
+                                          "job.submitted",
+                                          "--webhook-attempts",
+                                          "1000"};
+  const auto deliveredOf = [&](const std::string& id) {
+    int n = 0;
+    for (const auto& d : receiver.deliveries()) n += d.id == id && d.answered == 200;
+    return n;
+  };
+  std::string address = startCoordinator("127.0.0.1:0", flags);
+  const std::string first = submit(address, writeScene(16, 16, 4), {"--paused"});
+  ASSERT_TRUE(test::waitFor([&] { return !receiver.deliveries().empty(); }, 30)) << coordinator_->log();
+  const std::string id = receiver.deliveries().front().id;
+  coordinator_->signal(SIGTERM);
+  ASSERT_EQ(coordinator_->wait(30), 0) << coordinator_->log();
+  EXPECT_EQ(deliveredOf(id), 0);
+
+  receiver.refusing = false;
+  address = startCoordinator("127.0.0.1:0", flags);
+  ASSERT_TRUE(test::waitFor([&] { return deliveredOf(id) == 1; }, 30)) << coordinator_->log();
+  const auto body = nlohmann::json::parse(receiver.deliveries().back().body);
+  EXPECT_EQ(body["job_id"], first) << "the same event, after the restart";
+  coordinator_->signal(SIGTERM);
+  ASSERT_EQ(coordinator_->wait(30), 0);
+
+  // Once more: the delivered event is not delivered again (deliveries are in order, so the next
+  // job's arriving first shows it); the numbering goes on.
+  address = startCoordinator("127.0.0.1:0", flags);
+  const std::string second = submit(address, writeScene(16, 16, 4), {"--paused"});
+  std::string secondId;
+  ASSERT_TRUE(test::waitFor(
+      [&] {
+        for (const auto& d : receiver.deliveries())
+          if (d.answered == 200 && nlohmann::json::parse(d.body)["job_id"] == second) secondId = d.id;
+        return !secondId.empty();
+      },
+      30));
+  EXPECT_EQ(deliveredOf(id), 1) << "delivered once";
+  EXPECT_GT(std::stoull(secondId), std::stoull(id));
 }
 
 TEST_F(HttpApi, BadWebhookFlagsAreRefusedNamingThem) {

@@ -73,6 +73,21 @@ TEST_F(PeopleFarm, EachPersonActsOnlyAsTheirRoleAllows) {
     EXPECT_FALSE(test::contains(coordinator_->log(), secret));
 }
 
+TEST_F(PeopleFarm, AnExpiredTokenIsRefusedEverywhereNamingWhenItExpired) {
+  const fs::path admin = token("admin", "the-administrators-token-1");
+  const fs::path ann = token("ann", "anns-very-own-token-2"), bob = token("bob", "bobs-very-own-token-3");
+  const fs::path users = dir_.write("users", "ann submitter " + sha256Hex("anns-very-own-token-2") +
+                                                 " expires=2020-01-01\nbob submitter " +
+                                                 sha256Hex("bobs-very-own-token-3") + " expires=2999-12-31\n");
+  fs::permissions(users, fs::perms::owner_read | fs::perms::owner_write);
+  address_ = startCoordinator("127.0.0.1:0", {"--client-token-file", admin.string(), "--users", users.string()});
+  const auto refused = as(ann, {"status"});
+  EXPECT_EQ(refused.exitCode, kNotAllowed);
+  EXPECT_TRUE(test::contains(refused.err, "the token of ann expired at 2020-01-01T00:00:00Z")) << refused.err;
+  EXPECT_EQ(as(ann, {"submit", writeScene(16, 8, 8).string()}).exitCode, kNotAllowed);
+  EXPECT_EQ(as(bob, {"status"}).exitCode, 0) << "a date to come: accepted";
+}
+
 TEST_F(PeopleFarm, ABadUsersFileStopsTheCoordinatorNamingTheLine) {
   const fs::path admin = token("admin", "the-administrators-token-1");
   const fs::path users = dir_.write("users", "ann submitter " + sha256Hex("anns-very-own-token-2") + "\nbob owner " +

@@ -54,12 +54,15 @@ class Security : public ::testing::Test {
     const auto r = test::runProcess(argv, 60);
     ASSERT_EQ(r.exitCode, 0) << r.err;
   }
-  // A CA, a server certificate for 127.0.0.1 and a client certificate, all throwaway.
-  void makeCertificates() {
+  // A CA, a server certificate for 127.0.0.1 and client certificates (CN = each name), all throwaway.
+  void makeCertificates(const std::vector<std::string>& clients = {"client"}) {
     const auto p = [&](const char* name) { return (dir_ / name).string(); };
     openssl({"req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", p("ca.key"), "-out", p("ca.pem"), "-days", "1",
              "-subj", "/CN=lensfarm test CA"});
-    for (const char* who : {"server", "client"}) {
+    std::vector<std::string> subjects = {"server"};
+    subjects.insert(subjects.end(), clients.begin(), clients.end());
+    for (const std::string& name : subjects) {
+      const char* who = name.c_str();
       const std::string key = p(who) + std::string(".key"), csr = p(who) + std::string(".csr"),
                         pem = p(who) + std::string(".pem"), ext = p(who) + std::string(".ext");
       std::ofstream(ext) << "subjectAltName=IP:127.0.0.1,DNS:localhost\n";
@@ -178,6 +181,49 @@ TEST_F(Security, TlsAndMutualTls) {
                                p("client.pem"), "--tls-key", p("client.key")});
     EXPECT_EQ(withCert.exitCode, 0) << withCert.err;
   }
+}
+
+// People known by their client certificates (docs/farm.md "People and permissions"): with mutual
+// TLS, a users file line `NAME ROLE cert=CN` makes a call without a token that person's when its
+// certificate has that name; a certificate nobody is named by still needs a token.
+TEST_F(Security, PeopleKnownByTheirClientCertificatesActAsTheirRolesAllow) {
+  makeCertificates({"ann", "vic", "stranger"});
+  const auto p = [&](const std::string& name) { return (dir_ / name).string(); };
+  const fs::path admin = dir_.write("admin.token", "the-administrators-token-7\n");
+  const fs::path users = dir_.write("users", "ann submitter cert=ann\nvic viewer cert=vic\n");
+  fs::permissions(users, fs::perms::owner_read | fs::perms::owner_write);
+  const std::vector<std::string> tls = {"--tls-cert",    p("server.pem"),   "--tls-key",
+                                        p("server.key"), "--tls-client-ca", p("ca.pem")};
+  std::vector<std::string> flags = tls;
+  flags.insert(flags.end(), {"--client-token-file", admin.string(), "--users", users.string()});
+  const std::string address = start(flags);
+  ASSERT_FALSE(address.empty()) << coordinator_->log();
+  const auto as = [&](const std::string& who, std::vector<std::string> args) {
+    args.insert(args.end(), {"--coordinator", address, "--tls-ca", p("ca.pem"), "--tls-cert", p(who + ".pem"),
+                             "--tls-key", p(who + ".key")});
+    return cli(args);
+  };
+  const auto submitted = as("ann", {"submit", scene().string(), "--owner", "mallory", "--paused"});
+  ASSERT_EQ(submitted.exitCode, 0) << submitted.err;
+  const std::string job = submitted.out.substr(0, submitted.out.find('\n'));
+  EXPECT_NE(as("vic", {"status", job}).out.find("owner:      ann"), std::string::npos) << "ann's, by her certificate";
+  const auto vicCancels = as("vic", {"cancel", job});
+  EXPECT_EQ(vicCancels.exitCode, 6);
+  EXPECT_NE(vicCancels.err.find("CancelJob: vic is a viewer: reading only"), std::string::npos) << vicCancels.err;
+  const auto stranger = as("stranger", {"status"});
+  EXPECT_EQ(stranger.exitCode, 6) << "a certificate nobody is named by is no identity";
+  EXPECT_NE(stranger.err.find("missing client token"), std::string::npos) << stranger.err;
+  EXPECT_EQ(as("ann", {"cancel", job}).exitCode, 0) << "ann acts on her own job";
+
+  // cert= identities need mutual TLS: without --tls-client-ca the coordinator refuses to start.
+  const auto refused =
+      test::runProcess({test::coordinatorPath(), "--listen", "127.0.0.1:0", "--tls-cert", p("server.pem"), "--tls-key",
+                        p("server.key"), "--client-token-file", admin.string(), "--users", users.string()},
+                       30);
+  EXPECT_EQ(refused.exitCode, 2);
+  EXPECT_NE(refused.err.find("ann is known by a client certificate (cert=ann): that needs mutual TLS"),
+            std::string::npos)
+      << refused.err;
 }
 
 }  // namespace

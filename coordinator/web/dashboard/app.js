@@ -18,6 +18,7 @@ let pollTimer = null;
 let access = "full";
 let user = null;
 let allJobs = [];  // the last job list, for the dependency graph
+let capEditedFor = null;  // the job whose Max workers field a person is editing
 
 // ---- talking to the coordinator --------------------------------------------------------------
 
@@ -231,8 +232,8 @@ async function renderJob(jobId) {
   $("#cancel").disabled = !mayAct;
   $("#delete").disabled = !mayActOn(job);
   $("#set-cap").disabled = $("#max-workers").disabled = !mayAct;
-  if (document.activeElement !== $("#max-workers"))
-    $("#max-workers").value = job.policy && job.policy.max_workers ? job.policy.max_workers : "";
+  // (what a person is typing there is not overwritten by the next refresh)
+  if (capEditedFor !== job.id) $("#max-workers").value = job.policy && job.policy.max_workers ? job.policy.max_workers : "";
   // Pause and resume: one button, its label the action it takes (docs/farm.md "Scheduling").
   $("#pause").disabled = !mayAct;
   $("#pause").textContent = job.paused ? "Resume" : "Pause";
@@ -478,11 +479,12 @@ $("#delete").addEventListener("click", async () => {
   } catch (e) { report(e); }
   poll();
 });
+$("#max-workers").addEventListener("input", () => { capEditedFor = lastJob && lastJob.id; });
 $("#set-cap").addEventListener("click", async () => {
   if (!lastJob) return;
   const cap = Number($("#max-workers").value);
   try { await v1("PATCH", encodeURIComponent(lastJob.id), { max_workers: cap }); } catch (e) { report(e); }
-  $("#max-workers").blur();
+  capEditedFor = null;
   poll();
 });
 $("#mine").addEventListener("change", () => poll());
