@@ -354,9 +354,9 @@ grpc::Status requestOf(const RestOperation& op, const std::vector<std::string>& 
 }
 
 // One unary call through the channel, by the RPC's name, with messages of any type.
-grpc::Status callUnary(grpc::Channel& channel, const std::string& rpc, grpc::ClientContext& context,
-                       const pb::Message& request, pb::Message& response) {
-  grpc::GenericStub stub(std::shared_ptr<grpc::Channel>(&channel, [](grpc::Channel*) {}));
+grpc::Status callUnary(const std::shared_ptr<grpc::Channel>& channel, const std::string& rpc,
+                       grpc::ClientContext& context, const pb::Message& request, pb::Message& response) {
+  grpc::GenericStub stub(channel);
   std::string bytes;
   request.SerializeToString(&bytes);
   grpc::Slice slice(bytes);
@@ -449,7 +449,7 @@ void RestApi::unary(const RestOperation& op, const HttpRequest& request, HttpRes
   const auto answer = newMessage(method.output_type());
   if (grpc::Status s = requestOf(op, pathPattern(op.path).second, request, *message); !s.ok()) return fail(response, s);
   const auto context = callContext(request, deadlineOf(op.rpc));
-  if (grpc::Status s = callUnary(*channel_, op.rpc, *context, *message, *answer); !s.ok()) return fail(response, s);
+  if (grpc::Status s = callUnary(channel_, op.rpc, *context, *message, *answer); !s.ok()) return fail(response, s);
   response.setContent(protoJson(*answer), kJson);
 }
 
@@ -549,7 +549,7 @@ struct EventStream {
     if (!authorization.empty()) context.AddMetadata("authorization", authorization);
     context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
     v1::ListEventsResponse response;
-    const grpc::Status status = callUnary(*channel, "ListEvents", context, request, response);
+    const grpc::Status status = callUnary(channel, "ListEvents", context, request, response);
     if (!status.ok()) return status;
     if (request.after() + 1 < response.oldest() && request.after() < response.latest())
       text += "event: missed\ndata: {\"after\":\"" + std::to_string(request.after()) + "\",\"oldest\":\"" +
