@@ -282,10 +282,7 @@ JobInfo Coordinator::submit(const JobSpec& spec, int priority, const std::string
   MutexLock lock(mutex_);
   checkDependenciesExist(policy);
   // Checked again under the lock: the asset garbage collection removes only under it.
-  for (const auto& [path, sha] : spec.assets)
-    if (!assets_.has(sha))
-      throw FarmError(FarmError::Kind::kFailedPrecondition,
-                      "missing assets (upload them first): " + path + " (" + sha.substr(0, 12) + ")");
+  checkSpecAssets(spec, assets_);
   checkOwnerQuotas(job->definition.owner, spec,
                    uint64_t(job->definition.layout.width) * uint64_t(job->definition.layout.height) *
                        job->definition.layout.samplesPerPixel * job->definition.layout.frameCount());

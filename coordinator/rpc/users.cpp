@@ -88,6 +88,7 @@ std::vector<User> parseUsers(const std::string& text, const std::string& source)
       u.role = User::Role::kViewer;
     else
       throw InputError(where, "unknown role \"" + role.substr(0, 32) + "\" (admin, submitter, viewer)");
+    if (!names.insert(u.name).second) throw InputError(where, "user " + u.name + " is given twice");
     if (u.tokenSha256.rfind("cert=", 0) == 0) {  // a client certificate's name instead of a token
       u.certificateName = u.tokenSha256.substr(5);
       u.tokenSha256.clear();
@@ -97,7 +98,6 @@ std::vector<User> parseUsers(const std::string& text, const std::string& source)
         throw InputError(where,
                          "cert=NAME: a certificate name is 1-64 characters of letters, digits, '.', '_', '@' "
                          "and '-'");
-      if (!names.insert(u.name).second) throw InputError(where, "user " + u.name + " is given twice");
       if (!hashes.insert("cert=" + u.certificateName).second)
         throw InputError(where, "the certificate " + u.certificateName + " is another user's too");
       out.push_back(std::move(u));
@@ -109,7 +109,6 @@ std::vector<User> parseUsers(const std::string& text, const std::string& source)
       throw InputError(where,
                        "the third field is the SHA-256 of the token, 64 lowercase hex digits (printf %s \"$TOKEN\" "
                        "| sha256sum), never the token itself");
-    if (!names.insert(u.name).second) throw InputError(where, "user " + u.name + " is given twice");
     if (!hashes.insert(u.tokenSha256).second)
       throw InputError(where, "the token of " + u.name + " is another user's too: each person needs their own");
     out.push_back(std::move(u));

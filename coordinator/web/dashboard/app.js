@@ -50,8 +50,6 @@ const v1 = async (method, path, body) =>
     body: body === undefined ? undefined : JSON.stringify(body) })).json();
 const mayActOn = (job) => access === "full" || (access === "own" && job.owner === user);
 const getJson = async (path) => (await api(path)).json();
-const postJson = async (path, body) =>
-  (await api(path, { method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body || {}) })).json();
 
 // ---- formatting ------------------------------------------------------------------------------
 
