@@ -571,10 +571,10 @@ int main(int argc, char** argv) {
   if (const auto exitCode = refuseOpenDoors(f, security)) return *exitCode;
 
   // The viewer token reads through gRPC too: status, watch, download, snapshots, workers.
-  const TokenGate clientGate =
-      TokenGate(security.clientToken, "client", security.viewerToken, "viewer",
-                {"GetJob", "ListJobs", "WatchJob", "Download", "GetSnapshot", "ListWorkers", "ListEvents"})
-          .withUsers(security.users);
+  const TokenGate clientGate = TokenGate(security.clientToken, "client", security.viewerToken, "viewer",
+                                         {"GetJob", "ListJobs", "WatchJob", "Download", "GetSnapshot", "ListWorkers",
+                                          "ListEvents", "GetServerInfo"})
+                                   .withUsers(security.users);
   ClientServiceImpl clientService(coordinator, clientGate);
   WorkerServiceImpl workerService(coordinator,
                                   TokenGate(security.workerToken, "worker").withCredentials(security.workerCredentials),

@@ -33,7 +33,8 @@ BUILD_PACKAGES=(
 # tests/ and bench/ (GoogleTest, Google Benchmark, yaml-cpp for the deployment files), and what
 # the tests run: ip netns for the multi-host test, gnuplot for `lensfarm study`, systemd-analyze
 # for the units, Chromium for the dashboard, a real Slurm (controller, node daemon, munge) for
-# deploy/slurm, Blender (Cycles and its glTF exporter) for tests/blender.
+# deploy/slurm, Blender (Cycles and its glTF exporter) for tests/blender, Python's gRPC for
+# tests/python (the library's own users install python3-grpcio and python3-protobuf: docs/python.md).
 TEST_PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libyaml-cpp-dev
@@ -45,6 +46,7 @@ TEST_PACKAGES=(
   chromium chromium-driver
   slurm-wlm munge
   blender python3-numpy  # tests/blender: Cycles, and Blender's glTF exporter, which needs numpy
+  python3-grpcio python3-protobuf  # the Python library (python/lensfarm) and the Blender add-on run on them
   clang-format clang  # the style check of .clang-format and the coordinator's thread-safety analysis, tests/CMakeLists.txt
 )
 

@@ -12,6 +12,7 @@
 
 #include "common/scene/scene_loader.h"
 #include "common/util/error.h"
+#include "common/util/version.h"
 #include "coordinator/rpc/upload_assembler.h"
 #include "coordinator/store/checked_file.h"
 #include "proto/convert.h"
@@ -486,6 +487,18 @@ grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext* context, const 
                                             v1::ListWorkersResponse* response) {
   return guarded(gate_, context, "ListWorkers", [&] {
     for (const WorkerView& w : coordinator_.workers()) *response->add_workers() = toProto(w);
+  });
+}
+
+grpc::Status ClientServiceImpl::GetServerInfo(grpc::ServerContext* context, const v1::GetServerInfoRequest*,
+                                              v1::ServerInfo* response) {
+  return guarded(gate_, context, "GetServerInfo", [&] {
+    response->set_renderer_version(kRendererVersion);
+    response->set_api(v1::ServerInfo::descriptor()->file()->package());
+    const std::string role = gate_.roleOf(context);
+    const std::optional<User> user = gate_.userOf(context);
+    response->set_identity(user ? user->name : role);
+    response->set_role(role);
   });
 }
 

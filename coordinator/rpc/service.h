@@ -71,6 +71,8 @@ class ClientServiceImpl final : public v1::ClientService::WithCallbackMethod_Wat
                           v1::ListEventsResponse* response) override;
   grpc::Status DeleteJob(grpc::ServerContext* context, const v1::DeleteJobRequest* request,
                          v1::DeleteJobResponse*) override;
+  grpc::Status GetServerInfo(grpc::ServerContext* context, const v1::GetServerInfoRequest*,
+                             v1::ServerInfo* response) override;
   grpc::Status ArchiveJob(grpc::ServerContext* context, const v1::ArchiveJobRequest* request,
                           v1::ArchiveJobResponse* response) override;
 

@@ -261,6 +261,9 @@ def main():
     snap = api.call("GetSnapshot", {"job_id": job}, query={"max_size": 32})
     check(base64.b64decode(snap["png"])[:4] == b"\x89PNG" and max(snap["width"], snap["height"]) <= 32,
           "GetSnapshot: a base64 PNG within max_size")
+    info = api.call("GetServerInfo")
+    check(info["api"] == "lensfarm.v1" and info["renderer_version"].startswith("lensfarm-renderer/"),
+          f"GetServerInfo: {info}")
     workers = api.call("ListWorkers")["workers"]
     check(len(workers) >= 1 and all(int(w["units_done"]) >= 0 for w in workers), f"ListWorkers: {len(workers)}")
 
