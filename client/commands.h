@@ -29,5 +29,6 @@ Runner addStudyCommand(CLI::App& app);
 Runner addCompareCommand(CLI::App& app);
 Runner addLensCommand(CLI::App& app);
 Runner addDenoiseCommand(CLI::App& app);
+Runner addBlenderCommand(CLI::App& app);
 
 }  // namespace lensfarm::cli

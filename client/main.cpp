@@ -68,7 +68,7 @@ int main(int argc, char** argv) {
                    cli::addDeleteCommand,  cli::addArchiveCommand,  cli::addPauseCommand,    cli::addResumeCommand,
                    cli::addApproveCommand, cli::addUpdateCommand,   cli::addPrefetchCommand, cli::addEventsCommand,
                    cli::addWorkersCommand, cli::addSlurmCommand,    cli::addStudyCommand,    cli::addCompareCommand,
-                   cli::addLensCommand,    cli::addDenoiseCommand}) {
+                   cli::addLensCommand,    cli::addDenoiseCommand,  cli::addBlenderCommand}) {
     cli::Runner run = add(app);
     runners[app.get_subcommands({}).back()] = std::move(run);
   }

@@ -32,13 +32,6 @@ namespace {
 std::atomic<int> gStopSignal{0};
 extern "C" void onStopSignal(int sig) { gStopSignal = sig; }
 
-// This `lensfarm` binary's directory.
-fs::path executableDir() {
-  std::error_code ec;
-  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? fs::path() : self.parent_path();
-}
-
 // lensfarm-worker.sbatch: installed beside the binaries (<prefix>/share/lensfarm/slurm), else in
 // the source tree this binary was built from.
 fs::path defaultWorkerScript() {

@@ -13,6 +13,12 @@ extern char** environ;
 
 namespace lensfarm::cli {
 
+std::filesystem::path executableDir() {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::filesystem::path() : self.parent_path();
+}
+
 CommandResult runCommand(const std::vector<std::string>& argv,
                          const std::map<std::string, std::string>& extraEnvironment) {
   CommandResult result;

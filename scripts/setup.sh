@@ -47,6 +47,7 @@ TEST_PACKAGES=(
   slurm-wlm munge
   blender python3-numpy  # tests/blender: Cycles, and Blender's glTF exporter, which needs numpy
   python3-grpcio python3-protobuf  # the Python library (python/lensfarm) and the Blender add-on run on them
+  xvfb xauth  # tests/blender/panel_ui.py: the add-on in Blender's real window (xvfb-run needs xauth)
   clang-format clang  # the style check of .clang-format and the coordinator's thread-safety analysis, tests/CMakeLists.txt
 )
 

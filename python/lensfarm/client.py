@@ -65,7 +65,8 @@ def describe(status: "common.JobStatus") -> str:
         parts.append(f"error {100 * p.estimated_relative_error:.2g} %")
     if p.remaining_seconds > 0 and status.state == common.JOB_STATE_RUNNING:
         parts.append(f"{p.remaining_seconds:.0f} s left")
-    parts.append(f"{p.workers_busy} worker{'s' if p.workers_busy != 1 else ''}")
+    if status.state == common.JOB_STATE_RUNNING:
+        parts.append(f"{p.workers_busy} worker{'s' if p.workers_busy != 1 else ''}")
     extra = ""
     if status.paused:
         extra = " (paused)"

@@ -19,12 +19,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool haveBlender() { return std::system("command -v blender > /dev/null 2>&1") == 0; }
+bool have(const std::string& program) {
+  return std::system(("command -v " + program + " > /dev/null 2>&1").c_str()) == 0;
+}
 
 class BlenderAddon : public test::FarmFixture {};
 
 TEST_F(BlenderAddon, RendersEveryKindOfSceneAsCyclesDoesWithTheRenderersBits) {
-  if (!haveBlender()) GTEST_SKIP() << "no blender on PATH (scripts/setup.sh test installs Debian's)";
+  if (!have("blender")) GTEST_SKIP() << "no blender on PATH (scripts/setup.sh test installs Debian's)";
   const fs::path token = dir_.write("client.token", "the-blender-add-ons-token-3\n");
   fs::permissions(token, fs::perms::owner_read | fs::perms::owner_write);
   const std::string address = startCoordinator("127.0.0.1:0", {"--client-token-file", token.string()});
@@ -65,6 +67,69 @@ TEST_F(BlenderAddon, RendersEveryKindOfSceneAsCyclesDoesWithTheRenderersBits) {
   EXPECT_EQ(r.exitCode, 0) << cases << r.out.substr(r.out.size() > 20000 ? r.out.size() - 20000 : 0) << r.err;
   EXPECT_TRUE(test::contains(r.out, "PASSED")) << cases;
   std::cout << cases;
+}
+
+// `lensfarm blender install`: the add-on built with this lensfarm lands in the user's Blender (here
+// a user folder of the test's), enabled, with the coordinator given, kept in Blender's saved
+// preferences; a missing zip or Blender is exit 2 naming the flag.
+TEST(BlenderInstall, PutsTheAddonIntoTheUsersBlenderEnabled) {
+  if (!have("blender")) GTEST_SKIP() << "no blender on PATH (scripts/setup.sh test installs Debian's)";
+  test::TempDir dir;
+  const std::vector<std::string> env = {"/usr/bin/env", "BLENDER_USER_SCRIPTS=" + (dir / "scripts").string(),
+                                        "BLENDER_USER_CONFIG=" + (dir / "config").string()};
+  std::vector<std::string> install = env;
+  install.insert(install.end(), {test::cliPath().string(), "blender", "install", "--coordinator", "farm.example:7878"});
+  const auto r = test::runProcess(install, 300);
+  ASSERT_EQ(r.exitCode, 0) << r.out << r.err;
+  EXPECT_TRUE(test::contains(r.out, "installed and enabled Render on lensfarm: " + (dir / "scripts").string()));
+  EXPECT_TRUE(fs::is_regular_file(dir / "scripts/addons/render_lensfarm/__init__.py"));
+  EXPECT_TRUE(fs::is_regular_file(dir / "scripts/addons/render_lensfarm/vendor/lensfarm/v1/client_service_pb2.py"))
+      << "the library travels with the add-on";
+  // A new Blender session (its saved preferences) has it enabled, with the address.
+  std::vector<std::string> check = env;
+  check.insert(check.end(), {"blender", "-b", "--python-expr",
+                             "import addon_utils, bpy; print('STATE', addon_utils.check('render_lensfarm'), "
+                             "bpy.context.preferences.addons['render_lensfarm'].preferences.address)"});
+  const auto c = test::runProcess(check, 300);
+  EXPECT_TRUE(test::contains(c.out, "STATE (True, True) farm.example:7878")) << c.out << c.err;
+  std::vector<std::string> badZip = env;
+  badZip.insert(badZip.end(), {test::cliPath().string(), "blender", "install", "--zip", (dir / "none.zip").string()});
+  const auto z = test::runProcess(badZip, 60);
+  EXPECT_EQ(z.exitCode, 2);
+  EXPECT_TRUE(test::contains(z.err, "--zip " + (dir / "none.zip").string()));
+  const auto b =
+      test::runProcess({test::cliPath().string(), "blender", "install", "--blender", "/nonexistent/blender"}, 60);
+  EXPECT_EQ(b.exitCode, 2);
+  EXPECT_TRUE(test::contains(b.err, "--blender /nonexistent/blender"));
+}
+
+// The add-on in Blender's real window (Xvfb): the default scene, Submit pressed as the button does
+// (no waiting), the job followed by the add-on's timer while Blender's event loop runs, the image
+// loaded, and the panel captured (tests/blender/panel_ui.py; docs/images/blender-panel.png).
+TEST_F(BlenderAddon, ThePanelFollowsAJobWithoutBlockingBlendersWindow) {
+  if (!have("blender") || !have("xvfb-run"))
+    GTEST_SKIP() << "no blender or xvfb-run (scripts/setup.sh test installs both)";
+  const std::string address = startCoordinator();
+  startWorker(address, "w1");
+  startWorker(address, "w2");
+  const std::vector<std::string> env = {"/usr/bin/env", "BLENDER_USER_SCRIPTS=" + (dir_ / "blender-scripts").string(),
+                                        "BLENDER_USER_CONFIG=" + (dir_ / "blender-config").string(),
+                                        "TMPDIR=" + dir_.path().string()};
+  // The default scene (cube, lamp, camera) saved as a file: opening a file skips the splash screen.
+  const fs::path blend = dir_ / "default.blend";
+  std::vector<std::string> save = env;
+  save.insert(save.end(), {"blender", "-b", "--factory-startup", "--python-expr",
+                           "import bpy; bpy.ops.wm.save_as_mainfile(filepath='" + blend.string() + "')"});
+  ASSERT_EQ(test::runProcess(save, 120).exitCode, 0);
+  std::vector<std::string> ui = env;
+  ui.insert(ui.end(), {"xvfb-run", "-a", "-s", "-screen 0 1200x1400x24", "blender", "--factory-startup", blend.string(),
+                       "--python", (test::sourceDir() / "tests/blender/panel_ui.py").string(), "--", "--zip",
+                       (fs::path(LENSFARM_BINARY_DIR) / "blender/render_lensfarm.zip").string(), "--coordinator",
+                       address, "--out", (dir_ / "shot").string()});
+  const auto r = test::runProcess(ui, 600);
+  EXPECT_EQ(r.exitCode, 0) << r.out << r.err;
+  EXPECT_TRUE(test::contains(r.out, "PASSED")) << r.out << r.err;
+  EXPECT_GT(fs::file_size(dir_ / "shot/panel.png"), 10000u) << "the panel's screenshot";
 }
 
 }  // namespace
