@@ -62,7 +62,7 @@ bench: build
 bench-goals: build
 	$(BUILD_DIR)/bench/lensfarm-accuracy-goals --repeat 5
 
-# libFuzzer targets for the scene parser, the glTF importer, the upload path and lens files, built with clang in build-fuzz,
+# libFuzzer targets for the scene parser, the glTF and USD importers, the upload path and lens files, built with clang in build-fuzz,
 # each run for FUZZ_SECONDS. A finding stops the run with the crashing input in build-fuzz/.
 FUZZ_SECONDS ?= 60
 fuzz:
@@ -70,7 +70,7 @@ fuzz:
 	@mkdir -p build-fuzz
 	@cmake -S . -B build-fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo \
 	  -DLENSFARM_FUZZ=ON -DLENSFARM_WERROR=OFF -DLENSFARM_BUILD_TESTS=OFF > build-fuzz/configure.log 2>&1 || (cat build-fuzz/configure.log; exit 1)
-	@cmake --build build-fuzz -j $(JOBS) --target scene_parser_fuzz gltf_import_fuzz upload_fuzz lens_fuzz
+	@cmake --build build-fuzz -j $(JOBS) --target scene_parser_fuzz gltf_import_fuzz upload_fuzz lens_fuzz usd_import_fuzz
 	@mkdir -p build-fuzz/scene-corpus && cp scenes/*.json build-fuzz/scene-corpus/
 	cd build-fuzz && ./tests/fuzz/scene_parser_fuzz -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 \
 	  -artifact_prefix=scene- scene-corpus
@@ -78,6 +78,8 @@ fuzz:
 	cd build-fuzz && ./tests/fuzz/upload_fuzz -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 -artifact_prefix=upload-
 	@mkdir -p build-fuzz/lens-corpus && cp scenes/lenses/*.dat build-fuzz/lens-corpus/
 	cd build-fuzz && ./tests/fuzz/lens_fuzz -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 -artifact_prefix=lens- lens-corpus
+	@mkdir -p build-fuzz/usd-corpus && cp scenes/usd/*.usda build-fuzz/usd-corpus/
+	cd build-fuzz && ./tests/fuzz/usd_import_fuzz -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 -artifact_prefix=usd- usd-corpus
 
 # The farm at scale (docs/performance.md "The farm at scale"): 1,000 simulated workers
 # against one lensfarm-coordinator process over gRPC, a 3840x2160 still and a 240-frame 1920x1080

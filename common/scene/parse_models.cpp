@@ -16,8 +16,10 @@
 #include "common/scene/imported_model.h"
 #include "common/scene/obj_check.h"
 #include "common/scene/obj_import.h"
+#include "common/scene/scene_loader.h"
 #include "common/scene/scene_parser.h"
 #include "common/scene/transform.h"
+#include "common/scene/usd_import.h"
 #include "common/util/error.h"
 #include "common/util/field_reader.h"
 
@@ -31,14 +33,15 @@ void SceneParser::importModels(FieldReader& top) {
   for (size_t i = 0; i < shapes.size(); ++i) {
     if (!shapes[i].is_object() || !shapes[i].contains("type")) continue;  // parseShapes reports it
     const json& type = shapes[i]["type"];
-    if (type != "obj" && type != "gltf") continue;
+    if (!type.is_string() || !isModelShapeType(type.get<std::string>())) continue;
     ModelImport m;
     m.shape = i;
     m.field = "shapes[" + std::to_string(i) + "]";
     m.obj = type == "obj";
     FieldReader r(shapes[i], m.field, fileName_);
     const std::string rel = r.string("file");
-    LoadedAsset file = readAssetFile(r, "file", m.obj ? "OBJ file" : "glTF file");
+    const bool usd = type == "usd";
+    LoadedAsset file = readAssetFile(r, "file", m.obj ? "OBJ file" : usd ? "USD file" : "glTF file");
     m.shown = file.shown;
     const ModelFileReader read = modelFileReader(rel, m);
     if (m.obj) {
@@ -50,6 +53,8 @@ void SceneParser::importModels(FieldReader& top) {
       m.model = std::move(obj.model);
       m.groupNames = std::move(obj.groupNames);
       m.triangleGroups = std::move(obj.triangleGroups);
+    } else if (usd) {
+      m.model = importUsd(std::move(file.bytes), m.shown, read);
     } else {
       m.model = importGltf(std::move(file.bytes), m.shown, read);
     }
@@ -97,7 +102,10 @@ void SceneParser::transformModel(ModelImport& m, const Transform& t) {
     j[key] = {v.x, v.y, v.z};
   };
   for (json& c : m.model.cameras) point(c, "position"), point(c, "look_at"), vector(c, "up");
-  for (json& l : m.model.lights) point(l, "position"), point(l, "look_at"), vector(l, "direction");
+  for (json& l : m.model.lights) {
+    point(l, "position"), point(l, "look_at"), vector(l, "direction");
+    point(l, "corner"), vector(l, "edge1"), vector(l, "edge2");  // a quad light (USD's RectLight)
+  }
   for (MeshInput& in : m.model.meshes) {
     applyTransform(in, t);
     for (const DVec3& p : in.positions) m.worldLo = glm::min(m.worldLo, p), m.worldHi = glm::max(m.worldHi, p);

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "common/math/triangle.h"
+#include "common/scene/scene_loader.h"
 #include "common/scene/scene_parser.h"
 #include "common/scene/transform.h"
 #include "common/util/error.h"
@@ -24,7 +25,7 @@ void SceneParser::parseShapes(FieldReader& top) {
     MeshInput mesh;
     mesh.mesh.name = r.string("name", type + "#" + std::to_string(i));
     mesh.mesh.visibleToCamera = r.boolean("visible_to_camera", true);
-    if (type == "obj" || type == "gltf") {
+    if (isModelShapeType(type)) {
       addImportedShape(r, mesh, i);
     } else if (type == "quad") {
       const uint32_t material = materialRef(r, "material");
@@ -32,10 +33,10 @@ void SceneParser::parseShapes(FieldReader& top) {
     } else if (type == "triangles") {
       readInlineTriangles(r, mesh);
     } else {
-      r.fail(r.field("type"), "unknown shape type \"" + type + "\" (expected obj, gltf, quad or triangles)");
+      r.fail(r.field("type"), "unknown shape type \"" + type + "\" (expected obj, gltf, usd, quad or triangles)");
     }
     // (A model's transform was applied when it was imported, to its cameras and lights too.)
-    const Transform t = type == "obj" || type == "gltf" ? Transform{} : readTransform(r, "transform");
+    const Transform t = isModelShapeType(type) ? Transform{} : readTransform(r, "transform");
     r.finish();
     applyTransform(mesh, t);
     shapeTriangles_ += addMesh(std::move(mesh), r.path());

@@ -235,11 +235,20 @@ Scene loadScene(const fs::path& file, std::optional<double> frame) {
   return parseScene(readWholeFileOrThrow(file, file.string()), file, {}, frame);
 }
 
-bool isModelFile(const fs::path& file) {
+// The registration point of model file formats: each shape type, its extensions and importer
+// (scene/parse_models.cpp).
+std::string modelShapeTypeOf(const fs::path& file) {
   std::string ext = file.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return ext == ".gltf" || ext == ".glb" || ext == ".obj";
+  if (ext == ".gltf" || ext == ".glb") return "gltf";
+  if (ext == ".obj") return "obj";
+  if (ext == ".usda" || ext == ".usd" || ext == ".usdc" || ext == ".usdz") return "usd";
+  return "";
 }
+
+bool isModelShapeType(const std::string& type) { return type == "obj" || type == "gltf" || type == "usd"; }
+
+bool isModelFile(const fs::path& file) { return !modelShapeTypeOf(file).empty(); }
 
 std::string withModelCamera(const std::string& text, const fs::path& file, const std::string& camera) {
   json root = json::parse(text, nullptr, false);
@@ -254,7 +263,7 @@ Scene modelScene(const fs::path& modelFile, std::string& text, const AssetReader
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   json scene = {{"format", kSceneFormat},
                 {"render", {{"resolution", {1280, 720}}, {"samples_per_pixel", 64}, {"max_bounces", 4}}},
-                {"shapes", {{{"type", ext == ".obj" ? "obj" : "gltf"}, {"file", modelFile.filename().string()}}}}};
+                {"shapes", {{{"type", modelShapeTypeOf(modelFile)}, {"file", modelFile.filename().string()}}}}};
   if (camera) scene["camera"] = *camera;
   if (ext == ".obj") {
     // Faces without a usemtl material (or whose .mtl is missing) are a light grey diffuse.

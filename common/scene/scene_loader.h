@@ -55,6 +55,10 @@ Scene loadScene(const std::filesystem::path& file, std::optional<double> frame =
 
 // Whether `file` names a model rather than a scene (by its extension: .gltf, .glb, .obj).
 bool isModelFile(const std::filesystem::path& file);
+// The shape types that import a model file, one per file format (scene/imported_model.h): "obj",
+// "gltf" and "usd"; and the type of a model file by its extension ("" for any other file).
+bool isModelShapeType(const std::string& type);
+std::string modelShapeTypeOf(const std::filesystem::path& file);
 // The scene that renders a model file as it is (`lensfarm render model.glb`): the model as the
 // only shape with its own materials, its first camera (or one framing it), its lights, 1280x720
 // at 64 samples per pixel with 4 bounces; and, if the model has no lights, a studio light: a

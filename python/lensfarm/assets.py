@@ -4,7 +4,8 @@ A scene (the lensfarm-scene/1 JSON of docs/scene-format.md) names its files by p
 itself: meshes, models, textures, lens prescriptions, skies, volume grids, aperture images. The
 farm's loader is the judge of what it reads; here every string in the scene that names a
 readable file beside it is taken, and so, in turn, are the files those name (a glTF's buffers and
-images, an OBJ's material libraries, an MTL's texture maps). Taking one file too many only costs
+images, an OBJ's material libraries, an MTL's texture maps, a USD layer's references, sublayers
+and textures). Taking one file too many only costs
 its upload; a file missed is refused by the coordinator naming it (FAILED_PRECONDITION or
 INVALID_ARGUMENT), and can be given with ``submit(..., assets=...)``.
 
@@ -28,6 +29,7 @@ _GLTF = (".gltf",)
 _GLB = (".glb",)
 _OBJ = (".obj",)
 _MTL = (".mtl",)
+_USDA = (".usda", ".usd")
 # MTL statements whose last argument is a texture file (Wavefront's, and the PBR extension's).
 _MTL_MAPS = {
     "map_ka", "map_kd", "map_ks", "map_ke", "map_ns", "map_d", "map_bump", "bump", "disp", "decal", "refl",
@@ -101,6 +103,12 @@ def _named_by(name: str, data: bytes) -> Iterator[str]:
         doc = _glb_json(data)
         if isinstance(doc, dict):
             yield from _gltf_uris(doc)
+    elif ext in _USDA and data.startswith(b"#usda"):
+        # Asset paths (@file@): references, sublayers, textures.
+        import re
+
+        for match in re.finditer(rb"@([^@\n]+)@", data):
+            yield match.group(1).decode("utf-8", errors="replace")
     elif ext in _OBJ or ext in _MTL:
         text = data.decode("utf-8", errors="replace")
         for line in text.splitlines():

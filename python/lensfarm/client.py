@@ -38,7 +38,7 @@ JobRef = Union[str, "common.JobStatus"]
 SceneInput = Union[str, os.PathLike, Mapping]
 
 API = "lensfarm.v1"  # the protobuf package this library was generated from
-_MODEL_EXTENSIONS = (".gltf", ".glb", ".obj")
+_MODEL_EXTENSIONS = (".gltf", ".glb", ".obj", ".usda", ".usd", ".usdc", ".usdz")
 _ENDED = (common.JOB_STATE_DONE, common.JOB_STATE_CANCELLED, common.JOB_STATE_FAILED)
 # The most hashes one FindMissingAssets call takes (client_service.proto).
 _MOST_HASHES = 50000
@@ -559,10 +559,11 @@ def model_scene(model_file: str) -> dict:
     modelScene): the model at 1280x720, 64 samples per pixel, 4 bounces, its own camera and
     lights; an OBJ's faces without a material light grey."""
     ext = posixpath.splitext(model_file)[1].lower()
+    kind = "obj" if ext == ".obj" else "usd" if ext.startswith(".usd") else "gltf"
     scene = {
         "format": "lensfarm-scene/1",
         "render": {"resolution": [1280, 720], "samples_per_pixel": 64, "max_bounces": 4},
-        "shapes": [{"type": "obj" if ext == ".obj" else "gltf", "file": model_file}],
+        "shapes": [{"type": kind, "file": model_file}],
     }
     if ext == ".obj":
         scene["materials"] = {"default grey": {"type": "lambertian", "albedo": 0.7}}

@@ -99,6 +99,30 @@ TEST_F(Install, PutsBinariesUnitsAndSettingsInTheirPlaces) {
   EXPECT_EQ(test::readFile(prefix_ / "etc/lensfarm/coordinator.env"), "LENSFARM_LISTEN=10.0.0.1:7878\n");
 }
 
+// The Python library lands in the site directory of Debian's Python under the prefix, with its
+// generated lensfarm.v1 stubs, and imports from there at the renderer's version; the Blender
+// add-on's zip and the Python and Blender pages are installed; the USD example renders from there.
+TEST_F(Install, PutsThePythonLibraryTheBlenderAddonAndTheUsdExampleInTheirPlaces) {
+  const fs::path site = prefix_ / "lib/python3.11/dist-packages";
+  for (const char* file : {"lensfarm/__init__.py", "lensfarm/client.py", "lensfarm/_version.py",
+                           "lensfarm/v1/client_service_pb2.py", "lensfarm/v1/client_service_pb2_grpc.py"})
+    EXPECT_TRUE(fs::is_regular_file(site / file)) << file;
+  const auto imported = test::runProcess({"/usr/bin/env", "PYTHONPATH=" + site.string(), "/usr/bin/python3", "-c",
+                                          "import lensfarm; print(lensfarm.__file__, lensfarm.RENDERER_VERSION)"},
+                                         60);
+  EXPECT_EQ(imported.exitCode, 0) << imported.err;
+  EXPECT_TRUE(test::contains(imported.out, (site / "lensfarm/__init__.py").string() + " " + kRendererVersion));
+  for (const char* file :
+       {"share/lensfarm/blender/render_lensfarm.zip", "share/doc/lensfarm/python.md", "share/doc/lensfarm/blender.md",
+        "share/lensfarm/scenes/usd/props/crate.usda", "share/lensfarm/scenes/usd/textures/checker.png"})
+    EXPECT_TRUE(fs::is_regular_file(prefix_ / file)) << file;
+  const auto r = test::runProcess(
+      {(prefix_ / "bin/lensfarm").string(), "render", (prefix_ / "share/lensfarm/scenes/usd/studio.usda").string(),
+       "--resolution", "8x8", "--spp", "1", "-q", "-o", (prefix_ / "usd.exr").string()},
+      120);
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+}
+
 // The installed `lensfarm` reads an OpenVDB file through the module installed beside it
 // (medium/vdb_grid.h), not the build tree's: the dynamic linker names the file it loads.
 TEST_F(Install, TheInstalledBinaryReadsOpenVdbThroughItsInstalledModule) {
