@@ -26,6 +26,7 @@ BUILD_PACKAGES=(
   libsqlite3-dev
   libfftw3-dev
   libzstd-dev
+  libzip-dev  # .usdz packages (common/scene/usdz_package.cpp)
   libopenvdb-dev  # OpenVDB grids
   libboost-dev  # Boost.Beast for the coordinator's HTTP servers (OpenVDB's headers include Boost's too)
 )

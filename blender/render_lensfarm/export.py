@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple
 
 import bpy
+from mathutils import Matrix
 
 from . import convert
 from .materials import material_overrides
@@ -54,20 +55,23 @@ def build_job(context, settings, folder: str) -> Job:
     original = scene.frame_current
     sampled = list(range(frames[0], frames[1] + 1, frames[2])) if frames else [original]
     try:
+        movers = moving_objects(scene, sampled)
         scene.frame_set(sampled[0])
-        export_model(context, folder, job)
+        export_model(context, folder, job, movers)
         job.scene["render"] = render_settings(scene, settings, job.notes)
         job.scene["camera"] = camera(scene, sampled, job.notes)
         job.scene["lights"] = lamps(scene, sampled, job.notes)
         world(scene, folder, job)
         materials, overrides = material_overrides(scene, job.notes)
-        exported = _glb_material_names(job.assets[MODEL_FILE])
-        overrides = {k: v for k, v in overrides.items() if k in exported}
-        materials = {k: v for k, v in materials.items() if k in overrides.values()}
-        if materials:
-            job.scene["materials"] = materials
-            job.scene["shapes"][0]["materials"] = overrides
-        moving_objects(scene, sampled, job.notes)
+        used = set()
+        for shape in job.scene["shapes"]:
+            exported = _glb_material_names(job.assets[shape["file"]])
+            mine = {k: v for k, v in overrides.items() if k in exported}
+            if mine:
+                shape["materials"] = mine
+                used |= set(mine.values())
+        if used:
+            job.scene["materials"] = {k: v for k, v in materials.items() if k in used}
     finally:
         scene.frame_set(original)
     if not job.scene["lights"]:
@@ -80,16 +84,82 @@ def build_job(context, settings, folder: str) -> Job:
     return job
 
 
-def export_model(context, folder, job):
-    path = os.path.join(folder, MODEL_FILE)
-    # Only what renders (hidden from renders: left out), modifiers applied, Y up; lamps and the
-    # camera are written by the add-on itself (below), animation is sampled per frame.
+def _export_glb(path, selected):
+    """Blender's glTF exporter on the renderable objects `selected` (all of them: None), modifiers
+    applied, Y up; lamps and the camera are the add-on's own (below), motion is sampled per frame."""
+    kwargs = {}
+    if selected is not None:
+        kwargs["use_selection"] = True
+        for ob in bpy.context.view_layer.objects:
+            ob.select_set(ob in selected)
     bpy.ops.export_scene.gltf(filepath=path, export_format="GLB", use_renderable=True, use_visible=False,
                               export_apply=True, export_yup=True, export_cameras=False, export_lights=False,
                               export_animations=False, export_extras=False, export_materials="EXPORT",
-                              export_image_format="AUTO")
+                              export_image_format="AUTO", **kwargs)
+
+
+def export_model(context, folder, job, movers):
+    """The still part of the scene as scene.glb; each object that moves over the frames as a model
+    of its own, in its own space, placed at every frame by keyframes."""
+    path = os.path.join(folder, MODEL_FILE)
+    if movers:
+        was = [ob for ob in context.view_layer.objects if ob.select_get()]
+        still = [ob for ob in context.view_layer.objects if ob.name not in movers]
+        _export_glb(path, still)
+    else:
+        _export_glb(path, None)
     job.assets[MODEL_FILE] = path
     job.scene["shapes"] = [{"type": "gltf", "file": MODEL_FILE}]
+    for i, (name, track) in enumerate(sorted(movers.items())):
+        ob = context.scene.objects[name]
+        rel = f"moving-{i}.glb"
+        _export_glb(os.path.join(folder, rel), [ob])
+        _strip_root_transforms(os.path.join(folder, rel))
+        job.assets[rel] = os.path.join(folder, rel)
+        job.scene["shapes"].append({"type": "gltf", "file": rel, "name": name,
+                                    "keyframes": [{"frame": f, "transform": _transform(m)} for f, m in track]})
+    if movers:
+        for ob in context.view_layer.objects:
+            ob.select_set(ob in was)
+
+
+def _strip_root_transforms(path):
+    """The .glb with its root nodes' transforms removed: the object in its own space (Y up), which
+    the shape's keyframes then place. (The exporter bakes the object's world transform into its
+    node; an animated object cannot be moved to the origin for it, its animation would win.)"""
+    import json
+    import struct
+
+    with open(path, "rb") as f:
+        data = f.read()
+    length = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20:20 + length])
+    roots = doc.get("scenes", [{}])[doc.get("scene", 0)].get("nodes", [])
+    for i in roots:
+        for key in ("translation", "rotation", "scale", "matrix"):
+            doc["nodes"][i].pop(key, None)
+    text = json.dumps(doc, separators=(",", ":")).encode()
+    text += b" " * (-len(text) % 4)  # chunks are 4-byte aligned (glTF 2.0, GLB)
+    rest = data[20 + length:]
+    out = data[:8] + struct.pack("<I", 12 + 8 + len(text) + len(rest)) + struct.pack("<I", len(text)) + b"JSON" + text
+    with open(path, "wb") as f:
+        f.write(out + rest)
+
+
+# Blender's Z-up frame to the scene's Y-up one: (x, y, z) -> (x, z, -y).
+def _to_y_up():
+    return Matrix(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, 0), (0, 0, 0, 1)))
+
+
+def _transform(m):
+    """A world matrix as lensfarm's transform (M = T R S, scene/transform.h) in the Y-up frame."""
+    c = _to_y_up()
+    loc, rot, scale = (c @ m @ c.inverted()).decompose()
+    axis, angle = rot.to_axis_angle()
+    out = {"translate": convert.clean(list(loc)), "scale": convert.clean(list(scale))}
+    if abs(angle) > 1e-12:
+        out["rotate"] = {"axis": convert.clean(list(axis)), "degrees": convert.clean(math.degrees(angle))}
+    return out
 
 
 def _glb_material_names(path):
@@ -404,15 +474,14 @@ def _mapping_z_rotation(tex, notes, world_name) -> float:
     return math.degrees(rot[2])
 
 
-def moving_objects(scene, frames, notes):
+def moving_objects(scene, frames):
+    """{name: [(frame, world matrix)]} of the renderable objects whose place changes over `frames`."""
     if len(frames) < 2:
-        return
-    scene.frame_set(frames[0])
-    first = {ob.name: ob.matrix_world.copy() for ob in scene.objects if ob.type == "MESH" and not ob.hide_render}
-    for f in frames[1:]:
+        return {}
+    tracks = {}
+    for f in frames:
         scene.frame_set(f)
         for ob in scene.objects:
-            if ob.name in first and ob.matrix_world != first[ob.name]:
-                notes.append(f"object '{ob.name}' moves over the frames: lensfarm renders it where it is at frame "
-                             f"{frames[0]} (the camera and lamps move)")
-                del first[ob.name]
+            if ob.type in ("MESH", "CURVE", "SURFACE", "META", "FONT") and not ob.hide_render:
+                tracks.setdefault(ob.name, []).append((f, ob.matrix_world.copy()))
+    return {name: track for name, track in tracks.items() if any(m != track[0][1] for _, m in track)}

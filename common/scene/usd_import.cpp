@@ -11,6 +11,7 @@
 #include <tuple>
 
 #include "common/scene/usd_stage.h"
+#include "common/scene/usdz_package.h"
 #include "common/texture/image_decode.h"
 #include "common/texture/texture.h"
 #include "common/util/error.h"
@@ -672,12 +673,27 @@ class Importer {
 }  // namespace
 
 ImportedModel importUsd(std::string bytes, const std::string& shown, const ModelFileReader& read) {
-  if (isZip(bytes))
-    throw InputError(shown,
-                     "is a USDZ package: lensfarm reads USD's text format (.usda); unpack it (`unzip`) and "
-                     "render its .usda, or convert with `usdcat --flatten -o scene.usda`");
-  UsdStage stage = composeUsdStage(std::move(bytes), shown, read);
-  return Importer(stage, shown, read).run();
+  if (!isZip(bytes)) {
+    UsdStage stage = composeUsdStage(std::move(bytes), shown, read);
+    return Importer(stage, shown, read).run();
+  }
+  // A .usdz: its root layer, and every file it names served from the package (relative to the
+  // root layer's folder inside it); a file the package lacks is none.
+  const UsdzPackage package = readUsdz(bytes, shown);
+  std::string().swap(bytes);
+  const std::filesystem::path rootDir = std::filesystem::path(package.rootLayer).parent_path();
+  const ModelFileReader inside = [&](const std::string& rel) -> std::optional<std::string> {
+    const auto it = package.files.find((rootDir / rel).lexically_normal().generic_string());
+    if (it == package.files.end()) return std::nullopt;
+    return it->second;
+  };
+  const std::string& root = package.files.at(package.rootLayer);
+  if (isUsdCrate(root))
+    throw InputError(shown + ": " + package.rootLayer,
+                     "is a binary USD crate file (usdc): lensfarm reads USD's text format; convert the package with "
+                     "`usdcat --flatten -o scene.usda scene.usdz`");
+  UsdStage stage = composeUsdStage(root, shown + ": " + package.rootLayer, inside);
+  return Importer(stage, shown, inside).run();
 }
 
 }  // namespace lensfarm

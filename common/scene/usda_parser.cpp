@@ -284,11 +284,11 @@ class Parser {
     return v;
   }
 
-  // { type name = value ... } (typed entries, as customData) or { time: value, ... } (time samples).
-  std::vector<std::pair<std::string, UsdValue>> dictionary() {
+  // { type name = value ... } (typed entries, as customData).
+  std::vector<UsdEntry> dictionary() {
     enter();
     ++pos_;
-    std::vector<std::pair<std::string, UsdValue>> out;
+    std::vector<UsdEntry> out;
     for (skipSpace(); !accept('}'); skipSpace()) {
       std::string key;
       if (peek() == '"' || peek() == '\'') {
@@ -299,7 +299,7 @@ class Parser {
         key = peek() == '=' ? first : (peek() == '"' || peek() == '\'') ? quoted() : identifier("an entry's name");
       }
       expect('=', "in a dictionary entry");
-      out.emplace_back(key, value());
+      out.push_back(UsdEntry{key, value()});
     }
     leave();
     return out;

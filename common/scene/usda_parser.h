@@ -27,6 +27,8 @@ namespace lensfarm {
 
 inline constexpr int kMaxUsdNesting = 256;
 
+struct UsdEntry;
+
 struct UsdValue {
   enum class Kind { kNone, kNumber, kString, kIdentifier, kAsset, kPath, kTuple, kArray, kDictionary };
   Kind kind = Kind::kNone;
@@ -39,10 +41,16 @@ struct UsdValue {
   // kArray of numbers or of tuples of numbers, flattened; `arity` numbers per element.
   std::vector<double> numbers;
   uint32_t arity = 0;
-  std::vector<std::pair<std::string, UsdValue>> entries;  // kDictionary (and list-op metadata)
+  std::vector<UsdEntry> entries;  // kDictionary
 
   bool isNumericArray() const { return kind == Kind::kArray && arity > 0; }
   size_t size() const { return kind == Kind::kArray ? (arity > 0 ? numbers.size() / arity : items.size()) : 0; }
+};
+
+// One entry of a dictionary value (a struct, not a std::pair: a value holds entries that hold values).
+struct UsdEntry {
+  std::string key;
+  UsdValue value;
 };
 
 // "prepend", "append", "add", "delete", "reorder" or "" before a metadata key or a property.

@@ -155,6 +155,7 @@ const std::map<std::string, Dependency>& debianNames() {
       {"libzstd", {{"libzstd-dev"}, cached("pkgcfg_lib_ZSTD_zstd")}},
       {"openvdb", {{"libopenvdb-dev"}, cached("OPENVDB_LIBRARY")}},  // find_library (CMakeLists.txt says why)
       {"Boost", {{"libboost-dev"}, config("Boost")}},
+      {"libzip", {{"libzip-dev"}, cached("pkgcfg_lib_LIBZIP_zip")}},
   };
   return table;
 }

@@ -2,6 +2,7 @@
 // specification (openusd.org's schema docs): one test per prim type and arc, the numbers they
 // must give worked out by hand, and bad files refused naming the file and the prim.
 #include <gtest/gtest.h>
+#include <zip.h>
 
 #include <cmath>
 #include <fstream>
@@ -285,7 +286,7 @@ TEST(Usd, BadFilesAreRefusedNamingTheFileLineAndPrim) {
       {"#usda 1.0\ndef Bogus \"X\" {}\n", "</X>: unknown prim type \"Bogus\""},
       {"# not usd\n", "does not begin with \"#usda 1.0\""},
       {"PXR-USDC\x01\x02", "binary USD crate file (usdc)"},
-      {std::string("PK\x03\x04", 4) + "rest", "is a USDZ package"},
+      {std::string("PK\x03\x04", 4) + "rest", "is not a readable USDZ package (zip)"},
       {"#usda 1.0\ndef Mesh \"Q\" { int[] faceVertexCounts = [4]\n int[] faceVertexIndices = [0, 1, 2]\n"
        " point3f[] points = [(0,0,0),(1,0,0),(1,1,0)] }\n",
        "</Q>: faceVertexCounts add up to 4 but faceVertexIndices has 3"},
@@ -434,6 +435,58 @@ TEST(Usd, TheSameSceneAsGltfRendersTheSameImage) {
   const test::Rendered a = test::renderScene(fromUsd), b = test::renderScene(fromGltf);
   EXPECT_GT(a.mean[0], 0.0);
   EXPECT_TRUE(a.image.rgb == b.image.rgb) << "USD " << a.mean[0] << " glTF " << b.mean[0];
+}
+
+}  // namespace
+}  // namespace lensfarm
+
+namespace lensfarm {
+namespace {
+
+// A .usdz written with libzip as USD's tools write one (entries stored), from {name: bytes}.
+std::string usdzOf(const test::TempDir& dir, const std::vector<std::pair<std::string, std::string>>& entries) {
+  const std::filesystem::path file = dir / "package.usdz";
+  int error = 0;
+  zip_t* z = zip_open(file.c_str(), ZIP_CREATE | ZIP_TRUNCATE, &error);
+  EXPECT_NE(z, nullptr);
+  for (const auto& [name, bytes] : entries) {
+    zip_source_t* s = zip_source_buffer(z, bytes.data(), bytes.size(), 0);
+    const zip_int64_t i = zip_file_add(z, name.c_str(), s, ZIP_FL_ENC_UTF_8);
+    EXPECT_GE(i, 0);
+    zip_set_file_compression(z, zip_uint64_t(i), ZIP_CM_STORE, 0);
+  }
+  EXPECT_EQ(zip_close(z), 0);
+  return test::readFile(file);
+}
+
+TEST(Usd, AUsdzPackageIsReadWithTheFilesItHolds) {
+  test::TempDir dir;
+  const std::string png = test::readFile(test::scenesDir() / "models/checker.png");
+  const std::string root =
+      "#usda 1.0\n( defaultPrim = \"W\" )\ndef Xform \"W\" ( references = @parts/quad.usda@ ) {}\n"
+      "def Material \"M\" { token outputs:surface.connect = </M/S.outputs:surface>\n"
+      "  def Shader \"S\" { uniform token info:id = \"UsdPreviewSurface\"\n"
+      "    color3f inputs:diffuseColor.connect = </M/T.outputs:rgb> }\n"
+      "  def Shader \"T\" { uniform token info:id = \"UsdUVTexture\"\n    asset inputs:file = @tex/c.png@ } }\n";
+  const std::string part = "#usda 1.0\n( defaultPrim = \"P\" )\ndef Xform \"P\" {\n" +
+                           quadMesh("Q", "  rel material:binding = </M>\n") + "}\n";
+  const std::string package = usdzOf(dir, {{"scene.usda", root}, {"parts/quad.usda", part}, {"tex/c.png", png}});
+  std::vector<std::string> askedOutside;
+  const ModelFileReader outside = [&](const std::string& p) -> std::optional<std::string> {
+    askedOutside.push_back(p);
+    return std::nullopt;
+  };
+  const ImportedModel m = importUsd(package, "scene.usdz", outside);
+  ASSERT_EQ(m.meshes.size(), 1u);
+  ASSERT_EQ(m.materials.size(), 1u);
+  EXPECT_TRUE(bool(m.materials[0].textures()->baseColor)) << "the texture came from inside the package";
+  EXPECT_TRUE(askedOutside.empty()) << "nothing is read beside the package";
+  // A package whose root layer is binary, one with no layer, and bytes that are not a zip.
+  const std::string crate = usdzOf(dir, {{"scene.usdc", "PXR-USDC\x01"}});
+  EXPECT_NE(errorOf(crate).find("scene.usdc: is a binary USD crate file (usdc)"), std::string::npos) << errorOf(crate);
+  EXPECT_NE(errorOf(usdzOf(dir, {{"readme.txt", "no layer"}})).find("holds no USD layer"), std::string::npos);
+  const std::string broken = std::string("PK\x03\x04", 4) + std::string(40, '\x7f');
+  EXPECT_NE(errorOf(broken).find("is not a readable USDZ package"), std::string::npos) << errorOf(broken);
 }
 
 }  // namespace
