@@ -209,7 +209,7 @@ def render_settings(scene, settings, notes) -> dict:
     aovs = [name for name, on in (("albedo", settings.aov_albedo), ("normal", settings.aov_normal),
                                   ("depth", settings.aov_depth), ("variance", settings.aov_variance)) if on]
     if settings.denoise:
-        aovs = sorted(set(aovs) | {"albedo", "normal"})
+        aovs = sorted(set(aovs) | {"albedo", "normal", "variance"})  # what lensfarm denoise is guided by
     if aovs:
         out["aovs"] = aovs
     if settings.tile_size > 0:

@@ -73,6 +73,7 @@ class LensfarmSettings(bpy.types.PropertyGroup):
     error: StringProperty(name="Error")
     export_folder: StringProperty(name="Exported Scene", subtype="DIR_PATH")
     images: StringProperty(name="Images")  # the loaded EXRs, ";"-separated
+    farm_images: StringProperty(name="Farm Images")  # the farm's EXRs as downloaded (before denoising)
     notes: CollectionProperty(type=LensfarmNote)
 
 
@@ -126,6 +127,7 @@ def load_images(settings, outcome) -> list:
                     user.frame_start, user.frame_duration = outcome.frames[0], len(paths)
                     user.frame_offset = outcome.frames[0] - 1
     settings.images = ";".join(paths)
+    settings.farm_images = ";".join(outcome.images)
     return [image]
 
 

@@ -352,6 +352,32 @@ def check_notes():
                 f"not reported: {missing} (notes: {job.notes}); f-number {fstop}")
 
 
+def check_denoise():
+    """Denoise: the farm's EXR carries the albedo, normal and variance layers (a multilayer EXR,
+    which Blender shows with its passes), `lensfarm denoise` runs here, and the denoised image is
+    the one loaded; the farm's own is still `lensfarm render`'s, bit for bit (`lensfarm compare`
+    reads the beauty of both)."""
+    s = reset()
+    case_area(s)
+    s.lensfarm.denoise = True
+    if bpy.ops.lensfarm.submit(wait=True) != {"FINISHED"} or s.lensfarm.error:
+        return False, f"submit: {s.lensfarm.error}"
+    farm, loaded = s.lensfarm.farm_images.split(";")[0], s.lensfarm.images.split(";")[0]
+    problems = []
+    if loaded != farm[: -len(".exr")] + "_denoised.exr" or bpy.data.images.get(f"lensfarm {s.lensfarm.job_id}") is None:
+        problems.append(f"the loaded image is not the denoised one: {loaded}")
+    local = os.path.join(OUT, "denoise_local.exr")
+    subprocess.run([LENSFARM, "render", os.path.join(s.lensfarm.export_folder, "scene.json"), "-o", local, "-q"],
+                   capture_output=True)
+    same = subprocess.run([LENSFARM, "compare", farm, local, "--tolerance", "0"], capture_output=True, text=True)
+    if same.returncode != 0:
+        problems.append(f"the farm's EXR is not the render's: {same.stdout}{same.stderr}")
+    changed = subprocess.run([LENSFARM, "compare", loaded, farm, "--tolerance", "0"], capture_output=True, text=True)
+    if changed.returncode != 1:
+        problems.append(f"the denoised image is the noisy one: {changed.stdout}{changed.stderr}")
+    return not problems, "; ".join(problems) or "denoised image loaded; the farm's is the render's"
+
+
 def check_errors():
     """The coordinator's refusals reach the user as Blender reports with its message, and nothing is
     loaded: a wrong token, an unreachable coordinator."""
@@ -460,7 +486,7 @@ def run_case(name, build):
     for expected in expected_notes:
         if not any(expected in n for n in notes):
             problems.append(f"no note naming {expected!r} in {notes}")
-    images = st.images.split(";")
+    images = st.farm_images.split(";")
     if len(images) != len(frames):
         return False, f"{len(images)} image(s) for {len(frames)} frame(s)"
     loaded = bpy.data.images.get(f"lensfarm {st.job_id}")
@@ -515,12 +541,12 @@ def main():
     addon_utils.enable("io_scene_gltf2", default_set=True)
     prefs = bpy.context.preferences.addons["render_lensfarm"].preferences
     prefs.address, prefs.token_file, prefs.lensfarm_program = COORDINATOR, TOKEN_FILE or "", LENSFARM
-    chosen = [c for c in ONLY.split(",") if c] or list(CASES) + ["notes", "errors"]
+    chosen = [c for c in ONLY.split(",") if c] or list(CASES) + ["notes", "denoise", "errors"]
     failed = False
     summary = {}
     for name in chosen:
         try:
-            checks = {"notes": check_notes, "errors": check_errors}
+            checks = {"notes": check_notes, "denoise": check_denoise, "errors": check_errors}
             ok, line = checks[name]() if name in checks else run_case(name, CASES[name])
         except Exception as e:  # noqa: BLE001 - an error in one case is reported, the others run
             import traceback
