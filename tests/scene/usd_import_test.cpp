@@ -233,8 +233,18 @@ TEST(Usd, LuxLightsCarryTheirRadianceIntoLensfarmsUnits) {
           "def SphereLight \"Spot\" ( prepend apiSchemas = [\"ShapingAPI\"] ) { float inputs:radius = 0\n"
           "  float inputs:intensity = 5\n float inputs:shaping:cone:angle = 30\n float inputs:shaping:cone:softness = "
           "0.5 }\n"
-          "def DistantLight \"Sun\" { float inputs:angle = 1\n float inputs:intensity = 1000 }\n");
-  ASSERT_EQ(m.lights.size(), 5u);
+          "def DistantLight \"Sun\" { float inputs:angle = 1\n float inputs:intensity = 1000 }\n"
+          "def DiskLight \"Disk\" { float inputs:radius = 0.5\n float inputs:intensity = 2 }\n"
+          "def DomeLight \"Sky\" {}\n");
+  ASSERT_EQ(m.lights.size(), 6u);
+  // A disk of radius r as the square of its area: side r sqrt(pi), the same radiance.
+  const auto& disk = m.lights[5];
+  EXPECT_EQ(disk["type"], "quad");
+  EXPECT_NEAR(disk["edge1"][1].get<double>(), 0.5 * std::sqrt(M_PI), 1e-12);
+  EXPECT_NEAR(disk["radiance"][0].get<double>(), 2.0, 1e-12);
+  bool domeNoted = false;
+  for (const std::string& n : m.notes) domeNoted |= n.find("not rendered (DomeLight): </Sky>") != std::string::npos;
+  EXPECT_TRUE(domeNoted);
   const auto& rect = m.lights[0];
   EXPECT_EQ(rect["type"], "quad");
   EXPECT_NEAR(rect["radiance"][0].get<double>(), 6.0, 1e-12);  // 3 x 2^1
