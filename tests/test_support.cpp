@@ -74,7 +74,7 @@ json bundledSceneJson(const std::string& name) {
   json scene = json::parse(std::ifstream(scenesDir() / name));
   for (json& shape : scene["shapes"])
     if (shape.contains("file")) shape["file"] = (scenesDir() / shape["file"].get<std::string>()).string();
-  if (scene["camera"].contains("lens"))
+  if (scene.contains("camera") && scene["camera"].contains("lens"))
     scene["camera"]["lens"] = (scenesDir() / scene["camera"]["lens"].get<std::string>()).string();
   return scene;
 }

@@ -19,14 +19,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The scene files: scenes/*.json, and the USD stages of scenes/usd/ (their layers in subfolders
-// are assets).
 std::vector<fs::path> sceneFiles() {
   std::vector<fs::path> out;
   for (const auto& e : fs::directory_iterator(test::scenesDir()))
     if (e.is_regular_file() && e.path().extension() == ".json") out.push_back(e.path());
-  for (const auto& e : fs::directory_iterator(test::scenesDir() / "usd"))
-    if (e.is_regular_file() && e.path().extension() == ".usda") out.push_back(e.path());
   std::sort(out.begin(), out.end());
   return out;
 }
@@ -54,19 +50,15 @@ TEST(ShippedScenes, EveryFileIsASceneTheReadmeOrAnAssetASceneUses) {
       EXPECT_EQ(relative.extension(), ".dat");
       EXPECT_NE(readme.find(relative.filename().string()), std::string::npos) << "scenes/README.md does not list it";
     } else if (*relative.begin() == "usd") {
-      // USD stages (named in the README) and what their layers name as @asset@ paths, relative to
-      // the layer that names them.
-      if (relative.parent_path() == "usd" && relative.extension() == ".usda") {
-        EXPECT_NE(readme.find(relative.generic_string()), std::string::npos) << "scenes/README.md does not describe it";
-        continue;
-      }
-      bool used = false;
+      // A USD layer a scene uses, or a file (layer, texture) a USD layer names as an @asset@ path
+      // relative to itself.
+      bool used = sceneTexts.find("\"" + relative.generic_string() + "\"") != std::string::npos;
       for (const auto& layer : fs::recursive_directory_iterator(test::scenesDir() / "usd"))
         if (layer.path().extension() == ".usda")
           used |= test::readFile(layer.path())
                       .find("@" + fs::relative(walk->path(), layer.path().parent_path()).generic_string() + "@") !=
                   std::string::npos;
-      EXPECT_TRUE(used) << "no USD layer names it";
+      EXPECT_TRUE(used) << "no scene or USD layer uses it";
     } else {
       // Used by a scene, or by a model a scene uses (a glTF's buffers and images, an MTL's maps),
       // which names it relative to itself.
