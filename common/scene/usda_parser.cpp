@@ -63,7 +63,6 @@ class Parser {
     const size_t column = lineStart == std::string::npos ? at + 1 : at - lineStart;
     throw InputError(shown_, "line " + std::to_string(line_) + ", column " + std::to_string(column) + ": " + what);
   }
-  int line() const { return line_; }
   // One character on, counting lines (every newline the parser passes goes through here).
   void advance() {
     if (s_[pos_] == '\n') ++line_;
@@ -332,7 +331,6 @@ class Parser {
     if (depth > kMaxUsdNesting) fail("prims nested more than " + std::to_string(kMaxUsdNesting) + " levels deep");
     auto prim = std::make_unique<UsdPrimSpec>();
     prim->specifier = specifier;
-    prim->line = line();
     skipSpace();
     if (peek() != '"' && peek() != '\'') prim->typeName = identifier("a prim type or name");
     skipSpace();
@@ -390,7 +388,6 @@ class Parser {
   // [listop] [custom] [uniform] type[[]] name[.connect|.timeSamples] [= value] [( metadata )], or rel.
   UsdProperty property(std::string word) {
     UsdProperty p;
-    p.line = line();
     if (kListOps.count(word)) word = identifier("a property after " + word);
     if (word == "custom") word = identifier("a property after custom");
     if (kVariability.count(word)) {

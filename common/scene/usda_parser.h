@@ -43,7 +43,6 @@ struct UsdValue {
   uint32_t arity = 0;
   std::vector<UsdEntry> entries;  // kDictionary
 
-  bool isNumericArray() const { return kind == Kind::kArray && arity > 0; }
   size_t size() const { return kind == Kind::kArray ? (arity > 0 ? numbers.size() / arity : items.size()) : 0; }
 };
 
@@ -68,7 +67,6 @@ struct UsdProperty {
   std::vector<std::string> connections;                  // attribute.connect targets
   std::vector<std::pair<double, UsdValue>> timeSamples;  // in time order as written
   std::map<std::string, UsdValue> metadata;              // interpolation, elementSize, ...
-  int line = 0;
 };
 
 struct UsdPrimSpec {
@@ -79,7 +77,6 @@ struct UsdPrimSpec {
   std::vector<UsdProperty> properties;        // in the order written (a later one of a name wins)
   std::vector<std::unique_ptr<UsdPrimSpec>> children;
   bool hasVariantSets = false;
-  int line = 0;
 
   const UsdProperty* property(const std::string& propertyName) const;
   UsdPrimSpec* child(const std::string& childName) const;
